@@ -1,0 +1,2 @@
+//! `softnc`: operator client and offline tools.
+fn main() {}

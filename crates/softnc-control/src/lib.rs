@@ -1,0 +1,1 @@
+//! Position-control stack (being built).

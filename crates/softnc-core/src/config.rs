@@ -1,0 +1,345 @@
+//! Machine profiles (RON), validated. A bad field fails with its RON path and a reason.
+//!
+//! Units are in the field names: `_mm`, `_mm_per_s`, `_mm_per_s2`, `_mm_per_s3`, `_s`.
+
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Why a machine profile could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("{file}: cannot read: {source}")]
+    Io {
+        /// File name.
+        file: String,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// The RON text does not parse or has a field of the wrong type or name.
+    #[error("{file}: at `{path}`: {message}")]
+    Parse {
+        /// File name.
+        file: String,
+        /// RON path of the offending field (`axes[1].max_acc_mm_per_s2`), `.` for the root.
+        path: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A field parses but its value is not acceptable.
+    #[error("{file}: at `{path}`: {reason}")]
+    Invalid {
+        /// File name.
+        file: String,
+        /// RON path of the offending field.
+        path: String,
+        /// What is wrong and what is expected.
+        reason: String,
+    },
+}
+
+/// One axis of the machine.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisConfig {
+    /// Axis letter: "X", "Y" or "Z".
+    pub name: String,
+    /// Negative soft limit, machine coordinates.
+    pub min_mm: f64,
+    /// Positive soft limit, machine coordinates.
+    pub max_mm: f64,
+    /// Maximum axis velocity.
+    pub max_vel_mm_per_s: f64,
+    /// Maximum axis acceleration.
+    pub max_acc_mm_per_s2: f64,
+    /// Maximum axis jerk (used by the S-curve feed profile).
+    pub max_jerk_mm_per_s3: f64,
+    /// Encoder resolution (one count).
+    pub encoder_resolution_mm: f64,
+}
+
+/// Shape of the feed profile along the path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum FeedProfile {
+    /// Acceleration-limited (trapezoidal velocity).
+    #[default]
+    Trapezoidal,
+    /// Jerk-limited (S-curve velocity).
+    SCurve,
+}
+
+/// Planner settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlannerConfig {
+    /// Largest distance a blended corner may deviate from the programmed corner
+    /// (G64 without P uses this; G64 P overrides it per program).
+    pub tolerance_mm: f64,
+    /// Feed profile shape.
+    #[serde(default)]
+    pub feed_profile: FeedProfile,
+    /// Largest feed override, as a fraction (2.55 = 255 %).
+    #[serde(default = "default_max_override")]
+    pub max_feed_override: f64,
+}
+
+fn default_max_override() -> f64 {
+    2.55
+}
+
+/// One entry of the tool table (G43 H, M6 T).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolEntry {
+    /// Tool number (T word).
+    pub number: u32,
+    /// Tool length offset along Z.
+    pub length_mm: f64,
+    /// Cutter diameter.
+    #[serde(default)]
+    pub diameter_mm: f64,
+}
+
+/// A machine profile: axes, cycle, planner and tool table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MachineProfile {
+    /// Human-readable name.
+    pub name: String,
+    /// Interpolation cycle T (s).
+    pub interpolation_cycle_s: f64,
+    /// The axes, in X, Y, Z order.
+    pub axes: Vec<AxisConfig>,
+    /// Planner settings.
+    pub planner: PlannerConfig,
+    /// Tool table.
+    #[serde(default)]
+    pub tools: Vec<ToolEntry>,
+    /// Work offsets G54..G59 (machine coordinates of each system's origin), up to six.
+    #[serde(default)]
+    pub work_offsets_mm: Vec<[f64; 3]>,
+}
+
+impl MachineProfile {
+    /// Load and validate a profile from a RON file.
+    pub fn load(path: &Path) -> Result<Self, ConfigError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            file: file.clone(),
+            source,
+        })?;
+        Self::from_ron_str(&text, &file)
+    }
+
+    /// Parse and validate a profile from RON text; `file` names it in errors.
+    pub fn from_ron_str(text: &str, file: &str) -> Result<Self, ConfigError> {
+        let profile: MachineProfile = parse_ron(text, file)?;
+        profile.validate(file)?;
+        Ok(profile)
+    }
+
+    /// Check every value; the first bad one is reported with its RON path.
+    pub fn validate(&self, file: &str) -> Result<(), ConfigError> {
+        let bad = |path: String, reason: &str| ConfigError::Invalid {
+            file: file.to_string(),
+            path,
+            reason: reason.to_string(),
+        };
+        positive(self.interpolation_cycle_s, "interpolation_cycle_s", file)?;
+        if self.interpolation_cycle_s > 0.1 {
+            return Err(bad("interpolation_cycle_s".into(), "must be at most 0.1 s"));
+        }
+        if self.axes.len() != 3 {
+            return Err(bad(
+                "axes".into(),
+                "exactly three axes (X, Y, Z) are supported",
+            ));
+        }
+        for (i, (axis, want)) in self.axes.iter().zip(["X", "Y", "Z"]).enumerate() {
+            let p = |f: &str| format!("axes[{i}].{f}");
+            if axis.name != want {
+                return Err(bad(
+                    p("name"),
+                    &format!("axis {i} must be named \"{want}\""),
+                ));
+            }
+            finite(axis.min_mm, &p("min_mm"), file)?;
+            finite(axis.max_mm, &p("max_mm"), file)?;
+            if axis.max_mm <= axis.min_mm {
+                return Err(bad(p("max_mm"), "must be greater than min_mm"));
+            }
+            positive(axis.max_vel_mm_per_s, &p("max_vel_mm_per_s"), file)?;
+            positive(axis.max_acc_mm_per_s2, &p("max_acc_mm_per_s2"), file)?;
+            positive(axis.max_jerk_mm_per_s3, &p("max_jerk_mm_per_s3"), file)?;
+            positive(
+                axis.encoder_resolution_mm,
+                &p("encoder_resolution_mm"),
+                file,
+            )?;
+        }
+        positive(self.planner.tolerance_mm, "planner.tolerance_mm", file)?;
+        finite(
+            self.planner.max_feed_override,
+            "planner.max_feed_override",
+            file,
+        )?;
+        if !(1.0..=2.55).contains(&self.planner.max_feed_override) {
+            return Err(bad(
+                "planner.max_feed_override".into(),
+                "must be between 1.0 and 2.55",
+            ));
+        }
+        let mut seen = std::collections::BTreeSet::new();
+        for (i, t) in self.tools.iter().enumerate() {
+            if !seen.insert(t.number) {
+                return Err(bad(
+                    format!("tools[{i}].number"),
+                    "tool number appears twice",
+                ));
+            }
+            finite(t.length_mm, &format!("tools[{i}].length_mm"), file)?;
+            if !(t.diameter_mm >= 0.0 && t.diameter_mm.is_finite()) {
+                return Err(bad(
+                    format!("tools[{i}].diameter_mm"),
+                    "must be finite and >= 0",
+                ));
+            }
+        }
+        if self.work_offsets_mm.len() > 6 {
+            return Err(bad(
+                "work_offsets_mm".into(),
+                "at most six work offsets (G54..G59)",
+            ));
+        }
+        for (i, o) in self.work_offsets_mm.iter().enumerate() {
+            for (k, v) in o.iter().enumerate() {
+                finite(*v, &format!("work_offsets_mm[{i}][{k}]"), file)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Per-axis maximum velocities [x, y, z] (mm/s).
+    pub fn max_vel(&self) -> [f64; 3] {
+        [0, 1, 2].map(|i| self.axes[i].max_vel_mm_per_s)
+    }
+    /// Per-axis maximum accelerations [x, y, z] (mm/s²).
+    pub fn max_acc(&self) -> [f64; 3] {
+        [0, 1, 2].map(|i| self.axes[i].max_acc_mm_per_s2)
+    }
+    /// Per-axis maximum jerks [x, y, z] (mm/s³).
+    pub fn max_jerk(&self) -> [f64; 3] {
+        [0, 1, 2].map(|i| self.axes[i].max_jerk_mm_per_s3)
+    }
+    /// Tool length of tool `number`, if it is in the table.
+    pub fn tool_length_mm(&self, number: u32) -> Option<f64> {
+        self.tools
+            .iter()
+            .find(|t| t.number == number)
+            .map(|t| t.length_mm)
+    }
+    /// Work offset of coordinate system `index` (0 = G54 … 5 = G59); zero if not given.
+    pub fn work_offset_mm(&self, index: usize) -> [f64; 3] {
+        self.work_offsets_mm.get(index).copied().unwrap_or([0.0; 3])
+    }
+}
+
+/// Deserialize any RON document, reporting the path of a bad field.
+pub fn parse_ron<T: serde::de::DeserializeOwned>(text: &str, file: &str) -> Result<T, ConfigError> {
+    let mut de = ron::Deserializer::from_str(text).map_err(|e| ConfigError::Parse {
+        file: format!("{file}:{}:{}", e.position.line, e.position.col),
+        path: ".".into(),
+        message: e.code.to_string(),
+    })?;
+    let value = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let path = e.path().to_string();
+        let message = e.into_inner().to_string();
+        ConfigError::Parse {
+            file: file.to_string(),
+            path,
+            message,
+        }
+    })?;
+    de.end().map_err(|e| ConfigError::Parse {
+        file: file.to_string(),
+        path: ".".into(),
+        message: format!("trailing text after the document: {e}"),
+    })?;
+    Ok(value)
+}
+
+fn finite(v: f64, path: &str, file: &str) -> Result<(), ConfigError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(ConfigError::Invalid {
+            file: file.into(),
+            path: path.into(),
+            reason: "must be a finite number".into(),
+        })
+    }
+}
+
+fn positive(v: f64, path: &str, file: &str) -> Result<(), ConfigError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(ConfigError::Invalid {
+            file: file.into(),
+            path: path.into(),
+            reason: format!("must be a finite number > 0 (got {v})"),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DEFAULT: &str = include_str!("../../../config/machines/default.ron");
+
+    #[test]
+    fn default_profile_loads() {
+        let p = MachineProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
+        assert_eq!(p.axes[2].name, "Z");
+        assert!(p.interpolation_cycle_s > 0.0);
+    }
+
+    #[test]
+    fn bad_value_names_its_path() {
+        let text = DEFAULT.replacen("max_acc_mm_per_s2: 3000.0", "max_acc_mm_per_s2: -1.0", 1);
+        assert_ne!(text, DEFAULT, "fixture text changed");
+        let err = MachineProfile::from_ron_str(&text, "m.ron")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("axes[0].max_acc_mm_per_s2"), "{err}");
+        assert!(err.starts_with("m.ron"), "{err}");
+    }
+
+    #[test]
+    fn wrong_type_and_unknown_field_name_their_path() {
+        let text = DEFAULT.replacen("tolerance_mm: 0.01", "tolerance_mm: \"small\"", 1);
+        assert_ne!(text, DEFAULT);
+        let err = MachineProfile::from_ron_str(&text, "m.ron")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("planner.tolerance_mm"), "{err}");
+        let text = DEFAULT.replacen(
+            "tolerance_mm: 0.01",
+            "tolerance_mm: 0.01, tolerence: 1.0",
+            1,
+        );
+        let err = MachineProfile::from_ron_str(&text, "m.ron")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("tolerence"), "{err}");
+    }
+
+    #[test]
+    fn syntax_error_has_a_position() {
+        let err = MachineProfile::from_ron_str("MachineProfile(name: \"x\",, )", "m.ron")
+            .unwrap_err()
+            .to_string();
+        assert!(err.starts_with("m.ron"), "{err}");
+    }
+}

@@ -1,0 +1,18 @@
+//! softnc core: the types every other crate shares.
+//!
+//! - [`geom`]: 3-vectors in mm and the path primitives (lines, arcs/helices) that the
+//!   G-code front end produces, the planner follows and the contour-error metric measures.
+//! - [`config`]: machine profiles in RON, validated; a bad field fails with its RON path.
+//!
+//! ```
+//! let profile = softnc_core::config::MachineProfile::from_ron_str(
+//!     include_str!("../../../config/machines/default.ron"), "default.ron").unwrap();
+//! assert_eq!(profile.axes.len(), 3);
+//! ```
+#![warn(missing_docs)]
+
+pub mod config;
+pub mod geom;
+
+pub use config::{AxisConfig, ConfigError, FeedProfile, MachineProfile, PlannerConfig, ToolEntry};
+pub use geom::{Plane, Primitive, Vec3};

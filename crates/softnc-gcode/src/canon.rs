@@ -1,0 +1,104 @@
+//! Canonical motions: what the interpreter hands the planner.
+//!
+//! Positions are in the frame of LinuxCNC's canonical output (the active work
+//! coordinate system, mm). `offset_mm` maps that frame to machine coordinates
+//! (work offset + tool length offset): `machine = end + offset_mm`.
+
+use softnc_core::{Plane, Vec3};
+
+/// How consecutive motions join (G61, G61.1, G9, G64).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PathMode {
+    /// Stop exactly at the end of this motion (G61, G61.1, or G9 for one block).
+    ExactStop,
+    /// Blend into the next motion (G64). `None` uses the machine profile's
+    /// tolerance; `Some(p)` is G64 P p (mm; 0 means "as fast as possible" as in
+    /// LinuxCNC, i.e. the profile's tolerance).
+    Blend {
+        /// Largest deviation from the programmed corner (mm).
+        tolerance_mm: Option<f64>,
+    },
+}
+
+impl Default for PathMode {
+    fn default() -> Self {
+        PathMode::Blend { tolerance_mm: None }
+    }
+}
+
+/// What a canonical motion does.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MotionKind {
+    /// G0 rapid traverse to `end`.
+    Traverse {
+        /// End point (canonical frame, mm).
+        end: Vec3,
+    },
+    /// G1 straight feed to `end`.
+    Feed {
+        /// End point (canonical frame, mm).
+        end: Vec3,
+        /// Feed (mm/min); for G93 the feed that results from the inverse time.
+        feed_mm_per_min: f64,
+    },
+    /// G2/G3 arc or helix to `end`.
+    Arc {
+        /// End point (canonical frame, mm).
+        end: Vec3,
+        /// Centre (canonical frame, mm); its normal component is the start's.
+        center: Vec3,
+        /// Arc plane.
+        plane: Plane,
+        /// Signed turns as LinuxCNC's `rotation`: G3 > 0, G2 < 0, |turns| = 1 for up
+        /// to one revolution.
+        turns: i32,
+        /// Feed (mm/min).
+        feed_mm_per_min: f64,
+    },
+    /// G4 dwell.
+    Dwell {
+        /// Dwell time (s).
+        seconds: f64,
+    },
+}
+
+/// One canonical motion with where it came from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Motion {
+    /// 1-based source line.
+    pub line: u32,
+    /// Start point (canonical frame, mm): the previous motion's end.
+    pub start: Vec3,
+    /// The motion.
+    pub kind: MotionKind,
+    /// Canonical frame → machine coordinates for this motion.
+    pub offset_mm: Vec3,
+    /// How this motion joins the next.
+    pub path_mode: PathMode,
+}
+
+impl MotionKind {
+    /// End point, if this motion moves.
+    pub fn end(&self) -> Option<Vec3> {
+        match *self {
+            MotionKind::Traverse { end }
+            | MotionKind::Feed { end, .. }
+            | MotionKind::Arc { end, .. } => Some(end),
+            MotionKind::Dwell { .. } => None,
+        }
+    }
+}
+
+/// A whole program as read.
+#[derive(Debug, Clone, Default)]
+pub struct Program {
+    /// File name as given (used in messages).
+    pub file: String,
+    /// Number of source lines (blocks) read.
+    pub blocks: usize,
+    /// The canonical motions in order.
+    pub motions: Vec<Motion>,
+    /// Things worth telling the operator that do not stop the program
+    /// (`file:line: text`).
+    pub warnings: Vec<String>,
+}

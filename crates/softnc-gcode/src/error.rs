@@ -1,0 +1,32 @@
+//! G-code errors: every one carries file:line:column and a plain-language message.
+
+/// What went wrong.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ErrorKind {
+    /// A word or construct softnc does not implement yet (parameters, expressions,
+    /// O-words, canned cycles, cutter compensation, ...). Never misread.
+    #[error("unsupported: {word}: {why}")]
+    Unsupported {
+        /// The word as written, e.g. `G81`, `#1`, `O100`.
+        word: String,
+        /// Why or what instead.
+        why: String,
+    },
+    /// Anything LinuxCNC would also refuse.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// A G-code error at a source position.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{file}:{line}:{column}: {kind}")]
+pub struct GcodeError {
+    /// File name as given.
+    pub file: String,
+    /// 1-based line.
+    pub line: u32,
+    /// 1-based column (character) of the offending word.
+    pub column: u32,
+    /// What went wrong.
+    pub kind: ErrorKind,
+}

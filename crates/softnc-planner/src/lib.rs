@@ -1,0 +1,1 @@
+//! Lookahead motion planner (being built).

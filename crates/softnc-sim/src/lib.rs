@@ -1,0 +1,1 @@
+//! Simulated servo backend (being built).
