@@ -1,0 +1,131 @@
+//! `softnc plan FILE`: read, check and plan a program; print a summary or canonical motions.
+
+use anyhow::{Context, Result};
+use softnc_core::MachineProfile;
+use softnc_gcode::{MotionKind, Program};
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Arguments of `softnc plan`.
+#[derive(clap::Args)]
+pub struct PlanArgs {
+    /// The G-code program.
+    file: PathBuf,
+    /// Machine profile (RON); default `config/machines/default.ron`.
+    #[arg(long)]
+    machine: Option<PathBuf>,
+    /// Print one JSON summary object.
+    #[arg(long, conflicts_with = "canon")]
+    json: bool,
+    /// Print the canonical motions as JSON lines (LinuxCNC's frame, mm). Soft limits
+    /// are reported as warnings here: this is the program's reading, not a run.
+    #[arg(long)]
+    canon: bool,
+}
+
+/// Load a machine profile, or explain which field is wrong.
+pub fn load_machine(path: Option<&PathBuf>) -> Result<MachineProfile> {
+    let path = path.cloned().unwrap_or_else(crate::default_machine_path);
+    Ok(MachineProfile::load(&path)?)
+}
+
+/// Read a program file and interpret it. `Err(Ok(msg))` is a refusal (exit 2).
+pub fn read_file(file: &PathBuf, machine: &MachineProfile) -> Result<Result<Program, String>> {
+    let bytes = std::fs::read(file).with_context(|| format!("cannot read {}", file.display()))?;
+    let text = String::from_utf8_lossy(&bytes);
+    let name = file.display().to_string();
+    Ok(softnc_gcode::read_program(&text, &name, machine).map_err(|e| e.to_string()))
+}
+
+pub fn run(args: PlanArgs) -> Result<ExitCode> {
+    let machine = match load_machine(args.machine.as_ref()) {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!("softnc: {e:#}");
+            return Ok(ExitCode::from(crate::EXIT_REFUSED));
+        }
+    };
+    let program = match read_file(&args.file, &machine)? {
+        Ok(p) => p,
+        Err(msg) => {
+            eprintln!("{msg}");
+            return Ok(ExitCode::from(crate::EXIT_REFUSED));
+        }
+    };
+    let options = softnc_planner::PlanOptions {
+        ignore_soft_limits: args.canon,
+    };
+    let plan = match softnc_planner::plan(&program, &machine, &options) {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("{e}");
+            return Ok(ExitCode::from(crate::EXIT_REFUSED));
+        }
+    };
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    for w in &program.warnings {
+        eprintln!("warning: {w}");
+    }
+    if args.canon {
+        write_canon(&mut out, &program)?;
+    } else {
+        let s = plan.stats();
+        let summary = serde_json::json!({
+            "file": program.file,
+            "blocks": program.blocks,
+            "moves": program.motions.iter().filter(|m| m.kind.end().is_some()).count(),
+            "path_length_mm": s.path_length_mm,
+            "duration_s": s.duration_s,
+            "samples": s.samples,
+            "max_feed_mm_min": s.max_feed_mm_min,
+            "bounds_mm": {"min": s.bounds_min_mm.0, "max": s.bounds_max_mm.0},
+            "warnings": program.warnings,
+        });
+        if args.json {
+            writeln!(out, "{summary}")?;
+        } else {
+            writeln!(
+                out,
+                "{}: {} blocks, {} moves, {:.3} mm, planned {:.3} s ({} samples), max feed {:.1} mm/min",
+                program.file,
+                program.blocks,
+                summary["moves"],
+                s.path_length_mm,
+                s.duration_s,
+                s.samples,
+                s.max_feed_mm_min
+            )?;
+        }
+    }
+    out.flush()?;
+    Ok(ExitCode::SUCCESS)
+}
+
+fn write_canon(out: &mut impl Write, program: &Program) -> Result<()> {
+    for m in &program.motions {
+        let obj = match m.kind {
+            MotionKind::Traverse { end } => serde_json::json!({
+                "line": m.line, "kind": "traverse", "end": end.0, "feed_mm_min": null}),
+            MotionKind::Feed {
+                end,
+                feed_mm_per_min,
+            } => serde_json::json!({
+                "line": m.line, "kind": "feed", "end": end.0, "feed_mm_min": feed_mm_per_min}),
+            MotionKind::Arc {
+                end,
+                center,
+                plane,
+                turns,
+                feed_mm_per_min,
+            } => serde_json::json!({
+                "line": m.line, "kind": "arc", "end": end.0, "feed_mm_min": feed_mm_per_min,
+                "plane": plane.name(), "center": center.0, "turns": turns}),
+            MotionKind::Dwell { seconds } => serde_json::json!({
+                "line": m.line, "kind": "dwell", "seconds": seconds}),
+        };
+        writeln!(out, "{obj}")?;
+    }
+    Ok(())
+}
