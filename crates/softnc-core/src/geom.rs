@@ -165,6 +165,10 @@ pub enum Primitive {
         sweep: f64,
         /// Travel along the plane normal from start to end (mm; helix).
         normal_travel: f64,
+        /// Programmed end point. When its radius differs slightly from the start's
+        /// (within the interpreter's tolerance) the radius changes linearly along the
+        /// sweep, as LinuxCNC does, so the arc ends exactly here.
+        end: Vec3,
     },
 }
 
@@ -203,6 +207,7 @@ impl Primitive {
             start_angle,
             sweep,
             normal_travel: end[n] - start[n],
+            end,
         }
     }
 
@@ -216,8 +221,7 @@ impl Primitive {
     /// End point.
     pub fn end(&self) -> Vec3 {
         match *self {
-            Primitive::Line { end, .. } => end,
-            Primitive::Arc { .. } => self.point_at(self.length()),
+            Primitive::Line { end, .. } | Primitive::Arc { end, .. } => end,
         }
     }
 
