@@ -262,12 +262,18 @@ impl Primitive {
                 start_angle,
                 sweep,
                 normal_travel,
+                end,
             } => {
+                if u >= 1.0 {
+                    return end;
+                }
                 let (a, b, n) = plane.axes();
+                let end_radius = (end[a] - center[a]).hypot(end[b] - center[b]);
+                let r = radius + (end_radius - radius) * u;
                 let th = start_angle + sweep * u;
                 let mut p = center;
-                p[a] = center[a] + radius * th.cos();
-                p[b] = center[b] + radius * th.sin();
+                p[a] = center[a] + r * th.cos();
+                p[b] = center[b] + r * th.sin();
                 p[n] = start[n] + normal_travel * u;
                 p
             }
