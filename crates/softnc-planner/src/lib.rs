@@ -5,8 +5,17 @@
 //! stopped at exactly. An [`Interpolator`] walks that path at the interpolation cycle
 //! T, one [`Sample`] per call, without allocating, honouring every axis's velocity,
 //! acceleration (and, with the S-curve profile, jerk) limit and a live feed override.
+//!
+//! - [`path`]: path elements (lines, arcs, blend arcs) and their limits from the axes'.
+//! - [`build`]: motions → elements: blending, exact stops, junction speeds.
+//! - [`interp`]: the sample stream (time-optimal, lookahead, override, S-curve).
+//! - [`plan`](mod@plan): the entry point and the plan's figures.
 #![warn(missing_docs)]
 
+pub mod build;
+pub mod interp;
+pub mod path;
 pub mod plan;
 
-pub use plan::{plan, Interpolator, Plan, PlanError, PlanOptions, PlanStats, Sample};
+pub use interp::{Interpolator, Sample};
+pub use plan::{plan, Plan, PlanError, PlanOptions, PlanStats};

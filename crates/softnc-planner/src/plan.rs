@@ -1,6 +1,8 @@
-//! Planning entry point and the sample stream (API fixed; implementation in progress).
+//! Planning entry point: program → checked segments → [`Plan`] with its figures.
 
-use softnc_core::{MachineProfile, Primitive, Vec3};
+use crate::build::{build_segments, motion_primitives, Limits, Segment};
+use crate::interp::Interpolator;
+use softnc_core::{FeedProfile, MachineProfile, Primitive, Vec3};
 use softnc_gcode::Program;
 
 /// Options for one planning run.
@@ -48,66 +50,193 @@ pub struct PlanStats {
     pub bounds_max_mm: Vec3,
 }
 
-/// One command sample at the interpolation cycle.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Sample {
-    /// Cycle index from the start of the job (time = index · T).
-    pub index: u64,
-    /// Command position, machine coordinates (mm).
-    pub pos_mm: Vec3,
-    /// Index into the program's motions of the motion being executed.
-    pub motion: u32,
-    /// True while that motion is a feed move (G1/G2/G3), false for traverses/dwells.
-    pub feed_move: bool,
-}
-
-/// A planned program.
+/// A planned program: the path elements with their limits, ready to interpolate.
 #[derive(Debug, Clone)]
 pub struct Plan {
-    _private: (),
+    segs: Vec<Segment>,
+    prims: Vec<Option<Primitive>>,
+    lim: Limits,
+    brake_dist_mm: f64,
+    max_override: f64,
+    stats: PlanStats,
 }
 
-/// Pulls samples from a plan, one per interpolation cycle.
-pub struct Interpolator<'a> {
-    _plan: &'a Plan,
-}
-
-/// Plan a program for a machine.
+/// Plan a program for a machine: soft limits first, then blending and limits.
 pub fn plan(
     program: &Program,
     profile: &MachineProfile,
     options: &PlanOptions,
 ) -> Result<Plan, PlanError> {
-    let _ = (program, profile, options);
-    unimplemented!("planner in progress")
+    let prims = motion_primitives(program);
+    let mut bmin = Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
+    let mut bmax = -bmin;
+    let mut max_feed: f64 = 0.0;
+    for (m, p) in program.motions.iter().zip(&prims) {
+        let Some(p) = p else { continue };
+        let (lo, hi) = bounding_box(p);
+        if !options.ignore_soft_limits {
+            for (i, axis) in profile.axes.iter().enumerate() {
+                for v in [lo[i], hi[i]] {
+                    if v < axis.min_mm - 1e-9 || v > axis.max_mm + 1e-9 {
+                        return Err(PlanError::SoftLimit {
+                            file: program.file.clone(),
+                            line: m.line,
+                            axis: axis.name.chars().next().unwrap_or('?'),
+                            pos_mm: v,
+                            min_mm: axis.min_mm,
+                            max_mm: axis.max_mm,
+                        });
+                    }
+                }
+            }
+        }
+        bmin = bmin.min(lo);
+        bmax = bmax.max(hi);
+        match m.kind {
+            softnc_gcode::MotionKind::Feed {
+                feed_mm_per_min, ..
+            }
+            | softnc_gcode::MotionKind::Arc {
+                feed_mm_per_min, ..
+            } => max_feed = max_feed.max(feed_mm_per_min),
+            _ => {}
+        }
+    }
+    if !bmin[0].is_finite() {
+        bmin = Vec3::ZERO;
+        bmax = Vec3::ZERO;
+    }
+    let lim = Limits::from_profile(profile);
+    let segs = build_segments(program, &prims, &lim);
+    let v_top = segs
+        .iter()
+        .map(|s| s.vel_cap)
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
+    let a_min = segs.iter().map(|s| s.acc).fold(f64::INFINITY, f64::min);
+    let brake_dist_mm = if a_min.is_finite() && a_min > 0.0 {
+        v_top * v_top / (2.0 * a_min)
+    } else {
+        0.0
+    };
+    let path_length_mm = segs.iter().map(|s| s.len).sum();
+    let duration_s = planned_duration(&segs, &lim);
+    let samples = (duration_s / lim.cycle_s - 1e-9).ceil().max(0.0) as u64 + 1;
+    let stats = PlanStats {
+        path_length_mm,
+        duration_s,
+        samples,
+        max_feed_mm_min: max_feed,
+        bounds_min_mm: bmin,
+        bounds_max_mm: bmax,
+    };
+    Ok(Plan {
+        segs,
+        prims,
+        lim,
+        brake_dist_mm,
+        max_override: profile.planner.max_feed_override,
+        stats,
+    })
 }
 
 impl Plan {
     /// Figures of the plan.
     pub fn stats(&self) -> PlanStats {
-        unimplemented!()
+        self.stats.clone()
     }
     /// The programmed path of motion `index` in machine coordinates (None for dwells).
     pub fn motion_primitive(&self, index: usize) -> Option<Primitive> {
-        let _ = index;
-        unimplemented!()
+        self.prims.get(index).copied().flatten()
     }
-    /// A fresh sample stream from the start of the program.
+    /// Number of path elements (programmed pieces and blends).
+    pub fn elements(&self) -> usize {
+        self.segs.len()
+    }
+    /// The interpolation cycle T (s).
+    pub fn cycle_s(&self) -> f64 {
+        self.lim.cycle_s
+    }
+    /// A fresh sample stream from the start of the program. Everything it needs is
+    /// allocated here; pulling samples allocates nothing.
     pub fn interpolator(&self) -> Interpolator<'_> {
-        Interpolator { _plan: self }
+        Interpolator::new(&self.segs, self.lim, self.brake_dist_mm, self.max_override)
     }
 }
 
-impl Interpolator<'_> {
-    /// Set the live feed override (0.0 ..= profile max, e.g. 2.55); applied smoothly.
-    pub fn set_feed_override(&mut self, fraction: f64) {
-        let _ = fraction;
+/// Planned run time at 100 % override: forward and backward passes over the whole
+/// path, then each element's time-optimal profile, plus dwells and S-curve settling.
+fn planned_duration(segs: &[Segment], lim: &Limits) -> f64 {
+    let n = segs.len();
+    if n == 0 {
+        return 0.0;
     }
+    let cap = |s: &Segment| s.vel_cap.min(s.feed_mm_per_s);
+    // backward: highest speed at the end of each element
+    let mut vend = vec![0.0f64; n];
+    let mut next_start = 0.0f64;
+    for k in (0..n).rev() {
+        let s = &segs[k];
+        vend[k] = s.v_end_hard.min(next_start).min(cap(s));
+        next_start = cap(s).min((vend[k] * vend[k] + 2.0 * s.acc * s.len).sqrt());
+    }
+    // forward
+    let mut t = 0.0;
+    let mut v0 = 0.0f64;
+    let settle = match lim.profile {
+        FeedProfile::SCurve => lim.scurve_window_s,
+        FeedProfile::Trapezoidal => 0.0,
+    };
+    for (k, s) in segs.iter().enumerate() {
+        let c = cap(s);
+        let v1 = vend[k].min((v0 * v0 + 2.0 * s.acc * s.len).sqrt());
+        if s.len > 0.0 {
+            let vp = c.min(((v0 * v0 + v1 * v1) / 2.0 + s.acc * s.len).sqrt());
+            let d_acc = (vp * vp - v0 * v0) / (2.0 * s.acc);
+            let d_dec = (vp * vp - v1 * v1) / (2.0 * s.acc);
+            let cruise = (s.len - d_acc - d_dec).max(0.0);
+            t += (vp - v0).max(0.0) / s.acc
+                + (vp - v1).max(0.0) / s.acc
+                + if vp > 0.0 { cruise / vp } else { 0.0 };
+        }
+        if s.v_end_hard == 0.0 {
+            t += s.dwell_s + settle;
+        }
+        v0 = v1;
+    }
+    t
 }
 
-impl Iterator for Interpolator<'_> {
-    type Item = Sample;
-    fn next(&mut self) -> Option<Sample> {
-        unimplemented!()
+/// Axis-aligned bounding box of a primitive.
+fn bounding_box(p: &Primitive) -> (Vec3, Vec3) {
+    let (s, e) = (p.start(), p.end());
+    let (mut lo, mut hi) = (s.min(e), s.max(e));
+    if let Primitive::Arc {
+        center,
+        plane,
+        radius,
+        start_angle,
+        sweep,
+        ..
+    } = *p
+    {
+        let (a, b, _) = plane.axes();
+        // cardinal angles crossed by the sweep
+        for q in 0..4 {
+            let ang = q as f64 * std::f64::consts::FRAC_PI_2;
+            let rel = if sweep >= 0.0 {
+                (ang - start_angle).rem_euclid(std::f64::consts::TAU)
+            } else {
+                (start_angle - ang).rem_euclid(std::f64::consts::TAU)
+            };
+            if rel <= sweep.abs() {
+                let mut pt = center;
+                pt[a] += radius * ang.cos();
+                pt[b] += radius * ang.sin();
+                lo = lo.min(pt);
+                hi = hi.max(pt);
+            }
+        }
     }
+    (lo, hi)
 }

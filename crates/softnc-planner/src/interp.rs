@@ -1,0 +1,391 @@
+//! The interpolator: walks the segments at the interpolation cycle T.
+//!
+//! Path speed follows a time-optimal acceleration-limited profile computed in
+//! continuous time (constant-acceleration pieces, switching exactly where they must,
+//! also inside a cycle), so samples taken every T inherit its bounds. Each time it
+//! enters an element or the override changes it looks ahead along the path as far as
+//! the longest braking distance (bounded by [`MAX_LOOKAHEAD_SEGMENTS`]) to find how
+//! fast it may leave the element. With the S-curve profile, the path position is
+//! smoothed by a moving average of the acceleration-limited one over a fixed window
+//! (a bell-shaped acc/dec, jerk ≤ 2·a/window), still along the exact path.
+
+use crate::build::{Limits, Segment};
+use softnc_core::{FeedProfile, Vec3};
+
+/// Largest number of elements one lookahead pass visits. If the elements within the
+/// braking distance are more than this, the planner assumes a stop after them
+/// (safe, slower).
+pub const MAX_LOOKAHEAD_SEGMENTS: usize = 20_000;
+/// Largest S-curve window in cycles (the ring is allocated once, before motion).
+pub const MAX_SCURVE_WINDOW_CYCLES: usize = 4096;
+
+/// One command sample at the interpolation cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Sample {
+    /// Cycle index from the start of the job (time = index · T).
+    pub index: u64,
+    /// Command position, machine coordinates (mm).
+    pub pos_mm: Vec3,
+    /// Index into the program's motions of the motion being executed.
+    pub motion: u32,
+    /// True while that motion is a feed move (G1/G2/G3), false for traverses/dwells.
+    pub feed_move: bool,
+}
+
+/// Pulls samples from a plan, one per interpolation cycle, without allocating.
+pub struct Interpolator<'a> {
+    segs: &'a [Segment],
+    lim: Limits,
+    brake_dist_mm: f64,
+    override_frac: f64,
+    max_override: f64,
+    // acceleration-limited ("raw") state
+    k: usize,
+    s: f64,
+    v: f64,
+    hold_left_s: f64,
+    holding: bool,
+    raw_done: bool,
+    vend_soft: f64,
+    vend_hard: f64,
+    envelope_dirty: bool,
+    force_brake: bool,
+    // S-curve smoothing ring over the raw path position
+    ring: Vec<f64>,
+    ring_pos: usize,
+    ring_sum_valid: bool,
+    // output cursor
+    cursor: usize,
+    index: u64,
+    finished: bool,
+    start: Vec3,
+}
+
+impl<'a> Interpolator<'a> {
+    pub(crate) fn new(
+        segs: &'a [Segment],
+        lim: Limits,
+        brake_dist_mm: f64,
+        max_override: f64,
+    ) -> Self {
+        let window = match lim.profile {
+            FeedProfile::Trapezoidal => 1,
+            FeedProfile::SCurve => ((lim.scurve_window_s / lim.cycle_s).round() as usize)
+                .clamp(1, MAX_SCURVE_WINDOW_CYCLES),
+        };
+        let start = segs
+            .first()
+            .map(|s| s.geom.point_at(0.0))
+            .unwrap_or_default();
+        let mut it = Interpolator {
+            segs,
+            lim,
+            brake_dist_mm,
+            override_frac: 1.0,
+            max_override,
+            k: 0,
+            s: 0.0,
+            v: 0.0,
+            hold_left_s: 0.0,
+            holding: false,
+            raw_done: segs.is_empty(),
+            vend_soft: 0.0,
+            vend_hard: 0.0,
+            envelope_dirty: true,
+            force_brake: false,
+            ring: vec![0.0; window],
+            ring_pos: 0,
+            ring_sum_valid: true,
+            cursor: 0,
+            index: 0,
+            finished: false,
+            start,
+        };
+        it.skip_empty();
+        it
+    }
+
+    /// Set the live feed override (0.0 ..= the profile's maximum); applied smoothly
+    /// from the next cycle on, within the acceleration (and jerk) limits.
+    pub fn set_feed_override(&mut self, fraction: f64) {
+        let f = if fraction.is_finite() {
+            fraction.clamp(0.0, self.max_override)
+        } else {
+            0.0
+        };
+        if f != self.override_frac {
+            self.override_frac = f;
+            self.envelope_dirty = true;
+        }
+    }
+
+    /// The live feed override in force.
+    pub fn feed_override(&self) -> f64 {
+        self.override_frac
+    }
+
+    /// Current path speed of the acceleration-limited profile (mm/s).
+    pub fn path_speed_mm_per_s(&self) -> f64 {
+        self.v
+    }
+
+    /// True once the last sample has been produced.
+    pub fn is_finished(&self) -> bool {
+        self.finished
+    }
+
+    fn soft_cap(&self, seg: &Segment) -> f64 {
+        seg.vel_cap.min(seg.feed_mm_per_s * self.override_frac)
+    }
+
+    /// Skip zero-length elements without a dwell at the current position.
+    fn skip_empty(&mut self) {
+        while !self.raw_done && self.segs[self.k].len <= 0.0 && self.segs[self.k].dwell_s <= 0.0 {
+            self.next_element();
+        }
+    }
+
+    fn next_element(&mut self) {
+        if self.segs[self.k].v_end_hard == 0.0 {
+            self.v = 0.0;
+        }
+        if self.k + 1 >= self.segs.len() {
+            self.raw_done = true;
+            self.s = self.segs[self.k].len;
+            self.v = 0.0;
+        } else {
+            self.k += 1;
+            self.s = 0.0;
+        }
+        self.envelope_dirty = true;
+        self.force_brake = false;
+    }
+
+    /// Highest speeds at the end of element k: (with feed caps, geometric only).
+    fn end_speed_limits(&self, k: usize) -> (f64, f64) {
+        let n = self.segs.len();
+        let mut j = k;
+        let mut dist = 0.0;
+        while j + 1 < n
+            && self.segs[j].v_end_hard > 0.0
+            && j - k < MAX_LOOKAHEAD_SEGMENTS
+            && dist < self.brake_dist_mm
+        {
+            j += 1;
+            dist += self.segs[j].len;
+        }
+        // Backward pass from a stop at the end of element j.
+        let mut soft_next = 0.0f64;
+        let mut hard_next = 0.0f64;
+        let mut m = j;
+        loop {
+            let seg = &self.segs[m];
+            let soft_end = seg.v_end_hard.min(soft_next).min(self.soft_cap(seg));
+            let hard_end = seg.v_end_hard.min(hard_next).min(seg.vel_cap);
+            if m == k {
+                return (soft_end, hard_end);
+            }
+            let two_al = 2.0 * seg.acc * seg.len;
+            soft_next = self
+                .soft_cap(seg)
+                .min((soft_end * soft_end + two_al).sqrt());
+            hard_next = seg.vel_cap.min((hard_end * hard_end + two_al).sqrt());
+            m -= 1;
+        }
+    }
+
+    /// Advance the acceleration-limited profile by `dt` seconds.
+    fn advance(&mut self, mut dt: f64) {
+        let mut guard = 0u32;
+        while dt > 0.0 && !self.raw_done {
+            guard += 1;
+            if guard > 1_000_000 {
+                break; // cannot happen with finite inputs; never spin forever
+            }
+            if self.holding {
+                let h = self.hold_left_s.min(dt);
+                self.hold_left_s -= h;
+                dt -= h;
+                if self.hold_left_s <= 0.0 {
+                    self.holding = false;
+                    self.next_element();
+                    self.skip_empty();
+                }
+                continue;
+            }
+            if self.envelope_dirty {
+                let (soft, hard) = self.end_speed_limits(self.k);
+                self.vend_soft = soft;
+                self.vend_hard = hard;
+                self.envelope_dirty = false;
+                self.force_brake = false;
+            }
+            let seg = self.segs[self.k];
+            let d = seg.len - self.s;
+            if d <= 1e-12 {
+                self.arrive(&seg);
+                continue;
+            }
+            let a = seg.acc;
+            let v = self.v;
+            let cap = self.soft_cap(&seg);
+            // End speed: the feed-capped one when reachable, else as low as braking
+            // allows but never above the geometric limit.
+            let reachable = (v * v - 2.0 * a * d).max(0.0).sqrt();
+            let ve = self.vend_hard.min(self.vend_soft.max(reachable));
+            let brake_d = (v * v - ve * ve) / (2.0 * a);
+            if self.force_brake || d <= brake_d * (1.0 + 1e-9) + 1e-12 {
+                // Braking to the end of the element.
+                let a_req = if d > 0.0 {
+                    ((v * v - ve * ve) / (2.0 * d)).max(0.0)
+                } else {
+                    0.0
+                };
+                let t_end = if v + ve > 0.0 {
+                    2.0 * d / (v + ve)
+                } else {
+                    f64::INFINITY
+                };
+                if t_end <= dt {
+                    dt -= t_end;
+                    self.s = seg.len;
+                    self.v = ve;
+                    self.arrive(&seg);
+                } else {
+                    self.s += v * dt - 0.5 * a_req * dt * dt;
+                    self.v = (v - a_req * dt).max(0.0);
+                    dt = 0.0;
+                }
+                continue;
+            }
+            let tau;
+            if v < cap {
+                let vp = ((v * v + ve * ve) / 2.0 + a * d).sqrt();
+                let vt = cap.min(vp);
+                let t1 = ((vt - v) / a).max(0.0);
+                tau = t1.min(dt);
+                self.s += v * tau + 0.5 * a * tau * tau;
+                self.v = if tau == t1 { vt } else { v + a * tau };
+                if tau == t1 && vt == vp {
+                    self.force_brake = true; // at the braking point
+                }
+            } else if v > cap {
+                let t1 = (v - cap) / a;
+                tau = t1.min(dt);
+                self.s += v * tau - 0.5 * a * tau * tau;
+                self.v = if tau == t1 { cap } else { v - a * tau };
+            } else if v > 0.0 {
+                let t1 = ((d - brake_d) / v).max(0.0);
+                tau = t1.min(dt);
+                self.s += v * tau;
+                if tau == t1 {
+                    self.force_brake = true; // at the braking point
+                }
+            } else {
+                tau = dt; // feed hold at standstill
+            }
+            self.s = self.s.min(seg.len);
+            dt -= tau;
+        }
+    }
+
+    fn arrive(&mut self, seg: &Segment) {
+        self.s = seg.len;
+        let hold = if seg.v_end_hard == 0.0 {
+            self.v = 0.0;
+            let settle = match self.lim.profile {
+                FeedProfile::SCurve => self.lim.scurve_window_s,
+                FeedProfile::Trapezoidal => 0.0,
+            };
+            seg.dwell_s + settle
+        } else {
+            0.0
+        };
+        if hold > 0.0 {
+            self.holding = true;
+            self.hold_left_s = hold;
+        } else {
+            self.next_element();
+            self.skip_empty();
+        }
+    }
+
+    fn raw_position(&self) -> f64 {
+        let seg = &self.segs[self.k];
+        seg.s0 + self.s.min(seg.len)
+    }
+
+    fn point_at(&mut self, s_path: f64) -> (Vec3, &'a Segment) {
+        let segs = self.segs;
+        while self.cursor + 1 < segs.len() && s_path > segs[self.cursor].s0 + segs[self.cursor].len
+        {
+            self.cursor += 1;
+        }
+        let seg = &segs[self.cursor];
+        (seg.geom.point_at(s_path - seg.s0), seg)
+    }
+}
+
+impl Iterator for Interpolator<'_> {
+    type Item = Sample;
+
+    fn next(&mut self) -> Option<Sample> {
+        if self.finished {
+            return None;
+        }
+        if self.segs.is_empty() {
+            self.finished = true;
+            return Some(Sample {
+                index: 0,
+                pos_mm: self.start,
+                motion: 0,
+                feed_move: false,
+            });
+        }
+        if self.index > 0 {
+            self.advance(self.lim.cycle_s);
+        }
+        let raw = self.raw_position();
+        let n = self.ring.len();
+        let s_path = if n == 1 {
+            raw
+        } else {
+            if self.index == 0 {
+                self.ring.iter_mut().for_each(|x| *x = raw);
+            }
+            self.ring[self.ring_pos] = raw;
+            self.ring_pos = (self.ring_pos + 1) % n;
+            let _ = self.ring_sum_valid;
+            let sum: f64 = self.ring.iter().sum();
+            // all equal (standing still): exactly that value, not a rounded mean
+            if self.ring.iter().all(|&x| x == raw) {
+                raw
+            } else {
+                (sum / n as f64).min(raw)
+            }
+        };
+        let done_raw = self.raw_done && !self.holding;
+        let settled = done_raw && (n == 1 || self.ring.iter().all(|&x| x == raw));
+        let (pos, seg) = if settled {
+            let last = self.segs.len() - 1;
+            self.cursor = last;
+            (
+                self.segs[last].geom.point_at(self.segs[last].len),
+                &self.segs[last],
+            )
+        } else {
+            self.point_at(s_path)
+        };
+        let sample = Sample {
+            index: self.index,
+            pos_mm: pos,
+            motion: seg.motion,
+            feed_move: seg.feed_move,
+        };
+        self.index += 1;
+        if settled {
+            self.finished = true;
+        }
+        Some(sample)
+    }
+}
