@@ -18,10 +18,27 @@ pub const SCURVE_CURVE_JERK_SHARE: f64 = 0.15;
 /// S-curve: share of the jerk limit spent on a curvature step between elements
 /// (sampled, so a step of Δa appears as ≤ Δa·3/(4T)).
 pub const SCURVE_CURVATURE_STEP_SHARE: f64 = 0.25;
+/// S-curve: a corner is blended only if the blend can be taken at this share of the
+/// speed around it; otherwise the path stops at the corner.
+pub const SCURVE_MIN_BLEND_SPEED_SHARE: f64 = 0.1;
 /// Corners turning more than this (rad) are never blended: the path reverses.
 pub const MAX_BLEND_TURN_RAD: f64 = 3.1;
 /// Direction changes below this (in |Δt|) are treated as tangent-continuous.
 pub const TANGENT_EPS: f64 = 1e-9;
+
+/// S-curve: the speed at which the centripetal jerk terms on a curve use their share
+/// of the jerk limit: κ²v³ ≤ budget and 3κ·v·a_t ≤ budget.
+fn scurve_curve_cap(geom: &Geom, lim: &Limits) -> f64 {
+    let k = geom.curvature();
+    if k <= 0.0 {
+        return f64::INFINITY;
+    }
+    let j_min = lim.jmax.iter().cloned().fold(f64::INFINITY, f64::min);
+    let budget = SCURVE_CURVE_JERK_SHARE * j_min;
+    (budget / (k * k))
+        .cbrt()
+        .min(budget / (3.0 * k * lim.scurve_acc))
+}
 
 /// One element of the planned path with its limits.
 #[derive(Debug, Clone, Copy)]
@@ -207,7 +224,7 @@ pub fn build_segments(
             motion: 0,
             feed_move: false,
             feed_mm_per_s: f64::INFINITY,
-            vel_cap: 0.0,
+            vel_cap: f64::INFINITY,
             acc: 1.0,
             v_end_hard: 0.0,
             dwell_s: pending_dwell_at_start,
@@ -243,20 +260,31 @@ pub fn build_segments(
         let r_tol = a.tolerance_mm.min(b.tolerance_mm) / (1.0 / half.cos() - 1.0);
         let r_len = d_max / half.tan();
         let r = r_tol.min(r_len);
-        if !(r > 1e-9) {
+        if r.is_nan() || r <= 1e-9 {
             continue;
         }
         let d = r * half.tan();
         let p1 = a1 - u1 * d;
         let nrm = (u2 - u1 * cos_t).unit();
         let center = p1 + nrm * r;
-        blends[i] = Some(Geom::Blend {
+        let blend = Geom::Blend {
             center,
             e1: -nrm,
             e2: u1,
             radius: r,
             sweep: theta,
-        });
+        };
+        if lim.profile == FeedProfile::SCurve {
+            // A blend so tight that the jerk limit crawls through it is slower than
+            // stopping: stop at the corner instead.
+            let through = scurve_curve_cap(&blend, lim);
+            let vmin = lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min);
+            let around = a.feed_mm_per_s.min(b.feed_mm_per_s).min(vmin);
+            if through < SCURVE_MIN_BLEND_SPEED_SHARE * around {
+                continue;
+            }
+        }
+        blends[i] = Some(blend);
         start_trim[i + 1] = d;
         // the end trim of move i is recorded through the blend's start point
     }
@@ -289,14 +317,7 @@ pub fn build_segments(
             let mut acc = el.acc_mm_per_s2;
             if lim.profile == FeedProfile::SCurve {
                 acc = acc.min(lim.scurve_acc);
-                let k = geom.curvature();
-                if k > 0.0 {
-                    let j_min = lim.jmax.iter().cloned().fold(f64::INFINITY, f64::min);
-                    let budget = SCURVE_CURVE_JERK_SHARE * j_min;
-                    // κ²v³ ≤ budget and 3κ·v·a_t ≤ budget (per-axis jerk on a curve).
-                    vel_cap = vel_cap.min((budget / (k * k)).cbrt());
-                    vel_cap = vel_cap.min(budget / (3.0 * k * acc));
-                }
+                vel_cap = vel_cap.min(scurve_curve_cap(&geom, lim));
             }
             segs.push(Segment {
                 geom,
@@ -378,7 +399,7 @@ fn dilate_caps(segs: &mut [Segment], window_s: f64, acc: f64) {
     let reach =
         |c: f64| (window_s * c).max((c * c + acc * acc * window_s * window_s) / (2.0 * acc));
     // (limit, start, end) of each constraint along the path
-    let mut spread = |c: f64, from: f64, to: f64, k: usize, dilated: &mut [f64]| {
+    let spread = |c: f64, from: f64, to: f64, k: usize, dilated: &mut [f64]| {
         let r = reach(c);
         dilated[k] = dilated[k].min(c);
         let mut j = k;
@@ -392,10 +413,12 @@ fn dilate_caps(segs: &mut [Segment], window_s: f64, acc: f64) {
             j += 1;
         }
     };
-    for k in 0..n {
-        let (a, b) = (segs[k].s0, segs[k].s0 + segs[k].len);
-        spread(segs[k].vel_cap, a, b, k, &mut dilated);
-        let v = segs[k].v_end_hard;
+    for (k, seg) in segs.iter().enumerate() {
+        let (a, b) = (seg.s0, seg.s0 + seg.len);
+        if seg.len > 0.0 {
+            spread(seg.vel_cap, a, b, k, &mut dilated);
+        }
+        let v = seg.v_end_hard;
         if v > 0.0 && v.is_finite() {
             spread(v, b, b, k, &mut dilated);
         }

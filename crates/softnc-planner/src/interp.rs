@@ -233,6 +233,8 @@ impl<'a> Interpolator<'a> {
             // allows but never above the geometric limit.
             let reachable = (v * v - 2.0 * a * d).max(0.0).sqrt();
             let ve = self.vend_hard.min(self.vend_soft.max(reachable));
+            // never aim above what accelerating over the rest of the element reaches
+            let ve = ve.min((v * v + 2.0 * a * d).sqrt());
             let brake_d = (v * v - ve * ve) / (2.0 * a);
             if self.force_brake || d <= brake_d * (1.0 + 1e-9) + 1e-12 {
                 // Braking to the end of the element.

@@ -1,0 +1,66 @@
+//! Pulling samples allocates nothing (a counting global allocator proves it).
+
+mod common;
+use common::*;
+use softnc_core::{FeedProfile, Plane, Vec3};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+struct Counting;
+static ALLOCS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        ALLOCS.fetch_add(1, Ordering::SeqCst);
+        // SAFETY: forwarding to the system allocator with the caller's layout.
+        unsafe { System.alloc(l) }
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        // SAFETY: p was allocated by System.alloc with layout l.
+        unsafe { System.dealloc(p, l) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn sample_generation_allocates_nothing() {
+    for fp in [FeedProfile::Trapezoidal, FeedProfile::SCurve] {
+        let p = profile(fp);
+        let mut b = Builder::new(Vec3::ZERO);
+        b.rapid(10.0, 10.0, -2.0)
+            .line(40.0, 10.0, -2.0, 2400.0)
+            .line(40.0, 30.0, -3.0, 2400.0);
+        b.arc(
+            Vec3::new(40.0, 30.0, -3.0),
+            Vec3::new(30.0, 30.0, -3.0),
+            Plane::XY,
+            1,
+            1800.0,
+        )
+        .dwell(0.1);
+        b.line(0.0, 0.0, 0.0, 3000.0);
+        let plan = plan_of(&b, &p);
+        let mut it = plan.interpolator();
+        let before = ALLOCS.load(Ordering::SeqCst);
+        let mut n = 0u64;
+        let mut last = Vec3::ZERO;
+        while let Some(s) = it.next() {
+            n += 1;
+            last = s.pos_mm;
+            if n == 500 {
+                it.set_feed_override(1.7);
+            }
+        }
+        let after = ALLOCS.load(Ordering::SeqCst);
+        assert!(n > 1000);
+        assert_eq!(last, b.pos);
+        assert_eq!(
+            after - before,
+            0,
+            "{fp:?}: {} allocations while pulling {n} samples",
+            after - before
+        );
+    }
+}

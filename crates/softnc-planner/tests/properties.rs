@@ -1,0 +1,85 @@
+//! Property tests: random programs never panic, stay within every axis limit and end
+//! exactly at their last point.
+
+mod common;
+use common::*;
+use proptest::prelude::*;
+use softnc_core::{FeedProfile, Plane, Vec3};
+
+#[derive(Debug, Clone)]
+enum Op {
+    Rapid(f64, f64, f64),
+    Line(f64, f64, f64, f64),
+    Arc(f64, f64, i32, u8, f64),
+    Dwell(f64),
+}
+
+fn op() -> impl Strategy<Value = Op> {
+    let c = -50.0..50.0f64;
+    prop_oneof![
+        (c.clone(), c.clone(), -20.0..0.0f64).prop_map(|(x, y, z)| Op::Rapid(x, y, z)),
+        (c.clone(), c.clone(), -20.0..0.0f64, 10.0..8000.0f64)
+            .prop_map(|(x, y, z, f)| Op::Line(x, y, z, f)),
+        (0.5..20.0f64, 0.0..6.3f64, -2..3i32, 0..3u8, 10.0..6000.0f64)
+            .prop_map(|(r, a, t, pl, f)| Op::Arc(r, a, t, pl, f)),
+        (0.0..0.05f64).prop_map(Op::Dwell),
+    ]
+}
+
+fn build(ops: &[Op], exact: bool) -> Builder {
+    let mut b = Builder::new(Vec3::ZERO);
+    if exact {
+        b.mode = softnc_gcode::PathMode::ExactStop;
+    }
+    for o in ops {
+        match *o {
+            Op::Rapid(x, y, z) => {
+                b.rapid(x, y, z);
+            }
+            Op::Line(x, y, z, f) => {
+                b.line(x, y, z, f);
+            }
+            Op::Arc(r, ang, turns, pl, f) => {
+                let plane = [Plane::XY, Plane::XZ, Plane::YZ][pl as usize];
+                let (a, bb, n) = plane.axes();
+                let p = b.pos;
+                let mut c = p;
+                c[a] = p[a] - r * ang.cos();
+                c[bb] = p[bb] - r * ang.sin();
+                let mut e = c;
+                let th = ang + 1.3;
+                e[a] = c[a] + r * th.cos();
+                e[bb] = c[bb] + r * th.sin();
+                e[n] = p[n] + if turns.abs() > 1 { -1.0 } else { 0.0 };
+                let t = if turns == 0 { 1 } else { turns };
+                b.arc(e, c, plane, t, f);
+            }
+            Op::Dwell(s) => {
+                b.dwell(s);
+            }
+        }
+    }
+    b
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+    #[test]
+    fn random_programs_stay_within_limits(ops in prop::collection::vec(op(), 1..12), exact in any::<bool>(), scurve in any::<bool>()) {
+        let fp = if scurve { FeedProfile::SCurve } else { FeedProfile::Trapezoidal };
+        let p = profile(fp);
+        let b = build(&ops, exact);
+        let plan = plan_of(&b, &p);
+        prop_assert!(plan.stats().samples < 2_000_000, "planned {} samples", plan.stats().samples);
+        let s = run(&plan);
+        let r = limit_ratios(&s, &p);
+        prop_assert!(r[0] <= 1.0 + 1e-9, "velocity {}", r[0]);
+        prop_assert!(r[1] <= 1.0 + 1e-9, "acceleration {}", r[1]);
+        if scurve {
+            prop_assert!(r[2] <= 1.0 + 1e-9, "jerk {}", r[2]);
+        }
+        prop_assert!((s.last().unwrap().pos_mm - b.pos).norm() < 1e-9);
+        let dev = max_path_deviation(&s, &plan, b.motions.len());
+        prop_assert!(dev <= p.planner.tolerance_mm + 1e-6, "deviation {}", dev);
+    }
+}
