@@ -13,6 +13,8 @@
 
 pub mod config;
 pub mod geom;
+pub mod ring;
 
 pub use config::{AxisConfig, ConfigError, FeedProfile, MachineProfile, PlannerConfig, ToolEntry};
 pub use geom::{Plane, Primitive, Vec3};
+pub use ring::{LookaheadRing, RingError, RingSample};
