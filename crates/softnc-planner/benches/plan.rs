@@ -1,0 +1,117 @@
+//! Planner throughput: parse + plan of a 200,000-line G1/G2/G3 program, plan alone,
+//! and the cost of one interpolation sample.
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use softnc_core::MachineProfile;
+use softnc_planner::{plan, PlanOptions};
+use std::fmt::Write;
+
+/// A 200,000-line program of G1/G2/G3 moves: a zig-zag of short lines with arcs,
+/// as CAM output looks.
+pub fn big_program(lines: usize) -> String {
+    let mut s = String::with_capacity(lines * 32);
+    s.push_str("G21 G90 G17 G94 G64 P0.01\nG0 X0 Y0 Z1\nG1 Z-1 F1200\n");
+    let mut y = 0.0f64;
+    let mut x = 0.0f64;
+    let mut i = 0usize;
+    while i < lines {
+        match i % 4 {
+            0 | 2 => {
+                x += 0.8;
+                y += if i % 8 < 4 { 0.05 } else { -0.05 };
+                writeln!(s, "G1 X{x:.4} Y{y:.4}").unwrap();
+            }
+            1 => {
+                writeln!(s, "G2 X{:.4} Y{y:.4} I0.25 J0", x + 0.5).unwrap();
+                x += 0.5;
+            }
+            _ => {
+                writeln!(s, "G3 X{:.4} Y{y:.4} R0.25", x + 0.5).unwrap();
+                x += 0.5;
+            }
+        }
+        if x > 300.0 {
+            x = 0.0;
+            writeln!(s, "G0 Z1\nG0 X0 Y{y:.4}\nG1 Z-1").unwrap();
+            i += 3;
+        }
+        i += 1;
+    }
+    s.push_str("M2\n");
+    s
+}
+
+fn profile() -> MachineProfile {
+    MachineProfile::load(
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/machines/default.ron"
+        )
+        .as_ref(),
+    )
+    .expect("default profile")
+}
+
+fn benches(c: &mut Criterion) {
+    let p = profile();
+    let text = big_program(200_000);
+    let n_lines = text.lines().count() as u64;
+    if std::env::var_os("SOFTNC_WRITE_BIG").is_some() {
+        std::fs::write("big-200k.ngc", &text).unwrap();
+    }
+    let mut g = c.benchmark_group("planner");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(n_lines));
+    let program = softnc_gcode::read_program(&text, "big.ngc", &p);
+    match &program {
+        Ok(program) => {
+            g.bench_function("parse_and_plan_200k_lines", |b| {
+                b.iter(|| {
+                    let prog = softnc_gcode::read_program(&text, "big.ngc", &p).unwrap();
+                    plan(
+                        &prog,
+                        &p,
+                        &PlanOptions {
+                            ignore_soft_limits: true,
+                        },
+                    )
+                    .unwrap()
+                })
+            });
+            g.bench_function("plan_only_200k_lines", |b| {
+                b.iter(|| {
+                    plan(
+                        program,
+                        &p,
+                        &PlanOptions {
+                            ignore_soft_limits: true,
+                        },
+                    )
+                    .unwrap()
+                })
+            });
+            let planned = plan(
+                program,
+                &p,
+                &PlanOptions {
+                    ignore_soft_limits: true,
+                },
+            )
+            .unwrap();
+            g.throughput(Throughput::Elements(100_000));
+            g.bench_function("interpolate_100k_samples", |b| {
+                b.iter(|| {
+                    planned
+                        .interpolator()
+                        .take(100_000)
+                        .fold(0.0, |acc, s| acc + s.pos_mm[0])
+                })
+            });
+        }
+        Err(e) => eprintln!("G-code reader refused the benchmark program: {e}"),
+    }
+    g.finish();
+}
+
+criterion_group!(planner, benches);
+criterion_main!(planner);
