@@ -1,0 +1,22 @@
+//! softnc's messages between processes: fixed-size `#[repr(C)]` iceoryx2 payloads
+//! (no heap, no pointers, no serialisation on the hot path) and the service names.
+//!
+//! ```
+//! use softnc_ipc::{CommandSample, ServiceNames};
+//! let names = ServiceNames::new("softnc", "mill1");
+//! assert_eq!(names.command(), "softnc/mill1/command");
+//! let s = CommandSample::new(7, 1, 7, [1.0, 2.0, 3.0]);
+//! assert_eq!(s.pos_mm[..3], [1.0, 2.0, 3.0]);
+//! ```
+#![warn(missing_docs)]
+
+pub mod fixed_str;
+pub mod names;
+pub mod payload;
+
+pub use fixed_str::FixedStr;
+pub use names::ServiceNames;
+pub use payload::{
+    Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, Heartbeat, LoopStats,
+    MachineState, OperatorReply, OperatorRequest, PositionStatus, ProcessId, MAX_AXES,
+};

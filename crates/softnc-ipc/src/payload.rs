@@ -1,0 +1,322 @@
+//! The payload types. All `#[repr(C)]`, `Copy`, fixed size, `ZeroCopySend`.
+
+use crate::fixed_str::FixedStr;
+use iceoryx2::prelude::ZeroCopySend;
+
+/// Largest number of axes a sample carries.
+pub const MAX_AXES: usize = 6;
+
+/// One command sample per interpolation cycle, interpolation → position control.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("softnc::CommandSample")]
+pub struct CommandSample {
+    /// Sequence number, consecutive within a job (gaps and reordering are alarms).
+    pub seq: u64,
+    /// Job the sample belongs to.
+    pub job_id: u64,
+    /// Cycle index from the start of the job (time = index · T).
+    pub time_index: u64,
+    /// Command position per axis, machine coordinates (mm).
+    pub pos_mm: [f64; MAX_AXES],
+    /// Index of the program motion being executed.
+    pub motion: u32,
+    /// `CommandSample::FLAG_*` bits.
+    pub flags: u32,
+}
+
+impl CommandSample {
+    /// The job's last sample: the position process pads its window with it.
+    pub const FLAG_END_OF_JOB: u32 = 1;
+    /// The sample lies on a feed move (G1/G2/G3).
+    pub const FLAG_FEED_MOVE: u32 = 2;
+
+    /// A sample for three axes.
+    pub fn new(seq: u64, job_id: u64, time_index: u64, xyz_mm: [f64; 3]) -> Self {
+        let mut pos_mm = [0.0; MAX_AXES];
+        pos_mm[..3].copy_from_slice(&xyz_mm);
+        CommandSample {
+            seq,
+            job_id,
+            time_index,
+            pos_mm,
+            motion: 0,
+            flags: 0,
+        }
+    }
+    /// True if this is the job's last sample.
+    pub fn is_end(&self) -> bool {
+        self.flags & Self::FLAG_END_OF_JOB != 0
+    }
+}
+
+/// The machine's state as the processes see it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u32)]
+pub enum MachineState {
+    /// Ready for a job.
+    Idle = 0,
+    /// Running a job.
+    Running = 1,
+    /// Feed hold: standing on the path, resumable.
+    Held = 2,
+    /// Controlled stop after a fault; needs a reset.
+    Faulted = 3,
+    /// Emergency stop; needs a reset.
+    EStopped = 4,
+}
+
+/// Position control → MMI: one per cycle (status and trace).
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("softnc::PositionStatus")]
+pub struct PositionStatus {
+    /// Sequence number of the command sample this cycle used.
+    pub seq: u64,
+    /// Job id (0 when idle).
+    pub job_id: u64,
+    /// Cycle index from the start of the job.
+    pub time_index: u64,
+    /// Command position (after command shaping) per axis (mm).
+    pub cmd_mm: [f64; MAX_AXES],
+    /// Actual position per axis (mm).
+    pub actual_mm: [f64; MAX_AXES],
+    /// Following error per axis (mm).
+    pub following_err_mm: [f64; MAX_AXES],
+    /// Controller output per axis (its own unit).
+    pub ctrl_out: [f64; MAX_AXES],
+    /// Contour error (mm), NaN outside feed moves.
+    pub contour_err_mm: f64,
+    /// Samples waiting in the lookahead ring.
+    pub ring_fill: u32,
+    /// Machine state (a [`MachineState`] as `wire()`).
+    pub state: u32,
+}
+
+/// Which process.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u32)]
+pub enum ProcessId {
+    /// The supervisor `softncd`.
+    Supervisor = 0,
+    /// `softnc-interp`.
+    Interp = 1,
+    /// `softnc-position`.
+    Position = 2,
+    /// `softnc-mmi`.
+    Mmi = 3,
+}
+
+/// "I am alive", from every process.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("softnc::Heartbeat")]
+pub struct Heartbeat {
+    /// Sender ([`ProcessId`] as `wire()`).
+    pub process: u32,
+    /// OS process id.
+    pub pid: u32,
+    /// Increments with every heartbeat.
+    pub counter: u64,
+    /// The sender's view of the machine state ([`MachineState`] as `wire()`).
+    pub state: u32,
+    /// Job being worked on (0 none).
+    pub job_id: u64,
+}
+
+/// Timing of one real-time loop (nanoseconds).
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("softnc::LoopStats")]
+pub struct LoopStats {
+    /// Which loop ([`ProcessId`] as `wire()`).
+    pub process: u32,
+    /// Cycles counted.
+    pub cycles: u64,
+    /// Period jitter |actual − nominal| percentiles p50, p99, p99.9, max.
+    pub jitter_ns: [u64; 4],
+    /// Compute time per cycle percentiles p50, p99, p99.9, max.
+    pub compute_ns: [u64; 4],
+    /// Deadlines missed (a cycle started more than one period late).
+    pub overruns: u64,
+}
+
+/// What a control command asks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u32)]
+pub enum ControlKind {
+    /// Start the job in `path` as `job_id`.
+    StartJob = 0,
+    /// Set the live feed override to `value` (fraction, 0..=2.55).
+    FeedOverride = 1,
+    /// Feed hold.
+    Hold = 2,
+    /// Resume after a hold.
+    Resume = 3,
+    /// Abort the job (controlled stop).
+    Abort = 4,
+    /// Emergency stop.
+    EStop = 5,
+    /// Reset after a fault or E-stop.
+    Reset = 6,
+    /// Shut the process down.
+    Shutdown = 7,
+}
+
+/// MMI → interpolation and position control.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("softnc::ControlCommand")]
+pub struct ControlCommand {
+    /// Consecutive per sender.
+    pub seq: u64,
+    /// What to do ([`ControlKind`] as `wire()`).
+    pub kind: u32,
+    /// Job id for `StartJob`.
+    pub job_id: u64,
+    /// Argument (override fraction).
+    pub value: f64,
+    /// Job file for `StartJob`.
+    pub path: FixedStr<512>,
+}
+
+/// Alarm codes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u32)]
+pub enum AlarmCode {
+    /// A command sample was missing or out of order.
+    SequenceError = 1,
+    /// The lookahead ring ran dry during motion.
+    RingDry = 2,
+    /// A process stopped sending heartbeats.
+    ProcessLost = 3,
+    /// Following error over the limit.
+    FollowingError = 4,
+    /// Emergency stop.
+    EStop = 5,
+    /// A job was refused.
+    JobRefused = 6,
+    /// Anything else.
+    Other = 99,
+}
+
+/// An alarm, from any process.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("softnc::Alarm")]
+pub struct Alarm {
+    /// What ([`AlarmCode`] as `wire()`).
+    pub code: u32,
+    /// Axis concerned (u32::MAX none).
+    pub axis: u32,
+    /// Who raised it ([`ProcessId`] as `wire()`).
+    pub process: u32,
+    /// Job (0 none).
+    pub job_id: u64,
+    /// Cycle index when raised.
+    pub time_index: u64,
+    /// Plain-language text.
+    pub message: FixedStr<256>,
+}
+
+/// Operator client → MMI (request-response).
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("softnc::OperatorRequest")]
+pub struct OperatorRequest {
+    /// What to do ([`ControlKind`] as `wire()`; `StartJob` submits `path`).
+    pub kind: u32,
+    /// Argument.
+    pub value: f64,
+    /// Job file.
+    pub path: FixedStr<512>,
+}
+
+/// MMI → operator client.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("softnc::OperatorReply")]
+pub struct OperatorReply {
+    /// 1 accepted, 0 refused.
+    pub accepted: u32,
+    /// Job id given to a submitted job.
+    pub job_id: u64,
+    /// Why refused (`file:line:column: reason`) or a note.
+    pub message: FixedStr<512>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn enums_round_trip_through_the_wire() {
+        for k in [
+            ControlKind::StartJob,
+            ControlKind::Reset,
+            ControlKind::Shutdown,
+        ] {
+            assert_eq!(ControlKind::from_wire(k.wire()), Some(k));
+        }
+        assert_eq!(MachineState::from_wire(77), None);
+    }
+
+    #[test]
+    fn payloads_are_fixed_size() {
+        // sizes are part of the wire format between processes built together
+        assert_eq!(
+            std::mem::size_of::<CommandSample>(),
+            8 * 3 + 8 * MAX_AXES + 8
+        );
+        assert!(std::mem::size_of::<PositionStatus>() < 512);
+        assert!(std::mem::size_of::<ControlCommand>() < 1024);
+    }
+}
+
+macro_rules! wire_enum {
+    ($t:ident { $($v:ident),* $(,)? }) => {
+        impl $t {
+            /// The value as carried in a payload.
+            pub const fn wire(self) -> u32 {
+                self as u32
+            }
+            /// From a payload value (`None` if unknown).
+            pub fn from_wire(v: u32) -> Option<Self> {
+                $(if v == $t::$v as u32 { return Some($t::$v); })*
+                None
+            }
+        }
+    };
+}
+wire_enum!(MachineState {
+    Idle,
+    Running,
+    Held,
+    Faulted,
+    EStopped
+});
+wire_enum!(ProcessId {
+    Supervisor,
+    Interp,
+    Position,
+    Mmi
+});
+wire_enum!(ControlKind {
+    StartJob,
+    FeedOverride,
+    Hold,
+    Resume,
+    Abort,
+    EStop,
+    Reset,
+    Shutdown
+});
+wire_enum!(AlarmCode {
+    SequenceError,
+    RingDry,
+    ProcessLost,
+    FollowingError,
+    EStop,
+    JobRefused,
+    Other
+});
