@@ -1,0 +1,93 @@
+//! Fixed-period cycles on absolute deadlines.
+
+use std::time::{Duration, Instant};
+
+/// Sleeps until each cycle's absolute deadline: deadline(k) = start + k·period.
+#[derive(Debug)]
+pub struct PeriodicClock {
+    start: Instant,
+    period: Duration,
+    cycle: u64,
+    spin: Duration,
+    last_wake: Option<Instant>,
+}
+
+impl PeriodicClock {
+    /// A clock whose first deadline is one period from now. `spin` is how long before
+    /// a deadline the clock stops sleeping and busy-waits (0 = sleep only).
+    pub fn new(period: Duration, spin: Duration) -> Self {
+        PeriodicClock {
+            start: Instant::now(),
+            period,
+            cycle: 0,
+            spin,
+            last_wake: None,
+        }
+    }
+
+    /// The period.
+    pub fn period(&self) -> Duration {
+        self.period
+    }
+
+    /// Cycles completed.
+    pub fn cycle(&self) -> u64 {
+        self.cycle
+    }
+
+    /// Wait for the next deadline. Returns the wake-up time and the period jitter
+    /// |actual period − nominal| of this wake-up (zero on the first). If the loop is
+    /// more than one period late, the missed deadlines are skipped (counted by the
+    /// caller as overruns through the returned `late_cycles`).
+    pub fn wait(&mut self) -> (Instant, Duration, u64) {
+        self.cycle += 1;
+        let mut deadline = self.start + self.period * self.cycle as u32;
+        let now = Instant::now();
+        let mut late_cycles = 0;
+        if now > deadline + self.period {
+            late_cycles = ((now - deadline).as_nanos() / self.period.as_nanos().max(1)) as u64;
+            self.cycle += late_cycles;
+            deadline = self.start + self.period * self.cycle as u32;
+        }
+        let sleep_until = deadline.checked_sub(self.spin).unwrap_or(deadline);
+        let now = Instant::now();
+        if sleep_until > now {
+            std::thread::sleep(sleep_until - now);
+        }
+        while Instant::now() < deadline {
+            std::hint::spin_loop();
+        }
+        let woke = Instant::now();
+        let jitter = match self.last_wake {
+            Some(prev) => {
+                let actual = woke - prev;
+                if actual > self.period {
+                    actual - self.period
+                } else {
+                    self.period - actual
+                }
+            }
+            None => Duration::ZERO,
+        };
+        self.last_wake = Some(woke);
+        (woke, jitter, late_cycles)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn deadlines_do_not_drift() {
+        let period = Duration::from_millis(2);
+        let mut c = PeriodicClock::new(period, Duration::from_micros(200));
+        let t0 = c.start;
+        for _ in 0..50 {
+            let _ = c.wait();
+        }
+        // the 50th wake-up is at or after start + 50 periods, whatever each sleep cost
+        assert!(Instant::now() >= t0 + period * 50);
+        assert!(c.cycle() >= 50);
+    }
+}
