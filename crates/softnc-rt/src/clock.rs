@@ -59,14 +59,7 @@ impl PeriodicClock {
         }
         let woke = Instant::now();
         let jitter = match self.last_wake {
-            Some(prev) => {
-                let actual = woke - prev;
-                if actual > self.period {
-                    actual - self.period
-                } else {
-                    self.period - actual
-                }
-            }
+            Some(prev) => (woke - prev).abs_diff(self.period),
             None => Duration::ZERO,
         };
         self.last_wake = Some(woke);
