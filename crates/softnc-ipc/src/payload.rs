@@ -161,6 +161,10 @@ pub enum ControlKind {
     Reset = 6,
     /// Shut the process down.
     Shutdown = 7,
+    /// Operator: the machine's status as JSON.
+    Status = 8,
+    /// Operator: the job history as JSON.
+    Jobs = 9,
 }
 
 /// MMI → interpolation and position control.
@@ -241,8 +245,8 @@ pub struct OperatorReply {
     pub accepted: u32,
     /// Job id given to a submitted job.
     pub job_id: u64,
-    /// Why refused (`file:line:column: reason`) or a note.
-    pub message: FixedStr<512>,
+    /// Why refused (`file:line:column: reason`), or the JSON asked for.
+    pub message: FixedStr<8192>,
 }
 
 #[cfg(test)]

@@ -1,0 +1,152 @@
+//! The iceoryx2 services of one controller instance, opened or created the same way
+//! by every process.
+
+use anyhow::{Context, Result};
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::*;
+use softnc_ipc::{
+    Alarm, CommandSample, ControlCommand, Heartbeat, LoopStats, PositionStatus, ServiceNames,
+};
+
+/// Publish-subscribe port types over the shared-memory service.
+pub type Pub<T> = Publisher<ipc::Service, T, ()>;
+/// Subscriber port type.
+pub type Sub<T> = Subscriber<ipc::Service, T, ()>;
+
+/// Subscriber buffer of the command service: the ring's future half and some slack.
+pub const COMMAND_BUFFER: usize = 1200;
+/// Subscriber buffer of the status/heartbeat/control/alarm services.
+pub const SMALL_BUFFER: usize = 64;
+
+/// Node and service factory of one process.
+pub struct Bus {
+    /// The process's node.
+    pub node: Node<ipc::Service>,
+    /// Service names.
+    pub names: ServiceNames,
+}
+
+macro_rules! pubsub {
+    ($fn_pub:ident, $fn_sub:ident, $t:ty, $name:ident, $buf:expr, $hist:expr) => {
+        /// Publisher on this service.
+        pub fn $fn_pub(&self) -> Result<Pub<$t>> {
+            let svc = self.service::<$t>(&self.names.$name(), $buf, $hist)?;
+            svc.publisher_builder()
+                .create()
+                .with_context(|| format!("publisher on {}", self.names.$name()))
+        }
+        /// Subscriber on this service.
+        pub fn $fn_sub(&self) -> Result<Sub<$t>> {
+            let svc = self.service::<$t>(&self.names.$name(), $buf, $hist)?;
+            svc.subscriber_builder()
+                .buffer_size($buf)
+                .create()
+                .with_context(|| format!("subscriber on {}", self.names.$name()))
+        }
+    };
+}
+
+impl Bus {
+    /// Create the node `<prefix>/<instance>/<process>`.
+    pub fn new(names: ServiceNames, process: &str) -> Result<Self> {
+        let node_name = names.node(process);
+        let node = NodeBuilder::new()
+            .name(
+                &node_name
+                    .as_str()
+                    .try_into()
+                    .with_context(|| format!("node name {node_name}"))?,
+            )
+            .signal_handling_mode(SignalHandlingMode::Disabled)
+            .create::<ipc::Service>()
+            .with_context(|| format!("creating node {node_name}"))?;
+        Ok(Bus { node, names })
+    }
+
+    fn service<T: std::fmt::Debug + ZeroCopySend + Copy + 'static>(
+        &self,
+        name: &str,
+        buffer: usize,
+        history: usize,
+    ) -> Result<iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, T, ()>>
+    {
+        self.node
+            .service_builder(
+                &name
+                    .try_into()
+                    .with_context(|| format!("service name {name}"))?,
+            )
+            .publish_subscribe::<T>()
+            .subscriber_max_buffer_size(buffer)
+            .history_size(history)
+            .max_publishers(8)
+            .max_subscribers(8)
+            .max_nodes(16)
+            .open_or_create()
+            .with_context(|| format!("opening service {name}"))
+    }
+
+    pubsub!(
+        command_publisher,
+        command_subscriber,
+        CommandSample,
+        command,
+        COMMAND_BUFFER,
+        0
+    );
+    pubsub!(
+        status_publisher,
+        status_subscriber,
+        PositionStatus,
+        status,
+        SMALL_BUFFER,
+        1
+    );
+    pubsub!(
+        control_publisher,
+        control_subscriber,
+        ControlCommand,
+        control,
+        SMALL_BUFFER,
+        0
+    );
+    pubsub!(
+        heartbeat_publisher,
+        heartbeat_subscriber,
+        Heartbeat,
+        heartbeat,
+        SMALL_BUFFER,
+        0
+    );
+    pubsub!(
+        alarm_publisher,
+        alarm_subscriber,
+        Alarm,
+        alarm,
+        SMALL_BUFFER,
+        8
+    );
+    pubsub!(
+        loop_stats_publisher,
+        loop_stats_subscriber,
+        LoopStats,
+        loop_stats,
+        SMALL_BUFFER,
+        1
+    );
+}
+
+/// Remove the shared-memory resources of dead nodes (after a `kill -9`).
+pub fn clean_dead_nodes() -> usize {
+    let mut cleaned = 0;
+    let _ = Node::<ipc::Service>::list(Config::global_config(), |state| {
+        if let NodeState::<ipc::Service>::Dead(view) = state {
+            if view.try_remove_stale_resources().is_ok() {
+                cleaned += 1;
+            }
+        }
+        CallbackProgression::Continue
+    });
+    cleaned
+}

@@ -1,0 +1,127 @@
+//! The daemon's configuration (`config/default.ron`): one file for all processes.
+
+use serde::{Deserialize, Serialize};
+use softnc_core::config::{parse_ron, ConfigError};
+use softnc_core::MachineProfile;
+use softnc_rt::RtOptions;
+use std::path::{Path, PathBuf};
+
+/// How the position loop keeps time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ClockMode {
+    /// Wall clock: one cycle per period on absolute deadlines.
+    Realtime,
+    /// One cycle per available command sample, as fast as the machine allows
+    /// (tests, CI, bit-identical comparison with `softnc sim`).
+    Lockstep,
+}
+
+/// The whole daemon configuration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DaemonConfig {
+    /// Instance name: services live under `<service_prefix>/<instance>/`.
+    pub instance: String,
+    /// Prefix of every service name.
+    pub service_prefix: String,
+    /// Machine profile, relative to this file's folder.
+    pub machine: PathBuf,
+    /// Clock mode of the position loop.
+    pub clock: ClockMode,
+    /// Samples the position process holds ahead of the current one before motion
+    /// starts and keeps filled during motion (≥ the zero-lag filter's N).
+    pub lookahead_samples: usize,
+    /// Real-time options of the interpolation loop.
+    #[serde(default)]
+    pub interp_rt: RtOptions,
+    /// Real-time options of the position loop.
+    #[serde(default)]
+    pub position_rt: RtOptions,
+    /// Heartbeat period (s).
+    pub heartbeat_period_s: f64,
+    /// A process silent for this long is lost (s).
+    pub heartbeat_timeout_s: f64,
+    /// Following-error limit per axis (mm): over it, E-stop.
+    pub following_error_limit_mm: f64,
+    /// Where job history and learning stores live, relative to this file's folder.
+    pub data_dir: PathBuf,
+    /// Seed of the simulated machine.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+}
+
+fn default_seed() -> u64 {
+    1
+}
+
+/// Largest lookahead the position process can hold (its ring holds twice this).
+pub const MAX_LOOKAHEAD_SAMPLES: usize = 1000;
+
+/// A loaded configuration with its machine profile and resolved paths.
+#[derive(Debug, Clone)]
+pub struct Loaded {
+    /// The configuration.
+    pub config: DaemonConfig,
+    /// The machine profile it names.
+    pub machine: MachineProfile,
+    /// Absolute path of the machine profile.
+    pub machine_path: PathBuf,
+    /// Absolute data directory.
+    pub data_dir: PathBuf,
+    /// The configuration file.
+    pub path: PathBuf,
+}
+
+impl DaemonConfig {
+    /// Load, validate, and load the machine profile it names.
+    pub fn load(path: &Path) -> Result<Loaded, ConfigError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            file: file.clone(),
+            source,
+        })?;
+        let config: DaemonConfig = parse_ron(&text, &file)?;
+        let bad = |p: &str, r: &str| ConfigError::Invalid {
+            file: file.clone(),
+            path: p.into(),
+            reason: r.into(),
+        };
+        if config.instance.is_empty() || config.instance.contains('/') {
+            return Err(bad("instance", "must be a non-empty name without '/'"));
+        }
+        if config.service_prefix.is_empty() {
+            return Err(bad("service_prefix", "must not be empty"));
+        }
+        if config.lookahead_samples == 0 || config.lookahead_samples > MAX_LOOKAHEAD_SAMPLES {
+            return Err(bad(
+                "lookahead_samples",
+                &format!("must be 1..={MAX_LOOKAHEAD_SAMPLES}"),
+            ));
+        }
+        if !(config.heartbeat_period_s > 0.0
+            && config.heartbeat_timeout_s > 2.0 * config.heartbeat_period_s)
+        {
+            return Err(bad(
+                "heartbeat_timeout_s",
+                "must be more than twice heartbeat_period_s (> 0)",
+            ));
+        }
+        if !(config.following_error_limit_mm > 0.0 && config.following_error_limit_mm.is_finite()) {
+            return Err(bad(
+                "following_error_limit_mm",
+                "must be a finite number > 0",
+            ));
+        }
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let machine_path = dir.join(&config.machine);
+        let machine = MachineProfile::load(&machine_path)?;
+        let data_dir = dir.join(&config.data_dir);
+        Ok(Loaded {
+            config,
+            machine,
+            machine_path,
+            data_dir,
+            path: path.to_path_buf(),
+        })
+    }
+}

@@ -1,0 +1,239 @@
+//! `softnc-interp`: the interpolation process (paper 002's *servo task*).
+//!
+//! On a `StartJob` control command it reads and plans the job, then publishes one
+//! command sample per interpolation cycle, keeping the position process's lookahead
+//! ring filled to `lookahead_samples` ahead of the sample it is using (it learns that
+//! from the position status). Because samples are produced only that far ahead,
+//! a feed override or hold re-times every sample not yet sent and acts on motion
+//! within the ring's depth. The job's last sample carries `FLAG_END_OF_JOB`.
+
+use crate::bus::{Bus, Pub, Sub};
+use crate::config::Loaded;
+use anyhow::Result;
+use softnc_ipc::{
+    Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, FixedStr, Heartbeat,
+    MachineState, PositionStatus, ProcessId,
+};
+use softnc_planner::{plan, Plan, PlanOptions};
+use std::time::{Duration, Instant};
+
+/// How long the loop sleeps when it has nothing to send.
+const IDLE_SLEEP: Duration = Duration::from_micros(100);
+
+/// The interpolation process.
+pub struct InterpTask {
+    cfg: Loaded,
+    commands: Pub<CommandSample>,
+    status: Sub<PositionStatus>,
+    control: Sub<ControlCommand>,
+    heartbeat: Pub<Heartbeat>,
+    alarms: Pub<Alarm>,
+    hb_counter: u64,
+    last_hb: Instant,
+    state: MachineState,
+    job_id: u64,
+    shutdown: bool,
+    _bus: Bus,
+}
+
+/// What happened to a job.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum JobEnd {
+    /// All samples sent and consumed.
+    Completed,
+    /// Aborted (E-stop, abort, shutdown) after a controlled stop.
+    Aborted,
+    /// Refused before any sample was sent.
+    Refused,
+}
+
+impl InterpTask {
+    /// Open the services.
+    pub fn new(cfg: Loaded) -> Result<Self> {
+        let names = softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance);
+        let bus = Bus::new(names, "interp")?;
+        Ok(InterpTask {
+            commands: bus.command_publisher()?,
+            status: bus.status_subscriber()?,
+            control: bus.control_subscriber()?,
+            heartbeat: bus.heartbeat_publisher()?,
+            alarms: bus.alarm_publisher()?,
+            cfg,
+            hb_counter: 0,
+            last_hb: Instant::now() - Duration::from_secs(1),
+            state: MachineState::Idle,
+            job_id: 0,
+            shutdown: false,
+            _bus: bus,
+        })
+    }
+
+    /// Serve control commands until `Shutdown`.
+    pub fn run(&mut self) -> Result<()> {
+        while !self.shutdown {
+            while let Some(c) = self.control.receive()? {
+                let c = *c;
+                match ControlKind::from_wire(c.kind) {
+                    Some(ControlKind::StartJob) if self.state == MachineState::Idle => {
+                        let end = self.run_job(c.path.as_str(), c.job_id)?;
+                        tracing::info!("job {} {:?}", c.job_id, end);
+                    }
+                    Some(ControlKind::EStop) => self.state = MachineState::EStopped,
+                    Some(ControlKind::Reset) => self.state = MachineState::Idle,
+                    Some(ControlKind::Shutdown) => self.shutdown = true,
+                    _ => {}
+                }
+            }
+            self.beat()?;
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        Ok(())
+    }
+
+    fn beat(&mut self) -> Result<()> {
+        if self.last_hb.elapsed().as_secs_f64() >= self.cfg.config.heartbeat_period_s {
+            self.hb_counter += 1;
+            self.heartbeat.send_copy(Heartbeat {
+                process: ProcessId::Interp.wire(),
+                pid: std::process::id(),
+                counter: self.hb_counter,
+                state: self.state.wire(),
+                job_id: self.job_id,
+            })?;
+            self.last_hb = Instant::now();
+        }
+        Ok(())
+    }
+
+    fn alarm(&mut self, code: AlarmCode, message: &str) -> Result<()> {
+        tracing::warn!("alarm {code:?}: {message}");
+        self.alarms.send_copy(Alarm {
+            code: code.wire(),
+            axis: u32::MAX,
+            process: ProcessId::Interp.wire(),
+            job_id: self.job_id,
+            time_index: 0,
+            message: FixedStr::new(message),
+        })?;
+        Ok(())
+    }
+
+    /// Read, plan and stream one job.
+    pub fn run_job(&mut self, path: &str, job_id: u64) -> Result<JobEnd> {
+        self.job_id = job_id;
+        let planned = read_and_plan(path, &self.cfg.machine);
+        let plan = match planned {
+            Ok(p) => p,
+            Err(msg) => {
+                self.alarm(AlarmCode::JobRefused, &msg)?;
+                self.job_id = 0;
+                return Ok(JobEnd::Refused);
+            }
+        };
+        self.state = MachineState::Running;
+        let end = self.stream(&plan, job_id)?;
+        self.state = match end {
+            JobEnd::Completed | JobEnd::Refused => MachineState::Idle,
+            JobEnd::Aborted => self.state,
+        };
+        self.job_id = 0;
+        Ok(end)
+    }
+
+    fn stream(&mut self, plan: &Plan, job_id: u64) -> Result<JobEnd> {
+        let ahead = self.cfg.config.lookahead_samples as u64;
+        let mut it = plan.interpolator();
+        let mut next_seq: u64 = 0;
+        let mut consumed: Option<u64> = None;
+        let mut sent_last = false;
+        let mut operator_override = 1.0;
+        let mut held = false;
+        let mut aborting = false;
+        loop {
+            while let Some(s) = self.status.receive()? {
+                if s.job_id == job_id {
+                    consumed = Some(consumed.map_or(s.seq, |c: u64| c.max(s.seq)));
+                }
+                if MachineState::from_wire(s.state) == Some(MachineState::Faulted)
+                    || MachineState::from_wire(s.state) == Some(MachineState::EStopped)
+                {
+                    if s.job_id == job_id || s.job_id == 0 {
+                        self.state =
+                            MachineState::from_wire(s.state).unwrap_or(MachineState::Faulted);
+                        return Ok(JobEnd::Aborted);
+                    }
+                }
+            }
+            while let Some(c) = self.control.receive()? {
+                let c = *c;
+                match ControlKind::from_wire(c.kind) {
+                    Some(ControlKind::FeedOverride) => {
+                        operator_override = c.value;
+                        if !held && !aborting {
+                            it.set_feed_override(operator_override);
+                        }
+                    }
+                    Some(ControlKind::Hold) => {
+                        held = true;
+                        it.set_feed_override(0.0);
+                        self.state = MachineState::Held;
+                    }
+                    Some(ControlKind::Resume) if !aborting => {
+                        held = false;
+                        it.set_feed_override(operator_override);
+                        self.state = MachineState::Running;
+                    }
+                    Some(ControlKind::Abort) => {
+                        aborting = true;
+                        it.set_feed_override(0.0);
+                    }
+                    Some(ControlKind::EStop) => {
+                        self.state = MachineState::EStopped;
+                        return Ok(JobEnd::Aborted);
+                    }
+                    Some(ControlKind::Shutdown) => {
+                        self.shutdown = true;
+                        aborting = true;
+                        it.set_feed_override(0.0);
+                    }
+                    _ => {}
+                }
+            }
+            // keep the ring filled `ahead` samples beyond the one in use
+            let limit = consumed.map_or(ahead + 1, |c| c + 1 + ahead);
+            while !sent_last && next_seq < limit {
+                let Some(sample) = it.next() else { break };
+                let stopped_for_abort = aborting && next_seq > 0 && it.path_speed_mm_per_s() == 0.0;
+                let last = it.is_finished() || stopped_for_abort;
+                let mut c = CommandSample::new(next_seq, job_id, sample.index, sample.pos_mm.0);
+                c.motion = sample.motion;
+                if sample.feed_move {
+                    c.flags |= CommandSample::FLAG_FEED_MOVE;
+                }
+                if last {
+                    c.flags |= CommandSample::FLAG_END_OF_JOB;
+                    sent_last = true;
+                }
+                self.commands.send_copy(c)?;
+                next_seq += 1;
+            }
+            self.beat()?;
+            if sent_last && consumed.is_some_and(|c| c + 1 >= next_seq) {
+                return Ok(if aborting {
+                    JobEnd::Aborted
+                } else {
+                    JobEnd::Completed
+                });
+            }
+            std::thread::sleep(IDLE_SLEEP);
+        }
+    }
+}
+
+/// Read a G-code file and plan it for `machine`; the error text is the operator's.
+pub fn read_and_plan(path: &str, machine: &softnc_core::MachineProfile) -> Result<Plan, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{path}: cannot read: {e}"))?;
+    let text = String::from_utf8_lossy(&bytes);
+    let program = softnc_gcode::read_program(&text, path, machine).map_err(|e| e.to_string())?;
+    plan(&program, machine, &PlanOptions::default()).map_err(|e| e.to_string())
+}

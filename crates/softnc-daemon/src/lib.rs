@@ -1,0 +1,11 @@
+//! softnc's runtime: the three cyclic processes and their supervisor.
+//!
+//! - [`config`]: `config/default.ron`, one file for all processes.
+//! - [`bus`]: the iceoryx2 node and services every process opens.
+//! - [`interp`]: `softnc-interp`, job → planner → command samples, paced by the
+//!   position process's consumption so the lookahead ring stays filled.
+#![warn(missing_docs)]
+
+pub mod bus;
+pub mod config;
+pub mod interp;
