@@ -4,8 +4,12 @@
 //! - [`bus`]: the iceoryx2 node and services every process opens.
 //! - [`interp`]: `softnc-interp`, job → planner → command samples, paced by the
 //!   position process's consumption so the lookahead ring stays filled.
+//! - [`mmi`]: `softnc-mmi`, job checks, machine state, alarms, history, operator API.
+//! - [`store`]: atomic file writes.
 #![warn(missing_docs)]
 
 pub mod bus;
 pub mod config;
 pub mod interp;
+pub mod mmi;
+pub mod store;

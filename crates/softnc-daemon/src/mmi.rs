@@ -1,0 +1,439 @@
+//! `softnc-mmi`: job queue, machine state, alarms, job history and the operator API
+//! (iceoryx2 request-response). It checks a job completely — G-code, planning, soft
+//! limits — before anything moves, and forwards operator commands to the
+//! interpolation and position processes.
+
+use crate::bus::{Bus, Pub, Sub};
+use crate::config::Loaded;
+use crate::interp::read_and_plan;
+use crate::store::write_atomic;
+use anyhow::{Context, Result};
+use iceoryx2::port::server::Server;
+use iceoryx2::prelude::*;
+use serde::{Deserialize, Serialize};
+use softnc_ipc::{
+    Alarm, AlarmCode, ControlCommand, ControlKind, FixedStr, Heartbeat, LoopStats, MachineState,
+    OperatorReply, OperatorRequest, PositionStatus, ProcessId,
+};
+use std::collections::VecDeque;
+use std::time::{Duration, Instant, SystemTime};
+
+/// One job in the history.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct JobRecord {
+    /// Job id.
+    pub job_id: u64,
+    /// Program file.
+    pub path: String,
+    /// Submitted (seconds since the Unix epoch).
+    pub submitted_unix_s: u64,
+    /// "running", "completed", "aborted".
+    pub outcome: String,
+    /// Planned samples.
+    pub planned_samples: u64,
+    /// Cycles run.
+    pub cycles: u64,
+    /// Accuracy over the job's feed moves.
+    pub accuracy: Accuracy,
+}
+
+/// Accuracy of a job, accumulated from the position status stream.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct Accuracy {
+    /// Largest |contour error| (µm).
+    pub contour_max_abs_um: f64,
+    /// RMS contour error (µm).
+    pub contour_rms_um: f64,
+    /// Largest |following error| per axis (µm).
+    pub following_max_abs_um: [f64; 3],
+    #[serde(skip)]
+    sum_sq: f64,
+    #[serde(skip)]
+    n: u64,
+}
+
+impl Accuracy {
+    fn add(&mut self, s: &PositionStatus) {
+        if s.contour_err_mm.is_finite() {
+            let e = s.contour_err_mm * 1000.0;
+            self.contour_max_abs_um = self.contour_max_abs_um.max(e.abs());
+            self.sum_sq += e * e;
+            self.n += 1;
+            self.contour_rms_um = (self.sum_sq / self.n as f64).sqrt();
+        }
+        for i in 0..3 {
+            self.following_max_abs_um[i] =
+                self.following_max_abs_um[i].max(s.following_err_mm[i].abs() * 1000.0);
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Peer {
+    last_seen: Option<Instant>,
+    state: u32,
+}
+
+/// The MMI process.
+pub struct MmiTask {
+    cfg: Loaded,
+    server: Server<ipc::Service, OperatorRequest, (), OperatorReply, ()>,
+    control: Pub<ControlCommand>,
+    status: Sub<PositionStatus>,
+    heartbeats: Sub<Heartbeat>,
+    alarms_sub: Sub<Alarm>,
+    alarms_pub: Pub<Alarm>,
+    loop_stats: Sub<LoopStats>,
+    heartbeat: Pub<Heartbeat>,
+    last: Option<PositionStatus>,
+    peers: [Peer; 4],
+    loops: [Option<LoopStats>; 4],
+    alarms: VecDeque<Alarm>,
+    jobs: Vec<JobRecord>,
+    control_seq: u64,
+    feed_override: f64,
+    hb_counter: u64,
+    last_hb: Instant,
+    shutdown: bool,
+    _bus: Bus,
+}
+
+const ALARM_HISTORY: usize = 50;
+
+impl MmiTask {
+    /// Open the services and the job history.
+    pub fn new(cfg: Loaded) -> Result<Self> {
+        let names = softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance);
+        let bus = Bus::new(names.clone(), "mmi")?;
+        let svc = bus
+            .node
+            .service_builder(&names.operator().as_str().try_into()?)
+            .request_response::<OperatorRequest, OperatorReply>()
+            .max_clients(16)
+            .open_or_create()
+            .context("operator service")?;
+        let server = svc.server_builder().create().context("operator server")?;
+        let jobs = load_jobs(&cfg);
+        Ok(MmiTask {
+            server,
+            control: bus.control_publisher()?,
+            status: bus.status_subscriber()?,
+            heartbeats: bus.heartbeat_subscriber()?,
+            alarms_sub: bus.alarm_subscriber()?,
+            alarms_pub: bus.alarm_publisher()?,
+            loop_stats: bus.loop_stats_subscriber()?,
+            heartbeat: bus.heartbeat_publisher()?,
+            cfg,
+            last: None,
+            peers: [Peer {
+                last_seen: None,
+                state: 0,
+            }; 4],
+            loops: [None; 4],
+            alarms: VecDeque::new(),
+            jobs,
+            control_seq: 0,
+            feed_override: 1.0,
+            hb_counter: 0,
+            last_hb: Instant::now() - Duration::from_secs(1),
+            shutdown: false,
+            _bus: bus,
+        })
+    }
+
+    fn jobs_path(&self) -> std::path::PathBuf {
+        self.cfg.data_dir.join("jobs.json")
+    }
+
+    fn save_jobs(&self) {
+        let text = serde_json::to_vec_pretty(&self.jobs).unwrap_or_default();
+        if let Err(e) = write_atomic(&self.jobs_path(), &text) {
+            tracing::warn!(
+                "cannot write job history {}: {e}",
+                self.jobs_path().display()
+            );
+        }
+    }
+
+    fn send_control(
+        &mut self,
+        kind: ControlKind,
+        job_id: u64,
+        value: f64,
+        path: &str,
+    ) -> Result<()> {
+        self.control_seq += 1;
+        self.control.send_copy(ControlCommand {
+            seq: self.control_seq,
+            kind: kind.wire(),
+            job_id,
+            value,
+            path: FixedStr::new(path),
+        })?;
+        Ok(())
+    }
+
+    /// The machine state as the position process reports it (Idle before it reports).
+    pub fn machine_state(&self) -> MachineState {
+        self.last
+            .and_then(|s| MachineState::from_wire(s.state))
+            .unwrap_or(MachineState::Idle)
+    }
+
+    fn running_job(&mut self) -> Option<&mut JobRecord> {
+        self.jobs.iter_mut().rev().find(|j| j.outcome == "running")
+    }
+
+    /// Serve until a `Shutdown` request.
+    pub fn run(&mut self) -> Result<()> {
+        while !self.shutdown {
+            self.poll()?;
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        Ok(())
+    }
+
+    /// One pass over every input.
+    pub fn poll(&mut self) -> Result<()> {
+        let mut changed = false;
+        while let Some(s) = self.status.receive()? {
+            let s = *s;
+            let prev_state = self.machine_state();
+            if s.job_id != 0 {
+                // reattached after an MMI restart: the job is still running
+                if let Some(j) = self
+                    .jobs
+                    .iter_mut()
+                    .find(|j| j.job_id == s.job_id && j.outcome == "interrupted")
+                {
+                    j.outcome = "running".into();
+                }
+            }
+            if let Some(job) = self.running_job() {
+                if s.job_id == job.job_id {
+                    job.accuracy.add(&s);
+                    job.cycles = job.cycles.max(s.time_index + 1);
+                }
+            }
+            self.last = Some(s);
+            let now_state = self.machine_state();
+            if prev_state != now_state || s.job_id == 0 {
+                if let Some(job) = self.running_job() {
+                    if matches!(now_state, MachineState::Faulted | MachineState::EStopped) {
+                        job.outcome = "aborted".into();
+                        changed = true;
+                    } else if now_state == MachineState::Idle && s.job_id == 0 && job.cycles > 0 {
+                        job.outcome = "completed".into();
+                        changed = true;
+                    }
+                }
+            }
+        }
+        while let Some(h) = self.heartbeats.receive()? {
+            if let Some(p) = self.peers.get_mut(h.process as usize) {
+                p.last_seen = Some(Instant::now());
+                p.state = h.state;
+            }
+        }
+        while let Some(a) = self.alarms_sub.receive()? {
+            if self.alarms.len() == ALARM_HISTORY {
+                self.alarms.pop_front();
+            }
+            self.alarms.push_back(*a);
+        }
+        while let Some(l) = self.loop_stats.receive()? {
+            if let Some(slot) = self.loops.get_mut(l.process as usize) {
+                *slot = Some(*l);
+            }
+        }
+        if changed {
+            self.save_jobs();
+        }
+        while let Some(req) = self.server.receive()? {
+            let r = *req;
+            let reply = self.handle(&r)?;
+            req.send_copy(reply)?;
+        }
+        if self.last_hb.elapsed().as_secs_f64() >= self.cfg.config.heartbeat_period_s {
+            self.hb_counter += 1;
+            self.heartbeat.send_copy(Heartbeat {
+                process: ProcessId::Mmi.wire(),
+                pid: std::process::id(),
+                counter: self.hb_counter,
+                state: self.machine_state().wire(),
+                job_id: self.last.map_or(0, |s| s.job_id),
+            })?;
+            self.last_hb = Instant::now();
+        }
+        Ok(())
+    }
+
+    fn reply(accepted: bool, job_id: u64, msg: &str) -> OperatorReply {
+        OperatorReply {
+            accepted: accepted as u32,
+            job_id,
+            message: FixedStr::new(msg),
+        }
+    }
+
+    fn handle(&mut self, r: &OperatorRequest) -> Result<OperatorReply> {
+        let Some(kind) = ControlKind::from_wire(r.kind) else {
+            return Ok(Self::reply(false, 0, "unknown request"));
+        };
+        let state = self.machine_state();
+        Ok(match kind {
+            ControlKind::StartJob => {
+                let path = r.path.as_str().to_string();
+                let active = self.last.is_some_and(|s| s.job_id != 0)
+                    || self.jobs.iter().any(|j| j.outcome == "running");
+                if state != MachineState::Idle || active {
+                    return Ok(Self::reply(
+                        false,
+                        0,
+                        &format!("machine is busy ({state:?}); job not started"),
+                    ));
+                }
+                match read_and_plan(&path, &self.cfg.machine) {
+                    Err(msg) => {
+                        self.alarms_pub.send_copy(Alarm {
+                            code: AlarmCode::JobRefused.wire(),
+                            axis: u32::MAX,
+                            process: ProcessId::Mmi.wire(),
+                            job_id: 0,
+                            time_index: 0,
+                            message: FixedStr::new(&msg),
+                        })?;
+                        Self::reply(false, 0, &msg)
+                    }
+                    Ok(plan) => {
+                        let job_id = self.jobs.iter().map(|j| j.job_id).max().unwrap_or(0) + 1;
+                        let submitted = SystemTime::now()
+                            .duration_since(SystemTime::UNIX_EPOCH)
+                            .map(|d| d.as_secs())
+                            .unwrap_or(0);
+                        self.jobs.push(JobRecord {
+                            job_id,
+                            path: path.clone(),
+                            submitted_unix_s: submitted,
+                            outcome: "running".into(),
+                            planned_samples: plan.stats().samples,
+                            cycles: 0,
+                            accuracy: Accuracy::default(),
+                        });
+                        self.save_jobs();
+                        self.send_control(ControlKind::StartJob, job_id, 0.0, &path)?;
+                        Self::reply(true, job_id, &format!("job {job_id} started: {path}"))
+                    }
+                }
+            }
+            ControlKind::FeedOverride => {
+                let max = self.cfg.machine.planner.max_feed_override;
+                if !(0.0..=max).contains(&r.value) {
+                    return Ok(Self::reply(
+                        false,
+                        0,
+                        &format!("override must be 0..={:.0} %", max * 100.0),
+                    ));
+                }
+                self.feed_override = r.value;
+                self.send_control(kind, 0, r.value, "")?;
+                Self::reply(true, 0, &format!("feed override {:.0} %", r.value * 100.0))
+            }
+            ControlKind::Hold
+            | ControlKind::Resume
+            | ControlKind::Abort
+            | ControlKind::EStop
+            | ControlKind::Reset => {
+                self.send_control(kind, 0, 0.0, "")?;
+                if kind == ControlKind::Reset {
+                    if let Some(job) = self.running_job() {
+                        job.outcome = "aborted".into();
+                    }
+                    self.save_jobs();
+                }
+                Self::reply(true, 0, &format!("{kind:?} sent"))
+            }
+            ControlKind::Shutdown => {
+                self.send_control(kind, 0, 0.0, "")?;
+                self.shutdown = true;
+                Self::reply(true, 0, "shutting down")
+            }
+            ControlKind::Status => Self::reply(true, 0, &self.status_json().to_string()),
+            ControlKind::Jobs => {
+                let tail: Vec<_> = self.jobs.iter().rev().take(20).collect();
+                Self::reply(true, 0, &serde_json::to_string(&tail)?)
+            }
+        })
+    }
+
+    /// The status the operator sees.
+    pub fn status_json(&self) -> serde_json::Value {
+        let timeout = self.cfg.config.heartbeat_timeout_s;
+        let peer = |p: ProcessId| {
+            let pe = self.peers[p as usize];
+            match pe.last_seen {
+                Some(t) if t.elapsed().as_secs_f64() <= timeout => "alive",
+                Some(_) => "lost",
+                None => "unseen",
+            }
+        };
+        let loops = |p: ProcessId| {
+            self.loops[p as usize].map(|l| {
+                serde_json::json!({"cycles": l.cycles, "overruns": l.overruns,
+                    "jitter_ns": {"p50": l.jitter_ns[0], "p99": l.jitter_ns[1], "p999": l.jitter_ns[2], "max": l.jitter_ns[3]},
+                    "compute_ns": {"p50": l.compute_ns[0], "p99": l.compute_ns[1], "p999": l.compute_ns[2], "max": l.compute_ns[3]}})
+            })
+        };
+        let job = self
+            .jobs
+            .iter()
+            .rev()
+            .find(|j| j.outcome == "running")
+            .or(self.jobs.last());
+        let s = self.last;
+        serde_json::json!({
+            "state": format!("{:?}", self.machine_state()),
+            "feed_override": self.feed_override,
+            "job": job.map(|j| serde_json::json!({
+                "job_id": j.job_id, "path": j.path, "outcome": j.outcome,
+                "cycles": j.cycles, "planned_samples": j.planned_samples,
+                "progress": if j.planned_samples > 0 { (j.cycles as f64 / j.planned_samples as f64).min(1.0) } else { 0.0 },
+                "accuracy": j.accuracy,
+            })),
+            "axes": s.map(|s| serde_json::json!({
+                "cmd_mm": &s.cmd_mm[..3], "actual_mm": &s.actual_mm[..3],
+                "following_err_um": s.following_err_mm[..3].iter().map(|e| e * 1000.0).collect::<Vec<_>>(),
+                "contour_err_um": if s.contour_err_mm.is_finite() { Some(s.contour_err_mm * 1000.0) } else { None },
+                "ring_fill": s.ring_fill,
+            })),
+            "processes": {"interp": peer(ProcessId::Interp), "position": peer(ProcessId::Position), "supervisor": peer(ProcessId::Supervisor)},
+            "loops": {"interp": loops(ProcessId::Interp), "position": loops(ProcessId::Position)},
+            "alarms": self.alarms.iter().rev().take(10).map(|a| serde_json::json!({
+                "code": format!("{:?}", AlarmCode::from_wire(a.code).unwrap_or(AlarmCode::Other)),
+                "job_id": a.job_id, "message": a.message.as_str()})).collect::<Vec<_>>(),
+        })
+    }
+}
+
+fn load_jobs(cfg: &Loaded) -> Vec<JobRecord> {
+    let path = cfg.data_dir.join("jobs.json");
+    match std::fs::read(&path) {
+        Ok(bytes) => match serde_json::from_slice::<Vec<JobRecord>>(&bytes) {
+            Ok(mut jobs) => {
+                // a job "running" when the MMI last stopped did not finish under it
+                for j in jobs.iter_mut().filter(|j| j.outcome == "running") {
+                    j.outcome = "interrupted".into();
+                }
+                jobs
+            }
+            Err(e) => {
+                tracing::warn!(
+                    "{}: unreadable job history ({e}); starting a new one",
+                    path.display()
+                );
+                Vec::new()
+            }
+        },
+        Err(_) => Vec::new(),
+    }
+}
