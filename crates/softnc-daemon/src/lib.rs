@@ -6,10 +6,14 @@
 //!   position process's consumption so the lookahead ring stays filled.
 //! - [`mmi`]: `softnc-mmi`, job checks, machine state, alarms, history, operator API.
 //! - [`store`]: atomic file writes.
+//! - [`supervisor`]: `softncd`, starts, watches, restarts and stops the processes.
+//! - [`cli`]: shared start-up of the binaries.
 #![warn(missing_docs)]
 
 pub mod bus;
+pub mod cli;
 pub mod config;
 pub mod interp;
 pub mod mmi;
 pub mod store;
+pub mod supervisor;

@@ -1,1 +1,13 @@
-fn main() {}
+//! `softnc-interp`: the interpolation process.
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let cfg = match softnc_daemon::cli::start("softnc-interp") {
+        Ok(c) => c,
+        Err(code) => return code,
+    };
+    let rt = softnc_rt::setup_realtime(&cfg.config.interp_rt);
+    tracing::info!("interp real-time set-up: {rt:?}");
+    let r = softnc_daemon::interp::InterpTask::new(cfg).and_then(|mut t| t.run());
+    softnc_daemon::cli::finish("softnc-interp", r)
+}
