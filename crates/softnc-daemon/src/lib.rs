@@ -4,6 +4,8 @@
 //! - [`bus`]: the iceoryx2 node and services every process opens.
 //! - [`interp`]: `softnc-interp`, job → planner → command samples, paced by the
 //!   position process's consumption so the lookahead ring stays filled.
+//! - [`position`]: `softnc-position`, lookahead ring → controller stack → servo
+//!   backend, faults and status.
 //! - [`mmi`]: `softnc-mmi`, job checks, machine state, alarms, history, operator API.
 //! - [`store`]: atomic file writes.
 //! - [`supervisor`]: `softncd`, starts, watches, restarts and stops the processes.
@@ -15,5 +17,6 @@ pub mod cli;
 pub mod config;
 pub mod interp;
 pub mod mmi;
+pub mod position;
 pub mod store;
 pub mod supervisor;

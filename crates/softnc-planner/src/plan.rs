@@ -149,6 +149,10 @@ impl Plan {
     pub fn motion_primitive(&self, index: usize) -> Option<Primitive> {
         self.prims.get(index).copied().flatten()
     }
+    /// Number of program motions (dwells included).
+    pub fn motions(&self) -> usize {
+        self.prims.len()
+    }
     /// Number of path elements (programmed pieces and blends).
     pub fn elements(&self) -> usize {
         self.segs.len()

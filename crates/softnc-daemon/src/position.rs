@@ -1,0 +1,433 @@
+//! `softnc-position`: the position-control process (paper 002's *position task*).
+//!
+//! Each cycle, in the order of a servo loop: inputs (control commands, command samples
+//! into the lookahead ring) → faults (sequence errors, ring running dry, following
+//! error) → mode → position command → controller stack and servo backend → status.
+//! Motion starts only when the ring holds `window` future samples. If the ring runs
+//! dry mid-job (the interpolator died or stalled), the axes decelerate along the path
+//! still in the ring and the machine is faulted with an alarm.
+
+use crate::bus::{Bus, Pub, Sub};
+use crate::config::{ClockMode, Loaded};
+use anyhow::Result;
+use softnc_core::{LookaheadRing, Primitive, RingSample, Vec3};
+use softnc_ipc::{
+    Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, FixedStr, Heartbeat,
+    LoopStats as LoopStatsMsg, MachineState, PositionStatus, ProcessId, MAX_AXES,
+};
+use softnc_rt::{LoopStats, PeriodicClock};
+use std::time::{Duration, Instant};
+
+/// Ring capacity: twice the largest lookahead.
+pub const RING_CAPACITY: usize = 2048;
+
+/// The machine side of one position cycle: controller stack and servo backend for
+/// every axis. The daemon and `softnc sim` step the same implementation.
+pub trait CycleMachine {
+    /// Put the axes at rest at `pos_mm` (start of a job).
+    fn reset(&mut self, pos_mm: [f64; 3]);
+    /// One cycle: command in, actual position and controller output out.
+    fn step(&mut self, cmd_mm: [f64; 3], feed_move: bool) -> CycleOutput;
+}
+
+/// What one cycle produced.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CycleOutput {
+    /// Actual (measured) position per axis (mm).
+    pub actual_mm: [f64; 3],
+    /// Controller output per axis.
+    pub ctrl_out: [f64; 3],
+}
+
+/// Decelerating along the path left in the ring after it ran dry.
+#[derive(Debug, Clone, Copy)]
+struct DryStop {
+    speed_mm_per_s: f64,
+    /// Arc length travelled along the remaining samples.
+    s_mm: f64,
+}
+
+/// The position-control process.
+pub struct PositionTask<M: CycleMachine> {
+    cfg: Loaded,
+    machine: M,
+    ring: LookaheadRing<3, RING_CAPACITY>,
+    window: usize,
+    commands: Sub<CommandSample>,
+    control: Sub<ControlCommand>,
+    status: Pub<PositionStatus>,
+    alarms: Pub<Alarm>,
+    heartbeat: Pub<Heartbeat>,
+    loop_stats_pub: Pub<LoopStatsMsg>,
+    state: MachineState,
+    job_id: u64,
+    job_path: String,
+    primitives: Vec<Option<Primitive>>,
+    current: Option<CommandSample>,
+    flags: std::collections::VecDeque<(u32, u32)>,
+    last_cmd: [f64; 3],
+    prev_cmd: [f64; 3],
+    dry: Option<DryStop>,
+    stats: LoopStats,
+    hb_counter: u64,
+    last_hb: Instant,
+    shutdown: bool,
+    _bus: Bus,
+}
+
+impl<M: CycleMachine> PositionTask<M> {
+    /// Open the services; `machine` is the controller stack and servo backend.
+    pub fn new(cfg: Loaded, machine: M) -> Result<Self> {
+        let names = softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance);
+        let bus = Bus::new(names, "position")?;
+        let window = filter_window(cfg.config.lookahead_samples);
+        Ok(PositionTask {
+            commands: bus.command_subscriber()?,
+            control: bus.control_subscriber()?,
+            status: bus.status_publisher()?,
+            alarms: bus.alarm_publisher()?,
+            heartbeat: bus.heartbeat_publisher()?,
+            loop_stats_pub: bus.loop_stats_publisher()?,
+            cfg,
+            machine,
+            ring: LookaheadRing::new(),
+            window,
+            state: MachineState::Idle,
+            job_id: 0,
+            job_path: String::new(),
+            primitives: Vec::new(),
+            current: None,
+            flags: std::collections::VecDeque::with_capacity(RING_CAPACITY),
+            last_cmd: [0.0; 3],
+            prev_cmd: [0.0; 3],
+            dry: None,
+            stats: LoopStats::new(),
+            hb_counter: 0,
+            last_hb: Instant::now() - Duration::from_secs(1),
+            shutdown: false,
+            _bus: bus,
+        })
+    }
+
+    fn alarm(&mut self, code: AlarmCode, axis: u32, msg: &str) -> Result<()> {
+        tracing::warn!("alarm {code:?}: {msg}");
+        self.alarms.send_copy(Alarm {
+            code: code.wire(),
+            axis,
+            process: ProcessId::Position.wire(),
+            job_id: self.job_id,
+            time_index: self.current.map_or(0, |c| c.time_index),
+            message: FixedStr::new(msg),
+        })?;
+        Ok(())
+    }
+
+    /// Run cycles until `Shutdown`.
+    pub fn run(&mut self) -> Result<()> {
+        let period = Duration::from_secs_f64(self.cfg.machine.interpolation_cycle_s);
+        let mut clock = PeriodicClock::new(period, Duration::from_micros(150));
+        while !self.shutdown {
+            let (woke, jitter, late) = match self.cfg.config.clock {
+                ClockMode::Realtime => clock.wait(),
+                ClockMode::Lockstep => {
+                    // one cycle per available sample: wait (briefly) for one
+                    self.wait_for_sample()?;
+                    (Instant::now(), Duration::ZERO, 0)
+                }
+            };
+            self.cycle()?;
+            self.stats.record(jitter, woke.elapsed(), late);
+            self.housekeeping()?;
+        }
+        Ok(())
+    }
+
+    fn wait_for_sample(&mut self) -> Result<()> {
+        let t0 = Instant::now();
+        loop {
+            self.pull_commands()?;
+            let moving = self.state == MachineState::Running || self.state == MachineState::Held;
+            if (moving && self.ring.ready(self.window)) || (!moving && self.ring.ready(self.window))
+            {
+                return Ok(());
+            }
+            if t0.elapsed() > Duration::from_millis(2) {
+                return Ok(()); // let housekeeping and faults run
+            }
+            std::thread::yield_now();
+        }
+    }
+
+    fn pull_commands(&mut self) -> Result<()> {
+        while let Some(c) = self.commands.receive()? {
+            let c = *c;
+            if self.ring.ahead() == 0 && self.current.is_none() && self.job_id != c.job_id {
+                self.start_job(c)?;
+            }
+            if c.job_id != self.job_id {
+                continue; // a late sample of an aborted job
+            }
+            let s = RingSample {
+                seq: c.seq,
+                pos_mm: [c.pos_mm[0], c.pos_mm[1], c.pos_mm[2]],
+            };
+            match self.ring.push(s, c.is_end()) {
+                Ok(()) => self.flags.push_back((c.motion, c.flags)),
+                Err(e) => {
+                    let msg = format!("job {}: {e}", self.job_id);
+                    self.alarm(AlarmCode::SequenceError, u32::MAX, &msg)?;
+                    self.begin_dry_stop();
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn start_job(&mut self, first: CommandSample) -> Result<()> {
+        self.ring.reset();
+        self.flags.clear();
+        self.job_id = first.job_id;
+        self.current = None;
+        self.dry = None;
+        let start = [first.pos_mm[0], first.pos_mm[1], first.pos_mm[2]];
+        self.machine.reset(start);
+        self.last_cmd = start;
+        self.prev_cmd = start;
+        Ok(())
+    }
+
+    /// Set the programmed path of the job (for the contour error).
+    pub fn set_job_primitives(&mut self, prims: Vec<Option<Primitive>>) {
+        self.primitives = prims;
+    }
+
+    fn begin_dry_stop(&mut self) {
+        if self.dry.is_none() && matches!(self.state, MachineState::Running | MachineState::Held) {
+            let v = dist(self.last_cmd, self.prev_cmd) / self.cfg.machine.interpolation_cycle_s;
+            self.dry = Some(DryStop {
+                speed_mm_per_s: v,
+                s_mm: 0.0,
+            });
+        }
+    }
+
+    /// One position cycle.
+    pub fn cycle(&mut self) -> Result<()> {
+        // 1. inputs
+        while let Some(c) = self.control.receive()? {
+            match ControlKind::from_wire(c.kind) {
+                Some(ControlKind::EStop) => {
+                    self.state = MachineState::EStopped;
+                    self.alarm(AlarmCode::EStop, u32::MAX, "emergency stop")?;
+                }
+                Some(ControlKind::Reset) => {
+                    if matches!(self.state, MachineState::EStopped | MachineState::Faulted) {
+                        self.state = MachineState::Idle;
+                        self.ring.reset();
+                        self.flags.clear();
+                        self.job_id = 0;
+                        self.current = None;
+                        self.dry = None;
+                    }
+                }
+                Some(ControlKind::Shutdown) => self.shutdown = true,
+                Some(ControlKind::StartJob) => {
+                    // the programmed path, for the contour error: read before motion
+                    let path = c.path.as_str().to_string();
+                    self.primitives = match crate::interp::read_and_plan(&path, &self.cfg.machine) {
+                        Ok(plan) => (0..plan.motions())
+                            .map(|i| plan.motion_primitive(i))
+                            .collect(),
+                        Err(_) => Vec::new(), // the interpolator refuses it and raises the alarm
+                    };
+                    self.job_path = path;
+                }
+                _ => {}
+            }
+        }
+        self.pull_commands()?;
+        // 2. mode and position command
+        let mut cmd = self.last_cmd;
+        let mut feed_move = false;
+        match self.state {
+            MachineState::Idle => {
+                if self.job_id != 0 && self.ring.ready(self.window) {
+                    self.state = MachineState::Running;
+                }
+            }
+            MachineState::Running | MachineState::Held => {}
+            MachineState::Faulted | MachineState::EStopped => {}
+        }
+        if matches!(self.state, MachineState::Running | MachineState::Held) {
+            if let Some(stop) = self.dry {
+                cmd = self.dry_stop_step(stop);
+            } else if !self.ring.ready(self.window) {
+                let msg = format!(
+                    "command ring ran dry ({} samples ahead, {} needed); stopping along the path",
+                    self.ring.ahead().saturating_sub(1),
+                    self.window
+                );
+                self.alarm(AlarmCode::RingDry, u32::MAX, &msg)?;
+                self.begin_dry_stop();
+                if let Some(stop) = self.dry {
+                    cmd = self.dry_stop_step(stop);
+                }
+            } else if let Some(p) = self.ring.at(0) {
+                cmd = p;
+                let (motion, flags) = self.flags.front().copied().unwrap_or((0, 0));
+                feed_move = flags & CommandSample::FLAG_FEED_MOVE != 0;
+                self.current = Some(CommandSample {
+                    seq: self.ring.current_index(),
+                    job_id: self.job_id,
+                    time_index: self.ring.current_index(),
+                    pos_mm: [p[0], p[1], p[2], 0.0, 0.0, 0.0],
+                    motion,
+                    flags,
+                });
+            }
+        }
+        // 3. controller stack and servo backend
+        let out = self.machine.step(cmd, feed_move);
+        // 4. faults: following error
+        let mut fe = [0.0; 3];
+        for i in 0..3 {
+            fe[i] = cmd[i] - out.actual_mm[i];
+        }
+        if matches!(self.state, MachineState::Running | MachineState::Held) {
+            if let Some(axis) =
+                (0..3).find(|&i| fe[i].abs() > self.cfg.config.following_error_limit_mm)
+            {
+                self.state = MachineState::EStopped;
+                let msg = format!(
+                    "following error {:.3} mm on {} over the limit {} mm: emergency stop",
+                    fe[axis],
+                    ["X", "Y", "Z"][axis],
+                    self.cfg.config.following_error_limit_mm
+                );
+                self.alarm(AlarmCode::FollowingError, axis as u32, &msg)?;
+            }
+        }
+        // 5. status
+        let contour = match (feed_move, self.current) {
+            (true, Some(c)) => match self.primitives.get(c.motion as usize).copied().flatten() {
+                Some(p) => p.contour_error(Vec3(out.actual_mm)),
+                None => f64::NAN,
+            },
+            _ => f64::NAN,
+        };
+        let mut status = PositionStatus {
+            seq: self.current.map_or(0, |c| c.seq),
+            job_id: self.job_id,
+            time_index: self.current.map_or(0, |c| c.time_index),
+            cmd_mm: [0.0; MAX_AXES],
+            actual_mm: [0.0; MAX_AXES],
+            following_err_mm: [0.0; MAX_AXES],
+            ctrl_out: [0.0; MAX_AXES],
+            contour_err_mm: contour,
+            ring_fill: self.ring.ahead() as u32,
+            state: self.state.wire(),
+        };
+        status.cmd_mm[..3].copy_from_slice(&cmd);
+        status.actual_mm[..3].copy_from_slice(&out.actual_mm);
+        status.following_err_mm[..3].copy_from_slice(&fe);
+        status.ctrl_out[..3].copy_from_slice(&out.ctrl_out);
+        self.prev_cmd = self.last_cmd;
+        self.last_cmd = cmd;
+        // 6. advance
+        if self.state == MachineState::Running && self.dry.is_none() {
+            let at_end = self.ring.ended() && !self.ring.advance();
+            if !at_end {
+                self.flags.pop_front();
+            } else {
+                // job complete: report once more as idle
+                self.state = MachineState::Idle;
+                self.job_id = 0;
+                status.state = self.state.wire();
+                status.job_id = 0;
+                self.current = None;
+            }
+        }
+        self.status.send_copy(status)?;
+        Ok(())
+    }
+
+    fn dry_stop_step(&mut self, mut stop: DryStop) -> [f64; 3] {
+        let t = self.cfg.machine.interpolation_cycle_s;
+        let a = self
+            .cfg
+            .machine
+            .max_acc()
+            .iter()
+            .cloned()
+            .fold(f64::INFINITY, f64::min)
+            * 0.98;
+        stop.speed_mm_per_s = (stop.speed_mm_per_s - a * t).max(0.0);
+        stop.s_mm += stop.speed_mm_per_s * t;
+        // walk the polyline of samples from the current one
+        let mut remaining = stop.s_mm;
+        let mut p = self.ring.at(0).unwrap_or(self.last_cmd);
+        let mut k = 1;
+        loop {
+            let Some(q) = self.ring.at(k) else { break };
+            let d = dist(p, q);
+            if d >= remaining || k as u64 >= self.ring.ahead() {
+                if d > 0.0 && d >= remaining {
+                    let u = remaining / d;
+                    p = [
+                        p[0] + (q[0] - p[0]) * u,
+                        p[1] + (q[1] - p[1]) * u,
+                        p[2] + (q[2] - p[2]) * u,
+                    ];
+                }
+                break;
+            }
+            remaining -= d;
+            p = q;
+            k += 1;
+        }
+        self.dry = Some(stop);
+        if stop.speed_mm_per_s == 0.0 {
+            self.state = MachineState::Faulted;
+        }
+        p
+    }
+
+    fn housekeeping(&mut self) -> Result<()> {
+        if self.last_hb.elapsed().as_secs_f64() >= self.cfg.config.heartbeat_period_s {
+            self.hb_counter += 1;
+            self.heartbeat.send_copy(Heartbeat {
+                process: ProcessId::Position.wire(),
+                pid: std::process::id(),
+                counter: self.hb_counter,
+                state: self.state.wire(),
+                job_id: self.job_id,
+            })?;
+            let j = self.stats.jitter();
+            let c = self.stats.compute();
+            self.loop_stats_pub.send_copy(LoopStatsMsg {
+                process: ProcessId::Position.wire(),
+                cycles: self.stats.cycles(),
+                jitter_ns: [j.p50_ns, j.p99_ns, j.p999_ns, j.max_ns],
+                compute_ns: [c.p50_ns, c.p99_ns, c.p999_ns, c.max_ns],
+                overruns: self.stats.overruns(),
+            })?;
+            self.last_hb = Instant::now();
+        }
+        Ok(())
+    }
+
+    /// The loop's timing statistics.
+    pub fn stats(&self) -> &LoopStats {
+        &self.stats
+    }
+}
+
+/// Samples the position process needs ahead before and during motion: the
+/// configured lookahead less a quarter of slack for the interpolator's latency.
+pub fn filter_window(lookahead_samples: usize) -> usize {
+    (lookahead_samples - lookahead_samples / 4).max(1)
+}
+
+fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
