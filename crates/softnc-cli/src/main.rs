@@ -1,5 +1,7 @@
 //! `softnc`: the operator client and the offline tools (plan, sim, ...).
 
+mod cmd_demo;
+mod cmd_operator;
 mod cmd_plan;
 
 use anyhow::Result;
@@ -11,6 +13,9 @@ use std::process::ExitCode;
 #[derive(Parser)]
 #[command(name = "softnc", version, about)]
 struct Cli {
+    /// Daemon configuration (instance and service names) for operator commands.
+    #[arg(long, global = true, default_value = "config/default.ron")]
+    config: PathBuf,
     #[command(subcommand)]
     command: Command,
 }
@@ -19,6 +24,10 @@ struct Cli {
 enum Command {
     /// Validate and plan a G-code program without moving anything.
     Plan(cmd_plan::PlanArgs),
+    /// Start softncd on the simulated machine, run the demo job, print the report.
+    Demo(cmd_demo::DemoArgs),
+    #[command(flatten)]
+    Operator(cmd_operator::OperatorCmd),
 }
 
 /// Exit status for a program or configuration that was refused.
@@ -42,6 +51,8 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result: Result<ExitCode> = match cli.command {
         Command::Plan(args) => cmd_plan::run(args),
+        Command::Operator(cmd) => cmd_operator::run(cmd, &cli.config),
+        Command::Demo(args) => cmd_demo::run(args, &cli.config),
     };
     match result {
         Ok(code) => code,

@@ -1,0 +1,142 @@
+//! `softnc demo`: start `softncd` on the simulated machine, run the demo job through
+//! all three processes, show progress, print the accuracy and timing report, shut
+//! down cleanly.
+
+use crate::cmd_operator::{wait_job, Operator};
+use anyhow::{bail, Context, Result};
+use softnc_ipc::ControlKind;
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+use std::time::{Duration, Instant};
+
+/// Arguments of `softnc demo`.
+#[derive(clap::Args)]
+pub struct DemoArgs {
+    /// The job to run.
+    #[arg(long, default_value = "examples/demo.ngc")]
+    job: PathBuf,
+    /// Print the report as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Where `softncd` is: beside this binary.
+fn softncd_path() -> Result<PathBuf> {
+    let me = std::env::current_exe().context("locating softnc")?;
+    let p = me.with_file_name("softncd");
+    if !p.exists() {
+        bail!(
+            "{} not found: build the workspace first (cargo build --release)",
+            p.display()
+        );
+    }
+    Ok(p)
+}
+
+/// Run the demo.
+pub fn run(args: DemoArgs, config: &Path) -> Result<ExitCode> {
+    let mut daemon = Command::new(softncd_path()?)
+        .arg("--config")
+        .arg(config)
+        .spawn()
+        .context("starting softncd")?;
+    let result = (|| -> Result<(serde_json::Value, String)> {
+        let op = Operator::wait_ready(config, Duration::from_secs(20))?;
+        let job =
+            std::fs::canonicalize(&args.job).with_context(|| format!("{}", args.job.display()))?;
+        eprintln!("softncd started; submitting {}", args.job.display());
+        let r = op.request(ControlKind::StartJob, 0.0, &job.display().to_string())?;
+        if r.accepted != 1 {
+            bail!("job refused: {}", r.message.as_str());
+        }
+        let t0 = Instant::now();
+        let outcome = wait_job(&op, r.job_id, true)?;
+        let wall = t0.elapsed().as_secs_f64();
+        let status = op.status()?;
+        let _ = op.request(ControlKind::Shutdown, 0.0, "");
+        let mut report = serde_json::json!({
+            "job": status["job"],
+            "wall_time_s": wall,
+            "loops": status["loops"],
+            "alarms": status["alarms"],
+        });
+        report["outcome"] = serde_json::Value::String(outcome.clone());
+        Ok((report, outcome))
+    })();
+    // wait for a clean shutdown; kill only if it hangs
+    let t0 = Instant::now();
+    loop {
+        if daemon.try_wait()?.is_some() {
+            break;
+        }
+        if t0.elapsed() > Duration::from_secs(10) {
+            let _ = daemon.kill();
+            let _ = daemon.wait();
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let (report, outcome) = result?;
+    if args.json {
+        println!("{report}");
+    } else {
+        print_report(&report);
+    }
+    Ok(if outcome == "completed" {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}
+
+fn print_report(r: &serde_json::Value) {
+    let j = &r["job"];
+    let a = &j["accuracy"];
+    println!(
+        "job {} {}: {}",
+        j["job_id"],
+        j["outcome"].as_str().unwrap_or("?"),
+        j["path"].as_str().unwrap_or("")
+    );
+    println!(
+        "  cycles {} (planned {}), wall time {:.2} s",
+        j["cycles"],
+        j["planned_samples"],
+        r["wall_time_s"].as_f64().unwrap_or(0.0)
+    );
+    println!(
+        "  contour error: max |e| {:.2} µm, rms {:.2} µm",
+        a["contour_max_abs_um"].as_f64().unwrap_or(f64::NAN),
+        a["contour_rms_um"].as_f64().unwrap_or(f64::NAN)
+    );
+    if let Some(f) = a["following_max_abs_um"].as_array() {
+        let f: Vec<String> = f
+            .iter()
+            .map(|v| format!("{:.1}", v.as_f64().unwrap_or(f64::NAN)))
+            .collect();
+        println!("  following error max |e| X/Y/Z: {} µm", f.join(" / "));
+    }
+    for (name, l) in r["loops"].as_object().into_iter().flatten() {
+        if l.is_null() {
+            continue;
+        }
+        let us = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN) / 1000.0;
+        println!(
+            "  {name} loop: {} cycles, jitter p50/p99/p99.9/max {:.1}/{:.1}/{:.1}/{:.1} µs, compute p99 {:.1} µs, overruns {}",
+            l["cycles"],
+            us(&l["jitter_ns"]["p50"]),
+            us(&l["jitter_ns"]["p99"]),
+            us(&l["jitter_ns"]["p999"]),
+            us(&l["jitter_ns"]["max"]),
+            us(&l["compute_ns"]["p99"]),
+            l["overruns"]
+        );
+    }
+    for al in r["alarms"].as_array().into_iter().flatten() {
+        println!(
+            "  alarm {}: {}",
+            al["code"].as_str().unwrap_or("?"),
+            al["message"].as_str().unwrap_or("")
+        );
+    }
+}

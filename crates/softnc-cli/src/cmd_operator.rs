@@ -1,0 +1,239 @@
+//! Operator commands: talk to `softnc-mmi` over iceoryx2 request-response.
+
+use anyhow::{bail, Context, Result};
+use iceoryx2::port::client::Client;
+use iceoryx2::prelude::*;
+use softnc_daemon::config::DaemonConfig;
+use softnc_ipc::{ControlKind, FixedStr, OperatorReply, OperatorRequest, ServiceNames};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+/// How long a request waits for the MMI's reply.
+const REPLY_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// A connection to one controller instance's MMI.
+pub struct Operator {
+    node: Node<ipc::Service>,
+    client: Client<ipc::Service, OperatorRequest, (), OperatorReply, ()>,
+}
+
+impl Operator {
+    /// Connect using the instance named in `config`.
+    pub fn connect(config: &Path) -> Result<Self> {
+        let loaded = DaemonConfig::load(config)?;
+        let names = ServiceNames::new(&loaded.config.service_prefix, &loaded.config.instance);
+        let node = NodeBuilder::new()
+            .signal_handling_mode(SignalHandlingMode::Disabled)
+            .create::<ipc::Service>()
+            .context("creating client node")?;
+        let svc = node
+            .service_builder(&names.operator().as_str().try_into()?)
+            .request_response::<OperatorRequest, OperatorReply>()
+            .max_clients(16)
+            .open_or_create()
+            .context("operator service")?;
+        let client = svc.client_builder().create().context("operator client")?;
+        Ok(Operator { node, client })
+    }
+
+    /// Send one request and wait for the reply.
+    pub fn request(&self, kind: ControlKind, value: f64, path: &str) -> Result<OperatorReply> {
+        let pending = self.client.send_copy(OperatorRequest {
+            kind: kind.wire(),
+            value,
+            path: FixedStr::new(path),
+        })?;
+        let t0 = Instant::now();
+        loop {
+            if let Some(r) = pending.receive()? {
+                return Ok(*r);
+            }
+            if t0.elapsed() > REPLY_TIMEOUT {
+                bail!("no reply from softnc-mmi within {REPLY_TIMEOUT:?}: is softncd running?");
+            }
+            let _ = self.node.wait(Duration::from_millis(2));
+        }
+    }
+
+    /// The status as JSON.
+    pub fn status(&self) -> Result<serde_json::Value> {
+        let r = self.request(ControlKind::Status, 0.0, "")?;
+        Ok(serde_json::from_str(r.message.as_str())?)
+    }
+
+    /// Wait until the MMI answers (daemon starting up).
+    pub fn wait_ready(config: &Path, timeout: Duration) -> Result<Self> {
+        let t0 = Instant::now();
+        loop {
+            let attempt = Operator::connect(config).and_then(|op| op.status().map(|_| op));
+            match attempt {
+                Ok(op) => return Ok(op),
+                Err(e) if t0.elapsed() > timeout => {
+                    return Err(e.context("softnc-mmi did not answer"))
+                }
+                Err(_) => std::thread::sleep(Duration::from_millis(100)),
+            }
+        }
+    }
+}
+
+/// Operator subcommands.
+#[derive(clap::Subcommand)]
+pub enum OperatorCmd {
+    /// Jobs: `submit FILE [--wait]`.
+    #[command(subcommand)]
+    Job(JobCmd),
+    /// Machine status.
+    Status {
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Feed hold.
+    Hold,
+    /// Resume after a feed hold.
+    Resume,
+    /// Set the feed override (percent, 0..=255).
+    Override {
+        /// Percent.
+        pct: f64,
+    },
+    /// Emergency stop.
+    Estop,
+    /// Reset after a fault or E-stop.
+    Reset,
+    /// Job history.
+    Jobs {
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Stop the daemon.
+    Shutdown,
+}
+
+/// `softnc job ...`
+#[derive(clap::Subcommand)]
+pub enum JobCmd {
+    /// Submit a G-code program.
+    Submit {
+        /// The program.
+        file: PathBuf,
+        /// Wait for the job to end, with a progress bar.
+        #[arg(long)]
+        wait: bool,
+    },
+}
+
+/// Run an operator subcommand against the daemon configured in `config`.
+pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
+    let op = Operator::connect(config)?;
+    let simple = |kind, value| -> Result<ExitCode> {
+        let r = op.request(kind, value, "")?;
+        println!("{}", r.message.as_str());
+        Ok(if r.accepted == 1 {
+            ExitCode::SUCCESS
+        } else {
+            ExitCode::from(crate::EXIT_REFUSED)
+        })
+    };
+    match cmd {
+        OperatorCmd::Job(JobCmd::Submit { file, wait }) => {
+            let abs = std::fs::canonicalize(&file).unwrap_or(file.clone());
+            let r = op.request(ControlKind::StartJob, 0.0, &abs.display().to_string())?;
+            if r.accepted != 1 {
+                eprintln!("{}", r.message.as_str());
+                return Ok(ExitCode::from(crate::EXIT_REFUSED));
+            }
+            println!("{}", r.message.as_str());
+            if wait {
+                let outcome = wait_job(&op, r.job_id, true)?;
+                return Ok(if outcome == "completed" {
+                    ExitCode::SUCCESS
+                } else {
+                    ExitCode::from(1)
+                });
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        OperatorCmd::Status { json } => {
+            let s = op.status()?;
+            if json {
+                println!("{s}");
+            } else {
+                println!("{}", serde_json::to_string_pretty(&s)?);
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        OperatorCmd::Hold => simple(ControlKind::Hold, 0.0),
+        OperatorCmd::Resume => simple(ControlKind::Resume, 0.0),
+        OperatorCmd::Override { pct } => simple(ControlKind::FeedOverride, pct / 100.0),
+        OperatorCmd::Estop => simple(ControlKind::EStop, 0.0),
+        OperatorCmd::Reset => simple(ControlKind::Reset, 0.0),
+        OperatorCmd::Shutdown => simple(ControlKind::Shutdown, 0.0),
+        OperatorCmd::Jobs { json } => {
+            let r = op.request(ControlKind::Jobs, 0.0, "")?;
+            let v: serde_json::Value = serde_json::from_str(r.message.as_str())?;
+            if json {
+                println!("{v}");
+            } else {
+                for j in v.as_array().into_iter().flatten() {
+                    println!(
+                        "{:>4}  {:<11} {:>9} cycles  contour max {:>8.2} µm rms {:>7.2} µm  {}",
+                        j["job_id"],
+                        j["outcome"].as_str().unwrap_or(""),
+                        j["cycles"],
+                        j["accuracy"]["contour_max_abs_um"].as_f64().unwrap_or(0.0),
+                        j["accuracy"]["contour_rms_um"].as_f64().unwrap_or(0.0),
+                        j["path"].as_str().unwrap_or("")
+                    );
+                }
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}
+
+/// Follow a job until it ends; returns its outcome. Shows a progress bar on a terminal.
+pub fn wait_job(op: &Operator, job_id: u64, bar: bool) -> Result<String> {
+    use std::io::IsTerminal;
+    let pb = if bar && std::io::stderr().is_terminal() {
+        let pb = indicatif::ProgressBar::new(1000);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{spinner} job {msg} [{bar:40}] {percent:>3}% {elapsed}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        pb.set_message(job_id.to_string());
+        Some(pb)
+    } else {
+        None
+    };
+    let mut last_pct = -1i64;
+    loop {
+        let s = op.status()?;
+        let job = &s["job"];
+        if job["job_id"].as_u64() == Some(job_id) {
+            let progress = job["progress"].as_f64().unwrap_or(0.0);
+            if let Some(pb) = &pb {
+                pb.set_position((progress * 1000.0) as u64);
+            } else if bar {
+                let pct = (progress * 100.0) as i64;
+                if pct / 10 != last_pct / 10 {
+                    eprintln!("job {job_id}: {pct} %");
+                    last_pct = pct;
+                }
+            }
+            let outcome = job["outcome"].as_str().unwrap_or("").to_string();
+            if outcome != "running" {
+                if let Some(pb) = &pb {
+                    pb.finish_and_clear();
+                }
+                return Ok(outcome);
+            }
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
