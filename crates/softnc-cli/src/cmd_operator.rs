@@ -1,82 +1,11 @@
 //! Operator commands: talk to `softnc-mmi` over iceoryx2 request-response.
 
-use anyhow::{bail, Context, Result};
-use iceoryx2::port::client::Client;
-use iceoryx2::prelude::*;
-use softnc_daemon::config::DaemonConfig;
-use softnc_ipc::{ControlKind, FixedStr, OperatorReply, OperatorRequest, ServiceNames};
+use anyhow::Result;
+pub use softnc_daemon::client::Operator;
+use softnc_ipc::ControlKind;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::{Duration, Instant};
-
-/// How long a request waits for the MMI's reply.
-const REPLY_TIMEOUT: Duration = Duration::from_secs(5);
-
-/// A connection to one controller instance's MMI.
-pub struct Operator {
-    node: Node<ipc::Service>,
-    client: Client<ipc::Service, OperatorRequest, (), OperatorReply, ()>,
-}
-
-impl Operator {
-    /// Connect using the instance named in `config`.
-    pub fn connect(config: &Path) -> Result<Self> {
-        let loaded = DaemonConfig::load(config)?;
-        let names = ServiceNames::new(&loaded.config.service_prefix, &loaded.config.instance);
-        let node = NodeBuilder::new()
-            .signal_handling_mode(SignalHandlingMode::Disabled)
-            .create::<ipc::Service>()
-            .context("creating client node")?;
-        let svc = node
-            .service_builder(&names.operator().as_str().try_into()?)
-            .request_response::<OperatorRequest, OperatorReply>()
-            .max_clients(16)
-            .open_or_create()
-            .context("operator service")?;
-        let client = svc.client_builder().create().context("operator client")?;
-        Ok(Operator { node, client })
-    }
-
-    /// Send one request and wait for the reply.
-    pub fn request(&self, kind: ControlKind, value: f64, path: &str) -> Result<OperatorReply> {
-        let pending = self.client.send_copy(OperatorRequest {
-            kind: kind.wire(),
-            value,
-            path: FixedStr::new(path),
-        })?;
-        let t0 = Instant::now();
-        loop {
-            if let Some(r) = pending.receive()? {
-                return Ok(*r);
-            }
-            if t0.elapsed() > REPLY_TIMEOUT {
-                bail!("no reply from softnc-mmi within {REPLY_TIMEOUT:?}: is softncd running?");
-            }
-            let _ = self.node.wait(Duration::from_millis(2));
-        }
-    }
-
-    /// The status as JSON.
-    pub fn status(&self) -> Result<serde_json::Value> {
-        let r = self.request(ControlKind::Status, 0.0, "")?;
-        Ok(serde_json::from_str(r.message.as_str())?)
-    }
-
-    /// Wait until the MMI answers (daemon starting up).
-    pub fn wait_ready(config: &Path, timeout: Duration) -> Result<Self> {
-        let t0 = Instant::now();
-        loop {
-            let attempt = Operator::connect(config).and_then(|op| op.status().map(|_| op));
-            match attempt {
-                Ok(op) => return Ok(op),
-                Err(e) if t0.elapsed() > timeout => {
-                    return Err(e.context("softnc-mmi did not answer"))
-                }
-                Err(_) => std::thread::sleep(Duration::from_millis(100)),
-            }
-        }
-    }
-}
+use std::time::Duration;
 
 /// Operator subcommands.
 #[derive(clap::Subcommand)]

@@ -10,10 +10,12 @@
 //! - [`store`]: atomic file writes.
 //! - [`supervisor`]: `softncd`, starts, watches, restarts and stops the processes.
 //! - [`cli`]: shared start-up of the binaries.
+//! - [`client`]: the operator client (request-response to the MMI).
 #![warn(missing_docs)]
 
 pub mod bus;
 pub mod cli;
+pub mod client;
 pub mod config;
 pub mod interp;
 pub mod mmi;
