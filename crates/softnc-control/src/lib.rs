@@ -1,1 +1,2 @@
 //! Position-control stack (being built).
+pub mod zero_lag_fir;
