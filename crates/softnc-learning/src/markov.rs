@@ -40,16 +40,10 @@ impl MarkovLearner {
     /// Update `command` (P_{j−1} → P_j) in place from the last repetition's error.
     pub fn update(&self, command: &mut [f64], error: &[f64]) {
         let n = command.len().min(error.len());
-        for k in 0..n {
-            let mut acc = 0.0;
-            for (i, h) in self.markov.iter().enumerate() {
-                let idx = k + i + 1;
-                if idx >= n {
-                    break;
-                }
-                acc += h * error[idx];
-            }
-            command[k] += self.gain * acc;
+        for (k, c) in command.iter_mut().enumerate().take(n) {
+            let ahead = &error[(k + 1).min(n)..n];
+            let acc: f64 = self.markov.iter().zip(ahead).map(|(h, e)| h * e).sum();
+            *c += self.gain * acc;
         }
     }
 
