@@ -154,14 +154,13 @@ impl InterpTask {
                 if s.job_id == job_id {
                     consumed = Some(consumed.map_or(s.seq, |c: u64| c.max(s.seq)));
                 }
-                if MachineState::from_wire(s.state) == Some(MachineState::Faulted)
-                    || MachineState::from_wire(s.state) == Some(MachineState::EStopped)
-                {
-                    if s.job_id == job_id || s.job_id == 0 {
-                        self.state =
-                            MachineState::from_wire(s.state).unwrap_or(MachineState::Faulted);
-                        return Ok(JobEnd::Aborted);
-                    }
+                let stopped = matches!(
+                    MachineState::from_wire(s.state),
+                    Some(MachineState::Faulted | MachineState::EStopped)
+                );
+                if stopped && (s.job_id == job_id || s.job_id == 0) {
+                    self.state = MachineState::from_wire(s.state).unwrap_or(MachineState::Faulted);
+                    return Ok(JobEnd::Aborted);
                 }
             }
             while let Some(c) = self.control.receive()? {

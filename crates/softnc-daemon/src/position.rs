@@ -367,8 +367,7 @@ impl<M: CycleMachine> PositionTask<M> {
         let mut remaining = stop.s_mm;
         let mut p = self.ring.at(0).unwrap_or(self.last_cmd);
         let mut k = 1;
-        loop {
-            let Some(q) = self.ring.at(k) else { break };
+        while let Some(q) = self.ring.at(k) {
             let d = dist(p, q);
             if d >= remaining || k as u64 >= self.ring.ahead() {
                 if d > 0.0 && d >= remaining {
