@@ -29,7 +29,13 @@ pub fn start(process: &str) -> Result<Loaded, ExitCode> {
         .try_init();
     let path = config_path();
     match DaemonConfig::load(&path) {
-        Ok(l) => Ok(l),
+        Ok(l) => {
+            if let Err(e) = l.setup_iceoryx2() {
+                eprintln!("{process}: iceoryx2 configuration: {e}");
+                return Err(ExitCode::from(2));
+            }
+            Ok(l)
+        }
         Err(e) => {
             eprintln!("{process}: {e}");
             Err(ExitCode::from(2))

@@ -22,6 +22,9 @@ impl Operator {
     /// Connect using the instance named in `config`.
     pub fn connect(config: &Path) -> Result<Self> {
         let loaded = DaemonConfig::load(config)?;
+        loaded
+            .setup_iceoryx2()
+            .map_err(|e| anyhow::anyhow!("iceoryx2 configuration: {e}"))?;
         let names = ServiceNames::new(&loaded.config.service_prefix, &loaded.config.instance);
         let node = NodeBuilder::new()
             .signal_handling_mode(SignalHandlingMode::Disabled)

@@ -48,6 +48,8 @@ pub struct DaemonConfig {
     /// Seed of the simulated machine.
     #[serde(default = "default_seed")]
     pub seed: u64,
+    /// iceoryx2 configuration, relative to this file's folder.
+    pub iceoryx2_config: PathBuf,
 }
 
 fn default_seed() -> u64 {
@@ -70,6 +72,21 @@ pub struct Loaded {
     pub data_dir: PathBuf,
     /// The configuration file.
     pub path: PathBuf,
+    /// Absolute path of the iceoryx2 configuration.
+    pub iceoryx2_config: PathBuf,
+}
+
+impl Loaded {
+    /// Make the shipped iceoryx2 configuration the process's global one (before any
+    /// node is created).
+    pub fn setup_iceoryx2(&self) -> Result<(), String> {
+        let p = self.iceoryx2_config.display().to_string();
+        use iceoryx2::prelude::*;
+        let fp = FilePath::new(p.as_bytes()).map_err(|e| format!("{p}: {e:?}"))?;
+        iceoryx2::config::Config::setup_global_config_from_file(&fp)
+            .map(|_| ())
+            .map_err(|e| format!("{p}: {e:?}"))
+    }
 }
 
 impl DaemonConfig {
@@ -116,12 +133,20 @@ impl DaemonConfig {
         let machine_path = dir.join(&config.machine);
         let machine = MachineProfile::load(&machine_path)?;
         let data_dir = dir.join(&config.data_dir);
+        let iceoryx2_config = dir.join(&config.iceoryx2_config);
+        if !iceoryx2_config.is_file() {
+            return Err(bad(
+                "iceoryx2_config",
+                &format!("{} does not exist", iceoryx2_config.display()),
+            ));
+        }
         Ok(Loaded {
             config,
             machine,
             machine_path,
             data_dir,
             path: path.to_path_buf(),
+            iceoryx2_config,
         })
     }
 }
