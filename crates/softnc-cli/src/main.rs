@@ -3,6 +3,7 @@
 mod cmd_demo;
 mod cmd_operator;
 mod cmd_plan;
+mod cmd_watch;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -24,6 +25,8 @@ struct Cli {
 enum Command {
     /// Validate and plan a G-code program without moving anything.
     Plan(cmd_plan::PlanArgs),
+    /// Terminal UI: axes, errors, progress, alarms, jitter, live plot.
+    Watch,
     /// Start softncd on the simulated machine, run the demo job, print the report.
     Demo(cmd_demo::DemoArgs),
     #[command(flatten)]
@@ -53,6 +56,7 @@ fn main() -> ExitCode {
         Command::Plan(args) => cmd_plan::run(args),
         Command::Operator(cmd) => cmd_operator::run(cmd, &cli.config),
         Command::Demo(args) => cmd_demo::run(args, &cli.config),
+        Command::Watch => cmd_watch::run(&cli.config),
     };
     match result {
         Ok(code) => code,
