@@ -105,23 +105,24 @@ pub fn run(args: PlanArgs) -> Result<ExitCode> {
 
 fn write_canon(out: &mut impl Write, program: &Program) -> Result<()> {
     for m in &program.motions {
+        // positions as LinuxCNC's canonical output prints them (4 decimals, program units)
+        let (end, center) = m.canon_view();
+        let end = end.map(|e| e.0);
         let obj = match m.kind {
-            MotionKind::Traverse { end } => serde_json::json!({
-                "line": m.line, "kind": "traverse", "end": end.0, "feed_mm_min": null}),
+            MotionKind::Traverse { .. } => serde_json::json!({
+                "line": m.line, "kind": "traverse", "end": end, "feed_mm_min": null}),
             MotionKind::Feed {
-                end,
-                feed_mm_per_min,
+                feed_mm_per_min, ..
             } => serde_json::json!({
-                "line": m.line, "kind": "feed", "end": end.0, "feed_mm_min": feed_mm_per_min}),
+                "line": m.line, "kind": "feed", "end": end, "feed_mm_min": feed_mm_per_min}),
             MotionKind::Arc {
-                end,
-                center,
                 plane,
                 turns,
                 feed_mm_per_min,
+                ..
             } => serde_json::json!({
-                "line": m.line, "kind": "arc", "end": end.0, "feed_mm_min": feed_mm_per_min,
-                "plane": plane.name(), "center": center.0, "turns": turns}),
+                "line": m.line, "kind": "arc", "end": end, "feed_mm_min": feed_mm_per_min,
+                "plane": plane.name(), "center": center.map(|c| c.0), "turns": turns}),
             MotionKind::Dwell { seconds } => serde_json::json!({
                 "line": m.line, "kind": "dwell", "seconds": seconds}),
         };

@@ -75,6 +75,37 @@ pub struct Motion {
     pub offset_mm: Vec3,
     /// How this motion joins the next.
     pub path_mode: PathMode,
+    /// The program was in inches (G20) when this motion was read; LinuxCNC's
+    /// canonical output prints it in inches with four decimals.
+    pub inch: bool,
+    /// End in the program's units, exactly as LinuxCNC's interpreter holds it.
+    pub canon_end: Vec3,
+    /// Arc centre in the program's units (zero for other motions).
+    pub canon_center: Vec3,
+}
+
+/// A value in program units as LinuxCNC's canonical output prints it (`%.4f`),
+/// converted to mm.
+pub fn canon_round(v_units: f64, inch: bool) -> f64 {
+    let printed: f64 = format!("{v_units:.4}").parse().unwrap_or(v_units);
+    let r = if inch { printed * 25.4 } else { printed };
+    if r == 0.0 {
+        0.0 // no negative zero
+    } else {
+        r
+    }
+}
+
+impl Motion {
+    /// End and (for arcs) centre as LinuxCNC's canonical output prints them, in mm.
+    pub fn canon_view(&self) -> (Option<Vec3>, Option<Vec3>) {
+        let r = |v: Vec3| Vec3(v.0.map(|x| canon_round(x, self.inch)));
+        match self.kind {
+            MotionKind::Arc { .. } => (Some(r(self.canon_end)), Some(r(self.canon_center))),
+            MotionKind::Dwell { .. } => (None, None),
+            _ => (Some(r(self.canon_end)), None),
+        }
+    }
 }
 
 impl MotionKind {

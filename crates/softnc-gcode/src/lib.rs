@@ -12,6 +12,8 @@
 
 pub mod canon;
 pub mod error;
+pub mod interp;
+pub mod lexer;
 
 pub use canon::{Motion, MotionKind, PathMode, Program};
 pub use error::{ErrorKind, GcodeError};
@@ -25,14 +27,5 @@ pub fn read_program(
     file: &str,
     profile: &MachineProfile,
 ) -> Result<Program, GcodeError> {
-    let _ = (text, profile);
-    Err(GcodeError {
-        file: file.to_string(),
-        line: 1,
-        column: 1,
-        kind: ErrorKind::Unsupported {
-            word: "G-code".into(),
-            why: "the interpreter is not built yet".into(),
-        },
-    })
+    interp::read(text, file, profile)
 }
