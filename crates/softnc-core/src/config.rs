@@ -118,6 +118,9 @@ pub struct MachineProfile {
     /// Work offsets G54..G59 (machine coordinates of each system's origin), up to six.
     #[serde(default)]
     pub work_offsets_mm: Vec<[f64; 3]>,
+    /// The servo side: plants, controllers, measurement (simulated backend).
+    #[serde(default)]
+    pub servo: crate::servo::ServoProfile,
 }
 
 impl MachineProfile {
@@ -205,6 +208,7 @@ impl MachineProfile {
                 ));
             }
         }
+        self.validate_servo(file)?;
         if self.work_offsets_mm.len() > 6 {
             return Err(bad(
                 "work_offsets_mm".into(),
@@ -217,6 +221,126 @@ impl MachineProfile {
             }
         }
         Ok(())
+    }
+
+    fn validate_servo(&self, file: &str) -> Result<(), ConfigError> {
+        use crate::servo::PlantModel;
+        let bad = |path: String, reason: &str| ConfigError::Invalid {
+            file: file.to_string(),
+            path,
+            reason: reason.to_string(),
+        };
+        if self.servo.axes.len() > 3 {
+            return Err(bad("servo.axes".into(), "at most three axes"));
+        }
+        for (i, a) in self.servo.axes.iter().enumerate() {
+            let p = |f: &str| format!("servo.axes[{i}].{f}");
+            if !(a.noise_mm >= 0.0 && a.noise_mm.is_finite()) {
+                return Err(bad(p("noise_mm"), "must be finite and >= 0"));
+            }
+            let c = &a.controller;
+            for (name, v) in [
+                ("kp", c.kp),
+                ("ki", c.ki),
+                ("kd", c.kd),
+                ("vff", c.vff),
+                ("aff", c.aff),
+                ("output_limit", c.output_limit),
+            ] {
+                if !v.is_finite() {
+                    return Err(bad(
+                        p(&format!("controller.{name}")),
+                        "must be a finite number",
+                    ));
+                }
+            }
+            if c.output_limit < 0.0 {
+                return Err(bad(
+                    p("controller.output_limit"),
+                    "must be >= 0 (0 = no limit)",
+                ));
+            }
+            match &a.plant {
+                PlantModel::VelocityLoop {
+                    num,
+                    den,
+                    sample_s,
+                    lead_mm,
+                    coulomb_rad_s,
+                } => {
+                    if (sample_s - self.interpolation_cycle_s).abs() > 1e-12 {
+                        return Err(bad(
+                            p("plant.sample_s"),
+                            "must equal interpolation_cycle_s (the model is discrete at that rate)",
+                        ));
+                    }
+                    positive(*lead_mm, &p("plant.lead_mm"), file)?;
+                    if !(num.iter().chain(den.iter()).all(|v| v.is_finite())
+                        && *coulomb_rad_s >= 0.0)
+                    {
+                        return Err(bad(
+                            p("plant"),
+                            "coefficients must be finite and coulomb_rad_s >= 0",
+                        ));
+                    }
+                    // poles inside the unit circle: |a2| < 1 and |a1| < 1 + a2
+                    if !(den[1].abs() < 1.0 && den[0].abs() < 1.0 + den[1]) {
+                        return Err(bad(
+                            p("plant.den"),
+                            "the velocity loop is unstable (poles outside the unit circle)",
+                        ));
+                    }
+                }
+                PlantModel::DcMotor {
+                    gain_mm_per_min_per_dac,
+                    tau_s,
+                    dac_limit,
+                    param_variation,
+                    friction_variation,
+                    ..
+                } => {
+                    positive(
+                        *gain_mm_per_min_per_dac,
+                        &p("plant.gain_mm_per_min_per_dac"),
+                        file,
+                    )?;
+                    positive(*tau_s, &p("plant.tau_s"), file)?;
+                    positive(*dac_limit, &p("plant.dac_limit"), file)?;
+                    for (n, v) in [
+                        ("param_variation", param_variation),
+                        ("friction_variation", friction_variation),
+                    ] {
+                        if !(0.0..0.5).contains(v) {
+                            return Err(bad(p(&format!("plant.{n}")), "must be in [0, 0.5)"));
+                        }
+                    }
+                }
+                PlantModel::FirstOrderLag { tau_s, stick_mm } => {
+                    positive(*tau_s, &p("plant.tau_s"), file)?;
+                    if !(*stick_mm >= 0.0 && stick_mm.is_finite()) {
+                        return Err(bad(p("plant.stick_mm"), "must be finite and >= 0"));
+                    }
+                }
+            }
+        }
+        if let Some(c) = &self.servo.cutting {
+            positive(c.spindle_rpm, "servo.cutting.spindle_rpm", file)?;
+            if c.flutes == 0 {
+                return Err(bad("servo.cutting.flutes".into(), "must be at least 1"));
+            }
+            if c.frequency_hz() >= 0.5 / self.interpolation_cycle_s {
+                return Err(bad(
+                    "servo.cutting.spindle_rpm".into(),
+                    "tooth frequency at or above the Nyquist frequency of the cycle",
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Servo settings of axis `i` (defaults when the profile has none).
+    pub fn axis_servo(&self, i: usize) -> crate::servo::AxisServo {
+        self.servo.axes.get(i).cloned().unwrap_or_default()
     }
 
     /// Per-axis maximum velocities [x, y, z] (mm/s).

@@ -3,6 +3,8 @@
 //! - [`geom`]: 3-vectors in mm and the path primitives (lines, arcs/helices) that the
 //!   G-code front end produces, the planner follows and the contour-error metric measures.
 //! - [`config`]: machine profiles in RON, validated; a bad field fails with its RON path.
+//! - [`servo`]: the servo side of a profile: plant models, controllers, disturbances.
+//! - [`ring`]: the lookahead ring of command samples.
 //!
 //! ```
 //! let profile = softnc_core::config::MachineProfile::from_ron_str(
@@ -14,6 +16,7 @@
 pub mod config;
 pub mod geom;
 pub mod ring;
+pub mod servo;
 
 pub use config::{AxisConfig, ConfigError, FeedProfile, MachineProfile, PlannerConfig, ToolEntry};
 pub use geom::{Plane, Primitive, Vec3};

@@ -1,0 +1,713 @@
+//! Fuzzy-logic position controller with integral term (paper 001, eq 2–8 and 13).
+//!
+//! PD-type fuzzy map plus an integrator (eq 3):
+//!
+//! ```text
+//! u(k)   = F[e(k), Δe(k)] + u_I(k),   Δe(k) = e(k) − e(k−1)
+//! u_I(k) = u_I(k−1) + K_I e(k)
+//! ```
+//!
+//! F fuzzifies e and Δe over sets whose membership functions are triangles with their
+//! feet on the neighbours' centres (the two end sets are trapezoids that saturate), so
+//! an input belongs to at most two sets and at most four rules fire. Rule strength is
+//! Mamdani min, `w_ij = min(μ_Ai(e), μ_Bj(Δe))` (eq 6), and the output is the
+//! simplified centroid `u = Σ w_l C_l / Σ w_l` over the fired rules (eq 8), C_l being
+//! the centre of the rule's output set (Table 3 gives centres, and Table 4's
+//! equivalent gains follow from them; see `docs/controllers.md`). The sum u is
+//! saturated to the DAC range (8-bit in the paper); u_I is held inside the same range.
+//!
+//! Everything is precomputed into fixed-size arrays by [`FuzzyController::new`]; the
+//! cycle method [`FuzzyController::step`] allocates nothing.
+//!
+//! ```
+//! use softnc_control::fuzzy::{FuzzyConfig, FuzzyController};
+//! let mut flc = FuzzyController::new(&FuzzyConfig::paper001());
+//! // e = 7 BLU (PS) and Δe = 0: rule (PS, ZR) → PS, centre 15, plus K_I·e = 0.7.
+//! flc.reset(7.0);
+//! let u = flc.step(7.0);
+//! assert!((u - 15.7).abs() < 1e-12);
+//! ```
+
+use serde::{Deserialize, Serialize};
+use softnc_core::config::{parse_ron, ConfigError};
+
+/// Largest number of fuzzy sets a variable may have (arrays are this size).
+pub const MAX_SETS: usize = 11;
+
+/// One linguistic variable: the names of its sets and their centres, in increasing order.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FuzzyVariable {
+    /// Set names, most negative first (e.g. NL NM NS ZR PS PM PL).
+    pub names: Vec<String>,
+    /// Set centres, strictly increasing; each set's feet sit on its neighbours' centres.
+    pub centres: Vec<f64>,
+}
+
+/// A fuzzy controller as written in a machine profile or `config/fuzzy/*.ron`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FuzzyConfig {
+    /// Length of one input unit (e and Δe are counted in it), mm. Paper: 1 BLU = 0.01 mm.
+    pub input_unit_mm: f64,
+    /// Error e(k) = command − position, in input units.
+    pub e: FuzzyVariable,
+    /// Error change Δe(k) = e(k) − e(k−1), in input units per sample.
+    pub de: FuzzyVariable,
+    /// Controller output u, in output units (DAC counts in the paper).
+    pub u: FuzzyVariable,
+    /// `rules[i][j]` = name of the output set for e in set i and Δe in set j
+    /// (rows follow `e.names`, columns `de.names`).
+    pub rules: Vec<Vec<String>>,
+    /// Integral gain K_I (eq 3), output units per input unit per sample.
+    pub k_i: f64,
+    /// Lower output limit (−128 for a signed 8-bit DAC).
+    pub u_min: f64,
+    /// Upper output limit (127 for a signed 8-bit DAC).
+    pub u_max: f64,
+}
+
+/// Paper 001's default set names, NL..PL.
+pub const PAPER001_SETS: [&str; 7] = ["NL", "NM", "NS", "ZR", "PS", "PM", "PL"];
+
+/// Paper 001's rule base, reconstructed to 7×7 (rows e = NL..PL, columns Δe = NL..PL).
+///
+/// The printed Table 1 shows six entries per row; every row is consistent with the
+/// Δe = NL column having been lost, and odd symmetry plus monotonicity fix that column
+/// uniquely (reasoning in `docs/controllers.md`). Only column 0 is new here.
+pub const PAPER001_RULES: [[&str; 7]; 7] = [
+    ["NL", "NL", "NL", "NL", "NL", "NL", "NL"],
+    ["NL", "NL", "NM", "NM", "NS", "NS", "NS"],
+    ["NL", "NM", "NM", "NS", "NS", "NS", "ZR"],
+    ["ZR", "ZR", "ZR", "ZR", "ZR", "ZR", "ZR"],
+    ["ZR", "PS", "PS", "PS", "PM", "PM", "PL"],
+    ["PS", "PS", "PS", "PM", "PM", "PL", "PL"],
+    ["PL", "PL", "PL", "PL", "PL", "PL", "PL"],
+];
+
+impl FuzzyConfig {
+    /// Paper 001's controller: Table 3 centres, the reconstructed Table 1, K_I = 0.1
+    /// (Table 4), signed 8-bit output.
+    pub fn paper001() -> Self {
+        let names = || PAPER001_SETS.iter().map(|s| s.to_string()).collect();
+        FuzzyConfig {
+            input_unit_mm: 0.01,
+            e: FuzzyVariable {
+                names: names(),
+                centres: vec![-21.0, -14.0, -7.0, 0.0, 7.0, 14.0, 21.0],
+            },
+            de: FuzzyVariable {
+                names: names(),
+                centres: vec![-4.5, -3.0, -1.5, 0.0, 1.5, 3.0, 4.5],
+            },
+            u: FuzzyVariable {
+                names: names(),
+                centres: vec![-55.0, -35.0, -15.0, 0.0, 15.0, 35.0, 55.0],
+            },
+            rules: PAPER001_RULES
+                .iter()
+                .map(|row| row.iter().map(|s| s.to_string()).collect())
+                .collect(),
+            k_i: 0.1,
+            u_min: -128.0,
+            u_max: 127.0,
+        }
+    }
+
+    /// Parse and validate RON text; `file` names it in errors.
+    pub fn from_ron_str(text: &str, file: &str) -> Result<Self, ConfigError> {
+        let cfg: FuzzyConfig = parse_ron(text, file)?;
+        cfg.validate_at(file, "")?;
+        Ok(cfg)
+    }
+
+    /// Load and validate a RON file.
+    pub fn load(path: &std::path::Path) -> Result<Self, ConfigError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            file: file.clone(),
+            source,
+        })?;
+        Self::from_ron_str(&text, &file)
+    }
+
+    /// Check sizes, names and centres. `prefix` is this config's RON path inside an
+    /// enclosing document (`""` at the root, `"axes[0].fuzzy"` inside a profile); the
+    /// first bad field is reported with its full path.
+    pub fn validate_at(&self, file: &str, prefix: &str) -> Result<(), ConfigError> {
+        let path = |p: &str| {
+            if prefix.is_empty() {
+                p.to_string()
+            } else {
+                format!("{prefix}.{p}")
+            }
+        };
+        let bad = |p: String, reason: String| ConfigError::Invalid {
+            file: file.to_string(),
+            path: p,
+            reason,
+        };
+        if !(self.input_unit_mm.is_finite() && self.input_unit_mm > 0.0) {
+            return Err(bad(
+                path("input_unit_mm"),
+                format!("must be a finite number > 0 (got {})", self.input_unit_mm),
+            ));
+        }
+        for (field, var) in [("e", &self.e), ("de", &self.de), ("u", &self.u)] {
+            let n = var.names.len();
+            if !(2..=MAX_SETS).contains(&n) {
+                return Err(bad(
+                    path(&format!("{field}.names")),
+                    format!("needs 2 to {MAX_SETS} sets (got {n})"),
+                ));
+            }
+            if var.centres.len() != n {
+                return Err(bad(
+                    path(&format!("{field}.centres")),
+                    format!("needs one centre per set: {n} (got {})", var.centres.len()),
+                ));
+            }
+            for (k, name) in var.names.iter().enumerate() {
+                if var.names[..k].contains(name) {
+                    return Err(bad(
+                        path(&format!("{field}.names[{k}]")),
+                        format!("set name \"{name}\" appears twice"),
+                    ));
+                }
+            }
+            for (k, c) in var.centres.iter().enumerate() {
+                if !c.is_finite() {
+                    return Err(bad(
+                        path(&format!("{field}.centres[{k}]")),
+                        format!("must be a finite number (got {c})"),
+                    ));
+                }
+                if k > 0 && *c <= var.centres[k - 1] {
+                    return Err(bad(
+                        path(&format!("{field}.centres[{k}]")),
+                        format!(
+                            "centres must increase strictly ({} then {c})",
+                            var.centres[k - 1]
+                        ),
+                    ));
+                }
+            }
+        }
+        if self.rules.len() != self.e.names.len() {
+            return Err(bad(
+                path("rules"),
+                format!(
+                    "needs one row per e set: {} (got {})",
+                    self.e.names.len(),
+                    self.rules.len()
+                ),
+            ));
+        }
+        for (i, row) in self.rules.iter().enumerate() {
+            if row.len() != self.de.names.len() {
+                return Err(bad(
+                    path(&format!("rules[{i}]")),
+                    format!(
+                        "needs one entry per de set: {} (got {})",
+                        self.de.names.len(),
+                        row.len()
+                    ),
+                ));
+            }
+            for (j, name) in row.iter().enumerate() {
+                if !self.u.names.contains(name) {
+                    return Err(bad(
+                        path(&format!("rules[{i}][{j}]")),
+                        format!(
+                            "unknown output set \"{name}\" (u.names: {})",
+                            self.u.names.join(" ")
+                        ),
+                    ));
+                }
+            }
+        }
+        if !(self.k_i.is_finite() && self.k_i >= 0.0) {
+            return Err(bad(
+                path("k_i"),
+                format!("must be a finite number >= 0 (got {})", self.k_i),
+            ));
+        }
+        if !(self.u_min.is_finite() && self.u_max.is_finite() && self.u_min < self.u_max) {
+            return Err(bad(
+                path("u_max"),
+                format!(
+                    "u_min and u_max must be finite with u_min < u_max (got {} .. {})",
+                    self.u_min, self.u_max
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Triangular/trapezoidal partition of one input, precomputed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Partition {
+    n: usize,
+    c: [f64; MAX_SETS],
+    /// 1 / (c[k+1] − c[k]).
+    inv_gap: [f64; MAX_SETS],
+}
+
+impl Partition {
+    fn new(centres: &[f64]) -> Self {
+        let n = centres.len();
+        let mut c = [0.0; MAX_SETS];
+        let mut inv_gap = [0.0; MAX_SETS];
+        c[..n].copy_from_slice(centres);
+        for k in 0..n - 1 {
+            inv_gap[k] = 1.0 / (c[k + 1] - c[k]);
+        }
+        Partition { n, c, inv_gap }
+    }
+
+    /// (k, μ_k(x), μ_{k+1}(x)): x lies between centres k and k+1; memberships of all
+    /// other sets are zero. Outside the universe the end set holds membership 1.
+    #[inline(always)]
+    fn fuzzify(&self, x: f64) -> (usize, f64, f64) {
+        let last = self.n - 1;
+        if x <= self.c[0] {
+            return (0, 1.0, 0.0);
+        }
+        if x >= self.c[last] {
+            return (last - 1, 0.0, 1.0);
+        }
+        let mut k = 0;
+        while k + 1 < last && x >= self.c[k + 1] {
+            k += 1;
+        }
+        let hi = (x - self.c[k]) * self.inv_gap[k];
+        (k, 1.0 - hi, hi)
+    }
+}
+
+/// The fuzzy controller, ready to run: precomputed tables and the two state values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FuzzyController {
+    e: Partition,
+    de: Partition,
+    /// Output-set centre of rule (i, j).
+    rule_out: [[f64; MAX_SETS]; MAX_SETS],
+    k_i: f64,
+    u_min: f64,
+    u_max: f64,
+    input_unit_mm: f64,
+    e_prev: f64,
+    u_i: f64,
+}
+
+impl FuzzyController {
+    /// Precompute from a configuration. The configuration must have passed
+    /// [`FuzzyConfig::validate_at`] (the loaders do this); otherwise this panics.
+    pub fn new(cfg: &FuzzyConfig) -> Self {
+        if let Err(e) = cfg.validate_at("<FuzzyController::new>", "") {
+            panic!("invalid fuzzy configuration: {e}");
+        }
+        let mut rule_out = [[0.0; MAX_SETS]; MAX_SETS];
+        for (i, row) in cfg.rules.iter().enumerate() {
+            for (j, name) in row.iter().enumerate() {
+                let k = cfg
+                    .u
+                    .names
+                    .iter()
+                    .position(|n| n == name)
+                    .expect("validated");
+                rule_out[i][j] = cfg.u.centres[k];
+            }
+        }
+        FuzzyController {
+            e: Partition::new(&cfg.e.centres),
+            de: Partition::new(&cfg.de.centres),
+            rule_out,
+            k_i: cfg.k_i,
+            u_min: cfg.u_min,
+            u_max: cfg.u_max,
+            input_unit_mm: cfg.input_unit_mm,
+            e_prev: 0.0,
+            u_i: 0.0,
+        }
+    }
+
+    /// The fuzzy map F[e, Δe] (eq 4–8) without integral or saturation, in config units.
+    #[inline]
+    pub fn surface(&self, e: f64, de: f64) -> f64 {
+        let (i, a0, a1) = self.e.fuzzify(e);
+        let (j, b0, b1) = self.de.fuzzify(de);
+        // Mamdani min (eq 6) on the four candidate rules; zero weights drop out.
+        let w00 = a0.min(b0);
+        let w01 = a0.min(b1);
+        let w10 = a1.min(b0);
+        let w11 = a1.min(b1);
+        let r0 = &self.rule_out[i];
+        let r1 = &self.rule_out[i + 1];
+        // Simplified centroid (eq 8). Memberships form a partition of unity, so one of
+        // a0, a1 and one of b0, b1 is >= 0.5 and the denominator is >= 0.5.
+        let num = w00 * r0[j] + w01 * r0[j + 1] + w10 * r1[j] + w11 * r1[j + 1];
+        num / (w00 + w01 + w10 + w11)
+    }
+
+    /// One cycle: error e(k) in input units (BLU) → saturated output (eq 3).
+    /// Allocates nothing. A NaN error gives a NaN output.
+    #[inline]
+    pub fn step(&mut self, e: f64) -> f64 {
+        let de = e - self.e_prev;
+        self.e_prev = e;
+        self.u_i = (self.u_i + self.k_i * e).clamp(self.u_min, self.u_max);
+        (self.surface(e, de) + self.u_i).clamp(self.u_min, self.u_max)
+    }
+
+    /// One cycle with the error in mm (divided by `input_unit_mm`).
+    #[inline]
+    pub fn step_mm(&mut self, e_mm: f64) -> f64 {
+        self.step(e_mm / self.input_unit_mm)
+    }
+
+    /// Clear the integrator and set e(k−1) (so the first Δe is `e_prev − e_prev`-based).
+    pub fn reset(&mut self, e_prev: f64) {
+        self.e_prev = e_prev;
+        self.u_i = 0.0;
+    }
+
+    /// The integral term u_I(k) after the last step.
+    pub fn integral(&self) -> f64 {
+        self.u_i
+    }
+
+    /// Length of one input unit, mm.
+    pub fn input_unit_mm(&self) -> f64 {
+        self.input_unit_mm
+    }
+
+    /// Sector bounds of the surface (eq 13) and the equivalent P and D gains.
+    ///
+    /// The surface is split as eq 11–12 suggest: u₁(e) = F(e, 0) and
+    /// u₂ = F(e, Δe) − F(e, 0). K₁ bounds u₁/e over e ≠ 0, K₂ bounds u₂/Δe over
+    /// Δe ≠ 0, both inside the universe of discourse (end centres). `grid` chooses
+    /// where the surface is sampled.
+    pub fn equivalent_gains(&self, grid: SectorGrid) -> EquivalentGains {
+        let mut k1 = (f64::INFINITY, f64::NEG_INFINITY);
+        let mut k2 = (f64::INFINITY, f64::NEG_INFINITY);
+        let mut visit = |e: f64, de: f64| {
+            let u1 = self.surface(e, 0.0);
+            if e.abs() > 1e-12 {
+                let g = u1 / e;
+                k1 = (k1.0.min(g), k1.1.max(g));
+            }
+            if de.abs() > 1e-12 {
+                let g = (self.surface(e, de) - u1) / de;
+                k2 = (k2.0.min(g), k2.1.max(g));
+            }
+        };
+        match grid {
+            SectorGrid::Centres => {
+                for &e in &self.e.c[..self.e.n] {
+                    for &de in &self.de.c[..self.de.n] {
+                        visit(e, de);
+                    }
+                }
+            }
+            SectorGrid::Dense(steps) => {
+                let steps = steps.max(2);
+                let lin = |p: &Partition, k: usize| {
+                    let (lo, hi) = (p.c[0], p.c[p.n - 1]);
+                    lo + (hi - lo) * k as f64 / steps as f64
+                };
+                for a in 0..=steps {
+                    for b in 0..=steps {
+                        visit(lin(&self.e, a), lin(&self.de, b));
+                    }
+                }
+            }
+        }
+        EquivalentGains {
+            k1_min: k1.0,
+            k1_max: k1.1,
+            k2_min: k2.0,
+            k2_max: k2.1,
+            p: 0.5 * (k1.0 + k1.1),
+            d: 0.5 * k2.1,
+        }
+    }
+}
+
+/// Where [`FuzzyController::equivalent_gains`] samples the surface.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SectorGrid {
+    /// Only at the membership centres, where F equals the rule table's output centres
+    /// (the rule-table reading of eq 13).
+    Centres,
+    /// A uniform (steps+1)² grid over the universe of e and Δe: the continuous surface,
+    /// including the steeper patches that min inference makes between centres.
+    Dense(usize),
+}
+
+/// Sector bounds (eq 13) and the equivalent gains derived from them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EquivalentGains {
+    /// Smallest u₁/e.
+    pub k1_min: f64,
+    /// Largest u₁/e.
+    pub k1_max: f64,
+    /// Smallest u₂/Δe.
+    pub k2_min: f64,
+    /// Largest u₂/Δe.
+    pub k2_max: f64,
+    /// Equivalent proportional gain (K₁min + K₁max)/2.
+    pub p: f64,
+    /// Equivalent derivative gain K₂max/2 (the paper's K₂min is 0).
+    pub d: f64,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PAPER_RON: &str = include_str!("../../../config/fuzzy/paper001.ron");
+
+    fn paper() -> FuzzyController {
+        FuzzyController::new(&FuzzyConfig::from_ron_str(PAPER_RON, "paper001.ron").unwrap())
+    }
+
+    fn set_index(name: &str) -> usize {
+        PAPER001_SETS.iter().position(|s| *s == name).unwrap()
+    }
+
+    #[test]
+    fn ron_file_is_the_built_in_default() {
+        let cfg = FuzzyConfig::from_ron_str(PAPER_RON, "paper001.ron").unwrap();
+        assert_eq!(cfg, FuzzyConfig::paper001());
+    }
+
+    #[test]
+    fn rule_table_keeps_every_printed_entry() {
+        // Table 1 as extracted: six entries per row (SEEDS.md). Each printed row must
+        // be the reconstructed row with exactly one column removed: column 0 (Δe = NL).
+        let printed: [[&str; 6]; 7] = [
+            ["NL", "NL", "NL", "NL", "NL", "NL"],
+            ["NL", "NM", "NM", "NS", "NS", "NS"],
+            ["NM", "NM", "NS", "NS", "NS", "ZR"],
+            ["ZR", "ZR", "ZR", "ZR", "ZR", "ZR"],
+            ["PS", "PS", "PS", "PM", "PM", "PL"],
+            ["PS", "PS", "PM", "PM", "PL", "PL"],
+            ["PL", "PL", "PL", "PL", "PL", "PL"],
+        ];
+        for (i, row) in printed.iter().enumerate() {
+            assert_eq!(&PAPER001_RULES[i][1..], &row[..], "row {i}");
+        }
+    }
+
+    #[test]
+    fn rule_table_is_odd_symmetric_and_monotone() {
+        let n = 7;
+        for i in 0..n {
+            for j in 0..n {
+                let u = set_index(PAPER001_RULES[i][j]) as i32 - 3;
+                let m = set_index(PAPER001_RULES[n - 1 - i][n - 1 - j]) as i32 - 3;
+                assert_eq!(u, -m, "u(-e,-de) != -u(e,de) at ({i},{j})");
+                if j + 1 < n {
+                    let next = set_index(PAPER001_RULES[i][j + 1]);
+                    // Positive e: a growing error (larger Δe) needs a larger command;
+                    // negative e: larger Δe means converging, so a smaller |command|.
+                    // Both read as: non-decreasing along Δe.
+                    assert!(next >= set_index(PAPER001_RULES[i][j]), "row {i} col {j}");
+                }
+                if i + 1 < n {
+                    assert!(
+                        set_index(PAPER001_RULES[i + 1][j]) >= set_index(PAPER001_RULES[i][j]),
+                        "col {j} row {i}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn principle_small_diverging_beats_large_converging() {
+        // "a small error not converging needs a larger command than a large error
+        // decreasing fast": (PS, PL) > (PM, NL) and mirrored.
+        assert!(set_index(PAPER001_RULES[4][6]) > set_index(PAPER001_RULES[5][0]));
+        assert!(set_index(PAPER001_RULES[2][0]) < set_index(PAPER001_RULES[1][6]));
+    }
+
+    #[test]
+    fn surface_hits_rule_centres_and_is_odd() {
+        let f = paper();
+        let ec = [-21.0, -14.0, -7.0, 0.0, 7.0, 14.0, 21.0];
+        let dc = [-4.5, -3.0, -1.5, 0.0, 1.5, 3.0, 4.5];
+        let uc = [-55.0, -35.0, -15.0, 0.0, 15.0, 35.0, 55.0];
+        for (i, &e) in ec.iter().enumerate() {
+            for (j, &d) in dc.iter().enumerate() {
+                let want = uc[set_index(PAPER001_RULES[i][j])];
+                assert_eq!(f.surface(e, d), want, "({e},{d})");
+            }
+        }
+        for a in -30..=30 {
+            for b in -30..=30 {
+                let (e, d) = (a as f64 * 0.83, b as f64 * 0.19);
+                let s = f.surface(e, d) + f.surface(-e, -d);
+                assert!(s.abs() < 1e-9, "not odd at ({e},{d}): {s}");
+            }
+        }
+        // Saturating end sets: beyond the universe the output stays at PL.
+        assert_eq!(f.surface(100.0, 0.0), 55.0);
+        assert_eq!(f.surface(100.0, -100.0), 55.0);
+    }
+
+    #[test]
+    fn four_rule_example_by_hand() {
+        // e = 10.5 (half PS, half PM), Δe = 0.5 (2/3 ZR, 1/3 PS).
+        // Rules: (PS,ZR)→PS w=.5, (PS,PS)→PM w=1/3, (PM,ZR)→PM w=.5, (PM,PS)→PM w=1/3.
+        let f = paper();
+        let want = (0.5 * 15.0 + (1.0 / 3.0 + 0.5 + 1.0 / 3.0) * 35.0) / (0.5 + 0.5 + 2.0 / 3.0);
+        assert!((f.surface(10.5, 0.5) - want).abs() < 1e-12);
+    }
+
+    #[test]
+    fn integral_and_saturation() {
+        let mut f = paper();
+        f.reset(0.0);
+        // Δe = 0 after the first step; constant e = 7: F = 15, u_I grows by 0.7.
+        let u0 = f.step(7.0); // Δe = 7 → PL column: (PS, PL) → PL = 55, u_I = 0.7
+        assert!((u0 - 55.7).abs() < 1e-12, "{u0}");
+        let u1 = f.step(7.0);
+        assert!((u1 - 16.4).abs() < 1e-12, "{u1}");
+        for _ in 0..10_000 {
+            f.step(50.0);
+        }
+        assert_eq!(f.step(50.0), 127.0);
+        assert_eq!(f.integral(), 127.0);
+        // Held integrator recovers at once when the error reverses.
+        let u = f.step(-50.0);
+        assert!(u < 127.0 - 55.0, "{u}");
+        assert_eq!(FuzzyController::new(&FuzzyConfig::paper001()).step(-1e9), -128.0);
+    }
+
+    #[test]
+    fn step_mm_scales_by_blu() {
+        let mut a = paper();
+        let mut b = paper();
+        for k in 0..50 {
+            let e = (k as f64 * 0.37).sin() * 0.3;
+            assert_eq!(a.step_mm(e), b.step(e / 0.01));
+        }
+    }
+
+    #[test]
+    fn equivalent_gains_against_table4() {
+        let f = paper();
+        let g = f.equivalent_gains(SectorGrid::Centres);
+        // K1 from column ZR: 15/7 .. 55/21; K2 from the 15→35 step over 1.5 BLU.
+        assert!((g.k1_min - 15.0 / 7.0).abs() < 1e-12, "{g:?}");
+        assert!((g.k1_max - 55.0 / 21.0).abs() < 1e-12, "{g:?}");
+        assert_eq!(g.k2_min, 0.0, "paper: K2min = 0");
+        assert!((g.k2_max - 20.0 / 1.5).abs() < 1e-12, "{g:?}");
+        // Table 4: P 2.4, D 6.7 (printed to one decimal).
+        assert!((g.p - 2.4).abs() < 0.05, "P = {}", g.p);
+        assert!((g.d - 6.7).abs() < 0.05, "D = {}", g.d);
+        // The continuous surface: K1 is the same (Δe = 0 interpolates the ZR column
+        // linearly), but between centres min inference with the normalised centroid
+        // makes patches steeper in Δe than the table steps (up to 2× near e = ±7).
+        let dense = f.equivalent_gains(SectorGrid::Dense(840));
+        assert!((dense.k1_min - g.k1_min).abs() < 1e-9, "{dense:?}");
+        assert!((dense.k1_max - g.k1_max).abs() < 1e-9, "{dense:?}");
+        assert!(dense.k2_min >= -1e-12, "{dense:?}");
+        assert!(dense.k2_max > g.k2_max && dense.k2_max <= 40.0 / 1.5 + 1e-9, "{dense:?}");
+    }
+
+    fn mutate(from: &str, to: &str) -> String {
+        let text = PAPER_RON.replacen(from, to, 1);
+        assert_ne!(text, PAPER_RON, "fixture text `{from}` not found");
+        text
+    }
+
+    fn refused(text: &str) -> String {
+        FuzzyConfig::from_ron_str(text, "bad.ron")
+            .unwrap_err()
+            .to_string()
+    }
+
+    #[test]
+    fn malformed_tables_are_refused_with_their_path() {
+        // Unknown set name in the rule base.
+        let err = refused(&mutate(
+            r#"["ZR", "PS", "PS", "PS", "PM", "PM", "PL"]"#,
+            r#"["ZR", "PS", "PX", "PS", "PM", "PM", "PL"]"#,
+        ));
+        assert!(err.contains("rules[4][2]") && err.contains("PX"), "{err}");
+        // Wrong row length.
+        let err = refused(&mutate(
+            r#"["ZR", "PS", "PS", "PS", "PM", "PM", "PL"]"#,
+            r#"["ZR", "PS", "PS", "PM", "PM", "PL"]"#,
+        ));
+        assert!(err.contains("`rules[4]`"), "{err}");
+        // Wrong number of rows.
+        let err = refused(&mutate(
+            r#"["ZR", "ZR", "ZR", "ZR", "ZR", "ZR", "ZR"],"#,
+            "",
+        ));
+        assert!(err.contains("`rules`"), "{err}");
+        // Non-monotone centres.
+        let err = refused(&mutate("-1.5, 0.0, 1.5", "0.0, -1.5, 1.5"));
+        assert!(err.contains("de.centres[3]"), "{err}");
+        // Centre count differs from the set count.
+        let err = refused(&mutate("-55.0, -35.0,", "-35.0,"));
+        assert!(err.contains("u.centres"), "{err}");
+        // Wrong type: path from serde_path_to_error.
+        let err = refused(&mutate("k_i: 0.1", "k_i: \"small\""));
+        assert!(err.contains("k_i"), "{err}");
+        // Unknown field.
+        let err = refused(&mutate("k_i: 0.1", "k_i: 0.1, k_d: 1.0"));
+        assert!(err.contains("k_d"), "{err}");
+        // Duplicate set name.
+        let err = refused(&mutate(
+            r#"names: ["NL", "NM", "NS", "ZR", "PS", "PM", "PL"]"#,
+            r#"names: ["NL", "NM", "NS", "ZR", "PS", "PS", "PL"]"#,
+        ));
+        assert!(err.contains("e.names[5]"), "{err}");
+        // Inside a profile the prefix is part of the path.
+        let mut cfg = FuzzyConfig::paper001();
+        cfg.rules[0][0] = "XX".into();
+        let err = cfg
+            .validate_at("m.ron", "axes[1].fuzzy")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("axes[1].fuzzy.rules[0][0]"), "{err}");
+    }
+
+    #[test]
+    fn general_rule_base_of_other_size_runs() {
+        // A 3×5 rule base with different names per variable.
+        let cfg = FuzzyConfig {
+            input_unit_mm: 0.001,
+            e: FuzzyVariable {
+                names: vec!["N".into(), "Z".into(), "P".into()],
+                centres: vec![-1.0, 0.0, 1.0],
+            },
+            de: FuzzyVariable {
+                names: ["a", "b", "c", "d", "e"].map(String::from).to_vec(),
+                centres: vec![-2.0, -1.0, 0.0, 1.0, 2.0],
+            },
+            u: FuzzyVariable {
+                names: vec!["neg".into(), "zero".into(), "pos".into()],
+                centres: vec![-10.0, 0.0, 10.0],
+            },
+            rules: vec![
+                ["neg", "neg", "neg", "neg", "zero"].map(String::from).to_vec(),
+                ["neg", "zero", "zero", "zero", "pos"].map(String::from).to_vec(),
+                ["zero", "pos", "pos", "pos", "pos"].map(String::from).to_vec(),
+            ],
+            k_i: 0.0,
+            u_min: -5.0,
+            u_max: 5.0,
+        };
+        let mut f = FuzzyController::new(&cfg);
+        assert_eq!(f.surface(0.5, 0.0), 5.0);
+        assert_eq!(f.surface(1.0, -2.0), 0.0);
+        assert_eq!(f.step(1.0), 5.0);
+    }
+}

@@ -1,0 +1,198 @@
+//! The servo side of a machine profile: per-axis plant model, controller stack and
+//! measurement, as the simulated backend and the position loop use them.
+//!
+//! Units are in the names; where a paper's unit is not a length (a DAC count, rad/s),
+//! the field says so.
+
+use serde::{Deserialize, Serialize};
+
+/// Servo settings of the whole machine.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct ServoProfile {
+    /// One entry per axis (X, Y, Z); missing axes use `AxisServo::default()`.
+    #[serde(default)]
+    pub axes: Vec<AxisServo>,
+    /// Periodic cutting disturbance (paper 000 eq 2–3), off when absent.
+    #[serde(default)]
+    pub cutting: Option<CuttingDisturbance>,
+    /// Random seed of the simulated machine (parameter variation, noise).
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+}
+
+fn default_seed() -> u64 {
+    1
+}
+
+/// One axis: plant, controller, measurement.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisServo {
+    /// The simulated drive and mechanics.
+    pub plant: PlantModel,
+    /// The position controller.
+    pub controller: ControllerConfig,
+    /// Standard deviation of position measurement noise (mm), before quantisation.
+    #[serde(default)]
+    pub noise_mm: f64,
+}
+
+impl Default for AxisServo {
+    fn default() -> Self {
+        AxisServo {
+            plant: PlantModel::FirstOrderLag {
+                tau_s: 0.01,
+                stick_mm: 0.0,
+            },
+            controller: ControllerConfig::default(),
+            noise_mm: 0.0,
+        }
+    }
+}
+
+/// Simulated plant of one axis.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum PlantModel {
+    /// Paper 000: identified discrete velocity loop
+    /// P_n(z⁻¹) = (b₁z⁻¹ + b₂z⁻²)/(1 + a₁z⁻¹ + a₂z⁻²) from velocity command to motor
+    /// speed (rad/s) at `sample_s`, driving a screw of `lead_mm` per revolution.
+    /// The controller output is the velocity command in rad/s.
+    VelocityLoop {
+        /// [b₁, b₂].
+        num: [f64; 2],
+        /// [a₁, a₂].
+        den: [f64; 2],
+        /// Sample time the model was identified at (s); must equal the cycle.
+        sample_s: f64,
+        /// Table travel per motor revolution (mm).
+        lead_mm: f64,
+        /// Constant (Coulomb) friction, as an equivalent velocity-command offset
+        /// opposing motion (rad/s); 0 = none.
+        #[serde(default)]
+        coulomb_rad_s: f64,
+    },
+    /// Paper 001: a DC servo of open-loop gain K and time constant τ, driven by an
+    /// 8-bit DAC: τ·dV/dt + V = K·(u − F_d(V)), friction F_d of eq 15 in DAC counts,
+    /// with stick–slip (Karnopp): at rest the axis stays while |u| is below the
+    /// breakaway friction.
+    DcMotor {
+        /// Open-loop gain K ((mm/min) per DAC count).
+        gain_mm_per_min_per_dac: f64,
+        /// Time constant τ (s).
+        tau_s: f64,
+        /// DAC saturation (counts, ±).
+        dac_limit: f64,
+        /// Friction model F_d(V).
+        friction: Friction001,
+        /// Relative random variation of K and τ (±, uniform, seeded), e.g. 0.05.
+        #[serde(default)]
+        param_variation: f64,
+        /// Relative random variation of friction (±, uniform, seeded), e.g. 0.08.
+        #[serde(default)]
+        friction_variation: f64,
+    },
+    /// Paper 004: servo and acc/dec as one first-order lag G(s) = 1/(1 + Ts) from
+    /// command position to table position, with static friction at reversals: after
+    /// the axis stops and the command turns back, it stays until the lag exceeds
+    /// `stick_mm`. The controller is bypassed (its output is the command).
+    FirstOrderLag {
+        /// Time constant T (s).
+        tau_s: f64,
+        /// Lost motion at a reversal (mm); 0 = none.
+        #[serde(default)]
+        stick_mm: f64,
+    },
+}
+
+/// Friction of paper 001 eq 15: saturated above |V| ≥ v_sat, a quadratic below
+/// (V in mm/s, F in DAC counts).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Friction001 {
+    /// Speed from which friction is constant (mm/s).
+    pub v_sat_mm_s: f64,
+    /// Friction for V ≥ v_sat.
+    pub pos_sat: f64,
+    /// Quadratic [a, b, c] (a·V² + b·V + c) for 0 ≤ V < v_sat.
+    pub pos_quad: [f64; 3],
+    /// Quadratic for −v_sat ≤ V < 0.
+    pub neg_quad: [f64; 3],
+    /// Friction for V < −v_sat.
+    pub neg_sat: f64,
+}
+
+impl Friction001 {
+    /// F_d(V) (DAC counts) for V in mm/s (eq 15).
+    pub fn at(&self, v_mm_s: f64) -> f64 {
+        let q = |c: &[f64; 3]| c[0] * v_mm_s * v_mm_s + c[1] * v_mm_s + c[2];
+        if v_mm_s >= self.v_sat_mm_s {
+            self.pos_sat
+        } else if v_mm_s >= 0.0 {
+            q(&self.pos_quad)
+        } else if v_mm_s >= -self.v_sat_mm_s {
+            q(&self.neg_quad)
+        } else {
+            self.neg_sat
+        }
+    }
+}
+
+/// The position controller of one axis (the stack's feedback and feedforward).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerConfig {
+    /// Proportional gain (output units per mm of error).
+    pub kp: f64,
+    /// Integral gain per cycle (output units per mm per cycle), incremental form.
+    #[serde(default)]
+    pub ki: f64,
+    /// Derivative gain (output units per mm of error change per cycle).
+    #[serde(default)]
+    pub kd: f64,
+    /// Velocity feedforward (output units per mm/s of command velocity).
+    #[serde(default)]
+    pub vff: f64,
+    /// Acceleration feedforward (output units per mm/s² of command acceleration).
+    #[serde(default)]
+    pub aff: f64,
+    /// Output saturation (±, output units); 0 = none.
+    #[serde(default)]
+    pub output_limit: f64,
+}
+
+impl Default for ControllerConfig {
+    fn default() -> Self {
+        ControllerConfig {
+            kp: 30.0,
+            ki: 0.0,
+            kd: 0.0,
+            vff: 1.0,
+            aff: 0.0,
+            output_limit: 0.0,
+        }
+    }
+}
+
+/// Periodic cutting disturbance T = A·sin(2π f_d t + θ) with f_d = rpm·flutes/60
+/// (paper 000 eq 2–3), added at every axis's plant input during feed moves.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CuttingDisturbance {
+    /// Spindle speed (rpm).
+    pub spindle_rpm: f64,
+    /// Number of flutes.
+    pub flutes: u32,
+    /// Amplitude per axis (plant input units).
+    pub amplitude: [f64; 3],
+    /// Phase θ_d (rad).
+    #[serde(default)]
+    pub phase_rad: f64,
+}
+
+impl CuttingDisturbance {
+    /// Tooth-passing frequency f_d (Hz), eq 2.
+    pub fn frequency_hz(&self) -> f64 {
+        self.spindle_rpm * self.flutes as f64 / 60.0
+    }
+}
