@@ -611,12 +611,16 @@ mod tests {
         assert!((g.d - 6.7).abs() < 0.05, "D = {}", g.d);
         // The continuous surface: K1 is the same (Δe = 0 interpolates the ZR column
         // linearly), but between centres min inference with the normalised centroid
-        // makes patches steeper in Δe than the table steps (up to 2× near e = ±7).
+        // (eq 6, 8) is not bilinear: where one input sits near a centre, a small Δe
+        // adds a rule of weight b to a denominator of 1, so the secant u2/Δe reaches
+        // 40/1.5 (twice the table step) near e = ±7, and near e = ±21 a saturated
+        // NL/PL rule pulls u2 against Δe (K2 < 0). The paper's K2min = 0 and D = 6.7
+        // are statements about the rule table, i.e. the `Centres` reading.
         let dense = f.equivalent_gains(SectorGrid::Dense(840));
         assert!((dense.k1_min - g.k1_min).abs() < 1e-9, "{dense:?}");
         assert!((dense.k1_max - g.k1_max).abs() < 1e-9, "{dense:?}");
-        assert!(dense.k2_min >= -1e-12, "{dense:?}");
-        assert!(dense.k2_max > g.k2_max && dense.k2_max <= 40.0 / 1.5 + 1e-9, "{dense:?}");
+        assert!(dense.k2_min < -10.0, "{dense:?}");
+        assert!(dense.k2_max > 1.9 * g.k2_max && dense.k2_max <= 40.0 / 1.5 + 1e-9, "{dense:?}");
     }
 
     fn mutate(from: &str, to: &str) -> String {
