@@ -584,7 +584,10 @@ mod tests {
         // Held integrator recovers at once when the error reverses.
         let u = f.step(-50.0);
         assert!(u < 127.0 - 55.0, "{u}");
-        assert_eq!(FuzzyController::new(&FuzzyConfig::paper001()).step(-1e9), -128.0);
+        assert_eq!(
+            FuzzyController::new(&FuzzyConfig::paper001()).step(-1e9),
+            -128.0
+        );
     }
 
     #[test]
@@ -620,7 +623,10 @@ mod tests {
         assert!((dense.k1_min - g.k1_min).abs() < 1e-9, "{dense:?}");
         assert!((dense.k1_max - g.k1_max).abs() < 1e-9, "{dense:?}");
         assert!(dense.k2_min < -10.0, "{dense:?}");
-        assert!(dense.k2_max > 1.9 * g.k2_max && dense.k2_max <= 40.0 / 1.5 + 1e-9, "{dense:?}");
+        assert!(
+            dense.k2_max > 1.9 * g.k2_max && dense.k2_max <= 40.0 / 1.5 + 1e-9,
+            "{dense:?}"
+        );
     }
 
     fn mutate(from: &str, to: &str) -> String {
@@ -701,9 +707,15 @@ mod tests {
                 centres: vec![-10.0, 0.0, 10.0],
             },
             rules: vec![
-                ["neg", "neg", "neg", "neg", "zero"].map(String::from).to_vec(),
-                ["neg", "zero", "zero", "zero", "pos"].map(String::from).to_vec(),
-                ["zero", "pos", "pos", "pos", "pos"].map(String::from).to_vec(),
+                ["neg", "neg", "neg", "neg", "zero"]
+                    .map(String::from)
+                    .to_vec(),
+                ["neg", "zero", "zero", "zero", "pos"]
+                    .map(String::from)
+                    .to_vec(),
+                ["zero", "pos", "pos", "pos", "pos"]
+                    .map(String::from)
+                    .to_vec(),
             ],
             k_i: 0.0,
             u_min: -5.0,
