@@ -22,6 +22,9 @@ pub struct PlanArgs {
     /// are reported as warnings here: this is the program's reading, not a run.
     #[arg(long)]
     canon: bool,
+    /// Plan even where the program leaves the machine's travel (offline analysis).
+    #[arg(long)]
+    ignore_soft_limits: bool,
 }
 
 /// Load a machine profile, or explain which field is wrong.
@@ -54,7 +57,7 @@ pub fn run(args: PlanArgs) -> Result<ExitCode> {
         }
     };
     let options = softnc_planner::PlanOptions {
-        ignore_soft_limits: args.canon,
+        ignore_soft_limits: args.canon || args.ignore_soft_limits,
     };
     let plan = match softnc_planner::plan(&program, &machine, &options) {
         Ok(p) => p,

@@ -57,7 +57,7 @@ fn benches(c: &mut Criterion) {
     let text = big_program(200_000);
     let n_lines = text.lines().count() as u64;
     if std::env::var_os("SOFTNC_WRITE_BIG").is_some() {
-        std::fs::write("big-200k.ngc", &text).unwrap();
+        std::fs::write(std::env::temp_dir().join("softnc-big-200k.ngc"), &text).unwrap();
     }
     let mut g = c.benchmark_group("planner");
     g.sample_size(10);
