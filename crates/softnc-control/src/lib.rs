@@ -7,7 +7,11 @@
 //! - [`zero_lag_fir`]: zero-lag non-causal command filter (paper 002 eq 1–3).
 #![warn(missing_docs)]
 
+pub mod discrete_tf;
+pub mod dob;
 pub mod fuzzy;
+pub mod mbda;
+pub mod pdc;
 pub mod pid;
 pub mod stack;
 pub mod zero_lag_fir;
