@@ -1,0 +1,250 @@
+//! The servo backend: the boundary a real drive implements (write commands, read encoder
+//! counts, currents and status once per cycle), and the simulated machine behind it.
+
+use crate::cutting_disturbance::Cutting;
+use crate::encoder::Encoder;
+use crate::plant::{CommandMode, Plant};
+use crate::rng::Rng;
+use softnc_core::MachineProfile;
+
+/// Axes a backend serves (X, Y, Z).
+pub const MAX_AXES: usize = 3;
+
+/// Resolution reported when encoder quantisation is switched off (mm per count): fine
+/// enough that the count is the position to floating-point precision over any travel.
+pub const UNQUANTISED_MM_PER_COUNT: f64 = 1e-9;
+
+/// Status of one drive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct AxisStatus {
+    /// Enabled and following commands.
+    pub enabled: bool,
+    /// The drive reports a fault.
+    pub fault: bool,
+    /// The command was clipped by the drive's input range (DAC saturation).
+    pub saturated: bool,
+    /// The axis is held by static friction (simulation only; real drives report false).
+    pub stuck: bool,
+}
+
+/// Why a backend cycle failed. Small and `Copy`: it can happen on the cycle path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum BackendError {
+    /// A drive reported a fault.
+    #[error("drive fault on axis {axis}")]
+    DriveFault {
+        /// Axis index.
+        axis: u8,
+    },
+    /// The drives did not answer within the cycle.
+    #[error("no answer from the drives within the cycle")]
+    Timeout,
+}
+
+/// A servo backend: the simulated machine now, real drives later. One cycle is
+/// `write_commands` → `cycle` → `read_*`.
+pub trait ServoBackend {
+    /// Number of axes served (≤ [`MAX_AXES`]).
+    fn axes(&self) -> usize;
+    /// What axis `axis`'s command means.
+    fn command_mode(&self, axis: usize) -> CommandMode;
+    /// Encoder resolution of axis `axis` (mm per count).
+    fn mm_per_count(&self, axis: usize) -> f64;
+    /// Declare the current actual position to be `pos_mm` (homing; the simulation
+    /// places its axes there at rest).
+    fn home(&mut self, pos_mm: [f64; MAX_AXES]);
+    /// This cycle's command per axis, in the units of its [`CommandMode`].
+    fn write_commands(&mut self, cmd: [f64; MAX_AXES]);
+    /// Exchange with the drives: the machine moves for one cycle.
+    fn cycle(&mut self) -> Result<(), BackendError>;
+    /// Actual positions, encoder counts.
+    fn read_counts(&self) -> [i64; MAX_AXES];
+    /// Motor currents (or their model equivalents).
+    fn read_currents(&self) -> [f64; MAX_AXES];
+    /// Drive status.
+    fn read_status(&self) -> [AxisStatus; MAX_AXES];
+    /// Tell the machine whether the tool is cutting (simulation: switches the periodic
+    /// cutting disturbance; a real backend ignores it).
+    fn set_cutting(&mut self, _cutting: bool) {}
+}
+
+/// Switches of the simulated machine's imperfections (all on by default).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SimOptions {
+    /// Quantise positions to the profile's encoder resolution.
+    pub quantisation: bool,
+    /// Add the profile's measurement noise.
+    pub noise: bool,
+    /// Apply the profile's periodic cutting disturbance during feed moves.
+    pub cutting: bool,
+    /// Apply the profile's random parameter variation.
+    pub variation: bool,
+}
+
+impl Default for SimOptions {
+    fn default() -> Self {
+        SimOptions {
+            quantisation: true,
+            noise: true,
+            cutting: true,
+            variation: true,
+        }
+    }
+}
+
+/// The simulated machine: one [`Plant`] per axis, encoders, cutting disturbance; every
+/// random draw from `seed`, so a seed gives a bit-identical run.
+#[derive(Debug, Clone)]
+pub struct SimBackend {
+    plants: [Plant; MAX_AXES],
+    encoders: [Encoder; MAX_AXES],
+    substeps: [u32; MAX_AXES],
+    cutting: Option<Cutting>,
+    cutting_on: bool,
+    options: SimOptions,
+    cycle_s: f64,
+    cycle: u64,
+    cmd: [f64; MAX_AXES],
+    counts: [i64; MAX_AXES],
+    currents: [f64; MAX_AXES],
+    status: [AxisStatus; MAX_AXES],
+}
+
+impl SimBackend {
+    /// The machine of `profile` (its `servo` section) with random seed `seed`.
+    pub fn new(profile: &MachineProfile, seed: u64, options: SimOptions) -> Self {
+        let cycle_s = profile.interpolation_cycle_s;
+        let plants = [0, 1, 2].map(|i| {
+            let mut rng = Rng::stream(seed, 100 + i as u64);
+            Plant::new(&profile.axis_servo(i).plant, &mut rng, options.variation)
+        });
+        let encoders = [0, 1, 2].map(|i| {
+            let res = if options.quantisation {
+                profile.axes[i].encoder_resolution_mm
+            } else {
+                UNQUANTISED_MM_PER_COUNT
+            };
+            let noise = if options.noise {
+                profile.axis_servo(i).noise_mm
+            } else {
+                0.0
+            };
+            Encoder::new(res, noise, Rng::stream(seed, 200 + i as u64))
+        });
+        let substeps = [0, 1, 2].map(|i| plants[i].substeps(cycle_s));
+        let cutting = if options.cutting {
+            profile.servo.cutting.as_ref().map(Cutting::new)
+        } else {
+            None
+        };
+        let mut b = SimBackend {
+            plants,
+            encoders,
+            substeps,
+            cutting,
+            cutting_on: false,
+            options,
+            cycle_s,
+            cycle: 0,
+            cmd: [0.0; MAX_AXES],
+            counts: [0; MAX_AXES],
+            currents: [0.0; MAX_AXES],
+            status: [AxisStatus {
+                enabled: true,
+                ..AxisStatus::default()
+            }; MAX_AXES],
+        };
+        b.home([0.0; MAX_AXES]);
+        b
+    }
+
+    /// The plant of axis `axis` (its true state, for tests and analysis).
+    pub fn plant(&self, axis: usize) -> &Plant {
+        &self.plants[axis]
+    }
+
+    /// True (unmeasured) positions (mm).
+    pub fn true_pos_mm(&self) -> [f64; MAX_AXES] {
+        [0, 1, 2].map(|i| self.plants[i].pos_mm())
+    }
+
+    /// The switches in force.
+    pub fn options(&self) -> SimOptions {
+        self.options
+    }
+
+    fn measure(&mut self) {
+        let noisy = self.options.noise;
+        for i in 0..MAX_AXES {
+            self.counts[i] = self.encoders[i].read_counts(self.plants[i].pos_mm(), noisy);
+        }
+    }
+}
+
+impl ServoBackend for SimBackend {
+    fn axes(&self) -> usize {
+        MAX_AXES
+    }
+    fn command_mode(&self, axis: usize) -> CommandMode {
+        self.plants[axis].command_mode()
+    }
+    fn mm_per_count(&self, axis: usize) -> f64 {
+        self.encoders[axis].mm_per_count()
+    }
+    fn home(&mut self, pos_mm: [f64; MAX_AXES]) {
+        for (p, x) in self.plants.iter_mut().zip(pos_mm) {
+            p.reset(x);
+        }
+        self.cmd = [0.0; MAX_AXES];
+        for (i, c) in self.cmd.iter_mut().enumerate() {
+            if self.plants[i].command_mode() == CommandMode::Position {
+                *c = pos_mm[i];
+            }
+        }
+        self.cycle = 0;
+        self.currents = [0.0; MAX_AXES];
+        self.measure();
+    }
+    fn write_commands(&mut self, cmd: [f64; MAX_AXES]) {
+        self.cmd = cmd;
+    }
+    fn cycle(&mut self) -> Result<(), BackendError> {
+        let t0 = self.cycle as f64 * self.cycle_s;
+        for i in 0..MAX_AXES {
+            let plant = &mut self.plants[i];
+            let input = plant.command_input(self.cmd[i]);
+            self.status[i].saturated = input != self.cmd[i].round() && input != self.cmd[i];
+            let n = self.substeps[i];
+            let h = self.cycle_s / n as f64;
+            let mut current = 0.0;
+            for s in 0..n {
+                let dist = match (&self.cutting, self.cutting_on) {
+                    (Some(c), true) => c.at(i, t0 + s as f64 * h),
+                    _ => 0.0,
+                };
+                current = plant.substep(input + dist, h);
+            }
+            self.currents[i] = current;
+            self.status[i].stuck = match plant {
+                Plant::VelocityLoop(p) => p.speed_rad_per_s() == 0.0,
+                Plant::DcMotor(p) => p.vel_mm_per_s() == 0.0,
+                Plant::FirstOrderLag(p) => p.is_stuck(),
+            };
+        }
+        self.cycle += 1;
+        self.measure();
+        Ok(())
+    }
+    fn read_counts(&self) -> [i64; MAX_AXES] {
+        self.counts
+    }
+    fn read_currents(&self) -> [f64; MAX_AXES] {
+        self.currents
+    }
+    fn read_status(&self) -> [AxisStatus; MAX_AXES] {
+        self.status
+    }
+    fn set_cutting(&mut self, cutting: bool) {
+        self.cutting_on = cutting;
+    }
+}
