@@ -427,7 +427,8 @@ impl FuzzyController {
         EquivalentGains {
             k1_min: k1.0,
             k1_max: k1.1,
-            k2_min: k2.0,
+            // + 0.0 turns a −0 (a zero step divided by a negative Δe) into 0.
+            k2_min: k2.0 + 0.0,
             k2_max: k2.1,
             p: 0.5 * (k1.0 + k1.1),
             d: 0.5 * k2.1,
