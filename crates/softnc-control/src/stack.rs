@@ -4,6 +4,7 @@
 //! Later blocks (fuzzy feedback, DOB, MBDA, PDC, learning corrections) slot in as
 //! further variants of [`Feedback`] and fields of [`AxisController`].
 
+use crate::fuzzy::FuzzyController;
 use crate::pid::IncrementalPid;
 use softnc_core::servo::ControllerConfig;
 
@@ -12,6 +13,8 @@ use softnc_core::servo::ControllerConfig;
 pub enum Feedback {
     /// P, PI or PID in incremental form (001 eq 14).
     Pid(IncrementalPid),
+    /// Fuzzy-logic PD plus integral (001 eq 2–8), on the error in its input units.
+    Fuzzy(Box<FuzzyController>),
 }
 
 /// One axis's controller.
@@ -46,12 +49,15 @@ impl AxisController {
     /// From the profile's settings, at cycle `cycle_s`.
     pub fn new(cfg: &ControllerConfig, cycle_s: f64) -> Self {
         AxisController {
-            feedback: Feedback::Pid(IncrementalPid::new(
-                cfg.kp,
-                cfg.ki,
-                cfg.kd,
-                cfg.output_limit,
-            )),
+            feedback: match &cfg.fuzzy {
+                Some(f) => Feedback::Fuzzy(Box::new(FuzzyController::new(f))),
+                None => Feedback::Pid(IncrementalPid::new(
+                    cfg.kp,
+                    cfg.ki,
+                    cfg.kd,
+                    cfg.output_limit,
+                )),
+            },
             vff: cfg.vff,
             aff: cfg.aff,
             limit: cfg.output_limit,
@@ -66,6 +72,7 @@ impl AxisController {
     pub fn reset(&mut self, pos_mm: f64) {
         match &mut self.feedback {
             Feedback::Pid(p) => p.reset(),
+            Feedback::Fuzzy(f) => f.reset(0.0),
         }
         self.cmd1 = pos_mm;
         self.cmd2 = pos_mm;
@@ -85,6 +92,7 @@ impl AxisController {
         let e = cmd_mm - measured_mm;
         let fb = match &mut self.feedback {
             Feedback::Pid(p) => p.step(e),
+            Feedback::Fuzzy(f) => f.step_mm(e),
         };
         let mut u = fb + self.vff * vel + self.aff * acc;
         if self.limit > 0.0 {
@@ -113,6 +121,7 @@ mod tests {
             vff: 2.0,
             aff: 0.0,
             output_limit: 0.0,
+            fuzzy: None,
         };
         let mut c = AxisController::new(&cfg, 0.001);
         c.reset(0.0);

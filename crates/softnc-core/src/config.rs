@@ -260,6 +260,9 @@ impl MachineProfile {
                     "must be >= 0 (0 = no limit)",
                 ));
             }
+            if let Some(f) = &c.fuzzy {
+                f.validate_at(file, &p("controller.fuzzy"))?;
+            }
             match &a.plant {
                 PlantModel::VelocityLoop {
                     num,

@@ -14,6 +14,7 @@
 #![warn(missing_docs)]
 
 pub mod config;
+pub mod fuzzy;
 pub mod geom;
 pub mod ring;
 pub mod servo;

@@ -159,6 +159,11 @@ pub struct ControllerConfig {
     /// Output saturation (±, output units); 0 = none.
     #[serde(default)]
     pub output_limit: f64,
+    /// Fuzzy-logic feedback (paper 001) instead of the PID: when present, `kp`, `ki`
+    /// and `kd` are unused and this rule base, membership table and integral gain
+    /// act on the error (feedforward and `output_limit` still apply).
+    #[serde(default)]
+    pub fuzzy: Option<crate::fuzzy::FuzzyConfig>,
 }
 
 impl Default for ControllerConfig {
@@ -170,6 +175,7 @@ impl Default for ControllerConfig {
             vff: 1.0,
             aff: 0.0,
             output_limit: 0.0,
+            fuzzy: None,
         }
     }
 }
