@@ -1,6 +1,7 @@
 //! `softnc`: the operator client and the offline tools (plan, sim, ...).
 
 mod cmd_demo;
+mod cmd_design;
 mod cmd_operator;
 mod cmd_plan;
 mod cmd_watch;
@@ -29,6 +30,8 @@ enum Command {
     Watch,
     /// Start softncd on the simulated machine, run the demo job, print the report.
     Demo(cmd_demo::DemoArgs),
+    /// Design a compensator off-line (PDC of paper 000) and print its figures.
+    Design(cmd_design::DesignArgs),
     #[command(flatten)]
     Operator(cmd_operator::OperatorCmd),
 }
@@ -56,6 +59,7 @@ fn main() -> ExitCode {
         Command::Plan(args) => cmd_plan::run(args),
         Command::Operator(cmd) => cmd_operator::run(cmd, &cli.config),
         Command::Demo(args) => cmd_demo::run(args, &cli.config),
+        Command::Design(args) => cmd_design::run(args),
         Command::Watch => cmd_watch::run(&cli.config),
     };
     match result {
