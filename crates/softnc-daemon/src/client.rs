@@ -62,7 +62,14 @@ impl Operator {
     /// The status as JSON.
     pub fn status(&self) -> Result<serde_json::Value> {
         let r = self.request(ControlKind::Status, 0.0, "")?;
-        Ok(serde_json::from_str(r.message.as_str())?)
+        let text = r.message.as_str();
+        serde_json::from_str(text).with_context(|| {
+            format!(
+                "unreadable status from softnc-mmi ({} bytes): {:?}",
+                text.len(),
+                &text[..text.len().min(120)]
+            )
+        })
     }
 
     /// Wait until the MMI answers (daemon starting up).

@@ -313,7 +313,9 @@ wire_enum!(ControlKind {
     Abort,
     EStop,
     Reset,
-    Shutdown
+    Shutdown,
+    Status,
+    Jobs
 });
 wire_enum!(AlarmCode {
     SequenceError,
