@@ -21,18 +21,7 @@
 //! delay gets `z^{−(d−1)}` folded into Q.
 
 use crate::discrete_tf::{is_schur_stable, poly_mul, DiscreteTf, TfFilter};
-use serde::{Deserialize, Serialize};
-
-/// Q-filter parameters (eq 32).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct DobConfig {
-    /// Order K of the Q filter (degree of its denominator).
-    pub order_k: usize,
-    /// Relative degree r of Q (≥ the model's relative degree, ≥ 1, ≤ K).
-    pub relative_degree_r: usize,
-    /// Time constant τ of Q [s].
-    pub tau_s: f64,
-}
+pub use softnc_core::compensation::DobConfig;
 
 /// Why a DOB cannot be designed.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]

@@ -7,6 +7,7 @@
 //! - [`zero_lag_fir`]: zero-lag non-causal command filter (paper 002 eq 1–3).
 #![warn(missing_docs)]
 
+pub mod compensation;
 pub mod discrete_tf;
 pub mod dob;
 pub mod fuzzy;

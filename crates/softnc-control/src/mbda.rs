@@ -12,16 +12,7 @@
 //! unit circle.
 
 use crate::discrete_tf::{is_schur_stable, poly_add, poly_mul, DiscreteTf, TfFilter};
-use serde::{Deserialize, Serialize};
-
-/// PI gains of M(z⁻¹) (output difference → plant input, same units in and out).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct MbdaConfig {
-    /// Proportional gain K_p [1].
-    pub kp: f64,
-    /// Integral gain K_i [1/s].
-    pub ki_per_s: f64,
-}
+pub use softnc_core::compensation::MbdaConfig;
 
 /// Why an MBDA cannot be designed.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]

@@ -4,6 +4,7 @@
 //! Later blocks (fuzzy feedback, DOB, MBDA, PDC, learning corrections) slot in as
 //! further variants of [`Feedback`] and fields of [`AxisController`].
 
+use crate::compensation::AxisCompensation;
 use crate::fuzzy::FuzzyController;
 use crate::pid::IncrementalPid;
 use softnc_core::servo::ControllerConfig;
@@ -28,6 +29,9 @@ pub struct AxisController {
     pub aff: f64,
     /// Output limit (±); 0 = none.
     pub limit: f64,
+    /// Disturbance compensation after feedback and feedforward (paper 000 DOB/MBDA
+    /// + PDC), designed by the caller from the profile; `None` = off.
+    pub compensation: Option<Box<AxisCompensation>>,
     cycle_s: f64,
     cmd1: f64,
     cmd2: f64,
@@ -61,6 +65,7 @@ impl AxisController {
             vff: cfg.vff,
             aff: cfg.aff,
             limit: cfg.output_limit,
+            compensation: None,
             cycle_s,
             cmd1: 0.0,
             cmd2: 0.0,
@@ -73,6 +78,9 @@ impl AxisController {
         match &mut self.feedback {
             Feedback::Pid(p) => p.reset(),
             Feedback::Fuzzy(f) => f.reset(0.0),
+        }
+        if let Some(c) = &mut self.compensation {
+            c.reset(pos_mm);
         }
         self.cmd1 = pos_mm;
         self.cmd2 = pos_mm;
@@ -97,6 +105,12 @@ impl AxisController {
         let mut u = fb + self.vff * vel + self.aff * acc;
         if self.limit > 0.0 {
             u = u.clamp(-self.limit, self.limit);
+        }
+        if let Some(c) = &mut self.compensation {
+            u = c.step(u, measured_mm);
+            if self.limit > 0.0 {
+                u = u.clamp(-self.limit, self.limit);
+            }
         }
         self.cmd2 = self.cmd1;
         self.cmd1 = cmd_mm;

@@ -13,6 +13,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod compensation;
 pub mod config;
 pub mod fuzzy;
 pub mod geom;

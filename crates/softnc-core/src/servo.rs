@@ -36,6 +36,9 @@ pub struct AxisServo {
     /// Standard deviation of position measurement noise (mm), before quantisation.
     #[serde(default)]
     pub noise_mm: f64,
+    /// Disturbance compensation (paper 000 DOB/MBDA and PDC); none by default.
+    #[serde(default)]
+    pub compensation: crate::compensation::Compensation,
 }
 
 impl Default for AxisServo {
@@ -47,6 +50,7 @@ impl Default for AxisServo {
             },
             controller: ControllerConfig::default(),
             noise_mm: 0.0,
+            compensation: Default::default(),
         }
     }
 }

@@ -3,8 +3,21 @@
 
 use crate::backend::{BackendError, ServoBackend, SimBackend, SimOptions, MAX_AXES};
 use crate::plant::CommandMode;
+use softnc_control::compensation::{AxisCompensation, CompensationError};
+use softnc_control::discrete_tf::DiscreteTf;
 use softnc_control::AxisController;
+use softnc_core::servo::PlantModel;
 use softnc_core::MachineProfile;
+
+/// Why an axis's disturbance compensation (paper 000) could not be designed.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("servo.axes[{axis}].compensation: {error}")]
+pub struct CompensationDesignError {
+    /// Axis index.
+    pub axis: usize,
+    /// What failed.
+    pub error: CompensationError,
+}
 
 /// What one cycle produced.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -30,6 +43,10 @@ pub struct CycleEngine<B: ServoBackend> {
 
 impl CycleEngine<SimBackend> {
     /// The simulated machine of `profile` with its controllers, seeded by `seed`.
+    ///
+    /// # Panics
+    /// When the profile's disturbance compensation cannot be designed; see
+    /// [`CycleEngine::try_new`].
     pub fn simulated(profile: &MachineProfile, seed: u64, options: SimOptions) -> Self {
         CycleEngine::new(profile, SimBackend::new(profile, seed, options))
     }
@@ -37,7 +54,84 @@ impl CycleEngine<SimBackend> {
 
 impl<B: ServoBackend> CycleEngine<B> {
     /// The profile's controllers in front of `backend`.
+    ///
+    /// # Panics
+    /// When the profile's disturbance compensation cannot be designed (a PDC that
+    /// fails eq 11–13, an unstable MBDA, …); [`CycleEngine::try_new`] reports it.
     pub fn new(profile: &MachineProfile, backend: B) -> Self {
+        match Self::try_new(profile, backend) {
+            Ok(e) => e,
+            Err(err) => panic!("{err}"),
+        }
+    }
+
+    /// The profile's controllers, with their disturbance compensation designed for
+    /// the profile's spindle speed, in front of `backend`.
+    pub fn try_new(profile: &MachineProfile, backend: B) -> Result<Self, CompensationDesignError> {
+        let mut e = Self::without_compensation(profile, backend);
+        let fd_hz = profile.servo.cutting.as_ref().map(|c| c.frequency_hz());
+        e.design_compensation(profile, fd_hz)?;
+        e.reset([0.0; MAX_AXES]);
+        Ok(e)
+    }
+
+    /// Design (or remove) every axis's compensation from `profile` for tooth
+    /// frequency `fd_hz` (off the real-time path: it allocates). Axes whose profile
+    /// has no compensation get none.
+    pub fn design_compensation(
+        &mut self,
+        profile: &MachineProfile,
+        fd_hz: Option<f64>,
+    ) -> Result<(), CompensationDesignError> {
+        let cycle_s = profile.interpolation_cycle_s;
+        for axis in 0..MAX_AXES {
+            let servo = profile.axis_servo(axis);
+            let cfg = &servo.compensation;
+            let wanted =
+                cfg.pdc.is_some() || cfg.outer != softnc_core::compensation::OuterCompensator::None;
+            if !wanted {
+                self.controllers[axis].compensation = None;
+                continue;
+            }
+            let err = |error| CompensationDesignError { axis, error };
+            let PlantModel::VelocityLoop {
+                num, den, lead_mm, ..
+            } = servo.plant
+            else {
+                return Err(err(CompensationError::Plant));
+            };
+            let p_n = DiscreteTf::new(vec![0.0, num[0], num[1]], vec![1.0, den[0], den[1]])
+                .map_err(|e| err(e.into()))?;
+            let c = AxisCompensation::design(cfg, &p_n, cycle_s, lead_mm, fd_hz).map_err(err)?;
+            self.controllers[axis].compensation = Some(Box::new(c));
+        }
+        Ok(())
+    }
+
+    /// Redesign every axis's PDC for a new tooth frequency (spindle speed or
+    /// override change). The design runs here, between cycles; the new filters are
+    /// swapped in at the start of the next [`CycleEngine::step`].
+    pub fn redesign_pdc(&mut self, fd_hz: f64) -> Result<(), CompensationDesignError> {
+        for (axis, c) in self.controllers.iter_mut().enumerate() {
+            let Some(comp) = c.compensation.as_deref_mut() else {
+                continue;
+            };
+            let Some(designer) = comp.pdc_designer() else {
+                continue;
+            };
+            let d = designer
+                .design(fd_hz)
+                .map_err(|e| CompensationDesignError {
+                    axis,
+                    error: e.into(),
+                })?;
+            comp.stage_pdc(d);
+        }
+        Ok(())
+    }
+
+    /// The profile's controllers without compensation in front of `backend`.
+    fn without_compensation(profile: &MachineProfile, backend: B) -> Self {
         let cycle_s = profile.interpolation_cycle_s;
         let controllers =
             [0, 1, 2].map(|i| AxisController::new(&profile.axis_servo(i).controller, cycle_s));

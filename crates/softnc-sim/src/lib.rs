@@ -41,7 +41,7 @@ pub mod stick_slip;
 pub mod velocity_loop;
 
 pub use backend::{AxisStatus, BackendError, ServoBackend, SimBackend, SimOptions, MAX_AXES};
-pub use engine::{CycleEngine, CycleRecord};
+pub use engine::{CompensationDesignError, CycleEngine, CycleRecord};
 pub use metrics::ErrorStats;
 pub use plant::{CommandMode, Plant};
 pub use rng::Rng;
