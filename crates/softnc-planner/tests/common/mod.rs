@@ -35,6 +35,9 @@ impl Builder {
             kind,
             offset_mm: Vec3::ZERO,
             path_mode: self.mode,
+            inch: false,
+            canon_end: kind.end().unwrap_or(self.pos),
+            canon_center: Vec3::ZERO,
         });
         if let Some(e) = kind.end() {
             self.pos = e;
