@@ -4,6 +4,7 @@ mod cmd_demo;
 mod cmd_design;
 mod cmd_operator;
 mod cmd_plan;
+mod cmd_sim;
 mod cmd_watch;
 
 use anyhow::Result;
@@ -26,6 +27,9 @@ struct Cli {
 enum Command {
     /// Validate and plan a G-code program without moving anything.
     Plan(cmd_plan::PlanArgs),
+    /// Run a program on the simulated machine: planner, controller stacks and plant
+    /// in one process; accuracy figures, trace and plot.
+    Sim(cmd_sim::SimArgs),
     /// Terminal UI: axes, errors, progress, alarms, jitter, live plot.
     Watch,
     /// Start softncd on the simulated machine, run the demo job, print the report.
@@ -57,6 +61,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result: Result<ExitCode> = match cli.command {
         Command::Plan(args) => cmd_plan::run(args),
+        Command::Sim(args) => cmd_sim::run(args),
         Command::Operator(cmd) => cmd_operator::run(cmd, &cli.config),
         Command::Demo(args) => cmd_demo::run(args, &cli.config),
         Command::Design(args) => cmd_design::run(args),
