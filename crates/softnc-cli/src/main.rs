@@ -4,8 +4,10 @@ mod cmd_demo;
 mod cmd_design;
 mod cmd_operator;
 mod cmd_plan;
+mod cmd_reproduce;
 mod cmd_sim;
 mod cmd_watch;
+mod reproduce;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -36,6 +38,8 @@ enum Command {
     Demo(cmd_demo::DemoArgs),
     /// Design a compensator off-line (PDC of paper 000) and print its figures.
     Design(cmd_design::DesignArgs),
+    /// Rerun a paper's experiment on the simulated machine, beside the paper's figures.
+    Reproduce(cmd_reproduce::ReproduceArgs),
     #[command(flatten)]
     Operator(cmd_operator::OperatorCmd),
 }
@@ -65,6 +69,7 @@ fn main() -> ExitCode {
         Command::Operator(cmd) => cmd_operator::run(cmd, &cli.config),
         Command::Demo(args) => cmd_demo::run(args, &cli.config),
         Command::Design(args) => cmd_design::run(args),
+        Command::Reproduce(args) => cmd_reproduce::run(args),
         Command::Watch => cmd_watch::run(&cli.config),
     };
     match result {

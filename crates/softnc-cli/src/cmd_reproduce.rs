@@ -1,0 +1,46 @@
+//! `softnc reproduce EXPERIMENT`: rerun a paper's experiment on the simulated machine
+//! and print our figures beside the paper's. Each experiment lives in its own module
+//! under `reproduce/`.
+
+use anyhow::Result;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Arguments of `softnc reproduce`.
+#[derive(clap::Args)]
+pub struct ReproduceArgs {
+    /// The experiment: `001-table5` (paper 001, PID vs fuzzy-logic control).
+    pub experiment: String,
+    /// Print one JSON document instead of the text table.
+    #[arg(long)]
+    pub json: bool,
+    /// Number of seeds (1..=N), the same for every controller.
+    #[arg(long, default_value_t = 5)]
+    pub seeds: u64,
+    /// Machine profile (default: the experiment's, e.g. config/machines/mill-friction.ron).
+    #[arg(long)]
+    pub machine: Option<PathBuf>,
+    /// Fuzzy rule base and membership table (001; default config/fuzzy/paper001.ron).
+    #[arg(long)]
+    pub fuzzy: Option<PathBuf>,
+    /// Write the experiment's plots (SVG) into this directory.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
+}
+
+/// The experiments this command knows.
+pub const EXPERIMENTS: &[&str] = &["001-table5"];
+
+/// Run the named experiment.
+pub fn run(args: ReproduceArgs) -> Result<ExitCode> {
+    match args.experiment.as_str() {
+        "001-table5" => crate::reproduce::p001::main(&args),
+        other => {
+            eprintln!(
+                "softnc: unknown experiment `{other}`; known: {}",
+                EXPERIMENTS.join(", ")
+            );
+            Ok(ExitCode::from(crate::EXIT_REFUSED))
+        }
+    }
+}

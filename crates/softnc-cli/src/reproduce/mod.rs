@@ -1,0 +1,3 @@
+//! `softnc reproduce`: the papers' experiments, one module per experiment.
+
+pub mod p001;
