@@ -413,3 +413,60 @@ fn draw_plot(path: &Path, pts: &[PlotPoint], title: &str) -> Result<()> {
     root.present().map_err(|e| plot_err(&e))?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ws(rel: &str) -> PathBuf {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../..")
+            .join(rel)
+    }
+
+    fn args(file: &str, machine: &str, trace: Option<PathBuf>, seed: u64) -> SimArgs {
+        SimArgs {
+            file: ws(file),
+            machine: Some(ws(machine)),
+            json: true,
+            trace,
+            plot: None,
+            seed: Some(seed),
+        }
+    }
+
+    #[test]
+    fn one_seed_gives_a_byte_identical_trace_file() {
+        let dir = std::env::temp_dir().join(format!("softnc-sim-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let prog = "crates/softnc-sim/tests/data/circle-r20-f400.ngc";
+        let mach = "config/machines/mill-friction.ron";
+        let mut files = Vec::new();
+        for (i, seed) in [3, 3, 4].into_iter().enumerate() {
+            let out = dir.join(format!("t{i}.csv"));
+            let code = run(args(prog, mach, Some(out.clone()), seed)).unwrap();
+            assert_eq!(format!("{code:?}"), format!("{:?}", ExitCode::SUCCESS));
+            files.push(std::fs::read(&out).unwrap());
+        }
+        assert!(files[0] == files[1], "same seed, different trace");
+        assert!(files[0] != files[2], "different seeds, same trace");
+        let text = String::from_utf8(files[0].clone()).unwrap();
+        assert!(text.starts_with("time_s,cmd_x_mm,"), "{}", &text[..40]);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn a_bad_program_is_refused_with_status_2() {
+        let code = run(args(
+            "crates/softnc-sim/tests/data/bad.ngc",
+            "config/machines/mill-friction.ron",
+            None,
+            1,
+        ))
+        .unwrap();
+        assert_eq!(
+            format!("{code:?}"),
+            format!("{:?}", ExitCode::from(crate::EXIT_REFUSED))
+        );
+    }
+}
