@@ -1,36 +1,69 @@
-//! The modal interpreter: blocks of words → canonical motions, with LinuxCNC's
-//! modal-group rules, execution order within a block and errors.
+//! The modal interpreter: lines of words → canonical motions, following LinuxCNC 2.9's
+//! `rs274ngc` (`read_items`, `enhance_block`, `check_items`, `execute_block`): the same
+//! modal groups, the same checks in the same order, the same execution order within a
+//! block, the same arc geometry and tolerances, and its error messages.
+//!
+//! Positions are kept as LinuxCNC keeps them: in the program's units (inch after G20)
+//! and in the active work coordinate system with the tool length offset applied, so
+//! that the canonical output rounds exactly as `rs274` prints it. Motions carry them
+//! converted to mm.
 
 use crate::canon::{Motion, MotionKind, PathMode, Program};
 use crate::error::{ErrorKind, GcodeError};
-use crate::lexer::{lex_line, Line, Word};
+use crate::lexer::{bad_character, column, lex_line, significant, Line, Word};
 use softnc_core::{MachineProfile, Plane, Vec3};
+use std::f64::consts::{FRAC_PI_2, PI, SQRT_2};
 
 const MM_PER_INCH: f64 = 25.4;
-/// R-format arcs: how far the radius may fall short of half the chord (LinuxCNC's
-/// RADIUS_TOLERANCE_INCH 0.00005 in; the mm value is its conversion).
+/// R-format arcs: how far the radius may fall short of half the chord, and the
+/// smallest radius of a centre-format arc (LinuxCNC `RADIUS_TOLERANCE_INCH`, and its
+/// mm conversion).
 const RADIUS_TOLERANCE_INCH: f64 = 0.00005;
-/// Centre-format arcs: end radius may differ from start radius by this much (in the
-/// program's units) when the relative difference exceeds `SPIRAL_RELATIVE_TOLERANCE`.
-const CENTER_ARC_RADIUS_TOLERANCE_INCH: f64 = 2.0 * 0.001 * std::f64::consts::SQRT_2;
-const CENTER_ARC_RADIUS_TOLERANCE_MM: f64 = 2.0 * 0.01 * std::f64::consts::SQRT_2;
+const RADIUS_TOLERANCE_MM: f64 = RADIUS_TOLERANCE_INCH * MM_PER_INCH;
+/// Centre-format arcs: the radius at the end may differ from the radius at the start
+/// by this much absolutely (program units) when the relative difference exceeds
+/// `SPIRAL_RELATIVE_TOLERANCE`, and never by 100 times this much.
+const CENTER_ARC_RADIUS_TOLERANCE_INCH: f64 = 2.0 * 0.001 * SQRT_2;
+const CENTER_ARC_RADIUS_TOLERANCE_MM: f64 = 2.0 * 0.01 * SQRT_2;
 const SPIRAL_RELATIVE_TOLERANCE: f64 = 0.001;
+/// R-format arcs: chord/diameter ratios above 1 - TINY are taken as a semicircle.
+const TINY: f64 = 1e-12;
 /// At most this many M codes on a line.
-const MAX_M_CODES: usize = 4;
-/// Work coordinate systems G54..G59.3.
-const COORD_SYSTEMS: usize = 9;
+const MAX_EMS: usize = 4;
+/// LinuxCNC reads lines into a 255-byte buffer: a line of 254 bytes or more (with its
+/// newline) is "too long".
+const LINELEN: usize = 255;
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum MotionMode {
-    Rapid,
-    Linear,
-    ArcCw,
-    ArcCcw,
-}
+// modal groups (LinuxCNC's GM_* indices)
+const GM_MODAL_0: usize = 0;
+const GM_MOTION: usize = 1;
+const GM_PLANE: usize = 2;
+const GM_DISTANCE: usize = 3;
+const GM_IJK_DISTANCE: usize = 4;
+const GM_FEED_MODE: usize = 5;
+const GM_UNITS: usize = 6;
+const GM_TOOL_LENGTH: usize = 8;
+const GM_COORD: usize = 12;
+const GM_CONTROL: usize = 13;
+const G_GROUPS: usize = 17;
+const M_GROUPS: usize = 11;
 
-/// Modal groups of G codes (LinuxCNC numbering).
-fn g_group(code: i32) -> Option<u8> {
+// G codes × 10
+const G_0: i32 = 0;
+const G_1: i32 = 10;
+const G_2: i32 = 20;
+const G_3: i32 = 30;
+const G_4: i32 = 40;
+const G_53: i32 = 530;
+const G_80: i32 = 800;
+const G_90: i32 = 900;
+const G_91: i32 = 910;
+
+/// Modal groups of G codes (code × 10), as LinuxCNC 2.9's interpreter assigns them;
+/// `None` is a code it does not know ("Unknown g code used").
+fn g_group(code: i32) -> Option<usize> {
     Some(match code {
+        40 | 53 | 100 | 280 | 281 | 300 | 301 | 520 | 530 | 920 => 0,
         0
         | 10
         | 20
@@ -38,18 +71,25 @@ fn g_group(code: i32) -> Option<u8> {
         | 50
         | 51
         | 52
-        | 53
         | 330
         | 331
         | 382..=385
-        | 710
-        | 711
-        | 720
-        | 721
+        | 700
+        | 710..=712
+        | 720..=722
         | 730
         | 740
         | 760
-        | 800..=890 => 1,
+        | 800
+        | 810
+        | 820
+        | 830
+        | 840
+        | 850
+        | 860
+        | 870
+        | 880
+        | 890 => 1,
         170 | 171 | 180 | 181 | 190 | 191 => 2,
         900 | 910 => 3,
         901 | 911 => 4,
@@ -62,100 +102,206 @@ fn g_group(code: i32) -> Option<u8> {
         610 | 611 | 640 => 13,
         960 | 970 => 14,
         70 | 80 => 15,
-        40 | 90 | 100 | 280 | 281 | 300 | 301 | 530 | 920 | 921 | 922 | 923 => 0,
+        921..=923 => 16,
         _ => return None,
     })
 }
 
-/// Modal groups of M codes.
-fn m_group(code: i32) -> Option<u8> {
+/// Modal groups of M codes, as LinuxCNC 2.9 assigns them (M100..M199 are user codes).
+fn m_group(code: i32) -> Option<usize> {
     Some(match code {
-        0 | 1 | 2 | 30 | 60 => 4,
-        6 | 61 => 6,
-        3 | 4 | 5 | 19 => 7,
-        7 | 8 | 9 => 8,
-        48 | 49 | 50 | 51 | 52 | 53 => 9,
+        0 | 1 | 2 | 30 | 60 | 99 => 4,
         62..=68 => 5,
-        70..=73 => 11,
-        98 | 99 => 12,
+        6 | 61 => 6,
+        3 | 4 | 5 | 19 | 70..=73 => 7,
+        7 | 8 | 9 => 8,
+        48..=53 => 9,
+        100..=199 => 10,
         _ => return None,
     })
 }
 
-fn fmt_code(letter: char, code: i32) -> String {
-    if code % 10 == 0 {
-        format!("{letter}{}", code / 10)
+/// Why softnc refuses a G code LinuxCNC knows (`None`: supported).
+fn g_unsupported(code: i32) -> Option<&'static str> {
+    Some(match code {
+        0
+        | 10
+        | 20
+        | 30
+        | 40
+        | 80
+        | 170
+        | 180
+        | 190
+        | 200
+        | 210
+        | 400
+        | 430
+        | 490
+        | 530
+        | 540
+        | 550
+        | 560
+        | 570
+        | 580
+        | 590..=593
+        | 610
+        | 611
+        | 640
+        | 800
+        | 900
+        | 910
+        | 901
+        | 911
+        | 930
+        | 940
+        | 970
+        | 980
+        | 990 => return None,
+        50..=53 => "splines (G5, G5.1, G5.2, G5.3) are not supported yet",
+        70 => "lathe diameter mode (G7) is not supported",
+        100 => "G10 (setting tool and offset tables) is not supported yet",
+        171 | 181 | 191 => "the UVW planes are not supported",
+        280 | 281 | 300 | 301 => "G28/G30 reference returns are not supported yet",
+        330 | 331 => "spindle-synchronised motion (G33) is not supported",
+        382..=385 => "probing (G38.x) is not supported",
+        410 | 411 | 420 | 421 => "cutter radius compensation is not supported yet",
+        431 | 432 => "dynamic tool length offsets (G43.1, G43.2) are not supported yet",
+        520 | 920..=923 => "G52/G92 offsets are not supported yet",
+        700..=760 | 810..=890 => "canned cycles are not supported yet",
+        950 => "feed per revolution (G95) is not supported",
+        960 => "constant surface speed (G96) is not supported",
+        _ => "this G code is not supported",
+    })
+}
+
+/// Why softnc refuses an M code LinuxCNC knows (`None`: supported).
+fn m_unsupported(code: i32) -> Option<&'static str> {
+    Some(match code {
+        0..=9 | 30 | 61 => return None,
+        19 => "spindle orientation (M19) is not supported",
+        48..=53 => "override switches (M48-M53) are not supported yet",
+        60 => "pallet change (M60) is not supported",
+        62..=68 => "digital and analog I/O (M62-M68) are not supported",
+        70..=73 => "saving and restoring modal state (M70-M73) is not supported yet",
+        99 => "M99 is not supported",
+        100..=199 => "user M codes (M100-M199) are not supported",
+        _ => "this M code is not supported",
+    })
+}
+
+fn fmt_code(letter: char, code10: i32) -> String {
+    if code10 % 10 == 0 {
+        format!("{letter}{}", code10 / 10)
     } else {
-        format!("{letter}{}.{}", code / 10, code % 10)
+        format!("{letter}{}.{}", code10 / 10, code10 % 10)
     }
 }
 
-/// One block's words sorted out.
-#[derive(Default)]
+/// LinuxCNC's `round_to_int`.
+fn round_to_int(x: f64) -> i32 {
+    (x + 0.5).floor() as i32
+}
+
+/// One block's words sorted out (LinuxCNC's `block`).
 struct Block {
-    g: [Option<(i32, u32)>; 16],
-    m: [Option<(i32, u32)>; 13],
+    g: [Option<(i32, u32)>; G_GROUPS],
+    m: [Option<(i32, u32)>; M_GROUPS],
     m_count: usize,
-    /// value and column per letter A..Z
+    /// Value and offset per letter A..Z (P and Q: the last one read).
     val: [Option<(f64, u32)>; 26],
+    /// LinuxCNC keeps P and Q as numbers with -1 meaning "none".
+    p_number: f64,
+    q_number: f64,
+    motion_to_be: Option<i32>,
+}
+
+impl Default for Block {
+    fn default() -> Self {
+        Block {
+            g: [None; G_GROUPS],
+            m: [None; M_GROUPS],
+            m_count: 0,
+            val: [None; 26],
+            p_number: -1.0,
+            q_number: -1.0,
+            motion_to_be: None,
+        }
+    }
 }
 
 impl Block {
     fn get(&self, l: u8) -> Option<f64> {
         self.val[(l - b'A') as usize].map(|v| v.0)
     }
-    fn col(&self, l: u8) -> u32 {
-        self.val[(l - b'A') as usize].map_or(1, |v| v.1)
+    fn off(&self, l: u8) -> u32 {
+        self.val[(l - b'A') as usize].map_or(0, |v| v.1)
     }
     fn has(&self, l: u8) -> bool {
         self.val[(l - b'A') as usize].is_some()
     }
-    fn g_in(&self, group: u8) -> Option<i32> {
-        self.g[group as usize].map(|x| x.0)
+    fn g_in(&self, group: usize) -> Option<i32> {
+        self.g[group].map(|x| x.0)
     }
-    fn m_in(&self, group: u8) -> Option<i32> {
-        self.m[group as usize].map(|x| x.0)
+    fn g_off(&self, group: usize) -> u32 {
+        self.g[group].map_or(0, |x| x.1)
+    }
+    fn m_in(&self, group: usize) -> Option<i32> {
+        self.m[group].map(|x| x.0)
+    }
+    /// Offset of the first axis word (for messages).
+    fn axis_off(&self) -> u32 {
+        [b'X', b'Y', b'Z']
+            .iter()
+            .filter(|l| self.has(**l))
+            .map(|l| self.off(*l))
+            .min()
+            .unwrap_or(0)
     }
 }
 
 /// The interpreter's modal state.
 struct Interp<'a> {
-    file: &'a str,
     profile: &'a MachineProfile,
     inch: bool,
     absolute: bool,
     ijk_absolute: bool,
     plane: Plane,
     inverse_time: bool,
-    feed_raw: f64,
-    motion: Option<MotionMode>,
-    /// Current point, canonical frame, in the program's units (as LinuxCNC keeps it,
-    /// so that canonical output rounds exactly as rs274 prints it).
+    /// Feed rate in the program's units per minute (LinuxCNC's `feed_rate`).
+    feed: f64,
+    /// Motion mode (G code × 10); `None` for none or G80.
+    motion: Option<i32>,
+    /// Current point, canonical frame, program units.
     pos: Vec3,
-    /// The point as the canonical interface last saw it (motion ends and origin
-    /// changes, not tool-length changes): after a tool change LinuxCNC re-reads its
+    /// The point as the canonical interface last saw it (motion ends, unit and origin
+    /// changes, not tool length changes): after a tool change `rs274` re-reads its
     /// position from there.
     canon_pos: Vec3,
     /// A tool change happened: re-read the position before the next block.
     sync_pending: bool,
+    /// Work coordinate system 0 = G54 … 8 = G59.3.
     coord: usize,
+    /// Active tool length offset (mm).
     tool_length_mm: f64,
+    /// Tool selected by T, tool in the spindle after M6, and its length (mm).
     tool_selected: u32,
-    tool_loaded: u32,
+    spindle_length_mm: f64,
     path: PathMode,
     motions: Vec<Motion>,
     warnings: Vec<String>,
+    file: &'a str,
 }
 
 type R<T> = Result<T, (u32, ErrorKind)>;
 
-fn bad<T>(col: u32, msg: impl Into<String>) -> R<T> {
-    Err((col, ErrorKind::Invalid(msg.into())))
+fn bad<T>(off: u32, msg: impl Into<String>) -> R<T> {
+    Err((off, ErrorKind::Invalid(msg.into())))
 }
 
-fn unsup<T>(col: u32, word: String, why: &str) -> R<T> {
+fn unsup<T>(off: u32, word: String, why: &str) -> R<T> {
     Err((
-        col,
+        off,
         ErrorKind::Unsupported {
             word,
             why: why.into(),
@@ -166,14 +312,13 @@ fn unsup<T>(col: u32, word: String, why: &str) -> R<T> {
 impl<'a> Interp<'a> {
     fn new(file: &'a str, profile: &'a MachineProfile) -> Self {
         Interp {
-            file,
             profile,
             inch: false,
             absolute: true,
             ijk_absolute: false,
             plane: Plane::XY,
             inverse_time: false,
-            feed_raw: 0.0,
+            feed: 0.0,
             motion: None,
             pos: Vec3::ZERO,
             canon_pos: Vec3::ZERO,
@@ -181,13 +326,15 @@ impl<'a> Interp<'a> {
             coord: 0,
             tool_length_mm: 0.0,
             tool_selected: 0,
-            tool_loaded: 0,
-            path: PathMode::Blend { tolerance_mm: None },
+            spindle_length_mm: 0.0,
+            path: PathMode::default(),
             motions: Vec::new(),
             warnings: Vec::new(),
+            file,
         }
     }
 
+    /// mm per program unit.
     fn scale(&self) -> f64 {
         if self.inch {
             MM_PER_INCH
@@ -197,261 +344,376 @@ impl<'a> Interp<'a> {
     }
 
     fn work_offset(&self, index: usize) -> Vec3 {
-        if index < 6 {
-            Vec3(self.profile.work_offset_mm(index))
-        } else {
-            Vec3::ZERO
-        }
+        Vec3(self.profile.work_offset_mm(index))
     }
 
-    /// Canonical frame → machine coordinates.
+    /// Canonical frame → machine coordinates (mm).
     fn offset(&self) -> Vec3 {
         let mut o = self.work_offset(self.coord);
         o[2] += self.tool_length_mm;
         o
     }
 
-    fn sort(&self, line: &Line) -> R<Block> {
+    /// A tool's length (mm) as LinuxCNC's `find_tool_index` finds it: tool 0 is the
+    /// tool in the spindle.
+    fn tool_length(&self, tool: i32, off: u32) -> R<f64> {
+        if tool == 0 {
+            return Ok(self.spindle_length_mm);
+        }
+        match u32::try_from(tool)
+            .ok()
+            .and_then(|t| self.profile.tool_length_mm(t))
+        {
+            Some(l) => Ok(l),
+            None => bad(
+                off,
+                format!("Requested tool {tool} not found in the tool table"),
+            ),
+        }
+    }
+
+    /// `read_items`: the words of a line into a block, with LinuxCNC's reading
+    /// errors, in the order of the words; codes and axes softnc does not implement are
+    /// refused where they stand.
+    fn sort(&self, words: &[Word]) -> R<Block> {
         let mut b = Block::default();
-        for w in &line.words {
+        for w in words {
             let Word {
                 letter,
                 value,
-                column,
+                offset,
             } = *w;
             match letter {
                 b'G' => {
-                    let code10 = value * 10.0;
-                    let code = code10.round();
-                    if (code10 - code).abs() > 1e-6 || code < 0.0 {
-                        return bad(column, "Unknown g code used");
+                    let v10 = value * 10.0;
+                    let mut code = v10.floor();
+                    if v10 - code > 0.999 {
+                        code = v10.ceil();
+                    } else if v10 - code > 0.001 {
+                        return bad(offset, "G-code out of range");
+                    }
+                    if code > 999.0 {
+                        return bad(offset, "G-code out of range");
+                    }
+                    if code < 0.0 {
+                        return bad(offset, "Negative g code used");
                     }
                     let code = code as i32;
                     let Some(group) = g_group(code) else {
-                        if code == 90 {
-                            unreachable!()
-                        }
-                        return bad(column, "Unknown g code used");
+                        return bad(offset, "Unknown g code used");
                     };
-                    if let Some((prev, _)) = b.g[group as usize] {
-                        // LinuxCNC lets G80 stand beside a motion code (the motion wins)
-                        if group == 1 && (prev == 800 || code == 800) {
-                            if code != 800 {
-                                b.g[1] = Some((code, column));
-                            }
-                            continue;
-                        }
-                        return bad(column, "Two g codes used from same modal group");
+                    if let Some(why) = g_unsupported(code) {
+                        return unsup(offset, fmt_code('G', code), why);
                     }
-                    b.g[group as usize] = Some((code, column));
+                    if code == G_80 && b.g[group].is_some() {
+                        // G80 beside another motion code: the other one counts
+                    } else if b.g[group].map(|g| g.0) == Some(G_80) {
+                        b.g[group] = Some((code, offset));
+                    } else if b.g[group].is_some() {
+                        return bad(offset, "Two g codes used from same modal group");
+                    } else {
+                        b.g[group] = Some((code, offset));
+                    }
                 }
                 b'M' => {
-                    let code = value.round();
-                    if (value - code).abs() > 1e-6 || code < 0.0 {
-                        return bad(column, "Unknown m code used");
+                    let code = integer(value, offset)?;
+                    if code < 0 {
+                        return bad(offset, "Negative m code used");
                     }
-                    let code = code as i32;
+                    if code > 199 {
+                        return bad(offset, format!("M-code greater than 199: M{code}"));
+                    }
                     let Some(group) = m_group(code) else {
-                        if (100..=199).contains(&code) {
-                            return unsup(
-                                column,
-                                fmt_code('M', code * 10),
-                                "user M codes are not supported",
-                            );
-                        }
-                        return bad(column, "Unknown m code used");
+                        return bad(offset, format!("Unknown m code used: M{code}"));
                     };
-                    if b.m[group as usize].is_some() {
-                        return bad(column, "Two m codes used from same modal group");
+                    if b.m[group].is_some() {
+                        return bad(offset, "Two m codes used from same modal group");
                     }
+                    if let Some(why) = m_unsupported(code) {
+                        return unsup(offset, format!("M{code}"), why);
+                    }
+                    b.m[group] = Some((code, offset));
                     b.m_count += 1;
-                    if b.m_count > MAX_M_CODES {
-                        return bad(column, "Too many m codes on line");
-                    }
-                    b.m[group as usize] = Some((code, column));
                 }
-                _ => {
-                    let slot = &mut b.val[(letter - b'A') as usize];
-                    if slot.is_some() {
+                b'A' | b'B' | b'C' | b'U' | b'V' | b'W' => {
+                    return unsup(
+                        offset,
+                        format!("{}", letter as char),
+                        "axes other than X, Y and Z are not supported",
+                    );
+                }
+                b'P' | b'Q' => {
+                    let number = if letter == b'P' {
+                        &mut b.p_number
+                    } else {
+                        &mut b.q_number
+                    };
+                    if *number > -1.0 {
                         return bad(
-                            column,
+                            offset,
                             format!(
                                 "Multiple {} words on one line",
                                 (letter as char).to_ascii_lowercase()
                             ),
                         );
                     }
-                    *slot = Some((value, column));
+                    *number = value;
+                    b.val[(letter - b'A') as usize] = Some((value, offset));
+                }
+                _ => {
+                    let slot = (letter - b'A') as usize;
+                    if b.val[slot].is_some() {
+                        return bad(
+                            offset,
+                            format!(
+                                "Multiple {} words on one line",
+                                (letter as char).to_ascii_lowercase()
+                            ),
+                        );
+                    }
+                    let value = match letter {
+                        b'F' if value < 0.0 => return bad(offset, "Negative f word used"),
+                        b'S' if value < 0.0 => return bad(offset, "Negative spindle speed used"),
+                        b'H' => {
+                            let v = integer(value, offset)?;
+                            if v < -1 {
+                                return bad(offset, "Negative h word used");
+                            }
+                            f64::from(v)
+                        }
+                        b'L' => {
+                            let v = integer(value, offset)?;
+                            if v < 0 {
+                                return bad(offset, "Negative l word used");
+                            }
+                            f64::from(v)
+                        }
+                        b'T' => {
+                            let v = integer(value, offset)?;
+                            if v < 0 {
+                                return bad(offset, "Negative tool id (tool not found)");
+                            }
+                            f64::from(v)
+                        }
+                        _ => value,
+                    };
+                    b.val[slot] = Some((value, offset));
                 }
             }
         }
         Ok(b)
     }
 
-    /// Refuse what softnc does not implement yet, naming the first such word.
-    fn refuse_unsupported(&self, line: &Line) -> R<()> {
-        for w in &line.words {
-            let col = w.column;
-            match w.letter {
-                b'A' | b'B' | b'C' | b'U' | b'V' | b'W' => {
-                    return unsup(
-                        col,
-                        format!("{}", w.letter as char),
-                        "axes other than X, Y, Z are not supported",
-                    )
-                }
-                b'G' => {
-                    let code = (w.value * 10.0).round() as i32;
-                    let why = match code {
-                        50..=53 => Some("splines (G5.x) are not supported yet"),
-                        70 => Some("lathe diameter mode G7 is not supported"),
-                        100 => Some("G10 (setting tables and offsets) is not supported yet"),
-                        171 | 181 | 191 => Some("UVW planes are not supported"),
-                        280 | 281 | 300 | 301 => {
-                            Some("G28/G30 reference returns are not supported yet")
-                        }
-                        330 | 331 => Some("spindle-synchronised motion is not supported"),
-                        382..=385 => Some("probing (G38.x) is not supported"),
-                        410 | 411 | 420 | 421 => {
-                            Some("cutter radius compensation is not supported yet")
-                        }
-                        431 | 432 => Some("dynamic tool length offsets are not supported yet"),
-                        710 | 711 | 720 | 721 | 730 | 740 | 760 | 810..=890 => {
-                            Some("canned cycles are not supported yet")
-                        }
-                        920..=923 => Some("G92 offsets are not supported yet"),
-                        950 => Some("feed per revolution G95 is not supported"),
-                        960 => Some("constant surface speed G96 is not supported"),
-                        _ => None,
-                    };
-                    if let Some(why) = why {
-                        return unsup(col, fmt_code('G', code), why);
-                    }
-                }
-                b'M' => {
-                    let code = w.value.round() as i32;
-                    let why = match code {
-                        66 | 67 | 68 => Some("M66-M68 I/O are not supported"),
-                        70..=73 => Some("modal state save/restore (M70-M73) is not supported yet"),
-                        98 | 99 => Some("M98/M99 subprograms are not supported yet"),
-                        _ => None,
-                    };
-                    if let Some(why) = why {
-                        return unsup(col, fmt_code('M', code * 10), why);
-                    }
-                }
-                _ => {}
+    /// `enhance_block` and `check_items`.
+    fn check(&self, b: &mut Block) -> R<()> {
+        let axis = b.has(b'X') || b.has(b'Y') || b.has(b'Z');
+        let ijk = b.has(b'I') || b.has(b'J') || b.has(b'K');
+        let mode0 = b.g_in(GM_MODAL_0);
+        if let Some(mode1) = b.g_in(GM_MOTION) {
+            if mode1 == G_80 && axis {
+                return bad(b.axis_off(), "Cannot use axis values with g80");
             }
+            b.motion_to_be = Some(mode1);
+        } else if axis {
+            let Some(m) = self.motion else {
+                return bad(
+                    b.axis_off(),
+                    "Cannot use axis values without a g code that uses them",
+                );
+            };
+            b.motion_to_be = Some(m);
+        } else if ijk && matches!(self.motion, Some(G_2 | G_3)) {
+            b.motion_to_be = self.motion;
+        }
+        let motion = b.motion_to_be;
+        let arc = matches!(motion, Some(G_2 | G_3));
+        // check_g_codes
+        if mode0 == Some(G_4) {
+            if b.p_number == -1.0 {
+                return bad(b.g_off(GM_MODAL_0), "Dwell time missing with g4");
+            }
+            if matches!(b.g_in(GM_MOTION), Some(G_2 | G_3)) {
+                return bad(
+                    b.g_off(GM_MODAL_0),
+                    "G4 not allowed with G2 or G3 because they both use P",
+                );
+            }
+        } else if mode0 == Some(G_53) {
+            if !matches!(motion, Some(G_0 | G_1)) {
+                return bad(b.g_off(GM_MODAL_0), "Must use g0 or g1 with g53");
+            }
+            let d = b.g_in(GM_DISTANCE);
+            if d == Some(G_91) || (d != Some(G_90) && !self.absolute) {
+                return bad(b.g_off(GM_MODAL_0), "Cannot use g53 incremental");
+            }
+        }
+        // check_m_codes
+        if b.m_count > MAX_EMS {
+            return bad(
+                b.m.iter().flatten().map(|m| m.1).max().unwrap_or(0),
+                "Too many m codes on line",
+            );
+        }
+        // check_other_codes (what the supported codes could use)
+        if b.has(b'D') {
+            return bad(
+                b.off(b'D'),
+                "D word with no G41, G41.1, G42, G42.1, G71, G71.1, G71.2 or G96 to use it",
+            );
+        }
+        if b.has(b'E') {
+            return bad(
+                b.off(b'E'),
+                "E word with no G70, G76, M66, M67 or M68 to use it",
+            );
+        }
+        if b.has(b'H') && b.g_in(GM_TOOL_LENGTH) != Some(430) {
+            return bad(b.off(b'H'), "H word with no G43 or G76 to use it");
+        }
+        if b.has(b'I') && !arc {
+            return bad(
+                b.off(b'I'),
+                "I word with no G2, G3, G5, G5.1, G10, G33.1, G76, or G87 to use it",
+            );
+        }
+        if b.has(b'J') && !arc {
+            return bad(
+                b.off(b'J'),
+                "J word with no G2, G3, G5, G5.1, G10, G76 or G87 to use it",
+            );
+        }
+        if b.has(b'K') && !arc {
+            return bad(
+                b.off(b'K'),
+                "K word with no G2, G3, G33, G33.1, G76, or G87 to use it",
+            );
+        }
+        if b.has(b'L') {
+            return bad(
+                b.off(b'L'),
+                "L word with no G10, cutter compensation, canned cycle, digital/analog input, M98 or NURBS code",
+            );
+        }
+        if b.has(b'P') {
+            if mode0 != Some(G_4) && b.g_in(GM_CONTROL) != Some(640) && !arc {
+                return bad(
+                    b.off(b'P'),
+                    "P word with no G2 G3 G4 G10 G64 G5 G5.2 G76 G82 G86 G88 G89 or M50 M51 M52 M53 M62 M63 M64 M65 M66 M98 or user M code to use it",
+                );
+            }
+            if arc {
+                let p = b.p_number;
+                if (f64::from(round_to_int(p)) - p).abs() > 0.001 {
+                    return bad(b.off(b'P'), "P value not an integer with M19 G2 or G3");
+                }
+                if round_to_int(p) < 1 {
+                    return bad(b.off(b'P'), "P value should be 1 or greater with G2 or G3");
+                }
+            }
+        }
+        if b.q_number != -1.0 && b.g_in(GM_CONTROL) != Some(640) && b.m_in(6) != Some(61) {
+            return bad(
+                b.off(b'Q'),
+                "Q word with no G5, G10, G64, G73, G76, G83, M19, M66, M67, M68 or user M code that uses it",
+            );
+        }
+        if b.has(b'R') && !arc {
+            return bad(b.off(b'R'), "R word with no g code that uses it");
         }
         Ok(())
     }
 
-    fn block(&mut self, line_no: u32, b: &Block) -> R<bool> {
+    /// The last comment of the block (`convert_comment`).
+    fn comment(&mut self, raw: &str, line: &Line, line_no: u32) -> R<()> {
+        let Some((s, e)) = line.comment else {
+            return Ok(());
+        };
+        let off = line.comment_offset;
+        let text = raw.get(s as usize..e as usize).unwrap_or("").trim_start();
+        let lower = |n: usize| {
+            text.get(..n.min(text.len()))
+                .unwrap_or("")
+                .to_ascii_lowercase()
+        };
+        for tag in ["py,", "pyrun,", "pyreload"] {
+            if lower(tag.len()) == tag {
+                return unsup(off, format!("({tag}"), "embedded Python is not supported");
+            }
+        }
+        // (DEBUG,), (PRINT,), (LOG,) only print (parameters in them are not
+        // substituted); (ABORT,) stops the program with its text
+        if lower(6) == "abort," {
+            return bad(off, format!("Program aborted: {}", &text[6..]));
+        }
+        if lower(4) == "msg," {
+            self.warnings
+                .push(format!("{}:{line_no}: message: {}", self.file, &text[4..]));
+        }
+        Ok(())
+    }
+
+    /// `execute_block` for one checked block; `Ok(true)` at program end.
+    fn execute(&mut self, line_no: u32, b: &Block) -> R<bool> {
         if self.sync_pending {
+            // rs274 re-reads its position from the canonical interface after a tool change
             self.pos = self.canon_pos;
             self.sync_pending = false;
         }
-        let s = self.scale();
-        // which words the block's codes use (LinuxCNC check_other_codes)
-        let motion_code = b.g_in(1);
-        let nonmodal = b.g_in(0);
-        let arc_block = matches!(motion_code, Some(20) | Some(30))
-            || (motion_code.is_none()
-                && matches!(self.motion, Some(MotionMode::ArcCw | MotionMode::ArcCcw))
-                && ["X", "Y", "Z"].iter().any(|l| b.has(l.as_bytes()[0])));
-        let m_uses_p = matches!(b.m_in(9), Some(50..=53)) || b.m_in(5).is_some();
-        if b.has(b'P')
-            && !(arc_block
-                || matches!(nonmodal, Some(40))
-                || matches!(b.g_in(13), Some(640))
-                || m_uses_p)
-        {
-            return bad(b.col(b'P'), "P word with no G2 G3 G4 G10 G64 G5 G5.2 G76 G82 G86 G88 G89 or M50 M51 M52 M53 M62 M63 M64 M65 M66 M98 or user M code to use it");
-        }
-        if b.has(b'Q') && !matches!(b.g_in(13), Some(640)) && b.m_in(6) != Some(61) {
-            return bad(b.col(b'Q'), "Q word with no g code that uses it");
-        }
-        if b.has(b'R') && !arc_block {
-            return bad(b.col(b'R'), "R word with no g code that uses it");
-        }
-        for (l, name) in [(b'I', "I"), (b'J', "J"), (b'K', "K")] {
-            if b.has(l) && !arc_block {
-                return bad(
-                    b.col(l),
-                    format!(
-                        "{name} word with no G2, G3, G5, G5.1, G10, G33.1, G76, or G87 to use it"
-                    ),
-                );
-            }
-        }
-        if b.has(b'H') && b.g_in(8) != Some(430) {
-            return bad(b.col(b'H'), "H word with no G43 or G43.2 to use it");
-        }
-        if b.has(b'D') {
-            return bad(
-                b.col(b'D'),
-                "D word with no G41, G41.1, G42, G42.1 to use it",
-            );
-        }
-        if b.has(b'L') {
-            return bad(b.col(b'L'), "L word with no g code that uses it");
-        }
-        for l in [b'F', b'S'] {
-            if b.get(l).is_some_and(|v| v < 0.0) {
-                return bad(
-                    b.col(l),
-                    format!("Negative {} word used", (l as char).to_ascii_lowercase()),
-                );
-            }
-        }
-        if b.get(b'T').is_some_and(|v| v < 0.0) {
-            return bad(b.col(b'T'), "Negative tool id used");
-        }
-
-        // 2. feed mode, 3. feed rate
-        match b.g_in(5) {
+        // feed mode, feed rate
+        match b.g_in(GM_FEED_MODE) {
             Some(930) => self.inverse_time = true,
-            Some(940) => self.inverse_time = false,
+            Some(940) => {
+                self.inverse_time = false;
+                self.feed = 0.0;
+            }
             _ => {}
         }
         if let Some(f) = b.get(b'F') {
-            self.feed_raw = f;
-        } else if self.inverse_time && b.g_in(5) == Some(930) {
-            self.feed_raw = 0.0;
+            if !self.inverse_time {
+                self.feed = f;
+            }
         }
-        // 5. tool select, 6. change
+        // tool select
         if let Some(t) = b.get(b'T') {
-            self.tool_selected = t.round() as u32;
+            self.tool_length(t as i32, b.off(b'T'))?;
+            self.tool_selected = t as u32;
         }
+        // M codes: tool change (spindle and coolant have no canonical motion)
         match b.m_in(6) {
             Some(6) => {
-                self.tool_loaded = self.tool_selected;
+                self.spindle_length_mm = self.tool_length(self.tool_selected as i32, 0)?;
                 self.sync_pending = true;
             }
             Some(61) => {
-                let Some(q) = b.get(b'Q') else {
-                    return bad(b.m[6].map_or(1, |m| m.1), "Q word missing with M61");
-                };
-                if q < 0.0 || q.fract() != 0.0 {
-                    return bad(b.col(b'Q'), "Invalid tool number with M61");
+                // sets the number of the tool in the spindle; rs274 keeps its data
+                let off = b.m[6].map_or(0, |m| m.1);
+                let tool = round_to_int(b.q_number);
+                if tool < 0 {
+                    return bad(
+                        off,
+                        "Need non-negative Q-word to specify tool number with M61",
+                    );
                 }
-                self.tool_loaded = q as u32;
+                self.tool_length(tool, off)?;
                 self.sync_pending = true;
             }
             _ => {}
         }
-        // 10. dwell
-        if nonmodal == Some(40) {
-            let Some(p) = b.get(b'P') else {
-                return bad(b.g[0].map_or(1, |g| g.1), "Dwell time missing with g4");
-            };
+        // G codes, in convert_g's order
+        if b.g_in(GM_MODAL_0) == Some(G_4) {
+            let p = b.p_number;
             if p < 0.0 {
-                return bad(b.col(b'P'), "Negative dwell time");
+                self.warnings.push(format!(
+                    "{}:{line_no}: negative dwell P{p} taken as no dwell",
+                    self.file
+                ));
             }
             self.motions.push(Motion {
                 line: line_no,
-                start: self.pos * s,
-                kind: MotionKind::Dwell { seconds: p },
+                start: self.pos * self.scale(),
+                kind: MotionKind::Dwell {
+                    seconds: p.max(0.0),
+                },
                 offset_mm: self.offset(),
                 path_mode: self.path,
                 inch: self.inch,
@@ -459,51 +721,34 @@ impl<'a> Interp<'a> {
                 canon_center: Vec3::ZERO,
             });
         }
-        // 11. plane, 12. units
-        match b.g_in(2) {
+        match b.g_in(GM_PLANE) {
             Some(170) => self.plane = Plane::XY,
             Some(180) => self.plane = Plane::XZ,
             Some(190) => self.plane = Plane::YZ,
             _ => {}
         }
-        match b.g_in(6) {
+        match b.g_in(GM_UNITS) {
             Some(200) if !self.inch => {
                 self.inch = true;
                 self.pos = self.pos * (1.0 / MM_PER_INCH);
                 self.canon_pos = self.canon_pos * (1.0 / MM_PER_INCH);
+                self.feed /= MM_PER_INCH;
             }
             Some(210) if self.inch => {
                 self.inch = false;
                 self.pos = self.pos * MM_PER_INCH;
                 self.canon_pos = self.canon_pos * MM_PER_INCH;
+                self.feed *= MM_PER_INCH;
             }
             _ => {}
         }
-        let s = if b.g_in(6).is_some() { self.scale() } else { s };
-        // 14. tool length offset
-        match b.g_in(8) {
+        let s = self.scale();
+        // G8 (radius mode) and G40 (compensation off) change nothing here
+        match b.g_in(GM_TOOL_LENGTH) {
             Some(430) => {
-                let tool = match b.get(b'H') {
-                    Some(h) => {
-                        if h < 0.0 || h.fract() != 0.0 {
-                            return bad(b.col(b'H'), "Negative or fractional H word");
-                        }
-                        h as u32
-                    }
-                    None => self.tool_loaded,
-                };
-                let len = if tool == 0 {
-                    0.0
-                } else {
-                    match self.profile.tool_length_mm(tool) {
-                        Some(l) => l,
-                        None => {
-                            return bad(
-                                b.col(b'H').max(1),
-                                format!("Requested tool {tool} not found in the tool table"),
-                            )
-                        }
-                    }
+                let len = match b.get(b'H') {
+                    Some(h) => self.tool_length(h as i32, b.off(b'H'))?,
+                    None => self.spindle_length_mm,
                 };
                 self.pos[2] -= (len - self.tool_length_mm) / s;
                 self.tool_length_mm = len;
@@ -514,8 +759,7 @@ impl<'a> Interp<'a> {
             }
             _ => {}
         }
-        // 15. coordinate system
-        if let Some(code) = b.g_in(12) {
+        if let Some(code) = b.g_in(GM_COORD) {
             let idx = match code {
                 540 => 0,
                 550 => 1,
@@ -527,276 +771,365 @@ impl<'a> Interp<'a> {
                 592 => 7,
                 _ => 8,
             };
-            debug_assert!(idx < COORD_SYSTEMS);
-            let shift = (self.work_offset(self.coord) - self.work_offset(idx)) * (1.0 / s);
-            self.pos += shift;
-            self.canon_pos += shift;
-            self.coord = idx;
+            if idx != self.coord {
+                let shift = (self.work_offset(self.coord) - self.work_offset(idx)) * (1.0 / s);
+                self.pos += shift;
+                self.canon_pos += shift;
+                self.coord = idx;
+            }
         }
-        // 16. path control
-        match b.g_in(13) {
+        match b.g_in(GM_CONTROL) {
             Some(610) | Some(611) => self.path = PathMode::ExactStop,
             Some(640) => {
-                let p = b.get(b'P').map(|p| p * s);
+                let p = b.p_number;
                 self.path = PathMode::Blend {
-                    tolerance_mm: p.filter(|p| *p > 0.0),
+                    tolerance_mm: (p > 0.0).then_some(p * s),
                 };
             }
             _ => {}
         }
-        // 17. distance modes
-        match b.g_in(3) {
-            Some(900) => self.absolute = true,
-            Some(910) => self.absolute = false,
+        match b.g_in(GM_DISTANCE) {
+            Some(G_90) => self.absolute = true,
+            Some(G_91) => self.absolute = false,
             _ => {}
         }
-        match b.g_in(4) {
+        match b.g_in(GM_IJK_DISTANCE) {
             Some(901) => self.ijk_absolute = true,
             Some(911) => self.ijk_absolute = false,
             _ => {}
         }
-        // 19-20. motion
-        let axes = [b.get(b'X'), b.get(b'Y'), b.get(b'Z')];
-        let any_axis = axes.iter().any(Option::is_some);
-        if motion_code == Some(800) {
-            self.motion = None;
-            if any_axis && nonmodal != Some(530) {
-                return bad(
-                    b.col(b'X').min(b.col(b'Y')).min(b.col(b'Z')),
-                    "Cannot use axis values with G80",
-                );
-            }
+        // motion
+        match b.motion_to_be {
+            Some(G_80) => self.motion = None,
+            Some(m @ (G_0 | G_1)) => self.straight(line_no, m, b)?,
+            Some(m @ (G_2 | G_3)) => self.arc(line_no, m, b)?,
+            _ => {}
         }
-        let new_mode = match motion_code {
-            Some(0) => Some(MotionMode::Rapid),
-            Some(10) => Some(MotionMode::Linear),
-            Some(20) => Some(MotionMode::ArcCw),
-            Some(30) => Some(MotionMode::ArcCcw),
-            _ => None,
-        };
-        if let Some(m) = new_mode {
-            self.motion = Some(m);
-        }
-        let g53 = nonmodal == Some(530);
-        let moves = new_mode.is_some() || (any_axis && motion_code != Some(800));
-        if any_axis && !moves {
-            return bad(
-                b.col(b'X').min(b.col(b'Y')).min(b.col(b'Z')),
-                "Cannot use axis values without a g code that uses them",
-            );
-        }
-        if moves {
-            let Some(mode) = self.motion else {
-                let col = [b'X', b'Y', b'Z']
-                    .iter()
-                    .filter(|l| b.has(**l))
-                    .map(|l| b.col(*l))
-                    .min()
-                    .unwrap_or(1);
-                return bad(
-                    col,
-                    "Cannot use axis values without a g code that uses them",
-                );
-            };
-            if nonmodal == Some(40) && any_axis && new_mode.is_none() {
-                return bad(1, "Cannot use axis values without a g code that uses them");
-            }
-            // end point, canonical frame (mm)
-            let mut end = self.pos;
-            if g53 {
-                if !matches!(mode, MotionMode::Rapid | MotionMode::Linear) {
-                    return bad(b.g[0].map_or(1, |g| g.1), "Must use g0 or g1 with g53");
-                }
-                if !self.absolute {
-                    return bad(b.g[0].map_or(1, |g| g.1), "Cannot use g53 incremental");
-                }
-                let off = self.offset();
-                for i in 0..3 {
-                    if let Some(v) = axes[i] {
-                        end[i] = v - off[i] / s;
-                    }
-                }
-            } else {
-                for i in 0..3 {
-                    if let Some(v) = axes[i] {
-                        end[i] = if self.absolute { v } else { self.pos[i] + v };
-                    }
-                }
-            }
-            let feed_col = b.g[1].map_or(1, |g| g.1);
-            let kind = match mode {
-                MotionMode::Rapid => MotionKind::Traverse { end: end * s },
-                MotionMode::Linear => {
-                    let feed =
-                        self.feed_mm_per_min(b, feed_col, (end - self.pos).norm() * s, "g1")?;
-                    MotionKind::Feed {
-                        end: end * s,
-                        feed_mm_per_min: feed,
-                    }
-                }
-                MotionMode::ArcCw | MotionMode::ArcCcw => self.arc(b, mode, end, feed_col)?,
-            };
-            let (canon_end, canon_center) = match kind {
-                MotionKind::Arc { center, .. } => (end, center * (1.0 / s)),
-                _ => (end, Vec3::ZERO),
-            };
-            self.motions.push(Motion {
-                line: line_no,
-                start: self.pos * s,
-                kind,
-                offset_mm: self.offset(),
-                path_mode: self.path,
-                inch: self.inch,
-                canon_end,
-                canon_center,
-            });
-            self.pos = end;
-            self.canon_pos = end;
-        }
-        // 21. stop
+        // stop codes
         Ok(matches!(b.m_in(4), Some(2) | Some(30)))
     }
 
-    fn feed_mm_per_min(&self, b: &Block, col: u32, length_mm: f64, what: &str) -> R<f64> {
-        if self.inverse_time {
-            let Some(f) = b.get(b'F') else {
-                return bad(col, format!("F word missing with inverse time {what} move"));
-            };
-            if f <= 0.0 {
-                return bad(
-                    b.col(b'F'),
-                    format!("Zero or negative F word with inverse time {what} move"),
-                );
+    /// `find_ends`: the end point of a move (program units, canonical frame).
+    fn find_ends(&self, b: &Block) -> Vec3 {
+        let s = self.scale();
+        let mut end = self.pos;
+        for (i, l) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
+            if let Some(v) = b.get(l) {
+                end[i] = if b.g_in(GM_MODAL_0) == Some(G_53) {
+                    v - self.offset()[i] / s
+                } else if self.absolute {
+                    v
+                } else {
+                    self.pos[i] + v
+                };
             }
-            // the feed that covers the move in 1/F minutes
-            Ok(length_mm * f)
-        } else {
-            if self.feed_raw <= 0.0 {
-                return bad(col, format!("Cannot do {what} with zero feed rate"));
-            }
-            Ok(self.feed_raw * self.scale())
         }
+        end
     }
 
-    fn arc(&self, b: &Block, mode: MotionMode, end: Vec3, col: u32) -> R<MotionKind> {
-        let s = self.scale();
-        let (a, bb, n) = self.plane.axes();
-        let ccw = mode == MotionMode::ArcCcw;
-        let what = if ccw { "g3" } else { "g2" };
-        let letters = [b'I', b'J', b'K'];
-        let (la, lb, ln) = (letters[a], letters[bb], letters[n]);
-        let plane_name = match self.plane {
-            Plane::XY => "xy",
-            Plane::XZ => "xz",
-            Plane::YZ => "yz",
-        };
-        if b.has(ln) {
-            return bad(
-                b.col(ln),
-                format!("{} word given for arc in {plane_name} plane", ln as char),
-            );
+    fn push(&mut self, line_no: u32, kind: MotionKind, end: Vec3, center: Vec3) {
+        self.motions.push(Motion {
+            line: line_no,
+            start: self.pos * self.scale(),
+            kind,
+            offset_mm: self.offset(),
+            path_mode: self.path,
+            inch: self.inch,
+            canon_end: end,
+            canon_center: center,
+        });
+        self.pos = end;
+        self.canon_pos = end;
+    }
+
+    /// `convert_straight`.
+    fn straight(&mut self, line_no: u32, mode: i32, b: &Block) -> R<()> {
+        let off = b.g[GM_MOTION].map_or_else(|| b.axis_off(), |g| g.1);
+        if mode == G_1 {
+            if !self.inverse_time && self.feed == 0.0 {
+                return bad(off, "Cannot do g1 with zero feed rate");
+            }
+            if self.inverse_time && !b.has(b'F') {
+                return bad(off, "F word missing with inverse time g1 move");
+            }
         }
-        let turns_abs = match b.get(b'P') {
-            Some(p) => {
-                if p.fract() != 0.0 || p < 1.0 {
-                    return bad(b.col(b'P'), "P value not a positive integer with g2 or g3");
-                }
-                p as i32
-            }
-            None => 1,
-        };
-        let (s0, s1) = (self.pos[a], self.pos[bb]);
-        let (e0, e1) = (end[a], end[bb]);
-        // LinuxCNC's tolerances are in the program's units
-        let units_scale = if self.inch { 1.0 } else { MM_PER_INCH };
-        let (c0, c1);
-        if let Some(r_raw) = b.get(b'R') {
-            if b.has(la) || b.has(lb) {
-                return bad(b.col(b'R'), "Mixed radius ijk format for arc");
-            }
-            if e0 == s0 && e1 == s1 {
-                return bad(b.col(b'R'), "Current point same as end point of arc");
-            }
-            let radius = r_raw;
-            let abs_r = radius.abs();
-            let (mid0, mid1) = ((e0 + s0) / 2.0, (e1 + s1) / 2.0);
-            let mut half = (mid0 - e0).hypot(mid1 - e1);
-            if half - abs_r > RADIUS_TOLERANCE_INCH * units_scale {
-                return bad(b.col(b'R'), "Arc radius too small to reach end point");
-            }
-            if abs_r == 0.0 || half / abs_r > 1.0 - 1e-12 {
-                half = abs_r;
-            }
-            let theta = if (!ccw && radius > 0.0) || (ccw && radius < 0.0) {
-                (e1 - s1).atan2(e0 - s0) - std::f64::consts::FRAC_PI_2
-            } else {
-                (e1 - s1).atan2(e0 - s0) + std::f64::consts::FRAC_PI_2
-            };
-            let turn2 = if abs_r > 0.0 {
-                (half / abs_r).asin()
-            } else {
-                0.0
-            };
-            let offset = abs_r * turn2.cos();
-            c0 = mid0 + offset * theta.cos();
-            c1 = mid1 + offset * theta.sin();
+        self.motion = Some(mode);
+        let end = self.find_ends(b);
+        let s = self.scale();
+        let kind = if mode == G_0 {
+            MotionKind::Traverse { end: end * s }
         } else {
-            if !b.has(la) && !b.has(lb) {
+            if self.inverse_time {
+                let d = end - self.pos;
+                let length = if d.0.iter().any(|c| c.abs() > 1e-7) {
+                    d.norm()
+                } else {
+                    0.0
+                };
+                self.feed = (length * b.get(b'F').unwrap_or(0.0)).max(0.1);
+            }
+            MotionKind::Feed {
+                end: end * s,
+                feed_mm_per_min: self.feed * s,
+            }
+        };
+        self.push(line_no, kind, end, Vec3::ZERO);
+        Ok(())
+    }
+
+    /// `convert_arc` and `convert_arc2` with `arc_data_ijk` / `arc_data_r`.
+    fn arc(&mut self, line_no: u32, mode: i32, b: &Block) -> R<()> {
+        let off = b.g[GM_MOTION].map_or_else(|| b.axis_off(), |g| g.1);
+        let ijk = b.has(b'I') || b.has(b'J') || b.has(b'K');
+        let r_word = b.get(b'R');
+        if r_word.is_none() && !ijk {
+            return bad(off, "R i j k words all missing for arc");
+        }
+        if r_word.is_some() && ijk {
+            return bad(b.off(b'R'), "Mixed radius ijk format for arc");
+        }
+        if !self.inverse_time && self.feed == 0.0 {
+            return bad(off, "Cannot make arc with zero feed rate");
+        }
+        if self.inverse_time && !b.has(b'F') {
+            return bad(off, "F word missing with inverse time arc move");
+        }
+        // the plane's first and second axes and the normal, as LinuxCNC orders them
+        let (a1, a2, an) = self.plane.axes();
+        let axis_letter = [b'X', b'Y', b'Z'];
+        let ijk_letter = [b'I', b'J', b'K'];
+        let (l1, l2, ln) = (ijk_letter[a1], ijk_letter[a2], ijk_letter[an]);
+        let plane_name = self.plane.name();
+        let (mut o1, mut o2) = (0.0, 0.0);
+        if ijk {
+            if b.has(ln) {
                 return bad(
-                    col,
-                    format!("R, I, J, and K words all missing for arc ({what})"),
+                    b.off(ln),
+                    format!("{} word given for arc in {plane_name} plane", ln as char),
                 );
             }
-            let i = b.get(la).unwrap_or(0.0);
-            let j = b.get(lb).unwrap_or(0.0);
-            if self.ijk_absolute {
-                c0 = i;
-                c1 = j;
+            // LinuxCNC checks the pair's letters in alphabetical order
+            let (first, second) = if l1 < l2 { (l1, l2) } else { (l2, l1) };
+            let missing = if !b.has(first) {
+                Some(first)
+            } else if !b.has(second) {
+                Some(second)
             } else {
-                c0 = s0 + i;
-                c1 = s1 + j;
-            }
-            let r1 = (c0 - s0).hypot(c1 - s1);
-            let r2 = (c0 - e0).hypot(c1 - e1);
-            let radius_tol = RADIUS_TOLERANCE_INCH * units_scale;
-            if r1 < radius_tol || r2 < radius_tol {
-                return bad(col, "Zero radius arc");
-            }
-            let abs_err = (r1 - r2).abs();
-            let rel_err = abs_err / r1.max(r2);
-            let spiral_abs = if self.inch {
-                CENTER_ARC_RADIUS_TOLERANCE_INCH
-            } else {
-                CENTER_ARC_RADIUS_TOLERANCE_MM
+                None
             };
-            if abs_err > spiral_abs && rel_err > SPIRAL_RELATIVE_TOLERANCE {
+            if let (Some(l), true) = (missing, self.ijk_absolute) {
                 return bad(
-                    col,
+                    off,
+                    format!("{} word missing in absolute center arc", l as char),
+                );
+            }
+            o1 = b.get(l1).unwrap_or(0.0);
+            o2 = b.get(l2).unwrap_or(0.0);
+        } else {
+            let (x1, x2) = (axis_letter[a1], axis_letter[a2]);
+            if !b.has(x1) && !b.has(x2) {
+                let (f, s2) = if a1 < a2 { (x1, x2) } else { (x2, x1) };
+                return bad(
+                    off,
                     format!(
-                        "Radius to end of arc differs from radius to start: r1={:.4} r2={:.4} abs_err={:.4} rel_err={:.4}%",
-                        r1,
-                        r2,
-                        abs_err,
-                        rel_err * 100.0
+                        "{} and {} words missing for arc in {plane_name} plane",
+                        f as char,
+                        (s2 as char).to_ascii_lowercase()
                     ),
                 );
             }
         }
+        let end = self.find_ends(b);
+        self.motion = Some(mode);
+        let inch = self.inch;
+        let turns_abs = if b.has(b'P') {
+            round_to_int(b.p_number)
+        } else {
+            1
+        };
+        let (c1, c2, turns) = if let Some(radius) = r_word {
+            let tol = if inch {
+                RADIUS_TOLERANCE_INCH
+            } else {
+                RADIUS_TOLERANCE_MM
+            };
+            arc_data_r(
+                mode,
+                (self.pos[a1], self.pos[a2]),
+                (end[a1], end[a2]),
+                radius,
+                turns_abs,
+                tol,
+            )
+            .or_else(|m| bad(b.off(b'R'), m))?
+        } else {
+            let (rtol, stol) = if inch {
+                (RADIUS_TOLERANCE_INCH, CENTER_ARC_RADIUS_TOLERANCE_INCH)
+            } else {
+                (RADIUS_TOLERANCE_MM, CENTER_ARC_RADIUS_TOLERANCE_MM)
+            };
+            arc_data_ijk(
+                mode,
+                (self.pos[a1], self.pos[a2]),
+                (end[a1], end[a2]),
+                self.ijk_absolute,
+                (o1, o2),
+                turns_abs,
+                rtol,
+                stol,
+                [axis_letter[a1] as char, axis_letter[a2] as char],
+            )
+            .or_else(|m| bad(off, m))?
+        };
+        if self.inverse_time {
+            let length = find_arc_length(
+                (self.pos[a1], self.pos[a2], self.pos[an]),
+                (c1, c2),
+                turns,
+                (end[a1], end[a2], end[an]),
+            );
+            self.feed = (length * b.get(b'F').unwrap_or(0.0)).max(0.1);
+        }
         let mut center = self.pos;
-        center[a] = c0;
-        center[bb] = c1;
-        let turns = if ccw { turns_abs } else { -turns_abs };
-        // arc length for inverse-time feed
-        let prim =
-            softnc_core::Primitive::arc(self.pos * s, end * s, center * s, self.plane, turns);
-        let feed = self.feed_mm_per_min(b, col, prim.length(), "arc")?;
-        Ok(MotionKind::Arc {
+        center[a1] = c1;
+        center[a2] = c2;
+        let s = self.scale();
+        let kind = MotionKind::Arc {
             end: end * s,
             center: center * s,
             plane: self.plane,
             turns,
-            feed_mm_per_min: feed,
-        })
+            feed_mm_per_min: self.feed * s,
+        };
+        self.push(line_no, kind, end, center);
+        Ok(())
+    }
+}
+
+/// `read_integer_value`.
+fn integer(v: f64, off: u32) -> R<i32> {
+    let f = v.floor();
+    let r = if v - f > 0.9999 {
+        v.ceil()
+    } else if v - f > 0.0001 {
+        return bad(off, "Non integer value for integer");
+    } else {
+        f
+    };
+    if r.abs() > 1e9 {
+        return bad(off, "Non integer value for integer");
+    }
+    Ok(r as i32)
+}
+
+/// Centre and turns of a centre-format arc (LinuxCNC `arc_data_ijk`).
+#[allow(clippy::too_many_arguments)]
+fn arc_data_ijk(
+    mode: i32,
+    cur: (f64, f64),
+    end: (f64, f64),
+    absolute: bool,
+    ij: (f64, f64),
+    p: i32,
+    radius_tolerance: f64,
+    spiral_tolerance: f64,
+    names: [char; 2],
+) -> Result<(f64, f64, i32), String> {
+    let (cx, cy) = if absolute {
+        ij
+    } else {
+        (cur.0 + ij.0, cur.1 + ij.1)
+    };
+    let r1 = (cx - cur.0).hypot(cy - cur.1);
+    let r2 = (cx - end.0).hypot(cy - end.1);
+    let [a, b] = names;
+    if r1 < radius_tolerance || r2 < radius_tolerance {
+        return Err(format!(
+            "Zero-radius arc: start=({a}{:.4},{b}{:.4}) center=({a}{cx:.4},{b}{cy:.4}) end=({a}{:.4},{b}{:.4}) r1={r1:.4} r2={r2:.4}",
+            cur.0, cur.1, end.0, end.1
+        ));
+    }
+    let abs_err = (r1 - r2).abs();
+    let rel_err = abs_err / r1.max(r2);
+    if abs_err > spiral_tolerance * 100.0
+        || (rel_err > SPIRAL_RELATIVE_TOLERANCE && abs_err > spiral_tolerance)
+    {
+        return Err(format!(
+            "Radius to end of arc differs from radius to start: start=({a}{:.4},{b}{:.4}) center=({a}{cx:.4},{b}{cy:.4}) end=({a}{:.4},{b}{:.4}) r1={r1:.4} r2={r2:.4} abs_err={abs_err:.4} rel_err={:.4}%",
+            cur.0,
+            cur.1,
+            end.0,
+            end.1,
+            rel_err * 100.0
+        ));
+    }
+    Ok((cx, cy, if mode == G_2 { -p } else { p }))
+}
+
+/// Centre and turns of a radius-format arc (LinuxCNC `arc_data_r`).
+fn arc_data_r(
+    mode: i32,
+    cur: (f64, f64),
+    end: (f64, f64),
+    radius: f64,
+    p: i32,
+    tolerance: f64,
+) -> Result<(f64, f64, i32), String> {
+    if end == cur {
+        return Err("Current point same as end point of arc".into());
+    }
+    let abs_radius = radius.abs();
+    let mid = ((end.0 + cur.0) / 2.0, (end.1 + cur.1) / 2.0);
+    let mut half = (mid.0 - end.0).hypot(mid.1 - end.1);
+    if half - abs_radius > tolerance {
+        return Err("Arc radius too small to reach end point".into());
+    }
+    if half / abs_radius > 1.0 - TINY {
+        half = abs_radius;
+    }
+    let heading = (end.1 - cur.1).atan2(end.0 - cur.0);
+    let theta = if (mode == G_2 && radius > 0.0) || (mode == G_3 && radius < 0.0) {
+        heading - FRAC_PI_2
+    } else {
+        heading + FRAC_PI_2
+    };
+    let turn2 = (half / abs_radius).asin();
+    let offset = abs_radius * turn2.cos();
+    let (cx, cy) = (mid.0 + offset * theta.cos(), mid.1 + offset * theta.sin());
+    if !(cx.is_finite() && cy.is_finite()) {
+        return Err("Arc radius too small to reach end point".into());
+    }
+    Ok((cx, cy, if mode == G_2 { -p } else { p }))
+}
+
+/// LinuxCNC `find_turn`: the angle swept (radians, counter-clockwise positive).
+fn find_turn(start: (f64, f64), c: (f64, f64), turn: i32, end: (f64, f64)) -> f64 {
+    if turn == 0 {
+        return 0.0;
+    }
+    let mut alpha = (start.1 - c.1).atan2(start.0 - c.0);
+    let mut beta = (end.1 - c.1).atan2(end.0 - c.0);
+    if turn > 0 {
+        if beta <= alpha {
+            beta += 2.0 * PI;
+        }
+        (beta - alpha) + f64::from(turn - 1) * 2.0 * PI
+    } else {
+        if alpha <= beta {
+            alpha += 2.0 * PI;
+        }
+        (beta - alpha) + f64::from(turn + 1) * 2.0 * PI
+    }
+}
+
+/// LinuxCNC `find_arc_length` (helix included).
+fn find_arc_length(start: (f64, f64, f64), c: (f64, f64), turn: i32, end: (f64, f64, f64)) -> f64 {
+    let radius = (c.0 - start.0).hypot(c.1 - start.1);
+    let theta = find_turn((start.0, start.1), c, turn, (end.0, end.1));
+    if end.2 == start.2 {
+        radius * theta.abs()
+    } else {
+        (radius * theta).hypot(end.2 - start.2)
     }
 }
 
@@ -804,64 +1137,151 @@ impl<'a> Interp<'a> {
 pub fn read(text: &str, file: &str, profile: &MachineProfile) -> Result<Program, GcodeError> {
     let mut it = Interp::new(file, profile);
     let mut line = Line::default();
-    let mut blocks = 0usize;
-    let mut started_with_percent = false;
-    let mut seen_content = false;
-    let mut ended = false;
-    let err = |line_no: usize, (col, kind): (u32, ErrorKind)| GcodeError {
+    let err = |line_no: usize, raw: &str, (off, kind): (u32, ErrorKind)| GcodeError {
         file: file.to_string(),
         line: line_no as u32,
-        column: col,
+        column: column(raw, off),
         kind,
     };
-    for (idx, raw) in text.lines().enumerate() {
-        let line_no = idx + 1;
-        blocks = line_no;
-        if let Err(e) = lex_line(raw, &mut line) {
-            // an unsupported word before the bad spot is the better explanation
-            it.refuse_unsupported(&line).map_err(|e| err(line_no, e))?;
-            return Err(err(line_no, e));
-        }
-        if line.percent {
-            if !seen_content && !started_with_percent {
-                started_with_percent = true;
-                continue;
-            }
-            ended = true;
-            break;
-        }
-        if line.words.is_empty() {
-            if line.message.is_some() || !raw.trim().is_empty() {
-                seen_content = true;
-            }
-            continue;
-        }
-        seen_content = true;
-        // a `/` line runs: the block-delete switch is off, as in rs274's default
-        it.refuse_unsupported(&line).map_err(|e| err(line_no, e))?;
-        let block = it.sort(&line).map_err(|e| err(line_no, e))?;
-        let stop = it
-            .block(line_no as u32, &block)
-            .map_err(|e| err(line_no, e))?;
-        if stop {
-            ended = true;
-            break;
-        }
+    // split into lines, remembering whether each ended with a newline
+    let bytes = text.as_bytes();
+    let mut lines = Vec::with_capacity(bytes.len() / 24 + 1);
+    let mut start = 0;
+    while start < bytes.len() {
+        let end = bytes[start..]
+            .iter()
+            .position(|&c| c == b'\n')
+            .map_or(bytes.len(), |p| start + p);
+        lines.push((start, end, end < bytes.len()));
+        start = end + 1;
     }
-    if !ended {
+    // `%` on the first non-blank line: the program runs to the next lone `%`
+    let mut first = 0;
+    let mut percent_flag = false;
+    while first < lines.len() {
+        let (s, e, _) = lines[first];
+        if !significant(&bytes[s..e])
+            .iter()
+            .all(|c| matches!(c, b' ' | b'\t' | 0x0b | 0x0c | b'\r'))
+        {
+            break;
+        }
+        first += 1;
+    }
+    if first == lines.len() {
         return Err(err(
-            blocks.max(1),
+            lines.len().max(1),
+            "",
             (
-                1,
-                ErrorKind::Invalid("File ended with no percent sign or program end".into()),
+                0,
+                ErrorKind::Invalid("File ended with no percent sign".into()),
             ),
         ));
     }
-    let _ = it.file;
-    Ok(Program {
+    {
+        let (s, e, _) = lines[first];
+        let sig = significant(&bytes[s..e]);
+        if sig.last() == Some(&b'%')
+            && sig[..sig.len() - 1]
+                .iter()
+                .all(|c| matches!(c, b' ' | b'\t' | 0x0b | 0x0c | b'\r'))
+        {
+            percent_flag = true;
+            first += 1;
+        } else {
+            first = 0;
+        }
+    }
+    for (idx, &(s, e, newline)) in lines.iter().enumerate().skip(first) {
+        let line_no = idx + 1;
+        let raw = &text[s..e];
+        if e - s + usize::from(newline) >= LINELEN - 1 {
+            return Err(err(
+                line_no,
+                raw,
+                (0, ErrorKind::Invalid("Command too long".into())),
+            ));
+        }
+        let lexed = lex_line(raw, &mut line);
+        // words before a lexing error are read (and may fail) first, as in LinuxCNC
+        let mut block = it.sort(&line.words).map_err(|x| err(line_no, raw, x))?;
+        if let Err(x) = lexed {
+            return Err(err(line_no, raw, x));
+        }
+        if line.percent {
+            if percent_flag {
+                return Ok(finish(it, file, line_no));
+            }
+            let off = raw.find('%').unwrap_or(0) as u32;
+            return Err(err(
+                line_no,
+                raw,
+                (off, ErrorKind::Invalid(bad_character(b'%'))),
+            ));
+        }
+        if line.blank {
+            continue;
+        }
+        if line.python {
+            return Err(err(
+                line_no,
+                raw,
+                (
+                    0,
+                    ErrorKind::Unsupported {
+                        word: ";py,".into(),
+                        why: "embedded Python is not supported".into(),
+                    },
+                ),
+            ));
+        }
+        // a `/` line runs: the block-delete switch is off, as in rs274's default
+        it.check(&mut block).map_err(|x| err(line_no, raw, x))?;
+        it.comment(raw, &line, line_no as u32)
+            .map_err(|x| err(line_no, raw, x))?;
+        let stop = it
+            .execute(line_no as u32, &block)
+            .map_err(|x| err(line_no, raw, x))?;
+        if stop {
+            return Ok(finish(it, file, line_no));
+        }
+    }
+    let msg = if percent_flag {
+        "File ended with no percent sign"
+    } else {
+        "File ended with no percent sign or program end"
+    };
+    let last = lines.len().max(1);
+    Err(err(last, "", (0, ErrorKind::Invalid(msg.into()))))
+}
+
+fn finish(it: Interp, file: &str, blocks: usize) -> Program {
+    Program {
         file: file.to_string(),
         blocks,
         motions: it.motions,
         warnings: it.warnings,
-    })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn turn_angles_as_linuxcnc() {
+        let t = find_turn((1.0, 0.0), (0.0, 0.0), 1, (1.0, 0.0));
+        assert!((t - 2.0 * PI).abs() < 1e-12);
+        let t = find_turn((1.0, 0.0), (0.0, 0.0), -1, (0.0, 1.0));
+        assert!((t + 1.5 * PI).abs() < 1e-12);
+        let t = find_turn((1.0, 0.0), (0.0, 0.0), 2, (0.0, 1.0));
+        assert!((t - 2.5 * PI).abs() < 1e-12);
+    }
+
+    #[test]
+    fn integers_as_linuxcnc() {
+        assert_eq!(integer(2.99995, 0).unwrap(), 3);
+        assert_eq!(integer(3.00005, 0).unwrap(), 3);
+        assert!(integer(3.001, 0).is_err());
+    }
 }

@@ -1,245 +1,435 @@
-//! Reading one line into a block of words, as LinuxCNC's `read_line`/`read_items` do:
-//! case-insensitive, spaces and tabs ignored outside comments, `( )` and `;`
-//! comments, block delete `/`, `N` numbers, words of a letter and a number.
-//! Parameters, expressions and O-words are refused as unsupported, never misread.
+//! Reading one line into words, as LinuxCNC 2.9's `read_text`, `close_and_downcase`
+//! and `read_items` do:
+//!
+//! - trailing white space (including CR, form feed, vertical tab) is dropped; a NUL
+//!   byte ends the line (LinuxCNC reads lines as C strings);
+//! - outside comments, spaces, tabs and CRs are ignored everywhere, also inside
+//!   numbers and between a letter and its value (`X 1 . 5` is `X1.5`), and letters are
+//!   case-insensitive;
+//! - `( … )` comments may not nest and must close on their line; `;` comments the rest
+//!   of the line; of several `( )` comments only the last one counts (LinuxCNC keeps one
+//!   comment per block);
+//! - an optional `/` (block delete) and then an optional `N` number may start the
+//!   line; `N` anywhere else is an error;
+//! - a word is a letter and a real value: any number of leading signs (`X--1` is 1),
+//!   digits with at most one decimal point; no exponent (`1e3` is `1` and an `E` word).
+//!
+//! Parameters (`#`), expressions (`[ ]`, `sin[…]`), O-words, `M98`, polar
+//! coordinates (`@`, `^`) and spindle selection (`$`) are refused as unsupported,
+//! never misread. The lexer allocates nothing: words go into a reused `Vec`.
 
 use crate::error::ErrorKind;
 
-/// One word: letter (upper case), value, 1-based column of the letter.
+/// One word: letter (upper case), value, and where it starts.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Word {
     /// Letter, upper case.
     pub letter: u8,
     /// Value as written (program units).
     pub value: f64,
-    /// 1-based column of the letter in the line.
-    pub column: u32,
+    /// Byte offset of the letter in the line.
+    pub offset: u32,
 }
 
 /// A lexed line.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Line {
+    /// The line has no words and no comment (blank or white space only).
+    pub blank: bool,
+    /// The line is a lone `%` (white space aside).
+    pub percent: bool,
     /// The line starts with `/` (block delete).
     pub block_delete: bool,
-    /// The line is a `%` delimiter.
-    pub percent: bool,
     /// Words in order (the N word excluded).
     pub words: Vec<Word>,
-    /// A comment text of the `(MSG,`, `(DEBUG,` or `(PRINT,` kind, if any.
-    pub message: Option<String>,
+    /// Byte range of the text of the last `( )` comment (without the parentheses).
+    pub comment: Option<(u32, u32)>,
+    /// Byte offset of the `(` of that comment.
+    pub comment_offset: u32,
+    /// The line starts with `;py,` (an embedded Python statement).
+    pub python: bool,
 }
 
-/// A lexing error with its column.
+/// A lexing error: byte offset in the line and what went wrong.
 pub type LexError = (u32, ErrorKind);
 
-fn invalid(col: usize, msg: &str) -> LexError {
-    (col as u32 + 1, ErrorKind::Invalid(msg.to_string()))
+fn invalid(off: usize, msg: impl Into<String>) -> LexError {
+    (off as u32, ErrorKind::Invalid(msg.into()))
 }
 
-fn unsupported(col: usize, word: &str, why: &str) -> LexError {
+fn unsupported(off: usize, word: impl Into<String>, why: &str) -> LexError {
     (
-        col as u32 + 1,
+        off as u32,
         ErrorKind::Unsupported {
-            word: word.to_string(),
+            word: word.into(),
             why: why.to_string(),
         },
     )
 }
 
-/// Lex `text` into `out` (cleared first, its allocation reused).
-pub fn lex_line(text: &str, out: &mut Line) -> Result<(), LexError> {
-    out.block_delete = false;
-    out.percent = false;
-    out.words.clear();
-    out.message = None;
-    let b = text.as_bytes();
-    let n = b.len();
-    let mut i = 0;
-    let skip_ws = |i: &mut usize| {
-        while *i < n && (b[*i] == b' ' || b[*i] == b'\t' || b[*i] == b'\r') {
-            *i += 1;
-        }
+/// How LinuxCNC names a character it cannot use.
+pub(crate) fn bad_character(c: u8) -> String {
+    if c.is_ascii_graphic() {
+        format!("Bad character '{}' used", (c as char).to_ascii_lowercase())
+    } else {
+        format!("Bad character '\\{c:03o}' used")
+    }
+}
+
+/// The significant content of a line: its bytes up to a NUL, without trailing white
+/// space (C `isspace`).
+pub fn significant(text: &[u8]) -> &[u8] {
+    let b = match text.iter().position(|&c| c == 0) {
+        Some(p) => &text[..p],
+        None => text,
     };
-    skip_ws(&mut i);
-    if i < n && b[i] == b'%' {
-        let mut j = i + 1;
-        skip_ws(&mut j);
-        // LinuxCNC allows a comment after the percent sign
-        out.percent = true;
-        return Ok(());
+    let mut end = b.len();
+    while end > 0 && matches!(b[end - 1], b' ' | b'\t' | b'\n' | b'\r' | 0x0b | 0x0c) {
+        end -= 1;
     }
-    if i < n && b[i] == b'/' {
-        out.block_delete = true;
-        i += 1;
-    }
-    let mut seen_word = false;
-    loop {
-        skip_ws(&mut i);
-        if i >= n {
-            break;
+    &b[..end]
+}
+
+/// A cursor over the line that skips spaces, tabs and CRs (outside comments).
+struct Cursor<'a> {
+    b: &'a [u8],
+    i: usize,
+}
+
+impl Cursor<'_> {
+    fn skip(&mut self) {
+        while self.i < self.b.len() && matches!(self.b[self.i], b' ' | b'\t' | b'\r') {
+            self.i += 1;
         }
-        let c = b[i];
+    }
+    /// Next significant byte (lower-cased), without consuming it.
+    fn peek(&mut self) -> Option<u8> {
+        self.skip();
+        self.b.get(self.i).map(|c| c.to_ascii_lowercase())
+    }
+    /// The significant byte after the next one.
+    fn peek2(&mut self) -> Option<u8> {
+        self.skip();
+        let mut j = self.i + 1;
+        while j < self.b.len() && matches!(self.b[j], b' ' | b'\t' | b'\r') {
+            j += 1;
+        }
+        self.b.get(j).map(|c| c.to_ascii_lowercase())
+    }
+    fn bump(&mut self) {
+        self.skip();
+        self.i += 1;
+    }
+}
+
+/// Lex `text` (one line, without its newline) into `out` (cleared first, its
+/// allocation reused).
+pub fn lex_line(text: &str, out: &mut Line) -> Result<(), LexError> {
+    out.blank = false;
+    out.percent = false;
+    out.block_delete = false;
+    out.words.clear();
+    out.comment = None;
+    out.comment_offset = 0;
+    out.python = false;
+    let b = significant(text.as_bytes());
+    check_comments(b)?;
+    let mut cur = Cursor { b, i: 0 };
+    match cur.peek() {
+        None => {
+            out.blank = true;
+            return Ok(());
+        }
+        Some(b'%') => {
+            let mut c2 = Cursor { b, i: cur.i + 1 };
+            if c2.peek().is_none() {
+                out.percent = true;
+                return Ok(());
+            }
+        }
+        Some(b'/') => {
+            out.block_delete = true;
+            cur.bump();
+        }
+        _ => {}
+    }
+    out.python = b.len() >= 4 && b[..4].eq_ignore_ascii_case(b";py,");
+    if cur.peek() == Some(b'n') {
+        cur.bump();
+        read_unsigned(&mut cur)?;
+        if cur.peek() == Some(b'.') {
+            cur.bump();
+            read_unsigned(&mut cur)?;
+        }
+    }
+    // O-words and M98 (subprogram call) are read as O-lines by LinuxCNC
+    match cur.peek() {
+        Some(b'o') => {
+            return Err(unsupported(
+                cur.i,
+                word_text(b, cur.i),
+                "O-words (subroutines, loops, conditionals) are not supported yet",
+            ))
+        }
+        Some(b'm') => {
+            let save = cur.i;
+            cur.bump();
+            if let Ok(v) = read_value(&mut cur, save) {
+                if (v - 98.0).abs() < 1e-4 {
+                    return Err(unsupported(
+                        save,
+                        "M98",
+                        "M98 subprogram calls are not supported yet",
+                    ));
+                }
+            }
+            cur.i = save;
+        }
+        _ => {}
+    }
+    loop {
+        let Some(c) = cur.peek() else { break };
+        let at = cur.i;
         match c {
             b'(' => {
-                let start = i;
-                i += 1;
-                let body_start = i;
-                while i < n && b[i] != b')' {
-                    if b[i] == b'(' {
-                        return Err(invalid(i, "Nested comment found"));
-                    }
-                    i += 1;
-                }
-                if i >= n {
-                    return Err(invalid(start, "Unclosed comment found"));
-                }
-                let body = &text[body_start..i];
-                let upper = body.trim_start().to_ascii_uppercase();
-                for tag in ["MSG,", "DEBUG,", "PRINT,"] {
-                    if upper.starts_with(tag) {
-                        let t = body.trim_start();
-                        out.message = Some(t[tag.len()..].to_string());
-                    }
-                }
-                i += 1;
+                let start = at + 1;
+                let end = start
+                    + b[start..]
+                        .iter()
+                        .position(|&x| x == b')')
+                        .unwrap_or(b.len() - start);
+                out.comment = Some((start as u32, end as u32));
+                out.comment_offset = at as u32;
+                cur.i = (end + 1).min(b.len());
             }
             b';' => break,
-            b'#' => return Err(unsupported(i, "#", "parameters are not supported yet")),
-            b'[' => return Err(unsupported(i, "[", "expressions are not supported yet")),
-            b'<' => {
+            b'#' => {
                 return Err(unsupported(
-                    i,
-                    "<",
-                    "named parameters are not supported yet",
+                    at,
+                    word_text(b, at),
+                    "parameters are not supported yet",
                 ))
             }
-            _ if c.is_ascii_alphabetic() => {
-                let letter = c.to_ascii_uppercase();
-                let col = i;
-                i += 1;
-                if letter == b'O' {
-                    return Err(unsupported(
-                        col,
-                        &word_text(text, col),
-                        "O-words (subroutines, loops) are not supported yet",
-                    ));
-                }
-                skip_ws(&mut i);
-                if i < n && (b[i] == b'#' || b[i] == b'[') {
-                    let what = if b[i] == b'#' {
-                        "parameters"
-                    } else {
-                        "expressions"
-                    };
-                    return Err(unsupported(
-                        col,
-                        &format!("{}{}", letter as char, b[i] as char),
-                        &format!("{what} are not supported yet"),
-                    ));
-                }
-                if i < n && b[i].is_ascii_alphabetic() {
-                    // a function name such as `sin[`, `exists[`
-                    return Err(unsupported(
-                        col,
-                        &word_text(text, col),
-                        "expressions are not supported yet",
-                    ));
-                }
-                let value =
-                    read_number(b, &mut i).ok_or_else(|| invalid(col, "Bad number format"))?;
-                if letter == b'N' {
-                    if seen_word {
-                        return Err(invalid(
-                            col,
-                            "Line number is not the first word on the line",
-                        ));
-                    }
-                    seen_word = true;
-                    continue;
-                }
-                if !b"ABCDFGHIJKLMNPQRSTUVWXYZ".contains(&letter) {
-                    return Err(invalid(col, "Bad character used"));
-                }
-                seen_word = true;
+            b'$' => {
+                return Err(unsupported(
+                    at,
+                    word_text(b, at),
+                    "spindle selection ($ words) is not supported",
+                ))
+            }
+            b'@' | b'^' => {
+                return Err(unsupported(
+                    at,
+                    word_text(b, at),
+                    "polar coordinates (@ and ^ words) are not supported",
+                ))
+            }
+            b'a'..=b'z' if c != b'n' && c != b'o' => {
+                cur.bump();
+                let value = read_value(&mut cur, at)?;
                 out.words.push(Word {
-                    letter,
+                    letter: c.to_ascii_uppercase(),
                     value,
-                    column: col as u32 + 1,
+                    offset: at as u32,
                 });
             }
-            _ => return Err(invalid(i, "Bad character used")),
+            _ => return Err(invalid(at, bad_character(b[at]))),
         }
     }
     Ok(())
 }
 
-/// The word starting at `col` as written, for messages.
-fn word_text(text: &str, col: usize) -> String {
-    text[col..]
-        .chars()
-        .take_while(|c| !c.is_whitespace() && *c != '(' && *c != ';')
-        .take(16)
-        .collect()
+/// LinuxCNC checks comments over the whole line before reading any word.
+fn check_comments(b: &[u8]) -> Result<(), LexError> {
+    let mut open: Option<usize> = None;
+    for (i, &c) in b.iter().enumerate() {
+        match (open, c) {
+            (None, b';') => return Ok(()),
+            (None, b'(') => open = Some(i),
+            (Some(_), b')') => open = None,
+            (Some(_), b'(') => return Err(invalid(i, "Nested comment found")),
+            _ => {}
+        }
+    }
+    match open {
+        Some(i) => Err(invalid(i, "Unclosed comment found")),
+        None => Ok(()),
+    }
 }
 
-/// A real number: optional sign, digits, optional point and digits; spaces and tabs
-/// between the characters are ignored (as LinuxCNC does).
-fn read_number(b: &[u8], i: &mut usize) -> Option<f64> {
-    let n = b.len();
-    let skip = |i: &mut usize| {
-        while *i < n && (b[*i] == b' ' || b[*i] == b'\t') {
-            *i += 1;
-        }
-    };
-    skip(i);
-    let mut buf = [0u8; 64];
-    let mut len = 0;
-    if *i < n && (b[*i] == b'+' || b[*i] == b'-') {
-        buf[0] = b[*i];
-        len = 1;
-        *i += 1;
-    }
-    let (mut mant, mut digits, mut frac_digits, mut seen_point) = (0u64, 0u32, 0i32, false);
-    loop {
-        skip(i);
-        if *i >= n {
+/// The word starting at `at` as written, for messages.
+fn word_text(b: &[u8], at: usize) -> String {
+    let mut s = String::new();
+    for &c in b[at..].iter().take(24) {
+        if c == b'(' || c == b';' || (c.is_ascii_whitespace() && !s.is_empty()) {
             break;
         }
-        let c = b[*i];
+        if !c.is_ascii_whitespace() {
+            s.push(if c.is_ascii() {
+                c.to_ascii_uppercase() as char
+            } else {
+                '?'
+            });
+        }
+        if s.len() > 1 && c.is_ascii_alphabetic() && s.len() > 1 && !matches!(b[at], b'o' | b'O') {
+            // stop at the next word's letter (`#1=2G1` → `#1=2`)
+        }
+    }
+    if s.is_empty() {
+        s.push('?');
+    }
+    s
+}
+
+fn read_unsigned(cur: &mut Cursor) -> Result<(), LexError> {
+    let start = cur.i;
+    let mut n = 0;
+    while let Some(c) = cur.peek() {
+        if !c.is_ascii_digit() {
+            break;
+        }
+        cur.bump();
+        n += 1;
+    }
+    if n == 0 {
+        return Err(invalid(start, "Bad format unsigned integer"));
+    }
+    Ok(())
+}
+
+/// LinuxCNC's `read_real_value` for a plain number: signs, then digits and points.
+/// `word_at` is the offset of the word's letter (for messages).
+fn read_value(cur: &mut Cursor, word_at: usize) -> Result<f64, LexError> {
+    let mut negative = false;
+    loop {
+        let Some(c) = cur.peek() else {
+            return Err(invalid(
+                word_at,
+                "No characters found in reading real value",
+            ));
+        };
+        match c {
+            b'[' => {
+                return Err(unsupported(
+                    word_at,
+                    word_text(cur.b, word_at),
+                    "expressions are not supported yet",
+                ))
+            }
+            b'#' => {
+                return Err(unsupported(
+                    word_at,
+                    word_text(cur.b, word_at),
+                    "parameters are not supported yet",
+                ))
+            }
+            b'+' | b'-' => {
+                let c1 = cur.peek2();
+                if matches!(c1, Some(d) if d.is_ascii_digit() || d == b'.') || c1.is_none() {
+                    break;
+                }
+                negative ^= c == b'-';
+                cur.bump();
+            }
+            b'a'..=b'z' => {
+                // a function name such as `sin[`, `exists[`
+                let mut probe = Cursor { b: cur.b, i: cur.i };
+                while matches!(probe.peek(), Some(b'a'..=b'z')) {
+                    probe.bump();
+                }
+                if probe.peek() == Some(b'[') {
+                    return Err(unsupported(
+                        word_at,
+                        word_text(cur.b, word_at),
+                        "expressions are not supported yet",
+                    ));
+                }
+                return Err(invalid(
+                    cur.i,
+                    format!("Unknown word starting with {}", c as char),
+                ));
+            }
+            _ => break,
+        }
+    }
+    let v = read_number(cur)?;
+    Ok(if negative { -v } else { v })
+}
+
+/// `strspn("+-")`, `strspn("0123456789.")`, then a C++ stream conversion: one
+/// optional sign, digits with at most one point, at least one digit, nothing left.
+fn read_number(cur: &mut Cursor) -> Result<f64, LexError> {
+    let start = cur.i;
+    let mut neg = false;
+    let mut signs = 0;
+    while let Some(c @ (b'+' | b'-')) = cur.peek() {
+        neg = c == b'-';
+        signs += 1;
+        cur.bump();
+    }
+    let (mut mant, mut digits, mut frac, mut point, mut trailing, mut any) =
+        (0u64, 0u32, 0i32, false, false, false);
+    // the digits and points as written, for the rare slow path
+    let mut buf = [0u8; 40];
+    let mut len = 0usize;
+    while let Some(c) = cur.peek() {
         if c.is_ascii_digit() {
-            if digits < 19 {
-                mant = mant * 10 + (c - b'0') as u64;
+            if !trailing {
+                if digits < 19 {
+                    mant = mant * 10 + u64::from(c - b'0');
+                    if point {
+                        frac += 1;
+                    }
+                } else if !point {
+                    frac -= 1; // more integer digits than we keep: scale up
+                }
+                digits += 1;
+                if len < buf.len() {
+                    buf[len] = c;
+                    len += 1;
+                }
             }
-            digits += 1;
-            if seen_point {
-                frac_digits += 1;
+        } else if c == b'.' {
+            if point {
+                trailing = true;
+            } else if !trailing {
+                point = true;
+                if len < buf.len() {
+                    buf[len] = c;
+                    len += 1;
+                }
             }
-        } else if c == b'.' && !seen_point {
-            seen_point = true;
         } else {
             break;
         }
-        if len < buf.len() {
-            buf[len] = c;
-            len += 1;
-        }
-        *i += 1;
+        any = true;
+        cur.bump();
     }
-    if digits == 0 {
-        return None;
+    let _ = any;
+    if signs > 1 || digits == 0 {
+        return Err(invalid(start, "Bad number format (conversion failed)"));
     }
-    let neg = buf[0] == b'-';
-    let v = if digits <= 15 && frac_digits <= 22 {
-        // exact integer mantissa, one correctly rounded division
-        mant as f64 / 10f64.powi(frac_digits)
+    if trailing {
+        return Err(invalid(start, "Bad number format (trailing characters)"));
+    }
+    let v = if digits <= 15 && (0..=22).contains(&frac) {
+        // an exact integer mantissa and one correctly rounded division
+        mant as f64 / 10f64.powi(frac)
     } else {
         std::str::from_utf8(&buf[..len])
-            .ok()?
-            .trim_start_matches(['+', '-'])
-            .parse::<f64>()
-            .ok()?
+            .ok()
+            .and_then(|s| s.parse::<f64>().ok())
+            .filter(|v| v.is_finite() && digits <= 38)
+            .ok_or_else(|| invalid(start, "Bad number format (conversion failed)"))?
     };
-    Some(if neg { -v } else { v })
+    Ok(if neg { -v } else { v })
+}
+
+/// 1-based character column of byte offset `off` in `line`.
+pub fn column(line: &str, off: u32) -> u32 {
+    let off = (off as usize).min(line.len());
+    let b = &line.as_bytes()[..off];
+    1 + b.iter().filter(|&&c| (c & 0xC0) != 0x80).count() as u32
 }
 
 #[cfg(test)]
@@ -257,49 +447,75 @@ mod tests {
         assert_eq!(l.words.len(), 3);
         assert_eq!((l.words[1].letter, l.words[1].value), (b'X', 1.5));
         assert_eq!((l.words[2].letter, l.words[2].value), (b'Y', -0.5));
-        assert_eq!(l.words[1].column, 8);
+        assert_eq!(l.words[1].offset, 7);
         assert!(lex("/G1 X1").unwrap().block_delete);
-        assert!(lex("  %").unwrap().percent);
+        assert!(lex("  % ").unwrap().percent);
+        assert!(lex("  \t\r").unwrap().blank);
+        assert!(!lex("(only a comment)").unwrap().blank);
+        assert_eq!(lex("G0 X1\u{c}").unwrap().words.len(), 2);
+        assert_eq!(lex("G0 X1\0 garbage").unwrap().words.len(), 2);
     }
 
     #[test]
-    fn unsupported_and_bad_input() {
-        let e = lex("G1 X#1").unwrap_err();
-        assert_eq!(e.0, 4);
-        assert!(matches!(e.1, ErrorKind::Unsupported { .. }));
-        assert!(matches!(
-            lex("o100 sub").unwrap_err().1,
-            ErrorKind::Unsupported { .. }
-        ));
-        assert!(matches!(
-            lex("G1 X[1+2]").unwrap_err().1,
-            ErrorKind::Unsupported { .. }
-        ));
-        assert_eq!(
-            lex("G1 X1 (open").unwrap_err().1,
-            ErrorKind::Invalid("Unclosed comment found".into())
-        );
-        assert_eq!(
-            lex("G1 X").unwrap_err().1,
-            ErrorKind::Invalid("Bad number format".into())
-        );
-        assert_eq!(
-            lex("G1 X1 $").unwrap_err().1,
-            ErrorKind::Invalid("Bad character used".into())
-        );
-    }
-
-    #[test]
-    fn numbers() {
+    fn signs_and_numbers() {
         for (s, v) in [
             ("X1", 1.0),
             ("X-0.25", -0.25),
             ("X+3.", 3.0),
             ("X.125", 0.125),
             ("X007", 7.0),
+            ("X--1", 1.0),
+            ("X-+1", -1.0),
+            ("X+-1", -1.0),
+            ("X---1", -1.0),
+            ("X 1 2 . 5", 12.5),
+            ("X12345678901234567890", 12345678901234567890.0),
+            ("X0.1234567890123456789", 0.1234567890123456789),
         ] {
             assert_eq!(lex(s).unwrap().words[0].value, v, "{s}");
         }
         assert!((lex("X123.456789").unwrap().words[0].value - 123.456789).abs() < 1e-12);
+        let e = lex("X1e3").unwrap();
+        assert_eq!((e.words[1].letter, e.words[1].value), (b'E', 3.0));
+    }
+
+    #[test]
+    fn unsupported_and_bad_input() {
+        let e = lex("G1 X#1").unwrap_err();
+        assert_eq!(e.0, 3);
+        assert!(matches!(e.1, ErrorKind::Unsupported { .. }));
+        for s in [
+            "o100 sub",
+            "G1 X[1+2]",
+            "G1 Xsin[1]",
+            "#1=2",
+            "M98 P100",
+            "G1 @1 ^2",
+            "M3 $1",
+        ] {
+            assert!(
+                matches!(lex(s).unwrap_err().1, ErrorKind::Unsupported { .. }),
+                "{s}"
+            );
+        }
+        let inv = |s: &str| match lex(s).unwrap_err().1 {
+            ErrorKind::Invalid(m) => m,
+            k => panic!("{s}: {k:?}"),
+        };
+        assert_eq!(inv("G1 X1 (open"), "Unclosed comment found");
+        assert_eq!(inv("G1 X1 (a (b) c)"), "Nested comment found");
+        assert_eq!(inv("G1 X"), "No characters found in reading real value");
+        assert_eq!(inv("G1 X."), "Bad number format (conversion failed)");
+        assert_eq!(inv("G1 X1.2.3"), "Bad number format (trailing characters)");
+        assert_eq!(inv("G1 X1 %"), "Bad character '%' used");
+        assert_eq!(inv("G1 X1 N5"), "Bad character 'n' used");
+        assert_eq!(inv("G1 X1 \u{e9}"), "Bad character '\\303' used");
+        assert_eq!(inv("G1 XY1"), "Unknown word starting with y");
+    }
+
+    #[test]
+    fn columns_count_characters() {
+        assert_eq!(column("(\u{e9}) G1", 5), 5);
+        assert_eq!(column("G1 X1", 3), 4);
     }
 }
