@@ -152,7 +152,7 @@ pub fn drive_feedforward(machine: &MachineProfile, axis: usize) -> (f64, f64) {
 
 /// The best stack this project has for the machine: PID (eq 14, Table 4) plus velocity
 /// and acceleration feedforward inverting the nominal K, τ of Table 2. (FLC with the
-/// same feedforward was measured too and is worse in RMS on four of the six rows;
+/// same feedforward was measured too and is worse in RMS on five of the six rows;
 /// see `docs/reproduce-001.md`.)
 pub fn best_stack() -> (Stack, &'static str) {
     (
