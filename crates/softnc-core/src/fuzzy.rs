@@ -255,6 +255,23 @@ mod tests {
     }
 
     #[test]
+    fn flc_profile_is_mill_friction_with_the_flc_on_x_and_y() {
+        let pid = MachineProfile::from_ron_str(MILL, "mill-friction.ron").unwrap();
+        let mut flc = MachineProfile::from_ron_str(
+            include_str!("../../../config/machines/mill-friction-flc.ron"),
+            "mill-friction-flc.ron",
+        )
+        .unwrap();
+        for i in 0..2 {
+            let c = &mut flc.servo.axes[i].controller;
+            assert_eq!(c.fuzzy, Some(FuzzyConfig::paper001()), "axis {i}");
+            *c = pid.servo.axes[i].controller.clone();
+        }
+        flc.name = pid.name.clone();
+        assert_eq!(flc, pid);
+    }
+
+    #[test]
     fn malformed_flc_in_a_profile_is_refused_with_its_path() {
         let bad = PAPER.replacen(
             r#"["PL", "PL", "PL", "PL", "PL", "PL", "PL"], // e = PL"#,
