@@ -51,6 +51,7 @@ fn pdc() -> PdcConfig {
             },
         ],
         robust_grid_points: 1000,
+        w_dc_block_level: 0.0,
     }
 }
 

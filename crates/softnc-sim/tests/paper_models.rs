@@ -351,3 +351,60 @@ fn stick_at_reversal_004_gives_quadrant_spikes() {
         .fold(0.0, f64::max);
     assert!(calm < 0.002, "between quadrants: {calm}");
 }
+
+#[test]
+fn stick_slip_001_quadrant_spikes_on_a_circle() {
+    // paper 001 Fig. 10: R = 20 mm at 0.4 m/min under the PID; where an axis reverses
+    // (90°, 180°, 270°) friction holds it and the contour error spikes. With friction
+    // scaled to almost nothing the spikes vanish. Nominal parameters, no noise.
+    let with = profile("mill-friction");
+    let mut without = with.clone();
+    for a in &mut without.servo.axes {
+        if let PlantModel::DcMotor { friction, .. } = &mut a.plant {
+            let tiny = 1e-3;
+            friction.pos_sat *= tiny;
+            friction.neg_sat *= tiny;
+            friction.pos_quad.iter_mut().for_each(|c| *c *= tiny);
+            friction.neg_quad.iter_mut().for_each(|c| *c *= tiny);
+        }
+    }
+    let quads = [90.0, 180.0, 270.0];
+    let peak_near = |run: &[(f64, f64)], q: f64| {
+        run.iter()
+            .filter(|p| (p.0 - q).abs() < 15.0)
+            .map(|p| p.1.abs())
+            .fold(0.0, f64::max)
+    };
+    let elsewhere = |run: &[(f64, f64)]| {
+        let mut v: Vec<f64> = run
+            .iter()
+            .filter(|p| {
+                [0.0, 90.0, 180.0, 270.0, 360.0]
+                    .iter()
+                    .all(|q| (p.0 - q).abs() > 30.0)
+            })
+            .map(|p| p.1.abs())
+            .collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let stuck = circle_contour(&with, 20.0, 400.0);
+    let smooth = circle_contour(&without, 20.0, 400.0);
+    let (calm_stuck, calm_smooth) = (elsewhere(&stuck), elsewhere(&smooth));
+    for q in quads {
+        let (p_stuck, p_smooth) = (peak_near(&stuck, q), peak_near(&smooth, q));
+        eprintln!(
+            "001 circle R 20 at 0.4 m/min, {q}°: peak |e| {:.1} µm with friction, {:.1} µm without; median elsewhere {:.1} / {:.1} µm",
+            p_stuck * 1e3,
+            p_smooth * 1e3,
+            calm_stuck * 1e3,
+            calm_smooth * 1e3
+        );
+        // a spike: at least 4 x the typical error elsewhere, and 4 x the frictionless peak
+        assert!(
+            p_stuck > 4.0 * calm_stuck,
+            "{q}°: {p_stuck} vs {calm_stuck}"
+        );
+        assert!(p_stuck > 4.0 * p_smooth, "{q}°: {p_stuck} vs {p_smooth}");
+    }
+}
