@@ -10,7 +10,7 @@ fn conformance<B: ServoBackend>(name: &str, b: &mut B) {
     assert!(b.axes() >= 1 && b.axes() <= MAX_AXES, "{name}: axes");
     let home = [12.5, -7.25, 3.0];
     b.home(home);
-    for i in 0..b.axes() {
+    for (i, &home_mm) in home.iter().enumerate().take(b.axes()) {
         let res = b.mm_per_count(i);
         assert!(res > 0.0 && res.is_finite(), "{name}: axis {i} resolution");
         let counts = b.read_counts()[i];
