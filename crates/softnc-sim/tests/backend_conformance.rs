@@ -16,9 +16,8 @@ fn conformance<B: ServoBackend>(name: &str, b: &mut B) {
         let counts = b.read_counts()[i];
         let pos = counts as f64 * res;
         assert!(
-            (pos - home[i]).abs() <= res,
-            "{name}: axis {i} homed to {pos}, not {}",
-            home[i]
+            (pos - home_mm).abs() <= res,
+            "{name}: axis {i} homed to {pos}, not {home_mm}"
         );
         assert!(b.read_status()[i].enabled, "{name}: axis {i} not enabled");
         assert!(
