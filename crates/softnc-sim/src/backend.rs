@@ -14,6 +14,11 @@ pub const MAX_AXES: usize = 3;
 /// enough that the count is the position to floating-point precision over any travel.
 pub const UNQUANTISED_MM_PER_COUNT: f64 = 1e-9;
 
+/// Random stream of axis `i`'s parameter variation: `STREAM_VARIATION + i`.
+const STREAM_VARIATION: u64 = 100;
+/// Random stream of axis `i`'s measurement noise: `STREAM_NOISE + i`.
+const STREAM_NOISE: u64 = 200;
+
 /// Status of one drive.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct AxisStatus {
@@ -115,7 +120,7 @@ impl SimBackend {
     pub fn new(profile: &MachineProfile, seed: u64, options: SimOptions) -> Self {
         let cycle_s = profile.interpolation_cycle_s;
         let plants = [0, 1, 2].map(|i| {
-            let mut rng = Rng::stream(seed, 100 + i as u64);
+            let mut rng = Rng::stream(seed, STREAM_VARIATION + i as u64);
             Plant::new(&profile.axis_servo(i).plant, &mut rng, options.variation)
         });
         let encoders = [0, 1, 2].map(|i| {
@@ -129,7 +134,7 @@ impl SimBackend {
             } else {
                 0.0
             };
-            Encoder::new(res, noise, Rng::stream(seed, 200 + i as u64))
+            Encoder::new(res, noise, Rng::stream(seed, STREAM_NOISE + i as u64))
         });
         let substeps = [0, 1, 2].map(|i| plants[i].substeps(cycle_s));
         let cutting = if options.cutting {

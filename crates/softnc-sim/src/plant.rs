@@ -12,6 +12,9 @@ use softnc_core::servo::PlantModel;
 /// leave only the friction switching instants off by < 1 ms.
 pub const MAX_SUBSTEP_S: f64 = 0.001;
 
+/// Paper 001's K is per minute; the model integrates in seconds.
+const SECONDS_PER_MINUTE: f64 = 60.0;
+
 /// What the drive's command means.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CommandMode {
@@ -67,7 +70,7 @@ impl Plant {
                 let df = rng.symmetric(*friction_variation);
                 let (dk, dt, df) = if vary { (dk, dt, df) } else { (0.0, 0.0, 0.0) };
                 Plant::DcMotor(DcMotor::new(
-                    gain_mm_per_min_per_dac / 60.0 * (1.0 + dk),
+                    gain_mm_per_min_per_dac / SECONDS_PER_MINUTE * (1.0 + dk),
                     tau_s * (1.0 + dt),
                     *dac_limit,
                     friction.clone(),
