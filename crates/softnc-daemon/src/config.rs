@@ -45,15 +45,12 @@ pub struct DaemonConfig {
     pub following_error_limit_mm: f64,
     /// Where job history and learning stores live, relative to this file's folder.
     pub data_dir: PathBuf,
-    /// Seed of the simulated machine.
-    #[serde(default = "default_seed")]
-    pub seed: u64,
+    /// Write a per-cycle trace of every job (CSV, the format of `softnc sim --trace`)
+    /// into the data directory.
+    #[serde(default)]
+    pub trace: bool,
     /// iceoryx2 configuration, relative to this file's folder.
     pub iceoryx2_config: PathBuf,
-}
-
-fn default_seed() -> u64 {
-    1
 }
 
 /// Largest lookahead the position process can hold (its ring holds twice this).

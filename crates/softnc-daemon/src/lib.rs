@@ -10,6 +10,7 @@
 //! - [`store`]: atomic file writes.
 //! - [`supervisor`]: `softncd`, starts, watches, restarts and stops the processes.
 //! - [`cli`]: shared start-up of the binaries.
+//! - [`trace`]: per-cycle CSV traces, written off the cycle path.
 //! - [`client`]: the operator client (request-response to the MMI).
 #![warn(missing_docs)]
 
@@ -22,3 +23,4 @@ pub mod mmi;
 pub mod position;
 pub mod store;
 pub mod supervisor;
+pub mod trace;

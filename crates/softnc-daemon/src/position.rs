@@ -16,28 +16,11 @@ use softnc_ipc::{
     LoopStats as LoopStatsMsg, MachineState, PositionStatus, ProcessId, MAX_AXES,
 };
 use softnc_rt::{LoopStats, PeriodicClock};
+use softnc_sim::{CycleEngine, ServoBackend};
 use std::time::{Duration, Instant};
 
 /// Ring capacity: twice the largest lookahead.
 pub const RING_CAPACITY: usize = 2048;
-
-/// The machine side of one position cycle: controller stack and servo backend for
-/// every axis. The daemon and `softnc sim` step the same implementation.
-pub trait CycleMachine {
-    /// Put the axes at rest at `pos_mm` (start of a job).
-    fn reset(&mut self, pos_mm: [f64; 3]);
-    /// One cycle: command in, actual position and controller output out.
-    fn step(&mut self, cmd_mm: [f64; 3], feed_move: bool) -> CycleOutput;
-}
-
-/// What one cycle produced.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct CycleOutput {
-    /// Actual (measured) position per axis (mm).
-    pub actual_mm: [f64; 3],
-    /// Controller output per axis.
-    pub ctrl_out: [f64; 3],
-}
 
 /// Decelerating along the path left in the ring after it ran dry.
 #[derive(Debug, Clone, Copy)]
@@ -47,10 +30,15 @@ struct DryStop {
     s_mm: f64,
 }
 
-/// The position-control process.
-pub struct PositionTask<M: CycleMachine> {
+/// Builds the engine for a job: controller stacks in front of the servo backend.
+pub type EngineFactory<B> = Box<dyn FnMut() -> CycleEngine<B>>;
+
+/// The position-control process over a servo backend `B` (the simulated machine now).
+pub struct PositionTask<B: ServoBackend> {
     cfg: Loaded,
-    machine: M,
+    engine: CycleEngine<B>,
+    make_engine: EngineFactory<B>,
+    trace: Option<crate::trace::TraceSink>,
     ring: LookaheadRing<3, RING_CAPACITY>,
     window: usize,
     commands: Sub<CommandSample>,
@@ -75,9 +63,12 @@ pub struct PositionTask<M: CycleMachine> {
     _bus: Bus,
 }
 
-impl<M: CycleMachine> PositionTask<M> {
-    /// Open the services; `machine` is the controller stack and servo backend.
-    pub fn new(cfg: Loaded, machine: M) -> Result<Self> {
+impl<B: ServoBackend> PositionTask<B> {
+    /// Open the services; `make_engine` builds the controller stacks in front of the
+    /// backend — the same engine `softnc sim` steps — fresh for every job (before
+    /// motion), so a job runs exactly as the simulator runs it.
+    pub fn new(cfg: Loaded, mut make_engine: EngineFactory<B>) -> Result<Self> {
+        let engine = make_engine();
         let names = softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance);
         let bus = Bus::new(names, "position")?;
         let window = filter_window(cfg.config.lookahead_samples);
@@ -89,7 +80,9 @@ impl<M: CycleMachine> PositionTask<M> {
             heartbeat: bus.heartbeat_publisher()?,
             loop_stats_pub: bus.loop_stats_publisher()?,
             cfg,
-            machine,
+            engine,
+            make_engine,
+            trace: None,
             ring: LookaheadRing::new(),
             window,
             state: MachineState::Idle,
@@ -190,7 +183,24 @@ impl<M: CycleMachine> PositionTask<M> {
         self.current = None;
         self.dry = None;
         let start = [first.pos_mm[0], first.pos_mm[1], first.pos_mm[2]];
-        self.machine.reset(start);
+        // a fresh machine for every job, exactly as `softnc sim` starts one
+        self.engine = (self.make_engine)();
+        self.engine.reset(start);
+        if let Some(t) = self.trace.take() {
+            t.finish();
+        }
+        if self.cfg.config.trace {
+            let path = self
+                .cfg
+                .data_dir
+                .join(format!("trace-job{}.csv", first.job_id));
+            let lossless = self.cfg.config.clock == ClockMode::Lockstep;
+            let _ = std::fs::create_dir_all(&self.cfg.data_dir);
+            match crate::trace::TraceSink::start(&path, lossless) {
+                Ok(t) => self.trace = Some(t),
+                Err(e) => tracing::warn!("cannot trace to {}: {e}", path.display()),
+            }
+        }
         self.last_cmd = start;
         self.prev_cmd = start;
         Ok(())
@@ -286,13 +296,34 @@ impl<M: CycleMachine> PositionTask<M> {
                 });
             }
         }
-        // 3. controller stack and servo backend
-        let out = self.machine.step(cmd, feed_move);
+        // 3. controller stacks and servo backend (the engine `softnc sim` steps); the
+        //    machine stands still (not stepped) between jobs
+        let moving =
+            matches!(self.state, MachineState::Running | MachineState::Held) || self.dry.is_some();
+        let rec = if moving {
+            match self.engine.step(cmd, feed_move) {
+                Ok(r) => r,
+                Err(e) => {
+                    self.state = MachineState::EStopped;
+                    let msg = format!("servo backend fault: {e}");
+                    self.alarm(AlarmCode::Other, u32::MAX, &msg)?;
+                    softnc_sim::CycleRecord {
+                        cmd_mm: cmd,
+                        ..Default::default()
+                    }
+                }
+            }
+        } else {
+            let actual_mm = self.engine.measured_mm();
+            softnc_sim::CycleRecord {
+                cmd_mm: cmd,
+                actual_mm,
+                following_mm: [0, 1, 2].map(|i| cmd[i] - actual_mm[i]),
+                ctrl_out: [0.0; 3],
+            }
+        };
+        let fe = rec.following_mm;
         // 4. faults: following error
-        let mut fe = [0.0; 3];
-        for i in 0..3 {
-            fe[i] = cmd[i] - out.actual_mm[i];
-        }
         if matches!(self.state, MachineState::Running | MachineState::Held) {
             if let Some(axis) =
                 (0..3).find(|&i| fe[i].abs() > self.cfg.config.following_error_limit_mm)
@@ -307,14 +338,25 @@ impl<M: CycleMachine> PositionTask<M> {
                 self.alarm(AlarmCode::FollowingError, axis as u32, &msg)?;
             }
         }
-        // 5. status
+        // 5. status (contour error exactly as the simulator computes it)
         let contour = match (feed_move, self.current) {
             (true, Some(c)) => match self.primitives.get(c.motion as usize).copied().flatten() {
-                Some(p) => p.contour_error(Vec3(out.actual_mm)),
+                Some(p) => p.contour_error(Vec3(rec.actual_mm)),
                 None => f64::NAN,
             },
             _ => f64::NAN,
         };
+        if moving {
+            if let (Some(t), Some(c)) = (&self.trace, self.current) {
+                t.push(softnc_sim::sim::TraceRow {
+                    cycle: c.time_index,
+                    time_s: c.time_index as f64 * self.cfg.machine.interpolation_cycle_s,
+                    motion: c.motion,
+                    record: rec,
+                    contour_mm: contour.is_finite().then_some(contour),
+                });
+            }
+        }
         let mut status = PositionStatus {
             seq: self.current.map_or(0, |c| c.seq),
             job_id: self.job_id,
@@ -328,18 +370,21 @@ impl<M: CycleMachine> PositionTask<M> {
             state: self.state.wire(),
         };
         status.cmd_mm[..3].copy_from_slice(&cmd);
-        status.actual_mm[..3].copy_from_slice(&out.actual_mm);
+        status.actual_mm[..3].copy_from_slice(&rec.actual_mm);
         status.following_err_mm[..3].copy_from_slice(&fe);
-        status.ctrl_out[..3].copy_from_slice(&out.ctrl_out);
+        status.ctrl_out[..3].copy_from_slice(&rec.ctrl_out);
         self.prev_cmd = self.last_cmd;
         self.last_cmd = cmd;
         // 6. advance
         if self.state == MachineState::Running && self.dry.is_none() {
-            let at_end = self.ring.ended() && !self.ring.advance();
-            if !at_end {
+            if self.ring.advance() {
                 self.flags.pop_front();
-            } else {
-                // job complete: report once more as idle
+            } else if self.ring.ended() {
+                // job complete: report once more as idle; the trace is closed by
+                // its own thread, not on the cycle path
+                if let Some(t) = self.trace.take() {
+                    std::thread::spawn(move || t.finish());
+                }
                 self.state = MachineState::Idle;
                 self.job_id = 0;
                 status.state = self.state.wire();
