@@ -449,6 +449,16 @@ mod tests {
             files.push(std::fs::read(&out).unwrap());
         }
         assert!(files[0] == files[1], "same seed, different trace");
+        // the plot is drawn too
+        let svg = dir.join("p.svg");
+        let mut a = args(prog, mach, None, 3);
+        a.plot = Some(svg.clone());
+        run(a).unwrap();
+        let svg = std::fs::read_to_string(&svg).unwrap();
+        assert!(
+            svg.starts_with("<svg") && svg.contains("contour error"),
+            "plot"
+        );
         assert!(files[0] != files[2], "different seeds, same trace");
         let text = String::from_utf8(files[0].clone()).unwrap();
         assert!(text.starts_with("time_s,cmd_x_mm,"), "{}", &text[..40]);
