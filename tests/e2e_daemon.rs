@@ -1,0 +1,250 @@
+//! End-to-end tests of the runtime: softncd and its three processes driven through the
+//! operator client, on the simulated machine. Each test runs its own controller
+//! instance (service names, data directory), so tests can run side by side.
+
+use softnc_daemon::client::Operator;
+use softnc_ipc::ControlKind;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command};
+use std::time::{Duration, Instant};
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// A daemon on a fresh instance; shut down (killed if it hangs) on drop.
+struct Daemon {
+    child: Child,
+    config: PathBuf,
+    dir: PathBuf,
+}
+
+impl Daemon {
+    fn start(tag: &str, clock: &str, trace: bool) -> Daemon {
+        let dir = std::env::temp_dir().join(format!("softnc-e2e-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("machines")).unwrap();
+        std::fs::copy(repo().join("config/machines/default.ron"), dir.join("machines/default.ron")).unwrap();
+        std::fs::copy(repo().join("config/iceoryx2.toml"), dir.join("iceoryx2.toml")).unwrap();
+        let cfg = std::fs::read_to_string(repo().join("config/default.ron"))
+            .unwrap()
+            .replace("instance: \"mill1\"", &format!("instance: \"e2e{tag}{}\"", std::process::id()))
+            .replace("clock: Realtime", &format!("clock: {clock}"))
+            .replace("data_dir: \"../data\"", "data_dir: \"data\"")
+            .replace("trace: false", &format!("trace: {trace}"))
+            .replace("interp_rt: (core: Some(0), fifo_priority: Some(70), lock_memory: true)", "interp_rt: ()")
+            .replace("position_rt: (core: Some(1), fifo_priority: Some(80), lock_memory: true)", "position_rt: ()");
+        let config = dir.join("default.ron");
+        std::fs::write(&config, cfg).unwrap();
+        let child = Command::new(env!("CARGO_BIN_EXE_softncd"))
+            .arg("--config")
+            .arg(&config)
+            .env("RUST_LOG", "warn")
+            .spawn()
+            .unwrap();
+        Daemon { child, config, dir }
+    }
+
+    fn operator(&self) -> Operator {
+        Operator::wait_ready(&self.config, Duration::from_secs(30)).expect("MMI answers")
+    }
+
+    /// Poll until `pred` holds on the status, or fail after `timeout`.
+    fn wait_status(&self, op: &Operator, timeout: Duration, what: &str, pred: impl Fn(&serde_json::Value) -> bool) -> serde_json::Value {
+        let t0 = Instant::now();
+        loop {
+            if let Ok(s) = op.status() {
+                if pred(&s) {
+                    return s;
+                }
+                assert!(t0.elapsed() < timeout, "timed out waiting for {what}: {s}");
+            } else {
+                assert!(t0.elapsed() < timeout, "timed out waiting for {what}: no MMI");
+            }
+            std::thread::sleep(Duration::from_millis(25));
+        }
+    }
+
+    fn wait_job(&self, op: &Operator, job_id: u64, timeout: Duration) -> serde_json::Value {
+        self.wait_status(op, timeout, "job end", |s| {
+            s["job"]["job_id"].as_u64() == Some(job_id) && s["job"]["outcome"] != "running"
+        })
+    }
+
+    fn pid_of(&self, name: &str) -> Option<u32> {
+        // children of this softncd with that name
+        let out = Command::new("pgrep").args(["-P", &self.child.id().to_string(), "-x", name]).output().ok()?;
+        String::from_utf8_lossy(&out.stdout).lines().next()?.trim().parse().ok()
+    }
+
+    fn kill9(&self, name: &str) {
+        let pid = self.pid_of(name).unwrap_or_else(|| panic!("{name} not running"));
+        let ok = Command::new("kill").args(["-9", &pid.to_string()]).status().unwrap().success();
+        assert!(ok, "kill -9 {name}");
+    }
+}
+
+impl Drop for Daemon {
+    fn drop(&mut self) {
+        if let Ok(op) = Operator::connect(&self.config) {
+            let _ = op.request(ControlKind::Shutdown, 0.0, "");
+        }
+        let t0 = Instant::now();
+        while self.child.try_wait().ok().flatten().is_none() && t0.elapsed() < Duration::from_secs(10) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+fn abs(path: &Path) -> String {
+    std::fs::canonicalize(path).unwrap().display().to_string()
+}
+
+/// A short job of lines and arcs (about 3 s of motion).
+fn short_job(dir: &Path) -> PathBuf {
+    let p = dir.join("short.ngc");
+    std::fs::write(
+        &p,
+        "G21 G90 G17 G64 P0.01\nG0 X0 Y0 Z5\nG1 Z-1 F600\nG1 X20 F2400\nG2 X30 Y10 R10\nG1 Y30\nG3 X20 Y40 I-10 J0\nG1 X0\nG1 Y0\nG0 Z5\nM2\n",
+    )
+    .unwrap();
+    p
+}
+
+/// The simulator's trace of the same job, written with the same writer.
+fn simulator_trace(job: &Path, machine: &Path, out: &Path) {
+    let profile = softnc_core::MachineProfile::load(machine).unwrap();
+    let text = std::fs::read_to_string(job).unwrap();
+    let program = softnc_gcode::read_program(&text, &job.display().to_string(), &profile).unwrap();
+    let plan = softnc_planner::plan(&program, &profile, &Default::default()).unwrap();
+    let mut engine = softnc_sim::CycleEngine::simulated(&profile, profile.servo.seed, softnc_sim::SimOptions::default());
+    let mut file = softnc_daemon::trace::TraceFile::create(out).unwrap();
+    let samples = plan.interpolator().map(|s| softnc_sim::sim::CommandSample {
+        pos_mm: s.pos_mm.0,
+        motion: s.motion,
+        feed_move: s.feed_move,
+    });
+    softnc_sim::simulate(&mut engine, plan.cycle_s(), samples, |m| plan.motion_primitive(m as usize), |row| {
+        file.row(row).unwrap()
+    })
+    .unwrap();
+    file.finish().unwrap();
+}
+
+#[test]
+fn lockstep_job_through_three_processes_equals_the_simulator_bit_for_bit() {
+    let d = Daemon::start("run", "Lockstep", true);
+    let op = d.operator();
+    let job = short_job(&d.dir);
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(120));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    assert!(s["alarms"].as_array().unwrap().is_empty(), "{s}");
+    // the trace file is closed by its own thread: wait for it
+    let daemon_trace = d.dir.join(format!("data/trace-job{}.csv", r.job_id));
+    let sim_trace = d.dir.join("sim.csv");
+    simulator_trace(&job, &d.dir.join("machines/default.ron"), &sim_trace);
+    let want = std::fs::read(&sim_trace).unwrap();
+    let t0 = Instant::now();
+    let got = loop {
+        let got = std::fs::read(&daemon_trace).unwrap_or_default();
+        if got.len() >= want.len() || t0.elapsed() > Duration::from_secs(10) {
+            break got;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert!(want.len() > 10_000, "simulator trace too short");
+    if got != want {
+        let (g, w) = (String::from_utf8_lossy(&got), String::from_utf8_lossy(&want));
+        let first = g.lines().zip(w.lines()).position(|(a, b)| a != b);
+        panic!(
+            "daemon trace ({} lines) differs from the simulator's ({} lines) first at line {first:?}:\n{:?}\n{:?}",
+            g.lines().count(),
+            w.lines().count(),
+            first.and_then(|i| g.lines().nth(i)),
+            first.and_then(|i| w.lines().nth(i))
+        );
+    }
+}
+
+#[test]
+fn a_bad_job_is_refused_with_its_position_and_nothing_moves() {
+    let d = Daemon::start("bad", "Lockstep", false);
+    let op = d.operator();
+    let bad = d.dir.join("bad.ngc");
+    std::fs::write(&bad, "G21 G90\nG1 X10 Y10 F600\nG2 X20 Y0 R1\nM2\n").unwrap();
+    let far = d.dir.join("far.ngc");
+    std::fs::write(&far, "G21 G90\nG0 X900\nM2\n").unwrap();
+    for (file, want) in [(&bad, "bad.ngc:3:"), (&far, "far.ngc:2:")] {
+        let r = op.request(ControlKind::StartJob, 0.0, &abs(file)).unwrap();
+        assert_eq!(r.accepted, 0);
+        assert!(r.message.as_str().contains(want), "{}", r.message.as_str());
+    }
+    let s = op.status().unwrap();
+    assert_eq!(s["state"], "Idle");
+    assert!(s["job"].is_null(), "no job was started: {s}");
+}
+
+#[test]
+fn killing_the_interpolator_stops_along_the_path_and_a_reset_recovers() {
+    let d = Daemon::start("kill", "Realtime", false);
+    let op = d.operator();
+    let job = short_job(&d.dir);
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+    assert_eq!(r.accepted, 1);
+    d.wait_status(&op, Duration::from_secs(20), "motion", |s| s["job"]["cycles"].as_u64().unwrap_or(0) > 800);
+    d.kill9("softnc-interp");
+    let s = d.wait_status(&op, Duration::from_secs(10), "fault", |s| s["state"] == "Faulted");
+    let alarms = s["alarms"].to_string();
+    assert!(alarms.contains("RingDry") || alarms.contains("ran dry"), "{alarms}");
+    // a second client cannot start a job on a faulted machine
+    let again = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+    assert_eq!(again.accepted, 0, "{}", again.message.as_str());
+    // reset; the supervisor has restarted the interpolator: a new job runs
+    op.request(ControlKind::Reset, 0.0, "").unwrap();
+    d.wait_status(&op, Duration::from_secs(10), "idle + interp alive", |s| {
+        s["state"] == "Idle" && s["processes"]["interp"] == "alive"
+    });
+    let r2 = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+    assert_eq!(r2.accepted, 1, "{}", r2.message.as_str());
+    let s = d.wait_job(&op, r2.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+}
+
+#[test]
+fn killing_the_mmi_leaves_motion_running_and_the_client_reconnects() {
+    let d = Daemon::start("mmi", "Realtime", false);
+    let op = d.operator();
+    let job = short_job(&d.dir);
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+    assert_eq!(r.accepted, 1);
+    d.wait_status(&op, Duration::from_secs(20), "motion", |s| s["job"]["cycles"].as_u64().unwrap_or(0) > 300);
+    d.kill9("softnc-mmi");
+    std::thread::sleep(Duration::from_millis(300));
+    let op2 = d.operator();
+    let s = d.wait_job(&op2, r.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "motion continued without the MMI: {s}");
+}
+
+#[test]
+fn killing_the_position_process_faults_and_reset_restarts_it() {
+    let d = Daemon::start("pos", "Realtime", false);
+    let op = d.operator();
+    d.wait_status(&op, Duration::from_secs(10), "position alive", |s| s["processes"]["position"] == "alive");
+    d.kill9("softnc-position");
+    let s = d.wait_status(&op, Duration::from_secs(10), "fault", |s| s["processes"]["position"] == "lost");
+    let _ = s;
+    let s = d.wait_status(&op, Duration::from_secs(10), "alarm", |s| s["alarms"].to_string().contains("ProcessLost"));
+    assert!(s["alarms"].to_string().contains("softnc-position"), "{s}");
+    op.request(ControlKind::Reset, 0.0, "").unwrap();
+    d.wait_status(&op, Duration::from_secs(15), "position back", |s| s["processes"]["position"] == "alive");
+    let job = short_job(&d.dir);
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+}
