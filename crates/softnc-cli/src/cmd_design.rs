@@ -63,10 +63,8 @@ pub struct PdcProfile {
     /// PDC design parameters.
     pub pdc: PdcConfig,
     /// DOB Q filter.
-    #[allow(dead_code)] // read by `softnc reproduce 000-pdc`
     pub dob: DobConfig,
     /// MBDA PI gains.
-    #[allow(dead_code)] // read by `softnc reproduce 000-pdc`
     pub mbda: MbdaConfig,
 }
 

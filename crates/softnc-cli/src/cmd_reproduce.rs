@@ -9,7 +9,8 @@ use std::process::ExitCode;
 /// Arguments of `softnc reproduce`.
 #[derive(clap::Args)]
 pub struct ReproduceArgs {
-    /// The experiment: `001-table5` (paper 001, PID vs fuzzy-logic control).
+    /// The experiment: `001-table5` (paper 001, PID vs fuzzy-logic control),
+    /// `000-pdc` (paper 000, DOB/MBDA and the periodic disturbance canceller).
     pub experiment: String,
     /// Print one JSON document instead of the text table.
     #[arg(long)]
@@ -29,12 +30,13 @@ pub struct ReproduceArgs {
 }
 
 /// The experiments this command knows.
-pub const EXPERIMENTS: &[&str] = &["001-table5"];
+pub const EXPERIMENTS: &[&str] = &["001-table5", "000-pdc"];
 
 /// Run the named experiment.
 pub fn run(args: ReproduceArgs) -> Result<ExitCode> {
     match args.experiment.as_str() {
         "001-table5" => crate::reproduce::p001::main(&args),
+        "000-pdc" => crate::reproduce::p000::main(&args),
         other => {
             eprintln!(
                 "softnc: unknown experiment `{other}`; known: {}",

@@ -58,6 +58,7 @@ fn pdc_config() -> PdcConfig {
             },
         ],
         robust_grid_points: 2000,
+        w_dc_block_level: 0.0,
     }
 }
 

@@ -9,9 +9,9 @@
 //! `y_m(k) = (x(k) − x(k−1)) / T · 2π / lead`. For a velocity loop whose position
 //! integrates speed trapezoidally this is `(y(k) + y(k−1))/2`, i.e. the plant the
 //! blocks see is `P_meas = P_n (1 + z⁻¹)/2`. The PDC and MBDA are designed on
-//! `P_meas` (no inverse needed); the DOB needs a stable inverse, and `P_meas` has a
-//! zero at z = −1, so the DOB uses `P_n` (a half-sample model error, small inside
-//! the Q bandwidth).
+//! `P_meas` (no inverse needed); the DOB needs a stable inverse and `P_meas` has a
+//! zero at z = −1, so the DOB inverts `P_n` and applies `(1 + z⁻¹)/2` to its input
+//! path instead ([`Dob::design_with_factor`]): no model error.
 //!
 //! **Redesign.** The PDC is designed for the tooth frequency when the job starts;
 //! when the spindle speed changes, [`PdcDesigner::design`] runs off the real-time
@@ -48,10 +48,13 @@ pub enum CompensationError {
     Plant,
 }
 
+/// The measurement factor (1 + z⁻¹)/2 of the position-difference speed.
+pub const MEASUREMENT_FACTOR: [f64; 2] = [0.5, 0.5];
+
 /// `P_meas = P_n (1 + z⁻¹)/2`: the plant as seen through the position-difference
 /// speed measurement (see the module docs).
 pub fn measured_model(p_n: &DiscreteTf) -> DiscreteTf {
-    p_n.series(&DiscreteTf::fir(vec![0.5, 0.5]).expect("two finite taps"))
+    p_n.series(&DiscreteTf::fir(MEASUREMENT_FACTOR.to_vec()).expect("two finite taps"))
 }
 
 /// What redesigns the PDC of one axis: its settings and model. Cloneable, so a
@@ -117,7 +120,12 @@ impl AxisCompensation {
         let p_meas = measured_model(p_n);
         let outer = match &cfg.outer {
             OuterCompensator::None => Outer::None,
-            OuterCompensator::Dob(d) => Outer::Dob(Dob::design(d, p_n, cycle_s)?),
+            OuterCompensator::Dob(d) => Outer::Dob(Dob::design_with_factor(
+                d,
+                p_n,
+                &MEASUREMENT_FACTOR,
+                cycle_s,
+            )?),
             OuterCompensator::Mbda(m) => Outer::Mbda(Mbda::design(m, &p_meas, cycle_s)?),
         };
         let (pdc, designer, pdc_fd_hz) = match &cfg.pdc {
@@ -264,6 +272,7 @@ mod tests {
                 },
             ],
             robust_grid_points: 1000,
+            w_dc_block_level: 0.0,
         }
     }
 

@@ -148,6 +148,19 @@ impl Dob {
         model: &DiscreteTf,
         sample_time_s: f64,
     ) -> Result<Dob, DobDesignError> {
+        Dob::design_with_factor(config, model, &[1.0], sample_time_s)
+    }
+
+    /// Build the observer for a plant `model · F(z⁻¹)` whose FIR factor `F`
+    /// (unit DC gain, e.g. the measurement's (1 + z⁻¹)/2) is not inverted: it is
+    /// applied to the plant input instead, `d̂ = Q·model⁻¹·y − Q·F·v`, so with the
+    /// exact plant `d̂ = Q·F·d` (the time-delay DOB idea of paper 000's ref. [13]).
+    pub fn design_with_factor(
+        config: &DobConfig,
+        model: &DiscreteTf,
+        factor: &[f64],
+        sample_time_s: f64,
+    ) -> Result<Dob, DobDesignError> {
         let q = q_discrete(config, sample_time_s)?;
         let d = model.input_delay_samples();
         if d >= model.num().len() {
@@ -170,11 +183,14 @@ impl Dob {
             .map_err(|_| DobDesignError::ZeroModel)?;
         // z·Q_eff = z^{−(e−1)} Q', fed with v(k−1)
         let mut qv_num = vec![0.0; e - 1];
-        qv_num.extend_from_slice(q_prime);
+        qv_num.extend(poly_mul(q_prime, factor));
         let q_v =
             DiscreteTf::new(qv_num, q.den().to_vec()).map_err(|_| DobDesignError::ZeroModel)?;
+        let q_eff = q
+            .delayed(e - 1)
+            .series(&DiscreteTf::fir(factor.to_vec()).map_err(|_| DobDesignError::ZeroModel)?);
         Ok(Dob {
-            q: q.delayed(e - 1),
+            q: q_eff,
             q_pinv: TfFilter::new(&q_pinv),
             q_v: TfFilter::new(&q_v),
             last_out: 0.0,
@@ -182,7 +198,8 @@ impl Dob {
         })
     }
 
-    /// The discrete Q filter in use (including any extra model delay).
+    /// The estimate's transfer from the disturbance, Q (times any extra model delay
+    /// and non-inverted factor).
     pub fn q(&self) -> &DiscreteTf {
         &self.q
     }
@@ -313,6 +330,32 @@ mod tests {
             }
         }
         assert!(err < 1e-6, "estimate vs Q·d: {err}");
+    }
+
+    #[test]
+    fn a_non_inverted_factor_is_applied_to_the_input_exactly() {
+        // plant seen through (1 + z⁻¹)/2 (zero at −1: not invertible)
+        let f = [0.5, 0.5];
+        let seen = pnx().series(&DiscreteTf::fir(f.to_vec()).unwrap());
+        let mut dob = Dob::design_with_factor(&cfg(3, 1, 0.003), &pnx(), &f, T).unwrap();
+        let mut naive = Dob::design(&cfg(3, 1, 0.003), &pnx(), T).unwrap();
+        let (mut p1, mut p2) = (TfFilter::new(&seen), TfFilter::new(&seen));
+        let qf = dob.q().response(20.0, T);
+        let (mut err, mut naive_err) = (0.0_f64, 0.0_f64);
+        for k in 0..3000 {
+            let wt = 2.0 * std::f64::consts::PI * 20.0 * T * k as f64;
+            let v1 = dob.step(0.0, p1.pending_output());
+            p1.step(v1 + wt.sin());
+            let v2 = naive.step(0.0, p2.pending_output());
+            p2.step(v2 + wt.sin());
+            if k > 2000 {
+                let expect = qf.abs() * (wt + qf.arg()).sin();
+                err = err.max((dob.estimate() - expect).abs());
+                naive_err = naive_err.max((naive.estimate() - expect).abs());
+            }
+        }
+        assert!(err < 1e-6, "{err}");
+        assert!(naive_err > 1e-3, "the model error should show: {naive_err}");
     }
 
     #[test]

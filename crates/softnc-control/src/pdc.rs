@@ -181,7 +181,7 @@ pub fn fit_w(plant: &DiscreteTf, fd_hz: f64, sample_time_s: f64, config: &PdcCon
     let mut gain = vec![0.0; n];
     for k in 0..config.rls_warmup_samples + config.rls_samples {
         let s = (2.0 * PI * k as f64 * fd_hz * sample_time_s).sin(); // eq 26
-        let x = filt.step(s);
+        let x = filt.step(s + config.w_dc_block_level);
         x_vec.copy_within(0..n - 1, 1);
         x_vec[0] = x; // X(n) (eq 27)
         if k < config.rls_warmup_samples {
@@ -420,6 +420,7 @@ mod tests {
                 },
             ],
             robust_grid_points: 1000,
+            w_dc_block_level: 0.0,
         }
     }
 

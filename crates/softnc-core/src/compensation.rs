@@ -109,4 +109,12 @@ pub struct PdcConfig {
     pub uncertainty: Vec<UncertaintyPoint>,
     /// Frequencies in (0, f_s/2] on which eq 13 is checked (plus DC).
     pub robust_grid_points: usize,
+    /// Our extension (not in the paper): also teach W to block DC, so that
+    /// H·P_n(0) = 0. The RLS input gets a constant offset of this size whose
+    /// desired output is 0 (eq 26 becomes s(n) + c, the target stays s(n)); 0 = the
+    /// paper's single sinusoid. Without it the paper's W leaves H·P_n(0) ≈ −1: the
+    /// canceller doubles slow disturbances (friction) and feeds slow measurement
+    /// noise back.
+    #[serde(default)]
+    pub w_dc_block_level: f64,
 }

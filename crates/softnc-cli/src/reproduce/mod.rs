@@ -1,3 +1,4 @@
 //! `softnc reproduce`: the papers' experiments, one module per experiment.
 
+pub mod p000;
 pub mod p001;
