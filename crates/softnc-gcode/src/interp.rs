@@ -630,22 +630,21 @@ impl<'a> Interp<'a> {
         };
         let off = line.comment_offset;
         let text = raw.get(s as usize..e as usize).unwrap_or("").trim_start();
-        let lower = |n: usize| {
-            text.get(..n.min(text.len()))
-                .unwrap_or("")
-                .to_ascii_lowercase()
+        let starts = |tag: &str| {
+            text.len() >= tag.len()
+                && text.as_bytes()[..tag.len()].eq_ignore_ascii_case(tag.as_bytes())
         };
         for tag in ["py,", "pyrun,", "pyreload"] {
-            if lower(tag.len()) == tag {
+            if starts(tag) {
                 return unsup(off, format!("({tag}"), "embedded Python is not supported");
             }
         }
         // (DEBUG,), (PRINT,), (LOG,) only print (parameters in them are not
         // substituted); (ABORT,) stops the program with its text
-        if lower(6) == "abort," {
+        if starts("abort,") {
             return bad(off, format!("Program aborted: {}", &text[6..]));
         }
-        if lower(4) == "msg," {
+        if starts("msg,") {
             self.warnings
                 .push(format!("{}:{line_no}: message: {}", self.file, &text[4..]));
         }

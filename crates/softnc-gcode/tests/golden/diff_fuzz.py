@@ -123,8 +123,39 @@ def line(r, broken):
     return s
 
 
+LEX = ["G01 X 1 . 5", "G1 X+.5 Y-.25", "g1x--1y-+2", "G1 X1. Y2.", "G1.0001 X3", "G1.001 X3",
+       "M3.00001 S100", "M3.001", "N10.5 G0 X1", "N 1 0 G0 X2", "G0 X1 (abort, stop here)",
+       "G0 X1 (debug, #1)", "G0 X1 (print, x)", "G0 X1 (a)(b)", "G0 X1 (unclosed", "G0 X1 ((nested))",
+       "G0 X1\t Y2", "G0 X1 \x0c", "G0 X1\r", "G0 X1 ;(x", "(msg, hi)", "; only", "G0 X1 N5",
+       "N5 N6 G0 X1", "/N5 G0 X3", "G0 X1.2.3", "G0 X.", "G0 X", "G0 X-", "G0 X1e2", "G0 E1",
+       "G0 X1 %", "%", " % ", "G0 X1 $1", "G0 @1", "G0 X[1]", "G0 X#1", "#1=2", "O100 sub",
+       "M98 P1", "G0 Xsin[1]", "G0 XY1", "M200", "M-1", "M45", "G-1", "G1000", "M3 M4",
+       "M3 M70", "M0 M1", "M3 M7 M8 M0 M5", "G4 P-1", "G4 P-2", "G4 P1 P2", "G4 P-1 P2",
+       "G4", "G4 G2 X1 P1", "T1", "T1 M6", "T2 M6 G43", "T4", "M6", "M61 Q1", "M61", "M61 Q7",
+       "G43 H0", "G43 H1.5", "G43 H-1", "G43 H-2", "G49 H1", "G53 G0 Z0", "G53 G91 G0 X1",
+       "G53 G2 X1 I1", "G53 X1", "G80 X1", "G80 G0 X1", "G0 G80 X1", "G0 G1 X1", "G17 G18",
+       "G90 G91", "G8 G0 X1", "G40 G0 X1", "G98", "G99 G0 X1", "G97", "G61.1 G1 X1", "G64 P0",
+       "G64 Q0.1", "G64 P-1", "G0 R1", "G0 I1", "G1 Q1", "G0 L1", "G0 D1", "G0 H1", "F-1", "S-1",
+       "G0 X1 X2", "I1", "G2 I1", "X1 Y1", "Z1", "G93", "G94", "G20", "G21", "G90.1", "G91.1",
+       "G2 X1 Y1 R0", "G2 X0 Y0 R1", "G2 P1", "G3 X1 I1 P0.5", "G2 X1 J1 P2.0000001"]
+
+
 def program(r):
     broken = r.random() < 0.35
+    if r.random() < 0.25:
+        head = [r.choice(["G21", "G20"]), "G94 F100"]
+        body = []
+        for _ in range(r.randint(2, 12)):
+            if r.random() < 0.4:
+                body.append(r.choice(LEX))
+            else:
+                body.append(line(r, False))
+        tail = [r.choice(["M2", "M30", "%"])] if r.random() < 0.95 else []
+        pre = ["%"] if tail == ["%"] or r.random() < 0.05 else []
+        if r.random() < 0.05:
+            pre = [""] + pre
+        sep = "\r\n" if r.random() < 0.1 else "\n"
+        return sep.join(pre + head + body + tail) + sep
     head = [r.choice(["G21", "G20", "G21 G90", "G20 G91"]), "G94 F" + num(r, 1, 1000)]
     if r.random() < 0.5:
         head.append("G91")
@@ -156,7 +187,7 @@ def main():
         if res.returncode == 0:
             lcnc[p] = ("ok", convert(res.stdout.decode()))
         else:
-            err = res.stderr.decode().replace("executing\n", "").strip().splitlines()
+            err = [l.strip() for l in res.stderr.decode().replace("executing\n", "").strip().split("\n")]
             lcnc[p] = ("err", err)
     ours = {}
     out = subprocess.run([DUMP, "--offsets", offs, *files], capture_output=True)
@@ -172,12 +203,14 @@ def main():
         why = None
         if o is None:
             why = "softnc crashed"
+        elif not o["ok"] and o.get("unsupported"):
+            why = None          # refused as unsupported: fine whatever rs274 does
         elif kind == "ok" and not o["ok"]:
             why = f"rs274 accepts; softnc: {o['error']}"
         elif kind == "err" and o["ok"]:
             why = f"rs274 rejects ({' | '.join(val)}); softnc accepts"
         elif kind == "err":
-            lines = open(p).read().split("\n")
+            lines = open(p, newline="").read().split("\n")
             ln = int(o["error"].split(":")[1])
             want = val[-1] if val else ""
             if ln - 1 >= len(lines) or lines[ln - 1].strip() != want.strip():
@@ -191,7 +224,10 @@ def main():
     print(f"{n} programs, {sum(1 for v in lcnc.values() if v[0] == 'ok')} accepted by rs274, {bad} differences")
 
 
-def close(a, b, tol=1e-4):
+# rs274 prints 4 decimals of the program unit; inputs with 6 decimals often land on a
+# rounding tie, where one ulp of difference (e.g. 1.273 in * 25.4 against 32.3342 mm)
+# flips the printed digit: allow one printed unit (0.0001 in = 0.00254 mm).
+def close(a, b, tol=0.00255):
     return len(a) == len(b) and all(abs(x - y) <= tol for x, y in zip(a, b))
 
 
