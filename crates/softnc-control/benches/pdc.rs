@@ -7,10 +7,12 @@
 //! timed loop.
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use softnc_control::compensation::AxisCompensation;
 use softnc_control::discrete_tf::{DiscreteTf, TfFilter};
 use softnc_control::dob::{Dob, DobConfig};
 use softnc_control::pdc::{self, Pdc, PdcConfig, UncertaintyPoint, ZeroAngleReading, ZeroSpec};
 use softnc_control::AxisController;
+use softnc_core::compensation::{Compensation, OuterCompensator};
 use softnc_core::servo::ControllerConfig;
 
 const T_S: f64 = 0.001;
@@ -58,7 +60,7 @@ fn pdc_config() -> PdcConfig {
             },
         ],
         robust_grid_points: 2000,
-        w_dc_block_level: 0.0,
+        w_dc_block_level: 0.5,
     }
 }
 
@@ -67,7 +69,7 @@ fn bench(c: &mut Criterion) {
     let design = pdc::design(&pdc_config(), &model, T_S, 50.0).unwrap();
     let dob_cfg = DobConfig {
         order_k: 3,
-        relative_degree_r: 1,
+        relative_degree_r: 3,
         tau_s: 0.002,
     };
     let p_cfg = ControllerConfig {
@@ -76,13 +78,35 @@ fn bench(c: &mut Criterion) {
         ..ControllerConfig::default()
     };
     let cmds: Vec<f64> = (0..1024).map(|k| 0.002 * k as f64).collect();
+    let mut k = 0usize;
+
+    // the stack as the engine runs it: P + feedforward, then the compensation block
+    // (position-difference speed, DOB, PDC) inside AxisController::step
+    let comp = Compensation {
+        outer: OuterCompensator::Dob(dob_cfg),
+        pdc: Some(pdc_config()),
+    };
+    let mut ctrl = AxisController::new(&p_cfg, T_S);
+    ctrl.compensation = Some(Box::new(
+        AxisCompensation::design(&comp, &model, T_S, 10.0, Some(50.0)).unwrap(),
+    ));
+    ctrl.reset(0.0);
+    let mut x_mm = 0.0;
+    c.bench_function("axis_controller_step_p_dob_pdc", |b| {
+        b.iter(|| {
+            k = (k + 1) & 1023;
+            let u = ctrl.step(black_box(cmds[k]), black_box(x_mm)).u;
+            x_mm += 0.001 * (cmds[k] - x_mm);
+            black_box(u)
+        })
+    });
 
     let mut ctrl = AxisController::new(&p_cfg, T_S);
     ctrl.reset(0.0);
     let mut dob = Dob::design(&dob_cfg, &model, T_S).unwrap();
     let mut pdc = Pdc::new(&design);
     let mut plant = TfFilter::new(&model);
-    let (mut k, mut x_mm) = (0usize, 0.0);
+    x_mm = 0.0;
     c.bench_function("stack_p_dob_pdc_step_with_plant", |b| {
         b.iter(|| {
             k = (k + 1) & 1023;
