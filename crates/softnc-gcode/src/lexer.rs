@@ -257,23 +257,37 @@ fn check_comments(b: &[u8]) -> Result<(), LexError> {
     }
 }
 
-/// The word starting at `at` as written, for messages.
+/// The word starting at `at` as written (white space dropped, upper case), for
+/// messages: up to the next word's letter outside brackets, a comment or 24 characters.
 fn word_text(b: &[u8], at: usize) -> String {
     let mut s = String::new();
-    for &c in b[at..].iter().take(24) {
-        if c == b'(' || c == b';' || (c.is_ascii_whitespace() && !s.is_empty()) {
+    let (mut depth, mut value_seen) = (0i32, false);
+    for &c in &b[at..] {
+        match c {
+            b' ' | b'\t' | b'\r' => continue,
+            b'(' | b';' => break,
+            b'[' => depth += 1,
+            b']' => {
+                depth -= 1;
+                value_seen = true;
+            }
+            c if (c.is_ascii_alphabetic() || matches!(c, b'@' | b'^' | b'$'))
+                && depth <= 0
+                && value_seen =>
+            {
+                break
+            }
+            c if c.is_ascii_digit() => value_seen = true,
+            _ => {}
+        }
+        if s.len() >= 24 {
             break;
         }
-        if !c.is_ascii_whitespace() {
-            s.push(if c.is_ascii() {
-                c.to_ascii_uppercase() as char
-            } else {
-                '?'
-            });
-        }
-        if s.len() > 1 && c.is_ascii_alphabetic() && s.len() > 1 && !matches!(b[at], b'o' | b'O') {
-            // stop at the next word's letter (`#1=2G1` → `#1=2`)
-        }
+        s.push(if c.is_ascii() {
+            c.to_ascii_uppercase() as char
+        } else {
+            '?'
+        });
     }
     if s.is_empty() {
         s.push('?');
@@ -346,7 +360,7 @@ fn read_value(cur: &mut Cursor, word_at: usize) -> Result<f64, LexError> {
                 }
                 return Err(invalid(
                     cur.i,
-                    format!("Unknown word starting with {}", c as char),
+                    "Unknown word where unary operation could be",
                 ));
             }
             _ => break,
@@ -510,7 +524,7 @@ mod tests {
         assert_eq!(inv("G1 X1 %"), "Bad character '%' used");
         assert_eq!(inv("G1 X1 N5"), "Bad character 'n' used");
         assert_eq!(inv("G1 X1 \u{e9}"), "Bad character '\\303' used");
-        assert_eq!(inv("G1 XY1"), "Unknown word starting with y");
+        assert_eq!(inv("G1 XY1"), "Unknown word where unary operation could be");
     }
 
     #[test]
