@@ -6,6 +6,7 @@
 //!   position process's consumption so the lookahead ring stays filled.
 //! - [`position`]: `softnc-position`, lookahead ring → controller stack → servo
 //!   backend, faults and status.
+//! - [`outbox`]: the position loop's messages leave through a lock-free queue.
 //! - [`mmi`]: `softnc-mmi`, job checks, machine state, alarms, history, operator API.
 //! - [`store`]: atomic file writes.
 //! - [`supervisor`]: `softncd`, starts, watches, restarts and stops the processes.
@@ -20,6 +21,7 @@ pub mod client;
 pub mod config;
 pub mod interp;
 pub mod mmi;
+pub mod outbox;
 pub mod position;
 pub mod store;
 pub mod supervisor;

@@ -7,8 +7,9 @@
 //! dry mid-job (the interpolator died or stalled), the axes decelerate along the path
 //! still in the ring and the machine is faulted with an alarm.
 
-use crate::bus::{Bus, Pub, Sub};
+use crate::bus::{Bus, Sub};
 use crate::config::{ClockMode, Loaded};
+use crate::outbox::OutMsg;
 use anyhow::Result;
 use softnc_core::{LookaheadRing, Primitive, RingSample, Vec3};
 use softnc_ipc::{
@@ -43,10 +44,8 @@ pub struct PositionTask<B: ServoBackend> {
     window: usize,
     commands: Sub<CommandSample>,
     control: Sub<ControlCommand>,
-    status: Pub<PositionStatus>,
-    alarms: Pub<Alarm>,
-    heartbeat: Pub<Heartbeat>,
-    loop_stats_pub: Pub<LoopStatsMsg>,
+    /// Status, heartbeats, loop stats and alarms leave through the outbox thread.
+    outbox: crate::outbox::Outbox,
     state: MachineState,
     job_id: u64,
     job_path: String,
@@ -75,10 +74,10 @@ impl<B: ServoBackend> PositionTask<B> {
         Ok(PositionTask {
             commands: bus.command_subscriber()?,
             control: bus.control_subscriber()?,
-            status: bus.status_publisher()?,
-            alarms: bus.alarm_publisher()?,
-            heartbeat: bus.heartbeat_publisher()?,
-            loop_stats_pub: bus.loop_stats_publisher()?,
+            outbox: crate::outbox::Outbox::start(
+                softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance),
+                "position-out",
+            )?,
             cfg,
             engine,
             make_engine,
@@ -104,14 +103,14 @@ impl<B: ServoBackend> PositionTask<B> {
 
     fn alarm(&mut self, code: AlarmCode, axis: u32, msg: &str) -> Result<()> {
         tracing::warn!("alarm {code:?}: {msg}");
-        self.alarms.send_copy(Alarm {
+        self.outbox.send(OutMsg::Alarm(Alarm {
             code: code.wire(),
             axis,
             process: ProcessId::Position.wire(),
             job_id: self.job_id,
             time_index: self.current.map_or(0, |c| c.time_index),
             message: FixedStr::new(msg),
-        })?;
+        }));
         Ok(())
     }
 
@@ -392,7 +391,7 @@ impl<B: ServoBackend> PositionTask<B> {
                 self.current = None;
             }
         }
-        self.status.send_copy(status)?;
+        self.outbox.send(OutMsg::Status(status));
         Ok(())
     }
 
@@ -439,25 +438,30 @@ impl<B: ServoBackend> PositionTask<B> {
     fn housekeeping(&mut self) -> Result<()> {
         if self.last_hb.elapsed().as_secs_f64() >= self.cfg.config.heartbeat_period_s {
             self.hb_counter += 1;
-            self.heartbeat.send_copy(Heartbeat {
+            self.outbox.send(OutMsg::Heartbeat(Heartbeat {
                 process: ProcessId::Position.wire(),
                 pid: std::process::id(),
                 counter: self.hb_counter,
                 state: self.state.wire(),
                 job_id: self.job_id,
-            })?;
+            }));
             let j = self.stats.jitter();
             let c = self.stats.compute();
-            self.loop_stats_pub.send_copy(LoopStatsMsg {
+            self.outbox.send(OutMsg::LoopStats(LoopStatsMsg {
                 process: ProcessId::Position.wire(),
                 cycles: self.stats.cycles(),
                 jitter_ns: [j.p50_ns, j.p99_ns, j.p999_ns, j.max_ns],
                 compute_ns: [c.p50_ns, c.p99_ns, c.p999_ns, c.max_ns],
                 overruns: self.stats.overruns(),
-            })?;
+            }));
             self.last_hb = Instant::now();
         }
         Ok(())
+    }
+
+    /// The machine state as this process sees it.
+    pub fn state(&self) -> MachineState {
+        self.state
     }
 
     /// The loop's timing statistics.
