@@ -24,16 +24,33 @@ impl Daemon {
         let dir = std::env::temp_dir().join(format!("softnc-e2e-{tag}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(dir.join("machines")).unwrap();
-        std::fs::copy(repo().join("config/machines/default.ron"), dir.join("machines/default.ron")).unwrap();
-        std::fs::copy(repo().join("config/iceoryx2.toml"), dir.join("iceoryx2.toml")).unwrap();
+        std::fs::copy(
+            repo().join("config/machines/default.ron"),
+            dir.join("machines/default.ron"),
+        )
+        .unwrap();
+        std::fs::copy(
+            repo().join("config/iceoryx2.toml"),
+            dir.join("iceoryx2.toml"),
+        )
+        .unwrap();
         let cfg = std::fs::read_to_string(repo().join("config/default.ron"))
             .unwrap()
-            .replace("instance: \"mill1\"", &format!("instance: \"e2e{tag}{}\"", std::process::id()))
+            .replace(
+                "instance: \"mill1\"",
+                &format!("instance: \"e2e{tag}{}\"", std::process::id()),
+            )
             .replace("clock: Realtime", &format!("clock: {clock}"))
             .replace("data_dir: \"../data\"", "data_dir: \"data\"")
             .replace("trace: false", &format!("trace: {trace}"))
-            .replace("interp_rt: (core: Some(0), fifo_priority: Some(70), lock_memory: true)", "interp_rt: ()")
-            .replace("position_rt: (core: Some(1), fifo_priority: Some(80), lock_memory: true)", "position_rt: ()");
+            .replace(
+                "interp_rt: (core: Some(0), fifo_priority: Some(70), lock_memory: true)",
+                "interp_rt: ()",
+            )
+            .replace(
+                "position_rt: (core: Some(1), fifo_priority: Some(80), lock_memory: true)",
+                "position_rt: ()",
+            );
         let config = dir.join("default.ron");
         std::fs::write(&config, cfg).unwrap();
         let child = Command::new(env!("CARGO_BIN_EXE_softncd"))
@@ -50,7 +67,13 @@ impl Daemon {
     }
 
     /// Poll until `pred` holds on the status, or fail after `timeout`.
-    fn wait_status(&self, op: &Operator, timeout: Duration, what: &str, pred: impl Fn(&serde_json::Value) -> bool) -> serde_json::Value {
+    fn wait_status(
+        &self,
+        op: &Operator,
+        timeout: Duration,
+        what: &str,
+        pred: impl Fn(&serde_json::Value) -> bool,
+    ) -> serde_json::Value {
         let t0 = Instant::now();
         loop {
             if let Ok(s) = op.status() {
@@ -59,7 +82,10 @@ impl Daemon {
                 }
                 assert!(t0.elapsed() < timeout, "timed out waiting for {what}: {s}");
             } else {
-                assert!(t0.elapsed() < timeout, "timed out waiting for {what}: no MMI");
+                assert!(
+                    t0.elapsed() < timeout,
+                    "timed out waiting for {what}: no MMI"
+                );
             }
             std::thread::sleep(Duration::from_millis(25));
         }
@@ -73,13 +99,27 @@ impl Daemon {
 
     fn pid_of(&self, name: &str) -> Option<u32> {
         // children of this softncd with that name
-        let out = Command::new("pgrep").args(["-P", &self.child.id().to_string(), "-x", name]).output().ok()?;
-        String::from_utf8_lossy(&out.stdout).lines().next()?.trim().parse().ok()
+        let out = Command::new("pgrep")
+            .args(["-P", &self.child.id().to_string(), "-x", name])
+            .output()
+            .ok()?;
+        String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .next()?
+            .trim()
+            .parse()
+            .ok()
     }
 
     fn kill9(&self, name: &str) {
-        let pid = self.pid_of(name).unwrap_or_else(|| panic!("{name} not running"));
-        let ok = Command::new("kill").args(["-9", &pid.to_string()]).status().unwrap().success();
+        let pid = self
+            .pid_of(name)
+            .unwrap_or_else(|| panic!("{name} not running"));
+        let ok = Command::new("kill")
+            .args(["-9", &pid.to_string()])
+            .status()
+            .unwrap()
+            .success();
         assert!(ok, "kill -9 {name}");
     }
 }
@@ -90,7 +130,9 @@ impl Drop for Daemon {
             let _ = op.request(ControlKind::Shutdown, 0.0, "");
         }
         let t0 = Instant::now();
-        while self.child.try_wait().ok().flatten().is_none() && t0.elapsed() < Duration::from_secs(10) {
+        while self.child.try_wait().ok().flatten().is_none()
+            && t0.elapsed() < Duration::from_secs(10)
+        {
             std::thread::sleep(Duration::from_millis(20));
         }
         let _ = self.child.kill();
@@ -120,16 +162,24 @@ fn simulator_trace(job: &Path, machine: &Path, out: &Path) {
     let text = std::fs::read_to_string(job).unwrap();
     let program = softnc_gcode::read_program(&text, &job.display().to_string(), &profile).unwrap();
     let plan = softnc_planner::plan(&program, &profile, &Default::default()).unwrap();
-    let mut engine = softnc_sim::CycleEngine::simulated(&profile, profile.servo.seed, softnc_sim::SimOptions::default());
+    let mut engine = softnc_sim::CycleEngine::simulated(
+        &profile,
+        profile.servo.seed,
+        softnc_sim::SimOptions::default(),
+    );
     let mut file = softnc_daemon::trace::TraceFile::create(out).unwrap();
     let samples = plan.interpolator().map(|s| softnc_sim::sim::CommandSample {
         pos_mm: s.pos_mm.0,
         motion: s.motion,
         feed_move: s.feed_move,
     });
-    softnc_sim::simulate(&mut engine, plan.cycle_s(), samples, |m| plan.motion_primitive(m as usize), |row| {
-        file.row(row).unwrap()
-    })
+    softnc_sim::simulate(
+        &mut engine,
+        plan.cycle_s(),
+        samples,
+        |m| plan.motion_primitive(m as usize),
+        |row| file.row(row).unwrap(),
+    )
     .unwrap();
     file.finish().unwrap();
 }
@@ -159,7 +209,10 @@ fn lockstep_job_through_three_processes_equals_the_simulator_bit_for_bit() {
     };
     assert!(want.len() > 10_000, "simulator trace too short");
     if got != want {
-        let (g, w) = (String::from_utf8_lossy(&got), String::from_utf8_lossy(&want));
+        let (g, w) = (
+            String::from_utf8_lossy(&got),
+            String::from_utf8_lossy(&want),
+        );
         let first = g.lines().zip(w.lines()).position(|(a, b)| a != b);
         panic!(
             "daemon trace ({} lines) differs from the simulator's ({} lines) first at line {first:?}:\n{:?}\n{:?}",
@@ -196,11 +249,18 @@ fn killing_the_interpolator_stops_along_the_path_and_a_reset_recovers() {
     let job = short_job(&d.dir);
     let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
     assert_eq!(r.accepted, 1);
-    d.wait_status(&op, Duration::from_secs(20), "motion", |s| s["job"]["cycles"].as_u64().unwrap_or(0) > 800);
+    d.wait_status(&op, Duration::from_secs(20), "motion", |s| {
+        s["job"]["cycles"].as_u64().unwrap_or(0) > 800
+    });
     d.kill9("softnc-interp");
-    let s = d.wait_status(&op, Duration::from_secs(10), "fault", |s| s["state"] == "Faulted");
+    let s = d.wait_status(&op, Duration::from_secs(10), "fault", |s| {
+        s["state"] == "Faulted"
+    });
     let alarms = s["alarms"].to_string();
-    assert!(alarms.contains("RingDry") || alarms.contains("ran dry"), "{alarms}");
+    assert!(
+        alarms.contains("RingDry") || alarms.contains("ran dry"),
+        "{alarms}"
+    );
     // a second client cannot start a job on a faulted machine
     let again = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
     assert_eq!(again.accepted, 0, "{}", again.message.as_str());
@@ -222,26 +282,39 @@ fn killing_the_mmi_leaves_motion_running_and_the_client_reconnects() {
     let job = short_job(&d.dir);
     let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
     assert_eq!(r.accepted, 1);
-    d.wait_status(&op, Duration::from_secs(20), "motion", |s| s["job"]["cycles"].as_u64().unwrap_or(0) > 300);
+    d.wait_status(&op, Duration::from_secs(20), "motion", |s| {
+        s["job"]["cycles"].as_u64().unwrap_or(0) > 300
+    });
     d.kill9("softnc-mmi");
     std::thread::sleep(Duration::from_millis(300));
     let op2 = d.operator();
     let s = d.wait_job(&op2, r.job_id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "motion continued without the MMI: {s}");
+    assert_eq!(
+        s["job"]["outcome"], "completed",
+        "motion continued without the MMI: {s}"
+    );
 }
 
 #[test]
 fn killing_the_position_process_faults_and_reset_restarts_it() {
     let d = Daemon::start("pos", "Realtime", false);
     let op = d.operator();
-    d.wait_status(&op, Duration::from_secs(10), "position alive", |s| s["processes"]["position"] == "alive");
+    d.wait_status(&op, Duration::from_secs(10), "position alive", |s| {
+        s["processes"]["position"] == "alive"
+    });
     d.kill9("softnc-position");
-    let s = d.wait_status(&op, Duration::from_secs(10), "fault", |s| s["processes"]["position"] == "lost");
+    let s = d.wait_status(&op, Duration::from_secs(10), "fault", |s| {
+        s["processes"]["position"] == "lost"
+    });
     let _ = s;
-    let s = d.wait_status(&op, Duration::from_secs(10), "alarm", |s| s["alarms"].to_string().contains("ProcessLost"));
+    let s = d.wait_status(&op, Duration::from_secs(10), "alarm", |s| {
+        s["alarms"].to_string().contains("ProcessLost")
+    });
     assert!(s["alarms"].to_string().contains("softnc-position"), "{s}");
     op.request(ControlKind::Reset, 0.0, "").unwrap();
-    d.wait_status(&op, Duration::from_secs(15), "position back", |s| s["processes"]["position"] == "alive");
+    d.wait_status(&op, Duration::from_secs(15), "position back", |s| {
+        s["processes"]["position"] == "alive"
+    });
     let job = short_job(&d.dir);
     let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
     assert_eq!(r.accepted, 1, "{}", r.message.as_str());
