@@ -244,11 +244,15 @@ fn a_bad_job_is_refused_with_its_position_and_nothing_moves() {
 
 #[test]
 fn killing_the_interpolator_stops_along_the_path_and_a_reset_recovers() {
-    let d = Daemon::start("kill", "Realtime", false);
+    let d = Daemon::start("kill", "Realtime", true);
     let op = d.operator();
     let job = short_job(&d.dir);
     let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
     assert_eq!(r.accepted, 1);
+    // a second client cannot start another job while this one runs
+    let op2 = d.operator();
+    let busy = op2.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+    assert_eq!(busy.accepted, 0, "{}", busy.message.as_str());
     d.wait_status(&op, Duration::from_secs(20), "motion", |s| {
         s["job"]["cycles"].as_u64().unwrap_or(0) > 800
     });
@@ -260,6 +264,57 @@ fn killing_the_interpolator_stops_along_the_path_and_a_reset_recovers() {
     assert!(
         alarms.contains("RingDry") || alarms.contains("ran dry"),
         "{alarms}"
+    );
+    // the axes stopped along the path: from one cycle to the next the command never
+    // moves more than it moved in the cycle before plus what the acceleration limit
+    // allows (|Δ²x| ≤ √3·3000 mm/s²·T²) — no jump anywhere, also not where the ring
+    // ran dry
+    let trace = d.dir.join(format!("data/trace-job{}.csv", r.job_id));
+    let t0 = Instant::now();
+    let text = loop {
+        let t = std::fs::read_to_string(&trace).unwrap_or_default();
+        if t.lines().count() > 100 || t0.elapsed() > Duration::from_secs(5) {
+            break t;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let cmds: Vec<[f64; 3]> = text
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<f64> = l
+                .split(',')
+                .skip(1)
+                .take(3)
+                .map(|v| v.parse().unwrap())
+                .collect();
+            [f[0], f[1], f[2]]
+        })
+        .collect();
+    assert!(
+        cmds.len() > 100,
+        "trace of the stopped job: {} rows",
+        cmds.len()
+    );
+    let step = |a: [f64; 3], b: [f64; 3]| {
+        ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
+    };
+    let steps: Vec<f64> = cmds.windows(2).map(|w| step(w[0], w[1])).collect();
+    let accel_step_mm = 3f64.sqrt() * 3000.0 * 1e-6 * 1.01;
+    for (k, w) in steps.windows(2).enumerate() {
+        assert!(
+            w[1] <= w[0] + accel_step_mm,
+            "position jump at cycle {}: {} mm after {} mm",
+            k + 1,
+            w[1],
+            w[0]
+        );
+    }
+    // and it came to rest: the last step is below one acceleration step
+    let last = *steps.last().unwrap();
+    assert!(
+        last <= accel_step_mm,
+        "still moving {last} mm per cycle at the end"
     );
     // a second client cannot start a job on a faulted machine
     let again = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();

@@ -26,6 +26,8 @@ pub const RING_CAPACITY: usize = 2048;
 /// Decelerating along the path left in the ring after it ran dry.
 #[derive(Debug, Clone, Copy)]
 struct DryStop {
+    /// Where the stop starts: the position last commanded.
+    origin: [f64; 3],
     speed_mm_per_s: f64,
     /// Arc length travelled along the remaining samples.
     s_mm: f64,
@@ -55,6 +57,7 @@ pub struct PositionTask<B: ServoBackend> {
     last_cmd: [f64; 3],
     prev_cmd: [f64; 3],
     dry: Option<DryStop>,
+    last_sample_at: Instant,
     stats: LoopStats,
     hb_counter: u64,
     last_hb: Instant,
@@ -93,6 +96,7 @@ impl<B: ServoBackend> PositionTask<B> {
             last_cmd: [0.0; 3],
             prev_cmd: [0.0; 3],
             dry: None,
+            last_sample_at: Instant::now(),
             stats: LoopStats::new(),
             hb_counter: 0,
             last_hb: Instant::now() - Duration::from_secs(1),
@@ -122,8 +126,11 @@ impl<B: ServoBackend> PositionTask<B> {
             let (woke, jitter, late) = match self.cfg.config.clock {
                 ClockMode::Realtime => clock.wait(),
                 ClockMode::Lockstep => {
-                    // one cycle per available sample: wait (briefly) for one
-                    self.wait_for_sample()?;
+                    // one cycle per available sample
+                    if !self.wait_for_sample()? {
+                        self.housekeeping()?;
+                        continue;
+                    }
                     (Instant::now(), Duration::ZERO, 0)
                 }
             };
@@ -134,17 +141,24 @@ impl<B: ServoBackend> PositionTask<B> {
         Ok(())
     }
 
-    fn wait_for_sample(&mut self) -> Result<()> {
+    /// Lockstep: wait (briefly) for the next sample. True when a cycle should run:
+    /// a sample is there, the machine is not moving, or the interpolator has been
+    /// silent for the heartbeat timeout (then the cycle finds the ring dry and stops
+    /// along the path).
+    fn wait_for_sample(&mut self) -> Result<bool> {
         let t0 = Instant::now();
         loop {
             self.pull_commands()?;
-            let moving = self.state == MachineState::Running || self.state == MachineState::Held;
-            if (moving && self.ring.ready(self.window)) || (!moving && self.ring.ready(self.window))
-            {
-                return Ok(());
+            let moving = matches!(self.state, MachineState::Running | MachineState::Held)
+                && self.dry.is_none();
+            if !moving || self.ring.ready(self.window) {
+                return Ok(true);
+            }
+            if self.last_sample_at.elapsed().as_secs_f64() > self.cfg.config.heartbeat_timeout_s {
+                return Ok(true);
             }
             if t0.elapsed() > Duration::from_millis(2) {
-                return Ok(()); // let housekeeping and faults run
+                return Ok(false); // housekeeping, then wait again
             }
             std::thread::yield_now();
         }
@@ -153,6 +167,7 @@ impl<B: ServoBackend> PositionTask<B> {
     fn pull_commands(&mut self) -> Result<()> {
         while let Some(c) = self.commands.receive()? {
             let c = *c;
+            self.last_sample_at = Instant::now();
             if self.ring.ahead() == 0 && self.current.is_none() && self.job_id != c.job_id {
                 self.start_job(c)?;
             }
@@ -214,6 +229,7 @@ impl<B: ServoBackend> PositionTask<B> {
         if self.dry.is_none() && matches!(self.state, MachineState::Running | MachineState::Held) {
             let v = dist(self.last_cmd, self.prev_cmd) / self.cfg.machine.interpolation_cycle_s;
             self.dry = Some(DryStop {
+                origin: self.last_cmd,
                 speed_mm_per_s: v,
                 s_mm: 0.0,
             });
@@ -409,8 +425,9 @@ impl<B: ServoBackend> PositionTask<B> {
         stop.s_mm += stop.speed_mm_per_s * t;
         // walk the polyline of samples from the current one
         let mut remaining = stop.s_mm;
-        let mut p = self.ring.at(0).unwrap_or(self.last_cmd);
-        let mut k = 1;
+        // from the position last commanded, on through the samples still in the ring
+        let mut p = stop.origin;
+        let mut k = 0;
         while let Some(q) = self.ring.at(k) {
             let d = dist(p, q);
             if d >= remaining || k as u64 >= self.ring.ahead() {
@@ -431,6 +448,10 @@ impl<B: ServoBackend> PositionTask<B> {
         self.dry = Some(stop);
         if stop.speed_mm_per_s == 0.0 {
             self.state = MachineState::Faulted;
+            // the job is over: close its trace (on its own thread)
+            if let Some(t) = self.trace.take() {
+                std::thread::spawn(move || t.finish());
+            }
         }
         p
     }
