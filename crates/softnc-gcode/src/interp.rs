@@ -10,7 +10,7 @@
 
 use crate::canon::{Motion, MotionKind, PathMode, Program};
 use crate::error::{ErrorKind, GcodeError};
-use crate::lexer::{bad_character, column, lex_line, significant, Line, Word};
+use crate::lexer::{bad_character, column, lex_line_hinted, significant, Line, Word};
 use softnc_core::{MachineProfile, Plane, Vec3};
 use std::f64::consts::{FRAC_PI_2, PI, SQRT_2};
 
@@ -114,7 +114,7 @@ fn m_group(code: i32) -> Option<usize> {
         62..=68 => 5,
         6 | 61 => 6,
         3 | 4 | 5 | 19 | 70..=73 => 7,
-        7 | 8 | 9 => 8,
+        7..=9 => 8,
         48..=53 => 9,
         100..=199 => 10,
         _ => return None,
@@ -375,8 +375,8 @@ impl<'a> Interp<'a> {
     /// `read_items`: the words of a line into a block, with LinuxCNC's reading
     /// errors, in the order of the words; codes and axes softnc does not implement are
     /// refused where they stand.
-    fn sort(&self, words: &[Word]) -> R<Block> {
-        let mut b = Block::default();
+    fn sort(&self, words: &[Word], b: &mut Block) -> R<()> {
+        *b = Block::default();
         for w in words {
             let Word {
                 letter,
@@ -501,7 +501,7 @@ impl<'a> Interp<'a> {
                 }
             }
         }
-        Ok(b)
+        Ok(())
     }
 
     /// `enhance_block` and `check_items`.
@@ -709,7 +709,7 @@ impl<'a> Interp<'a> {
             }
             self.motions.push(Motion {
                 line: line_no,
-                start: self.pos * self.scale(),
+                start: sc(self.pos, self.scale()),
                 kind: MotionKind::Dwell {
                     seconds: p.max(0.0),
                 },
@@ -829,7 +829,7 @@ impl<'a> Interp<'a> {
     fn push(&mut self, line_no: u32, kind: MotionKind, end: Vec3, center: Vec3) {
         self.motions.push(Motion {
             line: line_no,
-            start: self.pos * self.scale(),
+            start: sc(self.pos, self.scale()),
             kind,
             offset_mm: self.offset(),
             path_mode: self.path,
@@ -856,7 +856,7 @@ impl<'a> Interp<'a> {
         let end = self.find_ends(b);
         let s = self.scale();
         let kind = if mode == G_0 {
-            MotionKind::Traverse { end: end * s }
+            MotionKind::Traverse { end: sc(end, s) }
         } else {
             if self.inverse_time {
                 let d = end - self.pos;
@@ -868,7 +868,7 @@ impl<'a> Interp<'a> {
                 self.feed = (length * b.get(b'F').unwrap_or(0.0)).max(0.1);
             }
             MotionKind::Feed {
-                end: end * s,
+                end: sc(end, s),
                 feed_mm_per_min: self.feed * s,
             }
         };
@@ -994,8 +994,8 @@ impl<'a> Interp<'a> {
         center[a2] = c2;
         let s = self.scale();
         let kind = MotionKind::Arc {
-            end: end * s,
-            center: center * s,
+            end: sc(end, s),
+            center: sc(center, s),
             plane: self.plane,
             turns,
             feed_mm_per_min: self.feed * s,
@@ -1003,6 +1003,12 @@ impl<'a> Interp<'a> {
         self.push(line_no, kind, end, center);
         Ok(())
     }
+}
+
+/// `v * s` (inlined: the hot path).
+#[inline(always)]
+fn sc(v: Vec3, s: f64) -> Vec3 {
+    Vec3([v.0[0] * s, v.0[1] * s, v.0[2] * s])
 }
 
 /// `read_integer_value`.
@@ -1135,25 +1141,29 @@ fn find_arc_length(start: (f64, f64, f64), c: (f64, f64), turn: i32, end: (f64, 
 /// Read a whole program (see [`crate::read_program`]).
 pub fn read(text: &str, file: &str, profile: &MachineProfile) -> Result<Program, GcodeError> {
     let mut it = Interp::new(file, profile);
+    it.motions.reserve(text.len() / 16);
     let mut line = Line::default();
+    let mut block = Block::default();
     let err = |line_no: usize, raw: &str, (off, kind): (u32, ErrorKind)| GcodeError {
         file: file.to_string(),
         line: line_no as u32,
         column: column(raw, off),
         kind,
     };
-    // split into lines, remembering whether each ended with a newline
+    // split into lines (byte ranges), remembering whether each ended with a newline
     let bytes = text.as_bytes();
-    let mut lines = Vec::with_capacity(bytes.len() / 24 + 1);
+    let mut lines = Vec::with_capacity(bytes.len() / 20 + 1);
     let mut start = 0;
-    while start < bytes.len() {
-        let end = bytes[start..]
-            .iter()
-            .position(|&c| c == b'\n')
-            .map_or(bytes.len(), |p| start + p);
+    for piece in text.split('\n') {
+        let end = start + piece.len();
+        if end == bytes.len() && piece.is_empty() {
+            break;
+        }
         lines.push((start, end, end < bytes.len()));
         start = end + 1;
     }
+    // NUL bytes and comments need per-line work only if the file has any
+    let maybe = bytes.contains(&0) || bytes.contains(&b'(');
     // `%` on the first non-blank line: the program runs to the next lone `%`
     let mut first = 0;
     let mut percent_flag = false;
@@ -1201,9 +1211,10 @@ pub fn read(text: &str, file: &str, profile: &MachineProfile) -> Result<Program,
                 (0, ErrorKind::Invalid("Command too long".into())),
             ));
         }
-        let lexed = lex_line(raw, &mut line);
+        let lexed = lex_line_hinted(raw, &mut line, maybe);
         // words before a lexing error are read (and may fail) first, as in LinuxCNC
-        let mut block = it.sort(&line.words).map_err(|x| err(line_no, raw, x))?;
+        it.sort(&line.words, &mut block)
+            .map_err(|x| err(line_no, raw, x))?;
         if let Err(x) = lexed {
             return Err(err(line_no, raw, x));
         }

@@ -79,10 +79,15 @@ pub(crate) fn bad_character(c: u8) -> String {
 /// The significant content of a line: its bytes up to a NUL, without trailing white
 /// space (C `isspace`).
 pub fn significant(text: &[u8]) -> &[u8] {
-    let b = match text.iter().position(|&c| c == 0) {
-        Some(p) => &text[..p],
-        None => text,
+    let b = if text.contains(&0) {
+        &text[..text.iter().position(|&c| c == 0).unwrap_or(text.len())]
+    } else {
+        text
     };
+    trim_end(b)
+}
+
+fn trim_end(b: &[u8]) -> &[u8] {
     let mut end = b.len();
     while end > 0 && matches!(b[end - 1], b' ' | b'\t' | b'\n' | b'\r' | 0x0b | 0x0c) {
         end -= 1;
@@ -125,6 +130,12 @@ impl Cursor<'_> {
 /// Lex `text` (one line, without its newline) into `out` (cleared first, its
 /// allocation reused).
 pub fn lex_line(text: &str, out: &mut Line) -> Result<(), LexError> {
+    lex_line_hinted(text, out, true)
+}
+
+/// [`lex_line`], told whether the line may contain a NUL byte or a `(` at all (the
+/// reader checks the whole file once, sparing two searches per line).
+pub(crate) fn lex_line_hinted(text: &str, out: &mut Line, maybe: bool) -> Result<(), LexError> {
     out.blank = false;
     out.percent = false;
     out.block_delete = false;
@@ -132,8 +143,14 @@ pub fn lex_line(text: &str, out: &mut Line) -> Result<(), LexError> {
     out.comment = None;
     out.comment_offset = 0;
     out.python = false;
-    let b = significant(text.as_bytes());
-    check_comments(b)?;
+    let b = if maybe {
+        significant(text.as_bytes())
+    } else {
+        trim_end(text.as_bytes())
+    };
+    if maybe && b.contains(&b'(') {
+        check_comments(b)?;
+    }
     let mut cur = Cursor { b, i: 0 };
     match cur.peek() {
         None => {
@@ -187,8 +204,7 @@ pub fn lex_line(text: &str, out: &mut Line) -> Result<(), LexError> {
         }
         _ => {}
     }
-    loop {
-        let Some(c) = cur.peek() else { break };
+    while let Some(c) = cur.peek() {
         let at = cur.i;
         match c {
             b'(' => {
@@ -314,6 +330,16 @@ fn read_unsigned(cur: &mut Cursor) -> Result<(), LexError> {
 /// LinuxCNC's `read_real_value` for a plain number: signs, then digits and points.
 /// `word_at` is the offset of the word's letter (for messages).
 fn read_value(cur: &mut Cursor, word_at: usize) -> Result<f64, LexError> {
+    // fast path: a plain number right after the letter
+    let b = cur.b;
+    let i = cur.i;
+    if i < b.len() {
+        let c = b[i];
+        let next_is_number = |j: usize| j < b.len() && (b[j].is_ascii_digit() || b[j] == b'.');
+        if c.is_ascii_digit() || (matches!(c, b'-' | b'+' | b'.') && next_is_number(i + 1)) {
+            return read_number(cur);
+        }
+    }
     let mut negative = false;
     loop {
         let Some(c) = cur.peek() else {
@@ -370,70 +396,75 @@ fn read_value(cur: &mut Cursor, word_at: usize) -> Result<f64, LexError> {
     Ok(if negative { -v } else { v })
 }
 
+/// Exact powers of ten for the fast path.
+const POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
 /// `strspn("+-")`, `strspn("0123456789.")`, then a C++ stream conversion: one
 /// optional sign, digits with at most one point, at least one digit, nothing left.
 fn read_number(cur: &mut Cursor) -> Result<f64, LexError> {
-    let start = cur.i;
-    let mut neg = false;
-    let mut signs = 0;
-    while let Some(c @ (b'+' | b'-')) = cur.peek() {
-        neg = c == b'-';
-        signs += 1;
-        cur.bump();
+    let b = cur.b;
+    let n = b.len();
+    let mut i = cur.i;
+    let start = i;
+    let (mut neg, mut signs) = (false, 0);
+    while i < n && matches!(b[i], b'+' | b'-' | b' ' | b'\t' | b'\r') {
+        if b[i] != b' ' && b[i] != b'\t' && b[i] != b'\r' {
+            neg = b[i] == b'-';
+            signs += 1;
+        }
+        i += 1;
     }
-    let (mut mant, mut digits, mut frac, mut point, mut trailing, mut any) =
-        (0u64, 0u32, 0i32, false, false, false);
-    // the digits and points as written, for the rare slow path
-    let mut buf = [0u8; 40];
-    let mut len = 0usize;
-    while let Some(c) = cur.peek() {
-        if c.is_ascii_digit() {
-            if !trailing {
-                if digits < 19 {
-                    mant = mant * 10 + u64::from(c - b'0');
-                    if point {
-                        frac += 1;
-                    }
-                } else if !point {
-                    frac -= 1; // more integer digits than we keep: scale up
-                }
-                digits += 1;
-                if len < buf.len() {
-                    buf[len] = c;
-                    len += 1;
-                }
+    let (mut mant, mut digits, mut frac) = (0u64, 0u32, 0i32);
+    let (mut point, mut trailing) = (false, false);
+    while i < n {
+        let c = b[i];
+        let d = c.wrapping_sub(b'0');
+        if d < 10 {
+            if digits < 19 {
+                mant = mant * 10 + u64::from(d);
+                frac += i32::from(point);
             }
+            digits += 1;
         } else if c == b'.' {
             if point {
                 trailing = true;
-            } else if !trailing {
-                point = true;
-                if len < buf.len() {
-                    buf[len] = c;
-                    len += 1;
-                }
+                break;
             }
-        } else {
+            point = true;
+        } else if !matches!(c, b' ' | b'\t' | b'\r') {
             break;
         }
-        any = true;
-        cur.bump();
+        i += 1;
     }
-    let _ = any;
+    if trailing {
+        // a second point: the C++ conversion stops there and LinuxCNC sees the rest
+        while i < n && (b[i].is_ascii_digit() || matches!(b[i], b'.' | b' ' | b'\t' | b'\r')) {
+            i += 1;
+        }
+    }
+    cur.i = i;
     if signs > 1 || digits == 0 {
         return Err(invalid(start, "Bad number format (conversion failed)"));
     }
     if trailing {
         return Err(invalid(start, "Bad number format (trailing characters)"));
     }
-    let v = if digits <= 15 && (0..=22).contains(&frac) {
+    let v = if digits <= 15 {
         // an exact integer mantissa and one correctly rounded division
-        mant as f64 / 10f64.powi(frac)
+        mant as f64 / POW10[frac as usize]
     } else {
-        std::str::from_utf8(&buf[..len])
+        // long numbers: the standard library's correctly rounded conversion
+        let text: String = b[start..i]
+            .iter()
+            .filter(|c| c.is_ascii_digit() || **c == b'.')
+            .map(|&c| c as char)
+            .collect();
+        text.parse::<f64>()
             .ok()
-            .and_then(|s| s.parse::<f64>().ok())
-            .filter(|v| v.is_finite() && digits <= 38)
+            .filter(|v| v.is_finite())
             .ok_or_else(|| invalid(start, "Bad number format (conversion failed)"))?
     };
     Ok(if neg { -v } else { v })
@@ -484,7 +515,7 @@ mod tests {
             ("X---1", -1.0),
             ("X 1 2 . 5", 12.5),
             ("X12345678901234567890", 12345678901234567890.0),
-            ("X0.1234567890123456789", 0.1234567890123456789),
+            ("X0.1234567890123456789", 0.123_456_789_012_345_67),
         ] {
             assert_eq!(lex(s).unwrap().words[0].value, v, "{s}");
         }

@@ -1,0 +1,73 @@
+//! Reader throughput: a generated 200,000-line program of G1/G2/G3 moves (short lines
+//! and small arcs in both formats, as CAM output looks), read into canonical motions.
+//!
+//! `SOFTNC_WRITE_BIG=1 cargo bench -p softnc-gcode --bench parse` also writes the
+//! program to `$TMPDIR/softnc-gcode-big.ngc`, to time LinuxCNC on the same file:
+//! `time rs274 -g $TMPDIR/softnc-gcode-big.ngc /dev/null < /dev/null`.
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use softnc_core::MachineProfile;
+use std::fmt::Write;
+
+/// `lines` lines of G1/G2/G3 (with a few G0 retracts), mm, ending in M2.
+fn big_program(lines: usize) -> String {
+    let mut s = String::with_capacity(lines * 32);
+    s.push_str("G21 G90 G17 G94 G64 P0.01\nG0 X0 Y0 Z1\nG1 Z-1 F1200\n");
+    let (mut x, mut y) = (0.0f64, 0.0f64);
+    let mut i = 3;
+    while i < lines - 1 {
+        match i % 4 {
+            0 | 2 => {
+                x += 0.8;
+                y += if i % 8 < 4 { 0.05 } else { -0.05 };
+                writeln!(s, "G1 X{x:.4} Y{y:.4}").unwrap();
+            }
+            1 => {
+                writeln!(s, "G2 X{:.4} Y{y:.4} I0.25 J0", x + 0.5).unwrap();
+                x += 0.5;
+            }
+            _ => {
+                writeln!(s, "G3 X{:.4} Y{y:.4} R0.25", x + 0.5).unwrap();
+                x += 0.5;
+            }
+        }
+        i += 1;
+        if x > 300.0 && i + 3 < lines - 1 {
+            x = 0.0;
+            writeln!(s, "G0 Z1\nG0 X0 Y{y:.4}\nG1 Z-1").unwrap();
+            i += 3;
+        }
+    }
+    s.push_str("M2\n");
+    s
+}
+
+fn benches(c: &mut Criterion) {
+    let profile = MachineProfile::load(
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/machines/default.ron"
+        )
+        .as_ref(),
+    )
+    .expect("default profile");
+    let text = big_program(200_000);
+    let n_lines = text.lines().count() as u64;
+    if std::env::var_os("SOFTNC_WRITE_BIG").is_some() {
+        let path = std::env::temp_dir().join("softnc-gcode-big.ngc");
+        std::fs::write(&path, &text).unwrap();
+        eprintln!("wrote {} ({n_lines} lines)", path.display());
+    }
+    let program = softnc_gcode::read_program(&text, "big.ngc", &profile).expect("valid");
+    assert!(program.motions.len() as u64 > n_lines - 10);
+    let mut g = c.benchmark_group("gcode");
+    g.throughput(Throughput::Elements(n_lines));
+    g.sample_size(20);
+    g.bench_function("read_200k_lines", |b| {
+        b.iter(|| softnc_gcode::read_program(&text, "big.ngc", &profile).unwrap())
+    });
+    g.finish();
+}
+
+criterion_group!(parse, benches);
+criterion_main!(parse);
