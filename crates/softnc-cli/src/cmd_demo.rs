@@ -131,6 +131,15 @@ fn print_report(r: &serde_json::Value) {
             us(&l["compute_ns"]["p99"]),
             l["overruns"]
         );
+        if l["latency_ns"]["p50"].as_u64().unwrap_or(0) > 0 {
+            println!(
+                "    interp → position sample latency through iceoryx2 p50/p99/p99.9/max {:.1}/{:.1}/{:.1}/{:.1} µs",
+                us(&l["latency_ns"]["p50"]),
+                us(&l["latency_ns"]["p99"]),
+                us(&l["latency_ns"]["p999"]),
+                us(&l["latency_ns"]["max"])
+            );
+        }
     }
     for al in r["alarms"].as_array().into_iter().flatten() {
         println!(

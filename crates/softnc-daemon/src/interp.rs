@@ -28,6 +28,8 @@ pub struct InterpTask {
     control: Sub<ControlCommand>,
     heartbeat: Pub<Heartbeat>,
     alarms: Pub<Alarm>,
+    loop_stats: Pub<softnc_ipc::LoopStats>,
+    stats: softnc_rt::LoopStats,
     hb_counter: u64,
     last_hb: Instant,
     state: MachineState,
@@ -58,6 +60,8 @@ impl InterpTask {
             control: bus.control_subscriber()?,
             heartbeat: bus.heartbeat_publisher()?,
             alarms: bus.alarm_publisher()?,
+            loop_stats: bus.loop_stats_publisher()?,
+            stats: softnc_rt::LoopStats::new(),
             cfg,
             hb_counter: 0,
             last_hb: Instant::now() - Duration::from_secs(1),
@@ -100,6 +104,17 @@ impl InterpTask {
                 state: self.state.wire(),
                 job_id: self.job_id,
             })?;
+            if self.stats.cycles() > 0 {
+                let (j, c) = (self.stats.jitter(), self.stats.compute());
+                self.loop_stats.send_copy(softnc_ipc::LoopStats {
+                    process: ProcessId::Interp.wire(),
+                    cycles: self.stats.cycles(),
+                    jitter_ns: [j.p50_ns, j.p99_ns, j.p999_ns, j.max_ns],
+                    compute_ns: [c.p50_ns, c.p99_ns, c.p999_ns, c.max_ns],
+                    overruns: self.stats.overruns(),
+                    latency_ns: [0; 4],
+                })?;
+            }
             self.last_hb = Instant::now();
         }
         Ok(())
@@ -149,7 +164,17 @@ impl InterpTask {
         let mut operator_override = 1.0;
         let mut held = false;
         let mut aborting = false;
+        // realtime: one pass per interpolation cycle on absolute deadlines (timed);
+        // lockstep: as fast as the position process consumes
+        let realtime = self.cfg.config.clock == crate::config::ClockMode::Realtime;
+        let period = Duration::from_secs_f64(self.cfg.machine.interpolation_cycle_s);
+        let mut clock = softnc_rt::PeriodicClock::new(period, Duration::from_micros(100));
         loop {
+            let (woke, jitter, late) = if realtime {
+                clock.wait()
+            } else {
+                (Instant::now(), Duration::ZERO, 0)
+            };
             while let Some(s) = self.status.receive()? {
                 if s.job_id == job_id {
                     consumed = Some(consumed.map_or(s.seq, |c: u64| c.max(s.seq)));
@@ -213,8 +238,12 @@ impl InterpTask {
                     c.flags |= CommandSample::FLAG_END_OF_JOB;
                     sent_last = true;
                 }
+                c.sent_unix_ns = softnc_rt::unix_ns();
                 self.commands.send_copy(c)?;
                 next_seq += 1;
+            }
+            if realtime {
+                self.stats.record(jitter, woke.elapsed(), late);
             }
             self.beat()?;
             if sent_last && consumed.is_some_and(|c| c + 1 >= next_seq) {
@@ -224,7 +253,9 @@ impl InterpTask {
                     JobEnd::Completed
                 });
             }
-            std::thread::sleep(IDLE_SLEEP);
+            if !realtime {
+                std::thread::sleep(IDLE_SLEEP);
+            }
         }
     }
 }

@@ -381,7 +381,8 @@ impl MmiTask {
             self.loops[p as usize].map(|l| {
                 serde_json::json!({"cycles": l.cycles, "overruns": l.overruns,
                     "jitter_ns": {"p50": l.jitter_ns[0], "p99": l.jitter_ns[1], "p999": l.jitter_ns[2], "max": l.jitter_ns[3]},
-                    "compute_ns": {"p50": l.compute_ns[0], "p99": l.compute_ns[1], "p999": l.compute_ns[2], "max": l.compute_ns[3]}})
+                    "compute_ns": {"p50": l.compute_ns[0], "p99": l.compute_ns[1], "p999": l.compute_ns[2], "max": l.compute_ns[3]},
+                    "latency_ns": {"p50": l.latency_ns[0], "p99": l.latency_ns[1], "p999": l.latency_ns[2], "max": l.latency_ns[3]}})
             })
         };
         let job = self

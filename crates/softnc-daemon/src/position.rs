@@ -58,6 +58,7 @@ pub struct PositionTask<B: ServoBackend> {
     prev_cmd: [f64; 3],
     dry: Option<DryStop>,
     last_sample_at: Instant,
+    latency: softnc_rt::LatencyStats,
     stats: LoopStats,
     hb_counter: u64,
     last_hb: Instant,
@@ -97,6 +98,7 @@ impl<B: ServoBackend> PositionTask<B> {
             prev_cmd: [0.0; 3],
             dry: None,
             last_sample_at: Instant::now(),
+            latency: softnc_rt::LatencyStats::new(),
             stats: LoopStats::new(),
             hb_counter: 0,
             last_hb: Instant::now() - Duration::from_secs(1),
@@ -168,6 +170,10 @@ impl<B: ServoBackend> PositionTask<B> {
         while let Some(c) = self.commands.receive()? {
             let c = *c;
             self.last_sample_at = Instant::now();
+            if c.sent_unix_ns != 0 {
+                self.latency
+                    .record_ns(softnc_rt::unix_ns().saturating_sub(c.sent_unix_ns));
+            }
             if self.ring.ahead() == 0 && self.current.is_none() && self.job_id != c.job_id {
                 self.start_job(c)?;
             }
@@ -308,6 +314,7 @@ impl<B: ServoBackend> PositionTask<B> {
                     pos_mm: [p[0], p[1], p[2], 0.0, 0.0, 0.0],
                     motion,
                     flags,
+                    sent_unix_ns: 0,
                 });
             }
         }
@@ -474,6 +481,10 @@ impl<B: ServoBackend> PositionTask<B> {
                 jitter_ns: [j.p50_ns, j.p99_ns, j.p999_ns, j.max_ns],
                 compute_ns: [c.p50_ns, c.p99_ns, c.p999_ns, c.max_ns],
                 overruns: self.stats.overruns(),
+                latency_ns: {
+                    let l = self.latency.percentiles();
+                    [l.p50_ns, l.p99_ns, l.p999_ns, l.max_ns]
+                },
             }));
             self.last_hb = Instant::now();
         }

@@ -23,6 +23,9 @@ pub struct CommandSample {
     pub motion: u32,
     /// `CommandSample::FLAG_*` bits.
     pub flags: u32,
+    /// When the interpolator published it (ns since the Unix epoch): the position
+    /// process measures the interp → position latency from it.
+    pub sent_unix_ns: u64,
 }
 
 impl CommandSample {
@@ -42,6 +45,7 @@ impl CommandSample {
             pos_mm,
             motion: 0,
             flags: 0,
+            sent_unix_ns: 0,
         }
     }
     /// True if this is the job's last sample.
@@ -139,6 +143,9 @@ pub struct LoopStats {
     pub compute_ns: [u64; 4],
     /// Deadlines missed (a cycle started more than one period late).
     pub overruns: u64,
+    /// Position process only: interp → position sample latency through iceoryx2,
+    /// p50, p99, p99.9, max (ns; 0 when not measured).
+    pub latency_ns: [u64; 4],
 }
 
 /// What a control command asks.
@@ -270,7 +277,7 @@ mod tests {
         // sizes are part of the wire format between processes built together
         assert_eq!(
             std::mem::size_of::<CommandSample>(),
-            8 * 3 + 8 * MAX_AXES + 8
+            8 * 3 + 8 * MAX_AXES + 8 + 8
         );
         assert!(std::mem::size_of::<PositionStatus>() < 512);
         assert!(std::mem::size_of::<ControlCommand>() < 1024);

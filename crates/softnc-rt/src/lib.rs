@@ -15,4 +15,4 @@ pub mod stats;
 
 pub use clock::PeriodicClock;
 pub use setup::{setup_realtime, RtOptions, RtReport};
-pub use stats::{LoopStats, Percentiles};
+pub use stats::{unix_ns, LatencyStats, LoopStats, Percentiles};

@@ -86,6 +86,43 @@ impl LoopStats {
     }
 }
 
+/// One latency histogram (ns), allocated once, recorded without allocating.
+#[derive(Debug, Clone)]
+pub struct LatencyStats {
+    h: Histogram<u64>,
+}
+
+impl Default for LatencyStats {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl LatencyStats {
+    /// Empty, 1 ns .. 10 s at 3 significant digits.
+    pub fn new() -> Self {
+        LatencyStats {
+            h: Histogram::<u64>::new_with_bounds(1, MAX_NS, 3).expect("valid histogram bounds"),
+        }
+    }
+    /// Record one latency (clamped into range).
+    pub fn record_ns(&mut self, ns: u64) {
+        self.h.saturating_record(ns.clamp(1, MAX_NS));
+    }
+    /// Percentiles so far.
+    pub fn percentiles(&self) -> Percentiles {
+        LoopStats::pct(&self.h)
+    }
+}
+
+/// Nanoseconds since the Unix epoch (the clock both processes share).
+pub fn unix_ns() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or(0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
