@@ -214,6 +214,16 @@ struct Block {
     p_number: f64,
     q_number: f64,
     motion_to_be: Option<i32>,
+    /// The slots set since the last clear.
+    touched: [Touched; 16],
+    n_touched: usize,
+}
+
+#[derive(Clone, Copy)]
+enum Touched {
+    G(u8),
+    M(u8),
+    Val(u8),
 }
 
 impl Default for Block {
@@ -226,11 +236,40 @@ impl Default for Block {
             p_number: -1.0,
             q_number: -1.0,
             motion_to_be: None,
+            touched: [Touched::Val(0); 16],
+            n_touched: 0,
         }
     }
 }
 
 impl Block {
+    /// Back to empty, touching only what the last line set (a full reset is ~800 bytes).
+    fn clear(&mut self) {
+        for slot in self.touched[..self.n_touched].iter().copied() {
+            match slot {
+                Touched::G(g) => self.g[g as usize] = None,
+                Touched::M(m) => self.m[m as usize] = None,
+                Touched::Val(v) => self.val[v as usize] = None,
+            }
+        }
+        if self.n_touched == self.touched.len() {
+            // more words than we track: reset everything
+            self.g = [None; G_GROUPS];
+            self.m = [None; M_GROUPS];
+            self.val = [None; 26];
+        }
+        self.n_touched = 0;
+        self.m_count = 0;
+        self.p_number = -1.0;
+        self.q_number = -1.0;
+        self.motion_to_be = None;
+    }
+    fn touch(&mut self, t: Touched) {
+        if self.n_touched < self.touched.len() {
+            self.touched[self.n_touched] = t;
+            self.n_touched += 1;
+        }
+    }
     fn get(&self, l: u8) -> Option<f64> {
         self.val[(l - b'A') as usize].map(|v| v.0)
     }
@@ -376,7 +415,7 @@ impl<'a> Interp<'a> {
     /// errors, in the order of the words; codes and axes softnc does not implement are
     /// refused where they stand.
     fn sort(&self, words: &[Word], b: &mut Block) -> R<()> {
-        *b = Block::default();
+        b.clear();
         for w in words {
             let Word {
                 letter,
@@ -405,6 +444,7 @@ impl<'a> Interp<'a> {
                     if let Some(why) = g_unsupported(code) {
                         return unsup(offset, fmt_code('G', code), why);
                     }
+                    b.touch(Touched::G(group as u8));
                     if code == G_80 && b.g[group].is_some() {
                         // G80 beside another motion code: the other one counts
                     } else if b.g[group].map(|g| g.0) == Some(G_80) {
@@ -432,6 +472,7 @@ impl<'a> Interp<'a> {
                     if let Some(why) = m_unsupported(code) {
                         return unsup(offset, format!("M{code}"), why);
                     }
+                    b.touch(Touched::M(group as u8));
                     b.m[group] = Some((code, offset));
                     b.m_count += 1;
                 }
@@ -458,6 +499,7 @@ impl<'a> Interp<'a> {
                         );
                     }
                     *number = value;
+                    b.touch(Touched::Val(letter - b'A'));
                     b.val[(letter - b'A') as usize] = Some((value, offset));
                 }
                 _ => {
@@ -497,6 +539,7 @@ impl<'a> Interp<'a> {
                         }
                         _ => value,
                     };
+                    b.touch(Touched::Val(slot as u8));
                     b.val[slot] = Some((value, offset));
                 }
             }
