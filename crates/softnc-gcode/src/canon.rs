@@ -6,10 +6,11 @@
 
 use softnc_core::{Plane, Vec3};
 
-/// How consecutive motions join (G61, G61.1, G9, G64).
+/// How consecutive motions join (G61, G61.1, G64; LinuxCNC 2.9 has no G9, so neither
+/// has softnc).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum PathMode {
-    /// Stop exactly at the end of this motion (G61, G61.1, or G9 for one block).
+    /// Stop exactly at the end of this motion (G61, G61.1).
     ExactStop,
     /// Blend into the next motion (G64). `None` uses the machine profile's
     /// tolerance; `Some(p)` is G64 P p (mm; 0 means "as fast as possible" as in
