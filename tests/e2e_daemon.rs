@@ -376,3 +376,29 @@ fn killing_the_position_process_faults_and_reset_restarts_it() {
     let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
     assert_eq!(s["job"]["outcome"], "completed", "{s}");
 }
+
+#[test]
+fn feed_hold_stops_motion_within_the_ring_depth_and_resume_finishes_the_job() {
+    let d = Daemon::start("hold", "Realtime", false);
+    let op = d.operator();
+    let job = short_job(&d.dir);
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+    assert_eq!(r.accepted, 1);
+    d.wait_status(&op, Duration::from_secs(20), "motion", |s| {
+        s["job"]["cycles"].as_u64().unwrap_or(0) > 900
+    });
+    op.request(ControlKind::Hold, 0.0, "").unwrap();
+    // the ring holds 100 ms of samples; deceleration follows within it
+    std::thread::sleep(Duration::from_millis(400));
+    let a = op.status().unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    let b = op.status().unwrap();
+    assert_eq!(
+        a["axes"]["cmd_mm"], b["axes"]["cmd_mm"],
+        "standing still in feed hold"
+    );
+    assert_eq!(b["job"]["outcome"], "running");
+    op.request(ControlKind::Resume, 0.0, "").unwrap();
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+}
