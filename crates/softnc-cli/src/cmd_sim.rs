@@ -6,7 +6,6 @@ use anyhow::{Context, Result};
 use plotters::prelude::*;
 use softnc_core::{Primitive, Vec3};
 use softnc_sim::{simulate, CommandSample, CycleEngine, ErrorStats, SimOptions, TraceRow};
-use std::fmt::Write as _;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -98,7 +97,12 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
         None
     };
     let mut trace = match &args.trace {
-        Some(path) => Some(TraceWriter::create(path)?),
+        // the daemon's trace writer: `softnc sim` and a lockstep daemon run write
+        // byte-identical files for the same job
+        Some(path) => Some(
+            softnc_daemon::trace::TraceFile::create(path)
+                .with_context(|| format!("cannot create {}", path.display()))?,
+        ),
         None => None,
     };
     let stride = total.div_ceil(PLOT_POINTS).max(1);
@@ -117,7 +121,7 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
         if let Some(w) = trace.as_mut() {
             if trace_err.is_none() {
                 if let Err(e) = w.row(row) {
-                    trace_err = Some(e);
+                    trace_err = Some(anyhow::Error::from(e).context("writing the trace"));
                 }
             }
         }
@@ -228,66 +232,6 @@ fn plot_point(row: &TraceRow, prim: Option<Primitive>) -> PlotPoint {
         contour_um,
         following_um: [r.following_mm[0] * 1000.0, r.following_mm[1] * 1000.0],
         normal,
-    }
-}
-
-/// The per-cycle CSV trace. Numbers are written in Rust's shortest round-trip form,
-/// so equal runs give byte-identical files.
-struct TraceWriter {
-    w: csv::Writer<std::io::BufWriter<std::fs::File>>,
-    buf: String,
-}
-
-impl TraceWriter {
-    fn create(path: &Path) -> Result<Self> {
-        let file = std::fs::File::create(path)
-            .with_context(|| format!("cannot create {}", path.display()))?;
-        let mut w = csv::Writer::from_writer(std::io::BufWriter::new(file));
-        w.write_record([
-            "time_s",
-            "cmd_x_mm",
-            "cmd_y_mm",
-            "cmd_z_mm",
-            "act_x_mm",
-            "act_y_mm",
-            "act_z_mm",
-            "fe_x_um",
-            "fe_y_um",
-            "fe_z_um",
-            "contour_um",
-        ])?;
-        Ok(TraceWriter {
-            w,
-            buf: String::new(),
-        })
-    }
-
-    fn row(&mut self, row: &TraceRow) -> Result<()> {
-        let r = &row.record;
-        let mut field = |w: &mut csv::Writer<_>, v: f64| -> Result<()> {
-            self.buf.clear();
-            write!(self.buf, "{v}").expect("writing to a String");
-            w.write_field(&self.buf)?;
-            Ok(())
-        };
-        field(&mut self.w, row.time_s)?;
-        for v in r.cmd_mm.iter().chain(&r.actual_mm) {
-            field(&mut self.w, *v)?;
-        }
-        for v in r.following_mm {
-            field(&mut self.w, v * 1000.0)?;
-        }
-        match row.contour_mm {
-            Some(c) => field(&mut self.w, c * 1000.0)?,
-            None => self.w.write_field("")?,
-        }
-        self.w.write_record(None::<&[u8]>)?;
-        Ok(())
-    }
-
-    fn finish(mut self) -> Result<()> {
-        self.w.flush()?;
-        Ok(())
     }
 }
 
