@@ -225,6 +225,22 @@ fn lockstep_job_through_three_processes_equals_the_simulator_bit_for_bit() {
 }
 
 #[test]
+fn jobs_run_one_after_another() {
+    let d = Daemon::start("seq", "Lockstep", false);
+    let op = d.operator();
+    let job = short_job(&d.dir);
+    for _ in 0..3 {
+        let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+        assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+        let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
+        assert_eq!(s["job"]["outcome"], "completed", "{s}");
+        d.wait_status(&op, Duration::from_secs(10), "idle", |s| {
+            s["state"] == "Idle"
+        });
+    }
+}
+
+#[test]
 fn a_bad_job_is_refused_with_its_position_and_nothing_moves() {
     let d = Daemon::start("bad", "Lockstep", false);
     let op = d.operator();

@@ -33,11 +33,13 @@ pub struct Outbox {
     stop: Arc<AtomicBool>,
     dropped: Arc<AtomicU64>,
     thread: Option<std::thread::JoinHandle<()>>,
+    lossless: bool,
 }
 
 impl Outbox {
-    /// Start the publisher thread with its own node `<instance>/<node>`.
-    pub fn start(names: ServiceNames, node: &str) -> Result<Self> {
+    /// Start the publisher thread with its own node `<instance>/<node>`. `lossless`:
+    /// a full queue makes `send` wait (lockstep) instead of dropping (realtime).
+    pub fn start(names: ServiceNames, node: &str, lossless: bool) -> Result<Self> {
         let queue = Arc::new(ArrayQueue::new(OUTBOX_CAPACITY));
         let stop = Arc::new(AtomicBool::new(false));
         let (q, st) = (queue.clone(), stop.clone());
@@ -94,14 +96,29 @@ impl Outbox {
             stop,
             dropped: Arc::new(AtomicU64::new(0)),
             thread: Some(thread),
+            lossless,
         })
     }
 
     /// Queue a message and wake the publisher (allocation-free). When the queue is
     /// full the message is dropped and counted.
     pub fn send(&self, m: OutMsg) {
-        if self.queue.push(m).is_err() {
-            self.dropped.fetch_add(1, Ordering::Relaxed);
+        let mut item = m;
+        loop {
+            match self.queue.push(item) {
+                Ok(()) => break,
+                Err(back) if self.lossless => {
+                    item = back;
+                    if let Some(t) = &self.thread {
+                        t.thread().unpark();
+                    }
+                    std::thread::yield_now();
+                }
+                Err(_) => {
+                    self.dropped.fetch_add(1, Ordering::Relaxed);
+                    break;
+                }
+            }
         }
         if let Some(t) = &self.thread {
             t.thread().unpark();

@@ -58,6 +58,8 @@ pub struct PositionTask<B: ServoBackend> {
     prev_cmd: [f64; 3],
     dry: Option<DryStop>,
     last_sample_at: Instant,
+    /// The job started last.
+    last_job_id: u64,
     latency: softnc_rt::LatencyStats,
     stats: LoopStats,
     hb_counter: u64,
@@ -81,6 +83,8 @@ impl<B: ServoBackend> PositionTask<B> {
             outbox: crate::outbox::Outbox::start(
                 softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance),
                 "position-out",
+                // lockstep: never drop a status (the interpolator paces itself on it)
+                cfg.config.clock == ClockMode::Lockstep,
             )?,
             cfg,
             engine,
@@ -98,6 +102,7 @@ impl<B: ServoBackend> PositionTask<B> {
             prev_cmd: [0.0; 3],
             dry: None,
             last_sample_at: Instant::now(),
+            last_job_id: 0,
             latency: softnc_rt::LatencyStats::new(),
             stats: LoopStats::new(),
             hb_counter: 0,
@@ -153,7 +158,16 @@ impl<B: ServoBackend> PositionTask<B> {
             self.pull_commands()?;
             let moving = matches!(self.state, MachineState::Running | MachineState::Held)
                 && self.dry.is_none();
-            if !moving || self.ring.ready(self.window) {
+            let starting = self.state == MachineState::Idle && self.job_id != 0;
+            if (moving || starting) && self.ring.ready(self.window) {
+                return Ok(true);
+            }
+            if !moving && !starting {
+                // between jobs: cycle at the nominal rate, not as fast as the CPU allows
+                std::thread::sleep(Duration::from_secs_f64(
+                    self.cfg.machine.interpolation_cycle_s,
+                ));
+                self.pull_commands()?;
                 return Ok(true);
             }
             if self.last_sample_at.elapsed().as_secs_f64() > self.cfg.config.heartbeat_timeout_s {
@@ -174,7 +188,9 @@ impl<B: ServoBackend> PositionTask<B> {
                 self.latency
                     .record_ns(softnc_rt::unix_ns().saturating_sub(c.sent_unix_ns));
             }
-            if self.ring.ahead() == 0 && self.current.is_none() && self.job_id != c.job_id {
+            // another job's first sample starts it when no job runs; late samples of
+            // the job that just finished or was aborted are ignored
+            if self.job_id == 0 && c.job_id != 0 && c.job_id != self.last_job_id {
                 self.start_job(c)?;
             }
             if c.job_id != self.job_id {
@@ -200,6 +216,7 @@ impl<B: ServoBackend> PositionTask<B> {
         self.ring.reset();
         self.flags.clear();
         self.job_id = first.job_id;
+        self.last_job_id = first.job_id;
         self.current = None;
         self.dry = None;
         let start = [first.pos_mm[0], first.pos_mm[1], first.pos_mm[2]];
@@ -407,10 +424,11 @@ impl<B: ServoBackend> PositionTask<B> {
                 if let Some(t) = self.trace.take() {
                     std::thread::spawn(move || t.finish());
                 }
+                // the last status still names the job (the interpolator counts it as
+                // consumed); the next cycles report idle with no job
                 self.state = MachineState::Idle;
                 self.job_id = 0;
                 status.state = self.state.wire();
-                status.job_id = 0;
                 self.current = None;
             }
         }
