@@ -10,7 +10,7 @@ use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use softnc_control::compensation::AxisCompensation;
 use softnc_control::discrete_tf::{DiscreteTf, TfFilter};
 use softnc_control::dob::{Dob, DobConfig};
-use softnc_control::pdc::{self, Pdc, PdcConfig, UncertaintyPoint, ZeroAngleReading, ZeroSpec};
+use softnc_control::pdc::{self, Pdc, PdcConfig, UncertaintyPoint};
 use softnc_control::AxisController;
 use softnc_core::compensation::{Compensation, OuterCompensator};
 use softnc_core::servo::ControllerConfig;
@@ -23,29 +23,9 @@ fn pnx() -> DiscreteTf {
 
 fn pdc_config() -> PdcConfig {
     PdcConfig {
-        zeros: vec![
-            ZeroSpec {
-                radius: 0.9,
-                angle_pi: 1.3,
-            },
-            ZeroSpec {
-                radius: 0.8,
-                angle_pi: 1.57,
-            },
-            ZeroSpec {
-                radius: 0.85,
-                angle_pi: 1.86,
-            },
-        ],
-        angle_reading: ZeroAngleReading::MinusPi,
-        w_taps: 3,
-        rls_delta: 1e-4,
-        rls_samples: 2000,
-        rls_warmup_samples: 0,
-        gain_tolerance: 0.01,
-        phase_tolerance_deg: 1.0,
-        max_l_gain_nyquist_db: -30.0,
-        uncertainty: vec![
+        robust_grid_points: 2000,
+        w_dc_block_level: 0.5,
+        ..PdcConfig::paper000(vec![
             UncertaintyPoint {
                 freq_hz: 0.0,
                 relative: 0.2,
@@ -58,9 +38,7 @@ fn pdc_config() -> PdcConfig {
                 freq_hz: 500.0,
                 relative: 1.0,
             },
-        ],
-        robust_grid_points: 2000,
-        w_dc_block_level: 0.5,
+        ])
     }
 }
 

@@ -225,9 +225,7 @@ impl AxisCompensation {
 mod tests {
     use super::*;
     use crate::discrete_tf::TfFilter;
-    use softnc_core::compensation::{
-        DobConfig, MbdaConfig, UncertaintyPoint, ZeroAngleReading, ZeroSpec,
-    };
+    use softnc_core::compensation::{DobConfig, MbdaConfig, UncertaintyPoint};
     use std::f64::consts::TAU;
 
     const T: f64 = 0.001;
@@ -238,42 +236,16 @@ mod tests {
     }
 
     fn pdc_cfg() -> PdcConfig {
-        PdcConfig {
-            zeros: vec![
-                ZeroSpec {
-                    radius: 0.9,
-                    angle_pi: 1.3,
-                },
-                ZeroSpec {
-                    radius: 0.8,
-                    angle_pi: 1.57,
-                },
-                ZeroSpec {
-                    radius: 0.85,
-                    angle_pi: 1.86,
-                },
-            ],
-            angle_reading: ZeroAngleReading::MinusPi,
-            w_taps: 3,
-            rls_delta: 1e-4,
-            rls_samples: 2000,
-            rls_warmup_samples: 0,
-            gain_tolerance: 0.01,
-            phase_tolerance_deg: 1.0,
-            max_l_gain_nyquist_db: -30.0,
-            uncertainty: vec![
-                UncertaintyPoint {
-                    freq_hz: 0.0,
-                    relative: 0.2,
-                },
-                UncertaintyPoint {
-                    freq_hz: 500.0,
-                    relative: 1.0,
-                },
-            ],
-            robust_grid_points: 1000,
-            w_dc_block_level: 0.0,
-        }
+        PdcConfig::paper000(vec![
+            UncertaintyPoint {
+                freq_hz: 0.0,
+                relative: 0.2,
+            },
+            UncertaintyPoint {
+                freq_hz: 500.0,
+                relative: 1.0,
+            },
+        ])
     }
 
     /// Position-loop run of the nominal velocity loop with a sinusoidal disturbance

@@ -386,42 +386,16 @@ mod tests {
 
     /// The paper's design data (zeros as printed, read θ − π).
     pub(crate) fn paper_config() -> PdcConfig {
-        PdcConfig {
-            zeros: vec![
-                ZeroSpec {
-                    radius: 0.9,
-                    angle_pi: 1.3,
-                },
-                ZeroSpec {
-                    radius: 0.8,
-                    angle_pi: 1.57,
-                },
-                ZeroSpec {
-                    radius: 0.85,
-                    angle_pi: 1.86,
-                },
-            ],
-            angle_reading: ZeroAngleReading::MinusPi,
-            w_taps: 3,
-            rls_delta: 1e-4,
-            rls_samples: 2000,
-            rls_warmup_samples: 0,
-            gain_tolerance: 0.01,
-            phase_tolerance_deg: 1.0,
-            max_l_gain_nyquist_db: -30.0,
-            uncertainty: vec![
-                UncertaintyPoint {
-                    freq_hz: 0.0,
-                    relative: 0.2,
-                },
-                UncertaintyPoint {
-                    freq_hz: 500.0,
-                    relative: 0.5,
-                },
-            ],
-            robust_grid_points: 1000,
-            w_dc_block_level: 0.0,
-        }
+        PdcConfig::paper000(vec![
+            UncertaintyPoint {
+                freq_hz: 0.0,
+                relative: 0.2,
+            },
+            UncertaintyPoint {
+                freq_hz: 500.0,
+                relative: 0.5,
+            },
+        ])
     }
 
     #[test]
