@@ -5,6 +5,7 @@
 //! - [`config`]: machine profiles in RON, validated; a bad field fails with its RON path.
 //! - [`servo`]: the servo side of a profile: plant models, controllers, disturbances.
 //! - [`ring`]: the lookahead ring of command samples.
+//! - [`store`]: atomic file writes (job history, learning stores).
 //!
 //! ```
 //! let profile = softnc_core::config::MachineProfile::from_ron_str(
@@ -19,6 +20,7 @@ pub mod fuzzy;
 pub mod geom;
 pub mod ring;
 pub mod servo;
+pub mod store;
 
 pub use config::{AxisConfig, ConfigError, FeedProfile, MachineProfile, PlannerConfig, ToolEntry};
 pub use geom::{Plane, Primitive, Vec3};

@@ -8,7 +8,6 @@
 //!   backend, faults and status.
 //! - [`outbox`]: the position loop's messages leave through a lock-free queue.
 //! - [`mmi`]: `softnc-mmi`, job checks, machine state, alarms, history, operator API.
-//! - [`store`]: atomic file writes.
 //! - [`supervisor`]: `softncd`, starts, watches, restarts and stops the processes.
 //! - [`cli`]: shared start-up of the binaries.
 //! - [`trace`]: per-cycle CSV traces, written off the cycle path.
@@ -23,6 +22,5 @@ pub mod interp;
 pub mod mmi;
 pub mod outbox;
 pub mod position;
-pub mod store;
 pub mod supervisor;
 pub mod trace;

@@ -6,11 +6,11 @@
 use crate::bus::{Bus, Pub, Sub};
 use crate::config::Loaded;
 use crate::interp::read_and_plan;
-use crate::store::write_atomic;
 use anyhow::{Context, Result};
 use iceoryx2::port::server::Server;
 use iceoryx2::prelude::*;
 use serde::{Deserialize, Serialize};
+use softnc_core::store::write_atomic;
 use softnc_ipc::{
     Alarm, AlarmCode, ControlCommand, ControlKind, FixedStr, Heartbeat, LoopStats, MachineState,
     OperatorReply, OperatorRequest, PositionStatus, ProcessId,

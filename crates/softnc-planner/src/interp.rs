@@ -53,7 +53,6 @@ pub struct Interpolator<'a> {
     // S-curve smoothing ring over the raw path position
     ring: Vec<f64>,
     ring_pos: usize,
-    ring_sum_valid: bool,
     // output cursor
     cursor: usize,
     index: u64,
@@ -95,7 +94,6 @@ impl<'a> Interpolator<'a> {
             force_brake: false,
             ring: vec![0.0; window],
             ring_pos: 0,
-            ring_sum_valid: true,
             cursor: 0,
             index: 0,
             finished: false,
@@ -357,7 +355,6 @@ impl Iterator for Interpolator<'_> {
             }
             self.ring[self.ring_pos] = raw;
             self.ring_pos = (self.ring_pos + 1) % n;
-            let _ = self.ring_sum_valid;
             let sum: f64 = self.ring.iter().sum();
             // all equal (standing still): exactly that value, not a rounded mean
             if self.ring.iter().all(|&x| x == raw) {

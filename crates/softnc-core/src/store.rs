@@ -1,4 +1,4 @@
-//! Atomic file writes: temp file in the same folder, fsync, rename, fsync the folder.
+//! Atomic file writes (job history, learning stores): temp file in the same folder, fsync, rename, fsync the folder.
 //! A crash leaves either the old file or the new one, never a half-written one.
 
 use std::io::Write;
