@@ -11,15 +11,22 @@
 //!   unknowns), and the closed-loop matrix of eq 20.
 //! - [`park`]: Clarke/Park transform of the feed motor's phase currents to I_q
 //!   (eq 25–27) and the linear force calibration (eq 31–32).
+//! - [`force_estimate`]: I_q → force → peak per spindle revolution.
+//! - [`force_control`]: the adaptive loop: RLS, pole placement, servo law, feed
+//!   clamped to the override range and rate-limited.
 #![warn(missing_docs)]
 // Index loops mirror the papers' matrix equations; iterator chains would hide them.
 #![allow(clippy::needless_range_loop)]
 
+pub mod force_control;
+pub mod force_estimate;
 pub mod park;
 pub mod rls;
 pub mod robust_servo;
 pub mod zoh;
 
+pub use force_control::{AdaptiveForceControl, ControlStep, ForceControlConfig};
+pub use force_estimate::{ForceEstimator, RevolutionPeak};
 pub use park::{park_iq, ForceCalibration};
 pub use rls::{Rls, RlsConfig};
 pub use robust_servo::{place_poles, PlacementError, RobustServo, ServoGains};

@@ -121,6 +121,10 @@ pub struct MachineProfile {
     /// The servo side: plants, controllers, measurement (simulated backend).
     #[serde(default)]
     pub servo: crate::servo::ServoProfile,
+    /// Adaptive cutting-force control (paper 003): process, feed motor, controller,
+    /// experiments; absent on machines without it.
+    #[serde(default)]
+    pub force: Option<crate::force::ForceProfile>,
 }
 
 impl MachineProfile {
@@ -209,6 +213,9 @@ impl MachineProfile {
             }
         }
         self.validate_servo(file)?;
+        if let Some(f) = &self.force {
+            f.validate(file, self.planner.max_feed_override)?;
+        }
         if self.work_offsets_mm.len() > 6 {
             return Err(bad(
                 "work_offsets_mm".into(),

@@ -4,6 +4,7 @@
 //!   G-code front end produces, the planner follows and the contour-error metric measures.
 //! - [`config`]: machine profiles in RON, validated; a bad field fails with its RON path.
 //! - [`servo`]: the servo side of a profile: plant models, controllers, disturbances.
+//! - [`force`]: the adaptive cutting-force control section (paper 003).
 //! - [`ring`]: the lookahead ring of command samples.
 //! - [`store`]: atomic file writes (job history, learning stores).
 //!
@@ -16,6 +17,7 @@
 
 pub mod compensation;
 pub mod config;
+pub mod force;
 pub mod fuzzy;
 pub mod geom;
 pub mod ring;
