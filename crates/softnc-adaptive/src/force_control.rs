@@ -4,10 +4,10 @@
 //! (eq 14–17), the feed clamped to the override range and rate-limited.
 //!
 //! Safeguards (ours; the paper states the conditions, not what to do when an
-//! estimate violates them): the gains are only replaced when the estimated model
-//! satisfies the paper's condition 1 (Φ stable: no chatter), has a positive static
-//! gain (more feed, more force) and the placement is solvable (condition 2/4);
-//! otherwise the last good gains stay.
+//! estimate violates them): the gains are only replaced when the estimated model has
+//! the structure of eq 5–7 ([`model_usable`]: real stable poles, which is the paper's
+//! condition 1, and a zero in (−1, 0]) and the placement is solvable (conditions 2
+//! and 4); otherwise the last good gains stay.
 //!
 //! **Form and anti-windup.** Eliminating η and ε from eq 14–17 gives the same law as
 //! R(q)v = P(q)f + T(q)f* with R = (q − 1)(q − r₀),
@@ -57,7 +57,7 @@ pub struct ControlStep {
     pub gains: ServoGains,
     /// Estimator's prediction error (N).
     pub prediction_error: f64,
-    /// Whether this sample's estimate was accepted for new gains.
+    /// Whether this sample updated the estimate and it gave new gains.
     pub model_accepted: bool,
 }
 
@@ -82,14 +82,29 @@ pub struct AdaptiveForceControl {
     rejected: u64,
 }
 
-/// Whether `m` satisfies condition 1 (Φ stable) and has a positive finite static gain.
+/// Whether `m` can be the sampled plant of eq 5: two real poles in [0, 1) (condition 1:
+/// Φ stable, no chatter), θ₁ > 0 and θ₂ ≥ 0 — the ZOH equivalent of two first-order
+/// lags with a positive gain always has them, and its zero −θ₂/θ₁ lies in (−1, 0]
+/// (the paper finds −0.84…−0.56) — and a finite static gain. An estimate outside
+/// this set (typically a near pole–zero cancellation at z ≈ 1 under weak closed-loop
+/// excitation) would demand huge gains; it is not used.
 pub fn model_usable(m: &Arma2) -> bool {
     let finite = [m.phi1, m.phi2, m.theta1, m.theta2]
         .iter()
         .all(|v| v.is_finite());
-    // Jury: z² + φ₁z + φ₂ has both roots inside the unit circle
-    let stable = m.phi2.abs() < 1.0 && m.phi1.abs() < 1.0 + m.phi2;
-    finite && stable && m.dc_gain() > 0.0 && m.dc_gain().is_finite()
+    if !finite {
+        return false;
+    }
+    // z² + φ₁z + φ₂ = 0: real roots in [0, 1)
+    let disc = m.phi1 * m.phi1 - 4.0 * m.phi2;
+    if disc < 0.0 {
+        return false;
+    }
+    let sq = disc.sqrt();
+    let (z1, z2) = ((-m.phi1 - sq) / 2.0, (-m.phi1 + sq) / 2.0);
+    let poles_ok = [z1, z2].iter().all(|z| (0.0..1.0).contains(z));
+    let zero_ok = m.theta1 > 0.0 && m.theta2 >= 0.0 && m.theta2 < m.theta1;
+    poles_ok && zero_ok && m.dc_gain().is_finite()
 }
 
 impl AdaptiveForceControl {
@@ -114,7 +129,7 @@ impl AdaptiveForceControl {
         })
     }
 
-    /// Estimates rejected so far (the last good gains were kept).
+    /// Updated estimates rejected so far (the last good gains were kept).
     pub fn rejected(&self) -> u64 {
         self.rejected
     }
@@ -134,10 +149,13 @@ impl AdaptiveForceControl {
     pub fn step(&mut self, f: f64, f_ref: f64) -> ControlStep {
         let mut pred_err = 0.0;
         let mut accepted = false;
+        let before = self.rls.theta();
         if self.samples >= 2 {
             pred_err = self
                 .rls
                 .update([self.y[0], self.y[1], self.u[0], self.u[1]], f);
+        }
+        if self.samples >= 2 && self.rls.theta() != before {
             let m = Arma2::from_theta(self.rls.theta());
             if model_usable(&m) {
                 if let Ok(g) = place_poles(&m, self.cfg.poles, self.cfg.t_s) {

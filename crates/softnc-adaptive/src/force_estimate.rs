@@ -87,7 +87,11 @@ mod tests {
             let th = k as f64 * 0.1;
             let f = 450.0 * (k as f64 * 0.2).sin().abs();
             let iq = cal.a_per_n * f + cal.b_a;
-            let est = e.push(-iq * th.sin(), -iq * (th - 2.0 * std::f64::consts::PI / 3.0).sin(), th);
+            let est = e.push(
+                -iq * th.sin(),
+                -iq * (th - 2.0 * std::f64::consts::PI / 3.0).sin(),
+                th,
+            );
             assert!((est - f).abs() < 1e-9);
         }
         let p = e.take_revolution_peak().unwrap();

@@ -10,7 +10,8 @@ use std::process::ExitCode;
 #[derive(clap::Args)]
 pub struct ReproduceArgs {
     /// The experiment: `001-table5` (paper 001, PID vs fuzzy-logic control),
-    /// `000-pdc` (paper 000, DOB/MBDA and the periodic disturbance canceller).
+    /// `000-pdc` (paper 000, DOB/MBDA and the periodic disturbance canceller),
+    /// `003-force` (paper 003, adaptive cutting-force control, cases I–III).
     pub experiment: String,
     /// Print one JSON document instead of the text table.
     #[arg(long)]
@@ -30,13 +31,14 @@ pub struct ReproduceArgs {
 }
 
 /// The experiments this command knows.
-pub const EXPERIMENTS: &[&str] = &["001-table5", "000-pdc"];
+pub const EXPERIMENTS: &[&str] = &["001-table5", "000-pdc", "003-force"];
 
 /// Run the named experiment.
 pub fn run(args: ReproduceArgs) -> Result<ExitCode> {
     match args.experiment.as_str() {
         "001-table5" => crate::reproduce::p001::main(&args),
         "000-pdc" => crate::reproduce::p000::main(&args),
+        "003-force" => crate::reproduce::p003::main(&args),
         other => {
             eprintln!(
                 "softnc: unknown experiment `{other}`; known: {}",

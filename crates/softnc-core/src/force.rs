@@ -277,10 +277,7 @@ impl ForceProfile {
         check_poles(&k.poles, "controller.poles", &bad)?;
         pos(k.rls.p0, "controller.rls.p0")?;
         if !(k.rls.forgetting > 0.0 && k.rls.forgetting <= 1.0) {
-            return Err(bad(
-                "controller.rls.forgetting".into(),
-                "must be in (0, 1]",
-            ));
+            return Err(bad("controller.rls.forgetting".into(), "must be in (0, 1]"));
         }
         if !(k.rls.dead_zone_n.is_finite() && k.rls.dead_zone_n >= 0.0) {
             return Err(bad(
@@ -289,7 +286,10 @@ impl ForceProfile {
             ));
         }
         pos(k.rls.reset_trace, "controller.rls.reset_trace")?;
-        pos(k.prior.gain_n_per_mm_min, "controller.prior.gain_n_per_mm_min")?;
+        pos(
+            k.prior.gain_n_per_mm_min,
+            "controller.prior.gain_n_per_mm_min",
+        )?;
         pos(k.prior.tau_s, "controller.prior.tau_s")?;
         pos(k.prior.tau_c_s, "controller.prior.tau_c_s")?;
         if !(k.override_min >= 0.0
@@ -315,7 +315,10 @@ impl ForceProfile {
             }
             pos(case.spindle_rpm, &p("spindle_rpm"))?;
             pos(case.force_ref_n, &p("force_ref_n"))?;
-            pos(case.programmed_feed_mm_per_min, &p("programmed_feed_mm_per_min"))?;
+            pos(
+                case.programmed_feed_mm_per_min,
+                &p("programmed_feed_mm_per_min"),
+            )?;
             if let Some(poles) = &case.poles {
                 check_poles(poles, &p("poles"), &bad)?;
             }
@@ -376,5 +379,49 @@ fn check_poles(
         Ok(())
     } else {
         Err(bad(path.into(), "poles must lie inside the unit circle"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::config::{ConfigError, MachineProfile};
+
+    const PROFILE: &str = include_str!("../../../config/machines/mch10-force.ron");
+
+    #[test]
+    fn the_paper_003_profile_loads() {
+        let p = MachineProfile::from_ron_str(PROFILE, "mch10-force.ron").unwrap();
+        let f = p.force.unwrap();
+        assert_eq!(f.cases.len(), 4);
+        assert!(f.case("I").is_some() && f.material("SM45C").is_some());
+    }
+
+    #[test]
+    fn bad_force_values_are_refused_with_their_path() {
+        for (from, to, path) in [
+            (
+                "material: \"SM45C\", paper",
+                "material: \"brass\", paper",
+                "force.cases[1].segments[1].material",
+            ),
+            (
+                "override_max: 2.55",
+                "override_max: 3.0",
+                "force.controller.override_max",
+            ),
+            (
+                "poles: (0.4, 0.45, 0.65, 0.7),\n            rls",
+                "poles: (0.4, 0.45, 1.65, 0.7),\n            rls",
+                "force.controller.poles",
+            ),
+            ("pole_pairs: 4", "pole_pairs: 0", "force.motor.pole_pairs"),
+        ] {
+            assert!(PROFILE.contains(from), "{from}");
+            let text = PROFILE.replacen(from, to, 1);
+            match MachineProfile::from_ron_str(&text, "m.ron") {
+                Err(ConfigError::Invalid { path: p, .. }) => assert_eq!(p, path),
+                other => panic!("{from}: {other:?}"),
+            }
+        }
     }
 }

@@ -31,10 +31,10 @@ pub mod first_order_lag;
 pub mod metrics;
 /// End-milling force process (paper 003 eq 2–4) and the cut's depth/material profile.
 pub mod milling;
-/// PMSM feed motor and its phase-current sensors (paper 003 eq 24–30).
-pub mod pmsm;
 /// One simulated axis: the profile's model with its seeded variation.
 pub mod plant;
+/// PMSM feed motor and its phase-current sensors (paper 003 eq 24–30).
+pub mod pmsm;
 /// Seeded generator (xoshiro256**, SplitMix64, Box–Muller).
 pub mod rng;
 /// Running a job: samples in, errors and trace out.

@@ -4,7 +4,7 @@
 //! its engagement angle. The depth and material come from the cut's segments along
 //! the feed axis.
 
-use softnc_core::force::{ForceProfile, ForceCase, MillingTool};
+use softnc_core::force::{ForceCase, ForceProfile, MillingTool};
 use std::f64::consts::{PI, TAU};
 
 /// Seconds per minute (rpm → rev/s).
@@ -191,7 +191,10 @@ mod tests {
         }
         let want = 1000.0 * 2.0 * 5.0 / 20.0;
         assert!((m.peak_n() - want).abs() < 1e-6);
-        assert!((peak_seen - want).abs() / want < 1e-3, "{peak_seen} vs {want}");
+        assert!(
+            (peak_seen - want).abs() / want < 1e-3,
+            "{peak_seen} vs {want}"
+        );
     }
 
     #[test]

@@ -2,3 +2,4 @@
 
 pub mod p000;
 pub mod p001;
+pub mod p003;
