@@ -289,7 +289,7 @@ mod tests {
             ..m
         };
         let (_, us) = run(&[m, dead, m], 100, cfg(m));
-        assert!(us[100..200].iter().any(|&u| u == 510.0));
+        assert!(us[100..200].contains(&510.0));
         for w in us.windows(2) {
             assert!((w[1] - w[0]).abs() <= 50.0 + 1e-9 && (0.0..=510.0).contains(&w[1]));
         }

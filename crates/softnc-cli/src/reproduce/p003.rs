@@ -258,7 +258,7 @@ pub fn run_cut(
         ));
         true_peak.push(f_true);
         cycle += 1;
-        if cycle % cycles_per_rev == 0 {
+        if cycle.is_multiple_of(cycles_per_rev) {
             let f_peak = true_peak.take().unwrap_or(0.0);
             let est = estimator.take_revolution_peak().unwrap_or(0.0);
             let piq = iq_peak.take().unwrap_or(0.0);
