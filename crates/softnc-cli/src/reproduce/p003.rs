@@ -830,7 +830,8 @@ pub fn plot_case(case: &CaseResult, run: &Run, out: &Path) -> Result<()> {
                 .collect(),
         ),
         (
-            "gains K = [k, r0, r1, r2, r3, r4] (k, r2 scaled by 0.1)".into(),
+            "gains K = [k, r0, r1, r2, r3, r4] (r1 = 0, r4 = 1 fixed; k and r2 scaled by 0.1)"
+                .into(),
             "",
             (0..6)
                 .filter(|&i| i != 2 && i != 5)
