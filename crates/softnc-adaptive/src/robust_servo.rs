@@ -141,6 +141,49 @@ pub fn closed_loop_matrix(model: &Arma2, g: &ServoGains, t_s: f64) -> [[f64; 4];
     a
 }
 
+/// Characteristic polynomial det(zI − A) of a 4×4 matrix, highest power first
+/// (Faddeev–LeVerrier): checks that placed poles are the closed loop's eigenvalues.
+pub fn characteristic_polynomial(a: &[[f64; 4]; 4]) -> [f64; 5] {
+    let mul = |x: &[[f64; 4]; 4], y: &[[f64; 4]; 4]| {
+        let mut r = [[0.0; 4]; 4];
+        for i in 0..4 {
+            for j in 0..4 {
+                r[i][j] = (0..4).map(|k| x[i][k] * y[k][j]).sum();
+            }
+        }
+        r
+    };
+    let mut c = [1.0, 0.0, 0.0, 0.0, 0.0];
+    let mut m = [[0.0; 4]; 4];
+    for k in 1..=4 {
+        let mut mk = mul(a, &m);
+        for i in 0..4 {
+            mk[i][i] += c[k - 1];
+        }
+        let am = mul(a, &mk);
+        let tr: f64 = (0..4).map(|i| am[i][i]).sum();
+        c[k] = -tr / k as f64;
+        m = mk;
+    }
+    c
+}
+
+/// Π(z − pᵢ), highest power first.
+pub fn poly_from_roots(poles: [f64; 4]) -> [f64; 5] {
+    let mut d = [1.0, 0.0, 0.0, 0.0, 0.0];
+    for p in poles {
+        let mut nd = [0.0; 5];
+        for i in 0..5 {
+            nd[i] += d[i];
+            if i + 1 < 5 {
+                nd[i + 1] -= p * d[i];
+            }
+        }
+        d = nd;
+    }
+    d
+}
+
 /// The robust servo's state and one step per control sample.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct RobustServo {
@@ -167,33 +210,6 @@ mod tests {
     use super::*;
     use crate::zoh::zoh_second_order;
 
-    /// Characteristic polynomial coefficients of a 4×4 matrix (Faddeev–LeVerrier),
-    /// highest power first.
-    fn charpoly(a: &[[f64; 4]; 4]) -> [f64; 5] {
-        let mul = |x: &[[f64; 4]; 4], y: &[[f64; 4]; 4]| {
-            let mut r = [[0.0; 4]; 4];
-            for i in 0..4 {
-                for j in 0..4 {
-                    r[i][j] = (0..4).map(|k| x[i][k] * y[k][j]).sum();
-                }
-            }
-            r
-        };
-        let mut c = [1.0, 0.0, 0.0, 0.0, 0.0];
-        let mut m = [[0.0; 4]; 4];
-        for k in 1..=4 {
-            let mut mk = mul(a, &m);
-            for i in 0..4 {
-                mk[i][i] += c[k - 1];
-            }
-            let am = mul(a, &mk);
-            let tr: f64 = (0..4).map(|i| am[i][i]).sum();
-            c[k] = -tr / k as f64;
-            m = mk;
-        }
-        c
-    }
-
     #[test]
     fn placed_poles_are_the_closed_loop_eigenvalues() {
         let t_s = 0.1;
@@ -202,7 +218,7 @@ mod tests {
             for poles in [[0.4, 0.45, 0.65, 0.7], [0.3, 0.35, 0.7, 0.75]] {
                 let g = place_poles(&m, poles, t_s).unwrap();
                 let a = closed_loop_matrix(&m, &g, t_s);
-                let cp = charpoly(&a);
+                let cp = characteristic_polynomial(&a);
                 for p in poles {
                     let v = cp.iter().fold(0.0, |acc, c| acc * p + c);
                     // |det(pI − Φ̄)| / scale: each requested pole is an eigenvalue

@@ -16,7 +16,8 @@ pub struct ReproduceArgs {
     /// Print one JSON document instead of the text table.
     #[arg(long)]
     pub json: bool,
-    /// Number of seeds (1..=N), the same for every controller.
+    /// Number of seeds (1..=N), the same for every controller (003: the robustness
+    /// summary after the table).
     #[arg(long, default_value_t = 5)]
     pub seeds: u64,
     /// Machine profile (default: the experiment's, e.g. config/machines/mill-friction.ron).

@@ -887,18 +887,103 @@ pub fn plot_case(case: &CaseResult, run: &Run, out: &Path) -> Result<()> {
     Ok(())
 }
 
-/// `softnc reproduce 003-force [--json] [--plots DIR] [--machine P]`.
+/// One case's figures on one seed (robustness summary).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct SeedCase {
+    /// Seed of the simulated machine (sensor noise, encoder).
+    pub seed: u64,
+    /// Case name.
+    pub case: String,
+    /// Largest |settled force error| over the segments (%).
+    pub max_abs_error_pct: f64,
+    /// Largest estimate error over the segments (%).
+    pub max_est_error_pct: f64,
+    /// Settled feeds per segment (mm/min).
+    pub feeds_mm_min: Vec<f64>,
+    /// Largest overshoot over the segments (%).
+    pub worst_overshoot_pct: f64,
+    /// Sum of the segments' overshoots (%).
+    pub total_overshoot_pct: f64,
+}
+
+/// Every case on seeds 1..=n (calibrated anew on each seed).
+pub fn seed_summaries(machine: &MachineProfile, file: &str, n: u64) -> Result<Vec<SeedCase>> {
+    let mut out = Vec::new();
+    for seed in 1..=n {
+        let mut m = machine.clone();
+        m.servo.seed = seed;
+        let force = force_section(&m, file)?;
+        let cal = calibrate(&m, force, true)?;
+        for case in &force.cases {
+            let (r, _) = run_case(&m, force, case, cal.line(), true)?;
+            let fold = |f: &dyn Fn(&SegmentResult) -> f64| {
+                r.segments.iter().map(|s| f(s)).fold(0.0, f64::max)
+            };
+            out.push(SeedCase {
+                seed,
+                case: r.case.clone(),
+                max_abs_error_pct: fold(&|s| s.error_pct.abs()),
+                max_est_error_pct: fold(&|s| s.est_error_pct),
+                feeds_mm_min: r.segments.iter().map(|s| s.feed_mm_min).collect(),
+                worst_overshoot_pct: fold(&|s| s.overshoot_pct),
+                total_overshoot_pct: r.segments.iter().map(|s| s.overshoot_pct).sum(),
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// The robustness summary as text.
+pub fn seeds_text(rows: &[SeedCase]) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    if rows.is_empty() {
+        return s;
+    }
+    let _ = writeln!(
+        s,
+        "
+every case on seeds 1..={} (sensor noise and encoder; calibrated per seed):",
+        rows.iter().map(|r| r.seed).max().unwrap_or(0)
+    );
+    let _ = writeln!(
+        s,
+        "  seed  case     max |error| %  max est.err %  worst overshoot %  sum overshoot %  feeds mm/min"
+    );
+    for r in rows {
+        let feeds: Vec<String> = r.feeds_mm_min.iter().map(|f| format!("{f:.1}")).collect();
+        let _ = writeln!(
+            s,
+            "  {:>4}  {:<7}  {:>13.2}  {:>13.2}  {:>17.1}  {:>15.1}  {}",
+            r.seed,
+            r.case,
+            r.max_abs_error_pct,
+            r.max_est_error_pct,
+            r.worst_overshoot_pct,
+            r.total_overshoot_pct,
+            feeds.join(" / ")
+        );
+    }
+    s
+}
+
+/// `softnc reproduce 003-force [--json] [--plots DIR] [--machine P] [--seeds N]`.
 pub fn main(args: &crate::cmd_reproduce::ReproduceArgs) -> Result<std::process::ExitCode> {
     let path = args
         .machine
         .clone()
         .unwrap_or_else(|| workspace_file("config/machines/mch10-force.ron"));
     let machine = MachineProfile::load(&path)?;
-    let (report, runs) = report(&machine, &path.display().to_string())?;
+    let file = path.display().to_string();
+    let (report, runs) = report(&machine, &file)?;
+    let seeds = seed_summaries(&machine, &file, args.seeds)?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&to_json(&report))?);
+        let mut v = to_json(&report);
+        v["seeds"] = serde_json::to_value(&seeds)?;
+        println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         print!("{}", to_text(&report));
+        print!("{}", seeds_text(&seeds));
     }
     if let Some(dir) = &args.plots {
         std::fs::create_dir_all(dir)?;
@@ -1063,6 +1148,69 @@ mod tests {
         let a = m.axes[force.feed_axis].max_acc_mm_per_s2;
         assert!(run.max_speed_step_mm_s <= a * m.interpolation_cycle_s * (1.0 + 1e-6));
         assert!(r.segments.iter().all(|s| s.force_n.is_finite()));
+    }
+
+    /// The gains in force at every revolution of cases I and II, with the estimated
+    /// model they were computed from, give the closed-loop matrix of eq 20 the
+    /// requested poles (characteristic polynomial to 1e-6).
+    #[test]
+    fn gains_from_estimated_models_place_the_poles() {
+        use softnc_adaptive::robust_servo::{
+            characteristic_polynomial, closed_loop_matrix, poly_from_roots,
+        };
+        let m = machine();
+        let mut checked = 0;
+        for name in ["I", "II"] {
+            let (r, run) = case(&m, name);
+            let want = poly_from_roots(r.poles);
+            let mut models = std::collections::BTreeSet::new();
+            for row in &run.rows {
+                let model = Arma2::from_theta(row.theta);
+                let g = ServoGains {
+                    k: row.gains[0],
+                    r0: row.gains[1],
+                    r1: row.gains[2],
+                    r2: row.gains[3],
+                    r3: row.gains[4],
+                    r4: row.gains[5],
+                };
+                let cp = characteristic_polynomial(&closed_loop_matrix(&model, &g, run.t_rev_s));
+                for (a, b) in cp.iter().zip(want) {
+                    assert!(
+                        (a - b).abs() < 1e-6,
+                        "{name} t {}: {cp:?} vs {want:?}",
+                        row.t_s
+                    );
+                }
+                models.insert(row.theta.map(f64::to_bits));
+                checked += 1;
+            }
+            assert!(models.len() >= 3, "{name}: the estimate must have moved");
+        }
+        assert!(checked > 500);
+    }
+
+    /// The pole-speed observation is not one seed's luck: on seeds 1–3 the faster
+    /// poles overshoot more (largest and summed), and every case holds ±5 %.
+    #[test]
+    fn faster_poles_overshoot_more_on_every_seed() {
+        let m = machine();
+        let rows = seed_summaries(&m, "mch10-force.ron", 3).unwrap();
+        for seed in 1..=3 {
+            let get = |c: &str| rows.iter().find(|r| r.seed == seed && r.case == c).unwrap();
+            let (slow, fast) = (get("II"), get("II-fast"));
+            assert!(
+                fast.worst_overshoot_pct > slow.worst_overshoot_pct,
+                "{seed}"
+            );
+            assert!(
+                fast.total_overshoot_pct > slow.total_overshoot_pct,
+                "{seed}"
+            );
+        }
+        assert!(rows
+            .iter()
+            .all(|r| r.max_abs_error_pct <= 5.0 && r.max_est_error_pct < 15.0));
     }
 
     #[test]
