@@ -916,9 +916,8 @@ pub fn seed_summaries(machine: &MachineProfile, file: &str, n: u64) -> Result<Ve
         let cal = calibrate(&m, force, true)?;
         for case in &force.cases {
             let (r, _) = run_case(&m, force, case, cal.line(), true)?;
-            let fold = |f: &dyn Fn(&SegmentResult) -> f64| {
-                r.segments.iter().map(|s| f(s)).fold(0.0, f64::max)
-            };
+            let fold =
+                |f: &dyn Fn(&SegmentResult) -> f64| r.segments.iter().map(f).fold(0.0, f64::max);
             out.push(SeedCase {
                 seed,
                 case: r.case.clone(),
