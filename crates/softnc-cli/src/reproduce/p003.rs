@@ -1222,6 +1222,27 @@ mod tests {
         assert_eq!(overshoot(&[300.0, 500.0, 460.0], 450.0), 50.0 / 450.0);
     }
 
+    /// The JSON has the issue's shape: cases[].case, cases[].segments[] with depth,
+    /// material, force, reference, feed and the paper's feed (null when unprinted).
+    #[test]
+    fn json_has_the_issues_shape() {
+        let m = machine();
+        let (r, _) = report(&m, "mch10-force.ron").unwrap();
+        let v = to_json(&r);
+        let cases = v["cases"].as_array().unwrap();
+        assert_eq!(cases[0]["case"], "I");
+        for c in cases {
+            for s in c["segments"].as_array().unwrap() {
+                for key in ["depth_mm", "force_n", "force_ref_n", "feed_mm_min"] {
+                    assert!(s[key].as_f64().unwrap().is_finite(), "{key}");
+                }
+                assert!(s["material"].is_string());
+                assert!(s["paper_feed_mm_min"].is_f64() || s["paper_feed_mm_min"].is_null());
+            }
+        }
+        assert_eq!(cases[0]["segments"][0]["paper_feed_mm_min"], 280.0);
+    }
+
     #[test]
     fn a_profile_without_force_section_is_refused() {
         let m = MachineProfile::load(&workspace_file("config/machines/tnv40-ilc.ron")).unwrap();
