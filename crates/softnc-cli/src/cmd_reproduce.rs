@@ -26,6 +26,10 @@ pub struct ReproduceArgs {
     /// Fuzzy rule base and membership table (001; default config/fuzzy/paper001.ron).
     #[arg(long)]
     pub fuzzy: Option<PathBuf>,
+    /// 001: also run the plant-reading audit (every reading of the paper's unstated
+    /// units and reference, and the FLC's gains in the range it actually visits).
+    #[arg(long)]
+    pub audit: bool,
     /// Write the experiment's plots (SVG) into this directory.
     #[arg(long)]
     pub plots: Option<PathBuf>,

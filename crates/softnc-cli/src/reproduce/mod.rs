@@ -2,4 +2,5 @@
 
 pub mod p000;
 pub mod p001;
+pub mod p001_audit;
 pub mod p003;

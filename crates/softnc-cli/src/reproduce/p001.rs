@@ -120,6 +120,8 @@ pub struct TracePoint {
     pub cmd_mm: [f64; 2],
     /// Signed contour error (mm).
     pub contour_mm: f64,
+    /// Position error command − measured of X and Y that the controllers acted on (mm).
+    pub following_mm: [f64; 2],
 }
 
 /// A file of the workspace: relative to the current directory when it exists there,
@@ -222,7 +224,7 @@ pub fn run(
     let tail = std::iter::repeat_n(*last_feed, hold);
     let (mut n, mut sum_sq, mut max) = (0usize, 0.0f64, 0.0f64);
     for s in samples.iter().copied().chain(tail) {
-        engine
+        let rec = engine
             .step(s.pos_mm.0, s.feed_move)
             .map_err(|e| anyhow::anyhow!("{e}"))?;
         if !s.feed_move {
@@ -236,6 +238,7 @@ pub fn run(
         observe(TracePoint {
             cmd_mm: [s.pos_mm.0[0], s.pos_mm.0[1]],
             contour_mm: e,
+            following_mm: [rec.following_mm[0], rec.following_mm[1]],
         });
         n += 1;
         sum_sq += e * e;
@@ -322,6 +325,20 @@ pub fn to_text(rows: &[Row], seeds: &[u64]) -> String {
             r.case.paper[3],
             r.best.max,
             r.best.rms
+        );
+    }
+    s += "\nours / paper (factor-2 band: 0.50 .. 2.00)\n";
+    s += "contour feed  | PID max  FLC max  PID rms  FLC rms\n";
+    for r in rows {
+        let q = |ours: f64, k: usize| ours / r.case.paper[k];
+        s += &format!(
+            "{:<7} {:<4}  | {:>7.2}  {:>7.2}  {:>7.2}  {:>7.2}\n",
+            r.case.contour,
+            r.case.feed,
+            q(r.pid.max, 0),
+            q(r.flc.max, 1),
+            q(r.pid.rms, 2),
+            q(r.flc.rms, 3)
         );
     }
     s
@@ -420,10 +437,22 @@ pub fn main(args: &crate::cmd_reproduce::ReproduceArgs) -> Result<std::process::
     let flc = FuzzyConfig::load(&flc_path)?;
     let seeds: Vec<u64> = (1..=args.seeds).collect();
     let rows = table(&machine, &flc, &seeds)?;
+    let audit = if args.audit {
+        Some(super::p001_audit::audit(&machine, &flc, &seeds)?)
+    } else {
+        None
+    };
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&to_json(&rows))?);
+        let mut doc = to_json(&rows);
+        if let Some(a) = &audit {
+            doc["audit"] = super::p001_audit::to_json(a);
+        }
+        println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
         print!("{}", to_text(&rows, &seeds));
+        if let Some(a) = &audit {
+            print!("\n{}", super::p001_audit::to_text(a));
+        }
     }
     if let Some(dir) = &args.plots {
         std::fs::create_dir_all(dir)?;
@@ -466,9 +495,10 @@ mod tests {
     }
 
     /// The acceptance: FLC <= PID in max and RMS in every row (mean of 5 seeds).
-    /// Not met by paper 001's FLC on our machine model: see docs/reproduce-001.md.
+    /// Not met by paper 001's FLC on the faithful model, nor under any reading of the
+    /// paper's units that keeps Table 4's PID working (`--audit`; docs/reproduce-001.md).
     #[test]
-    #[ignore = "acceptance not met: the paper's FLC is not better than the PID on mill-friction.ron (docs/reproduce-001.md)"]
+    #[ignore = "acceptance not met: the paper's FLC is not better than the PID on mill-friction.ron under any workable plant reading (docs/reproduce-001.md, --audit)"]
     fn acceptance_flc_not_worse_than_pid_in_every_row() {
         for r in rows(5) {
             assert!(
