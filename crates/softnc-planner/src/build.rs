@@ -1,9 +1,9 @@
 //! From canonical motions to path segments: machine coordinates, blends at corners
 //! (G64), exact stops (G61/G9), per-segment limits and junction speeds.
 
-use crate::path::{element_limits, Geom};
+use crate::path::{element_limits, ElementShape, Geom};
 use softnc_core::{FeedProfile, MachineProfile, Primitive, Vec3};
-use softnc_gcode::{MotionKind, PathMode, Program};
+use softnc_gcode::{Motion, MotionKind, PathMode, Program};
 
 /// Fraction of every axis limit the planner plans to, so that rounding never takes
 /// a sample past 1.00× of a limit.
@@ -28,8 +28,7 @@ pub const TANGENT_EPS: f64 = 1e-9;
 
 /// S-curve: the speed at which the centripetal jerk terms on a curve use their share
 /// of the jerk limit: κ²v³ ≤ budget and 3κ·v·a_t ≤ budget.
-fn scurve_curve_cap(geom: &Geom, lim: &Limits) -> f64 {
-    let k = geom.curvature();
+fn scurve_curve_cap(k: f64, lim: &Limits) -> f64 {
     if k <= 0.0 {
         return f64::INFINITY;
     }
@@ -40,11 +39,10 @@ fn scurve_curve_cap(geom: &Geom, lim: &Limits) -> f64 {
         .min(budget / (3.0 * k * lim.scurve_acc))
 }
 
-/// One element of the planned path with its limits.
+/// One element of the planned path with its limits (its geometry is kept apart, in
+/// the same order, so that the passes over the limits touch less memory).
 #[derive(Debug, Clone, Copy)]
 pub struct Segment {
-    /// Geometry (machine coordinates).
-    pub geom: Geom,
     /// Arc length at the start of this element from the start of the path (mm).
     pub s0: f64,
     /// Length (mm).
@@ -112,60 +110,102 @@ impl Limits {
     }
 }
 
-struct Move {
-    prim: Primitive,
+/// A move in machine coordinates that waits for its successor: a blend at the corner
+/// between them trims its end.
+struct Pending {
+    geom: Geom,
+    /// Length of the programmed move (mm).
+    len: f64,
+    /// Unit direction (lines).
+    dir: Vec3,
     motion: u32,
     feed_move: bool,
     feed_mm_per_s: f64,
     exact_stop: bool,
     tolerance_mm: f64,
     dwell_s: f64,
+    /// Arc length taken from the start by the blend at the previous corner.
+    start_trim: f64,
 }
 
-/// Programmed primitive of every motion in machine coordinates (None for dwells).
-pub fn motion_primitives(program: &Program) -> Vec<Option<Primitive>> {
-    program
-        .motions
-        .iter()
-        .map(|m| {
-            let off = m.offset_mm;
-            match m.kind {
-                MotionKind::Traverse { end } | MotionKind::Feed { end, .. } => {
-                    Some(Primitive::Line {
-                        start: m.start + off,
-                        end: end + off,
-                    })
-                }
-                MotionKind::Arc {
-                    end,
-                    center,
-                    plane,
-                    turns,
-                    ..
-                } => Some(Primitive::arc(
-                    m.start + off,
-                    end + off,
-                    center + off,
-                    plane,
-                    turns,
-                )),
-                MotionKind::Dwell { .. } => None,
-            }
+/// The path built so far: limits and geometry of every element, in order.
+#[derive(Debug, Clone, Default)]
+pub struct Path {
+    /// Limits of each element.
+    pub segs: Vec<Segment>,
+    /// Geometry of each element (machine coordinates).
+    pub geoms: Vec<Geom>,
+    /// Programmed primitives of moves that left no element of their own (zero length,
+    /// or a line used up by the blends at both its ends), by motion index.
+    pub orphans: Vec<(u32, Primitive)>,
+    /// Elements before the first move's (a dwell at the very start).
+    pub lead_in: usize,
+}
+
+impl Path {
+    /// The programmed primitive of motion `index` (None for dwells and unknown indices).
+    pub fn motion_primitive(&self, index: usize) -> Option<Primitive> {
+        let Ok(m) = u32::try_from(index) else {
+            return None;
+        };
+        let segs = &self.segs[self.lead_in..];
+        let from = segs.partition_point(|s| s.motion < m);
+        let found = segs[from..]
+            .iter()
+            .zip(&self.geoms[self.lead_in + from..])
+            .take_while(|(s, _)| s.motion == m)
+            .find_map(|(_, g)| g.programmed());
+        found.or_else(|| {
+            self.orphans
+                .binary_search_by_key(&m, |o| o.0)
+                .ok()
+                .map(|k| self.orphans[k].1)
         })
-        .collect()
+    }
 }
 
-/// Build the segment list.
-pub fn build_segments(
-    program: &Program,
-    prims: &[Option<Primitive>],
-    lim: &Limits,
-) -> Vec<Segment> {
-    // 1. Moves in machine coordinates; dwells become stops with a dwell time.
-    let mut moves: Vec<Move> = Vec::with_capacity(program.motions.len());
-    let mut pending_dwell_at_start = 0.0;
-    let mut last_point: Option<Vec3> = None;
-    for (i, m) in program.motions.iter().enumerate() {
+/// Builds the path one motion at a time (blending, exact stops, limits and junction
+/// speeds), holding back only the last move, whose end a blend may still trim.
+pub struct PathBuilder {
+    lim: Limits,
+    path: Path,
+    pending: Option<Pending>,
+    pending_dwell_at_start: f64,
+    last_point: Option<Vec3>,
+    s0: f64,
+    /// End tangent of the last element pushed.
+    prev_end_tangent: Vec3,
+}
+
+impl PathBuilder {
+    /// An empty path for these limits; `motions_hint` sizes the storage.
+    pub fn new(lim: &Limits, motions_hint: usize) -> PathBuilder {
+        let cap = motions_hint + motions_hint / 8 + 1;
+        PathBuilder {
+            lim: *lim,
+            path: Path {
+                segs: Vec::with_capacity(cap),
+                geoms: Vec::with_capacity(cap),
+                orphans: Vec::new(),
+                lead_in: 0,
+            },
+            pending: None,
+            pending_dwell_at_start: 0.0,
+            last_point: None,
+            s0: 0.0,
+            prev_end_tangent: Vec3::ZERO,
+        }
+    }
+
+    /// Total length of the elements pushed so far (mm).
+    pub fn length_mm(&self) -> f64 {
+        self.s0
+    }
+
+    /// Add motion number `index`; `prim` is its programmed primitive in machine
+    /// coordinates (None for dwells).
+    pub fn push(&mut self, index: usize, m: &Motion, prim: Option<Primitive>) {
+        let lim = &self.lim;
         let (exact, tol) = match m.path_mode {
             PathMode::ExactStop => (true, lim.tolerance_mm),
             PathMode::Blend { tolerance_mm } => match tolerance_mm {
@@ -173,97 +213,132 @@ pub fn build_segments(
                 _ => (false, lim.tolerance_mm),
             },
         };
-        match (m.kind, prims[i]) {
-            (MotionKind::Dwell { seconds }, _) => {
-                if let Some(last) = moves.last_mut() {
+        let (feed_move, feed) = match m.kind {
+            MotionKind::Dwell { seconds } => {
+                if let Some(last) = self.pending.as_mut() {
                     last.exact_stop = true;
                     last.dwell_s += seconds.max(0.0);
                 } else {
-                    pending_dwell_at_start += seconds.max(0.0);
-                    last_point.get_or_insert(m.start + m.offset_mm);
+                    self.pending_dwell_at_start += seconds.max(0.0);
+                    self.last_point.get_or_insert(m.start + m.offset_mm);
                 }
+                return;
             }
-            (kind, Some(prim)) => {
-                if prim.length() < 1e-9 {
-                    continue;
-                }
-                let (feed_move, feed) = match kind {
-                    MotionKind::Traverse { .. } => (false, f64::INFINITY),
-                    MotionKind::Feed {
-                        feed_mm_per_min, ..
-                    }
-                    | MotionKind::Arc {
-                        feed_mm_per_min, ..
-                    } => (true, feed_mm_per_min / 60.0),
-                    MotionKind::Dwell { .. } => unreachable!(),
-                };
-                if last_point.is_none() {
-                    last_point = Some(prim.start());
-                }
-                moves.push(Move {
-                    prim,
-                    motion: i as u32,
-                    feed_move,
-                    feed_mm_per_s: feed,
-                    exact_stop: exact,
-                    tolerance_mm: tol,
-                    dwell_s: 0.0,
-                });
+            MotionKind::Traverse { .. } => (false, f64::INFINITY),
+            MotionKind::Feed {
+                feed_mm_per_min, ..
             }
-            _ => {}
-        }
-    }
-
-    let mut segs: Vec<Segment> = Vec::with_capacity(moves.len() * 2 + 1);
-    if pending_dwell_at_start > 0.0 {
-        let p = last_point.unwrap_or(Vec3::ZERO);
-        segs.push(Segment {
-            geom: Geom::Prim(Primitive::Line { start: p, end: p }),
-            s0: 0.0,
-            len: 0.0,
-            motion: 0,
-            feed_move: false,
-            feed_mm_per_s: f64::INFINITY,
-            vel_cap: f64::INFINITY,
-            acc: 1.0,
-            v_end_hard: 0.0,
-            dwell_s: pending_dwell_at_start,
-        });
-    }
-
-    // 2. Blends at line-line corners: trim both lines, insert a tangent arc.
-    let n = moves.len();
-    let mut start_trim = vec![0.0f64; n];
-    let mut blends: Vec<Option<Geom>> = vec![None; n];
-    for i in 0..n.saturating_sub(1) {
-        let (a, b) = (&moves[i], &moves[i + 1]);
-        if a.exact_stop || a.dwell_s > 0.0 {
-            continue;
-        }
-        let (Primitive::Line { start: a0, end: a1 }, Primitive::Line { start: b0, end: b1 }) =
-            (a.prim, b.prim)
-        else {
-            continue;
+            | MotionKind::Arc {
+                feed_mm_per_min, ..
+            } => (true, feed_mm_per_min / 60.0),
         };
-        let u1 = (a1 - a0).unit();
-        let u2 = (b1 - b0).unit();
+        let Some(prim) = prim else { return };
+        let (geom, len, dir) = match prim {
+            Primitive::Line { start, end } => {
+                let d = end - start;
+                let len = d.norm();
+                let dir = if len > 0.0 { d * (1.0 / len) } else { Vec3::ZERO };
+                let geom = Geom::Line {
+                    start,
+                    end,
+                    from: 0.0,
+                    to: len,
+                    prog_len: len,
+                };
+                (geom, len, dir)
+            }
+            Primitive::Arc { .. } => (Geom::Arc(prim), prim.length(), Vec3::ZERO),
+        };
+        if len < 1e-9 {
+            self.path.orphans.push((index as u32, prim));
+            return;
+        }
+        if self.last_point.is_none() {
+            self.last_point = Some(prim.start());
+        }
+        let mut next = Pending {
+            geom,
+            len,
+            dir,
+            motion: index as u32,
+            feed_move,
+            feed_mm_per_s: feed,
+            exact_stop: exact,
+            tolerance_mm: tol,
+            dwell_s: 0.0,
+            start_trim: 0.0,
+        };
+        match self.pending.take() {
+            Some(prev) => {
+                let blend = self.blend(&prev, &next);
+                if let Some((_, d)) = blend {
+                    next.start_trim = d;
+                }
+                self.emit(prev, blend, false);
+            }
+            None => self.start_dwell(),
+        }
+        self.pending = Some(next);
+    }
+
+    /// The dwell before the first move, as an element of its own.
+    fn start_dwell(&mut self) {
+        if self.pending_dwell_at_start > 0.0 {
+            let p = self.last_point.unwrap_or(Vec3::ZERO);
+            self.path.segs.push(Segment {
+                s0: 0.0,
+                len: 0.0,
+                motion: 0,
+                feed_move: false,
+                feed_mm_per_s: f64::INFINITY,
+                vel_cap: f64::INFINITY,
+                acc: 1.0,
+                v_end_hard: 0.0,
+                dwell_s: self.pending_dwell_at_start,
+            });
+            self.path.geoms.push(Geom::Line {
+                start: p,
+                end: p,
+                from: 0.0,
+                to: 0.0,
+                prog_len: 0.0,
+            });
+            self.path.lead_in = 1;
+            self.pending_dwell_at_start = 0.0;
+        }
+    }
+
+    /// Blend at a line-line corner: a circular arc tangent to both lines, and how far
+    /// it trims each (G64 P tolerance, half of each line at most).
+    fn blend(&self, a: &Pending, b: &Pending) -> Option<(Geom, f64)> {
+        let lim = &self.lim;
+        if a.exact_stop || a.dwell_s > 0.0 {
+            return None;
+        }
+        let (Geom::Line { .. }, Geom::Line { .. }) = (a.geom, b.geom) else {
+            return None;
+        };
+        let (u1, u2) = (a.dir, b.dir);
         let cos_t = u1.dot(u2).clamp(-1.0, 1.0);
         let theta = cos_t.acos();
         if (u2 - u1).norm() <= TANGENT_EPS || theta > MAX_BLEND_TURN_RAD {
-            continue;
+            return None;
         }
         let half = 0.5 * theta;
-        let la = (a1 - a0).norm();
-        let lb = (b1 - b0).norm();
-        let avail_a = (0.5 * la).min(la - start_trim[i]);
+        let (la, lb) = (a.len, b.len);
+        let avail_a = (0.5 * la).min(la - a.start_trim);
         let d_max = avail_a.min(0.5 * lb);
+        let tan_half = half.tan();
         let r_tol = a.tolerance_mm.min(b.tolerance_mm) / (1.0 / half.cos() - 1.0);
-        let r_len = d_max / half.tan();
+        let r_len = d_max / tan_half;
         let r = r_tol.min(r_len);
         if r.is_nan() || r <= 1e-9 {
-            continue;
+            return None;
         }
-        let d = r * half.tan();
+        let d = r * tan_half;
+        let Geom::Line { end: a1, .. } = a.geom else {
+            return None;
+        };
         let p1 = a1 - u1 * d;
         let nrm = (u2 - u1 * cos_t).unit();
         let center = p1 + nrm * r;
@@ -277,114 +352,207 @@ pub fn build_segments(
         if lim.profile == FeedProfile::SCurve {
             // A blend so tight that the jerk limit crawls through it is slower than
             // stopping: stop at the corner instead.
-            let through = scurve_curve_cap(&blend, lim);
+            let through = scurve_curve_cap(1.0 / r, lim);
             let vmin = lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min);
             let around = a.feed_mm_per_s.min(b.feed_mm_per_s).min(vmin);
             if through < SCURVE_MIN_BLEND_SPEED_SHARE * around {
-                continue;
+                return None;
             }
         }
-        blends[i] = Some(blend);
-        start_trim[i + 1] = d;
-        // the end trim of move i is recorded through the blend's start point
+        Some((blend, d))
     }
 
-    // 3. Elements in order with their limits.
-    let mut s0 = 0.0;
-    for (i, m) in moves.iter().enumerate() {
-        let mut prim = m.prim;
-        if let Primitive::Line { start, end } = prim {
-            let u = (end - start).unit();
-            let st = start + u * start_trim[i];
-            let en = match blends[i] {
-                Some(Geom::Blend {
-                    center, e1, radius, ..
-                }) => center + e1 * radius,
-                _ => end,
-            };
-            prim = Primitive::Line {
-                start: if start_trim[i] > 0.0 { st } else { start },
-                end: en,
-            };
-        }
-        let mut push = |geom: Geom, dwell: f64, stop: bool, segs: &mut Vec<Segment>| {
-            let len = geom.length();
-            if len < 1e-9 && !stop && dwell == 0.0 {
-                return; // a line used up entirely by the blends at both its ends
+    /// Push the elements of a move whose successor is known (`last`: it has none).
+    fn emit(&mut self, p: Pending, blend: Option<(Geom, f64)>, last: bool) {
+        let stop = p.exact_stop || p.dwell_s > 0.0 || last;
+        let (geom, shape) = match p.geom {
+            Geom::Line {
+                start,
+                end,
+                prog_len,
+                ..
+            } => {
+                let to = prog_len - blend.map_or(0.0, |b| b.1);
+                let len = (to - p.start_trim).max(0.0);
+                let geom = Geom::Line {
+                    start,
+                    end,
+                    from: p.start_trim,
+                    to,
+                    prog_len,
+                };
+                (geom, ElementShape::line(len, p.dir))
             }
-            let el = element_limits(&geom, lim.vmax, lim.amax);
-            let mut vel_cap = el.vel_mm_per_s;
-            let mut acc = el.acc_mm_per_s2;
-            if lim.profile == FeedProfile::SCurve {
-                acc = acc.min(lim.scurve_acc);
-                vel_cap = vel_cap.min(scurve_curve_cap(&geom, lim));
-            }
-            segs.push(Segment {
-                geom,
-                s0,
-                len,
-                motion: m.motion,
-                feed_move: m.feed_move,
-                feed_mm_per_s: m.feed_mm_per_s,
-                vel_cap,
-                acc,
-                v_end_hard: if stop { 0.0 } else { f64::INFINITY },
-                dwell_s: dwell,
-            });
-            s0 += len;
+            Geom::Arc(prim) => (p.geom, ElementShape::arc(&prim)),
+            Geom::Blend { .. } => unreachable!("moves are lines or arcs"),
         };
-        let stop = m.exact_stop || m.dwell_s > 0.0 || i + 1 == n;
-        match blends[i] {
-            Some(b) => {
-                push(Geom::Prim(prim), 0.0, false, &mut segs);
-                push(b, 0.0, false, &mut segs);
+        let pushed = match blend {
+            Some((
+                b @ Geom::Blend {
+                    e1,
+                    e2,
+                    radius,
+                    sweep,
+                    ..
+                },
+                _,
+            )) => {
+                let pushed = self.push_element(&p, geom, &shape, 0.0, false);
+                self.push_element(&p, b, &ElementShape::blend(e1, e2, radius, sweep), 0.0, false);
+                pushed
             }
-            None => push(Geom::Prim(prim), m.dwell_s, stop, &mut segs),
+            _ => self.push_element(&p, geom, &shape, p.dwell_s, stop),
+        };
+        if !pushed {
+            if let Some(prim) = geom.programmed() {
+                self.path.orphans.push((p.motion, prim));
+            }
         }
-    }
-    if let Some(last) = segs.last_mut() {
-        last.v_end_hard = 0.0;
     }
 
-    // 4. Junction speeds between consecutive elements.
-    for k in 0..segs.len().saturating_sub(1) {
-        if segs[k].v_end_hard == 0.0 {
-            continue;
+    /// Push one element with its limits and settle the junction speed with the one
+    /// before it. False if it was too short to keep.
+    fn push_element(
+        &mut self,
+        m: &Pending,
+        geom: Geom,
+        shape: &ElementShape,
+        dwell: f64,
+        stop: bool,
+    ) -> bool {
+        let lim = &self.lim;
+        let len = shape.len;
+        if len < 1e-9 && !stop && dwell == 0.0 {
+            return false; // a line used up entirely by the blends at both its ends
         }
-        let (a, b) = (segs[k], segs[k + 1]);
-        let mut v = a.vel_cap.min(b.vel_cap);
-        let dt = b.geom.start_tangent() - a.geom.end_tangent();
-        if dt.norm() > TANGENT_EPS && lim.profile == FeedProfile::SCurve {
-            // a tangent break at speed is a jerk impulse: stop there
-            segs[k].v_end_hard = 0.0;
-            continue;
-        }
-        if dt.norm() > TANGENT_EPS {
-            for i in 0..3 {
-                let di = dt[i].abs();
-                if di > 1e-12 {
-                    let lim_i = KINK_SHARE * lim.amax[i] * lim.cycle_s;
-                    v = v.min(lim_i / di);
-                }
-            }
-        }
+        let el = element_limits(shape, lim.vmax, lim.amax);
+        let mut vel_cap = el.vel_mm_per_s;
+        let mut acc = el.acc_mm_per_s2;
         if lim.profile == FeedProfile::SCurve {
-            let dk = b.geom.curvature_vec(false) - a.geom.curvature_vec(true);
-            for i in 0..3 {
-                let di = dk[i].abs();
-                if di > 1e-12 {
-                    let budget =
-                        SCURVE_CURVATURE_STEP_SHARE * lim.jmax[i] * lim.cycle_s * 4.0 / 3.0;
-                    v = v.min((budget / di).sqrt());
-                }
+            acc = acc.min(lim.scurve_acc);
+            vel_cap = vel_cap.min(scurve_curve_cap(shape.curvature, lim));
+        }
+        // the junction with the element before (not after a stop)
+        let n = self.path.segs.len();
+        if n > self.path.lead_in {
+            let a = &mut self.path.segs[n - 1];
+            if a.v_end_hard != 0.0 {
+                let prev_geom = self.path.geoms[n - 1];
+                a.v_end_hard =
+                    junction_speed(lim, a.vel_cap, vel_cap, self.prev_end_tangent, shape, || {
+                        geom.curvature_vec(false) - prev_geom.curvature_vec(true)
+                    });
             }
         }
-        segs[k].v_end_hard = v;
+        self.path.segs.push(Segment {
+            s0: self.s0,
+            len,
+            motion: m.motion,
+            feed_move: m.feed_move,
+            feed_mm_per_s: m.feed_mm_per_s,
+            vel_cap,
+            acc,
+            v_end_hard: if stop { 0.0 } else { f64::INFINITY },
+            dwell_s: dwell,
+        });
+        self.path.geoms.push(geom);
+        self.s0 += len;
+        self.prev_end_tangent = shape.end_tangent;
+        true
+    }
+
+    /// The path: the last move ends in a stop.
+    pub fn finish(mut self) -> Path {
+        match self.pending.take() {
+            Some(p) => self.emit(p, None, true),
+            None => self.start_dwell(),
+        }
+        if let Some(last) = self.path.segs.last_mut() {
+            last.v_end_hard = 0.0;
+        }
+        if self.lim.profile == FeedProfile::SCurve {
+            dilate_caps(
+                &mut self.path.segs,
+                self.lim.scurve_window_s,
+                self.lim.scurve_acc,
+            );
+        }
+        self.path
+    }
+}
+
+/// Highest speed through the junction of two elements: a tangent break may use
+/// `KINK_SHARE` of each axis's acceleration over one cycle (S-curve: stop at it, and
+/// keep the curvature step within its jerk share).
+fn junction_speed(
+    lim: &Limits,
+    cap_a: f64,
+    cap_b: f64,
+    end_tangent_a: Vec3,
+    b: &ElementShape,
+    curvature_step: impl Fn() -> Vec3,
+) -> f64 {
+    let mut v = cap_a.min(cap_b);
+    let dt = b.start_tangent - end_tangent_a;
+    let kink = dt.norm() > TANGENT_EPS;
+    if kink && lim.profile == FeedProfile::SCurve {
+        // a tangent break at speed is a jerk impulse: stop there
+        return 0.0;
+    }
+    if kink {
+        for i in 0..3 {
+            let di = dt[i].abs();
+            if di > 1e-12 {
+                let lim_i = KINK_SHARE * lim.amax[i] * lim.cycle_s;
+                v = v.min(lim_i / di);
+            }
+        }
     }
     if lim.profile == FeedProfile::SCurve {
-        dilate_caps(&mut segs, lim.scurve_window_s, lim.scurve_acc);
+        let dk = curvature_step();
+        for i in 0..3 {
+            let di = dk[i].abs();
+            if di > 1e-12 {
+                let budget = SCURVE_CURVATURE_STEP_SHARE * lim.jmax[i] * lim.cycle_s * 4.0 / 3.0;
+                v = v.min((budget / di).sqrt());
+            }
+        }
     }
-    segs
+    v
+}
+
+/// Programmed primitive of a motion in machine coordinates (None for dwells).
+pub fn motion_primitive(m: &Motion) -> Option<Primitive> {
+    let off = m.offset_mm;
+    match m.kind {
+        MotionKind::Traverse { end } | MotionKind::Feed { end, .. } => Some(Primitive::Line {
+            start: m.start + off,
+            end: end + off,
+        }),
+        MotionKind::Arc {
+            end,
+            center,
+            plane,
+            turns,
+            ..
+        } => Some(Primitive::arc(
+            m.start + off,
+            end + off,
+            center + off,
+            plane,
+            turns,
+        )),
+        MotionKind::Dwell { .. } => None,
+    }
+}
+
+/// Build the whole path of a program at once.
+pub fn build_path(program: &Program, lim: &Limits) -> Path {
+    let mut b = PathBuilder::new(lim, program.motions.len());
+    for (i, m) in program.motions.iter().enumerate() {
+        b.push(i, m, motion_primitive(m));
+    }
+    b.finish()
 }
 
 /// S-curve: the smoothed position lags the acceleration-limited one, so a hard speed

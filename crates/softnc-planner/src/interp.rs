@@ -10,6 +10,7 @@
 //! (a bell-shaped acc/dec, jerk ≤ 2·a/window), still along the exact path.
 
 use crate::build::{Limits, Segment};
+use crate::path::Geom;
 use softnc_core::{FeedProfile, Vec3};
 
 /// Largest number of elements one lookahead pass visits. If the elements within the
@@ -35,6 +36,7 @@ pub struct Sample {
 /// Pulls samples from a plan, one per interpolation cycle, without allocating.
 pub struct Interpolator<'a> {
     segs: &'a [Segment],
+    geoms: &'a [Geom],
     lim: Limits,
     brake_dist_mm: f64,
     override_frac: f64,
@@ -63,6 +65,7 @@ pub struct Interpolator<'a> {
 impl<'a> Interpolator<'a> {
     pub(crate) fn new(
         segs: &'a [Segment],
+        geoms: &'a [Geom],
         lim: Limits,
         brake_dist_mm: f64,
         max_override: f64,
@@ -72,12 +75,10 @@ impl<'a> Interpolator<'a> {
             FeedProfile::SCurve => ((lim.scurve_window_s / lim.cycle_s).round() as usize)
                 .clamp(1, MAX_SCURVE_WINDOW_CYCLES),
         };
-        let start = segs
-            .first()
-            .map(|s| s.geom.point_at(0.0))
-            .unwrap_or_default();
+        let start = geoms.first().map(|g| g.point_at(0.0)).unwrap_or_default();
         let mut it = Interpolator {
             segs,
+            geoms,
             lim,
             brake_dist_mm,
             override_frac: 1.0,
@@ -322,7 +323,7 @@ impl<'a> Interpolator<'a> {
             self.cursor += 1;
         }
         let seg = &segs[self.cursor];
-        (seg.geom.point_at(s_path - seg.s0), seg)
+        (self.geoms[self.cursor].point_at(s_path - seg.s0), seg)
     }
 }
 
@@ -369,7 +370,7 @@ impl Iterator for Interpolator<'_> {
             let last = self.segs.len() - 1;
             self.cursor = last;
             (
-                self.segs[last].geom.point_at(self.segs[last].len),
+                self.geoms[last].point_at(self.segs[last].len),
                 &self.segs[last],
             )
         } else {

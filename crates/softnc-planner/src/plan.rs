@@ -1,6 +1,6 @@
 //! Planning entry point: program → checked segments → [`Plan`] with its figures.
 
-use crate::build::{build_segments, motion_primitives, Limits, Segment};
+use crate::build::{motion_primitive, Limits, Path, PathBuilder, Segment};
 use crate::interp::Interpolator;
 use softnc_core::{FeedProfile, MachineProfile, Primitive, Vec3};
 use softnc_gcode::Program;
@@ -53,8 +53,8 @@ pub struct PlanStats {
 /// A planned program: the path elements with their limits, ready to interpolate.
 #[derive(Debug, Clone)]
 pub struct Plan {
-    segs: Vec<Segment>,
-    prims: Vec<Option<Primitive>>,
+    path: Path,
+    n_motions: usize,
     lim: Limits,
     brake_dist_mm: f64,
     max_override: f64,
@@ -67,60 +67,65 @@ pub fn plan(
     profile: &MachineProfile,
     options: &PlanOptions,
 ) -> Result<Plan, PlanError> {
-    let prims = motion_primitives(program);
+    let lim = Limits::from_profile(profile);
+    let mut builder = PathBuilder::new(&lim, program.motions.len());
     let mut bmin = Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
     let mut bmax = -bmin;
     let mut max_feed: f64 = 0.0;
-    for (m, p) in program.motions.iter().zip(&prims) {
-        let Some(p) = p else { continue };
-        let (lo, hi) = bounding_box(p);
-        if !options.ignore_soft_limits {
-            for (i, axis) in profile.axes.iter().enumerate() {
-                for v in [lo[i], hi[i]] {
-                    if v < axis.min_mm - 1e-9 || v > axis.max_mm + 1e-9 {
-                        return Err(PlanError::SoftLimit {
-                            file: program.file.clone(),
-                            line: m.line,
-                            axis: axis.name.chars().next().unwrap_or('?'),
-                            pos_mm: v,
-                            min_mm: axis.min_mm,
-                            max_mm: axis.max_mm,
-                        });
+    for (i, m) in program.motions.iter().enumerate() {
+        let prim = motion_primitive(m);
+        if let Some(p) = &prim {
+            let (lo, hi) = bounding_box(p);
+            if !options.ignore_soft_limits {
+                for (i, axis) in profile.axes.iter().enumerate() {
+                    for v in [lo[i], hi[i]] {
+                        if v < axis.min_mm - 1e-9 || v > axis.max_mm + 1e-9 {
+                            return Err(PlanError::SoftLimit {
+                                file: program.file.clone(),
+                                line: m.line,
+                                axis: axis.name.chars().next().unwrap_or('?'),
+                                pos_mm: v,
+                                min_mm: axis.min_mm,
+                                max_mm: axis.max_mm,
+                            });
+                        }
                     }
                 }
             }
-        }
-        bmin = bmin.min(lo);
-        bmax = bmax.max(hi);
-        match m.kind {
-            softnc_gcode::MotionKind::Feed {
-                feed_mm_per_min, ..
+            bmin = bmin.min(lo);
+            bmax = bmax.max(hi);
+            match m.kind {
+                softnc_gcode::MotionKind::Feed {
+                    feed_mm_per_min, ..
+                }
+                | softnc_gcode::MotionKind::Arc {
+                    feed_mm_per_min, ..
+                } => max_feed = max_feed.max(feed_mm_per_min),
+                _ => {}
             }
-            | softnc_gcode::MotionKind::Arc {
-                feed_mm_per_min, ..
-            } => max_feed = max_feed.max(feed_mm_per_min),
-            _ => {}
         }
+        builder.push(i, m, prim);
     }
     if !bmin[0].is_finite() {
         bmin = Vec3::ZERO;
         bmax = Vec3::ZERO;
     }
-    let lim = Limits::from_profile(profile);
-    let segs = build_segments(program, &prims, &lim);
-    let v_top = segs
-        .iter()
-        .map(|s| s.vel_cap)
-        .filter(|v| v.is_finite())
-        .fold(0.0, f64::max);
-    let a_min = segs.iter().map(|s| s.acc).fold(f64::INFINITY, f64::min);
+    let path_length_mm = builder.length_mm();
+    let path = builder.finish();
+    let segs = &path.segs;
+    let (mut v_top, mut a_min) = (0.0f64, f64::INFINITY);
+    for s in segs {
+        if s.vel_cap.is_finite() {
+            v_top = v_top.max(s.vel_cap);
+        }
+        a_min = a_min.min(s.acc);
+    }
     let brake_dist_mm = if a_min.is_finite() && a_min > 0.0 {
         v_top * v_top / (2.0 * a_min)
     } else {
         0.0
     };
-    let path_length_mm = segs.iter().map(|s| s.len).sum();
-    let duration_s = planned_duration(&segs, &lim);
+    let duration_s = planned_duration(segs, &lim);
     let samples = (duration_s / lim.cycle_s - 1e-9).ceil().max(0.0) as u64 + 1;
     let stats = PlanStats {
         path_length_mm,
@@ -131,8 +136,8 @@ pub fn plan(
         bounds_max_mm: bmax,
     };
     Ok(Plan {
-        segs,
-        prims,
+        path,
+        n_motions: program.motions.len(),
         lim,
         brake_dist_mm,
         max_override: profile.planner.max_feed_override,
@@ -147,15 +152,18 @@ impl Plan {
     }
     /// The programmed path of motion `index` in machine coordinates (None for dwells).
     pub fn motion_primitive(&self, index: usize) -> Option<Primitive> {
-        self.prims.get(index).copied().flatten()
+        if index >= self.n_motions {
+            return None;
+        }
+        self.path.motion_primitive(index)
     }
     /// Number of program motions (dwells included).
     pub fn motions(&self) -> usize {
-        self.prims.len()
+        self.n_motions
     }
     /// Number of path elements (programmed pieces and blends).
     pub fn elements(&self) -> usize {
-        self.segs.len()
+        self.path.segs.len()
     }
     /// The interpolation cycle T (s).
     pub fn cycle_s(&self) -> f64 {
@@ -164,7 +172,10 @@ impl Plan {
     /// A fresh sample stream from the start of the program. Everything it needs is
     /// allocated here; pulling samples allocates nothing.
     pub fn interpolator(&self) -> Interpolator<'_> {
-        Interpolator::new(&self.segs, self.lim, self.brake_dist_mm, self.max_override)
+        Interpolator::new(
+            &self.path.segs,
+            &self.path.geoms,
+            self.lim, self.brake_dist_mm, self.max_override)
     }
 }
 
