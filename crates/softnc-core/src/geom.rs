@@ -15,24 +15,29 @@ impl Vec3 {
     /// The zero vector.
     pub const ZERO: Vec3 = Vec3([0.0; 3]);
     /// A vector from components.
+    #[inline]
     pub const fn new(x: f64, y: f64, z: f64) -> Self {
         Vec3([x, y, z])
     }
     /// Dot product.
+    #[inline]
     pub fn dot(self, o: Vec3) -> f64 {
         self.0[0] * o.0[0] + self.0[1] * o.0[1] + self.0[2] * o.0[2]
     }
     /// Cross product.
+    #[inline]
     pub fn cross(self, o: Vec3) -> Vec3 {
         let [a, b, c] = self.0;
         let [d, e, f] = o.0;
         Vec3([b * f - c * e, c * d - a * f, a * e - b * d])
     }
     /// Euclidean length.
+    #[inline]
     pub fn norm(self) -> f64 {
         self.dot(self).sqrt()
     }
     /// This vector scaled to unit length (zero stays zero).
+    #[inline]
     pub fn unit(self) -> Vec3 {
         let n = self.norm();
         if n > 0.0 {
@@ -42,14 +47,17 @@ impl Vec3 {
         }
     }
     /// Component-wise absolute value.
+    #[inline]
     pub fn abs(self) -> Vec3 {
         Vec3(self.0.map(f64::abs))
     }
     /// Largest component.
+    #[inline]
     pub fn max_elem(self) -> f64 {
         self.0[0].max(self.0[1]).max(self.0[2])
     }
     /// Component-wise minimum.
+    #[inline]
     pub fn min(self, o: Vec3) -> Vec3 {
         Vec3([
             self.0[0].min(o.0[0]),
@@ -58,6 +66,7 @@ impl Vec3 {
         ])
     }
     /// Component-wise maximum.
+    #[inline]
     pub fn max(self, o: Vec3) -> Vec3 {
         Vec3([
             self.0[0].max(o.0[0]),
@@ -69,40 +78,47 @@ impl Vec3 {
 
 impl Add for Vec3 {
     type Output = Vec3;
+    #[inline]
     fn add(self, o: Vec3) -> Vec3 {
         Vec3([self.0[0] + o.0[0], self.0[1] + o.0[1], self.0[2] + o.0[2]])
     }
 }
 impl AddAssign for Vec3 {
+    #[inline]
     fn add_assign(&mut self, o: Vec3) {
         *self = *self + o;
     }
 }
 impl Sub for Vec3 {
     type Output = Vec3;
+    #[inline]
     fn sub(self, o: Vec3) -> Vec3 {
         Vec3([self.0[0] - o.0[0], self.0[1] - o.0[1], self.0[2] - o.0[2]])
     }
 }
 impl Mul<f64> for Vec3 {
     type Output = Vec3;
+    #[inline]
     fn mul(self, k: f64) -> Vec3 {
         Vec3(self.0.map(|v| v * k))
     }
 }
 impl Neg for Vec3 {
     type Output = Vec3;
+    #[inline]
     fn neg(self) -> Vec3 {
         self * -1.0
     }
 }
 impl Index<usize> for Vec3 {
     type Output = f64;
+    #[inline]
     fn index(&self, i: usize) -> &f64 {
         &self.0[i]
     }
 }
 impl IndexMut<usize> for Vec3 {
+    #[inline]
     fn index_mut(&mut self, i: usize) -> &mut f64 {
         &mut self.0[i]
     }
@@ -136,6 +152,18 @@ impl Plane {
             Plane::XZ => "xz",
             Plane::YZ => "yz",
         }
+    }
+}
+
+/// `x.rem_euclid(τ)`, without the division when |x| < τ (the same result: the
+/// remainder of a smaller number is the number itself).
+pub fn rem_tau(x: f64) -> f64 {
+    let tau = std::f64::consts::TAU;
+    let r = if x.abs() < tau { x } else { x % tau };
+    if r < 0.0 {
+        r + tau
+    } else {
+        r
     }
 }
 
@@ -187,13 +215,13 @@ impl Primitive {
         let tau = std::f64::consts::TAU;
         let extra = (turns.unsigned_abs().max(1) - 1) as f64 * tau;
         let sweep = if turns >= 0 {
-            let mut d = (end_angle - start_angle).rem_euclid(tau);
+            let mut d = rem_tau(end_angle - start_angle);
             if d <= 1e-12 {
                 d = tau;
             }
             d + extra
         } else {
-            let mut d = (start_angle - end_angle).rem_euclid(tau);
+            let mut d = rem_tau(start_angle - end_angle);
             if d <= 1e-12 {
                 d = tau;
             }
@@ -234,7 +262,13 @@ impl Primitive {
                 sweep,
                 normal_travel,
                 ..
-            } => (radius * sweep).hypot(normal_travel),
+            } => {
+                if normal_travel == 0.0 {
+                    (radius * sweep).abs() // what hypot gives, without its cost
+                } else {
+                    (radius * sweep).hypot(normal_travel)
+                }
+            }
         }
     }
 
@@ -371,6 +405,33 @@ impl Primitive {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn planar_arc_length_is_what_hypot_gives() {
+        for k in 1..2000 {
+            let rs = (k as f64 * 0.37).powf(1.3) * if k % 2 == 0 { -1.0 } else { 1.0 };
+            let a = Primitive::Arc {
+                start: Vec3::ZERO,
+                center: Vec3::ZERO,
+                plane: Plane::XY,
+                radius: 1.0,
+                start_angle: 0.0,
+                sweep: rs,
+                normal_travel: 0.0,
+                end: Vec3::ZERO,
+            };
+            assert_eq!(a.length().to_bits(), rs.hypot(0.0).to_bits());
+        }
+    }
+
+    #[test]
+    fn rem_tau_is_rem_euclid() {
+        for k in -4000..4000 {
+            let x = k as f64 * 0.00731 + 1e-3;
+            let tau = std::f64::consts::TAU;
+            assert_eq!(rem_tau(x).to_bits(), x.rem_euclid(tau).to_bits(), "{x}");
+        }
+    }
 
     #[test]
     fn full_circle_g3_and_g2() {

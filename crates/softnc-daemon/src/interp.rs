@@ -14,7 +14,7 @@ use softnc_ipc::{
     Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, FixedStr, Heartbeat,
     MachineState, PositionStatus, ProcessId,
 };
-use softnc_planner::{plan, Plan, PlanOptions};
+use softnc_planner::{Plan, PlanOptions};
 use std::time::{Duration, Instant};
 
 /// How long the loop sleeps when it has nothing to send.
@@ -264,6 +264,8 @@ impl InterpTask {
 pub fn read_and_plan(path: &str, machine: &softnc_core::MachineProfile) -> Result<Plan, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("{path}: cannot read: {e}"))?;
     let text = String::from_utf8_lossy(&bytes);
-    let program = softnc_gcode::read_program(&text, path, machine).map_err(|e| e.to_string())?;
-    plan(&program, machine, &PlanOptions::default()).map_err(|e| e.to_string())
+    // one pass: the motions are planned as they are read, never all held at once
+    softnc_planner::read_and_plan(&text, path, machine, &PlanOptions::default())
+        .map(|(_, plan)| plan)
+        .map_err(|e| e.to_string())
 }

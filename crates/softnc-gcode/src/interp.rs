@@ -1183,8 +1183,20 @@ fn find_arc_length(start: (f64, f64, f64), c: (f64, f64), turn: i32, end: (f64, 
 
 /// Read a whole program (see [`crate::read_program`]).
 pub fn read(text: &str, file: &str, profile: &MachineProfile) -> Result<Program, GcodeError> {
+    read_chunked(text, file, profile, usize::MAX, &mut |_| {})
+}
+
+/// Read a program handing its motions to `sink` as they are read, whenever `chunk`
+/// have gathered, and the rest at the end (see [`crate::read_program_chunked`]).
+pub fn read_chunked(
+    text: &str,
+    file: &str,
+    profile: &MachineProfile,
+    chunk: usize,
+    sink: &mut dyn FnMut(&mut Vec<Motion>),
+) -> Result<Program, GcodeError> {
     let mut it = Interp::new(file, profile);
-    it.motions.reserve(text.len() / 16);
+    it.motions.reserve((text.len() / 16).min(chunk.max(1)));
     let mut line = Line::default();
     let mut block = Block::default();
     let err = |line_no: usize, raw: &str, (off, kind): (u32, ErrorKind)| GcodeError {
@@ -1193,58 +1205,47 @@ pub fn read(text: &str, file: &str, profile: &MachineProfile) -> Result<Program,
         column: column(raw, off),
         kind,
     };
-    // split into lines (byte ranges), remembering whether each ended with a newline
     let bytes = text.as_bytes();
-    let mut lines = Vec::with_capacity(bytes.len() / 20 + 1);
-    let mut start = 0;
-    for piece in text.split('\n') {
-        let end = start + piece.len();
-        if end == bytes.len() && piece.is_empty() {
-            break;
-        }
-        lines.push((start, end, end < bytes.len()));
-        start = end + 1;
-    }
     // NUL bytes and comments need per-line work only if the file has any
     let maybe = bytes.contains(&0) || bytes.contains(&b'(');
     // `%` on the first non-blank line: the program runs to the next lone `%`
+    let mut prescan = LineSplit { b: bytes, pos: 0 };
     let mut first = 0;
-    let mut percent_flag = false;
-    while first < lines.len() {
-        let (s, e, _) = lines[first];
+    let first_line = loop {
+        let Some((s, e, _)) = prescan.next() else {
+            return Err(err(
+                first.max(1),
+                "",
+                (
+                    0,
+                    ErrorKind::Invalid("File ended with no percent sign".into()),
+                ),
+            ));
+        };
         if !significant(&bytes[s..e])
             .iter()
             .all(|c| matches!(c, b' ' | b'\t' | 0x0b | 0x0c | b'\r'))
         {
-            break;
+            break (s, e);
         }
         first += 1;
-    }
-    if first == lines.len() {
-        return Err(err(
-            lines.len().max(1),
-            "",
-            (
-                0,
-                ErrorKind::Invalid("File ended with no percent sign".into()),
-            ),
-        ));
-    }
-    {
-        let (s, e, _) = lines[first];
-        let sig = significant(&bytes[s..e]);
-        if sig.last() == Some(&b'%')
+    };
+    let percent_flag = {
+        let sig = significant(&bytes[first_line.0..first_line.1]);
+        sig.last() == Some(&b'%')
             && sig[..sig.len() - 1]
                 .iter()
                 .all(|c| matches!(c, b' ' | b'\t' | 0x0b | 0x0c | b'\r'))
-        {
-            percent_flag = true;
-            first += 1;
-        } else {
-            first = 0;
-        }
-    }
-    for (idx, &(s, e, newline)) in lines.iter().enumerate().skip(first) {
+    };
+    // the lines to run: after the `%` line, or all of them
+    let (lines, first) = if percent_flag {
+        (prescan, first + 1)
+    } else {
+        (LineSplit { b: bytes, pos: 0 }, 0)
+    };
+    let mut n_lines = first;
+    for (idx, (s, e, newline)) in lines.enumerate().map(|(k, l)| (k + first, l)) {
+        n_lines = idx + 1;
         let line_no = idx + 1;
         let raw = &text[s..e];
         if e - s + usize::from(newline) >= LINELEN - 1 {
@@ -1263,7 +1264,7 @@ pub fn read(text: &str, file: &str, profile: &MachineProfile) -> Result<Program,
         }
         if line.percent {
             if percent_flag {
-                return Ok(finish(it, file, line_no));
+                return Ok(finish(it, file, line_no, chunk, sink));
             }
             let off = raw.find('%').unwrap_or(0) as u32;
             return Err(err(
@@ -1296,7 +1297,11 @@ pub fn read(text: &str, file: &str, profile: &MachineProfile) -> Result<Program,
             .execute(line_no as u32, &block)
             .map_err(|x| err(line_no, raw, x))?;
         if stop {
-            return Ok(finish(it, file, line_no));
+            return Ok(finish(it, file, line_no, chunk, sink));
+        }
+        if it.motions.len() >= chunk {
+            sink(&mut it.motions);
+            it.motions.clear();
         }
     }
     let msg = if percent_flag {
@@ -1304,11 +1309,69 @@ pub fn read(text: &str, file: &str, profile: &MachineProfile) -> Result<Program,
     } else {
         "File ended with no percent sign or program end"
     };
-    let last = lines.len().max(1);
-    Err(err(last, "", (0, ErrorKind::Invalid(msg.into()))))
+    Err(err(n_lines.max(1), "", (0, ErrorKind::Invalid(msg.into()))))
 }
 
-fn finish(it: Interp, file: &str, blocks: usize) -> Program {
+/// The lines of a text as byte ranges `(start, end, ended by a newline)`, as
+/// `split('\n')` gives them without the empty piece after a final newline.
+struct LineSplit<'a> {
+    b: &'a [u8],
+    pos: usize,
+}
+
+impl Iterator for LineSplit<'_> {
+    type Item = (usize, usize, bool);
+    fn next(&mut self) -> Option<(usize, usize, bool)> {
+        let s = self.pos;
+        if s >= self.b.len() {
+            return None;
+        }
+        Some(match find_newline(&self.b[s..]) {
+            Some(k) => {
+                self.pos = s + k + 1;
+                (s, s + k, true)
+            }
+            None => {
+                self.pos = self.b.len();
+                (s, self.b.len(), false)
+            }
+        })
+    }
+}
+
+/// Offset of the first `\n` in `b`, eight bytes at a time (lines are short: a
+/// general `memchr` spends more on setting up than on searching).
+fn find_newline(b: &[u8]) -> Option<usize> {
+    const ONES: u64 = 0x0101_0101_0101_0101;
+    const HIGHS: u64 = 0x8080_8080_8080_8080;
+    let mut i = 0;
+    while let Some(chunk) = b.get(i..i + 8) {
+        let mut w = [0u8; 8];
+        w.copy_from_slice(chunk);
+        let x = u64::from_le_bytes(w) ^ (ONES * u64::from(b'\n'));
+        // the lowest zero byte of x is found exactly (borrows only reach above it)
+        let zero = x.wrapping_sub(ONES) & !x & HIGHS;
+        if zero != 0 {
+            return Some(i + (zero.trailing_zeros() / 8) as usize);
+        }
+        i += 8;
+    }
+    b[i..].iter().position(|&c| c == b'\n').map(|k| i + k)
+}
+
+fn finish(
+    mut it: Interp,
+    file: &str,
+    blocks: usize,
+    chunk: usize,
+    sink: &mut dyn FnMut(&mut Vec<Motion>),
+) -> Program {
+    if chunk != usize::MAX {
+        if !it.motions.is_empty() {
+            sink(&mut it.motions);
+        }
+        it.motions = Vec::new();
+    }
     Program {
         file: file.to_string(),
         blocks,
@@ -1320,6 +1383,34 @@ fn finish(it: Interp, file: &str, blocks: usize) -> Program {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn lines_split_as_str_split() {
+        for text in [
+            "", "\n", "\n\n", "a", "a\n", "a\nb", "G1 X1\r\nG2 X2 Y3 I4 J5\n\nM2",
+            "0123456789abcdef\n0123456\n", "long line without newline at all here",
+        ] {
+            let mut want = Vec::new();
+            let mut start = 0;
+            for piece in text.split('\n') {
+                let end = start + piece.len();
+                if end == text.len() && piece.is_empty() {
+                    break;
+                }
+                want.push((start, end, end < text.len()));
+                start = end + 1;
+            }
+            let got: Vec<_> = LineSplit { b: text.as_bytes(), pos: 0 }.collect();
+            assert_eq!(got, want, "{text:?}");
+        }
+        for n in 0..40 {
+            let mut t = vec![b'x'; n];
+            assert_eq!(find_newline(&t), None);
+            t.push(b'\n');
+            t.extend_from_slice(b"ab\n");
+            assert_eq!(find_newline(&t), Some(n));
+        }
+    }
 
     #[test]
     fn turn_angles_as_linuxcnc() {

@@ -402,9 +402,72 @@ const POW10: [f64; 23] = [
     1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 ];
 
+/// The common case of [`read_number`] in one tight pass: an optional sign, at most 15
+/// digits with at most one point, and then (after any white space) neither a digit
+/// nor a point. None (the cursor untouched) for anything else.
+#[inline]
+fn read_plain_number(cur: &mut Cursor) -> Option<f64> {
+    let b = cur.b;
+    let n = b.len();
+    let mut i = cur.i;
+    let neg = match b.get(i) {
+        Some(b'-') => {
+            i += 1;
+            true
+        }
+        Some(b'+') => {
+            i += 1;
+            false
+        }
+        _ => false,
+    };
+    let mut mant = 0u64;
+    let int_start = i;
+    while i < n {
+        let d = b[i].wrapping_sub(b'0');
+        if d >= 10 {
+            break;
+        }
+        mant = mant * 10 + u64::from(d);
+        i += 1;
+    }
+    let mut digits = i - int_start;
+    let mut frac = 0;
+    if i < n && b[i] == b'.' {
+        i += 1;
+        let frac_start = i;
+        while i < n {
+            let d = b[i].wrapping_sub(b'0');
+            if d >= 10 {
+                break;
+            }
+            mant = mant * 10 + u64::from(d);
+            i += 1;
+        }
+        frac = i - frac_start;
+        digits += frac;
+    }
+    if digits == 0 || digits > 15 {
+        return None;
+    }
+    while i < n && matches!(b[i], b' ' | b'\t' | b'\r') {
+        i += 1;
+    }
+    if i < n && (b[i].is_ascii_digit() || matches!(b[i], b'.' | b'+' | b'-')) {
+        return None;
+    }
+    cur.i = i;
+    // an exact integer mantissa and one correctly rounded division, as below
+    let v = mant as f64 / POW10[frac];
+    Some(if neg { -v } else { v })
+}
+
 /// `strspn("+-")`, `strspn("0123456789.")`, then a C++ stream conversion: one
 /// optional sign, digits with at most one point, at least one digit, nothing left.
 fn read_number(cur: &mut Cursor) -> Result<f64, LexError> {
+    if let Some(v) = read_plain_number(cur) {
+        return Ok(v);
+    }
     let b = cur.b;
     let n = b.len();
     let mut i = cur.i;

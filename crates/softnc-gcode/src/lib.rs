@@ -29,3 +29,18 @@ pub fn read_program(
 ) -> Result<Program, GcodeError> {
     interp::read(text, file, profile)
 }
+
+/// [`read_program`] for long programs: the motions go to `sink` as they are read, in
+/// chunks of `chunk` (the last one shorter), and the returned [`Program`] has none.
+/// `sink` gets the interpreter's buffer; whatever it leaves there is dropped, and the
+/// buffer (or one it swaps in) is reused for the next chunk. On an error, the
+/// chunks handed over before it are all that `sink` gets.
+pub fn read_program_chunked(
+    text: &str,
+    file: &str,
+    profile: &MachineProfile,
+    chunk: usize,
+    sink: &mut dyn FnMut(&mut Vec<Motion>),
+) -> Result<Program, GcodeError> {
+    interp::read_chunked(text, file, profile, chunk.max(1), sink)
+}

@@ -1,9 +1,14 @@
-//! Planner throughput: parse + plan of a 200,000-line G1/G2/G3 program, plan alone,
-//! and the cost of one interpolation sample.
+//! Planner throughput: parse + plan of a 200,000-line G1/G2/G3 program (reading then
+//! planning; in one streaming pass; in one pass on two threads), plan alone, and the
+//! cost of one interpolation sample.
+//!
+//! `SOFTNC_WRITE_BIG=1 cargo bench -p softnc-planner --bench plan` also writes the
+//! program to `$TMPDIR/softnc-big-200k.ngc`, to time LinuxCNC on the same file:
+//! `time rs274 -g $TMPDIR/softnc-big-200k.ngc /dev/null < /dev/null`.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use softnc_core::MachineProfile;
-use softnc_planner::{plan, PlanOptions};
+use softnc_planner::{plan, read_and_plan, read_and_plan_parallel, PlanOptions};
 use std::fmt::Write;
 
 /// A 200,000-line program of G1/G2/G3 moves: a zig-zag of short lines with arcs,
@@ -77,6 +82,15 @@ fn benches(c: &mut Criterion) {
                     )
                     .unwrap()
                 })
+            });
+            let opts = PlanOptions {
+                ignore_soft_limits: true,
+            };
+            g.bench_function("read_and_plan_200k_lines", |b| {
+                b.iter(|| read_and_plan(&text, "big.ngc", &p, &opts).unwrap())
+            });
+            g.bench_function("read_and_plan_parallel_200k_lines", |b| {
+                b.iter(|| read_and_plan_parallel(&text, "big.ngc", &p, &opts).unwrap())
             });
             g.bench_function("plan_only_200k_lines", |b| {
                 b.iter(|| {

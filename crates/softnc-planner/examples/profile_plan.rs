@@ -1,9 +1,14 @@
-//! Parse and plan a G-code file `repeat` times (for profilers): `cargo run --release
-//! -p softnc-planner --example profile_plan -- FILE [repeat]`.
+//! Parse and plan a G-code file `repeat` times (for profilers and quick timing): `cargo
+//! run --release -p softnc-planner --example profile_plan -- FILE [repeat]`. Prints the
+//! best and mean time per line of: reading then planning (`read_program` + `plan`),
+//! the streaming `read_and_plan`, and `read_and_plan_parallel` (two threads).
+use softnc_planner::PlanOptions;
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let text = std::fs::read_to_string(&args[1]).expect("file");
     let repeat: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1);
+    let only = args.get(3).cloned();
     let profile = softnc_core::MachineProfile::load(
         concat!(
             env!("CARGO_MANIFEST_DIR"),
@@ -12,28 +17,63 @@ fn main() {
         .as_ref(),
     )
     .expect("profile");
-    let (mut tp, mut tl) = (0.0, 0.0);
-    for _ in 0..repeat {
+    let opts = PlanOptions {
+        ignore_soft_limits: true,
+    };
+    let lines = text.lines().count() as f64;
+    let time = |name: &str, f: &dyn Fn() -> (f64, f64)| {
+        if only.as_deref().is_some_and(|o| o != name) {
+            return;
+        }
+        let (mut best, mut sum, mut read_sum) = (f64::INFINITY, 0.0, 0.0);
+        for _ in 0..repeat {
+            let (total, read) = f();
+            best = best.min(total);
+            sum += total;
+            read_sum += read;
+        }
+        let n = repeat as f64;
+        println!(
+            "{name:>9}: best {:.0} ns/line ({:.2} M lines/s), mean {:.0} ns/line{}",
+            best / lines * 1e9,
+            lines / best / 1e6,
+            sum / n / lines * 1e9,
+            if read_sum > 0.0 {
+                format!(" (of which reading {:.0})", read_sum / n / lines * 1e9)
+            } else {
+                String::new()
+            }
+        );
+    };
+    time("two-step", &|| {
         let t0 = std::time::Instant::now();
         let p = softnc_gcode::read_program(&text, "f", &profile).expect("reads");
         let t1 = std::time::Instant::now();
-        let plan = softnc_planner::plan(
-            &p,
-            &profile,
-            &softnc_planner::PlanOptions {
-                ignore_soft_limits: true,
-            },
-        )
-        .unwrap();
-        let t2 = std::time::Instant::now();
+        let plan = softnc_planner::plan(&p, &profile, &opts).unwrap();
+        let total = t0.elapsed().as_secs_f64();
         std::hint::black_box(plan.stats());
-        tp += (t1 - t0).as_secs_f64();
-        tl += (t2 - t1).as_secs_f64();
-    }
-    let lines = text.lines().count() as f64 * repeat as f64;
-    println!(
-        "parse {:.0} ns/line, plan {:.0} ns/line",
-        tp / lines * 1e9,
-        tl / lines * 1e9
-    );
+        (total, (t1 - t0).as_secs_f64())
+    });
+    time("read", &|| {
+        let t0 = std::time::Instant::now();
+        let p = softnc_gcode::read_program(&text, "f", &profile).expect("reads");
+        let total = t0.elapsed().as_secs_f64();
+        std::hint::black_box(p.motions.len());
+        (total, 0.0)
+    });
+    time("stream", &|| {
+        let t0 = std::time::Instant::now();
+        let (_, plan) = softnc_planner::read_and_plan(&text, "f", &profile, &opts).unwrap();
+        let total = t0.elapsed().as_secs_f64();
+        std::hint::black_box(plan.stats());
+        (total, 0.0)
+    });
+    time("parallel", &|| {
+        let t0 = std::time::Instant::now();
+        let (_, plan) =
+            softnc_planner::read_and_plan_parallel(&text, "f", &profile, &opts).unwrap();
+        let total = t0.elapsed().as_secs_f64();
+        std::hint::black_box(plan.stats());
+        (total, 0.0)
+    });
 }

@@ -18,4 +18,7 @@ pub mod path;
 pub mod plan;
 
 pub use interp::{Interpolator, Sample};
-pub use plan::{plan, Plan, PlanError, PlanOptions, PlanStats};
+pub use plan::{
+    plan, read_and_plan, read_and_plan_parallel, Plan, PlanError, PlanOptions, PlanStats,
+    ReadPlanError,
+};

@@ -180,14 +180,14 @@ impl ElementShape {
         };
         let (a, b, n) = plane.axes();
         let rs = radius * sweep;
-        let len = rs.hypot(normal_travel);
+        let len = p.length();
         // tangent = (R·sweep·(−sin θ, cos θ), h) normalised, θ the radial angle
         let mut ts = Vec3::ZERO;
         ts[a] = -sweep * (start[b] - center[b]);
         ts[b] = sweep * (start[a] - center[a]);
         ts[n] = normal_travel;
         let (ea, eb) = (end[a] - center[a], end[b] - center[b]);
-        let re = ea.hypot(eb);
+        let re = (ea * ea + eb * eb).sqrt();
         let (cos_e, sin_e) = if re > 1e-12 * radius.max(1.0) {
             (ea / re, eb / re)
         } else {

@@ -2,8 +2,9 @@
 
 use crate::build::{motion_primitive, Limits, Path, PathBuilder, Segment};
 use crate::interp::Interpolator;
+use softnc_core::geom::rem_tau;
 use softnc_core::{FeedProfile, MachineProfile, Primitive, Vec3};
-use softnc_gcode::Program;
+use softnc_gcode::{GcodeError, Motion, MotionKind, Program};
 
 /// Options for one planning run.
 #[derive(Debug, Clone, Default)]
@@ -67,21 +68,161 @@ pub fn plan(
     profile: &MachineProfile,
     options: &PlanOptions,
 ) -> Result<Plan, PlanError> {
-    let lim = Limits::from_profile(profile);
-    let mut builder = PathBuilder::new(&lim, program.motions.len());
-    let mut bmin = Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
-    let mut bmax = -bmin;
-    let mut max_feed: f64 = 0.0;
-    for (i, m) in program.motions.iter().enumerate() {
+    let mut p = Planner::new(profile, options, &program.file, program.motions.len());
+    for m in &program.motions {
+        p.push(m)?;
+    }
+    Ok(p.finish())
+}
+
+/// Why a program text cannot be planned.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ReadPlanError {
+    /// The G-code reader refused the program.
+    #[error(transparent)]
+    Gcode(#[from] GcodeError),
+    /// The planner refused it.
+    #[error(transparent)]
+    Plan(#[from] PlanError),
+}
+
+/// Motions per chunk between the reader and the planner in [`read_and_plan`]: small
+/// enough to stay in cache, large enough that handing a chunk over costs nothing.
+pub const READ_CHUNK_MOTIONS: usize = 1024;
+
+/// Read and plan a program text in one pass: each chunk of motions is planned as soon
+/// as it is read, so the motions are never all held at once. Gives the same plan as
+/// [`read_program`](softnc_gcode::read_program) then [`plan`], and the same first
+/// error (a G-code error anywhere before a soft-limit violation). The returned
+/// [`Program`] has no motions (blocks and warnings only).
+pub fn read_and_plan(
+    text: &str,
+    file: &str,
+    profile: &MachineProfile,
+    options: &PlanOptions,
+) -> Result<(Program, Plan), ReadPlanError> {
+    let mut planner = Planner::new(profile, options, file, text.len() / 24);
+    let mut refused: Option<PlanError> = None;
+    let program = softnc_gcode::read_program_chunked(
+        text,
+        file,
+        profile,
+        READ_CHUNK_MOTIONS,
+        &mut |chunk: &mut Vec<Motion>| {
+            if refused.is_none() {
+                for m in chunk.iter() {
+                    if let Err(e) = planner.push(m) {
+                        refused = Some(e);
+                        break;
+                    }
+                }
+            }
+        },
+    )?;
+    match refused {
+        Some(e) => Err(e.into()),
+        None => Ok((program, planner.finish())),
+    }
+}
+
+/// [`read_and_plan`] on two threads: the calling thread reads, a second one plans the
+/// chunks as they come (the same plan and errors).
+pub fn read_and_plan_parallel(
+    text: &str,
+    file: &str,
+    profile: &MachineProfile,
+    options: &PlanOptions,
+) -> Result<(Program, Plan), ReadPlanError> {
+    use std::sync::mpsc::{channel, sync_channel};
+    let (to_planner, chunks) = sync_channel::<Vec<Motion>>(8);
+    let (recycle, recycled) = channel::<Vec<Motion>>();
+    std::thread::scope(|scope| {
+        let planner = scope.spawn(move || {
+            let mut planner = Planner::new(profile, options, file, text.len() / 24);
+            let mut refused: Option<PlanError> = None;
+            for mut chunk in chunks {
+                if refused.is_none() {
+                    for m in &chunk {
+                        if let Err(e) = planner.push(m) {
+                            refused = Some(e);
+                            break;
+                        }
+                    }
+                }
+                chunk.clear();
+                let _ = recycle.send(chunk); // the reader may be gone: nothing to do
+            }
+            match refused {
+                Some(e) => Err(e),
+                None => Ok(planner.finish()),
+            }
+        });
+        let read = softnc_gcode::read_program_chunked(
+            text,
+            file,
+            profile,
+            READ_CHUNK_MOTIONS,
+            &mut |chunk: &mut Vec<Motion>| {
+                let fresh = recycled
+                    .try_recv()
+                    .unwrap_or_else(|_| Vec::with_capacity(READ_CHUNK_MOTIONS));
+                // a planner that stopped early (it cannot) only loses the chunk
+                let _ = to_planner.send(std::mem::replace(chunk, fresh));
+            },
+        );
+        drop(to_planner);
+        let planned = planner
+            .join()
+            .unwrap_or_else(|e| std::panic::resume_unwind(e));
+        let program = read?;
+        Ok((program, planned?))
+    })
+}
+
+/// Plans motions one at a time: soft limits, figures and the path.
+struct Planner<'a> {
+    profile: &'a MachineProfile,
+    options: &'a PlanOptions,
+    file: &'a str,
+    lim: Limits,
+    builder: PathBuilder,
+    bmin: Vec3,
+    bmax: Vec3,
+    max_feed: f64,
+    n_motions: usize,
+}
+
+impl<'a> Planner<'a> {
+    fn new(
+        profile: &'a MachineProfile,
+        options: &'a PlanOptions,
+        file: &'a str,
+        motions_hint: usize,
+    ) -> Self {
+        let lim = Limits::from_profile(profile);
+        Planner {
+            profile,
+            options,
+            file,
+            lim,
+            builder: PathBuilder::new(&lim, motions_hint),
+            bmin: Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY),
+            bmax: Vec3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY),
+            max_feed: 0.0,
+            n_motions: 0,
+        }
+    }
+
+    fn push(&mut self, m: &Motion) -> Result<(), PlanError> {
         let prim = motion_primitive(m);
         if let Some(p) = &prim {
             let (lo, hi) = bounding_box(p);
-            if !options.ignore_soft_limits {
-                for (i, axis) in profile.axes.iter().enumerate() {
+            if !self.options.ignore_soft_limits {
+                for (i, axis) in self.profile.axes.iter().enumerate() {
                     for v in [lo[i], hi[i]] {
                         if v < axis.min_mm - 1e-9 || v > axis.max_mm + 1e-9 {
                             return Err(PlanError::SoftLimit {
-                                file: program.file.clone(),
+                                file: self.file.to_string(),
                                 line: m.line,
                                 axis: axis.name.chars().next().unwrap_or('?'),
                                 pos_mm: v,
@@ -92,57 +233,56 @@ pub fn plan(
                     }
                 }
             }
-            bmin = bmin.min(lo);
-            bmax = bmax.max(hi);
+            self.bmin = self.bmin.min(lo);
+            self.bmax = self.bmax.max(hi);
             match m.kind {
-                softnc_gcode::MotionKind::Feed {
+                MotionKind::Feed {
                     feed_mm_per_min, ..
                 }
-                | softnc_gcode::MotionKind::Arc {
+                | MotionKind::Arc {
                     feed_mm_per_min, ..
-                } => max_feed = max_feed.max(feed_mm_per_min),
+                } => self.max_feed = self.max_feed.max(feed_mm_per_min),
                 _ => {}
             }
         }
-        builder.push(i, m, prim);
+        self.builder.push(self.n_motions, m, prim);
+        self.n_motions += 1;
+        Ok(())
     }
-    if !bmin[0].is_finite() {
-        bmin = Vec3::ZERO;
-        bmax = Vec3::ZERO;
-    }
-    let path_length_mm = builder.length_mm();
-    let path = builder.finish();
-    let segs = &path.segs;
-    let (mut v_top, mut a_min) = (0.0f64, f64::INFINITY);
-    for s in segs {
-        if s.vel_cap.is_finite() {
-            v_top = v_top.max(s.vel_cap);
+
+    fn finish(self) -> Plan {
+        let (mut bmin, mut bmax) = (self.bmin, self.bmax);
+        if !bmin[0].is_finite() {
+            bmin = Vec3::ZERO;
+            bmax = Vec3::ZERO;
         }
-        a_min = a_min.min(s.acc);
+        let lim = self.lim;
+        let path_length_mm = self.builder.length_mm();
+        let path = self.builder.finish();
+        let (duration_s, v_top, a_min) = planned_duration(&path.segs, &lim);
+        let brake_dist_mm = if a_min.is_finite() && a_min > 0.0 {
+            v_top * v_top / (2.0 * a_min)
+        } else {
+            0.0
+        };
+        let samples = (duration_s / lim.cycle_s - 1e-9).ceil().max(0.0) as u64 + 1;
+        let stats = PlanStats {
+            path_length_mm,
+            duration_s,
+            samples,
+            max_feed_mm_min: self.max_feed,
+            bounds_min_mm: bmin,
+            bounds_max_mm: bmax,
+        };
+        Plan {
+            path,
+            n_motions: self.n_motions,
+            lim,
+            brake_dist_mm,
+            max_override: self.profile.planner.max_feed_override,
+            stats,
+        }
     }
-    let brake_dist_mm = if a_min.is_finite() && a_min > 0.0 {
-        v_top * v_top / (2.0 * a_min)
-    } else {
-        0.0
-    };
-    let duration_s = planned_duration(segs, &lim);
-    let samples = (duration_s / lim.cycle_s - 1e-9).ceil().max(0.0) as u64 + 1;
-    let stats = PlanStats {
-        path_length_mm,
-        duration_s,
-        samples,
-        max_feed_mm_min: max_feed,
-        bounds_min_mm: bmin,
-        bounds_max_mm: bmax,
-    };
-    Ok(Plan {
-        path,
-        n_motions: program.motions.len(),
-        lim,
-        brake_dist_mm,
-        max_override: profile.planner.max_feed_override,
-        stats,
-    })
 }
 
 impl Plan {
@@ -181,17 +321,23 @@ impl Plan {
 
 /// Planned run time at 100 % override: forward and backward passes over the whole
 /// path, then each element's time-optimal profile, plus dwells and S-curve settling.
-fn planned_duration(segs: &[Segment], lim: &Limits) -> f64 {
+/// Also the highest finite speed cap and the lowest acceleration of the elements.
+fn planned_duration(segs: &[Segment], lim: &Limits) -> (f64, f64, f64) {
     let n = segs.len();
     if n == 0 {
-        return 0.0;
+        return (0.0, 0.0, f64::INFINITY);
     }
     let cap = |s: &Segment| s.vel_cap.min(s.feed_mm_per_s);
     // backward: highest speed at the end of each element
     let mut vend = vec![0.0f64; n];
     let mut next_start = 0.0f64;
+    let (mut v_top, mut a_min) = (0.0f64, f64::INFINITY);
     for k in (0..n).rev() {
         let s = &segs[k];
+        if s.vel_cap.is_finite() {
+            v_top = v_top.max(s.vel_cap);
+        }
+        a_min = a_min.min(s.acc);
         vend[k] = s.v_end_hard.min(next_start).min(cap(s));
         next_start = cap(s).min((vend[k] * vend[k] + 2.0 * s.acc * s.len).sqrt());
     }
@@ -219,7 +365,7 @@ fn planned_duration(segs: &[Segment], lim: &Limits) -> f64 {
         }
         v0 = v1;
     }
-    t
+    (t, v_top, a_min)
 }
 
 /// Axis-aligned bounding box of a primitive.
@@ -237,21 +383,42 @@ fn bounding_box(p: &Primitive) -> (Vec3, Vec3) {
     {
         let (a, b, _) = plane.axes();
         // cardinal angles crossed by the sweep
-        for q in 0..4 {
+        for (q, (cos_q, sin_q)) in CARDINAL.iter().enumerate() {
             let ang = q as f64 * std::f64::consts::FRAC_PI_2;
             let rel = if sweep >= 0.0 {
-                (ang - start_angle).rem_euclid(std::f64::consts::TAU)
+                rem_tau(ang - start_angle)
             } else {
-                (start_angle - ang).rem_euclid(std::f64::consts::TAU)
+                rem_tau(start_angle - ang)
             };
             if rel <= sweep.abs() {
                 let mut pt = center;
-                pt[a] += radius * ang.cos();
-                pt[b] += radius * ang.sin();
+                pt[a] += radius * cos_q;
+                pt[b] += radius * sin_q;
                 lo = lo.min(pt);
                 hi = hi.max(pt);
             }
         }
     }
     (lo, hi)
+}
+
+/// (cos, sin) of 0, π/2, π and 3π/2 as the library computes them.
+const CARDINAL: [(f64, f64); 4] = [
+    (1.0, 0.0),
+    (6.123_233_995_736_766e-17, 1.0),
+    (-1.0, 1.224_646_799_147_353_2e-16),
+    (-1.836_970_198_721_029_7e-16, -1.0),
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cardinal_table_matches_the_library() {
+        for (q, (c, s)) in CARDINAL.iter().enumerate() {
+            let ang = q as f64 * std::f64::consts::FRAC_PI_2;
+            assert_eq!((ang.cos(), ang.sin()), (*c, *s));
+        }
+    }
 }
