@@ -1387,8 +1387,15 @@ mod tests {
     #[test]
     fn lines_split_as_str_split() {
         for text in [
-            "", "\n", "\n\n", "a", "a\n", "a\nb", "G1 X1\r\nG2 X2 Y3 I4 J5\n\nM2",
-            "0123456789abcdef\n0123456\n", "long line without newline at all here",
+            "",
+            "\n",
+            "\n\n",
+            "a",
+            "a\n",
+            "a\nb",
+            "G1 X1\r\nG2 X2 Y3 I4 J5\n\nM2",
+            "0123456789abcdef\n0123456\n",
+            "long line without newline at all here",
         ] {
             let mut want = Vec::new();
             let mut start = 0;
@@ -1400,7 +1407,11 @@ mod tests {
                 want.push((start, end, end < text.len()));
                 start = end + 1;
             }
-            let got: Vec<_> = LineSplit { b: text.as_bytes(), pos: 0 }.collect();
+            let got: Vec<_> = LineSplit {
+                b: text.as_bytes(),
+                pos: 0,
+            }
+            .collect();
             assert_eq!(got, want, "{text:?}");
         }
         for n in 0..40 {

@@ -197,11 +197,6 @@ impl PathBuilder {
         }
     }
 
-    /// Total length of the elements pushed so far (mm).
-    pub fn length_mm(&self) -> f64 {
-        self.s0
-    }
-
     /// Add motion number `index`; `prim` is its programmed primitive in machine
     /// coordinates (None for dwells).
     pub fn push(&mut self, index: usize, m: &Motion, prim: Option<Primitive>) {
@@ -237,7 +232,11 @@ impl PathBuilder {
             Primitive::Line { start, end } => {
                 let d = end - start;
                 let len = d.norm();
-                let dir = if len > 0.0 { d * (1.0 / len) } else { Vec3::ZERO };
+                let dir = if len > 0.0 {
+                    d * (1.0 / len)
+                } else {
+                    Vec3::ZERO
+                };
                 let geom = Geom::Line {
                     start,
                     end,
@@ -398,7 +397,13 @@ impl PathBuilder {
                 _,
             )) => {
                 let pushed = self.push_element(&p, geom, &shape, 0.0, false);
-                self.push_element(&p, b, &ElementShape::blend(e1, e2, radius, sweep), 0.0, false);
+                self.push_element(
+                    &p,
+                    b,
+                    &ElementShape::blend(e1, e2, radius, sweep),
+                    0.0,
+                    false,
+                );
                 pushed
             }
             _ => self.push_element(&p, geom, &shape, p.dwell_s, stop),
@@ -438,10 +443,14 @@ impl PathBuilder {
             let a = &mut self.path.segs[n - 1];
             if a.v_end_hard != 0.0 {
                 let prev_geom = self.path.geoms[n - 1];
-                a.v_end_hard =
-                    junction_speed(lim, a.vel_cap, vel_cap, self.prev_end_tangent, shape, || {
-                        geom.curvature_vec(false) - prev_geom.curvature_vec(true)
-                    });
+                a.v_end_hard = junction_speed(
+                    lim,
+                    a.vel_cap,
+                    vel_cap,
+                    self.prev_end_tangent,
+                    shape,
+                    || geom.curvature_vec(false) - prev_geom.curvature_vec(true),
+                );
             }
         }
         self.path.segs.push(Segment {

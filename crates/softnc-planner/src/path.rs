@@ -56,7 +56,11 @@ impl Geom {
                 to,
                 prog_len,
             } => {
-                let t = if s >= to - from { to } else { from + s.max(0.0) };
+                let t = if s >= to - from {
+                    to
+                } else {
+                    from + s.max(0.0)
+                };
                 if t >= prog_len {
                     end
                 } else {

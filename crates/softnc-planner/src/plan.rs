@@ -257,8 +257,8 @@ impl<'a> Planner<'a> {
             bmax = Vec3::ZERO;
         }
         let lim = self.lim;
-        let path_length_mm = self.builder.length_mm();
         let path = self.builder.finish();
+        let path_length_mm = path.segs.last().map_or(0.0, |s| s.s0 + s.len);
         let (duration_s, v_top, a_min) = planned_duration(&path.segs, &lim);
         let brake_dist_mm = if a_min.is_finite() && a_min > 0.0 {
             v_top * v_top / (2.0 * a_min)
@@ -315,7 +315,10 @@ impl Plan {
         Interpolator::new(
             &self.path.segs,
             &self.path.geoms,
-            self.lim, self.brake_dist_mm, self.max_override)
+            self.lim,
+            self.brake_dist_mm,
+            self.max_override,
+        )
     }
 }
 

