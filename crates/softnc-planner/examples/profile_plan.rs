@@ -21,6 +21,11 @@ fn main() {
         ignore_soft_limits: true,
     };
     let lines = text.lines().count() as f64;
+    println!(
+        "{lines} lines; per element: Segment {} bytes, Geom {} bytes",
+        std::mem::size_of::<softnc_planner::build::Segment>(),
+        std::mem::size_of::<softnc_planner::path::Geom>()
+    );
     let time = |name: &str, f: &dyn Fn() -> (f64, f64)| {
         if only.as_deref().is_some_and(|o| o != name) {
             return;
