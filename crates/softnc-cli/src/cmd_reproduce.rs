@@ -11,7 +11,9 @@ use std::process::ExitCode;
 pub struct ReproduceArgs {
     /// The experiment: `001-table5` (paper 001, PID vs fuzzy-logic control),
     /// `000-pdc` (paper 000, DOB/MBDA and the periodic disturbance canceller),
-    /// `003-force` (paper 003, adaptive cutting-force control, cases I–III).
+    /// `003-force` (paper 003, adaptive cutting-force control, cases I–III),
+    /// `002-learning` (paper 002 Fig. 4, Markov learning per buffer size),
+    /// `004-ilc` (paper 004, radius ILC of circles).
     pub experiment: String,
     /// Print one JSON document instead of the text table.
     #[arg(long)]
@@ -36,7 +38,13 @@ pub struct ReproduceArgs {
 }
 
 /// The experiments this command knows.
-pub const EXPERIMENTS: &[&str] = &["001-table5", "000-pdc", "003-force"];
+pub const EXPERIMENTS: &[&str] = &[
+    "001-table5",
+    "000-pdc",
+    "003-force",
+    "002-learning",
+    "004-ilc",
+];
 
 /// Run the named experiment.
 pub fn run(args: ReproduceArgs) -> Result<ExitCode> {
@@ -44,6 +52,8 @@ pub fn run(args: ReproduceArgs) -> Result<ExitCode> {
         "001-table5" => crate::reproduce::p001::main(&args),
         "000-pdc" => crate::reproduce::p000::main(&args),
         "003-force" => crate::reproduce::p003::main(&args),
+        "002-learning" => crate::reproduce::p002_learning::main(&args),
+        "004-ilc" => crate::reproduce::p004::main(&args),
         other => {
             eprintln!(
                 "softnc: unknown experiment `{other}`; known: {}",

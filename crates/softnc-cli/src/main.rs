@@ -2,11 +2,13 @@
 
 mod cmd_demo;
 mod cmd_design;
+mod cmd_learn;
 mod cmd_operator;
 mod cmd_plan;
 mod cmd_reproduce;
 mod cmd_sim;
 mod cmd_watch;
+mod learn_sim;
 mod reproduce;
 
 use anyhow::Result;
@@ -40,6 +42,9 @@ enum Command {
     Design(cmd_design::DesignArgs),
     /// Rerun a paper's experiment on the simulated machine, beside the paper's figures.
     Reproduce(cmd_reproduce::ReproduceArgs),
+    /// Run a job repeatedly on the simulated machine and learn its errors away
+    /// (paper 002 eq 5, paper 004 eq 8–9); `learn list|show|clear` manage the store.
+    Learn(cmd_learn::LearnArgs),
     #[command(flatten)]
     Operator(cmd_operator::OperatorCmd),
 }
@@ -70,6 +75,7 @@ fn main() -> ExitCode {
         Command::Demo(args) => cmd_demo::run(args, &cli.config),
         Command::Design(args) => cmd_design::run(args),
         Command::Reproduce(args) => cmd_reproduce::run(args),
+        Command::Learn(args) => cmd_learn::run(args),
         Command::Watch => cmd_watch::run(&cli.config),
     };
     match result {

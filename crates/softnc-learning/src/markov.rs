@@ -19,6 +19,24 @@ pub fn identify_markov(y: &[f64], at: usize, height: f64, p: usize) -> Vec<f64> 
         .collect()
 }
 
+/// How many of the identified terms `h` carry the response: the measured response
+/// of a real (or simulated) loop does not decay to zero but settles, within the
+/// measurement floor, to a rest value (friction holds the axis a little off, the
+/// encoder quantises). The rest value is the median of the last quarter of `h`;
+/// the terms after the last one farther than `floor` (relative to the pulse height)
+/// from it are floor, not response: the count up to there is returned.
+pub fn settled_terms(h: &[f64], floor: f64) -> usize {
+    if h.is_empty() {
+        return 0;
+    }
+    let mut tail: Vec<f64> = h[h.len() - h.len().div_ceil(4)..].to_vec();
+    tail.sort_by(f64::total_cmp);
+    let rest = tail[tail.len() / 2];
+    h.iter()
+        .rposition(|v| (v - rest).abs() > floor)
+        .map_or(0, |i| i + 1)
+}
+
 /// The learning law with its gain and buffer of Markov parameters.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MarkovLearner {
@@ -62,6 +80,76 @@ impl MarkovLearner {
     }
 }
 
+/// Axes a job's learning covers (X, Y, Z).
+pub const AXES: usize = 3;
+
+/// Eq 5 applied to a whole job, one learner per axis, with the two buffers the paper
+/// keeps beside the command buffer: the corrected command P_j (as a correction added
+/// to the planned command, so it composes with any filter the position stack applies)
+/// and the error e_{j−1} of the last repetition.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct MarkovJob {
+    /// Learning gain s per axis.
+    pub gain: [f64; AXES],
+    /// Learning buffer size p (Markov terms used).
+    pub buffer: usize,
+    /// Identified Markov parameters h(1..) per axis (all identified terms).
+    pub markov: [Vec<f64>; AXES],
+    /// P_j − P_desired per sample and axis (mm).
+    pub correction_mm: [Vec<f64>; AXES],
+    /// e_{j−1} = P_desired − y_{j−1} per sample and axis (mm).
+    pub last_error_mm: [Vec<f64>; AXES],
+    /// Repetitions learnt from so far (j).
+    pub repetitions: usize,
+}
+
+impl MarkovJob {
+    /// A job of `samples` samples with no correction yet. `gain` `None` takes
+    /// [`MarkovLearner::default_gain`] per axis.
+    pub fn new(markov: [Vec<f64>; AXES], buffer: usize, gain: Option<f64>, samples: usize) -> Self {
+        let gain = [0, 1, 2]
+            .map(|a| gain.unwrap_or_else(|| MarkovLearner::default_gain(&markov[a], buffer)));
+        MarkovJob {
+            gain,
+            buffer,
+            markov,
+            correction_mm: [0, 1, 2].map(|_| vec![0.0; samples]),
+            last_error_mm: [0, 1, 2].map(|_| vec![0.0; samples]),
+            repetitions: 0,
+        }
+    }
+
+    /// Samples in the job.
+    pub fn samples(&self) -> usize {
+        self.correction_mm[0].len()
+    }
+
+    /// The command of the next repetition at sample `k`: planned + correction.
+    pub fn command(&self, k: usize, planned_mm: [f64; AXES]) -> [f64; AXES] {
+        [0, 1, 2].map(|a| planned_mm[a] + self.correction_mm[a].get(k).copied().unwrap_or(0.0))
+    }
+
+    /// Learn from one repetition: `planned_mm[k]` the desired positions, `measured_mm[k]`
+    /// what the machine did (index k as the command's). Eq 5 updates the correction,
+    /// except at sample 0: the job starts at rest there, so it stays as planned.
+    pub fn learn(&mut self, planned_mm: &[[f64; AXES]], measured_mm: &[[f64; AXES]]) {
+        let n = self.samples().min(planned_mm.len()).min(measured_mm.len());
+        for a in 0..AXES {
+            for k in 0..n {
+                self.last_error_mm[a][k] = planned_mm[k][a] - measured_mm[k][a];
+            }
+            let learner = MarkovLearner::new(self.gain[a], &self.markov[a], self.buffer);
+            learner.update(&mut self.correction_mm[a][..n], &self.last_error_mm[a][..n]);
+            // the job starts with the machine at rest on its first sample: that
+            // sample is where the axes are, not a command learning may move
+            if let Some(c0) = self.correction_mm[a].first_mut() {
+                *c0 = 0.0;
+            }
+        }
+        self.repetitions += 1;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -90,6 +178,18 @@ mod tests {
                 i + 1
             );
         }
+    }
+
+    #[test]
+    fn settled_terms_stop_where_the_response_reaches_its_rest_value() {
+        // a response decaying to a rest value of -3e-4 (an axis held off by friction)
+        let h: Vec<f64> = (0..400)
+            .map(|i| 0.2 * 0.9f64.powi(i) - 3e-4 * (1.0 - 0.9f64.powi(i)))
+            .collect();
+        let n = settled_terms(&h, 1e-4);
+        // 0.2·0.9^i + 3e-4·0.9^i > 1e-4 ⇔ i < ln(1e-4/0.2003)/ln 0.9 ≈ 72.1
+        assert_eq!(n, 73);
+        assert_eq!(settled_terms(&[], 1e-4), 0);
     }
 
     #[test]

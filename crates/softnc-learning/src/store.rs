@@ -152,6 +152,47 @@ impl LearningStore {
         Ok(keys)
     }
 
+    /// The folder.
+    pub fn dir(&self) -> &std::path::Path {
+        &self.dir
+    }
+
+    /// All readable entries with their keys, oldest file name first (unreadable
+    /// files are skipped: they are not entries of this store).
+    pub fn entries<T: DeserializeOwned>(&self) -> Result<Vec<(LearningKey, T)>, StoreError> {
+        let mut out = vec![];
+        for key in self.list()? {
+            if let Some(v) = self.get(&key)? {
+                out.push((key, v));
+            }
+        }
+        out.sort_by_key(|(k, _)| k.file_name());
+        Ok(out)
+    }
+
+    /// Remove temporary files left by writers that were killed mid-write; returns how
+    /// many. Only call it when no other process writes to this store.
+    pub fn remove_leftovers(&self) -> Result<usize, StoreError> {
+        let rd = match std::fs::read_dir(&self.dir) {
+            Ok(rd) => rd,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(0),
+            Err(source) => {
+                return Err(StoreError::Io {
+                    path: self.dir.display().to_string(),
+                    source,
+                })
+            }
+        };
+        let mut n = 0;
+        for ent in rd.flatten() {
+            let name = ent.file_name().to_string_lossy().into_owned();
+            if name.starts_with('.') && name.contains(".json.tmp") && std::fs::remove_file(ent.path()).is_ok() {
+                n += 1;
+            }
+        }
+        Ok(n)
+    }
+
     /// Remove the entry for `key` (or all entries when `None`).
     pub fn clear(&self, key: Option<&LearningKey>) -> Result<usize, StoreError> {
         let keys = match key {

@@ -1,0 +1,324 @@
+//! Learning runs on the simulated machine: the Markov-parameter identification run,
+//! repetitions of a job under paper 002's eq 5, and repetitions of a circle under paper
+//! 004's radius ILC (eq 8–9). Used by `softnc learn` and `softnc reproduce 002-learning
+//! / 004-ilc`; the laws themselves are `softnc_learning`'s.
+
+use softnc_core::{MachineProfile, Primitive};
+use softnc_learning::markov::{identify_markov, settled_terms, MarkovJob, AXES};
+use softnc_learning::radius_ilc::{Circle, RadiusIlc, POINTS};
+use softnc_sim::{simulate, CommandSample, CycleEngine, ErrorStats, ServoBackend, SimBackend};
+
+/// Time the final command is held after the program ends (s): part of every
+/// repetition, so the learning also sees (and corrects) the final settling.
+pub const HOLD_S: f64 = 0.2;
+
+/// Height of the identification pulse (mm): large against encoder resolution and
+/// noise (1e-4 of it at 0.1 µm) and against Coulomb friction, small against travel.
+pub const PULSE_MM: f64 = 1.0;
+
+/// Cycles at rest before the identification pulse.
+pub const PULSE_AT: usize = 10;
+
+/// A planned job: its command samples (with the hold tail) and programmed paths.
+#[derive(Debug, Clone)]
+pub struct PreparedJob {
+    /// Planned command samples, the hold tail included.
+    pub samples: Vec<CommandSample>,
+    /// Programmed path of each motion.
+    pub prims: Vec<Option<Primitive>>,
+    /// Interpolation cycle (s).
+    pub cycle_s: f64,
+}
+
+impl PreparedJob {
+    /// Read and plan `text` for `machine`; a refusal comes back as its message.
+    pub fn new(text: &str, name: &str, machine: &MachineProfile) -> Result<Self, String> {
+        let program =
+            softnc_gcode::read_program(text, name, machine).map_err(|e| e.to_string())?;
+        let plan = softnc_planner::plan(&program, machine, &Default::default())
+            .map_err(|e| e.to_string())?;
+        let mut samples: Vec<CommandSample> = plan
+            .interpolator()
+            .map(|s| CommandSample {
+                pos_mm: s.pos_mm.0,
+                motion: s.motion,
+                feed_move: s.feed_move,
+            })
+            .collect();
+        let cycle_s = plan.cycle_s();
+        if let Some(last) = samples.last().copied() {
+            let hold = (HOLD_S / cycle_s).round() as usize;
+            let tail = CommandSample {
+                pos_mm: last.pos_mm,
+                motion: last.motion,
+                feed_move: false,
+            };
+            samples.extend(std::iter::repeat_n(tail, hold));
+        }
+        let prims = (0..plan.motions())
+            .map(|m| plan.motion_primitive(m))
+            .collect();
+        Ok(PreparedJob {
+            samples,
+            prims,
+            cycle_s,
+        })
+    }
+
+    /// Planned positions per sample.
+    pub fn planned_mm(&self) -> Vec<[f64; AXES]> {
+        self.samples.iter().map(|s| s.pos_mm).collect()
+    }
+}
+
+/// What one repetition did.
+#[derive(Debug, Clone)]
+pub struct Run {
+    /// Measured position at each sample (mm): `actual_mm` of the cycle that commanded
+    /// sample k, i.e. the response to the commands before it.
+    pub measured_mm: Vec<[f64; AXES]>,
+    /// Contour error over the feed moves (mm).
+    pub contour: ErrorStats,
+}
+
+/// Run `job` once on `engine` with `command(k, planned)` as the command of sample k.
+pub fn run_job(
+    engine: &mut CycleEngine<SimBackend>,
+    job: &PreparedJob,
+    command: impl Fn(usize, [f64; AXES]) -> [f64; AXES],
+) -> Result<Run, String> {
+    let mut measured_mm = Vec::with_capacity(job.samples.len());
+    let samples = job.samples.iter().enumerate().map(|(k, s)| CommandSample {
+        pos_mm: command(k, s.pos_mm),
+        motion: s.motion,
+        feed_move: s.feed_move,
+    });
+    let report = simulate(
+        engine,
+        job.cycle_s,
+        samples,
+        |m| job.prims.get(m as usize).copied().flatten(),
+        |row| measured_mm.push(row.record.actual_mm),
+    )
+    .map_err(|e| format!("servo backend: {e}"))?;
+    Ok(Run {
+        measured_mm,
+        contour: report.contour,
+    })
+}
+
+/// The Markov parameters h(1..) of each axis's closed loop, measured on `engine`: at
+/// rest at `at_mm`, a one-sample pulse of [`PULSE_MM`] on that axis alone, and its
+/// measured response for `n` cycles (the simulator's encoders: quantised and noisy
+/// as configured). Terms after the response has settled to its rest value within
+/// the measurement floor (two encoder counts plus four noise σ, see
+/// [`settled_terms`]) are dropped: they are floor and friction, not response.
+pub fn identify(
+    engine: &mut CycleEngine<SimBackend>,
+    machine: &MachineProfile,
+    at_mm: [f64; AXES],
+    n: usize,
+) -> Result<[Vec<f64>; AXES], String> {
+    let mut out: [Vec<f64>; AXES] = Default::default();
+    for (axis, h) in out.iter_mut().enumerate() {
+        engine.reset(at_mm);
+        let mut y = Vec::with_capacity(PULSE_AT + n + 1);
+        for k in 0..=PULSE_AT + n {
+            let mut cmd = at_mm;
+            if k == PULSE_AT {
+                cmd[axis] += PULSE_MM;
+            }
+            let r = engine
+                .step(cmd, false)
+                .map_err(|e| format!("servo backend: {e}"))?;
+            y.push(r.actual_mm[axis] - at_mm[axis]);
+        }
+        let all = identify_markov(&y, PULSE_AT, PULSE_MM, n);
+        let floor_mm = 2.0 * engine.backend().mm_per_count(axis)
+            + 4.0 * machine.axis_servo(axis).noise_mm;
+        let keep = settled_terms(&all, floor_mm / PULSE_MM);
+        *h = all[..keep].to_vec();
+    }
+    Ok(out)
+}
+
+/// Figures of one repetition.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct IterationStats {
+    /// 0 = the run before any learning.
+    pub iteration: usize,
+    /// RMS of the error (µm): contour error (Markov) or radius error per degree (radius).
+    pub rms_um: f64,
+    /// Largest |error| (µm).
+    pub max_abs_um: f64,
+    /// 2-norm of the learning error e = P_desired − y over all axes and samples (µm);
+    /// for the radius law, of the radius error per degree.
+    pub norm_um: f64,
+    /// Largest and smallest signed error (µm; radius law: outward positive).
+    pub max_um: f64,
+    /// See `max_um`.
+    pub min_um: f64,
+}
+
+const UM: f64 = 1000.0;
+
+/// Repetitions of `job` learning with `mj`: run, learn, run, … `iterations` times;
+/// `after(stats, mj)` sees every run (the first before any learning) with the state
+/// it left.
+pub fn learn_markov(
+    engine: &mut CycleEngine<SimBackend>,
+    job: &PreparedJob,
+    mj: &mut MarkovJob,
+    iterations: usize,
+    mut after: impl FnMut(&IterationStats, &MarkovJob) -> Result<(), String>,
+) -> Result<Vec<IterationStats>, String> {
+    let planned = job.planned_mm();
+    let mut out = Vec::with_capacity(iterations + 1);
+    let mut last: Vec<[f64; AXES]> = Vec::new();
+    for it in 0..=iterations {
+        if it > 0 {
+            mj.learn(&planned, &last);
+        }
+        let run = run_job(engine, job, |k, p| mj.command(k, p))?;
+        let norm_mm = planned
+            .iter()
+            .zip(&run.measured_mm)
+            .map(|(p, y)| (0..AXES).map(|a| (p[a] - y[a]).powi(2)).sum::<f64>())
+            .sum::<f64>()
+            .sqrt();
+        let stats = IterationStats {
+            iteration: it,
+            rms_um: run.contour.rms() * UM,
+            max_abs_um: run.contour.max_abs() * UM,
+            norm_um: norm_mm * UM,
+            max_um: run.contour.max_abs() * UM,
+            min_um: -run.contour.max_abs() * UM,
+        };
+        last = run.measured_mm;
+        after(&stats, mj)?;
+        out.push(stats);
+    }
+    Ok(out)
+}
+
+/// The one full circle of a program (its single feed move, a whole-turn arc in the XY
+/// plane) and its radius (mm).
+pub fn find_circle(
+    text: &str,
+    name: &str,
+    machine: &MachineProfile,
+) -> Result<(Circle, f64), String> {
+    use softnc_gcode::canon::MotionKind;
+    let program = softnc_gcode::read_program(text, name, machine).map_err(|e| e.to_string())?;
+    let mut found = None;
+    for m in &program.motions {
+        match m.kind {
+            MotionKind::Traverse { .. } | MotionKind::Dwell { .. } => {}
+            MotionKind::Arc {
+                end,
+                center,
+                turns,
+                feed_mm_per_min,
+                plane,
+            } if plane == softnc_core::Plane::XY
+                && turns.abs() == 1
+                && (end - m.start).norm() < 1e-9
+                && found.is_none() =>
+            {
+                let s = m.start + m.offset_mm;
+                let c = center + m.offset_mm;
+                let circle = Circle {
+                    center_mm: [c[0], c[1]],
+                    z_mm: s[2],
+                    start_rad: (s[1] - c[1]).atan2(s[0] - c[0]),
+                    ccw: turns > 0,
+                    feed_mm_per_min,
+                };
+                found = Some((circle, (s[0] - c[0]).hypot(s[1] - c[1])));
+            }
+            _ => {
+                return Err(format!(
+                    "{name}:{}: the radius law learns one full circle (G2/G3 back to its start in G17); this motion is not it",
+                    m.line
+                ))
+            }
+        }
+    }
+    found.ok_or_else(|| format!("{name}: no full circle (G2/G3 back to its start) to learn"))
+}
+
+/// One radius-ILC run: the per-degree program of `ilc` on `engine`; the measured
+/// radius per degree from the feed-move samples and the hold tail.
+pub fn run_circle(
+    engine: &mut CycleEngine<SimBackend>,
+    machine: &MachineProfile,
+    circle: &Circle,
+    ilc: &RadiusIlc,
+    title: &str,
+) -> Result<Vec<f64>, String> {
+    let text = ilc.program(circle, title, HOLD_S);
+    let job = PreparedJob::new(&text, "radius-ilc.ngc", machine)?;
+    let first_feed = job
+        .samples
+        .iter()
+        .position(|s| s.feed_move)
+        .ok_or("the circle program has no feed move")?;
+    let run = run_job(engine, &job, |_, p| p)?;
+    let xy: Vec<[f64; 2]> = run.measured_mm[first_feed..]
+        .iter()
+        .map(|p| [p[0], p[1]])
+        .collect();
+    Ok(circle.radius_per_degree(&xy))
+}
+
+/// Figures of a radius error per degree (mm → µm).
+pub fn radius_stats(iteration: usize, err_mm: &[f64]) -> IterationStats {
+    let mut st = ErrorStats::default();
+    let (mut max, mut min) = (f64::NEG_INFINITY, f64::INFINITY);
+    for &e in err_mm {
+        st.add(e);
+        max = max.max(e);
+        min = min.min(e);
+    }
+    IterationStats {
+        iteration,
+        rms_um: st.rms() * UM,
+        max_abs_um: st.max_abs() * UM,
+        norm_um: err_mm.iter().map(|e| e * e).sum::<f64>().sqrt() * UM,
+        max_um: max * UM,
+        min_um: min * UM,
+    }
+}
+
+/// Repetitions of a circle under the radius ILC: run, measure per degree, eq 8, …
+/// `after(stats, ilc, err)` sees every run (the first before any learning) with the
+/// state it left and the radius error per degree (mm).
+pub fn learn_radius(
+    engine: &mut CycleEngine<SimBackend>,
+    machine: &MachineProfile,
+    circle: &Circle,
+    ilc: &mut RadiusIlc,
+    iterations: usize,
+    mut after: impl FnMut(&IterationStats, &RadiusIlc, &[f64]) -> Result<(), String>,
+) -> Result<Vec<IterationStats>, String> {
+    let mut out = Vec::with_capacity(iterations + 1);
+    let mut measured: Vec<f64> = Vec::new();
+    for it in 0..=iterations {
+        if it > 0 {
+            ilc.update(&measured);
+        }
+        measured = run_circle(
+            engine,
+            machine,
+            circle,
+            ilc,
+            &format!("softnc learn: radius ILC of paper 004, iteration {it}"),
+        )?;
+        let err: Vec<f64> = measured.iter().map(|y| y - ilc.desired_mm).collect();
+        let stats = radius_stats(it, &err);
+        after(&stats, ilc, &err)?;
+        out.push(stats);
+    }
+    debug_assert_eq!(measured.len(), POINTS);
+    Ok(out)
+}
