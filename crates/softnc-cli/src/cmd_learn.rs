@@ -30,7 +30,9 @@ pub const DEFAULT_GAIN: f64 = 0.5;
 pub const OVERRIDE_PCT: u32 = 100;
 
 /// The learning law.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum Law {
     /// Paper 002 eq 5: Markov-parameter learning of the command samples.
@@ -63,6 +65,10 @@ pub struct LearnArgs {
     /// Markov law: learning gain s (see docs/controllers.md for the choice).
     #[arg(long, default_value_t = DEFAULT_GAIN)]
     gain: f64,
+    /// Markov law: instead of --gain, per axis the LTI bound 1/(Σ_all|h|·Σ_p|h|) of
+    /// the identified parameters (monotone for an LTI loop).
+    #[arg(long)]
+    lti_gain: bool,
     /// Markov law: learning buffer size p (Markov terms; default: all, the job's length).
     #[arg(long)]
     buffer: Option<usize>,
@@ -150,7 +156,11 @@ pub fn store_dir(explicit: Option<&Path>) -> PathBuf {
     if let Some(p) = explicit {
         return p.to_path_buf();
     }
-    let env = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+    let env = |k: &str| {
+        std::env::var_os(k)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+    };
     if let Some(d) = env("SOFTNC_LEARNING_DIR") {
         return d;
     }
@@ -204,18 +214,22 @@ pub fn run(args: LearnArgs) -> Result<ExitCode> {
     let name = file.display().to_string();
     let seed = args.seed.unwrap_or(machine.servo.seed);
     let previous: Option<Learned> = if args.resume {
-        store
-            .get::<Learned>(&key)?
-            .filter(|e| e.law() == args.law)
+        store.get::<Learned>(&key)?.filter(|e| e.law() == args.law)
     } else {
         None
     };
     if !(args.gain.is_finite() && args.gain > 0.0) {
-        eprintln!("softnc learn: --gain must be a positive number, not {}", args.gain);
+        eprintln!(
+            "softnc learn: --gain must be a positive number, not {}",
+            args.gain
+        );
         return Ok(ExitCode::from(crate::EXIT_REFUSED));
     }
     if args.law == Law::Radius && !(args.alpha.is_finite() && args.alpha > 0.0) {
-        eprintln!("softnc learn: --alpha must be a positive number, not {}", args.alpha);
+        eprintln!(
+            "softnc learn: --alpha must be a positive number, not {}",
+            args.alpha
+        );
         return Ok(ExitCode::from(crate::EXIT_REFUSED));
     }
     if args.buffer == Some(0) {
@@ -255,7 +269,12 @@ pub fn run(args: LearnArgs) -> Result<ExitCode> {
                     let n = job.samples.len();
                     let h = learn_sim::identify(&mut engine, &machine, job.samples[0].pos_mm, n)
                         .map_err(anyhow::Error::msg)?;
-                    MarkovJob::new(h, args.buffer.unwrap_or(n), Some(args.gain), n)
+                    MarkovJob::new(
+                        h,
+                        args.buffer.unwrap_or(n),
+                        (!args.lti_gain).then_some(args.gain),
+                        n,
+                    )
                 }
             };
             learn_sim::learn_markov(&mut engine, &job, &mut mj, args.iterations, |st, mj| {
@@ -304,10 +323,7 @@ pub fn run(args: LearnArgs) -> Result<ExitCode> {
     }
     print_iterations(&entry, args.json)?;
     if !args.json {
-        eprintln!(
-            "stored in {}",
-            store.dir().join(key.file_name()).display()
-        );
+        eprintln!("stored in {}", store.dir().join(key.file_name()).display());
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -33,8 +33,7 @@ pub struct PreparedJob {
 impl PreparedJob {
     /// Read and plan `text` for `machine`; a refusal comes back as its message.
     pub fn new(text: &str, name: &str, machine: &MachineProfile) -> Result<Self, String> {
-        let program =
-            softnc_gcode::read_program(text, name, machine).map_err(|e| e.to_string())?;
+        let program = softnc_gcode::read_program(text, name, machine).map_err(|e| e.to_string())?;
         let plan = softnc_planner::plan(&program, machine, &Default::default())
             .map_err(|e| e.to_string())?;
         let mut samples: Vec<CommandSample> = plan
@@ -134,8 +133,8 @@ pub fn identify(
             y.push(r.actual_mm[axis] - at_mm[axis]);
         }
         let all = identify_markov(&y, PULSE_AT, PULSE_MM, n);
-        let floor_mm = 2.0 * engine.backend().mm_per_count(axis)
-            + 4.0 * machine.axis_servo(axis).noise_mm;
+        let floor_mm =
+            2.0 * engine.backend().mm_per_count(axis) + 4.0 * machine.axis_servo(axis).noise_mm;
         let keep = settled_terms(&all, floor_mm / PULSE_MM);
         *h = all[..keep].to_vec();
     }

@@ -186,7 +186,10 @@ impl LearningStore {
         let mut n = 0;
         for ent in rd.flatten() {
             let name = ent.file_name().to_string_lossy().into_owned();
-            if name.starts_with('.') && name.contains(".json.tmp") && std::fs::remove_file(ent.path()).is_ok() {
+            if name.starts_with('.')
+                && name.contains(".json.tmp")
+                && std::fs::remove_file(ent.path()).is_ok()
+            {
                 n += 1;
             }
         }

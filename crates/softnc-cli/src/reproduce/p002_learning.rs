@@ -105,7 +105,11 @@ pub fn to_text(curves: &[Curve], gain: f64, seed: u64) -> String {
         let _ = write!(s, "{i:>9}");
         for c in curves {
             let st = &c.iterations[i];
-            let _ = write!(s, " {:>22}", format!("{:.3} [{:.1}]", st.rms_um, st.norm_um));
+            let _ = write!(
+                s,
+                " {:>22}",
+                format!("{:.3} [{:.1}]", st.rms_um, st.norm_um)
+            );
         }
         s.push('\n');
     }
@@ -117,7 +121,10 @@ pub fn to_text(curves: &[Curve], gain: f64, seed: u64) -> String {
     s.push('\n');
     let _ = write!(s, "{:>9}", "monotone");
     for c in curves {
-        let m = c.iterations.windows(2).all(|w| w[1].norm_um <= w[0].norm_um);
+        let m = c
+            .iterations
+            .windows(2)
+            .all(|w| w[1].norm_um <= w[0].norm_um);
         let _ = write!(s, " {:>22}", if m { "yes" } else { "NO" });
     }
     s.push('\n');
@@ -136,13 +143,16 @@ pub fn main(args: &crate::cmd_reproduce::ReproduceArgs) -> Result<std::process::
         .unwrap_or_else(|| workspace_file(MACHINE));
     let machine = MachineProfile::load(&mpath)?;
     let jpath = workspace_file(JOB);
-    let text =
-        std::fs::read_to_string(&jpath).with_context(|| format!("cannot read {}", jpath.display()))?;
+    let text = std::fs::read_to_string(&jpath)
+        .with_context(|| format!("cannot read {}", jpath.display()))?;
     let seed = machine.servo.seed;
     let gain = crate::cmd_learn::DEFAULT_GAIN;
     let c = curves(&machine, &text, seed, gain, ITERATIONS, &BUFFERS)?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&to_json(&c, gain, seed))?);
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&to_json(&c, gain, seed))?
+        );
     } else {
         print!("{}", to_text(&c, gain, seed));
     }
