@@ -12,6 +12,7 @@
 
 use super::p001::{machine_for, prepare, run, table, Row, Stack, CASES};
 use anyhow::Result;
+use softnc_control::discrete_tf::{is_schur_stable, poly_add, poly_mul};
 use softnc_control::fuzzy::{EquivalentGains, FuzzyController, SectorGrid};
 use softnc_core::fuzzy::FuzzyConfig;
 use softnc_core::servo::PlantModel;
@@ -125,6 +126,9 @@ pub struct ReadingResult {
     /// Radial error a type-2 loop leaves on the fast circle, a/K_a with a = V²/r and
     /// K_a = K·K_i/T (10 µm): Table 4's PID cannot do worse than this in steady state.
     pub circle_high_radial_10um: f64,
+    /// Largest closed-loop pole radius of Table 4's PID on this reading's linear plant
+    /// (no friction, no DAC): above 1 the PID loop is unstable.
+    pub pid_pole_radius: f64,
     /// The six rows, when the feeds are reachable.
     pub rows: Option<Vec<Row>>,
 }
@@ -221,6 +225,11 @@ pub fn audit(machine: &MachineProfile, flc: &FuzzyConfig, seeds: &[u64]) -> Resu
             anyhow::bail!("001 audit: axis X of the profile is not paper 001's DC motor");
         };
         let k = gain_mm_per_min_per_dac / S_PER_MIN;
+        let PlantModel::DcMotor { tau_s, .. } = m.axis_servo(0).plant else {
+            unreachable!("matched above")
+        };
+        let c = &servo.controller;
+        let pid_pole_radius = pid_pole_radius(k, tau_s, cycle_s, [c.kp, c.ki, c.kd]);
         let v_max = k * (dac_limit - friction.pos_sat);
         let v = circle_high.feed_mm_min / S_PER_MIN;
         let acc = v * v / CIRCLE_RADIUS_MM;
@@ -236,6 +245,7 @@ pub fn audit(machine: &MachineProfile, flc: &FuzzyConfig, seeds: &[u64]) -> Resu
             v_max_mm_s: v_max,
             v_needed_mm_s: v_needed,
             circle_high_radial_10um: acc / k_a * MM_TO_10UM,
+            pid_pole_radius,
             rows,
         });
     }
@@ -294,6 +304,50 @@ const CIRCLE_RADIUS_MM: f64 = 20.0;
 /// mm → the paper's unit, 10 µm.
 const MM_TO_10UM: f64 = 100.0;
 
+/// Largest closed-loop pole radius of the incremental PID (eq 14, gains per mm and
+/// cycle) on the plant K/(s(τs + 1)) (K in mm/s per count) held by a zero-order hold
+/// over `cycle_s`. Characteristic polynomial in z⁻¹:
+/// (1 − z⁻¹)²(1 − a z⁻¹) + (b₁z⁻¹ + b₂z⁻²)(k_p + k_i + k_d − (k_p + 2k_d)z⁻¹ + k_d z⁻²),
+/// a = e^{−T/τ}, b₁ = K(T − τ(1 − a)), b₂ = K(τ(1 − a) − aT). The radius is found by
+/// bisection on ρ with the Schur–Cohn test of the polynomial scaled to z → ρz.
+pub fn pid_pole_radius(
+    k_mm_s_per_count: f64,
+    tau_s: f64,
+    cycle_s: f64,
+    gains_per_mm: [f64; 3],
+) -> f64 {
+    let [kp, ki, kd] = gains_per_mm;
+    let (k, t) = (k_mm_s_per_count, cycle_s);
+    let a = (-t / tau_s).exp();
+    let b1 = k * (t - tau_s * (1.0 - a));
+    let b2 = k * (tau_s * (1.0 - a) - a * t);
+    let open = poly_mul(&poly_mul(&[1.0, -1.0], &[1.0, -1.0]), &[1.0, -a]);
+    let closed = poly_mul(&[0.0, b1, b2], &[kp + ki + kd, -(kp + 2.0 * kd), kd]);
+    let c = poly_add(&open, &closed);
+    let inside = |rho: f64| {
+        let scaled: Vec<f64> = c
+            .iter()
+            .enumerate()
+            .map(|(i, ci)| ci / rho.powi(i as i32))
+            .collect();
+        is_schur_stable(&scaled)
+    };
+    let (mut lo, mut hi) = (0.0, 1.0);
+    while !inside(hi) {
+        lo = hi;
+        hi *= 2.0;
+    }
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if inside(mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    hi
+}
+
 fn smallest_positive(centres: &[f64]) -> f64 {
     centres
         .iter()
@@ -308,10 +362,10 @@ pub fn to_text(a: &Audit) -> String {
         "plant-reading audit (same seeds, same six cases; ref = reference: planner = profile's \
          acceleration limits, const = constant feed without acc/dec)\n",
     );
-    s += "K reading               ref     K_x mm/s/cnt  v_max mm/s  circle-high a/K_a | FLC<=PID  worst FLC/PID | PID/paper     FLC/paper\n";
+    s += "K reading               ref     K_x mm/s/cnt  v_max mm/s  PID |z|max  circle-high a/K_a | FLC<=PID  worst FLC/PID | PID/paper     FLC/paper\n";
     for r in &a.readings {
         let head = format!(
-            "{:<23} {:<7} {:>12.4}  {:>10.1}  {:>17.2} |",
+            "{:<23} {:<7} {:>12.4}  {:>10.1}  {:>10.3}  {:>17.2} |",
             r.reading.k_unit,
             if r.reading.const_feed {
                 "const"
@@ -320,6 +374,7 @@ pub fn to_text(a: &Audit) -> String {
             },
             r.k_x_mm_s_per_count,
             r.v_max_mm_s,
+            r.pid_pole_radius,
             r.circle_high_radial_10um,
         );
         match (
@@ -399,6 +454,7 @@ pub fn to_json(a: &Audit) -> serde_json::Value {
             "k_x_mm_s_per_count": (r.k_x_mm_s_per_count * 1e4).round() / 1e4,
             "v_max_mm_s": r2(r.v_max_mm_s),
             "circle_high_radial_10um": r2(r.circle_high_radial_10um),
+            "pid_pole_radius": (r.pid_pole_radius * 1000.0).round() / 1000.0,
             "flc_not_worse_cells": r.flc_not_worse(),
             "worst_flc_over_pid": r.worst_flc_over_pid().map(r2),
             "rows": r.rows.as_ref().map(|rows| rows.iter().map(|row| serde_json::json!({
@@ -468,8 +524,27 @@ mod tests {
             assert!(v.p > 2.0 && v.p < 3.0, "{} {}: {v:?}", c.contour, c.feed);
             assert!(v.d < 0.75 * a.pid.1, "{} {}: {v:?}", c.contour, c.feed);
         }
+        // Table 4's PID is stable on the project's reading, unstable with K in (mm/s)/V
+        // behind a ±10 V DAC
+        assert!(a.readings[0].pid_pole_radius < 1.0);
+        let v10 = a
+            .readings
+            .iter()
+            .find(|r| r.reading.k_unit == "(mm/s)/V, DAC ±10 V");
+        assert!(v10.unwrap().pid_pole_radius > 1.0);
         // the (mm/min)/V reading cannot reach the paper's feeds and is not simulated
         let slow = a.readings.last().unwrap();
         assert!(slow.v_max_mm_s < slow.v_needed_mm_s && slow.rows.is_none());
+    }
+
+    #[test]
+    fn pid_pole_radius_matches_an_independent_root_finder() {
+        // Table 4 per mm (×100 BLU/mm) on K = 28.35 (mm/min)/count and on the ±10 V
+        // reading; reference radii from a Durand–Kerner root finder on the same polynomial
+        let g = [240.0, 10.0, 670.0];
+        let r = pid_pole_radius(28.35 / 60.0, 0.055, 0.01, g);
+        assert!((r - 0.95214).abs() < 2e-4, "{r}");
+        let r = pid_pole_radius(28.35 * 10.0 / 128.0, 0.055, 0.01, g);
+        assert!((r - 1.28678).abs() < 2e-4, "{r}");
     }
 }
