@@ -21,11 +21,16 @@ struct Daemon {
 
 impl Daemon {
     fn start(tag: &str, clock: &str, trace: bool) -> Daemon {
+        Daemon::start_on(tag, clock, trace, "default.ron")
+    }
+
+    /// A daemon on the machine profile `config/machines/{machine}`.
+    fn start_on(tag: &str, clock: &str, trace: bool, machine: &str) -> Daemon {
         let dir = std::env::temp_dir().join(format!("softnc-e2e-{tag}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(dir.join("machines")).unwrap();
         std::fs::copy(
-            repo().join("config/machines/default.ron"),
+            repo().join("config/machines").join(machine),
             dir.join("machines/default.ron"),
         )
         .unwrap();
@@ -186,7 +191,18 @@ fn simulator_trace(job: &Path, machine: &Path, out: &Path) {
 
 #[test]
 fn lockstep_job_through_three_processes_equals_the_simulator_bit_for_bit() {
-    let d = Daemon::start("run", "Lockstep", true);
+    lockstep_equals_simulator("run", "default.ron");
+}
+
+#[test]
+fn lockstep_with_the_zero_lag_filter_equals_the_simulator_bit_for_bit() {
+    // paper 002's filter (N = 75) and a structural mode: the position process reads the
+    // window [i−N, i+N] of its ring exactly as the simulator does
+    lockstep_equals_simulator("fir", "mill-resonance.ron");
+}
+
+fn lockstep_equals_simulator(tag: &str, machine: &str) {
+    let d = Daemon::start_on(tag, "Lockstep", true, machine);
     let op = d.operator();
     let job = short_job(&d.dir);
     let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();

@@ -11,8 +11,9 @@ use std::process::ExitCode;
 pub struct ReproduceArgs {
     /// The experiment: `001-table5` (paper 001, PID vs fuzzy-logic control),
     /// `000-pdc` (paper 000, DOB/MBDA and the periodic disturbance canceller),
-    /// `003-force` (paper 003, adaptive cutting-force control, cases I–III),
+    /// `002-filter` (paper 002, the zero-lag command filter against a structural mode),
     /// `002-learning` (paper 002 Fig. 4, Markov learning per buffer size),
+    /// `003-force` (paper 003, adaptive cutting-force control, cases I–III),
     /// `004-ilc` (paper 004, radius ILC of circles).
     pub experiment: String,
     /// Print one JSON document instead of the text table.
@@ -41,8 +42,9 @@ pub struct ReproduceArgs {
 pub const EXPERIMENTS: &[&str] = &[
     "001-table5",
     "000-pdc",
-    "003-force",
+    "002-filter",
     "002-learning",
+    "003-force",
     "004-ilc",
 ];
 
@@ -51,6 +53,7 @@ pub fn run(args: ReproduceArgs) -> Result<ExitCode> {
     match args.experiment.as_str() {
         "001-table5" => crate::reproduce::p001::main(&args),
         "000-pdc" => crate::reproduce::p000::main(&args),
+        "002-filter" => crate::reproduce::p002_filter::main(&args),
         "003-force" => crate::reproduce::p003::main(&args),
         "002-learning" => crate::reproduce::p002_learning::main(&args),
         "004-ilc" => crate::reproduce::p004::main(&args),

@@ -4,6 +4,7 @@
 //! can filter with a symmetric window around the current sample: zero phase, hence
 //! no lag, where a causal filter with the same coefficients lags N samples.
 
+use softnc_core::servo::CommandFilterConfig;
 use softnc_core::LookaheadRing;
 
 /// Why a filter cannot be designed.
@@ -74,21 +75,26 @@ impl ZeroLagFir {
         &self,
         ring: &LookaheadRing<AXES, CAP>,
     ) -> Option<[f64; AXES]> {
-        let n = self.order() as i64;
         let mut out = [0.0; AXES];
-        // pair symmetric taps: k'_j (ρ(i−j) + ρ(i+j)), summed from the outside in
-        for j in (1..=n).rev() {
-            let (a, b) = (ring.at(-j)?, ring.at(j)?);
-            let k = self.coeff(j);
-            for ax in 0..AXES {
-                out[ax] += k * (a[ax] + b[ax]);
-            }
-        }
-        let c = ring.at(0)?;
-        for ax in 0..AXES {
-            out[ax] += self.half[0] * c[ax];
+        for (axis, o) in out.iter_mut().enumerate() {
+            *o = self.apply_axis(ring, axis)?;
         }
         Some(out)
+    }
+
+    /// ρ'(i) of eq 1 on axis `axis` only.
+    pub fn apply_axis<const AXES: usize, const CAP: usize>(
+        &self,
+        ring: &LookaheadRing<AXES, CAP>,
+        axis: usize,
+    ) -> Option<f64> {
+        let n = self.order() as i64;
+        let mut out = 0.0;
+        // pair symmetric taps: k'_j (ρ(i−j) + ρ(i+j)), summed from the outside in
+        for j in (1..=n).rev() {
+            out += self.coeff(j) * (ring.at(-j)?[axis] + ring.at(j)?[axis]);
+        }
+        Some(out + self.half[0] * ring.at(0)?[axis])
     }
 
     /// Frequency response H(f) = k'_0 + 2 Σ k'_i cos(2π f T i) (real: zero phase).
@@ -101,6 +107,72 @@ impl ZeroLagFir {
                     .enumerate()
                     .map(|(i, k)| k * (w * (i + 1) as f64).cos())
                     .sum::<f64>()
+    }
+}
+
+/// The command filters of all axes of a position task: each axis filtered by its own
+/// zero-lag FIR or passed through; designed once per job, off the cycle path.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CommandFilter<const AXES: usize> {
+    axes: [Option<ZeroLagFir>; AXES],
+}
+
+impl<const AXES: usize> Default for CommandFilter<AXES> {
+    /// All axes pass their commands through.
+    fn default() -> Self {
+        CommandFilter {
+            axes: std::array::from_fn(|_| None),
+        }
+    }
+}
+
+impl<const AXES: usize> CommandFilter<AXES> {
+    /// Filters from the profile's per-axis settings at cycle `t_s` (`None` = off).
+    pub fn design(
+        configs: [Option<CommandFilterConfig>; AXES],
+        t_s: f64,
+    ) -> Result<Self, (usize, FirDesignError)> {
+        let mut axes: [Option<ZeroLagFir>; AXES] = std::array::from_fn(|_| None);
+        for (axis, cfg) in configs.iter().enumerate() {
+            if let Some(c) = cfg {
+                axes[axis] =
+                    Some(ZeroLagFir::design(c.frequency_hz, t_s, c.order).map_err(|e| (axis, e))?);
+            }
+        }
+        Ok(CommandFilter { axes })
+    }
+
+    /// Future (and past) samples the filters read: the largest order, 0 when all off.
+    pub fn window(&self) -> usize {
+        self.axes
+            .iter()
+            .flatten()
+            .map(ZeroLagFir::order)
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// True when some axis is filtered.
+    pub fn is_active(&self) -> bool {
+        self.axes.iter().any(Option::is_some)
+    }
+
+    /// The filter of axis `axis`, if on.
+    pub fn axis(&self, axis: usize) -> Option<&ZeroLagFir> {
+        self.axes[axis].as_ref()
+    }
+
+    /// The position command of the ring's current sample: filtered (eq 1) on the
+    /// axes that have a filter, as interpolated on the others. `None` until the
+    /// window is in.
+    pub fn apply<const CAP: usize>(&self, ring: &LookaheadRing<AXES, CAP>) -> Option<[f64; AXES]> {
+        let mut out = ring.at(0)?;
+        for (axis, f) in self.axes.iter().enumerate() {
+            if let Some(f) = f {
+                out[axis] = f.apply_axis(ring, axis)?;
+            }
+        }
+        Some(out)
     }
 }
 

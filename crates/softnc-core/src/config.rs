@@ -270,6 +270,30 @@ impl MachineProfile {
             if let Some(f) = &c.fuzzy {
                 f.validate_at(file, &p("controller.fuzzy"))?;
             }
+            if let Some(f) = &a.command_filter {
+                let nyquist_hz = 0.5 / self.interpolation_cycle_s;
+                if !(f.frequency_hz > 0.0 && f.frequency_hz < nyquist_hz) {
+                    return Err(bad(
+                        p("command_filter.frequency_hz"),
+                        &format!("must lie between 0 and the Nyquist frequency {nyquist_hz} Hz"),
+                    ));
+                }
+                if !(1..=crate::servo::MAX_COMMAND_FILTER_ORDER).contains(&f.order) {
+                    return Err(bad(
+                        p("command_filter.order"),
+                        &format!("must be 1 to {}", crate::servo::MAX_COMMAND_FILTER_ORDER),
+                    ));
+                }
+            }
+            if let Some(m) = &a.resonance {
+                positive(m.frequency_hz, &p("resonance.frequency_hz"), file)?;
+                if !(m.damping_ratio > 0.0 && m.damping_ratio < 1.0) {
+                    return Err(bad(
+                        p("resonance.damping_ratio"),
+                        "must lie between 0 and 1 (a lightly damped mode)",
+                    ));
+                }
+            }
             match &a.plant {
                 PlantModel::VelocityLoop {
                     num,

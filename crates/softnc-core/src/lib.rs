@@ -26,4 +26,4 @@ pub mod store;
 
 pub use config::{AxisConfig, ConfigError, FeedProfile, MachineProfile, PlannerConfig, ToolEntry};
 pub use geom::{Plane, Primitive, Vec3};
-pub use ring::{LookaheadRing, RingError, RingSample};
+pub use ring::{CommandRing, LookaheadRing, RingError, RingSample, COMMAND_RING_CAPACITY};

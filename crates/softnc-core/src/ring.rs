@@ -7,6 +7,19 @@
 //! never absorbed), exposes the window [i−N, i+N] around the current sample, pads the
 //! past with the first sample and, once the end of the job is in, the future with the
 //! last. Fixed capacity, no allocation after construction.
+//!
+//! A filter of order N must start at rest and end at the job's final position, so a
+//! ring made with [`LookaheadRing::reset_padded`]`(N)` runs N cycles of the first
+//! sample before the job's first sample and N of the last after its last: the
+//! current index counts those cycles ([`LookaheadRing::current_index`]), the job's
+//! sample under it is [`LookaheadRing::source_index`].
+
+/// Capacity of the command ring between interpolation and position control: a window
+/// of ±[`crate::servo::MAX_COMMAND_FILTER_ORDER`] samples fits with room to spare.
+pub const COMMAND_RING_CAPACITY: usize = 2048;
+
+/// The ring of X, Y, Z command samples the position task (daemon and simulator) reads.
+pub type CommandRing = LookaheadRing<3, COMMAND_RING_CAPACITY>;
 
 /// One command sample as the ring stores it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -56,8 +69,11 @@ pub struct LookaheadRing<const AXES: usize, const CAP: usize> {
     first_seq: Option<u64>,
     /// Number of samples pushed.
     pushed: u64,
-    /// Index (0-based, from the job's first sample) of the current sample.
+    /// Index of the current cycle: `pad` lead-in cycles, then the job's samples, then
+    /// `pad` run-out cycles.
     current: u64,
+    /// Lead-in and run-out cycles (the filter order N).
+    pad: u64,
     ended: bool,
 }
 
@@ -75,11 +91,12 @@ impl<const AXES: usize, const CAP: usize> LookaheadRing<AXES, CAP> {
             first_seq: None,
             pushed: 0,
             current: 0,
+            pad: 0,
             ended: false,
         }
     }
 
-    /// Forget everything (a new job).
+    /// Forget everything (a new job), keeping the padding.
     pub fn reset(&mut self) {
         self.first_seq = None;
         self.pushed = 0;
@@ -87,14 +104,31 @@ impl<const AXES: usize, const CAP: usize> LookaheadRing<AXES, CAP> {
         self.ended = false;
     }
 
+    /// Forget everything (a new job) and run `pad` cycles of the first sample before
+    /// it and `pad` of the last after it (a filter of order `pad` then starts at rest
+    /// and ends at the final position).
+    pub fn reset_padded(&mut self, pad: usize) {
+        self.reset();
+        self.pad = pad as u64;
+    }
+
+    /// The job's sample (0-based) under the current cycle: the first during the
+    /// lead-in, the last during the run-out.
+    pub fn source_index(&self) -> u64 {
+        self.current
+            .saturating_sub(self.pad)
+            .min(self.pushed.saturating_sub(1))
+    }
+
     /// Capacity in samples.
     pub const fn capacity(&self) -> usize {
         CAP
     }
 
-    /// Samples pushed and not yet made current (the current one included).
+    /// Cycles whose command is in the ring from the current one on (the current one
+    /// included; lead-in cycles count).
     pub fn ahead(&self) -> u64 {
-        self.pushed.saturating_sub(self.current)
+        (self.pushed + self.pad).saturating_sub(self.current)
     }
 
     /// True once the job's last sample has been pushed.
@@ -102,7 +136,7 @@ impl<const AXES: usize, const CAP: usize> LookaheadRing<AXES, CAP> {
         self.ended
     }
 
-    /// Index of the current sample from the start of the job.
+    /// Index of the current cycle from the start of the job (lead-in included).
     pub fn current_index(&self) -> u64 {
         self.current
     }
@@ -129,7 +163,7 @@ impl<const AXES: usize, const CAP: usize> LookaheadRing<AXES, CAP> {
             });
         }
         // half the ring holds future samples, the other half the past window
-        if self.pushed - self.current >= (CAP / 2) as u64 {
+        if self.pushed - self.source_index() >= (CAP / 2) as u64 {
             return Err(RingError::Full { capacity: CAP });
         }
         self.first_seq.get_or_insert(sample.seq);
@@ -142,7 +176,9 @@ impl<const AXES: usize, const CAP: usize> LookaheadRing<AXES, CAP> {
     /// True when the window ±`n` around the current sample is available: `n` future
     /// samples are in, or the job's end is.
     pub fn ready(&self, n: usize) -> bool {
-        self.pushed > self.current && (self.ended || self.pushed > self.current + n as u64)
+        self.pushed > 0
+            && self.pushed + self.pad > self.current
+            && (self.ended || self.pushed + self.pad > self.current + n as u64)
     }
 
     /// Command position `offset` samples from the current one (−N..=N). Before the
@@ -152,7 +188,7 @@ impl<const AXES: usize, const CAP: usize> LookaheadRing<AXES, CAP> {
         if self.pushed == 0 {
             return None;
         }
-        let idx = self.current as i64 + offset;
+        let idx = self.current as i64 - self.pad as i64 + offset;
         let idx = if idx < 0 { 0 } else { idx as u64 };
         let idx = if idx >= self.pushed {
             if !self.ended {
@@ -168,10 +204,15 @@ impl<const AXES: usize, const CAP: usize> LookaheadRing<AXES, CAP> {
         Some(self.buf[(idx % CAP as u64) as usize])
     }
 
-    /// Make the next sample current. Returns false when there is none (ring dry or
-    /// job done).
+    /// Make the next cycle current. Returns false when there is none (ring dry, or
+    /// the job done: its last sample and the run-out passed).
     pub fn advance(&mut self) -> bool {
-        if self.current + 1 < self.pushed {
+        let end = if self.ended {
+            self.pushed + 2 * self.pad
+        } else {
+            self.pushed + self.pad
+        };
+        if self.current + 1 < end {
             self.current += 1;
             true
         } else {
@@ -207,6 +248,39 @@ mod tests {
         );
         assert_eq!(r.at(-1), Some([1.0]));
         assert!(!r.advance());
+    }
+
+    #[test]
+    fn padding_runs_lead_in_and_run_out_cycles() {
+        let mut r: LookaheadRing<1, 16> = LookaheadRing::new();
+        r.reset_padded(2);
+        r.push(s(0, 1.0), false).unwrap();
+        // lead-in: the window sees the first sample on both sides of the cycle
+        assert!(!r.ready(3));
+        assert!(r.ready(2));
+        assert_eq!(r.at(-2), Some([1.0]));
+        assert_eq!(r.at(2), Some([1.0]));
+        assert_eq!(r.at(3), None, "the job's second sample is not in");
+        r.push(s(1, 2.0), false).unwrap();
+        r.push(s(2, 3.0), true).unwrap();
+        assert_eq!(r.at(3), Some([2.0]));
+        let mut seen = vec![(r.current_index(), r.source_index(), r.at(0).unwrap()[0])];
+        while r.advance() {
+            seen.push((r.current_index(), r.source_index(), r.at(0).unwrap()[0]));
+        }
+        let expect = [
+            (0, 0, 1.0),
+            (1, 0, 1.0),
+            (2, 0, 1.0),
+            (3, 1, 2.0),
+            (4, 2, 3.0),
+            (5, 2, 3.0),
+            (6, 2, 3.0),
+        ];
+        assert_eq!(seen, expect);
+        assert_eq!(r.at(-2), Some([3.0]), "run-out: the last sample");
+        assert_eq!(r.at(-3), Some([2.0]));
+        assert_eq!(r.at(2), Some([3.0]));
     }
 
     #[test]

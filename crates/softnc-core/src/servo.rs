@@ -39,6 +39,13 @@ pub struct AxisServo {
     /// Disturbance compensation (paper 000 DOB/MBDA and PDC); none by default.
     #[serde(default)]
     pub compensation: crate::compensation::Compensation,
+    /// Zero-lag non-causal command filter (paper 002 eq 1–3); off when absent.
+    #[serde(default)]
+    pub command_filter: Option<CommandFilterConfig>,
+    /// A lightly damped structural mode between motor and table (simulated machine
+    /// only); none when absent.
+    #[serde(default)]
+    pub resonance: Option<StructuralMode>,
 }
 
 impl Default for AxisServo {
@@ -51,6 +58,8 @@ impl Default for AxisServo {
             controller: ControllerConfig::default(),
             noise_mm: 0.0,
             compensation: Default::default(),
+            command_filter: None,
+            resonance: None,
         }
     }
 }
@@ -205,4 +214,29 @@ impl CuttingDisturbance {
     pub fn frequency_hz(&self) -> f64 {
         self.spindle_rpm * self.flutes as f64 / 60.0
     }
+}
+
+/// Largest order N of the zero-lag command filter: its window of 2N + 1 samples must
+/// fit the position process's lookahead ring.
+pub const MAX_COMMAND_FILTER_ORDER: usize = 1000;
+
+/// The zero-lag non-causal FIR of paper 002 (eq 1–3) on one axis's command positions.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CommandFilterConfig {
+    /// Filter frequency f (Hz), below the Nyquist frequency of the cycle.
+    pub frequency_hz: f64,
+    /// Order N: the filter reads N past and N future command samples.
+    pub order: usize,
+}
+
+/// A structural mode between the motor (whose encoder the loop reads) and the table:
+/// ẍ_t = ω²(x_m − x_t) + 2ζω(ẋ_m − ẋ_t), ω = 2π·`frequency_hz`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StructuralMode {
+    /// Natural frequency (Hz).
+    pub frequency_hz: f64,
+    /// Damping ratio ζ (0 < ζ < 1; lightly damped: 0.01–0.05).
+    pub damping_ratio: f64,
 }

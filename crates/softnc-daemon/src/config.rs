@@ -129,6 +129,41 @@ impl DaemonConfig {
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let machine_path = dir.join(&config.machine);
         let machine = MachineProfile::load(&machine_path)?;
+        // the position process must hold the command filters' window (paper 002)
+        let needed = (0..3)
+            .filter_map(|i| machine.axis_servo(i).command_filter.map(|f| f.order))
+            .max()
+            .unwrap_or(0);
+        let window = crate::position::filter_window(config.lookahead_samples);
+        if needed > window {
+            return Err(bad(
+                "lookahead_samples",
+                &format!(
+                    "the machine's command filter reads {needed} samples ahead, the position \
+                     process keeps {window} for {} lookahead samples: raise it to at least {}",
+                    config.lookahead_samples,
+                    crate::position::lookahead_for_window(needed)
+                ),
+            ));
+        }
+        // the controller stacks must design (PDC eq 11–13, filters) before any process starts
+        if let Err(e) = softnc_sim::CycleEngine::try_new(
+            &machine,
+            softnc_sim::SimBackend::new(&machine, machine.servo.seed, Default::default()),
+        ) {
+            return Err(ConfigError::Invalid {
+                file: machine_path.display().to_string(),
+                path: match &e {
+                    softnc_sim::EngineError::Compensation(c) => {
+                        format!("servo.axes[{}].compensation", c.axis)
+                    }
+                    softnc_sim::EngineError::Filter { axis, .. } => {
+                        format!("servo.axes[{axis}].command_filter")
+                    }
+                },
+                reason: e.to_string(),
+            });
+        }
         let data_dir = dir.join(&config.data_dir);
         let iceoryx2_config = dir.join(&config.iceoryx2_config);
         if !iceoryx2_config.is_file() {

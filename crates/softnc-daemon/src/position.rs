@@ -11,7 +11,7 @@ use crate::bus::{Bus, Sub};
 use crate::config::{ClockMode, Loaded};
 use crate::outbox::OutMsg;
 use anyhow::Result;
-use softnc_core::{LookaheadRing, Primitive, RingSample, Vec3};
+use softnc_core::{CommandRing, Primitive, RingSample, Vec3, COMMAND_RING_CAPACITY};
 use softnc_ipc::{
     Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, FixedStr, Heartbeat,
     LoopStats as LoopStatsMsg, MachineState, PositionStatus, ProcessId, MAX_AXES,
@@ -19,9 +19,6 @@ use softnc_ipc::{
 use softnc_rt::{LoopStats, PeriodicClock};
 use softnc_sim::{CycleEngine, ServoBackend};
 use std::time::{Duration, Instant};
-
-/// Ring capacity: twice the largest lookahead.
-pub const RING_CAPACITY: usize = 2048;
 
 /// Decelerating along the path left in the ring after it ran dry.
 #[derive(Debug, Clone, Copy)]
@@ -42,7 +39,7 @@ pub struct PositionTask<B: ServoBackend> {
     engine: CycleEngine<B>,
     make_engine: EngineFactory<B>,
     trace: Option<crate::trace::TraceSink>,
-    ring: LookaheadRing<3, RING_CAPACITY>,
+    ring: CommandRing,
     window: usize,
     commands: Sub<CommandSample>,
     control: Sub<ControlCommand>,
@@ -77,6 +74,12 @@ impl<B: ServoBackend> PositionTask<B> {
         let names = softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance);
         let bus = Bus::new(names, "position")?;
         let window = filter_window(cfg.config.lookahead_samples);
+        // DaemonConfig::load refuses a filter wider than the window
+        anyhow::ensure!(
+            engine.filter_window() <= window,
+            "the command filter reads {} samples ahead, more than the {window} kept",
+            engine.filter_window()
+        );
         Ok(PositionTask {
             commands: bus.command_subscriber()?,
             control: bus.control_subscriber()?,
@@ -90,14 +93,14 @@ impl<B: ServoBackend> PositionTask<B> {
             engine,
             make_engine,
             trace: None,
-            ring: LookaheadRing::new(),
+            ring: CommandRing::new(),
             window,
             state: MachineState::Idle,
             job_id: 0,
             job_path: String::new(),
             primitives: Vec::new(),
             current: None,
-            flags: std::collections::VecDeque::with_capacity(RING_CAPACITY),
+            flags: std::collections::VecDeque::with_capacity(COMMAND_RING_CAPACITY),
             last_cmd: [0.0; 3],
             prev_cmd: [0.0; 3],
             dry: None,
@@ -213,7 +216,6 @@ impl<B: ServoBackend> PositionTask<B> {
     }
 
     fn start_job(&mut self, first: CommandSample) -> Result<()> {
-        self.ring.reset();
         self.flags.clear();
         self.job_id = first.job_id;
         self.last_job_id = first.job_id;
@@ -223,6 +225,8 @@ impl<B: ServoBackend> PositionTask<B> {
         // a fresh machine for every job, exactly as `softnc sim` starts one
         self.engine = (self.make_engine)();
         self.engine.reset(start);
+        // N lead-in and run-out cycles for the engine's command filters (paper 002)
+        self.ring.reset_padded(self.engine.filter_window());
         if let Some(t) = self.trace.take() {
             t.finish();
         }
@@ -321,11 +325,13 @@ impl<B: ServoBackend> PositionTask<B> {
                     cmd = self.dry_stop_step(stop);
                 }
             } else if let Some(p) = self.ring.at(0) {
-                cmd = p;
+                // the engine's command filters (paper 002 eq 1) read the window
+                // [i−N, i+N]: exactly what `softnc sim` steps
+                cmd = self.engine.command_filter().apply(&self.ring).unwrap_or(p);
                 let (motion, flags) = self.flags.front().copied().unwrap_or((0, 0));
                 feed_move = flags & CommandSample::FLAG_FEED_MOVE != 0;
                 self.current = Some(CommandSample {
-                    seq: self.ring.current_index(),
+                    seq: self.ring.source_index(),
                     job_id: self.job_id,
                     time_index: self.ring.current_index(),
                     pos_mm: [p[0], p[1], p[2], 0.0, 0.0, 0.0],
@@ -416,8 +422,11 @@ impl<B: ServoBackend> PositionTask<B> {
         self.last_cmd = cmd;
         // 6. advance
         if self.state == MachineState::Running && self.dry.is_none() {
+            let source = self.ring.source_index();
             if self.ring.advance() {
-                self.flags.pop_front();
+                if self.ring.source_index() > source {
+                    self.flags.pop_front();
+                }
             } else if self.ring.ended() {
                 // job complete: report once more as idle; the trace is closed by
                 // its own thread, not on the cycle path
@@ -524,6 +533,13 @@ impl<B: ServoBackend> PositionTask<B> {
 /// configured lookahead less a quarter of slack for the interpolator's latency.
 pub fn filter_window(lookahead_samples: usize) -> usize {
     (lookahead_samples - lookahead_samples / 4).max(1)
+}
+
+/// The smallest `lookahead_samples` whose [`filter_window`] holds `window` samples.
+pub fn lookahead_for_window(window: usize) -> usize {
+    (window..)
+        .find(|&l| filter_window(l) >= window)
+        .unwrap_or(window)
 }
 
 fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {

@@ -4,6 +4,7 @@
 use crate::cutting_disturbance::Cutting;
 use crate::encoder::Encoder;
 use crate::plant::{CommandMode, Plant};
+use crate::resonance::Resonance;
 use crate::rng::Rng;
 use softnc_core::MachineProfile;
 
@@ -104,6 +105,8 @@ pub struct SimBackend {
     plants: [Plant; MAX_AXES],
     encoders: [Encoder; MAX_AXES],
     substeps: [u32; MAX_AXES],
+    /// Structural modes between motor and table (axes that have one).
+    modes: [Option<Resonance>; MAX_AXES],
     cutting: Option<Cutting>,
     cutting_on: bool,
     options: SimOptions,
@@ -137,6 +140,12 @@ impl SimBackend {
             Encoder::new(res, noise, Rng::stream(seed, STREAM_NOISE + i as u64))
         });
         let substeps = [0, 1, 2].map(|i| plants[i].substeps(cycle_s));
+        let modes = [0, 1, 2].map(|i| {
+            profile
+                .axis_servo(i)
+                .resonance
+                .map(|m| Resonance::new(&m, cycle_s))
+        });
         let cutting = if options.cutting {
             profile.servo.cutting.as_ref().map(Cutting::new)
         } else {
@@ -146,6 +155,7 @@ impl SimBackend {
             plants,
             encoders,
             substeps,
+            modes,
             cutting,
             cutting_on: false,
             options,
@@ -168,9 +178,18 @@ impl SimBackend {
         &self.plants[axis]
     }
 
-    /// True (unmeasured) positions (mm).
+    /// True (unmeasured) positions (mm) of the motors, which the encoders read.
     pub fn true_pos_mm(&self) -> [f64; MAX_AXES] {
         [0, 1, 2].map(|i| self.plants[i].pos_mm())
+    }
+
+    /// True table positions (mm): the motor's, moved by the structural mode where the
+    /// axis has one.
+    pub fn table_pos_mm(&self) -> [f64; MAX_AXES] {
+        [0, 1, 2].map(|i| match &self.modes[i] {
+            Some(m) => m.table_mm(),
+            None => self.plants[i].pos_mm(),
+        })
     }
 
     /// The switches in force.
@@ -199,6 +218,11 @@ impl ServoBackend for SimBackend {
     fn home(&mut self, pos_mm: [f64; MAX_AXES]) {
         for (p, x) in self.plants.iter_mut().zip(pos_mm) {
             p.reset(x);
+        }
+        for (m, x) in self.modes.iter_mut().zip(pos_mm) {
+            if let Some(m) = m {
+                m.reset(x);
+            }
         }
         self.cmd = [0.0; MAX_AXES];
         for (i, c) in self.cmd.iter_mut().enumerate() {
@@ -230,6 +254,9 @@ impl ServoBackend for SimBackend {
                 current = plant.substep(input + dist, h);
             }
             self.currents[i] = current;
+            if let Some(m) = &mut self.modes[i] {
+                m.cycle(plant.pos_mm());
+            }
             self.status[i].stuck = match plant {
                 Plant::VelocityLoop(p) => p.speed_rad_per_s() == 0.0,
                 Plant::DcMotor(p) => p.vel_mm_per_s() == 0.0,

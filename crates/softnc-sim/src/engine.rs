@@ -5,9 +5,10 @@ use crate::backend::{BackendError, ServoBackend, SimBackend, SimOptions, MAX_AXE
 use crate::plant::CommandMode;
 use softnc_control::compensation::{AxisCompensation, CompensationError};
 use softnc_control::discrete_tf::DiscreteTf;
+use softnc_control::zero_lag_fir::{CommandFilter, FirDesignError};
 use softnc_control::AxisController;
 use softnc_core::servo::PlantModel;
-use softnc_core::MachineProfile;
+use softnc_core::{CommandRing, MachineProfile};
 
 /// Why an axis's disturbance compensation (paper 000) could not be designed.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
@@ -17,6 +18,32 @@ pub struct CompensationDesignError {
     pub axis: usize,
     /// What failed.
     pub error: CompensationError,
+}
+
+/// Why a profile's controller stacks could not be built.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum EngineError {
+    /// The disturbance compensation (paper 000) failed its design.
+    #[error(transparent)]
+    Compensation(#[from] CompensationDesignError),
+    /// The zero-lag command filter (paper 002) could not be designed.
+    #[error("servo.axes[{axis}].command_filter: {error}")]
+    Filter {
+        /// Axis index.
+        axis: usize,
+        /// What failed.
+        error: FirDesignError,
+    },
+}
+
+impl EngineError {
+    /// The axis whose design failed.
+    pub fn axis(&self) -> usize {
+        match self {
+            EngineError::Compensation(e) => e.axis,
+            EngineError::Filter { axis, .. } => *axis,
+        }
+    }
 }
 
 /// What one cycle produced.
@@ -35,6 +62,7 @@ pub struct CycleRecord {
 /// Controller stacks and a servo backend, stepped one cycle at a time.
 #[derive(Debug, Clone)]
 pub struct CycleEngine<B: ServoBackend> {
+    filter: CommandFilter<MAX_AXES>,
     controllers: [AxisController; MAX_AXES],
     modes: [CommandMode; MAX_AXES],
     mm_per_count: [f64; MAX_AXES],
@@ -56,8 +84,9 @@ impl<B: ServoBackend> CycleEngine<B> {
     /// The profile's controllers in front of `backend`.
     ///
     /// # Panics
-    /// When the profile's disturbance compensation cannot be designed (a PDC that
-    /// fails eq 11–13, an unstable MBDA, …); [`CycleEngine::try_new`] reports it.
+    /// When the profile's disturbance compensation or command filter cannot be
+    /// designed (a PDC that fails eq 11–13, an unstable MBDA, …);
+    /// [`CycleEngine::try_new`] reports it.
     pub fn new(profile: &MachineProfile, backend: B) -> Self {
         match Self::try_new(profile, backend) {
             Ok(e) => e,
@@ -66,9 +95,14 @@ impl<B: ServoBackend> CycleEngine<B> {
     }
 
     /// The profile's controllers, with their disturbance compensation designed for
-    /// the profile's spindle speed, in front of `backend`.
-    pub fn try_new(profile: &MachineProfile, backend: B) -> Result<Self, CompensationDesignError> {
+    /// the profile's spindle speed, and its command filters, in front of `backend`.
+    pub fn try_new(profile: &MachineProfile, backend: B) -> Result<Self, EngineError> {
         let mut e = Self::without_compensation(profile, backend);
+        e.filter = CommandFilter::design(
+            [0, 1, 2].map(|i| profile.axis_servo(i).command_filter),
+            profile.interpolation_cycle_s,
+        )
+        .map_err(|(axis, error)| EngineError::Filter { axis, error })?;
         let fd_hz = profile.servo.cutting.as_ref().map(|c| c.frequency_hz());
         e.design_compensation(profile, fd_hz)?;
         e.reset([0.0; MAX_AXES]);
@@ -138,6 +172,7 @@ impl<B: ServoBackend> CycleEngine<B> {
         let modes = [0, 1, 2].map(|i| backend.command_mode(i));
         let mm_per_count = [0, 1, 2].map(|i| backend.mm_per_count(i));
         let mut e = CycleEngine {
+            filter: CommandFilter::default(),
             controllers,
             modes,
             mm_per_count,
@@ -192,6 +227,30 @@ impl<B: ServoBackend> CycleEngine<B> {
             following_mm: [0, 1, 2].map(|i| cmd_mm[i] - actual_mm[i]),
             ctrl_out: out,
         })
+    }
+
+    /// Samples the command filters read ahead of (and behind) the current one: the
+    /// position task starts motion only when this many future samples are in.
+    pub fn filter_window(&self) -> usize {
+        self.filter.window()
+    }
+
+    /// The command filters (paper 002).
+    pub fn command_filter(&self) -> &CommandFilter<MAX_AXES> {
+        &self.filter
+    }
+
+    /// One cycle at the ring's current sample: the command filters (paper 002 eq 1)
+    /// read the window [i−N, i+N] and the controllers get the filtered command.
+    /// `None` (nothing stepped) until the window is in.
+    #[inline]
+    pub fn step_ring(
+        &mut self,
+        ring: &CommandRing,
+        cutting: bool,
+    ) -> Option<Result<CycleRecord, BackendError>> {
+        let cmd_mm = self.filter.apply(ring)?;
+        Some(self.step(cmd_mm, cutting))
     }
 
     /// The backend.

@@ -35,6 +35,8 @@ pub mod milling;
 pub mod plant;
 /// PMSM feed motor and its phase-current sensors (paper 003 eq 24–30).
 pub mod pmsm;
+/// A lightly damped structural mode between motor and table.
+pub mod resonance;
 /// Seeded generator (xoshiro256**, SplitMix64, Box–Muller).
 pub mod rng;
 /// Running a job: samples in, errors and trace out.
@@ -45,8 +47,8 @@ pub mod stick_slip;
 pub mod velocity_loop;
 
 pub use backend::{AxisStatus, BackendError, ServoBackend, SimBackend, SimOptions, MAX_AXES};
-pub use engine::{CompensationDesignError, CycleEngine, CycleRecord};
+pub use engine::{CompensationDesignError, CycleEngine, CycleRecord, EngineError};
 pub use metrics::ErrorStats;
 pub use plant::{CommandMode, Plant};
 pub use rng::Rng;
-pub use sim::{simulate, CommandSample, SimReport, TraceRow};
+pub use sim::{simulate, simulate_observed, CommandSample, SimReport, TraceRow};

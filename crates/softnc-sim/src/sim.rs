@@ -4,7 +4,8 @@
 use crate::backend::{BackendError, ServoBackend, MAX_AXES};
 use crate::engine::{CycleEngine, CycleRecord};
 use crate::metrics::ErrorStats;
-use softnc_core::{Primitive, Vec3};
+use softnc_core::{CommandRing, Primitive, RingSample, Vec3, COMMAND_RING_CAPACITY};
+use std::collections::VecDeque;
 
 /// One interpolated command sample (the planner's `Sample`, decoupled).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -46,8 +47,12 @@ pub struct SimReport {
     pub following: [ErrorStats; MAX_AXES],
 }
 
-/// Run `samples` through `engine` (reset at the first sample's position). `path(m)` is
-/// the programmed path of motion `m` (`None` for dwells); `observe` sees every cycle.
+/// Run `samples` through `engine` (reset at the first sample's position), exactly as
+/// the position task runs them: through the command ring, whose window
+/// [i−N, i+N] the engine's command filters read (paper 002), motion only when N
+/// future samples are in, the future padded with the last sample at the end.
+/// `path(m)` is the programmed path of motion `m` (`None` for dwells); `observe` sees
+/// every cycle.
 pub fn simulate<B, I, P, F>(
     engine: &mut CycleEngine<B>,
     cycle_s: f64,
@@ -61,15 +66,60 @@ where
     P: Fn(u32) -> Option<Primitive>,
     F: FnMut(&TraceRow),
 {
+    simulate_observed(engine, cycle_s, samples, path, |row, _| observe(row))
+}
+
+/// [`simulate`], with `observe` also seeing the engine after each cycle (for what
+/// the trace does not hold, e.g. the simulated table position).
+pub fn simulate_observed<B, I, P, F>(
+    engine: &mut CycleEngine<B>,
+    cycle_s: f64,
+    samples: I,
+    path: P,
+    mut observe: F,
+) -> Result<SimReport, BackendError>
+where
+    B: ServoBackend,
+    I: IntoIterator<Item = CommandSample>,
+    P: Fn(u32) -> Option<Primitive>,
+    F: FnMut(&TraceRow, &CycleEngine<B>),
+{
     let mut samples = samples.into_iter().peekable();
     let mut report = SimReport::default();
-    if let Some(first) = samples.peek() {
-        engine.reset(first.pos_mm);
-    }
-    for (k, s) in samples.enumerate() {
-        let record = engine.step(s.pos_mm, s.feed_move)?;
-        let contour_mm = if s.feed_move {
-            path(s.motion).map(|p| p.contour_error(Vec3(record.actual_mm)))
+    let Some(first) = samples.peek() else {
+        return Ok(report);
+    };
+    engine.reset(first.pos_mm);
+    let window = engine.filter_window();
+    let mut ring = Box::new(CommandRing::new());
+    // N cycles of lead-in and run-out: the filtered command starts at rest and ends
+    // at the final position
+    ring.reset_padded(window);
+    // (motion, feed move) of the job's samples from the current one on
+    let mut meta: VecDeque<(u32, bool)> = VecDeque::with_capacity(COMMAND_RING_CAPACITY);
+    let mut seq = 0u64;
+    for k in 0u64.. {
+        // the window, and the next cycle's sample (so `advance` never finds it dry)
+        while !ring.ended() && !ring.ready(window + 1) {
+            let Some(s) = samples.next() else { break };
+            let last = samples.peek().is_none();
+            ring.push(
+                RingSample {
+                    seq,
+                    pos_mm: s.pos_mm,
+                },
+                last,
+            )
+            .expect("the simulator fills the ring in order and within its capacity");
+            meta.push_back((s.motion, s.feed_move));
+            seq += 1;
+        }
+        let (motion, feed_move) = *meta.front().expect("a current sample");
+        let record = engine
+            .step_ring(&ring, feed_move)
+            .expect("the window is in: N future samples or the end")?;
+        let contour_mm = if feed_move {
+            path(motion).map(|p| p.contour_error(Vec3(record.actual_mm)))
         } else {
             None
         };
@@ -79,14 +129,24 @@ where
         for (st, e) in report.following.iter_mut().zip(record.following_mm) {
             st.add(e);
         }
-        observe(&TraceRow {
-            cycle: k as u64,
-            time_s: k as f64 * cycle_s,
-            motion: s.motion,
-            record,
-            contour_mm,
-        });
+        observe(
+            &TraceRow {
+                cycle: k,
+                time_s: k as f64 * cycle_s,
+                motion,
+                record,
+                contour_mm,
+            },
+            engine,
+        );
         report.cycles += 1;
+        let source = ring.source_index();
+        if !ring.advance() {
+            break;
+        }
+        if ring.source_index() > source {
+            meta.pop_front();
+        }
     }
     report.sim_time_s = report.cycles as f64 * cycle_s;
     Ok(report)

@@ -148,6 +148,6 @@ fn a_failing_design_is_refused_with_its_axis() {
         },
     );
     let err = CycleEngine::try_new(&m, SimBackend::new(&m, 1, SimOptions::default())).unwrap_err();
-    assert_eq!(err.axis, 0);
+    assert_eq!(err.axis(), 0);
     assert!(err.to_string().contains("eq 13"), "{err}");
 }
