@@ -4,14 +4,26 @@ mod common;
 use common::*;
 use softnc_core::{FeedProfile, Plane, Vec3};
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::cell::Cell;
 
 struct Counting;
-static ALLOCS: AtomicUsize = AtomicUsize::new(0);
+thread_local! {
+    // per thread: the test harness's own threads allocate while a test runs
+    static ALLOCS: Cell<usize> = const { Cell::new(0) };
+}
+
+fn count() {
+    // `try_with`: the slot may be gone while a thread is being torn down
+    let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
+}
+
+fn allocs() -> usize {
+    ALLOCS.with(|c| c.get())
+}
 
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        ALLOCS.fetch_add(1, Ordering::SeqCst);
+        count();
         // SAFETY: forwarding to the system allocator with the caller's layout.
         unsafe { System.alloc(l) }
     }
@@ -43,7 +55,7 @@ fn sample_generation_allocates_nothing() {
         b.line(0.0, 0.0, 0.0, 3000.0);
         let plan = plan_of(&b, &p);
         let mut it = plan.interpolator();
-        let before = ALLOCS.load(Ordering::SeqCst);
+        let before = allocs();
         let mut n = 0u64;
         let mut last = Vec3::ZERO;
         while let Some(s) = it.next() {
@@ -53,7 +65,7 @@ fn sample_generation_allocates_nothing() {
                 it.set_feed_override(1.7);
             }
         }
-        let after = ALLOCS.load(Ordering::SeqCst);
+        let after = allocs();
         assert!(n > 1000);
         assert_eq!(last, b.pos);
         assert_eq!(

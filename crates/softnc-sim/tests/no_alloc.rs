@@ -3,22 +3,34 @@
 use softnc_core::MachineProfile;
 use softnc_sim::{CycleEngine, SimOptions};
 use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 struct Counting;
-static ALLOCS: AtomicU64 = AtomicU64::new(0);
+thread_local! {
+    // per thread: the test harness's own threads allocate while a test runs
+    static ALLOCS: Cell<u64> = const { Cell::new(0) };
+}
+
+fn count() {
+    // `try_with`: the slot may be gone while a thread is being torn down
+    let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
+}
+
+fn allocs() -> u64 {
+    ALLOCS.with(|c| c.get())
+}
 
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCS.fetch_add(1, Ordering::SeqCst);
+        count();
         System.alloc(layout)
     }
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
         System.dealloc(ptr, layout)
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCS.fetch_add(1, Ordering::SeqCst);
+        count();
         System.realloc(ptr, layout, new_size)
     }
 }
@@ -40,14 +52,14 @@ fn cycle_step_allocates_nothing() {
         }
         let mut engine = CycleEngine::simulated(&p, 3, SimOptions::default());
         let t = p.interpolation_cycle_s;
-        let before = ALLOCS.load(Ordering::SeqCst);
+        let before = allocs();
         let mut sink = 0.0;
         for k in 0..20_000u32 {
             let x = 5.0 * (f64::from(k) * t).sin();
             let rec = engine.step([x, -x, 0.5 * x], k % 2 == 0).unwrap();
             sink += rec.following_mm[0];
         }
-        let after = ALLOCS.load(Ordering::SeqCst);
+        let after = allocs();
         assert!(sink.is_finite());
         assert_eq!(
             after - before,
@@ -56,4 +68,46 @@ fn cycle_step_allocates_nothing() {
             after - before
         );
     }
+}
+
+#[test]
+fn filtered_cycle_from_the_ring_allocates_nothing() {
+    // paper 002's zero-lag filter reading the command ring, and a structural mode
+    let path =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/machines/mill-resonance.ron");
+    let p = MachineProfile::load(&path).unwrap();
+    let mut engine = CycleEngine::simulated(&p, 3, SimOptions::default());
+    assert_eq!(engine.filter_window(), 75);
+    let t = p.interpolation_cycle_s;
+    let x = |k: u64| 5.0 * (k as f64 * t).sin();
+    let mut ring = Box::new(softnc_core::CommandRing::new());
+    ring.reset_padded(engine.filter_window());
+    let mut next = 0u64;
+    let mut push = |ring: &mut softnc_core::CommandRing| {
+        let s = softnc_core::RingSample {
+            seq: next,
+            pos_mm: [x(next), -x(next), 0.0],
+        };
+        ring.push(s, false).unwrap();
+        next += 1;
+    };
+    for _ in 0..200 {
+        push(&mut ring);
+    }
+    let before = allocs();
+    let mut sink = 0.0;
+    for _ in 0..20_000 {
+        push(&mut ring);
+        let rec = engine.step_ring(&ring, true).expect("window in").unwrap();
+        sink += rec.cmd_mm[0];
+        assert!(ring.advance());
+    }
+    let after = allocs();
+    assert!(sink.is_finite());
+    assert_eq!(
+        after - before,
+        0,
+        "{} allocations in 20 000 filtered cycles",
+        after - before
+    );
 }
