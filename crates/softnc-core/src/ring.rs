@@ -128,7 +128,7 @@ impl<const AXES: usize, const CAP: usize> LookaheadRing<AXES, CAP> {
     /// Cycles whose command is in the ring from the current one on (the current one
     /// included; lead-in cycles count).
     pub fn ahead(&self) -> u64 {
-        (self.pushed + self.pad).saturating_sub(self.current)
+        self.end_cycle().saturating_sub(self.current)
     }
 
     /// True once the job's last sample has been pushed.
@@ -177,8 +177,21 @@ impl<const AXES: usize, const CAP: usize> LookaheadRing<AXES, CAP> {
     /// samples are in, or the job's end is.
     pub fn ready(&self, n: usize) -> bool {
         self.pushed > 0
-            && self.pushed + self.pad > self.current
-            && (self.ended || self.pushed + self.pad > self.current + n as u64)
+            && if self.ended {
+                self.current < self.end_cycle()
+            } else {
+                self.pushed + self.pad > self.current + n as u64
+            }
+    }
+
+    /// One past the last cycle whose sample is in: the job's end and its run-out once
+    /// the end is in.
+    fn end_cycle(&self) -> u64 {
+        if self.ended {
+            self.pushed + 2 * self.pad
+        } else {
+            self.pushed + self.pad
+        }
     }
 
     /// Command position `offset` samples from the current one (−N..=N). Before the
@@ -207,12 +220,7 @@ impl<const AXES: usize, const CAP: usize> LookaheadRing<AXES, CAP> {
     /// Make the next cycle current. Returns false when there is none (ring dry, or
     /// the job done: its last sample and the run-out passed).
     pub fn advance(&mut self) -> bool {
-        let end = if self.ended {
-            self.pushed + 2 * self.pad
-        } else {
-            self.pushed + self.pad
-        };
-        if self.current + 1 < end {
+        if self.current + 1 < self.end_cycle() {
             self.current += 1;
             true
         } else {
@@ -266,6 +274,9 @@ mod tests {
         assert_eq!(r.at(3), Some([2.0]));
         let mut seen = vec![(r.current_index(), r.source_index(), r.at(0).unwrap()[0])];
         while r.advance() {
+            // the end is in: every cycle to the end of the run-out has its window
+            assert!(r.ready(2), "cycle {}", r.current_index());
+            assert_eq!(r.ahead(), 7 - r.current_index());
             seen.push((r.current_index(), r.source_index(), r.at(0).unwrap()[0]));
         }
         let expect = [
