@@ -167,7 +167,13 @@ impl AxisCompensation {
 
     /// Hand over a redesigned PDC; it is swapped in at the start of the next step.
     pub fn stage_pdc(&mut self, design: PdcDesign) {
-        self.staged = Some((design.h_taps, design.fd_hz));
+        self.stage_taps(design.h_taps, design.fd_hz);
+    }
+
+    /// Stage the taps of H = L·W designed for `fd_hz` (moved in: no allocation);
+    /// they are swapped in at the start of the next [`AxisCompensation::step`].
+    pub fn stage_taps(&mut self, h_taps: Vec<f64>, fd_hz: f64) {
+        self.staged = Some((h_taps, fd_hz));
     }
 
     /// The taps replaced by the last swap, to be dropped off the real-time path.

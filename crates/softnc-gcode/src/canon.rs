@@ -83,6 +83,9 @@ pub struct Motion {
     pub canon_end: Vec3,
     /// Arc centre in the program's units (zero for other motions).
     pub canon_center: Vec3,
+    /// Spindle speed while this motion runs (rpm): the S word in force while the
+    /// spindle turns (M3/M4), 0 while it is stopped (M5, or not started yet).
+    pub spindle_rpm: f64,
 }
 
 /// A value in program units as LinuxCNC's canonical output prints it (`%.4f`),

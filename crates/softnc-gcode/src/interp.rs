@@ -326,6 +326,9 @@ struct Interp<'a> {
     /// Tool selected by T, tool in the spindle after M6, and its length (mm).
     tool_selected: u32,
     spindle_length_mm: f64,
+    /// S word in force (rpm) and whether the spindle turns (M3/M4 vs M5).
+    s_rpm: f64,
+    spindle_on: bool,
     path: PathMode,
     motions: Vec<Motion>,
     warnings: Vec<String>,
@@ -366,6 +369,8 @@ impl<'a> Interp<'a> {
             tool_length_mm: 0.0,
             tool_selected: 0,
             spindle_length_mm: 0.0,
+            s_rpm: 0.0,
+            spindle_on: false,
             path: PathMode::default(),
             motions: Vec::new(),
             warnings: Vec::new(),
@@ -715,12 +720,23 @@ impl<'a> Interp<'a> {
                 self.feed = f;
             }
         }
+        // spindle speed (RS274 order: after the feed rate, before the tool)
+        if let Some(sw) = b.get(b'S') {
+            self.s_rpm = sw;
+        }
         // tool select
         if let Some(t) = b.get(b'T') {
             self.tool_length(t as i32, b.off(b'T'))?;
             self.tool_selected = t as u32;
         }
-        // M codes: tool change (spindle and coolant have no canonical motion)
+        // spindle on/off: the speed each motion runs at (for compensators tuned to
+        // the tooth frequency); M19 and M70–M73 of the group are refused earlier
+        match b.m_in(7) {
+            Some(3) | Some(4) => self.spindle_on = true,
+            Some(5) => self.spindle_on = false,
+            _ => {}
+        }
+        // M codes: tool change (coolant has no canonical motion)
         match b.m_in(6) {
             Some(6) => {
                 self.spindle_length_mm = self.tool_length(self.tool_selected as i32, 0)?;
@@ -761,6 +777,7 @@ impl<'a> Interp<'a> {
                 inch: self.inch,
                 canon_end: self.pos,
                 canon_center: Vec3::ZERO,
+                spindle_rpm: self.spindle_rpm(),
             });
         }
         match b.g_in(GM_PLANE) {
@@ -869,6 +886,15 @@ impl<'a> Interp<'a> {
         end
     }
 
+    /// Spindle speed now (rpm; 0 while stopped).
+    fn spindle_rpm(&self) -> f64 {
+        if self.spindle_on {
+            self.s_rpm
+        } else {
+            0.0
+        }
+    }
+
     fn push(&mut self, line_no: u32, kind: MotionKind, end: Vec3, center: Vec3) {
         self.motions.push(Motion {
             line: line_no,
@@ -879,6 +905,7 @@ impl<'a> Interp<'a> {
             inch: self.inch,
             canon_end: end,
             canon_center: center,
+            spindle_rpm: self.spindle_rpm(),
         });
         self.pos = end;
         self.canon_pos = end;

@@ -72,6 +72,9 @@ pub trait ServoBackend {
     /// Tell the machine whether the tool is cutting (simulation: switches the periodic
     /// cutting disturbance; a real backend ignores it).
     fn set_cutting(&mut self, _cutting: bool) {}
+    /// The spindle now turns at `rpm` (an S word took effect); backends whose
+    /// machine has no spindle ignore it.
+    fn set_spindle_rpm(&mut self, _rpm: f64) {}
 }
 
 /// Switches of the simulated machine's imperfections (all on by default).
@@ -278,5 +281,10 @@ impl ServoBackend for SimBackend {
     }
     fn set_cutting(&mut self, cutting: bool) {
         self.cutting_on = cutting;
+    }
+    fn set_spindle_rpm(&mut self, rpm: f64) {
+        if let Some(c) = &mut self.cutting {
+            c.set_spindle_rpm(rpm);
+        }
     }
 }

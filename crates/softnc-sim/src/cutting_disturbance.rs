@@ -6,6 +6,7 @@ use softnc_core::servo::CuttingDisturbance;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Cutting {
     omega_rad_per_s: f64,
+    flutes: f64,
     amplitude: [f64; 3],
     phase_rad: f64,
 }
@@ -15,6 +16,7 @@ impl Cutting {
     pub fn new(cfg: &CuttingDisturbance) -> Self {
         Cutting {
             omega_rad_per_s: std::f64::consts::TAU * cfg.frequency_hz(),
+            flutes: f64::from(cfg.flutes),
             amplitude: cfg.amplitude,
             phase_rad: cfg.phase_rad,
         }
@@ -23,6 +25,10 @@ impl Cutting {
     #[inline]
     pub fn at(&self, axis: usize, t_s: f64) -> f64 {
         self.amplitude[axis] * (self.omega_rad_per_s * t_s + self.phase_rad).sin()
+    }
+    /// The spindle now turns at `rpm`: f_d = rpm · flutes / 60 (eq 2).
+    pub fn set_spindle_rpm(&mut self, rpm: f64) {
+        self.omega_rad_per_s = std::f64::consts::TAU * rpm * self.flutes / 60.0;
     }
     /// Tooth frequency f_d (Hz, eq 2).
     pub fn frequency_hz(&self) -> f64 {
@@ -47,5 +53,8 @@ mod tests {
         assert!((c.at(0, 0.0) - 2.0).abs() < 1e-12);
         assert!((c.at(0, 0.01) + 2.0).abs() < 1e-12, "half a period later");
         assert_eq!(c.at(2, 0.003), 0.0);
+        let mut c = c;
+        c.set_spindle_rpm(1800.0);
+        assert!((c.frequency_hz() - 60.0).abs() < 1e-12);
     }
 }

@@ -63,6 +63,7 @@ pub struct CycleRecord {
 #[derive(Debug, Clone)]
 pub struct CycleEngine<B: ServoBackend> {
     filter: CommandFilter<MAX_AXES>,
+    spindle: Option<crate::spindle::SpindleSchedule>,
     controllers: [AxisController; MAX_AXES],
     modes: [CommandMode; MAX_AXES],
     mm_per_count: [f64; MAX_AXES],
@@ -173,6 +174,7 @@ impl<B: ServoBackend> CycleEngine<B> {
         let mm_per_count = [0, 1, 2].map(|i| backend.mm_per_count(i));
         let mut e = CycleEngine {
             filter: CommandFilter::default(),
+            spindle: None,
             controllers,
             modes,
             mm_per_count,
@@ -229,6 +231,84 @@ impl<B: ServoBackend> CycleEngine<B> {
         })
     }
 
+    /// The job's spindle speed per program motion (rpm, 0 = stopped; from its S, M3,
+    /// M4, M5 words): every axis's PDC is designed now for each speed (off the cycle
+    /// path: this allocates) and [`CycleEngine::step_ring`] swaps the designs in at the
+    /// cycle where a speed takes effect, and tells the backend. Without a cutting
+    /// section in the profile (no tooth frequency) there is nothing to follow.
+    pub fn set_spindle_schedule(
+        &mut self,
+        profile: &MachineProfile,
+        rpm_of_motion: &[f64],
+    ) -> Result<(), CompensationDesignError> {
+        let Some(cutting) = profile.servo.cutting.as_ref() else {
+            self.spindle = None;
+            return Ok(());
+        };
+        let mut s = crate::spindle::SpindleSchedule::new(
+            cutting.spindle_rpm,
+            f64::from(cutting.flutes),
+            rpm_of_motion,
+        );
+        for k in 1..s.speeds_rpm.len() {
+            let fd_hz = s.fd_hz[k];
+            for (axis, c) in self.controllers.iter().enumerate() {
+                let Some(designer) = c.compensation.as_deref().and_then(|c| c.pdc_designer())
+                else {
+                    continue;
+                };
+                let d = designer
+                    .design(fd_hz)
+                    .map_err(|e| CompensationDesignError {
+                        axis,
+                        error: e.into(),
+                    })?;
+                s.taps[k][axis] = Some((d.h_taps, d.fd_hz));
+            }
+        }
+        self.spindle = Some(s);
+        Ok(())
+    }
+
+    /// The spindle schedule of the job, if one was set.
+    pub fn spindle_schedule(&self) -> Option<&crate::spindle::SpindleSchedule> {
+        self.spindle.as_ref()
+    }
+
+    /// At a cycle boundary: put back the taps the last swap retired, and if motion
+    /// `motion` runs the spindle at another speed, stage its designs and tell the
+    /// backend. Moves vectors, never allocates.
+    fn follow_spindle(&mut self, motion: u32) {
+        let Some(s) = self.spindle.as_mut() else {
+            return;
+        };
+        if let Some(from) = s.retiring.take() {
+            for (axis, c) in self.controllers.iter_mut().enumerate() {
+                if let Some(comp) = c.compensation.as_deref_mut() {
+                    if let Some(t) = comp.take_retired() {
+                        s.taps[from][axis] = Some((t, s.fd_hz[from]));
+                    }
+                }
+            }
+        }
+        let Some(Some(k)) = s.speed_of_motion.get(motion as usize).copied() else {
+            return;
+        };
+        if k == s.active {
+            return;
+        }
+        for (axis, c) in self.controllers.iter_mut().enumerate() {
+            if let (Some(comp), Some((taps, fd_hz))) =
+                (c.compensation.as_deref_mut(), s.taps[k][axis].take())
+            {
+                comp.stage_taps(taps, fd_hz);
+            }
+        }
+        s.retiring = Some(s.active);
+        s.active = k;
+        self.backend.set_spindle_rpm(s.speeds_rpm[k]);
+    }
+
     /// Samples the command filters read ahead of (and behind) the current one: the
     /// position task starts motion only when this many future samples are in.
     pub fn filter_window(&self) -> usize {
@@ -240,16 +320,20 @@ impl<B: ServoBackend> CycleEngine<B> {
         &self.filter
     }
 
-    /// One cycle at the ring's current sample: the command filters (paper 002 eq 1)
-    /// read the window [i−N, i+N] and the controllers get the filtered command.
-    /// `None` (nothing stepped) until the window is in.
+    /// One cycle at the ring's current sample, of program motion `motion`: the
+    /// spindle speed of that motion takes effect (its PDC designs swapped in), the
+    /// command filters (paper 002 eq 1) read the window [i−N, i+N] and the
+    /// controllers get the filtered command. `None` (nothing stepped) until the
+    /// window is in.
     #[inline]
     pub fn step_ring(
         &mut self,
         ring: &CommandRing,
+        motion: u32,
         cutting: bool,
     ) -> Option<Result<CycleRecord, BackendError>> {
         let cmd_mm = self.filter.apply(ring)?;
+        self.follow_spindle(motion);
         Some(self.step(cmd_mm, cutting))
     }
 
@@ -263,3 +347,4 @@ impl<B: ServoBackend> CycleEngine<B> {
         &self.controllers[axis]
     }
 }
+

@@ -41,6 +41,8 @@ pub mod resonance;
 pub mod rng;
 /// Running a job: samples in, errors and trace out.
 pub mod sim;
+/// S words in a running job: PDC designs per spindle speed, swapped at the cycle.
+pub mod spindle;
 /// Karnopp stick–slip friction.
 pub mod stick_slip;
 /// Identified discrete velocity loops (paper 000 eq 35, 36).

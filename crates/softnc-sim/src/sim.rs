@@ -116,7 +116,7 @@ where
         }
         let (motion, feed_move) = *meta.front().expect("a current sample");
         let record = engine
-            .step_ring(&ring, feed_move)
+            .step_ring(&ring, motion, feed_move)
             .expect("the window is in: N future samples or the end")?;
         let contour_mm = if feed_move {
             path(motion).map(|p| p.contour_error(Vec3(record.actual_mm)))

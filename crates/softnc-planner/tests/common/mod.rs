@@ -38,6 +38,7 @@ impl Builder {
             inch: false,
             canon_end: kind.end().unwrap_or(self.pos),
             canon_center: Vec3::ZERO,
+            spindle_rpm: 0.0,
         });
         if let Some(e) = kind.end() {
             self.pos = e;
