@@ -172,6 +172,9 @@ fn simulator_trace(job: &Path, machine: &Path, out: &Path) {
         profile.servo.seed,
         softnc_sim::SimOptions::default(),
     );
+    engine
+        .set_spindle_schedule(&profile, plan.spindle_changes())
+        .unwrap();
     let mut file = softnc_daemon::trace::TraceFile::create(out).unwrap();
     let samples = plan.interpolator().map(|s| softnc_sim::sim::CommandSample {
         pos_mm: s.pos_mm.0,

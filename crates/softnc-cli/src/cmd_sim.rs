@@ -83,6 +83,11 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
     let cycle_s = plan.cycle_s();
     let total = plan.stats().samples;
     let mut engine = CycleEngine::simulated(&machine, seed, SimOptions::default());
+    // the job's S words: PDC designs per spindle speed, as the position process makes them
+    if let Err(e) = engine.set_spindle_schedule(&machine, plan.spindle_changes()) {
+        eprintln!("softnc: {}: a spindle speed of the job: {e}", args.file.display());
+        return Ok(ExitCode::from(crate::EXIT_REFUSED));
+    }
 
     let progress = if std::io::stderr().is_terminal() && !args.json {
         let bar = indicatif::ProgressBar::new(total);

@@ -49,6 +49,8 @@ pub struct PositionTask<B: ServoBackend> {
     job_id: u64,
     job_path: String,
     primitives: Vec<Option<Primitive>>,
+    /// The job's spindle speed changes (first motion, rpm), from its plan.
+    spindle_changes: Vec<(u32, f64)>,
     current: Option<CommandSample>,
     flags: std::collections::VecDeque<(u32, u32)>,
     last_cmd: [f64; 3],
@@ -99,6 +101,7 @@ impl<B: ServoBackend> PositionTask<B> {
             job_id: 0,
             job_path: String::new(),
             primitives: Vec::new(),
+            spindle_changes: Vec::new(),
             current: None,
             flags: std::collections::VecDeque::with_capacity(COMMAND_RING_CAPACITY),
             last_cmd: [0.0; 3],
@@ -227,6 +230,15 @@ impl<B: ServoBackend> PositionTask<B> {
         self.engine.reset(start);
         // N lead-in and run-out cycles for the engine's command filters (paper 002)
         self.ring.reset_padded(self.engine.filter_window());
+        // the PDC designs for every spindle speed of the job, before motion (paper 000)
+        if let Err(e) = self
+            .engine
+            .set_spindle_schedule(&self.cfg.machine, &self.spindle_changes)
+        {
+            self.state = MachineState::Faulted;
+            let msg = format!("job {}: a spindle speed of the job: {e}", first.job_id);
+            self.alarm(AlarmCode::Other, e.axis as u32, &msg)?;
+        }
         if let Some(t) = self.trace.take() {
             t.finish();
         }
@@ -286,12 +298,17 @@ impl<B: ServoBackend> PositionTask<B> {
                 Some(ControlKind::StartJob) => {
                     // the programmed path, for the contour error: read before motion
                     let path = c.path.as_str().to_string();
-                    self.primitives = match crate::interp::read_and_plan(&path, &self.cfg.machine) {
-                        Ok(plan) => (0..plan.motions())
-                            .map(|i| plan.motion_primitive(i))
-                            .collect(),
-                        Err(_) => Vec::new(), // the interpolator refuses it and raises the alarm
-                    };
+                    (self.primitives, self.spindle_changes) =
+                        match crate::interp::read_and_plan(&path, &self.cfg.machine) {
+                            Ok(plan) => (
+                                (0..plan.motions())
+                                    .map(|i| plan.motion_primitive(i))
+                                    .collect(),
+                                plan.spindle_changes().to_vec(),
+                            ),
+                            // the interpolator refuses it and raises the alarm
+                            Err(_) => (Vec::new(), Vec::new()),
+                        };
                     self.job_path = path;
                 }
                 _ => {}
@@ -301,6 +318,8 @@ impl<B: ServoBackend> PositionTask<B> {
         // 2. mode and position command
         let mut cmd = self.last_cmd;
         let mut feed_move = false;
+        // Some(motion) when this cycle steps the ring's current sample
+        let mut ring_motion = None;
         match self.state {
             MachineState::Idle => {
                 if self.job_id != 0 && self.ring.ready(self.window) {
@@ -325,11 +344,12 @@ impl<B: ServoBackend> PositionTask<B> {
                     cmd = self.dry_stop_step(stop);
                 }
             } else if let Some(p) = self.ring.at(0) {
-                // the engine's command filters (paper 002 eq 1) read the window
-                // [i−N, i+N]: exactly what `softnc sim` steps
-                cmd = self.engine.command_filter().apply(&self.ring).unwrap_or(p);
+                // stepped below by `step_ring`, which filters it (paper 002 eq 1) over
+                // the window [i−N, i+N]: exactly what `softnc sim` steps
+                cmd = p;
                 let (motion, flags) = self.flags.front().copied().unwrap_or((0, 0));
                 feed_move = flags & CommandSample::FLAG_FEED_MOVE != 0;
+                ring_motion = Some(motion);
                 self.current = Some(CommandSample {
                     seq: self.ring.source_index(),
                     job_id: self.job_id,
@@ -346,8 +366,15 @@ impl<B: ServoBackend> PositionTask<B> {
         let moving =
             matches!(self.state, MachineState::Running | MachineState::Held) || self.dry.is_some();
         let rec = if moving {
-            match self.engine.step(cmd, feed_move) {
-                Ok(r) => r,
+            let stepped = match ring_motion {
+                Some(motion) => self.engine.step_ring(&self.ring, motion, feed_move),
+                None => None,
+            };
+            match stepped.unwrap_or_else(|| self.engine.step(cmd, feed_move)) {
+                Ok(r) => {
+                    cmd = r.cmd_mm;
+                    r
+                }
                 Err(e) => {
                     self.state = MachineState::EStopped;
                     let msg = format!("servo backend fault: {e}");

@@ -56,6 +56,8 @@ pub struct PlanStats {
 pub struct Plan {
     path: Path,
     n_motions: usize,
+    /// (first motion, rpm) wherever the spindle speed changes (0 = stopped).
+    spindle_changes: Vec<(u32, f64)>,
     lim: Limits,
     brake_dist_mm: f64,
     max_override: f64,
@@ -190,6 +192,7 @@ struct Planner<'a> {
     bmax: Vec3,
     max_feed: f64,
     n_motions: usize,
+    spindle_changes: Vec<(u32, f64)>,
 }
 
 impl<'a> Planner<'a> {
@@ -210,6 +213,7 @@ impl<'a> Planner<'a> {
             bmax: Vec3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY),
             max_feed: 0.0,
             n_motions: 0,
+            spindle_changes: Vec::new(),
         }
     }
 
@@ -245,6 +249,10 @@ impl<'a> Planner<'a> {
                 _ => {}
             }
         }
+        let rpm_before = self.spindle_changes.last().map_or(0.0, |c| c.1);
+        if m.spindle_rpm != rpm_before {
+            self.spindle_changes.push((self.n_motions as u32, m.spindle_rpm));
+        }
         self.builder.push(self.n_motions, m, prim);
         self.n_motions += 1;
         Ok(())
@@ -277,6 +285,7 @@ impl<'a> Planner<'a> {
         Plan {
             path,
             n_motions: self.n_motions,
+            spindle_changes: self.spindle_changes,
             lim,
             brake_dist_mm,
             max_override: self.profile.planner.max_feed_override,
@@ -300,6 +309,11 @@ impl Plan {
     /// Number of program motions (dwells included).
     pub fn motions(&self) -> usize {
         self.n_motions
+    }
+    /// The spindle speed changes of the program: (first motion, rpm), in order; the
+    /// spindle is stopped (0 rpm) before the first.
+    pub fn spindle_changes(&self) -> &[(u32, f64)] {
+        &self.spindle_changes
     }
     /// Number of path elements (programmed pieces and blends).
     pub fn elements(&self) -> usize {

@@ -231,15 +231,16 @@ impl<B: ServoBackend> CycleEngine<B> {
         })
     }
 
-    /// The job's spindle speed per program motion (rpm, 0 = stopped; from its S, M3,
-    /// M4, M5 words): every axis's PDC is designed now for each speed (off the cycle
-    /// path: this allocates) and [`CycleEngine::step_ring`] swaps the designs in at the
-    /// cycle where a speed takes effect, and tells the backend. Without a cutting
-    /// section in the profile (no tooth frequency) there is nothing to follow.
+    /// The job's spindle speed changes ((first motion, rpm), 0 = stopped; from its
+    /// S, M3, M4, M5 words, `Plan::spindle_changes`): every axis's PDC is designed now
+    /// for each speed (off the cycle path: this allocates) and
+    /// [`CycleEngine::step_ring`] swaps the designs in at the cycle where a speed takes
+    /// effect, and tells the backend. Without a cutting section in the profile (no
+    /// flute count, no tooth frequency) there is nothing to follow.
     pub fn set_spindle_schedule(
         &mut self,
         profile: &MachineProfile,
-        rpm_of_motion: &[f64],
+        changes: &[(u32, f64)],
     ) -> Result<(), CompensationDesignError> {
         let Some(cutting) = profile.servo.cutting.as_ref() else {
             self.spindle = None;
@@ -248,22 +249,21 @@ impl<B: ServoBackend> CycleEngine<B> {
         let mut s = crate::spindle::SpindleSchedule::new(
             cutting.spindle_rpm,
             f64::from(cutting.flutes),
-            rpm_of_motion,
+            changes,
         );
         for k in 1..s.speeds_rpm.len() {
-            let fd_hz = s.fd_hz[k];
             for (axis, c) in self.controllers.iter().enumerate() {
                 let Some(designer) = c.compensation.as_deref().and_then(|c| c.pdc_designer())
                 else {
                     continue;
                 };
                 let d = designer
-                    .design(fd_hz)
+                    .design(s.fd_hz[k])
                     .map_err(|e| CompensationDesignError {
                         axis,
                         error: e.into(),
                     })?;
-                s.taps[k][axis] = Some((d.h_taps, d.fd_hz));
+                s.taps[k][axis] = Some(d.h_taps);
             }
         }
         self.spindle = Some(s);
@@ -286,22 +286,19 @@ impl<B: ServoBackend> CycleEngine<B> {
             for (axis, c) in self.controllers.iter_mut().enumerate() {
                 if let Some(comp) = c.compensation.as_deref_mut() {
                     if let Some(t) = comp.take_retired() {
-                        s.taps[from][axis] = Some((t, s.fd_hz[from]));
+                        s.taps[from][axis] = Some(t);
                     }
                 }
             }
         }
-        let Some(Some(k)) = s.speed_of_motion.get(motion as usize).copied() else {
+        let Some(k) = s.change_at(motion) else {
             return;
         };
-        if k == s.active {
-            return;
-        }
         for (axis, c) in self.controllers.iter_mut().enumerate() {
-            if let (Some(comp), Some((taps, fd_hz))) =
+            if let (Some(comp), Some(taps)) =
                 (c.compensation.as_deref_mut(), s.taps[k][axis].take())
             {
-                comp.stage_taps(taps, fd_hz);
+                comp.stage_taps(taps, s.fd_hz[k]);
             }
         }
         s.retiring = Some(s.active);

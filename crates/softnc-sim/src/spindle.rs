@@ -7,15 +7,17 @@
 
 use crate::backend::MAX_AXES;
 
-/// Taps of H = L·W for one tooth frequency (Hz), while not running.
-pub type Taps = Option<(Vec<f64>, f64)>;
+/// Taps of H = L·W for one tooth frequency, while not running.
+pub type Taps = Option<Vec<f64>>;
 
 /// The spindle speeds of a job and their PDC designs.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct SpindleSchedule {
-    /// Index into `speeds_rpm` per program motion; `None` while the spindle is stopped
-    /// (the running design stays).
-    pub(crate) speed_of_motion: Vec<Option<usize>>,
+    /// (first motion, index into `speeds_rpm`) where the speed changes; stops (0 rpm)
+    /// are left out: the running design stays while the spindle stands.
+    pub(crate) changes: Vec<(u32, usize)>,
+    /// The next change to take effect.
+    pub(crate) next: usize,
     /// Distinct spindle speeds (rpm); entry 0 is the one designed at start.
     pub(crate) speeds_rpm: Vec<f64>,
     /// Their tooth frequencies f_d = rpm · flutes / 60 (Hz, eq 2).
@@ -29,29 +31,29 @@ pub struct SpindleSchedule {
 }
 
 impl SpindleSchedule {
-    /// Speeds of `rpm_of_motion` (0 = stopped), with `start_rpm` running now, on a
-    /// tool of `flutes` flutes.
-    pub fn new(start_rpm: f64, flutes: f64, rpm_of_motion: &[f64]) -> Self {
+    /// The speed changes `changes` ((first motion, rpm), 0 = stopped) of a job, with
+    /// `start_rpm` running now, on a tool of `flutes` flutes.
+    pub fn new(start_rpm: f64, flutes: f64, changes: &[(u32, f64)]) -> Self {
         let mut speeds_rpm = vec![start_rpm];
-        let speed_of_motion = rpm_of_motion
+        let changes = changes
             .iter()
-            .map(|&rpm| {
-                if rpm <= 0.0 {
-                    return None;
-                }
-                Some(match speeds_rpm.iter().position(|&s| s == rpm) {
-                    Some(i) => i,
+            .filter(|c| c.1 > 0.0)
+            .map(|&(motion, rpm)| {
+                let k = match speeds_rpm.iter().position(|&s| s == rpm) {
+                    Some(k) => k,
                     None => {
                         speeds_rpm.push(rpm);
                         speeds_rpm.len() - 1
                     }
-                })
+                };
+                (motion, k)
             })
             .collect();
         let taps = speeds_rpm.iter().map(|_| [None, None, None]).collect();
         let fd_hz = speeds_rpm.iter().map(|rpm| rpm * flutes / 60.0).collect();
         SpindleSchedule {
-            speed_of_motion,
+            changes,
+            next: 0,
             speeds_rpm,
             fd_hz,
             taps,
@@ -69,6 +71,19 @@ impl SpindleSchedule {
     pub fn active_rpm(&self) -> f64 {
         self.speeds_rpm[self.active]
     }
+
+    /// The speed to switch to when motion `motion` runs, if it changes now.
+    pub(crate) fn change_at(&mut self, motion: u32) -> Option<usize> {
+        let mut to = None;
+        while let Some(&(m, k)) = self.changes.get(self.next) {
+            if m > motion {
+                break;
+            }
+            to = Some(k);
+            self.next += 1;
+        }
+        to.filter(|&k| k != self.active)
+    }
 }
 
 #[cfg(test)]
@@ -76,14 +91,21 @@ mod tests {
     use super::*;
 
     #[test]
-    fn distinct_speeds_in_order_of_first_use() {
-        let s = SpindleSchedule::new(1500.0, 2.0, &[0.0, 1200.0, 1200.0, 1500.0, 1800.0, 0.0]);
+    fn distinct_speeds_and_changes_in_motion_order() {
+        let mut s = SpindleSchedule::new(
+            1500.0,
+            2.0,
+            &[(1, 1200.0), (4, 1500.0), (6, 1800.0), (9, 0.0), (10, 1200.0)],
+        );
         assert_eq!(s.speeds_rpm(), &[1500.0, 1200.0, 1800.0]);
         assert_eq!(s.fd_hz, vec![50.0, 40.0, 60.0]);
-        assert_eq!(
-            s.speed_of_motion,
-            vec![None, Some(1), Some(1), Some(0), Some(2), None]
-        );
-        assert_eq!(s.active_rpm(), 1500.0);
+        assert_eq!(s.change_at(0), None);
+        assert_eq!(s.change_at(1), Some(1));
+        s.active = 1;
+        assert_eq!(s.change_at(3), None);
+        assert_eq!(s.change_at(7), Some(2), "a change passed over lands on the latest");
+        s.active = 2;
+        assert_eq!(s.change_at(9), None, "a stop keeps the running design");
+        assert_eq!(s.change_at(10), Some(1));
     }
 }

@@ -151,3 +151,73 @@ fn a_failing_design_is_refused_with_its_axis() {
     assert_eq!(err.axis(), 0);
     assert!(err.to_string().contains("eq 13"), "{err}");
 }
+
+/// RMS of the X following error minus its mean over the last second of a 2 mm/s
+/// move along X stepped through the command ring: motion 0 for the first second,
+/// motion 1 after it.
+fn ripple_rms_ring(engine: &mut CycleEngine<SimBackend>) -> f64 {
+    let t = 0.001;
+    engine.reset([0.0; 3]);
+    let mut ring = Box::new(softnc_core::CommandRing::new());
+    ring.reset_padded(engine.filter_window());
+    let x = |k: u64| 2.0 * t * k as f64;
+    let mut errs = Vec::new();
+    for k in 0..3000u64 {
+        ring.push(
+            softnc_core::RingSample {
+                seq: k,
+                pos_mm: [x(k), 0.0, 0.0],
+            },
+            k == 2999,
+        )
+        .unwrap();
+        let motion = u32::from(k >= 1000);
+        engine.step_ring(&ring, motion, true).unwrap().unwrap();
+        if k >= 2000 {
+            errs.push(x(k) - engine.backend().true_pos_mm()[0]);
+        }
+        ring.advance();
+    }
+    let mean = errs.iter().sum::<f64>() / errs.len() as f64;
+    (errs.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / errs.len() as f64).sqrt()
+}
+
+#[test]
+fn an_s_word_mid_job_redesigns_the_pdc_at_its_cycle() {
+    let base = tnv40();
+    let comp = Compensation {
+        outer: OuterCompensator::None,
+        pdc: Some(pdc()),
+    };
+    let opts = SimOptions {
+        quantisation: false,
+        ..SimOptions::default()
+    };
+    let m1500 = with(&base, comp.clone());
+    let mut m1800 = m1500.clone();
+    m1800.servo.cutting.as_mut().unwrap().spindle_rpm = 1800.0;
+    // the job: S1500 M3 from motion 0, S1800 from motion 1
+    let changes = [(0u32, 1500.0), (1, 1800.0)];
+    let mut followed = CycleEngine::simulated(&m1500, 1, opts);
+    followed.set_spindle_schedule(&m1500, &changes).unwrap();
+    assert_eq!(
+        followed.spindle_schedule().unwrap().speeds_rpm(),
+        &[1500.0, 1800.0]
+    );
+    let e_followed = ripple_rms_ring(&mut followed);
+    assert_eq!(followed.spindle_schedule().unwrap().active_rpm(), 1800.0);
+    // the same machine turning at 1800 rpm with the PDC still designed for 1500
+    let mut stale = CycleEngine::try_new(&m1500, SimBackend::new(&m1800, 1, opts)).unwrap();
+    let e_stale = ripple_rms_ring(&mut stale);
+    // and a job at 1800 rpm from the start
+    let mut direct = CycleEngine::simulated(&m1800, 1, opts);
+    let e_direct = ripple_rms_ring(&mut direct);
+    assert!(e_followed < 0.5 * e_stale, "{e_followed} vs stale {e_stale}");
+    assert!(
+        (e_followed - e_direct).abs() < 0.1 * e_direct + 1e-6,
+        "{e_followed} vs direct {e_direct}"
+    );
+    // a speed whose design fails eq 13 refuses the job before motion
+    let mut bad = CycleEngine::simulated(&m1500, 1, opts);
+    assert!(bad.set_spindle_schedule(&m1500, &[(0, 29_000.0)]).is_err());
+}
