@@ -12,11 +12,17 @@ fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
+/// One daemon at a time: each runs three processes with real-time loops, and on a
+/// small machine several at once starve each other's clocks.
+static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// A daemon on a fresh instance; shut down (killed if it hangs) on drop.
 struct Daemon {
     child: Child,
     config: PathBuf,
     dir: PathBuf,
+    /// Held until the daemon is shut down (fields drop after `Drop::drop`).
+    _serial: std::sync::MutexGuard<'static, ()>,
 }
 
 impl Daemon {
@@ -26,6 +32,8 @@ impl Daemon {
 
     /// A daemon on the machine profile `config/machines/{machine}`.
     fn start_on(tag: &str, clock: &str, trace: bool, machine: &str) -> Daemon {
+        // a failed test poisons the lock; the next one may still run
+        let serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
         let dir = std::env::temp_dir().join(format!("softnc-e2e-{tag}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(dir.join("machines")).unwrap();
@@ -64,7 +72,12 @@ impl Daemon {
             .env("RUST_LOG", "warn")
             .spawn()
             .unwrap();
-        Daemon { child, config, dir }
+        Daemon {
+            child,
+            config,
+            dir,
+            _serial: serial,
+        }
     }
 
     fn operator(&self) -> Operator {
