@@ -85,7 +85,10 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
     let mut engine = CycleEngine::simulated(&machine, seed, SimOptions::default());
     // the job's S words: PDC designs per spindle speed, as the position process makes them
     if let Err(e) = engine.set_spindle_schedule(&machine, plan.spindle_changes()) {
-        eprintln!("softnc: {}: a spindle speed of the job: {e}", args.file.display());
+        eprintln!(
+            "softnc: {}: a spindle speed of the job: {e}",
+            args.file.display()
+        );
         return Ok(ExitCode::from(crate::EXIT_REFUSED));
     }
 

@@ -251,7 +251,8 @@ impl<'a> Planner<'a> {
         }
         let rpm_before = self.spindle_changes.last().map_or(0.0, |c| c.1);
         if m.spindle_rpm != rpm_before {
-            self.spindle_changes.push((self.n_motions as u32, m.spindle_rpm));
+            self.spindle_changes
+                .push((self.n_motions as u32, m.spindle_rpm));
         }
         self.builder.push(self.n_motions, m, prim);
         self.n_motions += 1;

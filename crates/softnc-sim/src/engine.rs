@@ -344,4 +344,3 @@ impl<B: ServoBackend> CycleEngine<B> {
         &self.controllers[axis]
     }
 }
-

@@ -95,7 +95,13 @@ mod tests {
         let mut s = SpindleSchedule::new(
             1500.0,
             2.0,
-            &[(1, 1200.0), (4, 1500.0), (6, 1800.0), (9, 0.0), (10, 1200.0)],
+            &[
+                (1, 1200.0),
+                (4, 1500.0),
+                (6, 1800.0),
+                (9, 0.0),
+                (10, 1200.0),
+            ],
         );
         assert_eq!(s.speeds_rpm(), &[1500.0, 1200.0, 1800.0]);
         assert_eq!(s.fd_hz, vec![50.0, 40.0, 60.0]);
@@ -103,7 +109,11 @@ mod tests {
         assert_eq!(s.change_at(1), Some(1));
         s.active = 1;
         assert_eq!(s.change_at(3), None);
-        assert_eq!(s.change_at(7), Some(2), "a change passed over lands on the latest");
+        assert_eq!(
+            s.change_at(7),
+            Some(2),
+            "a change passed over lands on the latest"
+        );
         s.active = 2;
         assert_eq!(s.change_at(9), None, "a stop keeps the running design");
         assert_eq!(s.change_at(10), Some(1));

@@ -212,7 +212,10 @@ fn an_s_word_mid_job_redesigns_the_pdc_at_its_cycle() {
     // and a job at 1800 rpm from the start
     let mut direct = CycleEngine::simulated(&m1800, 1, opts);
     let e_direct = ripple_rms_ring(&mut direct);
-    assert!(e_followed < 0.5 * e_stale, "{e_followed} vs stale {e_stale}");
+    assert!(
+        e_followed < 0.5 * e_stale,
+        "{e_followed} vs stale {e_stale}"
+    );
     assert!(
         (e_followed - e_direct).abs() < 0.1 * e_direct + 1e-6,
         "{e_followed} vs direct {e_direct}"

@@ -98,7 +98,10 @@ fn filtered_cycle_from_the_ring_allocates_nothing() {
     let mut sink = 0.0;
     for _ in 0..20_000 {
         push(&mut ring);
-        let rec = engine.step_ring(&ring, 0, true).expect("window in").unwrap();
+        let rec = engine
+            .step_ring(&ring, 0, true)
+            .expect("window in")
+            .unwrap();
         sink += rec.cmd_mm[0];
         assert!(ring.advance());
     }
