@@ -119,11 +119,7 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
     let mut trace_err: Option<anyhow::Error> = None;
 
     let path_of = |m: u32| plan.motion_primitive(m as usize);
-    let samples = plan.interpolator().map(|s| CommandSample {
-        pos_mm: s.pos_mm.0,
-        motion: s.motion,
-        feed_move: s.feed_move,
-    });
+    let samples = command_samples(&plan);
     let started = Instant::now();
     let report = simulate(&mut engine, cycle_s, samples, path_of, |row: &TraceRow| {
         if let Some(w) = trace.as_mut() {
@@ -212,6 +208,15 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
 }
 
 /// Outward unit normal of the contour-error field at `p` (its gradient), in XY.
+/// The plan's sample stream as the simulator takes it.
+pub fn command_samples(plan: &softnc_planner::Plan) -> impl Iterator<Item = CommandSample> + '_ {
+    plan.interpolator().map(|s| CommandSample {
+        pos_mm: s.pos_mm.0,
+        motion: s.motion,
+        feed_move: s.feed_move,
+    })
+}
+
 fn normal_xy(prim: &Primitive, p: [f64; 3]) -> [f64; 2] {
     let d = 1e-6;
     let e = |dx: f64, dy: f64| prim.contour_error(Vec3::new(p[0] + dx, p[1] + dy, p[2]));

@@ -36,14 +36,7 @@ impl PreparedJob {
         let program = softnc_gcode::read_program(text, name, machine).map_err(|e| e.to_string())?;
         let plan = softnc_planner::plan(&program, machine, &Default::default())
             .map_err(|e| e.to_string())?;
-        let mut samples: Vec<CommandSample> = plan
-            .interpolator()
-            .map(|s| CommandSample {
-                pos_mm: s.pos_mm.0,
-                motion: s.motion,
-                feed_move: s.feed_move,
-            })
-            .collect();
+        let mut samples: Vec<CommandSample> = crate::cmd_sim::command_samples(&plan).collect();
         let cycle_s = plan.cycle_s();
         if let Some(last) = samples.last().copied() {
             let hold = (HOLD_S / cycle_s).round() as usize;

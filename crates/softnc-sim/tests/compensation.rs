@@ -53,6 +53,11 @@ fn ripple_rms(
             errs.push(x - engine.backend().true_pos_mm()[0]);
         }
     }
+    detrended_rms(&errs)
+}
+
+/// RMS of `errs` about their mean.
+fn detrended_rms(errs: &[f64]) -> f64 {
     let mean = errs.iter().sum::<f64>() / errs.len() as f64;
     (errs.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / errs.len() as f64).sqrt()
 }
@@ -178,8 +183,7 @@ fn ripple_rms_ring(engine: &mut CycleEngine<SimBackend>) -> f64 {
         }
         ring.advance();
     }
-    let mean = errs.iter().sum::<f64>() / errs.len() as f64;
-    (errs.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / errs.len() as f64).sqrt()
+    detrended_rms(&errs)
 }
 
 #[test]

@@ -98,14 +98,7 @@ pub fn experiment(machine: &MachineProfile) -> Result<FilterResult> {
         softnc_gcode::read_program(&text, PROGRAM, machine).map_err(|e| anyhow::anyhow!("{e}"))?;
     let plan = softnc_planner::plan(&program, machine, &Default::default())
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let raw: Vec<CommandSample> = plan
-        .interpolator()
-        .map(|s| CommandSample {
-            pos_mm: s.pos_mm.0,
-            motion: s.motion,
-            feed_move: s.feed_move,
-        })
-        .collect();
+    let raw: Vec<CommandSample> = crate::cmd_sim::command_samples(&plan).collect();
     let n = filter.order;
     // the last cycle at which each axis's raw command still changes
     let last_change = AXES.map(|a| {
@@ -139,11 +132,12 @@ pub fn experiment(machine: &MachineProfile) -> Result<FilterResult> {
         / plan.cycle_s();
 
     let run = |profile: &MachineProfile| -> Result<Run> {
-        let pad = profile.axis_servo(0).command_filter.map_or(0, |f| f.order);
         let mut engine = CycleEngine::try_new(
             profile,
             softnc_sim::SimBackend::new(profile, profile.servo.seed, SimOptions::default()),
         )?;
+        // the filter's lead-in cycles before the job's first sample
+        let pad = engine.filter_window();
         let mut r = Run::default();
         let report = simulate_observed(
             &mut engine,
