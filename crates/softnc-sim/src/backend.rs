@@ -283,8 +283,9 @@ impl ServoBackend for SimBackend {
         self.cutting_on = cutting;
     }
     fn set_spindle_rpm(&mut self, rpm: f64) {
+        let t_s = self.cycle as f64 * self.cycle_s;
         if let Some(c) = &mut self.cutting {
-            c.set_spindle_rpm(rpm);
+            c.set_spindle_rpm(rpm, t_s);
         }
     }
 }

@@ -26,9 +26,14 @@ impl Cutting {
     pub fn at(&self, axis: usize, t_s: f64) -> f64 {
         self.amplitude[axis] * (self.omega_rad_per_s * t_s + self.phase_rad).sin()
     }
-    /// The spindle now turns at `rpm`: f_d = rpm · flutes / 60 (eq 2).
-    pub fn set_spindle_rpm(&mut self, rpm: f64) {
-        self.omega_rad_per_s = std::f64::consts::TAU * rpm * self.flutes / 60.0;
+    /// From time `t_s` on the spindle turns at `rpm`: f_d = rpm · flutes / 60 (eq 2).
+    /// The tooth phase runs on without a jump.
+    pub fn set_spindle_rpm(&mut self, rpm: f64, t_s: f64) {
+        let omega = std::f64::consts::TAU * rpm * self.flutes / 60.0;
+        if omega != self.omega_rad_per_s {
+            self.phase_rad += (self.omega_rad_per_s - omega) * t_s;
+            self.omega_rad_per_s = omega;
+        }
     }
     /// Tooth frequency f_d (Hz, eq 2).
     pub fn frequency_hz(&self) -> f64 {
@@ -54,7 +59,12 @@ mod tests {
         assert!((c.at(0, 0.01) + 2.0).abs() < 1e-12, "half a period later");
         assert_eq!(c.at(2, 0.003), 0.0);
         let mut c = c;
-        c.set_spindle_rpm(1800.0);
+        let before = c.at(0, 0.0123);
+        c.set_spindle_rpm(1800.0, 0.0123);
         assert!((c.frequency_hz() - 60.0).abs() < 1e-12);
+        assert!(
+            (c.at(0, 0.0123) - before).abs() < 1e-12,
+            "the tooth phase runs on without a jump"
+        );
     }
 }

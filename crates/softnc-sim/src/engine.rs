@@ -231,42 +231,70 @@ impl<B: ServoBackend> CycleEngine<B> {
         })
     }
 
+    /// The designer of the job's PDC tables: each axis's PDC designer and the
+    /// distinct programmed speeds of `changes` ((first motion, rpm), 0 = stopped; from
+    /// its S, M3, M4, M5 words, `Plan::spindle_changes`). `None` without a cutting
+    /// section in the profile (no flute count, no tooth frequency: nothing to follow).
+    /// Allocates: call it off the cycle path, and hand the designer to a design thread
+    /// for the operator's spindle overrides.
+    pub fn spindle_designer(
+        &self,
+        profile: &MachineProfile,
+        changes: &[(u32, f64)],
+    ) -> Option<crate::spindle::SpindleDesigner> {
+        let cutting = profile.servo.cutting.as_ref()?;
+        let (speeds_rpm, _) = crate::spindle::SpindleSchedule::plan(cutting.spindle_rpm, changes);
+        Some(crate::spindle::SpindleDesigner {
+            designers: [0, 1, 2].map(|i| {
+                self.controllers[i]
+                    .compensation
+                    .as_deref()
+                    .and_then(|c| c.pdc_designer())
+                    .cloned()
+            }),
+            speeds_rpm,
+            flutes: f64::from(cutting.flutes),
+        })
+    }
+
     /// The job's spindle speed changes ((first motion, rpm), 0 = stopped; from its
-    /// S, M3, M4, M5 words, `Plan::spindle_changes`): every axis's PDC is designed now
-    /// for each speed (off the cycle path: this allocates) and
-    /// [`CycleEngine::step_ring`] swaps the designs in at the cycle where a speed takes
-    /// effect, and tells the backend. Without a cutting section in the profile (no
-    /// flute count, no tooth frequency) there is nothing to follow.
+    /// S, M3, M4, M5 words, `Plan::spindle_changes`) at spindle override
+    /// `override_frac`: every axis's PDC is designed now for each speed (off the cycle
+    /// path: this allocates) and [`CycleEngine::step_ring`] swaps the designs in at the
+    /// cycle where a speed takes effect, and tells the backend. Without a cutting
+    /// section in the profile there is nothing to follow.
     pub fn set_spindle_schedule(
         &mut self,
         profile: &MachineProfile,
         changes: &[(u32, f64)],
+        override_frac: f64,
     ) -> Result<(), CompensationDesignError> {
-        let Some(cutting) = profile.servo.cutting.as_ref() else {
+        let Some(designer) = self.spindle_designer(profile, changes) else {
             self.spindle = None;
             return Ok(());
         };
-        let mut s = crate::spindle::SpindleSchedule::new(
-            cutting.spindle_rpm,
-            f64::from(cutting.flutes),
+        let table = designer.design(override_frac)?;
+        let (speeds_rpm, changes) = crate::spindle::SpindleSchedule::plan(
+            designer.speeds_rpm[0],
             changes,
         );
-        for k in 1..s.speeds_rpm.len() {
-            for (axis, c) in self.controllers.iter().enumerate() {
-                let Some(designer) = c.compensation.as_deref().and_then(|c| c.pdc_designer())
-                else {
-                    continue;
-                };
-                let d = designer
-                    .design(s.fd_hz[k])
-                    .map_err(|e| CompensationDesignError {
-                        axis,
-                        error: e.into(),
-                    })?;
-                s.taps[k][axis] = Some(d.h_taps);
-            }
-        }
-        self.spindle = Some(s);
+        // the design running now (the profile's speed, no override) is replaced by the
+        // table's first speed at the first cycle, like an installed override
+        let slots = vec![[None, None, None]; speeds_rpm.len()];
+        self.spindle = Some(crate::spindle::SpindleSchedule {
+            changes,
+            next: 0,
+            speeds_rpm,
+            table,
+            active: 0,
+            retiring: None,
+            installed: true,
+            replaced: Some(Box::new(crate::spindle::SpindleDesigns {
+                override_frac: 1.0,
+                fd_hz: Vec::new(),
+                taps: slots,
+            })),
+        });
         Ok(())
     }
 
@@ -275,35 +303,96 @@ impl<B: ServoBackend> CycleEngine<B> {
         self.spindle.as_ref()
     }
 
-    /// At a cycle boundary: put back the taps the last swap retired, and if motion
-    /// `motion` runs the spindle at another speed, stage its designs and tell the
-    /// backend. Moves vectors, never allocates.
-    fn follow_spindle(&mut self, motion: u32) {
+    /// Install the designs of a new spindle override (made by the job's
+    /// [`crate::spindle::SpindleDesigner`] on a design thread): the running speed's
+    /// design and the spindle's new speed take effect at the next cycle boundary.
+    /// Moves vectors, never allocates. Refused (the designs come back) without a
+    /// schedule, for another job's table, or while the table replaced last is still
+    /// waiting for [`CycleEngine::take_replaced_spindle_designs`].
+    pub fn install_spindle_designs(
+        &mut self,
+        mut designs: Box<crate::spindle::SpindleDesigns>,
+    ) -> Result<(), Box<crate::spindle::SpindleDesigns>> {
+        self.collect_retired();
+        let Some(s) = self.spindle.as_mut() else {
+            return Err(designs);
+        };
+        if s.replaced.is_some() || s.installed || designs.taps.len() != s.table.taps.len() {
+            return Err(designs);
+        }
+        std::mem::swap(&mut s.table, &mut *designs);
+        s.installed = true;
+        s.replaced = Some(designs);
+        Ok(())
+    }
+
+    /// The table the last override (or the job's start) replaced, once the taps that
+    /// ran from it are back in it: drop it off the cycle path.
+    pub fn take_replaced_spindle_designs(
+        &mut self,
+    ) -> Option<Box<crate::spindle::SpindleDesigns>> {
+        self.collect_retired();
+        let s = self.spindle.as_mut()?;
+        if s.installed || matches!(s.retiring, Some(crate::spindle::Retiring::Replaced(_))) {
+            return None;
+        }
+        s.replaced.take()
+    }
+
+    /// Put the taps the last swap retired back where they belong.
+    fn collect_retired(&mut self) {
+        use crate::spindle::Retiring;
         let Some(s) = self.spindle.as_mut() else {
             return;
         };
-        if let Some(from) = s.retiring.take() {
-            for (axis, c) in self.controllers.iter_mut().enumerate() {
-                if let Some(comp) = c.compensation.as_deref_mut() {
-                    if let Some(t) = comp.take_retired() {
-                        s.taps[from][axis] = Some(t);
-                    }
-                }
-            }
-        }
-        let Some(k) = s.change_at(motion) else {
+        let Some(retiring) = s.retiring.take() else {
             return;
         };
         for (axis, c) in self.controllers.iter_mut().enumerate() {
-            if let (Some(comp), Some(taps)) =
-                (c.compensation.as_deref_mut(), s.taps[k][axis].take())
-            {
-                comp.stage_taps(taps, s.fd_hz[k]);
+            let Some(t) = c.compensation.as_deref_mut().and_then(|c| c.take_retired()) else {
+                continue;
+            };
+            let slot = match retiring {
+                Retiring::Table(k) => s.table.taps.get_mut(k),
+                Retiring::Replaced(k) => s.replaced.as_mut().and_then(|r| r.taps.get_mut(k)),
+            };
+            if let Some(slot) = slot {
+                slot[axis] = Some(t);
             }
         }
-        s.retiring = Some(s.active);
+    }
+
+    /// At a cycle boundary: put back the taps the last swap retired; if motion
+    /// `motion` runs the spindle at another speed, or a new override's table was
+    /// installed, stage the design of the speed that runs now and tell the backend.
+    /// Moves vectors, never allocates.
+    fn follow_spindle(&mut self, motion: u32) {
+        use crate::spindle::Retiring;
+        self.collect_retired();
+        let Some(s) = self.spindle.as_mut() else {
+            return;
+        };
+        let k = match s.change_at(motion) {
+            Some(k) => k,
+            None if s.installed => s.active,
+            None => return,
+        };
+        for (axis, c) in self.controllers.iter_mut().enumerate() {
+            if let (Some(comp), Some(taps)) =
+                (c.compensation.as_deref_mut(), s.table.taps[k][axis].take())
+            {
+                comp.stage_taps(taps, s.table.fd_hz[k]);
+            }
+        }
+        // the taps running now are of the replaced table if one was installed
+        s.retiring = Some(if s.installed {
+            Retiring::Replaced(s.active)
+        } else {
+            Retiring::Table(s.active)
+        });
+        s.installed = false;
         s.active = k;
-        self.backend.set_spindle_rpm(s.speeds_rpm[k]);
+        self.backend.set_spindle_rpm(s.effective_rpm());
     }
 
     /// Samples the command filters read ahead of (and behind) the current one: the

@@ -161,6 +161,14 @@ fn a_failing_design_is_refused_with_its_axis() {
 /// move along X stepped through the command ring: motion 0 for the first second,
 /// motion 1 after it.
 fn ripple_rms_ring(engine: &mut CycleEngine<SimBackend>) -> f64 {
+    ripple_rms_ring_with(engine, |_, _| {})
+}
+
+/// [`ripple_rms_ring`] with `between(k, engine)` called before cycle `k`.
+fn ripple_rms_ring_with(
+    engine: &mut CycleEngine<SimBackend>,
+    mut between: impl FnMut(u64, &mut CycleEngine<SimBackend>),
+) -> f64 {
     let t = 0.001;
     engine.reset([0.0; 3]);
     let mut ring = Box::new(softnc_core::CommandRing::new());
@@ -177,6 +185,7 @@ fn ripple_rms_ring(engine: &mut CycleEngine<SimBackend>) -> f64 {
         )
         .unwrap();
         let motion = u32::from(k >= 1000);
+        between(k, engine);
         engine.step_ring(&ring, motion, true).unwrap().unwrap();
         if k >= 2000 {
             errs.push(x(k) - engine.backend().true_pos_mm()[0]);
@@ -203,7 +212,7 @@ fn an_s_word_mid_job_redesigns_the_pdc_at_its_cycle() {
     // the job: S1500 M3 from motion 0, S1800 from motion 1
     let changes = [(0u32, 1500.0), (1, 1800.0)];
     let mut followed = CycleEngine::simulated(&m1500, 1, opts);
-    followed.set_spindle_schedule(&m1500, &changes).unwrap();
+    followed.set_spindle_schedule(&m1500, &changes, 1.0).unwrap();
     assert_eq!(
         followed.spindle_schedule().unwrap().speeds_rpm(),
         &[1500.0, 1800.0]
@@ -226,5 +235,75 @@ fn an_s_word_mid_job_redesigns_the_pdc_at_its_cycle() {
     );
     // a speed whose design fails eq 13 refuses the job before motion
     let mut bad = CycleEngine::simulated(&m1500, 1, opts);
-    assert!(bad.set_spindle_schedule(&m1500, &[(0, 29_000.0)]).is_err());
+    assert!(bad.set_spindle_schedule(&m1500, &[(0, 29_000.0)], 1.0).is_err());
+}
+
+#[test]
+fn a_spindle_override_mid_job_redesigns_every_speed_off_the_cycle() {
+    let base = tnv40();
+    let comp = Compensation {
+        outer: OuterCompensator::None,
+        pdc: Some(pdc()),
+    };
+    let opts = SimOptions {
+        quantisation: false,
+        ..SimOptions::default()
+    };
+    let m1500 = with(&base, comp.clone());
+    let mut m1800 = m1500.clone();
+    m1800.servo.cutting.as_mut().unwrap().spindle_rpm = 1800.0;
+    // the job runs S1500 throughout; the operator turns the spindle override to 120 %
+    // at 0.5 s: a design thread makes the table, the cycle installs it
+    let changes = [(0u32, 1500.0)];
+    let mut overridden = CycleEngine::simulated(&m1500, 1, opts);
+    overridden
+        .set_spindle_schedule(&m1500, &changes, 1.0)
+        .unwrap();
+    let designer = overridden.spindle_designer(&m1500, &changes).unwrap();
+    let designs = std::thread::spawn(move || designer.design(1.2).unwrap())
+        .join()
+        .unwrap();
+    assert_eq!(designs.fd_hz, vec![60.0], "1500 rpm × 120 % × 2 flutes / 60");
+    let mut designs = Some(Box::new(designs));
+    let mut replaced = Vec::new();
+    let e_overridden = ripple_rms_ring_with(&mut overridden, |k, e| {
+        if let Some(old) = e.take_replaced_spindle_designs() {
+            replaced.push((k, old));
+        }
+        if k == 500 {
+            e.install_spindle_designs(designs.take().unwrap()).unwrap();
+        }
+    });
+    let s = overridden.spindle_schedule().unwrap();
+    assert_eq!((s.override_frac(), s.effective_rpm()), (1.2, 1800.0));
+    assert_eq!(s.active_fd_hz(), 60.0);
+    // the job's start table comes back after the first cycle, the override's
+    // replaced table after the cycle that swapped it, holding the taps that ran
+    assert_eq!(replaced.len(), 2, "{:?}", replaced.iter().map(|r| r.0).collect::<Vec<_>>());
+    assert_eq!(replaced[1].0, 501, "back before the cycle after the swap");
+    assert_eq!(replaced[1].1.override_frac, 1.0);
+    assert!(replaced[1].1.taps[0][0].is_some(), "the 1500 rpm taps came back");
+    // the machine turning at 1800 rpm with the PDC still designed for 1500
+    let mut stale = CycleEngine::try_new(&m1500, SimBackend::new(&m1800, 1, opts)).unwrap();
+    let e_stale = ripple_rms_ring(&mut stale);
+    // and a job at 1800 rpm from the start
+    let mut direct = CycleEngine::simulated(&m1800, 1, opts);
+    let e_direct = ripple_rms_ring(&mut direct);
+    eprintln!(
+        "ripple RMS after a 120 % override: redesigned {:.3} µm, stale {:.3} µm, at 1800 rpm from the start {:.3} µm",
+        e_overridden * 1e3,
+        e_stale * 1e3,
+        e_direct * 1e3
+    );
+    assert!(
+        e_overridden < 0.5 * e_stale,
+        "{e_overridden} vs stale {e_stale}"
+    );
+    assert!(
+        (e_overridden - e_direct).abs() < 0.1 * e_direct + 1e-6,
+        "{e_overridden} vs direct {e_direct}"
+    );
+    // an override whose design fails eq 13 is refused on the design thread
+    let designer = overridden.spindle_designer(&m1500, &changes).unwrap();
+    assert!(designer.design(19.0).is_err());
 }
