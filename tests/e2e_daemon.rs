@@ -186,7 +186,7 @@ fn simulator_trace(job: &Path, machine: &Path, out: &Path) {
         softnc_sim::SimOptions::default(),
     );
     engine
-        .set_spindle_schedule(&profile, plan.spindle_changes())
+        .set_spindle_schedule(&profile, plan.spindle_changes(), 1.0)
         .unwrap();
     let mut file = softnc_daemon::trace::TraceFile::create(out).unwrap();
     let samples = plan.interpolator().map(|s| softnc_sim::sim::CommandSample {
@@ -448,5 +448,57 @@ fn feed_hold_stops_motion_within_the_ring_depth_and_resume_finishes_the_job() {
     assert_eq!(b["job"]["outcome"], "running");
     op.request(ControlKind::Resume, 0.0, "").unwrap();
     let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+}
+
+#[test]
+fn a_spindle_override_redesigns_the_pdc_in_a_running_job_and_stays_for_the_next() {
+    let d = Daemon::start_on("spindle", "Realtime", false, "tnv40-pdc.ron");
+    let op = d.operator();
+    // outside the profile's 50..=120 %: refused, nothing sent
+    let r = op.request(ControlKind::SpindleOverride, 1.5, "").unwrap();
+    assert_eq!(r.accepted, 0, "{}", r.message.as_str());
+    assert!(
+        r.message.as_str().contains("50..=120 %"),
+        "{}",
+        r.message.as_str()
+    );
+    // a 2 s cut at 1500 rpm (f_d = 50 Hz with the profile's two flutes)
+    let job = d.dir.join("cut.ngc");
+    std::fs::write(
+        &job,
+        "G21 G90 G17 G94\nG0 X0 Y0\nS1500 M3\nG1 X4 F120\nM5\nM2\n",
+    )
+    .unwrap();
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let first = r.job_id;
+    let s = d.wait_status(&op, Duration::from_secs(20), "cutting at 1500 rpm", |s| {
+        s["job"]["cycles"].as_u64().unwrap_or(0) > 300 && s["spindle_rpm"] == 1500.0
+    });
+    assert_eq!(s["spindle_override"], 1.0);
+    let r = op.request(ControlKind::SpindleOverride, 1.2, "").unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    // designed off the cycle, swapped in with the new speed while the job runs
+    let s = d.wait_status(&op, Duration::from_secs(5), "1800 rpm", |s| {
+        s["spindle_rpm"] == 1800.0
+    });
+    assert_eq!(s["job"]["outcome"], "running", "{s}");
+    let s = d.wait_job(&op, first, Duration::from_secs(30));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    assert!(
+        s["alarms"].as_array().unwrap().is_empty(),
+        "no alarm: {}",
+        s["alarms"]
+    );
+    // the override is the machine's, not the job's: the next job starts at 1800 rpm
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let s = d.wait_status(&op, Duration::from_secs(20), "second job cutting", |s| {
+        s["job"]["job_id"].as_u64() == Some(r.job_id)
+            && s["job"]["cycles"].as_u64().unwrap_or(0) > 100
+    });
+    assert_eq!(s["spindle_rpm"], 1800.0, "{s}");
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(30));
     assert_eq!(s["job"]["outcome"], "completed", "{s}");
 }

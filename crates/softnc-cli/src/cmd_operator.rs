@@ -28,6 +28,14 @@ pub enum OperatorCmd {
         /// Percent.
         pct: f64,
     },
+    /// Set the spindle override (percent of the programmed speed, within the
+    /// profile's `spindle` range; 50..=120 by default). The PDC of every axis is
+    /// redesigned for the new tooth frequency off the cycle and swapped in with the
+    /// new speed.
+    SpindleOverride {
+        /// Percent.
+        pct: f64,
+    },
     /// Emergency stop.
     Estop,
     /// Reset after a fault or E-stop.
@@ -98,6 +106,7 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
         OperatorCmd::Hold => simple(ControlKind::Hold, 0.0),
         OperatorCmd::Resume => simple(ControlKind::Resume, 0.0),
         OperatorCmd::Override { pct } => simple(ControlKind::FeedOverride, pct / 100.0),
+        OperatorCmd::SpindleOverride { pct } => simple(ControlKind::SpindleOverride, pct / 100.0),
         OperatorCmd::Estop => simple(ControlKind::EStop, 0.0),
         OperatorCmd::Reset => simple(ControlKind::Reset, 0.0),
         OperatorCmd::Shutdown => simple(ControlKind::Shutdown, 0.0),

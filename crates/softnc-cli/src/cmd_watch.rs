@@ -1,6 +1,7 @@
 //! `softnc watch`: a terminal UI — axis positions, following and contour error, job
 //! progress, alarms, loop jitter and a live plot of the contour error. Keys: q quit,
-//! h hold, r resume, + / − override ±10 %, e E-stop, x reset.
+//! h hold, r resume, + / − feed override ±10 %, ] / [ spindle override ±10 %, e E-stop,
+//! x reset.
 
 use anyhow::Result;
 use ratatui::crossterm::event::{self, Event, KeyCode};
@@ -44,6 +45,8 @@ pub fn run(config: &Path) -> Result<ExitCode> {
             if event::poll(Duration::from_millis(100))? {
                 if let Event::Key(k) = event::read()? {
                     let ov = s["feed_override"].as_f64().unwrap_or(1.0);
+                    // the MMI refuses what is outside the profile's spindle range
+                    let sov = s["spindle_override"].as_f64().unwrap_or(1.0);
                     let req = match k.code {
                         KeyCode::Char('q') | KeyCode::Esc => return Ok(()),
                         KeyCode::Char('h') => Some((ControlKind::Hold, 0.0)),
@@ -54,6 +57,8 @@ pub fn run(config: &Path) -> Result<ExitCode> {
                         KeyCode::Char('-') => {
                             Some((ControlKind::FeedOverride, (ov - 0.1).max(0.0)))
                         }
+                        KeyCode::Char(']') => Some((ControlKind::SpindleOverride, sov + 0.1)),
+                        KeyCode::Char('[') => Some((ControlKind::SpindleOverride, sov - 0.1)),
                         KeyCode::Char('e') => Some((ControlKind::EStop, 0.0)),
                         KeyCode::Char('x') => Some((ControlKind::Reset, 0.0)),
                         _ => None,
@@ -94,9 +99,11 @@ fn draw(
         .split(frame.area());
     let job = &s["job"];
     let head = format!(
-        "state {}   override {:.0} %   job {} {}   interp {}  position {}   {}",
+        "state {}   feed {:.0} %   spindle {:.0} % {:.0} rpm   job {} {}   interp {}  position {}   {}",
         s["state"].as_str().unwrap_or("?"),
         f(&s["feed_override"]) * 100.0,
+        f(&s["spindle_override"]) * 100.0,
+        f(&s["spindle_rpm"]),
         job["job_id"],
         job["path"].as_str().unwrap_or(""),
         s["processes"]["interp"].as_str().unwrap_or("?"),
@@ -207,9 +214,9 @@ fn draw(
         .collect();
     frame.render_widget(
         List::new(alarms).block(
-            Block::default()
-                .borders(Borders::ALL)
-                .title("alarms (q quit, h hold, r resume, +/- override, e E-stop, x reset)"),
+            Block::default().borders(Borders::ALL).title(
+                "alarms (q quit, h hold, r resume, +/- feed, ]/[ spindle, e E-stop, x reset)",
+            ),
         ),
         bottom[1],
     );

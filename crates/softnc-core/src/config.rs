@@ -125,6 +125,29 @@ pub struct MachineProfile {
     /// experiments; absent on machines without it.
     #[serde(default)]
     pub force: Option<crate::force::ForceProfile>,
+    /// The operator's spindle override.
+    #[serde(default)]
+    pub spindle: SpindleConfig,
+}
+
+/// The spindle as the operator sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpindleConfig {
+    /// Smallest spindle override, as a fraction of the programmed speed.
+    pub min_override: f64,
+    /// Largest spindle override, as a fraction of the programmed speed.
+    pub max_override: f64,
+}
+
+impl Default for SpindleConfig {
+    /// The 50–120 % of a Fanuc control's spindle override switch.
+    fn default() -> Self {
+        SpindleConfig {
+            min_override: 0.5,
+            max_override: 1.2,
+        }
+    }
 }
 
 impl MachineProfile {
@@ -211,6 +234,20 @@ impl MachineProfile {
                     "must be finite and >= 0",
                 ));
             }
+        }
+        finite(self.spindle.min_override, "spindle.min_override", file)?;
+        finite(self.spindle.max_override, "spindle.max_override", file)?;
+        if !(self.spindle.min_override > 0.0 && self.spindle.min_override <= 1.0) {
+            return Err(bad(
+                "spindle.min_override".into(),
+                "must be above 0 and at most 1.0 (100 %)",
+            ));
+        }
+        if !(1.0..=2.55).contains(&self.spindle.max_override) {
+            return Err(bad(
+                "spindle.max_override".into(),
+                "must be between 1.0 and 2.55",
+            ));
         }
         self.validate_servo(file)?;
         if let Some(f) = &self.force {
@@ -472,6 +509,30 @@ mod tests {
             .to_string();
         assert!(err.contains("axes[0].max_acc_mm_per_s2"), "{err}");
         assert!(err.starts_with("m.ron"), "{err}");
+    }
+
+    #[test]
+    fn spindle_override_range_defaults_and_is_checked() {
+        let p = MachineProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
+        assert_eq!(p.spindle, SpindleConfig::default());
+        let text = DEFAULT.replacen(
+            "planner: (",
+            "spindle: (min_override: 0.5, max_override: 0.9),\n    planner: (",
+            1,
+        );
+        assert_ne!(text, DEFAULT, "fixture text changed");
+        let err = MachineProfile::from_ron_str(&text, "m.ron")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("spindle.max_override"), "{err}");
+        let text = text.replace(
+            "min_override: 0.5, max_override: 0.9",
+            "min_override: 0.0, max_override: 1.5",
+        );
+        let err = MachineProfile::from_ron_str(&text, "m.ron")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("spindle.min_override"), "{err}");
     }
 
     #[test]

@@ -6,6 +6,8 @@
 //!   position process's consumption so the lookahead ring stays filled.
 //! - [`position`]: `softnc-position`, lookahead ring → controller stack → servo
 //!   backend, faults and status.
+//! - [`prep`]: the position process's preparation thread: jobs' paths, engines,
+//!   traces and PDC designs (S words, spindle override), made off the cycle.
 //! - [`outbox`]: the position loop's messages leave through a lock-free queue.
 //! - [`mmi`]: `softnc-mmi`, job checks, machine state, alarms, history, operator API.
 //! - [`supervisor`]: `softncd`, starts, watches, restarts and stops the processes.
@@ -22,5 +24,6 @@ pub mod interp;
 pub mod mmi;
 pub mod outbox;
 pub mod position;
+pub mod prep;
 pub mod supervisor;
 pub mod trace;

@@ -339,6 +339,26 @@ impl MmiTask {
                 self.send_control(kind, 0, r.value, "")?;
                 Self::reply(true, 0, &format!("feed override {:.0} %", r.value * 100.0))
             }
+            ControlKind::SpindleOverride => {
+                let range = self.cfg.machine.spindle;
+                if !(range.min_override..=range.max_override).contains(&r.value) {
+                    return Ok(Self::reply(
+                        false,
+                        0,
+                        &format!(
+                            "spindle override must be {:.0}..={:.0} % (the profile's spindle section)",
+                            range.min_override * 100.0,
+                            range.max_override * 100.0
+                        ),
+                    ));
+                }
+                self.send_control(kind, 0, r.value, "")?;
+                Self::reply(
+                    true,
+                    0,
+                    &format!("spindle override {:.0} %", r.value * 100.0),
+                )
+            }
             ControlKind::Hold
             | ControlKind::Resume
             | ControlKind::Abort
@@ -395,6 +415,8 @@ impl MmiTask {
         serde_json::json!({
             "state": format!("{:?}", self.machine_state()),
             "feed_override": self.feed_override,
+            "spindle_override": s.map(|s| s.spindle_override),
+            "spindle_rpm": s.map(|s| s.spindle_rpm),
             "job": job.map(|j| serde_json::json!({
                 "job_id": j.job_id, "path": j.path, "outcome": j.outcome,
                 "cycles": j.cycles, "planned_samples": j.planned_samples,

@@ -6,10 +6,16 @@
 //! Motion starts only when the ring holds `window` future samples. If the ring runs
 //! dry mid-job (the interpolator died or stalled), the axes decelerate along the path
 //! still in the ring and the machine is faulted with an alarm.
+//!
+//! Nothing on the cycle reads a file or allocates: a job's programmed path, its fresh
+//! engine, its trace file and its PDC designs, and the redesigns a spindle override
+//! asks for, are made by the preparation thread ([`crate::prep`]) and swapped in at a
+//! cycle boundary; motion starts only when the job's preparation is in.
 
 use crate::bus::{Bus, Sub};
 use crate::config::{ClockMode, Loaded};
 use crate::outbox::OutMsg;
+use crate::prep::{JobPrep, Prep, PrepRequest, Prepared, Retired};
 use anyhow::Result;
 use softnc_core::{CommandRing, Primitive, RingSample, Vec3, COMMAND_RING_CAPACITY};
 use softnc_ipc::{
@@ -17,6 +23,7 @@ use softnc_ipc::{
     LoopStats as LoopStatsMsg, MachineState, PositionStatus, ProcessId, MAX_AXES,
 };
 use softnc_rt::{LoopStats, PeriodicClock};
+use softnc_sim::spindle::SpindleDesigns;
 use softnc_sim::{CycleEngine, ServoBackend};
 use std::time::{Duration, Instant};
 
@@ -30,14 +37,28 @@ struct DryStop {
     s_mm: f64,
 }
 
-/// Builds the engine for a job: controller stacks in front of the servo backend.
-pub type EngineFactory<B> = Box<dyn FnMut() -> CycleEngine<B>>;
+/// Builds the engine for a job: controller stacks in front of the servo backend (on
+/// the preparation thread).
+pub type EngineFactory<B> = Box<dyn FnMut() -> CycleEngine<B> + Send>;
 
 /// The position-control process over a servo backend `B` (the simulated machine now).
 pub struct PositionTask<B: ServoBackend> {
     cfg: Loaded,
     engine: CycleEngine<B>,
-    make_engine: EngineFactory<B>,
+    /// Reads, builds and designs off the cycle.
+    prep: Prep<B>,
+    /// The job whose preparation was asked for last (0 none).
+    requested_job: u64,
+    /// A job's preparation, until its first sample arrives.
+    staged_job: Option<Box<JobPrep<B>>>,
+    /// The running job's preparation is in: motion may start.
+    job_ready: bool,
+    /// Where the job starts (its first sample).
+    start_mm: [f64; 3],
+    /// PDC tables of a spindle override, until the engine takes them (job id).
+    pending_designs: Option<(u64, Box<SpindleDesigns>)>,
+    /// Spindle override in force (fraction of the programmed speed).
+    spindle_override: f64,
     trace: Option<crate::trace::TraceSink>,
     ring: CommandRing,
     window: usize,
@@ -47,10 +68,7 @@ pub struct PositionTask<B: ServoBackend> {
     outbox: crate::outbox::Outbox,
     state: MachineState,
     job_id: u64,
-    job_path: String,
     primitives: Vec<Option<Primitive>>,
-    /// The job's spindle speed changes (first motion, rpm), from its plan.
-    spindle_changes: Vec<(u32, f64)>,
     current: Option<CommandSample>,
     flags: std::collections::VecDeque<(u32, u32)>,
     last_cmd: [f64; 3],
@@ -67,7 +85,7 @@ pub struct PositionTask<B: ServoBackend> {
     _bus: Bus,
 }
 
-impl<B: ServoBackend> PositionTask<B> {
+impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     /// Open the services; `make_engine` builds the controller stacks in front of the
     /// backend — the same engine `softnc sim` steps — fresh for every job (before
     /// motion), so a job runs exactly as the simulator runs it.
@@ -76,6 +94,11 @@ impl<B: ServoBackend> PositionTask<B> {
         let names = softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance);
         let bus = Bus::new(names, "position")?;
         let window = filter_window(cfg.config.lookahead_samples);
+        let trace = cfg.config.trace.then(|| crate::prep::TraceTo {
+            dir: cfg.data_dir.clone(),
+            lossless: cfg.config.clock == ClockMode::Lockstep,
+        });
+        let prep = Prep::start(cfg.machine.clone(), make_engine, trace)?;
         // DaemonConfig::load refuses a filter wider than the window
         anyhow::ensure!(
             engine.filter_window() <= window,
@@ -93,15 +116,19 @@ impl<B: ServoBackend> PositionTask<B> {
             )?,
             cfg,
             engine,
-            make_engine,
+            prep,
+            requested_job: 0,
+            staged_job: None,
+            job_ready: false,
+            start_mm: [0.0; 3],
+            pending_designs: None,
+            spindle_override: 1.0,
             trace: None,
             ring: CommandRing::new(),
             window,
             state: MachineState::Idle,
             job_id: 0,
-            job_path: String::new(),
             primitives: Vec::new(),
-            spindle_changes: Vec::new(),
             current: None,
             flags: std::collections::VecDeque::with_capacity(COMMAND_RING_CAPACITY),
             last_cmd: [0.0; 3],
@@ -162,10 +189,11 @@ impl<B: ServoBackend> PositionTask<B> {
         let t0 = Instant::now();
         loop {
             self.pull_commands()?;
+            self.take_prepared()?;
             let moving = matches!(self.state, MachineState::Running | MachineState::Held)
                 && self.dry.is_none();
             let starting = self.state == MachineState::Idle && self.job_id != 0;
-            if (moving || starting) && self.ring.ready(self.window) {
+            if (moving || (starting && self.job_ready)) && self.ring.ready(self.window) {
                 return Ok(true);
             }
             if !moving && !starting {
@@ -224,38 +252,100 @@ impl<B: ServoBackend> PositionTask<B> {
         self.last_job_id = first.job_id;
         self.current = None;
         self.dry = None;
+        self.job_ready = false;
         let start = [first.pos_mm[0], first.pos_mm[1], first.pos_mm[2]];
-        // a fresh machine for every job, exactly as `softnc sim` starts one
-        self.engine = (self.make_engine)();
-        self.engine.reset(start);
-        // N lead-in and run-out cycles for the engine's command filters (paper 002)
+        self.start_mm = start;
+        // N lead-in and run-out cycles for the engine's command filters (paper 002);
+        // every job's engine is built from the same profile, so the running one tells
         self.ring.reset_padded(self.engine.filter_window());
-        // the PDC designs for every spindle speed of the job, before motion (paper 000)
-        if let Err(e) = self
-            .engine
-            .set_spindle_schedule(&self.cfg.machine, &self.spindle_changes)
-        {
-            self.state = MachineState::Faulted;
-            let msg = format!("job {}: a spindle speed of the job: {e}", first.job_id);
-            self.alarm(AlarmCode::Other, e.axis as u32, &msg)?;
-        }
-        if let Some(t) = self.trace.take() {
-            t.finish();
-        }
-        if self.cfg.config.trace {
-            let path = self
-                .cfg
-                .data_dir
-                .join(format!("trace-job{}.csv", first.job_id));
-            let lossless = self.cfg.config.clock == ClockMode::Lockstep;
-            let _ = std::fs::create_dir_all(&self.cfg.data_dir);
-            match crate::trace::TraceSink::start(&path, lossless) {
-                Ok(t) => self.trace = Some(t),
-                Err(e) => tracing::warn!("cannot trace to {}: {e}", path.display()),
-            }
+        if self.requested_job != first.job_id {
+            // a job whose start this process did not see (it was restarted): a fresh
+            // machine without the programmed path
+            self.requested_job = first.job_id;
+            self.prep.request(PrepRequest::Job {
+                job_id: first.job_id,
+                path: FixedStr::new(""),
+                spindle_override: self.spindle_override,
+            });
         }
         self.last_cmd = start;
         self.prev_cmd = start;
+        self.install_job()
+    }
+
+    /// Take what the preparation thread has made.
+    fn take_prepared(&mut self) -> Result<()> {
+        while let Some(r) = self.prep.poll() {
+            match r {
+                Prepared::Job(p) => {
+                    if let Some(old) = self.staged_job.replace(p) {
+                        self.prep.retire(Retired::Job(old));
+                    }
+                }
+                Prepared::Spindle { job_id, designs } => {
+                    if let Some((_, old)) = self.pending_designs.replace((job_id, designs)) {
+                        self.prep.retire(Retired::Spindle(old));
+                    }
+                }
+                Prepared::SpindleRefused {
+                    job_id,
+                    spindle_override,
+                    message,
+                } => {
+                    let msg = format!(
+                        "job {job_id}: spindle override {:.0} % refused: {}",
+                        spindle_override * 100.0,
+                        message.as_str()
+                    );
+                    self.alarm(AlarmCode::Other, u32::MAX, &msg)?;
+                }
+            }
+        }
+        self.install_job()?;
+        if self.job_ready {
+            if let Some(old) = self.engine.take_replaced_spindle_designs() {
+                self.prep.retire(Retired::Spindle(old));
+            }
+            if let Some((job_id, designs)) = self.pending_designs.take() {
+                if job_id != self.job_id {
+                    self.prep.retire(Retired::Spindle(designs));
+                } else if let Err(back) = self.engine.install_spindle_designs(designs) {
+                    // the last table is still being swapped out: next cycle
+                    self.pending_designs = Some((job_id, back));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Swap the running job's preparation in once it and the job's first sample
+    /// are both there: its engine at rest at the start, its path, its trace.
+    fn install_job(&mut self) -> Result<()> {
+        if self.job_id == 0 || self.job_ready {
+            return Ok(());
+        }
+        let Some(mut p) = self.staged_job.take() else {
+            return Ok(());
+        };
+        if p.job_id != self.job_id {
+            // an earlier job's, or a later one's: keep a later one staged
+            if p.job_id > self.job_id {
+                self.staged_job = Some(p);
+            } else {
+                self.prep.retire(Retired::Job(p));
+            }
+            return Ok(());
+        }
+        std::mem::swap(&mut self.engine, &mut p.engine);
+        std::mem::swap(&mut self.primitives, &mut p.primitives);
+        std::mem::swap(&mut self.trace, &mut p.trace);
+        self.engine.reset(self.start_mm);
+        self.job_ready = true;
+        if let Some((axis, msg)) = p.error.take() {
+            self.state = MachineState::Faulted;
+            self.alarm(AlarmCode::Other, axis as u32, &msg)?;
+        }
+        self.prep.retire(Retired::Job(p));
         Ok(())
     }
 
@@ -290,31 +380,38 @@ impl<B: ServoBackend> PositionTask<B> {
                         self.ring.reset();
                         self.flags.clear();
                         self.job_id = 0;
+                        self.requested_job = 0;
+                        self.job_ready = false;
                         self.current = None;
                         self.dry = None;
                     }
                 }
                 Some(ControlKind::Shutdown) => self.shutdown = true,
                 Some(ControlKind::StartJob) => {
-                    // the programmed path, for the contour error: read before motion
-                    let path = c.path.as_str().to_string();
-                    (self.primitives, self.spindle_changes) =
-                        match crate::interp::read_and_plan(&path, &self.cfg.machine) {
-                            Ok(plan) => (
-                                (0..plan.motions())
-                                    .map(|i| plan.motion_primitive(i))
-                                    .collect(),
-                                plan.spindle_changes().to_vec(),
-                            ),
-                            // the interpolator refuses it and raises the alarm
-                            Err(_) => (Vec::new(), Vec::new()),
-                        };
-                    self.job_path = path;
+                    // the programmed path, a fresh engine, the PDC designs: made off
+                    // the cycle, swapped in before motion
+                    self.requested_job = c.job_id;
+                    self.prep.request(PrepRequest::Job {
+                        job_id: c.job_id,
+                        path: c.path,
+                        spindle_override: self.spindle_override,
+                    });
+                }
+                Some(ControlKind::SpindleOverride) => {
+                    // the MMI checked the profile's range
+                    self.spindle_override = c.value;
+                    if self.requested_job != 0 {
+                        self.prep.request(PrepRequest::SpindleOverride {
+                            job_id: self.requested_job,
+                            spindle_override: c.value,
+                        });
+                    }
                 }
                 _ => {}
             }
         }
         self.pull_commands()?;
+        self.take_prepared()?;
         // 2. mode and position command
         let mut cmd = self.last_cmd;
         let mut feed_move = false;
@@ -322,7 +419,7 @@ impl<B: ServoBackend> PositionTask<B> {
         let mut ring_motion = None;
         match self.state {
             MachineState::Idle => {
-                if self.job_id != 0 && self.ring.ready(self.window) {
+                if self.job_id != 0 && self.job_ready && self.ring.ready(self.window) {
                     self.state = MachineState::Running;
                 }
             }
@@ -440,6 +537,11 @@ impl<B: ServoBackend> PositionTask<B> {
             contour_err_mm: contour,
             ring_fill: self.ring.ahead() as u32,
             state: self.state.wire(),
+            spindle_override: self.spindle_override,
+            spindle_rpm: match (self.job_ready, self.engine.spindle_schedule()) {
+                (true, Some(s)) if self.job_id != 0 => s.effective_rpm(),
+                _ => 0.0,
+            },
         };
         status.cmd_mm[..3].copy_from_slice(&cmd);
         status.actual_mm[..3].copy_from_slice(&rec.actual_mm);
@@ -455,11 +557,15 @@ impl<B: ServoBackend> PositionTask<B> {
                     self.flags.pop_front();
                 }
             } else if self.ring.ended() {
-                // job complete: report once more as idle; the trace is closed by
-                // its own thread, not on the cycle path
+                // job complete: report once more as idle; the trace is closed off
+                // the cycle path
                 if let Some(t) = self.trace.take() {
-                    std::thread::spawn(move || t.finish());
+                    self.prep.retire(Retired::Trace(t));
                 }
+                if self.requested_job == self.job_id {
+                    self.requested_job = 0; // (not if the next job was asked for)
+                }
+                self.job_ready = false;
                 // the last status still names the job (the interpolator counts it as
                 // consumed); the next cycles report idle with no job
                 self.state = MachineState::Idle;
@@ -509,9 +615,9 @@ impl<B: ServoBackend> PositionTask<B> {
         self.dry = Some(stop);
         if stop.speed_mm_per_s == 0.0 {
             self.state = MachineState::Faulted;
-            // the job is over: close its trace (on its own thread)
+            // the job is over: close its trace (off the cycle path)
             if let Some(t) = self.trace.take() {
-                std::thread::spawn(move || t.finish());
+                self.prep.retire(Retired::Trace(t));
             }
         }
         p
@@ -543,6 +649,16 @@ impl<B: ServoBackend> PositionTask<B> {
             self.last_hb = Instant::now();
         }
         Ok(())
+    }
+
+    /// The spindle override in force (fraction).
+    pub fn spindle_override(&self) -> f64 {
+        self.spindle_override
+    }
+
+    /// The running job's engine.
+    pub fn engine(&self) -> &CycleEngine<B> {
+        &self.engine
     }
 
     /// The machine state as this process sees it.

@@ -4,7 +4,9 @@
 use softnc_daemon::bus::Bus;
 use softnc_daemon::config::DaemonConfig;
 use softnc_daemon::position::{EngineFactory, PositionTask};
-use softnc_ipc::{CommandSample, MachineState, ServiceNames};
+use softnc_ipc::{
+    CommandSample, ControlCommand, ControlKind, FixedStr, MachineState, ServiceNames,
+};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::path::PathBuf;
@@ -33,14 +35,51 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
+/// Cycle until the job's preparation is in and motion has started.
+fn start_motion(task: &mut PositionTask<softnc_sim::SimBackend>) {
+    let t0 = std::time::Instant::now();
+    while task.state() != MachineState::Running {
+        assert!(
+            t0.elapsed() < std::time::Duration::from_secs(30),
+            "motion did not start"
+        );
+        task.cycle().unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+}
+
 #[test]
 fn position_cycle_allocates_nothing_during_motion() {
+    let counted = run_counted("default.ron", "plain", None);
+    assert_eq!(counted.spindle_rpm, 0.0, "default.ron has no spindle model");
+}
+
+/// The operator turns the spindle override during motion on the TNV-40 with its PDC
+/// (paper 000): the request, the design thread's table coming back, its installation
+/// and the swap at a cycle boundary, and the replaced table going back — no allocation
+/// on the cycle.
+#[test]
+fn a_spindle_override_during_motion_allocates_nothing_on_the_cycle() {
+    let counted = run_counted("tnv40-pdc.ron", "spindle", Some(1.2));
+    assert_eq!(
+        counted.spindle_rpm, 1800.0,
+        "1500 rpm × 120 %, swapped in while counted"
+    );
+}
+
+struct Counted {
+    spindle_rpm: f64,
+}
+
+/// A move along X on `machine`, the position cycles counted once motion runs; with
+/// `spindle_override`, sent 50 counted cycles in.
+fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>) -> Counted {
     let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let dir = std::env::temp_dir().join(format!("softnc-noalloc-{}", std::process::id()));
+    let dir = std::env::temp_dir().join(format!("softnc-noalloc-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(dir.join("machines")).unwrap();
     std::fs::copy(
-        repo.join("config/machines/default.ron"),
+        repo.join("config/machines").join(machine_file),
         dir.join("machines/default.ron"),
     )
     .unwrap();
@@ -49,7 +88,7 @@ fn position_cycle_allocates_nothing_during_motion() {
         .unwrap()
         .replace(
             "instance: \"mill1\"",
-            &format!("instance: \"noalloc{}\"", std::process::id()),
+            &format!("instance: \"noalloc{tag}{}\"", std::process::id()),
         )
         .replace("clock: Realtime", "clock: Lockstep")
         .replace("data_dir: \"../data\"", "data_dir: \"data\"");
@@ -68,10 +107,11 @@ fn position_cycle_allocates_nothing_during_motion() {
     let mut task = PositionTask::new(loaded, make_engine).unwrap();
     let bus = Bus::new(names, "test-feeder").unwrap();
     let commands = bus.command_publisher().unwrap();
-    // a 10 mm/s move along X, 600 samples
-    let n = 600u64;
+    let control = bus.control_publisher().unwrap();
+    // a 2 mm/s cut along X, 1000 samples
+    let n = 1000u64;
     let send = |k: u64| {
-        let mut s = CommandSample::new(k, 7, k, [0.01 * k as f64, 0.0, -10.0]);
+        let mut s = CommandSample::new(k, 7, k, [0.002 * k as f64, 0.0, 0.0]);
         s.flags |= CommandSample::FLAG_FEED_MOVE;
         if k + 1 == n {
             s.flags |= CommandSample::FLAG_END_OF_JOB;
@@ -81,17 +121,30 @@ fn position_cycle_allocates_nothing_during_motion() {
     for k in 0..200 {
         send(k);
     }
-    // start: the first cycles set the job up (a fresh engine: allocation before motion)
-    for _ in 0..3 {
-        task.cycle().unwrap();
-    }
-    assert_eq!(task.state(), MachineState::Running);
+    // start: the preparation thread builds the job's engine; motion starts when it is in
+    start_motion(&mut task);
     let mut next = 200;
     let mut counted_cycles = 0;
-    for _ in 0..350 {
+    for i in 0..700 {
+        // the feeder's and the operator's allocations (if any) are not counted
         if next < n {
-            send(next); // the feeder's allocations (if any) are not counted
+            send(next);
             next += 1;
+        }
+        if let (50, Some(v)) = (i, spindle_override) {
+            control
+                .send_copy(ControlCommand {
+                    seq: 1,
+                    kind: ControlKind::SpindleOverride.wire(),
+                    job_id: 0,
+                    value: v,
+                    path: FixedStr::new(""),
+                })
+                .unwrap();
+        }
+        if i > 50 && i % 50 == 0 {
+            // give the design thread time, as real cycles would
+            std::thread::sleep(std::time::Duration::from_millis(5));
         }
         COUNTING.with(|c| c.set(true));
         task.cycle().unwrap();
@@ -108,5 +161,10 @@ fn position_cycle_allocates_nothing_during_motion() {
         allocs, 0,
         "{allocs} allocations in {counted_cycles} position cycles"
     );
+    let spindle_rpm = task
+        .engine()
+        .spindle_schedule()
+        .map_or(0.0, |s| s.effective_rpm());
     let _ = std::fs::remove_dir_all(&dir);
+    Counted { spindle_rpm }
 }

@@ -95,6 +95,11 @@ pub struct PositionStatus {
     pub ring_fill: u32,
     /// Machine state (a [`MachineState`] as `wire()`).
     pub state: u32,
+    /// Spindle override in force (fraction of the programmed speed).
+    pub spindle_override: f64,
+    /// Speed the spindle turns at, programmed × override (rpm; 0 without a spindle
+    /// model in the profile or between jobs).
+    pub spindle_rpm: f64,
 }
 
 /// Which process.
@@ -172,6 +177,8 @@ pub enum ControlKind {
     Status = 8,
     /// Operator: the job history as JSON.
     Jobs = 9,
+    /// Set the spindle override to `value` (fraction of the programmed speed).
+    SpindleOverride = 10,
 }
 
 /// MMI → interpolation and position control.
@@ -322,7 +329,8 @@ wire_enum!(ControlKind {
     Reset,
     Shutdown,
     Status,
-    Jobs
+    Jobs,
+    SpindleOverride
 });
 wire_enum!(AlarmCode {
     SequenceError,

@@ -274,10 +274,8 @@ impl<B: ServoBackend> CycleEngine<B> {
             return Ok(());
         };
         let table = designer.design(override_frac)?;
-        let (speeds_rpm, changes) = crate::spindle::SpindleSchedule::plan(
-            designer.speeds_rpm[0],
-            changes,
-        );
+        let (speeds_rpm, changes) =
+            crate::spindle::SpindleSchedule::plan(designer.speeds_rpm[0], changes);
         // the design running now (the profile's speed, no override) is replaced by the
         // table's first speed at the first cycle, like an installed override
         let slots = vec![[None, None, None]; speeds_rpm.len()];
@@ -328,9 +326,7 @@ impl<B: ServoBackend> CycleEngine<B> {
 
     /// The table the last override (or the job's start) replaced, once the taps that
     /// ran from it are back in it: drop it off the cycle path.
-    pub fn take_replaced_spindle_designs(
-        &mut self,
-    ) -> Option<Box<crate::spindle::SpindleDesigns>> {
+    pub fn take_replaced_spindle_designs(&mut self) -> Option<Box<crate::spindle::SpindleDesigns>> {
         self.collect_retired();
         let s = self.spindle.as_mut()?;
         if s.installed || matches!(s.retiring, Some(crate::spindle::Retiring::Replaced(_))) {

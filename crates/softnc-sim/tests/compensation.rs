@@ -212,7 +212,9 @@ fn an_s_word_mid_job_redesigns_the_pdc_at_its_cycle() {
     // the job: S1500 M3 from motion 0, S1800 from motion 1
     let changes = [(0u32, 1500.0), (1, 1800.0)];
     let mut followed = CycleEngine::simulated(&m1500, 1, opts);
-    followed.set_spindle_schedule(&m1500, &changes, 1.0).unwrap();
+    followed
+        .set_spindle_schedule(&m1500, &changes, 1.0)
+        .unwrap();
     assert_eq!(
         followed.spindle_schedule().unwrap().speeds_rpm(),
         &[1500.0, 1800.0]
@@ -235,7 +237,9 @@ fn an_s_word_mid_job_redesigns_the_pdc_at_its_cycle() {
     );
     // a speed whose design fails eq 13 refuses the job before motion
     let mut bad = CycleEngine::simulated(&m1500, 1, opts);
-    assert!(bad.set_spindle_schedule(&m1500, &[(0, 29_000.0)], 1.0).is_err());
+    assert!(bad
+        .set_spindle_schedule(&m1500, &[(0, 29_000.0)], 1.0)
+        .is_err());
 }
 
 #[test]
@@ -263,7 +267,11 @@ fn a_spindle_override_mid_job_redesigns_every_speed_off_the_cycle() {
     let designs = std::thread::spawn(move || designer.design(1.2).unwrap())
         .join()
         .unwrap();
-    assert_eq!(designs.fd_hz, vec![60.0], "1500 rpm × 120 % × 2 flutes / 60");
+    assert_eq!(
+        designs.fd_hz,
+        vec![60.0],
+        "1500 rpm × 120 % × 2 flutes / 60"
+    );
     let mut designs = Some(Box::new(designs));
     let mut replaced = Vec::new();
     let e_overridden = ripple_rms_ring_with(&mut overridden, |k, e| {
@@ -279,10 +287,18 @@ fn a_spindle_override_mid_job_redesigns_every_speed_off_the_cycle() {
     assert_eq!(s.active_fd_hz(), 60.0);
     // the job's start table comes back after the first cycle, the override's
     // replaced table after the cycle that swapped it, holding the taps that ran
-    assert_eq!(replaced.len(), 2, "{:?}", replaced.iter().map(|r| r.0).collect::<Vec<_>>());
+    assert_eq!(
+        replaced.len(),
+        2,
+        "{:?}",
+        replaced.iter().map(|r| r.0).collect::<Vec<_>>()
+    );
     assert_eq!(replaced[1].0, 501, "back before the cycle after the swap");
     assert_eq!(replaced[1].1.override_frac, 1.0);
-    assert!(replaced[1].1.taps[0][0].is_some(), "the 1500 rpm taps came back");
+    assert!(
+        replaced[1].1.taps[0][0].is_some(),
+        "the 1500 rpm taps came back"
+    );
     // the machine turning at 1800 rpm with the PDC still designed for 1500
     let mut stale = CycleEngine::try_new(&m1500, SimBackend::new(&m1800, 1, opts)).unwrap();
     let e_stale = ripple_rms_ring(&mut stale);
@@ -290,10 +306,10 @@ fn a_spindle_override_mid_job_redesigns_every_speed_off_the_cycle() {
     let mut direct = CycleEngine::simulated(&m1800, 1, opts);
     let e_direct = ripple_rms_ring(&mut direct);
     eprintln!(
-        "ripple RMS after a 120 % override: redesigned {:.3} µm, stale {:.3} µm, at 1800 rpm from the start {:.3} µm",
-        e_overridden * 1e3,
-        e_stale * 1e3,
-        e_direct * 1e3
+        "ripple RMS after a 120 % override: redesigned {:.2} nm, stale {:.2} nm, at 1800 rpm from the start {:.2} nm",
+        e_overridden * 1e6,
+        e_stale * 1e6,
+        e_direct * 1e6
     );
     assert!(
         e_overridden < 0.5 * e_stale,

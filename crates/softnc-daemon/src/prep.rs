@@ -1,0 +1,341 @@
+//! The position process's preparation thread: everything the position task needs
+//! that reads files, allocates or designs filters runs here, off the cycle.
+//!
+//! - **A job** (`StartJob`): read and plan its program (the programmed path, for the
+//!   contour error; its S words), build a fresh controller stack and machine for it —
+//!   exactly as `softnc sim` builds them — and design its PDC for every programmed
+//!   spindle speed at the spindle override in force (paper 000).
+//! - **A spindle override** during a job: redesign every speed's PDC at the new
+//!   override.
+//!
+//! The cycle hands requests over and takes the results back through bounded lock-free
+//! queues (push, pop and a futex wake: no allocation, no lock), swaps them in at a
+//! cycle boundary, and hands what they replace back here to be dropped.
+
+use crate::position::EngineFactory;
+use crossbeam_queue::ArrayQueue;
+use softnc_core::{MachineProfile, Primitive};
+use softnc_ipc::FixedStr;
+use softnc_sim::spindle::{SpindleDesigner, SpindleDesigns};
+use softnc_sim::{CycleEngine, ServoBackend};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// Requests and results each queue holds.
+pub const PREP_QUEUE_CAPACITY: usize = 16;
+
+/// What the cycle asks for.
+#[derive(Debug, Clone, Copy)]
+// passed by value through a fixed queue: boxing a variant would allocate on the cycle
+#[allow(clippy::large_enum_variant)]
+pub enum PrepRequest {
+    /// Prepare job `job_id` of program `path` (empty: no program to read — a job
+    /// whose start this process did not see) at spindle override `spindle_override`.
+    Job {
+        /// The job.
+        job_id: u64,
+        /// Its program.
+        path: FixedStr<512>,
+        /// Spindle override in force (fraction).
+        spindle_override: f64,
+    },
+    /// Redesign job `job_id`'s PDC tables at spindle override `spindle_override`.
+    SpindleOverride {
+        /// The job.
+        job_id: u64,
+        /// The new override (fraction).
+        spindle_override: f64,
+    },
+}
+
+/// A job, ready to run.
+pub struct JobPrep<B: ServoBackend> {
+    /// The job.
+    pub job_id: u64,
+    /// Its controller stacks and machine, PDC tables designed.
+    pub engine: CycleEngine<B>,
+    /// Its programmed path per motion (for the contour error).
+    pub primitives: Vec<Option<Primitive>>,
+    /// Its trace file, when traces are on.
+    pub trace: Option<crate::trace::TraceSink>,
+    /// Why its spindle speeds cannot be followed (axis, message): the job faults
+    /// before motion.
+    pub error: Option<(usize, String)>,
+}
+
+/// Where job traces go.
+#[derive(Debug, Clone)]
+pub struct TraceTo {
+    /// `trace-job<N>.csv` files go here.
+    pub dir: std::path::PathBuf,
+    /// Never drop a row (lockstep).
+    pub lossless: bool,
+}
+
+/// What comes back to the cycle.
+// passed by value through a fixed queue: the refusal's text is not boxed so that the
+// cycle frees nothing when it takes one
+#[allow(clippy::large_enum_variant)]
+pub enum Prepared<B: ServoBackend> {
+    /// A job, ready to run.
+    Job(Box<JobPrep<B>>),
+    /// The PDC tables of job `job_id` at a new spindle override.
+    Spindle {
+        /// The job.
+        job_id: u64,
+        /// The designs.
+        designs: Box<SpindleDesigns>,
+    },
+    /// A spindle override whose design failed (eq 11–13): refused.
+    SpindleRefused {
+        /// The job.
+        job_id: u64,
+        /// The refused override (fraction).
+        spindle_override: f64,
+        /// Why.
+        message: FixedStr<256>,
+    },
+}
+
+/// What the cycle has replaced, to be dropped here.
+pub enum Retired<B: ServoBackend> {
+    /// A job's preparation (holding the engine and path it replaced).
+    Job(Box<JobPrep<B>>),
+    /// A replaced PDC table.
+    Spindle(Box<SpindleDesigns>),
+    /// A finished job's trace, to be closed.
+    Trace(crate::trace::TraceSink),
+}
+
+/// The cycle's side of the preparation thread.
+pub struct Prep<B: ServoBackend> {
+    requests: Arc<ArrayQueue<PrepRequest>>,
+    results: Arc<ArrayQueue<Prepared<B>>>,
+    retired: Arc<ArrayQueue<Retired<B>>>,
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl<B: ServoBackend + Send + 'static> Prep<B> {
+    /// Start the thread; it builds engines with `make_engine` for `machine`.
+    /// Traces go to `trace` (`None`: no traces).
+    pub fn start(
+        machine: MachineProfile,
+        make_engine: EngineFactory<B>,
+        trace: Option<TraceTo>,
+    ) -> std::io::Result<Self> {
+        let requests = Arc::new(ArrayQueue::new(PREP_QUEUE_CAPACITY));
+        let results = Arc::new(ArrayQueue::new(PREP_QUEUE_CAPACITY));
+        let retired = Arc::new(ArrayQueue::new(PREP_QUEUE_CAPACITY));
+        let stop = Arc::new(AtomicBool::new(false));
+        let mut worker = Worker {
+            machine,
+            make_engine,
+            trace,
+            requests: requests.clone(),
+            results: results.clone(),
+            retired: retired.clone(),
+            stop: stop.clone(),
+            job: None,
+        };
+        let thread = std::thread::Builder::new()
+            .name("position-prep".into())
+            .spawn(move || worker.run())?;
+        Ok(Prep {
+            requests,
+            results,
+            retired,
+            stop,
+            thread: Some(thread),
+        })
+    }
+}
+
+impl<B: ServoBackend> Prep<B> {
+    fn wake(&self) {
+        if let Some(t) = &self.thread {
+            t.thread().unpark();
+        }
+    }
+
+    /// Ask for something (allocation-free). False when the queue is full.
+    pub fn request(&self, r: PrepRequest) -> bool {
+        let ok = self.requests.push(r).is_ok();
+        self.wake();
+        ok
+    }
+
+    /// A result, if one is ready (allocation-free).
+    pub fn poll(&self) -> Option<Prepared<B>> {
+        self.results.pop()
+    }
+
+    /// Hand something replaced back to be dropped off the cycle (allocation-free).
+    /// If the queue is full it waits for the thread to make room: dropping it on the
+    /// cycle would free memory there.
+    pub fn retire(&self, r: Retired<B>) {
+        let mut item = r;
+        while let Err(back) = self.retired.push(item) {
+            item = back;
+            self.wake();
+            std::thread::yield_now();
+        }
+        self.wake();
+    }
+}
+
+impl<B: ServoBackend> Drop for Prep<B> {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Release);
+        if let Some(t) = self.thread.take() {
+            t.thread().unpark();
+            let _ = t.join();
+        }
+    }
+}
+
+/// The thread's side.
+struct Worker<B: ServoBackend> {
+    machine: MachineProfile,
+    make_engine: EngineFactory<B>,
+    trace: Option<TraceTo>,
+    requests: Arc<ArrayQueue<PrepRequest>>,
+    results: Arc<ArrayQueue<Prepared<B>>>,
+    retired: Arc<ArrayQueue<Retired<B>>>,
+    stop: Arc<AtomicBool>,
+    /// The latest job prepared and its PDC table designer.
+    job: Option<(u64, Option<SpindleDesigner>)>,
+}
+
+impl<B: ServoBackend> Worker<B> {
+    fn run(&mut self) {
+        while !self.stop.load(Ordering::Acquire) {
+            while let Some(r) = self.retired.pop() {
+                match r {
+                    Retired::Job(mut p) => {
+                        if let Some(t) = p.trace.take() {
+                            t.finish();
+                        }
+                    }
+                    Retired::Trace(t) => t.finish(),
+                    Retired::Spindle(_) => {}
+                }
+            }
+            while let Some(r) = self.requests.pop() {
+                if let Some(done) = self.serve(r) {
+                    self.deliver(done);
+                }
+            }
+            std::thread::park_timeout(Duration::from_millis(5));
+        }
+    }
+
+    /// Hand a result over; waits while the cycle has not taken the earlier ones.
+    fn deliver(&self, done: Prepared<B>) {
+        let mut item = done;
+        while let Err(back) = self.results.push(item) {
+            if self.stop.load(Ordering::Acquire) {
+                return;
+            }
+            item = back;
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+
+    fn serve(&mut self, r: PrepRequest) -> Option<Prepared<B>> {
+        match r {
+            PrepRequest::Job {
+                job_id,
+                path,
+                spindle_override,
+            } => {
+                let (mut prep, designer) = prepare_job(
+                    &self.machine,
+                    &mut self.make_engine,
+                    job_id,
+                    path.as_str(),
+                    spindle_override,
+                );
+                if let Some(to) = &self.trace {
+                    let file = to.dir.join(format!("trace-job{job_id}.csv"));
+                    let _ = std::fs::create_dir_all(&to.dir);
+                    match crate::trace::TraceSink::start(&file, to.lossless) {
+                        Ok(t) => prep.trace = Some(t),
+                        Err(e) => tracing::warn!("cannot trace to {}: {e}", file.display()),
+                    }
+                }
+                self.job = Some((job_id, designer));
+                Some(Prepared::Job(Box::new(prep)))
+            }
+            PrepRequest::SpindleOverride {
+                job_id,
+                spindle_override,
+            } => {
+                let designer = match &self.job {
+                    Some((id, Some(d))) if *id == job_id => d,
+                    // another job, or one without a spindle to follow
+                    _ => return None,
+                };
+                Some(match designer.design(spindle_override) {
+                    Ok(designs) => Prepared::Spindle {
+                        job_id,
+                        designs: Box::new(designs),
+                    },
+                    Err(e) => Prepared::SpindleRefused {
+                        job_id,
+                        spindle_override,
+                        message: FixedStr::new(&e.to_string()),
+                    },
+                })
+            }
+        }
+    }
+}
+
+/// Read and plan the program at `path` (if any), build the job's engine and design
+/// its PDC tables at `spindle_override`. A program that cannot be read gives no
+/// path: the interpolator refuses it and raises the alarm.
+pub fn prepare_job<B: ServoBackend>(
+    machine: &MachineProfile,
+    make_engine: &mut EngineFactory<B>,
+    job_id: u64,
+    path: &str,
+    spindle_override: f64,
+) -> (JobPrep<B>, Option<SpindleDesigner>) {
+    let (primitives, spindle_changes) = if path.is_empty() {
+        (Vec::new(), Vec::new())
+    } else {
+        match crate::interp::read_and_plan(path, machine) {
+            Ok(plan) => (
+                (0..plan.motions())
+                    .map(|i| plan.motion_primitive(i))
+                    .collect(),
+                plan.spindle_changes().to_vec(),
+            ),
+            Err(_) => (Vec::new(), Vec::new()),
+        }
+    };
+    // a fresh machine for every job, exactly as `softnc sim` starts one
+    let mut engine = make_engine();
+    let error = engine
+        .set_spindle_schedule(machine, &spindle_changes, spindle_override)
+        .err()
+        .map(|e| {
+            (
+                e.axis,
+                format!("job {job_id}: a spindle speed of the job: {e}"),
+            )
+        });
+    let designer = engine.spindle_designer(machine, &spindle_changes);
+    (
+        JobPrep {
+            job_id,
+            engine,
+            primitives,
+            trace: None,
+            error,
+        },
+        designer,
+    )
+}
