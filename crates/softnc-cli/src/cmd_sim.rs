@@ -31,6 +31,11 @@ pub struct SimArgs {
     /// Random seed of the simulated machine (default: the profile's `servo.seed`).
     #[arg(long)]
     seed: Option<u64>,
+    /// Spindle override in percent, in force from the start (as the daemon's
+    /// `softnc spindle-override` before a job): every S word's PDC is designed for
+    /// the overridden speed. Within the profile's `spindle` range.
+    #[arg(long, value_name = "PCT", default_value_t = 100.0)]
+    spindle_override: f64,
 }
 
 /// Cycles between progress-bar updates.
@@ -80,11 +85,22 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
         }
     };
     let seed = args.seed.unwrap_or(machine.servo.seed);
+    let spindle_override = args.spindle_override / 100.0;
+    let range = machine.spindle;
+    if !(range.min_override..=range.max_override).contains(&spindle_override) {
+        eprintln!(
+            "softnc: --spindle-override {} %: must be {:.0}..={:.0} % (the profile's spindle section)",
+            args.spindle_override,
+            range.min_override * 100.0,
+            range.max_override * 100.0
+        );
+        return Ok(ExitCode::from(crate::EXIT_REFUSED));
+    }
     let cycle_s = plan.cycle_s();
     let total = plan.stats().samples;
     let mut engine = CycleEngine::simulated(&machine, seed, SimOptions::default());
     // the job's S words: PDC designs per spindle speed, as the position process makes them
-    if let Err(e) = engine.set_spindle_schedule(&machine, plan.spindle_changes(), 1.0) {
+    if let Err(e) = engine.set_spindle_schedule(&machine, plan.spindle_changes(), spindle_override) {
         eprintln!(
             "softnc: {}: a spindle speed of the job: {e}",
             args.file.display()
