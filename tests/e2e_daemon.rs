@@ -217,10 +217,30 @@ fn lockstep_with_the_zero_lag_filter_equals_the_simulator_bit_for_bit() {
     lockstep_equals_simulator("fir", "mill-resonance.ron");
 }
 
+#[test]
+fn lockstep_with_s_words_and_the_pdc_equals_the_simulator_bit_for_bit() {
+    // paper 000's TNV-40 with its PDC, a job changing the spindle speed twice: the
+    // preparation thread designs the tables the simulator designs, swapped at the same
+    // cycles
+    lockstep_equals_simulator_on("pdc", "tnv40-dob-pdc.ron", |dir| {
+        let p = dir.join("s-words.ngc");
+        std::fs::write(
+            &p,
+            "G21 G90 G17 G94\nG0 X0 Y0\nS1500 M3\nG1 X2 Y1 F600\nS1800\nG1 X4 Y0\nS1200\nG1 X2 Y-1\nM5\nM2\n",
+        )
+        .unwrap();
+        p
+    });
+}
+
 fn lockstep_equals_simulator(tag: &str, machine: &str) {
+    lockstep_equals_simulator_on(tag, machine, short_job)
+}
+
+fn lockstep_equals_simulator_on(tag: &str, machine: &str, job: impl Fn(&Path) -> PathBuf) {
     let d = Daemon::start_on(tag, "Lockstep", true, machine);
     let op = d.operator();
-    let job = short_job(&d.dir);
+    let job = job(&d.dir);
     let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
     assert_eq!(r.accepted, 1, "{}", r.message.as_str());
     let s = d.wait_job(&op, r.job_id, Duration::from_secs(120));
@@ -453,7 +473,7 @@ fn feed_hold_stops_motion_within_the_ring_depth_and_resume_finishes_the_job() {
 
 #[test]
 fn a_spindle_override_redesigns_the_pdc_in_a_running_job_and_stays_for_the_next() {
-    let d = Daemon::start_on("spindle", "Realtime", false, "tnv40-pdc.ron");
+    let d = Daemon::start_on("spindle", "Realtime", false, "tnv40-dob-pdc.ron");
     let op = d.operator();
     // outside the profile's 50..=120 %: refused, nothing sent
     let r = op.request(ControlKind::SpindleOverride, 1.5, "").unwrap();

@@ -100,7 +100,8 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
     let total = plan.stats().samples;
     let mut engine = CycleEngine::simulated(&machine, seed, SimOptions::default());
     // the job's S words: PDC designs per spindle speed, as the position process makes them
-    if let Err(e) = engine.set_spindle_schedule(&machine, plan.spindle_changes(), spindle_override) {
+    if let Err(e) = engine.set_spindle_schedule(&machine, plan.spindle_changes(), spindle_override)
+    {
         eprintln!(
             "softnc: {}: a spindle speed of the job: {e}",
             args.file.display()

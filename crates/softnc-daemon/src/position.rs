@@ -214,7 +214,57 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         }
     }
 
+    /// Control commands from the MMI.
+    fn pull_control(&mut self) -> Result<()> {
+        while let Some(c) = self.control.receive()? {
+            match ControlKind::from_wire(c.kind) {
+                Some(ControlKind::EStop) => {
+                    self.state = MachineState::EStopped;
+                    self.alarm(AlarmCode::EStop, u32::MAX, "emergency stop")?;
+                }
+                Some(ControlKind::Reset) => {
+                    if matches!(self.state, MachineState::EStopped | MachineState::Faulted) {
+                        self.state = MachineState::Idle;
+                        self.ring.reset();
+                        self.flags.clear();
+                        self.job_id = 0;
+                        self.requested_job = 0;
+                        self.job_ready = false;
+                        self.current = None;
+                        self.dry = None;
+                    }
+                }
+                Some(ControlKind::Shutdown) => self.shutdown = true,
+                Some(ControlKind::StartJob) => {
+                    // the programmed path, a fresh engine, the PDC designs: made off
+                    // the cycle, swapped in before motion
+                    self.requested_job = c.job_id;
+                    self.prep.request(PrepRequest::Job {
+                        job_id: c.job_id,
+                        path: c.path,
+                        spindle_override: self.spindle_override,
+                    });
+                }
+                Some(ControlKind::SpindleOverride) => {
+                    // the MMI checked the profile's range
+                    self.spindle_override = c.value;
+                    if self.requested_job != 0 {
+                        self.prep.request(PrepRequest::SpindleOverride {
+                            job_id: self.requested_job,
+                            spindle_override: c.value,
+                        });
+                    }
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// Command samples from the interpolator, after the control commands: the MMI
+    /// publishes a job's StartJob before the interpolator can send its first sample.
     fn pull_commands(&mut self) -> Result<()> {
+        self.pull_control()?;
         while let Some(c) = self.commands.receive()? {
             let c = *c;
             self.last_sample_at = Instant::now();
@@ -367,49 +417,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
 
     /// One position cycle.
     pub fn cycle(&mut self) -> Result<()> {
-        // 1. inputs
-        while let Some(c) = self.control.receive()? {
-            match ControlKind::from_wire(c.kind) {
-                Some(ControlKind::EStop) => {
-                    self.state = MachineState::EStopped;
-                    self.alarm(AlarmCode::EStop, u32::MAX, "emergency stop")?;
-                }
-                Some(ControlKind::Reset) => {
-                    if matches!(self.state, MachineState::EStopped | MachineState::Faulted) {
-                        self.state = MachineState::Idle;
-                        self.ring.reset();
-                        self.flags.clear();
-                        self.job_id = 0;
-                        self.requested_job = 0;
-                        self.job_ready = false;
-                        self.current = None;
-                        self.dry = None;
-                    }
-                }
-                Some(ControlKind::Shutdown) => self.shutdown = true,
-                Some(ControlKind::StartJob) => {
-                    // the programmed path, a fresh engine, the PDC designs: made off
-                    // the cycle, swapped in before motion
-                    self.requested_job = c.job_id;
-                    self.prep.request(PrepRequest::Job {
-                        job_id: c.job_id,
-                        path: c.path,
-                        spindle_override: self.spindle_override,
-                    });
-                }
-                Some(ControlKind::SpindleOverride) => {
-                    // the MMI checked the profile's range
-                    self.spindle_override = c.value;
-                    if self.requested_job != 0 {
-                        self.prep.request(PrepRequest::SpindleOverride {
-                            job_id: self.requested_job,
-                            spindle_override: c.value,
-                        });
-                    }
-                }
-                _ => {}
-            }
-        }
+        // 1. inputs (control first: a job's StartJob comes before its samples)
         self.pull_commands()?;
         self.take_prepared()?;
         // 2. mode and position command

@@ -60,15 +60,22 @@ fn position_cycle_allocates_nothing_during_motion() {
 /// on the cycle.
 #[test]
 fn a_spindle_override_during_motion_allocates_nothing_on_the_cycle() {
-    let counted = run_counted("tnv40-pdc.ron", "spindle", Some(1.2));
+    let counted = run_counted("tnv40-dob-pdc.ron", "spindle", Some(1.2));
     assert_eq!(
         counted.spindle_rpm, 1800.0,
         "1500 rpm × 120 %, swapped in while counted"
+    );
+    assert_eq!(
+        counted.pdc_fd_hz,
+        [60.0, 60.0],
+        "X's and Y's PDC run the 60 Hz design"
     );
 }
 
 struct Counted {
     spindle_rpm: f64,
+    /// The tooth frequency X's and Y's PDC run (0 without one).
+    pdc_fd_hz: [f64; 2],
 }
 
 /// A move along X on `machine`, the position cycles counted once motion runs; with
@@ -165,6 +172,16 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>) -> 
         .engine()
         .spindle_schedule()
         .map_or(0.0, |s| s.effective_rpm());
+    let pdc_fd_hz = [0, 1].map(|i| {
+        task.engine()
+            .controller(i)
+            .compensation
+            .as_ref()
+            .map_or(0.0, |c| c.pdc_fd_hz())
+    });
     let _ = std::fs::remove_dir_all(&dir);
-    Counted { spindle_rpm }
+    Counted {
+        spindle_rpm,
+        pdc_fd_hz,
+    }
 }
