@@ -406,6 +406,7 @@ mod tests {
             trace,
             plot: None,
             seed: Some(seed),
+            spindle_override: 100.0,
         }
     }
 
