@@ -59,6 +59,8 @@ pub struct PositionTask<B: ServoBackend> {
     pending_designs: Option<(u64, Box<SpindleDesigns>)>,
     /// Spindle override in force (fraction of the programmed speed).
     spindle_override: f64,
+    /// The preparation thread has ended (reported once).
+    prep_lost: bool,
     trace: Option<crate::trace::TraceSink>,
     ring: CommandRing,
     window: usize,
@@ -123,6 +125,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             start_mm: [0.0; 3],
             pending_designs: None,
             spindle_override: 1.0,
+            prep_lost: false,
             trace: None,
             ring: CommandRing::new(),
             window,
@@ -325,6 +328,16 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
 
     /// Take what the preparation thread has made.
     fn take_prepared(&mut self) -> Result<()> {
+        if !self.prep_lost && !self.prep.is_alive() {
+            // no job can be prepared any more: fault rather than wait for ever
+            self.prep_lost = true;
+            self.state = MachineState::Faulted;
+            self.alarm(
+                AlarmCode::ProcessLost,
+                u32::MAX,
+                "the position process's preparation thread ended: no job can start; restart the daemon",
+            )?;
+        }
         while let Some(r) = self.prep.poll() {
             match r {
                 Prepared::Job(p) => {

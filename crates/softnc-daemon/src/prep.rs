@@ -153,6 +153,11 @@ impl<B: ServoBackend + Send + 'static> Prep<B> {
 }
 
 impl<B: ServoBackend> Prep<B> {
+    /// False once the thread has ended (it only ends on a bug: a panic).
+    pub fn is_alive(&self) -> bool {
+        self.thread.as_ref().is_some_and(|t| !t.is_finished())
+    }
+
     fn wake(&self) {
         if let Some(t) = &self.thread {
             t.thread().unpark();
