@@ -215,6 +215,10 @@ struct Worker<B: ServoBackend> {
 
 impl<B: ServoBackend> Worker<B> {
     fn run(&mut self) {
+        // started by the cycle thread: not at its SCHED_FIFO priority
+        if let Err(e) = softnc_rt::leave_realtime() {
+            tracing::warn!("position preparation thread: {e}");
+        }
         while !self.stop.load(Ordering::Acquire) {
             while let Some(r) = self.retired.pop() {
                 match r {
@@ -343,4 +347,31 @@ pub fn prepare_job<B: ServoBackend>(
         },
         designer,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use softnc_rt::{leave_realtime, setup_realtime, RtOptions};
+
+    #[test]
+    fn a_helper_thread_can_always_leave_realtime() {
+        // without privileges SCHED_FIFO is refused, but going (back) to SCHED_OTHER
+        // never is
+        std::thread::spawn(|| {
+            let _ = setup_realtime(&RtOptions {
+                fifo_priority: Some(10),
+                ..RtOptions::default()
+            });
+            leave_realtime().unwrap();
+            let policy = thread_priority::thread_schedule_policy().unwrap();
+            assert_eq!(
+                policy,
+                thread_priority::ThreadSchedulePolicy::Normal(
+                    thread_priority::NormalThreadSchedulePolicy::Other
+                )
+            );
+        })
+        .join()
+        .unwrap();
+    }
 }

@@ -14,5 +14,5 @@ pub mod setup;
 pub mod stats;
 
 pub use clock::PeriodicClock;
-pub use setup::{setup_realtime, RtOptions, RtReport};
+pub use setup::{leave_realtime, setup_realtime, RtOptions, RtReport};
 pub use stats::{unix_ns, LatencyStats, LoopStats, Percentiles};

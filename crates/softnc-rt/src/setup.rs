@@ -80,3 +80,20 @@ pub fn setup_realtime(opts: &RtOptions) -> RtReport {
     }
     r
 }
+
+/// Put the calling thread back to SCHED_OTHER: for helper threads that a real-time
+/// thread starts (they inherit its SCHED_FIFO priority and core). On the real-time
+/// thread's core such a helper then runs only while the real-time thread sleeps.
+pub fn leave_realtime() -> Result<(), String> {
+    use thread_priority::{
+        set_thread_priority_and_policy, thread_native_id, NormalThreadSchedulePolicy,
+        ThreadPriority, ThreadSchedulePolicy,
+    };
+    let normal = ThreadPriority::from_posix(thread_priority::ScheduleParams { sched_priority: 0 });
+    set_thread_priority_and_policy(
+        thread_native_id(),
+        normal,
+        ThreadSchedulePolicy::Normal(NormalThreadSchedulePolicy::Other),
+    )
+    .map_err(|e| format!("cannot leave SCHED_FIFO: {e:?}"))
+}
