@@ -195,9 +195,9 @@ fn ripple_rms_ring_with(
     detrended_rms(&errs)
 }
 
-#[test]
-fn an_s_word_mid_job_redesigns_the_pdc_at_its_cycle() {
-    let base = tnv40();
+/// The TNV-40 with a PDC on X and Y, spindle at 1500 rpm, and the simulator's options
+/// (no quantisation: the ripple is measured below the encoder's count).
+fn tnv40_with_pdc() -> (MachineProfile, SimOptions) {
     let comp = Compensation {
         outer: OuterCompensator::None,
         pdc: Some(pdc()),
@@ -206,9 +206,22 @@ fn an_s_word_mid_job_redesigns_the_pdc_at_its_cycle() {
         quantisation: false,
         ..SimOptions::default()
     };
-    let m1500 = with(&base, comp.clone());
+    (with(&tnv40(), comp), opts)
+}
+
+/// The ripple when the machine turns at 1800 rpm with the PDC still designed for
+/// `m1500`'s 1500 rpm (stale), and of a job at 1800 rpm from the start (direct).
+fn stale_and_direct_at_1800(m1500: &MachineProfile, opts: SimOptions) -> (f64, f64) {
     let mut m1800 = m1500.clone();
     m1800.servo.cutting.as_mut().unwrap().spindle_rpm = 1800.0;
+    let mut stale = CycleEngine::try_new(m1500, SimBackend::new(&m1800, 1, opts)).unwrap();
+    let mut direct = CycleEngine::simulated(&m1800, 1, opts);
+    (ripple_rms_ring(&mut stale), ripple_rms_ring(&mut direct))
+}
+
+#[test]
+fn an_s_word_mid_job_redesigns_the_pdc_at_its_cycle() {
+    let (m1500, opts) = tnv40_with_pdc();
     // the job: S1500 M3 from motion 0, S1800 from motion 1
     let changes = [(0u32, 1500.0), (1, 1800.0)];
     let mut followed = CycleEngine::simulated(&m1500, 1, opts);
@@ -221,12 +234,7 @@ fn an_s_word_mid_job_redesigns_the_pdc_at_its_cycle() {
     );
     let e_followed = ripple_rms_ring(&mut followed);
     assert_eq!(followed.spindle_schedule().unwrap().active_rpm(), 1800.0);
-    // the same machine turning at 1800 rpm with the PDC still designed for 1500
-    let mut stale = CycleEngine::try_new(&m1500, SimBackend::new(&m1800, 1, opts)).unwrap();
-    let e_stale = ripple_rms_ring(&mut stale);
-    // and a job at 1800 rpm from the start
-    let mut direct = CycleEngine::simulated(&m1800, 1, opts);
-    let e_direct = ripple_rms_ring(&mut direct);
+    let (e_stale, e_direct) = stale_and_direct_at_1800(&m1500, opts);
     assert!(
         e_followed < 0.5 * e_stale,
         "{e_followed} vs stale {e_stale}"
@@ -244,18 +252,7 @@ fn an_s_word_mid_job_redesigns_the_pdc_at_its_cycle() {
 
 #[test]
 fn a_spindle_override_mid_job_redesigns_every_speed_off_the_cycle() {
-    let base = tnv40();
-    let comp = Compensation {
-        outer: OuterCompensator::None,
-        pdc: Some(pdc()),
-    };
-    let opts = SimOptions {
-        quantisation: false,
-        ..SimOptions::default()
-    };
-    let m1500 = with(&base, comp.clone());
-    let mut m1800 = m1500.clone();
-    m1800.servo.cutting.as_mut().unwrap().spindle_rpm = 1800.0;
+    let (m1500, opts) = tnv40_with_pdc();
     // the job runs S1500 throughout; the operator turns the spindle override to 120 %
     // at 0.5 s: a design thread makes the table, the cycle installs it
     let changes = [(0u32, 1500.0)];
@@ -299,12 +296,7 @@ fn a_spindle_override_mid_job_redesigns_every_speed_off_the_cycle() {
         replaced[1].1.taps[0][0].is_some(),
         "the 1500 rpm taps came back"
     );
-    // the machine turning at 1800 rpm with the PDC still designed for 1500
-    let mut stale = CycleEngine::try_new(&m1500, SimBackend::new(&m1800, 1, opts)).unwrap();
-    let e_stale = ripple_rms_ring(&mut stale);
-    // and a job at 1800 rpm from the start
-    let mut direct = CycleEngine::simulated(&m1800, 1, opts);
-    let e_direct = ripple_rms_ring(&mut direct);
+    let (e_stale, e_direct) = stale_and_direct_at_1800(&m1500, opts);
     eprintln!(
         "ripple RMS after a 120 % override: redesigned {:.2} nm, stale {:.2} nm, at 1800 rpm from the start {:.2} nm",
         e_overridden * 1e6,
