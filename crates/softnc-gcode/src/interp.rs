@@ -203,90 +203,108 @@ fn round_to_int(x: f64) -> i32 {
     (x + 0.5).floor() as i32
 }
 
-/// One block's words sorted out (LinuxCNC's `block`).
+/// One block's words sorted out (LinuxCNC's `block`). Each table has a bit mask of
+/// the entries set on this line, so that emptying the block costs three stores.
 struct Block {
-    g: [Option<(i32, u32)>; G_GROUPS],
-    m: [Option<(i32, u32)>; M_GROUPS],
+    /// G code (× 10) and its offset per modal group.
+    g: [(i32, u32); G_GROUPS],
+    g_set: u32,
+    /// M code and its offset per modal group.
+    m: [(i32, u32); M_GROUPS],
+    m_set: u32,
     m_count: usize,
     /// Value and offset per letter A..Z (P and Q: the last one read).
-    val: [Option<(f64, u32)>; 26],
+    val: [(f64, u32); 26],
+    val_set: u32,
     /// LinuxCNC keeps P and Q as numbers with -1 meaning "none".
     p_number: f64,
     q_number: f64,
     motion_to_be: Option<i32>,
-    /// The slots set since the last clear.
-    touched: [Touched; 16],
-    n_touched: usize,
 }
 
-#[derive(Clone, Copy)]
-enum Touched {
-    G(u8),
-    M(u8),
-    Val(u8),
+/// The bit of letter `l` in [`Block::val_set`].
+const fn letter_bit(l: u8) -> u32 {
+    1 << (l - b'A')
 }
 
 impl Default for Block {
     fn default() -> Self {
         Block {
-            g: [None; G_GROUPS],
-            m: [None; M_GROUPS],
+            g: [(0, 0); G_GROUPS],
+            g_set: 0,
+            m: [(0, 0); M_GROUPS],
+            m_set: 0,
             m_count: 0,
-            val: [None; 26],
+            val: [(0.0, 0); 26],
+            val_set: 0,
             p_number: -1.0,
             q_number: -1.0,
             motion_to_be: None,
-            touched: [Touched::Val(0); 16],
-            n_touched: 0,
         }
     }
 }
 
 impl Block {
-    /// Back to empty, touching only what the last line set (a full reset is ~800 bytes).
+    /// Back to empty.
     fn clear(&mut self) {
-        for slot in self.touched[..self.n_touched].iter().copied() {
-            match slot {
-                Touched::G(g) => self.g[g as usize] = None,
-                Touched::M(m) => self.m[m as usize] = None,
-                Touched::Val(v) => self.val[v as usize] = None,
-            }
-        }
-        if self.n_touched == self.touched.len() {
-            // more words than we track: reset everything
-            self.g = [None; G_GROUPS];
-            self.m = [None; M_GROUPS];
-            self.val = [None; 26];
-        }
-        self.n_touched = 0;
+        self.g_set = 0;
+        self.m_set = 0;
+        self.val_set = 0;
         self.m_count = 0;
         self.p_number = -1.0;
         self.q_number = -1.0;
         self.motion_to_be = None;
     }
-    fn touch(&mut self, t: Touched) {
-        if self.n_touched < self.touched.len() {
-            self.touched[self.n_touched] = t;
-            self.n_touched += 1;
-        }
+    fn set_g(&mut self, group: usize, code: i32, off: u32) {
+        self.g[group] = (code, off);
+        self.g_set |= 1 << group;
+    }
+    fn set_m(&mut self, group: usize, code: i32, off: u32) {
+        self.m[group] = (code, off);
+        self.m_set |= 1 << group;
+    }
+    fn set_val(&mut self, l: u8, value: f64, off: u32) {
+        self.val[(l - b'A') as usize] = (value, off);
+        self.val_set |= letter_bit(l);
     }
     fn get(&self, l: u8) -> Option<f64> {
-        self.val[(l - b'A') as usize].map(|v| v.0)
+        self.has(l).then(|| self.val[(l - b'A') as usize].0)
     }
     fn off(&self, l: u8) -> u32 {
-        self.val[(l - b'A') as usize].map_or(0, |v| v.1)
+        if self.has(l) {
+            self.val[(l - b'A') as usize].1
+        } else {
+            0
+        }
     }
     fn has(&self, l: u8) -> bool {
-        self.val[(l - b'A') as usize].is_some()
+        self.val_set & letter_bit(l) != 0
+    }
+    fn has_g(&self, group: usize) -> bool {
+        self.g_set & (1 << group) != 0
     }
     fn g_in(&self, group: usize) -> Option<i32> {
-        self.g[group].map(|x| x.0)
+        self.has_g(group).then(|| self.g[group].0)
     }
     fn g_off(&self, group: usize) -> u32 {
-        self.g[group].map_or(0, |x| x.1)
+        if self.has_g(group) {
+            self.g[group].1
+        } else {
+            0
+        }
+    }
+    fn has_m(&self, group: usize) -> bool {
+        self.m_set & (1 << group) != 0
     }
     fn m_in(&self, group: usize) -> Option<i32> {
-        self.m[group].map(|x| x.0)
+        self.has_m(group).then(|| self.m[group].0)
+    }
+    fn m_off(&self, group: usize) -> u32 {
+        if self.has_m(group) {
+            self.m[group].1
+        } else {
+            0
+        }
     }
     /// Offset of the first axis word (for messages).
     fn axis_off(&self) -> u32 {
@@ -296,6 +314,14 @@ impl Block {
             .map(|l| self.off(*l))
             .min()
             .unwrap_or(0)
+    }
+    /// Offset of the motion G code, or else of the first axis word (for messages).
+    fn motion_off(&self) -> u32 {
+        if self.has_g(GM_MOTION) {
+            self.g_off(GM_MOTION)
+        } else {
+            self.axis_off()
+        }
     }
 }
 
@@ -449,15 +475,11 @@ impl<'a> Interp<'a> {
                     if let Some(why) = g_unsupported(code) {
                         return unsup(offset, fmt_code('G', code), why);
                     }
-                    b.touch(Touched::G(group as u8));
-                    if code == G_80 && b.g[group].is_some() {
+                    match b.g_in(group) {
                         // G80 beside another motion code: the other one counts
-                    } else if b.g[group].map(|g| g.0) == Some(G_80) {
-                        b.g[group] = Some((code, offset));
-                    } else if b.g[group].is_some() {
-                        return bad(offset, "Two g codes used from same modal group");
-                    } else {
-                        b.g[group] = Some((code, offset));
+                        Some(_) if code == G_80 => {}
+                        None | Some(G_80) => b.set_g(group, code, offset),
+                        Some(_) => return bad(offset, "Two g codes used from same modal group"),
                     }
                 }
                 b'M' => {
@@ -471,14 +493,13 @@ impl<'a> Interp<'a> {
                     let Some(group) = m_group(code) else {
                         return bad(offset, format!("Unknown m code used: M{code}"));
                     };
-                    if b.m[group].is_some() {
+                    if b.has_m(group) {
                         return bad(offset, "Two m codes used from same modal group");
                     }
                     if let Some(why) = m_unsupported(code) {
                         return unsup(offset, format!("M{code}"), why);
                     }
-                    b.touch(Touched::M(group as u8));
-                    b.m[group] = Some((code, offset));
+                    b.set_m(group, code, offset);
                     b.m_count += 1;
                 }
                 b'A' | b'B' | b'C' | b'U' | b'V' | b'W' => {
@@ -504,12 +525,10 @@ impl<'a> Interp<'a> {
                         );
                     }
                     *number = value;
-                    b.touch(Touched::Val(letter - b'A'));
-                    b.val[(letter - b'A') as usize] = Some((value, offset));
+                    b.set_val(letter, value, offset);
                 }
                 _ => {
-                    let slot = (letter - b'A') as usize;
-                    if b.val[slot].is_some() {
+                    if b.has(letter) {
                         return bad(
                             offset,
                             format!(
@@ -544,8 +563,7 @@ impl<'a> Interp<'a> {
                         }
                         _ => value,
                     };
-                    b.touch(Touched::Val(slot as u8));
-                    b.val[slot] = Some((value, offset));
+                    b.set_val(letter, value, offset);
                 }
             }
         }
@@ -598,7 +616,7 @@ impl<'a> Interp<'a> {
         // check_m_codes
         if b.m_count > MAX_EMS {
             return bad(
-                b.m.iter().flatten().map(|m| m.1).max().unwrap_or(0),
+                (0..M_GROUPS).map(|g| b.m_off(g)).max().unwrap_or(0),
                 "Too many m codes on line",
             );
         }
@@ -744,7 +762,7 @@ impl<'a> Interp<'a> {
             }
             Some(61) => {
                 // sets the number of the tool in the spindle; rs274 keeps its data
-                let off = b.m[6].map_or(0, |m| m.1);
+                let off = b.m_off(6);
                 let tool = round_to_int(b.q_number);
                 if tool < 0 {
                     return bad(
@@ -913,7 +931,7 @@ impl<'a> Interp<'a> {
 
     /// `convert_straight`.
     fn straight(&mut self, line_no: u32, mode: i32, b: &Block) -> R<()> {
-        let off = b.g[GM_MOTION].map_or_else(|| b.axis_off(), |g| g.1);
+        let off = b.motion_off();
         if mode == G_1 {
             if !self.inverse_time && self.feed == 0.0 {
                 return bad(off, "Cannot do g1 with zero feed rate");
@@ -948,7 +966,7 @@ impl<'a> Interp<'a> {
 
     /// `convert_arc` and `convert_arc2` with `arc_data_ijk` / `arc_data_r`.
     fn arc(&mut self, line_no: u32, mode: i32, b: &Block) -> R<()> {
-        let off = b.g[GM_MOTION].map_or_else(|| b.axis_off(), |g| g.1);
+        let off = b.motion_off();
         let ijk = b.has(b'I') || b.has(b'J') || b.has(b'K');
         let r_word = b.get(b'R');
         if r_word.is_none() && !ijk {
@@ -1234,7 +1252,7 @@ pub fn read_chunked(
     };
     let bytes = text.as_bytes();
     // NUL bytes and comments need per-line work only if the file has any
-    let maybe = bytes.contains(&0) || bytes.contains(&b'(');
+    let maybe = has_nul_or_paren(bytes);
     // `%` on the first non-blank line: the program runs to the next lone `%`
     let mut prescan = LineSplit { b: bytes, pos: 0 };
     let mut first = 0;
@@ -1337,6 +1355,19 @@ pub fn read_chunked(
         "File ended with no percent sign or program end"
     };
     Err(err(n_lines.max(1), "", (0, ErrorKind::Invalid(msg.into()))))
+}
+
+/// Whether `b` holds a NUL byte or a `(`: one pass, in blocks of fixed length that
+/// the compiler turns into vector compares.
+fn has_nul_or_paren(b: &[u8]) -> bool {
+    let is_hit = |c: u8| c == 0 || c == b'(';
+    let mut blocks = b.chunks_exact(32);
+    blocks.by_ref().any(|block| {
+        block
+            .iter()
+            .fold(0u8, |hits, &c| hits | u8::from(is_hit(c)))
+            != 0
+    }) || blocks.remainder().iter().any(|&c| is_hit(c))
 }
 
 /// The lines of a text as byte ranges `(start, end, ended by a newline)`, as

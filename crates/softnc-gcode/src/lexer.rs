@@ -204,9 +204,29 @@ pub(crate) fn lex_line_hinted(text: &str, out: &mut Line, maybe: bool) -> Result
         }
         _ => {}
     }
-    while let Some(c) = cur.peek() {
-        let at = cur.i;
+    // the words: one pass over the bytes, most numbers read by `plain_number`
+    let mut i = cur.i;
+    while i < b.len() {
+        let at = i;
+        let c = b[i].to_ascii_lowercase();
         match c {
+            b' ' | b'\t' | b'\r' => i += 1,
+            b'a'..=b'z' if c != b'n' && c != b'o' => {
+                let (value, next) = match plain_number(b, i + 1) {
+                    Some(read) => read,
+                    None => {
+                        let mut cur = Cursor { b, i: i + 1 };
+                        let value = read_value(&mut cur, at)?;
+                        (value, cur.i)
+                    }
+                };
+                out.words.push(Word {
+                    letter: c.to_ascii_uppercase(),
+                    value,
+                    offset: at as u32,
+                });
+                i = next;
+            }
             b'(' => {
                 let start = at + 1;
                 let end = start
@@ -216,7 +236,7 @@ pub(crate) fn lex_line_hinted(text: &str, out: &mut Line, maybe: bool) -> Result
                         .unwrap_or(b.len() - start);
                 out.comment = Some((start as u32, end as u32));
                 out.comment_offset = at as u32;
-                cur.i = (end + 1).min(b.len());
+                i = (end + 1).min(b.len());
             }
             b';' => break,
             b'#' => {
@@ -239,15 +259,6 @@ pub(crate) fn lex_line_hinted(text: &str, out: &mut Line, maybe: bool) -> Result
                     word_text(b, at),
                     "polar coordinates (@ and ^ words) are not supported",
                 ))
-            }
-            b'a'..=b'z' if c != b'n' && c != b'o' => {
-                cur.bump();
-                let value = read_value(&mut cur, at)?;
-                out.words.push(Word {
-                    letter: c.to_ascii_uppercase(),
-                    value,
-                    offset: at as u32,
-                });
             }
             _ => return Err(invalid(at, bad_character(b[at]))),
         }
@@ -402,14 +413,13 @@ const POW10: [f64; 23] = [
     1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 ];
 
-/// The common case of [`read_number`] in one tight pass: an optional sign, at most 15
-/// digits with at most one point, and then (after any white space) neither a digit
-/// nor a point. None (the cursor untouched) for anything else.
-#[inline]
-fn read_plain_number(cur: &mut Cursor) -> Option<f64> {
-    let b = cur.b;
+/// The common case of [`read_number`] in one tight pass, from byte `i` of the line:
+/// an optional sign, 1 to 15 digits with at most one point, and then (after any white
+/// space) neither a digit, a point nor a sign. The value and the offset after the
+/// white space, or None (the general readers decide) for anything else.
+#[inline(always)]
+fn plain_number(b: &[u8], mut i: usize) -> Option<(f64, usize)> {
     let n = b.len();
-    let mut i = cur.i;
     let neg = match b.get(i) {
         Some(b'-') => {
             i += 1;
@@ -421,14 +431,14 @@ fn read_plain_number(cur: &mut Cursor) -> Option<f64> {
         }
         _ => false,
     };
-    let mut mant = 0u64;
+    let mut mant = 0u64; // wraps beyond 19 digits, but is used only up to 15
     let int_start = i;
     while i < n {
         let d = b[i].wrapping_sub(b'0');
         if d >= 10 {
             break;
         }
-        mant = mant * 10 + u64::from(d);
+        mant = mant.wrapping_mul(10).wrapping_add(u64::from(d));
         i += 1;
     }
     let mut digits = i - int_start;
@@ -441,7 +451,7 @@ fn read_plain_number(cur: &mut Cursor) -> Option<f64> {
             if d >= 10 {
                 break;
             }
-            mant = mant * 10 + u64::from(d);
+            mant = mant.wrapping_mul(10).wrapping_add(u64::from(d));
             i += 1;
         }
         frac = i - frac_start;
@@ -456,16 +466,17 @@ fn read_plain_number(cur: &mut Cursor) -> Option<f64> {
     if i < n && (b[i].is_ascii_digit() || matches!(b[i], b'.' | b'+' | b'-')) {
         return None;
     }
-    cur.i = i;
-    // an exact integer mantissa and one correctly rounded division, as below
-    let v = mant as f64 / POW10[frac];
-    Some(if neg { -v } else { v })
+    // an exact integer mantissa (< 10^15 < 2^53; as a signed integer its conversion is
+    // one instruction) and one correctly rounded division
+    let v = mant as i64 as f64 / POW10[frac];
+    Some((if neg { -v } else { v }, i))
 }
 
 /// `strspn("+-")`, `strspn("0123456789.")`, then a C++ stream conversion: one
 /// optional sign, digits with at most one point, at least one digit, nothing left.
 fn read_number(cur: &mut Cursor) -> Result<f64, LexError> {
-    if let Some(v) = read_plain_number(cur) {
+    if let Some((v, next)) = plain_number(cur.b, cur.i) {
+        cur.i = next;
         return Ok(v);
     }
     let b = cur.b;

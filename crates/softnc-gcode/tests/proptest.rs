@@ -4,6 +4,7 @@
 
 use proptest::prelude::*;
 use softnc_core::MachineProfile;
+use softnc_gcode::lexer::{lex_line, Line};
 use softnc_gcode::{read_program, MotionKind};
 use std::path::PathBuf;
 use std::sync::OnceLock;
@@ -99,6 +100,25 @@ proptest! {
     ) {
         let text = words.concat();
         let _ = read_program(&text, "random.ngc", profile());
+    }
+
+    #[test]
+    fn numbers_read_as_the_standard_library_reads_them(
+        sign in "[-+]?",
+        int in "[0-9]{0,12}",
+        frac in proptest::option::of("[0-9]{0,12}"),
+        space in "[ ]{0,2}",
+    ) {
+        let digits = match &frac {
+            Some(f) => format!("{int}.{f}"),
+            None => int.clone(),
+        };
+        prop_assume!(digits.bytes().any(|c| c.is_ascii_digit()));
+        let mut line = Line::default();
+        lex_line(&format!("X{sign}{digits}{space}Y1"), &mut line).unwrap();
+        let want = digits.parse::<f64>().unwrap();
+        let want = if sign == "-" { -want } else { want };
+        prop_assert_eq!(line.words[0].value.to_bits(), want.to_bits(), "{}", digits);
     }
 
     #[test]
