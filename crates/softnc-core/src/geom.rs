@@ -240,6 +240,7 @@ impl Primitive {
     }
 
     /// Start point.
+    #[inline]
     pub fn start(&self) -> Vec3 {
         match *self {
             Primitive::Line { start, .. } | Primitive::Arc { start, .. } => start,
@@ -247,6 +248,7 @@ impl Primitive {
     }
 
     /// End point.
+    #[inline]
     pub fn end(&self) -> Vec3 {
         match *self {
             Primitive::Line { end, .. } | Primitive::Arc { end, .. } => end,
@@ -254,6 +256,7 @@ impl Primitive {
     }
 
     /// Arc length (mm).
+    #[inline]
     pub fn length(&self) -> f64 {
         match *self {
             Primitive::Line { start, end } => (end - start).norm(),
@@ -345,6 +348,7 @@ impl Primitive {
 
     /// Curvature (1/mm) of the path; zero for lines. For a helix, the curvature of
     /// the helix, R·ω² / (R²ω² + h²) per unit angle.
+    #[inline]
     pub fn curvature(&self) -> f64 {
         match *self {
             Primitive::Line { .. } => 0.0,

@@ -1,7 +1,10 @@
 //! Parse and plan a G-code file `repeat` times (for profilers and quick timing): `cargo
 //! run --release -p softnc-planner --example profile_plan -- FILE [repeat]`. Prints the
 //! best and mean time per line of: reading then planning (`read_program` + `plan`),
-//! the streaming `read_and_plan`, and `read_and_plan_parallel` (two threads).
+//! reading alone (`read_program`, all motions kept; `chunks`: handed on in chunks of
+//! 1024 and dropped, the reader's share of the streaming runs), the streaming
+//! `read_and_plan`, and `read_and_plan_parallel` (two threads). A third argument runs
+//! only the named one.
 use softnc_planner::PlanOptions;
 
 fn main() {
@@ -64,6 +67,17 @@ fn main() {
         let p = softnc_gcode::read_program(&text, "f", &profile).expect("reads");
         let total = t0.elapsed().as_secs_f64();
         std::hint::black_box(p.motions.len());
+        (total, 0.0)
+    });
+    time("chunks", &|| {
+        let t0 = std::time::Instant::now();
+        let mut n = 0;
+        let p = softnc_gcode::read_program_chunked(&text, "f", &profile, 1024, &mut |c| {
+            n += c.len();
+        })
+        .expect("reads");
+        let total = t0.elapsed().as_secs_f64();
+        std::hint::black_box((p.blocks, n));
         (total, 0.0)
     });
     time("stream", &|| {

@@ -442,7 +442,7 @@ impl PathBuilder {
         if n > self.path.lead_in {
             let a = &mut self.path.segs[n - 1];
             if a.v_end_hard != 0.0 {
-                let prev_geom = self.path.geoms[n - 1];
+                let prev_geom = &self.path.geoms[n - 1];
                 a.v_end_hard = junction_speed(
                     lim,
                     a.vel_cap,

@@ -203,8 +203,12 @@ impl ElementShape {
         te[b] = rs * cos_e;
         te[n] = normal_travel;
         let l = len.max(f64::MIN_POSITIVE);
-        let horiz = rs.abs() / l;
-        let vert = normal_travel.abs() / l;
+        // (in the plane, l = |rs|: the divisions would give exactly 1 and 0)
+        let (horiz, vert) = if normal_travel == 0.0 && l == rs.abs() {
+            (1.0, 0.0)
+        } else {
+            (rs.abs() / l, normal_travel.abs() / l)
+        };
         let mut w = [0.0; 3];
         w[a] = horiz;
         w[b] = horiz;

@@ -400,8 +400,15 @@ fn bounding_box(p: &Primitive) -> (Vec3, Vec3) {
     } = *p
     {
         let (a, b, _) = plane.axes();
-        // cardinal angles crossed by the sweep
+        // the points at the cardinal angles crossed by the sweep (the test only for
+        // those that would grow the box)
         for (q, (cos_q, sin_q)) in CARDINAL.iter().enumerate() {
+            let mut pt = center;
+            pt[a] += radius * cos_q;
+            pt[b] += radius * sin_q;
+            if (0..3).all(|i| pt[i] >= lo[i] && pt[i] <= hi[i]) {
+                continue;
+            }
             let ang = q as f64 * std::f64::consts::FRAC_PI_2;
             let rel = if sweep >= 0.0 {
                 rem_tau(ang - start_angle)
@@ -409,9 +416,6 @@ fn bounding_box(p: &Primitive) -> (Vec3, Vec3) {
                 rem_tau(start_angle - ang)
             };
             if rel <= sweep.abs() {
-                let mut pt = center;
-                pt[a] += radius * cos_q;
-                pt[b] += radius * sin_q;
                 lo = lo.min(pt);
                 hi = hi.max(pt);
             }
