@@ -273,7 +273,7 @@ impl PathBuilder {
                 if let Some((_, d)) = blend {
                     next.start_trim = d;
                 }
-                self.emit(prev, blend, false);
+                self.emit(&prev, blend, false);
             }
             None => self.start_dwell(),
         }
@@ -362,7 +362,7 @@ impl PathBuilder {
     }
 
     /// Push the elements of a move whose successor is known (`last`: it has none).
-    fn emit(&mut self, p: Pending, blend: Option<(Geom, f64)>, last: bool) {
+    fn emit(&mut self, p: &Pending, blend: Option<(Geom, f64)>, last: bool) {
         let stop = p.exact_stop || p.dwell_s > 0.0 || last;
         let (geom, shape) = match p.geom {
             Geom::Line {
@@ -396,17 +396,17 @@ impl PathBuilder {
                 },
                 _,
             )) => {
-                let pushed = self.push_element(&p, geom, &shape, 0.0, false);
+                let pushed = self.push_element(p, &geom, &shape, 0.0, false);
                 self.push_element(
-                    &p,
-                    b,
+                    p,
+                    &b,
                     &ElementShape::blend(e1, e2, radius, sweep),
                     0.0,
                     false,
                 );
                 pushed
             }
-            _ => self.push_element(&p, geom, &shape, p.dwell_s, stop),
+            _ => self.push_element(p, &geom, &shape, p.dwell_s, stop),
         };
         if !pushed {
             if let Some(prim) = geom.programmed() {
@@ -420,7 +420,7 @@ impl PathBuilder {
     fn push_element(
         &mut self,
         m: &Pending,
-        geom: Geom,
+        geom: &Geom,
         shape: &ElementShape,
         dwell: f64,
         stop: bool,
@@ -464,7 +464,7 @@ impl PathBuilder {
             v_end_hard: if stop { 0.0 } else { f64::INFINITY },
             dwell_s: dwell,
         });
-        self.path.geoms.push(geom);
+        self.path.geoms.push(*geom);
         self.s0 += len;
         self.prev_end_tangent = shape.end_tangent;
         true
@@ -473,7 +473,7 @@ impl PathBuilder {
     /// The path: the last move ends in a stop.
     pub fn finish(mut self) -> Path {
         match self.pending.take() {
-            Some(p) => self.emit(p, None, true),
+            Some(p) => self.emit(&p, None, true),
             None => self.start_dwell(),
         }
         if let Some(last) = self.path.segs.last_mut() {
