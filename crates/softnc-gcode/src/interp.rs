@@ -10,7 +10,7 @@
 
 use crate::canon::{Motion, MotionKind, PathMode, Program};
 use crate::error::{ErrorKind, GcodeError};
-use crate::lexer::{bad_character, column, lex_line_hinted, significant, Line, Word};
+use crate::lexer::{bad_character, column, lex_words, significant, Line, Word};
 use softnc_core::{MachineProfile, Plane, Vec3};
 use std::f64::consts::{FRAC_PI_2, PI, SQRT_2};
 
@@ -442,129 +442,126 @@ impl<'a> Interp<'a> {
         }
     }
 
-    /// `read_items`: the words of a line into a block, with LinuxCNC's reading
-    /// errors, in the order of the words; codes and axes softnc does not implement are
-    /// refused where they stand.
-    fn sort(&self, words: &[Word], b: &mut Block) -> R<()> {
-        b.clear();
-        for w in words {
-            let Word {
-                letter,
-                value,
-                offset,
-            } = *w;
-            match letter {
-                b'G' => {
-                    let v10 = value * 10.0;
-                    let mut code = v10.floor();
-                    if v10 - code > 0.999 {
-                        code = v10.ceil();
-                    } else if v10 - code > 0.001 {
-                        return bad(offset, "G-code out of range");
-                    }
-                    if code > 999.0 {
-                        return bad(offset, "G-code out of range");
-                    }
-                    if code < 0.0 {
-                        return bad(offset, "Negative g code used");
-                    }
-                    let code = code as i32;
-                    let Some(group) = g_group(code) else {
-                        return bad(offset, "Unknown g code used");
-                    };
-                    if let Some(why) = g_unsupported(code) {
-                        return unsup(offset, fmt_code('G', code), why);
-                    }
-                    match b.g_in(group) {
-                        // G80 beside another motion code: the other one counts
-                        Some(_) if code == G_80 => {}
-                        None | Some(G_80) => b.set_g(group, code, offset),
-                        Some(_) => return bad(offset, "Two g codes used from same modal group"),
-                    }
+    /// `read_items` for one word: into the block, with LinuxCNC's reading errors (the
+    /// words come in the order of the line); codes and axes softnc does not implement
+    /// are refused where they stand.
+    fn sort_word(&self, w: Word, b: &mut Block) -> R<()> {
+        let Word {
+            letter,
+            value,
+            offset,
+        } = w;
+        match letter {
+            b'G' => {
+                let v10 = value * 10.0;
+                let mut code = v10.floor();
+                if v10 - code > 0.999 {
+                    code = v10.ceil();
+                } else if v10 - code > 0.001 {
+                    return bad(offset, "G-code out of range");
                 }
-                b'M' => {
-                    let code = integer(value, offset)?;
-                    if code < 0 {
-                        return bad(offset, "Negative m code used");
-                    }
-                    if code > 199 {
-                        return bad(offset, format!("M-code greater than 199: M{code}"));
-                    }
-                    let Some(group) = m_group(code) else {
-                        return bad(offset, format!("Unknown m code used: M{code}"));
-                    };
-                    if b.has_m(group) {
-                        return bad(offset, "Two m codes used from same modal group");
-                    }
-                    if let Some(why) = m_unsupported(code) {
-                        return unsup(offset, format!("M{code}"), why);
-                    }
-                    b.set_m(group, code, offset);
-                    b.m_count += 1;
+                if code > 999.0 {
+                    return bad(offset, "G-code out of range");
                 }
-                b'A' | b'B' | b'C' | b'U' | b'V' | b'W' => {
-                    return unsup(
+                if code < 0.0 {
+                    return bad(offset, "Negative g code used");
+                }
+                let code = code as i32;
+                let Some(group) = g_group(code) else {
+                    return bad(offset, "Unknown g code used");
+                };
+                if let Some(why) = g_unsupported(code) {
+                    return unsup(offset, fmt_code('G', code), why);
+                }
+                match b.g_in(group) {
+                    // G80 beside another motion code: the other one counts
+                    Some(_) if code == G_80 => {}
+                    None | Some(G_80) => b.set_g(group, code, offset),
+                    Some(_) => return bad(offset, "Two g codes used from same modal group"),
+                }
+            }
+            b'M' => {
+                let code = integer(value, offset)?;
+                if code < 0 {
+                    return bad(offset, "Negative m code used");
+                }
+                if code > 199 {
+                    return bad(offset, format!("M-code greater than 199: M{code}"));
+                }
+                let Some(group) = m_group(code) else {
+                    return bad(offset, format!("Unknown m code used: M{code}"));
+                };
+                if b.has_m(group) {
+                    return bad(offset, "Two m codes used from same modal group");
+                }
+                if let Some(why) = m_unsupported(code) {
+                    return unsup(offset, format!("M{code}"), why);
+                }
+                b.set_m(group, code, offset);
+                b.m_count += 1;
+            }
+            b'A' | b'B' | b'C' | b'U' | b'V' | b'W' => {
+                return unsup(
+                    offset,
+                    format!("{}", letter as char),
+                    "axes other than X, Y and Z are not supported",
+                );
+            }
+            b'P' | b'Q' => {
+                let number = if letter == b'P' {
+                    &mut b.p_number
+                } else {
+                    &mut b.q_number
+                };
+                if *number > -1.0 {
+                    return bad(
                         offset,
-                        format!("{}", letter as char),
-                        "axes other than X, Y and Z are not supported",
+                        format!(
+                            "Multiple {} words on one line",
+                            (letter as char).to_ascii_lowercase()
+                        ),
                     );
                 }
-                b'P' | b'Q' => {
-                    let number = if letter == b'P' {
-                        &mut b.p_number
-                    } else {
-                        &mut b.q_number
-                    };
-                    if *number > -1.0 {
-                        return bad(
-                            offset,
-                            format!(
-                                "Multiple {} words on one line",
-                                (letter as char).to_ascii_lowercase()
-                            ),
-                        );
-                    }
-                    *number = value;
-                    b.set_val(letter, value, offset);
+                *number = value;
+                b.set_val(letter, value, offset);
+            }
+            _ => {
+                if b.has(letter) {
+                    return bad(
+                        offset,
+                        format!(
+                            "Multiple {} words on one line",
+                            (letter as char).to_ascii_lowercase()
+                        ),
+                    );
                 }
-                _ => {
-                    if b.has(letter) {
-                        return bad(
-                            offset,
-                            format!(
-                                "Multiple {} words on one line",
-                                (letter as char).to_ascii_lowercase()
-                            ),
-                        );
+                let value = match letter {
+                    b'F' if value < 0.0 => return bad(offset, "Negative f word used"),
+                    b'S' if value < 0.0 => return bad(offset, "Negative spindle speed used"),
+                    b'H' => {
+                        let v = integer(value, offset)?;
+                        if v < -1 {
+                            return bad(offset, "Negative h word used");
+                        }
+                        f64::from(v)
                     }
-                    let value = match letter {
-                        b'F' if value < 0.0 => return bad(offset, "Negative f word used"),
-                        b'S' if value < 0.0 => return bad(offset, "Negative spindle speed used"),
-                        b'H' => {
-                            let v = integer(value, offset)?;
-                            if v < -1 {
-                                return bad(offset, "Negative h word used");
-                            }
-                            f64::from(v)
+                    b'L' => {
+                        let v = integer(value, offset)?;
+                        if v < 0 {
+                            return bad(offset, "Negative l word used");
                         }
-                        b'L' => {
-                            let v = integer(value, offset)?;
-                            if v < 0 {
-                                return bad(offset, "Negative l word used");
-                            }
-                            f64::from(v)
+                        f64::from(v)
+                    }
+                    b'T' => {
+                        let v = integer(value, offset)?;
+                        if v < 0 {
+                            return bad(offset, "Negative tool id (tool not found)");
                         }
-                        b'T' => {
-                            let v = integer(value, offset)?;
-                            if v < 0 {
-                                return bad(offset, "Negative tool id (tool not found)");
-                            }
-                            f64::from(v)
-                        }
-                        _ => value,
-                    };
-                    b.set_val(letter, value, offset);
-                }
+                        f64::from(v)
+                    }
+                    _ => value,
+                };
+                b.set_val(letter, value, offset);
             }
         }
         Ok(())
@@ -1300,13 +1297,11 @@ pub fn read_chunked(
                 (0, ErrorKind::Invalid("Command too long".into())),
             ));
         }
-        let lexed = lex_line_hinted(raw, &mut line, maybe);
-        // words before a lexing error are read (and may fail) first, as in LinuxCNC
-        it.sort(&line.words, &mut block)
+        // each word goes into the block as it is read: words before a lexing error
+        // are read (and may fail) first, as in LinuxCNC
+        block.clear();
+        lex_words(raw, &mut line, maybe, |w| it.sort_word(w, &mut block))
             .map_err(|x| err(line_no, raw, x))?;
-        if let Err(x) = lexed {
-            return Err(err(line_no, raw, x));
-        }
         if line.percent {
             if percent_flag {
                 return Ok(finish(it, file, line_no, chunk, sink));

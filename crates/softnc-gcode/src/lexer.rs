@@ -130,16 +130,30 @@ impl Cursor<'_> {
 /// Lex `text` (one line, without its newline) into `out` (cleared first, its
 /// allocation reused).
 pub fn lex_line(text: &str, out: &mut Line) -> Result<(), LexError> {
-    lex_line_hinted(text, out, true)
+    let mut words = std::mem::take(&mut out.words);
+    words.clear();
+    let lexed = lex_words(text, out, true, |w| {
+        words.push(w);
+        Ok(())
+    });
+    out.words = words;
+    lexed
 }
 
-/// [`lex_line`], told whether the line may contain a NUL byte or a `(` at all (the
-/// reader checks the whole file once, sparing two searches per line).
-pub(crate) fn lex_line_hinted(text: &str, out: &mut Line, maybe: bool) -> Result<(), LexError> {
+/// [`lex_line`] handing each word to `on_word` as soon as it is read instead of
+/// listing it in `out` (whose `words` stay untouched); an error from `on_word` stops
+/// lexing and is returned. `maybe`: whether the line may contain a NUL byte or a `(`
+/// at all (the reader checks the whole file once, sparing two searches per line).
+#[inline(always)]
+pub(crate) fn lex_words(
+    text: &str,
+    out: &mut Line,
+    maybe: bool,
+    mut on_word: impl FnMut(Word) -> Result<(), LexError>,
+) -> Result<(), LexError> {
     out.blank = false;
     out.percent = false;
     out.block_delete = false;
-    out.words.clear();
     out.comment = None;
     out.comment_offset = 0;
     out.python = false;
@@ -220,11 +234,11 @@ pub(crate) fn lex_line_hinted(text: &str, out: &mut Line, maybe: bool) -> Result
                         (value, cur.i)
                     }
                 };
-                out.words.push(Word {
+                on_word(Word {
                     letter: c.to_ascii_uppercase(),
                     value,
                     offset: at as u32,
-                });
+                })?;
                 i = next;
             }
             b'(' => {
