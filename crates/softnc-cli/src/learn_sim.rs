@@ -67,7 +67,9 @@ impl PreparedJob {
 #[derive(Debug, Clone)]
 pub struct Run {
     /// Measured position at each sample (mm): `actual_mm` of the cycle that commanded
-    /// sample k, i.e. the response to the commands before it.
+    /// sample k, i.e. the response to the commands before it. With a command filter
+    /// of order N that is cycle N + k: the N cycles of lead-in (and of run-out) are
+    /// not job samples.
     pub measured_mm: Vec<[f64; AXES]>,
     /// Contour error over the feed moves (mm).
     pub contour: ErrorStats,
@@ -80,6 +82,7 @@ pub fn run_job(
     command: impl Fn(usize, [f64; AXES]) -> [f64; AXES],
 ) -> Result<Run, String> {
     let mut measured_mm = Vec::with_capacity(job.samples.len());
+    let lead_in = engine.filter_window() as u64;
     let samples = job.samples.iter().enumerate().map(|(k, s)| CommandSample {
         pos_mm: command(k, s.pos_mm),
         motion: s.motion,
@@ -90,7 +93,11 @@ pub fn run_job(
         job.cycle_s,
         samples,
         |m| job.prims.get(m as usize).copied().flatten(),
-        |row| measured_mm.push(row.record.actual_mm),
+        |row| {
+            if row.cycle >= lead_in && measured_mm.len() < job.samples.len() {
+                measured_mm.push(row.record.actual_mm);
+            }
+        },
     )
     .map_err(|e| format!("servo backend: {e}"))?;
     Ok(Run {
@@ -313,4 +320,53 @@ pub fn learn_radius(
     }
     debug_assert_eq!(measured.len(), POINTS);
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::reproduce::p001::workspace_file;
+    use softnc_core::servo::CommandFilterConfig;
+    use softnc_sim::SimOptions;
+
+    /// With a command filter on, the measured positions stay one per job sample and
+    /// aligned with them: on a constant-velocity line the zero-lag filter leaves the
+    /// command unchanged, so mid-line the run measures what it measures unfiltered.
+    #[test]
+    fn measured_samples_stay_aligned_with_a_command_filter() {
+        let plain = MachineProfile::load(&workspace_file("config/machines/default.ron")).unwrap();
+        let mut filtered = plain.clone();
+        for a in &mut filtered.servo.axes {
+            a.command_filter = Some(CommandFilterConfig {
+                frequency_hz: 15.0,
+                order: 40,
+            });
+        }
+        let text = "G21 G90 G94\nG0 X0 Y0 Z0\nG1 X60 F3000\nM2\n";
+        let run = |m: &MachineProfile| {
+            let job = PreparedJob::new(text, "line.ngc", m).unwrap();
+            let opts = SimOptions {
+                noise: false,
+                variation: false,
+                ..SimOptions::default()
+            };
+            let mut engine = CycleEngine::simulated(m, 1, opts);
+            assert_eq!(
+                engine.filter_window(),
+                if std::ptr::eq(m, &plain) { 0 } else { 40 }
+            );
+            let r = run_job(&mut engine, &job, |_, p| p).unwrap();
+            assert_eq!(r.measured_mm.len(), job.samples.len());
+            r.measured_mm
+        };
+        let (a, b) = (run(&plain), run(&filtered));
+        let mid = a.len() / 2;
+        // 40 samples at 50 mm/s would be 2 mm apart
+        assert!(
+            (a[mid][0] - b[mid][0]).abs() < 0.01,
+            "{} vs {}",
+            a[mid][0],
+            b[mid][0]
+        );
+    }
 }

@@ -68,6 +68,20 @@ pub enum FeedProfile {
     SCurve,
 }
 
+/// Where the CNC's acceleration/deceleration acts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum AccDec {
+    /// Before interpolation (softnc's own): the planner keeps every axis within its
+    /// acceleration, tangent breaks between blocks included (it slows down at them).
+    #[default]
+    BeforeInterpolation,
+    /// After interpolation, as in a CNC without look-ahead (the FANUC 0-M of paper
+    /// 004): the interpolator runs the programmed feed through tangent breaks between
+    /// blocks, and the servo's acc/dec lag (part of the profile's plant) smooths them.
+    /// Element limits, start and stop ramps stay as planned.
+    AfterInterpolation,
+}
+
 /// Planner settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -81,6 +95,9 @@ pub struct PlannerConfig {
     /// Largest feed override, as a fraction (2.55 = 255 %).
     #[serde(default = "default_max_override")]
     pub max_feed_override: f64,
+    /// Where acceleration/deceleration acts (default: before interpolation).
+    #[serde(default)]
+    pub acc_dec: AccDec,
 }
 
 fn default_max_override() -> f64 {
@@ -386,10 +403,19 @@ impl MachineProfile {
                         }
                     }
                 }
-                PlantModel::FirstOrderLag { tau_s, stick_mm } => {
+                PlantModel::FirstOrderLag {
+                    tau_s,
+                    stick_mm,
+                    stick_integral_s,
+                } => {
                     positive(*tau_s, &p("plant.tau_s"), file)?;
-                    if !(*stick_mm >= 0.0 && stick_mm.is_finite()) {
-                        return Err(bad(p("plant.stick_mm"), "must be finite and >= 0"));
+                    for (n, v) in [
+                        ("stick_mm", stick_mm),
+                        ("stick_integral_s", stick_integral_s),
+                    ] {
+                        if !(*v >= 0.0 && v.is_finite()) {
+                            return Err(bad(p(&format!("plant.{n}")), "must be finite and >= 0"));
+                        }
                     }
                 }
             }

@@ -25,7 +25,8 @@ pub mod servo;
 pub mod store;
 
 pub use config::{
-    AxisConfig, ConfigError, FeedProfile, MachineProfile, PlannerConfig, SpindleConfig, ToolEntry,
+    AccDec, AxisConfig, ConfigError, FeedProfile, MachineProfile, PlannerConfig, SpindleConfig,
+    ToolEntry,
 };
 pub use geom::{Plane, Primitive, Vec3};
 pub use ring::{CommandRing, LookaheadRing, RingError, RingSample, COMMAND_RING_CAPACITY};

@@ -54,6 +54,7 @@ impl Default for AxisServo {
             plant: PlantModel::FirstOrderLag {
                 tau_s: 0.01,
                 stick_mm: 0.0,
+                stick_integral_s: 0.0,
             },
             controller: ControllerConfig::default(),
             noise_mm: 0.0,
@@ -107,14 +108,21 @@ pub enum PlantModel {
     },
     /// Paper 004: servo and acc/dec as one first-order lag G(s) = 1/(1 + Ts) from
     /// command position to table position, with static friction at reversals: after
-    /// the axis stops and the command turns back, it stays until the lag exceeds
+    /// the axis stops and the command turns back, it stays until the velocity loop's
+    /// drive (the lag, plus its integral if `stick_integral_s` > 0) exceeds
     /// `stick_mm`. The controller is bypassed (its output is the command).
     FirstOrderLag {
         /// Time constant T (s).
         tau_s: f64,
-        /// Lost motion at a reversal (mm); 0 = none.
+        /// Lost motion at a reversal (mm); 0 = none: the lag e the velocity loop's
+        /// proportional part alone needs to break the axis away.
         #[serde(default)]
         stick_mm: f64,
+        /// Integral time T_i of the velocity loop's PI (s): while stuck the drive is
+        /// e + (1/T_i)∫e dt, and the axis breaks away when it exceeds `stick_mm`;
+        /// 0 = no integrator.
+        #[serde(default)]
+        stick_integral_s: f64,
     },
 }
 

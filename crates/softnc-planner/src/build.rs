@@ -2,7 +2,7 @@
 //! (G64), exact stops (G61/G9), per-segment limits and junction speeds.
 
 use crate::path::{element_limits, ElementShape, Geom};
-use softnc_core::{FeedProfile, MachineProfile, Primitive, Vec3};
+use softnc_core::{AccDec, FeedProfile, MachineProfile, Primitive, Vec3};
 use softnc_gcode::{Motion, MotionKind, PathMode, Program};
 
 /// Fraction of every axis limit the planner plans to, so that rounding never takes
@@ -78,6 +78,8 @@ pub struct Limits {
     pub tolerance_mm: f64,
     /// Feed profile shape.
     pub profile: FeedProfile,
+    /// Where acc/dec acts: after interpolation, tangent breaks pass at the feed.
+    pub acc_dec: AccDec,
     /// S-curve only: global tangential acceleration (mm/s²).
     pub scurve_acc: f64,
     /// S-curve only: smoothing window (s).
@@ -104,6 +106,7 @@ impl Limits {
             cycle_s,
             tolerance_mm: p.planner.tolerance_mm,
             profile: p.planner.feed_profile,
+            acc_dec: p.planner.acc_dec,
             scurve_acc,
             scurve_window_s: window,
         }
@@ -492,7 +495,8 @@ impl PathBuilder {
 
 /// Highest speed through the junction of two elements: a tangent break may use
 /// `KINK_SHARE` of each axis's acceleration over one cycle (S-curve: stop at it, and
-/// keep the curvature step within its jerk share).
+/// keep the curvature step within its jerk share); with acc/dec after interpolation
+/// the feed passes it unchanged, reversals excepted.
 fn junction_speed(
     lim: &Limits,
     cap_a: f64,
@@ -503,6 +507,11 @@ fn junction_speed(
 ) -> f64 {
     let mut v = cap_a.min(cap_b);
     let dt = b.start_tangent - end_tangent_a;
+    // |Δt| = 2 sin(θ/2): reversals still stop
+    let turn_rad = 2.0 * (0.5 * dt.norm()).min(1.0).asin();
+    if lim.acc_dec == AccDec::AfterInterpolation && turn_rad <= MAX_BLEND_TURN_RAD {
+        return v;
+    }
     let kink = dt.norm() > TANGENT_EPS;
     if kink && lim.profile == FeedProfile::SCurve {
         // a tangent break at speed is a jerk impulse: stop there

@@ -171,3 +171,45 @@ fn planned_duration_matches_the_sample_stream() {
         );
     }
 }
+
+/// Two arcs meeting with a 0.015 rad tangent break (like the learnt one-degree arcs of
+/// paper 004's radius ILC): the planner slows down at it; with acc/dec after
+/// interpolation (a CNC without look-ahead, the FANUC 0-M of paper 004) the feed
+/// passes it unchanged.
+#[test]
+fn acc_dec_after_interpolation_keeps_the_feed_through_tangent_breaks() {
+    let feed = 2000.0;
+    let mut b = Builder::new(Vec3::new(R, 0.0, -1.0));
+    b.arc(
+        Vec3::new(0.0, R, -1.0),
+        Vec3::new(0.0, 0.0, -1.0),
+        Plane::XY,
+        1,
+        feed,
+    );
+    // second arc about (0.3, 0): its tangent at (0, R) is turned by ≈ 0.3/R rad
+    let r2 = (0.3f64 * 0.3 + R * R).sqrt();
+    b.arc(
+        Vec3::new(0.3 - r2, 0.0, -1.0),
+        Vec3::new(0.3, 0.0, -1.0),
+        Plane::XY,
+        1,
+        feed,
+    );
+    let slowest_mid = |acc_dec| {
+        let mut p = profile(FeedProfile::Trapezoidal);
+        p.planner.acc_dec = acc_dec;
+        let s = run(&plan_of(&b, &p));
+        let t = p.interpolation_cycle_s;
+        let n = s.len();
+        s[n / 4..3 * n / 4]
+            .windows(2)
+            .map(|w| (w[1].pos_mm - w[0].pos_mm).norm() / t * 60.0)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let before = slowest_mid(softnc_core::AccDec::BeforeInterpolation);
+    let after = slowest_mid(softnc_core::AccDec::AfterInterpolation);
+    eprintln!("slowest feed at the break: before {before:.0}, after {after:.0} mm/min");
+    assert!(before < 0.5 * feed, "before interpolation: {before}");
+    assert!(after > 0.99 * feed, "after interpolation: {after}");
+}

@@ -77,9 +77,11 @@ impl Plant {
                     1.0 + df,
                 ))
             }
-            PlantModel::FirstOrderLag { tau_s, stick_mm } => {
-                Plant::FirstOrderLag(FirstOrderLag::new(*tau_s, *stick_mm))
-            }
+            PlantModel::FirstOrderLag {
+                tau_s,
+                stick_mm,
+                stick_integral_s,
+            } => Plant::FirstOrderLag(FirstOrderLag::new(*tau_s, *stick_mm, *stick_integral_s)),
         }
     }
 

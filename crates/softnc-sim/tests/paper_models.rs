@@ -194,8 +194,8 @@ fn lag_radius(f_mm_per_min: f64, r_mm: f64, tau_s: f64) -> f64 {
     let omega = f_mm_per_min / 60.0 / r_mm;
     let n = (TAU / omega / h).round() as usize;
     let (mut lx, mut ly) = (
-        FirstOrderLag::new(tau_s, 0.0),
-        FirstOrderLag::new(tau_s, 0.0),
+        FirstOrderLag::new(tau_s, 0.0, 0.0),
+        FirstOrderLag::new(tau_s, 0.0, 0.0),
     );
     lx.reset(r_mm);
     ly.reset(0.0);
@@ -291,7 +291,20 @@ fn stick_at_reversal_004_gives_quadrant_spikes() {
     // its command falls back by the stick, the other axis moves on, so the point leaves
     // the circle outward by R(δ − φ)²/2 (δ² = 2·stick/R + φ², tan φ = ωT: geometry of
     // the stuck axis). Without stick the error is the radius reduction everywhere.
-    let with = profile("tnv40-ilc");
+    // The lag-only threshold (no velocity-loop integrator), whose geometry is exact;
+    // the profile's own static friction adds the integrator (T_i > 0).
+    let mut with = profile("tnv40-ilc");
+    for a in &mut with.servo.axes {
+        if let PlantModel::FirstOrderLag {
+            stick_mm,
+            stick_integral_s,
+            ..
+        } = &mut a.plant
+        {
+            *stick_mm = 0.09;
+            *stick_integral_s = 0.0;
+        }
+    }
     let mut without = with.clone();
     for a in &mut without.servo.axes {
         if let PlantModel::FirstOrderLag { stick_mm, .. } = &mut a.plant {
@@ -311,7 +324,9 @@ fn stick_at_reversal_004_gives_quadrant_spikes() {
         );
     }
     let (tau, stick) = match with.servo.axes[1].plant {
-        PlantModel::FirstOrderLag { tau_s, stick_mm } => (tau_s, stick_mm),
+        PlantModel::FirstOrderLag {
+            tau_s, stick_mm, ..
+        } => (tau_s, stick_mm),
         _ => unreachable!(),
     };
     let (r, w) = (50.0, 2000.0 / 60.0 / 50.0);
@@ -407,4 +422,51 @@ fn stick_slip_001_quadrant_spikes_on_a_circle() {
         );
         assert!(p_stuck > 4.0 * p_smooth, "{q}°: {p_stuck} vs {p_smooth}");
     }
+}
+
+#[test]
+fn static_friction_004_spikes_grow_with_feed() {
+    // Paper 004 Fig. 7(c): the stick-motion error grows with the feed. With the
+    // profile's PI breakaway (T_i > 0) the spike above the shrunk circle grows from
+    // 1000 to 2000 mm/min; with the lag-only threshold it shrinks (the faster lag
+    // angle φ hides more of the fixed lost motion).
+    let pi = profile("tnv40-ilc");
+    let mut threshold = pi.clone();
+    for a in &mut threshold.servo.axes {
+        if let PlantModel::FirstOrderLag {
+            stick_mm,
+            stick_integral_s,
+            ..
+        } = &mut a.plant
+        {
+            *stick_mm = 0.09;
+            *stick_integral_s = 0.0;
+        }
+    }
+    let spike = |p: &MachineProfile, f: f64| {
+        let c = circle_contour(p, 50.0, f);
+        let peak = c
+            .iter()
+            .filter(|p| (p.0 - 90.0).abs() < 10.0)
+            .map(|p| p.1)
+            .fold(f64::MIN, f64::max);
+        let shrink = c
+            .iter()
+            .filter(|p| (p.0 - 135.0).abs() < 10.0)
+            .map(|p| p.1)
+            .sum::<f64>()
+            / c.iter().filter(|p| (p.0 - 135.0).abs() < 10.0).count() as f64;
+        peak - shrink
+    };
+    let (pi1, pi2) = (spike(&pi, 1000.0), spike(&pi, 2000.0));
+    let (th1, th2) = (spike(&threshold, 1000.0), spike(&threshold, 2000.0));
+    eprintln!(
+        "004 spike above the shrunk circle, 1000 / 2000 mm/min: PI {:.1} / {:.1} µm, threshold {:.1} / {:.1} µm",
+        pi1 * 1e3,
+        pi2 * 1e3,
+        th1 * 1e3,
+        th2 * 1e3
+    );
+    assert!(pi2 > 1.1 * pi1, "PI: {pi1} -> {pi2}");
+    assert!(th2 < th1, "threshold: {th1} -> {th2}");
 }
