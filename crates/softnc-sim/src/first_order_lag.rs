@@ -111,9 +111,10 @@ mod tests {
 
     #[test]
     fn the_integrator_frees_the_axis_earlier_and_continuously() {
-        // e + ∫e/T_i = v t + v t²/(2 T_i) = 10 µm with T_i = 5 ms: t ≈ 5.25 ms
+        // e + ∫e/T_i = v t + v t²/(2 T_i) = 10 µm with T_i = 5 ms, v = 1 mm/s:
+        // t² + 0.01 t − 1e-4 = 0, t = (√5 − 1)/200 s ≈ 6.18 ms (10 ms without T_i)
         let t = stuck_time(0.005, 1.0);
-        assert!((t - 0.005247).abs() < 2e-4, "{t}");
+        assert!((t - 0.00618).abs() < 2e-4, "{t}");
         // a faster command frees it sooner, never later
         assert!(stuck_time(0.005, 2.0) < t);
     }
