@@ -253,11 +253,14 @@ pub struct ElementLimits {
 /// Limits of an element of shape `g` given per-axis velocity and acceleration limits.
 pub fn element_limits(g: &ElementShape, vmax: [f64; 3], amax: [f64; 3]) -> ElementLimits {
     let (wv, wa) = (g.vel_weight, g.acc_weight);
+    // an axis's limit over its weight (the division skipped for the common weight 1,
+    // where it is exact)
+    let per_weight = |limit: f64, w: f64| if w == 1.0 { limit } else { limit / w };
     let mut vel = f64::INFINITY;
     let mut acc = f64::INFINITY;
     for i in 0..3 {
         if wv[i] > 1e-12 {
-            vel = vel.min(vmax[i] / wv[i]);
+            vel = vel.min(per_weight(vmax[i], wv[i]));
         }
     }
     let kappa = g.curvature;
@@ -266,7 +269,7 @@ pub fn element_limits(g: &ElementShape, vmax: [f64; 3], amax: [f64; 3]) -> Eleme
         let mut a_axis = f64::INFINITY;
         for i in 0..3 {
             if wa[i] > 1e-12 {
-                a_axis = a_axis.min(amax[i] / wa[i]);
+                a_axis = a_axis.min(per_weight(amax[i], wa[i]));
             }
         }
         acc = ARC_TANGENTIAL_SHARE * a_axis;
@@ -274,7 +277,7 @@ pub fn element_limits(g: &ElementShape, vmax: [f64; 3], amax: [f64; 3]) -> Eleme
     } else {
         for i in 0..3 {
             if wa[i] > 1e-12 {
-                acc = acc.min(amax[i] / wa[i]);
+                acc = acc.min(per_weight(amax[i], wa[i]));
             }
         }
     }
