@@ -16,7 +16,8 @@
 //!
 //! Parameters (`#`), expressions (`[ ]`, `sin[…]`), O-words, `M98`, polar
 //! coordinates (`@`, `^`) and spindle selection (`$`) are refused as unsupported,
-//! never misread. The lexer allocates nothing: words go into a reused `Vec`.
+//! never misread. The lexer allocates nothing: words go into a reused `Vec`
+//! ([`lex_line`]) or, for the reader, straight into its block as they are read.
 
 use crate::error::ErrorKind;
 
