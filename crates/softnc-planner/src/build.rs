@@ -507,10 +507,12 @@ fn junction_speed(
 ) -> f64 {
     let mut v = cap_a.min(cap_b);
     let dt = b.start_tangent - end_tangent_a;
-    // |Δt| = 2 sin(θ/2): reversals still stop
-    let turn_rad = 2.0 * (0.5 * dt.norm()).min(1.0).asin();
-    if lim.acc_dec == AccDec::AfterInterpolation && turn_rad <= MAX_BLEND_TURN_RAD {
-        return v;
+    if lim.acc_dec == AccDec::AfterInterpolation {
+        // |Δt| = 2 sin(θ/2): reversals still stop
+        let turn_rad = 2.0 * (0.5 * dt.norm()).min(1.0).asin();
+        if turn_rad <= MAX_BLEND_TURN_RAD {
+            return v;
+        }
     }
     let kink = dt.norm() > TANGENT_EPS;
     if kink && lim.profile == FeedProfile::SCurve {
