@@ -12,8 +12,9 @@
 use crate::cmd_plan::load_machine;
 use crate::learn_sim::{self, IterationStats, PreparedJob};
 use anyhow::{Context, Result};
+use softnc_learning::entry::{store_dir, Law, LawState, Learned, OVERRIDE_PCT};
 use softnc_learning::markov::MarkovJob;
-use softnc_learning::radius_ilc::{Circle, RadiusIlc};
+use softnc_learning::radius_ilc::RadiusIlc;
 use softnc_learning::{LearningKey, LearningStore};
 use softnc_sim::{CycleEngine, SimOptions};
 use std::io::Write;
@@ -26,19 +27,22 @@ use std::process::ExitCode;
 /// did not: stick friction at zero-speed crossings makes the loop non-linear.
 pub const DEFAULT_GAIN: f64 = 0.5;
 
-/// Feed override the learnt corrections belong to (%): `softnc learn` runs at 100 %.
-pub const OVERRIDE_PCT: u32 = 100;
-
-/// The learning law.
-#[derive(
-    Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize,
-)]
-#[serde(rename_all = "lowercase")]
-pub enum Law {
+/// The learning law, as `--law` names it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum LawArg {
     /// Paper 002 eq 5: Markov-parameter learning of the command samples.
     Markov,
     /// Paper 004 eq 8–9: per-degree radius learning of one circle.
     Radius,
+}
+
+impl From<LawArg> for Law {
+    fn from(l: LawArg) -> Law {
+        match l {
+            LawArg::Markov => Law::Markov,
+            LawArg::Radius => Law::Radius,
+        }
+    }
 }
 
 /// Arguments of `softnc learn`.
@@ -56,8 +60,8 @@ pub struct LearnArgs {
     #[arg(long, default_value_t = 10)]
     iterations: usize,
     /// The learning law.
-    #[arg(long, value_enum, default_value_t = Law::Markov)]
-    law: Law,
+    #[arg(long, value_enum, default_value_t = LawArg::Markov)]
+    law: LawArg,
     /// Print `{"iterations":[{"iteration","rms_um","max_abs_um"}, …]}` (the first
     /// entry is the run before any learning).
     #[arg(long, global = true)]
@@ -109,70 +113,6 @@ enum StoreCmd {
     },
 }
 
-/// What a law keeps per job.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(tag = "law", rename_all = "lowercase")]
-pub enum LawState {
-    /// Eq 5: Markov parameters, gains, correction and last error per sample.
-    Markov(MarkovJob),
-    /// Eq 8–9: the command radius per degree and the last radius error per degree.
-    Radius {
-        /// Where the circle lies.
-        circle: Circle,
-        /// Command radii r^k(i).
-        ilc: RadiusIlc,
-        /// y^{k}(i) − r^d of the last run (mm).
-        last_error_mm: Vec<f64>,
-    },
-}
-
-/// A learning-store entry.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Learned {
-    /// Job file as given.
-    pub job_file: String,
-    /// Machine profile file as given.
-    pub profile_file: String,
-    /// Seed of the simulated machine.
-    pub seed: u64,
-    /// Figures of every run so far (the first before any learning).
-    pub iterations: Vec<IterationStats>,
-    /// The law's state.
-    pub state: LawState,
-}
-
-impl Learned {
-    /// The law of this entry.
-    pub fn law(&self) -> Law {
-        match self.state {
-            LawState::Markov(_) => Law::Markov,
-            LawState::Radius { .. } => Law::Radius,
-        }
-    }
-}
-
-/// The learning store folder: `explicit`, else the documented default.
-pub fn store_dir(explicit: Option<&Path>) -> PathBuf {
-    if let Some(p) = explicit {
-        return p.to_path_buf();
-    }
-    let env = |k: &str| {
-        std::env::var_os(k)
-            .filter(|v| !v.is_empty())
-            .map(PathBuf::from)
-    };
-    if let Some(d) = env("SOFTNC_LEARNING_DIR") {
-        return d;
-    }
-    if let Some(d) = env("XDG_DATA_HOME") {
-        return d.join("softnc/learning");
-    }
-    if let Some(h) = env("HOME") {
-        return h.join(".local/share/softnc/learning");
-    }
-    PathBuf::from(".softnc/learning")
-}
-
 fn machine_path(p: Option<&PathBuf>) -> PathBuf {
     p.cloned().unwrap_or_else(crate::default_machine_path)
 }
@@ -185,6 +125,7 @@ fn key_of(job: &Path, machine: &Path) -> Result<LearningKey> {
 
 /// Run `softnc learn`.
 pub fn run(args: LearnArgs) -> Result<ExitCode> {
+    let law = Law::from(args.law);
     let store = LearningStore::new(store_dir(args.store.as_deref()));
     match &args.action {
         Some(StoreCmd::List) => return list(&store, args.json),
@@ -214,7 +155,7 @@ pub fn run(args: LearnArgs) -> Result<ExitCode> {
     let name = file.display().to_string();
     let seed = args.seed.unwrap_or(machine.servo.seed);
     let previous: Option<Learned> = if args.resume {
-        store.get::<Learned>(&key)?.filter(|e| e.law() == args.law)
+        store.get::<Learned>(&key)?.filter(|e| e.law() == law)
     } else {
         None
     };
@@ -225,7 +166,7 @@ pub fn run(args: LearnArgs) -> Result<ExitCode> {
         );
         return Ok(ExitCode::from(crate::EXIT_REFUSED));
     }
-    if args.law == Law::Radius && !(args.alpha.is_finite() && args.alpha > 0.0) {
+    if law == Law::Radius && !(args.alpha.is_finite() && args.alpha > 0.0) {
         eprintln!(
             "softnc learn: --alpha must be a positive number, not {}",
             args.alpha
@@ -254,7 +195,7 @@ pub fn run(args: LearnArgs) -> Result<ExitCode> {
             .put(&key, entry)
             .map_err(|e| format!("learning store: {e}"))
     };
-    let result = match args.law {
+    let result = match law {
         Law::Markov => {
             let job = match PreparedJob::new(&text, &name, &machine) {
                 Ok(j) => j,

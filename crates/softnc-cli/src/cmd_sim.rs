@@ -36,6 +36,13 @@ pub struct SimArgs {
     /// the overridden speed. Within the profile's `spindle` range.
     #[arg(long, value_name = "PCT", default_value_t = 100.0)]
     spindle_override: f64,
+    /// Add the correction `softnc learn` stored for this job on this profile (paper
+    /// 002 eq 5), exactly as the daemon applies it to an un-retimed job.
+    #[arg(long)]
+    learned: bool,
+    /// Learning store folder for --learned (default: as `softnc learn`).
+    #[arg(long, requires = "learned")]
+    store: Option<PathBuf>,
 }
 
 /// Cycles between progress-bar updates.
@@ -98,6 +105,17 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
     }
     let cycle_s = plan.cycle_s();
     let total = plan.stats().samples;
+    let learned = if args.learned {
+        match learned_correction(&args, &plan)? {
+            Ok(c) => Some(c),
+            Err(msg) => {
+                eprintln!("softnc sim --learned: {msg}");
+                return Ok(ExitCode::from(1));
+            }
+        }
+    } else {
+        None
+    };
     let mut engine = CycleEngine::simulated(&machine, seed, SimOptions::default());
     // the job's S words: PDC designs per spindle speed, as the position process makes them
     if let Err(e) = engine.set_spindle_schedule(&machine, plan.spindle_changes(), spindle_override)
@@ -136,7 +154,15 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
     let mut trace_err: Option<anyhow::Error> = None;
 
     let path_of = |m: u32| plan.motion_primitive(m as usize);
-    let samples = command_samples(&plan);
+    let samples = command_samples(&plan).enumerate().map(|(k, mut s)| {
+        if let Some(c) = &learned {
+            let d = c.at(k);
+            for (p, d) in s.pos_mm.iter_mut().zip(d) {
+                *p += d;
+            }
+        }
+        s
+    });
     let started = Instant::now();
     let report = simulate(&mut engine, cycle_s, samples, path_of, |row: &TraceRow| {
         if let Some(w) = trace.as_mut() {
@@ -176,6 +202,9 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
     let axis =
         |s: &ErrorStats| serde_json::json!({"max_abs": s.max_abs() * um, "rms": s.rms() * um});
     let summary = serde_json::json!({
+        "learned": learned.as_ref().map(|c| serde_json::json!({
+            "entry": c.entry, "repetitions": c.repetitions, "max_abs_correction_um": c.max_abs_mm() * um,
+        })),
         "cycles": report.cycles,
         "sim_time_s": report.sim_time_s,
         "wall_time_s": wall_time_s,
@@ -205,6 +234,15 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
             wall_time_s,
             report.sim_time_s / wall_time_s.max(1e-12)
         )?;
+        if let Some(c) = &learned {
+            writeln!(
+                out,
+                "learned correction: entry {} ({} repetitions, max |correction| {:.3} µm)",
+                c.entry,
+                c.repetitions,
+                c.max_abs_mm() * um
+            )?;
+        }
         writeln!(
             out,
             "contour error: max |e| {:.3} µm, rms {:.3} µm, mean {:.3} µm",
@@ -224,7 +262,38 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// Outward unit normal of the contour-error field at `p` (its gradient), in XY.
+/// The stored Markov correction of the job for --learned, or why there is none.
+fn learned_correction(
+    args: &SimArgs,
+    plan: &softnc_planner::Plan,
+) -> Result<Result<softnc_learning::JobCorrection, String>> {
+    let mpath = args
+        .machine
+        .clone()
+        .unwrap_or_else(crate::default_machine_path);
+    let read = |p: &Path| std::fs::read(p).with_context(|| format!("cannot read {}", p.display()));
+    let store =
+        softnc_learning::LearningStore::new(softnc_learning::store_dir(args.store.as_deref()));
+    let found = softnc_learning::entry::lookup(
+        &store,
+        &read(&args.file)?,
+        &read(&mpath)?,
+        softnc_learning::entry::OVERRIDE_PCT,
+        || plan.interpolator().count(),
+        plan.cycle_s(),
+    )?;
+    Ok(match found {
+        softnc_learning::Lookup::Markov(c) => Ok(c),
+        softnc_learning::Lookup::NotApplied(why) => Err(why),
+        softnc_learning::Lookup::None => Err(format!(
+            "no learning entry for {} on {} in {} (run `softnc learn` first)",
+            args.file.display(),
+            mpath.display(),
+            store.dir().display()
+        )),
+    })
+}
+
 /// The plan's sample stream as the simulator takes it.
 pub fn command_samples(plan: &softnc_planner::Plan) -> impl Iterator<Item = CommandSample> + '_ {
     plan.interpolator().map(|s| CommandSample {
@@ -234,6 +303,7 @@ pub fn command_samples(plan: &softnc_planner::Plan) -> impl Iterator<Item = Comm
     })
 }
 
+/// Outward unit normal of the contour-error field at `p` (its gradient), in XY.
 fn normal_xy(prim: &Primitive, p: [f64; 3]) -> [f64; 2] {
     let d = 1e-6;
     let e = |dx: f64, dy: f64| prim.contour_error(Vec3::new(p[0] + dx, p[1] + dy, p[2]));
@@ -407,6 +477,8 @@ mod tests {
             plot: None,
             seed: Some(seed),
             spindle_override: 100.0,
+            learned: false,
+            store: None,
         }
     }
 

@@ -8,9 +8,7 @@ use softnc_learning::markov::{identify_markov, settled_terms, MarkovJob, AXES};
 use softnc_learning::radius_ilc::{Circle, RadiusIlc, POINTS};
 use softnc_sim::{simulate, CommandSample, CycleEngine, ErrorStats, ServoBackend, SimBackend};
 
-/// Time the final command is held after the program ends (s): part of every
-/// repetition, so the learning also sees (and corrects) the final settling.
-pub const HOLD_S: f64 = 0.2;
+pub use softnc_learning::entry::{IterationStats, HOLD_S};
 
 /// Height of the identification pulse (mm): large against encoder resolution and
 /// noise (1e-4 of it at 0.1 µm) and against Coulomb friction, small against travel.
@@ -139,24 +137,6 @@ pub fn identify(
         *h = all[..keep].to_vec();
     }
     Ok(out)
-}
-
-/// Figures of one repetition.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct IterationStats {
-    /// 0 = the run before any learning.
-    pub iteration: usize,
-    /// RMS of the error (µm): contour error (Markov) or radius error per degree (radius).
-    pub rms_um: f64,
-    /// Largest |error| (µm).
-    pub max_abs_um: f64,
-    /// 2-norm of the learning error e = P_desired − y over all axes and samples (µm);
-    /// for the radius law, of the radius error per degree.
-    pub norm_um: f64,
-    /// Largest and smallest signed error (µm; radius law: outward positive).
-    pub max_um: f64,
-    /// See `max_um`.
-    pub min_um: f64,
 }
 
 const UM: f64 = 1000.0;
