@@ -56,6 +56,7 @@ impl Daemon {
             .replace("clock: Realtime", &format!("clock: {clock}"))
             .replace("data_dir: \"../data\"", "data_dir: \"data\"")
             .replace("trace: false", &format!("trace: {trace}"))
+            .replace("// learning_dir: Some(\"../learning\")", "learning_dir: Some(\"learning\")")
             .replace(
                 "interp_rt: (core: Some(0), fifo_priority: Some(70), lock_memory: true)",
                 "interp_rt: ()",
@@ -113,6 +114,20 @@ impl Daemon {
         self.wait_status(op, timeout, "job end", |s| {
             s["job"]["job_id"].as_u64() == Some(job_id) && s["job"]["outcome"] != "running"
         })
+    }
+
+    /// The daemon's trace of job `job_id`, once it has `len` bytes (the file is closed
+    /// by its own thread) or after 10 s.
+    fn trace_of(&self, job_id: u64, len: usize) -> Vec<u8> {
+        let path = self.dir.join(format!("data/trace-job{job_id}.csv"));
+        let t0 = Instant::now();
+        loop {
+            let got = std::fs::read(&path).unwrap_or_default();
+            if got.len() >= len || t0.elapsed() > Duration::from_secs(10) {
+                return got;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
     }
 
     fn pid_of(&self, name: &str) -> Option<u32> {
@@ -176,6 +191,12 @@ fn short_job(dir: &Path) -> PathBuf {
 
 /// The simulator's trace of the same job, written with the same writer.
 fn simulator_trace(job: &Path, machine: &Path, out: &Path) {
+    simulator_trace_learned(job, machine, out, None)
+}
+
+/// [`simulator_trace`] with the learning store `learned` applied as `softnc sim
+/// --learned --store DIR` applies it.
+fn simulator_trace_learned(job: &Path, machine: &Path, out: &Path, learned: Option<&Path>) {
     let profile = softnc_core::MachineProfile::load(machine).unwrap();
     let text = std::fs::read_to_string(job).unwrap();
     let program = softnc_gcode::read_program(&text, &job.display().to_string(), &profile).unwrap();
@@ -188,11 +209,34 @@ fn simulator_trace(job: &Path, machine: &Path, out: &Path) {
     engine
         .set_spindle_schedule(&profile, plan.spindle_changes(), 1.0)
         .unwrap();
+    let correction = learned.map(|dir| {
+        let found = softnc_learning::entry::lookup(
+            &softnc_learning::LearningStore::new(dir),
+            &std::fs::read(job).unwrap(),
+            &std::fs::read(machine).unwrap(),
+            softnc_learning::entry::OVERRIDE_PCT,
+            || plan.interpolator().count(),
+            plan.cycle_s(),
+        )
+        .unwrap();
+        match found {
+            softnc_learning::Lookup::Markov(c) => c,
+            other => panic!("no learned correction: {other:?}"),
+        }
+    });
     let mut file = softnc_daemon::trace::TraceFile::create(out).unwrap();
-    let samples = plan.interpolator().map(|s| softnc_sim::sim::CommandSample {
-        pos_mm: s.pos_mm.0,
-        motion: s.motion,
-        feed_move: s.feed_move,
+    let samples = plan.interpolator().enumerate().map(|(k, s)| {
+        let mut pos_mm = s.pos_mm.0;
+        if let Some(c) = &correction {
+            for (p, d) in pos_mm.iter_mut().zip(c.at(k)) {
+                *p += d;
+            }
+        }
+        softnc_sim::sim::CommandSample {
+            pos_mm,
+            motion: s.motion,
+            feed_move: s.feed_move,
+        }
     });
     softnc_sim::simulate(
         &mut engine,
@@ -246,19 +290,15 @@ fn lockstep_equals_simulator_on(tag: &str, machine: &str, job: impl Fn(&Path) ->
     let s = d.wait_job(&op, r.job_id, Duration::from_secs(120));
     assert_eq!(s["job"]["outcome"], "completed", "{s}");
     assert!(s["alarms"].as_array().unwrap().is_empty(), "{s}");
-    // the trace file is closed by its own thread: wait for it
-    let daemon_trace = d.dir.join(format!("data/trace-job{}.csv", r.job_id));
     let sim_trace = d.dir.join("sim.csv");
     simulator_trace(&job, &d.dir.join("machines/default.ron"), &sim_trace);
     let want = std::fs::read(&sim_trace).unwrap();
-    let t0 = Instant::now();
-    let got = loop {
-        let got = std::fs::read(&daemon_trace).unwrap_or_default();
-        if got.len() >= want.len() || t0.elapsed() > Duration::from_secs(10) {
-            break got;
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    };
+    let got = d.trace_of(r.job_id, want.len());
+    assert_same_trace(&got, &want);
+}
+
+/// The two traces are byte-identical (else: where they first differ).
+fn assert_same_trace(got: &[u8], want: &[u8]) {
     assert!(want.len() > 10_000, "simulator trace too short");
     if got != want {
         let (g, w) = (
@@ -274,6 +314,106 @@ fn lockstep_equals_simulator_on(tag: &str, machine: &str, job: impl Fn(&Path) ->
             first.and_then(|i| w.lines().nth(i))
         );
     }
+}
+
+/// Contour-error RMS (µm) of a trace (its `contour_um` column, feed moves only).
+fn trace_contour_rms_um(trace: &[u8]) -> f64 {
+    let (mut n, mut sq) = (0usize, 0.0f64);
+    for line in String::from_utf8_lossy(trace).lines().skip(1) {
+        let c = line.rsplit(',').next().unwrap();
+        if !c.is_empty() {
+            let v: f64 = c.parse().unwrap();
+            n += 1;
+            sq += v * v;
+        }
+    }
+    assert!(n > 1000, "{n} feed-move rows");
+    (sq / n as f64).sqrt()
+}
+
+/// What `softnc learn JOB --machine PROFILE --iterations K --store DIR` stores (the
+/// same runs and entry, default gain and all Markov terms); the RMS (µm) per run.
+fn learn_job(store: &Path, job: &Path, machine: &Path, iterations: usize) -> Vec<f64> {
+    use softnc_learning::entry::{LawState, Learned, OVERRIDE_PCT};
+    use softnc_learning::sim_runs::{identify, learn_markov, PreparedJob};
+    let profile = softnc_core::MachineProfile::load(machine).unwrap();
+    let text = std::fs::read_to_string(job).unwrap();
+    let prepared = PreparedJob::new(&text, "job.ngc", &profile).unwrap();
+    let seed = profile.servo.seed;
+    let mut engine =
+        softnc_sim::CycleEngine::simulated(&profile, seed, softnc_sim::SimOptions::default());
+    let n = prepared.samples.len();
+    let h = identify(&mut engine, &profile, prepared.samples[0].pos_mm, n).unwrap();
+    let gain = softnc_learning::markov::DEFAULT_GAIN;
+    let mut mj = softnc_learning::markov::MarkovJob::new(h, n, Some(gain), n);
+    let its = learn_markov(&mut engine, &prepared, &mut mj, iterations, |_, _| Ok(())).unwrap();
+    let key = softnc_learning::LearningKey::new(
+        &std::fs::read(job).unwrap(),
+        &std::fs::read(machine).unwrap(),
+        OVERRIDE_PCT,
+    );
+    let entry = Learned {
+        job_file: job.display().to_string(),
+        profile_file: machine.display().to_string(),
+        seed,
+        iterations: its.clone(),
+        state: LawState::Markov(mj),
+    };
+    softnc_learning::LearningStore::new(store)
+        .put(&key, &entry)
+        .unwrap();
+    its.iter().map(|s| s.rms_um).collect()
+}
+
+#[test]
+fn a_learned_job_runs_with_its_correction_bit_for_bit_as_the_simulator_and_far_more_accurately() {
+    // paper 002's learning on default.ron (Coulomb friction, stick–slip): the job of
+    // `softnc reproduce 002-learning` (3.2 s of lines and arcs at 3 m/min)
+    let d = Daemon::start_on("learned", "Lockstep", true, "default.ron");
+    let op = d.operator();
+    let job = d.dir.join("lines-arcs.ngc");
+    std::fs::copy(repo().join("examples/learning/lines-arcs.ngc"), &job).unwrap();
+    let machine = d.dir.join("machines/default.ron");
+    let store = d.dir.join("learning"); // the config's learning_dir
+    let run = |what: &str| {
+        let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+        assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+        let s = d.wait_job(&op, r.job_id, Duration::from_secs(120));
+        assert_eq!(s["job"]["outcome"], "completed", "{what}: {s}");
+        assert!(s["alarms"].as_array().unwrap().is_empty(), "{what}: {s}");
+        d.wait_status(&op, Duration::from_secs(10), "idle", |s| {
+            s["state"] == "Idle"
+        });
+        (r.job_id, s)
+    };
+    // before learning: no entry, no note, the unlearned trace
+    let (before_id, s) = run("unlearned");
+    assert!(s["job"]["notes"].as_array().unwrap().is_empty(), "{s}");
+    let sim = d.dir.join("sim.csv");
+    simulator_trace(&job, &machine, &sim);
+    let want = std::fs::read(&sim).unwrap();
+    let before = d.trace_of(before_id, want.len());
+    assert_same_trace(&before, &want);
+    let rms_before = trace_contour_rms_um(&before);
+
+    let learning = learn_job(&store, &job, &machine, 4);
+    let (after_id, s) = run("learned");
+    let notes = s["job"]["notes"].to_string();
+    assert!(notes.contains("learned correction applied"), "{s}");
+    simulator_trace_learned(&job, &machine, &sim, Some(&store));
+    let want = std::fs::read(&sim).unwrap();
+    let after = d.trace_of(after_id, want.len());
+    assert_same_trace(&after, &want);
+    let rms_after = trace_contour_rms_um(&after);
+    eprintln!(
+        "daemon contour-error RMS: {rms_before:.3} µm unlearned, {rms_after:.3} µm learned \
+         (learning runs on the simulator: {learning:.3?} µm); status accuracy {}",
+        s["job"]["accuracy"]
+    );
+    assert!(
+        rms_after < 0.1 * rms_before,
+        "learned {rms_after:.3} µm vs unlearned {rms_before:.3} µm"
+    );
 }
 
 #[test]

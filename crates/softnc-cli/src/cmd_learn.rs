@@ -10,7 +10,7 @@
 //! another key, so its old entry is never applied (`list` marks it stale).
 
 use crate::cmd_plan::load_machine;
-use crate::learn_sim::{self, IterationStats, PreparedJob};
+use softnc_learning::sim_runs::{self as learn_sim, IterationStats, PreparedJob};
 use anyhow::{Context, Result};
 use softnc_learning::entry::{store_dir, Law, LawState, Learned, OVERRIDE_PCT};
 use softnc_learning::markov::MarkovJob;
@@ -21,11 +21,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-/// The documented learning gain s of eq 5: with it the error 2-norm fell at every
-/// repetition on `examples/learning/lines-arcs.ngc` on `default.ron` (seeds 1–5,
-/// buffers 5, 20 and all terms); the LTI bound 1/(Σ_all|h|·Σ_p|h|) (≈ 0.40–0.45 there)
-/// did not: stick friction at zero-speed crossings makes the loop non-linear.
-pub const DEFAULT_GAIN: f64 = 0.5;
+pub use softnc_learning::markov::DEFAULT_GAIN;
 
 /// The learning law, as `--law` names it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

@@ -49,6 +49,11 @@ pub struct DaemonConfig {
     /// into the data directory.
     #[serde(default)]
     pub trace: bool,
+    /// Learning store the interpolation process reads learned corrections from
+    /// (`softnc learn`), relative to this file's folder; default: `softnc learn`'s
+    /// (`$SOFTNC_LEARNING_DIR`, `$XDG_DATA_HOME/softnc/learning`, …).
+    #[serde(default)]
+    pub learning_dir: Option<PathBuf>,
     /// iceoryx2 configuration, relative to this file's folder.
     pub iceoryx2_config: PathBuf,
 }
@@ -67,6 +72,10 @@ pub struct Loaded {
     pub machine_path: PathBuf,
     /// Absolute data directory.
     pub data_dir: PathBuf,
+    /// The learning store's folder.
+    pub learning_dir: PathBuf,
+    /// The machine profile file's bytes as loaded (the learning store's key).
+    pub machine_bytes: Vec<u8>,
     /// The configuration file.
     pub path: PathBuf,
     /// Absolute path of the iceoryx2 configuration.
@@ -129,6 +138,10 @@ impl DaemonConfig {
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let machine_path = dir.join(&config.machine);
         let machine = MachineProfile::load(&machine_path)?;
+        let machine_bytes = std::fs::read(&machine_path).map_err(|source| ConfigError::Io {
+            file: machine_path.display().to_string(),
+            source,
+        })?;
         // the position process must hold the command filters' window (paper 002)
         let needed = (0..3)
             .filter_map(|i| machine.axis_servo(i).command_filter.map(|f| f.order))
@@ -165,6 +178,8 @@ impl DaemonConfig {
             });
         }
         let data_dir = dir.join(&config.data_dir);
+        let learning_dir =
+            softnc_learning::store_dir(config.learning_dir.as_ref().map(|d| dir.join(d)).as_deref());
         let iceoryx2_config = dir.join(&config.iceoryx2_config);
         if !iceoryx2_config.is_file() {
             return Err(bad(
@@ -177,6 +192,8 @@ impl DaemonConfig {
             machine,
             machine_path,
             data_dir,
+            learning_dir,
+            machine_bytes,
             path: path.to_path_buf(),
             iceoryx2_config,
         })

@@ -6,6 +6,16 @@
 //! from the position status). Because samples are produced only that far ahead,
 //! a feed override or hold re-times every sample not yet sent and acts on motion
 //! within the ring's depth. The job's last sample carries `FLAG_END_OF_JOB`.
+//!
+//! **Learned jobs** (paper 002 eq 5): when the job starts, the learning store is
+//! looked up for (job file, machine profile file, feed override in force); a Markov
+//! entry `softnc learn` made for exactly that is loaded before motion and its
+//! correction added to command sample k while the job runs as planned. The moment
+//! the job is re-timed (a feed override other than the entry's, a hold, an abort)
+//! sample k no longer is the learnt sample k: the correction of the last sample sent
+//! is held and ramped to zero over the lookahead depth (a dropped correction — up to
+//! a few hundred µm at corners — would be a position step), and the job record gets
+//! a note. Radius-law entries (paper 004) are another program, not applied.
 
 use crate::bus::{Bus, Pub, Sub};
 use crate::config::Loaded;
@@ -14,6 +24,7 @@ use softnc_ipc::{
     Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, FixedStr, Heartbeat,
     MachineState, PositionStatus, ProcessId,
 };
+use softnc_learning::{JobCorrection, LearningStore, Lookup};
 use softnc_planner::{Plan, PlanOptions};
 use std::time::{Duration, Instant};
 
@@ -133,11 +144,62 @@ impl InterpTask {
         Ok(())
     }
 
+    /// A remark for the job's record (not an alarm).
+    fn note(&mut self, message: &str) -> Result<()> {
+        tracing::info!("job {}: {message}", self.job_id);
+        self.alarms.send_copy(Alarm {
+            code: AlarmCode::Note.wire(),
+            axis: u32::MAX,
+            process: ProcessId::Interp.wire(),
+            job_id: self.job_id,
+            time_index: 0,
+            message: FixedStr::new(message),
+        })?;
+        Ok(())
+    }
+
+    /// The learned correction of the job `bytes` planned as `plan`, at the feed
+    /// override `override_pct` in force, if the store has one that applies.
+    fn learned(&mut self, bytes: &[u8], plan: &Plan, override_pct: u32) -> Result<Option<JobCorrection>> {
+        let store = LearningStore::new(&self.cfg.learning_dir);
+        let found = softnc_learning::entry::lookup(
+            &store,
+            bytes,
+            &self.cfg.machine_bytes,
+            override_pct,
+            || plan.interpolator().count(),
+            plan.cycle_s(),
+        );
+        match found {
+            Ok(Lookup::None) => Ok(None),
+            Ok(Lookup::Markov(c)) => {
+                self.note(&format!(
+                    "learned correction applied: {} ({} repetitions, max |correction| {:.1} µm, last learning run {:.3} µm RMS)",
+                    c.entry,
+                    c.repetitions,
+                    c.max_abs_mm() * 1000.0,
+                    c.last_rms_um.unwrap_or(f64::NAN)
+                ))?;
+                Ok(Some(c))
+            }
+            Ok(Lookup::NotApplied(why)) => {
+                tracing::warn!("job {}: {why}", self.job_id);
+                self.note(&why)?;
+                Ok(None)
+            }
+            Err(e) => {
+                tracing::warn!("job {}: learning store: {e}", self.job_id);
+                self.note(&format!("learning store not read: {e}"))?;
+                Ok(None)
+            }
+        }
+    }
+
     /// Read, plan and stream one job.
     pub fn run_job(&mut self, path: &str, job_id: u64) -> Result<JobEnd> {
         self.job_id = job_id;
-        let planned = read_and_plan(path, &self.cfg.machine);
-        let plan = match planned {
+        let planned = read_job(path, &self.cfg.machine);
+        let (bytes, plan) = match planned {
             Ok(p) => p,
             Err(msg) => {
                 self.alarm(AlarmCode::JobRefused, &msg)?;
@@ -145,8 +207,11 @@ impl InterpTask {
                 return Ok(JobEnd::Refused);
             }
         };
+        // every job starts at 100 % feed override (`stream`)
+        let mut learned = self.learned(&bytes, &plan, softnc_learning::entry::OVERRIDE_PCT)?;
+        drop(bytes);
         self.state = MachineState::Running;
-        let end = self.stream(&plan, job_id)?;
+        let end = self.stream(&plan, job_id, learned.as_mut())?;
         self.state = match end {
             JobEnd::Completed | JobEnd::Refused => MachineState::Idle,
             JobEnd::Aborted => self.state,
@@ -155,8 +220,15 @@ impl InterpTask {
         Ok(end)
     }
 
-    fn stream(&mut self, plan: &Plan, job_id: u64) -> Result<JobEnd> {
+    fn stream(
+        &mut self,
+        plan: &Plan,
+        job_id: u64,
+        mut learned: Option<&mut JobCorrection>,
+    ) -> Result<JobEnd> {
         let ahead = self.cfg.config.lookahead_samples as u64;
+        // the feed override the learned correction belongs to (fraction)
+        let learned_override = f64::from(softnc_learning::entry::OVERRIDE_PCT) / 100.0;
         let mut it = plan.interpolator();
         let mut next_seq: u64 = 0;
         let mut consumed: Option<u64> = None;
@@ -190,7 +262,26 @@ impl InterpTask {
             }
             while let Some(c) = self.control.receive()? {
                 let c = *c;
-                match ControlKind::from_wire(c.kind) {
+                let kind = ControlKind::from_wire(c.kind);
+                // re-timed from the next sample on: the learned correction fades out
+                let retimed = match kind {
+                    Some(ControlKind::FeedOverride) => c.value != learned_override,
+                    Some(ControlKind::Hold | ControlKind::Abort | ControlKind::Shutdown) => true,
+                    _ => false,
+                };
+                if let Some(l) = learned.as_deref_mut().filter(|l| retimed && !l.fading()) {
+                    l.fade_out(next_seq as usize, ahead as usize);
+                    let why = match kind {
+                        Some(ControlKind::FeedOverride) => "feed override changed",
+                        Some(ControlKind::Hold) => "feed hold",
+                        _ => "abort",
+                    };
+                    // the note's text is formatted here, once per job, off the sample path
+                    self.note(&format!(
+                        "learned correction faded out from sample {next_seq} over {ahead} samples: {why} (the job is re-timed)"
+                    ))?;
+                }
+                match kind {
                     Some(ControlKind::FeedOverride) => {
                         operator_override = c.value;
                         if !held && !aborting {
@@ -229,7 +320,14 @@ impl InterpTask {
                 let Some(sample) = it.next() else { break };
                 let stopped_for_abort = aborting && next_seq > 0 && it.path_speed_mm_per_s() == 0.0;
                 let last = it.is_finished() || stopped_for_abort;
-                let mut c = CommandSample::new(next_seq, job_id, sample.index, sample.pos_mm.0);
+                let mut pos_mm = sample.pos_mm.0;
+                if let Some(l) = learned.as_deref() {
+                    let d = l.at(next_seq as usize);
+                    for (p, d) in pos_mm.iter_mut().zip(d) {
+                        *p += d;
+                    }
+                }
+                let mut c = CommandSample::new(next_seq, job_id, sample.index, pos_mm);
                 c.motion = sample.motion;
                 if sample.feed_move {
                     c.flags |= CommandSample::FLAG_FEED_MOVE;
@@ -262,10 +360,19 @@ impl InterpTask {
 
 /// Read a G-code file and plan it for `machine`; the error text is the operator's.
 pub fn read_and_plan(path: &str, machine: &softnc_core::MachineProfile) -> Result<Plan, String> {
+    read_job(path, machine).map(|(_, plan)| plan)
+}
+
+/// [`read_and_plan`], also giving the file's bytes (the learning store's key).
+pub fn read_job(
+    path: &str,
+    machine: &softnc_core::MachineProfile,
+) -> Result<(Vec<u8>, Plan), String> {
     let bytes = std::fs::read(path).map_err(|e| format!("{path}: cannot read: {e}"))?;
     let text = String::from_utf8_lossy(&bytes);
     // one pass: the motions are planned as they are read, never all held at once
-    softnc_planner::read_and_plan(&text, path, machine, &PlanOptions::default())
+    let plan = softnc_planner::read_and_plan(&text, path, machine, &PlanOptions::default())
         .map(|(_, plan)| plan)
-        .map_err(|e| e.to_string())
+        .map_err(|e| e.to_string())?;
+    Ok((bytes, plan))
 }

@@ -35,6 +35,9 @@ pub struct JobRecord {
     pub cycles: u64,
     /// Accuracy over the job's feed moves.
     pub accuracy: Accuracy,
+    /// Remarks that are not alarms (a learned correction applied, faded out, …).
+    #[serde(default)]
+    pub notes: Vec<String>,
 }
 
 /// Accuracy of a job, accumulated from the position status stream.
@@ -236,6 +239,15 @@ impl MmiTask {
             }
         }
         while let Some(a) = self.alarms_sub.receive()? {
+            if a.code == AlarmCode::Note.wire() {
+                // a remark for the job's record, not an alarm
+                let (job_id, text) = (a.job_id, a.message.as_str().to_string());
+                if let Some(j) = self.jobs.iter_mut().rev().find(|j| j.job_id == job_id) {
+                    j.notes.push(text);
+                    changed = true;
+                }
+                continue;
+            }
             if self.alarms.len() == ALARM_HISTORY {
                 self.alarms.pop_front();
             }
@@ -319,6 +331,7 @@ impl MmiTask {
                             planned_samples: plan.stats().samples,
                             cycles: 0,
                             accuracy: Accuracy::default(),
+                            notes: Vec::new(),
                         });
                         self.save_jobs();
                         self.send_control(ControlKind::StartJob, job_id, 0.0, &path)?;
@@ -422,6 +435,7 @@ impl MmiTask {
                 "cycles": j.cycles, "planned_samples": j.planned_samples,
                 "progress": if j.planned_samples > 0 { (j.cycles as f64 / j.planned_samples as f64).min(1.0) } else { 0.0 },
                 "accuracy": j.accuracy,
+                "notes": j.notes,
             })),
             "axes": s.map(|s| serde_json::json!({
                 "cmd_mm": &s.cmd_mm[..3], "actual_mm": &s.actual_mm[..3],

@@ -214,6 +214,9 @@ pub enum AlarmCode {
     EStop = 5,
     /// A job was refused.
     JobRefused = 6,
+    /// Not an alarm: a remark for the job's record (e.g. a learned correction applied
+    /// or faded out); the MMI keeps it with the job, not in the alarm list.
+    Note = 7,
     /// Anything else.
     Other = 99,
 }
@@ -339,5 +342,6 @@ wire_enum!(AlarmCode {
     FollowingError,
     EStop,
     JobRefused,
+    Note,
     Other
 });

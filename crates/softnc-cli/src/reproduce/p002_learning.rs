@@ -7,7 +7,7 @@
 //! identification run. The paper prints Fig. 4 as a plot only (no numbers): a small
 //! buffer already learns fast.
 
-use crate::learn_sim::{self, IterationStats, PreparedJob};
+use softnc_learning::sim_runs::{self as learn_sim, IterationStats, PreparedJob};
 use crate::reproduce::p001::workspace_file;
 use anyhow::{Context, Result};
 use softnc_core::MachineProfile;

@@ -7,7 +7,7 @@
 //! ±[`QUADRANT_WINDOW_DEG`] of the four axis reversals; "spike" is the largest |error|
 //! inside those windows.
 
-use crate::learn_sim::{self, IterationStats};
+use softnc_learning::sim_runs::{self as learn_sim, IterationStats};
 use crate::reproduce::p001::workspace_file;
 use anyhow::{Context, Result};
 use softnc_core::servo::PlantModel;

@@ -1,14 +1,15 @@
 //! Learning runs on the simulated machine: the Markov-parameter identification run,
 //! repetitions of a job under paper 002's eq 5, and repetitions of a circle under paper
 //! 004's radius ILC (eq 8–9). Used by `softnc learn` and `softnc reproduce 002-learning
-//! / 004-ilc`; the laws themselves are `softnc_learning`'s.
+//! / 004-ilc` and the daemon's end-to-end tests; the laws are [`crate::markov`] and
+//! [`crate::radius_ilc`].
 
 use softnc_core::{MachineProfile, Primitive};
-use softnc_learning::markov::{identify_markov, settled_terms, MarkovJob, AXES};
-use softnc_learning::radius_ilc::{Circle, RadiusIlc, POINTS};
+use crate::markov::{identify_markov, settled_terms, MarkovJob, AXES};
+use crate::radius_ilc::{Circle, RadiusIlc, POINTS};
 use softnc_sim::{simulate, CommandSample, CycleEngine, ErrorStats, ServoBackend, SimBackend};
 
-pub use softnc_learning::entry::{IterationStats, HOLD_S};
+pub use crate::entry::{IterationStats, HOLD_S};
 
 /// Height of the identification pulse (mm): large against encoder resolution and
 /// noise (1e-4 of it at 0.1 µm) and against Coulomb friction, small against travel.
@@ -34,7 +35,14 @@ impl PreparedJob {
         let program = softnc_gcode::read_program(text, name, machine).map_err(|e| e.to_string())?;
         let plan = softnc_planner::plan(&program, machine, &Default::default())
             .map_err(|e| e.to_string())?;
-        let mut samples: Vec<CommandSample> = crate::cmd_sim::command_samples(&plan).collect();
+        let mut samples: Vec<CommandSample> = plan
+            .interpolator()
+            .map(|s| CommandSample {
+                pos_mm: s.pos_mm.0,
+                motion: s.motion,
+                feed_move: s.feed_move,
+            })
+            .collect();
         let cycle_s = plan.cycle_s();
         if let Some(last) = samples.last().copied() {
             let hold = (HOLD_S / cycle_s).round() as usize;
@@ -305,7 +313,12 @@ pub fn learn_radius(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::reproduce::p001::workspace_file;
+
+    fn workspace_file(rel: &str) -> std::path::PathBuf {
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../..")
+            .join(rel)
+    }
     use softnc_core::servo::CommandFilterConfig;
     use softnc_sim::SimOptions;
 
