@@ -225,19 +225,15 @@ fn simulator_trace_learned(job: &Path, machine: &Path, out: &Path, learned: Opti
         }
     });
     let mut file = softnc_daemon::trace::TraceFile::create(out).unwrap();
-    let samples = plan.interpolator().enumerate().map(|(k, s)| {
-        let mut pos_mm = s.pos_mm.0;
-        if let Some(c) = &correction {
-            for (p, d) in pos_mm.iter_mut().zip(c.at(k)) {
-                *p += d;
-            }
-        }
-        softnc_sim::sim::CommandSample {
-            pos_mm,
-            motion: s.motion,
-            feed_move: s.feed_move,
-        }
+    let planned = plan.interpolator().map(|s| softnc_sim::sim::CommandSample {
+        pos_mm: s.pos_mm.0,
+        motion: s.motion,
+        feed_move: s.feed_move,
     });
+    let samples: Box<dyn Iterator<Item = softnc_sim::sim::CommandSample>> = match &correction {
+        Some(c) => Box::new(c.corrected(planned)),
+        None => Box::new(planned),
+    };
     softnc_sim::simulate(
         &mut engine,
         plan.cycle_s(),
@@ -404,6 +400,18 @@ fn a_learned_job_runs_with_its_correction_bit_for_bit_as_the_simulator_and_far_m
     let want = std::fs::read(&sim).unwrap();
     let after = d.trace_of(after_id, want.len());
     assert_same_trace(&after, &want);
+    // with the learnt hold tail the correction runs out to zero: the learned job ends
+    // on its programmed end point (not off it by the correction of its last planned
+    // sample, which leads the decelerating axes)
+    let rows = |t: &[u8]| String::from_utf8_lossy(t).lines().count();
+    let tail = (softnc_learning::entry::HOLD_S / 1e-3).round() as usize;
+    assert_eq!(rows(&after), rows(&before) + tail, "the learned run's hold tail");
+    let last_cmd = |t: &[u8]| -> Vec<f64> {
+        let text = String::from_utf8_lossy(t).into_owned();
+        let line = text.lines().last().unwrap().to_string();
+        line.split(',').skip(1).take(3).map(|v| v.parse().unwrap()).collect()
+    };
+    assert_eq!(last_cmd(&after), last_cmd(&before), "the learned job's end point");
     let rms_after = trace_contour_rms_um(&after);
     eprintln!(
         "daemon contour-error RMS: {rms_before:.3} µm unlearned, {rms_after:.3} µm learned \
@@ -414,6 +422,51 @@ fn a_learned_job_runs_with_its_correction_bit_for_bit_as_the_simulator_and_far_m
         rms_after < 0.1 * rms_before,
         "learned {rms_after:.3} µm vs unlearned {rms_before:.3} µm"
     );
+}
+
+#[test]
+fn a_feed_override_fades_the_learned_correction_out_and_notes_it() {
+    let d = Daemon::start_on("fade", "Realtime", false, "default.ron");
+    let op = d.operator();
+    let job = d.dir.join("lines-arcs.ngc");
+    std::fs::copy(repo().join("examples/learning/lines-arcs.ngc"), &job).unwrap();
+    let machine = d.dir.join("machines/default.ron");
+    learn_job(&d.dir.join("learning"), &job, &machine, 2);
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    d.wait_status(&op, Duration::from_secs(20), "motion", |s| {
+        s["job"]["cycles"].as_u64().unwrap_or(0) > 1000
+    });
+    let o = op.request(ControlKind::FeedOverride, 0.5, "").unwrap();
+    assert_eq!(o.accepted, 1, "{}", o.message.as_str());
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    assert!(s["alarms"].as_array().unwrap().is_empty(), "{s}");
+    let notes = s["job"]["notes"].to_string();
+    assert!(notes.contains("learned correction applied"), "{notes}");
+    assert!(
+        notes.contains("faded out from sample") && notes.contains("feed override changed"),
+        "{notes}"
+    );
+    // faded to nothing: the job ends on its programmed end point, not off it by the
+    // last learned correction
+    let end = d.wait_status(&op, Duration::from_secs(10), "idle", |s| {
+        s["state"] == "Idle"
+    });
+    let profile = softnc_core::MachineProfile::load(&machine).unwrap();
+    let text = std::fs::read_to_string(&job).unwrap();
+    let (_, plan) =
+        softnc_planner::read_and_plan(&text, "job.ngc", &profile, &Default::default()).unwrap();
+    let last = plan.interpolator().last().unwrap().pos_mm.0;
+    let cmd: Vec<f64> = serde_json::from_value(end["axes"]["cmd_mm"].clone()).unwrap();
+    for a in 0..3 {
+        assert!(
+            (cmd[a] - last[a]).abs() < 1e-9,
+            "axis {a}: command {} mm at the end, planned {} mm",
+            cmd[a],
+            last[a]
+        );
+    }
 }
 
 #[test]

@@ -154,15 +154,10 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
     let mut trace_err: Option<anyhow::Error> = None;
 
     let path_of = |m: u32| plan.motion_primitive(m as usize);
-    let samples = command_samples(&plan).enumerate().map(|(k, mut s)| {
-        if let Some(c) = &learned {
-            let d = c.at(k);
-            for (p, d) in s.pos_mm.iter_mut().zip(d) {
-                *p += d;
-            }
-        }
-        s
-    });
+    let samples: Box<dyn Iterator<Item = CommandSample>> = match &learned {
+        Some(c) => Box::new(c.corrected(command_samples(&plan))),
+        None => Box::new(command_samples(&plan)),
+    };
     let started = Instant::now();
     let report = simulate(&mut engine, cycle_s, samples, path_of, |row: &TraceRow| {
         if let Some(w) = trace.as_mut() {

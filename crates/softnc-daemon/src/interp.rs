@@ -26,6 +26,7 @@ use softnc_ipc::{
 };
 use softnc_learning::{JobCorrection, LearningStore, Lookup};
 use softnc_planner::{Plan, PlanOptions};
+use std::fmt::Write;
 use std::time::{Duration, Instant};
 
 /// How long the loop sleeps when it has nothing to send.
@@ -146,14 +147,18 @@ impl InterpTask {
 
     /// A remark for the job's record (not an alarm).
     fn note(&mut self, message: &str) -> Result<()> {
-        tracing::info!("job {}: {message}", self.job_id);
+        self.note_fixed(FixedStr::new(message))
+    }
+
+    fn note_fixed(&mut self, message: FixedStr<256>) -> Result<()> {
+        tracing::info!("job {}: {}", self.job_id, message.as_str());
         self.alarms.send_copy(Alarm {
             code: AlarmCode::Note.wire(),
             axis: u32::MAX,
             process: ProcessId::Interp.wire(),
             job_id: self.job_id,
             time_index: 0,
-            message: FixedStr::new(message),
+            message,
         })?;
         Ok(())
     }
@@ -236,6 +241,8 @@ impl InterpTask {
         let mut operator_override = 1.0;
         let mut held = false;
         let mut aborting = false;
+        // the last planned sample, repeated while a learned correction still runs out
+        let mut end_hold: Option<softnc_planner::Sample> = None;
         // realtime: one pass per interpolation cycle on absolute deadlines (timed);
         // lockstep: as fast as the position process consumes
         let realtime = self.cfg.config.clock == crate::config::ClockMode::Realtime;
@@ -276,10 +283,13 @@ impl InterpTask {
                         Some(ControlKind::Hold) => "feed hold",
                         _ => "abort",
                     };
-                    // the note's text is formatted here, once per job, off the sample path
-                    self.note(&format!(
+                    // formatted in place: nothing allocated while the job runs
+                    let mut msg = FixedStr::<256>::empty();
+                    let _ = write!(
+                        msg,
                         "learned correction faded out from sample {next_seq} over {ahead} samples: {why} (the job is re-timed)"
-                    ))?;
+                    );
+                    self.note_fixed(msg)?;
                 }
                 match kind {
                     Some(ControlKind::FeedOverride) => {
@@ -317,9 +327,34 @@ impl InterpTask {
             // keep the ring filled `ahead` samples beyond the one in use
             let limit = consumed.map_or(ahead + 1, |c| c + 1 + ahead);
             while !sent_last && next_seq < limit {
-                let Some(sample) = it.next() else { break };
-                let stopped_for_abort = aborting && next_seq > 0 && it.path_speed_mm_per_s() == 0.0;
-                let last = it.is_finished() || stopped_for_abort;
+                let sample = match &mut end_hold {
+                    // after the planned end: the final position, held (see below)
+                    Some(h) => {
+                        h.index += 1;
+                        *h
+                    }
+                    None => {
+                        let Some(sample) = it.next() else { break };
+                        sample
+                    }
+                };
+                // a learned job ends where its correction is zero for good: the
+                // learnt hold tail after the planned end (or the end of a fade-out)
+                let correction_done = learned
+                    .as_deref()
+                    .is_none_or(|l| l.done_at(next_seq as usize));
+                let stopped_for_abort = aborting
+                    && next_seq > 0
+                    && it.path_speed_mm_per_s() == 0.0
+                    && correction_done;
+                let planned_end = it.is_finished();
+                if planned_end && end_hold.is_none() && !correction_done {
+                    end_hold = Some(softnc_planner::Sample {
+                        feed_move: false,
+                        ..sample
+                    });
+                }
+                let last = (planned_end && correction_done) || stopped_for_abort;
                 let mut pos_mm = sample.pos_mm.0;
                 if let Some(l) = learned.as_deref() {
                     let d = l.at(next_seq as usize);

@@ -45,6 +45,21 @@ impl<const N: usize> FixedStr<N> {
     }
 }
 
+/// Appends, cut at a character boundary when full: formatting into a `FixedStr`
+/// allocates nothing (messages raised on the cycle path).
+impl<const N: usize> std::fmt::Write for FixedStr<N> {
+    fn write_str(&mut self, s: &str) -> std::fmt::Result {
+        let len = (self.len as usize).min(N);
+        let mut end = s.len().min(N - len);
+        while !s.is_char_boundary(end) {
+            end -= 1;
+        }
+        self.bytes[len..len + end].copy_from_slice(&s.as_bytes()[..end]);
+        self.len = (len + end) as u32;
+        Ok(())
+    }
+}
+
 impl<const N: usize> Default for FixedStr<N> {
     fn default() -> Self {
         Self::empty()
@@ -73,5 +88,13 @@ mod tests {
         assert_eq!(s.as_str(), "abé");
         assert!(!FixedStr::<4>::fits("abcde"));
         assert_eq!(FixedStr::<8>::new("x").as_str(), "x");
+    }
+
+    #[test]
+    fn formatting_appends_and_cuts_when_full() {
+        use std::fmt::Write;
+        let mut s: FixedStr<6> = FixedStr::new("ab");
+        write!(s, "{}é{}", 12, "xyz").unwrap();
+        assert_eq!(s.as_str(), "ab12é");
     }
 }

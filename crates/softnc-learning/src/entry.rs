@@ -9,6 +9,7 @@
 use crate::markov::{MarkovJob, AXES};
 use crate::radius_ilc::{Circle, RadiusIlc};
 use crate::store::{LearningKey, LearningStore, StoreError};
+use softnc_sim::CommandSample;
 use std::path::{Path, PathBuf};
 
 /// Time the final command is held after the program ends in every learning
@@ -127,6 +128,7 @@ pub enum Lookup {
 #[derive(Debug, Clone, PartialEq)]
 pub struct JobCorrection {
     correction_mm: [Vec<f64>; AXES],
+    planned_samples: usize,
     /// Repetitions it was learnt from.
     pub repetitions: usize,
     /// Contour-error RMS of the last learning run on the simulator (µm).
@@ -182,6 +184,7 @@ pub fn lookup(
             } else {
                 Lookup::Markov(JobCorrection {
                     correction_mm: mj.correction_mm,
+                    planned_samples,
                     repetitions: mj.repetitions,
                     last_rms_um: e.iterations.last().map(|s| s.rms_um),
                     entry,
@@ -193,12 +196,30 @@ pub fn lookup(
 }
 
 impl JobCorrection {
+    /// Samples to run after the planned ones: the [`HOLD_S`] tail the correction was
+    /// learnt with, holding the final planned position. The correction at the job's
+    /// last planned sample is not zero (it leads the decelerating axes, up to the
+    /// following error); over the tail it returns to zero (eq 5 has no error ahead of
+    /// the last sample), so the job ends on its programmed end point.
+    pub fn tail_samples(&self) -> usize {
+        self.correction_mm[0].len().saturating_sub(self.planned_samples)
+    }
+
+    /// Whether sample `k` is the last one the correction needs: faded out to zero
+    /// there, or its last stored sample (where eq 5 leaves it zero: no error ahead).
+    pub fn done_at(&self, k: usize) -> bool {
+        match self.fade {
+            Some(f) => k + 1 >= f.from + f.samples,
+            None => k + 1 >= self.correction_mm[0].len(),
+        }
+    }
+
     /// The correction to add to the planned command of sample `k` (mm): the stored
     /// one, or after [`JobCorrection::fade_out`] the faded one; zero past the end.
     pub fn at(&self, k: usize) -> [f64; AXES] {
         match self.fade {
             Some(f) if k >= f.from => {
-                let left = 1.0 - (k - f.from + 1) as f64 / (f.samples + 1) as f64;
+                let left = 1.0 - (k - f.from + 1) as f64 / f.samples as f64;
                 f.frozen_mm.map(|c| c * left.max(0.0))
             }
             _ => [0, 1, 2].map(|a| self.correction_mm[a].get(k).copied().unwrap_or(0.0)),
@@ -207,7 +228,8 @@ impl JobCorrection {
 
     /// Stop following the stored correction from sample `from` on (the job is
     /// re-timed: a feed override or hold): the correction of sample `from − 1` is
-    /// held and ramped linearly to zero over `samples` samples, so the command stays
+    /// held and ramped linearly to zero, reached at its `samples`-th sample (at least
+    /// one), so the command stays
     /// continuous (a dropped correction would be a position step). Only the first
     /// call counts.
     pub fn fade_out(&mut self, from: usize, samples: usize) {
@@ -220,8 +242,21 @@ impl JobCorrection {
             self.fade = Some(Fade {
                 from,
                 frozen_mm,
-                samples,
+                samples: samples.max(1),
             });
+        }
+    }
+
+    /// The job's planned command samples with the correction added, followed by the
+    /// learnt hold tail ([`JobCorrection::tail_samples`]): the stream a learned job
+    /// runs as planned (`softnc sim --learned`; the daemon makes the same one).
+    pub fn corrected<I: Iterator<Item = CommandSample>>(&self, planned: I) -> Corrected<'_, I> {
+        Corrected {
+            correction: self,
+            planned,
+            k: 0,
+            last: None,
+            tail_left: self.tail_samples(),
         }
     }
 
@@ -236,6 +271,41 @@ impl JobCorrection {
             .iter()
             .flatten()
             .fold(0.0, |m, c| m.max(c.abs()))
+    }
+}
+
+/// See [`JobCorrection::corrected`].
+pub struct Corrected<'a, I> {
+    correction: &'a JobCorrection,
+    planned: I,
+    k: usize,
+    last: Option<CommandSample>,
+    tail_left: usize,
+}
+
+impl<I: Iterator<Item = CommandSample>> Iterator for Corrected<'_, I> {
+    type Item = CommandSample;
+
+    fn next(&mut self) -> Option<CommandSample> {
+        let mut s = match self.planned.next() {
+            Some(s) => {
+                self.last = Some(s);
+                s
+            }
+            None if self.tail_left > 0 => {
+                self.tail_left -= 1;
+                CommandSample {
+                    feed_move: false,
+                    ..self.last?
+                }
+            }
+            None => return None,
+        };
+        for (p, d) in s.pos_mm.iter_mut().zip(self.correction.at(self.k)) {
+            *p += d;
+        }
+        self.k += 1;
+        Some(s)
     }
 }
 
@@ -275,6 +345,7 @@ mod tests {
             panic!("{got:?}")
         };
         assert_eq!(c.at(4), [4e-3, 0.0, 0.0]);
+        assert_eq!(c.tail_samples(), 200);
         assert_eq!(c.at(10_000), [0.0; AXES]);
         assert!(matches!(
             lookup(&store, b"job", b"profile", 120, || 10, 1e-3).unwrap(),
@@ -299,16 +370,19 @@ mod tests {
         };
         let mut c = JobCorrection {
             correction_mm: mj.correction_mm,
+            planned_samples: 10,
             repetitions: 1,
             last_rms_um: None,
             entry: String::new(),
             fade: None,
         };
+        assert!(!c.done_at(208) && c.done_at(209));
         c.fade_out(100, 4);
         c.fade_out(150, 50); // only the first counts
+        assert!(!c.done_at(102) && c.done_at(103));
         assert_eq!(c.at(99)[0], 99e-3);
         let faded: Vec<f64> = (100..106).map(|k| c.at(k)[0]).collect();
-        let want = [0.8, 0.6, 0.4, 0.2, 0.0, 0.0].map(|f| f * 99e-3);
+        let want = [0.75, 0.5, 0.25, 0.0, 0.0, 0.0].map(|f| f * 99e-3);
         for (g, w) in faded.iter().zip(want) {
             assert!((g - w).abs() < 1e-15, "{faded:?}");
         }
