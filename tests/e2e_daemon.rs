@@ -56,7 +56,10 @@ impl Daemon {
             .replace("clock: Realtime", &format!("clock: {clock}"))
             .replace("data_dir: \"../data\"", "data_dir: \"data\"")
             .replace("trace: false", &format!("trace: {trace}"))
-            .replace("// learning_dir: Some(\"../learning\")", "learning_dir: Some(\"learning\")")
+            .replace(
+                "// learning_dir: Some(\"../learning\")",
+                "learning_dir: Some(\"learning\")",
+            )
             .replace(
                 "interp_rt: (core: Some(0), fifo_priority: Some(70), lock_memory: true)",
                 "interp_rt: ()",
@@ -405,13 +408,25 @@ fn a_learned_job_runs_with_its_correction_bit_for_bit_as_the_simulator_and_far_m
     // sample, which leads the decelerating axes)
     let rows = |t: &[u8]| String::from_utf8_lossy(t).lines().count();
     let tail = (softnc_learning::entry::HOLD_S / 1e-3).round() as usize;
-    assert_eq!(rows(&after), rows(&before) + tail, "the learned run's hold tail");
+    assert_eq!(
+        rows(&after),
+        rows(&before) + tail,
+        "the learned run's hold tail"
+    );
     let last_cmd = |t: &[u8]| -> Vec<f64> {
         let text = String::from_utf8_lossy(t).into_owned();
         let line = text.lines().last().unwrap().to_string();
-        line.split(',').skip(1).take(3).map(|v| v.parse().unwrap()).collect()
+        line.split(',')
+            .skip(1)
+            .take(3)
+            .map(|v| v.parse().unwrap())
+            .collect()
     };
-    assert_eq!(last_cmd(&after), last_cmd(&before), "the learned job's end point");
+    assert_eq!(
+        last_cmd(&after),
+        last_cmd(&before),
+        "the learned job's end point"
+    );
     let rms_after = trace_contour_rms_um(&after);
     eprintln!(
         "daemon contour-error RMS: {rms_before:.3} µm unlearned, {rms_after:.3} µm learned \

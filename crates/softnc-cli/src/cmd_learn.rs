@@ -10,11 +10,11 @@
 //! another key, so its old entry is never applied (`list` marks it stale).
 
 use crate::cmd_plan::load_machine;
-use softnc_learning::sim_runs::{self as learn_sim, IterationStats, PreparedJob};
 use anyhow::{Context, Result};
 use softnc_learning::entry::{store_dir, Law, LawState, Learned, OVERRIDE_PCT};
 use softnc_learning::markov::MarkovJob;
 use softnc_learning::radius_ilc::RadiusIlc;
+use softnc_learning::sim_runs::{self as learn_sim, IterationStats, PreparedJob};
 use softnc_learning::{LearningKey, LearningStore};
 use softnc_sim::{CycleEngine, SimOptions};
 use std::io::Write;

@@ -40,8 +40,8 @@ pub struct SimArgs {
     /// 002 eq 5), exactly as the daemon applies it to an un-retimed job.
     #[arg(long)]
     learned: bool,
-    /// Learning store folder for --learned (default: as `softnc learn`).
-    #[arg(long, requires = "learned")]
+    /// Learning store folder --learned reads (default: as `softnc learn`).
+    #[arg(long)]
     store: Option<PathBuf>,
 }
 

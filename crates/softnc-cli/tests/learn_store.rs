@@ -109,3 +109,45 @@ fn learn_json_list_show_clear_and_invalidation() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("full circle"));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn sim_learned_applies_the_stored_correction() {
+    let dir = std::env::temp_dir().join(format!("softnc-sim-learned-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let store = dir.join("store");
+    let job = ws("examples/learning/lines-arcs.ngc");
+    let profile = ws("config/machines/default.ron");
+    let (j, p) = (job.to_str().unwrap(), profile.to_str().unwrap());
+    let sim = |learned: bool| {
+        let mut args = vec!["sim", j, "--machine", p, "--json"];
+        if learned {
+            args.push("--learned");
+        }
+        softnc(&args, &store)
+    };
+    // no entry yet: refused with a clear message, nothing simulated
+    let o = sim(true);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no learning entry"));
+    stdout(&softnc(
+        &["learn", j, "--machine", p, "--iterations", "3", "--json"],
+        &store,
+    ));
+    let rms = |o: &Output| {
+        let v: serde_json::Value = serde_json::from_str(stdout(o).trim()).unwrap();
+        (
+            v["contour_error_um"]["rms"].as_f64().unwrap(),
+            v["learned"].clone(),
+        )
+    };
+    let (plain, none) = rms(&sim(false));
+    let (learned, entry) = rms(&sim(true));
+    assert!(none.is_null());
+    assert_eq!(entry["repetitions"], 3);
+    assert!(
+        learned < 0.2 * plain,
+        "learned {learned} µm vs unlearned {plain} µm"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

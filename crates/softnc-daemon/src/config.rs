@@ -178,8 +178,9 @@ impl DaemonConfig {
             });
         }
         let data_dir = dir.join(&config.data_dir);
-        let learning_dir =
-            softnc_learning::store_dir(config.learning_dir.as_ref().map(|d| dir.join(d)).as_deref());
+        let learning_dir = softnc_learning::store_dir(
+            config.learning_dir.as_ref().map(|d| dir.join(d)).as_deref(),
+        );
         let iceoryx2_config = dir.join(&config.iceoryx2_config);
         if !iceoryx2_config.is_file() {
             return Err(bad(

@@ -165,7 +165,12 @@ impl InterpTask {
 
     /// The learned correction of the job `bytes` planned as `plan`, at the feed
     /// override `override_pct` in force, if the store has one that applies.
-    fn learned(&mut self, bytes: &[u8], plan: &Plan, override_pct: u32) -> Result<Option<JobCorrection>> {
+    fn learned(
+        &mut self,
+        bytes: &[u8],
+        plan: &Plan,
+        override_pct: u32,
+    ) -> Result<Option<JobCorrection>> {
         let store = LearningStore::new(&self.cfg.learning_dir);
         let found = softnc_learning::entry::lookup(
             &store,
@@ -343,10 +348,8 @@ impl InterpTask {
                 let correction_done = learned
                     .as_deref()
                     .is_none_or(|l| l.done_at(next_seq as usize));
-                let stopped_for_abort = aborting
-                    && next_seq > 0
-                    && it.path_speed_mm_per_s() == 0.0
-                    && correction_done;
+                let stopped_for_abort =
+                    aborting && next_seq > 0 && it.path_speed_mm_per_s() == 0.0 && correction_done;
                 let planned_end = it.is_finished();
                 if planned_end && end_hold.is_none() && !correction_done {
                     end_hold = Some(softnc_planner::Sample {

@@ -202,7 +202,9 @@ impl JobCorrection {
     /// following error); over the tail it returns to zero (eq 5 has no error ahead of
     /// the last sample), so the job ends on its programmed end point.
     pub fn tail_samples(&self) -> usize {
-        self.correction_mm[0].len().saturating_sub(self.planned_samples)
+        self.correction_mm[0]
+            .len()
+            .saturating_sub(self.planned_samples)
     }
 
     /// Whether sample `k` is the last one the correction needs: faded out to zero

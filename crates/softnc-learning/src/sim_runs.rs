@@ -4,9 +4,9 @@
 //! / 004-ilc` and the daemon's end-to-end tests; the laws are [`crate::markov`] and
 //! [`crate::radius_ilc`].
 
-use softnc_core::{MachineProfile, Primitive};
 use crate::markov::{identify_markov, settled_terms, MarkovJob, AXES};
 use crate::radius_ilc::{Circle, RadiusIlc, POINTS};
+use softnc_core::{MachineProfile, Primitive};
 use softnc_sim::{simulate, CommandSample, CycleEngine, ErrorStats, ServoBackend, SimBackend};
 
 pub use crate::entry::{IterationStats, HOLD_S};

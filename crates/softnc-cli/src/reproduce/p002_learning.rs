@@ -7,11 +7,11 @@
 //! identification run. The paper prints Fig. 4 as a plot only (no numbers): a small
 //! buffer already learns fast.
 
-use softnc_learning::sim_runs::{self as learn_sim, IterationStats, PreparedJob};
 use crate::reproduce::p001::workspace_file;
 use anyhow::{Context, Result};
 use softnc_core::MachineProfile;
 use softnc_learning::markov::MarkovJob;
+use softnc_learning::sim_runs::{self as learn_sim, IterationStats, PreparedJob};
 use softnc_sim::{CycleEngine, SimOptions};
 
 /// The job.

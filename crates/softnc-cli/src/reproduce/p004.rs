@@ -7,12 +7,12 @@
 //! ±[`QUADRANT_WINDOW_DEG`] of the four axis reversals; "spike" is the largest |error|
 //! inside those windows.
 
-use softnc_learning::sim_runs::{self as learn_sim, IterationStats};
 use crate::reproduce::p001::workspace_file;
 use anyhow::{Context, Result};
 use softnc_core::servo::PlantModel;
 use softnc_core::MachineProfile;
 use softnc_learning::radius_ilc::{RadiusIlc, POINTS};
+use softnc_learning::sim_runs::{self as learn_sim, IterationStats};
 use softnc_sim::{CycleEngine, SimOptions};
 
 /// The machine.
