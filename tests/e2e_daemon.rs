@@ -301,8 +301,8 @@ fn assert_same_trace(got: &[u8], want: &[u8]) {
     assert!(want.len() > 10_000, "simulator trace too short");
     if got != want {
         let (g, w) = (
-            String::from_utf8_lossy(&got),
-            String::from_utf8_lossy(&want),
+            String::from_utf8_lossy(got),
+            String::from_utf8_lossy(want),
         );
         let first = g.lines().zip(w.lines()).position(|(a, b)| a != b);
         panic!(

@@ -94,7 +94,8 @@ mod tests {
     fn formatting_appends_and_cuts_when_full() {
         use std::fmt::Write;
         let mut s: FixedStr<6> = FixedStr::new("ab");
-        write!(s, "{}é{}", 12, "xyz").unwrap();
+        let (n, tail) = (12, "xyz");
+        write!(s, "{n}é{tail}").unwrap();
         assert_eq!(s.as_str(), "ab12é");
     }
 }
