@@ -300,10 +300,7 @@ fn lockstep_equals_simulator_on(tag: &str, machine: &str, job: impl Fn(&Path) ->
 fn assert_same_trace(got: &[u8], want: &[u8]) {
     assert!(want.len() > 10_000, "simulator trace too short");
     if got != want {
-        let (g, w) = (
-            String::from_utf8_lossy(got),
-            String::from_utf8_lossy(want),
-        );
+        let (g, w) = (String::from_utf8_lossy(got), String::from_utf8_lossy(want));
         let first = g.lines().zip(w.lines()).position(|(a, b)| a != b);
         panic!(
             "daemon trace ({} lines) differs from the simulator's ({} lines) first at line {first:?}:\n{:?}\n{:?}",
