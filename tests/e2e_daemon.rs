@@ -495,6 +495,21 @@ fn jobs_run_one_after_another() {
             s["state"] == "Idle"
         });
     }
+    // the feed override is the machine's: set between jobs, the next job runs at it
+    let o = op.request(ControlKind::FeedOverride, 0.5, "").unwrap();
+    assert_eq!(o.accepted, 1, "{}", o.message.as_str());
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    assert_eq!(s["feed_override"], 0.5);
+    let (cycles, planned) = (
+        s["job"]["cycles"].as_f64().unwrap(),
+        s["job"]["planned_samples"].as_f64().unwrap(),
+    );
+    assert!(
+        cycles > 1.6 * planned,
+        "at 50 % the job takes about twice its planned {planned} cycles, not {cycles}"
+    );
 }
 
 #[test]

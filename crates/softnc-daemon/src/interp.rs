@@ -91,7 +91,13 @@ impl InterpTask {
                 let c = *c;
                 match ControlKind::from_wire(c.kind) {
                     Some(ControlKind::StartJob) if self.state == MachineState::Idle => {
-                        let end = self.run_job(c.path.as_str(), c.job_id)?;
+                        let max = self.cfg.machine.planner.max_feed_override;
+                        let feed_override = if (0.0..=max).contains(&c.value) {
+                            c.value
+                        } else {
+                            1.0
+                        };
+                        let end = self.run_job(c.path.as_str(), c.job_id, feed_override)?;
                         tracing::info!("job {} {:?}", c.job_id, end);
                     }
                     Some(ControlKind::EStop) => self.state = MachineState::EStopped,
@@ -205,8 +211,9 @@ impl InterpTask {
         }
     }
 
-    /// Read, plan and stream one job.
-    pub fn run_job(&mut self, path: &str, job_id: u64) -> Result<JobEnd> {
+    /// Read, plan and stream one job, starting at feed override `feed_override`
+    /// (fraction: the operator's, in force when the job starts).
+    pub fn run_job(&mut self, path: &str, job_id: u64, feed_override: f64) -> Result<JobEnd> {
         self.job_id = job_id;
         let planned = read_job(path, &self.cfg.machine);
         let (bytes, plan) = match planned {
@@ -217,11 +224,12 @@ impl InterpTask {
                 return Ok(JobEnd::Refused);
             }
         };
-        // every job starts at 100 % feed override (`stream`)
-        let mut learned = self.learned(&bytes, &plan, softnc_learning::entry::OVERRIDE_PCT)?;
+        // a learned correction belongs to the feed override it was learned at
+        let override_pct = (feed_override * 100.0).round() as u32;
+        let mut learned = self.learned(&bytes, &plan, override_pct)?;
         drop(bytes);
         self.state = MachineState::Running;
-        let end = self.stream(&plan, job_id, learned.as_mut())?;
+        let end = self.stream(&plan, job_id, feed_override, learned.as_mut())?;
         self.state = match end {
             JobEnd::Completed | JobEnd::Refused => MachineState::Idle,
             JobEnd::Aborted => self.state,
@@ -234,16 +242,21 @@ impl InterpTask {
         &mut self,
         plan: &Plan,
         job_id: u64,
+        start_override: f64,
         mut learned: Option<&mut JobCorrection>,
     ) -> Result<JobEnd> {
         let ahead = self.cfg.config.lookahead_samples as u64;
         // the feed override the learned correction belongs to (fraction)
-        let learned_override = f64::from(softnc_learning::entry::OVERRIDE_PCT) / 100.0;
+        let learned_override = start_override;
         let mut it = plan.interpolator();
+        if start_override != 1.0 {
+            // from rest: the first sample already runs at the operator's override
+            it.set_feed_override(start_override);
+        }
         let mut next_seq: u64 = 0;
         let mut consumed: Option<u64> = None;
         let mut sent_last = false;
-        let mut operator_override = 1.0;
+        let mut operator_override = start_override;
         let mut held = false;
         let mut aborting = false;
         // the last planned sample, repeated while a learned correction still runs out

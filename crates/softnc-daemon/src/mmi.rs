@@ -334,7 +334,14 @@ impl MmiTask {
                             notes: Vec::new(),
                         });
                         self.save_jobs();
-                        self.send_control(ControlKind::StartJob, job_id, 0.0, &path)?;
+                        // the feed override is the machine's, not the job's: the job starts at
+                        // the one in force (carried here, so a restarted interpolator knows it)
+                        self.send_control(
+                            ControlKind::StartJob,
+                            job_id,
+                            self.feed_override,
+                            &path,
+                        )?;
                         Self::reply(true, job_id, &format!("job {job_id} started: {path}"))
                     }
                 }

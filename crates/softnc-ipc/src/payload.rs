@@ -192,7 +192,8 @@ pub struct ControlCommand {
     pub kind: u32,
     /// Job id for `StartJob`.
     pub job_id: u64,
-    /// Argument (override fraction).
+    /// Argument: the override fraction (for `StartJob`: the feed override in force,
+    /// which the job starts at).
     pub value: f64,
     /// Job file for `StartJob`.
     pub path: FixedStr<512>,
