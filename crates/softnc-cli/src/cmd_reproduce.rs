@@ -38,6 +38,39 @@ pub struct ReproduceArgs {
     pub plots: Option<PathBuf>,
 }
 
+impl ReproduceArgs {
+    /// The machine profile: `--machine`, else the experiment's `default` (a workspace
+    /// path). A profile that does not load is reported (`softnc: file: path: reason`)
+    /// and gives `None`: the command then exits refused.
+    pub fn machine_profile(&self, default: &str) -> Option<softnc_core::MachineProfile> {
+        let path = self
+            .machine
+            .clone()
+            .unwrap_or_else(|| crate::reproduce::p001::workspace_file(default));
+        match softnc_core::MachineProfile::load(&path) {
+            Ok(m) => Some(m),
+            Err(e) => {
+                eprintln!("softnc: {e}");
+                None
+            }
+        }
+    }
+
+    /// Print the experiment's JSON document (`--json`) or its text table.
+    pub fn print(
+        &self,
+        json: impl FnOnce() -> serde_json::Value,
+        text: impl FnOnce() -> String,
+    ) -> Result<()> {
+        if self.json {
+            println!("{}", serde_json::to_string_pretty(&json())?);
+        } else {
+            print!("{}", text());
+        }
+        Ok(())
+    }
+}
+
 /// The experiments this command knows.
 pub const EXPERIMENTS: &[&str] = &[
     "001-table5",

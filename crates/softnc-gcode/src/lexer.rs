@@ -448,27 +448,13 @@ fn plain_number(b: &[u8], mut i: usize) -> Option<(f64, usize)> {
     };
     let mut mant = 0u64; // wraps beyond 19 digits, but is used only up to 15
     let int_start = i;
-    while i < n {
-        let d = b[i].wrapping_sub(b'0');
-        if d >= 10 {
-            break;
-        }
-        mant = mant.wrapping_mul(10).wrapping_add(u64::from(d));
-        i += 1;
-    }
+    i = read_digits(b, i, &mut mant);
     let mut digits = i - int_start;
     let mut frac = 0;
     if i < n && b[i] == b'.' {
         i += 1;
         let frac_start = i;
-        while i < n {
-            let d = b[i].wrapping_sub(b'0');
-            if d >= 10 {
-                break;
-            }
-            mant = mant.wrapping_mul(10).wrapping_add(u64::from(d));
-            i += 1;
-        }
+        i = read_digits(b, i, &mut mant);
         frac = i - frac_start;
         digits += frac;
     }
@@ -564,6 +550,16 @@ pub fn column(line: &str, off: u32) -> u32 {
     let off = (off as usize).min(line.len());
     let b = &line.as_bytes()[..off];
     1 + b.iter().filter(|&&c| (c & 0xC0) != 0x80).count() as u32
+}
+
+/// Append the decimal digits at `b[i..]` to `mant` (wrapping); the index after them.
+#[inline(always)]
+fn read_digits(b: &[u8], mut i: usize, mant: &mut u64) -> usize {
+    while let Some(d) = b.get(i).map(|c| c.wrapping_sub(b'0')).filter(|&d| d < 10) {
+        *mant = mant.wrapping_mul(10).wrapping_add(u64::from(d));
+        i += 1;
+    }
+    i
 }
 
 #[cfg(test)]

@@ -677,14 +677,10 @@ pub fn main(args: &crate::cmd_reproduce::ReproduceArgs) -> Result<std::process::
     let exp = Experiment::load(&workspace_file("examples/paper000/experiment.ron"))?;
     let (rows, traces) = table(&base, &design, &exp)?;
     let checks = acceptance(&rows, &exp.spindle_rpm);
-    if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&to_json(&rows, &checks, &exp))?
-        );
-    } else {
-        print!("{}", to_text(&rows, &checks, &exp));
-    }
+    args.print(
+        || to_json(&rows, &checks, &exp),
+        || to_text(&rows, &checks, &exp),
+    )?;
     if let Some(dir) = &args.plots {
         std::fs::create_dir_all(dir)?;
         for contour in CONTOURS {

@@ -425,11 +425,9 @@ pub fn plot_circle(
 
 /// `softnc reproduce 001-table5`.
 pub fn main(args: &crate::cmd_reproduce::ReproduceArgs) -> Result<std::process::ExitCode> {
-    let machine_path = args
-        .machine
-        .clone()
-        .unwrap_or_else(|| workspace_file("config/machines/mill-friction.ron"));
-    let machine = MachineProfile::load(&machine_path)?;
+    let Some(machine) = args.machine_profile("config/machines/mill-friction.ron") else {
+        return Ok(std::process::ExitCode::from(crate::EXIT_REFUSED));
+    };
     let flc_path = args
         .fuzzy
         .clone()

@@ -270,23 +270,11 @@ pub fn to_text(r: &FilterResult) -> String {
 
 /// `softnc reproduce 002-filter`.
 pub fn main(args: &crate::cmd_reproduce::ReproduceArgs) -> Result<std::process::ExitCode> {
-    let path = args
-        .machine
-        .clone()
-        .unwrap_or_else(|| workspace_file(MACHINE));
-    let machine = match MachineProfile::load(&path) {
-        Ok(m) => m,
-        Err(e) => {
-            eprintln!("softnc: {e}");
-            return Ok(std::process::ExitCode::from(crate::EXIT_REFUSED));
-        }
+    let Some(machine) = args.machine_profile(MACHINE) else {
+        return Ok(std::process::ExitCode::from(crate::EXIT_REFUSED));
     };
     let r = experiment(&machine)?;
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&to_json(&r))?);
-    } else {
-        print!("{}", to_text(&r));
-    }
+    args.print(|| to_json(&r), || to_text(&r))?;
     Ok(std::process::ExitCode::SUCCESS)
 }
 

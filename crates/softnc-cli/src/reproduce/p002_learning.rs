@@ -137,25 +137,16 @@ pub fn to_text(curves: &[Curve], gain: f64, seed: u64) -> String {
 
 /// `softnc reproduce 002-learning`.
 pub fn main(args: &crate::cmd_reproduce::ReproduceArgs) -> Result<std::process::ExitCode> {
-    let mpath = args
-        .machine
-        .clone()
-        .unwrap_or_else(|| workspace_file(MACHINE));
-    let machine = MachineProfile::load(&mpath)?;
+    let Some(machine) = args.machine_profile(MACHINE) else {
+        return Ok(std::process::ExitCode::from(crate::EXIT_REFUSED));
+    };
     let jpath = workspace_file(JOB);
     let text = std::fs::read_to_string(&jpath)
         .with_context(|| format!("cannot read {}", jpath.display()))?;
     let seed = machine.servo.seed;
     let gain = crate::cmd_learn::DEFAULT_GAIN;
     let c = curves(&machine, &text, seed, gain, ITERATIONS, &BUFFERS)?;
-    if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&to_json(&c, gain, seed))?
-        );
-    } else {
-        print!("{}", to_text(&c, gain, seed));
-    }
+    args.print(|| to_json(&c, gain, seed), || to_text(&c, gain, seed))?;
     Ok(std::process::ExitCode::SUCCESS)
 }
 

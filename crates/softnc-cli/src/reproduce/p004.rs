@@ -191,17 +191,11 @@ pub fn to_text(runs: &[FeedRun]) -> String {
 
 /// `softnc reproduce 004-ilc`.
 pub fn main(args: &crate::cmd_reproduce::ReproduceArgs) -> Result<std::process::ExitCode> {
-    let mpath = args
-        .machine
-        .clone()
-        .unwrap_or_else(|| workspace_file(MACHINE));
-    let machine = MachineProfile::load(&mpath)?;
+    let Some(machine) = args.machine_profile(MACHINE) else {
+        return Ok(std::process::ExitCode::from(crate::EXIT_REFUSED));
+    };
     let runs = run_all(&machine, machine.servo.seed, ITERATIONS)?;
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&to_json(&runs))?);
-    } else {
-        print!("{}", to_text(&runs));
-    }
+    args.print(|| to_json(&runs), || to_text(&runs))?;
     Ok(std::process::ExitCode::SUCCESS)
 }
 
