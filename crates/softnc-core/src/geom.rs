@@ -155,11 +155,25 @@ impl Plane {
     }
 }
 
-/// `x.rem_euclid(τ)`, without the division when |x| < τ (the same result: the
-/// remainder of a smaller number is the number itself).
+/// `x.rem_euclid(τ)`, without the division when |x| < 2τ (the same result: the
+/// remainder of a smaller number is the number itself, and for τ ≤ |x| < 2τ it is
+/// x ∓ τ, which floating point gives exactly by Sterbenz's lemma).
 pub fn rem_tau(x: f64) -> f64 {
     let tau = std::f64::consts::TAU;
-    let r = if x.abs() < tau { x } else { x % tau };
+    let ax = x.abs();
+    let r = if ax < tau {
+        x
+    } else if ax == tau {
+        0.0f64.copysign(x) // what `%` gives: a zero of x's sign
+    } else if ax < 2.0 * tau {
+        if x > 0.0 {
+            x - tau
+        } else {
+            x + tau
+        }
+    } else {
+        x % tau
+    };
     if r < 0.0 {
         r + tau
     } else {
@@ -430,9 +444,21 @@ mod tests {
 
     #[test]
     fn rem_tau_is_rem_euclid() {
-        for k in -4000..4000 {
-            let x = k as f64 * 0.00731 + 1e-3;
-            let tau = std::f64::consts::TAU;
+        let tau = std::f64::consts::TAU;
+        let mut xs: Vec<f64> = (-4000..4000).map(|k| k as f64 * 0.00731 + 1e-3).collect();
+        // the edges of the fast paths and their neighbours
+        for e in [0.0, tau, 2.0 * tau, 3.0 * tau] {
+            for v in [e, -e] {
+                let mut lo = v;
+                let mut hi = v;
+                for _ in 0..4 {
+                    xs.extend([lo, hi]);
+                    lo = lo.next_down();
+                    hi = hi.next_up();
+                }
+            }
+        }
+        for x in xs {
             assert_eq!(rem_tau(x).to_bits(), x.rem_euclid(tau).to_bits(), "{x}");
         }
     }

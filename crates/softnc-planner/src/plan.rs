@@ -127,8 +127,9 @@ pub fn read_and_plan(
     }
 }
 
-/// [`read_and_plan`] on two threads: the calling thread reads, a second one plans the
-/// chunks as they come (the same plan and errors).
+/// [`read_and_plan`] on two threads: the calling thread reads and works out each
+/// motion's programmed primitive, a second one checks them, builds the path from the
+/// chunks as they come and plans it (the same plan and errors).
 pub fn read_and_plan_parallel(
     text: &str,
     file: &str,
@@ -136,23 +137,25 @@ pub fn read_and_plan_parallel(
     options: &PlanOptions,
 ) -> Result<(Program, Plan), ReadPlanError> {
     use std::sync::mpsc::{channel, sync_channel};
-    let (to_planner, chunks) = sync_channel::<Vec<Motion>>(8);
-    let (recycle, recycled) = channel::<Vec<Motion>>();
+    type Chunk = (Vec<Motion>, Vec<Option<Primitive>>);
+    let (to_planner, chunks) = sync_channel::<Chunk>(8);
+    let (recycle, recycled) = channel::<Chunk>();
     std::thread::scope(|scope| {
         let planner = scope.spawn(move || {
             let mut planner = Planner::new(profile, options, file, text.len() / 24);
             let mut refused: Option<PlanError> = None;
-            for mut chunk in chunks {
+            for (mut motions, mut prims) in chunks {
                 if refused.is_none() {
-                    for m in &chunk {
-                        if let Err(e) = planner.push(m) {
+                    for (m, prim) in motions.iter().zip(&prims) {
+                        if let Err(e) = planner.push_primitive(m, *prim) {
                             refused = Some(e);
                             break;
                         }
                     }
                 }
-                chunk.clear();
-                let _ = recycle.send(chunk); // the reader may be gone: nothing to do
+                motions.clear();
+                prims.clear();
+                let _ = recycle.send((motions, prims)); // the reader may be gone
             }
             match refused {
                 Some(e) => Err(e),
@@ -165,11 +168,15 @@ pub fn read_and_plan_parallel(
             profile,
             READ_CHUNK_MOTIONS,
             &mut |chunk: &mut Vec<Motion>| {
-                let fresh = recycled
-                    .try_recv()
-                    .unwrap_or_else(|_| Vec::with_capacity(READ_CHUNK_MOTIONS));
+                let (fresh, mut prims) = recycled.try_recv().unwrap_or_else(|_| {
+                    (
+                        Vec::with_capacity(READ_CHUNK_MOTIONS),
+                        Vec::with_capacity(READ_CHUNK_MOTIONS),
+                    )
+                });
+                prims.extend(chunk.iter().map(motion_primitive));
                 // a planner that stopped early (it cannot) only loses the chunk
-                let _ = to_planner.send(std::mem::replace(chunk, fresh));
+                let _ = to_planner.send((std::mem::replace(chunk, fresh), prims));
             },
         );
         drop(to_planner);
@@ -181,13 +188,12 @@ pub fn read_and_plan_parallel(
     })
 }
 
-/// Plans motions one at a time: soft limits, figures and the path.
-struct Planner<'a> {
+/// Checks motions one at a time and gathers the plan's figures: soft limits, the
+/// bounding box, the highest feed, the spindle speed changes.
+struct Checker<'a> {
     profile: &'a MachineProfile,
     options: &'a PlanOptions,
     file: &'a str,
-    lim: Limits,
-    builder: PathBuilder,
     bmin: Vec3,
     bmax: Vec3,
     max_feed: f64,
@@ -195,20 +201,12 @@ struct Planner<'a> {
     spindle_changes: Vec<(u32, f64)>,
 }
 
-impl<'a> Planner<'a> {
-    fn new(
-        profile: &'a MachineProfile,
-        options: &'a PlanOptions,
-        file: &'a str,
-        motions_hint: usize,
-    ) -> Self {
-        let lim = Limits::from_profile(profile);
-        Planner {
+impl<'a> Checker<'a> {
+    fn new(profile: &'a MachineProfile, options: &'a PlanOptions, file: &'a str) -> Self {
+        Checker {
             profile,
             options,
             file,
-            lim,
-            builder: PathBuilder::new(&lim, motions_hint),
             bmin: Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY),
             bmax: Vec3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY),
             max_feed: 0.0,
@@ -217,9 +215,10 @@ impl<'a> Planner<'a> {
         }
     }
 
-    fn push(&mut self, m: &Motion) -> Result<(), PlanError> {
-        let prim = motion_primitive(m);
-        if let Some(p) = &prim {
+    /// Check a motion whose programmed primitive in machine coordinates is `prim`
+    /// (None for dwells): the soft limit it breaks, if any.
+    fn check(&mut self, m: &Motion, prim: &Option<Primitive>) -> Result<(), PlanError> {
+        if let Some(p) = prim {
             let (lo, hi) = bounding_box(p);
             if !self.options.ignore_soft_limits {
                 for (i, axis) in self.profile.axes.iter().enumerate() {
@@ -254,19 +253,17 @@ impl<'a> Planner<'a> {
             self.spindle_changes
                 .push((self.n_motions as u32, m.spindle_rpm));
         }
-        self.builder.push(self.n_motions, m, prim);
         self.n_motions += 1;
         Ok(())
     }
 
-    fn finish(self) -> Plan {
+    /// The plan of the checked motions, whose path is `path`.
+    fn finish(self, lim: Limits, path: Path) -> Plan {
         let (mut bmin, mut bmax) = (self.bmin, self.bmax);
         if !bmin[0].is_finite() {
             bmin = Vec3::ZERO;
             bmax = Vec3::ZERO;
         }
-        let lim = self.lim;
-        let path = self.builder.finish();
         let path_length_mm = path.segs.last().map_or(0.0, |s| s.s0 + s.len);
         let (duration_s, v_top, a_min) = planned_duration(&path.segs, &lim);
         let brake_dist_mm = if a_min.is_finite() && a_min > 0.0 {
@@ -292,6 +289,46 @@ impl<'a> Planner<'a> {
             max_override: self.profile.planner.max_feed_override,
             stats,
         }
+    }
+}
+
+/// Plans motions one at a time: checks, figures and the path.
+struct Planner<'a> {
+    checker: Checker<'a>,
+    lim: Limits,
+    builder: PathBuilder,
+}
+
+impl<'a> Planner<'a> {
+    fn new(
+        profile: &'a MachineProfile,
+        options: &'a PlanOptions,
+        file: &'a str,
+        motions_hint: usize,
+    ) -> Self {
+        let lim = Limits::from_profile(profile);
+        Planner {
+            checker: Checker::new(profile, options, file),
+            lim,
+            builder: PathBuilder::new(&lim, motions_hint),
+        }
+    }
+
+    fn push(&mut self, m: &Motion) -> Result<(), PlanError> {
+        self.push_primitive(m, motion_primitive(m))
+    }
+
+    /// [`Planner::push`] with the motion's programmed primitive already worked out.
+    fn push_primitive(&mut self, m: &Motion, prim: Option<Primitive>) -> Result<(), PlanError> {
+        let index = self.checker.n_motions;
+        self.checker.check(m, &prim)?;
+        self.builder.push(index, m, prim);
+        Ok(())
+    }
+
+    fn finish(self) -> Plan {
+        let path = self.builder.finish();
+        self.checker.finish(self.lim, path)
     }
 }
 
