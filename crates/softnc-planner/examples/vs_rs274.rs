@@ -1,0 +1,124 @@
+//! Parse + plan throughput against LinuxCNC's stand-alone interpreter on the same file
+//! and machine, in interleaved rounds (issue 2's figure): `cargo run --release -p
+//! softnc-planner --example vs_rs274 -- [ROUNDS] [LINES]`.
+//!
+//! Writes the benchmark program (`benches/common/workload.rs`, 200,000 lines by
+//! default) to `$TMPDIR/softnc-big-200k.ngc`. Each round times one `rs274 -g FILE
+//! /dev/null < /dev/null` run (LinuxCNC 2.9, Debian's `linuxcnc-uspace`; another
+//! binary via `RS274=PATH`), then the best of five runs of each of softnc's
+//! `read_and_plan` (one thread) and `read_and_plan_parallel` (two threads), each
+//! reading the file from disk inside the timing as `rs274` does, and prints the
+//! ratios of lines per second. On a shared machine the speed of both swings from one
+//! second to the next; the rounds keep each ratio within a few seconds, and the
+//! summary gives their median and range.
+use softnc_planner::{read_and_plan, read_and_plan_parallel, PlanOptions};
+use std::process::{Command, ExitCode, Stdio};
+use std::time::Instant;
+
+#[path = "../benches/common/workload.rs"]
+mod workload;
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().collect();
+    let rounds: usize = args
+        .get(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(11)
+        .max(1);
+    let lines: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(200_000);
+    let rs274 = std::env::var("RS274").unwrap_or_else(|_| "rs274".into());
+    let profile = softnc_core::MachineProfile::load(
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/machines/default.ron"
+        )
+        .as_ref(),
+    )
+    .expect("config/machines/default.ron loads");
+    let opts = PlanOptions {
+        ignore_soft_limits: true,
+    };
+    let file = std::env::temp_dir().join(format!("softnc-big-{}k.ngc", lines / 1000));
+    let text = workload::big_program(lines);
+    let n_lines = text.lines().count() as f64;
+    if let Err(e) = std::fs::write(&file, &text) {
+        eprintln!("vs_rs274: cannot write {}: {e}", file.display());
+        return ExitCode::from(2);
+    }
+    let run_rs274 = || -> Result<f64, String> {
+        let t0 = Instant::now();
+        let status = Command::new(&rs274)
+            .arg("-g")
+            .arg(&file)
+            .arg("/dev/null")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .map_err(|e| {
+                format!("cannot run {rs274}: {e} (apt-get install linuxcnc-uspace, or RS274=PATH)")
+            })?;
+        let s = t0.elapsed().as_secs_f64();
+        if status.success() {
+            Ok(s)
+        } else {
+            Err(format!("{rs274} failed on {}: {status}", file.display()))
+        }
+    };
+    let best_of_5 = |parallel: bool| -> f64 {
+        (0..5)
+            .map(|_| {
+                let t0 = Instant::now();
+                let text = std::fs::read_to_string(&file).expect("the file just written");
+                let planned = if parallel {
+                    read_and_plan_parallel(&text, "big.ngc", &profile, &opts)
+                } else {
+                    read_and_plan(&text, "big.ngc", &profile, &opts)
+                };
+                let stats = planned.expect("the workload plans").1.stats();
+                std::hint::black_box(stats);
+                t0.elapsed().as_secs_f64()
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    println!(
+        "{} lines ({}); lines per second, ratio to rs274 in the same round",
+        n_lines,
+        file.display()
+    );
+    println!("round  rs274          one thread             two threads");
+    let (mut one, mut two) = (Vec::new(), Vec::new());
+    for round in 1..=rounds {
+        let rs = match run_rs274() {
+            Ok(s) => n_lines / s,
+            Err(e) => {
+                eprintln!("vs_rs274: {e}");
+                return ExitCode::from(2);
+            }
+        };
+        let r1 = n_lines / best_of_5(false);
+        let r2 = n_lines / best_of_5(true);
+        println!(
+            "{round:>5}  {:>6.3} M/s   {:>6.2} M/s ({:>5.1}×)   {:>6.2} M/s ({:>5.1}×)",
+            rs / 1e6,
+            r1 / 1e6,
+            r1 / rs,
+            r2 / 1e6,
+            r2 / rs
+        );
+        one.push(r1 / rs);
+        two.push(r2 / rs);
+    }
+    for (name, v) in [("one thread", &mut one), ("two threads", &mut two)] {
+        v.sort_by(f64::total_cmp);
+        let at_least_20 = v.iter().filter(|&&r| r >= 20.0).count();
+        println!(
+            "{name}: median {:.1}×, range {:.1}–{:.1}×, ≥ 20× in {at_least_20} of {} rounds",
+            v[v.len() / 2],
+            v[0],
+            v[v.len() - 1],
+            v.len()
+        );
+    }
+    ExitCode::SUCCESS
+}
