@@ -49,6 +49,12 @@ pub fn run(args: PlanArgs) -> Result<ExitCode> {
             return Ok(ExitCode::from(crate::EXIT_REFUSED));
         }
     };
+    let options = softnc_planner::PlanOptions {
+        ignore_soft_limits: args.canon || args.ignore_soft_limits,
+    };
+    if !args.canon {
+        return summary(&args, &machine, &options);
+    }
     let program = match read_file(&args.file, &machine)? {
         Ok(p) => p,
         Err(msg) => {
@@ -56,51 +62,71 @@ pub fn run(args: PlanArgs) -> Result<ExitCode> {
             return Ok(ExitCode::from(crate::EXIT_REFUSED));
         }
     };
-    let options = softnc_planner::PlanOptions {
-        ignore_soft_limits: args.canon || args.ignore_soft_limits,
-    };
-    let plan = match softnc_planner::plan(&program, &machine, &options) {
-        Ok(p) => p,
-        Err(e) => {
-            eprintln!("{e}");
-            return Ok(ExitCode::from(crate::EXIT_REFUSED));
-        }
-    };
+    // the canonical motions are the program's reading; planning checks it plans
+    if let Err(e) = softnc_planner::plan(&program, &machine, &options) {
+        eprintln!("{e}");
+        return Ok(ExitCode::from(crate::EXIT_REFUSED));
+    }
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     for w in &program.warnings {
         eprintln!("warning: {w}");
     }
-    if args.canon {
-        write_canon(&mut out, &program)?;
+    write_canon(&mut out, &program)?;
+    out.flush()?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The plan's summary: read and planned in one pass on two threads (the motions are
+/// never all held at once).
+fn summary(
+    args: &PlanArgs,
+    machine: &MachineProfile,
+    options: &softnc_planner::PlanOptions,
+) -> Result<ExitCode> {
+    let bytes = std::fs::read(&args.file)
+        .with_context(|| format!("cannot read {}", args.file.display()))?;
+    let text = String::from_utf8_lossy(&bytes);
+    let name = args.file.display().to_string();
+    let (program, plan) =
+        match softnc_planner::read_and_plan_parallel(&text, &name, machine, options) {
+            Ok(p) => p,
+            Err(e) => {
+                eprintln!("{e}");
+                return Ok(ExitCode::from(crate::EXIT_REFUSED));
+            }
+        };
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    for w in &program.warnings {
+        eprintln!("warning: {w}");
+    }
+    let s = plan.stats();
+    let summary = serde_json::json!({
+        "file": program.file,
+        "blocks": program.blocks,
+        "moves": s.moves,
+        "path_length_mm": s.path_length_mm,
+        "duration_s": s.duration_s,
+        "samples": s.samples,
+        "max_feed_mm_min": s.max_feed_mm_min,
+        "bounds_mm": {"min": s.bounds_min_mm.0, "max": s.bounds_max_mm.0},
+        "warnings": program.warnings,
+    });
+    if args.json {
+        writeln!(out, "{summary}")?;
     } else {
-        let s = plan.stats();
-        let summary = serde_json::json!({
-            "file": program.file,
-            "blocks": program.blocks,
-            "moves": program.motions.iter().filter(|m| m.kind.end().is_some()).count(),
-            "path_length_mm": s.path_length_mm,
-            "duration_s": s.duration_s,
-            "samples": s.samples,
-            "max_feed_mm_min": s.max_feed_mm_min,
-            "bounds_mm": {"min": s.bounds_min_mm.0, "max": s.bounds_max_mm.0},
-            "warnings": program.warnings,
-        });
-        if args.json {
-            writeln!(out, "{summary}")?;
-        } else {
-            writeln!(
-                out,
-                "{}: {} blocks, {} moves, {:.3} mm, planned {:.3} s ({} samples), max feed {:.1} mm/min",
-                program.file,
-                program.blocks,
-                summary["moves"],
-                s.path_length_mm,
-                s.duration_s,
-                s.samples,
-                s.max_feed_mm_min
-            )?;
-        }
+        writeln!(
+            out,
+            "{}: {} blocks, {} moves, {:.3} mm, planned {:.3} s ({} samples), max feed {:.1} mm/min",
+            program.file,
+            program.blocks,
+            s.moves,
+            s.path_length_mm,
+            s.duration_s,
+            s.samples,
+            s.max_feed_mm_min
+        )?;
     }
     out.flush()?;
     Ok(ExitCode::SUCCESS)

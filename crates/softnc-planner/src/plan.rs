@@ -45,6 +45,8 @@ pub struct PlanStats {
     pub samples: u64,
     /// Highest programmed feed of a feed move (mm/min).
     pub max_feed_mm_min: f64,
+    /// Number of moves (traverses, feeds and arcs; dwells are not moves).
+    pub moves: usize,
     /// Bounding box of the path, machine coordinates (mm).
     pub bounds_min_mm: Vec3,
     /// Bounding box of the path, machine coordinates (mm).
@@ -198,6 +200,7 @@ struct Checker<'a> {
     bmax: Vec3,
     max_feed: f64,
     n_motions: usize,
+    n_moves: usize,
     spindle_changes: Vec<(u32, f64)>,
 }
 
@@ -211,6 +214,7 @@ impl<'a> Checker<'a> {
             bmax: Vec3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY),
             max_feed: 0.0,
             n_motions: 0,
+            n_moves: 0,
             spindle_changes: Vec::new(),
         }
     }
@@ -238,6 +242,7 @@ impl<'a> Checker<'a> {
             }
             self.bmin = self.bmin.min(lo);
             self.bmax = self.bmax.max(hi);
+            self.n_moves += 1;
             match m.kind {
                 MotionKind::Feed {
                     feed_mm_per_min, ..
@@ -277,6 +282,7 @@ impl<'a> Checker<'a> {
             duration_s,
             samples,
             max_feed_mm_min: self.max_feed,
+            moves: self.n_moves,
             bounds_min_mm: bmin,
             bounds_max_mm: bmax,
         };
