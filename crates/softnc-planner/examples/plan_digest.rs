@@ -1,11 +1,12 @@
 //! One line per G-code file: the error, or a digest of the motions read (every bit of
 //! every field), the warnings, the plan's figures and number of elements, whether
 //! `read_and_plan` gives the same figures (`read_and_plan_parallel` is flagged if it
-//! does not), and with `SAMPLES=1` a digest of the whole sample stream. For checking
-//! that a change (a faster reader or planner) leaves the output bit for bit as it was:
-//! run the old and the new build on the same files and compare. `cargo run --release
-//! -p softnc-planner --example plan_digest -- FILE...` (profile
-//! `config/machines/default.ron`, soft limits ignored).
+//! does not), the figures or refusal with the soft limits checked, and with
+//! `SAMPLES=1` a digest of the whole sample stream. For checking that a change (a
+//! faster reader or planner) leaves the output bit for bit as it was: run the old and
+//! the new build on the same files and compare. `cargo run --release -p
+//! softnc-planner --example plan_digest -- FILE...` (profile
+//! `config/machines/default.ron`).
 use std::hash::{Hash, Hasher};
 
 fn main() {
@@ -49,11 +50,15 @@ fn main() {
                 let st = softnc_planner::read_and_plan(&text, &file, &profile, &opts)
                     .map(|(_, p)| format!("{:?}", p.stats()))
                     .unwrap_or_else(|e| format!("{e}"));
+                // with the soft limits checked: the figures or the refusal
+                let soft = softnc_planner::plan(&p, &profile, &Default::default())
+                    .map(|plan| format!("{:?}", plan.stats()))
+                    .unwrap_or_else(|e| format!("{e}"));
                 let par = softnc_planner::read_and_plan_parallel(&text, &file, &profile, &opts)
                     .map(|(_, p)| format!("{:?}", p.stats()))
                     .unwrap_or_else(|e| format!("{e}"));
                 println!(
-                    "{file}: {} motions {:x} warn {:?} plan {stats} elems {elems} samples {sh:x} stream_same {}{}",
+                    "{file}: {} motions {:x} warn {:?} plan {stats} elems {elems} samples {sh:x} stream_same {}{} soft {soft}",
                     p.motions.len(),
                     h.finish(),
                     p.warnings,

@@ -223,34 +223,25 @@ impl<'a> Checker<'a> {
     /// (None for dwells): the soft limit it breaks, if any.
     fn check(&mut self, m: &Motion, prim: &Option<Primitive>) -> Result<(), PlanError> {
         if let Some(p) = prim {
-            let (lo, hi) = bounding_box(p);
-            if !self.options.ignore_soft_limits {
-                for (i, axis) in self.profile.axes.iter().enumerate() {
-                    for v in [lo[i], hi[i]] {
-                        if v < axis.min_mm - 1e-9 || v > axis.max_mm + 1e-9 {
-                            return Err(PlanError::SoftLimit {
-                                file: self.file.to_string(),
-                                line: m.line,
-                                axis: axis.name.chars().next().unwrap_or('?'),
-                                pos_mm: v,
-                                min_mm: axis.min_mm,
-                                max_mm: axis.max_mm,
-                            });
-                        }
-                    }
-                }
-            }
-            self.bmin = self.bmin.min(lo);
-            self.bmax = self.bmax.max(hi);
             self.n_moves += 1;
-            match m.kind {
+            self.max_feed = match m.kind {
                 MotionKind::Feed {
                     feed_mm_per_min, ..
                 }
                 | MotionKind::Arc {
                     feed_mm_per_min, ..
-                } => self.max_feed = self.max_feed.max(feed_mm_per_min),
-                _ => {}
+                } => self.max_feed.max(feed_mm_per_min),
+                _ => self.max_feed,
+            };
+            // a primitive inside the box so far neither grows it nor leaves the travel
+            // (the box is inside it)
+            if !within(p, self.bmin, self.bmax) {
+                let (lo, hi) = bounding_box(p);
+                if !self.options.ignore_soft_limits {
+                    self.check_travel(m, lo, hi)?;
+                }
+                self.bmin = self.bmin.min(lo);
+                self.bmax = self.bmax.max(hi);
             }
         }
         let rpm_before = self.spindle_changes.last().map_or(0.0, |c| c.1);
@@ -259,6 +250,25 @@ impl<'a> Checker<'a> {
                 .push((self.n_motions as u32, m.spindle_rpm));
         }
         self.n_motions += 1;
+        Ok(())
+    }
+
+    /// The soft limit that a motion reaching from `lo` to `hi` breaks, if any.
+    fn check_travel(&self, m: &Motion, lo: Vec3, hi: Vec3) -> Result<(), PlanError> {
+        for (i, axis) in self.profile.axes.iter().enumerate() {
+            for v in [lo[i], hi[i]] {
+                if v < axis.min_mm - 1e-9 || v > axis.max_mm + 1e-9 {
+                    return Err(PlanError::SoftLimit {
+                        file: self.file.to_string(),
+                        line: m.line,
+                        axis: axis.name.chars().next().unwrap_or('?'),
+                        pos_mm: v,
+                        min_mm: axis.min_mm,
+                        max_mm: axis.max_mm,
+                    });
+                }
+            }
+        }
         Ok(())
     }
 
@@ -427,6 +437,31 @@ fn planned_duration(segs: &[Segment], lim: &Limits) -> (f64, f64, f64) {
         v0 = v1;
     }
     (t, v_top, a_min)
+}
+
+/// Whether a primitive lies inside the box [lo, hi]: its end points and, for an arc,
+/// the square around its circle in the arc's plane (which holds the points at the
+/// cardinal angles as [`bounding_box`] computes them: c ± r·1 exactly, c + r·ε
+/// between c − r and c + r).
+fn within(p: &Primitive, lo: Vec3, hi: Vec3) -> bool {
+    let inside = |q: Vec3| (0..3).all(|i| q[i] >= lo[i] && q[i] <= hi[i]);
+    if !inside(p.start()) || !inside(p.end()) {
+        return false;
+    }
+    match *p {
+        Primitive::Line { .. } => true,
+        Primitive::Arc {
+            center,
+            plane,
+            radius,
+            ..
+        } => {
+            let (a, b, _) = plane.axes();
+            [a, b]
+                .iter()
+                .all(|&i| center[i] - radius >= lo[i] && center[i] + radius <= hi[i])
+        }
+    }
 }
 
 /// Axis-aligned bounding box of a primitive.
