@@ -17,15 +17,16 @@
 //! a few hundred µm at corners — would be a position step), and the job record gets
 //! a note. Radius-law entries (paper 004) are another program, not applied.
 
-use crate::bus::{Bus, Pub, Sub};
-use crate::config::Loaded;
+use crate::bus::{Bus, Sub};
+use crate::config::{ClockMode, Loaded};
+use crate::outbox::{InterpMsg, Outbox, OUTBOX_CAPACITY};
 use anyhow::Result;
 use softnc_ipc::{
     Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, FixedStr, Heartbeat,
     MachineState, PositionStatus, ProcessId,
 };
 use softnc_learning::{JobCorrection, LearningStore, Lookup};
-use softnc_planner::{Plan, PlanOptions};
+use softnc_planner::{Interpolator, Plan, PlanOptions};
 use std::fmt::Write;
 use std::time::{Duration, Instant};
 
@@ -35,12 +36,11 @@ const IDLE_SLEEP: Duration = Duration::from_micros(100);
 /// The interpolation process.
 pub struct InterpTask {
     cfg: Loaded,
-    commands: Pub<CommandSample>,
     status: Sub<PositionStatus>,
     control: Sub<ControlCommand>,
-    heartbeat: Pub<Heartbeat>,
-    alarms: Pub<Alarm>,
-    loop_stats: Pub<softnc_ipc::LoopStats>,
+    /// Command samples, heartbeats, loop stats and alarms leave through the outbox
+    /// thread, in the order sent.
+    outbox: Outbox<InterpMsg>,
     stats: softnc_rt::LoopStats,
     hb_counter: u64,
     last_hb: Instant,
@@ -61,18 +61,70 @@ pub enum JobEnd {
     Refused,
 }
 
+/// A job read and planned, its learned correction (if any) loaded: everything that
+/// reads a file or allocates is done. [`InterpTask::start`] streams it.
+pub struct PlannedJob {
+    job_id: u64,
+    plan: Plan,
+    /// The feed override in force when the job starts (fraction).
+    feed_override: f64,
+    learned: Option<JobCorrection>,
+}
+
+impl PlannedJob {
+    /// The job.
+    pub fn job_id(&self) -> u64 {
+        self.job_id
+    }
+
+    /// Whether a learned correction was loaded for it.
+    pub fn learned(&self) -> bool {
+        self.learned.is_some()
+    }
+}
+
+/// A job being streamed: the state [`InterpTask::cycle`] advances, one call per
+/// interpolation cycle.
+pub struct Streaming<'p> {
+    job_id: u64,
+    it: Interpolator<'p>,
+    learned: Option<JobCorrection>,
+    /// The feed override the learned correction belongs to (fraction).
+    learned_override: f64,
+    /// Samples kept in flight beyond the one the position process uses.
+    ahead: u64,
+    next_seq: u64,
+    /// The last sample the position process reported using.
+    consumed: Option<u64>,
+    sent_last: bool,
+    operator_override: f64,
+    held: bool,
+    aborting: bool,
+    /// The last planned sample, repeated while a learned correction still runs out.
+    end_hold: Option<softnc_planner::Sample>,
+}
+
+impl Streaming<'_> {
+    /// Samples sent so far.
+    pub fn sent(&self) -> u64 {
+        self.next_seq
+    }
+}
+
 impl InterpTask {
-    /// Open the services.
+    /// Open the services and start the outbox thread.
     pub fn new(cfg: Loaded) -> Result<Self> {
         let names = softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance);
-        let bus = Bus::new(names, "interp")?;
+        let bus = Bus::new(names.clone(), "interp")?;
+        // at most `ahead + 1` samples are in flight (queued, published or in the
+        // position process's ring); twice that can never fill it, heartbeats and
+        // notes included
+        let capacity = OUTBOX_CAPACITY.max(4 * (cfg.config.lookahead_samples + 1));
         Ok(InterpTask {
-            commands: bus.command_publisher()?,
             status: bus.status_subscriber()?,
             control: bus.control_subscriber()?,
-            heartbeat: bus.heartbeat_publisher()?,
-            alarms: bus.alarm_publisher()?,
-            loop_stats: bus.loop_stats_publisher()?,
+            // lossless: command samples are never dropped, and the rest is rare
+            outbox: Outbox::start(names, "interp-out", capacity, true)?,
             stats: softnc_rt::LoopStats::new(),
             cfg,
             hb_counter: 0,
@@ -97,8 +149,16 @@ impl InterpTask {
                         } else {
                             1.0
                         };
+                        let waits = self.outbox.waits();
                         let end = self.run_job(c.path.as_str(), c.job_id, feed_override)?;
                         tracing::info!("job {} {:?}", c.job_id, end);
+                        if self.outbox.waits() > waits {
+                            tracing::warn!(
+                                "job {}: the outbox queue was full {} times; the loop waited",
+                                c.job_id,
+                                self.outbox.waits() - waits
+                            );
+                        }
                     }
                     Some(ControlKind::EStop) => self.state = MachineState::EStopped,
                     Some(ControlKind::Reset) => self.state = MachineState::Idle,
@@ -112,43 +172,53 @@ impl InterpTask {
         Ok(())
     }
 
+    /// The machine state as this process sees it.
+    pub fn state(&self) -> MachineState {
+        self.state
+    }
+
+    /// Queue a message for the outbox thread (allocation-free).
+    fn send(&mut self, m: InterpMsg) -> Result<()> {
+        self.outbox.send(m)?;
+        Ok(())
+    }
+
     fn beat(&mut self) -> Result<()> {
         if self.last_hb.elapsed().as_secs_f64() >= self.cfg.config.heartbeat_period_s {
             self.hb_counter += 1;
-            self.heartbeat.send_copy(Heartbeat {
+            self.send(InterpMsg::Heartbeat(Heartbeat {
                 process: ProcessId::Interp.wire(),
                 pid: std::process::id(),
                 counter: self.hb_counter,
                 state: self.state.wire(),
                 job_id: self.job_id,
-            })?;
+            }))?;
             if self.stats.cycles() > 0 {
                 let (j, c) = (self.stats.jitter(), self.stats.compute());
-                self.loop_stats.send_copy(softnc_ipc::LoopStats {
+                self.send(InterpMsg::LoopStats(softnc_ipc::LoopStats {
                     process: ProcessId::Interp.wire(),
                     cycles: self.stats.cycles(),
                     jitter_ns: [j.p50_ns, j.p99_ns, j.p999_ns, j.max_ns],
                     compute_ns: [c.p50_ns, c.p99_ns, c.p999_ns, c.max_ns],
                     overruns: self.stats.overruns(),
                     latency_ns: [0; 4],
-                })?;
+                }))?;
             }
             self.last_hb = Instant::now();
         }
         Ok(())
     }
 
+    /// An alarm (logged by the outbox thread).
     fn alarm(&mut self, code: AlarmCode, message: &str) -> Result<()> {
-        tracing::warn!("alarm {code:?}: {message}");
-        self.alarms.send_copy(Alarm {
+        self.send(InterpMsg::Alarm(Alarm {
             code: code.wire(),
             axis: u32::MAX,
             process: ProcessId::Interp.wire(),
             job_id: self.job_id,
             time_index: 0,
             message: FixedStr::new(message),
-        })?;
-        Ok(())
+        }))
     }
 
     /// A remark for the job's record (not an alarm).
@@ -156,17 +226,16 @@ impl InterpTask {
         self.note_fixed(FixedStr::new(message))
     }
 
+    /// A remark for the job's record, allocation-free (logged by the outbox thread).
     fn note_fixed(&mut self, message: FixedStr<256>) -> Result<()> {
-        tracing::info!("job {}: {}", self.job_id, message.as_str());
-        self.alarms.send_copy(Alarm {
+        self.send(InterpMsg::Alarm(Alarm {
             code: AlarmCode::Note.wire(),
             axis: u32::MAX,
             process: ProcessId::Interp.wire(),
             job_id: self.job_id,
             time_index: 0,
             message,
-        })?;
-        Ok(())
+        }))
     }
 
     /// The learned correction of the job `bytes` planned as `plan`, at the feed
@@ -214,56 +283,13 @@ impl InterpTask {
     /// Read, plan and stream one job, starting at feed override `feed_override`
     /// (fraction: the operator's, in force when the job starts).
     pub fn run_job(&mut self, path: &str, job_id: u64, feed_override: f64) -> Result<JobEnd> {
-        self.job_id = job_id;
-        let planned = read_job(path, &self.cfg.machine);
-        let (bytes, plan) = match planned {
-            Ok(p) => p,
-            Err(msg) => {
-                self.alarm(AlarmCode::JobRefused, &msg)?;
-                self.job_id = 0;
-                return Ok(JobEnd::Refused);
-            }
+        let Some(mut job) = self.plan_job(path, job_id, feed_override)? else {
+            return Ok(JobEnd::Refused);
         };
-        // a learned correction belongs to the feed override it was learned at
-        let override_pct = (feed_override * 100.0).round() as u32;
-        let mut learned = self.learned(&bytes, &plan, override_pct)?;
-        drop(bytes);
-        self.state = MachineState::Running;
-        let end = self.stream(&plan, job_id, feed_override, learned.as_mut())?;
-        self.state = match end {
-            JobEnd::Completed | JobEnd::Refused => MachineState::Idle,
-            JobEnd::Aborted => self.state,
-        };
-        self.job_id = 0;
-        Ok(end)
-    }
-
-    fn stream(
-        &mut self,
-        plan: &Plan,
-        job_id: u64,
-        start_override: f64,
-        mut learned: Option<&mut JobCorrection>,
-    ) -> Result<JobEnd> {
-        let ahead = self.cfg.config.lookahead_samples as u64;
-        // the feed override the learned correction belongs to (fraction)
-        let learned_override = start_override;
-        let mut it = plan.interpolator();
-        if start_override != 1.0 {
-            // from rest: the first sample already runs at the operator's override
-            it.set_feed_override(start_override);
-        }
-        let mut next_seq: u64 = 0;
-        let mut consumed: Option<u64> = None;
-        let mut sent_last = false;
-        let mut operator_override = start_override;
-        let mut held = false;
-        let mut aborting = false;
-        // the last planned sample, repeated while a learned correction still runs out
-        let mut end_hold: Option<softnc_planner::Sample> = None;
-        // realtime: one pass per interpolation cycle on absolute deadlines (timed);
+        let mut s = self.start(&mut job);
+        // realtime: one cycle per interpolation period on absolute deadlines (timed);
         // lockstep: as fast as the position process consumes
-        let realtime = self.cfg.config.clock == crate::config::ClockMode::Realtime;
+        let realtime = self.cfg.config.clock == ClockMode::Realtime;
         let period = Duration::from_secs_f64(self.cfg.machine.interpolation_cycle_s);
         let mut clock = softnc_rt::PeriodicClock::new(period, Duration::from_micros(100));
         loop {
@@ -272,140 +298,223 @@ impl InterpTask {
             } else {
                 (Instant::now(), Duration::ZERO, 0)
             };
-            while let Some(s) = self.status.receive()? {
-                if s.job_id == job_id {
-                    consumed = Some(consumed.map_or(s.seq, |c: u64| c.max(s.seq)));
-                }
-                let stopped = matches!(
-                    MachineState::from_wire(s.state),
-                    Some(MachineState::Faulted | MachineState::EStopped)
-                );
-                if stopped && (s.job_id == job_id || s.job_id == 0) {
-                    self.state = MachineState::from_wire(s.state).unwrap_or(MachineState::Faulted);
-                    return Ok(JobEnd::Aborted);
-                }
-            }
-            while let Some(c) = self.control.receive()? {
-                let c = *c;
-                let kind = ControlKind::from_wire(c.kind);
-                // re-timed from the next sample on: the learned correction fades out
-                let retimed = match kind {
-                    Some(ControlKind::FeedOverride) => c.value != learned_override,
-                    Some(ControlKind::Hold | ControlKind::Abort | ControlKind::Shutdown) => true,
-                    _ => false,
-                };
-                if let Some(l) = learned.as_deref_mut().filter(|l| retimed && !l.fading()) {
-                    l.fade_out(next_seq as usize, ahead as usize);
-                    let why = match kind {
-                        Some(ControlKind::FeedOverride) => "feed override changed",
-                        Some(ControlKind::Hold) => "feed hold",
-                        _ => "abort",
-                    };
-                    // formatted in place: nothing allocated while the job runs
-                    let mut msg = FixedStr::<256>::empty();
-                    let _ = write!(
-                        msg,
-                        "learned correction faded out from sample {next_seq} over {ahead} samples: {why} (the job is re-timed)"
-                    );
-                    self.note_fixed(msg)?;
-                }
-                match kind {
-                    Some(ControlKind::FeedOverride) => {
-                        operator_override = c.value;
-                        if !held && !aborting {
-                            it.set_feed_override(operator_override);
-                        }
-                    }
-                    Some(ControlKind::Hold) => {
-                        held = true;
-                        it.set_feed_override(0.0);
-                        self.state = MachineState::Held;
-                    }
-                    Some(ControlKind::Resume) if !aborting => {
-                        held = false;
-                        it.set_feed_override(operator_override);
-                        self.state = MachineState::Running;
-                    }
-                    Some(ControlKind::Abort) => {
-                        aborting = true;
-                        it.set_feed_override(0.0);
-                    }
-                    Some(ControlKind::EStop) => {
-                        self.state = MachineState::EStopped;
-                        return Ok(JobEnd::Aborted);
-                    }
-                    Some(ControlKind::Shutdown) => {
-                        self.shutdown = true;
-                        aborting = true;
-                        it.set_feed_override(0.0);
-                    }
-                    _ => {}
-                }
-            }
-            // keep the ring filled `ahead` samples beyond the one in use
-            let limit = consumed.map_or(ahead + 1, |c| c + 1 + ahead);
-            while !sent_last && next_seq < limit {
-                let sample = match &mut end_hold {
-                    // after the planned end: the final position, held (see below)
-                    Some(h) => {
-                        h.index += 1;
-                        *h
-                    }
-                    None => {
-                        let Some(sample) = it.next() else { break };
-                        sample
-                    }
-                };
-                // a learned job ends where its correction is zero for good: the
-                // learnt hold tail after the planned end (or the end of a fade-out)
-                let correction_done = learned
-                    .as_deref()
-                    .is_none_or(|l| l.done_at(next_seq as usize));
-                let stopped_for_abort =
-                    aborting && next_seq > 0 && it.path_speed_mm_per_s() == 0.0 && correction_done;
-                let planned_end = it.is_finished();
-                if planned_end && end_hold.is_none() && !correction_done {
-                    end_hold = Some(softnc_planner::Sample {
-                        feed_move: false,
-                        ..sample
-                    });
-                }
-                let last = (planned_end && correction_done) || stopped_for_abort;
-                let mut pos_mm = sample.pos_mm.0;
-                if let Some(l) = learned.as_deref() {
-                    let d = l.at(next_seq as usize);
-                    for (p, d) in pos_mm.iter_mut().zip(d) {
-                        *p += d;
-                    }
-                }
-                let mut c = CommandSample::new(next_seq, job_id, sample.index, pos_mm);
-                c.motion = sample.motion;
-                if sample.feed_move {
-                    c.flags |= CommandSample::FLAG_FEED_MOVE;
-                }
-                if last {
-                    c.flags |= CommandSample::FLAG_END_OF_JOB;
-                    sent_last = true;
-                }
-                c.sent_unix_ns = softnc_rt::unix_ns();
-                self.commands.send_copy(c)?;
-                next_seq += 1;
-            }
+            let end = self.cycle(&mut s)?;
             if realtime {
                 self.stats.record(jitter, woke.elapsed(), late);
             }
-            self.beat()?;
-            if sent_last && consumed.is_some_and(|c| c + 1 >= next_seq) {
-                return Ok(if aborting {
-                    JobEnd::Aborted
-                } else {
-                    JobEnd::Completed
-                });
+            if let Some(end) = end {
+                return Ok(end);
             }
             if !realtime {
                 std::thread::sleep(IDLE_SLEEP);
             }
         }
+    }
+
+    /// Read and plan job `job_id` and load its learned correction: all that reads a
+    /// file or allocates, before motion. `None`: refused (the alarm is raised).
+    pub fn plan_job(
+        &mut self,
+        path: &str,
+        job_id: u64,
+        feed_override: f64,
+    ) -> Result<Option<PlannedJob>> {
+        self.job_id = job_id;
+        let (bytes, plan) = match read_job(path, &self.cfg.machine) {
+            Ok(p) => p,
+            Err(msg) => {
+                self.alarm(AlarmCode::JobRefused, &msg)?;
+                self.job_id = 0;
+                return Ok(None);
+            }
+        };
+        // a learned correction belongs to the feed override it was learned at
+        let override_pct = (feed_override * 100.0).round() as u32;
+        let learned = self.learned(&bytes, &plan, override_pct)?;
+        Ok(Some(PlannedJob {
+            job_id,
+            plan,
+            feed_override,
+            learned,
+        }))
+    }
+
+    /// Start streaming a planned job: the machine runs it from the next
+    /// [`InterpTask::cycle`] on.
+    pub fn start<'p>(&mut self, job: &'p mut PlannedJob) -> Streaming<'p> {
+        self.job_id = job.job_id;
+        self.state = MachineState::Running;
+        let mut it = job.plan.interpolator();
+        if job.feed_override != 1.0 {
+            // from rest: the first sample already runs at the operator's override
+            it.set_feed_override(job.feed_override);
+        }
+        Streaming {
+            job_id: job.job_id,
+            it,
+            learned: job.learned.take(),
+            learned_override: job.feed_override,
+            ahead: self.cfg.config.lookahead_samples as u64,
+            next_seq: 0,
+            consumed: None,
+            sent_last: false,
+            operator_override: job.feed_override,
+            held: false,
+            aborting: false,
+            end_hold: None,
+        }
+    }
+
+    /// One interpolation cycle of a streaming job: the position process's progress,
+    /// control commands, then command samples up to `ahead` beyond the one in use,
+    /// and a heartbeat when due. Allocates nothing. `Some`: the job has ended.
+    pub fn cycle(&mut self, s: &mut Streaming<'_>) -> Result<Option<JobEnd>> {
+        let end = self.step(s)?;
+        if let Some(end) = end {
+            self.state = match end {
+                JobEnd::Completed | JobEnd::Refused => MachineState::Idle,
+                JobEnd::Aborted => self.state,
+            };
+            self.job_id = 0;
+        }
+        Ok(end)
+    }
+
+    fn step(&mut self, s: &mut Streaming<'_>) -> Result<Option<JobEnd>> {
+        let job_id = s.job_id;
+        let ahead = s.ahead;
+        while let Some(st) = self.status.receive()? {
+            if st.job_id == job_id {
+                s.consumed = Some(s.consumed.map_or(st.seq, |c: u64| c.max(st.seq)));
+            }
+            let stopped = matches!(
+                MachineState::from_wire(st.state),
+                Some(MachineState::Faulted | MachineState::EStopped)
+            );
+            if stopped && (st.job_id == job_id || st.job_id == 0) {
+                self.state = MachineState::from_wire(st.state).unwrap_or(MachineState::Faulted);
+                return Ok(Some(JobEnd::Aborted));
+            }
+        }
+        while let Some(c) = self.control.receive()? {
+            let c = *c;
+            let kind = ControlKind::from_wire(c.kind);
+            // re-timed from the next sample on: the learned correction fades out
+            let retimed = match kind {
+                Some(ControlKind::FeedOverride) => c.value != s.learned_override,
+                Some(ControlKind::Hold | ControlKind::Abort | ControlKind::Shutdown) => true,
+                _ => false,
+            };
+            let next_seq = s.next_seq;
+            if let Some(l) = s.learned.as_mut().filter(|l| retimed && !l.fading()) {
+                l.fade_out(next_seq as usize, ahead as usize);
+                let why = match kind {
+                    Some(ControlKind::FeedOverride) => "feed override changed",
+                    Some(ControlKind::Hold) => "feed hold",
+                    _ => "abort",
+                };
+                // formatted in place: nothing allocated while the job runs
+                let mut msg = FixedStr::<256>::empty();
+                let _ = write!(
+                    msg,
+                    "learned correction faded out from sample {next_seq} over {ahead} samples: {why} (the job is re-timed)"
+                );
+                self.note_fixed(msg)?;
+            }
+            match kind {
+                Some(ControlKind::FeedOverride) => {
+                    s.operator_override = c.value;
+                    if !s.held && !s.aborting {
+                        s.it.set_feed_override(s.operator_override);
+                    }
+                }
+                Some(ControlKind::Hold) => {
+                    s.held = true;
+                    s.it.set_feed_override(0.0);
+                    self.state = MachineState::Held;
+                }
+                Some(ControlKind::Resume) if !s.aborting => {
+                    s.held = false;
+                    s.it.set_feed_override(s.operator_override);
+                    self.state = MachineState::Running;
+                }
+                Some(ControlKind::Abort) => {
+                    s.aborting = true;
+                    s.it.set_feed_override(0.0);
+                }
+                Some(ControlKind::EStop) => {
+                    self.state = MachineState::EStopped;
+                    return Ok(Some(JobEnd::Aborted));
+                }
+                Some(ControlKind::Shutdown) => {
+                    self.shutdown = true;
+                    s.aborting = true;
+                    s.it.set_feed_override(0.0);
+                }
+                _ => {}
+            }
+        }
+        // keep the ring filled `ahead` samples beyond the one in use
+        let limit = s.consumed.map_or(ahead + 1, |c| c + 1 + ahead);
+        while !s.sent_last && s.next_seq < limit {
+            let sample = match &mut s.end_hold {
+                // after the planned end: the final position, held (see below)
+                Some(h) => {
+                    h.index += 1;
+                    *h
+                }
+                None => {
+                    let Some(sample) = s.it.next() else { break };
+                    sample
+                }
+            };
+            // a learned job ends where its correction is zero for good: the
+            // learnt hold tail after the planned end (or the end of a fade-out)
+            let correction_done = s
+                .learned
+                .as_ref()
+                .is_none_or(|l| l.done_at(s.next_seq as usize));
+            let stopped_for_abort = s.aborting
+                && s.next_seq > 0
+                && s.it.path_speed_mm_per_s() == 0.0
+                && correction_done;
+            let planned_end = s.it.is_finished();
+            if planned_end && s.end_hold.is_none() && !correction_done {
+                s.end_hold = Some(softnc_planner::Sample {
+                    feed_move: false,
+                    ..sample
+                });
+            }
+            let last = (planned_end && correction_done) || stopped_for_abort;
+            let mut pos_mm = sample.pos_mm.0;
+            if let Some(l) = s.learned.as_ref() {
+                let d = l.at(s.next_seq as usize);
+                for (p, d) in pos_mm.iter_mut().zip(d) {
+                    *p += d;
+                }
+            }
+            let mut c = CommandSample::new(s.next_seq, job_id, sample.index, pos_mm);
+            c.motion = sample.motion;
+            if sample.feed_move {
+                c.flags |= CommandSample::FLAG_FEED_MOVE;
+            }
+            if last {
+                c.flags |= CommandSample::FLAG_END_OF_JOB;
+                s.sent_last = true;
+            }
+            c.sent_unix_ns = softnc_rt::unix_ns();
+            self.send(InterpMsg::Command(c))?;
+            s.next_seq += 1;
+        }
+        self.beat()?;
+        if s.sent_last && s.consumed.is_some_and(|c| c + 1 >= s.next_seq) {
+            return Ok(Some(if s.aborting {
+                JobEnd::Aborted
+            } else {
+                JobEnd::Completed
+            }));
+        }
+        Ok(None)
     }
 }
 

@@ -1,19 +1,69 @@
-//! The position loop's outgoing messages leave through a bounded lock-free queue to a
+//! The cyclic loops' outgoing messages leave through a bounded lock-free queue to a
 //! publisher thread: iceoryx2 0.10's `send` allocates a small bookkeeping object per
 //! sample, and the cycle path must allocate nothing. The loop pushes (no allocation,
 //! no lock) and wakes the thread (a futex wake, no blocking).
+//!
+//! One implementation serves both loops, over the message enum of each:
+//! [`PositionMsg`] (status every cycle, heartbeats, loop stats, alarms) and
+//! [`InterpMsg`] (command samples, heartbeats, loop stats, alarms and notes). One
+//! queue and one thread per loop keep the loop's messages in the order it sent them.
+//!
+//! The thread is started by the cycle thread and would inherit its SCHED_FIFO
+//! priority: it goes back to SCHED_OTHER first. So a loop waiting for room sleeps
+//! rather than yields (a yield would not let a SCHED_OTHER thread on its core run).
+//! It also logs the alarms it publishes, so that no log line is formatted on the
+//! cycle. If the thread ends (a message that must arrive could not be published, or
+//! a bug), the loop's next [`Outbox::send`] says so.
 
-use crate::bus::Bus;
+use crate::bus::{Bus, Pub};
 use anyhow::Result;
 use crossbeam_queue::ArrayQueue;
-use softnc_ipc::{Alarm, Heartbeat, LoopStats, PositionStatus, ServiceNames};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use softnc_ipc::{
+    Alarm, AlarmCode, CommandSample, Heartbeat, LoopStats, PositionStatus, ServiceNames,
+};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
-/// One outgoing message.
+/// Messages the queue holds, at least.
+pub const OUTBOX_CAPACITY: usize = 4096;
+
+/// How long a loop waits for room in a full queue before it gives the publisher up
+/// as stalled.
+pub const STALL_TIMEOUT: Duration = Duration::from_secs(2);
+
+/// How long a loop sleeps between tries while the queue is full.
+const FULL_WAIT: Duration = Duration::from_micros(50);
+
+/// A message enum an [`Outbox`] carries.
+pub trait Outgoing: Copy + Send + std::fmt::Debug + 'static {
+    /// The publishers, opened on the publisher thread.
+    type Ports;
+    /// Open the publishers on `bus`.
+    fn open(bus: &Bus) -> Result<Self::Ports>;
+    /// Publish the message.
+    fn publish(self, ports: &Self::Ports) -> Result<()>;
+    /// Never dropped: a full queue makes the loop wait, and a failed publish ends
+    /// the publisher thread (the loop then sees it) instead of being logged.
+    fn must_arrive(&self) -> bool {
+        false
+    }
+}
+
+/// Why a message could not be queued (on the cycle path: no text, no allocation).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum OutboxError {
+    /// The publisher thread has ended (its log says why).
+    #[error("the outbox's publisher thread has ended (see its log)")]
+    Ended,
+    /// The queue stayed full for [`STALL_TIMEOUT`].
+    #[error("the outbox's publisher thread has taken nothing for {STALL_TIMEOUT:?}")]
+    Stalled,
+}
+
+/// One outgoing message of the position loop.
 #[derive(Debug, Clone, Copy)]
-pub enum OutMsg {
+pub enum PositionMsg {
     /// Position status (every cycle).
     Status(PositionStatus),
     /// Heartbeat.
@@ -24,41 +74,118 @@ pub enum OutMsg {
     Alarm(Alarm),
 }
 
-/// Messages the queue holds.
-pub const OUTBOX_CAPACITY: usize = 4096;
+impl Outgoing for PositionMsg {
+    type Ports = (
+        Pub<PositionStatus>,
+        Pub<Heartbeat>,
+        Pub<LoopStats>,
+        Pub<Alarm>,
+    );
+    fn open(bus: &Bus) -> Result<Self::Ports> {
+        Ok((
+            bus.status_publisher()?,
+            bus.heartbeat_publisher()?,
+            bus.loop_stats_publisher()?,
+            bus.alarm_publisher()?,
+        ))
+    }
+    fn publish(self, (status, heartbeat, stats, alarms): &Self::Ports) -> Result<()> {
+        match self {
+            PositionMsg::Status(s) => status.send_copy(s).map(drop)?,
+            PositionMsg::Heartbeat(h) => heartbeat.send_copy(h).map(drop)?,
+            PositionMsg::LoopStats(l) => stats.send_copy(l).map(drop)?,
+            PositionMsg::Alarm(a) => {
+                log_alarm(&a);
+                alarms.send_copy(a).map(drop)?
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One outgoing message of the interpolation loop.
+#[derive(Debug, Clone, Copy)]
+pub enum InterpMsg {
+    /// A command sample: never dropped.
+    Command(CommandSample),
+    /// Heartbeat.
+    Heartbeat(Heartbeat),
+    /// Loop timing.
+    LoopStats(LoopStats),
+    /// Alarm or note.
+    Alarm(Alarm),
+}
+
+impl Outgoing for InterpMsg {
+    type Ports = (
+        Pub<CommandSample>,
+        Pub<Heartbeat>,
+        Pub<LoopStats>,
+        Pub<Alarm>,
+    );
+    fn open(bus: &Bus) -> Result<Self::Ports> {
+        Ok((
+            bus.command_publisher()?,
+            bus.heartbeat_publisher()?,
+            bus.loop_stats_publisher()?,
+            bus.alarm_publisher()?,
+        ))
+    }
+    fn publish(self, (commands, heartbeat, stats, alarms): &Self::Ports) -> Result<()> {
+        match self {
+            InterpMsg::Command(c) => commands.send_copy(c).map(drop)?,
+            InterpMsg::Heartbeat(h) => heartbeat.send_copy(h).map(drop)?,
+            InterpMsg::LoopStats(l) => stats.send_copy(l).map(drop)?,
+            InterpMsg::Alarm(a) => {
+                log_alarm(&a);
+                alarms.send_copy(a).map(drop)?
+            }
+        }
+        Ok(())
+    }
+    fn must_arrive(&self) -> bool {
+        matches!(self, InterpMsg::Command(_))
+    }
+}
+
+/// The log line of an alarm (a note: the job's remark), written off the cycle.
+fn log_alarm(a: &Alarm) {
+    match AlarmCode::from_wire(a.code) {
+        Some(AlarmCode::Note) => tracing::info!("job {}: {}", a.job_id, a.message.as_str()),
+        code => tracing::warn!("alarm {code:?}: {}", a.message.as_str()),
+    }
+}
 
 /// The loop's side of the outbox.
-pub struct Outbox {
-    queue: Arc<ArrayQueue<OutMsg>>,
+pub struct Outbox<M: Outgoing> {
+    queue: Arc<ArrayQueue<M>>,
     stop: Arc<AtomicBool>,
-    dropped: Arc<AtomicU64>,
+    dropped: u64,
+    waits: u64,
     thread: Option<std::thread::JoinHandle<()>>,
     lossless: bool,
 }
 
-impl Outbox {
-    /// Start the publisher thread with its own node `<instance>/<node>`. `lossless`:
-    /// a full queue makes `send` wait (lockstep) instead of dropping (realtime).
-    pub fn start(names: ServiceNames, node: &str, lossless: bool) -> Result<Self> {
-        let queue = Arc::new(ArrayQueue::new(OUTBOX_CAPACITY));
+impl<M: Outgoing> Outbox<M> {
+    /// Start the publisher thread with its own node `<instance>/<node>` and a queue
+    /// of `capacity` messages (at least [`OUTBOX_CAPACITY`]). `lossless`: a full
+    /// queue makes `send` wait (lockstep) instead of dropping (realtime); messages
+    /// that [must arrive](Outgoing::must_arrive) always wait.
+    pub fn start(names: ServiceNames, node: &str, capacity: usize, lossless: bool) -> Result<Self> {
+        let queue = Arc::new(ArrayQueue::<M>::new(capacity.max(OUTBOX_CAPACITY)));
         let stop = Arc::new(AtomicBool::new(false));
         let (q, st) = (queue.clone(), stop.clone());
         let node = node.to_string();
         let (ready_tx, ready_rx) = std::sync::mpsc::channel::<Result<(), String>>();
         let thread = std::thread::Builder::new()
-            .name("outbox".into())
+            .name(node.clone())
             .spawn(move || {
-                let opened = (|| -> Result<_> {
-                    let bus = Bus::new(names, &node)?;
-                    Ok((
-                        bus.status_publisher()?,
-                        bus.heartbeat_publisher()?,
-                        bus.loop_stats_publisher()?,
-                        bus.alarm_publisher()?,
-                        bus,
-                    ))
-                })();
-                let (status, heartbeat, stats, alarms, _bus) = match opened {
+                // started by the cycle thread: not at its SCHED_FIFO priority
+                if let Err(e) = softnc_rt::leave_realtime() {
+                    tracing::warn!("{node}: {e}");
+                }
+                let opened = Bus::new(names, &node).and_then(|bus| Ok((M::open(&bus)?, bus)));
+                let (ports, _bus) = match opened {
                     Ok(p) => {
                         let _ = ready_tx.send(Ok(()));
                         p
@@ -70,14 +197,12 @@ impl Outbox {
                 };
                 loop {
                     while let Some(m) = q.pop() {
-                        let r = match m {
-                            OutMsg::Status(s) => status.send_copy(s).map(|_| ()),
-                            OutMsg::Heartbeat(h) => heartbeat.send_copy(h).map(|_| ()),
-                            OutMsg::LoopStats(l) => stats.send_copy(l).map(|_| ()),
-                            OutMsg::Alarm(a) => alarms.send_copy(a).map(|_| ()),
-                        };
-                        if let Err(e) = r {
-                            tracing::warn!("publishing failed: {e:?}");
+                        if let Err(e) = m.publish(&ports) {
+                            if m.must_arrive() {
+                                tracing::error!("{node}: publishing {m:?} failed: {e:#}; ending");
+                                return;
+                            }
+                            tracing::warn!("{node}: publishing failed: {e:#}");
                         }
                     }
                     if st.load(Ordering::Acquire) && q.is_empty() {
@@ -94,49 +219,196 @@ impl Outbox {
         Ok(Outbox {
             queue,
             stop,
-            dropped: Arc::new(AtomicU64::new(0)),
+            dropped: 0,
+            waits: 0,
             thread: Some(thread),
             lossless,
         })
     }
 
-    /// Queue a message and wake the publisher (allocation-free). When the queue is
-    /// full the message is dropped and counted.
-    pub fn send(&self, m: OutMsg) {
+    /// Queue a message and wake the publisher (allocation-free, no lock). When the
+    /// queue is full the message is dropped and counted, or — lossless, or a message
+    /// that must arrive — the loop waits for room (counted).
+    pub fn send(&mut self, m: M) -> Result<(), OutboxError> {
+        if !self.is_alive() {
+            return Err(OutboxError::Ended);
+        }
         let mut item = m;
+        let mut full_since: Option<Instant> = None;
         loop {
             match self.queue.push(item) {
                 Ok(()) => break,
-                Err(back) if self.lossless => {
+                Err(back) if self.lossless || back.must_arrive() => {
                     item = back;
-                    if let Some(t) = &self.thread {
-                        t.thread().unpark();
+                    let since = *full_since.get_or_insert_with(|| {
+                        self.waits += 1;
+                        Instant::now()
+                    });
+                    if !self.is_alive() {
+                        return Err(OutboxError::Ended);
                     }
-                    std::thread::yield_now();
+                    if since.elapsed() > STALL_TIMEOUT {
+                        return Err(OutboxError::Stalled);
+                    }
+                    self.wake();
+                    // sleep, not yield: the publisher may share this core at SCHED_OTHER
+                    std::thread::sleep(FULL_WAIT);
                 }
                 Err(_) => {
-                    self.dropped.fetch_add(1, Ordering::Relaxed);
+                    self.dropped += 1;
                     break;
                 }
             }
         }
+        self.wake();
+        Ok(())
+    }
+
+    fn wake(&self) {
         if let Some(t) = &self.thread {
             t.thread().unpark();
         }
     }
 
+    /// False once the publisher thread has ended.
+    pub fn is_alive(&self) -> bool {
+        self.thread.as_ref().is_some_and(|t| !t.is_finished())
+    }
+
     /// Messages dropped because the publisher fell behind.
     pub fn dropped(&self) -> u64 {
-        self.dropped.load(Ordering::Relaxed)
+        self.dropped
+    }
+
+    /// Sends that found the queue full and waited for room.
+    pub fn waits(&self) -> u64 {
+        self.waits
     }
 }
 
-impl Drop for Outbox {
+impl<M: Outgoing> Drop for Outbox<M> {
     fn drop(&mut self) {
         self.stop.store(true, Ordering::Release);
         if let Some(t) = self.thread.take() {
             t.thread().unpark();
             let _ = t.join();
         }
+        if self.dropped > 0 || self.waits > 0 {
+            tracing::warn!(
+                "outbox: {} messages dropped, {} waits for room in a full queue",
+                self.dropped,
+                self.waits
+            );
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An instance of the test's own.
+    fn names(tag: &str) -> ServiceNames {
+        ServiceNames::new("softnc", &format!("outboxtest{tag}{}", std::process::id()))
+    }
+
+    fn heartbeat(counter: u64) -> InterpMsg {
+        InterpMsg::Heartbeat(Heartbeat {
+            process: 0,
+            pid: 0,
+            counter,
+            state: 0,
+            job_id: 0,
+        })
+    }
+
+    #[test]
+    fn messages_arrive_in_the_order_sent() {
+        let names = names("order");
+        let bus = Bus::new(names.clone(), "listener").unwrap();
+        let commands = bus.command_subscriber().unwrap();
+        let beats = bus.heartbeat_subscriber().unwrap();
+        let mut out = Outbox::<InterpMsg>::start(names, "order-out", 0, true).unwrap();
+        for k in 0..500 {
+            out.send(InterpMsg::Command(CommandSample::new(k, 1, k, [0.0; 3])))
+                .unwrap();
+            if k % 100 == 0 {
+                out.send(heartbeat(k)).unwrap();
+            }
+        }
+        drop(out); // drains the queue
+        let mut seqs = Vec::new();
+        while let Some(c) = commands.receive().unwrap() {
+            seqs.push(c.seq);
+        }
+        assert_eq!(seqs, (0..500).collect::<Vec<_>>());
+        let mut counters = Vec::new();
+        while let Some(h) = beats.receive().unwrap() {
+            counters.push(h.counter);
+        }
+        assert_eq!(counters, [0, 100, 200, 300, 400]);
+    }
+
+    /// An outbox whose "publisher" only drains the queue once `release` is set (and
+    /// ends at `stop`).
+    fn held(release: Arc<AtomicBool>) -> Outbox<InterpMsg> {
+        let queue = Arc::new(ArrayQueue::new(8));
+        let stop = Arc::new(AtomicBool::new(false));
+        let (q, st) = (queue.clone(), stop.clone());
+        let thread = std::thread::spawn(move || {
+            while !st.load(Ordering::Acquire) {
+                if release.load(Ordering::Acquire) {
+                    while q.pop().is_some() {}
+                }
+                std::thread::park_timeout(Duration::from_millis(1));
+            }
+        });
+        Outbox {
+            queue,
+            stop,
+            dropped: 0,
+            waits: 0,
+            thread: Some(thread),
+            lossless: false,
+        }
+    }
+
+    fn sample(k: u64) -> InterpMsg {
+        InterpMsg::Command(CommandSample::new(k, 1, k, [0.0; 3]))
+    }
+
+    #[test]
+    fn a_full_queue_drops_a_heartbeat_but_waits_for_a_command_sample() {
+        let release = Arc::new(AtomicBool::new(false));
+        let mut out = held(release.clone());
+        for k in 0..8 {
+            out.send(sample(k)).unwrap();
+        }
+        out.send(heartbeat(1)).unwrap();
+        assert_eq!((out.dropped(), out.waits()), (1, 0));
+        let releaser = std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(20));
+            release.store(true, Ordering::Release);
+        });
+        out.send(sample(8)).unwrap();
+        releaser.join().unwrap();
+        assert_eq!((out.dropped(), out.waits()), (1, 1));
+    }
+
+    #[test]
+    fn the_loop_sees_a_publisher_that_stalls_or_ends() {
+        let mut out = held(Arc::new(AtomicBool::new(false)));
+        for k in 0..8 {
+            out.send(sample(k)).unwrap();
+        }
+        assert_eq!(out.send(sample(8)), Err(OutboxError::Stalled));
+        // the thread ends (as after a failed command publish, or a panic)
+        out.stop.store(true, Ordering::Release);
+        let t0 = Instant::now();
+        while out.is_alive() {
+            assert!(t0.elapsed() < Duration::from_secs(30), "thread did not end");
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        assert_eq!(out.send(heartbeat(2)), Err(OutboxError::Ended));
     }
 }

@@ -14,7 +14,7 @@
 
 use crate::bus::{Bus, Sub};
 use crate::config::{ClockMode, Loaded};
-use crate::outbox::OutMsg;
+use crate::outbox::{Outbox, PositionMsg, OUTBOX_CAPACITY};
 use crate::prep::{JobPrep, Prep, PrepRequest, Prepared, Retired};
 use anyhow::Result;
 use softnc_core::{CommandRing, Primitive, RingSample, Vec3, COMMAND_RING_CAPACITY};
@@ -67,7 +67,7 @@ pub struct PositionTask<B: ServoBackend> {
     commands: Sub<CommandSample>,
     control: Sub<ControlCommand>,
     /// Status, heartbeats, loop stats and alarms leave through the outbox thread.
-    outbox: crate::outbox::Outbox,
+    outbox: Outbox<PositionMsg>,
     state: MachineState,
     job_id: u64,
     primitives: Vec<Option<Primitive>>,
@@ -110,9 +110,10 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         Ok(PositionTask {
             commands: bus.command_subscriber()?,
             control: bus.control_subscriber()?,
-            outbox: crate::outbox::Outbox::start(
+            outbox: Outbox::start(
                 softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance),
                 "position-out",
+                OUTBOX_CAPACITY,
                 // lockstep: never drop a status (the interpolator paces itself on it)
                 cfg.config.clock == ClockMode::Lockstep,
             )?,
@@ -149,15 +150,15 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     }
 
     fn alarm(&mut self, code: AlarmCode, axis: u32, msg: &str) -> Result<()> {
-        tracing::warn!("alarm {code:?}: {msg}");
-        self.outbox.send(OutMsg::Alarm(Alarm {
+        // logged by the outbox thread
+        self.outbox.send(PositionMsg::Alarm(Alarm {
             code: code.wire(),
             axis,
             process: ProcessId::Position.wire(),
             job_id: self.job_id,
             time_index: self.current.map_or(0, |c| c.time_index),
             message: FixedStr::new(msg),
-        }));
+        }))?;
         Ok(())
     }
 
@@ -595,7 +596,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 self.current = None;
             }
         }
-        self.outbox.send(OutMsg::Status(status));
+        self.outbox.send(PositionMsg::Status(status))?;
         Ok(())
     }
 
@@ -647,16 +648,16 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     fn housekeeping(&mut self) -> Result<()> {
         if self.last_hb.elapsed().as_secs_f64() >= self.cfg.config.heartbeat_period_s {
             self.hb_counter += 1;
-            self.outbox.send(OutMsg::Heartbeat(Heartbeat {
+            self.outbox.send(PositionMsg::Heartbeat(Heartbeat {
                 process: ProcessId::Position.wire(),
                 pid: std::process::id(),
                 counter: self.hb_counter,
                 state: self.state.wire(),
                 job_id: self.job_id,
-            }));
+            }))?;
             let j = self.stats.jitter();
             let c = self.stats.compute();
-            self.outbox.send(OutMsg::LoopStats(LoopStatsMsg {
+            self.outbox.send(PositionMsg::LoopStats(LoopStatsMsg {
                 process: ProcessId::Position.wire(),
                 cycles: self.stats.cycles(),
                 jitter_ns: [j.p50_ns, j.p99_ns, j.p999_ns, j.max_ns],
@@ -666,7 +667,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     let l = self.latency.percentiles();
                     [l.p50_ns, l.p99_ns, l.p999_ns, l.max_ns]
                 },
-            }));
+            }))?;
             self.last_hb = Instant::now();
         }
         Ok(())

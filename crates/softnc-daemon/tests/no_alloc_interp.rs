@@ -1,0 +1,373 @@
+//! The interpolation cycle allocates nothing once motion has started: a counting
+//! global allocator (counting only on the thread that runs the cycles) proves it,
+//! while the operator changes the feed override, holds and resumes — and, for a
+//! learned job, while its correction is added and then faded out with a note. Every
+//! `tracing` event counts as an allocation too (the test's subscriber formats each
+//! one), so nothing is logged on the cycle either.
+//!
+//! The test plays the position process: it reads the command samples the
+//! interpolator's outbox thread publishes and reports them used, one per cycle.
+
+use softnc_daemon::bus::Bus;
+use softnc_daemon::config::{DaemonConfig, Loaded};
+use softnc_daemon::interp::{InterpTask, JobEnd};
+use softnc_ipc::{
+    AlarmCode, CommandSample, ControlCommand, ControlKind, FixedStr, MachineState, PositionStatus,
+    ServiceNames, MAX_AXES,
+};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
+
+struct Counting;
+static ALLOCS: AtomicUsize = AtomicUsize::new(0);
+thread_local! {
+    static COUNTING: Cell<bool> = const { Cell::new(false) };
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        // `try_with`: the slot may be gone while a thread is being torn down
+        if COUNTING.try_with(|c| c.get()).unwrap_or(false) {
+            ALLOCS.fetch_add(1, Ordering::SeqCst);
+        }
+        // SAFETY: forwarding to the system allocator with the caller's layout.
+        unsafe { System.alloc(l) }
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        // SAFETY: p was allocated by System.alloc with layout l.
+        unsafe { System.dealloc(p, l) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// A subscriber that formats every event, as a real one would: a log line on the
+/// cycle thread is an allocation there.
+struct Formatting;
+
+impl tracing::Subscriber for Formatting {
+    fn enabled(&self, _: &tracing::Metadata<'_>) -> bool {
+        true
+    }
+    fn new_span(&self, _: &tracing::span::Attributes<'_>) -> tracing::span::Id {
+        tracing::span::Id::from_u64(1)
+    }
+    fn record(&self, _: &tracing::span::Id, _: &tracing::span::Record<'_>) {}
+    fn record_follows_from(&self, _: &tracing::span::Id, _: &tracing::span::Id) {}
+    fn event(&self, event: &tracing::Event<'_>) {
+        std::hint::black_box(format!("{event:?}"));
+    }
+    fn enter(&self, _: &tracing::span::Id) {}
+    fn exit(&self, _: &tracing::span::Id) {}
+}
+
+fn count<T>(f: impl FnOnce() -> T) -> T {
+    COUNTING.with(|c| c.set(true));
+    let r = f();
+    COUNTING.with(|c| c.set(false));
+    r
+}
+
+/// A daemon configuration of its own in a fresh folder (lockstep, learning store
+/// `<dir>/learning`).
+fn setup(tag: &str) -> (PathBuf, Loaded) {
+    // (once per test binary; a second test finds it set)
+    let _ = tracing::subscriber::set_global_default(Formatting);
+    let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let dir = std::env::temp_dir().join(format!(
+        "softnc-noalloc-interp-{tag}-{}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(dir.join("machines")).unwrap();
+    std::fs::create_dir_all(dir.join("learning")).unwrap();
+    std::fs::copy(
+        repo.join("config/machines/default.ron"),
+        dir.join("machines/default.ron"),
+    )
+    .unwrap();
+    std::fs::copy(repo.join("config/iceoryx2.toml"), dir.join("iceoryx2.toml")).unwrap();
+    let cfg = std::fs::read_to_string(repo.join("config/default.ron"))
+        .unwrap()
+        .replace(
+            "instance: \"mill1\"",
+            &format!("instance: \"noallocinterp{tag}{}\"", std::process::id()),
+        )
+        .replace("clock: Realtime", "clock: Lockstep")
+        .replace("data_dir: \"../data\"", "data_dir: \"data\"")
+        .replace(
+            "// learning_dir: Some(\"../learning\"),",
+            "learning_dir: Some(\"learning\"),",
+        );
+    assert!(cfg.contains("learning_dir: Some(\"learning\")"));
+    std::fs::write(dir.join("default.ron"), cfg).unwrap();
+    let loaded = DaemonConfig::load(&dir.join("default.ron")).unwrap();
+    loaded.setup_iceoryx2().unwrap();
+    (dir, loaded)
+}
+
+/// What `softnc learn JOB --iterations 1` stores for `job` on `machine`.
+fn learn(store: &Path, job: &Path, machine: &Path) {
+    use softnc_learning::entry::{LawState, Learned, OVERRIDE_PCT};
+    use softnc_learning::sim_runs::{identify, learn_markov, PreparedJob};
+    let profile = softnc_core::MachineProfile::load(machine).unwrap();
+    let text = std::fs::read_to_string(job).unwrap();
+    let prepared = PreparedJob::new(&text, "job.ngc", &profile).unwrap();
+    let seed = profile.servo.seed;
+    let mut engine =
+        softnc_sim::CycleEngine::simulated(&profile, seed, softnc_sim::SimOptions::default());
+    let n = prepared.samples.len();
+    let h = identify(&mut engine, &profile, prepared.samples[0].pos_mm, n).unwrap();
+    let gain = softnc_learning::markov::DEFAULT_GAIN;
+    let mut mj = softnc_learning::markov::MarkovJob::new(h, n, Some(gain), n);
+    let its = learn_markov(&mut engine, &prepared, &mut mj, 1, |_, _| Ok(())).unwrap();
+    let key = softnc_learning::LearningKey::new(
+        &std::fs::read(job).unwrap(),
+        &std::fs::read(machine).unwrap(),
+        OVERRIDE_PCT,
+    );
+    let entry = Learned {
+        job_file: job.display().to_string(),
+        profile_file: machine.display().to_string(),
+        seed,
+        iterations: its,
+        state: LawState::Markov(mj),
+    };
+    softnc_learning::LearningStore::new(store)
+        .put(&key, &entry)
+        .unwrap();
+}
+
+fn status(seq: u64, job_id: u64) -> PositionStatus {
+    PositionStatus {
+        seq,
+        job_id,
+        time_index: seq,
+        cmd_mm: [0.0; MAX_AXES],
+        actual_mm: [0.0; MAX_AXES],
+        following_err_mm: [0.0; MAX_AXES],
+        ctrl_out: [0.0; MAX_AXES],
+        contour_err_mm: f64::NAN,
+        ring_fill: 0,
+        state: MachineState::Running.wire(),
+        spindle_override: 1.0,
+        spindle_rpm: 0.0,
+    }
+}
+
+struct Counted {
+    /// Cycles counted and samples the interpolator sent during them.
+    cycles: usize,
+    sent: u64,
+    /// Heartbeats published while counted.
+    heartbeats: usize,
+    /// The job's notes.
+    notes: Vec<String>,
+    learned: bool,
+}
+
+/// Stream `job_text` as job 1 through an interpolation task, the cycles counted
+/// once motion runs; `controls` are sent that many counted cycles in.
+fn run_counted(
+    tag: &str,
+    job_text: &str,
+    learned: bool,
+    controls: &[(usize, ControlKind, f64)],
+) -> Counted {
+    let (dir, loaded) = setup(tag);
+    let job = dir.join("job.ngc");
+    std::fs::write(&job, job_text).unwrap();
+    if learned {
+        learn(
+            &dir.join("learning"),
+            &job,
+            &dir.join("machines/default.ron"),
+        );
+    }
+    let names = ServiceNames::new(&loaded.config.service_prefix, &loaded.config.instance);
+    let ahead = loaded.config.lookahead_samples as u64;
+    let mut task = InterpTask::new(loaded).unwrap();
+    // the position process and the MMI, played by the test
+    let bus = Bus::new(names, "test-position").unwrap();
+    let commands = bus.command_subscriber().unwrap();
+    let statuses = bus.status_publisher().unwrap();
+    let control = bus.control_publisher().unwrap();
+    let alarms = bus.alarm_subscriber().unwrap();
+    let heartbeats = bus.heartbeat_subscriber().unwrap();
+
+    let job_id = 1;
+    let mut planned = task
+        .plan_job(job.to_str().unwrap(), job_id, 1.0)
+        .unwrap()
+        .expect("the job is planned");
+    assert_eq!(
+        planned.learned(),
+        learned,
+        "a learned correction was loaded"
+    );
+    let mut stream = task.start(&mut planned);
+    assert_eq!(task.state(), MachineState::Running);
+
+    let mut received: Vec<CommandSample> = Vec::new();
+    let mut consumed: Option<u64> = None;
+    let mut notes = Vec::new();
+    // the position process: takes what has arrived, uses one sample per cycle
+    // (`fast`: all it has)
+    let mut position = |received: &mut Vec<CommandSample>, fast: bool| {
+        while let Some(c) = commands.receive().unwrap() {
+            received.push(*c);
+        }
+        if let Some(last) = received.last() {
+            let next = if fast {
+                last.seq
+            } else {
+                consumed.map_or(0, |c| (c + 1).min(last.seq))
+            };
+            consumed = Some(next);
+            statuses.send_copy(status(next, job_id)).unwrap();
+        }
+    };
+    let collect_notes = |notes: &mut Vec<String>| {
+        while let Some(a) = alarms.receive().unwrap() {
+            assert_eq!(a.code, AlarmCode::Note.wire(), "{:?}", a.message);
+            notes.push(a.message.as_str().to_string());
+        }
+    };
+
+    // motion starts: the ring is filled and the first samples are used (uncounted:
+    // the first heartbeat, the first connections)
+    let t0 = Instant::now();
+    while received.len() < (ahead + 20) as usize {
+        assert!(
+            t0.elapsed() < Duration::from_secs(30),
+            "motion did not start"
+        );
+        assert_eq!(task.cycle(&mut stream).unwrap(), None);
+        position(&mut received, false);
+        std::thread::sleep(Duration::from_micros(200));
+    }
+    while heartbeats.receive().unwrap().is_some() {}
+
+    let sent_before = stream.sent();
+    let mut cycles = 0;
+    for i in 0..500 {
+        // the operator's and the position process's allocations are not counted
+        for &(at, kind, value) in controls {
+            if at == i {
+                control
+                    .send_copy(ControlCommand {
+                        seq: i as u64,
+                        kind: kind.wire(),
+                        job_id: 0,
+                        value,
+                        path: FixedStr::new(""),
+                    })
+                    .unwrap();
+            }
+        }
+        let end = count(|| task.cycle(&mut stream).unwrap());
+        assert_eq!(end, None, "the job is still running while counted");
+        cycles += 1;
+        position(&mut received, false);
+        // real cycles take time: heartbeats fall due while counted
+        std::thread::sleep(Duration::from_micros(200));
+    }
+    let sent = stream.sent() - sent_before;
+    let mut hb = 0;
+    while heartbeats.receive().unwrap().is_some() {
+        hb += 1;
+    }
+    let allocs = ALLOCS.load(Ordering::SeqCst);
+    assert_eq!(
+        allocs, 0,
+        "{allocs} allocations in {cycles} interpolation cycles"
+    );
+
+    // the rest of the job, uncounted: every sample arrives, in order, once
+    let t0 = Instant::now();
+    let end = loop {
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "the job did not end"
+        );
+        if let Some(end) = task.cycle(&mut stream).unwrap() {
+            break end;
+        }
+        position(&mut received, true);
+        std::thread::sleep(Duration::from_micros(200));
+    };
+    assert_eq!(end, JobEnd::Completed);
+    assert_eq!(task.state(), MachineState::Idle);
+    let last = received.last().expect("samples arrived");
+    assert!(last.is_end(), "the last sample ends the job");
+    assert_eq!(last.seq + 1, stream.sent(), "every sample arrived");
+    for (k, c) in received.iter().enumerate() {
+        assert_eq!((c.seq, c.job_id), (k as u64, job_id), "in order, once");
+    }
+    drop(task); // drains the outbox
+    std::thread::sleep(Duration::from_millis(10));
+    collect_notes(&mut notes);
+    let _ = std::fs::remove_dir_all(&dir);
+    Counted {
+        cycles,
+        sent,
+        heartbeats: hb,
+        notes,
+        learned,
+    }
+}
+
+#[test]
+fn interpolation_cycle_allocates_nothing_during_motion() {
+    // 50 mm at 600 mm/min: 5 s of motion, far more than counted; override, hold and
+    // resume while counted
+    let counted = run_counted(
+        "plain",
+        "G21 G90 G17\nG0 X0 Y0 Z0\nG1 X30 F600\nG2 X40 Y10 R10\nG1 Y20\nM2\n",
+        false,
+        &[
+            (100, ControlKind::FeedOverride, 0.5),
+            (200, ControlKind::Hold, 0.0),
+            (300, ControlKind::Resume, 0.0),
+            (350, ControlKind::FeedOverride, 1.5),
+        ],
+    );
+    assert!(!counted.learned);
+    assert!(
+        counted.sent >= counted.cycles as u64 - 50,
+        "samples sent while counted: {}",
+        counted.sent
+    );
+    assert!(counted.heartbeats >= 1, "a heartbeat while counted");
+    assert!(counted.notes.is_empty(), "{:?}", counted.notes);
+}
+
+#[test]
+fn a_learned_job_fading_its_correction_out_allocates_nothing_on_the_cycle() {
+    // 2.5 s of motion, learned once; the override changed while counted re-times the
+    // job: the correction fades out and a note says so (formatted in place)
+    let counted = run_counted(
+        "learned",
+        "G21 G90 G17\nG0 X0 Y0 Z0\nG1 X20 F1200\nG3 X10 Y10 I-10 J0\nG1 Y20\nM2\n",
+        true,
+        &[(200, ControlKind::FeedOverride, 0.8)],
+    );
+    assert!(counted.learned);
+    assert!(counted.heartbeats >= 1, "a heartbeat while counted");
+    assert!(counted.sent > 0);
+    assert_eq!(counted.notes.len(), 2, "{:?}", counted.notes);
+    assert!(
+        counted.notes[0].starts_with("learned correction applied"),
+        "{:?}",
+        counted.notes
+    );
+    assert!(
+        counted.notes[1].starts_with("learned correction faded out"),
+        "{:?}",
+        counted.notes
+    );
+}
