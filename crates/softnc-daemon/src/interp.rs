@@ -16,6 +16,12 @@
 //! is held and ramped to zero over the lookahead depth (a dropped correction — up to
 //! a few hundred µm at corners — would be a position step), and the job record gets
 //! a note. Radius-law entries (paper 004) are another program, not applied.
+//!
+//! **On the cycle** nothing is allocated, locked or written: the job is read and
+//! planned and its correction loaded before motion ([`InterpTask::plan_job`]); each
+//! [`InterpTask::cycle`] reads status and control, pulls samples and queues them,
+//! with heartbeats and notes, for the outbox thread ([`crate::outbox`]), which
+//! publishes them in order and logs the notes.
 
 use crate::bus::{Bus, Sub};
 use crate::config::{ClockMode, Loaded};

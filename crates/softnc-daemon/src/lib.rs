@@ -8,7 +8,8 @@
 //!   backend, faults and status.
 //! - [`prep`]: the position process's preparation thread: jobs' paths, engines,
 //!   traces and PDC designs (S words, spindle override), made off the cycle.
-//! - [`outbox`]: the position loop's messages leave through a lock-free queue.
+//! - [`outbox`]: both loops' messages leave through a lock-free queue to a
+//!   publisher thread.
 //! - [`mmi`]: `softnc-mmi`, job checks, machine state, alarms, history, operator API.
 //! - [`supervisor`]: `softncd`, starts, watches, restarts and stops the processes.
 //! - [`cli`]: shared start-up of the binaries.

@@ -336,17 +336,66 @@ mod tests {
                 out.send(heartbeat(k)).unwrap();
             }
         }
-        drop(out); // drains the queue
-        let mut seqs = Vec::new();
-        while let Some(c) = commands.receive().unwrap() {
-            seqs.push(c.seq);
+        // (read while the publisher lives: its samples go with it)
+        let (mut seqs, mut counters) = (Vec::new(), Vec::new());
+        let t0 = Instant::now();
+        while seqs.len() < 500 || counters.len() < 5 {
+            assert!(
+                t0.elapsed() < Duration::from_secs(30),
+                "{seqs:?} {counters:?}"
+            );
+            while let Some(c) = commands.receive().unwrap() {
+                seqs.push(c.seq);
+            }
+            while let Some(h) = beats.receive().unwrap() {
+                counters.push(h.counter);
+            }
+            std::thread::sleep(Duration::from_millis(1));
         }
         assert_eq!(seqs, (0..500).collect::<Vec<_>>());
-        let mut counters = Vec::new();
-        while let Some(h) = beats.receive().unwrap() {
-            counters.push(h.counter);
-        }
         assert_eq!(counters, [0, 100, 200, 300, 400]);
+        assert_eq!((out.dropped(), out.waits()), (0, 0));
+    }
+
+    /// The scheduling policy of this process's thread named `name` (0 SCHED_OTHER,
+    /// 1 SCHED_FIFO), from field 41 of its `/proc` stat.
+    fn policy_of(name: &str) -> Option<u32> {
+        for task in std::fs::read_dir("/proc/self/task").ok()? {
+            let task = task.ok()?.path();
+            let comm = std::fs::read_to_string(task.join("comm")).ok()?;
+            if comm.trim_end() == name {
+                let stat = std::fs::read_to_string(task.join("stat")).ok()?;
+                let after_comm = &stat[stat.rfind(')')? + 2..];
+                return after_comm.split(' ').nth(41 - 3)?.parse().ok();
+            }
+        }
+        None
+    }
+
+    #[test]
+    fn the_publisher_thread_does_not_inherit_sched_fifo() {
+        let cycle = std::thread::Builder::new().name("fifo-loop".into());
+        cycle
+            .spawn(|| {
+                let rt = softnc_rt::setup_realtime(&softnc_rt::RtOptions {
+                    fifo_priority: Some(10),
+                    ..Default::default()
+                });
+                let out = Outbox::<InterpMsg>::start(names("fifo"), "fifo-out", 0, true).unwrap();
+                let me = policy_of("fifo-loop");
+                let publisher = policy_of("fifo-out");
+                softnc_rt::leave_realtime().unwrap();
+                drop(out);
+                if rt.fifo.is_some() {
+                    assert_eq!(me, Some(1), "the loop's thread runs SCHED_FIFO");
+                } else {
+                    eprintln!("SCHED_FIFO refused here: the inheritance is not exercised");
+                }
+                assert_eq!(publisher, Some(0), "the publisher thread runs SCHED_OTHER");
+            })
+            .unwrap()
+            .join()
+            .unwrap();
     }
 
     /// An outbox whose "publisher" only drains the queue once `release` is set (and

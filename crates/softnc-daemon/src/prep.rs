@@ -184,7 +184,8 @@ impl<B: ServoBackend> Prep<B> {
         while let Err(back) = self.retired.push(item) {
             item = back;
             self.wake();
-            std::thread::yield_now();
+            // sleep, not yield: the thread may share this core at SCHED_OTHER
+            std::thread::sleep(Duration::from_micros(50));
         }
         self.wake();
     }

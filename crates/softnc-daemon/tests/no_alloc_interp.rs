@@ -18,20 +18,21 @@ use softnc_ipc::{
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 struct Counting;
-static ALLOCS: AtomicUsize = AtomicUsize::new(0);
 thread_local! {
+    // per thread: the outbox thread, the test harness and the other test allocate
+    // while a test runs
     static COUNTING: Cell<bool> = const { Cell::new(false) };
+    static ALLOCS: Cell<usize> = const { Cell::new(0) };
 }
 
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, l: Layout) -> *mut u8 {
         // `try_with`: the slot may be gone while a thread is being torn down
         if COUNTING.try_with(|c| c.get()).unwrap_or(false) {
-            ALLOCS.fetch_add(1, Ordering::SeqCst);
+            let _ = ALLOCS.try_with(|a| a.set(a.get() + 1));
         }
         // SAFETY: forwarding to the system allocator with the caller's layout.
         unsafe { System.alloc(l) }
@@ -281,7 +282,7 @@ fn run_counted(
     while heartbeats.receive().unwrap().is_some() {
         hb += 1;
     }
-    let allocs = ALLOCS.load(Ordering::SeqCst);
+    let allocs = ALLOCS.with(|a| a.get());
     assert_eq!(
         allocs, 0,
         "{allocs} allocations in {cycles} interpolation cycles"
@@ -308,9 +309,10 @@ fn run_counted(
     for (k, c) in received.iter().enumerate() {
         assert_eq!((c.seq, c.job_id), (k as u64, job_id), "in order, once");
     }
-    drop(task); // drains the outbox
-    std::thread::sleep(Duration::from_millis(10));
+    // (read while the outbox thread lives: its samples go with it)
+    std::thread::sleep(Duration::from_millis(20));
     collect_notes(&mut notes);
+    drop(task);
     let _ = std::fs::remove_dir_all(&dir);
     Counted {
         cycles,
