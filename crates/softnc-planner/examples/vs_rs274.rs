@@ -4,11 +4,11 @@
 //!
 //! Writes the benchmark program (`benches/common/workload.rs`, 200,000 lines by
 //! default) to `$TMPDIR/softnc-big-200k.ngc`. Each round times one `rs274 -g FILE
-//! /dev/null < /dev/null` run (LinuxCNC 2.9, Debian's `linuxcnc-uspace`; another
-//! binary via `RS274=PATH`), then the best of five runs of each of softnc's
-//! `read_and_plan` (one thread) and `read_and_plan_parallel` (two threads), each
-//! reading the file from disk inside the timing as `rs274` does, and prints the
-//! ratios of lines per second. On a shared machine the speed of both swings from one
+//! /dev/null < /dev/null` (LinuxCNC 2.9, Debian's `linuxcnc-uspace`; another binary
+//! via `RS274=PATH`) three times, then softnc's `read_and_plan` (one thread) and
+//! `read_and_plan_parallel` (two threads) five times each, each run reading the file
+//! from disk inside the timing as `rs274` does, and prints the ratio of the best runs'
+//! lines per second. On a shared machine the speed of both swings from one
 //! second to the next; the rounds keep each ratio within a few seconds, and the
 //! summary gives their median and range.
 use softnc_planner::{read_and_plan, read_and_plan_parallel, PlanOptions};
@@ -89,13 +89,17 @@ fn main() -> ExitCode {
     println!("round  rs274          one thread             two threads");
     let (mut one, mut two) = (Vec::new(), Vec::new());
     for round in 1..=rounds {
-        let rs = match run_rs274() {
-            Ok(s) => n_lines / s,
-            Err(e) => {
-                eprintln!("vs_rs274: {e}");
-                return ExitCode::from(2);
+        let mut best_rs274_s = f64::INFINITY;
+        for _ in 0..3 {
+            match run_rs274() {
+                Ok(s) => best_rs274_s = best_rs274_s.min(s),
+                Err(e) => {
+                    eprintln!("vs_rs274: {e}");
+                    return ExitCode::from(2);
+                }
             }
-        };
+        }
+        let rs = n_lines / best_rs274_s;
         let r1 = n_lines / best_of_5(false);
         let r2 = n_lines / best_of_5(true);
         println!(
