@@ -149,15 +149,19 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         })
     }
 
-    fn alarm(&mut self, code: AlarmCode, axis: u32, msg: &str) -> Result<()> {
-        // logged by the outbox thread
+    /// Raise an alarm; its text is formatted into the message's fixed buffer, so a
+    /// fault found on the cycle allocates nothing (logged by the outbox thread).
+    fn alarm(&mut self, code: AlarmCode, axis: u32, msg: std::fmt::Arguments<'_>) -> Result<()> {
+        let mut message = FixedStr::empty();
+        // a message longer than the buffer is cut, never an error
+        let _ = std::fmt::Write::write_fmt(&mut message, msg);
         self.outbox.send(PositionMsg::Alarm(Alarm {
             code: code.wire(),
             axis,
             process: ProcessId::Position.wire(),
             job_id: self.job_id,
             time_index: self.current.map_or(0, |c| c.time_index),
-            message: FixedStr::new(msg),
+            message,
         }))?;
         Ok(())
     }
@@ -224,7 +228,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             match ControlKind::from_wire(c.kind) {
                 Some(ControlKind::EStop) => {
                     self.state = MachineState::EStopped;
-                    self.alarm(AlarmCode::EStop, u32::MAX, "emergency stop")?;
+                    self.alarm(AlarmCode::EStop, u32::MAX, format_args!("emergency stop"))?;
                 }
                 Some(ControlKind::Reset) => {
                     if matches!(self.state, MachineState::EStopped | MachineState::Faulted) {
@@ -291,8 +295,12 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             match self.ring.push(s, c.is_end()) {
                 Ok(()) => self.flags.push_back((c.motion, c.flags)),
                 Err(e) => {
-                    let msg = format!("job {}: {e}", self.job_id);
-                    self.alarm(AlarmCode::SequenceError, u32::MAX, &msg)?;
+                    let job = self.job_id;
+                    self.alarm(
+                        AlarmCode::SequenceError,
+                        u32::MAX,
+                        format_args!("job {job}: {e}"),
+                    )?;
                     self.begin_dry_stop();
                 }
             }
@@ -336,7 +344,9 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             self.alarm(
                 AlarmCode::ProcessLost,
                 u32::MAX,
-                "the position process's preparation thread ended: no job can start; restart the daemon",
+                format_args!(
+                    "the position process's preparation thread ended: no job can start; restart the daemon"
+                ),
             )?;
         }
         while let Some(r) = self.prep.poll() {
@@ -356,12 +366,15 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     spindle_override,
                     message,
                 } => {
-                    let msg = format!(
-                        "job {job_id}: spindle override {:.0} % refused: {}",
-                        spindle_override * 100.0,
-                        message.as_str()
-                    );
-                    self.alarm(AlarmCode::Other, u32::MAX, &msg)?;
+                    self.alarm(
+                        AlarmCode::Other,
+                        u32::MAX,
+                        format_args!(
+                            "job {job_id}: spindle override {:.0} % refused: {}",
+                            spindle_override * 100.0,
+                            message.as_str()
+                        ),
+                    )?;
                 }
             }
         }
@@ -407,7 +420,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         self.job_ready = true;
         if let Some((axis, msg)) = p.error.take() {
             self.state = MachineState::Faulted;
-            self.alarm(AlarmCode::Other, axis as u32, &msg)?;
+            self.alarm(AlarmCode::Other, axis as u32, format_args!("{msg}"))?;
         }
         self.prep.retire(Retired::Job(p));
         Ok(())
@@ -452,12 +465,14 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             if let Some(stop) = self.dry {
                 cmd = self.dry_stop_step(stop);
             } else if !self.ring.ready(self.window) {
-                let msg = format!(
-                    "command ring ran dry ({} samples ahead, {} needed); stopping along the path",
-                    self.ring.ahead().saturating_sub(1),
-                    self.window
-                );
-                self.alarm(AlarmCode::RingDry, u32::MAX, &msg)?;
+                let (ahead, needed) = (self.ring.ahead().saturating_sub(1), self.window);
+                self.alarm(
+                    AlarmCode::RingDry,
+                    u32::MAX,
+                    format_args!(
+                        "command ring ran dry ({ahead} samples ahead, {needed} needed); stopping along the path"
+                    ),
+                )?;
                 self.begin_dry_stop();
                 if let Some(stop) = self.dry {
                     cmd = self.dry_stop_step(stop);
@@ -496,8 +511,11 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 }
                 Err(e) => {
                     self.state = MachineState::EStopped;
-                    let msg = format!("servo backend fault: {e}");
-                    self.alarm(AlarmCode::Other, u32::MAX, &msg)?;
+                    self.alarm(
+                        AlarmCode::Other,
+                        u32::MAX,
+                        format_args!("servo backend fault: {e}"),
+                    )?;
                     softnc_sim::CycleRecord {
                         cmd_mm: cmd,
                         ..Default::default()
@@ -520,13 +538,16 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 (0..3).find(|&i| fe[i].abs() > self.cfg.config.following_error_limit_mm)
             {
                 self.state = MachineState::EStopped;
-                let msg = format!(
-                    "following error {:.3} mm on {} over the limit {} mm: emergency stop",
-                    fe[axis],
-                    ["X", "Y", "Z"][axis],
-                    self.cfg.config.following_error_limit_mm
-                );
-                self.alarm(AlarmCode::FollowingError, axis as u32, &msg)?;
+                let limit_mm = self.cfg.config.following_error_limit_mm;
+                self.alarm(
+                    AlarmCode::FollowingError,
+                    axis as u32,
+                    format_args!(
+                        "following error {:.3} mm on {} over the limit {limit_mm} mm: emergency stop",
+                        fe[axis],
+                        ["X", "Y", "Z"][axis],
+                    ),
+                )?;
             }
         }
         // 5. status (contour error exactly as the simulator computes it)

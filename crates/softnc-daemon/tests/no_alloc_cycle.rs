@@ -1,5 +1,6 @@
-//! The position cycle allocates nothing once motion has started: a counting global
-//! allocator (counting only on the thread that runs the cycles) proves it.
+//! The position cycle allocates nothing once motion has started, also when it raises
+//! an alarm: a counting global allocator (counting only on the thread that runs the
+//! cycles) proves it.
 
 use softnc_daemon::bus::Bus;
 use softnc_daemon::config::DaemonConfig;
@@ -10,18 +11,18 @@ use softnc_ipc::{
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 struct Counting;
-static ALLOCS: AtomicUsize = AtomicUsize::new(0);
 thread_local! {
     static COUNTING: Cell<bool> = const { Cell::new(false) };
+    /// Allocations counted on this thread (per thread: the tests run side by side).
+    static ALLOCS: Cell<usize> = const { Cell::new(0) };
 }
 
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, l: Layout) -> *mut u8 {
         if COUNTING.with(|c| c.get()) {
-            ALLOCS.fetch_add(1, Ordering::SeqCst);
+            ALLOCS.with(|n| n.set(n.get() + 1));
         }
         // SAFETY: forwarding to the system allocator with the caller's layout.
         unsafe { System.alloc(l) }
@@ -50,8 +51,31 @@ fn start_motion(task: &mut PositionTask<softnc_sim::SimBackend>) {
 
 #[test]
 fn position_cycle_allocates_nothing_during_motion() {
-    let counted = run_counted("default.ron", "plain", None);
+    let counted = run_counted("default.ron", "plain", None, FED_WHOLE_JOB);
+    assert_eq!(counted.state, MachineState::Running, "still moving");
     assert_eq!(counted.spindle_rpm, 0.0, "default.ron has no spindle model");
+}
+
+/// The interpolator stops sending mid-job: the ring runs dry, the cycle raises its
+/// alarm (the message formatted into the alarm's fixed buffer) and stops along the
+/// path — no allocation on the cycle for the fault either.
+#[test]
+fn a_ring_running_dry_raises_its_alarm_without_allocating() {
+    let counted = run_counted("default.ron", "dry", None, 400);
+    assert_eq!(
+        counted.state,
+        MachineState::Faulted,
+        "stopped after the dry ring"
+    );
+    assert!(
+        counted
+            .alarms
+            .iter()
+            .any(|a| a.starts_with("command ring ran dry (")
+                && a.ends_with("stopping along the path")),
+        "{:?}",
+        counted.alarms
+    );
 }
 
 /// The operator turns the spindle override during motion on the TNV-40 with its PDC
@@ -60,7 +84,8 @@ fn position_cycle_allocates_nothing_during_motion() {
 /// on the cycle.
 #[test]
 fn a_spindle_override_during_motion_allocates_nothing_on_the_cycle() {
-    let counted = run_counted("tnv40-dob-pdc.ron", "spindle", Some(1.2));
+    let counted = run_counted("tnv40-dob-pdc.ron", "spindle", Some(1.2), FED_WHOLE_JOB);
+    assert_eq!(counted.state, MachineState::Running, "still moving");
     assert_eq!(
         counted.spindle_rpm, 1800.0,
         "1500 rpm × 120 %, swapped in while counted"
@@ -72,15 +97,23 @@ fn a_spindle_override_during_motion_allocates_nothing_on_the_cycle() {
     );
 }
 
+/// Samples of the 1000-sample job that the feeder sends: all of them.
+const FED_WHOLE_JOB: u64 = 1000;
+
 struct Counted {
+    /// The machine's state after the counted cycles.
+    state: MachineState,
+    /// The texts of the alarms raised.
+    alarms: Vec<String>,
     spindle_rpm: f64,
     /// The tooth frequency X's and Y's PDC run (0 without one).
     pdc_fd_hz: [f64; 2],
 }
 
 /// A move along X on `machine`, the position cycles counted once motion runs; with
-/// `spindle_override`, sent 50 counted cycles in.
-fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>) -> Counted {
+/// `spindle_override`, sent 50 counted cycles in; the feeder sends the first `fed`
+/// samples of the job.
+fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed: u64) -> Counted {
     let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
     let dir = std::env::temp_dir().join(format!("softnc-noalloc-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -115,6 +148,7 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>) -> 
     let bus = Bus::new(names, "test-feeder").unwrap();
     let commands = bus.command_publisher().unwrap();
     let control = bus.control_publisher().unwrap();
+    let alarms = bus.alarm_subscriber().unwrap();
     // a 2 mm/s cut along X, 1000 samples
     let n = 1000u64;
     let send = |k: u64| {
@@ -134,7 +168,7 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>) -> 
     let mut counted_cycles = 0;
     for i in 0..700 {
         // the feeder's and the operator's allocations (if any) are not counted
-        if next < n {
+        if next < n.min(fed) {
             send(next);
             next += 1;
         }
@@ -158,12 +192,7 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>) -> 
         COUNTING.with(|c| c.set(false));
         counted_cycles += 1;
     }
-    assert_eq!(
-        task.state(),
-        MachineState::Running,
-        "still moving while counted"
-    );
-    let allocs = ALLOCS.load(Ordering::SeqCst);
+    let allocs = ALLOCS.with(|n| n.get());
     assert_eq!(
         allocs, 0,
         "{allocs} allocations in {counted_cycles} position cycles"
@@ -179,8 +208,19 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>) -> 
             .as_ref()
             .map_or(0.0, |c| c.pdc_fd_hz())
     });
+    // the outbox thread publishes them a little later
+    let mut texts = Vec::new();
+    let t0 = std::time::Instant::now();
+    while t0.elapsed() < std::time::Duration::from_millis(500) {
+        while let Some(a) = alarms.receive().unwrap() {
+            texts.push(a.message.as_str().to_string());
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
     let _ = std::fs::remove_dir_all(&dir);
     Counted {
+        state: task.state(),
+        alarms: texts,
         spindle_rpm,
         pdc_fd_hz,
     }
