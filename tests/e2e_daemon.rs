@@ -2,6 +2,9 @@
 //! operator client, on the simulated machine. Each test runs its own controller
 //! instance (service names, data directory), so tests can run side by side.
 
+#[path = "../crates/softnc-daemon/tests/common/mod.rs"]
+mod common;
+use common::learn_job;
 use softnc_daemon::client::Operator;
 use softnc_ipc::ControlKind;
 use std::path::{Path, PathBuf};
@@ -325,40 +328,6 @@ fn trace_contour_rms_um(trace: &[u8]) -> f64 {
     }
     assert!(n > 1000, "{n} feed-move rows");
     (sq / n as f64).sqrt()
-}
-
-/// What `softnc learn JOB --machine PROFILE --iterations K --store DIR` stores (the
-/// same runs and entry, default gain and all Markov terms); the RMS (µm) per run.
-fn learn_job(store: &Path, job: &Path, machine: &Path, iterations: usize) -> Vec<f64> {
-    use softnc_learning::entry::{LawState, Learned, OVERRIDE_PCT};
-    use softnc_learning::sim_runs::{identify, learn_markov, PreparedJob};
-    let profile = softnc_core::MachineProfile::load(machine).unwrap();
-    let text = std::fs::read_to_string(job).unwrap();
-    let prepared = PreparedJob::new(&text, "job.ngc", &profile).unwrap();
-    let seed = profile.servo.seed;
-    let mut engine =
-        softnc_sim::CycleEngine::simulated(&profile, seed, softnc_sim::SimOptions::default());
-    let n = prepared.samples.len();
-    let h = identify(&mut engine, &profile, prepared.samples[0].pos_mm, n).unwrap();
-    let gain = softnc_learning::markov::DEFAULT_GAIN;
-    let mut mj = softnc_learning::markov::MarkovJob::new(h, n, Some(gain), n);
-    let its = learn_markov(&mut engine, &prepared, &mut mj, iterations, |_, _| Ok(())).unwrap();
-    let key = softnc_learning::LearningKey::new(
-        &std::fs::read(job).unwrap(),
-        &std::fs::read(machine).unwrap(),
-        OVERRIDE_PCT,
-    );
-    let entry = Learned {
-        job_file: job.display().to_string(),
-        profile_file: machine.display().to_string(),
-        seed,
-        iterations: its.clone(),
-        state: LawState::Markov(mj),
-    };
-    softnc_learning::LearningStore::new(store)
-        .put(&key, &entry)
-        .unwrap();
-    its.iter().map(|s| s.rms_um).collect()
 }
 
 #[test]

@@ -3,38 +3,15 @@
 //! cycles) proves it.
 
 use softnc_daemon::bus::Bus;
-use softnc_daemon::config::DaemonConfig;
 use softnc_daemon::position::{EngineFactory, PositionTask};
 use softnc_ipc::{
     CommandSample, ControlCommand, ControlKind, FixedStr, MachineState, ServiceNames,
 };
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-use std::path::PathBuf;
 
-struct Counting;
-thread_local! {
-    static COUNTING: Cell<bool> = const { Cell::new(false) };
-    /// Allocations counted on this thread (per thread: the tests run side by side).
-    static ALLOCS: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        if COUNTING.with(|c| c.get()) {
-            ALLOCS.with(|n| n.set(n.get() + 1));
-        }
-        // SAFETY: forwarding to the system allocator with the caller's layout.
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        // SAFETY: p was allocated by System.alloc with layout l.
-        unsafe { System.dealloc(p, l) }
-    }
-}
+mod common;
 
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: common::Counting = common::Counting;
 
 /// Cycle until the job's preparation is in and motion has started.
 fn start_motion(task: &mut PositionTask<softnc_sim::SimBackend>) {
@@ -114,27 +91,7 @@ struct Counted {
 /// `spindle_override`, sent 50 counted cycles in; the feeder sends the first `fed`
 /// samples of the job.
 fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed: u64) -> Counted {
-    let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let dir = std::env::temp_dir().join(format!("softnc-noalloc-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(dir.join("machines")).unwrap();
-    std::fs::copy(
-        repo.join("config/machines").join(machine_file),
-        dir.join("machines/default.ron"),
-    )
-    .unwrap();
-    std::fs::copy(repo.join("config/iceoryx2.toml"), dir.join("iceoryx2.toml")).unwrap();
-    let cfg = std::fs::read_to_string(repo.join("config/default.ron"))
-        .unwrap()
-        .replace(
-            "instance: \"mill1\"",
-            &format!("instance: \"noalloc{tag}{}\"", std::process::id()),
-        )
-        .replace("clock: Realtime", "clock: Lockstep")
-        .replace("data_dir: \"../data\"", "data_dir: \"data\"");
-    std::fs::write(dir.join("default.ron"), cfg).unwrap();
-    let loaded = DaemonConfig::load(&dir.join("default.ron")).unwrap();
-    loaded.setup_iceoryx2().unwrap();
+    let (dir, loaded) = common::lockstep_config(&format!("noalloc{tag}"), machine_file, false);
     let names = ServiceNames::new(&loaded.config.service_prefix, &loaded.config.instance);
     let machine = loaded.machine.clone();
     let make_engine: EngineFactory<softnc_sim::SimBackend> = Box::new(move || {
@@ -187,12 +144,10 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed
             // give the design thread time, as real cycles would
             std::thread::sleep(std::time::Duration::from_millis(5));
         }
-        COUNTING.with(|c| c.set(true));
-        task.cycle().unwrap();
-        COUNTING.with(|c| c.set(false));
+        common::count(|| task.cycle()).unwrap();
         counted_cycles += 1;
     }
-    let allocs = ALLOCS.with(|n| n.get());
+    let allocs = common::allocations();
     assert_eq!(
         allocs, 0,
         "{allocs} allocations in {counted_cycles} position cycles"

@@ -9,42 +9,20 @@
 //! interpolator's outbox thread publishes and reports them used, one per cycle.
 
 use softnc_daemon::bus::Bus;
-use softnc_daemon::config::{DaemonConfig, Loaded};
+use softnc_daemon::config::Loaded;
 use softnc_daemon::interp::{InterpTask, JobEnd};
 use softnc_ipc::{
     AlarmCode, CommandSample, ControlCommand, ControlKind, FixedStr, MachineState, PositionStatus,
     ServiceNames, MAX_AXES,
 };
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-struct Counting;
-thread_local! {
-    // per thread: the outbox thread, the test harness and the other test allocate
-    // while a test runs
-    static COUNTING: Cell<bool> = const { Cell::new(false) };
-    static ALLOCS: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        // `try_with`: the slot may be gone while a thread is being torn down
-        if COUNTING.try_with(|c| c.get()).unwrap_or(false) {
-            let _ = ALLOCS.try_with(|a| a.set(a.get() + 1));
-        }
-        // SAFETY: forwarding to the system allocator with the caller's layout.
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        // SAFETY: p was allocated by System.alloc with layout l.
-        unsafe { System.dealloc(p, l) }
-    }
-}
+mod common;
+use common::{allocations, count};
 
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: common::Counting = common::Counting;
 
 /// A subscriber that formats every event, as a real one would: a log line on the
 /// cycle thread is an allocation there.
@@ -66,81 +44,12 @@ impl tracing::Subscriber for Formatting {
     fn exit(&self, _: &tracing::span::Id) {}
 }
 
-fn count<T>(f: impl FnOnce() -> T) -> T {
-    COUNTING.with(|c| c.set(true));
-    let r = f();
-    COUNTING.with(|c| c.set(false));
-    r
-}
-
 /// A daemon configuration of its own in a fresh folder (lockstep, learning store
 /// `<dir>/learning`).
 fn setup(tag: &str) -> (PathBuf, Loaded) {
     // (once per test binary; a second test finds it set)
     let _ = tracing::subscriber::set_global_default(Formatting);
-    let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let dir = std::env::temp_dir().join(format!(
-        "softnc-noalloc-interp-{tag}-{}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(dir.join("machines")).unwrap();
-    std::fs::create_dir_all(dir.join("learning")).unwrap();
-    std::fs::copy(
-        repo.join("config/machines/default.ron"),
-        dir.join("machines/default.ron"),
-    )
-    .unwrap();
-    std::fs::copy(repo.join("config/iceoryx2.toml"), dir.join("iceoryx2.toml")).unwrap();
-    let cfg = std::fs::read_to_string(repo.join("config/default.ron"))
-        .unwrap()
-        .replace(
-            "instance: \"mill1\"",
-            &format!("instance: \"noallocinterp{tag}{}\"", std::process::id()),
-        )
-        .replace("clock: Realtime", "clock: Lockstep")
-        .replace("data_dir: \"../data\"", "data_dir: \"data\"")
-        .replace(
-            "// learning_dir: Some(\"../learning\"),",
-            "learning_dir: Some(\"learning\"),",
-        );
-    assert!(cfg.contains("learning_dir: Some(\"learning\")"));
-    std::fs::write(dir.join("default.ron"), cfg).unwrap();
-    let loaded = DaemonConfig::load(&dir.join("default.ron")).unwrap();
-    loaded.setup_iceoryx2().unwrap();
-    (dir, loaded)
-}
-
-/// What `softnc learn JOB --iterations 1` stores for `job` on `machine`.
-fn learn(store: &Path, job: &Path, machine: &Path) {
-    use softnc_learning::entry::{LawState, Learned, OVERRIDE_PCT};
-    use softnc_learning::sim_runs::{identify, learn_markov, PreparedJob};
-    let profile = softnc_core::MachineProfile::load(machine).unwrap();
-    let text = std::fs::read_to_string(job).unwrap();
-    let prepared = PreparedJob::new(&text, "job.ngc", &profile).unwrap();
-    let seed = profile.servo.seed;
-    let mut engine =
-        softnc_sim::CycleEngine::simulated(&profile, seed, softnc_sim::SimOptions::default());
-    let n = prepared.samples.len();
-    let h = identify(&mut engine, &profile, prepared.samples[0].pos_mm, n).unwrap();
-    let gain = softnc_learning::markov::DEFAULT_GAIN;
-    let mut mj = softnc_learning::markov::MarkovJob::new(h, n, Some(gain), n);
-    let its = learn_markov(&mut engine, &prepared, &mut mj, 1, |_, _| Ok(())).unwrap();
-    let key = softnc_learning::LearningKey::new(
-        &std::fs::read(job).unwrap(),
-        &std::fs::read(machine).unwrap(),
-        OVERRIDE_PCT,
-    );
-    let entry = Learned {
-        job_file: job.display().to_string(),
-        profile_file: machine.display().to_string(),
-        seed,
-        iterations: its,
-        state: LawState::Markov(mj),
-    };
-    softnc_learning::LearningStore::new(store)
-        .put(&key, &entry)
-        .unwrap();
+    common::lockstep_config(&format!("noallocinterp{tag}"), "default.ron", true)
 }
 
 fn status(seq: u64, job_id: u64) -> PositionStatus {
@@ -183,10 +92,11 @@ fn run_counted(
     let job = dir.join("job.ngc");
     std::fs::write(&job, job_text).unwrap();
     if learned {
-        learn(
+        common::learn_job(
             &dir.join("learning"),
             &job,
             &dir.join("machines/default.ron"),
+            1,
         );
     }
     let names = ServiceNames::new(&loaded.config.service_prefix, &loaded.config.instance);
@@ -282,7 +192,7 @@ fn run_counted(
     while heartbeats.receive().unwrap().is_some() {
         hb += 1;
     }
-    let allocs = ALLOCS.with(|a| a.get());
+    let allocs = allocations();
     assert_eq!(
         allocs, 0,
         "{allocs} allocations in {cycles} interpolation cycles"
