@@ -217,25 +217,19 @@ impl InterpTask {
 
     /// An alarm (logged by the outbox thread).
     fn alarm(&mut self, code: AlarmCode, message: &str) -> Result<()> {
-        self.send(InterpMsg::Alarm(Alarm {
-            code: code.wire(),
-            axis: u32::MAX,
-            process: ProcessId::Interp.wire(),
-            job_id: self.job_id,
-            time_index: 0,
-            message: FixedStr::new(message),
-        }))
+        self.raise(code, FixedStr::new(message))
     }
 
     /// A remark for the job's record (not an alarm).
     fn note(&mut self, message: &str) -> Result<()> {
-        self.note_fixed(FixedStr::new(message))
+        self.raise(AlarmCode::Note, FixedStr::new(message))
     }
 
-    /// A remark for the job's record, allocation-free (logged by the outbox thread).
-    fn note_fixed(&mut self, message: FixedStr<256>) -> Result<()> {
+    /// An alarm or note whose text is already in its fixed buffer: allocation-free,
+    /// for the cycle (logged by the outbox thread).
+    fn raise(&mut self, code: AlarmCode, message: FixedStr<256>) -> Result<()> {
         self.send(InterpMsg::Alarm(Alarm {
-            code: AlarmCode::Note.wire(),
+            code: code.wire(),
             axis: u32::MAX,
             process: ProcessId::Interp.wire(),
             job_id: self.job_id,
@@ -425,7 +419,7 @@ impl InterpTask {
                     msg,
                     "learned correction faded out from sample {next_seq} over {ahead} samples: {why} (the job is re-timed)"
                 );
-                self.note_fixed(msg)?;
+                self.raise(AlarmCode::Note, msg)?;
             }
             match kind {
                 Some(ControlKind::FeedOverride) => {

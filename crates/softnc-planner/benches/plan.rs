@@ -7,26 +7,14 @@
 //! `time rs274 -g $TMPDIR/softnc-big-200k.ngc /dev/null < /dev/null`.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use softnc_core::MachineProfile;
 use softnc_planner::{plan, read_and_plan, read_and_plan_parallel, PlanOptions};
 
 #[path = "common/workload.rs"]
 mod workload;
-use workload::big_program;
-
-fn profile() -> MachineProfile {
-    MachineProfile::load(
-        concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../config/machines/default.ron"
-        )
-        .as_ref(),
-    )
-    .expect("default profile")
-}
+use workload::{big_program, default_profile};
 
 fn benches(c: &mut Criterion) {
-    let p = profile();
+    let p = default_profile();
     let text = big_program(200_000);
     let n_lines = text.lines().count() as u64;
     if std::env::var_os("SOFTNC_WRITE_BIG").is_some() {

@@ -9,15 +9,11 @@
 //! `config/machines/default.ron`).
 use std::hash::{Hash, Hasher};
 
+#[path = "../benches/common/workload.rs"]
+mod workload;
+
 fn main() {
-    let profile = softnc_core::MachineProfile::load(
-        concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../config/machines/default.ron"
-        )
-        .as_ref(),
-    )
-    .expect("profile");
+    let profile = workload::default_profile();
     let sample = std::env::var("SAMPLES").is_ok();
     for file in std::env::args().skip(1) {
         let Ok(bytes) = std::fs::read(&file) else {

@@ -7,19 +7,15 @@
 //! only the named one.
 use softnc_planner::PlanOptions;
 
+#[path = "../benches/common/workload.rs"]
+mod workload;
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let text = std::fs::read_to_string(&args[1]).expect("file");
     let repeat: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1);
     let only = args.get(3).cloned();
-    let profile = softnc_core::MachineProfile::load(
-        concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../config/machines/default.ron"
-        )
-        .as_ref(),
-    )
-    .expect("profile");
+    let profile = workload::default_profile();
     let opts = PlanOptions {
         ignore_soft_limits: true,
     };

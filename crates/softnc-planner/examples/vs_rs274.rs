@@ -27,14 +27,7 @@ fn main() -> ExitCode {
         .max(1);
     let lines: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(200_000);
     let rs274 = std::env::var("RS274").unwrap_or_else(|_| "rs274".into());
-    let profile = softnc_core::MachineProfile::load(
-        concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../config/machines/default.ron"
-        )
-        .as_ref(),
-    )
-    .expect("config/machines/default.ron loads");
+    let profile = workload::default_profile();
     let opts = PlanOptions {
         ignore_soft_limits: true,
     };

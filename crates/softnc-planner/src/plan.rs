@@ -90,6 +90,12 @@ pub enum ReadPlanError {
     Plan(#[from] PlanError),
 }
 
+/// Room to reserve for the path of a program text: about one motion per 24 bytes
+/// (a short `G1 X… Y…` line); a longer path only grows the storage.
+fn motions_hint(text: &str) -> usize {
+    text.len() / 24
+}
+
 /// Motions per chunk between the reader and the planner in [`read_and_plan`]: small
 /// enough to stay in cache, large enough that handing a chunk over costs nothing.
 pub const READ_CHUNK_MOTIONS: usize = 1024;
@@ -105,7 +111,7 @@ pub fn read_and_plan(
     profile: &MachineProfile,
     options: &PlanOptions,
 ) -> Result<(Program, Plan), ReadPlanError> {
-    let mut planner = Planner::new(profile, options, file, text.len() / 24);
+    let mut planner = Planner::new(profile, options, file, motions_hint(text));
     let mut refused: Option<PlanError> = None;
     let program = softnc_gcode::read_program_chunked(
         text,
@@ -144,7 +150,7 @@ pub fn read_and_plan_parallel(
     let (recycle, recycled) = channel::<Chunk>();
     std::thread::scope(|scope| {
         let planner = scope.spawn(move || {
-            let mut planner = Planner::new(profile, options, file, text.len() / 24);
+            let mut planner = Planner::new(profile, options, file, motions_hint(text));
             let mut refused: Option<PlanError> = None;
             for (mut motions, mut prims) in chunks {
                 if refused.is_none() {

@@ -1,6 +1,21 @@
-//! The throughput workload, shared by the `plan` benchmark and the `vs_rs274` example.
+//! Shared by the planner's benchmark and examples: the throughput workload and the
+//! machine profile they plan for.
+#![allow(dead_code)] // each user takes what it needs
 
+use softnc_core::MachineProfile;
 use std::fmt::Write;
+
+/// `config/machines/default.ron`.
+pub fn default_profile() -> MachineProfile {
+    MachineProfile::load(
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/machines/default.ron"
+        )
+        .as_ref(),
+    )
+    .expect("config/machines/default.ron loads")
+}
 
 /// A program of `lines` G1/G2/G3 moves: a zig-zag of short lines with arcs in both
 /// formats (I/J and R), as CAM output looks.
