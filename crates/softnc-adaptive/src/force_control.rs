@@ -24,6 +24,7 @@
 use crate::rls::{Rls, RlsConfig};
 use crate::robust_servo::{place_poles, PlacementError, ServoGains};
 use crate::zoh::Arma2;
+use nalgebra::Vector4;
 
 /// Settings of one controller (feed in the caller's units, e.g. mm/min).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,7 +53,7 @@ pub struct ControlStep {
     /// Feed applied (clamped and rate-limited).
     pub v: f64,
     /// Model estimate Θ = [−φ₁, −φ₂, θ₁, θ₂] used for the gains.
-    pub theta: [f64; 4],
+    pub theta: Vector4<f64>,
     /// Gains in force.
     pub gains: ServoGains,
     /// Estimator's prediction error (N).
@@ -67,7 +68,7 @@ pub struct AdaptiveForceControl {
     cfg: ForceControlConfig,
     rls: Rls,
     gains: ServoGains,
-    theta_used: [f64; 4],
+    theta_used: Vector4<f64>,
     /// A_o = q² + ao[0] q + ao[1].
     ao: [f64; 2],
     /// f(t−1), f(t−2).
@@ -153,10 +154,10 @@ impl AdaptiveForceControl {
         if self.samples >= 2 {
             pred_err = self
                 .rls
-                .update([self.y[0], self.y[1], self.u[0], self.u[1]], f);
+                .update(&Vector4::new(self.y[0], self.y[1], self.u[0], self.u[1]), f);
         }
         if self.samples >= 2 && self.rls.theta() != before {
-            let m = Arma2::from_theta(self.rls.theta());
+            let m = Arma2::from_theta(&self.rls.theta());
             if model_usable(&m) {
                 if let Ok(g) = place_poles(&m, self.cfg.poles, self.cfg.t_s) {
                     if [g.k, g.r0, g.r1, g.r2, g.r3, g.r4]

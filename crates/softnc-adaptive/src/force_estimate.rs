@@ -65,6 +65,11 @@ impl ForceEstimator {
         self.cal.force_n(iq)
     }
 
+    /// Peak I_q of the revolution just ended (A); starts the next.
+    pub fn take_revolution_peak_iq(&mut self) -> Option<f64> {
+        self.peak_iq.take()
+    }
+
     /// Peak force of the revolution just ended (N), from its peak I_q; starts the next.
     pub fn take_revolution_peak(&mut self) -> Option<f64> {
         self.peak_iq.take().map(|iq| self.cal.force_n(iq))

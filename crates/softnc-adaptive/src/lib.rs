@@ -14,12 +14,17 @@
 //! - [`force_estimate`]: I_q → force → peak per spindle revolution.
 //! - [`force_control`]: the adaptive loop: RLS, pole placement, servo law, feed
 //!   clamped to the override range and rate-limited.
+//! - [`force_loop`]: the closed loop per interpolation cycle: phase currents in,
+//!   once per spindle revolution the feed override out.
+//!
+//! Vectors and matrices are nalgebra's fixed-size types (no allocation per sample).
 #![warn(missing_docs)]
 // Index loops mirror the papers' matrix equations; iterator chains would hide them.
 #![allow(clippy::needless_range_loop)]
 
 pub mod force_control;
 pub mod force_estimate;
+pub mod force_loop;
 pub mod park;
 pub mod rls;
 pub mod robust_servo;
@@ -27,6 +32,7 @@ pub mod zoh;
 
 pub use force_control::{AdaptiveForceControl, ControlStep, ForceControlConfig};
 pub use force_estimate::{ForceEstimator, RevolutionPeak};
+pub use force_loop::{ForceLoop, ForceLoopConfig, ForceLoopControl, Revolution};
 pub use park::{park_iq, ForceCalibration};
 pub use rls::{Rls, RlsConfig};
 pub use robust_servo::{place_poles, PlacementError, RobustServo, ServoGains};

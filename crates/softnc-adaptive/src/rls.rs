@@ -1,6 +1,11 @@
 //! Recursive least squares for Θ = [−φ₁, −φ₂, θ₁, θ₂] (003 eq 11–12), with covariance
 //! resetting (to keep adapting when the process changes) and a dead zone (stop
 //! adapting when the prediction error is small, so noise does not drift the model).
+//!
+//! Θ, φ and P are nalgebra's fixed-size [`Vector4`] and [`Matrix4`]: the update runs
+//! once per control sample and allocates nothing.
+
+use nalgebra::{Matrix4, Vector4};
 
 /// Estimator settings (machine profile).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -19,33 +24,24 @@ pub struct RlsConfig {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Rls {
     cfg: RlsConfig,
-    theta: [f64; 4],
-    p: [[f64; 4]; 4],
+    theta: Vector4<f64>,
+    p: Matrix4<f64>,
     resets: u64,
 }
 
 impl Rls {
     /// Start from an initial guess Θ₀.
-    pub fn new(cfg: RlsConfig, theta0: [f64; 4]) -> Self {
-        let mut r = Rls {
+    pub fn new(cfg: RlsConfig, theta0: Vector4<f64>) -> Self {
+        Rls {
             cfg,
             theta: theta0,
-            p: [[0.0; 4]; 4],
+            p: Matrix4::from_diagonal_element(cfg.p0),
             resets: 0,
-        };
-        r.reset_covariance();
-        r
-    }
-
-    fn reset_covariance(&mut self) {
-        self.p = [[0.0; 4]; 4];
-        for (i, row) in self.p.iter_mut().enumerate() {
-            row[i] = self.cfg.p0;
         }
     }
 
     /// Current estimate Θ.
-    pub fn theta(&self) -> [f64; 4] {
+    pub fn theta(&self) -> Vector4<f64> {
         self.theta
     }
 
@@ -56,30 +52,19 @@ impl Rls {
 
     /// One update with regressor Φ_m(t−1) = [y(t−1), y(t−2), u(t−1), u(t−2)] and the
     /// new output y(t) (003 eq 11). Returns the prediction error before the update.
-    pub fn update(&mut self, phi: [f64; 4], y: f64) -> f64 {
-        let pred: f64 = (0..4).map(|i| phi[i] * self.theta[i]).sum();
-        let err = y - pred;
+    pub fn update(&mut self, phi: &Vector4<f64>, y: f64) -> f64 {
+        let err = y - phi.dot(&self.theta);
         if err.abs() <= self.cfg.dead_zone {
             return err;
         }
-        let mut pphi = [0.0; 4];
-        for (i, v) in pphi.iter_mut().enumerate() {
-            *v = (0..4).map(|j| self.p[i][j] * phi[j]).sum();
-        }
-        let denom = self.cfg.forgetting + (0..4).map(|i| phi[i] * pphi[i]).sum::<f64>();
-        let k = pphi.map(|v| v / denom);
-        for i in 0..4 {
-            self.theta[i] += k[i] * err;
-        }
-        // P ← (P − k·(Pφ)ᵀ)/λ  (P symmetric)
-        for i in 0..4 {
-            for j in 0..4 {
-                self.p[i][j] = (self.p[i][j] - k[i] * pphi[j]) / self.cfg.forgetting;
-            }
-        }
-        let trace: f64 = (0..4).map(|i| self.p[i][i]).sum();
-        if trace < self.cfg.reset_trace {
-            self.reset_covariance();
+        let p_phi = self.p * phi;
+        // K = Pφ / (λ + φᵀPφ)   (eq 11)
+        let k = p_phi / (self.cfg.forgetting + phi.dot(&p_phi));
+        self.theta += k * err;
+        // P ← (P − K(Pφ)ᵀ)/λ  (P symmetric)
+        self.p = (self.p - k * p_phi.transpose()) / self.cfg.forgetting;
+        if self.p.trace() < self.cfg.reset_trace {
+            self.p = Matrix4::from_diagonal_element(self.cfg.p0);
             self.resets += 1;
         }
         err
@@ -108,7 +93,7 @@ mod tests {
         };
         let m1 = zoh_second_order(3.0, 0.05, 0.2, 0.1);
         let m2 = zoh_second_order(6.0, 0.05, 0.35, 0.1);
-        let mut rls = Rls::new(cfg(), [0.5, 0.0, 0.1, 0.1]);
+        let mut rls = Rls::new(cfg(), Vector4::new(0.5, 0.0, 0.1, 0.1));
         let (mut y1, mut y2, mut u1, mut u2) = (0.0, 0.0, 0.0, 0.0);
         let mut x = 12345u64;
         for t in 0..600 {
@@ -118,11 +103,11 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             let u = if (x >> 33) & 1 == 1 { 1.0 } else { -1.0 };
             let y = -m.phi1 * y1 - m.phi2 * y2 + m.theta1 * u1 + m.theta2 * u2;
-            rls.update([y1, y2, u1, u2], y);
+            rls.update(&Vector4::new(y1, y2, u1, u2), y);
             (y2, y1, u2, u1) = (y1, y, u1, u);
             if t == 299 {
                 let th = rls.theta();
-                for (a, b) in th.iter().zip(m1.theta()) {
+                for (a, b) in th.iter().zip(m1.theta().iter()) {
                     assert!((a - b).abs() < 1e-4, "{th:?} vs {:?}", m1.theta());
                 }
             }
@@ -131,7 +116,7 @@ mod tests {
             rls.resets() > 0,
             "covariance resetting keeps the estimator alive"
         );
-        for (a, b) in rls.theta().iter().zip(m2.theta()) {
+        for (a, b) in rls.theta().iter().zip(m2.theta().iter()) {
             assert!(
                 (a - b).abs() < 1e-4,
                 "{:?} vs {:?}",
@@ -145,8 +130,9 @@ mod tests {
     fn dead_zone_stops_adaptation_on_small_errors() {
         let mut c = cfg();
         c.dead_zone = 0.5;
-        let mut rls = Rls::new(c, [0.1, 0.2, 0.3, 0.4]);
-        rls.update([1.0, 0.0, 0.0, 0.0], 0.1 + 0.4);
-        assert_eq!(rls.theta(), [0.1, 0.2, 0.3, 0.4]);
+        let theta0 = Vector4::new(0.1, 0.2, 0.3, 0.4);
+        let mut rls = Rls::new(c, theta0);
+        rls.update(&Vector4::new(1.0, 0.0, 0.0, 0.0), 0.1 + 0.4);
+        assert_eq!(rls.theta(), theta0);
     }
 }

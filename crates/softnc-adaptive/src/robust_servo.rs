@@ -17,9 +17,16 @@
 //! conditions 2 and 4). The six gains follow with the compensator's free scale fixed
 //! by r₄ = 1 and r₁ = 0: r₃ = p₂, k = (p₁ + r₃(r₀ + 1))/T_s, r₂ = (p₀ − r₃r₀)/T_s + k·r₀.
 //! (The paper uses Fahmy–O'Reilly eigenstructure assignment; any exact placement is
-//! acceptable, and this one needs a 4×4 linear solve per control sample.)
+//! acceptable, and this one needs a 4×4 linear solve per control sample: an LU
+//! decomposition with partial pivoting of nalgebra's fixed-size [`Matrix4`], which
+//! allocates nothing.)
 
 use crate::zoh::Arma2;
+use nalgebra::{Matrix4, Vector4};
+
+/// A pivot smaller than this times the largest entry of the placement matrix makes it
+/// singular: A(z)(z − 1) and B(z) (nearly) share a root.
+const SINGULAR_PIVOT_RATIO: f64 = 1e-12;
 
 /// The six gains K = [k, r₀, r₁, r₂, r₃, r₄] (eq 22).
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
@@ -57,28 +64,30 @@ pub fn place_poles(model: &Arma2, poles: [f64; 4], t_s: f64) -> Result<ServoGain
         return Err(PlacementError::UnstablePole(p));
     }
     // D(z) = z⁴ + d3 z³ + d2 z² + d1 z + d0
-    let mut d = [1.0, 0.0, 0.0, 0.0, 0.0]; // highest power first
-    for p in poles {
-        let mut nd = [0.0; 5];
-        for i in 0..5 {
-            nd[i] += d[i];
-            if i + 1 < 5 {
-                nd[i + 1] -= p * d[i];
-            }
-        }
-        d = nd;
-    }
-    let (d3, d2, d1, d0) = (d[1], d[2], d[3], d[4]);
+    let [_, d3, d2, d1, d0] = poly_from_roots(poles);
     let (phi1, phi2, th1, th2) = (model.phi1, model.phi2, model.theta1, model.theta2);
     // Q(z) = A(z)(z − 1) = z³ + q2 z² + q1 z + q0
     let (q2, q1, q0) = (phi1 - 1.0, phi2 - phi1, -phi2);
-    let mut m = [
-        [-1.0, -th1, 0.0, 0.0, d3 - q2],
-        [-q2, -th2, -th1, 0.0, d2 - q1],
-        [-q1, 0.0, -th2, -th1, d1 - q0],
-        [-q0, 0.0, 0.0, -th2, d0],
-    ];
-    let x = solve4(&mut m).ok_or(PlacementError::Uncontrollable)?;
+    // A(z)(z − 1)(z − r₀) − B(z)P(z) = D(z), coefficient by coefficient, in (r₀, p₂, p₁, p₀)
+    #[rustfmt::skip]
+    let m = Matrix4::new(
+        -1.0, -th1,  0.0,  0.0,
+        -q2,  -th2, -th1,  0.0,
+        -q1,   0.0, -th2, -th1,
+        -q0,   0.0,  0.0, -th2,
+    );
+    let rhs = Vector4::new(d3 - q2, d2 - q1, d1 - q0, d0);
+    let scale = m.amax().max(f64::MIN_POSITIVE);
+    let lu = m.lu();
+    if lu
+        .u()
+        .diagonal()
+        .iter()
+        .any(|p| p.abs() < SINGULAR_PIVOT_RATIO * scale)
+    {
+        return Err(PlacementError::Uncontrollable);
+    }
+    let x = lu.solve(&rhs).ok_or(PlacementError::Uncontrollable)?;
     let (r0, p2, p1, p0) = (x[0], x[1], x[2], x[3]);
     let (r1, r4) = (0.0, 1.0);
     let r3 = p2;
@@ -94,75 +103,29 @@ pub fn place_poles(model: &Arma2, poles: [f64; 4], t_s: f64) -> Result<ServoGain
     })
 }
 
-/// Gaussian elimination with partial pivoting on an augmented 4×5 matrix.
-fn solve4(m: &mut [[f64; 5]; 4]) -> Option<[f64; 4]> {
-    let scale = m
-        .iter()
-        .flat_map(|r| r[..4].iter())
-        .fold(0.0f64, |a, v| a.max(v.abs()))
-        .max(1e-300);
-    for c in 0..4 {
-        let piv = (c..4).max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs()))?;
-        if m[piv][c].abs() < 1e-12 * scale {
-            return None;
-        }
-        m.swap(c, piv);
-        for r in 0..4 {
-            if r != c {
-                let f = m[r][c] / m[c][c];
-                for k in c..5 {
-                    m[r][k] -= f * m[c][k];
-                }
-            }
-        }
-    }
-    Some([
-        m[0][4] / m[0][0],
-        m[1][4] / m[1][1],
-        m[2][4] / m[2][2],
-        m[3][4] / m[3][3],
-    ])
-}
-
 /// The closed-loop matrix Φ̄(K) of eq 20 for state [x₁, x₂, η, ε].
-pub fn closed_loop_matrix(model: &Arma2, g: &ServoGains, t_s: f64) -> [[f64; 4]; 4] {
-    let phi = [[0.0, -model.phi2], [1.0, -model.phi1]];
-    let gamma = [model.theta2, model.theta1];
-    // C_m = [0, 1]
-    let mut a = [[0.0; 4]; 4];
-    for i in 0..2 {
-        a[i][0] = phi[i][0];
-        a[i][1] = phi[i][1] + gamma[i] * g.r3;
-        a[i][2] = gamma[i] * g.k;
-        a[i][3] = gamma[i] * g.r4;
-    }
-    a[2] = [0.0, t_s, 1.0, 0.0];
-    a[3] = [0.0, g.r1, g.r2, g.r0];
+pub fn closed_loop_matrix(model: &Arma2, g: &ServoGains, t_s: f64) -> Matrix4<f64> {
+    // Φ = [[0, −φ₂], [1, −φ₁]], Γ = [θ₂, θ₁]ᵀ, C_m = [0, 1]
+    let (gamma1, gamma2) = (model.theta2, model.theta1);
+    #[rustfmt::skip]
+    let a = Matrix4::new(
+        0.0, -model.phi2 + gamma1 * g.r3, gamma1 * g.k, gamma1 * g.r4,
+        1.0, -model.phi1 + gamma2 * g.r3, gamma2 * g.k, gamma2 * g.r4,
+        0.0, t_s,                         1.0,          0.0,
+        0.0, g.r1,                        g.r2,         g.r0,
+    );
     a
 }
 
 /// Characteristic polynomial det(zI − A) of a 4×4 matrix, highest power first
 /// (Faddeev–LeVerrier): checks that placed poles are the closed loop's eigenvalues.
-pub fn characteristic_polynomial(a: &[[f64; 4]; 4]) -> [f64; 5] {
-    let mul = |x: &[[f64; 4]; 4], y: &[[f64; 4]; 4]| {
-        let mut r = [[0.0; 4]; 4];
-        for i in 0..4 {
-            for j in 0..4 {
-                r[i][j] = (0..4).map(|k| x[i][k] * y[k][j]).sum();
-            }
-        }
-        r
-    };
+pub fn characteristic_polynomial(a: &Matrix4<f64>) -> [f64; 5] {
     let mut c = [1.0, 0.0, 0.0, 0.0, 0.0];
-    let mut m = [[0.0; 4]; 4];
+    let mut m = Matrix4::zeros();
     for k in 1..=4 {
-        let mut mk = mul(a, &m);
-        for i in 0..4 {
-            mk[i][i] += c[k - 1];
-        }
-        let am = mul(a, &mk);
-        let tr: f64 = (0..4).map(|i| am[i][i]).sum();
-        c[k] = -tr / k as f64;
+        // M_k = A M_{k−1} + c_{k−1} I,  c_k = −tr(A M_k)/k
+        let mk = a * m + Matrix4::from_diagonal_element(c[k - 1]);
+        c[k] = -(a * mk).trace() / k as f64;
         m = mk;
     }
     c
@@ -224,17 +187,7 @@ mod tests {
                     // |det(pI − Φ̄)| / scale: each requested pole is an eigenvalue
                     assert!(v.abs() < 1e-9, "pole {p}: charpoly {v}");
                 }
-                let mut want = [1.0, 0.0, 0.0, 0.0, 0.0];
-                for p in poles {
-                    let mut nd = [0.0; 5];
-                    for i in 0..5 {
-                        nd[i] += want[i];
-                        if i + 1 < 5 {
-                            nd[i + 1] -= p * want[i];
-                        }
-                    }
-                    want = nd;
-                }
+                let want = poly_from_roots(poles);
                 for (x, y) in cp.iter().zip(want) {
                     assert!((x - y).abs() < 1e-6, "{cp:?} vs {want:?}");
                 }

@@ -1,5 +1,7 @@
 //! Zero-order-hold discretisation of two first-order lags in series (003 eq 5–7).
 
+use nalgebra::Vector4;
+
 /// y(t) + φ₁ y(t−1) + φ₂ y(t−2) = θ₁ u(t−1) + θ₂ u(t−2)   (003 eq 8).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Arma2 {
@@ -15,11 +17,11 @@ pub struct Arma2 {
 
 impl Arma2 {
     /// Θ = [−φ₁, −φ₂, θ₁, θ₂] (003 eq 12).
-    pub fn theta(&self) -> [f64; 4] {
-        [-self.phi1, -self.phi2, self.theta1, self.theta2]
+    pub fn theta(&self) -> Vector4<f64> {
+        Vector4::new(-self.phi1, -self.phi2, self.theta1, self.theta2)
     }
     /// From Θ.
-    pub fn from_theta(t: [f64; 4]) -> Self {
+    pub fn from_theta(t: &Vector4<f64>) -> Self {
         Arma2 {
             phi1: -t[0],
             phi2: -t[1],

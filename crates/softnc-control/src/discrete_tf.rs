@@ -9,85 +9,8 @@
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
-/// A complex number: just enough arithmetic for frequency responses.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Complex {
-    /// Real part.
-    pub re: f64,
-    /// Imaginary part.
-    pub im: f64,
-}
-
-impl Complex {
-    /// `re + j·im`.
-    pub const fn new(re: f64, im: f64) -> Self {
-        Complex { re, im }
-    }
-
-    /// `magnitude · e^{j·angle_rad}`.
-    pub fn from_polar(magnitude: f64, angle_rad: f64) -> Self {
-        Complex::new(magnitude * angle_rad.cos(), magnitude * angle_rad.sin())
-    }
-
-    /// |z|.
-    pub fn abs(self) -> f64 {
-        self.re.hypot(self.im)
-    }
-
-    /// ∠z in radians, in (−π, π].
-    pub fn arg(self) -> f64 {
-        self.im.atan2(self.re)
-    }
-
-    /// Complex conjugate z*.
-    pub fn conj(self) -> Self {
-        Complex::new(self.re, -self.im)
-    }
-
-    /// k · z for real k.
-    pub fn scale(self, k: f64) -> Self {
-        Complex::new(k * self.re, k * self.im)
-    }
-}
-
-impl std::ops::Mul for Complex {
-    type Output = Complex;
-    /// z · w.
-    fn mul(self, w: Complex) -> Complex {
-        Complex::new(
-            self.re * w.re - self.im * w.im,
-            self.re * w.im + self.im * w.re,
-        )
-    }
-}
-
-impl std::ops::Div for Complex {
-    type Output = Complex;
-    /// z / w.
-    fn div(self, w: Complex) -> Complex {
-        let d = w.re * w.re + w.im * w.im;
-        Complex::new(
-            (self.re * w.re + self.im * w.im) / d,
-            (self.im * w.re - self.re * w.im) / d,
-        )
-    }
-}
-
-impl std::ops::Add for Complex {
-    type Output = Complex;
-    /// z + w.
-    fn add(self, w: Complex) -> Complex {
-        Complex::new(self.re + w.re, self.im + w.im)
-    }
-}
-
-impl std::ops::Sub for Complex {
-    type Output = Complex;
-    /// z − w.
-    fn sub(self, w: Complex) -> Complex {
-        Complex::new(self.re - w.re, self.im - w.im)
-    }
-}
+/// A complex frequency response value: nalgebra's re-export of `num-complex`.
+pub type Complex = nalgebra::Complex<f64>;
 
 /// Why a transfer function cannot be built.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
@@ -398,7 +321,7 @@ mod tests {
             let w = 2.0 * PI * f * t * k as f64;
             let y = filt.step(w.sin());
             if k > 3000 {
-                let expect = h.abs() * (w + h.arg()).sin();
+                let expect = h.norm() * (w + h.arg()).sin();
                 max_err = max_err.max((y - expect).abs());
             }
         }
@@ -466,6 +389,6 @@ mod tests {
         let expect = pnx().response(f, 0.001)
             * Complex::from_polar(1.0, -2.0 * 2.0 * PI * f * 0.001)
             * (Complex::new(1.0, 0.0) + Complex::from_polar(1.0, -2.0 * PI * f * 0.001));
-        assert!((tf.response(f, 0.001) - expect).abs() < 1e-12);
+        assert!((tf.response(f, 0.001) - expect).norm() < 1e-12);
     }
 }

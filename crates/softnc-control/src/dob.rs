@@ -324,7 +324,7 @@ mod tests {
             let v = dob.step(0.0, plant.pending_output());
             plant.step(v + wt.sin());
             // d̂(k) responds to d up to k−1 through Q (whose first tap is zero)
-            let expect = qf.abs() * (wt + qf.arg()).sin();
+            let expect = qf.norm() * (wt + qf.arg()).sin();
             if k > 2000 {
                 err = err.max((dob.estimate() - expect).abs());
             }
@@ -349,7 +349,7 @@ mod tests {
             let v2 = naive.step(0.0, p2.pending_output());
             p2.step(v2 + wt.sin());
             if k > 2000 {
-                let expect = qf.abs() * (wt + qf.arg()).sin();
+                let expect = qf.norm() * (wt + qf.arg()).sin();
                 err = err.max((dob.estimate() - expect).abs());
                 naive_err = naive_err.max((naive.estimate() - expect).abs());
             }

@@ -164,9 +164,9 @@ mod tests {
         let g = p / (one + m * p);
         let amp = run(&cfg, f, 6000);
         assert!(
-            (amp - g.abs()).abs() < 0.01 * g.abs(),
+            (amp - g.norm()).abs() < 0.01 * g.norm(),
             "{amp} vs {}",
-            g.abs()
+            g.norm()
         );
         assert!(
             amp < 0.6

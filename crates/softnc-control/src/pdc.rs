@@ -29,6 +29,7 @@
 //!   uncertainty `|Δ(f)|` on a frequency grid.
 
 use crate::discrete_tf::{poly_mul, Complex, DiscreteTf, FirFilter, FirSwapError, TfFilter};
+use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 pub use softnc_core::compensation::{PdcConfig, UncertaintyPoint, ZeroAngleReading, ZeroSpec};
 use std::f64::consts::PI;
@@ -167,45 +168,34 @@ pub fn design_l(zeros: &[ZeroSpec], reading: ZeroAngleReading) -> Result<Vec<f64
     Ok(l.iter().map(|c| c / dc).collect()) // eq 22
 }
 
-/// RLS fit of an `n_taps` FIR W with W·plant ≈ 1 at f_d (eq 26–31).
+/// RLS fit of an `n_taps` FIR W with W·plant ≈ 1 at f_d (eq 26–31). Off-line design:
+/// the tap count is configured, so W, X and R are nalgebra's dynamic vectors and
+/// matrices, allocated once before the run.
 pub fn fit_w(plant: &DiscreteTf, fd_hz: f64, sample_time_s: f64, config: &PdcConfig) -> Vec<f64> {
     let n = config.w_taps;
-    let mut r = vec![vec![0.0; n]; n];
-    for (i, row) in r.iter_mut().enumerate() {
-        row[i] = 1.0 / config.rls_delta; // R(0) = δ⁻¹ I (eq 31)
-    }
-    let mut w = vec![0.0; n]; // W(0) = 0
-    let mut x_vec = vec![0.0; n];
+    let mut r = DMatrix::from_diagonal_element(n, n, 1.0 / config.rls_delta); // R(0) = δ⁻¹ I (eq 31)
+    let mut w = DVector::zeros(n); // W(0) = 0
+    let mut x_vec = DVector::zeros(n);
     let mut filt = TfFilter::new(plant);
-    let mut rx = vec![0.0; n];
-    let mut gain = vec![0.0; n];
+    let mut rx = DVector::zeros(n);
+    let mut gain = DVector::zeros(n);
     for k in 0..config.rls_warmup_samples + config.rls_samples {
         let s = (2.0 * PI * k as f64 * fd_hz * sample_time_s).sin(); // eq 26
         let x = filt.step(s + config.w_dc_block_level);
-        x_vec.copy_within(0..n - 1, 1);
+        x_vec.as_mut_slice().copy_within(0..n - 1, 1);
         x_vec[0] = x; // X(n) (eq 27)
         if k < config.rls_warmup_samples {
             continue;
         }
-        for i in 0..n {
-            rx[i] = (0..n).map(|j| r[i][j] * x_vec[j]).sum();
-        }
-        let denom = 1.0 + (0..n).map(|i| x_vec[i] * rx[i]).sum::<f64>();
-        for i in 0..n {
-            gain[i] = rx[i] / denom; // K(n) (eq 28)
-        }
-        let xi = s - (0..n).map(|i| w[i] * x_vec[i]).sum::<f64>(); // ξ(n) (eq 30)
-        for i in 0..n {
-            w[i] += gain[i] * xi; // eq 29
-        }
-        // R(n) = R − K (Xᵀ R) and Xᵀ R = (R X)ᵀ since R is symmetric (eq 31)
-        for i in 0..n {
-            for j in 0..n {
-                r[i][j] -= gain[i] * rx[j];
-            }
-        }
+        rx.gemv(1.0, &r, &x_vec, 0.0);
+        gain.copy_from(&rx);
+        gain /= 1.0 + x_vec.dot(&rx); // K(n) (eq 28)
+        let xi = s - w.dot(&x_vec); // ξ(n) (eq 30)
+        w.axpy(xi, &gain, 1.0); // eq 29
+                                // R(n) = R − K (Xᵀ R) and Xᵀ R = (R X)ᵀ since R is symmetric (eq 31)
+        r.ger(-1.0, &gain, &rx, 1.0);
     }
-    w
+    w.as_slice().to_vec()
 }
 
 fn db(x: f64) -> f64 {
@@ -244,28 +234,28 @@ pub fn design(
     let l_taps = design_l(&config.zeros, config.angle_reading)?;
     let l_tf = DiscreteTf::fir(l_taps.clone()).map_err(|_| PdcDesignError::Zero { index: 0 })?;
     let delay_samples = (l_taps.len() - 1) / 2;
-    let l_gain_nyquist_db = db(l_tf.response(nyquist_hz, sample_time_s).abs());
+    let l_gain_nyquist_db = db(l_tf.response(nyquist_hz, sample_time_s).norm());
     if l_gain_nyquist_db > config.max_l_gain_nyquist_db || l_gain_nyquist_db.is_nan() {
         return Err(PdcDesignError::NotLowPass {
             l_gain_nyquist_db,
             limit_db: config.max_l_gain_nyquist_db,
         });
     }
-    let l_gain_at_fd = l_tf.response(fd_hz, sample_time_s).abs(); // M_L (eq 14)
-                                                                  // P_m = M_L z^{−D_L} P_n (eq 16)
+    let l_gain_at_fd = l_tf.response(fd_hz, sample_time_s).norm(); // M_L (eq 14)
+                                                                   // P_m = M_L z^{−D_L} P_n (eq 16)
     let p_m = model.delayed(delay_samples).scaled(l_gain_at_fd);
     let w_taps = fit_w(&p_m, fd_hz, sample_time_s, config);
     let w_unshaped = fit_w(model, fd_hz, sample_time_s, config);
     let w_unshaped_gain_nyquist_db = db(DiscreteTf::fir(w_unshaped)
         .map_err(|_| PdcDesignError::WSetup)?
         .response(nyquist_hz, sample_time_s)
-        .abs());
+        .norm());
     let h_taps = poly_mul(&l_taps, &w_taps);
     let h_tf = DiscreteTf::fir(h_taps.clone()).map_err(|_| PdcDesignError::WSetup)?;
     let hp =
         |f: f64| -> Complex { h_tf.response(f, sample_time_s) * model.response(f, sample_time_s) };
     let at_fd = hp(fd_hz);
-    let (hp_gain_at_fd, hp_phase_deg_at_fd) = (at_fd.abs(), at_fd.arg().to_degrees());
+    let (hp_gain_at_fd, hp_phase_deg_at_fd) = (at_fd.norm(), at_fd.arg().to_degrees());
     if !((hp_gain_at_fd - 1.0).abs() <= config.gain_tolerance
         && hp_phase_deg_at_fd.abs() <= config.phase_tolerance_deg)
     {
@@ -279,7 +269,7 @@ pub fn design(
     let points = config.robust_grid_points.max(1);
     for i in 0..=points {
         let f = nyquist_hz * i as f64 / points as f64;
-        let loop_gain = uncertainty_at(&config.uncertainty, f) * hp(f).abs();
+        let loop_gain = uncertainty_at(&config.uncertainty, f) * hp(f).norm();
         let margin = 1.0 / loop_gain;
         if margin < robust_margin {
             robust_margin = margin;
@@ -408,9 +398,9 @@ mod tests {
         let tf = DiscreteTf::fir(l.clone()).unwrap();
         let at50 = tf.response(50.0, T);
         assert!(
-            (at50.abs() - 0.69).abs() <= 0.01,
+            (at50.norm() - 0.69).abs() <= 0.01,
             "|L(50)| = {}",
-            at50.abs()
+            at50.norm()
         );
         // linear phase: exactly −6 ωT at every frequency in the pass band
         for f in [10.0, 50.0, 100.0] {
@@ -419,14 +409,14 @@ mod tests {
             let diff = (phase - expect).rem_euclid(2.0 * PI);
             assert!(diff.min(2.0 * PI - diff) < 1e-9, "phase at {f} Hz");
         }
-        assert!(db(tf.response(500.0, T).abs()) <= -30.0);
+        assert!(db(tf.response(500.0, T).norm()) <= -30.0);
         assert!((tf.dc_gain() - 1.0).abs() < 1e-12);
     }
 
     #[test]
     fn literal_angles_give_a_high_pass_and_are_refused() {
         let l = design_l(&paper_config().zeros, ZeroAngleReading::Literal).unwrap();
-        let g = db(DiscreteTf::fir(l).unwrap().response(500.0, T).abs());
+        let g = db(DiscreteTf::fir(l).unwrap().response(500.0, T).norm());
         assert!(g > 30.0, "literal reading gave {g} dB");
         let mut cfg = paper_config();
         cfg.angle_reading = ZeroAngleReading::Literal;
@@ -455,7 +445,7 @@ mod tests {
             // independent recomputation from the taps
             let h = DiscreteTf::fir(poly_mul(&d.l_taps, &d.w_taps)).unwrap();
             let hp = h.response(50.0, T) * p.response(50.0, T);
-            assert!((hp.abs() - d.hp_gain_at_fd).abs() < 1e-12);
+            assert!((hp.norm() - d.hp_gain_at_fd).abs() < 1e-12);
         }
     }
 
@@ -466,7 +456,7 @@ mod tests {
         // |H P_n| = M_L ≈ 0.69. Our design follows eq 16-17 (W inverts P_m incl. M_L).
         let w = DiscreteTf::fir(vec![9.915, -21.856, 11.276]).unwrap();
         let hp = w.delayed(6).response(50.0, T) * pnx().response(50.0, T);
-        assert!((hp.abs() - 1.0).abs() < 0.02, "{}", hp.abs());
+        assert!((hp.norm() - 1.0).abs() < 0.02, "{}", hp.norm());
         assert!(
             hp.arg().to_degrees().abs() < 2.0,
             "{}",
@@ -476,7 +466,7 @@ mod tests {
             DiscreteTf::fir(design_l(&paper_config().zeros, ZeroAngleReading::MinusPi).unwrap())
                 .unwrap();
         let hp_l = w.series(&l).response(50.0, T) * pnx().response(50.0, T);
-        assert!((hp_l.abs() - 0.69).abs() < 0.02, "{}", hp_l.abs());
+        assert!((hp_l.norm() - 0.69).abs() < 0.02, "{}", hp_l.norm());
     }
 
     #[test]

@@ -26,8 +26,8 @@
 use crate::reproduce::p001::workspace_file;
 use anyhow::{anyhow, bail, Context, Result};
 use softnc_adaptive::{
-    AdaptiveForceControl, Arma2, ForceCalibration, ForceControlConfig, ForceEstimator,
-    RevolutionPeak, RlsConfig, ServoGains,
+    Arma2, ForceCalibration, ForceControlConfig, ForceEstimator, ForceLoop, ForceLoopConfig,
+    ForceLoopControl, RevolutionPeak, RlsConfig, ServoGains,
 };
 use softnc_core::force::{ForceCase, ForceEvent, ForceProfile};
 use softnc_core::MachineProfile;
@@ -158,42 +158,43 @@ pub fn run_cut(
         Rng::stream(machine.servo.seed, STREAM_CURRENT_NOISE),
         noise,
     );
-    let cal = control.map(|c| c.calibration).unwrap_or(ForceCalibration {
-        a_per_n: 1.0,
-        b_a: 0.0,
-    });
-    let mut estimator = ForceEstimator::new(cal);
-    let mut iq_peak = RevolutionPeak::default();
-    let mut true_peak = RevolutionPeak::default();
     let t_rev = milling.revolution_s();
-    let cycles_per_rev = (t_rev / h).round().max(1.0) as u64;
+    let cycles_per_rev = ForceLoop::cycles_per_revolution(t_rev, h);
     let f_prog = spec.programmed_feed_mm_per_min;
     let k = &force.controller;
-    let mut ctl = match control {
-        Some(c) => {
-            let cfg = ForceControlConfig {
-                poles: c.poles,
-                t_s: cycles_per_rev as f64 * h,
-                rls: RlsConfig {
-                    p0: k.rls.p0,
-                    forgetting: k.rls.forgetting,
-                    dead_zone: k.rls.dead_zone_n,
-                    reset_trace: k.rls.reset_trace,
-                },
-                prior: softnc_adaptive::zoh_second_order(
-                    k.prior.gain_n_per_mm_min,
-                    k.prior.tau_s,
-                    k.prior.tau_c_s,
-                    cycles_per_rev as f64 * h,
-                ),
-                v_min: k.override_min * f_prog,
-                v_max: k.override_max * f_prog,
-                dv_max: k.override_step_max * f_prog,
-            };
-            Some(AdaptiveForceControl::new(cfg, f_prog).map_err(|e| anyhow!("prior model: {e}"))?)
-        }
-        None => None,
-    };
+    let loop_control = control.map(|c| ForceLoopControl {
+        config: ForceControlConfig {
+            poles: c.poles,
+            t_s: cycles_per_rev as f64 * h,
+            rls: RlsConfig {
+                p0: k.rls.p0,
+                forgetting: k.rls.forgetting,
+                dead_zone: k.rls.dead_zone_n,
+                reset_trace: k.rls.reset_trace,
+            },
+            prior: softnc_adaptive::zoh_second_order(
+                k.prior.gain_n_per_mm_min,
+                k.prior.tau_s,
+                k.prior.tau_c_s,
+                cycles_per_rev as f64 * h,
+            ),
+            v_min: k.override_min * f_prog,
+            v_max: k.override_max * f_prog,
+            dv_max: k.override_step_max * f_prog,
+        },
+        force_ref_n: c.force_ref_n,
+    });
+    let mut force_loop = ForceLoop::new(ForceLoopConfig {
+        calibration: control.map(|c| c.calibration).unwrap_or(ForceCalibration {
+            a_per_n: 1.0,
+            b_a: 0.0,
+        }),
+        cycles_per_revolution: cycles_per_rev,
+        programmed_feed: f_prog,
+        control: loop_control,
+    })
+    .map_err(|e| anyhow!("prior model: {e}"))?;
+    let mut true_peak = RevolutionPeak::default();
     let mut interp = plan.interpolator();
     let mut rows = Vec::new();
     let mut cycle: u64 = 0;
@@ -246,34 +247,22 @@ pub fn run_cut(
         let f_true = milling.step(v, h) * scale;
         let currents = motor.step(f_true, x, h);
         let measured_x = engine.measured_mm()[axis];
-        estimator.push(
-            currents.meas_u,
-            currents.meas_v,
-            motor.electrical_rad(measured_x),
-        );
-        iq_peak.push(softnc_adaptive::park_iq(
-            currents.meas_u,
-            currents.meas_v,
-            motor.electrical_rad(measured_x),
-        ));
         true_peak.push(f_true);
         cycle += 1;
-        if cycle.is_multiple_of(cycles_per_rev) {
+        if let Some(rev) = force_loop.cycle(
+            currents.meas_u,
+            currents.meas_v,
+            motor.electrical_rad(measured_x),
+        ) {
             let f_peak = true_peak.take().unwrap_or(0.0);
-            let est = estimator.take_revolution_peak().unwrap_or(0.0);
-            let piq = iq_peak.take().unwrap_or(0.0);
             let feed = (x - x_rev_start) / t_rev * SECONDS_PER_MINUTE;
-            let mut feed_cmd = f_prog * override_frac;
-            if let (Some(ctl), Some(c)) = (ctl.as_mut(), control) {
-                let st = ctl.step(est, c.force_ref_n);
-                let new_override = st.v / f_prog;
-                max_override_step = max_override_step.max((new_override - override_frac).abs());
-                override_frac = new_override;
+            if let Some(st) = rev.control {
+                max_override_step = max_override_step.max((rev.override_frac - override_frac).abs());
+                override_frac = rev.override_frac;
                 override_lo = override_lo.min(override_frac);
                 override_hi = override_hi.max(override_frac);
                 interp.set_feed_override(override_frac);
-                feed_cmd = st.v;
-                theta = st.theta;
+                theta = st.theta.into();
                 let g: ServoGains = st.gains;
                 gains = [g.k, g.r0, g.r1, g.r2, g.r3, g.r4];
             }
@@ -281,10 +270,10 @@ pub fn run_cut(
                 t_s: t,
                 segment: if straddled { None } else { seg },
                 force_n: f_peak,
-                est_force_n: est,
-                peak_iq_a: piq,
+                est_force_n: rev.est_force_n,
+                peak_iq_a: rev.peak_iq_a,
                 feed_mm_min: feed,
-                feed_cmd_mm_min: feed_cmd,
+                feed_cmd_mm_min: rev.feed_cmd,
                 override_frac,
                 theta,
                 gains,
@@ -295,10 +284,7 @@ pub fn run_cut(
             straddled = false;
         }
     }
-    let (covariance_resets, rejected) = ctl
-        .as_ref()
-        .map(|c| (c.covariance_resets(), c.rejected()))
-        .unwrap_or((0, 0));
+    let (covariance_resets, rejected) = (force_loop.covariance_resets(), force_loop.rejected());
     Ok(Run {
         rows,
         t_rev_s: t_rev,
@@ -1164,7 +1150,7 @@ mod tests {
             let want = poly_from_roots(r.poles);
             let mut models = std::collections::BTreeSet::new();
             for row in &run.rows {
-                let model = Arma2::from_theta(row.theta);
+                let model = Arma2::from_theta(&row.theta.into());
                 let g = ServoGains {
                     k: row.gains[0],
                     r0: row.gains[1],
