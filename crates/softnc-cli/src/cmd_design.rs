@@ -9,15 +9,11 @@
 //! `config/pdc/<P>.ron` (or `config/pdc/<P without -pdc>.ron`), which also holds
 //! the PDC/DOB/MBDA design parameters.
 
-use anyhow::{bail, Context, Result};
-use serde::{Deserialize, Serialize};
-use softnc_control::discrete_tf::DiscreteTf;
-use softnc_control::dob::DobConfig;
-use softnc_control::mbda::MbdaConfig;
-use softnc_control::pdc::{self, PdcConfig};
-use softnc_core::servo::PlantModel;
-use softnc_core::MachineProfile;
-use std::path::{Path, PathBuf};
+use anyhow::Result;
+use serde::Serialize;
+use softnc_control::pdc;
+use softnc_experiments::pdc_profile::{load_pdc_profile, nominal_plant, pdc_profile_path};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 /// Arguments of `softnc design`.
@@ -52,34 +48,6 @@ struct PdcArgs {
     json: bool,
 }
 
-/// The compensator design file (`config/pdc/*.ron`).
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PdcProfile {
-    /// Sample time of the plant models (s).
-    pub sample_time_s: f64,
-    /// Fallback nominal plants P_n per axis (used when the machine profile has none).
-    pub plants: Vec<AxisPlant>,
-    /// PDC design parameters.
-    pub pdc: PdcConfig,
-    /// DOB Q filter.
-    pub dob: DobConfig,
-    /// MBDA PI gains.
-    pub mbda: MbdaConfig,
-}
-
-/// A nominal plant in z⁻¹.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct AxisPlant {
-    /// Axis name ("X", "Y", …).
-    pub axis: String,
-    /// Numerator b_0, b_1, ….
-    pub num: Vec<f64>,
-    /// Denominator a_0, a_1, ….
-    pub den: Vec<f64>,
-}
-
 /// What `design pdc --json` prints.
 #[derive(Debug, Serialize)]
 struct PdcReport {
@@ -100,107 +68,6 @@ struct PdcReport {
     hp_gain_dc: f64,
     robust_margin: f64,
     robust_margin_freq_hz: f64,
-}
-
-/// A path relative to the current directory, else to the workspace root.
-pub fn resolve(rel: &Path) -> PathBuf {
-    if rel.exists() || rel.is_absolute() {
-        return rel.to_path_buf();
-    }
-    let ws = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .join(rel);
-    if ws.exists() {
-        ws
-    } else {
-        rel.to_path_buf()
-    }
-}
-
-/// The machine profile path for a name or path.
-pub fn machine_path(machine: &str) -> PathBuf {
-    let p = PathBuf::from(machine);
-    if machine.ends_with(".ron") || p.exists() {
-        return resolve(&p);
-    }
-    resolve(&PathBuf::from(format!("config/machines/{machine}.ron")))
-}
-
-/// The compensator design file for a machine name or profile path.
-pub fn pdc_profile_path(machine: &str, explicit: Option<&PathBuf>) -> PathBuf {
-    if let Some(p) = explicit {
-        return resolve(p);
-    }
-    let stem = Path::new(machine)
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| machine.to_string());
-    let first = resolve(&PathBuf::from(format!("config/pdc/{stem}.ron")));
-    if first.exists() {
-        return first;
-    }
-    let short = stem.trim_end_matches("-pdc");
-    resolve(&PathBuf::from(format!("config/pdc/{short}.ron")))
-}
-
-/// Load a compensator design file, naming the bad field on error.
-pub fn load_pdc_profile(path: &Path) -> Result<PdcProfile> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read compensator design file {}", path.display()))?;
-    Ok(softnc_core::config::parse_ron(
-        &text,
-        &path.display().to_string(),
-    )?)
-}
-
-fn axis_index(axis: &str) -> Result<usize> {
-    match axis.to_ascii_lowercase().as_str() {
-        "x" => Ok(0),
-        "y" => Ok(1),
-        "z" => Ok(2),
-        other => bail!("unknown axis `{other}` (x, y or z)"),
-    }
-}
-
-/// Nominal plant of `axis` and its sample time: from the machine profile's servo
-/// section when the profile exists, else from the design file. Also says where from.
-pub fn nominal_plant(
-    machine: &str,
-    profile: &PdcProfile,
-    axis: &str,
-) -> Result<(DiscreteTf, f64, String)> {
-    let idx = axis_index(axis)?;
-    let mpath = machine_path(machine);
-    if mpath.exists() {
-        let m = MachineProfile::load(&mpath)?;
-        if let Some(servo) = m.servo.axes.get(idx) {
-            if let PlantModel::VelocityLoop {
-                num, den, sample_s, ..
-            } = &servo.plant
-            {
-                let tf = DiscreteTf::new(vec![0.0, num[0], num[1]], vec![1.0, den[0], den[1]])?;
-                return Ok((
-                    tf,
-                    *sample_s,
-                    format!("{} servo.axes[{idx}].plant", mpath.display()),
-                ));
-            }
-        }
-    }
-    let p = profile
-        .plants
-        .iter()
-        .find(|p| p.axis.eq_ignore_ascii_case(axis))
-        .with_context(|| format!("no plant for axis {axis} in the design file"))?;
-    let tf = DiscreteTf::new(p.num.clone(), p.den.clone())?;
-    Ok((
-        tf,
-        profile.sample_time_s,
-        format!(
-            "design file plants[{}] (no velocity-loop servo profile)",
-            p.axis
-        ),
-    ))
 }
 
 /// Run `softnc design`.

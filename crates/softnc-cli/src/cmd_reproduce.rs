@@ -1,21 +1,18 @@
 //! `softnc reproduce EXPERIMENT`: rerun a paper's experiment on the simulated machine
-//! and print our figures beside the paper's. Each experiment lives in its own module
-//! under `reproduce/`.
+//! and print our figures beside the paper's. The experiments live in the
+//! `softnc-experiments` crate; this command parses, runs one and prints its report.
 
 use anyhow::Result;
+use softnc_experiments::{ExperimentError, ExperimentId, RunOptions};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 /// Arguments of `softnc reproduce`.
 #[derive(clap::Args)]
 pub struct ReproduceArgs {
-    /// The experiment: `001-table5` (paper 001, PID vs fuzzy-logic control),
-    /// `000-pdc` (paper 000, DOB/MBDA and the periodic disturbance canceller),
-    /// `002-filter` (paper 002, the zero-lag command filter against a structural mode),
-    /// `002-learning` (paper 002 Fig. 4, Markov learning per buffer size),
-    /// `003-force` (paper 003, adaptive cutting-force control, cases I–III),
-    /// `004-ilc` (paper 004, radius ILC of circles).
-    pub experiment: String,
+    /// The experiment.
+    #[arg(value_enum)]
+    pub experiment: ExperimentId,
     /// Print one JSON document instead of the text table.
     #[arg(long)]
     pub json: bool,
@@ -38,64 +35,33 @@ pub struct ReproduceArgs {
     pub plots: Option<PathBuf>,
 }
 
-impl ReproduceArgs {
-    /// The machine profile: `--machine`, else the experiment's `default` (a workspace
-    /// path). A profile that does not load is reported (`softnc: file: path: reason`)
-    /// and gives `None`: the command then exits refused.
-    pub fn machine_profile(&self, default: &str) -> Option<softnc_core::MachineProfile> {
-        let path = self
-            .machine
-            .clone()
-            .unwrap_or_else(|| crate::reproduce::p001::workspace_file(default));
-        match softnc_core::MachineProfile::load(&path) {
-            Ok(m) => Some(m),
-            Err(e) => {
-                eprintln!("softnc: {e}");
-                None
-            }
-        }
-    }
-
-    /// Print the experiment's JSON document (`--json`) or its text table.
-    pub fn print(
-        &self,
-        json: impl FnOnce() -> serde_json::Value,
-        text: impl FnOnce() -> String,
-    ) -> Result<()> {
-        if self.json {
-            println!("{}", serde_json::to_string_pretty(&json())?);
-        } else {
-            print!("{}", text());
-        }
-        Ok(())
-    }
-}
-
-/// The experiments this command knows.
-pub const EXPERIMENTS: &[&str] = &[
-    "001-table5",
-    "000-pdc",
-    "002-filter",
-    "002-learning",
-    "003-force",
-    "004-ilc",
-];
-
-/// Run the named experiment.
+/// Run the chosen experiment and print its report. A machine profile or design file
+/// that does not load is refused (exit 2) with the file and the RON path.
 pub fn run(args: ReproduceArgs) -> Result<ExitCode> {
-    match args.experiment.as_str() {
-        "001-table5" => crate::reproduce::p001::main(&args),
-        "000-pdc" => crate::reproduce::p000::main(&args),
-        "002-filter" => crate::reproduce::p002_filter::main(&args),
-        "003-force" => crate::reproduce::p003::main(&args),
-        "002-learning" => crate::reproduce::p002_learning::main(&args),
-        "004-ilc" => crate::reproduce::p004::main(&args),
-        other => {
-            eprintln!(
-                "softnc: unknown experiment `{other}`; known: {}",
-                EXPERIMENTS.join(", ")
-            );
-            Ok(ExitCode::from(crate::EXIT_REFUSED))
+    let options = RunOptions {
+        machine: args.machine,
+        seeds: args.seeds,
+        fuzzy: args.fuzzy,
+        audit: args.audit,
+    };
+    let report = match args.experiment.experiment().run(&options) {
+        Ok(r) => r,
+        Err(ExperimentError::Config(e)) => {
+            eprintln!("softnc: {e}");
+            return Ok(ExitCode::from(crate::EXIT_REFUSED));
+        }
+        Err(e) => return Err(e.into()),
+    };
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report.to_json())?);
+    } else {
+        print!("{}", report.to_text());
+    }
+    if let Some(dir) = &args.plots {
+        std::fs::create_dir_all(dir)?;
+        for out in report.write_plots(dir)? {
+            eprintln!("wrote {}", out.display());
         }
     }
+    Ok(ExitCode::SUCCESS)
 }

@@ -8,7 +8,6 @@ mod cmd_plan;
 mod cmd_reproduce;
 mod cmd_sim;
 mod cmd_watch;
-mod reproduce;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};

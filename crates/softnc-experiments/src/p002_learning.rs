@@ -7,8 +7,8 @@
 //! identification run. The paper prints Fig. 4 as a plot only (no numbers): a small
 //! buffer already learns fast.
 
-use crate::reproduce::p001::workspace_file;
-use anyhow::{Context, Result};
+use crate::error::{failed, Context, Result};
+use crate::{workspace_file, Experiment, ExperimentId, Report, RunOptions};
 use softnc_core::MachineProfile;
 use softnc_learning::markov::MarkovJob;
 use softnc_learning::sim_runs::{self as learn_sim, IterationStats, PreparedJob};
@@ -43,17 +43,17 @@ pub fn curves(
     iterations: usize,
     buffers: &[Option<usize>],
 ) -> Result<Vec<Curve>> {
-    let job = PreparedJob::new(job_text, JOB, machine).map_err(anyhow::Error::msg)?;
+    let job = PreparedJob::new(job_text, JOB, machine).map_err(failed)?;
     let n = job.samples.len();
     let mut out = Vec::new();
     for &buffer in buffers {
         let mut engine = CycleEngine::simulated(machine, seed, SimOptions::default());
-        let h = learn_sim::identify(&mut engine, machine, job.samples[0].pos_mm, n)
-            .map_err(anyhow::Error::msg)?;
+        let h =
+            learn_sim::identify(&mut engine, machine, job.samples[0].pos_mm, n).map_err(failed)?;
         let mut mj = MarkovJob::new(h, buffer.unwrap_or(n), Some(gain), n);
         let terms = [0, 1, 2].map(|a| mj.buffer.min(mj.markov[a].len()));
         let its = learn_sim::learn_markov(&mut engine, &job, &mut mj, iterations, |_, _| Ok(()))
-            .map_err(anyhow::Error::msg)?;
+            .map_err(failed)?;
         out.push(Curve {
             buffer,
             terms,
@@ -135,19 +135,45 @@ pub fn to_text(curves: &[Curve], gain: f64, seed: u64) -> String {
     s
 }
 
-/// `softnc reproduce 002-learning`.
-pub fn main(args: &crate::cmd_reproduce::ReproduceArgs) -> Result<std::process::ExitCode> {
-    let Some(machine) = args.machine_profile(MACHINE) else {
-        return Ok(std::process::ExitCode::from(crate::EXIT_REFUSED));
-    };
-    let jpath = workspace_file(JOB);
-    let text = std::fs::read_to_string(&jpath)
-        .with_context(|| format!("cannot read {}", jpath.display()))?;
-    let seed = machine.servo.seed;
-    let gain = crate::cmd_learn::DEFAULT_GAIN;
-    let c = curves(&machine, &text, seed, gain, ITERATIONS, &BUFFERS)?;
-    args.print(|| to_json(&c, gain, seed), || to_text(&c, gain, seed))?;
-    Ok(std::process::ExitCode::SUCCESS)
+/// The experiment `002-learning`.
+pub struct MarkovLearning;
+
+/// The learning curves of the experiment.
+pub struct LearningReport {
+    /// One curve per buffer size.
+    pub curves: Vec<Curve>,
+    /// The learning gain s.
+    pub gain: f64,
+    /// The simulated machine's seed.
+    pub seed: u64,
+}
+
+impl Report for LearningReport {
+    fn to_json(&self) -> serde_json::Value {
+        to_json(&self.curves, self.gain, self.seed)
+    }
+    fn to_text(&self) -> String {
+        to_text(&self.curves, self.gain, self.seed)
+    }
+}
+
+impl Experiment for MarkovLearning {
+    fn id(&self) -> ExperimentId {
+        ExperimentId::Learning002
+    }
+    fn default_machine(&self) -> &'static str {
+        MACHINE
+    }
+    fn run(&self, options: &RunOptions) -> Result<Box<dyn Report>> {
+        let machine = options.machine_profile(MACHINE)?;
+        let jpath = workspace_file(JOB);
+        let text = std::fs::read_to_string(&jpath)
+            .with_context(|| format!("cannot read {}", jpath.display()))?;
+        let seed = machine.servo.seed;
+        let gain = softnc_learning::markov::DEFAULT_GAIN;
+        let curves = curves(&machine, &text, seed, gain, ITERATIONS, &BUFFERS)?;
+        Ok(Box::new(LearningReport { curves, gain, seed }))
+    }
 }
 
 #[cfg(test)]
@@ -167,7 +193,7 @@ mod tests {
             _ => panic!("default.ron: velocity loop expected"),
         }
         let text = std::fs::read_to_string(workspace_file(JOB)).unwrap();
-        let gain = crate::cmd_learn::DEFAULT_GAIN;
+        let gain = softnc_learning::markov::DEFAULT_GAIN;
         let c = curves(&machine, &text, 1, gain, ITERATIONS, &BUFFERS).unwrap();
         for curve in &c {
             let its = &curve.iterations;

@@ -10,8 +10,8 @@
 //! working controller on it. The second part measures the FLC's gains where it
 //! actually operates, against the sector-bound "equivalent" gains of eq 13.
 
-use super::p001::{machine_for, prepare, run, table, Row, Stack, CASES};
-use anyhow::Result;
+use crate::error::{ExperimentError, Result};
+use crate::p001::{machine_for, prepare, run, table, Row, Stack, CASES};
 use softnc_control::discrete_tf::{is_schur_stable, poly_add, poly_mul};
 use softnc_control::fuzzy::{EquivalentGains, FuzzyController, SectorGrid};
 use softnc_core::fuzzy::FuzzyConfig;
@@ -222,7 +222,9 @@ pub fn audit(machine: &MachineProfile, flc: &FuzzyConfig, seeds: &[u64]) -> Resu
             ..
         } = m.axis_servo(0).plant
         else {
-            anyhow::bail!("001 audit: axis X of the profile is not paper 001's DC motor");
+            return Err(ExperimentError::refused(
+                "001 audit: axis X of the profile is not paper 001's DC motor",
+            ));
         };
         let k = gain_mm_per_min_per_dac / S_PER_MIN;
         let PlantModel::DcMotor { tau_s, .. } = m.axis_servo(0).plant else {
@@ -483,7 +485,7 @@ pub fn to_json(a: &Audit) -> serde_json::Value {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::reproduce::p001::workspace_file;
+    use crate::workspace_file;
 
     #[test]
     fn readings_scale_k_and_lift_the_limits() {

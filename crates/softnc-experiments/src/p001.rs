@@ -8,7 +8,10 @@
 //! (paper eq 9 for the line, eq 10 for the circle, the active leg for the corner),
 //! sampled every cycle of the feed moves and for `HOLD_S` after the last one.
 
-use anyhow::{Context, Result};
+use crate::error::{failed, Context, ExperimentError, Result};
+use crate::plot::{write_svg, Panel, Series};
+use crate::{workspace_file, Experiment, ExperimentId, Report, RunOptions};
+use plotters::style::colors::{BLUE, RED};
 use softnc_core::fuzzy::FuzzyConfig;
 use softnc_core::MachineProfile;
 use softnc_sim::{CycleEngine, SimOptions};
@@ -124,18 +127,6 @@ pub struct TracePoint {
     pub following_mm: [f64; 2],
 }
 
-/// A file of the workspace: relative to the current directory when it exists there,
-/// else to the workspace this binary was built from.
-pub fn workspace_file(rel: &str) -> PathBuf {
-    let p = PathBuf::from(rel);
-    if p.exists() {
-        return p;
-    }
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .join(rel)
-}
-
 /// The velocity and acceleration feedforward that invert the nominal drive of axis
 /// `axis`, u = (V + τ dV/dt)/K in DAC counts: (vff per mm/s, aff per mm/s²).
 pub fn drive_feedforward(machine: &MachineProfile, axis: usize) -> (f64, f64) {
@@ -195,10 +186,9 @@ pub fn prepare(case: &Case, machine: &MachineProfile) -> Result<PreparedCase> {
     let path = workspace_file(&case.file());
     let text = std::fs::read_to_string(&path)
         .with_context(|| format!("cannot read {}", path.display()))?;
-    let program = softnc_gcode::read_program(&text, &case.file(), machine)
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let program = softnc_gcode::read_program(&text, &case.file(), machine).map_err(failed)?;
     let plan = softnc_planner::plan(&program, machine, &softnc_planner::PlanOptions::default())
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+        .map_err(failed)?;
     Ok(PreparedCase { plan })
 }
 
@@ -224,9 +214,7 @@ pub fn run(
     let tail = std::iter::repeat_n(*last_feed, hold);
     let (mut n, mut sum_sq, mut max) = (0usize, 0.0f64, 0.0f64);
     for s in samples.iter().copied().chain(tail) {
-        let rec = engine
-            .step(s.pos_mm.0, s.feed_move)
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        let rec = engine.step(s.pos_mm.0, s.feed_move).map_err(failed)?;
         if !s.feed_move {
             continue;
         }
@@ -353,10 +341,9 @@ pub fn plot_circle(
     seed: u64,
     out: &Path,
 ) -> Result<()> {
-    use plotters::prelude::*;
     let prepared = prepare(case, machine)?;
     let mut series = Vec::new();
-    for (stack, name) in [(Stack::Pid, "PID"), (Stack::Flc, "FLC")] {
+    for (stack, name, colour) in [(Stack::Pid, "PID", RED), (Stack::Flc, "FLC", BLUE)] {
         let m = machine_for(machine, stack, flc);
         let mut pts = Vec::new();
         run(&prepared, &m, seed, |t| {
@@ -373,94 +360,108 @@ pub fn plot_circle(
                 }
             }
         }
-        series.push((name, pts));
+        series.push(Series::new(name, pts, colour));
     }
-    let lo = series
+    let (lo, hi) = series
         .iter()
-        .flat_map(|s| s.1.iter().map(|p| p.1))
-        .fold(0.0f64, f64::min);
-    let hi = series
-        .iter()
-        .flat_map(|s| s.1.iter().map(|p| p.1))
-        .fold(0.0f64, f64::max);
+        .flat_map(|s| s.points.iter().map(|p| p.1))
+        .fold((0.0f64, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
     let pad = 0.05 * (hi - lo).max(1.0);
-    let root = SVGBackend::new(out, (900, 420)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
+    let panel = Panel {
+        x_labels: Some(9),
+        ..Panel::new(
             format!(
                 "paper 001 circle r = 20 mm, {} m/min, seed {seed}: contour error (10 µm)",
                 case.feed_mm_min / 1000.0
             ),
-            ("sans-serif", 18),
+            420,
+            0.0..362.0,
+            (lo - pad)..(hi + pad),
         )
-        .margin(12)
-        .x_label_area_size(36)
-        .y_label_area_size(48)
-        .build_cartesian_2d(0.0..362.0f64, (lo - pad)..(hi + pad))
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    chart
-        .configure_mesh()
-        .x_desc("angle from the start point (deg)")
-        .y_desc("contour error (10 µm)")
-        .x_labels(9)
-        .draw()
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    for ((name, pts), colour) in series.iter().zip([RED, BLUE]) {
-        chart
-            .draw_series(LineSeries::new(pts.iter().copied(), colour))
-            .map_err(|e| anyhow::anyhow!("{e}"))?
-            .label(*name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour));
-    }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
-    Ok(())
+        .axes("angle from the start point (deg)", "contour error (10 µm)")
+        .lines(series)
+    };
+    write_svg(out, 900, &[panel])
 }
 
-/// `softnc reproduce 001-table5`.
-pub fn main(args: &crate::cmd_reproduce::ReproduceArgs) -> Result<std::process::ExitCode> {
-    let Some(machine) = args.machine_profile("config/machines/mill-friction.ron") else {
-        return Ok(std::process::ExitCode::from(crate::EXIT_REFUSED));
-    };
-    let flc_path = args
-        .fuzzy
-        .clone()
-        .unwrap_or_else(|| workspace_file("config/fuzzy/paper001.ron"));
-    let flc = FuzzyConfig::load(&flc_path)?;
-    let seeds: Vec<u64> = (1..=args.seeds).collect();
-    let rows = table(&machine, &flc, &seeds)?;
-    let audit = if args.audit {
-        Some(super::p001_audit::audit(&machine, &flc, &seeds)?)
-    } else {
-        None
-    };
-    if args.json {
-        let mut doc = to_json(&rows);
-        if let Some(a) = &audit {
-            doc["audit"] = super::p001_audit::to_json(a);
+/// The machine of the experiment.
+pub const MACHINE: &str = "config/machines/mill-friction.ron";
+/// The fuzzy rule base and membership table of the paper.
+pub const FUZZY: &str = "config/fuzzy/paper001.ron";
+
+/// The experiment `001-table5`.
+pub struct Table5;
+
+/// What the experiment found, and what its plots need.
+pub struct Table5Report {
+    /// The six rows.
+    pub rows: Vec<Row>,
+    /// The seeds averaged over.
+    pub seeds: Vec<u64>,
+    /// The plant-reading audit, when asked for.
+    pub audit: Option<crate::p001_audit::Audit>,
+    /// The machine it ran on.
+    pub machine: MachineProfile,
+    /// The FLC's rule base.
+    pub flc: FuzzyConfig,
+}
+
+impl Report for Table5Report {
+    fn to_json(&self) -> serde_json::Value {
+        let mut doc = to_json(&self.rows);
+        if let Some(a) = &self.audit {
+            doc["audit"] = crate::p001_audit::to_json(a);
         }
-        println!("{}", serde_json::to_string_pretty(&doc)?);
-    } else {
-        print!("{}", to_text(&rows, &seeds));
-        if let Some(a) = &audit {
-            print!("\n{}", super::p001_audit::to_text(a));
-        }
+        doc
     }
-    if let Some(dir) = &args.plots {
-        std::fs::create_dir_all(dir)?;
+    fn to_text(&self) -> String {
+        let mut s = to_text(&self.rows, &self.seeds);
+        if let Some(a) = &self.audit {
+            s += &format!("\n{}", crate::p001_audit::to_text(a));
+        }
+        s
+    }
+    fn write_plots(&self, dir: &Path) -> Result<Vec<PathBuf>> {
+        let mut written = Vec::new();
         for case in CASES.iter().filter(|c| c.contour == "circle") {
             let out = dir.join(format!("reproduce-001-circle-{}.svg", case.feed));
-            plot_circle(case, &machine, &flc, 1, &out)?;
-            eprintln!("wrote {}", out.display());
+            plot_circle(case, &self.machine, &self.flc, 1, &out)?;
+            written.push(out);
         }
+        Ok(written)
     }
-    Ok(std::process::ExitCode::SUCCESS)
+}
+
+impl Experiment for Table5 {
+    fn id(&self) -> ExperimentId {
+        ExperimentId::Table5001
+    }
+    fn default_machine(&self) -> &'static str {
+        MACHINE
+    }
+    fn run(&self, options: &RunOptions) -> Result<Box<dyn Report>> {
+        let machine = options.machine_profile(MACHINE)?;
+        let flc_path = options
+            .fuzzy
+            .clone()
+            .unwrap_or_else(|| workspace_file(FUZZY));
+        let flc =
+            FuzzyConfig::load(&flc_path).map_err(|e| ExperimentError::Config(e.to_string()))?;
+        let seeds: Vec<u64> = (1..=options.seeds).collect();
+        let rows = table(&machine, &flc, &seeds)?;
+        let audit = if options.audit {
+            Some(crate::p001_audit::audit(&machine, &flc, &seeds)?)
+        } else {
+            None
+        };
+        Ok(Box::new(Table5Report {
+            rows,
+            seeds,
+            audit,
+            machine,
+            flc,
+        }))
+    }
 }
 
 #[cfg(test)]
@@ -468,8 +469,8 @@ mod tests {
     use super::*;
 
     fn setup() -> (MachineProfile, FuzzyConfig) {
-        let m = MachineProfile::load(&workspace_file("config/machines/mill-friction.ron")).unwrap();
-        let f = FuzzyConfig::load(&workspace_file("config/fuzzy/paper001.ron")).unwrap();
+        let m = MachineProfile::load(&workspace_file(MACHINE)).unwrap();
+        let f = FuzzyConfig::load(&workspace_file(FUZZY)).unwrap();
         (m, f)
     }
 

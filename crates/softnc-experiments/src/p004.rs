@@ -7,11 +7,11 @@
 //! ±[`QUADRANT_WINDOW_DEG`] of the four axis reversals; "spike" is the largest |error|
 //! inside those windows.
 
-use crate::reproduce::p001::workspace_file;
-use anyhow::{Context, Result};
+use crate::error::{failed, Context, ExperimentError, Result};
+use crate::{workspace_file, Experiment, ExperimentId, Report, RunOptions};
 use softnc_core::servo::PlantModel;
 use softnc_core::MachineProfile;
-use softnc_learning::radius_ilc::{RadiusIlc, POINTS};
+use softnc_learning::radius_ilc::{self, POINTS};
 use softnc_learning::sim_runs::{self as learn_sim, IterationStats};
 use softnc_sim::{CycleEngine, SimOptions};
 
@@ -85,20 +85,23 @@ pub fn spikes(err_mm: &[f64], start_deg: f64) -> (f64, f64, f64) {
 pub fn run_all(machine: &MachineProfile, seed: u64, iterations: usize) -> Result<Vec<FeedRun>> {
     let tau_s = match machine.axis_servo(0).plant {
         PlantModel::FirstOrderLag { tau_s, .. } => tau_s,
-        _ => anyhow::bail!("004-ilc needs a FirstOrderLag profile (paper 004 eq 1)"),
+        _ => {
+            return Err(ExperimentError::refused(
+                "004-ilc needs a FirstOrderLag profile (paper 004 eq 1)",
+            ))
+        }
     };
     let mut out = Vec::new();
     for (feed, file) in JOBS {
         let path = workspace_file(file);
         let text = std::fs::read_to_string(&path)
             .with_context(|| format!("cannot read {}", path.display()))?;
-        let (circle, r_mm) =
-            learn_sim::find_circle(&text, file, machine).map_err(anyhow::Error::msg)?;
+        let (circle, r_mm) = learn_sim::find_circle(&text, file, machine).map_err(failed)?;
         let f_mm_s = circle.feed_mm_per_min / 60.0;
         let theory_um = 1000.0 * f_mm_s * f_mm_s * tau_s * tau_s / (2.0 * r_mm);
         let start_deg = circle.start_rad.to_degrees();
         let mut engine = CycleEngine::simulated(machine, seed, SimOptions::default());
-        let mut ilc = RadiusIlc::new(r_mm, ALPHA);
+        let mut ilc = radius_ilc::RadiusIlc::new(r_mm, ALPHA);
         let mut its = Vec::new();
         learn_sim::learn_radius(
             &mut engine,
@@ -117,7 +120,7 @@ pub fn run_all(machine: &MachineProfile, seed: u64, iterations: usize) -> Result
                 Ok(())
             },
         )
-        .map_err(anyhow::Error::msg)?;
+        .map_err(failed)?;
         out.push(FeedRun {
             feed_mm_per_min: feed,
             theory_um,
@@ -189,14 +192,36 @@ pub fn to_text(runs: &[FeedRun]) -> String {
     s
 }
 
-/// `softnc reproduce 004-ilc`.
-pub fn main(args: &crate::cmd_reproduce::ReproduceArgs) -> Result<std::process::ExitCode> {
-    let Some(machine) = args.machine_profile(MACHINE) else {
-        return Ok(std::process::ExitCode::from(crate::EXIT_REFUSED));
-    };
-    let runs = run_all(&machine, machine.servo.seed, ITERATIONS)?;
-    args.print(|| to_json(&runs), || to_text(&runs))?;
-    Ok(std::process::ExitCode::SUCCESS)
+/// The experiment `004-ilc`.
+pub struct RadiusIlc;
+
+/// The runs of the experiment, one per feed.
+pub struct IlcReport {
+    /// One run per feed.
+    pub runs: Vec<FeedRun>,
+}
+
+impl Report for IlcReport {
+    fn to_json(&self) -> serde_json::Value {
+        to_json(&self.runs)
+    }
+    fn to_text(&self) -> String {
+        to_text(&self.runs)
+    }
+}
+
+impl Experiment for RadiusIlc {
+    fn id(&self) -> ExperimentId {
+        ExperimentId::Ilc004
+    }
+    fn default_machine(&self) -> &'static str {
+        MACHINE
+    }
+    fn run(&self, options: &RunOptions) -> Result<Box<dyn Report>> {
+        let machine = options.machine_profile(MACHINE)?;
+        let runs = run_all(&machine, machine.servo.seed, ITERATIONS)?;
+        Ok(Box::new(IlcReport { runs }))
+    }
 }
 
 #[cfg(test)]

@@ -23,14 +23,19 @@
 //! 1500 rpm; the new spindle speed arrives as at a job's S word: the PDC is
 //! redesigned off the cycle and swapped in at the first cycle boundary.
 
-use crate::cmd_design::{load_pdc_profile, pdc_profile_path, PdcProfile};
-use crate::reproduce::p001::workspace_file;
-use anyhow::{bail, Context, Result};
+use crate::error::{failed, Context, ExperimentError, Result};
+use crate::pdc_profile::{load_pdc_profile, pdc_profile_path, PdcProfile};
+use crate::plot::{write_svg, Panel, Series};
+use crate::{workspace_file, ExperimentId, Report, RunOptions};
+use plotters::style::colors::{BLACK, BLUE, GREEN, MAGENTA, RED};
 use softnc_core::compensation::{Compensation, OuterCompensator};
 use softnc_core::servo::PlantModel;
 use softnc_core::MachineProfile;
 use softnc_sim::{CycleEngine, SimBackend, SimOptions};
+use std::path::{Path, PathBuf};
 
+/// The machine of the experiment.
+pub const MACHINE: &str = "config/machines/tnv40-pdc.ron";
 /// 1 pulse = 1/2.4 µm (paper 000 Sec. IV).
 pub const UM_PER_PULSE: f64 = 1.0 / 2.4;
 /// The RMS errors the paper prints for the line cut (pulse), in print order; its
@@ -53,10 +58,8 @@ impl Experiment {
     pub fn load(path: &std::path::Path) -> Result<Self> {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read {}", path.display()))?;
-        Ok(softnc_core::config::parse_ron(
-            &text,
-            &path.display().to_string(),
-        )?)
+        softnc_core::config::parse_ron(&text, &path.display().to_string())
+            .map_err(|e| ExperimentError::Config(e.to_string()))
     }
 
     /// A_per on X and Y (rad/s).
@@ -95,7 +98,11 @@ pub fn compensation(name: &str, design: &PdcProfile) -> Result<Compensation> {
         },
         "dob+pdc" => Compensation { outer: dob, pdc },
         "mbda+pdc" => Compensation { outer: mbda, pdc },
-        other => bail!("unknown configuration {other}"),
+        other => {
+            return Err(ExperimentError::refused(format!(
+                "unknown configuration {other}"
+            )))
+        }
     })
 }
 
@@ -149,13 +156,12 @@ pub fn prepare(contour: &'static str, machine: &MachineProfile) -> Result<Prepar
     let path = workspace_file(&rel);
     let text = std::fs::read_to_string(&path)
         .with_context(|| format!("cannot read {}", path.display()))?;
-    let program =
-        softnc_gcode::read_program(&text, &rel, machine).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let program = softnc_gcode::read_program(&text, &rel, machine).map_err(failed)?;
     let plan = softnc_planner::plan(&program, machine, &softnc_planner::PlanOptions::default())
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+        .map_err(failed)?;
     let samples: Vec<softnc_planner::Sample> = plan.interpolator().collect();
     if samples.is_empty() {
-        bail!("{rel}: empty plan");
+        return Err(ExperimentError::refused(format!("{rel}: empty plan")));
     }
     let t = plan.cycle_s();
     let vel = |k: usize, ax: usize| -> f64 {
@@ -214,9 +220,7 @@ fn errors(p: &Prepared, engine: &mut CycleEngine<SimBackend>) -> Result<Vec<[f64
     engine.reset(p.samples[0].pos_mm.0);
     let mut out = Vec::with_capacity(p.samples.len());
     for s in &p.samples {
-        engine
-            .step(s.pos_mm.0, s.feed_move)
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        engine.step(s.pos_mm.0, s.feed_move).map_err(failed)?;
         let pos = engine.backend().true_pos_mm();
         let e = match p.contour {
             "line" => [s.pos_mm.0[0] - pos[0], s.pos_mm.0[1] - pos[1]],
@@ -278,10 +282,10 @@ pub fn run(
     let actual = machine_for(base, comp, rpm, amplitude);
     let designed = machine_for(base, comp, design_rpm, amplitude);
     let backend = SimBackend::new(&actual, SEED, SimOptions::default());
-    let mut engine = CycleEngine::try_new(&designed, backend)?;
+    let mut engine = CycleEngine::try_new(&designed, backend).map_err(failed)?;
     if rpm != design_rpm {
         let fd_hz = actual.servo.cutting.as_ref().map(|c| c.frequency_hz());
-        engine.redesign_pdc(fd_hz.unwrap_or(0.0))?;
+        engine.redesign_pdc(fd_hz.unwrap_or(0.0)).map_err(failed)?;
     }
     let errs = errors(p, &mut engine)?;
     let trace_um: Vec<[f64; 2]> = errs
@@ -478,227 +482,172 @@ pub fn to_text(rows: &[Row], checks: &[(String, bool)], exp: &Experiment) -> Str
     s
 }
 
-fn plot_err(e: impl std::fmt::Display) -> anyhow::Error {
-    anyhow::anyhow!("plot: {e}")
-}
-
 /// Error vs time of every configuration on `contour` at 1500 rpm (SVG).
-pub fn plot_traces(
-    contour: &str,
-    traces: &[Trace],
-    cycle_s: f64,
-    out: &std::path::Path,
-) -> Result<()> {
-    use plotters::prelude::*;
-    let series: Vec<(&str, Vec<(f64, f64)>)> = traces
+pub fn plot_traces(contour: &str, traces: &[Trace], cycle_s: f64, out: &Path) -> Result<()> {
+    let series: Vec<Series> = traces
         .iter()
         .filter(|(name, _)| name.starts_with(contour))
-        .map(|(name, tr)| {
-            (
+        .zip([BLACK, RED, BLUE, MAGENTA, GREEN])
+        .map(|((name, tr), colour)| {
+            Series::new(
                 name.split(' ').nth(1).unwrap_or(""),
                 tr.iter()
                     .enumerate()
                     .map(|(k, e)| (k as f64 * cycle_s, e[0] / UM_PER_PULSE))
                     .collect(),
+                colour,
             )
         })
         .collect();
-    let t_end = series.iter().map(|s| s.1.len()).max().unwrap_or(1) as f64 * cycle_s;
+    let t_end = series.iter().map(|s| s.points.len()).max().unwrap_or(1) as f64 * cycle_s;
     let lim = series
         .iter()
-        .flat_map(|s| s.1.iter().map(|p| p.1.abs()))
+        .flat_map(|s| s.points.iter().map(|p| p.1.abs()))
         .fold(0.1f64, f64::max)
         * 1.05;
-    let root = SVGBackend::new(out, (1000, 480)).into_drawing_area();
-    root.fill(&WHITE).map_err(plot_err)?;
     let what = if contour == "line" {
         "X following"
     } else {
         "contour"
     };
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            format!("paper 000 {contour}, 1500 rpm (f_d = 50 Hz): {what} error caused by the disturbances"),
-            ("sans-serif", 18),
-        )
-        .margin(12)
-        .x_label_area_size(36)
-        .y_label_area_size(56)
-        .build_cartesian_2d(0.0..t_end, -lim..lim)
-        .map_err(plot_err)?;
-    chart
-        .configure_mesh()
-        .x_desc("time (s)")
-        .y_desc("error (pulse, 1/2.4 µm)")
-        .draw()
-        .map_err(plot_err)?;
-    let colours = [BLACK, RED, BLUE, MAGENTA, GREEN];
-    for ((name, pts), colour) in series.iter().zip(colours) {
-        chart
-            .draw_series(LineSeries::new(pts.iter().copied(), colour))
-            .map_err(plot_err)?
-            .label(*name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour));
-    }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(plot_err)?;
-    root.present().map_err(plot_err)?;
-    Ok(())
+    let panel = Panel::new(
+        format!(
+            "paper 000 {contour}, 1500 rpm (f_d = 50 Hz): {what} error caused by the disturbances"
+        ),
+        480,
+        0.0..t_end,
+        -lim..lim,
+    )
+    .axes("time (s)", "error (pulse, 1/2.4 µm)")
+    .lines(series);
+    write_svg(out, 1000, &[panel])
 }
 
-/// |L|, |W|, |H·P_n| (dB) and ∠H·P_n (deg) of the X-axis design at 50 Hz (SVG).
-pub fn plot_responses(
-    design: &PdcProfile,
-    machine: &str,
-    fd: f64,
-    out: &std::path::Path,
-) -> Result<()> {
-    use plotters::prelude::*;
+/// |L|, |W|, |H·P_n| (dB) and ∠H·P_n (deg) of the X-axis design at `fd` (SVG).
+pub fn plot_responses(design: &PdcProfile, machine: &str, fd: f64, out: &Path) -> Result<()> {
     use softnc_control::discrete_tf::DiscreteTf;
-    let (model, t, _) = crate::cmd_design::nominal_plant(machine, design, "x")?;
-    let d = softnc_control::pdc::design(&design.pdc, &model, t, fd)?;
-    let l = DiscreteTf::fir(d.l_taps.clone())?;
-    let w = DiscreteTf::fir(d.w_taps.clone())?;
-    let h = DiscreteTf::fir(d.h_taps.clone())?;
+    let (model, t, _) = crate::pdc_profile::nominal_plant(machine, design, "x")?;
+    let d = softnc_control::pdc::design(&design.pdc, &model, t, fd).map_err(failed)?;
+    let fir = |taps: &[f64]| DiscreteTf::fir(taps.to_vec()).map_err(failed);
+    let (l, w, h) = (fir(&d.l_taps)?, fir(&d.w_taps)?, fir(&d.h_taps)?);
     let nyq = 0.5 / t;
     let freqs: Vec<f64> = (1..=500).map(|i| nyq * i as f64 / 500.0).collect();
-    let db = |x: f64| 20.0 * x.log10();
-    let curves: Vec<(&str, Vec<(f64, f64)>)> = vec![
-        (
-            "|L| dB",
-            freqs
-                .iter()
-                .map(|&f| (f, db(l.response(f, t).abs())))
-                .collect(),
-        ),
-        (
-            "|W| dB",
-            freqs
-                .iter()
-                .map(|&f| (f, db(w.response(f, t).abs())))
-                .collect(),
-        ),
-        (
-            "|H·P_n| dB",
-            freqs
-                .iter()
-                .map(|&f| (f, db((h.response(f, t) * model.response(f, t)).abs())))
-                .collect(),
-        ),
-    ];
-    let phase: Vec<(f64, f64)> = freqs
-        .iter()
-        .map(|&f| {
-            (
-                f,
-                (h.response(f, t) * model.response(f, t)).arg().to_degrees(),
-            )
-        })
-        .collect();
-    let root = SVGBackend::new(out, (1000, 700)).into_drawing_area();
-    root.fill(&WHITE).map_err(plot_err)?;
-    let (top, bottom) = root.split_vertically(420);
-    let mut chart = ChartBuilder::on(&top)
-        .caption(
+    let (db_lo, db_hi) = (-60.0, 40.0);
+    let db = |x: f64| (20.0 * x.log10()).clamp(db_lo, db_hi);
+    let curve = |g: &dyn Fn(f64) -> f64| freqs.iter().map(|&f| (f, g(f))).collect();
+    let magnitude = Panel {
+        marks: vec![(fd, GREEN)],
+        ..Panel::new(
             format!("PDC design, X axis (P_nx, eq 35), f_d = {fd} Hz: magnitude"),
-            ("sans-serif", 18),
+            420,
+            0.0..nyq,
+            db_lo..db_hi,
         )
-        .margin(12)
-        .x_label_area_size(32)
-        .y_label_area_size(48)
-        .build_cartesian_2d(0.0..nyq, -60.0..40.0f64)
-        .map_err(plot_err)?;
-    chart
-        .configure_mesh()
-        .x_desc("frequency (Hz)")
-        .y_desc("dB")
-        .draw()
-        .map_err(plot_err)?;
-    for ((name, pts), colour) in curves.iter().zip([BLUE, RED, BLACK]) {
-        chart
-            .draw_series(LineSeries::new(
-                pts.iter().map(|&(f, g)| (f, g.clamp(-60.0, 40.0))),
-                colour,
-            ))
-            .map_err(plot_err)?
-            .label(*name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour));
-    }
-    chart
-        .draw_series(std::iter::once(PathElement::new(
-            vec![(fd, -60.0), (fd, 40.0)],
-            GREEN,
-        )))
-        .map_err(plot_err)?;
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(plot_err)?;
-    let mut chart = ChartBuilder::on(&bottom)
-        .caption("phase of H·P_n (deg); 0 at f_d", ("sans-serif", 16))
-        .margin(12)
-        .x_label_area_size(32)
-        .y_label_area_size(48)
-        .build_cartesian_2d(0.0..nyq, -180.0..180.0f64)
-        .map_err(plot_err)?;
-    chart
-        .configure_mesh()
-        .x_desc("frequency (Hz)")
-        .y_desc("deg")
-        .draw()
-        .map_err(plot_err)?;
-    chart
-        .draw_series(LineSeries::new(phase, BLACK))
-        .map_err(plot_err)?;
-    chart
-        .draw_series(std::iter::once(PathElement::new(
-            vec![(fd, -180.0), (fd, 180.0)],
-            GREEN,
-        )))
-        .map_err(plot_err)?;
-    root.present().map_err(plot_err)?;
-    Ok(())
+        .axes("frequency (Hz)", "dB")
+        .lines(vec![
+            Series::new("|L| dB", curve(&|f| db(l.response(f, t).norm())), BLUE),
+            Series::new("|W| dB", curve(&|f| db(w.response(f, t).norm())), RED),
+            Series::new(
+                "|H·P_n| dB",
+                curve(&|f| db((h.response(f, t) * model.response(f, t)).norm())),
+                BLACK,
+            ),
+        ])
+    };
+    let phase = Panel {
+        title_px: 16,
+        marks: vec![(fd, GREEN)],
+        ..Panel::new(
+            "phase of H·P_n (deg); 0 at f_d",
+            280,
+            0.0..nyq,
+            -180.0..180.0,
+        )
+        .axes("frequency (Hz)", "deg")
+        .lines(vec![Series::new(
+            "",
+            curve(&|f| (h.response(f, t) * model.response(f, t)).arg().to_degrees()),
+            BLACK,
+        )])
+    };
+    write_svg(out, 1000, &[magnitude, phase])
 }
 
-/// `softnc reproduce 000-pdc`.
-pub fn main(args: &crate::cmd_reproduce::ReproduceArgs) -> Result<std::process::ExitCode> {
-    let machine_path = args
-        .machine
-        .clone()
-        .unwrap_or_else(|| workspace_file("config/machines/tnv40-pdc.ron"));
-    let base = MachineProfile::load(&machine_path)?;
-    let design = load_pdc_profile(&pdc_profile_path("tnv40-pdc", None))?;
-    let exp = Experiment::load(&workspace_file("examples/paper000/experiment.ron"))?;
-    let (rows, traces) = table(&base, &design, &exp)?;
-    let checks = acceptance(&rows, &exp.spindle_rpm);
-    args.print(
-        || to_json(&rows, &checks, &exp),
-        || to_text(&rows, &checks, &exp),
-    )?;
-    if let Some(dir) = &args.plots {
-        std::fs::create_dir_all(dir)?;
+/// The experiment `000-pdc`.
+pub struct Pdc;
+
+/// What the experiment found, and what its plots need.
+pub struct PdcReport {
+    /// The table rows.
+    pub rows: Vec<Row>,
+    /// The acceptance checks.
+    pub checks: Vec<(String, bool)>,
+    /// The experiment's settings.
+    pub experiment: Experiment,
+    /// Error traces at 1500 rpm per contour and configuration.
+    pub traces: Vec<Trace>,
+    /// The machine's interpolation cycle (s).
+    pub cycle_s: f64,
+    /// The compensator design file.
+    pub design: PdcProfile,
+    /// The machine profile's path.
+    pub machine_path: PathBuf,
+    /// The cutting disturbance's frequency (Hz), when the profile has one.
+    pub fd_hz: Option<f64>,
+}
+
+impl Report for PdcReport {
+    fn to_json(&self) -> serde_json::Value {
+        to_json(&self.rows, &self.checks, &self.experiment)
+    }
+    fn to_text(&self) -> String {
+        to_text(&self.rows, &self.checks, &self.experiment)
+    }
+    fn write_plots(&self, dir: &Path) -> Result<Vec<PathBuf>> {
+        let mut written = Vec::new();
         for contour in CONTOURS {
             let out = dir.join(format!("reproduce-000-{contour}.svg"));
-            plot_traces(contour, &traces, base.interpolation_cycle_s, &out)?;
-            eprintln!("wrote {}", out.display());
+            plot_traces(contour, &self.traces, self.cycle_s, &out)?;
+            written.push(out);
         }
         let out = dir.join("reproduce-000-pdc-response.svg");
-        let fd = base.servo.cutting.as_ref().map(|c| c.frequency_hz());
+        let fd = self.fd_hz.context("no servo.cutting")?;
         plot_responses(
-            &design,
-            &machine_path.display().to_string(),
-            fd.context("no servo.cutting")?,
+            &self.design,
+            &self.machine_path.display().to_string(),
+            fd,
             &out,
         )?;
-        eprintln!("wrote {}", out.display());
+        written.push(out);
+        Ok(written)
     }
-    Ok(std::process::ExitCode::SUCCESS)
+}
+
+impl crate::Experiment for Pdc {
+    fn id(&self) -> ExperimentId {
+        ExperimentId::Pdc000
+    }
+    fn default_machine(&self) -> &'static str {
+        MACHINE
+    }
+    fn run(&self, options: &RunOptions) -> Result<Box<dyn Report>> {
+        let machine_path = options.machine_path(MACHINE);
+        let base = options.machine_profile(MACHINE)?;
+        let design = load_pdc_profile(&pdc_profile_path("tnv40-pdc", None))?;
+        let experiment = Experiment::load(&workspace_file("examples/paper000/experiment.ron"))?;
+        let (rows, traces) = table(&base, &design, &experiment)?;
+        let checks = acceptance(&rows, &experiment.spindle_rpm);
+        Ok(Box::new(PdcReport {
+            rows,
+            checks,
+            experiment,
+            traces,
+            cycle_s: base.interpolation_cycle_s,
+            design,
+            machine_path,
+            fd_hz: base.servo.cutting.as_ref().map(|c| c.frequency_hz()),
+        }))
+    }
 }
 
 #[cfg(test)]
@@ -707,7 +656,7 @@ mod tests {
 
     #[test]
     fn pdc_removes_most_of_the_periodic_error_on_the_line() {
-        let base = MachineProfile::load(&workspace_file("config/machines/tnv40-pdc.ron")).unwrap();
+        let base = MachineProfile::load(&workspace_file(MACHINE)).unwrap();
         let design = load_pdc_profile(&pdc_profile_path("tnv40-pdc", None)).unwrap();
         let exp = Experiment::load(&workspace_file("examples/paper000/experiment.ron")).unwrap();
         let p = prepare("line", &base).unwrap();

@@ -20,8 +20,8 @@
 //!
 //! The paper gives no table for the filter; its claims are printed beside ours.
 
-use crate::reproduce::p001::workspace_file;
-use anyhow::{bail, Context, Result};
+use crate::error::{failed, Context, ExperimentError, Result};
+use crate::{workspace_file, Experiment, ExperimentId, Report, RunOptions};
 use softnc_core::MachineProfile;
 use softnc_sim::{simulate_observed, CommandSample, CycleEngine, SimOptions};
 
@@ -89,16 +89,23 @@ impl FilterResult {
 pub fn experiment(machine: &MachineProfile) -> Result<FilterResult> {
     let servo_x = machine.axis_servo(0);
     let (Some(filter), Some(mode)) = (servo_x.command_filter, servo_x.resonance) else {
-        bail!("the machine needs a command filter and a structural mode on X");
+        return Err(ExperimentError::refused(
+            "the machine needs a command filter and a structural mode on X",
+        ));
     };
     let path = workspace_file(PROGRAM);
     let text = std::fs::read_to_string(&path)
         .with_context(|| format!("cannot read {}", path.display()))?;
-    let program =
-        softnc_gcode::read_program(&text, PROGRAM, machine).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let plan = softnc_planner::plan(&program, machine, &Default::default())
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let raw: Vec<CommandSample> = crate::cmd_sim::command_samples(&plan).collect();
+    let program = softnc_gcode::read_program(&text, PROGRAM, machine).map_err(failed)?;
+    let plan = softnc_planner::plan(&program, machine, &Default::default()).map_err(failed)?;
+    let raw: Vec<CommandSample> = plan
+        .interpolator()
+        .map(|s| CommandSample {
+            pos_mm: s.pos_mm.0,
+            motion: s.motion,
+            feed_move: s.feed_move,
+        })
+        .collect();
     let n = filter.order;
     // the last cycle at which each axis's raw command still changes
     let last_change = AXES.map(|a| {
@@ -135,7 +142,8 @@ pub fn experiment(machine: &MachineProfile) -> Result<FilterResult> {
         let mut engine = CycleEngine::try_new(
             profile,
             softnc_sim::SimBackend::new(profile, profile.servo.seed, SimOptions::default()),
-        )?;
+        )
+        .map_err(failed)?;
         // the filter's lead-in cycles before the job's first sample
         let pad = engine.filter_window();
         let mut r = Run::default();
@@ -164,7 +172,7 @@ pub fn experiment(machine: &MachineProfile) -> Result<FilterResult> {
                 }
             },
         )
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+        .map_err(failed)?;
         r.max_contour_mm = report.contour.max_abs();
         r.cycles = report.cycles;
         Ok(r)
@@ -176,7 +184,8 @@ pub fn experiment(machine: &MachineProfile) -> Result<FilterResult> {
     let unfiltered = run(&without)?;
     let filtered = run(machine)?;
     let fir =
-        softnc_control::ZeroLagFir::design(filter.frequency_hz, machine.interpolation_cycle_s, n)?;
+        softnc_control::ZeroLagFir::design(filter.frequency_hz, machine.interpolation_cycle_s, n)
+            .map_err(failed)?;
     Ok(FilterResult {
         f_hz: filter.frequency_hz,
         order: n,
@@ -268,14 +277,29 @@ pub fn to_text(r: &FilterResult) -> String {
     s
 }
 
-/// `softnc reproduce 002-filter`.
-pub fn main(args: &crate::cmd_reproduce::ReproduceArgs) -> Result<std::process::ExitCode> {
-    let Some(machine) = args.machine_profile(MACHINE) else {
-        return Ok(std::process::ExitCode::from(crate::EXIT_REFUSED));
-    };
-    let r = experiment(&machine)?;
-    args.print(|| to_json(&r), || to_text(&r))?;
-    Ok(std::process::ExitCode::SUCCESS)
+/// The experiment `002-filter`.
+pub struct ZeroLagFilter;
+
+impl Report for FilterResult {
+    fn to_json(&self) -> serde_json::Value {
+        to_json(self)
+    }
+    fn to_text(&self) -> String {
+        to_text(self)
+    }
+}
+
+impl Experiment for ZeroLagFilter {
+    fn id(&self) -> ExperimentId {
+        ExperimentId::Filter002
+    }
+    fn default_machine(&self) -> &'static str {
+        MACHINE
+    }
+    fn run(&self, options: &RunOptions) -> Result<Box<dyn Report>> {
+        let machine = options.machine_profile(MACHINE)?;
+        Ok(Box::new(experiment(&machine)?))
+    }
 }
 
 #[cfg(test)]

@@ -23,8 +23,10 @@
 //! the jump when a deeper or harder stretch begins is the process's, not the
 //! controller's, and is reported apart as the segment's highest peak.
 
-use crate::reproduce::p001::workspace_file;
-use anyhow::{anyhow, bail, Context, Result};
+use crate::error::{failed, Context, ExperimentError, Result};
+use crate::plot::{self, write_svg, Panel, Series};
+use crate::{Experiment, ExperimentId, RunOptions};
+use plotters::style::colors::{BLACK, BLUE, CYAN, GREEN, MAGENTA, RED};
 use softnc_adaptive::{
     Arma2, ForceCalibration, ForceControlConfig, ForceEstimator, ForceLoop, ForceLoopConfig,
     ForceLoopControl, RevolutionPeak, RlsConfig, ServoGains,
@@ -34,7 +36,7 @@ use softnc_core::MachineProfile;
 use softnc_sim::milling::{CutProfile, MillingProcess};
 use softnc_sim::pmsm::PmsmFeedMotor;
 use softnc_sim::{CycleEngine, Rng, SimOptions};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Random stream of the current sensors' noise.
 const STREAM_CURRENT_NOISE: u64 = 300;
@@ -43,10 +45,11 @@ const SECONDS_PER_MINUTE: f64 = 60.0;
 
 /// The profile's force section, or an error naming the file.
 pub fn force_section<'a>(machine: &'a MachineProfile, file: &str) -> Result<&'a ForceProfile> {
-    machine
-        .force
-        .as_ref()
-        .ok_or_else(|| anyhow!("{file}: the profile has no `force` section (paper 003)"))
+    machine.force.as_ref().ok_or_else(|| {
+        ExperimentError::refused(format!(
+            "{file}: the profile has no `force` section (paper 003)"
+        ))
+    })
 }
 
 /// One spindle revolution of a run.
@@ -132,17 +135,16 @@ pub fn run_cut(
     let axis = force.feed_axis;
     let tool = force
         .tool(spec.tool)
-        .ok_or_else(|| anyhow!("no tool `{}`", spec.tool))?;
+        .with_context(|| format!("no tool `{}`", spec.tool))?;
     let length = spec.cut.length_mm();
     let letter = ["X", "Y", "Z"][axis];
     let text = format!(
         "G90 G21 G17 G94\nG1 {letter}{length:.4} F{:.4}\nM2\n",
         spec.programmed_feed_mm_per_min
     );
-    let program = softnc_gcode::read_program(&text, "paper003-cut.ngc", machine)
-        .map_err(|e| anyhow!("{e}"))?;
+    let program = softnc_gcode::read_program(&text, "paper003-cut.ngc", machine).map_err(failed)?;
     let plan = softnc_planner::plan(&program, machine, &softnc_planner::PlanOptions::default())
-        .map_err(|e| anyhow!("{e}"))?;
+        .map_err(failed)?;
     let h = plan.cycle_s();
     let options = SimOptions {
         quantisation: true,
@@ -193,7 +195,7 @@ pub fn run_cut(
         programmed_feed: f_prog,
         control: loop_control,
     })
-    .map_err(|e| anyhow!("prior model: {e}"))?;
+    .context("prior model")?;
     let mut true_peak = RevolutionPeak::default();
     let mut interp = plan.interpolator();
     let mut rows = Vec::new();
@@ -226,7 +228,7 @@ pub fn run_cut(
             last_speed = speed;
         }
         last_cmd = cmd;
-        engine.step(cmd, s.feed_move).map_err(|e| anyhow!("{e}"))?;
+        engine.step(cmd, s.feed_move).map_err(failed)?;
         let x = engine.backend().true_pos_mm()[axis];
         let v = (x - x_prev) / h;
         x_prev = x;
@@ -257,7 +259,8 @@ pub fn run_cut(
             let f_peak = true_peak.take().unwrap_or(0.0);
             let feed = (x - x_rev_start) / t_rev * SECONDS_PER_MINUTE;
             if let Some(st) = rev.control {
-                max_override_step = max_override_step.max((rev.override_frac - override_frac).abs());
+                max_override_step =
+                    max_override_step.max((rev.override_frac - override_frac).abs());
                 override_frac = rev.override_frac;
                 override_lo = override_lo.min(override_frac);
                 override_hi = override_hi.max(override_frac);
@@ -330,7 +333,7 @@ pub fn calibrate(
     let c = &force.calibration;
     let k_c = force
         .material(&c.material)
-        .ok_or_else(|| anyhow!("no material `{}`", c.material))?
+        .with_context(|| format!("no material `{}`", c.material))?
         .k_c_n_per_mm2;
     let t_rev = SECONDS_PER_MINUTE / c.spindle_rpm;
     let len = c.feed_mm_per_min / SECONDS_PER_MINUTE * t_rev * c.revolutions_per_depth as f64;
@@ -365,8 +368,8 @@ pub fn calibrate(
                 .map(|r| (r.force_n, r.peak_iq_a)),
         );
     }
-    let line = ForceCalibration::fit(&pairs)
-        .ok_or_else(|| anyhow!("calibration: fewer than two distinct forces"))?;
+    let line =
+        ForceCalibration::fit(&pairs).context("calibration: fewer than two distinct forces")?;
     let max_rel_error = pairs
         .iter()
         .map(|(f, iq)| ((line.force_n(*iq) - f) / f).abs())
@@ -475,7 +478,7 @@ pub fn run_case(
         poles,
     };
     let run = run_cut(machine, force, &spec, Some(&control), noise)?;
-    let tool = force.tool(&case.tool).ok_or_else(|| anyhow!("no tool"))?;
+    let tool = force.tool(&case.tool).context("no tool")?;
     let r = case.force_ref_n;
     let mut segments = Vec::new();
     for (j, s) in case.segments.iter().enumerate() {
@@ -486,11 +489,11 @@ pub fn run_case(
             .collect();
         let n = case.settled_revolutions as usize;
         if rows.len() < n + 2 {
-            bail!(
+            return Err(ExperimentError::refused(format!(
                 "case {} segment {j}: only {} whole revolutions; make it longer",
                 case.name,
                 rows.len()
-            );
+            )));
         }
         let settled = &rows[rows.len() - n..];
         let mean =
@@ -502,7 +505,7 @@ pub fn run_case(
         let forces: Vec<f64> = rows.iter().map(|r| r.force_n).collect();
         let k_c = force
             .material(&s.material)
-            .ok_or_else(|| anyhow!("no material"))?
+            .context("no material")?
             .k_c_n_per_mm2;
         let mut m = MillingProcess::new(tool, case.spindle_rpm);
         m.set_cut(k_c, s.depth_mm);
@@ -646,7 +649,7 @@ pub fn report(machine: &MachineProfile, file: &str) -> Result<(Report, Vec<Run>)
         .map(|w| w[0].0 + (w[0].1 - half_power) / (w[0].1 - w[1].1) * (w[1].0 - w[0].0))
         .unwrap_or(f64::NAN);
     let first = &force.cases[0];
-    let tool = force.tool(&first.tool).ok_or_else(|| anyhow!("no tool"))?;
+    let tool = force.tool(&first.tool).context("no tool")?;
     let tooth_hz = MillingProcess::new(tool, first.spindle_rpm).tooth_hz();
     let mut cases = Vec::new();
     let mut runs = Vec::new();
@@ -751,71 +754,66 @@ pub fn to_json(r: &Report) -> serde_json::Value {
 
 /// Plots of one case: force, feed, estimated parameters, gains over time (SVG).
 pub fn plot_case(case: &CaseResult, run: &Run, out: &Path) -> Result<()> {
-    use plotters::prelude::*;
-    let e = |e: &dyn std::fmt::Display| anyhow!("{e}");
-    let root = SVGBackend::new(out, (900, 1000)).into_drawing_area();
-    root.fill(&WHITE).map_err(|x| e(&x))?;
-    let areas = root.split_evenly((4, 1));
     let t_max = run.rows.last().map(|r| r.t_s).unwrap_or(1.0);
-    type Series<'a> = (&'a str, Vec<(f64, f64)>, RGBColor);
-    let panels: Vec<(String, &str, Vec<Series>)> = vec![
-        (
+    let over_time = |f: &dyn Fn(&RevRow) -> f64| -> Vec<(f64, f64)> {
+        run.rows.iter().map(|r| (r.t_s, f(r))).collect()
+    };
+    let panel = |title: String, ylab: &str, series: Vec<Series>| {
+        let y = plot::y_range(&series, 0.05, 1e-6, 0.0..1.0);
+        Panel {
+            title_px: 16,
+            ..Panel::new(title, 250, 0.0..t_max, y)
+                .axes("time (s)", ylab)
+                .lines(series)
+        }
+    };
+    let panels = [
+        panel(
             format!(
                 "case {}: peak feed force per revolution (reference {} N)",
                 case.case, case.force_ref_n
             ),
             "N",
             vec![
-                (
-                    "true",
-                    run.rows.iter().map(|r| (r.t_s, r.force_n)).collect(),
-                    RED,
-                ),
-                (
+                Series::new("true", over_time(&|r| r.force_n), RED),
+                Series::new(
                     "estimated from currents",
-                    run.rows.iter().map(|r| (r.t_s, r.est_force_n)).collect(),
+                    over_time(&|r| r.est_force_n),
                     BLUE,
                 ),
-                (
+                Series::new(
                     "reference",
                     vec![(0.0, case.force_ref_n), (t_max, case.force_ref_n)],
                     BLACK,
                 ),
             ],
         ),
-        (
+        panel(
             "feed (mm/min)".into(),
             "mm/min",
             vec![
-                (
-                    "actual",
-                    run.rows.iter().map(|r| (r.t_s, r.feed_mm_min)).collect(),
-                    RED,
-                ),
-                (
+                Series::new("actual", over_time(&|r| r.feed_mm_min), RED),
+                Series::new(
                     "commanded (override x programmed)",
-                    run.rows
-                        .iter()
-                        .map(|r| (r.t_s, r.feed_cmd_mm_min))
-                        .collect(),
+                    over_time(&|r| r.feed_cmd_mm_min),
                     BLUE,
                 ),
             ],
         ),
-        (
+        panel(
             "estimated parameters Θ = [−φ1, −φ2, θ1, θ2]".into(),
             "",
             (0..4)
                 .map(|i| {
-                    (
+                    Series::new(
                         ["-phi1", "-phi2", "theta1", "theta2"][i],
-                        run.rows.iter().map(|r| (r.t_s, r.theta[i])).collect(),
+                        over_time(&|r| r.theta[i]),
                         [RED, BLUE, GREEN, MAGENTA][i],
                     )
                 })
                 .collect(),
         ),
-        (
+        panel(
             "gains K = [k, r0, r1, r2, r3, r4] (r1 = 0, r4 = 1 fixed; k and r2 scaled by 0.1)"
                 .into(),
             "",
@@ -823,54 +821,16 @@ pub fn plot_case(case: &CaseResult, run: &Run, out: &Path) -> Result<()> {
                 .filter(|&i| i != 2 && i != 5)
                 .map(|i| {
                     let scale = if i == 0 || i == 3 { 0.1 } else { 1.0 };
-                    (
+                    Series::new(
                         ["k/10", "r0", "r1", "r2/10", "r3", "r4"][i],
-                        run.rows
-                            .iter()
-                            .map(|r| (r.t_s, scale * r.gains[i]))
-                            .collect(),
+                        over_time(&|r| scale * r.gains[i]),
                         [RED, BLUE, CYAN, GREEN, MAGENTA, BLACK][i],
                     )
                 })
                 .collect(),
         ),
     ];
-    for (area, (title, ylab, series)) in areas.iter().zip(panels) {
-        let vals = series.iter().flat_map(|s| s.1.iter().map(|p| p.1));
-        let (lo, hi) = vals.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-            (a.min(v), b.max(v))
-        });
-        let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 1.0) };
-        let pad = 0.05 * (hi - lo).max(1e-6);
-        let mut chart = ChartBuilder::on(area)
-            .caption(title, ("sans-serif", 16))
-            .margin(8)
-            .x_label_area_size(28)
-            .y_label_area_size(52)
-            .build_cartesian_2d(0.0..t_max, (lo - pad)..(hi + pad))
-            .map_err(|x| e(&x))?;
-        chart
-            .configure_mesh()
-            .x_desc("time (s)")
-            .y_desc(ylab)
-            .draw()
-            .map_err(|x| e(&x))?;
-        for (name, pts, colour) in series {
-            chart
-                .draw_series(LineSeries::new(pts, colour))
-                .map_err(|x| e(&x))?
-                .label(name)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour));
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(|x| e(&x))?;
-    }
-    root.present().map_err(|x| e(&x))?;
-    Ok(())
+    write_svg(out, 900, &panels)
 }
 
 /// One case's figures on one seed (robustness summary).
@@ -952,41 +912,69 @@ every case on seeds 1..={} (sensor noise and encoder; calibrated per seed):",
     s
 }
 
-/// `softnc reproduce 003-force [--json] [--plots DIR] [--machine P] [--seeds N]`.
-pub fn main(args: &crate::cmd_reproduce::ReproduceArgs) -> Result<std::process::ExitCode> {
-    let path = args
-        .machine
-        .clone()
-        .unwrap_or_else(|| workspace_file("config/machines/mch10-force.ron"));
-    let machine = MachineProfile::load(&path)?;
-    let file = path.display().to_string();
-    let (report, runs) = report(&machine, &file)?;
-    let seeds = seed_summaries(&machine, &file, args.seeds)?;
-    if args.json {
-        let mut v = to_json(&report);
-        v["seeds"] = serde_json::to_value(&seeds)?;
-        println!("{}", serde_json::to_string_pretty(&v)?);
-    } else {
-        print!("{}", to_text(&report));
-        print!("{}", seeds_text(&seeds));
+/// The machine of the experiment.
+pub const MACHINE: &str = "config/machines/mch10-force.ron";
+
+/// The experiment `003-force`.
+pub struct AdaptiveForce;
+
+/// What the experiment found, and what its plots need.
+pub struct ForceReport {
+    /// Calibration, estimator and the cases.
+    pub report: Report,
+    /// Each case's run, in the order of `report.cases`.
+    pub runs: Vec<Run>,
+    /// The robustness summary over seeds.
+    pub seeds: Vec<SeedCase>,
+}
+
+impl crate::Report for ForceReport {
+    fn to_json(&self) -> serde_json::Value {
+        let mut v = to_json(&self.report);
+        v["seeds"] = serde_json::to_value(&self.seeds).unwrap_or(serde_json::Value::Null);
+        v
     }
-    if let Some(dir) = &args.plots {
-        std::fs::create_dir_all(dir)?;
-        for (case, run) in report.cases.iter().zip(&runs) {
+    fn to_text(&self) -> String {
+        to_text(&self.report) + &seeds_text(&self.seeds)
+    }
+    fn write_plots(&self, dir: &Path) -> Result<Vec<PathBuf>> {
+        let mut written = Vec::new();
+        for (case, run) in self.report.cases.iter().zip(&self.runs) {
             let out = dir.join(format!("reproduce-003-case-{}.svg", case.case));
             plot_case(case, run, &out)?;
-            eprintln!("wrote {}", out.display());
+            written.push(out);
         }
+        Ok(written)
     }
-    Ok(std::process::ExitCode::SUCCESS)
+}
+
+impl Experiment for AdaptiveForce {
+    fn id(&self) -> ExperimentId {
+        ExperimentId::Force003
+    }
+    fn default_machine(&self) -> &'static str {
+        MACHINE
+    }
+    fn run(&self, options: &RunOptions) -> Result<Box<dyn crate::Report>> {
+        let machine = options.machine_profile(MACHINE)?;
+        let file = options.machine_path(MACHINE).display().to_string();
+        let (report, runs) = report(&machine, &file)?;
+        let seeds = seed_summaries(&machine, &file, options.seeds)?;
+        Ok(Box::new(ForceReport {
+            report,
+            runs,
+            seeds,
+        }))
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::workspace_file;
 
     fn machine() -> MachineProfile {
-        MachineProfile::load(&workspace_file("config/machines/mch10-force.ron")).unwrap()
+        MachineProfile::load(&workspace_file(MACHINE)).unwrap()
     }
 
     fn case(m: &MachineProfile, name: &str) -> (CaseResult, Run) {
