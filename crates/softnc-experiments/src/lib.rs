@@ -159,3 +159,40 @@ pub trait Report {
         Ok(Vec::new())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::ValueEnum;
+
+    /// Every name on the command line runs the experiment of that name, on a machine
+    /// profile that exists.
+    #[test]
+    fn every_name_maps_to_its_experiment() {
+        assert_eq!(ExperimentId::value_variants(), &ExperimentId::ALL);
+        for id in ExperimentId::ALL {
+            let experiment = id.experiment();
+            assert_eq!(experiment.id(), id);
+            assert_eq!(id.to_possible_value().unwrap().get_name(), id.name());
+            assert_eq!(ExperimentId::from_str(id.name(), false), Ok(id));
+            assert!(
+                workspace_file(experiment.default_machine()).exists(),
+                "{}",
+                experiment.default_machine()
+            );
+        }
+    }
+
+    #[test]
+    fn a_machine_profile_that_does_not_load_is_a_config_error() {
+        let options = RunOptions {
+            machine: Some(PathBuf::from("config/machines/no-such-machine.ron")),
+            ..RunOptions::default()
+        };
+        match ExperimentId::Filter002.experiment().run(&options) {
+            Err(ExperimentError::Config(e)) => assert!(e.contains("no-such-machine.ron"), "{e}"),
+            Err(e) => panic!("{e}"),
+            Ok(_) => panic!("ran without a machine"),
+        }
+    }
+}

@@ -172,3 +172,48 @@ fn draw_panel(area: &DrawingArea<SVGBackend, Shift>, panel: &Panel) -> DrawResul
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stacked_panels_are_written_with_their_lines_and_legends() {
+        let path =
+            std::env::temp_dir().join(format!("softnc-plot-test-{}.svg", std::process::id()));
+        let line = |name: &str, k: f64, colour| {
+            Series::new(
+                name,
+                (0..50).map(|i| (i as f64, k * i as f64)).collect(),
+                colour,
+            )
+        };
+        let top = Panel::new("top panel", 200, 0.0..50.0, 0.0..100.0)
+            .axes("x", "y")
+            .lines(vec![
+                line("slope one", 1.0, RED),
+                line("slope two", 2.0, BLUE),
+            ]);
+        let bottom = Panel {
+            marks: vec![(25.0, GREEN)],
+            ..Panel::new("bottom panel", 100, 0.0..50.0, -1.0..1.0)
+                .lines(vec![line("", 0.0, BLACK)])
+        };
+        write_svg(&path, 400, &[top, bottom]).unwrap();
+        let svg = std::fs::read_to_string(&path).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        for text in ["top panel", "bottom panel", "slope one", "slope two"] {
+            assert!(svg.contains(text), "{text}");
+        }
+        assert!(svg.contains("height=\"300\""), "panels stack: 200 + 100 px");
+        let err = write_svg(Path::new("/nonexistent-dir/plot.svg"), 400, &[]).unwrap_err();
+        assert!(matches!(err, ExperimentError::Plot { .. }), "{err}");
+    }
+
+    #[test]
+    fn y_range_pads_the_values_and_falls_back_without_any() {
+        let s = [Series::new("", vec![(0.0, 2.0), (1.0, 4.0)], RED)];
+        assert_eq!(y_range(&s, 0.5, 0.0, 0.0..1.0), 1.0..5.0);
+        assert_eq!(y_range(&[], 0.5, 0.0, -3.0..3.0), -3.0..3.0);
+    }
+}
