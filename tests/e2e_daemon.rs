@@ -50,6 +50,14 @@ impl Daemon {
             dir.join("iceoryx2.toml"),
         )
         .unwrap();
+        // real time: both loops at the production SCHED_FIFO priorities where the
+        // test may have them (unpinned, memory not locked), so that a loaded machine —
+        // a compiler beside the tests — does not starve them; lockstep needs none
+        let (fifo_interp, fifo_position) = if clock == "Realtime" {
+            ("fifo_priority: Some(70)", "fifo_priority: Some(80)")
+        } else {
+            ("", "")
+        };
         let cfg = std::fs::read_to_string(repo().join("config/default.ron"))
             .unwrap()
             .replace(
@@ -65,11 +73,11 @@ impl Daemon {
             )
             .replace(
                 "interp_rt: (core: Some(0), fifo_priority: Some(70), lock_memory: true)",
-                "interp_rt: ()",
+                &format!("interp_rt: ({fifo_interp})"),
             )
             .replace(
                 "position_rt: (core: Some(1), fifo_priority: Some(80), lock_memory: true)",
-                "position_rt: ()",
+                &format!("position_rt: ({fifo_position})"),
             );
         let config = dir.join("default.ron");
         std::fs::write(&config, cfg).unwrap();

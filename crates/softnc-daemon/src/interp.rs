@@ -130,7 +130,13 @@ impl InterpTask {
             status: bus.status_subscriber()?,
             control: bus.control_subscriber()?,
             // lossless: command samples are never dropped, and the rest is rare
-            outbox: Outbox::start(names, "interp-out", capacity, true)?,
+            outbox: Outbox::start(
+                names,
+                "interp-out",
+                capacity,
+                true,
+                cfg.config.interp_rt.helper_priority(),
+            )?,
             stats: softnc_rt::LoopStats::new(),
             cfg,
             hb_counter: 0,

@@ -170,8 +170,17 @@ impl<M: Outgoing> Outbox<M> {
     /// Start the publisher thread with its own node `<instance>/<node>` and a queue
     /// of `capacity` messages (at least [`OUTBOX_CAPACITY`]). `lossless`: a full
     /// queue makes `send` wait (lockstep) instead of dropping (realtime); messages
-    /// that [must arrive](Outgoing::must_arrive) always wait.
-    pub fn start(names: ServiceNames, node: &str, capacity: usize, lossless: bool) -> Result<Self> {
+    /// that [must arrive](Outgoing::must_arrive) always wait. `fifo_priority`: the
+    /// publisher's own SCHED_FIFO priority, below its loop's (it carries the loop's
+    /// messages, and a command sample published late runs the ring dry); `None`:
+    /// SCHED_OTHER.
+    pub fn start(
+        names: ServiceNames,
+        node: &str,
+        capacity: usize,
+        lossless: bool,
+        fifo_priority: Option<u8>,
+    ) -> Result<Self> {
         let queue = Arc::new(ArrayQueue::<M>::new(capacity.max(OUTBOX_CAPACITY)));
         let stop = Arc::new(AtomicBool::new(false));
         let (q, st) = (queue.clone(), stop.clone());
@@ -180,9 +189,17 @@ impl<M: Outgoing> Outbox<M> {
         let thread = std::thread::Builder::new()
             .name(node.clone())
             .spawn(move || {
-                // started by the cycle thread: not at its SCHED_FIFO priority
+                // started by the cycle thread: not at its SCHED_FIFO priority, at
+                // its own below it (or none); it sleeps between messages, so the loop
+                // on its core runs first
                 if let Err(e) = softnc_rt::leave_realtime() {
                     tracing::warn!("{node}: {e}");
+                }
+                if fifo_priority.is_some() {
+                    softnc_rt::setup_realtime(&softnc_rt::RtOptions {
+                        fifo_priority,
+                        ..Default::default()
+                    });
                 }
                 let opened = Bus::new(names, &node).and_then(|bus| Ok((M::open(&bus)?, bus)));
                 let (ports, _bus) = match opened {
@@ -328,7 +345,7 @@ mod tests {
         let bus = Bus::new(names.clone(), "listener").unwrap();
         let commands = bus.command_subscriber().unwrap();
         let beats = bus.heartbeat_subscriber().unwrap();
-        let mut out = Outbox::<InterpMsg>::start(names, "order-out", 0, true).unwrap();
+        let mut out = Outbox::<InterpMsg>::start(names, "order-out", 0, true, None).unwrap();
         for k in 0..500 {
             out.send(InterpMsg::Command(CommandSample::new(k, 1, k, [0.0; 3])))
                 .unwrap();
@@ -360,20 +377,31 @@ mod tests {
     /// The scheduling policy of this process's thread named `name` (0 SCHED_OTHER,
     /// 1 SCHED_FIFO), from field 41 of its `/proc` stat.
     fn policy_of(name: &str) -> Option<u32> {
+        stat_field(name, 41)
+    }
+
+    /// The real-time priority of this process's thread named `name` (field 40).
+    fn priority_of(name: &str) -> Option<u32> {
+        stat_field(name, 40)
+    }
+
+    /// Field `field` (1-based, as proc(5) counts) of the `/proc` stat of this
+    /// process's thread named `name`.
+    fn stat_field(name: &str, field: usize) -> Option<u32> {
         for task in std::fs::read_dir("/proc/self/task").ok()? {
             let task = task.ok()?.path();
             let comm = std::fs::read_to_string(task.join("comm")).ok()?;
             if comm.trim_end() == name {
                 let stat = std::fs::read_to_string(task.join("stat")).ok()?;
                 let after_comm = &stat[stat.rfind(')')? + 2..];
-                return after_comm.split(' ').nth(41 - 3)?.parse().ok();
+                return after_comm.split(' ').nth(field - 3)?.parse().ok();
             }
         }
         None
     }
 
     #[test]
-    fn the_publisher_thread_does_not_inherit_sched_fifo() {
+    fn the_publisher_thread_runs_at_its_own_priority_not_the_loops() {
         let cycle = std::thread::Builder::new().name("fifo-loop".into());
         cycle
             .spawn(|| {
@@ -381,17 +409,36 @@ mod tests {
                     fifo_priority: Some(10),
                     ..Default::default()
                 });
-                let out = Outbox::<InterpMsg>::start(names("fifo"), "fifo-out", 0, true).unwrap();
+                let other =
+                    Outbox::<InterpMsg>::start(names("fifo"), "other-out", 0, true, None).unwrap();
+                let below =
+                    Outbox::<InterpMsg>::start(names("fifo2"), "below-out", 0, true, Some(9))
+                        .unwrap();
                 let me = policy_of("fifo-loop");
-                let publisher = policy_of("fifo-out");
+                let (other_policy, below_policy) = (policy_of("other-out"), policy_of("below-out"));
+                let below_prio = priority_of("below-out");
                 softnc_rt::leave_realtime().unwrap();
-                drop(out);
+                drop((other, below));
                 if rt.fifo.is_some() {
                     assert_eq!(me, Some(1), "the loop's thread runs SCHED_FIFO");
+                    assert_eq!(
+                        below_policy,
+                        Some(1),
+                        "a publisher given a priority runs SCHED_FIFO"
+                    );
+                    assert_eq!(
+                        below_prio,
+                        Some(9),
+                        "at its own priority, not the loop's 10"
+                    );
                 } else {
                     eprintln!("SCHED_FIFO refused here: the inheritance is not exercised");
                 }
-                assert_eq!(publisher, Some(0), "the publisher thread runs SCHED_OTHER");
+                assert_eq!(
+                    other_policy,
+                    Some(0),
+                    "a publisher without one runs SCHED_OTHER"
+                );
             })
             .unwrap()
             .join()

@@ -76,7 +76,10 @@ pub struct PositionTask<B: ServoBackend> {
     last_cmd: [f64; 3],
     prev_cmd: [f64; 3],
     dry: Option<DryStop>,
-    last_sample_at: Instant,
+    /// Lockstep: since when the ring has lacked the samples the next cycle needs
+    /// (the interpolator's silence, not the time since its last sample: a job whose
+    /// preparation took longer than the timeout must not start with a dry stop).
+    starved_since: Option<Instant>,
     /// The job started last.
     last_job_id: u64,
     latency: softnc_rt::LatencyStats,
@@ -116,6 +119,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 OUTBOX_CAPACITY,
                 // lockstep: never drop a status (the interpolator paces itself on it)
                 cfg.config.clock == ClockMode::Lockstep,
+                cfg.config.position_rt.helper_priority(),
             )?,
             cfg,
             engine,
@@ -138,7 +142,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             last_cmd: [0.0; 3],
             prev_cmd: [0.0; 3],
             dry: None,
-            last_sample_at: Instant::now(),
+            starved_since: None,
             last_job_id: 0,
             latency: softnc_rt::LatencyStats::new(),
             stats: LoopStats::new(),
@@ -202,6 +206,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 && self.dry.is_none();
             let starting = self.state == MachineState::Idle && self.job_id != 0;
             if (moving || (starting && self.job_ready)) && self.ring.ready(self.window) {
+                self.starved_since = None;
                 return Ok(true);
             }
             if !moving && !starting {
@@ -212,7 +217,9 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 self.pull_commands()?;
                 return Ok(true);
             }
-            if self.last_sample_at.elapsed().as_secs_f64() > self.cfg.config.heartbeat_timeout_s {
+            let starved = *self.starved_since.get_or_insert_with(Instant::now);
+            if moving && starved.elapsed().as_secs_f64() > self.cfg.config.heartbeat_timeout_s {
+                self.starved_since = None;
                 return Ok(true);
             }
             if t0.elapsed() > Duration::from_millis(2) {
@@ -275,7 +282,6 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         self.pull_control()?;
         while let Some(c) = self.commands.receive()? {
             let c = *c;
-            self.last_sample_at = Instant::now();
             if c.sent_unix_ns != 0 {
                 self.latency
                     .record_ns(softnc_rt::unix_ns().saturating_sub(c.sent_unix_ns));

@@ -19,6 +19,14 @@ pub struct RtOptions {
     pub lock_memory: bool,
 }
 
+impl RtOptions {
+    /// The SCHED_FIFO priority of a thread that carries this loop's messages (its
+    /// publisher): one below the loop's, none if the loop has none.
+    pub fn helper_priority(&self) -> Option<u8> {
+        self.fifo_priority.map(|p| p.saturating_sub(1).max(1))
+    }
+}
+
 /// What worked, and warnings for what did not.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RtReport {
