@@ -7,6 +7,7 @@ mod common;
 use common::learn_job;
 use softnc_daemon::client::Operator;
 use softnc_ipc::ControlKind;
+use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command};
 use std::time::{Duration, Instant};
@@ -84,7 +85,14 @@ impl Daemon {
         let child = Command::new(env!("CARGO_BIN_EXE_softncd"))
             .arg("--config")
             .arg(&config)
-            .env("RUST_LOG", "warn")
+            // SOFTNC_E2E_LOG=info shows the processes' logs when a test fails
+            .env(
+                "RUST_LOG",
+                std::env::var("SOFTNC_E2E_LOG").unwrap_or_else(|_| "warn".into()),
+            )
+            // its own process group: a test can signal the controller as a terminal's
+            // Ctrl-C does, and nothing else
+            .process_group(0)
             .spawn()
             .unwrap();
         Daemon {
@@ -158,6 +166,45 @@ impl Daemon {
             .ok()
     }
 
+    /// The pids of this controller's three processes.
+    fn children(&self) -> Vec<u32> {
+        ["softnc-mmi", "softnc-position", "softnc-interp"]
+            .iter()
+            .filter_map(|n| self.pid_of(n))
+            .collect()
+    }
+
+    /// Wait until none of `pids` runs any more (or fail after `timeout`).
+    fn wait_gone(pids: &[u32], timeout: Duration) {
+        let t0 = Instant::now();
+        loop {
+            let alive: Vec<u32> = pids
+                .iter()
+                .copied()
+                .filter(|p| {
+                    // a zombie has no cmdline left; gone is gone
+                    std::fs::read_to_string(format!("/proc/{p}/stat"))
+                        .map(|s| !s.contains(") Z "))
+                        .unwrap_or(false)
+                })
+                .collect();
+            if alive.is_empty() {
+                return;
+            }
+            assert!(
+                t0.elapsed() < timeout,
+                "processes {alive:?} still running after {timeout:?}"
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    /// The job history as the MMI wrote it.
+    fn jobs_file(&self) -> serde_json::Value {
+        let text = std::fs::read_to_string(self.dir.join("data/jobs.json")).unwrap_or_default();
+        serde_json::from_str(&text).unwrap_or(serde_json::Value::Null)
+    }
+
     fn kill9(&self, name: &str) {
         let pid = self
             .pid_of(name)
@@ -186,6 +233,57 @@ impl Drop for Daemon {
         let _ = self.child.wait();
         let _ = std::fs::remove_dir_all(&self.dir);
     }
+}
+
+/// The trace of a stopped job shows a stop along the path: from one cycle to the next
+/// the command never moves more than it moved in the cycle before plus what the
+/// acceleration limit allows (|Δ²x| ≤ √3·3000 mm/s²·T²), and it ends at rest.
+fn assert_stops_along_the_path(trace: &Path) {
+    let t0 = Instant::now();
+    let text = loop {
+        let t = std::fs::read_to_string(trace).unwrap_or_default();
+        if t.lines().count() > 100 || t0.elapsed() > Duration::from_secs(5) {
+            break t;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let cmds: Vec<[f64; 3]> = text
+        .lines()
+        .skip(1)
+        .filter_map(|l| {
+            let f: Vec<f64> = l
+                .split(',')
+                .skip(1)
+                .take(3)
+                .filter_map(|v| v.parse().ok())
+                .collect();
+            (f.len() == 3).then(|| [f[0], f[1], f[2]])
+        })
+        .collect();
+    assert!(
+        cmds.len() > 100,
+        "trace of the stopped job: {} rows",
+        cmds.len()
+    );
+    let step = |a: [f64; 3], b: [f64; 3]| {
+        ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
+    };
+    let steps: Vec<f64> = cmds.windows(2).map(|w| step(w[0], w[1])).collect();
+    let accel_step_mm = 3f64.sqrt() * 3000.0 * 1e-6 * 1.01;
+    for (k, w) in steps.windows(2).enumerate() {
+        assert!(
+            w[1] <= w[0] + accel_step_mm,
+            "position jump at cycle {}: {} mm after {} mm",
+            k + 1,
+            w[1],
+            w[0]
+        );
+    }
+    let last = *steps.last().unwrap();
+    assert!(
+        last <= accel_step_mm,
+        "still moving {last} mm per cycle at the end"
+    );
 }
 
 fn abs(path: &Path) -> String {
@@ -530,57 +628,9 @@ fn killing_the_interpolator_stops_along_the_path_and_a_reset_recovers() {
         alarms.contains("RingDry") || alarms.contains("ran dry"),
         "{alarms}"
     );
-    // the axes stopped along the path: from one cycle to the next the command never
-    // moves more than it moved in the cycle before plus what the acceleration limit
-    // allows (|Δ²x| ≤ √3·3000 mm/s²·T²) — no jump anywhere, also not where the ring
+    // the axes stopped along the path: no jump anywhere, also not where the ring
     // ran dry
-    let trace = d.dir.join(format!("data/trace-job{}.csv", r.job_id));
-    let t0 = Instant::now();
-    let text = loop {
-        let t = std::fs::read_to_string(&trace).unwrap_or_default();
-        if t.lines().count() > 100 || t0.elapsed() > Duration::from_secs(5) {
-            break t;
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    };
-    let cmds: Vec<[f64; 3]> = text
-        .lines()
-        .skip(1)
-        .map(|l| {
-            let f: Vec<f64> = l
-                .split(',')
-                .skip(1)
-                .take(3)
-                .map(|v| v.parse().unwrap())
-                .collect();
-            [f[0], f[1], f[2]]
-        })
-        .collect();
-    assert!(
-        cmds.len() > 100,
-        "trace of the stopped job: {} rows",
-        cmds.len()
-    );
-    let step = |a: [f64; 3], b: [f64; 3]| {
-        ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
-    };
-    let steps: Vec<f64> = cmds.windows(2).map(|w| step(w[0], w[1])).collect();
-    let accel_step_mm = 3f64.sqrt() * 3000.0 * 1e-6 * 1.01;
-    for (k, w) in steps.windows(2).enumerate() {
-        assert!(
-            w[1] <= w[0] + accel_step_mm,
-            "position jump at cycle {}: {} mm after {} mm",
-            k + 1,
-            w[1],
-            w[0]
-        );
-    }
-    // and it came to rest: the last step is below one acceleration step
-    let last = *steps.last().unwrap();
-    assert!(
-        last <= accel_step_mm,
-        "still moving {last} mm per cycle at the end"
-    );
+    assert_stops_along_the_path(&d.dir.join(format!("data/trace-job{}.csv", r.job_id)));
     // a second client cannot start a job on a faulted machine
     let again = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
     assert_eq!(again.accepted, 0, "{}", again.message.as_str());
@@ -718,4 +768,227 @@ fn a_spindle_override_redesigns_the_pdc_in_a_running_job_and_stays_for_the_next(
     assert_eq!(s["spindle_rpm"], 1800.0, "{s}");
     let s = d.wait_job(&op, r.job_id, Duration::from_secs(30));
     assert_eq!(s["job"]["outcome"], "completed", "{s}");
+}
+
+/// The iceoryx2 services left for an instance (after its controller stopped).
+fn services_of(instance: &str) -> Vec<String> {
+    use iceoryx2::prelude::*;
+    let mut names = Vec::new();
+    let _ = ipc::Service::list(Config::global_config(), |d| {
+        let n = d.static_details.name().as_str().to_string();
+        if n.contains(&format!("/{instance}/")) {
+            names.push(n);
+        }
+        CallbackProgression::Continue
+    });
+    names
+}
+
+/// Start the short job and wait until it moves.
+fn start_moving(d: &Daemon, op: &Operator) -> u64 {
+    let job = short_job(&d.dir);
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    d.wait_status(op, Duration::from_secs(20), "motion", |s| {
+        s["job"]["cycles"].as_u64().unwrap_or(0) > 800
+    });
+    r.job_id
+}
+
+/// A stop by signal: the job stops along its path and is recorded as aborted,
+/// softncd exits 0, no process and no iceoryx2 service of the instance is left.
+fn signal_stops_in_order(tag: &str, signal: &str, to_group: bool) {
+    let mut d = Daemon::start(tag, "Realtime", true);
+    let instance = format!("e2e{tag}{}", std::process::id());
+    let op = d.operator();
+    let job_id = start_moving(&d, &op);
+    drop(op);
+    let kids = d.children();
+    assert_eq!(kids.len(), 3, "three processes: {kids:?}");
+    let pid = d.child.id() as i32;
+    let target = if to_group { -pid } else { pid };
+    let ok = Command::new("kill")
+        .args([&format!("-{signal}"), "--", &target.to_string()])
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok, "kill -{signal} {target}");
+    let t0 = Instant::now();
+    let status = loop {
+        if let Some(st) = d.child.try_wait().unwrap() {
+            break st;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(15),
+            "softncd still running 15 s after SIG{signal}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert_eq!(status.code(), Some(0), "softncd exits 0 on SIG{signal}");
+    Daemon::wait_gone(&kids, Duration::from_secs(5));
+    assert_stops_along_the_path(&d.dir.join(format!("data/trace-job{job_id}.csv")));
+    let jobs = d.jobs_file();
+    let rec = jobs
+        .as_array()
+        .and_then(|a| a.iter().find(|j| j["job_id"] == job_id))
+        .cloned()
+        .unwrap_or_default();
+    assert_eq!(rec["outcome"], "aborted", "the job's record: {rec}");
+    assert_eq!(
+        services_of(&instance),
+        Vec::<String>::new(),
+        "iceoryx2 services left"
+    );
+}
+
+#[test]
+fn sigterm_stops_the_job_along_its_path_and_softncd_exits_0_leaving_nothing() {
+    signal_stops_in_order("term", "TERM", false);
+}
+
+#[test]
+fn sigint_to_the_process_group_stops_the_job_along_its_path_and_everything_exits() {
+    signal_stops_in_order("int", "INT", true);
+}
+
+#[test]
+fn killing_softncd_stops_its_children_along_the_path_and_a_new_softncd_runs_the_next_job() {
+    let mut d = Daemon::start("orphan", "Realtime", true);
+    let op = d.operator();
+    let job_id = start_moving(&d, &op);
+    drop(op);
+    let kids = d.children();
+    assert_eq!(kids.len(), 3, "three processes: {kids:?}");
+    d.child.kill().unwrap();
+    let _ = d.child.wait();
+    // the children notice their parent is gone and stop in order by themselves
+    Daemon::wait_gone(&kids, Duration::from_secs(10));
+    assert_stops_along_the_path(&d.dir.join(format!("data/trace-job{job_id}.csv")));
+    // a new softncd on the same instance starts cleanly and runs a job
+    d.child = Command::new(env!("CARGO_BIN_EXE_softncd"))
+        .arg("--config")
+        .arg(&d.config)
+        .env("RUST_LOG", "warn")
+        .process_group(0)
+        .spawn()
+        .unwrap();
+    let op = d.operator();
+    d.wait_status(&op, Duration::from_secs(10), "processes up", |s| {
+        s["processes"]["interp"] == "alive" && s["processes"]["position"] == "alive"
+    });
+    let r = op
+        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
+        .unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    assert!(
+        !s["alarms"].to_string().contains("SequenceError"),
+        "no second set of processes: {s}"
+    );
+}
+
+#[test]
+fn a_second_softncd_on_the_same_instance_is_refused_and_the_first_runs_on() {
+    let d = Daemon::start("second", "Lockstep", false);
+    let op = d.operator();
+    let out = Command::new(env!("CARGO_BIN_EXE_softncd"))
+        .arg("--config")
+        .arg(&d.config)
+        .env("RUST_LOG", "warn")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1), "second softncd: {out:?}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("already controlled by softncd pid")
+            && err.contains(&d.child.id().to_string()),
+        "{err}"
+    );
+    // the first one's processes are untouched and run a job
+    let r = op
+        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
+        .unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+}
+
+#[test]
+fn commands_say_what_the_machine_does_in_every_state() {
+    let d = Daemon::start("states", "Realtime", false);
+    let op = d.operator();
+    let req = |k: ControlKind| op.request(k, 0.0, "").unwrap();
+    // idle: nothing to hold, resume or abort; a reset only clears alarms
+    for k in [ControlKind::Hold, ControlKind::Resume, ControlKind::Abort] {
+        let r = req(k);
+        assert_eq!(r.accepted, 0, "{k:?} when idle: {}", r.message.as_str());
+    }
+    assert_eq!(req(ControlKind::Reset).accepted, 1);
+    let job_id = start_moving(&d, &op);
+    // running: resume refused, reset refused (the job moves), hold shows held
+    let r = req(ControlKind::Resume);
+    assert_eq!(r.accepted, 0, "{}", r.message.as_str());
+    let r = req(ControlKind::Reset);
+    assert_eq!(r.accepted, 0, "{}", r.message.as_str());
+    assert!(
+        r.message.as_str().contains("abort"),
+        "{}",
+        r.message.as_str()
+    );
+    let s = op.status().unwrap();
+    assert_eq!(s["state"], "Running", "{s}");
+    assert_eq!(
+        s["job"]["outcome"], "running",
+        "a refused reset changed nothing: {s}"
+    );
+    assert_eq!(req(ControlKind::Hold).accepted, 1);
+    let s = op.status().unwrap();
+    assert_eq!(s["state"], "Held", "{s}");
+    assert_eq!(req(ControlKind::Hold).accepted, 0, "already held");
+    // held: abort stops the job along its path; it ends aborted, the machine idle
+    let r = req(ControlKind::Abort);
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    assert_eq!(op.status().unwrap()["state"], "Stopping");
+    let s = d.wait_job(&op, job_id, Duration::from_secs(20));
+    assert_eq!(s["job"]["outcome"], "aborted", "{s}");
+    let s = d.wait_status(&op, Duration::from_secs(5), "idle", |s| {
+        s["state"] == "Idle"
+    });
+    assert!(
+        s["alarms"].as_array().unwrap().is_empty(),
+        "an abort is no alarm: {s}"
+    );
+    // the machine runs the next job; an E-stop faults it, the alarm shows until a
+    // reset clears it (kept in the job's record)
+    let job2 = start_moving(&d, &op);
+    assert_eq!(req(ControlKind::EStop).accepted, 1);
+    let s = d.wait_job(&op, job2, Duration::from_secs(10));
+    assert_eq!(s["job"]["outcome"], "aborted", "{s}");
+    let s = d.wait_status(&op, Duration::from_secs(5), "E-stop alarm", |s| {
+        s["alarms"].to_string().contains("EStop")
+    });
+    assert_eq!(s["state"], "EStopped");
+    for k in [ControlKind::Hold, ControlKind::Resume, ControlKind::Abort] {
+        assert_eq!(req(k).accepted, 0, "{k:?} when E-stopped");
+    }
+    let r = op
+        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
+        .unwrap();
+    assert_eq!(r.accepted, 0, "{}", r.message.as_str());
+    assert_eq!(req(ControlKind::Reset).accepted, 1);
+    let s = d.wait_status(&op, Duration::from_secs(5), "idle", |s| {
+        s["state"] == "Idle"
+    });
+    assert!(s["alarms"].as_array().unwrap().is_empty(), "cleared: {s}");
+    let rec = d.jobs_file();
+    let rec = rec
+        .as_array()
+        .and_then(|a| a.iter().find(|j| j["job_id"] == job2))
+        .cloned()
+        .unwrap_or_default();
+    assert!(
+        rec["alarms"].to_string().contains("EStop"),
+        "kept in the record: {rec}"
+    );
 }

@@ -33,8 +33,22 @@ fn softncd_path() -> Result<PathBuf> {
     Ok(p)
 }
 
-/// Run the demo.
+/// Run the demo: on an instance of its own (`demo<pid>`, data in a temporary
+/// folder), so that it never touches a controller already running from the same
+/// configuration, and two demos run side by side.
 pub fn run(args: DemoArgs, config: &Path) -> Result<ExitCode> {
+    let loaded = softnc_daemon::config::DaemonConfig::load(config)?;
+    let dir = std::env::temp_dir().join(format!("softnc-demo-{}", std::process::id()));
+    let instance = format!("demo{}", std::process::id());
+    let demo_config = loaded
+        .write_instance_copy(&dir, &instance)
+        .with_context(|| format!("writing the demo's configuration into {}", dir.display()))?;
+    let r = run_on(args, &demo_config);
+    let _ = std::fs::remove_dir_all(&dir);
+    r
+}
+
+fn run_on(args: DemoArgs, config: &Path) -> Result<ExitCode> {
     let mut daemon = Command::new(softncd_path()?)
         .arg("--config")
         .arg(config)

@@ -23,6 +23,9 @@ pub enum OperatorCmd {
     Hold,
     /// Resume after a feed hold.
     Resume,
+    /// Cycle stop: the running (or held) job stops along its path within the
+    /// deceleration limits and ends "aborted"; the machine is idle after.
+    Abort,
     /// Set the feed override (percent, 0..=255).
     Override {
         /// Percent.
@@ -38,7 +41,8 @@ pub enum OperatorCmd {
     },
     /// Emergency stop.
     Estop,
-    /// Reset after a fault or E-stop.
+    /// Reset after a fault or E-stop (refused while a job moves); clears the
+    /// machine's alarms (each job's record keeps its own).
     Reset,
     /// Job history.
     Jobs {
@@ -105,6 +109,7 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
         }
         OperatorCmd::Hold => simple(ControlKind::Hold, 0.0),
         OperatorCmd::Resume => simple(ControlKind::Resume, 0.0),
+        OperatorCmd::Abort => simple(ControlKind::Abort, 0.0),
         OperatorCmd::Override { pct } => simple(ControlKind::FeedOverride, pct / 100.0),
         OperatorCmd::SpindleOverride { pct } => simple(ControlKind::SpindleOverride, pct / 100.0),
         OperatorCmd::Estop => simple(ControlKind::EStop, 0.0),

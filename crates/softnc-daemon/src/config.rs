@@ -56,6 +56,39 @@ pub struct DaemonConfig {
     pub learning_dir: Option<PathBuf>,
     /// iceoryx2 configuration, relative to this file's folder.
     pub iceoryx2_config: PathBuf,
+    /// How `softncd` watches and restarts its processes.
+    #[serde(default)]
+    pub supervisor: SupervisorConfig,
+}
+
+/// How `softncd` watches and restarts its processes.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SupervisorConfig {
+    /// A process that has sent no heartbeat for this long is killed and handled as
+    /// dead (s); long enough for the longest job check or plan.
+    pub watchdog_s: f64,
+    /// More restarts than this of one process within `restart_window_s`: it is not
+    /// restarted again, the machine is faulted until `reset`.
+    pub restart_limit: u32,
+    /// The window the restarts are counted in (s).
+    pub restart_window_s: f64,
+    /// Wait before the first restart (s); doubled for each further one in the window.
+    pub restart_delay_s: f64,
+    /// Longest wait before a restart (s).
+    pub restart_delay_max_s: f64,
+}
+
+impl Default for SupervisorConfig {
+    fn default() -> Self {
+        SupervisorConfig {
+            watchdog_s: 10.0,
+            restart_limit: 5,
+            restart_window_s: 60.0,
+            restart_delay_s: 0.1,
+            restart_delay_max_s: 5.0,
+        }
+    }
 }
 
 /// Largest lookahead the position process can hold (its ring holds twice this).
@@ -83,6 +116,26 @@ pub struct Loaded {
 }
 
 impl Loaded {
+    /// Write this configuration as another instance `instance` into `dir` (its file
+    /// `dir/softncd.ron`, its data directory `dir/data`), every path absolute: a
+    /// controller of its own beside this one (`softnc demo`) that shares nothing with
+    /// it but the machine profile and the learning store.
+    pub fn write_instance_copy(&self, dir: &Path, instance: &str) -> std::io::Result<PathBuf> {
+        let abs = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
+        let mut c = self.config.clone();
+        c.instance = instance.to_string();
+        c.machine = abs(&self.machine_path);
+        c.iceoryx2_config = abs(&self.iceoryx2_config);
+        c.learning_dir = Some(abs(&self.learning_dir));
+        std::fs::create_dir_all(dir.join("data"))?;
+        c.data_dir = abs(&dir.join("data"));
+        let text = ron::ser::to_string_pretty(&c, ron::ser::PrettyConfig::default())
+            .map_err(std::io::Error::other)?;
+        let path = dir.join("softncd.ron");
+        softnc_core::store::write_atomic(&path, text.as_bytes())?;
+        Ok(path)
+    }
+
     /// Make the shipped iceoryx2 configuration the process's global one (before any
     /// node is created).
     pub fn setup_iceoryx2(&self) -> Result<(), String> {
@@ -127,6 +180,23 @@ impl DaemonConfig {
             return Err(bad(
                 "heartbeat_timeout_s",
                 "must be more than twice heartbeat_period_s (> 0)",
+            ));
+        }
+        let sv = config.supervisor;
+        if !(sv.watchdog_s.is_finite() && sv.watchdog_s > config.heartbeat_timeout_s) {
+            return Err(bad(
+                "supervisor.watchdog_s",
+                "must be a finite number above heartbeat_timeout_s",
+            ));
+        }
+        if !(sv.restart_window_s > 0.0
+            && sv.restart_delay_s >= 0.0
+            && sv.restart_delay_max_s >= sv.restart_delay_s
+            && sv.restart_delay_max_s.is_finite())
+        {
+            return Err(bad(
+                "supervisor",
+                "restart_window_s > 0 and 0 <= restart_delay_s <= restart_delay_max_s (finite)",
             ));
         }
         if !(config.following_error_limit_mm > 0.0 && config.following_error_limit_mm.is_finite()) {

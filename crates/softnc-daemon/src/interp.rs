@@ -25,6 +25,7 @@
 
 use crate::bus::{Bus, Sub};
 use crate::config::{ClockMode, Loaded};
+use crate::lifecycle::StopWatch;
 use crate::outbox::{InterpMsg, Outbox, OUTBOX_CAPACITY};
 use anyhow::Result;
 use softnc_ipc::{
@@ -53,6 +54,8 @@ pub struct InterpTask {
     state: MachineState,
     job_id: u64,
     shutdown: bool,
+    /// SIGTERM/SIGINT or the supervisor's death: stop the job along its path, end.
+    stop: StopWatch,
     _bus: Bus,
 }
 
@@ -144,13 +147,24 @@ impl InterpTask {
             state: MachineState::Idle,
             job_id: 0,
             shutdown: false,
+            stop: StopWatch::manual(),
             _bus: bus,
         })
+    }
+
+    /// Stop (as on a `Shutdown` command) when `stop` asks: a running job decelerates
+    /// along its path, then the process ends.
+    pub fn set_stop_watch(&mut self, stop: StopWatch) {
+        self.stop = stop;
     }
 
     /// Serve control commands until `Shutdown`.
     pub fn run(&mut self) -> Result<()> {
         while !self.shutdown {
+            if self.stop.requested().is_some() {
+                self.shutdown = true;
+                break;
+            }
             while let Some(c) = self.control.receive()? {
                 let c = *c;
                 match ControlKind::from_wire(c.kind) {
@@ -161,6 +175,7 @@ impl InterpTask {
                         } else {
                             1.0
                         };
+                        tracing::info!("job {}: planning {}", c.job_id, c.path.as_str());
                         let waits = self.outbox.waits();
                         let end = self.run_job(c.path.as_str(), c.job_id, feed_override)?;
                         tracing::info!("job {} {:?}", c.job_id, end);
@@ -172,6 +187,11 @@ impl InterpTask {
                             );
                         }
                     }
+                    Some(ControlKind::StartJob) => tracing::warn!(
+                        "job {}: not started, the interpolator is {:?}",
+                        c.job_id,
+                        self.state
+                    ),
                     Some(ControlKind::EStop) => self.state = MachineState::EStopped,
                     Some(ControlKind::Reset) => self.state = MachineState::Idle,
                     Some(ControlKind::Shutdown) => self.shutdown = true,
@@ -377,9 +397,10 @@ impl InterpTask {
     pub fn cycle(&mut self, s: &mut Streaming<'_>) -> Result<Option<JobEnd>> {
         let end = self.step(s)?;
         if let Some(end) = end {
-            self.state = match end {
-                JobEnd::Completed | JobEnd::Refused => MachineState::Idle,
-                JobEnd::Aborted => self.state,
+            self.state = match (end, self.state) {
+                // stopped by a fault or an E-stop: that stands until a reset
+                (JobEnd::Aborted, st @ (MachineState::Faulted | MachineState::EStopped)) => st,
+                _ => MachineState::Idle,
             };
             self.job_id = 0;
         }
@@ -402,8 +423,24 @@ impl InterpTask {
                 return Ok(Some(JobEnd::Aborted));
             }
         }
-        while let Some(c) = self.control.receive()? {
-            let c = *c;
+        // a stop asked for by a signal or the supervisor's death: as a Shutdown
+        let stop_now = !self.shutdown && self.stop.requested().is_some();
+        let stop_cmd = stop_now.then_some(ControlCommand {
+            seq: 0,
+            kind: ControlKind::Shutdown.wire(),
+            job_id: 0,
+            value: 0.0,
+            path: FixedStr::empty(),
+        });
+        let mut pending = stop_cmd;
+        loop {
+            let c = match pending.take() {
+                Some(c) => c,
+                None => match self.control.receive()? {
+                    Some(c) => *c,
+                    None => break,
+                },
+            };
             let kind = ControlKind::from_wire(c.kind);
             // re-timed from the next sample on: the learned correction fades out
             let retimed = match kind {
@@ -447,6 +484,7 @@ impl InterpTask {
                 Some(ControlKind::Abort) => {
                     s.aborting = true;
                     s.it.set_feed_override(0.0);
+                    self.state = MachineState::Stopping;
                 }
                 Some(ControlKind::EStop) => {
                     self.state = MachineState::EStopped;
@@ -456,6 +494,7 @@ impl InterpTask {
                     self.shutdown = true;
                     s.aborting = true;
                     s.it.set_feed_override(0.0);
+                    self.state = MachineState::Stopping;
                 }
                 _ => {}
             }

@@ -12,6 +12,8 @@
 //!   publisher thread.
 //! - [`mmi`]: `softnc-mmi`, job checks, machine state, alarms, history, operator API.
 //! - [`supervisor`]: `softncd`, starts, watches, restarts and stops the processes.
+//! - [`lifecycle`]: one controller per instance (a lock), stopping on SIGTERM/SIGINT
+//!   or the parent's death, systemd's readiness and watchdog.
 //! - [`cli`]: shared start-up of the binaries.
 //! - [`trace`]: per-cycle CSV traces, written off the cycle path.
 //! - [`client`]: the operator client (request-response to the MMI).
@@ -22,6 +24,7 @@ pub mod cli;
 pub mod client;
 pub mod config;
 pub mod interp;
+pub mod lifecycle;
 pub mod mmi;
 pub mod outbox;
 pub mod position;

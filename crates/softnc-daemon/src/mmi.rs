@@ -6,6 +6,7 @@
 use crate::bus::{Bus, Pub, Sub};
 use crate::config::Loaded;
 use crate::interp::read_and_plan;
+use crate::lifecycle::StopWatch;
 use anyhow::{Context, Result};
 use iceoryx2::port::server::Server;
 use iceoryx2::prelude::*;
@@ -38,6 +39,10 @@ pub struct JobRecord {
     /// Remarks that are not alarms (a learned correction applied, faded out, …).
     #[serde(default)]
     pub notes: Vec<String>,
+    /// The alarms raised while it ran ("Code: message"); kept when the operator
+    /// clears the machine's alarms.
+    #[serde(default)]
+    pub alarms: Vec<String>,
 }
 
 /// Accuracy of a job, accumulated from the position status stream.
@@ -75,6 +80,10 @@ impl Accuracy {
 struct Peer {
     last_seen: Option<Instant>,
     state: u32,
+    /// Its pid, from its heartbeats.
+    pid: u32,
+    /// The pid of an instance reported lost: its heartbeats still queued are stale.
+    lost_pid: Option<u32>,
 }
 
 /// The MMI process.
@@ -98,10 +107,19 @@ pub struct MmiTask {
     hb_counter: u64,
     last_hb: Instant,
     shutdown: bool,
+    /// The job an abort or a stop was asked for: it ends "aborted", not "completed".
+    abort_asked: Option<u64>,
+    /// A hold or an abort of the running job, accepted (Held, Stopping); cleared by
+    /// resume and at the job's end.
+    intent: Option<MachineState>,
+    stop: StopWatch,
     _bus: Bus,
 }
 
 const ALARM_HISTORY: usize = 50;
+/// After a stop is asked for, how long the MMI waits for the running job to stop
+/// (to record how it ended) before it exits.
+const STOP_WAIT: Duration = Duration::from_secs(4);
 
 impl MmiTask {
     /// Open the services and the job history.
@@ -131,6 +149,8 @@ impl MmiTask {
             peers: [Peer {
                 last_seen: None,
                 state: 0,
+                pid: 0,
+                lost_pid: None,
             }; 4],
             loops: [None; 4],
             alarms: VecDeque::new(),
@@ -140,8 +160,16 @@ impl MmiTask {
             hb_counter: 0,
             last_hb: Instant::now() - Duration::from_secs(1),
             shutdown: false,
+            abort_asked: None,
+            intent: None,
+            stop: StopWatch::manual(),
             _bus: bus,
         })
+    }
+
+    /// Stop when `stop` asks (SIGTERM/SIGINT, the supervisor's death).
+    pub fn set_stop_watch(&mut self, stop: StopWatch) {
+        self.stop = stop;
     }
 
     fn jobs_path(&self) -> std::path::PathBuf {
@@ -177,23 +205,75 @@ impl MmiTask {
     }
 
     /// The machine state as the position process reports it (Idle before it reports).
-    pub fn machine_state(&self) -> MachineState {
+    pub fn position_state(&self) -> MachineState {
         self.last
             .and_then(|s| MachineState::from_wire(s.state))
             .unwrap_or(MachineState::Idle)
+    }
+
+    /// A job is under way: started and not ended (also before its first sample).
+    fn job_active(&self) -> bool {
+        self.last.is_some_and(|s| s.job_id != 0) || self.jobs.iter().any(|j| j.outcome == "running")
+    }
+
+    /// The machine state the operator sees (docs/operations.md): the position
+    /// process's, with a job's hold or stop along its path as asked for and accepted,
+    /// or as the interpolator reports it (a stop on a signal), and faulted when the
+    /// supervisor has given up on a process.
+    pub fn machine_state(&self) -> MachineState {
+        let pos = self.position_state();
+        let supervisor = self.peers[ProcessId::Supervisor as usize];
+        let supervisor_faulted = supervisor
+            .last_seen
+            .is_some_and(|t| t.elapsed().as_secs_f64() <= self.cfg.config.heartbeat_timeout_s)
+            && supervisor.state == MachineState::Faulted.wire();
+        // the position process's last word does not stand once it is gone
+        let position_lost = self.peer_status(ProcessId::Position) == "lost";
+        match pos {
+            MachineState::Faulted | MachineState::EStopped => pos,
+            _ if supervisor_faulted || position_lost => MachineState::Faulted,
+            _ if self.job_active() => {
+                let interp = MachineState::from_wire(self.peers[ProcessId::Interp as usize].state);
+                match (self.intent, interp) {
+                    (Some(i), _) => i,
+                    (None, Some(MachineState::Stopping)) => MachineState::Stopping,
+                    _ => MachineState::Running,
+                }
+            }
+            _ => MachineState::Idle,
+        }
     }
 
     fn running_job(&mut self) -> Option<&mut JobRecord> {
         self.jobs.iter_mut().rev().find(|j| j.outcome == "running")
     }
 
-    /// Serve until a `Shutdown` request.
+    /// Serve until a `Shutdown` request or a stop (signal, the supervisor's death),
+    /// then until the running job has stopped (its record says how) or [`STOP_WAIT`].
     pub fn run(&mut self) -> Result<()> {
-        while !self.shutdown {
+        let mut stopping_since: Option<Instant> = None;
+        loop {
             self.poll()?;
+            if self.stop.requested().is_some() && !self.shutdown {
+                self.shutdown = true;
+                self.abort_asked = self.running_job().map(|j| j.job_id);
+            }
+            if self.shutdown {
+                let since = *stopping_since.get_or_insert_with(Instant::now);
+                let moving = self.last.is_some_and(|s| {
+                    s.job_id != 0
+                        && matches!(
+                            MachineState::from_wire(s.state),
+                            Some(MachineState::Running | MachineState::Held | MachineState::Idle)
+                        )
+                });
+                if !moving || since.elapsed() > STOP_WAIT {
+                    self.save_jobs();
+                    return Ok(());
+                }
+            }
             std::thread::sleep(Duration::from_millis(1));
         }
-        Ok(())
     }
 
     /// One pass over every input.
@@ -201,7 +281,7 @@ impl MmiTask {
         let mut changed = false;
         while let Some(s) = self.status.receive()? {
             let s = *s;
-            let prev_state = self.machine_state();
+            let prev_state = self.position_state();
             if s.job_id != 0 {
                 // reattached after an MMI restart: the job is still running
                 if let Some(j) = self
@@ -219,23 +299,36 @@ impl MmiTask {
                 }
             }
             self.last = Some(s);
-            let now_state = self.machine_state();
+            let now_state = self.position_state();
             if prev_state != now_state || s.job_id == 0 {
+                let abort_asked = self.abort_asked;
+                let mut ended = false;
                 if let Some(job) = self.running_job() {
                     if matches!(now_state, MachineState::Faulted | MachineState::EStopped) {
                         job.outcome = "aborted".into();
-                        changed = true;
+                        ended = true;
                     } else if now_state == MachineState::Idle && s.job_id == 0 && job.cycles > 0 {
-                        job.outcome = "completed".into();
-                        changed = true;
+                        // stopped along its path by an abort or a stop: not completed
+                        let aborted = abort_asked == Some(job.job_id);
+                        job.outcome = if aborted { "aborted" } else { "completed" }.into();
+                        ended = true;
                     }
+                }
+                if ended {
+                    changed = true;
+                    self.intent = None;
+                    self.abort_asked = None;
                 }
             }
         }
         while let Some(h) = self.heartbeats.receive()? {
             if let Some(p) = self.peers.get_mut(h.process as usize) {
+                if p.lost_pid == Some(h.pid) {
+                    continue; // sent before it died
+                }
                 p.last_seen = Some(Instant::now());
                 p.state = h.state;
+                p.pid = h.pid;
             }
         }
         while let Some(a) = self.alarms_sub.receive()? {
@@ -247,6 +340,25 @@ impl MmiTask {
                     changed = true;
                 }
                 continue;
+            }
+            if a.code == AlarmCode::ProcessLost.wire() && a.process != ProcessId::Supervisor.wire()
+            {
+                // the process named is gone: not alive until its successor says so
+                if let Some(p) = self.peers.get_mut(a.process as usize) {
+                    p.lost_pid = Some(p.pid);
+                    p.last_seen = None;
+                }
+            }
+            // kept in the record of the job it concerns; a job the interpolator
+            // refused (its file changed after the check) never started
+            let code = AlarmCode::from_wire(a.code).unwrap_or(AlarmCode::Other);
+            if let Some(j) = self.jobs.iter_mut().rev().find(|j| j.job_id == a.job_id) {
+                j.alarms.push(format!("{code:?}: {}", a.message.as_str()));
+                if code == AlarmCode::JobRefused && j.outcome == "running" {
+                    j.outcome = "refused".into();
+                    self.intent = None;
+                }
+                changed = true;
             }
             if self.alarms.len() == ALARM_HISTORY {
                 self.alarms.pop_front();
@@ -296,14 +408,28 @@ impl MmiTask {
         Ok(match kind {
             ControlKind::StartJob => {
                 let path = r.path.as_str().to_string();
-                let active = self.last.is_some_and(|s| s.job_id != 0)
-                    || self.jobs.iter().any(|j| j.outcome == "running");
-                if state != MachineState::Idle || active {
+                if self.shutdown {
+                    return Ok(Self::reply(false, 0, "shutting down; job not started"));
+                }
+                if state != MachineState::Idle || self.job_active() {
                     return Ok(Self::reply(
                         false,
                         0,
                         &format!("machine is busy ({state:?}); job not started"),
                     ));
+                }
+                for p in [ProcessId::Interp, ProcessId::Position] {
+                    if self.peer_status(p) != "alive" {
+                        return Ok(Self::reply(
+                            false,
+                            0,
+                            &format!(
+                                "the {} process is {}; job not started",
+                                p.name(),
+                                self.peer_status(p)
+                            ),
+                        ));
+                    }
                 }
                 match read_and_plan(&path, &self.cfg.machine) {
                     Err(msg) => {
@@ -332,6 +458,7 @@ impl MmiTask {
                             cycles: 0,
                             accuracy: Accuracy::default(),
                             notes: Vec::new(),
+                            alarms: Vec::new(),
                         });
                         self.save_jobs();
                         // the feed override is the machine's, not the job's: the job starts at
@@ -383,17 +510,40 @@ impl MmiTask {
             | ControlKind::Resume
             | ControlKind::Abort
             | ControlKind::EStop
-            | ControlKind::Reset => {
-                self.send_control(kind, 0, 0.0, "")?;
-                if kind == ControlKind::Reset {
-                    if let Some(job) = self.running_job() {
-                        job.outcome = "aborted".into();
+            | ControlKind::Reset => match transition(kind, state) {
+                Err(why) => Self::reply(false, 0, &format!("{kind:?} refused ({state:?}): {why}")),
+                Ok(next) => {
+                    let job_id = self.running_job().map_or(0, |j| j.job_id);
+                    match kind {
+                        ControlKind::Hold => self.intent = Some(MachineState::Held),
+                        ControlKind::Resume => self.intent = None,
+                        ControlKind::Abort => {
+                            self.intent = Some(MachineState::Stopping);
+                            self.abort_asked = Some(job_id);
+                        }
+                        ControlKind::Reset => {
+                            // acknowledged: the machine's list is cleared, the jobs'
+                            // records keep theirs
+                            self.alarms.clear();
+                        }
+                        _ => {}
                     }
-                    self.save_jobs();
+                    if kind != ControlKind::Reset || state != MachineState::Idle {
+                        self.send_control(kind, 0, 0.0, "")?;
+                    }
+                    let what = match kind {
+                        ControlKind::Hold => format!("job {job_id} held"),
+                        ControlKind::Resume => format!("job {job_id} resumed"),
+                        ControlKind::Abort => format!("job {job_id} stopping along its path"),
+                        ControlKind::EStop => "emergency stop".to_string(),
+                        _ if state == MachineState::Idle => "alarms cleared".to_string(),
+                        _ => "reset: alarms cleared".to_string(),
+                    };
+                    Self::reply(true, job_id, &format!("{what} ({next:?})"))
                 }
-                Self::reply(true, 0, &format!("{kind:?} sent"))
-            }
+            },
             ControlKind::Shutdown => {
+                self.abort_asked = self.running_job().map(|j| j.job_id);
                 self.send_control(kind, 0, 0.0, "")?;
                 self.shutdown = true;
                 Self::reply(true, 0, "shutting down")
@@ -406,17 +556,21 @@ impl MmiTask {
         })
     }
 
+    /// "alive" (a heartbeat within the timeout), "lost" (silent, or reported lost and
+    /// not yet back) or "unseen".
+    fn peer_status(&self, p: ProcessId) -> &'static str {
+        let timeout = self.cfg.config.heartbeat_timeout_s;
+        match self.peers[p as usize].last_seen {
+            Some(t) if t.elapsed().as_secs_f64() <= timeout => "alive",
+            Some(_) => "lost",
+            None if self.peers[p as usize].lost_pid.is_some() => "lost",
+            None => "unseen",
+        }
+    }
+
     /// The status the operator sees.
     pub fn status_json(&self) -> serde_json::Value {
-        let timeout = self.cfg.config.heartbeat_timeout_s;
-        let peer = |p: ProcessId| {
-            let pe = self.peers[p as usize];
-            match pe.last_seen {
-                Some(t) if t.elapsed().as_secs_f64() <= timeout => "alive",
-                Some(_) => "lost",
-                None => "unseen",
-            }
-        };
+        let peer = |p: ProcessId| self.peer_status(p);
         let loops = |p: ProcessId| {
             self.loops[p as usize].map(|l| {
                 serde_json::json!({"cycles": l.cycles, "overruns": l.overruns,
@@ -459,6 +613,30 @@ impl MmiTask {
     }
 }
 
+/// What an operator command does in a machine state (docs/operations.md): the next
+/// state, or why it is refused (and nothing is sent).
+pub fn transition(kind: ControlKind, state: MachineState) -> Result<MachineState, &'static str> {
+    use MachineState::*;
+    match (kind, state) {
+        (ControlKind::EStop, _) => Ok(EStopped),
+        (ControlKind::Hold, Running) => Ok(Held),
+        (ControlKind::Hold, Held) => Err("already held"),
+        (ControlKind::Resume, Held) => Ok(Running),
+        (ControlKind::Resume, _) => Err("nothing is held"),
+        (ControlKind::Abort, Running | Held) => Ok(Stopping),
+        (ControlKind::Abort, Stopping) => Err("already stopping"),
+        (ControlKind::Reset, Faulted | EStopped) => Ok(Idle),
+        (ControlKind::Reset, Idle) => Ok(Idle),
+        (ControlKind::Reset, Running | Held | Stopping) => {
+            Err("a job is moving: abort it (stops along the path) or E-stop first")
+        }
+        (_, Idle) => Err("no job is running"),
+        (_, Faulted | EStopped) => Err("the machine needs a reset"),
+        (_, Stopping) => Err("the job is stopping"),
+        _ => Err("not in this state"),
+    }
+}
+
 fn load_jobs(cfg: &Loaded) -> Vec<JobRecord> {
     let path = cfg.data_dir.join("jobs.json");
     match std::fs::read(&path) {
@@ -479,5 +657,42 @@ fn load_jobs(cfg: &Loaded) -> Vec<JobRecord> {
             }
         },
         Err(_) => Vec::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ControlKind::*;
+    use MachineState::*;
+
+    #[test]
+    fn every_command_in_every_state_goes_where_docs_operations_says_or_is_refused() {
+        let states = [Idle, Running, Held, Stopping, Faulted, EStopped];
+        let table: &[(ControlKind, [Option<MachineState>; 6])] = &[
+            // Idle, Running, Held, Stopping, Faulted, EStopped
+            (Hold, [None, Some(Held), None, None, None, None]),
+            (Resume, [None, None, Some(Running), None, None, None]),
+            (
+                Abort,
+                [None, Some(Stopping), Some(Stopping), None, None, None],
+            ),
+            (EStop, [Some(EStopped); 6]),
+            (
+                Reset,
+                [Some(Idle), None, None, None, Some(Idle), Some(Idle)],
+            ),
+        ];
+        for (kind, row) in table {
+            for (state, want) in states.iter().zip(row) {
+                let got = transition(*kind, *state);
+                assert_eq!(got.ok(), *want, "{kind:?} in {state:?}: {got:?}");
+            }
+        }
+        // a refusal says why
+        assert!(transition(Reset, Running).unwrap_err().contains("abort"));
+        assert!(transition(Resume, Running)
+            .unwrap_err()
+            .contains("nothing is held"));
     }
 }

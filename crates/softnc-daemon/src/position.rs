@@ -14,6 +14,7 @@
 
 use crate::bus::{Bus, Sub};
 use crate::config::{ClockMode, Loaded};
+use crate::lifecycle::StopWatch;
 use crate::outbox::{Outbox, PositionMsg, OUTBOX_CAPACITY};
 use crate::prep::{JobPrep, Prep, PrepRequest, Prepared, Retired};
 use anyhow::Result;
@@ -26,6 +27,10 @@ use softnc_rt::{LoopStats, PeriodicClock};
 use softnc_sim::spindle::SpindleDesigns;
 use softnc_sim::{CycleEngine, ServoBackend};
 use std::time::{Duration, Instant};
+
+/// A stop asked of this process itself: how long the interpolator gets to stop the
+/// job along its path before the axes stop on the ring's remaining samples.
+const OWN_STOP_GRACE: Duration = Duration::from_secs(2);
 
 /// Decelerating along the path left in the ring after it ran dry.
 #[derive(Debug, Clone, Copy)]
@@ -86,7 +91,10 @@ pub struct PositionTask<B: ServoBackend> {
     stats: LoopStats,
     hb_counter: u64,
     last_hb: Instant,
+    /// A stop was asked for (`Shutdown`, a signal, the supervisor's death): the
+    /// process ends once the axes are at rest.
     shutdown: bool,
+    stop: StopWatch,
     _bus: Bus,
 }
 
@@ -149,8 +157,21 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             hb_counter: 0,
             last_hb: Instant::now() - Duration::from_secs(1),
             shutdown: false,
+            stop: StopWatch::manual(),
             _bus: bus,
         })
+    }
+
+    /// Stop when `stop` asks (SIGTERM/SIGINT, the supervisor's death), once the axes
+    /// are at rest.
+    pub fn set_stop_watch(&mut self, stop: StopWatch) {
+        self.stop = stop;
+    }
+
+    /// The axes are not moving a job: nothing runs or is held, no stop along the
+    /// path is under way.
+    pub fn at_rest(&self) -> bool {
+        !matches!(self.state, MachineState::Running | MachineState::Held)
     }
 
     /// Raise an alarm; its text is formatted into the message's fixed buffer, so a
@@ -170,11 +191,32 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         Ok(())
     }
 
-    /// Run cycles until `Shutdown`.
+    /// Run cycles until a stop is asked for and the axes are at rest: a running job
+    /// stops along its path first (the interpolator aborts it; if it is gone, the
+    /// ring runs dry and the axes stop on what is left of it).
     pub fn run(&mut self) -> Result<()> {
         let period = Duration::from_secs_f64(self.cfg.machine.interpolation_cycle_s);
         let mut clock = PeriodicClock::new(period, Duration::from_micros(150));
-        while !self.shutdown {
+        // when this process itself was asked to stop (a signal, the supervisor's
+        // death): the interpolator normally stops the job along its path; if it has
+        // not within the grace, the axes stop on what the ring holds
+        let mut own_stop: Option<Instant> = None;
+        loop {
+            if self.stop.requested().is_some() {
+                self.shutdown = true;
+                let since = *own_stop.get_or_insert_with(Instant::now);
+                if !self.at_rest() && self.dry.is_none() && since.elapsed() > OWN_STOP_GRACE {
+                    self.begin_dry_stop();
+                }
+            }
+            if self.shutdown && self.at_rest() {
+                // one last status: at rest, and no job (the one that stopped is over)
+                if self.job_id != 0 && self.state == MachineState::Idle {
+                    self.job_id = 0;
+                }
+                self.cycle()?;
+                break;
+            }
             let (woke, jitter, late) = match self.cfg.config.clock {
                 ClockMode::Realtime => clock.wait(),
                 ClockMode::Lockstep => {
@@ -189,6 +231,11 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             self.cycle()?;
             self.stats.record(jitter, woke.elapsed(), late);
             self.housekeeping()?;
+        }
+        // a trace still open (the job stopped along its path) is written out when
+        // the preparation thread ends with this task
+        if let Some(t) = self.trace.take() {
+            self.prep.retire(Retired::Trace(t));
         }
         Ok(())
     }
@@ -348,7 +395,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             self.prep_lost = true;
             self.state = MachineState::Faulted;
             self.alarm(
-                AlarmCode::ProcessLost,
+                AlarmCode::Other,
                 u32::MAX,
                 format_args!(
                     "the position process's preparation thread ended: no job can start; restart the daemon"
@@ -465,7 +512,9 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 }
             }
             MachineState::Running | MachineState::Held => {}
-            MachineState::Faulted | MachineState::EStopped => {}
+            // the position process never enters Stopping (the interpolator's and
+            // the MMI's view of an abort)
+            MachineState::Faulted | MachineState::EStopped | MachineState::Stopping => {}
         }
         if matches!(self.state, MachineState::Running | MachineState::Held) {
             if let Some(stop) = self.dry {

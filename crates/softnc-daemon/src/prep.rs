@@ -239,6 +239,10 @@ impl<B: ServoBackend> Worker<B> {
             }
             std::thread::park_timeout(Duration::from_millis(5));
         }
+        // the process is ending: what was retired last (a job's trace) is written out
+        while let Some(r) = self.retired.pop() {
+            drop(r);
+        }
     }
 
     /// Hand a result over; waits while the cycle has not taken the earlier ones.
@@ -260,6 +264,7 @@ impl<B: ServoBackend> Worker<B> {
                 path,
                 spindle_override,
             } => {
+                tracing::info!("job {job_id}: preparing the position process");
                 let (mut prep, designer) = prepare_job(
                     &self.machine,
                     &mut self.make_engine,

@@ -8,27 +8,50 @@
 //!   process only on the operator's `reset`.
 //! - `softnc-mmi` exits: motion continues; the supervisor restarts the MMI, which
 //!   reattaches to the running job.
+//! - A child silent (no heartbeat) past `supervisor.watchdog_s` — hung, or stopped
+//!   with SIGSTOP — is killed and handled as dead. Restarts back off (doubling from
+//!   `restart_delay_s`); past `restart_limit` restarts in `restart_window_s` the
+//!   process is left down and the machine faulted with an alarm naming it, until
+//!   `reset`.
+//! - One `softncd` per instance ([`crate::lifecycle::InstanceLock`]); SIGTERM/SIGINT
+//!   or a `Shutdown` command: the children are told to stop (a running job
+//!   decelerates along its path), given [`STOP_GRACE`], then killed; exit 0.
+//!   Children stop by themselves when `softncd` dies (`kill -9`).
+//! - systemd: `READY=1` once every child has sent a heartbeat, `WATCHDOG=1` at half
+//!   `WatchdogSec`, `STOPPING=1` ([`crate::lifecycle::Notify`]).
 
 use crate::bus::{clean_dead_nodes, Bus, Pub, Sub};
 use crate::config::Loaded;
+use crate::lifecycle::{InstanceLock, Notify, StopWatch};
 use anyhow::{Context, Result};
 use softnc_ipc::{
     Alarm, AlarmCode, ControlCommand, ControlKind, FixedStr, Heartbeat, MachineState, ProcessId,
 };
+use std::collections::VecDeque;
 use std::path::PathBuf;
-use std::process::{Child, Command};
+use std::process::{Child, Command, ExitStatus};
 use std::time::{Duration, Instant};
 
 /// How often the supervisor looks at its children.
 const WATCH_PERIOD: Duration = Duration::from_millis(20);
-/// How long children get to stop on shutdown before they are killed.
-const STOP_GRACE: Duration = Duration::from_secs(3);
+/// How long children get to stop on shutdown before they are killed: a running job
+/// decelerates along its path first.
+const STOP_GRACE: Duration = Duration::from_secs(5);
 
 struct Proc {
     name: &'static str,
     id: ProcessId,
     child: Option<Child>,
-    restarts: u32,
+    /// When the running child was started.
+    started: Instant,
+    /// Its last heartbeat (None: none yet).
+    last_hb: Option<Instant>,
+    /// Restarts within the configured window.
+    restarts: VecDeque<Instant>,
+    /// A restart waiting out its back-off.
+    restart_at: Option<Instant>,
+    /// Restarted too often: left down until `reset`.
+    given_up: bool,
 }
 
 /// The supervisor.
@@ -38,17 +61,26 @@ pub struct Supervisor {
     procs: Vec<Proc>,
     control_sub: Sub<ControlCommand>,
     control_pub: Pub<ControlCommand>,
+    heartbeats: Sub<Heartbeat>,
     alarms: Pub<Alarm>,
     heartbeat: Pub<Heartbeat>,
     faulted: bool,
     hb_counter: u64,
     last_hb: Instant,
+    stop: StopWatch,
+    notify: Notify,
     bus: Bus,
+    /// Held for the supervisor's life: one controller per instance.
+    _lock: InstanceLock,
 }
 
 impl Supervisor {
-    /// Prepare: clean stale resources of a previous run, open the services.
+    /// Prepare: take the instance's lock (a second controller of the instance is
+    /// refused before it touches anything), catch SIGTERM/SIGINT, clean stale
+    /// resources of a previous run, open the services.
     pub fn new(cfg: Loaded) -> Result<Self> {
+        let lock = InstanceLock::acquire(&cfg.config.service_prefix, &cfg.config.instance)?;
+        let stop = StopWatch::start(false).context("signal watcher")?;
         let cleaned = clean_dead_nodes();
         if cleaned > 0 {
             tracing::info!("removed stale resources of {cleaned} dead node(s)");
@@ -64,7 +96,11 @@ impl Supervisor {
             name,
             id,
             child: None,
-            restarts: 0,
+            started: Instant::now(),
+            last_hb: None,
+            restarts: VecDeque::new(),
+            restart_at: None,
+            given_up: false,
         };
         Ok(Supervisor {
             procs: vec![
@@ -74,6 +110,7 @@ impl Supervisor {
             ],
             control_sub: bus.control_subscriber()?,
             control_pub: bus.control_publisher()?,
+            heartbeats: bus.heartbeat_subscriber()?,
             alarms: bus.alarm_publisher()?,
             heartbeat: bus.heartbeat_publisher()?,
             cfg,
@@ -81,25 +118,35 @@ impl Supervisor {
             faulted: false,
             hb_counter: 0,
             last_hb: Instant::now() - Duration::from_secs(1),
+            stop,
+            notify: Notify::from_env(),
             bus,
+            _lock: lock,
         })
     }
 
-    fn spawn(&self, name: &str) -> Result<Child> {
-        let exe = self.bin_dir.join(name);
-        Command::new(&exe)
+    fn spawn(&mut self, i: usize) -> Result<()> {
+        let exe = self.bin_dir.join(self.procs[i].name);
+        let child = Command::new(&exe)
             .arg("--config")
             .arg(&self.cfg.path)
             .spawn()
-            .with_context(|| format!("starting {}", exe.display()))
+            .with_context(|| format!("starting {}", exe.display()))?;
+        let p = &mut self.procs[i];
+        p.child = Some(child);
+        p.started = Instant::now();
+        p.last_hb = None;
+        p.restart_at = None;
+        Ok(())
     }
 
-    fn alarm(&mut self, code: AlarmCode, msg: &str) {
+    /// An alarm about process `about` (a `ProcessLost` names the process lost).
+    fn alarm(&mut self, code: AlarmCode, about: ProcessId, msg: &str) {
         tracing::warn!("{msg}");
         let _ = self.alarms.send_copy(Alarm {
             code: code.wire(),
             axis: u32::MAX,
-            process: ProcessId::Supervisor.wire(),
+            process: about.wire(),
             job_id: 0,
             time_index: 0,
             message: FixedStr::new(msg),
@@ -107,16 +154,19 @@ impl Supervisor {
     }
 
     /// Start everything and watch until shutdown (SIGINT/SIGTERM or a `Shutdown`
-    /// control command).
+    /// control command): exits, heartbeats (a child silent past the watchdog is
+    /// killed and handled as dead), restarts with back-off and a limit.
     pub fn run(&mut self) -> Result<()> {
         for i in 0..self.procs.len() {
-            let child = self.spawn(self.procs[i].name)?;
-            self.procs[i].child = Some(child);
+            self.spawn(i)?;
         }
         tracing::info!("softncd running: {}", self.cfg.path.display());
+        let mut ready = false;
+        let mut last_watchdog = Instant::now();
         loop {
-            if self.bus.node.wait(WATCH_PERIOD).is_err() {
-                tracing::info!("termination requested");
+            let _ = self.bus.node.wait(WATCH_PERIOD);
+            if let Some(why) = self.stop.requested() {
+                tracing::info!("stop requested ({why:?}): stopping the job and the processes");
                 break;
             }
             let mut shutdown = false;
@@ -131,46 +181,28 @@ impl Supervisor {
             if shutdown {
                 break;
             }
-            for i in 0..self.procs.len() {
-                let exited = match self.procs[i].child.as_mut() {
-                    Some(c) => c.try_wait().ok().flatten(),
-                    None => None,
-                };
-                let Some(status) = exited else { continue };
-                self.procs[i].child = None;
-                let (name, id) = (self.procs[i].name, self.procs[i].id);
-                match id {
-                    ProcessId::Position => {
-                        self.faulted = true;
-                        self.alarm(
-                            AlarmCode::ProcessLost,
-                            &format!("{name} exited ({status}); machine faulted, reset required"),
-                        );
-                        let n = clean_dead_nodes();
-                        tracing::info!("removed stale resources of {n} dead node(s)");
-                    }
-                    _ => {
-                        self.alarm(
-                            AlarmCode::ProcessLost,
-                            &format!("{name} exited ({status}); restarting it"),
-                        );
-                        clean_dead_nodes();
-                        self.procs[i].restarts += 1;
-                        self.procs[i].child = Some(self.spawn(name)?);
-                    }
+            while let Some(h) = self.heartbeats.receive()? {
+                let now = Instant::now();
+                if let Some(p) = self.procs.iter_mut().find(|p| {
+                    p.id.wire() == h.process && p.child.as_ref().is_some_and(|c| c.id() == h.pid)
+                }) {
+                    p.last_hb = Some(now);
                 }
             }
-            if reset && self.faulted {
-                if let Some(i) = self
-                    .procs
-                    .iter()
-                    .position(|p| p.id == ProcessId::Position && p.child.is_none())
-                {
-                    clean_dead_nodes();
-                    self.procs[i].restarts += 1;
-                    self.procs[i].child = Some(self.spawn(self.procs[i].name)?);
+            self.watch_children()?;
+            if reset {
+                self.reset()?;
+            }
+            if !ready && self.procs.iter().all(|p| p.last_hb.is_some()) {
+                ready = true;
+                self.notify.send("READY=1");
+                tracing::info!("all processes up");
+            }
+            if let Some(every) = self.notify.watchdog_every() {
+                if last_watchdog.elapsed() >= every {
+                    self.notify.send("WATCHDOG=1");
+                    last_watchdog = Instant::now();
                 }
-                self.faulted = false;
             }
             if self.last_hb.elapsed().as_secs_f64() >= self.cfg.config.heartbeat_period_s {
                 self.hb_counter += 1;
@@ -189,11 +221,123 @@ impl Supervisor {
                 self.last_hb = Instant::now();
             }
         }
+        self.notify.send("STOPPING=1");
         self.stop_all();
         Ok(())
     }
 
+    /// Exits, silent children, restarts that are due.
+    fn watch_children(&mut self) -> Result<()> {
+        let watchdog = Duration::from_secs_f64(self.cfg.config.supervisor.watchdog_s);
+        for i in 0..self.procs.len() {
+            let p = &mut self.procs[i];
+            let mut died: Option<String> = None;
+            if let Some(c) = p.child.as_mut() {
+                if let Some(status) = c.try_wait().ok().flatten() {
+                    died = Some(describe(status));
+                } else {
+                    let silent_since = p.last_hb.unwrap_or(p.started);
+                    if silent_since.elapsed() > watchdog {
+                        let _ = c.kill();
+                        let status = c.wait().map(describe).unwrap_or_else(|e| e.to_string());
+                        died = Some(format!(
+                            "silent for {:.1} s (watchdog {:.1} s), killed: {status}",
+                            silent_since.elapsed().as_secs_f64(),
+                            watchdog.as_secs_f64()
+                        ));
+                    }
+                }
+            }
+            if let Some(how) = died {
+                self.procs[i].child = None;
+                self.on_death(i, &how);
+            }
+            let p = &self.procs[i];
+            if p.child.is_none() && !p.given_up && p.restart_at.is_some_and(|t| Instant::now() >= t)
+            {
+                self.spawn(i)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn on_death(&mut self, i: usize, how: &str) {
+        let (name, id) = (self.procs[i].name, self.procs[i].id);
+        let n = clean_dead_nodes();
+        tracing::info!("removed stale resources of {n} dead node(s)");
+        if id == ProcessId::Position {
+            self.faulted = true;
+            self.alarm(
+                AlarmCode::ProcessLost,
+                id,
+                &format!("{name} exited ({how}); machine faulted, reset required"),
+            );
+            return;
+        }
+        let sv = self.cfg.config.supervisor;
+        let window = Duration::from_secs_f64(sv.restart_window_s);
+        let now = Instant::now();
+        let p = &mut self.procs[i];
+        while p
+            .restarts
+            .front()
+            .is_some_and(|t| now.duration_since(*t) > window)
+        {
+            p.restarts.pop_front();
+        }
+        if p.restarts.len() >= sv.restart_limit as usize {
+            p.given_up = true;
+            let n = p.restarts.len();
+            self.faulted = true;
+            self.alarm(
+                AlarmCode::ProcessLost,
+                id,
+                &format!(
+                    "{name} exited ({how}) after {n} restarts within {:.0} s: not restarted; machine faulted, reset to try again",
+                    sv.restart_window_s
+                ),
+            );
+            return;
+        }
+        let delay_s =
+            (sv.restart_delay_s * 2f64.powi(p.restarts.len() as i32)).min(sv.restart_delay_max_s);
+        p.restarts.push_back(now);
+        p.restart_at = Some(now + Duration::from_secs_f64(delay_s));
+        self.alarm(
+            AlarmCode::ProcessLost,
+            id,
+            &format!("{name} exited ({how}); restarting it in {delay_s:.1} s"),
+        );
+    }
+
+    /// The operator's reset: the position process (after a fault) and any process
+    /// given up on are started again.
+    fn reset(&mut self) -> Result<()> {
+        if !self.faulted {
+            return Ok(());
+        }
+        for i in 0..self.procs.len() {
+            let p = &mut self.procs[i];
+            let down = p.child.is_none() && (p.id == ProcessId::Position || p.given_up);
+            p.given_up = false;
+            p.restarts.clear();
+            if down {
+                clean_dead_nodes();
+                self.spawn(i)?;
+            }
+        }
+        self.faulted = false;
+        // say so at once: the MMI refuses jobs while the supervisor reports a fault
+        self.last_hb = Instant::now() - Duration::from_secs(1);
+        Ok(())
+    }
+
+    /// Stop the children as a signal to the group would: SIGTERM to each (a running
+    /// job decelerates along its path, the MMI records how it ended), then
+    /// [`STOP_GRACE`], then SIGKILL for any left.
     fn stop_all(&mut self) {
+        use iceoryx2_bb_posix::process::{Process, ProcessId as Pid};
+        use iceoryx2_bb_posix::signal::Signal;
         let _ = self.control_pub.send_copy(ControlCommand {
             seq: u64::MAX,
             kind: ControlKind::Shutdown.wire(),
@@ -201,6 +345,16 @@ impl Supervisor {
             value: 0.0,
             path: FixedStr::empty(),
         });
+        for p in &mut self.procs {
+            if let Some(c) = p.child.as_mut() {
+                if c.try_wait().ok().flatten().is_none() {
+                    let pid = Pid::new(c.id() as _);
+                    if let Err(e) = Process::from_pid(pid).send_signal(Signal::Terminate) {
+                        tracing::warn!("SIGTERM to {}: {e:?}", p.name);
+                    }
+                }
+            }
+        }
         let t0 = Instant::now();
         while t0.elapsed() < STOP_GRACE
             && self.procs.iter_mut().any(|p| {
@@ -222,4 +376,9 @@ impl Supervisor {
         }
         clean_dead_nodes();
     }
+}
+
+/// How a child ended, for an alarm.
+fn describe(status: ExitStatus) -> String {
+    status.to_string()
 }

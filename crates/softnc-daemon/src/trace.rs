@@ -136,12 +136,25 @@ impl TraceSink {
 
     /// End the file and wait for the writer.
     pub fn finish(mut self) {
-        while self.queue.push(None).is_err() {
-            std::thread::yield_now();
-        }
+        self.end();
+    }
+
+    fn end(&mut self) {
         if let Some(w) = self.writer.take() {
+            while self.queue.push(None).is_err() {
+                std::thread::yield_now();
+            }
             let _ = w.join();
         }
         let _ = self.done.load(Ordering::Acquire);
+    }
+}
+
+/// A trace dropped without [`TraceSink::finish`] (the process ending) still gets
+/// every row pushed into its file (blocks on the writer: never on the cycle, where
+/// traces are retired to the preparation thread).
+impl Drop for TraceSink {
+    fn drop(&mut self) {
+        self.end();
     }
 }

@@ -68,6 +68,8 @@ pub enum MachineState {
     Faulted = 3,
     /// Emergency stop; needs a reset.
     EStopped = 4,
+    /// A job being stopped along its path (abort, shutdown); idle when at rest.
+    Stopping = 5,
 }
 
 /// Position control → MMI: one per cycle (status and trace).
@@ -114,6 +116,18 @@ pub enum ProcessId {
     Position = 2,
     /// `softnc-mmi`.
     Mmi = 3,
+}
+
+impl ProcessId {
+    /// The process's role, as an operator reads it.
+    pub fn name(self) -> &'static str {
+        match self {
+            ProcessId::Supervisor => "supervisor",
+            ProcessId::Interp => "interpolation",
+            ProcessId::Position => "position",
+            ProcessId::Mmi => "MMI",
+        }
+    }
 }
 
 /// "I am alive", from every process.
@@ -207,7 +221,8 @@ pub enum AlarmCode {
     SequenceError = 1,
     /// The lookahead ring ran dry during motion.
     RingDry = 2,
-    /// A process stopped sending heartbeats.
+    /// A process died or went silent; the alarm's `process` names the one lost
+    /// (raised by the supervisor).
     ProcessLost = 3,
     /// Following error over the limit.
     FollowingError = 4,
@@ -231,7 +246,8 @@ pub struct Alarm {
     pub code: u32,
     /// Axis concerned (u32::MAX none).
     pub axis: u32,
-    /// Who raised it ([`ProcessId`] as `wire()`).
+    /// Who raised it ([`ProcessId`] as `wire()`); for a `ProcessLost`, the process
+    /// lost.
     pub process: u32,
     /// Job (0 none).
     pub job_id: u64,
@@ -315,7 +331,8 @@ wire_enum!(MachineState {
     Running,
     Held,
     Faulted,
-    EStopped
+    EStopped,
+    Stopping
 });
 wire_enum!(ProcessId {
     Supervisor,

@@ -6,6 +6,14 @@ fn main() -> ExitCode {
         Ok(c) => c,
         Err(code) => return code,
     };
-    let r = softnc_daemon::mmi::MmiTask::new(cfg).and_then(|mut t| t.run());
+    // SIGTERM/SIGINT and softncd's death stop it in order (a job along its path)
+    let stop = match softnc_daemon::lifecycle::StopWatch::start(true) {
+        Ok(s) => s,
+        Err(e) => return softnc_daemon::cli::finish("softnc-mmi", Err(e.into())),
+    };
+    let r = softnc_daemon::mmi::MmiTask::new(cfg).and_then(|mut t| {
+        t.set_stop_watch(stop);
+        t.run()
+    });
     softnc_daemon::cli::finish("softnc-mmi", r)
 }

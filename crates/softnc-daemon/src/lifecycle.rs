@@ -1,0 +1,323 @@
+//! How a controller's processes begin and end: one controller per instance (a lock),
+//! a stop asked for by SIGTERM/SIGINT or by the parent's death (a child never runs on
+//! without its `softncd`), and systemd's readiness and watchdog notifications.
+//!
+//! The stop request is one atomic flag that a watcher thread of its own sets: the
+//! cyclic loops read it without a lock or a system call. Signals are caught with
+//! iceoryx2's signal handler (`iceoryx2-bb-posix`), which records the last one; the
+//! watcher polls it every [`WATCH_PERIOD`].
+
+use iceoryx2_bb_posix::signal::SignalHandler;
+use std::fs::File;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU8, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// How often the watcher looks for a signal and at its parent.
+pub const WATCH_PERIOD: Duration = Duration::from_millis(10);
+
+/// Why a process was asked to stop.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StopReason {
+    /// SIGTERM or SIGINT.
+    Signal,
+    /// The process that started it has died (it was reparented).
+    ParentLost,
+}
+
+impl StopReason {
+    fn wire(self) -> u8 {
+        match self {
+            StopReason::Signal => 1,
+            StopReason::ParentLost => 2,
+        }
+    }
+
+    fn from_wire(v: u8) -> Option<Self> {
+        match v {
+            1 => Some(StopReason::Signal),
+            2 => Some(StopReason::ParentLost),
+            _ => None,
+        }
+    }
+}
+
+/// A stop request, set by the watcher thread; cloned into whoever needs to look.
+#[derive(Debug, Clone)]
+pub struct StopWatch {
+    reason: Arc<AtomicU8>,
+}
+
+impl StopWatch {
+    /// Catch SIGTERM and SIGINT from now on and start the watcher; `watch_parent`:
+    /// also stop when the parent process dies (the children of `softncd`).
+    pub fn start(watch_parent: bool) -> std::io::Result<StopWatch> {
+        // installs the handlers now, before any signal can arrive
+        let _ = SignalHandler::termination_requested();
+        let reason = Arc::new(AtomicU8::new(0));
+        let parent = std::os::unix::process::parent_id();
+        let r = reason.clone();
+        std::thread::Builder::new()
+            .name("stop-watch".into())
+            .spawn(move || {
+                // started by a real-time thread perhaps: not at its priority
+                let _ = softnc_rt::leave_realtime();
+                loop {
+                    let why = if SignalHandler::termination_requested() {
+                        Some(StopReason::Signal)
+                    } else if watch_parent && std::os::unix::process::parent_id() != parent {
+                        Some(StopReason::ParentLost)
+                    } else {
+                        None
+                    };
+                    if let Some(why) = why {
+                        let _ =
+                            r.compare_exchange(0, why.wire(), Ordering::AcqRel, Ordering::Acquire);
+                        return;
+                    }
+                    std::thread::sleep(WATCH_PERIOD);
+                }
+            })?;
+        Ok(StopWatch { reason })
+    }
+
+    /// A watch that only [`StopWatch::request`] sets (tests, in-process tasks).
+    pub fn manual() -> StopWatch {
+        StopWatch {
+            reason: Arc::new(AtomicU8::new(0)),
+        }
+    }
+
+    /// Ask for a stop (the first reason stays).
+    pub fn request(&self, why: StopReason) {
+        let _ = self
+            .reason
+            .compare_exchange(0, why.wire(), Ordering::AcqRel, Ordering::Acquire);
+    }
+
+    /// Whether, and why, a stop was asked for: one atomic load (for the cycle).
+    pub fn requested(&self) -> Option<StopReason> {
+        StopReason::from_wire(self.reason.load(Ordering::Acquire))
+    }
+}
+
+/// Refusals of [`InstanceLock::acquire`].
+#[derive(Debug, thiserror::Error)]
+pub enum LockError {
+    /// Another `softncd` holds the instance.
+    #[error("instance {instance:?} is already controlled by softncd pid {pid} (lock {path}); one controller per instance")]
+    Held {
+        /// The instance.
+        instance: String,
+        /// The holder's pid, as it wrote it.
+        pid: String,
+        /// The lock file.
+        path: PathBuf,
+    },
+    /// The lock file cannot be opened or locked.
+    #[error("{path}: cannot lock: {source}")]
+    Io {
+        /// The lock file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+}
+
+/// One controller per instance: an exclusive lock on a file named after the
+/// service prefix and instance, held for the process's life (the kernel drops it
+/// when the process dies, `kill -9` included).
+#[derive(Debug)]
+pub struct InstanceLock {
+    _file: File,
+    path: PathBuf,
+}
+
+impl InstanceLock {
+    /// The lock file of an instance: in `$SOFTNC_RUN_DIR`, else `$XDG_RUNTIME_DIR`,
+    /// else the system's temporary folder.
+    pub fn path_of(service_prefix: &str, instance: &str) -> PathBuf {
+        let dir = std::env::var_os("SOFTNC_RUN_DIR")
+            .or_else(|| std::env::var_os("XDG_RUNTIME_DIR"))
+            .map(PathBuf::from)
+            .unwrap_or_else(std::env::temp_dir);
+        let safe = |s: &str| {
+            s.chars()
+                .map(|c| {
+                    if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                        c
+                    } else {
+                        '_'
+                    }
+                })
+                .collect::<String>()
+        };
+        dir.join(format!(
+            "softnc-{}-{}.lock",
+            safe(service_prefix),
+            safe(instance)
+        ))
+    }
+
+    /// Take the instance's lock, or say who holds it.
+    pub fn acquire(service_prefix: &str, instance: &str) -> Result<InstanceLock, LockError> {
+        let path = Self::path_of(service_prefix, instance);
+        Self::acquire_at(&path, instance)
+    }
+
+    fn acquire_at(path: &Path, instance: &str) -> Result<InstanceLock, LockError> {
+        let io = |source| LockError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let mut file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(path)
+            .map_err(io)?;
+        match file.try_lock() {
+            Ok(()) => {}
+            Err(std::fs::TryLockError::WouldBlock) => {
+                let pid = std::fs::read_to_string(path)
+                    .map(|s| s.trim().to_string())
+                    .unwrap_or_default();
+                return Err(LockError::Held {
+                    instance: instance.to_string(),
+                    pid,
+                    path: path.to_path_buf(),
+                });
+            }
+            Err(std::fs::TryLockError::Error(e)) => return Err(io(e)),
+        }
+        file.set_len(0).map_err(io)?;
+        writeln!(file, "{}", std::process::id()).map_err(io)?;
+        Ok(InstanceLock {
+            _file: file,
+            path: path.to_path_buf(),
+        })
+    }
+
+    /// The lock file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+/// systemd's service notifications (`Type=notify`, `WatchdogSec=`): a datagram to
+/// `$NOTIFY_SOCKET`, when systemd set one; nothing otherwise.
+#[derive(Debug)]
+pub struct Notify {
+    socket: Option<(
+        std::os::unix::net::UnixDatagram,
+        std::os::unix::net::SocketAddr,
+    )>,
+    /// Half of `$WATCHDOG_USEC`: how often to send `WATCHDOG=1`.
+    watchdog_every: Option<Duration>,
+}
+
+impl Notify {
+    /// From the environment systemd gives its service.
+    pub fn from_env() -> Notify {
+        use std::os::linux::net::SocketAddrExt;
+        use std::os::unix::net::{SocketAddr, UnixDatagram};
+        let socket = std::env::var("NOTIFY_SOCKET").ok().and_then(|p| {
+            let addr = match p.strip_prefix('@') {
+                Some(abstract_name) => SocketAddr::from_abstract_name(abstract_name.as_bytes()),
+                None => SocketAddr::from_pathname(&p),
+            }
+            .ok()?;
+            Some((UnixDatagram::unbound().ok()?, addr))
+        });
+        let watchdog_every = std::env::var("WATCHDOG_USEC")
+            .ok()
+            .and_then(|u| u.parse::<u64>().ok())
+            .filter(|&u| u > 0)
+            .map(|u| Duration::from_micros(u / 2));
+        Notify {
+            socket,
+            watchdog_every,
+        }
+    }
+
+    /// Send one notification (`READY=1`, `STOPPING=1`, `WATCHDOG=1`, `STATUS=…`).
+    pub fn send(&self, state: &str) {
+        if let Some((sock, addr)) = &self.socket {
+            if let Err(e) = sock.send_to_addr(state.as_bytes(), addr) {
+                tracing::warn!("systemd notification {state:?} not sent: {e}");
+            }
+        }
+    }
+
+    /// How often the watchdog wants `WATCHDOG=1`, if systemd watches.
+    pub fn watchdog_every(&self) -> Option<Duration> {
+        self.socket.as_ref().and(self.watchdog_every)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_second_lock_on_an_instance_is_refused_and_names_the_holder() {
+        let dir = std::env::temp_dir().join(format!("softnc-lock-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("i.lock");
+        let first = InstanceLock::acquire_at(&path, "mill9").unwrap();
+        match InstanceLock::acquire_at(&path, "mill9") {
+            Err(LockError::Held { pid, instance, .. }) => {
+                assert_eq!(pid, std::process::id().to_string());
+                assert_eq!(instance, "mill9");
+            }
+            other => panic!("second lock: {other:?}"),
+        }
+        drop(first);
+        // released with its holder: the next controller takes it
+        let again = InstanceLock::acquire_at(&path, "mill9");
+        assert!(again.is_ok(), "{again:?}");
+        drop(again);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn lock_files_are_named_after_prefix_and_instance_only_with_safe_characters() {
+        let p = InstanceLock::path_of("softnc", "../mill 1");
+        let name = p.file_name().unwrap().to_string_lossy().to_string();
+        assert_eq!(name, "softnc-softnc-___mill_1.lock");
+    }
+
+    #[test]
+    fn a_manual_stop_keeps_its_first_reason() {
+        let w = StopWatch::manual();
+        assert_eq!(w.requested(), None);
+        w.request(StopReason::ParentLost);
+        w.request(StopReason::Signal);
+        assert_eq!(w.requested(), Some(StopReason::ParentLost));
+    }
+
+    #[test]
+    fn notifications_reach_the_socket_systemd_names() {
+        let dir = std::env::temp_dir().join(format!("softnc-notify-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("notify.sock");
+        let _ = std::fs::remove_file(&path);
+        let server = std::os::unix::net::UnixDatagram::bind(&path).unwrap();
+        let n = Notify {
+            socket: Some((
+                std::os::unix::net::UnixDatagram::unbound().unwrap(),
+                std::os::unix::net::SocketAddr::from_pathname(&path).unwrap(),
+            )),
+            watchdog_every: Some(Duration::from_secs(1)),
+        };
+        n.send("READY=1");
+        let mut buf = [0u8; 64];
+        let len = server.recv(&mut buf).unwrap();
+        assert_eq!(&buf[..len], b"READY=1");
+        assert_eq!(n.watchdog_every(), Some(Duration::from_secs(1)));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
