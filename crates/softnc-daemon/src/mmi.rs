@@ -103,6 +103,10 @@ pub struct MmiTask {
     alarms: VecDeque<Alarm>,
     jobs: Vec<JobRecord>,
     control_seq: u64,
+    /// Job ids go on above this (an unreadable history's highest).
+    job_id_floor: u64,
+    /// When the running job's record was last written.
+    last_save: Instant,
     feed_override: f64,
     hb_counter: u64,
     last_hb: Instant,
@@ -117,6 +121,8 @@ pub struct MmiTask {
 }
 
 const ALARM_HISTORY: usize = 50;
+/// How often the running job's record is written.
+const JOB_SAVE_PERIOD: Duration = Duration::from_secs(1);
 /// After a stop is asked for, how long the MMI waits for the running job to stop
 /// (to record how it ended) before it exits.
 const STOP_WAIT: Duration = Duration::from_secs(4);
@@ -134,7 +140,7 @@ impl MmiTask {
             .open_or_create()
             .context("operator service")?;
         let server = svc.server_builder().create().context("operator server")?;
-        let jobs = load_jobs(&cfg);
+        let (jobs, job_id_floor) = load_jobs(&cfg.data_dir.join("jobs.json"));
         Ok(MmiTask {
             server,
             control: bus.control_publisher()?,
@@ -156,6 +162,8 @@ impl MmiTask {
             alarms: VecDeque::new(),
             jobs,
             control_seq: 0,
+            job_id_floor,
+            last_save: Instant::now(),
             feed_override: 1.0,
             hb_counter: 0,
             last_hb: Instant::now() - Duration::from_secs(1),
@@ -176,7 +184,8 @@ impl MmiTask {
         self.cfg.data_dir.join("jobs.json")
     }
 
-    fn save_jobs(&self) {
+    fn save_jobs(&mut self) {
+        self.last_save = Instant::now();
         let text = serde_json::to_vec_pretty(&self.jobs).unwrap_or_default();
         if let Err(e) = write_atomic(&self.jobs_path(), &text) {
             tracing::warn!(
@@ -370,7 +379,9 @@ impl MmiTask {
                 *slot = Some(*l);
             }
         }
-        if changed {
+        // the running job's record is written as it progresses (once a second)
+        let running = self.jobs.iter().any(|j| j.outcome == "running");
+        if changed || (running && self.last_save.elapsed() >= JOB_SAVE_PERIOD) {
             self.save_jobs();
         }
         while let Some(req) = self.server.receive()? {
@@ -444,7 +455,14 @@ impl MmiTask {
                         Self::reply(false, 0, &msg)
                     }
                     Ok(plan) => {
-                        let job_id = self.jobs.iter().map(|j| j.job_id).max().unwrap_or(0) + 1;
+                        let job_id = self
+                            .jobs
+                            .iter()
+                            .map(|j| j.job_id)
+                            .max()
+                            .unwrap_or(0)
+                            .max(self.job_id_floor)
+                            + 1;
                         let submitted = SystemTime::now()
                             .duration_since(SystemTime::UNIX_EPOCH)
                             .map(|d| d.as_secs())
@@ -637,27 +655,62 @@ pub fn transition(kind: ControlKind, state: MachineState) -> Result<MachineState
     }
 }
 
-fn load_jobs(cfg: &Loaded) -> Vec<JobRecord> {
-    let path = cfg.data_dir.join("jobs.json");
-    match std::fs::read(&path) {
-        Ok(bytes) => match serde_json::from_slice::<Vec<JobRecord>>(&bytes) {
-            Ok(mut jobs) => {
-                // a job "running" when the MMI last stopped did not finish under it
-                for j in jobs.iter_mut().filter(|j| j.outcome == "running") {
-                    j.outcome = "interrupted".into();
-                }
-                jobs
+/// The job history in `path`, and the highest job id it ever used. An unreadable
+/// file is kept aside (`jobs.json.unreadable-<unix s>`) and a new history started;
+/// job ids go on from the highest one found in it.
+fn load_jobs(path: &std::path::Path) -> (Vec<JobRecord>, u64) {
+    let bytes = match std::fs::read(path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return (Vec::new(), 0),
+        Err(e) => {
+            tracing::error!("{}: cannot read the job history: {e}", path.display());
+            return (Vec::new(), 0);
+        }
+    };
+    match serde_json::from_slice::<Vec<JobRecord>>(&bytes) {
+        Ok(mut jobs) => {
+            // a job "running" when the MMI last stopped did not finish under it
+            for j in jobs.iter_mut().filter(|j| j.outcome == "running") {
+                j.outcome = "interrupted".into();
             }
-            Err(e) => {
-                tracing::warn!(
-                    "{}: unreadable job history ({e}); starting a new one",
+            let max = jobs.iter().map(|j| j.job_id).max().unwrap_or(0);
+            (jobs, max)
+        }
+        Err(e) => {
+            let stamp = SystemTime::now()
+                .duration_since(SystemTime::UNIX_EPOCH)
+                .map(|d| d.as_secs())
+                .unwrap_or(0);
+            let aside = path.with_extension(format!("json.unreadable-{stamp}"));
+            match std::fs::rename(path, &aside) {
+                Ok(()) => tracing::error!(
+                    "{}: unreadable job history ({e}); kept as {}, starting a new one",
+                    path.display(),
+                    aside.display()
+                ),
+                Err(re) => tracing::error!(
+                    "{}: unreadable job history ({e}), and it cannot be kept aside ({re})",
                     path.display()
-                );
-                Vec::new()
+                ),
             }
-        },
-        Err(_) => Vec::new(),
+            (Vec::new(), highest_job_id(&String::from_utf8_lossy(&bytes)))
+        }
     }
+}
+
+/// The highest `"job_id": N` in a history that no longer parses.
+fn highest_job_id(text: &str) -> u64 {
+    text.match_indices("\"job_id\"")
+        .filter_map(|(i, k)| {
+            let rest = text[i + k.len()..]
+                .trim_start()
+                .strip_prefix(':')?
+                .trim_start();
+            let digits: String = rest.chars().take_while(|c| c.is_ascii_digit()).collect();
+            digits.parse().ok()
+        })
+        .max()
+        .unwrap_or(0)
 }
 
 #[cfg(test)]
@@ -694,5 +747,31 @@ mod tests {
         assert!(transition(Resume, Running)
             .unwrap_err()
             .contains("nothing is held"));
+    }
+
+    #[test]
+    fn an_unreadable_history_is_kept_aside_and_job_ids_go_on() {
+        let dir = std::env::temp_dir().join(format!("softnc-jobs-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("jobs.json");
+        let whole = r#"[{"job_id": 50, "path": "a.ngc"}, {"job_id": 51, "path": "b.ngc"}]"#;
+        let cut = &whole[..whole.len() - 8];
+        std::fs::write(&path, cut).unwrap();
+        let (jobs, floor) = load_jobs(&path);
+        assert!(jobs.is_empty());
+        assert_eq!(floor, 51);
+        let kept: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| {
+                e.file_name()
+                    .to_string_lossy()
+                    .starts_with("jobs.json.unreadable-")
+            })
+            .collect();
+        assert_eq!(kept.len(), 1, "kept aside");
+        assert_eq!(std::fs::read_to_string(kept[0].path()).unwrap(), cut);
+        assert!(!path.exists(), "a new history starts");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }
