@@ -34,12 +34,40 @@ impl Daemon {
         Daemon::start_on(tag, clock, trace, "default.ron")
     }
 
-    /// A daemon on the machine profile `config/machines/{machine}`.
-    fn start_on(tag: &str, clock: &str, trace: bool, machine: &str) -> Daemon {
-        // a failed test poisons the lock; the next one may still run
-        let serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    /// A daemon whose data directory already holds a history of `n` completed jobs
+    /// with paths of `path_len` characters.
+    fn start_with_history(tag: &str, n: u64, path_len: usize) -> Daemon {
         let dir = std::env::temp_dir().join(format!("softnc-e2e-{tag}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("data")).unwrap();
+        let jobs: Vec<serde_json::Value> = (1..=n)
+            .map(|id| {
+                let stem = format!("/shop/job{id:04}-");
+                let path = format!("{stem}{}", "p".repeat(path_len - stem.len()));
+                serde_json::json!({"job_id": id, "path": path, "submitted_unix_s": 0,
+                    "outcome": "completed", "planned_samples": 100, "cycles": 100,
+                    "accuracy": {"contour_max_abs_um": 1.0, "contour_rms_um": 0.5,
+                        "following_max_abs_um": [1.0, 1.0, 1.0]}})
+            })
+            .collect();
+        std::fs::write(
+            dir.join("data/jobs.json"),
+            serde_json::to_vec(&jobs).unwrap(),
+        )
+        .unwrap();
+        Daemon::start_in(dir, tag, "Lockstep", false, "default.ron")
+    }
+
+    /// A daemon on the machine profile `config/machines/{machine}`.
+    fn start_on(tag: &str, clock: &str, trace: bool, machine: &str) -> Daemon {
+        let dir = std::env::temp_dir().join(format!("softnc-e2e-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        Daemon::start_in(dir, tag, clock, trace, machine)
+    }
+
+    fn start_in(dir: PathBuf, tag: &str, clock: &str, trace: bool, machine: &str) -> Daemon {
+        // a failed test poisons the lock; the next one may still run
+        let serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
         std::fs::create_dir_all(dir.join("machines")).unwrap();
         std::fs::copy(
             repo().join("config/machines").join(machine),
@@ -991,4 +1019,71 @@ fn commands_say_what_the_machine_does_in_every_state() {
         rec["alarms"].to_string().contains("EStop"),
         "kept in the record: {rec}"
     );
+}
+
+#[test]
+fn odd_job_files_are_refused_and_nothing_moves_and_a_rewritten_file_does_not_run() {
+    let d = Daemon::start("files", "Lockstep", false);
+    let op = d.operator();
+    // a FIFO (reading it would block the MMI for ever), a device (endless), a
+    // directory: refused at once, the MMI answers on
+    let fifo = d.dir.join("fifo.ngc");
+    assert!(Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap()
+        .success());
+    for (file, want) in [
+        (abs(&fifo), "not a regular file (a FIFO)"),
+        (
+            "/dev/zero".to_string(),
+            "not a regular file (a character device)",
+        ),
+        (abs(&d.dir), "not a regular file (a directory)"),
+    ] {
+        let r = op.request(ControlKind::StartJob, 0.0, &file).unwrap();
+        assert_eq!(r.accepted, 0, "{file}");
+        assert!(r.message.as_str().contains(want), "{}", r.message.as_str());
+    }
+    // a path longer than the wire holds is refused by the client, not cut (a cut
+    // path could name another file)
+    let long = format!("{}/{}.ngc", d.dir.display(), "x".repeat(600));
+    let e = op.request(ControlKind::StartJob, 0.0, &long).unwrap_err();
+    assert!(e.to_string().contains("more than the 512"), "{e}");
+    let s = op.status().unwrap();
+    assert_eq!(s["state"], "Idle");
+    assert!(s["job"].is_null(), "no job was started: {s}");
+    // a file rewritten after the check: the job runs what was checked
+    let job = short_job(&d.dir);
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    std::fs::write(&job, "G21 G90\nG0 X900\nM2\n").unwrap();
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    let about_it = s["alarms"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|a| a["job_id"] == r.job_id)
+        .count();
+    assert_eq!(about_it, 0, "{s}");
+}
+
+#[test]
+fn a_long_job_history_is_listed_whole_page_by_page() {
+    // 200 records with 300-character paths: about 100 kB of JSON, twelve times what
+    // one reply holds
+    let d = Daemon::start_with_history("history", 200, 300);
+    let op = d.operator();
+    let jobs = op.jobs().unwrap();
+    assert_eq!(jobs.len(), 200);
+    let ids: Vec<u64> = jobs.iter().map(|j| j["job_id"].as_u64().unwrap()).collect();
+    assert_eq!(
+        ids,
+        (1..=200).rev().collect::<Vec<_>>(),
+        "newest first, none twice"
+    );
+    assert!(jobs
+        .iter()
+        .all(|j| j["path"].as_str().unwrap().len() == 300));
 }

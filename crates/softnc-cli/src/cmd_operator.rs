@@ -44,7 +44,7 @@ pub enum OperatorCmd {
     /// Reset after a fault or E-stop (refused while a job moves); clears the
     /// machine's alarms (each job's record keeps its own).
     Reset,
-    /// Job history.
+    /// Job history, newest first (all of it, fetched page by page).
     Jobs {
         /// Print JSON.
         #[arg(long)]
@@ -116,12 +116,11 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
         OperatorCmd::Reset => simple(ControlKind::Reset, 0.0),
         OperatorCmd::Shutdown => simple(ControlKind::Shutdown, 0.0),
         OperatorCmd::Jobs { json } => {
-            let r = op.request(ControlKind::Jobs, 0.0, "")?;
-            let v: serde_json::Value = serde_json::from_str(r.message.as_str())?;
+            let jobs = op.jobs()?;
             if json {
-                println!("{v}");
+                println!("{}", serde_json::Value::Array(jobs));
             } else {
-                for j in v.as_array().into_iter().flatten() {
+                for j in &jobs {
                     println!(
                         "{:>4}  {:<11} {:>9} cycles  contour max {:>8.2} µm rms {:>7.2} µm  {}",
                         j["job_id"],

@@ -42,10 +42,12 @@ impl Operator {
 
     /// Send one request and wait for the reply.
     pub fn request(&self, kind: ControlKind, value: f64, path: &str) -> Result<OperatorReply> {
+        let path = FixedStr::try_new(path)
+            .map_err(|e| anyhow::anyhow!("path of {e}: refused, nothing sent"))?;
         let pending = self.client.send_copy(OperatorRequest {
             kind: kind.wire(),
             value,
-            path: FixedStr::new(path),
+            path,
         })?;
         let t0 = Instant::now();
         loop {
@@ -56,6 +58,26 @@ impl Operator {
                 bail!("no reply from softnc-mmi within {REPLY_TIMEOUT:?}: is softncd running?");
             }
             let _ = self.node.wait(Duration::from_millis(2));
+        }
+    }
+
+    /// The whole job history, newest first, page by page.
+    pub fn jobs(&self) -> Result<Vec<serde_json::Value>> {
+        let mut all = Vec::new();
+        loop {
+            let r = self.request(ControlKind::Jobs, all.len() as f64, "")?;
+            if r.accepted != 1 {
+                bail!("job history: {}", r.message.as_str());
+            }
+            let page: serde_json::Value = serde_json::from_str(r.message.as_str())
+                .context("unreadable job history page from softnc-mmi")?;
+            let jobs = page["jobs"].as_array().cloned().unwrap_or_default();
+            let total = page["total"].as_u64().unwrap_or(0) as usize;
+            let empty = jobs.is_empty();
+            all.extend(jobs);
+            if all.len() >= total || empty {
+                return Ok(all);
+            }
         }
     }
 

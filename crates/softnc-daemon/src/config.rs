@@ -59,6 +59,13 @@ pub struct DaemonConfig {
     /// How `softncd` watches and restarts its processes.
     #[serde(default)]
     pub supervisor: SupervisorConfig,
+    /// Largest job program the MMI takes (bytes).
+    #[serde(default = "default_max_job_bytes")]
+    pub max_job_bytes: u64,
+}
+
+fn default_max_job_bytes() -> u64 {
+    64 << 20
 }
 
 /// How `softncd` watches and restarts its processes.

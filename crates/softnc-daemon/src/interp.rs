@@ -243,12 +243,12 @@ impl InterpTask {
 
     /// An alarm (logged by the outbox thread).
     fn alarm(&mut self, code: AlarmCode, message: &str) -> Result<()> {
-        self.raise(code, FixedStr::new(message))
+        self.raise(code, FixedStr::truncated(message))
     }
 
     /// A remark for the job's record (not an alarm).
     fn note(&mut self, message: &str) -> Result<()> {
-        self.raise(AlarmCode::Note, FixedStr::new(message))
+        self.raise(AlarmCode::Note, FixedStr::truncated(message))
     }
 
     /// An alarm or note whose text is already in its fixed buffer: allocation-free,
@@ -563,21 +563,27 @@ impl InterpTask {
     }
 }
 
-/// Read a G-code file and plan it for `machine`; the error text is the operator's.
-pub fn read_and_plan(path: &str, machine: &softnc_core::MachineProfile) -> Result<Plan, String> {
-    read_job(path, machine).map(|(_, plan)| plan)
+/// Plan a program's bytes (read from `path`) for `machine`; the error text is the
+/// operator's (`path:line:column: reason`).
+pub fn plan_bytes(
+    bytes: &[u8],
+    path: &str,
+    machine: &softnc_core::MachineProfile,
+) -> Result<Plan, String> {
+    let text = String::from_utf8_lossy(bytes);
+    // one pass: the motions are planned as they are read, never all held at once
+    softnc_planner::read_and_plan(&text, path, machine, &PlanOptions::default())
+        .map(|(_, plan)| plan)
+        .map_err(|e| e.to_string())
 }
 
-/// [`read_and_plan`], also giving the file's bytes (the learning store's key).
+/// Read a program (the MMI's copy) and plan it, also giving its bytes (the learning
+/// store's key).
 pub fn read_job(
     path: &str,
     machine: &softnc_core::MachineProfile,
 ) -> Result<(Vec<u8>, Plan), String> {
     let bytes = std::fs::read(path).map_err(|e| format!("{path}: cannot read: {e}"))?;
-    let text = String::from_utf8_lossy(&bytes);
-    // one pass: the motions are planned as they are read, never all held at once
-    let plan = softnc_planner::read_and_plan(&text, path, machine, &PlanOptions::default())
-        .map(|(_, plan)| plan)
-        .map_err(|e| e.to_string())?;
+    let plan = plan_bytes(&bytes, path, machine)?;
     Ok((bytes, plan))
 }

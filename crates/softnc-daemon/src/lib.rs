@@ -10,6 +10,8 @@
 //!   traces and PDC designs (S words, spindle override), made off the cycle.
 //! - [`outbox`]: both loops' messages leave through a lock-free queue to a
 //!   publisher thread.
+//! - [`jobfile`]: a job's program taken in once (regular file, size limit) and kept
+//!   as an immutable copy named by its hash, which the other processes run.
 //! - [`mmi`]: `softnc-mmi`, job checks, machine state, alarms, history, operator API.
 //! - [`supervisor`]: `softncd`, starts, watches, restarts and stops the processes.
 //! - [`lifecycle`]: one controller per instance (a lock), stopping on SIGTERM/SIGINT
@@ -24,6 +26,7 @@ pub mod cli;
 pub mod client;
 pub mod config;
 pub mod interp;
+pub mod jobfile;
 pub mod lifecycle;
 pub mod mmi;
 pub mod outbox;

@@ -5,7 +5,8 @@
 
 use crate::bus::{Bus, Pub, Sub};
 use crate::config::Loaded;
-use crate::interp::read_and_plan;
+use crate::interp::plan_bytes;
+use crate::jobfile::intake;
 use crate::lifecycle::StopWatch;
 use anyhow::{Context, Result};
 use iceoryx2::port::server::Server;
@@ -43,6 +44,12 @@ pub struct JobRecord {
     /// clears the machine's alarms.
     #[serde(default)]
     pub alarms: Vec<String>,
+    /// The immutable copy of the program that ran (`<data_dir>/programs/<sha256>.ngc`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub program: Option<String>,
+    /// SHA-256 of the program that ran.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sha256: Option<String>,
 }
 
 /// Accuracy of a job, accumulated from the position status stream.
@@ -208,7 +215,7 @@ impl MmiTask {
             kind: kind.wire(),
             job_id,
             value,
-            path: FixedStr::new(path),
+            path: FixedStr::try_new(path)?,
         })?;
         Ok(())
     }
@@ -403,11 +410,19 @@ impl MmiTask {
         Ok(())
     }
 
+    /// A reply; one too long for the wire is refused whole, never cut.
     fn reply(accepted: bool, job_id: u64, msg: &str) -> OperatorReply {
-        OperatorReply {
-            accepted: accepted as u32,
-            job_id,
-            message: FixedStr::new(msg),
+        match FixedStr::try_new(msg) {
+            Ok(message) => OperatorReply {
+                accepted: accepted as u32,
+                job_id,
+                message,
+            },
+            Err(e) => OperatorReply {
+                accepted: 0,
+                job_id,
+                message: FixedStr::truncated(&format!("reply not sent: {e}")),
+            },
         }
     }
 
@@ -442,7 +457,25 @@ impl MmiTask {
                         ));
                     }
                 }
-                match read_and_plan(&path, &self.cfg.machine) {
+                // read once (a regular file under the limit), checked, and run from
+                // its immutable copy
+                let taken = intake(
+                    &path,
+                    self.cfg.config.max_job_bytes,
+                    &self.cfg.data_dir.join("programs"),
+                )
+                .map_err(|e| e.to_string())
+                .and_then(|job| {
+                    let plan = plan_bytes(&job.bytes, &path, &self.cfg.machine)?;
+                    let copy = job.copy.display().to_string();
+                    if !FixedStr::<512>::fits(&copy) {
+                        return Err(format!(
+                            "{copy}: the job's copy has a path over 512 bytes (data_dir too deep)"
+                        ));
+                    }
+                    Ok((job, copy, plan))
+                });
+                match taken {
                     Err(msg) => {
                         self.alarms_pub.send_copy(Alarm {
                             code: AlarmCode::JobRefused.wire(),
@@ -450,11 +483,11 @@ impl MmiTask {
                             process: ProcessId::Mmi.wire(),
                             job_id: 0,
                             time_index: 0,
-                            message: FixedStr::new(&msg),
+                            message: FixedStr::truncated(&msg),
                         })?;
                         Self::reply(false, 0, &msg)
                     }
-                    Ok(plan) => {
+                    Ok((job, copy, plan)) => {
                         let job_id = self
                             .jobs
                             .iter()
@@ -477,6 +510,8 @@ impl MmiTask {
                             accuracy: Accuracy::default(),
                             notes: Vec::new(),
                             alarms: Vec::new(),
+                            program: Some(copy.clone()),
+                            sha256: Some(job.sha256.clone()),
                         });
                         self.save_jobs();
                         // the feed override is the machine's, not the job's: the job starts at
@@ -485,7 +520,7 @@ impl MmiTask {
                             ControlKind::StartJob,
                             job_id,
                             self.feed_override,
-                            &path,
+                            &copy,
                         )?;
                         Self::reply(true, job_id, &format!("job {job_id} started: {path}"))
                     }
@@ -567,10 +602,7 @@ impl MmiTask {
                 Self::reply(true, 0, "shutting down")
             }
             ControlKind::Status => Self::reply(true, 0, &self.status_json().to_string()),
-            ControlKind::Jobs => {
-                let tail: Vec<_> = self.jobs.iter().rev().take(20).collect();
-                Self::reply(true, 0, &serde_json::to_string(&tail)?)
-            }
+            ControlKind::Jobs => Self::reply(true, 0, &self.jobs_page(r.value)),
         })
     }
 
@@ -584,6 +616,32 @@ impl MmiTask {
             None if self.peers[p as usize].lost_pid.is_some() => "lost",
             None => "unseen",
         }
+    }
+
+    /// One page of the job history, newest first, from `offset` (skipped newest
+    /// records): `{"total", "offset", "jobs"}` with as many records as fit a reply.
+    pub fn jobs_page(&self, offset: f64) -> String {
+        let total = self.jobs.len();
+        let offset = if offset.is_finite() && offset > 0.0 {
+            (offset as usize).min(total)
+        } else {
+            0
+        };
+        // room for the envelope; each record is added while the page still fits
+        let cap = OperatorReply::MESSAGE_CAPACITY - 64;
+        let mut body = String::from("[");
+        for j in self.jobs.iter().rev().skip(offset) {
+            let rec = serde_json::to_string(j).unwrap_or_default();
+            if body.len() + rec.len() + 2 > cap && body.len() > 1 {
+                break;
+            }
+            if body.len() > 1 {
+                body.push(',');
+            }
+            body.push_str(&rec);
+        }
+        body.push(']');
+        format!("{{\"total\":{total},\"offset\":{offset},\"jobs\":{body}}}")
     }
 
     /// The status the operator sees.

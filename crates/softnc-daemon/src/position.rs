@@ -379,7 +379,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             self.requested_job = first.job_id;
             self.prep.request(PrepRequest::Job {
                 job_id: first.job_id,
-                path: FixedStr::new(""),
+                path: FixedStr::empty(),
                 spindle_override: self.spindle_override,
             });
         }

@@ -300,7 +300,7 @@ impl<B: ServoBackend> Worker<B> {
                     Err(e) => Prepared::SpindleRefused {
                         job_id,
                         spindle_override,
-                        message: FixedStr::new(&e.to_string()),
+                        message: FixedStr::truncated(&e.to_string()),
                     },
                 })
             }
@@ -321,7 +321,7 @@ pub fn prepare_job<B: ServoBackend>(
     let (primitives, spindle_changes) = if path.is_empty() {
         (Vec::new(), Vec::new())
     } else {
-        match crate::interp::read_and_plan(path, machine) {
+        match crate::interp::read_job(path, machine).map(|(_, plan)| plan) {
             Ok(plan) => (
                 (0..plan.motions())
                     .map(|i| plan.motion_primitive(i))

@@ -149,7 +149,7 @@ impl Supervisor {
             process: about.wire(),
             job_id: 0,
             time_index: 0,
-            message: FixedStr::new(msg),
+            message: FixedStr::truncated(msg),
         });
     }
 

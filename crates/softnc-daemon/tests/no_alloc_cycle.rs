@@ -136,7 +136,7 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed
                     kind: ControlKind::SpindleOverride.wire(),
                     job_id: 0,
                     value: v,
-                    path: FixedStr::new(""),
+                    path: FixedStr::empty(),
                 })
                 .unwrap();
         }

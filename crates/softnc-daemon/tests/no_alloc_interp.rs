@@ -175,7 +175,7 @@ fn run_counted(
                         kind: kind.wire(),
                         job_id: 0,
                         value,
-                        path: FixedStr::new(""),
+                        path: FixedStr::empty(),
                     })
                     .unwrap();
             }

@@ -2,6 +2,16 @@
 
 use iceoryx2::prelude::ZeroCopySend;
 
+/// A string longer than a [`FixedStr`] holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("{len} bytes, more than the {capacity} that fit")]
+pub struct TooLong {
+    /// Its length (bytes).
+    pub len: usize,
+    /// What fits (bytes).
+    pub capacity: usize,
+}
+
 /// Up to `N` bytes of UTF-8, stored inline.
 #[derive(Clone, Copy, ZeroCopySend)]
 #[repr(C)]
@@ -19,17 +29,39 @@ impl<const N: usize> FixedStr<N> {
         }
     }
 
-    /// Copy `s`, cut at a character boundary if longer than `N` bytes.
-    pub fn new(s: &str) -> Self {
-        let mut end = s.len().min(N);
-        while !s.is_char_boundary(end) {
-            end -= 1;
+    /// Copy `s`, or refuse it if it is longer than `N` bytes: what must arrive whole
+    /// (a job's path, an operator reply) is never cut.
+    pub fn try_new(s: &str) -> Result<Self, TooLong> {
+        if s.len() > N {
+            return Err(TooLong {
+                len: s.len(),
+                capacity: N,
+            });
         }
         let mut bytes = [0u8; N];
-        bytes[..end].copy_from_slice(&s.as_bytes()[..end]);
-        FixedStr {
-            len: end as u32,
+        bytes[..s.len()].copy_from_slice(s.as_bytes());
+        Ok(FixedStr {
+            len: s.len() as u32,
             bytes,
+        })
+    }
+
+    /// Copy `s`; if longer than `N` bytes, cut at a character boundary and end with
+    /// "…": for human-readable messages (alarms, notes), where the cut shows.
+    pub fn truncated(s: &str) -> Self {
+        match Self::try_new(s) {
+            Ok(f) => f,
+            Err(_) => {
+                const MARK: &str = "…";
+                let mut end = N.saturating_sub(MARK.len()).min(s.len());
+                while !s.is_char_boundary(end) {
+                    end -= 1;
+                }
+                let mut f = Self::empty();
+                let _ = std::fmt::Write::write_str(&mut f, &s[..end]);
+                let _ = std::fmt::Write::write_str(&mut f, MARK);
+                f
+            }
         }
     }
 
@@ -83,17 +115,26 @@ mod tests {
     use super::*;
 
     #[test]
-    fn cuts_at_char_boundary() {
-        let s: FixedStr<4> = FixedStr::new("abé d");
-        assert_eq!(s.as_str(), "abé");
+    fn what_does_not_fit_is_refused_or_cut_visibly() {
+        assert_eq!(
+            FixedStr::<4>::try_new("abcde").err(),
+            Some(TooLong {
+                len: 5,
+                capacity: 4
+            })
+        );
+        assert_eq!(FixedStr::<5>::try_new("abcde").unwrap().as_str(), "abcde");
+        // a message: cut at a character boundary, the cut marked
+        let s: FixedStr<7> = FixedStr::truncated("abé defg");
+        assert_eq!(s.as_str(), "abé…");
+        assert_eq!(FixedStr::<8>::truncated("x").as_str(), "x");
         assert!(!FixedStr::<4>::fits("abcde"));
-        assert_eq!(FixedStr::<8>::new("x").as_str(), "x");
     }
 
     #[test]
     fn formatting_appends_and_cuts_when_full() {
         use std::fmt::Write;
-        let mut s: FixedStr<6> = FixedStr::new("ab");
+        let mut s: FixedStr<6> = FixedStr::try_new("ab").unwrap();
         let (n, tail) = (12, "xyz");
         write!(s, "{n}é{tail}").unwrap();
         assert_eq!(s.as_str(), "ab12é");

@@ -14,7 +14,7 @@ pub mod fixed_str;
 pub mod names;
 pub mod payload;
 
-pub use fixed_str::FixedStr;
+pub use fixed_str::{FixedStr, TooLong};
 pub use names::ServiceNames;
 pub use payload::{
     Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, Heartbeat, LoopStats,

@@ -280,7 +280,12 @@ pub struct OperatorReply {
     /// Job id given to a submitted job.
     pub job_id: u64,
     /// Why refused (`file:line:column: reason`), or the JSON asked for.
-    pub message: FixedStr<8192>,
+    pub message: FixedStr<{ OperatorReply::MESSAGE_CAPACITY }>,
+}
+
+impl OperatorReply {
+    /// Bytes a reply's message holds.
+    pub const MESSAGE_CAPACITY: usize = 8192;
 }
 
 #[cfg(test)]
