@@ -594,9 +594,20 @@ fn jobs_run_one_after_another() {
         assert_eq!(r.accepted, 1, "{}", r.message.as_str());
         let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
         assert_eq!(s["job"]["outcome"], "completed", "{s}");
-        d.wait_status(&op, Duration::from_secs(10), "idle", |s| {
+        let s = d.wait_status(&op, Duration::from_secs(10), "idle", |s| {
             s["state"] == "Idle"
         });
+        // a job ends with the axes in position (the profile's 10 µm band), and the
+        // servo goes on holding them there (it was frozen, 126 µm off, before)
+        let band_um = 10.0;
+        let mut s = s;
+        for _ in 0..3 {
+            let fe: Vec<f64> =
+                serde_json::from_value(s["axes"]["following_err_um"].clone()).unwrap();
+            assert!(fe.iter().all(|e| e.abs() <= band_um), "in position: {s}");
+            std::thread::sleep(Duration::from_millis(100));
+            s = op.status().unwrap();
+        }
     }
     // the feed override is the machine's: set between jobs, the next job runs at it
     let o = op.request(ControlKind::FeedOverride, 0.5, "").unwrap();

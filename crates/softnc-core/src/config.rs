@@ -56,6 +56,15 @@ pub struct AxisConfig {
     pub max_jerk_mm_per_s3: f64,
     /// Encoder resolution (one count).
     pub encoder_resolution_mm: f64,
+    /// In-position band: a job ends when every axis's |following error| is within
+    /// its band (the axes have settled at the last command).
+    #[serde(default = "default_in_position_mm")]
+    pub in_position_mm: f64,
+}
+
+/// The in-position band when a profile gives none (mm).
+pub fn default_in_position_mm() -> f64 {
+    0.01
 }
 
 /// Shape of the feed profile along the path.
@@ -223,6 +232,7 @@ impl MachineProfile {
                 &p("encoder_resolution_mm"),
                 file,
             )?;
+            positive(axis.in_position_mm, &p("in_position_mm"), file)?;
         }
         positive(self.planner.tolerance_mm, "planner.tolerance_mm", file)?;
         finite(

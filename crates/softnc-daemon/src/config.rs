@@ -59,9 +59,17 @@ pub struct DaemonConfig {
     /// How `softncd` watches and restarts its processes.
     #[serde(default)]
     pub supervisor: SupervisorConfig,
+    /// How long the axes get after a job's last sample to come within their
+    /// in-position bands (s); the job then ends with an alarm.
+    #[serde(default = "default_in_position_timeout_s")]
+    pub in_position_timeout_s: f64,
     /// Largest job program the MMI takes (bytes).
     #[serde(default = "default_max_job_bytes")]
     pub max_job_bytes: u64,
+}
+
+fn default_in_position_timeout_s() -> f64 {
+    2.0
 }
 
 fn default_max_job_bytes() -> u64 {

@@ -81,6 +81,10 @@ pub struct PositionTask<B: ServoBackend> {
     last_cmd: [f64; 3],
     prev_cmd: [f64; 3],
     dry: Option<DryStop>,
+    /// Cycles since the job's last sample while the axes settle into position.
+    settle_cycles: Option<u64>,
+    /// Each axis's in-position band (the profile's).
+    in_position_mm: [f64; 3],
     /// Lockstep: since when the ring has lacked the samples the next cycle needs
     /// (the interpolator's silence, not the time since its last sample: a job whose
     /// preparation took longer than the timeout must not start with a dry stop).
@@ -107,6 +111,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         let names = softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance);
         let bus = Bus::new(names, "position")?;
         let window = filter_window(cfg.config.lookahead_samples);
+        let in_position_mm = [0, 1, 2].map(|i| cfg.machine.axes[i].in_position_mm);
         let trace = cfg.config.trace.then(|| crate::prep::TraceTo {
             dir: cfg.data_dir.clone(),
             lossless: cfg.config.clock == ClockMode::Lockstep,
@@ -151,6 +156,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             prev_cmd: [0.0; 3],
             dry: None,
             starved_since: None,
+            settle_cycles: None,
+            in_position_mm,
             last_job_id: 0,
             latency: softnc_rt::LatencyStats::new(),
             stats: LoopStats::new(),
@@ -252,7 +259,9 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             let moving = matches!(self.state, MachineState::Running | MachineState::Held)
                 && self.dry.is_none();
             let starting = self.state == MachineState::Idle && self.job_id != 0;
-            if (moving || (starting && self.job_ready)) && self.ring.ready(self.window) {
+            if (moving || (starting && self.job_ready)) && self.ring.ready(self.window)
+                || (moving && self.settle_cycles.is_some())
+            {
                 self.starved_since = None;
                 return Ok(true);
             }
@@ -294,6 +303,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                         self.job_ready = false;
                         self.current = None;
                         self.dry = None;
+                        self.settle_cycles = None;
                     }
                 }
                 Some(ControlKind::Shutdown) => self.shutdown = true,
@@ -367,6 +377,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         self.last_job_id = first.job_id;
         self.current = None;
         self.dry = None;
+        self.settle_cycles = None;
         self.job_ready = false;
         let start = [first.pos_mm[0], first.pos_mm[1], first.pos_mm[2]];
         self.start_mm = start;
@@ -519,6 +530,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         if matches!(self.state, MachineState::Running | MachineState::Held) {
             if let Some(stop) = self.dry {
                 cmd = self.dry_stop_step(stop);
+            } else if self.settle_cycles.is_some() {
+                // after the job's last sample: the command stands, the axes settle
             } else if !self.ring.ready(self.window) {
                 let (ahead, needed) = (self.ring.ahead().saturating_sub(1), self.window);
                 self.alarm(
@@ -554,7 +567,10 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         //    machine stands still (not stepped) between jobs
         let moving =
             matches!(self.state, MachineState::Running | MachineState::Held) || self.dry.is_some();
-        let rec = if moving {
+        // between jobs the servo holds the last command: the machine keeps running
+        // (not in a fault or E-stop, where the drives are off)
+        let holding = self.state == MachineState::Idle && self.job_id == 0;
+        let rec = if moving || holding {
             let stepped = match ring_motion {
                 Some(motion) => self.engine.step_ring(&self.ring, motion, feed_move),
                 None => None,
@@ -654,26 +670,59 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 if self.ring.source_index() > source {
                     self.flags.pop_front();
                 }
-            } else if self.ring.ended() {
-                // job complete: report once more as idle; the trace is closed off
-                // the cycle path
+            } else if self.ring.ended() && self.settle_cycles.is_none() {
+                // the job's last sample: its trace (the samples, as `softnc sim`
+                // writes them) is closed off the cycle path; the job ends when the
+                // axes are in position
                 if let Some(t) = self.trace.take() {
                     self.prep.retire(Retired::Trace(t));
                 }
-                if self.requested_job == self.job_id {
-                    self.requested_job = 0; // (not if the next job was asked for)
+                self.settle_cycles = Some(0);
+            }
+            if let Some(n) = self.settle_cycles {
+                let in_position = (0..3).all(|i| fe[i].abs() <= self.in_position_mm[i]);
+                let timeout_cycles = (self.cfg.config.in_position_timeout_s
+                    / self.cfg.machine.interpolation_cycle_s)
+                    .ceil() as u64;
+                if in_position {
+                    self.end_job(&mut status);
+                } else if n >= timeout_cycles {
+                    let job = self.job_id;
+                    let timeout_s = self.cfg.config.in_position_timeout_s;
+                    self.alarm(
+                        AlarmCode::Other,
+                        u32::MAX,
+                        format_args!(
+                            "job {job}: axes not in position {timeout_s} s after the last command (following error {:.1} / {:.1} / {:.1} µm)",
+                            fe[0] * 1000.0,
+                            fe[1] * 1000.0,
+                            fe[2] * 1000.0
+                        ),
+                    )?;
+                    self.end_job(&mut status);
+                } else {
+                    self.settle_cycles = Some(n + 1);
                 }
-                self.job_ready = false;
-                // the last status still names the job (the interpolator counts it as
-                // consumed); the next cycles report idle with no job
-                self.state = MachineState::Idle;
-                self.job_id = 0;
-                status.state = self.state.wire();
-                self.current = None;
             }
         }
         self.outbox.send(PositionMsg::Status(status))?;
         Ok(())
+    }
+
+    /// The job is over (in position, or settling timed out): report once more with
+    /// its id, as idle; the next cycles report idle with no job.
+    fn end_job(&mut self, status: &mut PositionStatus) {
+        self.settle_cycles = None;
+        if self.requested_job == self.job_id {
+            self.requested_job = 0; // (not if the next job was asked for)
+        }
+        self.job_ready = false;
+        // the last status still names the job (the interpolator counts it as
+        // consumed); the next cycles report idle with no job
+        self.state = MachineState::Idle;
+        self.job_id = 0;
+        status.state = self.state.wire();
+        self.current = None;
     }
 
     fn dry_stop_step(&mut self, mut stop: DryStop) -> [f64; 3] {
