@@ -8,10 +8,17 @@
 //! that the canonical output rounds exactly as `rs274` prints it. Motions carry them
 //! converted to mm.
 
+mod ngc;
+
 use crate::canon::{Motion, MotionKind, PathMode, Program};
 use crate::error::{ErrorKind, GcodeError};
-use crate::lexer::{bad_character, column, lex_words, significant, Line, Word};
+use crate::expr::Norm;
+use crate::lexer::{bad_character, column, lex_words, significant, Line, Word, SLOW};
+use crate::params::Params;
+use crate::ReadOptions;
+use ngc::{Control, Jump, Pc, Setting};
 use softnc_core::{MachineProfile, Plane, Vec3};
+use std::borrow::Cow;
 use std::f64::consts::{FRAC_PI_2, PI, SQRT_2};
 
 const MM_PER_INCH: f64 = 25.4;
@@ -359,6 +366,12 @@ struct Interp<'a> {
     motions: Vec<Motion>,
     warnings: Vec<String>,
     file: &'a str,
+    /// Parameter table.
+    params: Params,
+    /// O-word control state.
+    ctl: Control,
+    /// Number of the line being read (`#<_line>`).
+    line_no: usize,
 }
 
 type R<T> = Result<T, (u32, ErrorKind)>;
@@ -401,6 +414,9 @@ impl<'a> Interp<'a> {
             motions: Vec::new(),
             warnings: Vec::new(),
             file,
+            params: Params::default(),
+            ctl: Control::default(),
+            line_no: 0,
         }
     }
 
@@ -1237,19 +1253,70 @@ pub fn read_chunked(
     chunk: usize,
     sink: &mut dyn FnMut(&mut Vec<Motion>),
 ) -> Result<Program, GcodeError> {
+    read_with(text, file, profile, &ReadOptions::default(), chunk, sink).map(|(p, _)| p)
+}
+
+/// One program text: the main one (borrowed) or a subroutine file.
+struct Source<'t> {
+    name: String,
+    text: Cow<'t, str>,
+    /// Whether it may hold a NUL byte or a `(` at all.
+    maybe: bool,
+}
+
+/// Look for `NAME.ngc` on the search path, then beside the main program.
+fn find_sub_file(name: &str, main_file: &str, options: &ReadOptions) -> Option<(String, String)> {
+    let file_name = format!("{name}.ngc");
+    let beside = std::path::Path::new(main_file)
+        .parent()
+        .map(|p| p.to_path_buf())
+        .unwrap_or_default();
+    options
+        .subroutine_path
+        .iter()
+        .chain(std::iter::once(&beside))
+        .map(|d| d.join(&file_name))
+        .find_map(|p| {
+            let bytes = std::fs::read(&p).ok()?;
+            Some((
+                p.display().to_string(),
+                String::from_utf8_lossy(&bytes).into_owned(),
+            ))
+        })
+}
+
+/// [`read_chunked`] with options; also returns the parameters as left.
+pub fn read_with(
+    text: &str,
+    file: &str,
+    profile: &MachineProfile,
+    options: &ReadOptions,
+    chunk: usize,
+    sink: &mut dyn FnMut(&mut Vec<Motion>),
+) -> Result<(Program, Params), GcodeError> {
     let mut it = Interp::new(file, profile);
+    if let Some(p) = &options.params {
+        it.params = p.clone();
+    }
     it.motions.reserve((text.len() / 16).min(chunk.max(1)));
     let mut line = Line::default();
     let mut block = Block::default();
-    let err = |line_no: usize, raw: &str, (off, kind): (u32, ErrorKind)| GcodeError {
-        file: file.to_string(),
-        line: line_no as u32,
-        column: column(raw, off),
-        kind,
-    };
+    let mut norm = Norm::default();
+    let mut sets: Vec<Setting> = Vec::new();
     let bytes = text.as_bytes();
-    // NUL bytes and comments need per-line work only if the file has any
-    let maybe = has_nul_or_paren(bytes);
+    let mut sources = vec![Source {
+        name: file.to_string(),
+        text: Cow::Borrowed(text),
+        maybe: has_nul_or_paren(bytes),
+    }];
+    let err_in =
+        |name: &str, line_no: usize, raw: &str, (off, kind): (u32, ErrorKind)| GcodeError {
+            file: name.to_string(),
+            line: line_no as u32,
+            column: column(raw, off),
+            kind,
+        };
+    let err = |line_no: usize, raw: &str, e: (u32, ErrorKind)| err_in(file, line_no, raw, e);
     // `%` on the first non-blank line: the program runs to the next lone `%`
     let mut prescan = LineSplit { b: bytes, pos: 0 };
     let mut first = 0;
@@ -1280,68 +1347,227 @@ pub fn read_chunked(
                 .all(|c| matches!(c, b' ' | b'\t' | 0x0b | 0x0c | b'\r'))
     };
     // the lines to run: after the `%` line, or all of them
-    let (lines, first) = if percent_flag {
-        (prescan, first + 1)
+    let (mut pos, first) = if percent_flag {
+        (prescan.pos, first + 1)
     } else {
-        (LineSplit { b: bytes, pos: 0 }, 0)
+        (0, 0)
     };
+    let limit = options.block_limit.unwrap_or(1_000_000 + text.len() as u64);
+    let mut executed: u64 = 0;
+    let mut cur = 0usize; // source index
+    let mut next_line_no = first + 1;
     let mut n_lines = first;
-    for (idx, (s, e, newline)) in lines.enumerate().map(|(k, l)| (k + first, l)) {
-        n_lines = idx + 1;
-        let line_no = idx + 1;
-        let raw = &text[s..e];
+    loop {
+        let src = &sources[cur];
+        let src_bytes = src.text.as_bytes();
+        let Some((s, e, newline)) = (LineSplit { b: src_bytes, pos }).next() else {
+            if let Some(sk) = &it.ctl.skipping {
+                return Err(err_in(
+                    &src.name,
+                    n_lines.max(1),
+                    "",
+                    (
+                        0,
+                        ErrorKind::Invalid(format!(
+                            "File ended while looking for O-word label '{sk}' (from line {})",
+                            it.ctl.skipping_start
+                        )),
+                    ),
+                ));
+            }
+            if cur != 0 {
+                return Err(err_in(
+                    &src.name,
+                    n_lines.max(1),
+                    "",
+                    (
+                        0,
+                        ErrorKind::Invalid("Subroutine file ended without its endsub".into()),
+                    ),
+                ));
+            }
+            break;
+        };
+        let line_no = next_line_no;
+        next_line_no += 1;
+        n_lines = line_no;
+        let line_start = pos;
+        pos = s + (e - s) + usize::from(newline);
+        executed += 1;
+        let raw = &src.text[s..e];
+        if executed > limit {
+            return Err(err_in(
+                &src.name,
+                line_no,
+                raw,
+                (0, ErrorKind::BlockLimit { limit }),
+            ));
+        }
+        it.line_no = line_no;
+        let maybe = src.maybe;
+        let src_name = &src.name;
         if e - s + usize::from(newline) >= LINELEN - 1 {
-            return Err(err(
+            return Err(err_in(
+                src_name,
                 line_no,
                 raw,
                 (0, ErrorKind::Invalid("Command too long".into())),
             ));
         }
-        // each word goes into the block as it is read: words before a lexing error
-        // are read (and may fail) first, as in LinuxCNC
-        block.clear();
-        lex_words(raw, &mut line, maybe, |w| it.sort_word(w, &mut block))
-            .map_err(|x| err(line_no, raw, x))?;
-        if line.percent {
-            if percent_flag {
-                return Ok(finish(it, file, line_no, chunk, sink));
+        let pc = Pc {
+            file: cur,
+            pos: line_start,
+            next: pos,
+            line_no,
+        };
+        let mut jump = Jump::Next;
+        if it.ctl.skipping.is_some() {
+            // only O-lines count while skipping; nothing else on a line is read
+            let sig = significant(raw.as_bytes());
+            if !sig.iter().any(|c| matches!(c, b'o' | b'O')) {
+                continue;
             }
-            let off = raw.find('%').unwrap_or(0) as u32;
-            return Err(err(
-                line_no,
-                raw,
-                (off, ErrorKind::Invalid(bad_character(b'%'))),
-            ));
+            if sig.contains(&b'(') {
+                crate::lexer::check_comments(sig).map_err(|x| err_in(src_name, line_no, raw, x))?;
+            }
+            norm.build(sig);
+            let mut i = 0;
+            if norm.b.first() == Some(&b'/') {
+                i += 1;
+            }
+            if norm.b.get(i) == Some(&b'n') {
+                i += 1;
+                while norm
+                    .b
+                    .get(i)
+                    .is_some_and(|c| c.is_ascii_digit() || *c == b'.')
+                {
+                    i += 1;
+                }
+            }
+            if norm.b.get(i) != Some(&b'o') {
+                continue;
+            }
+            if let Some(o) = it
+                .read_o(&norm, &mut i, &mut line)
+                .map_err(|x| err_in(src_name, line_no, raw, x))?
+            {
+                jump = it
+                    .control(&o, &pc)
+                    .map_err(|x| err_in(src_name, line_no, raw, x))?;
+            }
+        } else {
+            // each word goes into the block as it is read: words before a lexing
+            // error are read (and may fail) first, as in LinuxCNC
+            block.clear();
+            let lexed = lex_words(raw, &mut line, maybe, |w| it.sort_word(w, &mut block));
+            let mut oline = None;
+            match lexed {
+                Ok(()) => {}
+                Err((SLOW, _)) => {
+                    // parameters, expressions or an O-word: the full reader
+                    block.clear();
+                    line.comment = None;
+                    norm.build(significant(raw.as_bytes()));
+                    oline = it
+                        .read_items_slow(&norm, &mut block, &mut line, &mut sets)
+                        .map_err(|x| err_in(src_name, line_no, raw, x))?;
+                }
+                Err(x) => return Err(err_in(src_name, line_no, raw, x)),
+            }
+            if line.percent {
+                if percent_flag && cur == 0 {
+                    return Ok(finish(it, file, line_no, chunk, sink));
+                }
+                let off = raw.find('%').unwrap_or(0) as u32;
+                return Err(err_in(
+                    src_name,
+                    line_no,
+                    raw,
+                    (off, ErrorKind::Invalid(bad_character(b'%'))),
+                ));
+            }
+            if line.python {
+                return Err(err_in(
+                    src_name,
+                    line_no,
+                    raw,
+                    (
+                        0,
+                        ErrorKind::Unsupported {
+                            word: ";py,".into(),
+                            why: "embedded Python is not supported".into(),
+                        },
+                    ),
+                ));
+            }
+            if !sets.is_empty() {
+                it.commit(&mut sets);
+            }
+            if let Some(o) = oline {
+                jump = it
+                    .control(&o, &pc)
+                    .map_err(|x| err_in(src_name, line_no, raw, x))?;
+            } else if !line.blank {
+                // a `/` line runs: the block-delete switch is off, as in rs274's default
+                it.check(&mut block)
+                    .map_err(|x| err_in(src_name, line_no, raw, x))?;
+                it.comment(raw, &line, line_no as u32)
+                    .map_err(|x| err_in(src_name, line_no, raw, x))?;
+                let stop = it
+                    .execute(line_no as u32, &block)
+                    .map_err(|x| err_in(src_name, line_no, raw, x))?;
+                if stop {
+                    return Ok(finish(it, file, line_no, chunk, sink));
+                }
+                if it.motions.len() >= chunk {
+                    sink(&mut it.motions);
+                    it.motions.clear();
+                }
+            }
         }
-        if line.blank {
-            continue;
-        }
-        if line.python {
-            return Err(err(
-                line_no,
-                raw,
-                (
-                    0,
-                    ErrorKind::Unsupported {
-                        word: ";py,".into(),
-                        why: "embedded Python is not supported".into(),
-                    },
-                ),
-            ));
-        }
-        // a `/` line runs: the block-delete switch is off, as in rs274's default
-        it.check(&mut block).map_err(|x| err(line_no, raw, x))?;
-        it.comment(raw, &line, line_no as u32)
-            .map_err(|x| err(line_no, raw, x))?;
-        let stop = it
-            .execute(line_no as u32, &block)
-            .map_err(|x| err(line_no, raw, x))?;
-        if stop {
-            return Ok(finish(it, file, line_no, chunk, sink));
-        }
-        if it.motions.len() >= chunk {
-            sink(&mut it.motions);
-            it.motions.clear();
+        match jump {
+            Jump::Next => {}
+            Jump::To(f, p, l) => {
+                cur = f;
+                pos = p;
+                next_line_no = l;
+            }
+            Jump::OpenSub => {
+                let name = it.wanted_sub().unwrap_or_default().to_string();
+                let main_dir_file = file.to_string();
+                if let Some(k) = sources
+                    .iter()
+                    .position(|s| s.name.ends_with(&format!("{name}.ngc")) && !name.is_empty())
+                {
+                    cur = k;
+                    pos = 0;
+                    next_line_no = 1;
+                } else if let Some((path, body)) = find_sub_file(&name, &main_dir_file, options) {
+                    let maybe = has_nul_or_paren(body.as_bytes());
+                    sources.push(Source {
+                        name: path,
+                        text: Cow::Owned(body),
+                        maybe,
+                    });
+                    cur = sources.len() - 1;
+                    pos = 0;
+                    next_line_no = 1;
+                } else if cur != 0 {
+                    return Err(err_in(
+                        &sources[cur].name,
+                        line_no,
+                        "",
+                        (
+                            0,
+                            ErrorKind::Invalid(format!(
+                                "Subroutine 'O{name}' not found -- not in offset table and no file '{name}.ngc' found"
+                            )),
+                        ),
+                    ));
+                }
+                // else: look for its definition further on in the main program
+            }
         }
     }
     let msg = if percent_flag {
@@ -1418,19 +1644,22 @@ fn finish(
     blocks: usize,
     chunk: usize,
     sink: &mut dyn FnMut(&mut Vec<Motion>),
-) -> Program {
+) -> (Program, Params) {
     if chunk != usize::MAX {
         if !it.motions.is_empty() {
             sink(&mut it.motions);
         }
         it.motions = Vec::new();
     }
-    Program {
-        file: file.to_string(),
-        blocks,
-        motions: it.motions,
-        warnings: it.warnings,
-    }
+    (
+        Program {
+            file: file.to_string(),
+            blocks,
+            motions: it.motions,
+            warnings: it.warnings,
+        },
+        it.params,
+    )
 }
 
 #[cfg(test)]

@@ -78,6 +78,20 @@ fn compare(program: &softnc_gcode::Program, canon: &[Value]) -> Option<String> {
     None
 }
 
+/// Whether every line of `err` is the text of a `(PRINT,…)` comment of `text`.
+fn only_print_output(text: &str, err: Option<&str>) -> bool {
+    let prints: Vec<String> = text
+        .lines()
+        .filter_map(|l| {
+            let lower = l.to_ascii_lowercase();
+            let k = lower.find("(print,")?;
+            let rest = &l[k + 7..];
+            Some(rest[..rest.find(')')?].to_string())
+        })
+        .collect();
+    err.is_some_and(|e| !e.is_empty() && e.lines().all(|l| prints.iter().any(|p| p == l)))
+}
+
 #[test]
 fn corpus_reads_as_linuxcnc_reads_it() {
     let Some(dir) = corpus() else {
@@ -105,11 +119,22 @@ fn corpus_reads_as_linuxcnc_reads_it() {
         let bytes = std::fs::read(&path).unwrap();
         let text = String::from_utf8_lossy(&bytes);
         let base = path.file_name().unwrap().to_string_lossy().to_string();
-        let result = softnc_gcode::read_program(&text, &base, &profile);
+        let options = softnc_gcode::ReadOptions {
+            subroutine_path: vec![path.parent().unwrap().to_path_buf()],
+            ..Default::default()
+        };
+        let result =
+            softnc_gcode::read_program_with(&text, &base, &profile, &options).map(|(p, _)| p);
         let tier = e["tier"].as_str().unwrap();
         let canon: Option<Vec<Value>> = e["canon"]
             .as_str()
             .map(|c| serde_json::from_str(&std::fs::read_to_string(dir.join(c)).unwrap()).unwrap());
+        if e["rs274_accepts"] == false && only_print_output(&text, e["rs274_error"].as_str()) {
+            // the manifest took the program's (PRINT,…) output on stderr for an
+            // error: every line of it is the text of a PRINT comment of the program
+            eprintln!("note: {file}: manifest 'error' is PRINT output; not counted");
+            continue;
+        }
         if e["rs274_accepts"] == false {
             rej += 1;
             match &result {

@@ -1,0 +1,184 @@
+//! The parameter table, as LinuxCNC 2.9 keeps it (`_setup.parameters`,
+//! `sub_context[].named_params`; `interp_namedparams.cc`, `interp_array.cc`):
+//!
+//! - numbered parameters `#1` … `#5601` (`RS274NGC_MAX_PARAMETERS` = 5602), all 0 at
+//!   start; some are read-only (5021–5029, 5400–5413, 5420–5428);
+//! - named parameters: `#<_name>` global, `#<name>` local to the call level that
+//!   assigned it;
+//! - assignments on a line are gathered while it is read and take effect after it
+//!   (parameters are "set in parallel").
+
+use std::collections::HashMap;
+
+/// Numbered parameters are `1..NUM_PARAMS` (LinuxCNC `RS274NGC_MAX_PARAMETERS`).
+pub const NUM_PARAMS: usize = 5602;
+
+/// Subroutine arguments are `#1` … `#30` (LinuxCNC `INTERP_SUB_PARAMS`).
+pub const SUB_PARAMS: usize = 30;
+
+/// Numbered parameters a program may not assign (LinuxCNC `readonly_parameters`).
+pub fn is_readonly(index: usize) -> bool {
+    matches!(index, 5021..=5029 | 5400..=5413 | 5420..=5428)
+}
+
+/// The table.
+#[derive(Debug, Clone)]
+pub struct Params {
+    numbered: Vec<f64>,
+    globals: HashMap<String, f64>,
+    /// Local named parameters per call level (0: the main program).
+    locals: Vec<HashMap<String, f64>>,
+    /// Assignments read on the current line, not yet made.
+    pending_numbered: Vec<(usize, f64)>,
+    pending_named: Vec<(String, f64)>,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            numbered: vec![0.0; NUM_PARAMS],
+            globals: HashMap::new(),
+            locals: vec![HashMap::new()],
+            pending_numbered: Vec::new(),
+            pending_named: Vec::new(),
+        }
+    }
+}
+
+impl Params {
+    /// Numbered parameter `index` (0 outside the table).
+    pub fn get(&self, index: usize) -> f64 {
+        self.numbered.get(index).copied().unwrap_or(0.0)
+    }
+
+    /// Set numbered parameter `index` now (ignored outside the table).
+    pub fn set(&mut self, index: usize, value: f64) {
+        if let Some(p) = self.numbered.get_mut(index) {
+            *p = value;
+        }
+    }
+
+    /// A named parameter as assigned by the program: globals (leading `_`) or the
+    /// locals of the current call level.
+    pub fn named(&self, name: &str) -> Option<f64> {
+        if name.starts_with('_') {
+            self.globals.get(name).copied()
+        } else {
+            self.locals.last().and_then(|l| l.get(name).copied())
+        }
+    }
+
+    /// Set a named parameter now, in its scope.
+    pub fn set_named(&mut self, name: &str, value: f64) {
+        let map = if name.starts_with('_') {
+            &mut self.globals
+        } else {
+            match self.locals.last_mut() {
+                Some(l) => l,
+                None => return,
+            }
+        };
+        match map.get_mut(name) {
+            Some(v) => *v = value,
+            None => {
+                map.insert(name.to_string(), value);
+            }
+        }
+    }
+
+    /// Remember an assignment read on the current line.
+    pub fn defer(&mut self, index: usize, value: f64) {
+        self.pending_numbered.push((index, value));
+    }
+
+    /// Remember a named assignment read on the current line.
+    pub fn defer_named(&mut self, name: String, value: f64) {
+        self.pending_named.push((name, value));
+    }
+
+    /// Make the assignments read on the line, in the order written (numbered first,
+    /// then named, as LinuxCNC's `Interp::read` does).
+    pub fn commit(&mut self) {
+        for k in 0..self.pending_numbered.len() {
+            let (i, v) = self.pending_numbered[k];
+            self.set(i, v);
+        }
+        self.pending_numbered.clear();
+        let named = std::mem::take(&mut self.pending_named);
+        for (n, v) in &named {
+            self.set_named(n, *v);
+        }
+        self.pending_named = named;
+        self.pending_named.clear();
+    }
+
+    /// Drop the assignments of a line that is not run.
+    pub fn discard(&mut self) {
+        self.pending_numbered.clear();
+        self.pending_named.clear();
+    }
+
+    /// Whether the line read assigned anything.
+    pub fn has_pending(&self) -> bool {
+        !self.pending_numbered.is_empty() || !self.pending_named.is_empty()
+    }
+
+    /// Enter a subroutine: a new scope of locals, `#1…#30` saved and set to `args`
+    /// (missing ones 0). Returns the saved values.
+    pub fn enter(&mut self, args: &[f64]) -> [f64; SUB_PARAMS] {
+        let mut saved = [0.0; SUB_PARAMS];
+        for (k, s) in saved.iter_mut().enumerate() {
+            *s = self.numbered[k + 1];
+            self.numbered[k + 1] = args.get(k).copied().unwrap_or(0.0);
+        }
+        self.locals.push(HashMap::new());
+        saved
+    }
+
+    /// Leave a subroutine: its locals dropped, `#1…#30` restored.
+    pub fn leave(&mut self, saved: &[f64; SUB_PARAMS]) {
+        self.numbered[1..=SUB_PARAMS].copy_from_slice(saved);
+        if self.locals.len() > 1 {
+            self.locals.pop();
+        }
+    }
+
+    /// All numbered parameters (index 0 unused).
+    pub fn numbered(&self) -> &[f64] {
+        &self.numbered
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn assignments_wait_for_the_end_of_the_line() {
+        let mut p = Params::default();
+        p.defer(1, 5.0);
+        p.defer_named("x".into(), 2.0);
+        assert_eq!(p.get(1), 0.0);
+        assert_eq!(p.named("x"), None);
+        p.commit();
+        assert_eq!(p.get(1), 5.0);
+        assert_eq!(p.named("x"), Some(2.0));
+    }
+
+    #[test]
+    fn locals_are_scoped_and_arguments_restored() {
+        let mut p = Params::default();
+        p.set(1, 9.0);
+        p.set_named("a", 1.0);
+        p.set_named("_g", 2.0);
+        let saved = p.enter(&[4.0, 5.0]);
+        assert_eq!((p.get(1), p.get(2), p.get(3)), (4.0, 5.0, 0.0));
+        assert_eq!(p.named("a"), None);
+        assert_eq!(p.named("_g"), Some(2.0));
+        p.set_named("a", 3.0);
+        p.leave(&saved);
+        assert_eq!(p.get(1), 9.0);
+        assert_eq!(p.named("a"), Some(1.0));
+        assert!(is_readonly(5420) && !is_readonly(5220));
+    }
+}

@@ -1,0 +1,188 @@
+//! The RS274/NGC language around the words: parameters, expressions, O-words, as
+//! LinuxCNC 2.9 runs them (the expected values are what LinuxCNC's semantics give,
+//! worked out by hand from `interp_o_word.cc` / `interp_read.cc`).
+
+use softnc_core::MachineProfile;
+use softnc_gcode::{ErrorKind, MotionKind, ReadOptions};
+use std::path::PathBuf;
+
+fn profile() -> MachineProfile {
+    MachineProfile::load(
+        &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/machines/default.ron"),
+    )
+    .unwrap()
+}
+
+/// X of every motion end (mm).
+fn xs(text: &str) -> Vec<f64> {
+    let p = softnc_gcode::read_program(text, "t.ngc", &profile()).unwrap();
+    p.motions
+        .iter()
+        .filter_map(|m| m.kind.end().map(|e| e.0[0]))
+        .collect()
+}
+
+fn error(text: &str) -> softnc_gcode::GcodeError {
+    softnc_gcode::read_program(text, "t.ngc", &profile()).unwrap_err()
+}
+
+#[test]
+fn parameters_take_effect_after_the_line() {
+    assert_eq!(xs("#1=5 G0 X#1\nG0 X#1\nM2\n"), vec![0.0, 5.0]);
+    assert_eq!(xs("#1=2 #2=3\nG0 X[#1*#2+1]\nM2\n"), vec![7.0]);
+    assert_eq!(xs("#<a>=4\n#<_bb>=[#<a>+1]\nG0 X#<_bb>\nM2\n"), vec![5.0]);
+    assert_eq!(xs("#3=7 #7=9\nG0 X##3\nM2\n"), vec![9.0]);
+    assert_eq!(xs("G21 G0 X[2**3] Y0\nG0 X#<_x>\nM2\n"), vec![8.0, 8.0]);
+}
+
+#[test]
+fn parameter_errors_as_linuxcnc() {
+    let e = error("G0 X#<nope>\nM2\n");
+    assert_eq!(e.kind.to_string(), "Named parameter #<nope> not defined");
+    assert_eq!((e.line, e.column), (1, 5));
+    assert_eq!(
+        error("#5420=1\nM2\n").kind.to_string(),
+        "Parameter is readonly"
+    );
+    assert_eq!(
+        error("#6000=1\nM2\n").kind.to_string(),
+        "Parameter number out of range"
+    );
+    assert_eq!(
+        error("#1 5\nM2\n").kind.to_string(),
+        "Equal sign missing in parameter setting"
+    );
+    assert_eq!(
+        error("G0 X[1/0]\nM2\n").kind.to_string(),
+        "Attempt to divide by zero"
+    );
+    assert_eq!(
+        error("#<_x>=1\nM2\n").kind.to_string(),
+        "Cannot assign to read-only parameter #<_x>"
+    );
+}
+
+#[test]
+fn subroutines_with_arguments_and_return_values() {
+    let text = "o<sq> sub\n#<r>=[#1*#1]\no<sq> return [#<r>]\no<sq> endsub\n\
+                o<sq> call [3]\nG0 X#<_value>\n#1=2\no100 call [#1+2] [5]\nG0 X#1\nM2\n\
+                o100 sub\nG0 X[#1*10+#2]\no100 endsub\n";
+    // o100 is defined after the main program: LinuxCNC skips forward to it
+    assert_eq!(xs(text), vec![9.0, 45.0, 2.0]);
+}
+
+#[test]
+fn recursion_and_the_call_depth_limit() {
+    let fact = "o<f> sub\no1 if [#1 le 1]\no<f> return [1]\no1 endif\n\
+                o<f> call [#1-1]\no<f> return [#<_value>*#1]\no<f> endsub\n\
+                o<f> call [5]\nG0 X#<_value>\nM2\n";
+    assert_eq!(xs(fact), vec![120.0]);
+    let deep = "o<d> sub\no<d> call [#1+1]\no<d> endsub\no<d> call [0]\nM2\n";
+    let e = error(deep);
+    assert_eq!(e.kind.to_string(), "Too many subroutine levels");
+}
+
+#[test]
+fn loops_and_conditionals() {
+    let w = "#1=0\no1 while [#1 lt 3]\nG0 X#1\n#1=[#1+1]\no1 endwhile\nM2\n";
+    assert_eq!(xs(w), vec![0.0, 1.0, 2.0]);
+    let d = "#1=5\no2 do\nG0 X#1\n#1=[#1+1]\no2 while [#1 lt 3]\nM2\n";
+    assert_eq!(xs(d), vec![5.0]);
+    let r = "o3 repeat [3]\nG91 G0 X1\no3 endrepeat\nM2\n";
+    assert_eq!(xs(r), vec![1.0, 2.0, 3.0]);
+    let i =
+        "#1=2\no4 if [#1 eq 1]\nG0 X1\no4 elseif [#1 eq 2]\nG0 X2\no4 else\nG0 X3\no4 endif\nM2\n";
+    assert_eq!(xs(i), vec![2.0]);
+    let e = "o4 if [0]\nG0 X1\nG81 Q##\no4 else\nG0 X3\no4 endif\nM2\n";
+    // the skipped branch is not read at all (LinuxCNC reads only O-lines there)
+    assert_eq!(xs(e), vec![3.0]);
+    let bc = "#1=0\no5 while [#1 lt 6]\n#1=[#1+1]\no6 if [#1 eq 2]\no5 continue\no6 endif\n\
+              o7 if [#1 eq 4]\no5 break\no7 endif\nG0 X#1\no5 endwhile\nM2\n";
+    assert_eq!(xs(bc), vec![1.0, 3.0]);
+}
+
+#[test]
+fn endless_loops_end_at_the_block_limit() {
+    let text = "o1 while [1]\nG0 X1\no1 endwhile\nM2\n";
+    let options = ReadOptions {
+        block_limit: Some(10_000),
+        ..Default::default()
+    };
+    let e = softnc_gcode::read_program_with(text, "t.ngc", &profile(), &options).unwrap_err();
+    assert!(
+        matches!(e.kind, ErrorKind::BlockLimit { limit: 10_000 }),
+        "{e}"
+    );
+    // the default limit also ends it
+    assert!(matches!(error(text).kind, ErrorKind::BlockLimit { .. }));
+}
+
+#[test]
+fn o_word_errors_as_linuxcnc() {
+    assert_eq!(
+        error("o1 if 1\nM2\n").kind.to_string(),
+        "Left bracket missing after 'if'"
+    );
+    assert_eq!(
+        error("o1 foo\nM2\n").kind.to_string(),
+        "Unknown control command in o word"
+    );
+    assert_eq!(
+        error("o1 if [1] G0 X1\no1 endif\nM2\n").kind.to_string(),
+        "Unexpected character after O-word"
+    );
+    let e = error("o1 if [0]\nG0 X1\nM2\n");
+    assert!(
+        e.kind.to_string().contains("looking for O-word label"),
+        "{e}"
+    );
+    assert!(matches!(
+        error("o100\nM2\n").kind,
+        ErrorKind::Unsupported { .. }
+    ));
+    assert!(matches!(
+        error("M98 P100\nM2\n").kind,
+        ErrorKind::Unsupported { .. }
+    ));
+}
+
+#[test]
+fn subroutine_files_on_the_search_path() {
+    let dir = std::env::temp_dir().join(format!("softnc-subs-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("twice.ngc"),
+        "o<twice> sub\nG0 X[#1*2]\no<twice> endsub\n",
+    )
+    .unwrap();
+    let options = ReadOptions {
+        subroutine_path: vec![dir.clone()],
+        ..Default::default()
+    };
+    let (p, _) = softnc_gcode::read_program_with(
+        "o<twice> call [4]\no<twice> call [5]\nG0 X1\nM2\n",
+        "t.ngc",
+        &profile(),
+        &options,
+    )
+    .unwrap();
+    let ends: Vec<f64> = p
+        .motions
+        .iter()
+        .filter_map(|m| match m.kind {
+            MotionKind::Traverse { end } => Some(end.0[0]),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(ends, vec![8.0, 10.0, 1.0]);
+    assert_eq!(p.motions[2].line, 3);
+    let e = softnc_gcode::read_program_with("o<none> call\nM2\n", "t.ngc", &profile(), &options)
+        .unwrap_err();
+    assert!(
+        e.kind
+            .to_string()
+            .contains("looking for O-word label 'none'"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
