@@ -726,7 +726,7 @@ mod tests {
                 Times => a * b,
                 Div if b == 0.0 => return Err("div"),
                 Div => a / b,
-                Mod => a - b.abs() * (a / b.abs()).floor(),
+                Mod => a.rem_euclid(b),
                 Power if a < 0.0 && b.fract() != 0.0 => return Err("pow"),
                 Power => a.powf(b),
                 Eq => t((a - b).abs() < 1e-6),

@@ -9,6 +9,7 @@
 //! converted to mm.
 
 mod ngc;
+mod offsets;
 
 use crate::canon::{Motion, MotionKind, PathMode, Program};
 use crate::error::{ErrorKind, GcodeError};
@@ -164,17 +165,21 @@ fn g_unsupported(code: i32) -> Option<&'static str> {
         | 940
         | 970
         | 980
-        | 990 => return None,
+        | 990
+        | 100
+        | 280
+        | 281
+        | 300
+        | 301
+        | 520
+        | 920..=923 => return None,
         50..=53 => "splines (G5, G5.1, G5.2, G5.3) are not supported yet",
         70 => "lathe diameter mode (G7) is not supported",
-        100 => "G10 (setting tool and offset tables) is not supported yet",
         171 | 181 | 191 => "the UVW planes are not supported",
-        280 | 281 | 300 | 301 => "G28/G30 reference returns are not supported yet",
         330 | 331 => "spindle-synchronised motion (G33) is not supported",
         382..=385 => "probing (G38.x) is not supported",
         410 | 411 | 420 | 421 => "cutter radius compensation is not supported yet",
         431 | 432 => "dynamic tool length offsets (G43.1, G43.2) are not supported yet",
-        520 | 920..=923 => "G52/G92 offsets are not supported yet",
         700..=760 | 810..=890 => "canned cycles are not supported yet",
         950 => "feed per revolution (G95) is not supported",
         960 => "constant surface speed (G96) is not supported",
@@ -372,6 +377,14 @@ struct Interp<'a> {
     ctl: Control,
     /// Number of the line being read (`#<_line>`).
     line_no: usize,
+    /// Active G54…G59.3 offset (program units; LinuxCNC `origin_offset`).
+    origin: Vec3,
+    /// G92/G52 offset (program units; LinuxCNC `axis_offset`).
+    g92: Vec3,
+    /// Canonical frame → machine (mm): origin + g92 + tool length, kept up to date.
+    offset_mm: Vec3,
+    /// Parameters hold inches (see [`ReadOptions::parameters_in_inches`]).
+    user_inch: bool,
 }
 
 type R<T> = Result<T, (u32, ErrorKind)>;
@@ -417,6 +430,10 @@ impl<'a> Interp<'a> {
             params: Params::default(),
             ctl: Control::default(),
             line_no: 0,
+            origin: Vec3::ZERO,
+            g92: Vec3::ZERO,
+            offset_mm: Vec3::ZERO,
+            user_inch: false,
         }
     }
 
@@ -429,15 +446,10 @@ impl<'a> Interp<'a> {
         }
     }
 
-    fn work_offset(&self, index: usize) -> Vec3 {
-        Vec3(self.profile.work_offset_mm(index))
-    }
-
     /// Canonical frame → machine coordinates (mm).
+    #[inline(always)]
     fn offset(&self) -> Vec3 {
-        let mut o = self.work_offset(self.coord);
-        o[2] += self.tool_length_mm;
-        o
+        self.offset_mm
     }
 
     /// A tool's length (mm) as LinuxCNC's `find_tool_index` finds it: tool 0 is the
@@ -588,11 +600,25 @@ impl<'a> Interp<'a> {
         let axis = b.has(b'X') || b.has(b'Y') || b.has(b'Z');
         let ijk = b.has(b'I') || b.has(b'J') || b.has(b'K');
         let mode0 = b.g_in(GM_MODAL_0);
+        let covets = matches!(mode0, Some(100 | 280 | 300 | 520 | 920));
         if let Some(mode1) = b.g_in(GM_MOTION) {
-            if mode1 == G_80 && axis {
+            if mode1 == G_80 && axis && !covets {
                 return bad(b.axis_off(), "Cannot use axis values with g80");
             }
+            if mode1 == G_80 && !axis && matches!(mode0, Some(520 | 920)) {
+                return bad(b.g_off(GM_MODAL_0), "All axes missing with g52 or g92");
+            }
+            if mode1 != G_80 && covets {
+                return bad(
+                    b.g_off(GM_MOTION),
+                    "Cannot use two g codes that both use axis values",
+                );
+            }
             b.motion_to_be = Some(mode1);
+        } else if covets {
+            if !axis && matches!(mode0, Some(520 | 920)) {
+                return bad(b.g_off(GM_MODAL_0), "All axes missing with g52 or g92");
+            }
         } else if axis {
             let Some(m) = self.motion else {
                 return bad(
@@ -616,6 +642,30 @@ impl<'a> Interp<'a> {
                     b.g_off(GM_MODAL_0),
                     "G4 not allowed with G2 or G3 because they both use P",
                 );
+            }
+        } else if mode0 == Some(100) {
+            let p = b.p_number;
+            let p_int = if p >= 0.0 {
+                (p + 0.5) as i32
+            } else {
+                (p - 0.5) as i32
+            };
+            let l = b.get(b'L').map_or(0, |l| l as i32);
+            let off = b.g_off(GM_MODAL_0);
+            if ![0, 1, 2, 10, 11, 20].contains(&l) {
+                return bad(
+                    off,
+                    "Line with G10 does not have L0, L1, L10, L11, L2, or L20",
+                );
+            }
+            if (p + 0.0001) - f64::from(p_int) > 0.0002 {
+                return bad(off, "P value not an integer with G10");
+            }
+            if (l == 2 || l == 20) && !(0..=9).contains(&p_int) {
+                return bad(off, format!("P value out of range (0-9) with G10 L{l}"));
+            }
+            if (l == 1 || l == 10 || l == 11) && p_int < 1 {
+                return bad(off, format!("P value out of range with G10 L{l}"));
             }
         } else if mode0 == Some(G_53) {
             if !matches!(motion, Some(G_0 | G_1)) {
@@ -649,13 +699,13 @@ impl<'a> Interp<'a> {
         if b.has(b'H') && b.g_in(GM_TOOL_LENGTH) != Some(430) {
             return bad(b.off(b'H'), "H word with no G43 or G76 to use it");
         }
-        if b.has(b'I') && !arc {
+        if b.has(b'I') && !arc && mode0 != Some(100) {
             return bad(
                 b.off(b'I'),
                 "I word with no G2, G3, G5, G5.1, G10, G33.1, G76, or G87 to use it",
             );
         }
-        if b.has(b'J') && !arc {
+        if b.has(b'J') && !arc && mode0 != Some(100) {
             return bad(
                 b.off(b'J'),
                 "J word with no G2, G3, G5, G5.1, G10, G76 or G87 to use it",
@@ -667,14 +717,14 @@ impl<'a> Interp<'a> {
                 "K word with no G2, G3, G33, G33.1, G76, or G87 to use it",
             );
         }
-        if b.has(b'L') {
+        if b.has(b'L') && mode0 != Some(100) {
             return bad(
                 b.off(b'L'),
                 "L word with no G10, cutter compensation, canned cycle, digital/analog input, M98 or NURBS code",
             );
         }
         if b.has(b'P') {
-            if mode0 != Some(G_4) && b.g_in(GM_CONTROL) != Some(640) && !arc {
+            if mode0 != Some(G_4) && mode0 != Some(100) && b.g_in(GM_CONTROL) != Some(640) && !arc {
                 return bad(
                     b.off(b'P'),
                     "P word with no G2 G3 G4 G10 G64 G5 G5.2 G76 G82 G86 G88 G89 or M50 M51 M52 M53 M62 M63 M64 M65 M66 M98 or user M code to use it",
@@ -696,7 +746,7 @@ impl<'a> Interp<'a> {
                 "Q word with no G5, G10, G64, G73, G76, G83, M19, M66, M67, M68 or user M code that uses it",
             );
         }
-        if b.has(b'R') && !arc {
+        if b.has(b'R') && !arc && mode0 != Some(100) {
             return bad(b.off(b'R'), "R word with no g code that uses it");
         }
         Ok(())
@@ -718,14 +768,37 @@ impl<'a> Interp<'a> {
                 return unsup(off, format!("({tag}"), "embedded Python is not supported");
             }
         }
-        // (DEBUG,), (PRINT,), (LOG,) only print (parameters in them are not
-        // substituted); (ABORT,) stops the program with its text
+        // (ABORT,) stops the program with its text; (MSG,) is a message;
+        // (DEBUG,) (while #5599 > 0), (PRINT,) and (LOG,) are messages with the
+        // parameters in them substituted as LinuxCNC prints them
         if starts("abort,") {
             return bad(off, format!("Program aborted: {}", &text[6..]));
         }
         if starts("msg,") {
             self.warnings
                 .push(format!("{}:{line_no}: message: {}", self.file, &text[4..]));
+        }
+        for (tag, what) in [("debug,", "debug"), ("print,", "print"), ("log,", "log")] {
+            if starts(tag) {
+                if tag == "debug," && self.params.get(5599) <= 0.0 {
+                    return Ok(());
+                }
+                let expanded = self
+                    .expand_comment(&text[tag.len()..])
+                    .map_err(|k| (off, k))?;
+                self.warnings
+                    .push(format!("{}:{line_no}: {what}: {expanded}", self.file));
+                return Ok(());
+            }
+        }
+        for tag in ["logopen,", "logappend,"] {
+            if starts(tag) {
+                return unsup(
+                    off,
+                    format!("({tag}"),
+                    "writing log files from a program is not supported",
+                );
+            }
         }
         Ok(())
     }
@@ -822,12 +895,16 @@ impl<'a> Interp<'a> {
                 self.inch = true;
                 self.pos = self.pos * (1.0 / MM_PER_INCH);
                 self.canon_pos = self.canon_pos * (1.0 / MM_PER_INCH);
+                self.origin = self.origin * (1.0 / MM_PER_INCH);
+                self.g92 = self.g92 * (1.0 / MM_PER_INCH);
                 self.feed /= MM_PER_INCH;
             }
             Some(210) if self.inch => {
                 self.inch = false;
                 self.pos = self.pos * MM_PER_INCH;
                 self.canon_pos = self.canon_pos * MM_PER_INCH;
+                self.origin = self.origin * MM_PER_INCH;
+                self.g92 = self.g92 * MM_PER_INCH;
                 self.feed *= MM_PER_INCH;
             }
             _ => {}
@@ -842,10 +919,12 @@ impl<'a> Interp<'a> {
                 };
                 self.pos[2] -= (len - self.tool_length_mm) / s;
                 self.tool_length_mm = len;
+                self.refresh_offset();
             }
             Some(490) => {
                 self.pos[2] += self.tool_length_mm / s;
                 self.tool_length_mm = 0.0;
+                self.refresh_offset();
             }
             _ => {}
         }
@@ -861,12 +940,7 @@ impl<'a> Interp<'a> {
                 592 => 7,
                 _ => 8,
             };
-            if idx != self.coord {
-                let shift = (self.work_offset(self.coord) - self.work_offset(idx)) * (1.0 / s);
-                self.pos += shift;
-                self.canon_pos += shift;
-                self.coord = idx;
-            }
+            self.select_coord(idx);
         }
         match b.g_in(GM_CONTROL) {
             Some(610) | Some(611) => self.path = PathMode::ExactStop,
@@ -887,6 +961,14 @@ impl<'a> Interp<'a> {
             Some(901) => self.ijk_absolute = true,
             Some(911) => self.ijk_absolute = false,
             _ => {}
+        }
+        // G10, G28, G30, G52, G92 (convert_g's modal group 0, after the modes)
+        if let Some(code) = b.g_in(GM_MODAL_0) {
+            self.modal_0(line_no, code, b)?;
+        }
+        // G92.1, G92.2, G92.3 (LinuxCNC's group 16, "G92 is applied")
+        if let Some(code) = b.g_in(16) {
+            self.modal_0(line_no, code, b)?;
         }
         // motion
         match b.motion_to_be {
@@ -1295,9 +1377,14 @@ pub fn read_with(
     sink: &mut dyn FnMut(&mut Vec<Motion>),
 ) -> Result<(Program, Params), GcodeError> {
     let mut it = Interp::new(file, profile);
-    if let Some(p) = &options.params {
-        it.params = p.clone();
+    it.user_inch = options.parameters_in_inches;
+    match &options.params {
+        Some(p) => it.params = p.clone(),
+        None => it.params_from_profile(),
     }
+    // (DEBUG,) output on, as LinuxCNC sets it at every start (volatile)
+    it.params.set(5599, 1.0);
+    it.init_offsets();
     it.motions.reserve((text.len() / 16).min(chunk.max(1)));
     let mut line = Line::default();
     let mut block = Block::default();

@@ -35,8 +35,14 @@ pub struct ReadOptions {
     /// stops with [`ErrorKind::BlockLimit`]; `None`: one million more than the
     /// program has bytes, which a program without loops never reaches.
     pub block_limit: Option<u64>,
-    /// Parameters at the start (e.g. read from a parameter file); `None`: all 0.
+    /// Parameters at the start (e.g. read from a parameter file); `None`: all 0
+    /// but the machine profile's work offsets.
     pub params: Option<Params>,
+    /// Offsets and stored positions in parameters (5161-5390) are in inches, as
+    /// LinuxCNC's stand-alone `rs274` keeps them when run without an INI file;
+    /// `false` (default): in mm, the machine's unit (LinuxCNC with
+    /// `[TRAJ]LINEAR_UNITS = mm`).
+    pub parameters_in_inches: bool,
 }
 
 /// [`read_program`] with [`ReadOptions`]; also returns the parameters as the

@@ -186,3 +186,96 @@ fn subroutine_files_on_the_search_path() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+fn read(text: &str) -> softnc_gcode::Program {
+    softnc_gcode::read_program(text, "t.ngc", &profile()).unwrap()
+}
+
+#[test]
+fn g92_g52_and_their_parameters() {
+    // G92 X1 at X3: the point is now X1, the offset 2 (5211), restored by G92.3
+    let p = read(
+        "G0 X3\nG92 X1\nG0 X2\n(PRINT,#5210 #5211 %d#5211)\nG92.2\nG0 X2\nG92.3\nG0 X0\nG92.1\nG0 X0\nM2\n",
+    );
+    let ends: Vec<(f64, f64)> = p
+        .motions
+        .iter()
+        .map(|m| (m.kind.end().unwrap().0[0], m.offset_mm.0[0]))
+        .collect();
+    assert_eq!(
+        ends,
+        vec![(3.0, 0.0), (2.0, 2.0), (2.0, 0.0), (0.0, 2.0), (0.0, 0.0)]
+    );
+    assert!(p
+        .warnings
+        .iter()
+        .any(|w| w == "t.ngc:4: print: 1.000000 2.000000 2"));
+    // G52 sets the offset itself
+    let p = read("G0 X3\nG52 X1\nG0 X0\nM2\n");
+    assert_eq!(p.motions[1].offset_mm.0[0], 1.0);
+    assert_eq!(p.motions[1].start.0[0], 2.0);
+    assert_eq!(
+        error("G92\nM2\n").kind.to_string(),
+        "All axes missing with g52 or g92"
+    );
+    assert_eq!(
+        error("G92 G1 X1\nM2\n").kind.to_string(),
+        "Cannot use two g codes that both use axis values"
+    );
+}
+
+#[test]
+fn g10_l2_l20_set_work_offsets() {
+    // G10 L2 P1 sets G54 (active): the same program point moves with it
+    let p = read("G10 L2 P1 X5\nG0 X1\nG10 L2 P2 Y7\nG55 G0 X1\n#1=#5242\nG0 X#1\nM2\n");
+    let offs: Vec<[f64; 3]> = p.motions.iter().map(|m| m.offset_mm.0).collect();
+    assert_eq!(
+        offs,
+        vec![[5.0, 0.0, 0.0], [0.0, 7.0, 0.0], [0.0, 7.0, 0.0]]
+    );
+    assert_eq!(p.motions[2].kind.end().unwrap().0[0], 7.0);
+    // L20: the current point becomes the value given
+    let p = read("G0 X4\nG10 L20 P0 X1\nG0 Y0\nM2\n");
+    assert_eq!(p.motions[1].start.0[0], 1.0);
+    assert_eq!(p.motions[1].offset_mm.0[0], 3.0);
+    assert!(matches!(
+        error("G10 L2 P1 R30\nM2\n").kind,
+        ErrorKind::Unsupported { .. }
+    ));
+    assert!(matches!(
+        error("G10 L1 P1 Z1\nM2\n").kind,
+        ErrorKind::Unsupported { .. }
+    ));
+    assert_eq!(
+        error("G10 L2 P10 X1\nM2\n").kind.to_string(),
+        "P value out of range (0-9) with G10 L2"
+    );
+}
+
+#[test]
+fn g28_g30_go_through_the_waypoint_to_the_stored_position() {
+    let p = read("G0 X5 Y5 Z5\nG28.1\nG0 X0 Y0 Z0\nG28 Z1\nG30\nM2\n");
+    let ends: Vec<[f64; 3]> = p.motions.iter().map(|m| m.kind.end().unwrap().0).collect();
+    assert_eq!(
+        ends,
+        vec![
+            [5.0, 5.0, 5.0],
+            [0.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0], // the waypoint
+            [0.0, 0.0, 5.0], // only Z goes home
+            [0.0, 0.0, 5.0], // G30: no axis words, through the current point
+            [0.0, 0.0, 0.0], // to #5181-5183 (0)
+        ]
+    );
+}
+
+#[test]
+fn print_formats_as_linuxcnc() {
+    let p = read("#1=1.5 #<v>=-2\n(PRINT,a=#1 b=#<v> %f#1 %.2f#<v> c=#<nope> #x 100%)\nM2\n");
+    assert_eq!(
+        p.warnings,
+        vec!["t.ngc:2: print: a=1.500000 b=-2.000000 1.5000 -2.00 c=###### #x 100%"]
+    );
+    let p = read("#5599=0\n(DEBUG,hidden)\n#5599=1\n(debug, shown #5599)\nM2\n");
+    assert_eq!(p.warnings, vec!["t.ngc:4: debug:  shown 1.000000"]);
+}

@@ -842,3 +842,100 @@ impl Interp<'_> {
         self.ctl.skipping_to_sub.as_deref()
     }
 }
+
+impl Interp<'_> {
+    /// `convert_param_comment`: a (DEBUG,…), (PRINT,…) or (LOG,…) text with `#n`
+    /// and `#<name>` replaced by their values, formatted `%lf` or as the last
+    /// `%d`, `%f`, `%.Nf` before them asks.
+    pub(super) fn expand_comment(&self, text: &str) -> Result<String, ErrorKind> {
+        let not_terminated = || ErrorKind::Invalid("Named parameter not terminated".into());
+        let b = text.as_bytes();
+        let mut out: Vec<u8> = Vec::with_capacity(b.len() + 16);
+        let mut decimals = 6usize;
+        let mut i = 0;
+        while i < b.len() {
+            match b[i] {
+                b'%' => {
+                    i += 1;
+                    match b.get(i) {
+                        Some(b'd') => {
+                            i += 1;
+                            decimals = 0;
+                        }
+                        Some(b'f') => {
+                            i += 1;
+                            decimals = 4;
+                        }
+                        Some(b'.') => {
+                            i += 1;
+                            match (b.get(i), b.get(i + 1)) {
+                                (Some(d), Some(b'f')) if d.is_ascii_digit() => {
+                                    decimals = usize::from(d - b'0');
+                                    i += 2;
+                                }
+                                _ => out.push(b'.'),
+                            }
+                        }
+                        _ => out.push(b'%'),
+                    }
+                }
+                b'#' => {
+                    i += 1;
+                    let Some(&c) = b.get(i) else {
+                        return Err(not_terminated());
+                    };
+                    let value = if c.is_ascii_digit() {
+                        let s = i;
+                        while b.get(i).is_some_and(u8::is_ascii_digit) {
+                            i += 1;
+                        }
+                        let n: usize = text[s..i].parse().unwrap_or(usize::MAX);
+                        (n < NUM_PARAMS).then(|| self.params.get(n))
+                    } else if c == b'<' {
+                        i += 1;
+                        let mut name = String::new();
+                        while let Some(&d) = b.get(i) {
+                            if d == b'>' || d == b')' {
+                                break;
+                            }
+                            if !d.is_ascii_whitespace() {
+                                name.push(d.to_ascii_lowercase() as char);
+                            }
+                            i += 1;
+                        }
+                        if b.get(i) != Some(&b'>') {
+                            return Err(not_terminated());
+                        }
+                        i += 1;
+                        Env::named(self, &name).ok().flatten()
+                    } else {
+                        out.push(b'#');
+                        continue;
+                    };
+                    let shown = match value {
+                        Some(v) => {
+                            let v = if v.abs() < crate::expr::TOLERANCE_EQUAL {
+                                0.0
+                            } else {
+                                v
+                            };
+                            let s = format!("{v:.decimals$}");
+                            if s.len() >= 30 {
+                                "######".to_string()
+                            } else {
+                                s
+                            }
+                        }
+                        None => "######".to_string(),
+                    };
+                    out.extend_from_slice(shown.as_bytes());
+                }
+                c => {
+                    out.push(c);
+                    i += 1;
+                }
+            }
+        }
+        Ok(String::from_utf8_lossy(&out).into_owned())
+    }
+}
