@@ -473,6 +473,7 @@ impl<'a> Interp<'a> {
     /// `read_items` for one word: into the block, with LinuxCNC's reading errors (the
     /// words come in the order of the line); codes and axes softnc does not implement
     /// are refused where they stand.
+    #[inline(always)]
     fn sort_word(&self, w: Word, b: &mut Block) -> R<()> {
         let Word {
             letter,
@@ -593,6 +594,13 @@ impl<'a> Interp<'a> {
             }
         }
         Ok(())
+    }
+
+    /// [`Self::sort_word`] kept out of line, for the full reader (the hot path
+    /// inlines its own copy).
+    #[inline(never)]
+    fn sort_word_slow(&self, w: Word, b: &mut Block) -> R<()> {
+        self.sort_word(w, b)
     }
 
     /// `enhance_block` and `check_items`.
@@ -753,6 +761,7 @@ impl<'a> Interp<'a> {
     }
 
     /// The last comment of the block (`convert_comment`).
+    #[inline(never)]
     fn comment(&mut self, raw: &str, line: &Line, line_no: u32) -> R<()> {
         let Some((s, e)) = line.comment else {
             return Ok(());
@@ -1444,175 +1453,153 @@ pub fn read_with(
     let mut cur = 0usize; // source index
     let mut next_line_no = first + 1;
     let mut n_lines = first;
-    loop {
+    'files: loop {
         let src = &sources[cur];
-        let src_bytes = src.text.as_bytes();
-        let Some((s, e, newline)) = (LineSplit { b: src_bytes, pos }).next() else {
-            if let Some(sk) = &it.ctl.skipping {
-                return Err(err_in(
-                    &src.name,
-                    n_lines.max(1),
-                    "",
-                    (
-                        0,
-                        ErrorKind::Invalid(format!(
-                            "File ended while looking for O-word label '{sk}' (from line {})",
-                            it.ctl.skipping_start
-                        )),
-                    ),
-                ));
-            }
-            if cur != 0 {
-                return Err(err_in(
-                    &src.name,
-                    n_lines.max(1),
-                    "",
-                    (
-                        0,
-                        ErrorKind::Invalid("Subroutine file ended without its endsub".into()),
-                    ),
-                ));
-            }
-            break;
-        };
-        let line_no = next_line_no;
-        next_line_no += 1;
-        n_lines = line_no;
-        let line_start = pos;
-        pos = s + (e - s) + usize::from(newline);
-        executed += 1;
-        let raw = &src.text[s..e];
-        if executed > limit {
-            return Err(err_in(
-                &src.name,
-                line_no,
-                raw,
-                (0, ErrorKind::BlockLimit { limit }),
-            ));
-        }
-        it.line_no = line_no;
+        let src_text: &str = &src.text;
         let maybe = src.maybe;
-        let src_name = &src.name;
-        if e - s + usize::from(newline) >= LINELEN - 1 {
-            return Err(err_in(
-                src_name,
-                line_no,
-                raw,
-                (0, ErrorKind::Invalid("Command too long".into())),
-            ));
-        }
-        let pc = Pc {
-            file: cur,
-            pos: line_start,
-            next: pos,
-            line_no,
+        let src_name: &str = &src.name;
+        let mut split = LineSplit {
+            b: src_text.as_bytes(),
+            pos,
         };
-        let mut jump = Jump::Next;
-        if it.ctl.skipping.is_some() {
-            // only O-lines count while skipping; nothing else on a line is read
-            let sig = significant(raw.as_bytes());
-            if !sig.iter().any(|c| matches!(c, b'o' | b'O')) {
-                continue;
-            }
-            if sig.contains(&b'(') {
-                crate::lexer::check_comments(sig).map_err(|x| err_in(src_name, line_no, raw, x))?;
-            }
-            norm.build(sig);
-            let mut i = 0;
-            if norm.b.first() == Some(&b'/') {
-                i += 1;
-            }
-            if norm.b.get(i) == Some(&b'n') {
-                i += 1;
-                while norm
-                    .b
-                    .get(i)
-                    .is_some_and(|c| c.is_ascii_digit() || *c == b'.')
-                {
-                    i += 1;
+        // the lines of this file, up to a jump
+        let (jump, after) = loop {
+            let Some((s, e, newline)) = split.next() else {
+                if let Some(sk) = &it.ctl.skipping {
+                    return Err(err_in(
+                        &src.name,
+                        n_lines.max(1),
+                        "",
+                        (
+                            0,
+                            ErrorKind::Invalid(format!(
+                                "File ended while looking for O-word label '{sk}' (from line {})",
+                                it.ctl.skipping_start
+                            )),
+                        ),
+                    ));
                 }
+                if cur != 0 {
+                    return Err(err_in(
+                        &src.name,
+                        n_lines.max(1),
+                        "",
+                        (
+                            0,
+                            ErrorKind::Invalid("Subroutine file ended without its endsub".into()),
+                        ),
+                    ));
+                }
+                break 'files;
+            };
+            let line_no = next_line_no;
+            next_line_no += 1;
+            n_lines = line_no;
+            executed += 1;
+            let raw = &src_text[s..e];
+            if executed > limit {
+                return Err(err_in(
+                    &src.name,
+                    line_no,
+                    raw,
+                    (0, ErrorKind::BlockLimit { limit }),
+                ));
             }
-            if norm.b.get(i) != Some(&b'o') {
-                continue;
+            it.line_no = line_no;
+            if e - s + usize::from(newline) >= LINELEN - 1 {
+                return Err(err_in(
+                    src_name,
+                    line_no,
+                    raw,
+                    (0, ErrorKind::Invalid("Command too long".into())),
+                ));
             }
-            if let Some(o) = it
-                .read_o(&norm, &mut i, &mut line)
-                .map_err(|x| err_in(src_name, line_no, raw, x))?
-            {
+            let pc = Pc {
+                file: cur,
+                pos: s,
+                next: split.pos,
+                line_no,
+            };
+            let mut jump = Jump::Next;
+            if it.ctl.skipping.is_some() {
+                // only O-lines count while skipping; nothing else on a line is read
                 jump = it
-                    .control(&o, &pc)
+                    .skip_line(raw, &mut norm, &mut line, &pc)
                     .map_err(|x| err_in(src_name, line_no, raw, x))?;
-            }
-        } else {
-            // each word goes into the block as it is read: words before a lexing
-            // error are read (and may fail) first, as in LinuxCNC
-            block.clear();
-            let lexed = lex_words(raw, &mut line, maybe, |w| it.sort_word(w, &mut block));
-            let mut oline = None;
-            match lexed {
-                Ok(()) => {}
-                Err((SLOW, _)) => {
-                    // parameters, expressions or an O-word: the full reader
-                    block.clear();
-                    line.comment = None;
-                    norm.build(significant(raw.as_bytes()));
-                    oline = it
-                        .read_items_slow(&norm, &mut block, &mut line, &mut sets)
+            } else {
+                // each word goes into the block as it is read: words before a lexing
+                // error are read (and may fail) first, as in LinuxCNC
+                block.clear();
+                let lexed = lex_words(raw, &mut line, maybe, |w| it.sort_word(w, &mut block));
+                let mut oline = None;
+                match lexed {
+                    Ok(()) => {}
+                    Err((SLOW, _)) => {
+                        // parameters, expressions or an O-word: the full reader
+                        oline = it
+                            .read_line_slow(raw, &mut norm, &mut block, &mut line, &mut sets)
+                            .map_err(|x| err_in(src_name, line_no, raw, x))?;
+                    }
+                    Err(x) => return Err(err_in(src_name, line_no, raw, x)),
+                }
+                if line.percent {
+                    if percent_flag && cur == 0 {
+                        return Ok(finish(it, file, line_no, chunk, sink));
+                    }
+                    let off = raw.find('%').unwrap_or(0) as u32;
+                    return Err(err_in(
+                        src_name,
+                        line_no,
+                        raw,
+                        (off, ErrorKind::Invalid(bad_character(b'%'))),
+                    ));
+                }
+                if line.python {
+                    return Err(err_in(
+                        src_name,
+                        line_no,
+                        raw,
+                        (
+                            0,
+                            ErrorKind::Unsupported {
+                                word: ";py,".into(),
+                                why: "embedded Python is not supported".into(),
+                            },
+                        ),
+                    ));
+                }
+                if !sets.is_empty() {
+                    it.commit(&mut sets);
+                }
+                if let Some(o) = oline {
+                    jump = it
+                        .control(&o, &pc)
                         .map_err(|x| err_in(src_name, line_no, raw, x))?;
-                }
-                Err(x) => return Err(err_in(src_name, line_no, raw, x)),
-            }
-            if line.percent {
-                if percent_flag && cur == 0 {
-                    return Ok(finish(it, file, line_no, chunk, sink));
-                }
-                let off = raw.find('%').unwrap_or(0) as u32;
-                return Err(err_in(
-                    src_name,
-                    line_no,
-                    raw,
-                    (off, ErrorKind::Invalid(bad_character(b'%'))),
-                ));
-            }
-            if line.python {
-                return Err(err_in(
-                    src_name,
-                    line_no,
-                    raw,
-                    (
-                        0,
-                        ErrorKind::Unsupported {
-                            word: ";py,".into(),
-                            why: "embedded Python is not supported".into(),
-                        },
-                    ),
-                ));
-            }
-            if !sets.is_empty() {
-                it.commit(&mut sets);
-            }
-            if let Some(o) = oline {
-                jump = it
-                    .control(&o, &pc)
-                    .map_err(|x| err_in(src_name, line_no, raw, x))?;
-            } else if !line.blank {
-                // a `/` line runs: the block-delete switch is off, as in rs274's default
-                it.check(&mut block)
-                    .map_err(|x| err_in(src_name, line_no, raw, x))?;
-                it.comment(raw, &line, line_no as u32)
-                    .map_err(|x| err_in(src_name, line_no, raw, x))?;
-                let stop = it
-                    .execute(line_no as u32, &block)
-                    .map_err(|x| err_in(src_name, line_no, raw, x))?;
-                if stop {
-                    return Ok(finish(it, file, line_no, chunk, sink));
-                }
-                if it.motions.len() >= chunk {
-                    sink(&mut it.motions);
-                    it.motions.clear();
+                } else if !line.blank {
+                    // a `/` line runs: the block-delete switch is off, as in rs274's default
+                    it.check(&mut block)
+                        .map_err(|x| err_in(src_name, line_no, raw, x))?;
+                    if line.comment.is_some() {
+                        it.comment(raw, &line, line_no as u32)
+                            .map_err(|x| err_in(src_name, line_no, raw, x))?;
+                    }
+                    let stop = it
+                        .execute(line_no as u32, &block)
+                        .map_err(|x| err_in(src_name, line_no, raw, x))?;
+                    if stop {
+                        return Ok(finish(it, file, line_no, chunk, sink));
+                    }
+                    if it.motions.len() >= chunk {
+                        sink(&mut it.motions);
+                        it.motions.clear();
+                    }
                 }
             }
-        }
+            if jump != Jump::Next {
+                break (jump, split.pos);
+            }
+        };
+        pos = after;
         match jump {
             Jump::Next => {}
             Jump::To(f, p, l) => {
@@ -1643,7 +1630,7 @@ pub fn read_with(
                 } else if cur != 0 {
                     return Err(err_in(
                         &sources[cur].name,
-                        line_no,
+                        n_lines,
                         "",
                         (
                             0,

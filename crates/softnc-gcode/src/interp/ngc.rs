@@ -10,7 +10,7 @@
 use super::{bad, Block, Interp, R};
 use crate::error::ErrorKind;
 use crate::expr::{Env, Norm, Reader};
-use crate::lexer::{bad_character, Line, Word};
+use crate::lexer::{bad_character, check_comments, significant, Line, Word};
 use crate::params::{is_readonly, NUM_PARAMS, SUB_PARAMS};
 use std::collections::HashMap;
 
@@ -263,6 +263,65 @@ impl Interp<'_> {
         Ok(v)
     }
 
+    /// A line while skipping: only an O-line is read (LinuxCNC's `read_items`
+    /// with `skipping_o` set), and run if it is the one looked for.
+    #[cold]
+    #[inline(never)]
+    pub(super) fn skip_line(
+        &mut self,
+        raw: &str,
+        norm: &mut Norm,
+        line: &mut Line,
+        pc: &Pc,
+    ) -> R<Jump> {
+        let sig = significant(raw.as_bytes());
+        if !sig.iter().any(|c| matches!(c, b'o' | b'O')) {
+            return Ok(Jump::Next);
+        }
+        if sig.contains(&b'(') {
+            check_comments(sig)?;
+        }
+        norm.build(sig);
+        let mut i = 0;
+        if norm.b.first() == Some(&b'/') {
+            i += 1;
+        }
+        if norm.b.get(i) == Some(&b'n') {
+            i += 1;
+            while norm
+                .b
+                .get(i)
+                .is_some_and(|c| c.is_ascii_digit() || *c == b'.')
+            {
+                i += 1;
+            }
+        }
+        if norm.b.get(i) != Some(&b'o') {
+            return Ok(Jump::Next);
+        }
+        match self.read_o(norm, &mut i, line)? {
+            Some(o) => self.control(&o, pc),
+            None => Ok(Jump::Next),
+        }
+    }
+
+    /// A line the fast lexer hands over, read again by [`Self::read_items_slow`].
+    #[cold]
+    #[inline(never)]
+    pub(super) fn read_line_slow(
+        &self,
+        raw: &str,
+        norm: &mut Norm,
+        block: &mut Block,
+        line: &mut Line,
+        sets: &mut Vec<Setting>,
+    ) -> R<Option<OLine>> {
+        block.clear();
+        line.comment = None;
+        norm.build(significant(raw.as_bytes()));
+        self.read_items_slow(norm, block, line, sets)
+    }
+
     /// `read_items` for a line the fast lexer hands over (parameters, expressions,
     /// O-words): words go into `block` in order, assignments into `sets`, the
     /// comment into `line`. Returns the O-line, if it is one.
@@ -323,7 +382,7 @@ impl Interp<'_> {
                     let mut r = Reader::new(b, i + 1, self);
                     let value = r.real_value().map_err(re)?;
                     let next = r.i;
-                    self.sort_word(
+                    self.sort_word_slow(
                         Word {
                             letter: c.to_ascii_uppercase(),
                             value,
@@ -617,6 +676,7 @@ impl Interp<'_> {
     }
 
     /// `convert_control_functions`: run an O-line read at `pc`.
+    #[inline(never)]
     pub(super) fn control(&mut self, o: &OLine, pc: &Pc) -> R<Jump> {
         if self.ctl.skipping.as_ref().is_some_and(|s| *s != o.name) {
             return Ok(Jump::Next);
@@ -828,6 +888,7 @@ impl Interp<'_> {
     }
 
     /// Apply the assignments read on a line.
+    #[inline(never)]
     pub(super) fn commit(&mut self, sets: &mut Vec<Setting>) {
         for s in sets.drain(..) {
             match s {
