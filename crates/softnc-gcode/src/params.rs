@@ -8,7 +8,8 @@
 //! - assignments on a line are gathered while it is read and take effect after it
 //!   (parameters are "set in parallel").
 
-use std::collections::HashMap;
+use std::collections::{BTreeSet, HashMap};
+use std::path::Path;
 
 /// Numbered parameters are `1..NUM_PARAMS` (LinuxCNC `RS274NGC_MAX_PARAMETERS`).
 pub const NUM_PARAMS: usize = 5602;
@@ -21,10 +22,65 @@ pub fn is_readonly(index: usize) -> bool {
     matches!(index, 5021..=5029 | 5400..=5413 | 5420..=5428)
 }
 
+/// Whether LinuxCNC always writes parameter `index` to its parameter file
+/// (`_required_parameters`: G28/G30 positions, G92, the coordinate systems).
+pub fn is_persistent(index: usize) -> bool {
+    matches!(index, 5161..=5169 | 5181..=5189 | 5210..=5220)
+        || (5221..=5390).contains(&index) && (index - 5221) % 20 < 10
+}
+
+/// A parameter file that cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ParamFileError {
+    /// The file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A line names a parameter outside 1-5601.
+    #[error("{path}:{line}: parameter number out of range: {index}")]
+    OutOfRange {
+        /// The file.
+        path: String,
+        /// 1-based line.
+        line: usize,
+        /// The number read.
+        index: i64,
+    },
+    /// Numbers must increase from line to line (LinuxCNC: "Parameter file out of
+    /// order").
+    #[error("{path}:{line}: parameter file out of order (#{index} after #{previous})")]
+    OutOfOrder {
+        /// The file.
+        path: String,
+        /// 1-based line.
+        line: usize,
+        /// The number read.
+        index: usize,
+        /// The number before it.
+        previous: usize,
+    },
+    /// A line starts with a number but has no value after it.
+    #[error("{path}:{line}: expected 'NUMBER VALUE', found {text:?}")]
+    BadLine {
+        /// The file.
+        path: String,
+        /// 1-based line.
+        line: usize,
+        /// The line.
+        text: String,
+    },
+}
+
 /// The table.
 #[derive(Debug, Clone)]
 pub struct Params {
     numbered: Vec<f64>,
+    /// Parameters that came from a parameter file (written back with it).
+    from_file: BTreeSet<usize>,
     globals: HashMap<String, f64>,
     /// Local named parameters per call level (0: the main program).
     locals: Vec<HashMap<String, f64>>,
@@ -37,6 +93,7 @@ impl Default for Params {
     fn default() -> Self {
         Params {
             numbered: vec![0.0; NUM_PARAMS],
+            from_file: BTreeSet::new(),
             globals: HashMap::new(),
             locals: vec![HashMap::new()],
             pending_numbered: Vec::new(),
@@ -147,6 +204,88 @@ impl Params {
     pub fn numbered(&self) -> &[f64] {
         &self.numbered
     }
+
+    /// Parameters from the text of a LinuxCNC parameter file (`NUMBER VALUE` per
+    /// line, numbers increasing; other lines are ignored, as `restore_parameters`
+    /// does); the others 0. `path` names the file in messages.
+    pub fn from_var_text(text: &str, path: &str) -> Result<Params, ParamFileError> {
+        let mut p = Params::default();
+        let mut previous = 0usize;
+        for (k, l) in text.lines().enumerate() {
+            let mut it = l.split_whitespace();
+            let Some(first) = it.next() else { continue };
+            let Ok(index) = first.parse::<i64>() else {
+                continue;
+            };
+            let Some(value) = it
+                .next()
+                .and_then(|v| v.parse::<f64>().ok())
+                .filter(|v| v.is_finite())
+            else {
+                return Err(ParamFileError::BadLine {
+                    path: path.into(),
+                    line: k + 1,
+                    text: l.into(),
+                });
+            };
+            if !(1..NUM_PARAMS as i64).contains(&index) {
+                return Err(ParamFileError::OutOfRange {
+                    path: path.into(),
+                    line: k + 1,
+                    index,
+                });
+            }
+            let index = index as usize;
+            if index <= previous {
+                return Err(ParamFileError::OutOfOrder {
+                    path: path.into(),
+                    line: k + 1,
+                    index,
+                    previous,
+                });
+            }
+            previous = index;
+            p.numbered[index] = value;
+            p.from_file.insert(index);
+        }
+        Ok(p)
+    }
+
+    /// Read a parameter file; a missing file gives all parameters 0 (as LinuxCNC
+    /// starts without one), any other failure is an error.
+    pub fn load(path: &Path) -> Result<Params, ParamFileError> {
+        match std::fs::read_to_string(path) {
+            Ok(text) => Params::from_var_text(&text, &path.display().to_string()),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(Params::default()),
+            Err(source) => Err(ParamFileError::Io {
+                path: path.display().to_string(),
+                source,
+            }),
+        }
+    }
+
+    /// The parameter file text LinuxCNC's `save_parameters` writes: the persistent
+    /// parameters and those read from the file, `%d\t%f` per line.
+    pub fn to_var_text(&self) -> String {
+        let mut out = String::new();
+        for k in 1..NUM_PARAMS {
+            if is_persistent(k) || self.from_file.contains(&k) {
+                out.push_str(&format!("{k}\t{:.6}\n", self.numbered[k]));
+            }
+        }
+        out
+    }
+
+    /// Write the parameter file atomically (a crash leaves the old file or the
+    /// new one).
+    pub fn save(&self, path: &Path) -> Result<(), ParamFileError> {
+        softnc_core::store::write_atomic(path, self.to_var_text().as_bytes()).map_err(|source| {
+            ParamFileError::Io {
+                path: path.display().to_string(),
+                source,
+            }
+        })
+    }
 }
 
 #[cfg(test)]
@@ -180,5 +319,35 @@ mod tests {
         assert_eq!(p.get(1), 9.0);
         assert_eq!(p.named("a"), Some(1.0));
         assert!(is_readonly(5420) && !is_readonly(5220));
+    }
+
+    #[test]
+    fn parameter_files_round_trip_and_bad_ones_are_errors() {
+        let p = Params::from_var_text("5161 1.5\n5221\t-2\n# note\n5400 3\n", "v").unwrap();
+        assert_eq!((p.get(5161), p.get(5221), p.get(5400)), (1.5, -2.0, 3.0));
+        let text = p.to_var_text();
+        assert!(text.starts_with("5161\t1.500000\n5162\t0.000000\n"));
+        assert!(text.contains("5221\t-2.000000\n") && text.contains("5400\t3.000000\n"));
+        assert!(!text.contains("5231\t"), "5231 is not persistent");
+        let q = Params::from_var_text(&text, "v").unwrap();
+        assert_eq!(q.numbered(), p.numbered());
+        assert!(matches!(
+            Params::from_var_text("5221 1\n5161 1\n", "v"),
+            Err(ParamFileError::OutOfOrder { line: 2, .. })
+        ));
+        assert!(matches!(
+            Params::from_var_text("7000 1\n", "v"),
+            Err(ParamFileError::OutOfRange { index: 7000, .. })
+        ));
+        assert!(matches!(
+            Params::from_var_text("5221 x\n", "v"),
+            Err(ParamFileError::BadLine { line: 1, .. })
+        ));
+        let dir = std::env::temp_dir().join(format!("softnc-var-{}", std::process::id()));
+        let f = dir.join("m.var");
+        assert_eq!(Params::load(&f).unwrap().get(5221), 0.0);
+        p.save(&f).unwrap();
+        assert_eq!(Params::load(&f).unwrap().get(5221), -2.0);
+        std::fs::remove_dir_all(&dir).ok();
     }
 }
