@@ -1544,7 +1544,7 @@ pub fn read_with(
                 }
                 if line.percent {
                     if percent_flag && cur == 0 {
-                        return Ok(finish(it, file, line_no, chunk, sink));
+                        return Ok(finish(it, file, executed as usize + first, chunk, sink));
                     }
                     let off = raw.find('%').unwrap_or(0) as u32;
                     return Err(err_in(
@@ -1587,7 +1587,7 @@ pub fn read_with(
                         .execute(line_no as u32, &block)
                         .map_err(|x| err_in(src_name, line_no, raw, x))?;
                     if stop {
-                        return Ok(finish(it, file, line_no, chunk, sink));
+                        return Ok(finish(it, file, executed as usize + first, chunk, sink));
                     }
                     if it.motions.len() >= chunk {
                         sink(&mut it.motions);
