@@ -211,7 +211,7 @@ pub(crate) fn lex_words(
             let save = cur.i;
             cur.bump();
             match read_value(&mut cur, save) {
-                Ok(v) if (v - 98.0).abs() < 1e-4 => return Err(slow()),
+                Ok(v) if (v - 98.0).abs() < 1e-4 || (v - 99.0).abs() < 1e-4 => return Err(slow()),
                 Err((SLOW, _)) => return Err(slow()),
                 _ => {}
             }

@@ -192,6 +192,19 @@ impl Params {
         saved
     }
 
+    /// Enter an M98 subprogram: a new scope of locals, `#1…#30` passed on as they
+    /// are.
+    pub fn enter_keep(&mut self) {
+        self.locals.push(HashMap::new());
+    }
+
+    /// Leave an M98 subprogram: its locals dropped.
+    pub fn leave_keep(&mut self) {
+        if self.locals.len() > 1 {
+            self.locals.pop();
+        }
+    }
+
     /// Leave a subroutine: its locals dropped, `#1…#30` restored.
     pub fn leave(&mut self, saved: &[f64; SUB_PARAMS]) {
         self.numbered[1..=SUB_PARAMS].copy_from_slice(saved);

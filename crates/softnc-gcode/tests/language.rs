@@ -136,14 +136,13 @@ fn o_word_errors_as_linuxcnc() {
         e.kind.to_string().contains("looking for O-word label"),
         "{e}"
     );
-    assert!(matches!(
-        error("o100\nM2\n").kind,
-        ErrorKind::Unsupported { .. }
-    ));
-    assert!(matches!(
-        error("M98 P100\nM2\n").kind,
-        ErrorKind::Unsupported { .. }
-    ));
+    let e = error("M98 P100\nM2\n");
+    assert!(
+        e.kind
+            .to_string()
+            .contains("looking for O-word label '100'"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -278,4 +277,34 @@ fn print_formats_as_linuxcnc() {
     );
     let p = read("#5599=0\n(DEBUG,hidden)\n#5599=1\n(debug, shown #5599)\nM2\n");
     assert_eq!(p.warnings, vec!["t.ngc:4: debug:  shown 1.000000"]);
+}
+
+#[test]
+fn fanuc_m98_m99_subprograms() {
+    // M98 P1 L3 runs O1 three times; #1 is passed on as it is (no arguments)
+    let text = "#1=1\nG91\nM98 P1 L3\nG90 G0 X#1\nM30\nO1\nG0 X1\n#1=[#1+1]\nM99\n";
+    assert_eq!(xs(text), vec![1.0, 2.0, 3.0, 4.0]);
+    let bare = "O100 (main program)\nG0 X1\nM2\n";
+    assert_eq!(xs(bare), vec![1.0]);
+    assert_eq!(
+        error("M98 L2\nM2\n").kind.to_string(),
+        "Found 'm98' code with no P-word"
+    );
+    assert_eq!(
+        error("o1 call\nM2\nO1\nG0 X1\nM99\n").kind.to_string(),
+        "Fanuc 'O....' subroutine must be called with 'M98'"
+    );
+    assert_eq!(
+        error("M98 P1\nM2\nO1\nG0 X1\no1 endsub\n").kind.to_string(),
+        "Fanuc 'O....' subroutine definition must end with 'M99'"
+    );
+    assert_eq!(
+        error("o1 call\nM2\no1 sub\nG0 X1\nM99\n").kind.to_string(),
+        "'O.... endsub' or 'O.... return' must follow 'O.... sub' subroutine definition"
+    );
+    // M99 in the main program loops it forever in LinuxCNC: refused
+    assert!(matches!(
+        error("G0 X1\nM99\n").kind,
+        ErrorKind::Unsupported { .. }
+    ));
 }

@@ -50,6 +50,12 @@ pub enum OKind {
     EndRepeat,
     /// `return`
     Return,
+    /// A bare `O1234` (Fanuc-style subprogram start, called with M98).
+    Bare,
+    /// `M98 P… [L…]`: call a Fanuc-style subprogram (L times).
+    M98,
+    /// `M99` in a subprogram: return.
+    M99,
 }
 
 impl OKind {
@@ -71,6 +77,9 @@ impl OKind {
             EndWhile => "endwhile",
             EndRepeat => "endrepeat",
             Return => "return",
+            Bare => "",
+            M98 => "M98",
+            M99 => "M99",
         }
     }
     /// sub, endsub, call and return name subroutines (global); the others are
@@ -78,7 +87,13 @@ impl OKind {
     fn global(self) -> bool {
         matches!(
             self,
-            OKind::Sub | OKind::EndSub | OKind::Call | OKind::Return
+            OKind::Sub
+                | OKind::EndSub
+                | OKind::Call
+                | OKind::Return
+                | OKind::Bare
+                | OKind::M98
+                | OKind::M99
         )
     }
 }
@@ -96,6 +111,8 @@ pub struct OLine {
     pub args: Vec<f64>,
     /// Raw byte offset of the `o`.
     pub at: u32,
+    /// M98: the L word (repeats), if given.
+    pub repeat: Option<f64>,
 }
 
 /// Where a label was seen (LinuxCNC `offset_struct`).
@@ -116,6 +133,8 @@ struct Frame {
     /// the call's line number.
     ret: (usize, usize, usize),
     saved: [f64; SUB_PARAMS],
+    /// Called with M98 (Fanuc style: ends with M99, `#1…#30` passed on).
+    m98: bool,
 }
 
 /// Control-flow state (the `skipping_o`, `defining_sub`, … of LinuxCNC's setup).
@@ -123,6 +142,8 @@ struct Frame {
 pub struct Control {
     labels: HashMap<String, Label>,
     frames: Vec<Frame>,
+    /// M98 L repeats left, per call level of the caller (-1: none running).
+    m98_loops: Vec<i64>,
     /// Skipping forward to this label.
     pub skipping: Option<String>,
     /// Skipping forward to this subroutine's `sub` line (a call).
@@ -361,14 +382,28 @@ impl Interp<'_> {
         }
         if b.get(i) == Some(&b'm') {
             let mut r = Reader::new(b, i + 1, self);
-            if let Ok(98) = r.integer_value() {
-                return Err((
-                    raw(i),
-                    ErrorKind::Unsupported {
-                        word: "M98".into(),
-                        why: "M98 subprogram calls are not supported yet".into(),
-                    },
-                ));
+            match r.integer_value() {
+                Ok(98) => return self.read_m98(norm, i, block, line, sets).map(Some),
+                Ok(99) if self.ctl.level() > 0 => {
+                    if self.ctl.defining_sub {
+                        return bad(raw(i), "Found 'M99' instead of 'O endsub' after 'O sub'");
+                    }
+                    let name = self
+                        .ctl
+                        .frames
+                        .last()
+                        .map(|f| f.sub_name.clone())
+                        .unwrap_or_default();
+                    return Ok(Some(OLine {
+                        kind: OKind::M99,
+                        name,
+                        value: None,
+                        args: Vec::new(),
+                        at: raw(i),
+                        repeat: None,
+                    }));
+                }
+                _ => {}
             }
         }
         if b.get(i) == Some(&b'o') {
@@ -465,6 +500,46 @@ impl Interp<'_> {
         Ok(None)
     }
 
+    /// `read_o` for `M98 P… [L…]` at `b[i]`: the rest of the line is read as
+    /// words (P names the subprogram, L repeats it).
+    fn read_m98(
+        &self,
+        norm: &Norm,
+        i: usize,
+        block: &mut Block,
+        line: &mut Line,
+        sets: &mut Vec<Setting>,
+    ) -> R<OLine> {
+        let at = norm.raw(i);
+        // the words after "m98"
+        let skip = (i + 3).min(norm.b.len());
+        let rest = Norm {
+            b: norm.b[skip..].to_vec(),
+            at: norm.at[skip..].to_vec(),
+        };
+        self.read_items_slow(&rest, block, line, sets)?;
+        if !block.has(b'P') {
+            return bad(at, "Found 'm98' code with no P-word");
+        }
+        let p = block.p_number;
+        let n = p.floor();
+        let n = if p - n > 0.9999 {
+            p.ceil()
+        } else if p - n > 0.0001 {
+            return bad(block.off(b'P'), "Non integer value for integer");
+        } else {
+            n
+        };
+        Ok(OLine {
+            kind: OKind::M98,
+            name: format!("{}", n as i64),
+            value: None,
+            args: Vec::new(),
+            at,
+            repeat: block.get(b'L'),
+        })
+    }
+
     /// `read_o`: the O-line at `b[*i]` (an `o`). Conditions and arguments are
     /// evaluated only where LinuxCNC evaluates them (not while skipping to another
     /// label).
@@ -504,17 +579,33 @@ impl Interp<'_> {
         ];
         // in LinuxCNC's order of comparison ("elseif" before "else")
         let Some(&(kw, kind)) = KINDS.iter().find(|(kw, _)| rest.starts_with(kw)) else {
-            if matches!(rest.first(), None | Some(b'(' | b';')) {
-                return Err((
-                    at,
-                    ErrorKind::Unsupported {
-                        word: format!("O{label}"),
-                        why: "Fanuc-style O-word programs (called with M98) are not supported yet"
-                            .into(),
-                    },
-                ));
+            if !matches!(rest.first(), None | Some(b'(' | b';')) {
+                return bad(at, "Unknown control command in o word");
             }
-            return bad(at, "Unknown control command in o word");
+            // a Fanuc-style program start, "O1234" alone
+            let ctl = &self.ctl;
+            if ctl.defining_sub {
+                return bad(at, "Nested subroutine definition");
+            }
+            if let (Some(f), None) = (ctl.frames.last(), &ctl.skipping) {
+                if f.sub_name != label {
+                    return bad(
+                        at,
+                        format!(
+                            "Nested subroutine definition: 'O{label} sub' found inside called subroutine 'O{}'",
+                            f.sub_name
+                        ),
+                    );
+                }
+            }
+            return Ok(Some(OLine {
+                kind: OKind::Bare,
+                name: label,
+                value: None,
+                args: Vec::new(),
+                at,
+                repeat: None,
+            }));
         };
         *i += kw.len();
         let ctl = &self.ctl;
@@ -536,6 +627,7 @@ impl Interp<'_> {
             value: None,
             args: Vec::new(),
             at,
+            repeat: None,
         };
         let skip_other = ctl.skipping.as_ref().is_some_and(|s| *s != o.name);
         match kind {
@@ -681,12 +773,28 @@ impl Interp<'_> {
         if self.ctl.skipping.as_ref().is_some_and(|s| *s != o.name) {
             return Ok(Jump::Next);
         }
-        if self.ctl.skipping_to_sub.is_some() && o.kind != OKind::Sub {
+        if self.ctl.skipping_to_sub.is_some() && !matches!(o.kind, OKind::Sub | OKind::Bare) {
             return Ok(Jump::Next);
         }
         let test = o.value.unwrap_or(0.0);
         match o.kind {
+            OKind::Bare => {
+                if self.ctl.frames.last().is_some_and(|f| !f.m98) {
+                    return bad(o.at, "Fanuc 'O....' subroutine must be called with 'M98'");
+                }
+                if self.ctl.skipping.is_some() {
+                    self.save_label(o, pc);
+                    self.ctl.skipping = None;
+                }
+                self.ctl.skipping_to_sub = None;
+            }
             OKind::Sub => {
+                if self.ctl.frames.last().is_some_and(|f| f.m98) {
+                    return bad(
+                        o.at,
+                        "'O.... sub' subroutine must be called with 'O.... call'",
+                    );
+                }
                 if self.ctl.skipping.is_some() {
                     self.save_label(o, pc);
                     self.ctl.skipping = None;
@@ -701,7 +809,19 @@ impl Interp<'_> {
                     self.ctl.sub_name = o.name.clone();
                 }
             }
-            OKind::EndSub | OKind::Return => {
+            OKind::EndSub | OKind::Return | OKind::M99 => {
+                match (self.ctl.frames.last().map(|f| f.m98), o.kind) {
+                    (Some(true), OKind::EndSub | OKind::Return) => {
+                        return bad(o.at, "Fanuc 'O....' subroutine definition must end with 'M99'")
+                    }
+                    (Some(false), OKind::M99) => {
+                        return bad(
+                            o.at,
+                            "'O.... endsub' or 'O.... return' must follow 'O.... sub' subroutine definition",
+                        )
+                    }
+                    _ => {}
+                }
                 if self.ctl.level() == 0 && !self.ctl.defining_sub {
                     return bad(
                         o.at,
@@ -729,20 +849,54 @@ impl Interp<'_> {
                 let Some(frame) = self.ctl.frames.pop() else {
                     return Ok(Jump::Next);
                 };
-                self.params.leave(&frame.saved);
+                if frame.m98 {
+                    self.params.leave_keep();
+                } else {
+                    self.params.leave(&frame.saved);
+                }
                 let (f, pos, line_no) = frame.ret;
                 return Ok(Jump::To(f, pos, line_no + 1));
             }
-            OKind::Call => {
+            OKind::Call | OKind::M98 => {
                 if self.ctl.level() >= MAX_CALL_LEVEL {
                     return bad(o.at, "Too many subroutine levels");
                 }
                 self.ctl.skipping = None;
-                let saved = self.params.enter(&o.args);
+                let m98 = o.kind == OKind::M98;
+                let mut ret = (pc.file, pc.next, pc.line_no);
+                if let (true, Some(l)) = (m98, o.repeat) {
+                    let level = self.ctl.level();
+                    if self.ctl.m98_loops.len() <= level {
+                        self.ctl.m98_loops.resize(level + 1, -1);
+                    }
+                    let left = &mut self.ctl.m98_loops[level];
+                    if *left == -1 {
+                        *left = i64::from(super::round_to_int(l));
+                    }
+                    if *left <= 0 {
+                        // L0: no call at all
+                        *left = -1;
+                        return Ok(Jump::Next);
+                    }
+                    *left -= 1;
+                    if *left > 0 {
+                        // come back to this M98 line for the next repeat
+                        ret = (pc.file, pc.pos, pc.line_no - 1);
+                    } else {
+                        *left = -1;
+                    }
+                }
+                let saved = if m98 {
+                    self.params.enter_keep();
+                    [0.0; SUB_PARAMS]
+                } else {
+                    self.params.enter(&o.args)
+                };
                 self.ctl.frames.push(Frame {
                     sub_name: o.name.clone(),
-                    ret: (pc.file, pc.next, pc.line_no),
+                    ret,
                     saved,
+                    m98,
                 });
                 self.ctl.return_value = 0.0;
                 self.ctl.value_returned = false;
