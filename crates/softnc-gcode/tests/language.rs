@@ -308,3 +308,94 @@ fn fanuc_m98_m99_subprograms() {
         ErrorKind::Unsupported { .. }
     ));
 }
+
+mod fuzz {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Lines made of the language's pieces in random order: O-words, parameters,
+    /// expressions, words, comments, broken fragments.
+    fn piece() -> impl Strategy<Value = String> {
+        prop::sample::select(vec![
+            "o1 ",
+            "o<a> ",
+            "sub",
+            "endsub",
+            "call",
+            "[1]",
+            "[#1]",
+            "return",
+            "if",
+            "elseif",
+            "else",
+            "endif",
+            "while",
+            "endwhile",
+            "do",
+            "repeat",
+            "endrepeat",
+            "break",
+            "continue",
+            "#1",
+            "#<a>",
+            "#<_b>",
+            "=",
+            "[",
+            "]",
+            "+",
+            "-",
+            "*",
+            "/",
+            "**",
+            " mod ",
+            " eq ",
+            " lt ",
+            " and ",
+            "sin",
+            "atan",
+            "exists",
+            "2",
+            "0.5",
+            "-1",
+            "G0",
+            "G1",
+            "G92",
+            "G10 L2 P1",
+            "G28",
+            "X",
+            "Y",
+            "Z",
+            "F100",
+            "M98 P1",
+            "M99",
+            "O1",
+            "M2",
+            "(print,#1)",
+            "(",
+            ")",
+            ";",
+            "%",
+            "\n",
+            "\n",
+            "\n",
+            "\n",
+        ])
+        .prop_map(str::to_string)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(3000))]
+        /// Never a panic, never a hang: every program reads or fails with file:line.
+        #[test]
+        fn random_language_programs_never_panic_or_hang(
+            pieces in prop::collection::vec(piece(), 1..80)
+        ) {
+            let text: String = pieces.concat();
+            let options = ReadOptions { block_limit: Some(20_000), ..Default::default() };
+            match softnc_gcode::read_program_with(&text, "f.ngc", &profile(), &options) {
+                Ok(_) => {}
+                Err(e) => prop_assert!(e.line >= 1 && e.to_string().starts_with("f.ngc:"), "{e}"),
+            }
+        }
+    }
+}
