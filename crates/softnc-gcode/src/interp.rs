@@ -8,6 +8,7 @@
 //! that the canonical output rounds exactly as `rs274` prints it. Motions carry them
 //! converted to mm.
 
+mod modal;
 mod ngc;
 mod offsets;
 
@@ -190,12 +191,11 @@ fn g_unsupported(code: i32) -> Option<&'static str> {
 /// Why softnc refuses an M code LinuxCNC knows (`None`: supported).
 fn m_unsupported(code: i32) -> Option<&'static str> {
     Some(match code {
-        0..=9 | 30 | 61 => return None,
+        0..=9 | 30 | 61 | 70..=73 => return None,
         19 => "spindle orientation (M19) is not supported",
         48..=53 => "override switches (M48-M53) are not supported yet",
         60 => "pallet change (M60) is not supported",
         62..=68 => "digital and analog I/O (M62-M68) are not supported",
-        70..=73 => "saving and restoring modal state (M70-M73) is not supported yet",
         99 => "M99 is not supported",
         100..=199 => "user M codes (M100-M199) are not supported",
         _ => "this M code is not supported",
@@ -385,6 +385,12 @@ struct Interp<'a> {
     offset_mm: Vec3,
     /// Parameters hold inches (see [`ReadOptions::parameters_in_inches`]).
     user_inch: bool,
+    /// G43 active (else G49), for M70-M73.
+    tool_offset_on: bool,
+    /// The exact-stop code in force (610 or 611), for M70-M73.
+    exact_stop_code: i32,
+    /// The spindle M code in force (3, 4 or 5), for M70-M73.
+    spindle_code: i32,
 }
 
 type R<T> = Result<T, (u32, ErrorKind)>;
@@ -434,6 +440,9 @@ impl<'a> Interp<'a> {
             g92: Vec3::ZERO,
             offset_mm: Vec3::ZERO,
             user_inch: false,
+            tool_offset_on: false,
+            exact_stop_code: 610,
+            spindle_code: 5,
         }
     }
 
@@ -845,8 +854,14 @@ impl<'a> Interp<'a> {
         // spindle on/off: the speed each motion runs at (for compensators tuned to
         // the tooth frequency); M19 and M70–M73 of the group are refused earlier
         match b.m_in(7) {
-            Some(3) | Some(4) => self.spindle_on = true,
-            Some(5) => self.spindle_on = false,
+            Some(c @ (3 | 4)) => {
+                self.spindle_on = true;
+                self.spindle_code = c;
+            }
+            Some(5) => {
+                self.spindle_on = false;
+                self.spindle_code = 5;
+            }
             _ => {}
         }
         // M codes: tool change (coolant has no canonical motion)
@@ -868,6 +883,14 @@ impl<'a> Interp<'a> {
                 self.tool_length(tool, off)?;
                 self.sync_pending = true;
             }
+            _ => {}
+        }
+        // M70-M73 (group 7, after the tool change in convert_m)
+        match b.m_in(7) {
+            Some(70) => self.save_modal(false),
+            Some(73) => self.save_modal(true),
+            Some(71) => self.invalidate_modal(),
+            Some(72) => self.restore_modal_here(line_no, b.m_off(7))?,
             _ => {}
         }
         // G codes, in convert_g's order
@@ -928,11 +951,13 @@ impl<'a> Interp<'a> {
                 };
                 self.pos[2] -= (len - self.tool_length_mm) / s;
                 self.tool_length_mm = len;
+                self.tool_offset_on = true;
                 self.refresh_offset();
             }
             Some(490) => {
                 self.pos[2] += self.tool_length_mm / s;
                 self.tool_length_mm = 0.0;
+                self.tool_offset_on = false;
                 self.refresh_offset();
             }
             _ => {}
@@ -952,7 +977,10 @@ impl<'a> Interp<'a> {
             self.select_coord(idx);
         }
         match b.g_in(GM_CONTROL) {
-            Some(610) | Some(611) => self.path = PathMode::ExactStop,
+            Some(c @ (610 | 611)) => {
+                self.path = PathMode::ExactStop;
+                self.exact_stop_code = c;
+            }
             Some(640) => {
                 let p = b.p_number;
                 self.path = PathMode::Blend {

@@ -399,3 +399,38 @@ mod fuzz {
         }
     }
 }
+
+#[test]
+fn m70_m73_save_and_restore_the_modal_state() {
+    // M70 saves G21 G90 F100 at X0; G20 G91 F5 change it (F before G20 on a line:
+    // 5 mm/min, as LinuxCNC); M72 brings them back
+    let p = read("G21 G90 F100\nM70\nG20 G91 F5\nG1 X1\nM72\nG1 X2\nM2\n");
+    let m: Vec<(f64, f64, bool)> = p
+        .motions
+        .iter()
+        .map(|m| match m.kind {
+            MotionKind::Feed {
+                end,
+                feed_mm_per_min,
+            } => (end.0[0], feed_mm_per_min, m.inch),
+            _ => panic!(),
+        })
+        .collect();
+    assert_eq!(m, vec![(25.4, 5.0, true), (2.0, 100.0, false)]);
+    // M73 in a subroutine restores on return
+    let p = read("G90 F100\no1 sub\nM73\nG91 F7\nG1 X1\no1 endsub\no1 call\nG1 X5\nM2\n");
+    let ends: Vec<f64> = p
+        .motions
+        .iter()
+        .map(|m| m.kind.end().unwrap().0[0])
+        .collect();
+    assert_eq!(ends, vec![1.0, 5.0]);
+    assert_eq!(
+        error("M72\nM2\n").kind.to_string(),
+        "Cannot restore context from invalid stack frame - missing M70/M73?"
+    );
+    assert!(error("M70\nM71\nM72\nM2\n")
+        .kind
+        .to_string()
+        .contains("missing M70/M73"));
+}

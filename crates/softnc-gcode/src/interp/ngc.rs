@@ -144,6 +144,8 @@ pub struct Control {
     frames: Vec<Frame>,
     /// M98 L repeats left, per call level of the caller (-1: none running).
     m98_loops: Vec<i64>,
+    /// M70/M73 state saved per call level, and whether M73 restores it on return.
+    pub(super) saved_modal: Vec<(Option<super::modal::Modal>, bool)>,
     /// Skipping forward to this label.
     pub skipping: Option<String>,
     /// Skipping forward to this subroutine's `sub` line (a call).
@@ -846,6 +848,7 @@ impl Interp<'_> {
                 }
                 self.ctl.return_value = test;
                 self.ctl.value_returned = o.value.is_some();
+                let from = self.ctl.level();
                 let Some(frame) = self.ctl.frames.pop() else {
                     return Ok(Jump::Next);
                 };
@@ -854,6 +857,7 @@ impl Interp<'_> {
                 } else {
                     self.params.leave(&frame.saved);
                 }
+                self.leave_modal(from, pc.line_no as u32, o.at)?;
                 let (f, pos, line_no) = frame.ret;
                 return Ok(Jump::To(f, pos, line_no + 1));
             }
@@ -898,6 +902,7 @@ impl Interp<'_> {
                     saved,
                     m98,
                 });
+                self.enter_modal();
                 self.ctl.return_value = 0.0;
                 self.ctl.value_returned = false;
                 if let Some(j) = self.back_to(&o.name) {
