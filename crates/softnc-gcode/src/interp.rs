@@ -1638,10 +1638,12 @@ pub fn read_with(
             Jump::OpenSub => {
                 let name = it.wanted_sub().unwrap_or_default().to_string();
                 let main_dir_file = file.to_string();
-                if let Some(k) = sources
-                    .iter()
-                    .position(|s| s.name.ends_with(&format!("{name}.ngc")) && !name.is_empty())
-                {
+                let file_name = format!("{name}.ngc");
+                if let Some(k) = sources.iter().skip(1).position(|s| {
+                    std::path::Path::new(&s.name).file_name()
+                        == Some(std::ffi::OsStr::new(&file_name))
+                }) {
+                    let k = k + 1;
                     cur = k;
                     pos = 0;
                     next_line_no = 1;
