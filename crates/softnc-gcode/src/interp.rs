@@ -1629,6 +1629,19 @@ pub fn read_with(
         };
         pos = after;
         match jump {
+            Jump::Percent => {
+                // read_text's end of file while skipping: LinuxCNC's error
+                let sk = it.ctl.skipping.clone().unwrap_or_default();
+                return Err(err_in(
+                    &sources[cur].name,
+                    n_lines,
+                    "%",
+                    (
+                        0,
+                        ErrorKind::Invalid(format!("Failed to find sub 'O{sk}' before EOF")),
+                    ),
+                ));
+            }
             Jump::Next => {}
             Jump::To(f, p, l) => {
                 cur = f;

@@ -434,3 +434,21 @@ fn m70_m73_save_and_restore_the_modal_state() {
         .to_string()
         .contains("missing M70/M73"));
 }
+
+#[test]
+fn skipped_lines_are_still_lines() {
+    // read_text checks comments on every line, also in a branch not taken
+    assert_eq!(
+        error("o1 if [0]\nG0 X1 (open\no1 endif\nM2\n")
+            .kind
+            .to_string(),
+        "Unclosed comment found"
+    );
+    // a lone % is the end of the file, also while skipping: an error there
+    assert_eq!(
+        error("%\nG0 X1\no1 call\n%\no1 sub\no1 endsub\n")
+            .kind
+            .to_string(),
+        "Failed to find sub 'O1' before EOF"
+    );
+}

@@ -180,6 +180,8 @@ pub enum Jump {
     To(usize, usize, usize),
     /// Open the subroutine file for this call (its name), then skip to its `sub`.
     OpenSub,
+    /// A lone `%` while skipping: LinuxCNC's end of file, an error.
+    Percent,
 }
 
 /// Where the reader is (the interpreter's view of the program counter).
@@ -298,11 +300,19 @@ impl Interp<'_> {
         pc: &Pc,
     ) -> R<Jump> {
         let sig = significant(raw.as_bytes());
-        if !sig.iter().any(|c| matches!(c, b'o' | b'O')) {
-            return Ok(Jump::Next);
-        }
+        // comments are checked and a lone `%` read on every line, as read_text does
         if sig.contains(&b'(') {
             check_comments(sig)?;
+        }
+        if sig
+            .iter()
+            .filter(|c| !matches!(c, b' ' | b'\t' | b'\r'))
+            .eq(b"%".iter())
+        {
+            return Ok(Jump::Percent);
+        }
+        if !sig.iter().any(|c| matches!(c, b'o' | b'O')) {
+            return Ok(Jump::Next);
         }
         norm.build(sig);
         let mut i = 0;
