@@ -173,6 +173,8 @@ fn g_unsupported(code: i32) -> Option<&'static str> {
         | 300
         | 301
         | 520
+        | 431
+        | 432
         | 920..=923 => return None,
         50..=53 => "splines (G5, G5.1, G5.2, G5.3) are not supported yet",
         70 => "lathe diameter mode (G7) is not supported",
@@ -180,7 +182,6 @@ fn g_unsupported(code: i32) -> Option<&'static str> {
         330 | 331 => "spindle-synchronised motion (G33) is not supported",
         382..=385 => "probing (G38.x) is not supported",
         410 | 411 | 420 | 421 => "cutter radius compensation is not supported yet",
-        431 | 432 => "dynamic tool length offsets (G43.1, G43.2) are not supported yet",
         700..=760 | 810..=890 => "canned cycles are not supported yet",
         950 => "feed per revolution (G95) is not supported",
         960 => "constant surface speed (G96) is not supported",
@@ -637,13 +638,19 @@ impl<'a> Interp<'a> {
                 return bad(b.g_off(GM_MODAL_0), "All axes missing with g52 or g92");
             }
         } else if axis {
-            let Some(m) = self.motion else {
-                return bad(
-                    b.axis_off(),
-                    "Cannot use axis values without a g code that uses them",
-                );
-            };
-            b.motion_to_be = Some(m);
+            let tool_mode = b.g_in(GM_TOOL_LENGTH);
+            let dynamic = matches!(tool_mode, Some(431 | 432));
+            match self.motion {
+                None if !dynamic => {
+                    return bad(
+                        b.axis_off(),
+                        "Cannot use axis values without a g code that uses them",
+                    )
+                }
+                // G43.1 takes the axis words; G43.2 leaves them to the motion too
+                Some(m) if tool_mode != Some(431) => b.motion_to_be = Some(m),
+                _ => {}
+            }
         } else if ijk && matches!(self.motion, Some(G_2 | G_3)) {
             b.motion_to_be = self.motion;
         }
@@ -713,7 +720,7 @@ impl<'a> Interp<'a> {
                 "E word with no G70, G76, M66, M67 or M68 to use it",
             );
         }
-        if b.has(b'H') && b.g_in(GM_TOOL_LENGTH) != Some(430) {
+        if b.has(b'H') && !matches!(b.g_in(GM_TOOL_LENGTH), Some(430 | 432)) {
             return bad(b.off(b'H'), "H word with no G43 or G76 to use it");
         }
         if b.has(b'I') && !arc && mode0 != Some(100) {
@@ -949,6 +956,38 @@ impl<'a> Interp<'a> {
                     Some(h) => self.tool_length(h as i32, b.off(b'H'))?,
                     None => self.spindle_length_mm,
                 };
+                self.pos[2] -= (len - self.tool_length_mm) / s;
+                self.tool_length_mm = len;
+                self.tool_offset_on = true;
+                self.refresh_offset();
+            }
+            Some(code @ (431 | 432)) => {
+                // dynamic offsets (convert_tool_length_offset): G43.1 sets, G43.2 adds
+                let off = b.g_off(GM_TOOL_LENGTH);
+                if b.has(b'X') || b.has(b'Y') {
+                    return unsup(
+                        off,
+                        fmt_code('G', code),
+                        "X and Y tool offsets are not supported (Z only)",
+                    );
+                }
+                let mut len = self.tool_length_mm;
+                if code == 431 {
+                    if let Some(z) = b.get(b'Z') {
+                        len = z * s;
+                    }
+                } else {
+                    if b.has(b'H') && b.has(b'Z') {
+                        return bad(off, "G43.2: Can not have both H and axis words");
+                    }
+                    match (b.get(b'H'), b.get(b'Z')) {
+                        (Some(h), _) => len += self.tool_length(h as i32, b.off(b'H'))?,
+                        (None, Some(z)) => len += z * s,
+                        (None, None) => {
+                            return bad(off, "G43.2: No axes specified and H word missing")
+                        }
+                    }
+                }
                 self.pos[2] -= (len - self.tool_length_mm) / s;
                 self.tool_length_mm = len;
                 self.tool_offset_on = true;

@@ -452,3 +452,27 @@ fn skipped_lines_are_still_lines() {
         "Failed to find sub 'O1' before EOF"
     );
 }
+
+#[test]
+fn g43_1_sets_and_g43_2_adds_a_tool_length() {
+    let p = read("G0 Z10\nG43.1 Z5\nG0 Z0\nG43.2 Z1\nG0 Z0\nG49\nG0 Z0\nM2\n");
+    let z: Vec<(f64, f64)> = p
+        .motions
+        .iter()
+        .map(|m| (m.start.0[2], m.offset_mm.0[2]))
+        .collect();
+    // G43.1 takes the Z word (no motion on its line); G43.2 leaves it to the motion
+    // mode in force too (LinuxCNC's enhance_block), so its line also moves to Z1
+    assert_eq!(
+        z,
+        vec![(0.0, 0.0), (5.0, 5.0), (-1.0, 6.0), (1.0, 6.0), (6.0, 0.0)]
+    );
+    assert_eq!(
+        error("G43.2\nM2\n").kind.to_string(),
+        "G43.2: No axes specified and H word missing"
+    );
+    assert!(matches!(
+        error("G43.1 X1\nM2\n").kind,
+        ErrorKind::Unsupported { .. }
+    ));
+}
