@@ -392,6 +392,10 @@ struct Interp<'a> {
     exact_stop_code: i32,
     /// The spindle M code in force (3, 4 or 5), for M70-M73.
     spindle_code: i32,
+    /// Tool lengths (mm) set by G10 L1/L10/L11, over the profile's tool table.
+    tool_edits: std::collections::HashMap<u32, f64>,
+    /// Number of the tool in the spindle (M6, M61).
+    tool_loaded: u32,
 }
 
 type R<T> = Result<T, (u32, ErrorKind)>;
@@ -444,6 +448,8 @@ impl<'a> Interp<'a> {
             tool_offset_on: false,
             exact_stop_code: 610,
             spindle_code: 5,
+            tool_edits: std::collections::HashMap::new(),
+            tool_loaded: 0,
         }
     }
 
@@ -468,10 +474,12 @@ impl<'a> Interp<'a> {
         if tool == 0 {
             return Ok(self.spindle_length_mm);
         }
-        match u32::try_from(tool)
-            .ok()
-            .and_then(|t| self.profile.tool_length_mm(t))
-        {
+        match u32::try_from(tool).ok().and_then(|t| {
+            self.tool_edits
+                .get(&t)
+                .copied()
+                .or_else(|| self.profile.tool_length_mm(t))
+        }) {
             Some(l) => Ok(l),
             None => bad(
                 off,
@@ -764,7 +772,11 @@ impl<'a> Interp<'a> {
                 }
             }
         }
-        if b.q_number != -1.0 && b.g_in(GM_CONTROL) != Some(640) && b.m_in(6) != Some(61) {
+        if b.q_number != -1.0
+            && b.g_in(GM_CONTROL) != Some(640)
+            && b.m_in(6) != Some(61)
+            && mode0 != Some(100)
+        {
             return bad(
                 b.off(b'Q'),
                 "Q word with no G5, G10, G64, G73, G76, G83, M19, M66, M67, M68 or user M code that uses it",
@@ -875,6 +887,7 @@ impl<'a> Interp<'a> {
         match b.m_in(6) {
             Some(6) => {
                 self.spindle_length_mm = self.tool_length(self.tool_selected as i32, 0)?;
+                self.tool_loaded = self.tool_selected;
                 self.sync_pending = true;
             }
             Some(61) => {
@@ -888,6 +901,7 @@ impl<'a> Interp<'a> {
                     );
                 }
                 self.tool_length(tool, off)?;
+                self.tool_loaded = tool as u32;
                 self.sync_pending = true;
             }
             _ => {}

@@ -242,7 +242,7 @@ fn g10_l2_l20_set_work_offsets() {
         ErrorKind::Unsupported { .. }
     ));
     assert!(matches!(
-        error("G10 L1 P1 Z1\nM2\n").kind,
+        error("G10 L1 P1 Y1\nM2\n").kind,
         ErrorKind::Unsupported { .. }
     ));
     assert_eq!(
@@ -473,6 +473,32 @@ fn g43_1_sets_and_g43_2_adds_a_tool_length() {
     );
     assert!(matches!(
         error("G43.1 X1\nM2\n").kind,
+        ErrorKind::Unsupported { .. }
+    ));
+}
+
+#[test]
+fn g10_l1_l10_l11_set_tool_lengths() {
+    // L1: tool 2 is 7 mm long now; G43 H2 uses it
+    let p = read("G10 L1 P2 Z7\nG43 H2\nG0 X0\nM2\n");
+    assert_eq!(p.motions[0].offset_mm.0[2], 7.0);
+    // L10: with tool 1 loaded and G43, the current Z becomes Z3 in the active system
+    let p = read("T1 M6\nG43\nG0 Z10\nG10 L10 P1 Z3\nG43\nG0 X0\nM2\n");
+    let last = p.motions.last().unwrap();
+    assert!((last.start.0[2] - 3.0).abs() < 1e-9, "{:?}", last.start);
+    // L11 measures in G59.3 (here all offsets 0: the same as L10)
+    let p = read("T1 M6\nG43\nG0 Z10\nG10 L11 P1 Z3\nG43\nG0 X0\nM2\n");
+    assert!((p.motions.last().unwrap().start.0[2] - 3.0).abs() < 1e-9);
+    assert_eq!(
+        error("G10 L1 P2\nM2\n").kind.to_string(),
+        "G10 L1 without offsets has no effect"
+    );
+    assert_eq!(
+        error("G10 L1 P7 Z1\nM2\n").kind.to_string(),
+        "Requested tool 7 not found in the tool table"
+    );
+    assert!(matches!(
+        error("G10 L1 P1 X1\nM2\n").kind,
         ErrorKind::Unsupported { .. }
     ));
 }

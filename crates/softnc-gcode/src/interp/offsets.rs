@@ -188,12 +188,11 @@ impl Interp<'_> {
     /// are refused.
     fn g10(&mut self, b: &Block, off: u32) -> R<()> {
         let l = b.get(b'L').map_or(0, |l| l as i32);
+        if matches!(l, 1 | 10 | 11) {
+            return self.g10_tool(l, b, off);
+        }
         if l != 2 && l != 20 {
-            return unsup(
-                off,
-                format!("G10 L{l}"),
-                "G10 L0, L1, L10 and L11 (tool table) are not supported yet",
-            );
+            return unsup(off, format!("G10 L{l}"), "G10 L0 is not supported");
         }
         if b.has(b'I') || b.has(b'J') {
             return bad(off, "I J words not allowed with G10 L2");
@@ -244,6 +243,70 @@ impl Interp<'_> {
             self.shift(d);
             self.origin = new;
             self.refresh_offset();
+        }
+        Ok(())
+    }
+
+    /// `convert_setup_tool`: G10 L1 (set), L10 (so that the current point is Z in
+    /// the active system), L11 (… in G59.3) a tool's length; X/Y offsets refused.
+    fn g10_tool(&mut self, l: i32, b: &Block, off: u32) -> R<()> {
+        let p = b.p_number;
+        let tool = p.round();
+        if (p - tool).abs() > 0.0001 {
+            return bad(off, "P value not an integer with G10");
+        }
+        let tool = tool as i32;
+        self.tool_length(tool, off)?; // find_tool_index: the tool must be in the table
+        if !(b.has(b'X')
+            || b.has(b'Y')
+            || b.has(b'Z')
+            || b.has(b'R')
+            || b.q_number != -1.0
+            || b.has(b'I')
+            || b.has(b'J'))
+        {
+            return bad(off, "G10 L1 without offsets has no effect");
+        }
+        if b.has(b'X') || b.has(b'Y') {
+            return unsup(
+                off,
+                format!("G10 L{l}"),
+                "X and Y tool offsets are not supported (Z only)",
+            );
+        }
+        if b.q_number != -1.0 {
+            let q = b.q_number.round();
+            if (b.q_number - q).abs() > 0.0001 {
+                return bad(off, "Q number in G10 is not an integer");
+            }
+            if q > 9.0 {
+                return bad(off, "Invalid tool orientation");
+            }
+        }
+        if let Some(z) = b.get(b'Z') {
+            let s = self.scale();
+            let len_mm = if l == 1 {
+                z * s
+            } else {
+                // find_current_in_system_without_tlo
+                let n = if l == 11 { 9 } else { self.coord + 1 };
+                let mut tz = self.pos[2] + self.g92[2] + self.origin[2]
+                    - self.to_prog(self.params.get(base(n) + 2))
+                    + self.tool_length_mm / s;
+                if l == 11 && self.params.get(5210) != 0.0 {
+                    tz += self.to_prog(self.params.get(5213));
+                }
+                (tz - z) * s
+            };
+            let number = if tool == 0 {
+                self.tool_loaded
+            } else {
+                tool as u32
+            };
+            self.tool_edits.insert(number, len_mm);
+            if number == self.tool_loaded {
+                self.spindle_length_mm = len_mm;
+            }
         }
         Ok(())
     }
