@@ -396,6 +396,9 @@ struct Interp<'a> {
     tool_edits: std::collections::HashMap<u32, f64>,
     /// Number of the tool in the spindle (M6, M61).
     tool_loaded: u32,
+    /// Coolant (M7, M8; M9 turns both off), for `#<_mist>` and `#<_flood>`.
+    mist: bool,
+    flood: bool,
 }
 
 type R<T> = Result<T, (u32, ErrorKind)>;
@@ -450,6 +453,8 @@ impl<'a> Interp<'a> {
             spindle_code: 5,
             tool_edits: std::collections::HashMap::new(),
             tool_loaded: 0,
+            mist: false,
+            flood: false,
         }
     }
 
@@ -903,6 +908,16 @@ impl<'a> Interp<'a> {
                 self.tool_length(tool, off)?;
                 self.tool_loaded = tool as u32;
                 self.sync_pending = true;
+            }
+            _ => {}
+        }
+        // coolant (no canonical motion; read by #<_mist>, #<_flood>)
+        match b.m_in(8) {
+            Some(7) => self.mist = true,
+            Some(8) => self.flood = true,
+            Some(9) => {
+                self.mist = false;
+                self.flood = false;
             }
             _ => {}
         }

@@ -337,7 +337,7 @@ const UNSUPPORTED: &[(&str, u32, u32, &str)] = &[
     ("G0 X1\nG81 X1 Y1 Z-1 R1\nM2\n", 2, 1, "G81"),
     ("G0 X1\nM99\n", 2, 1, "M99"),
     ("#1=2\nG0 X#1 A#1\nM2\n", 2, 8, "A"),
-    ("G0 X#<_abs_x>\nM2\n", 1, 5, "#<_abs_x>"),
+    ("G0 X#<_feed_override>\nM2\n", 1, 5, "#<_feed_override>"),
     ("G0 A10\nM2\n", 1, 4, "A"),
     ("G0 X1 W2\nM2\n", 1, 7, "W"),
     ("G41 D1\nM2\n", 1, 1, "G41"),

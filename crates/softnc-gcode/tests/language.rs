@@ -502,3 +502,15 @@ fn g10_l1_l10_l11_set_tool_lengths() {
         ErrorKind::Unsupported { .. }
     ));
 }
+
+#[test]
+fn state_parameters_follow_the_machine_state() {
+    let p = read(
+        "T1 M6\nG10 L2 P1 X10\nG0 X1 Y2\nG92 X0\nM3 M8\n\
+         (PRINT,#5400 #5420 %.1f#<_abs_x> #<_x> #<_current_tool> #<_spindle_cw> #<_flood> #<_mist>)\nM2\n",
+    );
+    assert_eq!(
+        p.warnings,
+        vec!["t.ngc:6: print: 1.000000 0.000000 11.0 0.0 1.0 1.0 1.0 0.0"]
+    );
+}

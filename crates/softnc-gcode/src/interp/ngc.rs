@@ -199,7 +199,15 @@ pub struct Pc {
 
 impl Env for Interp<'_> {
     fn numbered(&self, index: usize) -> f64 {
-        self.params.get(index)
+        // parameters LinuxCNC keeps up to date from its state: the tool in the
+        // spindle (5400, its length 5403, user units) and, as each line is read, the
+        // current point (5420-5422, program units)
+        match index {
+            5400 => f64::from(self.tool_loaded),
+            5403 => self.spindle_length_mm / if self.user_inch { 25.4 } else { 1.0 },
+            5420..=5422 => self.pos[index - 5420],
+            _ => self.params.get(index),
+        }
     }
     fn named(&self, name: &str) -> Result<Option<f64>, ErrorKind> {
         if let Some(v) = self.params.named(name) {
@@ -256,6 +264,20 @@ impl Interp<'_> {
             "_lathe_diameter_mode" => b(false),
             "_lathe_radius_mode" => b(true),
             "_spindle_on" => b(self.spindle_on),
+            "_spindle_cw" => b(self.spindle_on && self.spindle_code == 3),
+            "_mist" => b(self.mist),
+            "_flood" => b(self.flood),
+            "_current_tool" => Some(f64::from(self.tool_loaded)),
+            "_abs_x" | "_abs_y" | "_abs_z" => {
+                let k = usize::from(name.as_bytes()[5] - b'x');
+                let tool = if k == 2 {
+                    self.tool_length_mm / self.scale()
+                } else {
+                    0.0
+                };
+                Some(self.pos[k] + self.g92[k] + self.origin[k] + tool)
+            }
+            "_abs_a" | "_abs_b" | "_abs_c" | "_abs_u" | "_abs_v" | "_abs_w" => Some(0.0),
             "_feed" => Some(self.feed),
             "_rpm" => Some(self.s_rpm),
             "_x" => Some(self.pos[0]),
@@ -268,10 +290,9 @@ impl Interp<'_> {
             "_call_level" => Some(self.ctl.level() as f64),
             "_remap_level" => Some(0.0),
             "_task" => Some(0.0),
-            "_retract_r_plane" | "_retract_old_z" | "_control_mode" | "_spindle_cw" | "_mist"
-            | "_flood" | "_speed_override" | "_feed_override" | "_adaptive_feed" | "_feed_hold"
-            | "_current_tool" | "_current_pocket" | "_selected_pocket" | "_abs_x" | "_abs_y"
-            | "_abs_z" | "_abs_a" | "_abs_b" | "_abs_c" | "_abs_u" | "_abs_v" | "_abs_w" => {
+            "_retract_r_plane" | "_retract_old_z" | "_control_mode" | "_speed_override"
+            | "_feed_override" | "_adaptive_feed" | "_feed_hold" | "_current_pocket"
+            | "_selected_pocket" => {
                 return Err(ErrorKind::Unsupported {
                     word: format!("#<{name}>"),
                     why: "this predefined parameter is not supported yet".into(),
@@ -1120,7 +1141,7 @@ impl Interp<'_> {
                             i += 1;
                         }
                         let n: usize = text[s..i].parse().unwrap_or(usize::MAX);
-                        (n < NUM_PARAMS).then(|| self.params.get(n))
+                        (n < NUM_PARAMS).then(|| Env::numbered(self, n))
                     } else if c == b'<' {
                         i += 1;
                         let mut name = String::new();
