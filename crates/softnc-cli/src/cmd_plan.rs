@@ -25,6 +25,26 @@ pub struct PlanArgs {
     /// Plan even where the program leaves the machine's travel (offline analysis).
     #[arg(long)]
     ignore_soft_limits: bool,
+    /// Start with the parameters of this LinuxCNC-style parameter file (`NUMBER
+    /// VALUE` lines: work offsets 5221-5390, G28/G30 positions 5161-5189, G92
+    /// 5210-5219, ...); a missing file means all 0.
+    #[arg(long, value_name = "FILE")]
+    params: Option<PathBuf>,
+    /// With --params: write the parameters as the program left them back to the
+    /// file (atomically), as LinuxCNC does at the end of a run.
+    #[arg(long, requires = "params")]
+    save_params: bool,
+    /// A folder searched for `NAME.ngc` when the program calls a subroutine it
+    /// does not define (repeatable; the program's own folder is searched last).
+    #[arg(long, value_name = "DIR")]
+    subroutine_path: Vec<PathBuf>,
+}
+
+impl PlanArgs {
+    /// Whether reading needs more than the plain reader (parameters, search path).
+    fn needs_options(&self) -> bool {
+        self.params.is_some() || !self.subroutine_path.is_empty()
+    }
 }
 
 /// Load a machine profile, or explain which field is wrong.
@@ -41,6 +61,37 @@ pub fn read_file(file: &PathBuf, machine: &MachineProfile) -> Result<Result<Prog
     Ok(softnc_gcode::read_program(&text, &name, machine).map_err(|e| e.to_string()))
 }
 
+/// [`read_file`] with the parameter file and search path of `args`; writes the
+/// parameters back when asked. `Err(Ok(msg))` is a refusal (exit 2).
+fn read_file_with(args: &PlanArgs, machine: &MachineProfile) -> Result<Result<Program, String>> {
+    let params = match &args.params {
+        Some(path) => match softnc_gcode::Params::load(path) {
+            Ok(p) => Some(p),
+            Err(e) => return Ok(Err(format!("softnc: {e}"))),
+        },
+        None => None,
+    };
+    let options = softnc_gcode::ReadOptions {
+        subroutine_path: args.subroutine_path.clone(),
+        params,
+        ..Default::default()
+    };
+    let bytes = std::fs::read(&args.file)
+        .with_context(|| format!("cannot read {}", args.file.display()))?;
+    let text = String::from_utf8_lossy(&bytes);
+    let name = args.file.display().to_string();
+    let (program, params) = match softnc_gcode::read_program_with(&text, &name, machine, &options) {
+        Ok(r) => r,
+        Err(e) => return Ok(Err(e.to_string())),
+    };
+    if let (true, Some(path)) = (args.save_params, &args.params) {
+        if let Err(e) = params.save(path) {
+            return Ok(Err(format!("softnc: {e}")));
+        }
+    }
+    Ok(Ok(program))
+}
+
 pub fn run(args: PlanArgs) -> Result<ExitCode> {
     let machine = match load_machine(args.machine.as_ref()) {
         Ok(m) => m,
@@ -52,10 +103,10 @@ pub fn run(args: PlanArgs) -> Result<ExitCode> {
     let options = softnc_planner::PlanOptions {
         ignore_soft_limits: args.canon || args.ignore_soft_limits,
     };
-    if !args.canon {
+    if !args.canon && !args.needs_options() {
         return summary(&args, &machine, &options);
     }
-    let program = match read_file(&args.file, &machine)? {
+    let program = match read_file_with(&args, &machine)? {
         Ok(p) => p,
         Err(msg) => {
             eprintln!("{msg}");
@@ -63,9 +114,15 @@ pub fn run(args: PlanArgs) -> Result<ExitCode> {
         }
     };
     // the canonical motions are the program's reading; planning checks it plans
-    if let Err(e) = softnc_planner::plan(&program, &machine, &options) {
-        eprintln!("{e}");
-        return Ok(ExitCode::from(crate::EXIT_REFUSED));
+    let plan = match softnc_planner::plan(&program, &machine, &options) {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("{e}");
+            return Ok(ExitCode::from(crate::EXIT_REFUSED));
+        }
+    };
+    if !args.canon {
+        return print_summary(&args, &program, &plan);
     }
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
@@ -96,6 +153,15 @@ fn summary(
                 return Ok(ExitCode::from(crate::EXIT_REFUSED));
             }
         };
+    print_summary(args, &program, &plan)
+}
+
+/// Print the summary of a read and planned program.
+fn print_summary(
+    args: &PlanArgs,
+    program: &Program,
+    plan: &softnc_planner::Plan,
+) -> Result<ExitCode> {
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     for w in &program.warnings {

@@ -129,7 +129,8 @@ impl MotionKind {
 pub struct Program {
     /// File name as given (used in messages).
     pub file: String,
-    /// Number of source lines (blocks) read.
+    /// Number of blocks read: source lines, each time it is read (loops and
+    /// subroutine calls read lines again; skipped lines count).
     pub blocks: usize,
     /// The canonical motions in order.
     pub motions: Vec<Motion>,

@@ -12,6 +12,13 @@ pub enum ErrorKind {
         /// Why or what instead.
         why: String,
     },
+    /// The program ran more blocks than the configured limit (an endless loop is
+    /// ended here instead of hanging; see `ReadOptions::block_limit`).
+    #[error("executed-block limit of {limit} blocks reached (an endless loop?); raise it with the block limit option if the program is meant to run longer")]
+    BlockLimit {
+        /// The limit that was reached.
+        limit: u64,
+    },
     /// Anything LinuxCNC would also refuse.
     #[error("{0}")]
     Invalid(String),

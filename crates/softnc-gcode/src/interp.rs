@@ -8,10 +8,19 @@
 //! that the canonical output rounds exactly as `rs274` prints it. Motions carry them
 //! converted to mm.
 
+mod modal;
+mod ngc;
+mod offsets;
+
 use crate::canon::{Motion, MotionKind, PathMode, Program};
 use crate::error::{ErrorKind, GcodeError};
-use crate::lexer::{bad_character, column, lex_words, significant, Line, Word};
+use crate::expr::Norm;
+use crate::lexer::{bad_character, column, lex_words, significant, Line, Word, SLOW};
+use crate::params::Params;
+use crate::ReadOptions;
+use ngc::{Control, Jump, Pc, Setting};
 use softnc_core::{MachineProfile, Plane, Vec3};
+use std::borrow::Cow;
 use std::f64::consts::{FRAC_PI_2, PI, SQRT_2};
 
 const MM_PER_INCH: f64 = 25.4;
@@ -157,17 +166,22 @@ fn g_unsupported(code: i32) -> Option<&'static str> {
         | 940
         | 970
         | 980
-        | 990 => return None,
+        | 990
+        | 100
+        | 280
+        | 281
+        | 300
+        | 301
+        | 520
+        | 431
+        | 432
+        | 920..=923 => return None,
         50..=53 => "splines (G5, G5.1, G5.2, G5.3) are not supported yet",
         70 => "lathe diameter mode (G7) is not supported",
-        100 => "G10 (setting tool and offset tables) is not supported yet",
         171 | 181 | 191 => "the UVW planes are not supported",
-        280 | 281 | 300 | 301 => "G28/G30 reference returns are not supported yet",
         330 | 331 => "spindle-synchronised motion (G33) is not supported",
         382..=385 => "probing (G38.x) is not supported",
         410 | 411 | 420 | 421 => "cutter radius compensation is not supported yet",
-        431 | 432 => "dynamic tool length offsets (G43.1, G43.2) are not supported yet",
-        520 | 920..=923 => "G52/G92 offsets are not supported yet",
         700..=760 | 810..=890 => "canned cycles are not supported yet",
         950 => "feed per revolution (G95) is not supported",
         960 => "constant surface speed (G96) is not supported",
@@ -178,12 +192,11 @@ fn g_unsupported(code: i32) -> Option<&'static str> {
 /// Why softnc refuses an M code LinuxCNC knows (`None`: supported).
 fn m_unsupported(code: i32) -> Option<&'static str> {
     Some(match code {
-        0..=9 | 30 | 61 => return None,
+        0..=9 | 30 | 61 | 70..=73 => return None,
         19 => "spindle orientation (M19) is not supported",
         48..=53 => "override switches (M48-M53) are not supported yet",
         60 => "pallet change (M60) is not supported",
         62..=68 => "digital and analog I/O (M62-M68) are not supported",
-        70..=73 => "saving and restoring modal state (M70-M73) is not supported yet",
         99 => "M99 is not supported",
         100..=199 => "user M codes (M100-M199) are not supported",
         _ => "this M code is not supported",
@@ -359,6 +372,33 @@ struct Interp<'a> {
     motions: Vec<Motion>,
     warnings: Vec<String>,
     file: &'a str,
+    /// Parameter table.
+    params: Params,
+    /// O-word control state.
+    ctl: Control,
+    /// Number of the line being read (`#<_line>`).
+    line_no: usize,
+    /// Active G54…G59.3 offset (program units; LinuxCNC `origin_offset`).
+    origin: Vec3,
+    /// G92/G52 offset (program units; LinuxCNC `axis_offset`).
+    g92: Vec3,
+    /// Canonical frame → machine (mm): origin + g92 + tool length, kept up to date.
+    offset_mm: Vec3,
+    /// Parameters hold inches (see [`ReadOptions::parameters_in_inches`]).
+    user_inch: bool,
+    /// G43 active (else G49), for M70-M73.
+    tool_offset_on: bool,
+    /// The exact-stop code in force (610 or 611), for M70-M73.
+    exact_stop_code: i32,
+    /// The spindle M code in force (3, 4 or 5), for M70-M73.
+    spindle_code: i32,
+    /// Tool lengths (mm) set by G10 L1/L10/L11, over the profile's tool table.
+    tool_edits: std::collections::HashMap<u32, f64>,
+    /// Number of the tool in the spindle (M6, M61).
+    tool_loaded: u32,
+    /// Coolant (M7, M8; M9 turns both off), for `#<_mist>` and `#<_flood>`.
+    mist: bool,
+    flood: bool,
 }
 
 type R<T> = Result<T, (u32, ErrorKind)>;
@@ -401,6 +441,20 @@ impl<'a> Interp<'a> {
             motions: Vec::new(),
             warnings: Vec::new(),
             file,
+            params: Params::default(),
+            ctl: Control::default(),
+            line_no: 0,
+            origin: Vec3::ZERO,
+            g92: Vec3::ZERO,
+            offset_mm: Vec3::ZERO,
+            user_inch: false,
+            tool_offset_on: false,
+            exact_stop_code: 610,
+            spindle_code: 5,
+            tool_edits: std::collections::HashMap::new(),
+            tool_loaded: 0,
+            mist: false,
+            flood: false,
         }
     }
 
@@ -413,15 +467,10 @@ impl<'a> Interp<'a> {
         }
     }
 
-    fn work_offset(&self, index: usize) -> Vec3 {
-        Vec3(self.profile.work_offset_mm(index))
-    }
-
     /// Canonical frame → machine coordinates (mm).
+    #[inline(always)]
     fn offset(&self) -> Vec3 {
-        let mut o = self.work_offset(self.coord);
-        o[2] += self.tool_length_mm;
-        o
+        self.offset_mm
     }
 
     /// A tool's length (mm) as LinuxCNC's `find_tool_index` finds it: tool 0 is the
@@ -430,10 +479,12 @@ impl<'a> Interp<'a> {
         if tool == 0 {
             return Ok(self.spindle_length_mm);
         }
-        match u32::try_from(tool)
-            .ok()
-            .and_then(|t| self.profile.tool_length_mm(t))
-        {
+        match u32::try_from(tool).ok().and_then(|t| {
+            self.tool_edits
+                .get(&t)
+                .copied()
+                .or_else(|| self.profile.tool_length_mm(t))
+        }) {
             Some(l) => Ok(l),
             None => bad(
                 off,
@@ -445,6 +496,7 @@ impl<'a> Interp<'a> {
     /// `read_items` for one word: into the block, with LinuxCNC's reading errors (the
     /// words come in the order of the line); codes and axes softnc does not implement
     /// are refused where they stand.
+    #[inline(always)]
     fn sort_word(&self, w: Word, b: &mut Block) -> R<()> {
         let Word {
             letter,
@@ -567,24 +619,51 @@ impl<'a> Interp<'a> {
         Ok(())
     }
 
+    /// [`Self::sort_word`] kept out of line, for the full reader (the hot path
+    /// inlines its own copy).
+    #[inline(never)]
+    fn sort_word_slow(&self, w: Word, b: &mut Block) -> R<()> {
+        self.sort_word(w, b)
+    }
+
     /// `enhance_block` and `check_items`.
     fn check(&self, b: &mut Block) -> R<()> {
         let axis = b.has(b'X') || b.has(b'Y') || b.has(b'Z');
         let ijk = b.has(b'I') || b.has(b'J') || b.has(b'K');
         let mode0 = b.g_in(GM_MODAL_0);
+        let covets = matches!(mode0, Some(100 | 280 | 300 | 520 | 920));
         if let Some(mode1) = b.g_in(GM_MOTION) {
-            if mode1 == G_80 && axis {
+            if mode1 == G_80 && axis && !covets {
                 return bad(b.axis_off(), "Cannot use axis values with g80");
             }
-            b.motion_to_be = Some(mode1);
-        } else if axis {
-            let Some(m) = self.motion else {
+            if mode1 == G_80 && !axis && matches!(mode0, Some(520 | 920)) {
+                return bad(b.g_off(GM_MODAL_0), "All axes missing with g52 or g92");
+            }
+            if mode1 != G_80 && covets {
                 return bad(
-                    b.axis_off(),
-                    "Cannot use axis values without a g code that uses them",
+                    b.g_off(GM_MOTION),
+                    "Cannot use two g codes that both use axis values",
                 );
-            };
-            b.motion_to_be = Some(m);
+            }
+            b.motion_to_be = Some(mode1);
+        } else if covets {
+            if !axis && matches!(mode0, Some(520 | 920)) {
+                return bad(b.g_off(GM_MODAL_0), "All axes missing with g52 or g92");
+            }
+        } else if axis {
+            let tool_mode = b.g_in(GM_TOOL_LENGTH);
+            let dynamic = matches!(tool_mode, Some(431 | 432));
+            match self.motion {
+                None if !dynamic => {
+                    return bad(
+                        b.axis_off(),
+                        "Cannot use axis values without a g code that uses them",
+                    )
+                }
+                // G43.1 takes the axis words; G43.2 leaves them to the motion too
+                Some(m) if tool_mode != Some(431) => b.motion_to_be = Some(m),
+                _ => {}
+            }
         } else if ijk && matches!(self.motion, Some(G_2 | G_3)) {
             b.motion_to_be = self.motion;
         }
@@ -600,6 +679,30 @@ impl<'a> Interp<'a> {
                     b.g_off(GM_MODAL_0),
                     "G4 not allowed with G2 or G3 because they both use P",
                 );
+            }
+        } else if mode0 == Some(100) {
+            let p = b.p_number;
+            let p_int = if p >= 0.0 {
+                (p + 0.5) as i32
+            } else {
+                (p - 0.5) as i32
+            };
+            let l = b.get(b'L').map_or(0, |l| l as i32);
+            let off = b.g_off(GM_MODAL_0);
+            if ![0, 1, 2, 10, 11, 20].contains(&l) {
+                return bad(
+                    off,
+                    "Line with G10 does not have L0, L1, L10, L11, L2, or L20",
+                );
+            }
+            if (p + 0.0001) - f64::from(p_int) > 0.0002 {
+                return bad(off, "P value not an integer with G10");
+            }
+            if (l == 2 || l == 20) && !(0..=9).contains(&p_int) {
+                return bad(off, format!("P value out of range (0-9) with G10 L{l}"));
+            }
+            if (l == 1 || l == 10 || l == 11) && p_int < 1 {
+                return bad(off, format!("P value out of range with G10 L{l}"));
             }
         } else if mode0 == Some(G_53) {
             if !matches!(motion, Some(G_0 | G_1)) {
@@ -630,16 +733,16 @@ impl<'a> Interp<'a> {
                 "E word with no G70, G76, M66, M67 or M68 to use it",
             );
         }
-        if b.has(b'H') && b.g_in(GM_TOOL_LENGTH) != Some(430) {
+        if b.has(b'H') && !matches!(b.g_in(GM_TOOL_LENGTH), Some(430 | 432)) {
             return bad(b.off(b'H'), "H word with no G43 or G76 to use it");
         }
-        if b.has(b'I') && !arc {
+        if b.has(b'I') && !arc && mode0 != Some(100) {
             return bad(
                 b.off(b'I'),
                 "I word with no G2, G3, G5, G5.1, G10, G33.1, G76, or G87 to use it",
             );
         }
-        if b.has(b'J') && !arc {
+        if b.has(b'J') && !arc && mode0 != Some(100) {
             return bad(
                 b.off(b'J'),
                 "J word with no G2, G3, G5, G5.1, G10, G76 or G87 to use it",
@@ -651,14 +754,14 @@ impl<'a> Interp<'a> {
                 "K word with no G2, G3, G33, G33.1, G76, or G87 to use it",
             );
         }
-        if b.has(b'L') {
+        if b.has(b'L') && mode0 != Some(100) {
             return bad(
                 b.off(b'L'),
                 "L word with no G10, cutter compensation, canned cycle, digital/analog input, M98 or NURBS code",
             );
         }
         if b.has(b'P') {
-            if mode0 != Some(G_4) && b.g_in(GM_CONTROL) != Some(640) && !arc {
+            if mode0 != Some(G_4) && mode0 != Some(100) && b.g_in(GM_CONTROL) != Some(640) && !arc {
                 return bad(
                     b.off(b'P'),
                     "P word with no G2 G3 G4 G10 G64 G5 G5.2 G76 G82 G86 G88 G89 or M50 M51 M52 M53 M62 M63 M64 M65 M66 M98 or user M code to use it",
@@ -674,19 +777,24 @@ impl<'a> Interp<'a> {
                 }
             }
         }
-        if b.q_number != -1.0 && b.g_in(GM_CONTROL) != Some(640) && b.m_in(6) != Some(61) {
+        if b.q_number != -1.0
+            && b.g_in(GM_CONTROL) != Some(640)
+            && b.m_in(6) != Some(61)
+            && mode0 != Some(100)
+        {
             return bad(
                 b.off(b'Q'),
                 "Q word with no G5, G10, G64, G73, G76, G83, M19, M66, M67, M68 or user M code that uses it",
             );
         }
-        if b.has(b'R') && !arc {
+        if b.has(b'R') && !arc && mode0 != Some(100) {
             return bad(b.off(b'R'), "R word with no g code that uses it");
         }
         Ok(())
     }
 
     /// The last comment of the block (`convert_comment`).
+    #[inline(never)]
     fn comment(&mut self, raw: &str, line: &Line, line_no: u32) -> R<()> {
         let Some((s, e)) = line.comment else {
             return Ok(());
@@ -702,14 +810,37 @@ impl<'a> Interp<'a> {
                 return unsup(off, format!("({tag}"), "embedded Python is not supported");
             }
         }
-        // (DEBUG,), (PRINT,), (LOG,) only print (parameters in them are not
-        // substituted); (ABORT,) stops the program with its text
+        // (ABORT,) stops the program with its text; (MSG,) is a message;
+        // (DEBUG,) (while #5599 > 0), (PRINT,) and (LOG,) are messages with the
+        // parameters in them substituted as LinuxCNC prints them
         if starts("abort,") {
             return bad(off, format!("Program aborted: {}", &text[6..]));
         }
         if starts("msg,") {
             self.warnings
                 .push(format!("{}:{line_no}: message: {}", self.file, &text[4..]));
+        }
+        for (tag, what) in [("debug,", "debug"), ("print,", "print"), ("log,", "log")] {
+            if starts(tag) {
+                if tag == "debug," && self.params.get(5599) <= 0.0 {
+                    return Ok(());
+                }
+                let expanded = self
+                    .expand_comment(&text[tag.len()..])
+                    .map_err(|k| (off, k))?;
+                self.warnings
+                    .push(format!("{}:{line_no}: {what}: {expanded}", self.file));
+                return Ok(());
+            }
+        }
+        for tag in ["logopen,", "logappend,"] {
+            if starts(tag) {
+                return unsup(
+                    off,
+                    format!("({tag}"),
+                    "writing log files from a program is not supported",
+                );
+            }
         }
         Ok(())
     }
@@ -747,14 +878,21 @@ impl<'a> Interp<'a> {
         // spindle on/off: the speed each motion runs at (for compensators tuned to
         // the tooth frequency); M19 and M70–M73 of the group are refused earlier
         match b.m_in(7) {
-            Some(3) | Some(4) => self.spindle_on = true,
-            Some(5) => self.spindle_on = false,
+            Some(c @ (3 | 4)) => {
+                self.spindle_on = true;
+                self.spindle_code = c;
+            }
+            Some(5) => {
+                self.spindle_on = false;
+                self.spindle_code = 5;
+            }
             _ => {}
         }
         // M codes: tool change (coolant has no canonical motion)
         match b.m_in(6) {
             Some(6) => {
                 self.spindle_length_mm = self.tool_length(self.tool_selected as i32, 0)?;
+                self.tool_loaded = self.tool_selected;
                 self.sync_pending = true;
             }
             Some(61) => {
@@ -768,8 +906,27 @@ impl<'a> Interp<'a> {
                     );
                 }
                 self.tool_length(tool, off)?;
+                self.tool_loaded = tool as u32;
                 self.sync_pending = true;
             }
+            _ => {}
+        }
+        // coolant (no canonical motion; read by #<_mist>, #<_flood>)
+        match b.m_in(8) {
+            Some(7) => self.mist = true,
+            Some(8) => self.flood = true,
+            Some(9) => {
+                self.mist = false;
+                self.flood = false;
+            }
+            _ => {}
+        }
+        // M70-M73 (group 7, after the tool change in convert_m)
+        match b.m_in(7) {
+            Some(70) => self.save_modal(false),
+            Some(73) => self.save_modal(true),
+            Some(71) => self.invalidate_modal(),
+            Some(72) => self.restore_modal_here(line_no, b.m_off(7))?,
             _ => {}
         }
         // G codes, in convert_g's order
@@ -806,12 +963,16 @@ impl<'a> Interp<'a> {
                 self.inch = true;
                 self.pos = self.pos * (1.0 / MM_PER_INCH);
                 self.canon_pos = self.canon_pos * (1.0 / MM_PER_INCH);
+                self.origin = self.origin * (1.0 / MM_PER_INCH);
+                self.g92 = self.g92 * (1.0 / MM_PER_INCH);
                 self.feed /= MM_PER_INCH;
             }
             Some(210) if self.inch => {
                 self.inch = false;
                 self.pos = self.pos * MM_PER_INCH;
                 self.canon_pos = self.canon_pos * MM_PER_INCH;
+                self.origin = self.origin * MM_PER_INCH;
+                self.g92 = self.g92 * MM_PER_INCH;
                 self.feed *= MM_PER_INCH;
             }
             _ => {}
@@ -826,10 +987,46 @@ impl<'a> Interp<'a> {
                 };
                 self.pos[2] -= (len - self.tool_length_mm) / s;
                 self.tool_length_mm = len;
+                self.tool_offset_on = true;
+                self.refresh_offset();
+            }
+            Some(code @ (431 | 432)) => {
+                // dynamic offsets (convert_tool_length_offset): G43.1 sets, G43.2 adds
+                let off = b.g_off(GM_TOOL_LENGTH);
+                if b.has(b'X') || b.has(b'Y') {
+                    return unsup(
+                        off,
+                        fmt_code('G', code),
+                        "X and Y tool offsets are not supported (Z only)",
+                    );
+                }
+                let mut len = self.tool_length_mm;
+                if code == 431 {
+                    if let Some(z) = b.get(b'Z') {
+                        len = z * s;
+                    }
+                } else {
+                    if b.has(b'H') && b.has(b'Z') {
+                        return bad(off, "G43.2: Can not have both H and axis words");
+                    }
+                    match (b.get(b'H'), b.get(b'Z')) {
+                        (Some(h), _) => len += self.tool_length(h as i32, b.off(b'H'))?,
+                        (None, Some(z)) => len += z * s,
+                        (None, None) => {
+                            return bad(off, "G43.2: No axes specified and H word missing")
+                        }
+                    }
+                }
+                self.pos[2] -= (len - self.tool_length_mm) / s;
+                self.tool_length_mm = len;
+                self.tool_offset_on = true;
+                self.refresh_offset();
             }
             Some(490) => {
                 self.pos[2] += self.tool_length_mm / s;
                 self.tool_length_mm = 0.0;
+                self.tool_offset_on = false;
+                self.refresh_offset();
             }
             _ => {}
         }
@@ -845,15 +1042,13 @@ impl<'a> Interp<'a> {
                 592 => 7,
                 _ => 8,
             };
-            if idx != self.coord {
-                let shift = (self.work_offset(self.coord) - self.work_offset(idx)) * (1.0 / s);
-                self.pos += shift;
-                self.canon_pos += shift;
-                self.coord = idx;
-            }
+            self.select_coord(idx);
         }
         match b.g_in(GM_CONTROL) {
-            Some(610) | Some(611) => self.path = PathMode::ExactStop,
+            Some(c @ (610 | 611)) => {
+                self.path = PathMode::ExactStop;
+                self.exact_stop_code = c;
+            }
             Some(640) => {
                 let p = b.p_number;
                 self.path = PathMode::Blend {
@@ -871,6 +1066,14 @@ impl<'a> Interp<'a> {
             Some(901) => self.ijk_absolute = true,
             Some(911) => self.ijk_absolute = false,
             _ => {}
+        }
+        // G10, G28, G30, G52, G92 (convert_g's modal group 0, after the modes)
+        if let Some(code) = b.g_in(GM_MODAL_0) {
+            self.modal_0(line_no, code, b)?;
+        }
+        // G92.1, G92.2, G92.3 (LinuxCNC's group 16, "G92 is applied")
+        if let Some(code) = b.g_in(16) {
+            self.modal_0(line_no, code, b)?;
         }
         // motion
         match b.motion_to_be {
@@ -1237,19 +1440,75 @@ pub fn read_chunked(
     chunk: usize,
     sink: &mut dyn FnMut(&mut Vec<Motion>),
 ) -> Result<Program, GcodeError> {
+    read_with(text, file, profile, &ReadOptions::default(), chunk, sink).map(|(p, _)| p)
+}
+
+/// One program text: the main one (borrowed) or a subroutine file.
+struct Source<'t> {
+    name: String,
+    text: Cow<'t, str>,
+    /// Whether it may hold a NUL byte or a `(` at all.
+    maybe: bool,
+}
+
+/// Look for `NAME.ngc` on the search path, then beside the main program.
+fn find_sub_file(name: &str, main_file: &str, options: &ReadOptions) -> Option<(String, String)> {
+    let file_name = format!("{name}.ngc");
+    let beside = std::path::Path::new(main_file)
+        .parent()
+        .map(|p| p.to_path_buf())
+        .unwrap_or_default();
+    options
+        .subroutine_path
+        .iter()
+        .chain(std::iter::once(&beside))
+        .map(|d| d.join(&file_name))
+        .find_map(|p| {
+            let bytes = std::fs::read(&p).ok()?;
+            Some((
+                p.display().to_string(),
+                String::from_utf8_lossy(&bytes).into_owned(),
+            ))
+        })
+}
+
+/// [`read_chunked`] with options; also returns the parameters as left.
+pub fn read_with(
+    text: &str,
+    file: &str,
+    profile: &MachineProfile,
+    options: &ReadOptions,
+    chunk: usize,
+    sink: &mut dyn FnMut(&mut Vec<Motion>),
+) -> Result<(Program, Params), GcodeError> {
     let mut it = Interp::new(file, profile);
+    it.user_inch = options.parameters_in_inches;
+    match &options.params {
+        Some(p) => it.params = p.clone(),
+        None => it.params_from_profile(),
+    }
+    // (DEBUG,) output on, as LinuxCNC sets it at every start (volatile)
+    it.params.set(5599, 1.0);
+    it.init_offsets();
     it.motions.reserve((text.len() / 16).min(chunk.max(1)));
     let mut line = Line::default();
     let mut block = Block::default();
-    let err = |line_no: usize, raw: &str, (off, kind): (u32, ErrorKind)| GcodeError {
-        file: file.to_string(),
-        line: line_no as u32,
-        column: column(raw, off),
-        kind,
-    };
+    let mut norm = Norm::default();
+    let mut sets: Vec<Setting> = Vec::new();
     let bytes = text.as_bytes();
-    // NUL bytes and comments need per-line work only if the file has any
-    let maybe = has_nul_or_paren(bytes);
+    let mut sources = vec![Source {
+        name: file.to_string(),
+        text: Cow::Borrowed(text),
+        maybe: has_nul_or_paren(bytes),
+    }];
+    let err_in =
+        |name: &str, line_no: usize, raw: &str, (off, kind): (u32, ErrorKind)| GcodeError {
+            file: name.to_string(),
+            line: line_no as u32,
+            column: column(raw, off),
+            kind,
+        };
+    let err = |line_no: usize, raw: &str, e: (u32, ErrorKind)| err_in(file, line_no, raw, e);
     // `%` on the first non-blank line: the program runs to the next lone `%`
     let mut prescan = LineSplit { b: bytes, pos: 0 };
     let mut first = 0;
@@ -1280,68 +1539,220 @@ pub fn read_chunked(
                 .all(|c| matches!(c, b' ' | b'\t' | 0x0b | 0x0c | b'\r'))
     };
     // the lines to run: after the `%` line, or all of them
-    let (lines, first) = if percent_flag {
-        (prescan, first + 1)
+    let (mut pos, first) = if percent_flag {
+        (prescan.pos, first + 1)
     } else {
-        (LineSplit { b: bytes, pos: 0 }, 0)
+        (0, 0)
     };
+    let limit = options.block_limit.unwrap_or(1_000_000 + text.len() as u64);
+    let mut executed: u64 = 0;
+    let mut cur = 0usize; // source index
+    let mut next_line_no = first + 1;
     let mut n_lines = first;
-    for (idx, (s, e, newline)) in lines.enumerate().map(|(k, l)| (k + first, l)) {
-        n_lines = idx + 1;
-        let line_no = idx + 1;
-        let raw = &text[s..e];
-        if e - s + usize::from(newline) >= LINELEN - 1 {
-            return Err(err(
-                line_no,
-                raw,
-                (0, ErrorKind::Invalid("Command too long".into())),
-            ));
-        }
-        // each word goes into the block as it is read: words before a lexing error
-        // are read (and may fail) first, as in LinuxCNC
-        block.clear();
-        lex_words(raw, &mut line, maybe, |w| it.sort_word(w, &mut block))
-            .map_err(|x| err(line_no, raw, x))?;
-        if line.percent {
-            if percent_flag {
-                return Ok(finish(it, file, line_no, chunk, sink));
+    'files: loop {
+        let src = &sources[cur];
+        let src_text: &str = &src.text;
+        let maybe = src.maybe;
+        let src_name: &str = &src.name;
+        let mut split = LineSplit {
+            b: src_text.as_bytes(),
+            pos,
+        };
+        // the lines of this file, up to a jump
+        let (jump, after) = loop {
+            let Some((s, e, newline)) = split.next() else {
+                if let Some(sk) = &it.ctl.skipping {
+                    return Err(err_in(
+                        &src.name,
+                        n_lines.max(1),
+                        "",
+                        (
+                            0,
+                            ErrorKind::Invalid(format!(
+                                "File ended while looking for O-word label '{sk}' (from line {})",
+                                it.ctl.skipping_start
+                            )),
+                        ),
+                    ));
+                }
+                if cur != 0 {
+                    return Err(err_in(
+                        &src.name,
+                        n_lines.max(1),
+                        "",
+                        (
+                            0,
+                            ErrorKind::Invalid("Subroutine file ended without its endsub".into()),
+                        ),
+                    ));
+                }
+                break 'files;
+            };
+            let line_no = next_line_no;
+            next_line_no += 1;
+            n_lines = line_no;
+            executed += 1;
+            let raw = &src_text[s..e];
+            if executed > limit {
+                return Err(err_in(
+                    &src.name,
+                    line_no,
+                    raw,
+                    (0, ErrorKind::BlockLimit { limit }),
+                ));
             }
-            let off = raw.find('%').unwrap_or(0) as u32;
-            return Err(err(
+            it.line_no = line_no;
+            if e - s + usize::from(newline) >= LINELEN - 1 {
+                return Err(err_in(
+                    src_name,
+                    line_no,
+                    raw,
+                    (0, ErrorKind::Invalid("Command too long".into())),
+                ));
+            }
+            let pc = Pc {
+                file: cur,
+                pos: s,
+                next: split.pos,
                 line_no,
-                raw,
-                (off, ErrorKind::Invalid(bad_character(b'%'))),
-            ));
-        }
-        if line.blank {
-            continue;
-        }
-        if line.python {
-            return Err(err(
-                line_no,
-                raw,
-                (
-                    0,
-                    ErrorKind::Unsupported {
-                        word: ";py,".into(),
-                        why: "embedded Python is not supported".into(),
-                    },
-                ),
-            ));
-        }
-        // a `/` line runs: the block-delete switch is off, as in rs274's default
-        it.check(&mut block).map_err(|x| err(line_no, raw, x))?;
-        it.comment(raw, &line, line_no as u32)
-            .map_err(|x| err(line_no, raw, x))?;
-        let stop = it
-            .execute(line_no as u32, &block)
-            .map_err(|x| err(line_no, raw, x))?;
-        if stop {
-            return Ok(finish(it, file, line_no, chunk, sink));
-        }
-        if it.motions.len() >= chunk {
-            sink(&mut it.motions);
-            it.motions.clear();
+            };
+            let mut jump = Jump::Next;
+            if it.ctl.skipping.is_some() {
+                // only O-lines count while skipping; nothing else on a line is read
+                jump = it
+                    .skip_line(raw, &mut norm, &mut line, &pc)
+                    .map_err(|x| err_in(src_name, line_no, raw, x))?;
+            } else {
+                // each word goes into the block as it is read: words before a lexing
+                // error are read (and may fail) first, as in LinuxCNC
+                block.clear();
+                let lexed = lex_words(raw, &mut line, maybe, |w| it.sort_word(w, &mut block));
+                let mut oline = None;
+                match lexed {
+                    Ok(()) => {}
+                    Err((SLOW, _)) => {
+                        // parameters, expressions or an O-word: the full reader
+                        oline = it
+                            .read_line_slow(raw, &mut norm, &mut block, &mut line, &mut sets)
+                            .map_err(|x| err_in(src_name, line_no, raw, x))?;
+                    }
+                    Err(x) => return Err(err_in(src_name, line_no, raw, x)),
+                }
+                if line.percent {
+                    if percent_flag && cur == 0 {
+                        return Ok(finish(it, file, executed as usize + first, chunk, sink));
+                    }
+                    let off = raw.find('%').unwrap_or(0) as u32;
+                    return Err(err_in(
+                        src_name,
+                        line_no,
+                        raw,
+                        (off, ErrorKind::Invalid(bad_character(b'%'))),
+                    ));
+                }
+                if line.python {
+                    return Err(err_in(
+                        src_name,
+                        line_no,
+                        raw,
+                        (
+                            0,
+                            ErrorKind::Unsupported {
+                                word: ";py,".into(),
+                                why: "embedded Python is not supported".into(),
+                            },
+                        ),
+                    ));
+                }
+                if !sets.is_empty() {
+                    it.commit(&mut sets);
+                }
+                if let Some(o) = oline {
+                    jump = it
+                        .control(&o, &pc)
+                        .map_err(|x| err_in(src_name, line_no, raw, x))?;
+                } else if !line.blank {
+                    // a `/` line runs: the block-delete switch is off, as in rs274's default
+                    it.check(&mut block)
+                        .map_err(|x| err_in(src_name, line_no, raw, x))?;
+                    if line.comment.is_some() {
+                        it.comment(raw, &line, line_no as u32)
+                            .map_err(|x| err_in(src_name, line_no, raw, x))?;
+                    }
+                    let stop = it
+                        .execute(line_no as u32, &block)
+                        .map_err(|x| err_in(src_name, line_no, raw, x))?;
+                    if stop {
+                        return Ok(finish(it, file, executed as usize + first, chunk, sink));
+                    }
+                    if it.motions.len() >= chunk {
+                        sink(&mut it.motions);
+                        it.motions.clear();
+                    }
+                }
+            }
+            if jump != Jump::Next {
+                break (jump, split.pos);
+            }
+        };
+        pos = after;
+        match jump {
+            Jump::Percent => {
+                // read_text's end of file while skipping: LinuxCNC's error
+                let sk = it.ctl.skipping.clone().unwrap_or_default();
+                return Err(err_in(
+                    &sources[cur].name,
+                    n_lines,
+                    "%",
+                    (
+                        0,
+                        ErrorKind::Invalid(format!("Failed to find sub 'O{sk}' before EOF")),
+                    ),
+                ));
+            }
+            Jump::Next => {}
+            Jump::To(f, p, l) => {
+                cur = f;
+                pos = p;
+                next_line_no = l;
+            }
+            Jump::OpenSub => {
+                let name = it.wanted_sub().unwrap_or_default().to_string();
+                let main_dir_file = file.to_string();
+                let file_name = format!("{name}.ngc");
+                if let Some(k) = sources.iter().skip(1).position(|s| {
+                    std::path::Path::new(&s.name).file_name()
+                        == Some(std::ffi::OsStr::new(&file_name))
+                }) {
+                    let k = k + 1;
+                    cur = k;
+                    pos = 0;
+                    next_line_no = 1;
+                } else if let Some((path, body)) = find_sub_file(&name, &main_dir_file, options) {
+                    let maybe = has_nul_or_paren(body.as_bytes());
+                    sources.push(Source {
+                        name: path,
+                        text: Cow::Owned(body),
+                        maybe,
+                    });
+                    cur = sources.len() - 1;
+                    pos = 0;
+                    next_line_no = 1;
+                } else if cur != 0 {
+                    return Err(err_in(
+                        &sources[cur].name,
+                        n_lines,
+                        "",
+                        (
+                            0,
+                            ErrorKind::Invalid(format!(
+                                "Subroutine 'O{name}' not found -- not in offset table and no file '{name}.ngc' found"
+                            )),
+                        ),
+                    ));
+                }
+                // else: look for its definition further on in the main program
+            }
         }
     }
     let msg = if percent_flag {
@@ -1418,19 +1829,22 @@ fn finish(
     blocks: usize,
     chunk: usize,
     sink: &mut dyn FnMut(&mut Vec<Motion>),
-) -> Program {
+) -> (Program, Params) {
     if chunk != usize::MAX {
         if !it.motions.is_empty() {
             sink(&mut it.motions);
         }
         it.motions = Vec::new();
     }
-    Program {
-        file: file.to_string(),
-        blocks,
-        motions: it.motions,
-        warnings: it.warnings,
-    }
+    (
+        Program {
+            file: file.to_string(),
+            blocks,
+            motions: it.motions,
+            warnings: it.warnings,
+        },
+        it.params,
+    )
 }
 
 #[cfg(test)]

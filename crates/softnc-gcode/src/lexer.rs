@@ -14,10 +14,12 @@
 //! - a word is a letter and a real value: any number of leading signs (`X--1` is 1),
 //!   digits with at most one decimal point; no exponent (`1e3` is `1` and an `E` word).
 //!
-//! Parameters (`#`), expressions (`[ ]`, `sin[…]`), O-words, `M98`, polar
-//! coordinates (`@`, `^`) and spindle selection (`$`) are refused as unsupported,
-//! never misread. The lexer allocates nothing: words go into a reused `Vec`
-//! ([`lex_line`]) or, for the reader, straight into its block as they are read.
+//! A line with parameters (`#`), expressions (`[ ]`, `sin[…]`), an O-word or `M98`
+//! is handed to the full reader ([`crate::expr`], the interpreter's O-word reader):
+//! the lexer stops with the offset [`SLOW`]. Polar coordinates (`@`, `^`) and
+//! spindle selection (`$`) are refused as unsupported, never misread. The lexer
+//! allocates nothing: words go into a reused `Vec` ([`lex_line`]) or, for the
+//! reader, straight into its block as they are read.
 
 use crate::error::ErrorKind;
 
@@ -53,6 +55,14 @@ pub struct Line {
 
 /// A lexing error: byte offset in the line and what went wrong.
 pub type LexError = (u32, ErrorKind);
+
+/// The offset of the "error" by which the lexer says that the line needs the full
+/// reader (parameters, expressions, O-words); its kind is an empty `Invalid`.
+pub const SLOW: u32 = u32::MAX;
+
+fn slow() -> LexError {
+    (SLOW, ErrorKind::Invalid(String::new()))
+}
 
 fn invalid(off: usize, msg: impl Into<String>) -> LexError {
     (off as u32, ErrorKind::Invalid(msg.into()))
@@ -196,24 +206,14 @@ pub(crate) fn lex_words(
     }
     // O-words and M98 (subprogram call) are read as O-lines by LinuxCNC
     match cur.peek() {
-        Some(b'o') => {
-            return Err(unsupported(
-                cur.i,
-                word_text(b, cur.i),
-                "O-words (subroutines, loops, conditionals) are not supported yet",
-            ))
-        }
+        Some(b'o') => return Err(slow()),
         Some(b'm') => {
             let save = cur.i;
             cur.bump();
-            if let Ok(v) = read_value(&mut cur, save) {
-                if (v - 98.0).abs() < 1e-4 {
-                    return Err(unsupported(
-                        save,
-                        "M98",
-                        "M98 subprogram calls are not supported yet",
-                    ));
-                }
+            match read_value(&mut cur, save) {
+                Ok(v) if (v - 98.0).abs() < 1e-4 || (v - 99.0).abs() < 1e-4 => return Err(slow()),
+                Err((SLOW, _)) => return Err(slow()),
+                _ => {}
             }
             cur.i = save;
         }
@@ -254,13 +254,7 @@ pub(crate) fn lex_words(
                 i = (end + 1).min(b.len());
             }
             b';' => break,
-            b'#' => {
-                return Err(unsupported(
-                    at,
-                    word_text(b, at),
-                    "parameters are not supported yet",
-                ))
-            }
+            b'#' => return Err(slow()),
             b'$' => {
                 return Err(unsupported(
                     at,
@@ -282,7 +276,7 @@ pub(crate) fn lex_words(
 }
 
 /// LinuxCNC checks comments over the whole line before reading any word.
-fn check_comments(b: &[u8]) -> Result<(), LexError> {
+pub(crate) fn check_comments(b: &[u8]) -> Result<(), LexError> {
     let mut open: Option<usize> = None;
     for (i, &c) in b.iter().enumerate() {
         match (open, c) {
@@ -375,20 +369,7 @@ fn read_value(cur: &mut Cursor, word_at: usize) -> Result<f64, LexError> {
             ));
         };
         match c {
-            b'[' => {
-                return Err(unsupported(
-                    word_at,
-                    word_text(cur.b, word_at),
-                    "expressions are not supported yet",
-                ))
-            }
-            b'#' => {
-                return Err(unsupported(
-                    word_at,
-                    word_text(cur.b, word_at),
-                    "parameters are not supported yet",
-                ))
-            }
+            b'[' | b'#' => return Err(slow()),
             b'+' | b'-' => {
                 let c1 = cur.peek2();
                 if matches!(c1, Some(d) if d.is_ascii_digit() || d == b'.') || c1.is_none() {
@@ -404,11 +385,7 @@ fn read_value(cur: &mut Cursor, word_at: usize) -> Result<f64, LexError> {
                     probe.bump();
                 }
                 if probe.peek() == Some(b'[') {
-                    return Err(unsupported(
-                        word_at,
-                        word_text(cur.b, word_at),
-                        "expressions are not supported yet",
-                    ));
+                    return Err(slow());
                 }
                 return Err(invalid(
                     cur.i,
@@ -616,18 +593,18 @@ mod tests {
 
     #[test]
     fn unsupported_and_bad_input() {
-        let e = lex("G1 X#1").unwrap_err();
-        assert_eq!(e.0, 3);
-        assert!(matches!(e.1, ErrorKind::Unsupported { .. }));
+        // the full reader takes over for parameters, expressions and O-words
         for s in [
+            "G1 X#1",
             "o100 sub",
             "G1 X[1+2]",
             "G1 Xsin[1]",
             "#1=2",
             "M98 P100",
-            "G1 @1 ^2",
-            "M3 $1",
         ] {
+            assert_eq!(lex(s).unwrap_err().0, SLOW, "{s}");
+        }
+        for s in ["G1 @1 ^2", "M3 $1"] {
             assert!(
                 matches!(lex(s).unwrap_err().1, ErrorKind::Unsupported { .. }),
                 "{s}"

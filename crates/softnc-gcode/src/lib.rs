@@ -12,13 +12,49 @@
 
 pub mod canon;
 pub mod error;
+pub mod expr;
 pub mod interp;
 pub mod lexer;
+pub mod params;
 
 pub use canon::{Motion, MotionKind, PathMode, Program};
 pub use error::{ErrorKind, GcodeError};
+pub use params::Params;
 
 use softnc_core::MachineProfile;
+use std::path::PathBuf;
+
+/// How a program is read beyond the machine profile.
+#[derive(Debug, Clone, Default)]
+pub struct ReadOptions {
+    /// Folders searched, in order, for `NAME.ngc` when a program calls a
+    /// subroutine `O<NAME>` it does not define (LinuxCNC's `SUBROUTINE_PATH`);
+    /// after them the program's own folder.
+    pub subroutine_path: Vec<PathBuf>,
+    /// At most this many blocks (lines read, skipped lines included) before reading
+    /// stops with [`ErrorKind::BlockLimit`]; `None`: one million more than the
+    /// program has bytes, which a program without loops never reaches.
+    pub block_limit: Option<u64>,
+    /// Parameters at the start (e.g. read from a parameter file); `None`: all 0
+    /// but the machine profile's work offsets.
+    pub params: Option<Params>,
+    /// Offsets and stored positions in parameters (5161-5390) are in inches, as
+    /// LinuxCNC's stand-alone `rs274` keeps them when run without an INI file;
+    /// `false` (default): in mm, the machine's unit (LinuxCNC with
+    /// `[TRAJ]LINEAR_UNITS = mm`).
+    pub parameters_in_inches: bool,
+}
+
+/// [`read_program`] with [`ReadOptions`]; also returns the parameters as the
+/// program left them.
+pub fn read_program_with(
+    text: &str,
+    file: &str,
+    profile: &MachineProfile,
+    options: &ReadOptions,
+) -> Result<(Program, Params), GcodeError> {
+    interp::read_with(text, file, profile, options, usize::MAX, &mut |_| {})
+}
 
 /// Read a whole program: lex, parse and interpret it with the machine's tool table and
 /// work offsets. The first error stops reading.

@@ -1,0 +1,178 @@
+//! M70–M73: saving and restoring the modal state, as LinuxCNC 2.9's `save_settings`
+//! and `restore_settings` (`interp_convert.cc`) do: the state is compared with the
+//! saved one and the difference is run as G-code text (`gen_settings`,
+//! `gen_m_codes`): first G20/G21, then one line ` F… S… G…` (feed with one decimal,
+//! speed with none, the G codes of the groups that differ, G64 with its P), then
+//! the spindle M code. The motion mode is not restored (LinuxCNC does not either).
+
+use super::{Block, Interp, GM_MODAL_0, R};
+use crate::canon::PathMode;
+use crate::error::ErrorKind;
+use crate::lexer::{lex_line, Line};
+use softnc_core::Plane;
+
+/// The state M70 saves (the parts of LinuxCNC's `active_g_codes`,
+/// `active_m_codes` and `active_settings` softnc keeps).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Modal {
+    /// G codes × 10 in LinuxCNC's `active_g_codes` slots 3, 4, 6, 7, 8, 9, 11, 14, 16.
+    g: [(usize, i32); 9],
+    inch: bool,
+    /// G64 P (program units), if given.
+    g64_p: Option<f64>,
+    feed: f64,
+    speed: f64,
+    /// M3, M4 or M5.
+    spindle: i32,
+}
+
+impl Interp<'_> {
+    /// The state now.
+    fn modal_now(&self) -> Modal {
+        let plane = match self.plane {
+            Plane::XY => 170,
+            Plane::XZ => 180,
+            Plane::YZ => 190,
+        };
+        let coord = [540, 550, 560, 570, 580, 590, 591, 592, 593][self.coord.min(8)];
+        let (control, g64_p) = match self.path {
+            PathMode::ExactStop => (self.exact_stop_code, None),
+            PathMode::Blend { tolerance_mm } => (640, tolerance_mm.map(|t| t / self.scale())),
+        };
+        Modal {
+            g: [
+                (3, plane),
+                (4, 400),
+                (6, if self.absolute { 900 } else { 910 }),
+                (7, if self.inverse_time { 930 } else { 940 }),
+                (8, coord),
+                (9, if self.tool_offset_on { 430 } else { 490 }),
+                (11, control),
+                (14, if self.ijk_absolute { 901 } else { 911 }),
+                (
+                    16,
+                    if self.params.get(5210) != 0.0 {
+                        923
+                    } else {
+                        922
+                    },
+                ),
+            ],
+            inch: self.inch,
+            g64_p,
+            feed: self.feed,
+            speed: self.s_rpm,
+            spindle: self.spindle_code,
+        }
+    }
+
+    /// M70 / M73 (`save_settings`): save the state at this call level; M73 also
+    /// restores it when the subroutine returns.
+    pub(super) fn save_modal(&mut self, auto_restore: bool) {
+        let level = self.ctl.level();
+        let now = self.modal_now();
+        let slots = &mut self.ctl.saved_modal;
+        if slots.len() <= level {
+            slots.resize(level + 1, (None, false));
+        }
+        slots[level] = (Some(now), auto_restore && level > 0);
+    }
+
+    /// M71: forget the state saved at this level.
+    pub(super) fn invalidate_modal(&mut self) {
+        let level = self.ctl.level();
+        if let Some(s) = self.ctl.saved_modal.get_mut(level) {
+            *s = (None, false);
+        }
+    }
+
+    /// M72: restore the state saved at this level.
+    pub(super) fn restore_modal_here(&mut self, line_no: u32, off: u32) -> R<()> {
+        let level = self.ctl.level();
+        match self.ctl.saved_modal.get(level).and_then(|s| s.0) {
+            Some(saved) => self.restore_modal(line_no, &saved, off),
+            None => Err((
+                off,
+                ErrorKind::Invalid(
+                    "Cannot restore context from invalid stack frame - missing M70/M73?".into(),
+                ),
+            )),
+        }
+    }
+
+    /// On a return from level `from`: restore its state if M73 asked for it, and
+    /// forget it.
+    pub(super) fn leave_modal(&mut self, from: usize, line_no: u32, off: u32) -> R<()> {
+        let Some(slot) = self.ctl.saved_modal.get_mut(from) else {
+            return Ok(());
+        };
+        let taken = std::mem::take(slot);
+        if let (Some(saved), true) = taken {
+            self.restore_modal(line_no, &saved, off)?;
+        }
+        Ok(())
+    }
+
+    /// A new call level starts with nothing saved.
+    pub(super) fn enter_modal(&mut self) {
+        let level = self.ctl.level();
+        if let Some(slot) = self.ctl.saved_modal.get_mut(level) {
+            *slot = (None, false);
+        }
+    }
+
+    /// `restore_settings`: run the difference as G-code.
+    fn restore_modal(&mut self, line_no: u32, saved: &Modal, off: u32) -> R<()> {
+        let now = self.modal_now();
+        if now.inch != saved.inch {
+            self.run_text(line_no, if saved.inch { "G20" } else { "G21" }, off)?;
+        }
+        let now = self.modal_now();
+        let mut cmd = format!(" F{:.1} S{:.0}", saved.feed, saved.speed);
+        for (k, &(slot, code)) in saved.g.iter().enumerate() {
+            if code == now.g[k].1 || slot == 11 && code == 640 {
+                continue;
+            }
+            if code % 10 != 0 {
+                cmd.push_str(&format!(" G{}.{}", code / 10, code % 10));
+            } else {
+                cmd.push_str(&format!(" G{}", code / 10));
+            }
+        }
+        if saved.g[6].1 == 640 {
+            match saved.g64_p {
+                None => cmd.push_str(" G64"),
+                Some(p) => cmd.push_str(&format!(" G64 P{p:.6}")),
+            }
+        }
+        self.run_text(line_no, &cmd, off)?;
+        if saved.spindle != self.spindle_code {
+            self.run_text(line_no, &format!("M{}", saved.spindle), off)?;
+        }
+        Ok(())
+    }
+
+    /// Read and run one line of G-code made by the interpreter itself; an error in
+    /// it is reported at `off` of the line that asked for it.
+    fn run_text(&mut self, line_no: u32, text: &str, off: u32) -> R<()> {
+        let mut line = Line::default();
+        let fail = |k: ErrorKind| {
+            (
+                off,
+                ErrorKind::Invalid(format!(
+                    "M7x: restore_settings failed executing: '{text}': {k}"
+                )),
+            )
+        };
+        lex_line(text, &mut line).map_err(|(_, k)| fail(k))?;
+        let mut block = Block::default();
+        for w in line.words.iter().copied() {
+            self.sort_word_slow(w, &mut block)
+                .map_err(|(_, k)| fail(k))?;
+        }
+        self.check(&mut block).map_err(|(_, k)| fail(k))?;
+        debug_assert!(!block.has_g(GM_MODAL_0));
+        self.execute(line_no, &block).map_err(|(_, k)| fail(k))?;
+        Ok(())
+    }
+}

@@ -1,0 +1,1192 @@
+//! The language around the words: lines with parameters and expressions (LinuxCNC's
+//! `read_items` / `read_one_item` / `read_parameter_setting` on a normalized line),
+//! O-lines (`read_o`) and their control flow (`convert_control_functions`,
+//! `execute_call`, `execute_return`, `control_back_to` in `interp_o_word.cc`).
+//!
+//! The program is read with a program counter (file, byte offset, line number):
+//! loops and calls jump back to the O-line they recorded, skips read forward and
+//! look only at O-lines, as LinuxCNC does.
+
+use super::{bad, Block, Interp, R};
+use crate::error::ErrorKind;
+use crate::expr::{Env, Norm, Reader};
+use crate::lexer::{bad_character, check_comments, significant, Line, Word};
+use crate::params::{is_readonly, NUM_PARAMS, SUB_PARAMS};
+use std::collections::HashMap;
+
+/// LinuxCNC `INTERP_SUB_ROUTINE_LEVELS`: calls nest at most this deep.
+pub const MAX_CALL_LEVEL: usize = 10;
+
+/// What an O-line does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OKind {
+    /// `sub`
+    Sub,
+    /// `endsub`
+    EndSub,
+    /// `call`
+    Call,
+    /// `do`
+    Do,
+    /// `while`
+    While,
+    /// `repeat`
+    Repeat,
+    /// `if`
+    If,
+    /// `elseif`
+    ElseIf,
+    /// `else`
+    Else,
+    /// `endif`
+    EndIf,
+    /// `break`
+    Break,
+    /// `continue`
+    Continue,
+    /// `endwhile`
+    EndWhile,
+    /// `endrepeat`
+    EndRepeat,
+    /// `return`
+    Return,
+    /// A bare `O1234` (Fanuc-style subprogram start, called with M98).
+    Bare,
+    /// `M98 P… [L…]`: call a Fanuc-style subprogram (L times).
+    M98,
+    /// `M99` in a subprogram: return.
+    M99,
+}
+
+impl OKind {
+    fn name(self) -> &'static str {
+        use OKind::*;
+        match self {
+            Sub => "sub",
+            EndSub => "endsub",
+            Call => "call",
+            Do => "do",
+            While => "while",
+            Repeat => "repeat",
+            If => "if",
+            ElseIf => "elseif",
+            Else => "else",
+            EndIf => "endif",
+            Break => "break",
+            Continue => "continue",
+            EndWhile => "endwhile",
+            EndRepeat => "endrepeat",
+            Return => "return",
+            Bare => "",
+            M98 => "M98",
+            M99 => "M99",
+        }
+    }
+    /// sub, endsub, call and return name subroutines (global); the others are
+    /// labels local to the subroutine they are in.
+    fn global(self) -> bool {
+        matches!(
+            self,
+            OKind::Sub
+                | OKind::EndSub
+                | OKind::Call
+                | OKind::Return
+                | OKind::Bare
+                | OKind::M98
+                | OKind::M99
+        )
+    }
+}
+
+/// An O-line as read.
+#[derive(Debug, Clone)]
+pub struct OLine {
+    /// What it does.
+    pub kind: OKind,
+    /// Its label, qualified as LinuxCNC does (`sub#label` for local labels).
+    pub name: String,
+    /// Condition, repeat count or return value, where given and evaluated.
+    pub value: Option<f64>,
+    /// Call arguments.
+    pub args: Vec<f64>,
+    /// Raw byte offset of the `o`.
+    pub at: u32,
+    /// M98: the L word (repeats), if given.
+    pub repeat: Option<f64>,
+}
+
+/// Where a label was seen (LinuxCNC `offset_struct`).
+#[derive(Debug, Clone)]
+struct Label {
+    kind: OKind,
+    file: usize,
+    pos: usize,
+    line_no: usize,
+    repeat_count: i64,
+}
+
+/// One call level (LinuxCNC `context`).
+#[derive(Debug, Clone)]
+struct Frame {
+    sub_name: String,
+    /// Where to go on return: file, byte offset of the line after the call, and
+    /// the call's line number.
+    ret: (usize, usize, usize),
+    saved: [f64; SUB_PARAMS],
+    /// Called with M98 (Fanuc style: ends with M99, `#1…#30` passed on).
+    m98: bool,
+}
+
+/// Control-flow state (the `skipping_o`, `defining_sub`, … of LinuxCNC's setup).
+#[derive(Debug, Default)]
+pub struct Control {
+    labels: HashMap<String, Label>,
+    frames: Vec<Frame>,
+    /// M98 L repeats left, per call level of the caller (-1: none running).
+    m98_loops: Vec<i64>,
+    /// M70/M73 state saved per call level, and whether M73 restores it on return.
+    pub(super) saved_modal: Vec<(Option<super::modal::Modal>, bool)>,
+    /// Skipping forward to this label.
+    pub skipping: Option<String>,
+    /// Skipping forward to this subroutine's `sub` line (a call).
+    skipping_to_sub: Option<String>,
+    /// Line where the skip started (messages).
+    pub skipping_start: usize,
+    /// A subroutine definition is being skipped at level 0.
+    pub defining_sub: bool,
+    sub_name: String,
+    executed_if: bool,
+    doing_break: bool,
+    doing_continue: bool,
+    /// `_value` and `_value_returned`.
+    pub return_value: f64,
+    /// Whether the last return gave a value.
+    pub value_returned: bool,
+}
+
+impl Control {
+    /// Call level (0: main program).
+    pub fn level(&self) -> usize {
+        self.frames.len()
+    }
+}
+
+/// Where the reader goes next.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Jump {
+    /// The next line.
+    Next,
+    /// File, byte offset of a line, its line number.
+    To(usize, usize, usize),
+    /// Open the subroutine file for this call (its name), then skip to its `sub`.
+    OpenSub,
+    /// A lone `%` while skipping: LinuxCNC's end of file, an error.
+    Percent,
+}
+
+/// Where the reader is (the interpreter's view of the program counter).
+#[derive(Debug, Clone, Copy)]
+pub struct Pc {
+    /// File index (0: the main program).
+    pub file: usize,
+    /// Byte offset of the current line's start.
+    pub pos: usize,
+    /// Byte offset of the next line's start.
+    pub next: usize,
+    /// 1-based number of the current line.
+    pub line_no: usize,
+}
+
+impl Env for Interp<'_> {
+    fn numbered(&self, index: usize) -> f64 {
+        // parameters LinuxCNC keeps up to date from its state: the tool in the
+        // spindle (5400, its length 5403, user units) and, as each line is read, the
+        // current point (5420-5422, program units)
+        match index {
+            5400 => f64::from(self.tool_loaded),
+            5403 => self.spindle_length_mm / if self.user_inch { 25.4 } else { 1.0 },
+            5420..=5422 => self.pos[index - 5420],
+            _ => self.params.get(index),
+        }
+    }
+    fn named(&self, name: &str) -> Result<Option<f64>, ErrorKind> {
+        if let Some(v) = self.params.named(name) {
+            return Ok(Some(v));
+        }
+        if name.starts_with('_') {
+            return self.predefined(name);
+        }
+        Ok(None)
+    }
+    fn defining_sub(&self) -> bool {
+        self.ctl.defining_sub
+    }
+}
+
+/// An assignment read on a line.
+pub enum Setting {
+    /// `#n=…`
+    Numbered(usize, f64),
+    /// `#<name>=…`
+    Named(String, f64),
+}
+
+impl Interp<'_> {
+    /// LinuxCNC's read-only predefined named parameters (`init_named_parameters`),
+    /// those whose meaning softnc builds; the others are refused as unsupported.
+    fn predefined(&self, name: &str) -> Result<Option<f64>, ErrorKind> {
+        let b = |x: bool| Some(if x { 1.0 } else { 0.0 });
+        let v = match name {
+            "_line" => Some(self.line_no as f64),
+            "_motion_mode" => Some(f64::from(self.motion.unwrap_or(800))),
+            "_plane" => Some(match self.plane {
+                softnc_core::Plane::XY => 170.0,
+                softnc_core::Plane::XZ => 180.0,
+                softnc_core::Plane::YZ => 190.0,
+            }),
+            "_ccomp" => Some(400.0),
+            "_metric" => b(!self.inch),
+            "_imperial" => b(self.inch),
+            "_absolute" => b(self.absolute),
+            "_incremental" => b(!self.absolute),
+            "_inverse_time" => b(self.inverse_time),
+            "_units_per_minute" => b(!self.inverse_time),
+            "_units_per_rev" => b(false),
+            "_coord_system" => Some(if self.coord < 7 {
+                530.0 + 10.0 * (self.coord + 1) as f64
+            } else {
+                584.0 + (self.coord + 1) as f64
+            }),
+            "_tool_offset" => b(self.tool_length_mm != 0.0),
+            "_spindle_rpm_mode" => b(true),
+            "_spindle_css_mode" => b(false),
+            "_ijk_absolute_mode" => b(self.ijk_absolute),
+            "_lathe_diameter_mode" => b(false),
+            "_lathe_radius_mode" => b(true),
+            "_spindle_on" => b(self.spindle_on),
+            "_spindle_cw" => b(self.spindle_on && self.spindle_code == 3),
+            "_mist" => b(self.mist),
+            "_flood" => b(self.flood),
+            "_current_tool" => Some(f64::from(self.tool_loaded)),
+            "_abs_x" | "_abs_y" | "_abs_z" => {
+                let k = usize::from(name.as_bytes()[5] - b'x');
+                let tool = if k == 2 {
+                    self.tool_length_mm / self.scale()
+                } else {
+                    0.0
+                };
+                Some(self.pos[k] + self.g92[k] + self.origin[k] + tool)
+            }
+            "_abs_a" | "_abs_b" | "_abs_c" | "_abs_u" | "_abs_v" | "_abs_w" => Some(0.0),
+            "_feed" => Some(self.feed),
+            "_rpm" => Some(self.s_rpm),
+            "_x" => Some(self.pos[0]),
+            "_y" => Some(self.pos[1]),
+            "_z" => Some(self.pos[2]),
+            "_a" | "_b" | "_c" | "_u" | "_v" | "_w" => Some(0.0),
+            "_selected_tool" => Some(f64::from(self.tool_selected)),
+            "_value" => Some(self.ctl.return_value),
+            "_value_returned" => b(self.ctl.value_returned),
+            "_call_level" => Some(self.ctl.level() as f64),
+            "_remap_level" => Some(0.0),
+            "_task" => Some(0.0),
+            "_retract_r_plane" | "_retract_old_z" | "_control_mode" | "_speed_override"
+            | "_feed_override" | "_adaptive_feed" | "_feed_hold" | "_current_pocket"
+            | "_selected_pocket" => {
+                return Err(ErrorKind::Unsupported {
+                    word: format!("#<{name}>"),
+                    why: "this predefined parameter is not supported yet".into(),
+                })
+            }
+            _ if name.starts_with("_ini[") || name.starts_with("_hal[") => {
+                return Err(ErrorKind::Unsupported {
+                    word: format!("#<{name}>"),
+                    why: "INI and HAL parameters are not supported".into(),
+                })
+            }
+            _ => None,
+        };
+        Ok(v)
+    }
+
+    /// A line while skipping: only an O-line is read (LinuxCNC's `read_items`
+    /// with `skipping_o` set), and run if it is the one looked for.
+    #[cold]
+    #[inline(never)]
+    pub(super) fn skip_line(
+        &mut self,
+        raw: &str,
+        norm: &mut Norm,
+        line: &mut Line,
+        pc: &Pc,
+    ) -> R<Jump> {
+        let sig = significant(raw.as_bytes());
+        // comments are checked and a lone `%` read on every line, as read_text does
+        if sig.contains(&b'(') {
+            check_comments(sig)?;
+        }
+        if sig
+            .iter()
+            .filter(|c| !matches!(c, b' ' | b'\t' | b'\r'))
+            .eq(b"%".iter())
+        {
+            return Ok(Jump::Percent);
+        }
+        if !sig.iter().any(|c| matches!(c, b'o' | b'O')) {
+            return Ok(Jump::Next);
+        }
+        norm.build(sig);
+        let mut i = 0;
+        if norm.b.first() == Some(&b'/') {
+            i += 1;
+        }
+        if norm.b.get(i) == Some(&b'n') {
+            i += 1;
+            while norm
+                .b
+                .get(i)
+                .is_some_and(|c| c.is_ascii_digit() || *c == b'.')
+            {
+                i += 1;
+            }
+        }
+        if norm.b.get(i) != Some(&b'o') {
+            return Ok(Jump::Next);
+        }
+        match self.read_o(norm, &mut i, line)? {
+            Some(o) => self.control(&o, pc),
+            None => Ok(Jump::Next),
+        }
+    }
+
+    /// A line the fast lexer hands over, read again by [`Self::read_items_slow`].
+    #[cold]
+    #[inline(never)]
+    pub(super) fn read_line_slow(
+        &self,
+        raw: &str,
+        norm: &mut Norm,
+        block: &mut Block,
+        line: &mut Line,
+        sets: &mut Vec<Setting>,
+    ) -> R<Option<OLine>> {
+        block.clear();
+        line.comment = None;
+        norm.build(significant(raw.as_bytes()));
+        self.read_items_slow(norm, block, line, sets)
+    }
+
+    /// `read_items` for a line the fast lexer hands over (parameters, expressions,
+    /// O-words): words go into `block` in order, assignments into `sets`, the
+    /// comment into `line`. Returns the O-line, if it is one.
+    pub(super) fn read_items_slow(
+        &self,
+        norm: &Norm,
+        block: &mut Block,
+        line: &mut Line,
+        sets: &mut Vec<Setting>,
+    ) -> R<Option<OLine>> {
+        let b = &norm.b[..];
+        let raw = |i: usize| norm.raw(i);
+        let re = |(i, k): (usize, ErrorKind)| (norm.raw(i), k);
+        let mut i = 0;
+        if b.first() == Some(&b'/') {
+            i += 1;
+        }
+        if b.get(i) == Some(&b'n') {
+            i += 1;
+            let s = i;
+            while b.get(i).is_some_and(u8::is_ascii_digit) {
+                i += 1;
+            }
+            if i == s {
+                return bad(raw(s), "Bad format unsigned integer");
+            }
+            if b.get(i) == Some(&b'.') {
+                i += 1;
+                let s = i;
+                while b.get(i).is_some_and(u8::is_ascii_digit) {
+                    i += 1;
+                }
+                if i == s {
+                    return bad(raw(s), "Bad format unsigned integer");
+                }
+            }
+        }
+        if b.get(i) == Some(&b'm') {
+            let mut r = Reader::new(b, i + 1, self);
+            match r.integer_value() {
+                Ok(98) => return self.read_m98(norm, i, block, line, sets).map(Some),
+                Ok(99) if self.ctl.level() > 0 => {
+                    if self.ctl.defining_sub {
+                        return bad(raw(i), "Found 'M99' instead of 'O endsub' after 'O sub'");
+                    }
+                    let name = self
+                        .ctl
+                        .frames
+                        .last()
+                        .map(|f| f.sub_name.clone())
+                        .unwrap_or_default();
+                    return Ok(Some(OLine {
+                        kind: OKind::M99,
+                        name,
+                        value: None,
+                        args: Vec::new(),
+                        at: raw(i),
+                        repeat: None,
+                    }));
+                }
+                _ => {}
+            }
+        }
+        if b.get(i) == Some(&b'o') {
+            let o = self.read_o(norm, &mut i, line)?;
+            return Ok(o);
+        }
+        while i < b.len() {
+            let c = b[i];
+            match c {
+                b'a'..=b'z' if c != b'n' && c != b'o' => {
+                    let mut r = Reader::new(b, i + 1, self);
+                    let value = r.real_value().map_err(re)?;
+                    let next = r.i;
+                    self.sort_word_slow(
+                        Word {
+                            letter: c.to_ascii_uppercase(),
+                            value,
+                            offset: raw(i),
+                        },
+                        block,
+                    )?;
+                    i = next;
+                }
+                b'#' => {
+                    let at = i;
+                    let mut r = Reader::new(b, i + 1, self);
+                    if r.at(r.i) == b'<' {
+                        let name = r.name().map_err(re)?;
+                        if r.at(r.i) != b'=' {
+                            return bad(raw(r.i), "Equal sign missing in parameter setting");
+                        }
+                        r.i += 1;
+                        let v = r.real_value().map_err(re)?;
+                        if name.starts_with('_') && self.predefined(&name).ok().flatten().is_some()
+                        {
+                            return bad(
+                                raw(at),
+                                format!("Cannot assign to read-only parameter #<{name}>"),
+                            );
+                        }
+                        i = r.i;
+                        sets.push(Setting::Named(name, v));
+                    } else {
+                        let index = r.integer_value().map_err(re)?;
+                        if index < 1 || index as usize >= NUM_PARAMS {
+                            return bad(raw(at), "Parameter number out of range");
+                        }
+                        if is_readonly(index as usize) {
+                            return bad(raw(at), "Parameter is readonly");
+                        }
+                        if r.at(r.i) != b'=' {
+                            return bad(raw(r.i), "Equal sign missing in parameter setting");
+                        }
+                        r.i += 1;
+                        let v = r.real_value().map_err(re)?;
+                        i = r.i;
+                        sets.push(Setting::Numbered(index as usize, v));
+                    }
+                }
+                b'(' => {
+                    let end = b[i..]
+                        .iter()
+                        .position(|&x| x == b')')
+                        .map_or(b.len(), |k| i + k);
+                    line.comment = Some((raw(i) + 1, raw(end)));
+                    line.comment_offset = raw(i);
+                    i = (end + 1).min(b.len());
+                }
+                b';' => break,
+                b'$' => {
+                    return Err((
+                        raw(i),
+                        ErrorKind::Unsupported {
+                            word: "$".into(),
+                            why: "spindle selection ($ words) is not supported".into(),
+                        },
+                    ))
+                }
+                b'@' | b'^' => {
+                    return Err((
+                        raw(i),
+                        ErrorKind::Unsupported {
+                            word: (c as char).to_string(),
+                            why: "polar coordinates (@ and ^ words) are not supported".into(),
+                        },
+                    ))
+                }
+                _ => {
+                    // the raw byte (comments aside, the line is lower case)
+                    return bad(raw(i), bad_character(c));
+                }
+            }
+        }
+        Ok(None)
+    }
+
+    /// `read_o` for `M98 P… [L…]` at `b[i]`: the rest of the line is read as
+    /// words (P names the subprogram, L repeats it).
+    fn read_m98(
+        &self,
+        norm: &Norm,
+        i: usize,
+        block: &mut Block,
+        line: &mut Line,
+        sets: &mut Vec<Setting>,
+    ) -> R<OLine> {
+        let at = norm.raw(i);
+        // the words after "m98"
+        let skip = (i + 3).min(norm.b.len());
+        let rest = Norm {
+            b: norm.b[skip..].to_vec(),
+            at: norm.at[skip..].to_vec(),
+        };
+        self.read_items_slow(&rest, block, line, sets)?;
+        if !block.has(b'P') {
+            return bad(at, "Found 'm98' code with no P-word");
+        }
+        let p = block.p_number;
+        let n = p.floor();
+        let n = if p - n > 0.9999 {
+            p.ceil()
+        } else if p - n > 0.0001 {
+            return bad(block.off(b'P'), "Non integer value for integer");
+        } else {
+            n
+        };
+        Ok(OLine {
+            kind: OKind::M98,
+            name: format!("{}", n as i64),
+            value: None,
+            args: Vec::new(),
+            at,
+            repeat: block.get(b'L'),
+        })
+    }
+
+    /// `read_o`: the O-line at `b[*i]` (an `o`). Conditions and arguments are
+    /// evaluated only where LinuxCNC evaluates them (not while skipping to another
+    /// label).
+    pub(super) fn read_o(&self, norm: &Norm, i: &mut usize, line: &mut Line) -> R<Option<OLine>> {
+        let b = &norm.b[..];
+        let re = |(k, e): (usize, ErrorKind)| (norm.raw(k), e);
+        let at = norm.raw(*i);
+        *i += 1;
+        let label = if b.get(*i) == Some(&b'<') {
+            let mut r = Reader::new(b, *i, self);
+            let n = r.name().map_err(re)?;
+            *i = r.i;
+            n
+        } else {
+            let mut r = Reader::new(b, *i, self);
+            let n = r.integer_value().map_err(re)?;
+            *i = r.i;
+            n.to_string()
+        };
+        let rest = &b[(*i).min(b.len())..];
+        const KINDS: [(&[u8], OKind); 15] = [
+            (b"sub", OKind::Sub),
+            (b"endsub", OKind::EndSub),
+            (b"call", OKind::Call),
+            (b"do", OKind::Do),
+            (b"while", OKind::While),
+            (b"repeat", OKind::Repeat),
+            (b"if", OKind::If),
+            (b"elseif", OKind::ElseIf),
+            (b"else", OKind::Else),
+            (b"endif", OKind::EndIf),
+            (b"break", OKind::Break),
+            (b"continue", OKind::Continue),
+            (b"endwhile", OKind::EndWhile),
+            (b"endrepeat", OKind::EndRepeat),
+            (b"return", OKind::Return),
+        ];
+        // in LinuxCNC's order of comparison ("elseif" before "else")
+        let Some(&(kw, kind)) = KINDS.iter().find(|(kw, _)| rest.starts_with(kw)) else {
+            if !matches!(rest.first(), None | Some(b'(' | b';')) {
+                return bad(at, "Unknown control command in o word");
+            }
+            // a Fanuc-style program start, "O1234" alone
+            let ctl = &self.ctl;
+            if ctl.defining_sub {
+                return bad(at, "Nested subroutine definition");
+            }
+            if let (Some(f), None) = (ctl.frames.last(), &ctl.skipping) {
+                if f.sub_name != label {
+                    return bad(
+                        at,
+                        format!(
+                            "Nested subroutine definition: 'O{label} sub' found inside called subroutine 'O{}'",
+                            f.sub_name
+                        ),
+                    );
+                }
+            }
+            return Ok(Some(OLine {
+                kind: OKind::Bare,
+                name: label,
+                value: None,
+                args: Vec::new(),
+                at,
+                repeat: None,
+            }));
+        };
+        *i += kw.len();
+        let ctl = &self.ctl;
+        let name = if kind.global() {
+            label
+        } else {
+            let sub = if let Some(f) = ctl.frames.last() {
+                f.sub_name.as_str()
+            } else if ctl.defining_sub {
+                ctl.sub_name.as_str()
+            } else {
+                ""
+            };
+            format!("{sub}#{label}")
+        };
+        let mut o = OLine {
+            kind,
+            name,
+            value: None,
+            args: Vec::new(),
+            at,
+            repeat: None,
+        };
+        let skip_other = ctl.skipping.as_ref().is_some_and(|s| *s != o.name);
+        match kind {
+            OKind::Sub => {
+                if ctl.defining_sub {
+                    return bad(at, "Nested subroutine definition");
+                }
+                if let (Some(f), None) = (ctl.frames.last(), &ctl.skipping) {
+                    if f.sub_name != o.name {
+                        return bad(
+                            at,
+                            format!(
+                                "Nested subroutine definition: 'O{} sub' found inside called subroutine 'O{}'",
+                                o.name, f.sub_name
+                            ),
+                        );
+                    }
+                }
+            }
+            OKind::EndSub | OKind::Return => {
+                if skip_other {
+                    return Ok(Some(o));
+                }
+                if b.get(*i) == Some(&b'[') {
+                    let mut r = Reader::new(b, *i, self);
+                    o.value = Some(r.expression().map_err(re)?);
+                    *i = r.i;
+                }
+            }
+            OKind::Call => {
+                if ctl.skipping.is_some() {
+                    return Ok(None);
+                }
+                while matches!(b.get(*i), Some(b'[' | b'(')) {
+                    if b[*i] == b'(' {
+                        let end = b[*i..]
+                            .iter()
+                            .position(|&x| x == b')')
+                            .map_or(b.len(), |k| *i + k);
+                        line.comment = Some((norm.raw(*i) + 1, norm.raw(end)));
+                        line.comment_offset = norm.raw(*i);
+                        *i = (end + 1).min(b.len());
+                        continue;
+                    }
+                    if o.args.len() >= SUB_PARAMS {
+                        return bad(norm.raw(*i), "Too many subroutine parameters");
+                    }
+                    let mut r = Reader::new(b, *i, self);
+                    o.args.push(r.expression().map_err(re)?);
+                    *i = r.i;
+                }
+            }
+            OKind::While | OKind::Repeat | OKind::If | OKind::ElseIf => {
+                if skip_other {
+                    return Ok(Some(o));
+                }
+                if b.get(*i) != Some(&b'[') {
+                    return bad(
+                        norm.raw(*i),
+                        format!("Left bracket missing after '{}'", kind.name()),
+                    );
+                }
+                let mut r = Reader::new(b, *i, self);
+                o.value = Some(r.expression().map_err(re)?);
+                *i = r.i;
+            }
+            _ => {}
+        }
+        if ctl.defining_sub && !matches!(kind, OKind::Sub | OKind::EndSub | OKind::Return) {
+            // LinuxCNC cannot evaluate inside a definition: the line counts as none
+            return Ok(None);
+        }
+        if ctl.skipping.is_some() {
+            return Ok(Some(o));
+        }
+        // after the O-word only comments may follow
+        while *i < b.len() {
+            match b[*i] {
+                b';' => break,
+                b'(' => {
+                    let end = b[*i..]
+                        .iter()
+                        .position(|&x| x == b')')
+                        .map_or(b.len(), |k| *i + k);
+                    line.comment = Some((norm.raw(*i) + 1, norm.raw(end)));
+                    line.comment_offset = norm.raw(*i);
+                    *i = end + 1;
+                }
+                _ => return bad(norm.raw(*i), "Unexpected character after O-word"),
+            }
+        }
+        Ok(Some(o))
+    }
+
+    fn save_label(&mut self, o: &OLine, pc: &Pc) {
+        self.ctl.labels.insert(
+            o.name.clone(),
+            Label {
+                kind: o.kind,
+                file: pc.file,
+                pos: pc.pos,
+                line_no: pc.line_no,
+                repeat_count: -1,
+            },
+        );
+    }
+
+    fn back_to(&self, name: &str) -> Option<Jump> {
+        self.ctl
+            .labels
+            .get(name)
+            .map(|l| Jump::To(l.file, l.pos, l.line_no))
+    }
+
+    fn label_of(&self, o: &OLine, what: &str) -> R<&Label> {
+        let Some(l) = self.ctl.labels.get(&o.name) else {
+            return bad(o.at, format!("undefined O-word label: '{}'", o.name));
+        };
+        let ok = match o.kind {
+            OKind::ElseIf | OKind::Else | OKind::EndIf => l.kind == OKind::If,
+            OKind::Break | OKind::Continue => matches!(l.kind, OKind::While | OKind::Do),
+            OKind::EndWhile => l.kind == OKind::While,
+            OKind::EndRepeat => l.kind == OKind::Repeat,
+            _ => true,
+        };
+        if !ok {
+            return bad(
+                o.at,
+                format!(
+                    "no matching {what} label: '{}' (found '{}' in line {})",
+                    o.name,
+                    l.kind.name(),
+                    l.line_no
+                ),
+            );
+        }
+        Ok(l)
+    }
+
+    /// `convert_control_functions`: run an O-line read at `pc`.
+    #[inline(never)]
+    pub(super) fn control(&mut self, o: &OLine, pc: &Pc) -> R<Jump> {
+        if self.ctl.skipping.as_ref().is_some_and(|s| *s != o.name) {
+            return Ok(Jump::Next);
+        }
+        if self.ctl.skipping_to_sub.is_some() && !matches!(o.kind, OKind::Sub | OKind::Bare) {
+            return Ok(Jump::Next);
+        }
+        let test = o.value.unwrap_or(0.0);
+        match o.kind {
+            OKind::Bare => {
+                if self.ctl.frames.last().is_some_and(|f| !f.m98) {
+                    return bad(o.at, "Fanuc 'O....' subroutine must be called with 'M98'");
+                }
+                if self.ctl.skipping.is_some() {
+                    self.save_label(o, pc);
+                    self.ctl.skipping = None;
+                }
+                self.ctl.skipping_to_sub = None;
+            }
+            OKind::Sub => {
+                if self.ctl.frames.last().is_some_and(|f| f.m98) {
+                    return bad(
+                        o.at,
+                        "'O.... sub' subroutine must be called with 'O.... call'",
+                    );
+                }
+                if self.ctl.skipping.is_some() {
+                    self.save_label(o, pc);
+                    self.ctl.skipping = None;
+                }
+                self.ctl.skipping_to_sub = None;
+                if self.ctl.level() == 0 {
+                    // a definition: remember it, skip to its end
+                    self.save_label(o, pc);
+                    self.ctl.skipping = Some(o.name.clone());
+                    self.ctl.skipping_start = pc.line_no;
+                    self.ctl.defining_sub = true;
+                    self.ctl.sub_name = o.name.clone();
+                }
+            }
+            OKind::EndSub | OKind::Return | OKind::M99 => {
+                match (self.ctl.frames.last().map(|f| f.m98), o.kind) {
+                    (Some(true), OKind::EndSub | OKind::Return) => {
+                        return bad(o.at, "Fanuc 'O....' subroutine definition must end with 'M99'")
+                    }
+                    (Some(false), OKind::M99) => {
+                        return bad(
+                            o.at,
+                            "'O.... endsub' or 'O.... return' must follow 'O.... sub' subroutine definition",
+                        )
+                    }
+                    _ => {}
+                }
+                if self.ctl.level() == 0 && !self.ctl.defining_sub {
+                    return bad(
+                        o.at,
+                        format!(
+                            "not in a subroutine definition: 'O{} {}'",
+                            o.name,
+                            o.kind.name()
+                        ),
+                    );
+                }
+                if self.ctl.level() == 0 {
+                    // in a definition: its endsub ends it, a return changes nothing
+                    if o.kind == OKind::EndSub {
+                        self.ctl.defining_sub = false;
+                        self.ctl.sub_name.clear();
+                        self.ctl.skipping = None;
+                    }
+                    return Ok(Jump::Next);
+                }
+                if o.kind == OKind::EndSub {
+                    self.ctl.skipping = None;
+                }
+                self.ctl.return_value = test;
+                self.ctl.value_returned = o.value.is_some();
+                let from = self.ctl.level();
+                let Some(frame) = self.ctl.frames.pop() else {
+                    return Ok(Jump::Next);
+                };
+                if frame.m98 {
+                    self.params.leave_keep();
+                } else {
+                    self.params.leave(&frame.saved);
+                }
+                self.leave_modal(from, pc.line_no as u32, o.at)?;
+                let (f, pos, line_no) = frame.ret;
+                return Ok(Jump::To(f, pos, line_no + 1));
+            }
+            OKind::Call | OKind::M98 => {
+                if self.ctl.level() >= MAX_CALL_LEVEL {
+                    return bad(o.at, "Too many subroutine levels");
+                }
+                self.ctl.skipping = None;
+                let m98 = o.kind == OKind::M98;
+                let mut ret = (pc.file, pc.next, pc.line_no);
+                if let (true, Some(l)) = (m98, o.repeat) {
+                    let level = self.ctl.level();
+                    if self.ctl.m98_loops.len() <= level {
+                        self.ctl.m98_loops.resize(level + 1, -1);
+                    }
+                    let left = &mut self.ctl.m98_loops[level];
+                    if *left == -1 {
+                        *left = i64::from(super::round_to_int(l));
+                    }
+                    if *left <= 0 {
+                        // L0: no call at all
+                        *left = -1;
+                        return Ok(Jump::Next);
+                    }
+                    *left -= 1;
+                    if *left > 0 {
+                        // come back to this M98 line for the next repeat
+                        ret = (pc.file, pc.pos, pc.line_no - 1);
+                    } else {
+                        *left = -1;
+                    }
+                }
+                let saved = if m98 {
+                    self.params.enter_keep();
+                    [0.0; SUB_PARAMS]
+                } else {
+                    self.params.enter(&o.args)
+                };
+                self.ctl.frames.push(Frame {
+                    sub_name: o.name.clone(),
+                    ret,
+                    saved,
+                    m98,
+                });
+                self.enter_modal();
+                self.ctl.return_value = 0.0;
+                self.ctl.value_returned = false;
+                if let Some(j) = self.back_to(&o.name) {
+                    return Ok(j);
+                }
+                self.ctl.skipping = Some(o.name.clone());
+                self.ctl.skipping_to_sub = Some(o.name.clone());
+                self.ctl.skipping_start = pc.line_no;
+                return Ok(Jump::OpenSub);
+            }
+            OKind::Do => {
+                self.ctl.skipping = None;
+                if !self.ctl.labels.contains_key(&o.name) {
+                    self.save_label(o, pc);
+                }
+            }
+            OKind::Repeat => {
+                self.check_duplicate(o, pc)?;
+                self.ctl.skipping = None;
+                let l = self.ctl.labels.get_mut(&o.name);
+                if let Some(l) = l.filter(|l| l.kind == OKind::Repeat) {
+                    if l.repeat_count == -1 {
+                        l.repeat_count = i64::from(super::round_to_int(test));
+                    }
+                    if l.repeat_count > 0 {
+                        l.repeat_count -= 1;
+                    } else {
+                        l.repeat_count = -1;
+                        self.ctl.skipping = Some(o.name.clone());
+                        self.ctl.skipping_start = pc.line_no;
+                    }
+                }
+            }
+            OKind::While => {
+                let existing = self.ctl.labels.get(&o.name).map(|l| (l.kind, l.line_no));
+                match existing {
+                    Some((OKind::Do, _)) => {
+                        self.ctl.skipping = None;
+                        if test != 0.0 && !self.ctl.doing_break {
+                            return Ok(self.back_to(&o.name).unwrap_or(Jump::Next));
+                        }
+                        self.ctl.doing_break = false;
+                    }
+                    _ => {
+                        self.check_duplicate(o, pc)?;
+                        self.ctl.skipping = None;
+                        if test == 0.0 {
+                            self.ctl.skipping = Some(o.name.clone());
+                            self.ctl.skipping_start = pc.line_no;
+                        }
+                    }
+                }
+            }
+            OKind::If => {
+                self.check_duplicate(o, pc)?;
+                if test != 0.0 {
+                    self.ctl.skipping = None;
+                    self.ctl.executed_if = true;
+                } else {
+                    self.ctl.skipping = Some(o.name.clone());
+                    self.ctl.skipping_start = pc.line_no;
+                    self.ctl.executed_if = false;
+                }
+            }
+            OKind::ElseIf => {
+                self.label_of(o, "'if'")?;
+                if self.ctl.executed_if {
+                    self.ctl.skipping = Some(o.name.clone());
+                    self.ctl.skipping_start = pc.line_no;
+                } else if test != 0.0 {
+                    self.ctl.skipping = None;
+                    self.ctl.executed_if = true;
+                }
+            }
+            OKind::Else => {
+                self.label_of(o, "'if'")?;
+                if self.ctl.executed_if {
+                    self.ctl.skipping = Some(o.name.clone());
+                    self.ctl.skipping_start = pc.line_no;
+                } else if self.ctl.skipping.is_some() {
+                    self.ctl.executed_if = true;
+                    self.ctl.skipping = None;
+                }
+            }
+            OKind::EndIf => {
+                self.label_of(o, "")?;
+                self.ctl.skipping = None;
+                self.ctl.executed_if = true;
+            }
+            OKind::Break => {
+                self.label_of(o, "while/do")?;
+                self.ctl.skipping = Some(o.name.clone());
+                self.ctl.skipping_start = pc.line_no;
+                self.ctl.doing_break = true;
+            }
+            OKind::Continue => {
+                self.label_of(o, "while/do")?;
+                if self.ctl.skipping.is_none() {
+                    self.ctl.skipping = Some(o.name.clone());
+                    self.ctl.skipping_start = pc.line_no;
+                    self.ctl.doing_continue = true;
+                }
+            }
+            OKind::EndWhile | OKind::EndRepeat => {
+                self.label_of(o, "")?;
+                if self.ctl.skipping.is_some() {
+                    self.ctl.skipping = None;
+                    if self.ctl.doing_continue {
+                        self.ctl.doing_continue = false;
+                        return Ok(self.back_to(&o.name).unwrap_or(Jump::Next));
+                    }
+                    return Ok(Jump::Next);
+                }
+                return Ok(self.back_to(&o.name).unwrap_or(Jump::Next));
+            }
+        }
+        Ok(Jump::Next)
+    }
+
+    /// The same label on another line is a duplicate (LinuxCNC `duplicate O-word
+    /// label`); a new one is recorded.
+    fn check_duplicate(&mut self, o: &OLine, pc: &Pc) -> R<()> {
+        match self.ctl.labels.get(&o.name) {
+            Some(l) if l.file != pc.file || l.pos != pc.pos => {
+                if o.kind == OKind::While && l.kind == OKind::Do {
+                    return Ok(());
+                }
+                bad(
+                    o.at,
+                    format!(
+                        "duplicate O-word label: '{}' - defined in line {}",
+                        o.name, l.line_no
+                    ),
+                )
+            }
+            Some(_) => Ok(()),
+            None => {
+                self.save_label(o, pc);
+                Ok(())
+            }
+        }
+    }
+
+    /// Apply the assignments read on a line.
+    #[inline(never)]
+    pub(super) fn commit(&mut self, sets: &mut Vec<Setting>) {
+        for s in sets.drain(..) {
+            match s {
+                Setting::Numbered(i, v) => self.params.set(i, v),
+                Setting::Named(n, v) => self.params.set_named(&n, v),
+            }
+        }
+    }
+
+    /// The label a call is looking for (when it must open a file).
+    pub(super) fn wanted_sub(&self) -> Option<&str> {
+        self.ctl.skipping_to_sub.as_deref()
+    }
+}
+
+impl Interp<'_> {
+    /// `convert_param_comment`: a (DEBUG,…), (PRINT,…) or (LOG,…) text with `#n`
+    /// and `#<name>` replaced by their values, formatted `%lf` or as the last
+    /// `%d`, `%f`, `%.Nf` before them asks.
+    pub(super) fn expand_comment(&self, text: &str) -> Result<String, ErrorKind> {
+        let not_terminated = || ErrorKind::Invalid("Named parameter not terminated".into());
+        let b = text.as_bytes();
+        let mut out: Vec<u8> = Vec::with_capacity(b.len() + 16);
+        let mut decimals = 6usize;
+        let mut i = 0;
+        while i < b.len() {
+            match b[i] {
+                b'%' => {
+                    i += 1;
+                    match b.get(i) {
+                        Some(b'd') => {
+                            i += 1;
+                            decimals = 0;
+                        }
+                        Some(b'f') => {
+                            i += 1;
+                            decimals = 4;
+                        }
+                        Some(b'.') => {
+                            i += 1;
+                            match (b.get(i), b.get(i + 1)) {
+                                (Some(d), Some(b'f')) if d.is_ascii_digit() => {
+                                    decimals = usize::from(d - b'0');
+                                    i += 2;
+                                }
+                                _ => out.push(b'.'),
+                            }
+                        }
+                        _ => out.push(b'%'),
+                    }
+                }
+                b'#' => {
+                    i += 1;
+                    let Some(&c) = b.get(i) else {
+                        return Err(not_terminated());
+                    };
+                    let value = if c.is_ascii_digit() {
+                        let s = i;
+                        while b.get(i).is_some_and(u8::is_ascii_digit) {
+                            i += 1;
+                        }
+                        let n: usize = text[s..i].parse().unwrap_or(usize::MAX);
+                        (n < NUM_PARAMS).then(|| Env::numbered(self, n))
+                    } else if c == b'<' {
+                        i += 1;
+                        let mut name = String::new();
+                        while let Some(&d) = b.get(i) {
+                            if d == b'>' || d == b')' {
+                                break;
+                            }
+                            if !d.is_ascii_whitespace() {
+                                name.push(d.to_ascii_lowercase() as char);
+                            }
+                            i += 1;
+                        }
+                        if b.get(i) != Some(&b'>') {
+                            return Err(not_terminated());
+                        }
+                        i += 1;
+                        Env::named(self, &name).ok().flatten()
+                    } else {
+                        out.push(b'#');
+                        continue;
+                    };
+                    let shown = match value {
+                        Some(v) => {
+                            let v = if v.abs() < crate::expr::TOLERANCE_EQUAL {
+                                0.0
+                            } else {
+                                v
+                            };
+                            let s = format!("{v:.decimals$}");
+                            if s.len() >= 30 {
+                                "######".to_string()
+                            } else {
+                                s
+                            }
+                        }
+                        None => "######".to_string(),
+                    };
+                    out.extend_from_slice(shown.as_bytes());
+                }
+                c => {
+                    out.push(c);
+                    i += 1;
+                }
+            }
+        }
+        Ok(String::from_utf8_lossy(&out).into_owned())
+    }
+}

@@ -1,0 +1,366 @@
+//! The parameter table, as LinuxCNC 2.9 keeps it (`_setup.parameters`,
+//! `sub_context[].named_params`; `interp_namedparams.cc`, `interp_array.cc`):
+//!
+//! - numbered parameters `#1` … `#5601` (`RS274NGC_MAX_PARAMETERS` = 5602), all 0 at
+//!   start; some are read-only (5021–5029, 5400–5413, 5420–5428);
+//! - named parameters: `#<_name>` global, `#<name>` local to the call level that
+//!   assigned it;
+//! - assignments on a line are gathered while it is read and take effect after it
+//!   (parameters are "set in parallel").
+
+use std::collections::{BTreeSet, HashMap};
+use std::path::Path;
+
+/// Numbered parameters are `1..NUM_PARAMS` (LinuxCNC `RS274NGC_MAX_PARAMETERS`).
+pub const NUM_PARAMS: usize = 5602;
+
+/// Subroutine arguments are `#1` … `#30` (LinuxCNC `INTERP_SUB_PARAMS`).
+pub const SUB_PARAMS: usize = 30;
+
+/// Numbered parameters a program may not assign (LinuxCNC `readonly_parameters`).
+pub fn is_readonly(index: usize) -> bool {
+    matches!(index, 5021..=5029 | 5400..=5413 | 5420..=5428)
+}
+
+/// Whether LinuxCNC always writes parameter `index` to its parameter file
+/// (`_required_parameters`: G28/G30 positions, G92, the coordinate systems).
+pub fn is_persistent(index: usize) -> bool {
+    matches!(index, 5161..=5169 | 5181..=5189 | 5210..=5220)
+        || (5221..=5390).contains(&index) && (index - 5221) % 20 < 10
+}
+
+/// A parameter file that cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ParamFileError {
+    /// The file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A line names a parameter outside 1-5601.
+    #[error("{path}:{line}: parameter number out of range: {index}")]
+    OutOfRange {
+        /// The file.
+        path: String,
+        /// 1-based line.
+        line: usize,
+        /// The number read.
+        index: i64,
+    },
+    /// Numbers must increase from line to line (LinuxCNC: "Parameter file out of
+    /// order").
+    #[error("{path}:{line}: parameter file out of order (#{index} after #{previous})")]
+    OutOfOrder {
+        /// The file.
+        path: String,
+        /// 1-based line.
+        line: usize,
+        /// The number read.
+        index: usize,
+        /// The number before it.
+        previous: usize,
+    },
+    /// A line starts with a number but has no value after it.
+    #[error("{path}:{line}: expected 'NUMBER VALUE', found {text:?}")]
+    BadLine {
+        /// The file.
+        path: String,
+        /// 1-based line.
+        line: usize,
+        /// The line.
+        text: String,
+    },
+}
+
+/// The table.
+#[derive(Debug, Clone)]
+pub struct Params {
+    numbered: Vec<f64>,
+    /// Parameters that came from a parameter file (written back with it).
+    from_file: BTreeSet<usize>,
+    globals: HashMap<String, f64>,
+    /// Local named parameters per call level (0: the main program).
+    locals: Vec<HashMap<String, f64>>,
+    /// Assignments read on the current line, not yet made.
+    pending_numbered: Vec<(usize, f64)>,
+    pending_named: Vec<(String, f64)>,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            numbered: vec![0.0; NUM_PARAMS],
+            from_file: BTreeSet::new(),
+            globals: HashMap::new(),
+            locals: vec![HashMap::new()],
+            pending_numbered: Vec::new(),
+            pending_named: Vec::new(),
+        }
+    }
+}
+
+impl Params {
+    /// Numbered parameter `index` (0 outside the table).
+    pub fn get(&self, index: usize) -> f64 {
+        self.numbered.get(index).copied().unwrap_or(0.0)
+    }
+
+    /// Set numbered parameter `index` now (ignored outside the table).
+    pub fn set(&mut self, index: usize, value: f64) {
+        if let Some(p) = self.numbered.get_mut(index) {
+            *p = value;
+        }
+    }
+
+    /// A named parameter as assigned by the program: globals (leading `_`) or the
+    /// locals of the current call level.
+    pub fn named(&self, name: &str) -> Option<f64> {
+        if name.starts_with('_') {
+            self.globals.get(name).copied()
+        } else {
+            self.locals.last().and_then(|l| l.get(name).copied())
+        }
+    }
+
+    /// Set a named parameter now, in its scope.
+    pub fn set_named(&mut self, name: &str, value: f64) {
+        let map = if name.starts_with('_') {
+            &mut self.globals
+        } else {
+            match self.locals.last_mut() {
+                Some(l) => l,
+                None => return,
+            }
+        };
+        match map.get_mut(name) {
+            Some(v) => *v = value,
+            None => {
+                map.insert(name.to_string(), value);
+            }
+        }
+    }
+
+    /// Remember an assignment read on the current line.
+    pub fn defer(&mut self, index: usize, value: f64) {
+        self.pending_numbered.push((index, value));
+    }
+
+    /// Remember a named assignment read on the current line.
+    pub fn defer_named(&mut self, name: String, value: f64) {
+        self.pending_named.push((name, value));
+    }
+
+    /// Make the assignments read on the line, in the order written (numbered first,
+    /// then named, as LinuxCNC's `Interp::read` does).
+    pub fn commit(&mut self) {
+        for k in 0..self.pending_numbered.len() {
+            let (i, v) = self.pending_numbered[k];
+            self.set(i, v);
+        }
+        self.pending_numbered.clear();
+        let named = std::mem::take(&mut self.pending_named);
+        for (n, v) in &named {
+            self.set_named(n, *v);
+        }
+        self.pending_named = named;
+        self.pending_named.clear();
+    }
+
+    /// Drop the assignments of a line that is not run.
+    pub fn discard(&mut self) {
+        self.pending_numbered.clear();
+        self.pending_named.clear();
+    }
+
+    /// Whether the line read assigned anything.
+    pub fn has_pending(&self) -> bool {
+        !self.pending_numbered.is_empty() || !self.pending_named.is_empty()
+    }
+
+    /// Enter a subroutine: a new scope of locals, `#1…#30` saved and set to `args`
+    /// (missing ones 0). Returns the saved values.
+    pub fn enter(&mut self, args: &[f64]) -> [f64; SUB_PARAMS] {
+        let mut saved = [0.0; SUB_PARAMS];
+        for (k, s) in saved.iter_mut().enumerate() {
+            *s = self.numbered[k + 1];
+            self.numbered[k + 1] = args.get(k).copied().unwrap_or(0.0);
+        }
+        self.locals.push(HashMap::new());
+        saved
+    }
+
+    /// Enter an M98 subprogram: a new scope of locals, `#1…#30` passed on as they
+    /// are.
+    pub fn enter_keep(&mut self) {
+        self.locals.push(HashMap::new());
+    }
+
+    /// Leave an M98 subprogram: its locals dropped.
+    pub fn leave_keep(&mut self) {
+        if self.locals.len() > 1 {
+            self.locals.pop();
+        }
+    }
+
+    /// Leave a subroutine: its locals dropped, `#1…#30` restored.
+    pub fn leave(&mut self, saved: &[f64; SUB_PARAMS]) {
+        self.numbered[1..=SUB_PARAMS].copy_from_slice(saved);
+        if self.locals.len() > 1 {
+            self.locals.pop();
+        }
+    }
+
+    /// All numbered parameters (index 0 unused).
+    pub fn numbered(&self) -> &[f64] {
+        &self.numbered
+    }
+
+    /// Parameters from the text of a LinuxCNC parameter file (`NUMBER VALUE` per
+    /// line, numbers increasing; other lines are ignored, as `restore_parameters`
+    /// does); the others 0. `path` names the file in messages.
+    pub fn from_var_text(text: &str, path: &str) -> Result<Params, ParamFileError> {
+        let mut p = Params::default();
+        let mut previous = 0usize;
+        for (k, l) in text.lines().enumerate() {
+            let mut it = l.split_whitespace();
+            let Some(first) = it.next() else { continue };
+            let Ok(index) = first.parse::<i64>() else {
+                continue;
+            };
+            let Some(value) = it
+                .next()
+                .and_then(|v| v.parse::<f64>().ok())
+                .filter(|v| v.is_finite())
+            else {
+                return Err(ParamFileError::BadLine {
+                    path: path.into(),
+                    line: k + 1,
+                    text: l.into(),
+                });
+            };
+            if !(1..NUM_PARAMS as i64).contains(&index) {
+                return Err(ParamFileError::OutOfRange {
+                    path: path.into(),
+                    line: k + 1,
+                    index,
+                });
+            }
+            let index = index as usize;
+            if index <= previous {
+                return Err(ParamFileError::OutOfOrder {
+                    path: path.into(),
+                    line: k + 1,
+                    index,
+                    previous,
+                });
+            }
+            previous = index;
+            p.numbered[index] = value;
+            p.from_file.insert(index);
+        }
+        Ok(p)
+    }
+
+    /// Read a parameter file; a missing file gives all parameters 0 (as LinuxCNC
+    /// starts without one), any other failure is an error.
+    pub fn load(path: &Path) -> Result<Params, ParamFileError> {
+        match std::fs::read_to_string(path) {
+            Ok(text) => Params::from_var_text(&text, &path.display().to_string()),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(Params::default()),
+            Err(source) => Err(ParamFileError::Io {
+                path: path.display().to_string(),
+                source,
+            }),
+        }
+    }
+
+    /// The parameter file text LinuxCNC's `save_parameters` writes: the persistent
+    /// parameters and those read from the file, `%d\t%f` per line.
+    pub fn to_var_text(&self) -> String {
+        let mut out = String::new();
+        for k in 1..NUM_PARAMS {
+            if is_persistent(k) || self.from_file.contains(&k) {
+                out.push_str(&format!("{k}\t{:.6}\n", self.numbered[k]));
+            }
+        }
+        out
+    }
+
+    /// Write the parameter file atomically (a crash leaves the old file or the
+    /// new one).
+    pub fn save(&self, path: &Path) -> Result<(), ParamFileError> {
+        softnc_core::store::write_atomic(path, self.to_var_text().as_bytes()).map_err(|source| {
+            ParamFileError::Io {
+                path: path.display().to_string(),
+                source,
+            }
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn assignments_wait_for_the_end_of_the_line() {
+        let mut p = Params::default();
+        p.defer(1, 5.0);
+        p.defer_named("x".into(), 2.0);
+        assert_eq!(p.get(1), 0.0);
+        assert_eq!(p.named("x"), None);
+        p.commit();
+        assert_eq!(p.get(1), 5.0);
+        assert_eq!(p.named("x"), Some(2.0));
+    }
+
+    #[test]
+    fn locals_are_scoped_and_arguments_restored() {
+        let mut p = Params::default();
+        p.set(1, 9.0);
+        p.set_named("a", 1.0);
+        p.set_named("_g", 2.0);
+        let saved = p.enter(&[4.0, 5.0]);
+        assert_eq!((p.get(1), p.get(2), p.get(3)), (4.0, 5.0, 0.0));
+        assert_eq!(p.named("a"), None);
+        assert_eq!(p.named("_g"), Some(2.0));
+        p.set_named("a", 3.0);
+        p.leave(&saved);
+        assert_eq!(p.get(1), 9.0);
+        assert_eq!(p.named("a"), Some(1.0));
+        assert!(is_readonly(5420) && !is_readonly(5220));
+    }
+
+    #[test]
+    fn parameter_files_round_trip_and_bad_ones_are_errors() {
+        let p = Params::from_var_text("5161 1.5\n5221\t-2\n# note\n5400 3\n", "v").unwrap();
+        assert_eq!((p.get(5161), p.get(5221), p.get(5400)), (1.5, -2.0, 3.0));
+        let text = p.to_var_text();
+        assert!(text.starts_with("5161\t1.500000\n5162\t0.000000\n"));
+        assert!(text.contains("5221\t-2.000000\n") && text.contains("5400\t3.000000\n"));
+        assert!(!text.contains("5231\t"), "5231 is not persistent");
+        let q = Params::from_var_text(&text, "v").unwrap();
+        assert_eq!(q.numbered(), p.numbered());
+        assert!(matches!(
+            Params::from_var_text("5221 1\n5161 1\n", "v"),
+            Err(ParamFileError::OutOfOrder { line: 2, .. })
+        ));
+        assert!(matches!(
+            Params::from_var_text("7000 1\n", "v"),
+            Err(ParamFileError::OutOfRange { index: 7000, .. })
+        ));
+        assert!(matches!(
+            Params::from_var_text("5221 x\n", "v"),
+            Err(ParamFileError::BadLine { line: 1, .. })
+        ));
+        let dir = std::env::temp_dir().join(format!("softnc-var-{}", std::process::id()));
+        let f = dir.join("m.var");
+        assert_eq!(Params::load(&f).unwrap().get(5221), 0.0);
+        p.save(&f).unwrap();
+        assert_eq!(Params::load(&f).unwrap().get(5221), -2.0);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

@@ -1,0 +1,516 @@
+//! The RS274/NGC language around the words: parameters, expressions, O-words, as
+//! LinuxCNC 2.9 runs them (the expected values are what LinuxCNC's semantics give,
+//! worked out by hand from `interp_o_word.cc` / `interp_read.cc`).
+
+use softnc_core::MachineProfile;
+use softnc_gcode::{ErrorKind, MotionKind, ReadOptions};
+use std::path::PathBuf;
+
+fn profile() -> MachineProfile {
+    MachineProfile::load(
+        &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/machines/default.ron"),
+    )
+    .unwrap()
+}
+
+/// X of every motion end (mm).
+fn xs(text: &str) -> Vec<f64> {
+    let p = softnc_gcode::read_program(text, "t.ngc", &profile()).unwrap();
+    p.motions
+        .iter()
+        .filter_map(|m| m.kind.end().map(|e| e.0[0]))
+        .collect()
+}
+
+fn error(text: &str) -> softnc_gcode::GcodeError {
+    softnc_gcode::read_program(text, "t.ngc", &profile()).unwrap_err()
+}
+
+#[test]
+fn parameters_take_effect_after_the_line() {
+    assert_eq!(xs("#1=5 G0 X#1\nG0 X#1\nM2\n"), vec![0.0, 5.0]);
+    assert_eq!(xs("#1=2 #2=3\nG0 X[#1*#2+1]\nM2\n"), vec![7.0]);
+    assert_eq!(xs("#<a>=4\n#<_bb>=[#<a>+1]\nG0 X#<_bb>\nM2\n"), vec![5.0]);
+    assert_eq!(xs("#3=7 #7=9\nG0 X##3\nM2\n"), vec![9.0]);
+    assert_eq!(xs("G21 G0 X[2**3] Y0\nG0 X#<_x>\nM2\n"), vec![8.0, 8.0]);
+}
+
+#[test]
+fn parameter_errors_as_linuxcnc() {
+    let e = error("G0 X#<nope>\nM2\n");
+    assert_eq!(e.kind.to_string(), "Named parameter #<nope> not defined");
+    assert_eq!((e.line, e.column), (1, 5));
+    assert_eq!(
+        error("#5420=1\nM2\n").kind.to_string(),
+        "Parameter is readonly"
+    );
+    assert_eq!(
+        error("#6000=1\nM2\n").kind.to_string(),
+        "Parameter number out of range"
+    );
+    assert_eq!(
+        error("#1 5\nM2\n").kind.to_string(),
+        "Equal sign missing in parameter setting"
+    );
+    assert_eq!(
+        error("G0 X[1/0]\nM2\n").kind.to_string(),
+        "Attempt to divide by zero"
+    );
+    assert_eq!(
+        error("#<_x>=1\nM2\n").kind.to_string(),
+        "Cannot assign to read-only parameter #<_x>"
+    );
+}
+
+#[test]
+fn subroutines_with_arguments_and_return_values() {
+    let text = "o<sq> sub\n#<r>=[#1*#1]\no<sq> return [#<r>]\no<sq> endsub\n\
+                o<sq> call [3]\nG0 X#<_value>\n#1=2\no100 call [#1+2] [5]\nG0 X#1\nM2\n\
+                o100 sub\nG0 X[#1*10+#2]\no100 endsub\n";
+    // o100 is defined after the main program: LinuxCNC skips forward to it
+    assert_eq!(xs(text), vec![9.0, 45.0, 2.0]);
+}
+
+#[test]
+fn recursion_and_the_call_depth_limit() {
+    let fact = "o<f> sub\no1 if [#1 le 1]\no<f> return [1]\no1 endif\n\
+                o<f> call [#1-1]\no<f> return [#<_value>*#1]\no<f> endsub\n\
+                o<f> call [5]\nG0 X#<_value>\nM2\n";
+    assert_eq!(xs(fact), vec![120.0]);
+    let deep = "o<d> sub\no<d> call [#1+1]\no<d> endsub\no<d> call [0]\nM2\n";
+    let e = error(deep);
+    assert_eq!(e.kind.to_string(), "Too many subroutine levels");
+}
+
+#[test]
+fn loops_and_conditionals() {
+    let w = "#1=0\no1 while [#1 lt 3]\nG0 X#1\n#1=[#1+1]\no1 endwhile\nM2\n";
+    assert_eq!(xs(w), vec![0.0, 1.0, 2.0]);
+    let d = "#1=5\no2 do\nG0 X#1\n#1=[#1+1]\no2 while [#1 lt 3]\nM2\n";
+    assert_eq!(xs(d), vec![5.0]);
+    let r = "o3 repeat [3]\nG91 G0 X1\no3 endrepeat\nM2\n";
+    assert_eq!(xs(r), vec![1.0, 2.0, 3.0]);
+    let i =
+        "#1=2\no4 if [#1 eq 1]\nG0 X1\no4 elseif [#1 eq 2]\nG0 X2\no4 else\nG0 X3\no4 endif\nM2\n";
+    assert_eq!(xs(i), vec![2.0]);
+    let e = "o4 if [0]\nG0 X1\nG81 Q##\no4 else\nG0 X3\no4 endif\nM2\n";
+    // the skipped branch is not read at all (LinuxCNC reads only O-lines there)
+    assert_eq!(xs(e), vec![3.0]);
+    let bc = "#1=0\no5 while [#1 lt 6]\n#1=[#1+1]\no6 if [#1 eq 2]\no5 continue\no6 endif\n\
+              o7 if [#1 eq 4]\no5 break\no7 endif\nG0 X#1\no5 endwhile\nM2\n";
+    assert_eq!(xs(bc), vec![1.0, 3.0]);
+}
+
+#[test]
+fn endless_loops_end_at_the_block_limit() {
+    let text = "o1 while [1]\nG0 X1\no1 endwhile\nM2\n";
+    let options = ReadOptions {
+        block_limit: Some(10_000),
+        ..Default::default()
+    };
+    let e = softnc_gcode::read_program_with(text, "t.ngc", &profile(), &options).unwrap_err();
+    assert!(
+        matches!(e.kind, ErrorKind::BlockLimit { limit: 10_000 }),
+        "{e}"
+    );
+    // the default limit also ends it
+    assert!(matches!(error(text).kind, ErrorKind::BlockLimit { .. }));
+}
+
+#[test]
+fn o_word_errors_as_linuxcnc() {
+    assert_eq!(
+        error("o1 if 1\nM2\n").kind.to_string(),
+        "Left bracket missing after 'if'"
+    );
+    assert_eq!(
+        error("o1 foo\nM2\n").kind.to_string(),
+        "Unknown control command in o word"
+    );
+    assert_eq!(
+        error("o1 if [1] G0 X1\no1 endif\nM2\n").kind.to_string(),
+        "Unexpected character after O-word"
+    );
+    let e = error("o1 if [0]\nG0 X1\nM2\n");
+    assert!(
+        e.kind.to_string().contains("looking for O-word label"),
+        "{e}"
+    );
+    let e = error("M98 P100\nM2\n");
+    assert!(
+        e.kind
+            .to_string()
+            .contains("looking for O-word label '100'"),
+        "{e}"
+    );
+}
+
+#[test]
+fn subroutine_files_on_the_search_path() {
+    let dir = std::env::temp_dir().join(format!("softnc-subs-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("twice.ngc"),
+        "o<twice> sub\nG0 X[#1*2]\no<twice> endsub\n",
+    )
+    .unwrap();
+    let options = ReadOptions {
+        subroutine_path: vec![dir.clone()],
+        ..Default::default()
+    };
+    let (p, _) = softnc_gcode::read_program_with(
+        "o<twice> call [4]\no<twice> call [5]\nG0 X1\nM2\n",
+        "t.ngc",
+        &profile(),
+        &options,
+    )
+    .unwrap();
+    let ends: Vec<f64> = p
+        .motions
+        .iter()
+        .filter_map(|m| match m.kind {
+            MotionKind::Traverse { end } => Some(end.0[0]),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(ends, vec![8.0, 10.0, 1.0]);
+    assert_eq!(p.motions[2].line, 3);
+    let e = softnc_gcode::read_program_with("o<none> call\nM2\n", "t.ngc", &profile(), &options)
+        .unwrap_err();
+    assert!(
+        e.kind
+            .to_string()
+            .contains("looking for O-word label 'none'"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+fn read(text: &str) -> softnc_gcode::Program {
+    softnc_gcode::read_program(text, "t.ngc", &profile()).unwrap()
+}
+
+#[test]
+fn g92_g52_and_their_parameters() {
+    // G92 X1 at X3: the point is now X1, the offset 2 (5211), restored by G92.3
+    let p = read(
+        "G0 X3\nG92 X1\nG0 X2\n(PRINT,#5210 #5211 %d#5211)\nG92.2\nG0 X2\nG92.3\nG0 X0\nG92.1\nG0 X0\nM2\n",
+    );
+    let ends: Vec<(f64, f64)> = p
+        .motions
+        .iter()
+        .map(|m| (m.kind.end().unwrap().0[0], m.offset_mm.0[0]))
+        .collect();
+    assert_eq!(
+        ends,
+        vec![(3.0, 0.0), (2.0, 2.0), (2.0, 0.0), (0.0, 2.0), (0.0, 0.0)]
+    );
+    assert!(p
+        .warnings
+        .iter()
+        .any(|w| w == "t.ngc:4: print: 1.000000 2.000000 2"));
+    // G52 sets the offset itself
+    let p = read("G0 X3\nG52 X1\nG0 X0\nM2\n");
+    assert_eq!(p.motions[1].offset_mm.0[0], 1.0);
+    assert_eq!(p.motions[1].start.0[0], 2.0);
+    assert_eq!(
+        error("G92\nM2\n").kind.to_string(),
+        "All axes missing with g52 or g92"
+    );
+    assert_eq!(
+        error("G92 G1 X1\nM2\n").kind.to_string(),
+        "Cannot use two g codes that both use axis values"
+    );
+}
+
+#[test]
+fn g10_l2_l20_set_work_offsets() {
+    // G10 L2 P1 sets G54 (active): the same program point moves with it
+    let p = read("G10 L2 P1 X5\nG0 X1\nG10 L2 P2 Y7\nG55 G0 X1\n#1=#5242\nG0 X#1\nM2\n");
+    let offs: Vec<[f64; 3]> = p.motions.iter().map(|m| m.offset_mm.0).collect();
+    assert_eq!(
+        offs,
+        vec![[5.0, 0.0, 0.0], [0.0, 7.0, 0.0], [0.0, 7.0, 0.0]]
+    );
+    assert_eq!(p.motions[2].kind.end().unwrap().0[0], 7.0);
+    // L20: the current point becomes the value given
+    let p = read("G0 X4\nG10 L20 P0 X1\nG0 Y0\nM2\n");
+    assert_eq!(p.motions[1].start.0[0], 1.0);
+    assert_eq!(p.motions[1].offset_mm.0[0], 3.0);
+    assert!(matches!(
+        error("G10 L2 P1 R30\nM2\n").kind,
+        ErrorKind::Unsupported { .. }
+    ));
+    assert!(matches!(
+        error("G10 L1 P1 Y1\nM2\n").kind,
+        ErrorKind::Unsupported { .. }
+    ));
+    assert_eq!(
+        error("G10 L2 P10 X1\nM2\n").kind.to_string(),
+        "P value out of range (0-9) with G10 L2"
+    );
+}
+
+#[test]
+fn g28_g30_go_through_the_waypoint_to_the_stored_position() {
+    let p = read("G0 X5 Y5 Z5\nG28.1\nG0 X0 Y0 Z0\nG28 Z1\nG30\nM2\n");
+    let ends: Vec<[f64; 3]> = p.motions.iter().map(|m| m.kind.end().unwrap().0).collect();
+    assert_eq!(
+        ends,
+        vec![
+            [5.0, 5.0, 5.0],
+            [0.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0], // the waypoint
+            [0.0, 0.0, 5.0], // only Z goes home
+            [0.0, 0.0, 5.0], // G30: no axis words, through the current point
+            [0.0, 0.0, 0.0], // to #5181-5183 (0)
+        ]
+    );
+}
+
+#[test]
+fn print_formats_as_linuxcnc() {
+    let p = read("#1=1.5 #<v>=-2\n(PRINT,a=#1 b=#<v> %f#1 %.2f#<v> c=#<nope> #x 100%)\nM2\n");
+    assert_eq!(
+        p.warnings,
+        vec!["t.ngc:2: print: a=1.500000 b=-2.000000 1.5000 -2.00 c=###### #x 100%"]
+    );
+    let p = read("#5599=0\n(DEBUG,hidden)\n#5599=1\n(debug, shown #5599)\nM2\n");
+    assert_eq!(p.warnings, vec!["t.ngc:4: debug:  shown 1.000000"]);
+}
+
+#[test]
+fn fanuc_m98_m99_subprograms() {
+    // M98 P1 L3 runs O1 three times; #1 is passed on as it is (no arguments)
+    let text = "#1=1\nG91\nM98 P1 L3\nG90 G0 X#1\nM30\nO1\nG0 X1\n#1=[#1+1]\nM99\n";
+    assert_eq!(xs(text), vec![1.0, 2.0, 3.0, 4.0]);
+    let bare = "O100 (main program)\nG0 X1\nM2\n";
+    assert_eq!(xs(bare), vec![1.0]);
+    assert_eq!(
+        error("M98 L2\nM2\n").kind.to_string(),
+        "Found 'm98' code with no P-word"
+    );
+    assert_eq!(
+        error("o1 call\nM2\nO1\nG0 X1\nM99\n").kind.to_string(),
+        "Fanuc 'O....' subroutine must be called with 'M98'"
+    );
+    assert_eq!(
+        error("M98 P1\nM2\nO1\nG0 X1\no1 endsub\n").kind.to_string(),
+        "Fanuc 'O....' subroutine definition must end with 'M99'"
+    );
+    assert_eq!(
+        error("o1 call\nM2\no1 sub\nG0 X1\nM99\n").kind.to_string(),
+        "'O.... endsub' or 'O.... return' must follow 'O.... sub' subroutine definition"
+    );
+    // M99 in the main program loops it forever in LinuxCNC: refused
+    assert!(matches!(
+        error("G0 X1\nM99\n").kind,
+        ErrorKind::Unsupported { .. }
+    ));
+}
+
+mod fuzz {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Lines made of the language's pieces in random order: O-words, parameters,
+    /// expressions, words, comments, broken fragments.
+    fn piece() -> impl Strategy<Value = String> {
+        prop::sample::select(vec![
+            "o1 ",
+            "o<a> ",
+            "sub",
+            "endsub",
+            "call",
+            "[1]",
+            "[#1]",
+            "return",
+            "if",
+            "elseif",
+            "else",
+            "endif",
+            "while",
+            "endwhile",
+            "do",
+            "repeat",
+            "endrepeat",
+            "break",
+            "continue",
+            "#1",
+            "#<a>",
+            "#<_b>",
+            "=",
+            "[",
+            "]",
+            "+",
+            "-",
+            "*",
+            "/",
+            "**",
+            " mod ",
+            " eq ",
+            " lt ",
+            " and ",
+            "sin",
+            "atan",
+            "exists",
+            "2",
+            "0.5",
+            "-1",
+            "G0",
+            "G1",
+            "G92",
+            "G10 L2 P1",
+            "G28",
+            "X",
+            "Y",
+            "Z",
+            "F100",
+            "M98 P1",
+            "M99",
+            "O1",
+            "M2",
+            "(print,#1)",
+            "(",
+            ")",
+            ";",
+            "%",
+            "\n",
+            "\n",
+            "\n",
+            "\n",
+        ])
+        .prop_map(str::to_string)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(3000))]
+        /// Never a panic, never a hang: every program reads or fails with file:line.
+        #[test]
+        fn random_language_programs_never_panic_or_hang(
+            pieces in prop::collection::vec(piece(), 1..80)
+        ) {
+            let text: String = pieces.concat();
+            let options = ReadOptions { block_limit: Some(20_000), ..Default::default() };
+            match softnc_gcode::read_program_with(&text, "f.ngc", &profile(), &options) {
+                Ok(_) => {}
+                Err(e) => prop_assert!(e.line >= 1 && e.to_string().starts_with("f.ngc:"), "{e}"),
+            }
+        }
+    }
+}
+
+#[test]
+fn m70_m73_save_and_restore_the_modal_state() {
+    // M70 saves G21 G90 F100 at X0; G20 G91 F5 change it (F before G20 on a line:
+    // 5 mm/min, as LinuxCNC); M72 brings them back
+    let p = read("G21 G90 F100\nM70\nG20 G91 F5\nG1 X1\nM72\nG1 X2\nM2\n");
+    let m: Vec<(f64, f64, bool)> = p
+        .motions
+        .iter()
+        .map(|m| match m.kind {
+            MotionKind::Feed {
+                end,
+                feed_mm_per_min,
+            } => (end.0[0], feed_mm_per_min, m.inch),
+            _ => panic!(),
+        })
+        .collect();
+    assert_eq!(m, vec![(25.4, 5.0, true), (2.0, 100.0, false)]);
+    // M73 in a subroutine restores on return
+    let p = read("G90 F100\no1 sub\nM73\nG91 F7\nG1 X1\no1 endsub\no1 call\nG1 X5\nM2\n");
+    let ends: Vec<f64> = p
+        .motions
+        .iter()
+        .map(|m| m.kind.end().unwrap().0[0])
+        .collect();
+    assert_eq!(ends, vec![1.0, 5.0]);
+    assert_eq!(
+        error("M72\nM2\n").kind.to_string(),
+        "Cannot restore context from invalid stack frame - missing M70/M73?"
+    );
+    assert!(error("M70\nM71\nM72\nM2\n")
+        .kind
+        .to_string()
+        .contains("missing M70/M73"));
+}
+
+#[test]
+fn skipped_lines_are_still_lines() {
+    // read_text checks comments on every line, also in a branch not taken
+    assert_eq!(
+        error("o1 if [0]\nG0 X1 (open\no1 endif\nM2\n")
+            .kind
+            .to_string(),
+        "Unclosed comment found"
+    );
+    // a lone % is the end of the file, also while skipping: an error there
+    assert_eq!(
+        error("%\nG0 X1\no1 call\n%\no1 sub\no1 endsub\n")
+            .kind
+            .to_string(),
+        "Failed to find sub 'O1' before EOF"
+    );
+}
+
+#[test]
+fn g43_1_sets_and_g43_2_adds_a_tool_length() {
+    let p = read("G0 Z10\nG43.1 Z5\nG0 Z0\nG43.2 Z1\nG0 Z0\nG49\nG0 Z0\nM2\n");
+    let z: Vec<(f64, f64)> = p
+        .motions
+        .iter()
+        .map(|m| (m.start.0[2], m.offset_mm.0[2]))
+        .collect();
+    // G43.1 takes the Z word (no motion on its line); G43.2 leaves it to the motion
+    // mode in force too (LinuxCNC's enhance_block), so its line also moves to Z1
+    assert_eq!(
+        z,
+        vec![(0.0, 0.0), (5.0, 5.0), (-1.0, 6.0), (1.0, 6.0), (6.0, 0.0)]
+    );
+    assert_eq!(
+        error("G43.2\nM2\n").kind.to_string(),
+        "G43.2: No axes specified and H word missing"
+    );
+    assert!(matches!(
+        error("G43.1 X1\nM2\n").kind,
+        ErrorKind::Unsupported { .. }
+    ));
+}
+
+#[test]
+fn g10_l1_l10_l11_set_tool_lengths() {
+    // L1: tool 2 is 7 mm long now; G43 H2 uses it
+    let p = read("G10 L1 P2 Z7\nG43 H2\nG0 X0\nM2\n");
+    assert_eq!(p.motions[0].offset_mm.0[2], 7.0);
+    // L10: with tool 1 loaded and G43, the current Z becomes Z3 in the active system
+    let p = read("T1 M6\nG43\nG0 Z10\nG10 L10 P1 Z3\nG43\nG0 X0\nM2\n");
+    let last = p.motions.last().unwrap();
+    assert!((last.start.0[2] - 3.0).abs() < 1e-9, "{:?}", last.start);
+    // L11 measures in G59.3 (here all offsets 0: the same as L10)
+    let p = read("T1 M6\nG43\nG0 Z10\nG10 L11 P1 Z3\nG43\nG0 X0\nM2\n");
+    assert!((p.motions.last().unwrap().start.0[2] - 3.0).abs() < 1e-9);
+    assert_eq!(
+        error("G10 L1 P2\nM2\n").kind.to_string(),
+        "G10 L1 without offsets has no effect"
+    );
+    assert_eq!(
+        error("G10 L1 P7 Z1\nM2\n").kind.to_string(),
+        "Requested tool 7 not found in the tool table"
+    );
+    assert!(matches!(
+        error("G10 L1 P1 X1\nM2\n").kind,
+        ErrorKind::Unsupported { .. }
+    ));
+}
+
+#[test]
+fn state_parameters_follow_the_machine_state() {
+    let p = read(
+        "T1 M6\nG10 L2 P1 X10\nG0 X1 Y2\nG92 X0\nM3 M8\n\
+         (PRINT,#5400 #5420 %.1f#<_abs_x> #<_x> #<_current_tool> #<_spindle_cw> #<_flood> #<_mist>)\nM2\n",
+    );
+    assert_eq!(
+        p.warnings,
+        vec!["t.ngc:6: print: 1.000000 0.000000 11.0 0.0 1.0 1.0 1.0 0.0"]
+    );
+}
