@@ -1098,3 +1098,56 @@ fn a_long_job_history_is_listed_whole_page_by_page() {
         .iter()
         .all(|j| j["path"].as_str().unwrap().len() == 300));
 }
+
+#[test]
+fn the_next_job_starts_where_the_machine_is_without_a_step() {
+    let d = Daemon::start("cont", "Lockstep", true);
+    let op = d.operator();
+    let a = d.dir.join("a.ngc");
+    std::fs::write(&a, "G21 G90 G17\nG1 X50 Y50 F3000\nM2\n").unwrap();
+    // names X only: Y stays where the machine is (50), not where the program began
+    let b = d.dir.join("b.ngc");
+    std::fs::write(&b, "G21 G90 G17\nG1 X70 F600\nM2\n").unwrap();
+    let mut ids = Vec::new();
+    for f in [&a, &b] {
+        let r = op.request(ControlKind::StartJob, 0.0, &abs(f)).unwrap();
+        assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+        let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
+        assert_eq!(s["job"]["outcome"], "completed", "{s}");
+        d.wait_status(&op, Duration::from_secs(10), "idle", |s| {
+            s["state"] == "Idle"
+        });
+        ids.push(r.job_id);
+    }
+    let s = op.status().unwrap();
+    let cmd: Vec<f64> = serde_json::from_value(s["axes"]["cmd_mm"].clone()).unwrap();
+    assert!(
+        (cmd[0] - 70.0).abs() < 1e-6 && (cmd[1] - 50.0).abs() < 1e-6 && cmd[2].abs() < 1e-6,
+        "job B ends at X70 Y50 Z0: {cmd:?}"
+    );
+    // B's following error stays in the normal band of a 10 mm/s move (it was the
+    // 50 mm back to the program's origin)
+    let fe = s["job"]["accuracy"]["following_max_abs_um"].to_string();
+    let fe: Vec<f64> = serde_json::from_str(&fe).unwrap();
+    assert!(
+        fe.iter().all(|e| *e < 100.0),
+        "job B's following error: {fe:?} µm"
+    );
+    // B's samples start at (50, 50, 0) and never step
+    let trace = d.dir.join(format!("data/trace-job{}.csv", ids[1]));
+    let text = d.trace_of(ids[1], 1000);
+    let first: Vec<f64> = String::from_utf8_lossy(&text)
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .skip(1)
+        .take(3)
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert!(
+        (first[0] - 50.0).abs() < 1e-6 && (first[1] - 50.0).abs() < 1e-6,
+        "job B's first command: {first:?}"
+    );
+    assert_stops_along_the_path(&trace);
+}

@@ -102,6 +102,7 @@ pub fn run(args: PlanArgs) -> Result<ExitCode> {
     };
     let options = softnc_planner::PlanOptions {
         ignore_soft_limits: args.canon || args.ignore_soft_limits,
+        ..Default::default()
     };
     if !args.canon && !args.needs_options() {
         return summary(&args, &machine, &options);

@@ -53,6 +53,9 @@ pub struct InterpTask {
     last_hb: Instant,
     state: MachineState,
     job_id: u64,
+    /// Where the machine is, from the position process's status: a job is planned
+    /// from there.
+    machine_mm: [f64; 3],
     shutdown: bool,
     /// SIGTERM/SIGINT or the supervisor's death: stop the job along its path, end.
     stop: StopWatch,
@@ -146,6 +149,7 @@ impl InterpTask {
             last_hb: Instant::now() - Duration::from_secs(1),
             state: MachineState::Idle,
             job_id: 0,
+            machine_mm: [0.0; 3],
             shutdown: false,
             stop: StopWatch::manual(),
             _bus: bus,
@@ -164,6 +168,9 @@ impl InterpTask {
             if self.stop.requested().is_some() {
                 self.shutdown = true;
                 break;
+            }
+            while let Some(st) = self.status.receive()? {
+                self.machine_mm = [st.cmd_mm[0], st.cmd_mm[1], st.cmd_mm[2]];
             }
             while let Some(c) = self.control.receive()? {
                 let c = *c;
@@ -346,7 +353,7 @@ impl InterpTask {
         feed_override: f64,
     ) -> Result<Option<PlannedJob>> {
         self.job_id = job_id;
-        let (bytes, plan) = match read_job(path, &self.cfg.machine) {
+        let (bytes, plan) = match read_job(path, &self.cfg.machine, self.machine_mm) {
             Ok(p) => p,
             Err(msg) => {
                 self.alarm(AlarmCode::JobRefused, &msg)?;
@@ -411,6 +418,7 @@ impl InterpTask {
         let job_id = s.job_id;
         let ahead = s.ahead;
         while let Some(st) = self.status.receive()? {
+            self.machine_mm = [st.cmd_mm[0], st.cmd_mm[1], st.cmd_mm[2]];
             if st.job_id == job_id {
                 s.consumed = Some(s.consumed.map_or(st.seq, |c: u64| c.max(st.seq)));
             }
@@ -563,27 +571,34 @@ impl InterpTask {
     }
 }
 
-/// Plan a program's bytes (read from `path`) for `machine`; the error text is the
-/// operator's (`path:line:column: reason`).
+/// Plan a program's bytes (read from `path`) for `machine`, from where the machine
+/// is (`start_mm`, machine coordinates); the error text is the operator's
+/// (`path:line:column: reason`).
 pub fn plan_bytes(
     bytes: &[u8],
     path: &str,
     machine: &softnc_core::MachineProfile,
+    start_mm: [f64; 3],
 ) -> Result<Plan, String> {
     let text = String::from_utf8_lossy(bytes);
+    let options = PlanOptions {
+        start_mm: Some(start_mm),
+        ..Default::default()
+    };
     // one pass: the motions are planned as they are read, never all held at once
-    softnc_planner::read_and_plan(&text, path, machine, &PlanOptions::default())
+    softnc_planner::read_and_plan(&text, path, machine, &options)
         .map(|(_, plan)| plan)
         .map_err(|e| e.to_string())
 }
 
-/// Read a program (the MMI's copy) and plan it, also giving its bytes (the learning
-/// store's key).
+/// Read a program (the MMI's copy) and plan it from `start_mm`, also giving its
+/// bytes (the learning store's key).
 pub fn read_job(
     path: &str,
     machine: &softnc_core::MachineProfile,
+    start_mm: [f64; 3],
 ) -> Result<(Vec<u8>, Plan), String> {
     let bytes = std::fs::read(path).map_err(|e| format!("{path}: cannot read: {e}"))?;
-    let plan = plan_bytes(&bytes, path, machine)?;
+    let plan = plan_bytes(&bytes, path, machine, start_mm)?;
     Ok((bytes, plan))
 }

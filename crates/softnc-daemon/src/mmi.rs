@@ -466,7 +466,11 @@ impl MmiTask {
                 )
                 .map_err(|e| e.to_string())
                 .and_then(|job| {
-                    let plan = plan_bytes(&job.bytes, &path, &self.cfg.machine)?;
+                    // planned from where the machine is, as the interpolator plans it
+                    let start_mm = self
+                        .last
+                        .map_or([0.0; 3], |s| [s.cmd_mm[0], s.cmd_mm[1], s.cmd_mm[2]]);
+                    let plan = plan_bytes(&job.bytes, &path, &self.cfg.machine, start_mm)?;
                     let copy = job.copy.display().to_string();
                     if !FixedStr::<512>::fits(&copy) {
                         return Err(format!(

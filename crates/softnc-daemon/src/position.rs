@@ -315,6 +315,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                         job_id: c.job_id,
                         path: c.path,
                         spindle_override: self.spindle_override,
+                        start_mm: self.last_cmd,
                     });
                 }
                 Some(ControlKind::SpindleOverride) => {
@@ -392,6 +393,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 job_id: first.job_id,
                 path: FixedStr::empty(),
                 spindle_override: self.spindle_override,
+                start_mm: self.last_cmd,
             });
         }
         self.last_cmd = start;

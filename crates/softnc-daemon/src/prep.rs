@@ -39,6 +39,8 @@ pub enum PrepRequest {
         path: FixedStr<512>,
         /// Spindle override in force (fraction).
         spindle_override: f64,
+        /// Where the machine is (the program is planned from there).
+        start_mm: [f64; 3],
     },
     /// Redesign job `job_id`'s PDC tables at spindle override `spindle_override`.
     SpindleOverride {
@@ -263,6 +265,7 @@ impl<B: ServoBackend> Worker<B> {
                 job_id,
                 path,
                 spindle_override,
+                start_mm,
             } => {
                 tracing::info!("job {job_id}: preparing the position process");
                 let (mut prep, designer) = prepare_job(
@@ -271,6 +274,7 @@ impl<B: ServoBackend> Worker<B> {
                     job_id,
                     path.as_str(),
                     spindle_override,
+                    start_mm,
                 );
                 if let Some(to) = &self.trace {
                     let file = to.dir.join(format!("trace-job{job_id}.csv"));
@@ -317,11 +321,12 @@ pub fn prepare_job<B: ServoBackend>(
     job_id: u64,
     path: &str,
     spindle_override: f64,
+    start_mm: [f64; 3],
 ) -> (JobPrep<B>, Option<SpindleDesigner>) {
     let (primitives, spindle_changes) = if path.is_empty() {
         (Vec::new(), Vec::new())
     } else {
-        match crate::interp::read_job(path, machine).map(|(_, plan)| plan) {
+        match crate::interp::read_job(path, machine, start_mm).map(|(_, plan)| plan) {
             Ok(plan) => (
                 (0..plan.motions())
                     .map(|i| plan.motion_primitive(i))

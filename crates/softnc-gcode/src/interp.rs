@@ -1490,6 +1490,12 @@ pub fn read_with(
     // (DEBUG,) output on, as LinuxCNC sets it at every start (volatile)
     it.params.set(5599, 1.0);
     it.init_offsets();
+    if let Some(m) = options.start_mm {
+        // the machine's position in the program's frame (mm until a G20)
+        let (o, k) = (it.offset(), it.scale());
+        it.pos = Vec3([0, 1, 2].map(|i| (m.0[i] - o.0[i]) / k));
+        it.canon_pos = it.pos;
+    }
     it.motions.reserve((text.len() / 16).min(chunk.max(1)));
     let mut line = Line::default();
     let mut block = Block::default();

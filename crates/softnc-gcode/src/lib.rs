@@ -43,6 +43,11 @@ pub struct ReadOptions {
     /// `false` (default): in mm, the machine's unit (LinuxCNC with
     /// `[TRAJ]LINEAR_UNITS = mm`).
     pub parameters_in_inches: bool,
+    /// Where the machine is when the program starts (machine coordinates, mm), as
+    /// LinuxCNC's interpreter is synchronised with the machine before a program:
+    /// the first motion starts there, and axes it does not name stay there.
+    /// `None`: at the origin.
+    pub start_mm: Option<softnc_core::Vec3>,
 }
 
 /// [`read_program`] with [`ReadOptions`]; also returns the parameters as the
@@ -79,4 +84,16 @@ pub fn read_program_chunked(
     sink: &mut dyn FnMut(&mut Vec<Motion>),
 ) -> Result<Program, GcodeError> {
     interp::read_chunked(text, file, profile, chunk.max(1), sink)
+}
+
+/// [`read_program_chunked`] with [`ReadOptions`].
+pub fn read_program_chunked_with(
+    text: &str,
+    file: &str,
+    profile: &MachineProfile,
+    options: &ReadOptions,
+    chunk: usize,
+    sink: &mut dyn FnMut(&mut Vec<Motion>),
+) -> Result<Program, GcodeError> {
+    interp::read_with(text, file, profile, options, chunk.max(1), sink).map(|(p, _)| p)
 }

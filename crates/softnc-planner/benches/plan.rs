@@ -34,6 +34,7 @@ fn benches(c: &mut Criterion) {
                         &p,
                         &PlanOptions {
                             ignore_soft_limits: true,
+                            ..Default::default()
                         },
                     )
                     .unwrap()
@@ -41,6 +42,7 @@ fn benches(c: &mut Criterion) {
             });
             let opts = PlanOptions {
                 ignore_soft_limits: true,
+                ..Default::default()
             };
             g.bench_function("read_and_plan_200k_lines", |b| {
                 b.iter(|| read_and_plan(&text, "big.ngc", &p, &opts).unwrap())
@@ -55,6 +57,7 @@ fn benches(c: &mut Criterion) {
                         &p,
                         &PlanOptions {
                             ignore_soft_limits: true,
+                            ..Default::default()
                         },
                     )
                     .unwrap()
@@ -65,6 +68,7 @@ fn benches(c: &mut Criterion) {
                 &p,
                 &PlanOptions {
                     ignore_soft_limits: true,
+                    ..Default::default()
                 },
             )
             .unwrap();

@@ -29,6 +29,7 @@ fn main() {
                 }
                 let opts = softnc_planner::PlanOptions {
                     ignore_soft_limits: true,
+                    ..Default::default()
                 };
                 let plan = softnc_planner::plan(&p, &profile, &opts);
                 let (stats, elems, sh) = match &plan {

@@ -18,6 +18,7 @@ fn main() {
     let profile = workload::default_profile();
     let opts = PlanOptions {
         ignore_soft_limits: true,
+        ..Default::default()
     };
     let lines = text.lines().count() as f64;
     println!(

@@ -30,6 +30,7 @@ fn main() -> ExitCode {
     let profile = workload::default_profile();
     let opts = PlanOptions {
         ignore_soft_limits: true,
+        ..Default::default()
     };
     let file = std::env::temp_dir().join(format!("softnc-big-{}k.ngc", lines / 1000));
     let text = workload::big_program(lines);

@@ -11,6 +11,18 @@ use softnc_gcode::{GcodeError, Motion, MotionKind, Program};
 pub struct PlanOptions {
     /// Do not refuse motions outside the soft limits (offline analysis only).
     pub ignore_soft_limits: bool,
+    /// Where the machine is when the job starts (machine coordinates, mm): the
+    /// program is read and planned from there. `None`: the origin.
+    pub start_mm: Option<[f64; 3]>,
+}
+
+impl PlanOptions {
+    fn read_options(&self) -> softnc_gcode::ReadOptions {
+        softnc_gcode::ReadOptions {
+            start_mm: self.start_mm.map(softnc_core::Vec3),
+            ..Default::default()
+        }
+    }
 }
 
 /// Why a program cannot be planned.
@@ -113,10 +125,11 @@ pub fn read_and_plan(
 ) -> Result<(Program, Plan), ReadPlanError> {
     let mut planner = Planner::new(profile, options, file, motions_hint(text));
     let mut refused: Option<PlanError> = None;
-    let program = softnc_gcode::read_program_chunked(
+    let program = softnc_gcode::read_program_chunked_with(
         text,
         file,
         profile,
+        &options.read_options(),
         READ_CHUNK_MOTIONS,
         &mut |chunk: &mut Vec<Motion>| {
             if refused.is_none() {
@@ -170,10 +183,11 @@ pub fn read_and_plan_parallel(
                 None => Ok(planner.finish()),
             }
         });
-        let read = softnc_gcode::read_program_chunked(
+        let read = softnc_gcode::read_program_chunked_with(
             text,
             file,
             profile,
+            &options.read_options(),
             READ_CHUNK_MOTIONS,
             &mut |chunk: &mut Vec<Motion>| {
                 let (fresh, mut prims) = recycled.try_recv().unwrap_or_else(|_| {

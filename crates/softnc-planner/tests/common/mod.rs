@@ -87,6 +87,7 @@ pub fn plan_of(b: &Builder, p: &MachineProfile) -> Plan {
         p,
         &PlanOptions {
             ignore_soft_limits: true,
+            ..Default::default()
         },
     )
     .expect("plans")
