@@ -55,17 +55,31 @@ impl Daemon {
             serde_json::to_vec(&jobs).unwrap(),
         )
         .unwrap();
-        Daemon::start_in(dir, tag, "Lockstep", false, "default.ron")
+        Daemon::start_in(dir, tag, "Lockstep", false, "default.ron", &[])
     }
 
     /// A daemon on the machine profile `config/machines/{machine}`.
     fn start_on(tag: &str, clock: &str, trace: bool, machine: &str) -> Daemon {
         let dir = std::env::temp_dir().join(format!("softnc-e2e-{tag}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
-        Daemon::start_in(dir, tag, clock, trace, machine)
+        Daemon::start_in(dir, tag, clock, trace, machine, &[])
     }
 
-    fn start_in(dir: PathBuf, tag: &str, clock: &str, trace: bool, machine: &str) -> Daemon {
+    /// A daemon whose configuration has `edits` (text replacements) made.
+    fn start_edited(tag: &str, clock: &str, edits: &[(&str, &str)]) -> Daemon {
+        let dir = std::env::temp_dir().join(format!("softnc-e2e-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        Daemon::start_in(dir, tag, clock, false, "default.ron", edits)
+    }
+
+    fn start_in(
+        dir: PathBuf,
+        tag: &str,
+        clock: &str,
+        trace: bool,
+        machine: &str,
+        edits: &[(&str, &str)],
+    ) -> Daemon {
         // a failed test poisons the lock; the next one may still run
         let serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
         std::fs::create_dir_all(dir.join("machines")).unwrap();
@@ -108,6 +122,10 @@ impl Daemon {
                 "position_rt: (core: Some(1), fifo_priority: Some(80), lock_memory: true)",
                 &format!("position_rt: ({fifo_position})"),
             );
+        let cfg = edits.iter().fold(cfg, |c, (from, to)| {
+            assert!(c.contains(from), "config has no {from:?}");
+            c.replace(from, to)
+        });
         let config = dir.join("default.ron");
         std::fs::write(&config, cfg).unwrap();
         let child = Command::new(env!("CARGO_BIN_EXE_softncd"))
@@ -1150,4 +1168,45 @@ fn the_next_job_starts_where_the_machine_is_without_a_step() {
         "job B's first command: {first:?}"
     );
     assert_stops_along_the_path(&trace);
+}
+
+#[test]
+fn a_stopped_interpolator_is_noticed_killed_and_restarted_and_reset_recovers() {
+    let d = Daemon::start_edited(
+        "sigstop",
+        "Realtime",
+        &[("watchdog_s: 10.0", "watchdog_s: 1.5")],
+    );
+    let op = d.operator();
+    let _job = start_moving(&d, &op);
+    let pid = d.pid_of("softnc-interp").unwrap();
+    // SIGSTOP: alive to the kernel, silent to everyone
+    assert!(Command::new("kill")
+        .args(["-STOP", &pid.to_string()])
+        .status()
+        .unwrap()
+        .success());
+    let s = d.wait_status(&op, Duration::from_secs(10), "fault", |s| {
+        s["state"] == "Faulted"
+    });
+    assert!(s["alarms"].to_string().contains("RingDry"), "{s}");
+    // the watchdog kills it and softncd starts a new one
+    let s = d.wait_status(&op, Duration::from_secs(10), "watchdog", |s| {
+        s["alarms"].to_string().contains("watchdog")
+    });
+    assert!(s["alarms"].to_string().contains("softnc-interp"), "{s}");
+    assert!(
+        std::fs::read_to_string(format!("/proc/{pid}/stat")).map_or(true, |st| st.contains(") Z ")),
+        "the stopped interpolator was killed"
+    );
+    op.request(ControlKind::Reset, 0.0, "").unwrap();
+    d.wait_status(&op, Duration::from_secs(10), "idle + a new interp", |s| {
+        s["state"] == "Idle" && s["processes"]["interp"] == "alive"
+    });
+    let r = op
+        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
+        .unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
 }

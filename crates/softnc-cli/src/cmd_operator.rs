@@ -103,7 +103,7 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
             if json {
                 println!("{s}");
             } else {
-                println!("{}", serde_json::to_string_pretty(&s)?);
+                print!("{}", status_text(&s));
             }
             Ok(ExitCode::SUCCESS)
         }
@@ -135,6 +135,79 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
     }
+}
+
+/// The status as an operator reads it (`--json` gives all of it).
+pub fn status_text(s: &serde_json::Value) -> String {
+    use std::fmt::Write;
+    let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "state {}   feed override {:.0} %   spindle {:.0} rpm (override {:.0} %)",
+        s["state"].as_str().unwrap_or("?"),
+        f(&s["feed_override"]) * 100.0,
+        f(&s["spindle_rpm"]),
+        f(&s["spindle_override"]) * 100.0
+    );
+    let j = &s["job"];
+    if !j.is_null() {
+        let _ = writeln!(
+            out,
+            "job {} {} {:.0} %   {}",
+            j["job_id"],
+            j["outcome"].as_str().unwrap_or("?"),
+            f(&j["progress"]) * 100.0,
+            j["path"].as_str().unwrap_or("")
+        );
+        let a = &j["accuracy"];
+        let _ = writeln!(
+            out,
+            "    contour error max {:.2} µm, rms {:.2} µm",
+            f(&a["contour_max_abs_um"]),
+            f(&a["contour_rms_um"])
+        );
+    } else {
+        let _ = writeln!(out, "no job yet");
+    }
+    let ax = &s["axes"];
+    if !ax.is_null() {
+        let row = |name: &str, v: &serde_json::Value, k: f64| {
+            let cells: Vec<String> = v
+                .as_array()
+                .into_iter()
+                .flatten()
+                .map(|x| format!("{:>12.4}", x.as_f64().unwrap_or(f64::NAN) * k))
+                .collect();
+            format!("{name:<18}{}\n", cells.join(""))
+        };
+        let _ = writeln!(out, "{:<18}{:>12}{:>12}{:>12}", "", "X", "Y", "Z");
+        out.push_str(&row("command mm", &ax["cmd_mm"], 1.0));
+        out.push_str(&row("actual mm", &ax["actual_mm"], 1.0));
+        out.push_str(&row("following err µm", &ax["following_err_um"], 1.0));
+    }
+    let p = &s["processes"];
+    let _ = writeln!(
+        out,
+        "processes: interpolation {}, position {}, supervisor {}",
+        p["interp"].as_str().unwrap_or("?"),
+        p["position"].as_str().unwrap_or("?"),
+        p["supervisor"].as_str().unwrap_or("?")
+    );
+    let alarms = s["alarms"].as_array().cloned().unwrap_or_default();
+    if alarms.is_empty() {
+        let _ = writeln!(out, "no alarms");
+    }
+    for a in alarms {
+        let _ = writeln!(
+            out,
+            "alarm {} (job {}): {}",
+            a["code"].as_str().unwrap_or("?"),
+            a["job_id"],
+            a["message"].as_str().unwrap_or("")
+        );
+    }
+    out
 }
 
 /// Follow a job until it ends; returns its outcome. Shows a progress bar on a terminal.

@@ -19,8 +19,11 @@ use std::process::ExitCode;
 #[command(name = "softnc", version, about)]
 struct Cli {
     /// Daemon configuration (instance and service names) for operator commands.
-    #[arg(long, global = true, default_value = "config/default.ron")]
-    config: PathBuf,
+    /// Default: the first of `$SOFTNC_CONFIG`, `$XDG_CONFIG_HOME/softnc/default.ron`
+    /// (or `~/.config/softnc/default.ron`), `/etc/softnc/default.ron`,
+    /// `config/default.ron` here, and the checkout's beside the binary.
+    #[arg(long, global = true)]
+    config: Option<PathBuf>,
     #[command(subcommand)]
     command: Command,
 }
@@ -66,15 +69,16 @@ pub fn default_machine_path() -> PathBuf {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    let config = softnc_daemon::cli::find_config(cli.config.clone());
     let result: Result<ExitCode> = match cli.command {
         Command::Plan(args) => cmd_plan::run(args),
         Command::Sim(args) => cmd_sim::run(args),
-        Command::Operator(cmd) => cmd_operator::run(cmd, &cli.config),
-        Command::Demo(args) => cmd_demo::run(args, &cli.config),
+        Command::Operator(cmd) => cmd_operator::run(cmd, &config),
+        Command::Demo(args) => cmd_demo::run(args, &config),
         Command::Design(args) => cmd_design::run(args),
         Command::Reproduce(args) => cmd_reproduce::run(args),
         Command::Learn(args) => cmd_learn::run(args),
-        Command::Watch => cmd_watch::run(&cli.config),
+        Command::Watch => cmd_watch::run(&config),
     };
     match result {
         Ok(code) => code,

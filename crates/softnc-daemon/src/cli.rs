@@ -1,33 +1,76 @@
-//! Shared start-up of the daemon binaries: `--config PATH`, logging, exit status.
+//! Shared start-up of the daemon binaries: arguments (clap), logging, the
+//! configuration found, exit status.
 
 use crate::config::{DaemonConfig, Loaded};
+use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-/// The configuration path from `--config PATH` (default `config/default.ron`).
-pub fn config_path() -> PathBuf {
-    let mut args = std::env::args().skip(1);
-    while let Some(a) = args.next() {
-        if a == "--config" {
-            if let Some(p) = args.next() {
-                return PathBuf::from(p);
-            }
-        } else if let Some(p) = a.strip_prefix("--config=") {
-            return PathBuf::from(p);
-        }
-    }
-    PathBuf::from("config/default.ron")
+/// The arguments every daemon binary takes.
+#[derive(Debug, clap::Parser)]
+#[command(
+    version,
+    about = "softnc: a process of the controller (softncd starts the others)"
+)]
+pub struct DaemonArgs {
+    /// The daemon configuration. Default: the first of `$SOFTNC_CONFIG`,
+    /// `$XDG_CONFIG_HOME/softnc/default.ron` (or `~/.config/softnc/default.ron`),
+    /// `/etc/softnc/default.ron`, `config/default.ron` here, and the checkout's
+    /// `config/default.ron` beside the binary.
+    #[arg(long, value_name = "PATH")]
+    pub config: Option<PathBuf>,
 }
 
-/// Initialise logging (`RUST_LOG`, default info) and load the configuration.
+/// Where the configuration is looked for when none is given, in order.
+pub fn config_candidates() -> Vec<PathBuf> {
+    let mut c = Vec::new();
+    if let Some(p) = std::env::var_os("SOFTNC_CONFIG") {
+        c.push(PathBuf::from(p));
+    }
+    let user = std::env::var_os("XDG_CONFIG_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".config")));
+    if let Some(u) = user {
+        c.push(u.join("softnc/default.ron"));
+    }
+    c.push(PathBuf::from("/etc/softnc/default.ron"));
+    c.push(PathBuf::from("config/default.ron"));
+    // a checkout: target/{debug,release}/softnc → config/default.ron
+    if let Some(root) = std::env::current_exe()
+        .ok()
+        .and_then(|e| e.parent()?.parent()?.parent().map(PathBuf::from))
+    {
+        c.push(root.join("config/default.ron"));
+    }
+    c
+}
+
+/// The configuration to use: `given`, else the first candidate that exists (else
+/// `config/default.ron`, whose absence is then the error the operator sees).
+pub fn find_config(given: Option<PathBuf>) -> PathBuf {
+    given.unwrap_or_else(|| {
+        config_candidates()
+            .into_iter()
+            .find(|p| p.is_file())
+            .unwrap_or_else(|| PathBuf::from("config/default.ron"))
+    })
+}
+
+/// Parse the arguments, initialise logging (`RUST_LOG`, default info; colours only
+/// on a terminal) and load the configuration.
 pub fn start(process: &str) -> Result<Loaded, ExitCode> {
+    use clap::Parser;
+    let args = DaemonArgs::parse_from(
+        std::iter::once(process.to_string()).chain(std::env::args().skip(1)),
+    );
     let _ = tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),
         )
+        .with_ansi(std::io::stderr().is_terminal())
         .with_writer(std::io::stderr)
         .try_init();
-    let path = config_path();
+    let path = find_config(args.config);
     match DaemonConfig::load(&path) {
         Ok(l) => {
             if let Err(e) = l.setup_iceoryx2() {

@@ -94,11 +94,20 @@ impl Operator {
         })
     }
 
-    /// Wait until the MMI answers (daemon starting up).
+    /// Wait until the controller is up: the MMI answers and reports the
+    /// interpolation and position processes alive (daemon starting up).
     pub fn wait_ready(config: &Path, timeout: Duration) -> Result<Self> {
         let t0 = Instant::now();
         loop {
-            let attempt = Operator::connect(config).and_then(|op| op.status().map(|_| op));
+            let attempt = Operator::connect(config).and_then(|op| {
+                let s = op.status()?;
+                let up = |p: &str| s["processes"][p] == "alive";
+                if up("interp") && up("position") {
+                    Ok(op)
+                } else {
+                    bail!("processes not all up yet: {}", s["processes"])
+                }
+            });
             match attempt {
                 Ok(op) => return Ok(op),
                 Err(e) if t0.elapsed() > timeout => {
