@@ -362,11 +362,22 @@ fn print_iterations(entry: &Learned, json: bool) -> Result<()> {
     };
     writeln!(out, "{} ({what}, µm)", entry.job_file)?;
     writeln!(out, "iteration      rms    max|e|      max      min   ‖e‖₂")?;
+    let kept = entry.kept().map(|k| k.iteration);
     for s in &entry.iterations {
         writeln!(
             out,
-            "{:>9} {:>8.3} {:>9.3} {:>8.3} {:>8.3} {:>9.2}",
-            s.iteration, s.rms_um, s.max_abs_um, s.max_um, s.min_um, s.norm_um
+            "{:>9} {:>8.3} {:>9.3} {:>8.3} {:>8.3} {:>9.2}{}",
+            s.iteration,
+            s.rms_um,
+            s.max_abs_um,
+            s.max_um,
+            s.min_um,
+            s.norm_um,
+            if kept == Some(s.iteration) {
+                "  ← kept"
+            } else {
+                ""
+            }
         )?;
     }
     Ok(())
@@ -394,6 +405,10 @@ fn list(store: &LearningStore, json: bool) -> Result<ExitCode> {
                     "entry": k.file_name(), "job": e.job_file, "profile": e.profile_file,
                     "law": e.law(), "runs": e.iterations.len(),
                     "last_rms_um": e.iterations.last().map(|s| s.rms_um),
+                    "kept": e.kept().map(|k| serde_json::json!({
+                        "iteration": k.iteration, "rms_um": k.rms_um,
+                        "unlearned_rms_um": k.unlearned_rms_um,
+                    })),
                     "status": status(k, e),
                 })
             })
@@ -403,10 +418,16 @@ fn list(store: &LearningStore, json: bool) -> Result<ExitCode> {
     }
     writeln!(out, "{}", store.dir().display())?;
     for (k, e) in &entries {
-        let last = e.iterations.last().map(|s| s.rms_um).unwrap_or(f64::NAN);
+        let kept = match e.kept() {
+            Some(i) => format!(
+                "kept run {}: rms {:.3} µm (unlearned {:.3})",
+                i.iteration, i.rms_um, i.unlearned_rms_um
+            ),
+            None => "no improvement recorded: not applied".into(),
+        };
         writeln!(
             out,
-            "{}  {:?}  {} runs, last rms {last:.3} µm  {}  on {}  [{}]",
+            "{}  {:?}  {} runs, {kept}  {}  on {}  [{}]",
             k.file_name(),
             e.law(),
             e.iterations.len(),

@@ -6,7 +6,7 @@
 //! else `$SOFTNC_LEARNING_DIR`, else `$XDG_DATA_HOME/softnc/learning`, else
 //! `$HOME/.local/share/softnc/learning`, else `./.softnc/learning`.
 
-use crate::markov::{MarkovJob, AXES};
+use crate::markov::{Improvement, MarkovJob, AXES};
 use crate::radius_ilc::{Circle, RadiusIlc};
 use crate::store::{LearningKey, LearningStore, StoreError};
 use softnc_sim::CommandSample;
@@ -83,6 +83,29 @@ pub struct Learned {
 }
 
 impl Learned {
+    /// The run whose correction the entry keeps and what it improved: the Markov
+    /// law's recorded improvement; for the radius law (which stores only command
+    /// radii that improved on the first run, the best so far) the run of smallest RMS
+    /// when it is below the first run's.
+    pub fn kept(&self) -> Option<Improvement> {
+        match &self.state {
+            LawState::Markov(mj) => mj.improvement.filter(|i| i.improved()),
+            LawState::Radius { .. } => {
+                let first = self.iterations.first()?;
+                let best = self
+                    .iterations
+                    .iter()
+                    .min_by(|a, b| a.rms_um.total_cmp(&b.rms_um))?;
+                Some(Improvement {
+                    iteration: best.iteration,
+                    unlearned_rms_um: first.rms_um,
+                    rms_um: best.rms_um,
+                })
+                .filter(|i| i.improved())
+            }
+        }
+    }
+
     /// The law of this entry.
     pub fn law(&self) -> Law {
         match self.state {
@@ -326,7 +349,6 @@ impl<I: Iterator<Item = CommandSample>> Iterator for Corrected<'_, I> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::markov::Improvement;
 
     fn tmpdir(tag: &str) -> PathBuf {
         let d = std::env::temp_dir().join(format!("softnc-entry-{tag}-{}", std::process::id()));
