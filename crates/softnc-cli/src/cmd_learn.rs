@@ -287,11 +287,12 @@ pub fn run(args: LearnArgs) -> Result<ExitCode> {
                     Ok(())
                 },
             );
-            if r.is_ok() {
+            if let Ok(its) = &r {
                 if best.is_some() {
                     put(&entry).map_err(anyhow::Error::msg)?;
                 }
                 kept = Some(best);
+                stopped = its.len() < args.iterations + 1;
             }
             r
         }
@@ -300,13 +301,18 @@ pub fn run(args: LearnArgs) -> Result<ExitCode> {
         eprintln!("softnc learn: {msg}");
         return Ok(ExitCode::from(1));
     }
-    print_iterations(&entry, args.json)?;
+    print_iterations(&entry, law, args.json)?;
     if !args.json {
         if stopped {
-            eprintln!(
-                "stopped: {} learning steps in a row did not reduce the error (the gain was halved after each)",
-                learn_sim::FAILED_STEPS_TO_STOP
-            );
+            match law {
+                Law::Markov => eprintln!(
+                    "stopped: {} learning steps in a row did not reduce the error (the gain was halved after each)",
+                    learn_sim::FAILED_STEPS_TO_STOP
+                ),
+                Law::Radius => eprintln!(
+                    "stopped: the last run was worse than the unlearned one (eq 8 diverging: a smaller --alpha)"
+                ),
+            }
         }
         match kept {
             Some(None) => {
@@ -349,14 +355,14 @@ pub fn iterations_json(its: &[IterationStats]) -> serde_json::Value {
     })
 }
 
-fn print_iterations(entry: &Learned, json: bool) -> Result<()> {
+fn print_iterations(entry: &Learned, law: Law, json: bool) -> Result<()> {
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
     if json {
         writeln!(out, "{}", iterations_json(&entry.iterations))?;
         return Ok(());
     }
-    let what = match entry.law() {
+    let what = match law {
         Law::Markov => "contour error",
         Law::Radius => "radius error per degree",
     };
@@ -475,7 +481,7 @@ fn show(store: &LearningStore, key: &LearningKey, file: &Path, json: bool) -> Re
             )
         }
     }
-    print_iterations(&e, false)?;
+    print_iterations(&e, e.law(), false)?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -366,7 +366,8 @@ pub fn radius_stats(iteration: usize, err_mm: &[f64]) -> IterationStats {
 
 /// Repetitions of a circle under the radius ILC: run, measure per degree, eq 8, …
 /// `after(stats, ilc, err)` sees every run (the first before any learning) with the
-/// state it left and the radius error per degree (mm).
+/// state it left and the radius error per degree (mm). The run stops early (fewer
+/// stats returned) after a run whose radius-error RMS is above the first run's.
 pub fn learn_radius(
     engine: &mut CycleEngine<SimBackend>,
     machine: &MachineProfile,
@@ -391,7 +392,15 @@ pub fn learn_radius(
         let err: Vec<f64> = measured.iter().map(|y| y - ilc.desired_mm).collect();
         let stats = radius_stats(it, &err);
         after(&stats, ilc, &err)?;
+        // learning made the circle worse than not learning at all: eq 8 is
+        // diverging (α too large for this loop), stop
+        let worse = out
+            .first()
+            .is_some_and(|f: &IterationStats| stats.rms_um > f.rms_um || stats.rms_um.is_nan());
         out.push(stats);
+        if worse {
+            break;
+        }
     }
     debug_assert_eq!(measured.len(), POINTS);
     Ok(out)

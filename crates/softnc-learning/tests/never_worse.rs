@@ -138,3 +138,18 @@ fn the_radius_law_skips_a_zero_length_feed_move() {
     let err = find_circle(two, "D.ngc", &m).unwrap_err();
     assert!(err.starts_with("D.ngc:3:"), "{err}");
 }
+
+/// The radius law with α = 3 (eq 8 overshoots: e ← (1 − α)e per degree) makes the
+/// circle worse than unlearned at its first step: the run stops there.
+#[test]
+fn a_diverging_radius_run_stops() {
+    use softnc_learning::radius_ilc::RadiusIlc;
+    use softnc_learning::sim_runs::learn_radius;
+    let m = machine("tnv40-ilc.ron");
+    let (c, r) = find_circle(CIRCLE_40MM_1800, "C.ngc", &m).unwrap();
+    let mut engine = CycleEngine::simulated(&m, 1, SimOptions::default());
+    let mut ilc = RadiusIlc::new(r, 3.0);
+    let its = learn_radius(&mut engine, &m, &c, &mut ilc, 5, |_, _, _| Ok(())).unwrap();
+    assert_eq!(its.len(), 2, "{its:?}");
+    assert!(its[1].rms_um > its[0].rms_um, "{its:?}");
+}
