@@ -12,7 +12,7 @@
 use crate::cmd_plan::load_machine;
 use anyhow::{Context, Result};
 use softnc_learning::entry::{store_dir, Law, LawState, Learned, OVERRIDE_PCT};
-use softnc_learning::markov::MarkovJob;
+use softnc_learning::markov::{Improvement, MarkovJob};
 use softnc_learning::radius_ilc::RadiusIlc;
 use softnc_learning::sim_runs::{self as learn_sim, IterationStats, PreparedJob};
 use softnc_learning::{LearningKey, LearningStore};
@@ -191,6 +191,9 @@ pub fn run(args: LearnArgs) -> Result<ExitCode> {
             .put(&key, entry)
             .map_err(|e| format!("learning store: {e}"))
     };
+    // Markov law: the kept correction's improvement (None: nothing improved)
+    let mut kept = None;
+    let mut stopped = false;
     let result = match law {
         Law::Markov => {
             let job = match PreparedJob::new(&text, &name, &machine) {
@@ -206,21 +209,41 @@ pub fn run(args: LearnArgs) -> Result<ExitCode> {
                     let n = job.samples.len();
                     let h = learn_sim::identify(&mut engine, &machine, job.samples[0].pos_mm, n)
                         .map_err(anyhow::Error::msg)?;
+                    let bound = learn_sim::correction_bound_mm(&machine, &h);
                     MarkovJob::new(
                         h,
                         args.buffer.unwrap_or(n),
                         (!args.lti_gain).then_some(args.gain),
                         n,
                     )
+                    .bounded(bound)
                 }
             };
-            learn_sim::learn_markov(&mut engine, &job, &mut mj, args.iterations, |st, mj| {
-                let mut st = *st;
-                st.iteration += first;
-                entry.iterations.push(st);
-                entry.state = LawState::Markov(mj.clone());
-                put(&entry)
-            })
+            // only a correction measured to improve on the unlearned run is stored
+            // (written as soon as it is the best: a killed run keeps it)
+            let r =
+                learn_sim::learn_markov(&mut engine, &job, &mut mj, args.iterations, |st, mj| {
+                    let mut st = *st;
+                    st.iteration += first;
+                    entry.iterations.push(st);
+                    if mj.improvement.is_some() {
+                        entry.state = LawState::Markov(mj.clone());
+                        put(&entry)?;
+                    }
+                    Ok(())
+                });
+            if r.is_ok() {
+                let mj = renumbered(&mj, first);
+                if mj.improvement.is_some() {
+                    entry.state = LawState::Markov(mj.clone());
+                    put(&entry).map_err(anyhow::Error::msg)?;
+                }
+                kept = Some(mj.improvement);
+                if let Ok(its) = &r {
+                    stopped = its.len() < args.iterations + 1;
+                }
+            }
+            r
         }
         Law::Radius => {
             let (circle, radius_mm) = match learn_sim::find_circle(&text, &name, &machine) {
@@ -234,7 +257,10 @@ pub fn run(args: LearnArgs) -> Result<ExitCode> {
                 Some(LawState::Radius { ilc, .. }) => ilc,
                 _ => RadiusIlc::new(radius_mm, args.alpha),
             };
-            learn_sim::learn_radius(
+            // as for the Markov law: only command radii whose run improved on the
+            // unlearned run (the entry's first) are stored, the best so far
+            let mut best: Option<Improvement> = None;
+            let r = learn_sim::learn_radius(
                 &mut engine,
                 &machine,
                 &circle,
@@ -244,25 +270,78 @@ pub fn run(args: LearnArgs) -> Result<ExitCode> {
                     let mut st = *st;
                     st.iteration += first;
                     entry.iterations.push(st);
-                    entry.state = LawState::Radius {
-                        circle,
-                        ilc: ilc.clone(),
-                        last_error_mm: err.to_vec(),
+                    let candidate = Improvement {
+                        iteration: st.iteration,
+                        unlearned_rms_um: entry.iterations[0].rms_um,
+                        rms_um: st.rms_um,
                     };
-                    put(&entry)
+                    if candidate.improved() && best.is_none_or(|b| candidate.rms_um < b.rms_um) {
+                        best = Some(candidate);
+                        entry.state = LawState::Radius {
+                            circle,
+                            ilc: ilc.clone(),
+                            last_error_mm: err.to_vec(),
+                        };
+                        put(&entry)?;
+                    }
+                    Ok(())
                 },
-            )
+            );
+            if let Ok(its) = &r {
+                if best.is_some() {
+                    put(&entry).map_err(anyhow::Error::msg)?;
+                }
+                kept = Some(best);
+                stopped = its.len() < args.iterations + 1;
+            }
+            r
         }
     };
     if let Err(msg) = result {
         eprintln!("softnc learn: {msg}");
         return Ok(ExitCode::from(1));
     }
-    print_iterations(&entry, args.json)?;
+    print_iterations(&entry, law, args.json)?;
     if !args.json {
+        if stopped {
+            match law {
+                Law::Markov => eprintln!(
+                    "stopped: {} learning steps in a row did not reduce the error (the gain was halved after each)",
+                    learn_sim::FAILED_STEPS_TO_STOP
+                ),
+                Law::Radius => eprintln!(
+                    "stopped: the last run was worse than the unlearned one (eq 8 diverging: a smaller --alpha)"
+                ),
+            }
+        }
+        match kept {
+            Some(None) => {
+                eprintln!(
+                    "no run improved on the unlearned run: nothing stored (an earlier entry, if any, is left as it was)"
+                );
+                return Ok(ExitCode::from(1));
+            }
+            Some(Some(imp)) => eprintln!(
+                "kept iteration {}: {:.3} µm RMS against {:.3} µm unlearned",
+                imp.iteration, imp.rms_um, imp.unlearned_rms_um
+            ),
+            None => {}
+        }
         eprintln!("stored in {}", store.dir().join(key.file_name()).display());
+    } else if kept == Some(None) {
+        return Ok(ExitCode::from(1));
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `mj` with its improvement numbered as the entry's runs (`first` runs before this
+/// session's).
+fn renumbered(mj: &MarkovJob, first: usize) -> MarkovJob {
+    let mut mj = mj.clone();
+    if let Some(i) = &mut mj.improvement {
+        i.iteration += first;
+    }
+    mj
 }
 
 /// `{"iterations":[{"iteration":k,"rms_um":x,"max_abs_um":y}, …]}`.
@@ -276,24 +355,35 @@ pub fn iterations_json(its: &[IterationStats]) -> serde_json::Value {
     })
 }
 
-fn print_iterations(entry: &Learned, json: bool) -> Result<()> {
+fn print_iterations(entry: &Learned, law: Law, json: bool) -> Result<()> {
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
     if json {
         writeln!(out, "{}", iterations_json(&entry.iterations))?;
         return Ok(());
     }
-    let what = match entry.law() {
+    let what = match law {
         Law::Markov => "contour error",
         Law::Radius => "radius error per degree",
     };
     writeln!(out, "{} ({what}, µm)", entry.job_file)?;
     writeln!(out, "iteration      rms    max|e|      max      min   ‖e‖₂")?;
+    let kept = entry.kept().map(|k| k.iteration);
     for s in &entry.iterations {
         writeln!(
             out,
-            "{:>9} {:>8.3} {:>9.3} {:>8.3} {:>8.3} {:>9.2}",
-            s.iteration, s.rms_um, s.max_abs_um, s.max_um, s.min_um, s.norm_um
+            "{:>9} {:>8.3} {:>9.3} {:>8.3} {:>8.3} {:>9.2}{}",
+            s.iteration,
+            s.rms_um,
+            s.max_abs_um,
+            s.max_um,
+            s.min_um,
+            s.norm_um,
+            if kept == Some(s.iteration) {
+                "  ← kept"
+            } else {
+                ""
+            }
         )?;
     }
     Ok(())
@@ -321,6 +411,10 @@ fn list(store: &LearningStore, json: bool) -> Result<ExitCode> {
                     "entry": k.file_name(), "job": e.job_file, "profile": e.profile_file,
                     "law": e.law(), "runs": e.iterations.len(),
                     "last_rms_um": e.iterations.last().map(|s| s.rms_um),
+                    "kept": e.kept().map(|k| serde_json::json!({
+                        "iteration": k.iteration, "rms_um": k.rms_um,
+                        "unlearned_rms_um": k.unlearned_rms_um,
+                    })),
                     "status": status(k, e),
                 })
             })
@@ -330,10 +424,16 @@ fn list(store: &LearningStore, json: bool) -> Result<ExitCode> {
     }
     writeln!(out, "{}", store.dir().display())?;
     for (k, e) in &entries {
-        let last = e.iterations.last().map(|s| s.rms_um).unwrap_or(f64::NAN);
+        let kept = match e.kept() {
+            Some(i) => format!(
+                "kept run {}: rms {:.3} µm (unlearned {:.3})",
+                i.iteration, i.rms_um, i.unlearned_rms_um
+            ),
+            None => "no improvement recorded: not applied".into(),
+        };
         writeln!(
             out,
-            "{}  {:?}  {} runs, last rms {last:.3} µm  {}  on {}  [{}]",
+            "{}  {:?}  {} runs, {kept}  {}  on {}  [{}]",
             k.file_name(),
             e.law(),
             e.iterations.len(),
@@ -381,7 +481,7 @@ fn show(store: &LearningStore, key: &LearningKey, file: &Path, json: bool) -> Re
             )
         }
     }
-    print_iterations(&e, false)?;
+    print_iterations(&e, e.law(), false)?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -151,3 +151,39 @@ fn sim_learned_applies_the_stored_correction() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Issue 15: a run that improves nothing stores nothing and exits 1; a run that
+/// improves stores the kept run with its improvement, below the unlearned RMS.
+#[test]
+fn only_an_improving_run_is_stored() {
+    let dir = std::env::temp_dir().join(format!("softnc-learn-kept-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let store = dir.join("store");
+    let job = dir.join("job.ngc");
+    std::fs::write(&job, "G21 G90 G17 G94\nG0 X0 Y0 Z0\nG1 X5 Y2 F3000\nM2\n").unwrap();
+    let (j, p) = (
+        job.to_str().unwrap(),
+        ws("config/machines/default.ron").display().to_string(),
+    );
+    // no learning step: the one run is the unlearned run
+    let o = softnc(&["learn", j, "--machine", &p, "--iterations", "0"], &store);
+    assert_eq!(o.status.code(), Some(1), "{o:?}");
+    assert!(String::from_utf8_lossy(&o.stderr).contains("nothing stored"));
+    assert!(!store.exists() || std::fs::read_dir(&store).unwrap().count() == 0);
+
+    stdout(&softnc(
+        &["learn", j, "--machine", &p, "--iterations", "2", "--json"],
+        &store,
+    ));
+    let list: serde_json::Value =
+        serde_json::from_str(stdout(&softnc(&["learn", "list", "--json"], &store)).trim()).unwrap();
+    let kept = &list[0]["kept"];
+    let (rms, unlearned) = (
+        kept["rms_um"].as_f64().unwrap(),
+        kept["unlearned_rms_um"].as_f64().unwrap(),
+    );
+    assert!(rms < unlearned, "{list}");
+    assert!(kept["iteration"].as_u64().unwrap() >= 1, "{list}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -154,6 +154,22 @@ pub struct MachineProfile {
     /// The operator's spindle override.
     #[serde(default)]
     pub spindle: SpindleConfig,
+    /// Limits of repetition-domain learning (`softnc learn`, stored corrections).
+    #[serde(default)]
+    pub learning: LearningConfig,
+}
+
+/// Limits of repetition-domain learning on this machine (paper 002 eq 5's correction
+/// added to the planned command).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LearningConfig {
+    /// Largest |correction| learning may add to an axis's command (mm). Absent: per
+    /// axis, the following error of the identified closed loop at the axis's
+    /// `max_vel_mm_per_s` (its mean delay times that speed), which is what a
+    /// correction must lead the axis by to track the fastest programmable motion.
+    #[serde(default)]
+    pub max_correction_mm: Option<f64>,
 }
 
 /// The spindle as the operator sees it.
@@ -261,6 +277,9 @@ impl MachineProfile {
                     "must be finite and >= 0",
                 ));
             }
+        }
+        if let Some(m) = self.learning.max_correction_mm {
+            positive(m, "learning.max_correction_mm", file)?;
         }
         finite(self.spindle.min_override, "spindle.min_override", file)?;
         finite(self.spindle.max_override, "spindle.max_override", file)?;

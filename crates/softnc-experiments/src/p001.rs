@@ -493,20 +493,66 @@ mod tests {
         table(&m, &f, &(1..=seeds).collect::<Vec<_>>()).unwrap()
     }
 
-    /// The acceptance: FLC <= PID in max and RMS in every row (mean of 5 seeds).
-    /// Not met by paper 001's FLC on the faithful model, nor under any reading of the
-    /// paper's units that keeps Table 4's PID working (`--audit`; docs/reproduce-001.md).
+    /// The reproduced Table 5 (mean of seeds 1–5, 10 µm) and its plant-reading audit
+    /// as regression figures, as `softnc reproduce 001-table5 --audit` printed them on
+    /// 2026-11-25: [PID max, FLC max, PID rms, FLC rms, best max, best rms] per row.
+    /// The acceptance (FLC ≤ PID in max and RMS in every row) is NOT met: the
+    /// FLC is not worse than the PID in 2 of 12 cells on the project's reading, and in
+    /// 12 of 12 only under the (mm/s)/V ±10 V reading, on which Table 4's PID is
+    /// unstable (pole radius 1.287) — docs/reproduce-001.md. A change to the plant, the
+    /// controllers or the simulator that moves a figure by more than 1 % (+ the 0.01
+    /// printed) fails here.
     #[test]
-    #[ignore = "acceptance not met: the paper's FLC is not better than the PID on mill-friction.ron under any workable plant reading (docs/reproduce-001.md, --audit)"]
-    fn acceptance_flc_not_worse_than_pid_in_every_row() {
-        for r in rows(5) {
+    fn table5_and_audit_regression_figures() {
+        const TABLE: [[f64; 6]; 6] = [
+            [6.00, 6.19, 1.12, 1.29, 5.96, 1.11],
+            [6.37, 6.21, 1.55, 1.90, 6.38, 1.53],
+            [11.68, 11.97, 2.07, 2.25, 11.16, 1.93],
+            [17.13, 19.24, 6.24, 6.25, 12.31, 3.10],
+            [6.48, 8.36, 1.73, 1.85, 2.54, 0.99],
+            [10.83, 10.93, 3.03, 2.98, 1.41, 0.90],
+        ];
+        let close = |got: f64, want: f64| (got - want).abs() <= 0.01 * want.abs() + 0.006;
+        let rows = rows(5);
+        assert_eq!(rows.len(), TABLE.len());
+        for (r, want) in rows.iter().zip(TABLE) {
+            let got = [
+                r.pid.max, r.flc.max, r.pid.rms, r.flc.rms, r.best.max, r.best.rms,
+            ];
+            for (g, w) in got.iter().zip(want) {
+                assert!(
+                    close(*g, w),
+                    "{} {}: {got:.2?} vs recorded {want:?}",
+                    r.case.contour,
+                    r.case.feed
+                );
+            }
+        }
+        // the audit: per reading, FLC-not-worse cells (of 12; None = not run: the DAC
+        // cannot drive the feeds), worst FLC/PID ratio, PID pole radius
+        let want: [(Option<usize>, Option<f64>, f64); 7] = [
+            (Some(2), Some(1.29), 0.952),
+            (Some(2), Some(1.13), 0.951),
+            (Some(0), Some(1.39), 0.952),
+            (Some(1), Some(1.41), 0.951),
+            (Some(1), Some(2.97), 0.953),
+            (Some(12), Some(0.48), 1.287),
+            (None, None, 0.960),
+        ];
+        let (m, f) = setup();
+        let audit = crate::p001_audit::audit(&m, &f, &(1..=5).collect::<Vec<_>>()).unwrap();
+        assert_eq!(audit.readings.len(), want.len());
+        for (r, (cells, worst, pole)) in audit.readings.iter().zip(want) {
+            let name = format!("{} {}", r.reading.k_unit, r.reading.const_feed);
+            assert_eq!(r.flc_not_worse(), cells, "{name}");
+            match (r.worst_flc_over_pid(), worst) {
+                (Some(g), Some(w)) => assert!(close(g, w), "{name}: worst FLC/PID {g:.3} vs {w}"),
+                (g, w) => assert_eq!(g, w, "{name}"),
+            }
             assert!(
-                r.flc.max <= r.pid.max && r.flc.rms <= r.pid.rms,
-                "{} {}: FLC {:?} vs PID {:?}",
-                r.case.contour,
-                r.case.feed,
-                r.flc,
-                r.pid
+                (r.pid_pole_radius - pole).abs() <= 0.0006,
+                "{name}: pole radius {:.4} vs {pole}",
+                r.pid_pole_radius
             );
         }
     }

@@ -255,31 +255,58 @@ mod tests {
         }
     }
 
-    /// Issue 5 acceptance, second half: after 5 iterations max |radius error| down by
-    /// ≥ 90 % and the quadrant spikes gone. FAILS (measured: 29.33 → 6.75 µm at
-    /// 1000 mm/min, 30.27 → 6.34 µm at 2000, −77 % / −79 %; spike 6.75 / 6.34 µm
-    /// against 0.18 / 0.22 µm elsewhere): the first degree after each reversal keeps
-    /// its stick bump, which eq 8 can only correct at that degree, where the axis is
-    /// still held (docs/reproduce-004.md); kept as the honest check, not loosened.
+    /// Best max |e| and RMS (µm) over iterations 1..=5 of a run, and those before.
+    fn within_5(r: &FeedRun) -> ([f64; 2], [f64; 2]) {
+        let first = &r.iterations[0].stats;
+        let its = &r.iterations[1..=ITERATIONS];
+        let best = |f: fn(&Iter) -> f64| its.iter().map(f).fold(f64::INFINITY, f64::min);
+        (
+            [first.max_abs_um, first.rms_um],
+            [best(|i| i.stats.max_abs_um), best(|i| i.stats.rms_um)],
+        )
+    }
+
+    /// Issue 15 acceptance (paper 004 Sec. 3: learning "greatly reduces" the radius
+    /// reduction and the stick spikes, no further gain after 5 iterations; the paper
+    /// gives no figure after learning and does not claim the spikes vanish): within 5
+    /// iterations max |radius error| down by ≥ 75 % at 1000 and 2000 mm/min, and its
+    /// RMS down by ≥ 90 % at 2000 mm/min. Measured (`softnc reproduce 004-ilc`):
+    /// max 29.33 → 6.75 µm (−77 %) and 30.27 → 6.34 µm (−79 %); RMS at 2000 mm/min
+    /// 12.52 → 0.83 µm (−93 %). The RMS at 1000 mm/min is the next test.
     #[test]
-    #[ignore = "fails: 77-79 % after 5 iterations, a 6-7 µm spike stays in the first degree after each reversal (docs/reproduce-004.md)"]
-    fn radius_ilc_removes_shrink_and_spikes() {
+    fn radius_ilc_greatly_reduces_shrink_and_spikes_within_5_iterations() {
         for r in runs() {
-            let (first, last) = (&r.iterations[0], &r.iterations[ITERATIONS]);
+            let ([max0, rms0], [max, rms]) = within_5(&r);
+            let f = r.feed_mm_per_min;
             assert!(
-                last.stats.max_abs_um <= 0.1 * first.stats.max_abs_um,
-                "F {}: max |e| {:.2} -> {:.2} µm",
-                r.feed_mm_per_min,
-                first.stats.max_abs_um,
-                last.stats.max_abs_um
+                max <= 0.25 * max0,
+                "F {f}: max |e| {max0:.2} -> {max:.2} µm"
             );
-            assert!(
-                last.spike_um <= last.elsewhere_um + 2.0,
-                "F {}: spike {:.2} µm, elsewhere {:.2} µm",
-                r.feed_mm_per_min,
-                last.spike_um,
-                last.elsewhere_um
-            );
+            if f == 2000.0 {
+                assert!(rms <= 0.10 * rms0, "F {f}: rms {rms0:.2} -> {rms:.2} µm");
+            }
         }
+    }
+
+    /// The acceptance's RMS ≥ 90 % down is NOT reached at 1000 mm/min: measured
+    /// 4.67 → 0.91 µm (−80.5 %) within 5 iterations. The shrink there is only 3 µm and
+    /// the 6–7 µm stick bump left in the first degree after each reversal (eq 8 can
+    /// only correct it at that degree, where the axis is still held;
+    /// docs/reproduce-004.md) carries most of the RMS left. This pins the measured
+    /// figure (−80.5 % ± 2 points) as a regression figure, not as the acceptance: a
+    /// change that reaches −90 % fails here and moves the 1000 mm/min RMS into the
+    /// test above.
+    #[test]
+    fn radius_rms_at_1000_is_down_80_percent_not_the_90_asked() {
+        let r = runs()
+            .into_iter()
+            .find(|r| r.feed_mm_per_min == 1000.0)
+            .unwrap();
+        let ([_, rms0], [_, rms]) = within_5(&r);
+        let down_pct = 100.0 * (1.0 - rms / rms0);
+        assert!(
+            (78.5..=82.5).contains(&down_pct),
+            "F 1000: rms {rms0:.2} -> {rms:.2} µm, {down_pct:.1} % down"
+        );
     }
 }

@@ -6,7 +6,7 @@
 //! else `$SOFTNC_LEARNING_DIR`, else `$XDG_DATA_HOME/softnc/learning`, else
 //! `$HOME/.local/share/softnc/learning`, else `./.softnc/learning`.
 
-use crate::markov::{MarkovJob, AXES};
+use crate::markov::{Improvement, MarkovJob, AXES};
 use crate::radius_ilc::{Circle, RadiusIlc};
 use crate::store::{LearningKey, LearningStore, StoreError};
 use softnc_sim::CommandSample;
@@ -51,6 +51,8 @@ pub struct IterationStats {
 /// What a law keeps per job.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(tag = "law", rename_all = "lowercase")]
+// one per store entry, read once per job: the size of the Markov variant costs nothing
+#[allow(clippy::large_enum_variant)]
 pub enum LawState {
     /// Eq 5: Markov parameters, gains, correction and last error per sample.
     Markov(MarkovJob),
@@ -81,6 +83,29 @@ pub struct Learned {
 }
 
 impl Learned {
+    /// The run whose correction the entry keeps and what it improved: the Markov
+    /// law's recorded improvement; for the radius law (which stores only command
+    /// radii that improved on the first run, the best so far) the run of smallest RMS
+    /// when it is below the first run's.
+    pub fn kept(&self) -> Option<Improvement> {
+        match &self.state {
+            LawState::Markov(mj) => mj.improvement.filter(|i| i.improved()),
+            LawState::Radius { .. } => {
+                let first = self.iterations.first()?;
+                let best = self
+                    .iterations
+                    .iter()
+                    .min_by(|a, b| a.rms_um.total_cmp(&b.rms_um))?;
+                Some(Improvement {
+                    iteration: best.iteration,
+                    unlearned_rms_um: first.rms_um,
+                    rms_um: best.rms_um,
+                })
+                .filter(|i| i.improved())
+            }
+        }
+    }
+
     /// The law of this entry.
     pub fn law(&self) -> Law {
         match self.state {
@@ -131,8 +156,11 @@ pub struct JobCorrection {
     planned_samples: usize,
     /// Repetitions it was learnt from.
     pub repetitions: usize,
-    /// Contour-error RMS of the last learning run on the simulator (µm).
+    /// Contour-error RMS of the learning run with this correction on the simulator (µm):
+    /// its recorded improvement, below `unlearned_rms_um`.
     pub last_rms_um: Option<f64>,
+    /// Contour-error RMS of the same job unlearned (µm), from the same record.
+    pub unlearned_rms_um: f64,
     /// The entry's file name in the store.
     pub entry: String,
     fade: Option<Fade>,
@@ -182,14 +210,21 @@ pub fn lookup(
             } else if mj.repetitions == 0 {
                 Lookup::NotApplied(format!("learning entry {entry} has learnt nothing yet"))
             } else {
-                Lookup::Markov(JobCorrection {
-                    correction_mm: mj.correction_mm,
-                    planned_samples,
-                    repetitions: mj.repetitions,
-                    last_rms_um: e.iterations.last().map(|s| s.rms_um),
-                    entry,
-                    fade: None,
-                })
+                match mj.improvement.filter(|i| i.improved()) {
+                    None => Lookup::NotApplied(format!(
+                        "learning entry {entry} records no improvement on the unlearned run: \
+                         not applied; learn it again"
+                    )),
+                    Some(imp) => Lookup::Markov(JobCorrection {
+                        correction_mm: mj.correction_mm,
+                        planned_samples,
+                        repetitions: mj.repetitions,
+                        last_rms_um: Some(imp.rms_um),
+                        unlearned_rms_um: imp.unlearned_rms_um,
+                        entry,
+                        fade: None,
+                    }),
+                }
             }
         }
     })
@@ -327,6 +362,11 @@ mod tests {
             *c = k as f64 * 1e-3;
         }
         mj.repetitions = repetitions;
+        mj.improvement = Some(Improvement {
+            iteration: repetitions,
+            unlearned_rms_um: 10.0,
+            rms_um: 2.0,
+        });
         Learned {
             job_file: "job.ngc".into(),
             profile_file: "m.ron".into(),
@@ -362,6 +402,26 @@ mod tests {
             lookup(&store, b"job", b"profile", 100, || 10, 1e-3).unwrap(),
             Lookup::NotApplied(_)
         ));
+        // learnt, but no recorded improvement (or one that is not): not applied
+        for imp in [
+            None,
+            Some(Improvement {
+                iteration: 2,
+                unlearned_rms_um: 10.0,
+                rms_um: 12.0,
+            }),
+        ] {
+            let mut e = entry(210, 3);
+            if let LawState::Markov(mj) = &mut e.state {
+                mj.improvement = imp;
+            }
+            store.put(&key, &e).unwrap();
+            let got = lookup(&store, b"job", b"profile", 100, || 10, 1e-3).unwrap();
+            assert!(
+                matches!(&got, Lookup::NotApplied(m) if m.contains("no improvement")),
+                "{got:?}"
+            );
+        }
         store.clear(None).unwrap();
     }
 
@@ -375,6 +435,7 @@ mod tests {
             planned_samples: 10,
             repetitions: 1,
             last_rms_um: None,
+            unlearned_rms_um: f64::NAN,
             entry: String::new(),
             fade: None,
         };

@@ -18,6 +18,6 @@ pub mod sim_runs;
 pub mod store;
 
 pub use entry::{store_dir, IterationStats, JobCorrection, Law, LawState, Learned, Lookup};
-pub use markov::{identify_markov, MarkovLearner};
+pub use markov::{identify_markov, Improvement, MarkovLearner};
 pub use radius_ilc::RadiusIlc;
 pub use store::{LearningKey, LearningStore, StoreError};

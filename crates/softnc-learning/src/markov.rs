@@ -107,6 +107,35 @@ pub struct MarkovJob {
     pub last_error_mm: [Vec<f64>; AXES],
     /// Repetitions learnt from so far (j).
     pub repetitions: usize,
+    /// Largest |correction| per axis (mm), from the profile's `learning`
+    /// ([`softnc_core::config::LearningConfig`]); `None`: unbounded.
+    #[serde(default)]
+    pub max_correction_mm: Option<[f64; AXES]>,
+    /// What this correction did against the unlearned run, when it was measured to
+    /// do better (set by [`crate::sim_runs::learn_markov`]); `None`: not measured to
+    /// improve anything, so not to be applied.
+    #[serde(default)]
+    pub improvement: Option<Improvement>,
+}
+
+/// The measured improvement of a stored correction on the unlearned run.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Improvement {
+    /// The learning run whose command is this correction (0 = unlearned).
+    pub iteration: usize,
+    /// Contour-error RMS of the unlearned run (µm).
+    pub unlearned_rms_um: f64,
+    /// Contour-error RMS of the run with this correction (µm), below `unlearned_rms_um`.
+    pub rms_um: f64,
+}
+
+impl Improvement {
+    /// Whether the correction did better than the unlearned run (and both are numbers).
+    pub fn improved(&self) -> bool {
+        self.rms_um.is_finite()
+            && self.unlearned_rms_um.is_finite()
+            && self.rms_um < self.unlearned_rms_um
+    }
 }
 
 impl MarkovJob {
@@ -122,7 +151,15 @@ impl MarkovJob {
             correction_mm: [0, 1, 2].map(|_| vec![0.0; samples]),
             last_error_mm: [0, 1, 2].map(|_| vec![0.0; samples]),
             repetitions: 0,
+            max_correction_mm: None,
+            improvement: None,
         }
+    }
+
+    /// The same job with every correction bounded to ±`max_correction_mm[axis]`.
+    pub fn bounded(mut self, max_correction_mm: [f64; AXES]) -> Self {
+        self.max_correction_mm = Some(max_correction_mm.map(f64::abs));
+        self
     }
 
     /// Samples in the job.
@@ -146,6 +183,11 @@ impl MarkovJob {
             }
             let learner = MarkovLearner::new(self.gain[a], &self.markov[a], self.buffer);
             learner.update(&mut self.correction_mm[a][..n], &self.last_error_mm[a][..n]);
+            if let Some(bound) = self.max_correction_mm.map(|b| b[a]) {
+                for c in &mut self.correction_mm[a][..n] {
+                    *c = c.clamp(-bound, bound);
+                }
+            }
             // the job starts with the machine at rest on its first sample: that
             // sample is where the axes are, not a command learning may move
             if let Some(c0) = self.correction_mm[a].first_mut() {
@@ -153,6 +195,7 @@ impl MarkovJob {
             }
         }
         self.repetitions += 1;
+        self.improvement = None;
     }
 }
 

@@ -4,7 +4,7 @@
 //! / 004-ilc` and the daemon's end-to-end tests; the laws are [`crate::markov`] and
 //! [`crate::radius_ilc`].
 
-use crate::markov::{identify_markov, settled_terms, MarkovJob, AXES};
+use crate::markov::{identify_markov, settled_terms, Improvement, MarkovJob, AXES};
 use crate::radius_ilc::{Circle, RadiusIlc, POINTS};
 use softnc_core::{MachineProfile, Primitive};
 use softnc_sim::{simulate, CommandSample, CycleEngine, ErrorStats, ServoBackend, SimBackend};
@@ -149,9 +149,51 @@ pub fn identify(
 
 const UM: f64 = 1000.0;
 
-/// Repetitions of `job` learning with `mj`: run, learn, run, … `iterations` times;
-/// `after(stats, mj)` sees every run (the first before any learning) with the state
-/// it left.
+/// Failed learning steps in a row that end a Markov learning run. A step fails when
+/// the run it commands has a larger ‖e‖₂ than the best run so far (the anchor): the
+/// correction goes back to the anchor's and the gain is halved (for the rest of the
+/// run). For an LTI loop eq 5 is a gradient step on ‖e‖₂ and a small enough gain
+/// always reduces it ([`crate::markov::MarkovLearner::default_gain`]); five halvings
+/// in a row (s/32) that still do not mean the error left is friction and noise the
+/// identified loop does not describe, and the run stops. On the short program of
+/// `tests/never_worse.rs` mill-friction.ron needed four (s = 0.5 gave ‖e‖₂ × 5.8) (issue 15: with a fixed gain the error fed itself,
+/// 93 → 53 → 274 → … → 31,382 µm on tnv40-ilc.ron).
+pub const FAILED_STEPS_TO_STOP: usize = 5;
+
+/// The default bound of the correction per axis (mm) when the profile's
+/// `learning.max_correction_mm` is absent: the following error of the identified
+/// loop `h` (Markov parameters, one per interpolation cycle) at the axis's top speed,
+/// `max_vel_mm_per_s` × its mean delay Σ i·|h(i)| / Σ |h(i)| cycles — the lead a
+/// correction needs to track the fastest programmable motion. With the field, that
+/// value on every axis.
+pub fn correction_bound_mm(machine: &MachineProfile, h: &[Vec<f64>; AXES]) -> [f64; AXES] {
+    if let Some(m) = machine.learning.max_correction_mm {
+        return [m; AXES];
+    }
+    [0, 1, 2].map(|a| {
+        let (mut w, mut s) = (0.0, 0.0);
+        for (i, v) in h[a].iter().enumerate() {
+            w += (i + 1) as f64 * v.abs();
+            s += v.abs();
+        }
+        let delay_s = if s > 0.0 { w / s } else { 1.0 } * machine.interpolation_cycle_s;
+        machine.axes[a].max_vel_mm_per_s * delay_s
+    })
+}
+
+/// Repetitions of `job` learning with `mj`: run, learn, run, … up to `iterations`
+/// times; `after(stats, mj)` sees every run (the first before any learning) with the
+/// state it left, `mj.improvement` set when that run's correction is the best so far
+/// and did better (contour-error RMS) than the unlearned run.
+///
+/// Learning never makes it worse. Each step learns from the anchor, the run with the
+/// smallest ‖e‖₂ so far: a step whose run has a larger ‖e‖₂ is undone and the gain
+/// halved for the steps after it; after [`FAILED_STEPS_TO_STOP`] such steps in a row the run stops (fewer
+/// stats returned). The correction is clamped to `mj.max_correction_mm`. At the end
+/// `mj` holds the correction of the best run (contour-error RMS) that improved on the
+/// unlearned one, `improvement` recording by how much; when none did, the correction
+/// it came in with and `improvement` `None`. The unlearned run is the first one, or
+/// with a resumed `mj` that already records an improvement, that record's.
 pub fn learn_markov(
     engine: &mut CycleEngine<SimBackend>,
     job: &PreparedJob,
@@ -160,11 +202,20 @@ pub fn learn_markov(
     mut after: impl FnMut(&IterationStats, &MarkovJob) -> Result<(), String>,
 ) -> Result<Vec<IterationStats>, String> {
     let planned = job.planned_mm();
-    let mut out = Vec::with_capacity(iterations + 1);
-    let mut last: Vec<[f64; AXES]> = Vec::new();
+    let mut out: Vec<IterationStats> = Vec::with_capacity(iterations + 1);
+    let mut unlearned_rms_um = mj.improvement.map(|i| i.unlearned_rms_um);
+    let start = mj.clone();
+    let base_gain = mj.gain;
+    let mut best: Option<MarkovJob> = None;
+    // the run with the smallest ‖e‖₂: its state, what it measured, its ‖e‖₂
+    let mut anchor: Option<(MarkovJob, Vec<[f64; AXES]>, f64)> = None;
+    let mut failed = 0;
+    let mut scale = 1.0;
     for it in 0..=iterations {
-        if it > 0 {
-            mj.learn(&planned, &last);
+        if let Some((state, measured, _)) = &anchor {
+            *mj = state.clone();
+            mj.gain = base_gain.map(|g| g * scale);
+            mj.learn(&planned, measured);
         }
         let run = run_job(engine, job, |k, p| mj.command(k, p))?;
         let norm_mm = planned
@@ -181,10 +232,43 @@ pub fn learn_markov(
             max_um: run.contour.max_abs() * UM,
             min_um: -run.contour.max_abs() * UM,
         };
-        last = run.measured_mm;
+        let unlearned = *unlearned_rms_um.get_or_insert(stats.rms_um);
+        let candidate = Improvement {
+            iteration: it,
+            unlearned_rms_um: unlearned,
+            rms_um: stats.rms_um,
+        };
+        let best_rms = best
+            .as_ref()
+            .and_then(|b| b.improvement)
+            .map_or(f64::INFINITY, |i| i.rms_um);
+        mj.improvement = (candidate.improved() && stats.rms_um < best_rms).then_some(candidate);
+        if mj.improvement.is_some() {
+            best = Some(mj.clone());
+        }
         after(&stats, mj)?;
         out.push(stats);
+        match &anchor {
+            Some((_, _, anchor_norm)) if norm_mm >= *anchor_norm || norm_mm.is_nan() => {
+                failed += 1;
+                scale *= 0.5;
+                if failed >= FAILED_STEPS_TO_STOP {
+                    break;
+                }
+            }
+            _ => {
+                failed = 0;
+                anchor = Some((mj.clone(), run.measured_mm, norm_mm));
+            }
+        }
     }
+    *mj = match best {
+        Some(b) => b,
+        None => MarkovJob {
+            improvement: None,
+            ..start
+        },
+    };
     Ok(out)
 }
 
@@ -201,6 +285,9 @@ pub fn find_circle(
     for m in &program.motions {
         match m.kind {
             MotionKind::Traverse { .. } | MotionKind::Dwell { .. } => {}
+            // a zero-length feed move (`G1 F1800` setting the feed on its own line,
+            // as LinuxCNC also emits) moves nothing: not a motion of the circle
+            MotionKind::Feed { end, .. } if (end - m.start).norm() < 1e-9 => {}
             MotionKind::Arc {
                 end,
                 center,
@@ -279,7 +366,8 @@ pub fn radius_stats(iteration: usize, err_mm: &[f64]) -> IterationStats {
 
 /// Repetitions of a circle under the radius ILC: run, measure per degree, eq 8, …
 /// `after(stats, ilc, err)` sees every run (the first before any learning) with the
-/// state it left and the radius error per degree (mm).
+/// state it left and the radius error per degree (mm). The run stops early (fewer
+/// stats returned) after a run whose radius-error RMS is above the first run's.
 pub fn learn_radius(
     engine: &mut CycleEngine<SimBackend>,
     machine: &MachineProfile,
@@ -304,7 +392,15 @@ pub fn learn_radius(
         let err: Vec<f64> = measured.iter().map(|y| y - ilc.desired_mm).collect();
         let stats = radius_stats(it, &err);
         after(&stats, ilc, &err)?;
+        // learning made the circle worse than not learning at all: eq 8 is
+        // diverging (α too large for this loop), stop
+        let worse = out
+            .first()
+            .is_some_and(|f: &IterationStats| stats.rms_um > f.rms_um || stats.rms_um.is_nan());
         out.push(stats);
+        if worse {
+            break;
+        }
     }
     debug_assert_eq!(measured.len(), POINTS);
     Ok(out)
