@@ -855,9 +855,10 @@ impl<'a> Interp<'a> {
         match b.g_in(GM_CONTROL) {
             Some(610) | Some(611) => self.path = PathMode::ExactStop,
             Some(640) => {
-                let p = b.p_number;
+                let (p, q) = (b.p_number, b.q_number);
                 self.path = PathMode::Blend {
                     tolerance_mm: (p > 0.0).then_some(p * s),
+                    naive_cam_mm: (q > 0.0).then_some(q * s),
                 };
             }
             _ => {}

@@ -5,11 +5,11 @@ use crate::path::{element_limits, ElementShape, Geom};
 use softnc_core::{AccDec, FeedProfile, MachineProfile, Primitive, Vec3};
 use softnc_gcode::{Motion, MotionKind, PathMode, Program};
 
-/// Fraction of every axis limit the planner plans to, so that rounding never takes
-/// a sample past 1.00× of a limit.
-pub const LIMIT_MARGIN: f64 = 0.98;
 /// Share of an axis's acceleration that a small tangent discontinuity between two
 /// elements may use, per sample (trapezoidal; the S-curve profile stops at them).
+/// The elements plan to the rest, `1 − KINK_SHARE`, so that a kink taken while the
+/// path accelerates at its limit still keeps every sample within 1.000× (no blanket
+/// margin: velocity and jerk are planned to 1.000× of the profile's limits).
 pub const KINK_SHARE: f64 = 0.01;
 /// S-curve: share of the jerk limit spent on tangential jerk.
 pub const SCURVE_TANGENTIAL_JERK_SHARE: f64 = 0.4;
@@ -66,11 +66,15 @@ pub struct Segment {
 /// What the builder needs from the machine profile.
 #[derive(Debug, Clone, Copy)]
 pub struct Limits {
-    /// Per-axis velocity limits with the margin applied (mm/s).
+    /// Per-axis velocity limits (mm/s).
     pub vmax: [f64; 3],
-    /// Per-axis acceleration limits with the margin applied (mm/s²).
+    /// Per-axis acceleration the elements plan to: the limit less the kinks' share
+    /// (`1 − KINK_SHARE`) (mm/s²).
     pub amax: [f64; 3],
-    /// Per-axis jerk limits with the margin applied (mm/s³).
+    /// Per-axis acceleration a kink may use over one cycle: `KINK_SHARE` of the
+    /// limit (mm/s²).
+    pub kink_acc: [f64; 3],
+    /// Per-axis jerk limits (mm/s³).
     pub jmax: [f64; 3],
     /// Interpolation cycle T (s).
     pub cycle_s: f64,
@@ -89,9 +93,10 @@ pub struct Limits {
 impl Limits {
     /// Limits of a machine profile.
     pub fn from_profile(p: &MachineProfile) -> Limits {
-        let vmax = p.max_vel().map(|v| v * LIMIT_MARGIN);
-        let amax = p.max_acc().map(|v| v * LIMIT_MARGIN);
-        let jmax = p.max_jerk().map(|v| v * LIMIT_MARGIN);
+        let vmax = p.max_vel();
+        let amax = p.max_acc().map(|a| a * (1.0 - KINK_SHARE));
+        let kink_acc = p.max_acc().map(|a| a * KINK_SHARE);
+        let jmax = p.max_jerk();
         let a_min = amax.iter().cloned().fold(f64::INFINITY, f64::min);
         let j_min = jmax.iter().cloned().fold(f64::INFINITY, f64::min);
         let scurve_acc = crate::path::ARC_TANGENTIAL_SHARE * a_min;
@@ -102,6 +107,7 @@ impl Limits {
         Limits {
             vmax,
             amax,
+            kink_acc,
             jmax,
             cycle_s,
             tolerance_mm: p.planner.tolerance_mm,
@@ -151,19 +157,18 @@ impl Path {
         let Ok(m) = u32::try_from(index) else {
             return None;
         };
+        // orphans first: a G64 Q merged line is an element of the chain's last
+        // motion, whose programmed line is an orphan
+        if let Ok(k) = self.orphans.binary_search_by_key(&m, |o| o.0) {
+            return Some(self.orphans[k].1);
+        }
         let segs = &self.segs[self.lead_in..];
         let from = segs.partition_point(|s| s.motion < m);
-        let found = segs[from..]
+        segs[from..]
             .iter()
             .zip(&self.geoms[self.lead_in + from..])
             .take_while(|(s, _)| s.motion == m)
-            .find_map(|(_, g)| g.programmed());
-        found.or_else(|| {
-            self.orphans
-                .binary_search_by_key(&m, |o| o.0)
-                .ok()
-                .map(|k| self.orphans[k].1)
-        })
+            .find_map(|(_, g)| g.programmed())
     }
 }
 
@@ -178,6 +183,65 @@ pub struct PathBuilder {
     s0: f64,
     /// End tangent of the last element pushed.
     prev_end_tangent: Vec3,
+    /// G64 Q: the G1 lines held back while they stay within Q of one line.
+    chain: NaiveCamChain,
+}
+
+/// LinuxCNC's "naive CAM" merging (G64 Q, its `emccanon.cc` `see_segment` /
+/// `flush_segments`, written anew here): consecutive G1 lines with the same feed and
+/// path mode are held back while every end point of the chain lies within Q of the
+/// straight line from the chain's start to its latest end, at most
+/// `NAIVE_CAM_MAX_CHAIN` of them; the chain then runs as that one line. Every
+/// programmed vertex is within Q of the merged line, and so (distance to a segment is
+/// convex) is the whole programmed polyline, and every point of the merged line is
+/// within Q of it: the path deviates at most Q + the blend tolerance.
+#[derive(Debug, Default)]
+struct NaiveCamChain {
+    /// The last motion of the chain (its feed and path mode stand for the chain).
+    last: Option<Motion>,
+    /// Start point of the chain (machine coordinates).
+    start: Vec3,
+    /// Q (mm).
+    q_mm: f64,
+    /// Index and programmed line of every motion in the chain.
+    lines: Vec<(u32, Primitive)>,
+}
+
+/// Most G1 lines one G64 Q chain merges (LinuxCNC: 100).
+pub const NAIVE_CAM_MAX_CHAIN: usize = 100;
+
+/// Distance from `p` to the segment `a`–`b` (mm).
+fn dist_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f64 {
+    let ab = b - a;
+    let l2 = ab.dot(ab);
+    let t = if l2 > 0.0 {
+        ((p - a).dot(ab) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p - (a + ab * t)).norm()
+}
+
+impl NaiveCamChain {
+    /// Whether motion `m` (a G1 line `start` → `end` with Q = `q`) continues the chain.
+    fn links(&self, m: &Motion, end: Vec3, q: f64) -> bool {
+        let Some(last) = &self.last else {
+            return false;
+        };
+        let same_feed = matches!(
+            (last.kind, m.kind),
+            (MotionKind::Feed { feed_mm_per_min: f1, .. }, MotionKind::Feed { feed_mm_per_min: f2, .. })
+                if f1 == f2
+        );
+        same_feed
+            && last.path_mode == m.path_mode
+            && q == self.q_mm
+            && self.lines.len() < NAIVE_CAM_MAX_CHAIN
+            && self
+                .lines
+                .iter()
+                .all(|(_, l)| dist_to_segment(l.end(), self.start, end) <= q)
+    }
 }
 
 impl PathBuilder {
@@ -197,16 +261,76 @@ impl PathBuilder {
             last_point: None,
             s0: 0.0,
             prev_end_tangent: Vec3::ZERO,
+            chain: NaiveCamChain::default(),
         }
     }
 
     /// Add motion number `index`; `prim` is its programmed primitive in machine
-    /// coordinates (None for dwells).
+    /// coordinates (None for dwells). G1 lines under G64 Q are merged first.
     pub fn push(&mut self, index: usize, m: &Motion, prim: Option<Primitive>) {
+        let q = match m.path_mode {
+            PathMode::Blend {
+                naive_cam_mm: Some(q),
+                ..
+            } if q > 0.0 => q,
+            _ => 0.0,
+        };
+        let line = match (m.kind, prim) {
+            (MotionKind::Feed { .. }, Some(l @ Primitive::Line { start, end }))
+                if q > 0.0 && (end - start).norm() >= 1e-9 =>
+            {
+                Some(l)
+            }
+            _ => None,
+        };
+        if let Some(l) = line {
+            if self.chain.links(m, l.end(), q) {
+                self.chain.lines.push((index as u32, l));
+                self.chain.last = Some(*m);
+                return;
+            }
+        }
+        self.flush_chain();
+        match line {
+            Some(l) => {
+                self.chain.last = Some(*m);
+                self.chain.start = l.start();
+                self.chain.q_mm = q;
+                self.chain.lines.push((index as u32, l));
+            }
+            None => self.push_unmerged(index, m, prim),
+        }
+    }
+
+    /// Run the held-back G64 Q chain as one line (its motions' programmed lines go to
+    /// the orphans; the merged element belongs to the chain's last motion).
+    fn flush_chain(&mut self) {
+        let Some(last) = self.chain.last.take() else {
+            return;
+        };
+        let n = self.chain.lines.len();
+        let Some(&(index, last_line)) = self.chain.lines.last() else {
+            return;
+        };
+        let merged = if n > 1 {
+            self.path.orphans.extend(self.chain.lines.iter().copied());
+            Primitive::Line {
+                start: self.chain.start,
+                end: last_line.end(),
+            }
+        } else {
+            last_line
+        };
+        self.chain.lines.clear();
+        self.push_unmerged(index as usize, &last, Some(merged));
+    }
+
+    /// Add motion number `index` as it is programmed (no G64 Q merging).
+    fn push_unmerged(&mut self, index: usize, m: &Motion, prim: Option<Primitive>) {
         let lim = &self.lim;
         let (exact, tol) = match m.path_mode {
             PathMode::ExactStop => (true, lim.tolerance_mm),
-            PathMode::Blend { tolerance_mm } => match tolerance_mm {
+            PathMode::Blend { tolerance_mm, .. } => match tolerance_mm {
                 Some(p) if p > 0.0 => (false, p),
                 _ => (false, lim.tolerance_mm),
             },
@@ -475,6 +599,12 @@ impl PathBuilder {
 
     /// The path: the last move ends in a stop.
     pub fn finish(mut self) -> Path {
+        self.flush_chain();
+        // a G64 Q chain goes to the orphans when it ends, after the moves it held back;
+        // a merged line used up by its blends is an orphan of its last motion too, pushed
+        // after the chain's own lines: the stable sort keeps the programmed one first
+        self.path.orphans.sort_by_key(|o| o.0);
+        self.path.orphans.dedup_by_key(|o| o.0);
         match self.pending.take() {
             Some(p) => self.emit(&p, None, true),
             None => self.start_dwell(),
@@ -523,7 +653,7 @@ fn junction_speed(
         for i in 0..3 {
             let di = dt[i].abs();
             if di > 1e-12 {
-                let lim_i = KINK_SHARE * lim.amax[i] * lim.cycle_s;
+                let lim_i = lim.kink_acc[i] * lim.cycle_s;
                 v = v.min(lim_i / di);
             }
         }
