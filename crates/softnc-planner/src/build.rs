@@ -1,6 +1,7 @@
 //! From canonical motions to path segments: machine coordinates, blends at corners
 //! (G64), exact stops (G61/G9), per-segment limits and junction speeds.
 
+use crate::fillet::{self, ArcView};
 use crate::path::{element_limits, ElementShape, Geom};
 use softnc_core::{AccDec, FeedProfile, MachineProfile, Primitive, Vec3};
 use softnc_gcode::{Motion, MotionKind, PathMode, Program};
@@ -397,8 +398,8 @@ impl PathBuilder {
         match self.pending.take() {
             Some(prev) => {
                 let blend = self.blend(&prev, &next);
-                if let Some((_, d)) = blend {
-                    next.start_trim = d;
+                if let Some(b) = blend {
+                    next.start_trim = b.start_trim_next;
                 }
                 self.emit(&prev, blend, false);
             }
@@ -434,16 +435,87 @@ impl PathBuilder {
         }
     }
 
-    /// Blend at a line-line corner: a circular arc tangent to both lines, and how far
-    /// it trims each (G64 P tolerance, half of each line at most).
-    fn blend(&self, a: &Pending, b: &Pending) -> Option<(Geom, f64)> {
-        let lim = &self.lim;
+    /// Blend at a corner: a circular arc tangent to both moves (line–line here,
+    /// line–arc and arc–line in [`crate::fillet`]), and how far it trims each (G64 P
+    /// tolerance, half of each move at most).
+    fn blend(&self, a: &Pending, b: &Pending) -> Option<Blend> {
         if a.exact_stop || a.dwell_s > 0.0 {
             return None;
         }
-        let (Geom::Line { .. }, Geom::Line { .. }) = (a.geom, b.geom) else {
-            return None;
-        };
+        let found = match (a.geom, b.geom) {
+            (Geom::Line { .. }, Geom::Line { .. }) => self.blend_lines(a, b),
+            (Geom::Line { end, .. }, Geom::Arc(arc)) => {
+                let view = ArcView::of(&arc, false)?;
+                let f = fillet::line_arc(
+                    end,
+                    a.dir,
+                    (0.5 * a.len).min(a.len - a.start_trim),
+                    &view,
+                    0.5 * b.len,
+                    a.tolerance_mm.min(b.tolerance_mm),
+                )?;
+                let e1 = (f.p_line - f.center) * (1.0 / f.radius);
+                Some(Blend {
+                    geom: Geom::Blend {
+                        center: f.center,
+                        e1,
+                        e2: a.dir,
+                        radius: f.radius,
+                        sweep: f.sweep,
+                    },
+                    end_trim_prev: f.line_trim,
+                    start_trim_next: f.arc_trim,
+                })
+            }
+            (Geom::Arc(arc), Geom::Line { start, .. }) => {
+                // the line–arc construction on the path run backwards
+                let view = ArcView::of(&arc, true)?;
+                let f = fillet::line_arc(
+                    start,
+                    -b.dir,
+                    0.5 * b.len,
+                    &view,
+                    (0.5 * a.len).min(a.len - a.start_trim),
+                    a.tolerance_mm.min(b.tolerance_mm),
+                )?;
+                let e1 = (f.p_arc - f.center) * (1.0 / f.radius);
+                // backwards the fillet runs from the line with e2' = −b.dir; forwards
+                // it starts at the arc point with the opposite of its end tangent there
+                let e1_back = (f.p_line - f.center) * (1.0 / f.radius);
+                let t_back = -b.dir * f.sweep.cos() - e1_back * f.sweep.sin();
+                Some(Blend {
+                    geom: Geom::Blend {
+                        center: f.center,
+                        e1,
+                        e2: -t_back,
+                        radius: f.radius,
+                        sweep: f.sweep,
+                    },
+                    end_trim_prev: f.arc_trim,
+                    start_trim_next: f.line_trim,
+                })
+            }
+            _ => None,
+        }?;
+        let lim = &self.lim;
+        if lim.profile == FeedProfile::SCurve {
+            // A blend so tight that the jerk limit crawls through it is slower than
+            // stopping: stop at the corner instead.
+            let Geom::Blend { radius, .. } = found.geom else {
+                return None;
+            };
+            let through = scurve_curve_cap(1.0 / radius, lim);
+            let vmin = lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min);
+            let around = a.feed_mm_per_s.min(b.feed_mm_per_s).min(vmin);
+            if through < SCURVE_MIN_BLEND_SPEED_SHARE * around {
+                return None;
+            }
+        }
+        Some(found)
+    }
+
+    /// Blend at a line–line corner.
+    fn blend_lines(&self, a: &Pending, b: &Pending) -> Option<Blend> {
         let (u1, u2) = (a.dir, b.dir);
         let cos_t = u1.dot(u2).clamp(-1.0, 1.0);
         let theta = cos_t.acos();
@@ -475,21 +547,15 @@ impl PathBuilder {
             radius: r,
             sweep: theta,
         };
-        if lim.profile == FeedProfile::SCurve {
-            // A blend so tight that the jerk limit crawls through it is slower than
-            // stopping: stop at the corner instead.
-            let through = scurve_curve_cap(1.0 / r, lim);
-            let vmin = lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min);
-            let around = a.feed_mm_per_s.min(b.feed_mm_per_s).min(vmin);
-            if through < SCURVE_MIN_BLEND_SPEED_SHARE * around {
-                return None;
-            }
-        }
-        Some((blend, d))
+        Some(Blend {
+            geom: blend,
+            end_trim_prev: d,
+            start_trim_next: d,
+        })
     }
 
     /// Push the elements of a move whose successor is known (`last`: it has none).
-    fn emit(&mut self, p: &Pending, blend: Option<(Geom, f64)>, last: bool) {
+    fn emit(&mut self, p: &Pending, blend: Option<Blend>, last: bool) {
         let stop = p.exact_stop || p.dwell_s > 0.0 || last;
         let (geom, shape) = match p.geom {
             Geom::Line {
@@ -498,7 +564,7 @@ impl PathBuilder {
                 prog_len,
                 ..
             } => {
-                let to = prog_len - blend.map_or(0.0, |b| b.1);
+                let to = prog_len - blend.map_or(0.0, |b| b.end_trim_prev);
                 let len = (to - p.start_trim).max(0.0);
                 let geom = Geom::Line {
                     start,
@@ -509,11 +575,36 @@ impl PathBuilder {
                 };
                 (geom, ElementShape::line(len, p.dir))
             }
-            Geom::Arc(prim) => (p.geom, ElementShape::arc(&prim)),
+            Geom::Arc(prim) => {
+                let end_trim = blend.map_or(0.0, |b| b.end_trim_prev);
+                if p.start_trim == 0.0 && end_trim == 0.0 {
+                    (p.geom, ElementShape::arc(&prim))
+                } else {
+                    // the programmed arc stays exact among the orphans
+                    self.path.orphans.push((p.motion, prim));
+                    let (from, to) = (p.start_trim, p.len - end_trim);
+                    if to - from < 1e-6 {
+                        // used up by the blends at both its ends
+                        let at = prim.point_at(from);
+                        let dir = Vec3::ZERO;
+                        let geom = Geom::Line {
+                            start: at,
+                            end: at,
+                            from: 0.0,
+                            to: 0.0,
+                            prog_len: 0.0,
+                        };
+                        (geom, ElementShape::line(0.0, dir))
+                    } else {
+                        let sub = sub_arc(&prim, from, to);
+                        (Geom::Arc(sub), ElementShape::arc(&sub))
+                    }
+                }
+            }
             Geom::Blend { .. } => unreachable!("moves are lines or arcs"),
         };
-        let pushed = match blend {
-            Some((
+        let pushed = match blend.map(|b| b.geom) {
+            Some(
                 b @ Geom::Blend {
                     e1,
                     e2,
@@ -521,8 +612,7 @@ impl PathBuilder {
                     sweep,
                     ..
                 },
-                _,
-            )) => {
+            ) => {
                 let pushed = self.push_element(p, &geom, &shape, 0.0, false);
                 self.push_element(
                     p,
@@ -621,6 +711,32 @@ impl PathBuilder {
         }
         self.path
     }
+}
+
+/// A blend found at a corner: its geometry and how much it takes from each move.
+#[derive(Debug, Clone, Copy)]
+struct Blend {
+    geom: Geom,
+    /// Arc length taken from the end of the move before the corner (mm).
+    end_trim_prev: f64,
+    /// Arc length taken from the start of the move after it (mm).
+    start_trim_next: f64,
+}
+
+/// The stretch [from, to] (arc length) of a planar arc of at most one revolution, as
+/// an arc of its own (same centre, plane and direction).
+fn sub_arc(prim: &Primitive, from: f64, to: f64) -> Primitive {
+    let Primitive::Arc {
+        center,
+        plane,
+        sweep,
+        ..
+    } = *prim
+    else {
+        return *prim;
+    };
+    let turns = if sweep > 0.0 { 1 } else { -1 };
+    Primitive::arc(prim.point_at(from), prim.point_at(to), center, plane, turns)
 }
 
 /// Highest speed through the junction of two elements: a tangent break may use

@@ -1,0 +1,239 @@
+//! Blends at line–arc and arc–line corners: a circular fillet tangent to the line and
+//! to the arc's circle, in the arc's plane (planar arcs only; helices keep their
+//! stop). Written for softnc; LinuxCNC 2.9's arc blends (`blendmath.c`) were the model
+//! for blending these joins at all, not for the construction.
+//!
+//! Construction, for a line that runs into the corner C along u and an arc (centre c,
+//! radius R) that leaves C: the fillet touches the line at P₁ = C − d·u, so its centre
+//! is F = P₁ + r·n (n ⊥ u, towards the turn). Tangency to the circle,
+//! |F − c| = R + σr (σ = +1 outside, −1 inside), is linear in r:
+//! r = (R² − |w|²) / (2(w·n − σR)), w = P₁ − c. The fillet meets the circle at
+//! T = c + R·(F − c)/|F − c|. A candidate is kept only if it is a real blend: r > 0, it
+//! turns less than π, its tangent at T is the arc's (same direction), T lies on the arc
+//! within the arc length it may give, and every sampled point of it lies within the
+//! tolerance of the programmed line or arc. An arc–line corner is the same
+//! construction on the path run backwards.
+
+use softnc_core::{Primitive, Vec3};
+
+/// Points sampled along a candidate fillet for its deviation from the program.
+const DEVIATION_SAMPLES: usize = 32;
+/// Share of the tolerance the sampled deviation may use (the deviation between
+/// samples of a fillet of sweep < π is within a few per cent of the sampled one).
+const DEVIATION_SHARE: f64 = 0.9;
+/// Halvings of the line's trim tried before giving up on a blend.
+const TRIM_TRIES: usize = 16;
+
+/// The arc as seen from the corner: the circle, and the direction of travel away from
+/// the corner (`sense` · N × radial).
+#[derive(Debug, Clone, Copy)]
+pub struct ArcView {
+    /// Centre (in the plane of the corner).
+    pub center: Vec3,
+    /// Radius (mm).
+    pub radius: f64,
+    /// Unit normal of the arc's plane.
+    pub normal: Vec3,
+    /// +1 or −1: travel away from the corner is `sense`·N × (X − c)/R.
+    pub sense: f64,
+    /// Arc length of the arc from the corner (mm).
+    pub len: f64,
+}
+
+impl ArcView {
+    /// A planar arc, from its start (`at_end` false) or from its end run backwards.
+    /// None for helices, arcs whose end radius differs from the start's, and arcs of
+    /// more than one revolution.
+    pub fn of(p: &Primitive, at_end: bool) -> Option<ArcView> {
+        let Primitive::Arc {
+            center,
+            plane,
+            radius,
+            sweep,
+            normal_travel,
+            end,
+            ..
+        } = *p
+        else {
+            return None;
+        };
+        let (a, b, n) = plane.axes();
+        let re = (end[a] - center[a]).hypot(end[b] - center[b]);
+        if normal_travel != 0.0
+            || (re - radius).abs() > 1e-9 * radius.max(1.0)
+            || sweep.abs() >= std::f64::consts::TAU
+            || radius <= 0.0
+        {
+            return None;
+        }
+        let mut normal = Vec3::ZERO;
+        normal[n] = 1.0;
+        let s = sweep.signum();
+        Some(ArcView {
+            center,
+            radius,
+            normal,
+            sense: if at_end { -s } else { s },
+            len: p.length(),
+        })
+    }
+
+    /// Arc length from the corner `c0` to the circle point nearest `x`, in the
+    /// direction of travel away from the corner, in [0, 2πR).
+    fn arc_len_to(&self, c0: Vec3, x: Vec3) -> f64 {
+        let (p, q) = (c0 - self.center, x - self.center);
+        let ang = (p.cross(q).dot(self.normal) * self.sense).atan2(p.dot(q));
+        let ang = if ang < 0.0 {
+            ang + std::f64::consts::TAU
+        } else {
+            ang
+        };
+        ang * self.radius
+    }
+
+    /// Unit tangent (direction of travel away from the corner) at circle point `x`.
+    fn tangent(&self, x: Vec3) -> Vec3 {
+        self.normal.cross(x - self.center).unit() * self.sense
+    }
+}
+
+/// A fillet found for a corner, in the direction line → arc.
+#[derive(Debug, Clone, Copy)]
+pub struct Fillet {
+    /// Where it leaves the line (mm from the corner).
+    pub line_trim: f64,
+    /// Where it meets the arc (arc length from the corner, mm).
+    pub arc_trim: f64,
+    /// Centre.
+    pub center: Vec3,
+    /// Radius (mm).
+    pub radius: f64,
+    /// Point on the line where it starts.
+    pub p_line: Vec3,
+    /// Point on the arc where it ends.
+    pub p_arc: Vec3,
+    /// Turn (rad, in (0, π)).
+    pub sweep: f64,
+}
+
+/// Distance from `x` to the segment `a`–`b`.
+fn dist_segment(x: Vec3, a: Vec3, b: Vec3) -> f64 {
+    let ab = b - a;
+    let l2 = ab.dot(ab);
+    let t = if l2 > 0.0 {
+        ((x - a).dot(ab) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (x - (a + ab * t)).norm()
+}
+
+/// The fillet at corner `corner` between a line arriving along unit `u` (of which
+/// `line_avail` mm before the corner may be given) and an arc leaving it (`arc`, of
+/// which `arc_avail` mm may be given), within `tol_mm` of the program: the largest
+/// found trying the line's trim from `line_avail` down by halves.
+pub fn line_arc(
+    corner: Vec3,
+    u: Vec3,
+    line_avail: f64,
+    arc: &ArcView,
+    arc_avail: f64,
+    tol_mm: f64,
+) -> Option<Fillet> {
+    let t2 = arc.tangent(corner);
+    let perp = t2 - u * u.dot(t2);
+    if perp.norm() < 1e-9 || u.dot(arc.normal).abs() > 1e-9 {
+        return None; // tangent (or reversing) join, or a line out of the arc's plane
+    }
+    let n = perp.unit();
+    let line_far = corner - u * line_avail;
+    let mut d = line_avail;
+    for _ in 0..TRIM_TRIES {
+        if d <= 1e-9 {
+            return None;
+        }
+        if let Some(f) = candidate(corner, u, n, d, arc, arc_avail) {
+            if deviation(&f, corner, u, line_far, arc) <= DEVIATION_SHARE * tol_mm {
+                return Some(f);
+            }
+        }
+        d *= 0.5;
+    }
+    None
+}
+
+/// The fillet leaving the line `d` before the corner, if one is a real blend.
+fn candidate(
+    corner: Vec3,
+    u: Vec3,
+    n: Vec3,
+    d: f64,
+    arc: &ArcView,
+    arc_avail: f64,
+) -> Option<Fillet> {
+    let p1 = corner - u * d;
+    let w = p1 - arc.center;
+    let big_r = arc.radius;
+    let mut best: Option<Fillet> = None;
+    for sigma in [1.0, -1.0] {
+        let den = 2.0 * (w.dot(n) - sigma * big_r);
+        let r = (big_r * big_r - w.dot(w)) / den;
+        if !(r.is_finite() && r > 1e-6) {
+            continue;
+        }
+        let f = p1 + n * r;
+        let fc = f - arc.center;
+        if fc.norm() < 1e-12 || ((fc.norm() - (big_r + sigma * r)).abs() > 1e-7 * big_r.max(1.0)) {
+            continue;
+        }
+        let t = arc.center + fc.unit() * big_r;
+        // sweep from P₁ to T about F, in the direction of u at P₁
+        let (e1, e2) = ((p1 - f) * (1.0 / r), u);
+        let q = t - f;
+        let sweep = q.dot(e2).atan2(q.dot(e1));
+        if !(sweep > 1e-9 && sweep < std::f64::consts::PI - 1e-6) {
+            continue;
+        }
+        let t_fillet = e2 * sweep.cos() - e1 * sweep.sin();
+        if t_fillet.dot(arc.tangent(t)) < 1.0 - 1e-9 {
+            continue;
+        }
+        let arc_trim = arc.arc_len_to(corner, t);
+        if !(arc_trim > 1e-9 && arc_trim <= arc_avail) {
+            continue;
+        }
+        let this = Fillet {
+            line_trim: d,
+            arc_trim,
+            center: f,
+            radius: r,
+            p_line: p1,
+            p_arc: t,
+            sweep,
+        };
+        if best.is_none_or(|b| this.sweep < b.sweep) {
+            best = Some(this);
+        }
+    }
+    best
+}
+
+/// Largest distance of sampled fillet points from the programmed line and arc.
+fn deviation(f: &Fillet, corner: Vec3, u: Vec3, line_far: Vec3, arc: &ArcView) -> f64 {
+    let e1 = (f.p_line - f.center) * (1.0 / f.radius);
+    let e2 = u;
+    let mut worst = 0.0f64;
+    for k in 0..=DEVIATION_SAMPLES {
+        let phi = f.sweep * k as f64 / DEVIATION_SAMPLES as f64;
+        let x = f.center + e1 * (f.radius * phi.cos()) + e2 * (f.radius * phi.sin());
+        let to_line = dist_segment(x, line_far, corner);
+        let s = arc.arc_len_to(corner, x);
+        let to_arc = if s <= arc.len {
+            ((x - arc.center).norm() - arc.radius).abs()
+        } else {
+            (x - corner).norm()
+        };
+        worst = worst.max(to_line.min(to_arc));
+    }
+    worst
+}
