@@ -495,6 +495,29 @@ impl PathBuilder {
                     start_trim_next: f.line_trim,
                 })
             }
+            (Geom::Arc(arc_a), Geom::Arc(arc_b)) => {
+                let view = ArcView::of(&arc_b, false)?;
+                let f = fillet::arc_arc(
+                    arc_a.end(),
+                    &arc_a,
+                    (0.5 * a.len).min(a.len - a.start_trim),
+                    &view,
+                    0.5 * b.len,
+                    a.tolerance_mm.min(b.tolerance_mm),
+                )?;
+                let e1 = (f.p_line - f.center) * (1.0 / f.radius);
+                Some(Blend {
+                    geom: Geom::Blend {
+                        center: f.center,
+                        e1,
+                        e2: arc_a.tangent_at(a.len - f.line_trim),
+                        radius: f.radius,
+                        sweep: f.sweep,
+                    },
+                    end_trim_prev: f.line_trim,
+                    start_trim_next: f.arc_trim,
+                })
+            }
             _ => None,
         }?;
         let lim = &self.lim;

@@ -100,7 +100,7 @@ impl ArcView {
 /// A fillet found for a corner, in the direction line → arc.
 #[derive(Debug, Clone, Copy)]
 pub struct Fillet {
-    /// Where it leaves the line (mm from the corner).
+    /// Where it leaves the line (or first arc) (mm from the corner).
     pub line_trim: f64,
     /// Where it meets the arc (arc length from the corner, mm).
     pub arc_trim: f64,
@@ -152,8 +152,10 @@ pub fn line_arc(
         if d <= 1e-9 {
             return None;
         }
-        if let Some(f) = candidate(corner, u, n, d, arc, arc_avail) {
-            if deviation(&f, corner, u, line_far, arc) <= DEVIATION_SHARE * tol_mm {
+        let p1 = corner - u * d;
+        if let Some(f) = candidate(corner, p1, u, &[n], d, arc, arc_avail) {
+            let to_line = |x: Vec3| dist_segment(x, line_far, corner);
+            if deviation(&f, corner, u, to_line, arc) <= DEVIATION_SHARE * tol_mm {
                 return Some(f);
             }
         }
@@ -162,20 +164,68 @@ pub fn line_arc(
     None
 }
 
-/// The fillet leaving the line `d` before the corner, if one is a real blend.
+/// The fillet at corner `corner` between two arcs of one plane: `a` arriving (its
+/// programmed primitive, of which `a_avail` mm before the corner may be given) and
+/// `b` leaving (`b_avail` mm), within `tol_mm`: the largest found trying the first
+/// arc's trim from `a_avail` down by halves.
+pub fn arc_arc(
+    corner: Vec3,
+    a: &Primitive,
+    a_avail: f64,
+    b: &ArcView,
+    b_avail: f64,
+    tol_mm: f64,
+) -> Option<Fillet> {
+    let a_view = ArcView::of(a, true)?;
+    if (a_view.normal - b.normal).norm() > 1e-12 {
+        return None; // arcs in different planes
+    }
+    let a_len = a.length();
+    let t1 = a.tangent_at(a_len);
+    let t2 = b.tangent(corner);
+    if (t2 - t1).norm() < 1e-9 {
+        return None; // tangent join
+    }
+    let to_a = |x: Vec3| {
+        if a_view.arc_len_to(corner, x) <= a_view.len {
+            ((x - a_view.center).norm() - a_view.radius).abs()
+        } else {
+            (x - corner).norm()
+        }
+    };
+    let mut d = a_avail;
+    for _ in 0..TRIM_TRIES {
+        if d <= 1e-9 {
+            return None;
+        }
+        let p1 = a.point_at(a_len - d);
+        let u = a.tangent_at(a_len - d);
+        let radial = (p1 - a_view.center).unit();
+        if let Some(f) = candidate(corner, p1, u, &[radial, -radial], d, b, b_avail) {
+            if deviation(&f, corner, u, to_a, b) <= DEVIATION_SHARE * tol_mm {
+                return Some(f);
+            }
+        }
+        d *= 0.5;
+    }
+    None
+}
+
+/// The fillet leaving the first move at `p1` (direction of travel `u` there, `d` before
+/// the corner) with its centre along one of `normals`, if one is a real blend.
 fn candidate(
     corner: Vec3,
+    p1: Vec3,
     u: Vec3,
-    n: Vec3,
+    normals: &[Vec3],
     d: f64,
     arc: &ArcView,
     arc_avail: f64,
 ) -> Option<Fillet> {
-    let p1 = corner - u * d;
     let w = p1 - arc.center;
     let big_r = arc.radius;
     let mut best: Option<Fillet> = None;
-    for sigma in [1.0, -1.0] {
+    for (&n, sigma) in normals.iter().flat_map(|n| [(n, 1.0), (n, -1.0)]) {
         let den = 2.0 * (w.dot(n) - sigma * big_r);
         let r = (big_r * big_r - w.dot(w)) / den;
         if !(r.is_finite() && r > 1e-6) {
@@ -218,15 +268,22 @@ fn candidate(
     best
 }
 
-/// Largest distance of sampled fillet points from the programmed line and arc.
-fn deviation(f: &Fillet, corner: Vec3, u: Vec3, line_far: Vec3, arc: &ArcView) -> f64 {
+/// Largest distance of sampled fillet points from the programmed moves (`to_first`:
+/// distance to the move before the corner; `u`: the fillet's start tangent).
+fn deviation(
+    f: &Fillet,
+    corner: Vec3,
+    u: Vec3,
+    to_first: impl Fn(Vec3) -> f64,
+    arc: &ArcView,
+) -> f64 {
     let e1 = (f.p_line - f.center) * (1.0 / f.radius);
     let e2 = u;
     let mut worst = 0.0f64;
     for k in 0..=DEVIATION_SAMPLES {
         let phi = f.sweep * k as f64 / DEVIATION_SAMPLES as f64;
         let x = f.center + e1 * (f.radius * phi.cos()) + e2 * (f.radius * phi.sin());
-        let to_line = dist_segment(x, line_far, corner);
+        let to_line = to_first(x);
         let s = arc.arc_len_to(corner, x);
         let to_arc = if s <= arc.len {
             ((x - arc.center).norm() - arc.radius).abs()

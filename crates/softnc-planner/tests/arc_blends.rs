@@ -186,3 +186,68 @@ proptest! {
         }
     }
 }
+
+/// Two arcs of one plane meeting at a corner (a sawtooth of arcs), both senses.
+fn arc_arc(plane: Plane, first_ccw: bool, second_ccw: bool, tol: f64) -> Builder {
+    let (a, bb, _) = plane.axes();
+    let mut b = Builder::new(Vec3::ZERO);
+    b.mode = PathMode::Blend {
+        tolerance_mm: Some(tol),
+        naive_cam_mm: None,
+    };
+    let at = |x: f64, y: f64| {
+        let mut v = Vec3::ZERO;
+        v[a] = x;
+        v[bb] = y;
+        v
+    };
+    let turns = |ccw: bool| if ccw { 1 } else { -1 };
+    // first arc: from the origin to (20, 0) about (10, ∓6); second: on to (40, 0)
+    // about (30, ±6)
+    let s1 = if first_ccw { -6.0 } else { 6.0 };
+    b.arc(at(20.0, 0.0), at(10.0, s1), plane, turns(first_ccw), 6000.0);
+    let s2 = if second_ccw { -6.0 } else { 6.0 };
+    b.arc(
+        at(40.0, 0.0),
+        at(30.0, s2),
+        plane,
+        turns(second_ccw),
+        6000.0,
+    );
+    b
+}
+
+#[test]
+fn arc_arc_corners_of_one_plane_are_blended_within_limits_and_tolerance() {
+    for fp in [FeedProfile::Trapezoidal, FeedProfile::SCurve] {
+        let p = profile(fp);
+        for plane in [Plane::XY, Plane::XZ, Plane::YZ] {
+            for (c1, c2) in [(true, true), (true, false), (false, true), (false, false)] {
+                let tol = 0.05;
+                let b = arc_arc(plane, c1, c2, tol);
+                let plan = plan_of(&b, &p);
+                let s = run(&plan);
+                let what = format!("{fp:?} {plane:?} {c1} {c2}");
+                let r = limit_ratios(&s, &p);
+                assert!(r[0] <= 1.0 + 1e-9 && r[1] <= 1.0 + 1e-9, "{what}: {r:?}");
+                if fp == FeedProfile::SCurve {
+                    assert!(r[2] <= 1.0 + 1e-9, "{what}: jerk {r:?}");
+                }
+                assert!((s.last().unwrap().pos_mm - b.pos).norm() < 1e-9, "{what}");
+                let dev = deviation_from_program(&s, &b);
+                assert!(dev <= tol + 1e-6, "{what}: deviation {dev}");
+                if fp == FeedProfile::Trapezoidal {
+                    let v = min_inner_speed(&s, p.interpolation_cycle_s);
+                    assert!(v > 10.0, "{what}: slowest {v} mm/s");
+                }
+                for (k, m) in b.motions.iter().enumerate() {
+                    assert_eq!(
+                        plan.motion_primitive(k),
+                        softnc_planner::build::motion_primitive(m),
+                        "{what}: motion {k}"
+                    );
+                }
+            }
+        }
+    }
+}
