@@ -136,6 +136,9 @@ struct Pending {
     dwell_s: f64,
     /// Arc length taken from the start by the blend at the previous corner.
     start_trim: f64,
+    /// Arcs: where the blend at the previous corner meets it (the sub-arc starts
+    /// exactly there).
+    start_at: Option<Vec3>,
 }
 
 /// The path built so far: limits and geometry of every element, in order.
@@ -394,12 +397,14 @@ impl PathBuilder {
             tolerance_mm: tol,
             dwell_s: 0.0,
             start_trim: 0.0,
+            start_at: None,
         };
         match self.pending.take() {
             Some(prev) => {
                 let blend = self.blend(&prev, &next);
                 if let Some(b) = blend {
                     next.start_trim = b.start_trim_next;
+                    next.start_at = b.next_start_at;
                 }
                 self.emit(&prev, blend, false);
             }
@@ -465,6 +470,8 @@ impl PathBuilder {
                     },
                     end_trim_prev: f.line_trim,
                     start_trim_next: f.arc_trim,
+                    prev_end_at: None,
+                    next_start_at: Some(f.p_arc),
                 })
             }
             (Geom::Arc(arc), Geom::Line { start, .. }) => {
@@ -493,6 +500,8 @@ impl PathBuilder {
                     },
                     end_trim_prev: f.arc_trim,
                     start_trim_next: f.line_trim,
+                    prev_end_at: Some(f.p_arc),
+                    next_start_at: None,
                 })
             }
             (Geom::Arc(arc_a), Geom::Arc(arc_b)) => {
@@ -516,6 +525,8 @@ impl PathBuilder {
                     },
                     end_trim_prev: f.line_trim,
                     start_trim_next: f.arc_trim,
+                    prev_end_at: Some(f.p_line),
+                    next_start_at: Some(f.p_arc),
                 })
             }
             _ => None,
@@ -574,6 +585,8 @@ impl PathBuilder {
             geom: blend,
             end_trim_prev: d,
             start_trim_next: d,
+            prev_end_at: None,
+            next_start_at: None,
         })
     }
 
@@ -619,7 +632,11 @@ impl PathBuilder {
                         };
                         (geom, ElementShape::line(0.0, dir))
                     } else {
-                        let sub = sub_arc(&prim, from, to);
+                        let at_from = p.start_at.unwrap_or_else(|| prim.point_at(from));
+                        let at_to = blend
+                            .and_then(|b| b.prev_end_at)
+                            .unwrap_or_else(|| prim.point_at(to));
+                        let sub = sub_arc(&prim, at_from, at_to);
                         (Geom::Arc(sub), ElementShape::arc(&sub))
                     }
                 }
@@ -744,11 +761,15 @@ struct Blend {
     end_trim_prev: f64,
     /// Arc length taken from the start of the move after it (mm).
     start_trim_next: f64,
+    /// Where the blend leaves the move before it, if that is an arc.
+    prev_end_at: Option<Vec3>,
+    /// Where the blend meets the move after it, if that is an arc.
+    next_start_at: Option<Vec3>,
 }
 
-/// The stretch [from, to] (arc length) of a planar arc of at most one revolution, as
-/// an arc of its own (same centre, plane and direction).
-fn sub_arc(prim: &Primitive, from: f64, to: f64) -> Primitive {
+/// The stretch of a planar arc of at most one revolution between its points `from`
+/// and `to`, as an arc of its own (same centre, plane and direction).
+fn sub_arc(prim: &Primitive, from: Vec3, to: Vec3) -> Primitive {
     let Primitive::Arc {
         center,
         plane,
@@ -759,7 +780,7 @@ fn sub_arc(prim: &Primitive, from: f64, to: f64) -> Primitive {
         return *prim;
     };
     let turns = if sweep > 0.0 { 1 } else { -1 };
-    Primitive::arc(prim.point_at(from), prim.point_at(to), center, plane, turns)
+    Primitive::arc(from, to, center, plane, turns)
 }
 
 /// Highest speed through the junction of two elements: a tangent break may use

@@ -21,6 +21,10 @@ const DEVIATION_SAMPLES: usize = 32;
 /// Share of the tolerance the sampled deviation may use (the deviation between
 /// samples of a fillet of sweep < π is within a few per cent of the sampled one).
 const DEVIATION_SHARE: f64 = 0.9;
+/// Largest difference between an arc's start and end radius (CAM rounding) for which
+/// it is blended: near each end it is taken as the circle through that end, the
+/// sub-arc between the blends keeps the programmed change of radius.
+const MAX_RADIUS_MISMATCH_MM: f64 = 1e-4;
 /// Halvings of the line's trim tried before giving up on a blend.
 const TRIM_TRIES: usize = 16;
 
@@ -60,7 +64,7 @@ impl ArcView {
         let (a, b, n) = plane.axes();
         let re = (end[a] - center[a]).hypot(end[b] - center[b]);
         if normal_travel != 0.0
-            || (re - radius).abs() > 1e-9 * radius.max(1.0)
+            || (re - radius).abs() > MAX_RADIUS_MISMATCH_MM
             || sweep.abs() >= std::f64::consts::TAU
             || radius <= 0.0
         {
@@ -71,7 +75,9 @@ impl ArcView {
         let s = sweep.signum();
         Some(ArcView {
             center,
-            radius,
+            // seen from its end, the circle through the end point (the programmed
+            // radius may change along the arc by up to MAX_RADIUS_MISMATCH_MM)
+            radius: if at_end { re } else { radius },
             normal,
             sense: if at_end { -s } else { s },
             len: p.length(),

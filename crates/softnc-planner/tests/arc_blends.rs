@@ -188,7 +188,9 @@ proptest! {
 }
 
 /// Two arcs of one plane meeting at a corner (a sawtooth of arcs), both senses.
-fn arc_arc(plane: Plane, first_ccw: bool, second_ccw: bool, tol: f64) -> Builder {
+/// `wobble_mm`: the corner moved along the first axis, so that the first arc's end
+/// radius differs from its start radius as CAM rounding makes it.
+fn arc_arc(plane: Plane, first_ccw: bool, second_ccw: bool, tol: f64, wobble_mm: f64) -> Builder {
     let (a, bb, _) = plane.axes();
     let mut b = Builder::new(Vec3::ZERO);
     b.mode = PathMode::Blend {
@@ -205,7 +207,13 @@ fn arc_arc(plane: Plane, first_ccw: bool, second_ccw: bool, tol: f64) -> Builder
     // first arc: from the origin to (20, 0) about (10, ∓6); second: on to (40, 0)
     // about (30, ±6)
     let s1 = if first_ccw { -6.0 } else { 6.0 };
-    b.arc(at(20.0, 0.0), at(10.0, s1), plane, turns(first_ccw), 6000.0);
+    b.arc(
+        at(20.0 + wobble_mm, 0.0),
+        at(10.0, s1),
+        plane,
+        turns(first_ccw),
+        6000.0,
+    );
     let s2 = if second_ccw { -6.0 } else { 6.0 };
     b.arc(
         at(40.0, 0.0),
@@ -222,12 +230,13 @@ fn arc_arc_corners_of_one_plane_are_blended_within_limits_and_tolerance() {
     for fp in [FeedProfile::Trapezoidal, FeedProfile::SCurve] {
         let p = profile(fp);
         for plane in [Plane::XY, Plane::XZ, Plane::YZ] {
-            for (c1, c2) in [(true, true), (true, false), (false, true), (false, false)] {
+            let senses = [(true, true), (true, false), (false, true), (false, false)];
+            for ((c1, c2), wobble) in senses.into_iter().flat_map(|c| [(c, 0.0), (c, 6e-5)]) {
                 let tol = 0.05;
-                let b = arc_arc(plane, c1, c2, tol);
+                let b = arc_arc(plane, c1, c2, tol, wobble);
                 let plan = plan_of(&b, &p);
                 let s = run(&plan);
-                let what = format!("{fp:?} {plane:?} {c1} {c2}");
+                let what = format!("{fp:?} {plane:?} {c1} {c2} wobble {wobble}");
                 let r = limit_ratios(&s, &p);
                 assert!(r[0] <= 1.0 + 1e-9 && r[1] <= 1.0 + 1e-9, "{what}: {r:?}");
                 if fp == FeedProfile::SCurve {
