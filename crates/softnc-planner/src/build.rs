@@ -450,7 +450,7 @@ impl PathBuilder {
         let found = match (a.geom, b.geom) {
             (Geom::Line { .. }, Geom::Line { .. }) => self.blend_lines(a, b),
             (Geom::Line { end, .. }, Geom::Arc(arc)) => {
-                let view = ArcView::of(&arc, false)?;
+                let view = ArcView::of(&arc, false, self.max_drift_rad())?;
                 let f = fillet::line_arc(
                     end,
                     a.dir,
@@ -476,7 +476,7 @@ impl PathBuilder {
             }
             (Geom::Arc(arc), Geom::Line { start, .. }) => {
                 // the line–arc construction on the path run backwards
-                let view = ArcView::of(&arc, true)?;
+                let view = ArcView::of(&arc, true, self.max_drift_rad())?;
                 let f = fillet::line_arc(
                     start,
                     -b.dir,
@@ -505,7 +505,7 @@ impl PathBuilder {
                 })
             }
             (Geom::Arc(arc_a), Geom::Arc(arc_b)) => {
-                let view = ArcView::of(&arc_b, false)?;
+                let view = ArcView::of(&arc_b, false, self.max_drift_rad())?;
                 let f = fillet::arc_arc(
                     arc_a.end(),
                     &arc_a,
@@ -513,6 +513,7 @@ impl PathBuilder {
                     &view,
                     0.5 * b.len,
                     a.tolerance_mm.min(b.tolerance_mm),
+                    self.max_drift_rad(),
                 )?;
                 let e1 = (f.p_line - f.center) * (1.0 / f.radius);
                 Some(Blend {
@@ -546,6 +547,16 @@ impl PathBuilder {
             }
         }
         Some(found)
+    }
+
+    /// The largest angle between a blended arc's tangent and its circle's (rad): the
+    /// velocity step it makes at the highest path speed, v·angle per cycle, stays
+    /// within the kink share of every axis's acceleration.
+    fn max_drift_rad(&self) -> f64 {
+        let lim = &self.lim;
+        let kink = lim.kink_acc.iter().cloned().fold(f64::INFINITY, f64::min);
+        let v_top = Vec3::new(lim.vmax[0], lim.vmax[1], lim.vmax[2]).norm();
+        kink * lim.cycle_s / v_top
     }
 
     /// Blend at a line–line corner.

@@ -46,9 +46,13 @@ pub struct ArcView {
 
 impl ArcView {
     /// A planar arc, from its start (`at_end` false) or from its end run backwards.
-    /// None for helices, arcs whose end radius differs from the start's, and arcs of
-    /// more than one revolution.
-    pub fn of(p: &Primitive, at_end: bool) -> Option<ArcView> {
+    /// None for helices, arcs of more than one revolution, and arcs whose end radius
+    /// differs from the start's by more than `MAX_RADIUS_MISMATCH_MM` or turns their
+    /// tangent away from the circle's by more than `max_drift_rad` (such an arc runs
+    /// as a spiral whose tangent leaves the circle's by ≈ ΔR/(R·sweep); a blend
+    /// touching it is tangent to the circle, so the angle is a kink the junction speed
+    /// does not see: the caller bounds it by what the kink share allows at top speed).
+    pub fn of(p: &Primitive, at_end: bool, max_drift_rad: f64) -> Option<ArcView> {
         let Primitive::Arc {
             center,
             plane,
@@ -65,6 +69,7 @@ impl ArcView {
         let re = (end[a] - center[a]).hypot(end[b] - center[b]);
         if normal_travel != 0.0
             || (re - radius).abs() > MAX_RADIUS_MISMATCH_MM
+            || 2.0 * (re - radius).abs() > max_drift_rad * radius * sweep.abs()
             || sweep.abs() >= std::f64::consts::TAU
             || radius <= 0.0
         {
@@ -181,8 +186,9 @@ pub fn arc_arc(
     b: &ArcView,
     b_avail: f64,
     tol_mm: f64,
+    max_drift_rad: f64,
 ) -> Option<Fillet> {
-    let a_view = ArcView::of(a, true)?;
+    let a_view = ArcView::of(a, true, max_drift_rad)?;
     if (a_view.normal - b.normal).norm() > 1e-12 {
         return None; // arcs in different planes
     }
