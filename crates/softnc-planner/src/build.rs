@@ -85,6 +85,8 @@ pub struct Limits {
     pub profile: FeedProfile,
     /// Where acc/dec acts: after interpolation, tangent breaks pass at the feed.
     pub acc_dec: AccDec,
+    /// Blend corners that involve arcs (`planner.arc_blends`).
+    pub arc_blends: bool,
     /// S-curve only: global tangential acceleration (mm/s²).
     pub scurve_acc: f64,
     /// S-curve only: smoothing window (s).
@@ -114,6 +116,7 @@ impl Limits {
             tolerance_mm: p.planner.tolerance_mm,
             profile: p.planner.feed_profile,
             acc_dec: p.planner.acc_dec,
+            arc_blends: p.planner.arc_blends,
             scurve_acc,
             scurve_window_s: window,
         }
@@ -447,6 +450,12 @@ impl PathBuilder {
         if a.exact_stop || a.dwell_s > 0.0 {
             return None;
         }
+        if !matches!((a.geom, b.geom), (Geom::Line { .. }, Geom::Line { .. }))
+            && (!self.lim.arc_blends || self.kink_at_speed(a, b))
+        {
+            // arc blends off, or a tangent join taken at speed that needs none
+            return None;
+        }
         let found = match (a.geom, b.geom) {
             (Geom::Line { .. }, Geom::Line { .. }) => self.blend_lines(a, b),
             (Geom::Line { end, .. }, Geom::Arc(arc)) => {
@@ -557,6 +566,28 @@ impl PathBuilder {
         let kink = lim.kink_acc.iter().cloned().fold(f64::INFINITY, f64::min);
         let v_top = Vec3::new(lim.vmax[0], lim.vmax[1], lim.vmax[2]).norm();
         kink * lim.cycle_s / v_top
+    }
+
+    /// Whether the tangent break between `a` and `b` is small enough that the kink
+    /// share passes it at the feed of both (and the axes' top speed): no blend then.
+    fn kink_at_speed(&self, a: &Pending, b: &Pending) -> bool {
+        let t1 = match a.geom {
+            Geom::Line { .. } => a.dir,
+            Geom::Arc(p) => p.tangent_at(a.len),
+            Geom::Blend { .. } => return false,
+        };
+        let t2 = match b.geom {
+            Geom::Line { .. } => b.dir,
+            Geom::Arc(p) => p.tangent_at(0.0),
+            Geom::Blend { .. } => return false,
+        };
+        let lim = &self.lim;
+        let dt = t2 - t1;
+        let v_top = Vec3::new(lim.vmax[0], lim.vmax[1], lim.vmax[2]).norm();
+        let v = a.feed_mm_per_s.min(b.feed_mm_per_s).min(v_top);
+        lim.profile == FeedProfile::Trapezoidal
+            && lim.acc_dec == AccDec::BeforeInterpolation
+            && (0..3).all(|i| dt[i].abs() * v <= lim.kink_acc[i] * lim.cycle_s)
     }
 
     /// Blend at a line–line corner.
