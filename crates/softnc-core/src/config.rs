@@ -107,6 +107,13 @@ pub struct PlannerConfig {
     /// Where acceleration/deceleration acts (default: before interpolation).
     #[serde(default)]
     pub acc_dec: AccDec,
+    /// Blend line–arc, arc–line and arc–arc corners with circular fillets (planar
+    /// arcs; softnc-planner `fillet.rs`) instead of stopping there. Default off: it
+    /// is faster on the machine (LinuxCNC TP programs: 0.98× LinuxCNC's total time
+    /// against 1.00× without) but plans CAM line/arc programs several times slower
+    /// (docs/planner.md).
+    #[serde(default)]
+    pub arc_blends: bool,
 }
 
 fn default_max_override() -> f64 {

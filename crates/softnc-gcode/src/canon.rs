@@ -18,12 +18,19 @@ pub enum PathMode {
     Blend {
         /// Largest deviation from the programmed corner (mm).
         tolerance_mm: Option<f64>,
+        /// G64 Q q (mm): LinuxCNC's "naive CAM" tolerance. Consecutive G1 lines whose
+        /// end points all lie within q of one straight line are run as that one line.
+        /// `None`: no merging (no Q, or Q0).
+        naive_cam_mm: Option<f64>,
     },
 }
 
 impl Default for PathMode {
     fn default() -> Self {
-        PathMode::Blend { tolerance_mm: None }
+        PathMode::Blend {
+            tolerance_mm: None,
+            naive_cam_mm: None,
+        }
     }
 }
 

@@ -1050,9 +1050,10 @@ impl<'a> Interp<'a> {
                 self.exact_stop_code = c;
             }
             Some(640) => {
-                let p = b.p_number;
+                let (p, q) = (b.p_number, b.q_number);
                 self.path = PathMode::Blend {
                     tolerance_mm: (p > 0.0).then_some(p * s),
+                    naive_cam_mm: (q > 0.0).then_some(q * s),
                 };
             }
             _ => {}

@@ -184,18 +184,26 @@ fn offsets_and_path_modes() {
     assert_eq!(
         modes[3],
         PathMode::Blend {
-            tolerance_mm: Some(0.05)
+            tolerance_mm: Some(0.05),
+            naive_cam_mm: Some(0.01),
         }
     );
     assert!(matches!(p.motions[4].kind, MotionKind::Dwell { seconds } if seconds == 0.5));
-    assert_eq!(modes[5], PathMode::Blend { tolerance_mm: None }); // G64
-                                                                  // inch: G64 P in inches, feeds in mm/min
-    let p =
-        softnc_gcode::read_program("G20 G64 P0.001\nG1 X1 F10\nM2\n", "t.ngc", &profile).unwrap();
+    assert_eq!(
+        modes[5],
+        PathMode::Blend {
+            tolerance_mm: None,
+            naive_cam_mm: None,
+        }
+    ); // G64
+       // inch: G64 P and Q in inches, feeds in mm/min
+    let p = softnc_gcode::read_program("G20 G64 P0.001 Q0.002\nG1 X1 F10\nM2\n", "t.ngc", &profile)
+        .unwrap();
     assert_eq!(
         p.motions[0].path_mode,
         PathMode::Blend {
-            tolerance_mm: Some(0.0254)
+            tolerance_mm: Some(0.0254),
+            naive_cam_mm: Some(0.0508),
         }
     );
     assert!(

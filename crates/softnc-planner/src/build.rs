@@ -1,15 +1,16 @@
 //! From canonical motions to path segments: machine coordinates, blends at corners
 //! (G64), exact stops (G61/G9), per-segment limits and junction speeds.
 
+use crate::fillet::{self, ArcView};
 use crate::path::{element_limits, ElementShape, Geom};
 use softnc_core::{AccDec, FeedProfile, MachineProfile, Primitive, Vec3};
 use softnc_gcode::{Motion, MotionKind, PathMode, Program};
 
-/// Fraction of every axis limit the planner plans to, so that rounding never takes
-/// a sample past 1.00× of a limit.
-pub const LIMIT_MARGIN: f64 = 0.98;
 /// Share of an axis's acceleration that a small tangent discontinuity between two
 /// elements may use, per sample (trapezoidal; the S-curve profile stops at them).
+/// The elements plan to the rest, `1 − KINK_SHARE`, so that a kink taken while the
+/// path accelerates at its limit still keeps every sample within 1.000× (no blanket
+/// margin: velocity and jerk are planned to 1.000× of the profile's limits).
 pub const KINK_SHARE: f64 = 0.01;
 /// S-curve: share of the jerk limit spent on tangential jerk.
 pub const SCURVE_TANGENTIAL_JERK_SHARE: f64 = 0.4;
@@ -66,11 +67,15 @@ pub struct Segment {
 /// What the builder needs from the machine profile.
 #[derive(Debug, Clone, Copy)]
 pub struct Limits {
-    /// Per-axis velocity limits with the margin applied (mm/s).
+    /// Per-axis velocity limits (mm/s).
     pub vmax: [f64; 3],
-    /// Per-axis acceleration limits with the margin applied (mm/s²).
+    /// Per-axis acceleration the elements plan to: the limit less the kinks' share
+    /// (`1 − KINK_SHARE`) (mm/s²).
     pub amax: [f64; 3],
-    /// Per-axis jerk limits with the margin applied (mm/s³).
+    /// Per-axis acceleration a kink may use over one cycle: `KINK_SHARE` of the
+    /// limit (mm/s²).
+    pub kink_acc: [f64; 3],
+    /// Per-axis jerk limits (mm/s³).
     pub jmax: [f64; 3],
     /// Interpolation cycle T (s).
     pub cycle_s: f64,
@@ -80,6 +85,8 @@ pub struct Limits {
     pub profile: FeedProfile,
     /// Where acc/dec acts: after interpolation, tangent breaks pass at the feed.
     pub acc_dec: AccDec,
+    /// Blend corners that involve arcs (`planner.arc_blends`).
+    pub arc_blends: bool,
     /// S-curve only: global tangential acceleration (mm/s²).
     pub scurve_acc: f64,
     /// S-curve only: smoothing window (s).
@@ -89,9 +96,10 @@ pub struct Limits {
 impl Limits {
     /// Limits of a machine profile.
     pub fn from_profile(p: &MachineProfile) -> Limits {
-        let vmax = p.max_vel().map(|v| v * LIMIT_MARGIN);
-        let amax = p.max_acc().map(|v| v * LIMIT_MARGIN);
-        let jmax = p.max_jerk().map(|v| v * LIMIT_MARGIN);
+        let vmax = p.max_vel();
+        let amax = p.max_acc().map(|a| a * (1.0 - KINK_SHARE));
+        let kink_acc = p.max_acc().map(|a| a * KINK_SHARE);
+        let jmax = p.max_jerk();
         let a_min = amax.iter().cloned().fold(f64::INFINITY, f64::min);
         let j_min = jmax.iter().cloned().fold(f64::INFINITY, f64::min);
         let scurve_acc = crate::path::ARC_TANGENTIAL_SHARE * a_min;
@@ -102,11 +110,13 @@ impl Limits {
         Limits {
             vmax,
             amax,
+            kink_acc,
             jmax,
             cycle_s,
             tolerance_mm: p.planner.tolerance_mm,
             profile: p.planner.feed_profile,
             acc_dec: p.planner.acc_dec,
+            arc_blends: p.planner.arc_blends,
             scurve_acc,
             scurve_window_s: window,
         }
@@ -129,6 +139,9 @@ struct Pending {
     dwell_s: f64,
     /// Arc length taken from the start by the blend at the previous corner.
     start_trim: f64,
+    /// Arcs: where the blend at the previous corner meets it (the sub-arc starts
+    /// exactly there).
+    start_at: Option<Vec3>,
 }
 
 /// The path built so far: limits and geometry of every element, in order.
@@ -151,19 +164,18 @@ impl Path {
         let Ok(m) = u32::try_from(index) else {
             return None;
         };
+        // orphans first: a G64 Q merged line is an element of the chain's last
+        // motion, whose programmed line is an orphan
+        if let Ok(k) = self.orphans.binary_search_by_key(&m, |o| o.0) {
+            return Some(self.orphans[k].1);
+        }
         let segs = &self.segs[self.lead_in..];
         let from = segs.partition_point(|s| s.motion < m);
-        let found = segs[from..]
+        segs[from..]
             .iter()
             .zip(&self.geoms[self.lead_in + from..])
             .take_while(|(s, _)| s.motion == m)
-            .find_map(|(_, g)| g.programmed());
-        found.or_else(|| {
-            self.orphans
-                .binary_search_by_key(&m, |o| o.0)
-                .ok()
-                .map(|k| self.orphans[k].1)
-        })
+            .find_map(|(_, g)| g.programmed())
     }
 }
 
@@ -178,6 +190,65 @@ pub struct PathBuilder {
     s0: f64,
     /// End tangent of the last element pushed.
     prev_end_tangent: Vec3,
+    /// G64 Q: the G1 lines held back while they stay within Q of one line.
+    chain: NaiveCamChain,
+}
+
+/// LinuxCNC's "naive CAM" merging (G64 Q, its `emccanon.cc` `see_segment` /
+/// `flush_segments`, written anew here): consecutive G1 lines with the same feed and
+/// path mode are held back while every end point of the chain lies within Q of the
+/// straight line from the chain's start to its latest end, at most
+/// `NAIVE_CAM_MAX_CHAIN` of them; the chain then runs as that one line. Every
+/// programmed vertex is within Q of the merged line, and so (distance to a segment is
+/// convex) is the whole programmed polyline, and every point of the merged line is
+/// within Q of it: the path deviates at most Q + the blend tolerance.
+#[derive(Debug, Default)]
+struct NaiveCamChain {
+    /// The last motion of the chain (its feed and path mode stand for the chain).
+    last: Option<Motion>,
+    /// Start point of the chain (machine coordinates).
+    start: Vec3,
+    /// Q (mm).
+    q_mm: f64,
+    /// Index and programmed line of every motion in the chain.
+    lines: Vec<(u32, Primitive)>,
+}
+
+/// Most G1 lines one G64 Q chain merges (LinuxCNC: 100).
+pub const NAIVE_CAM_MAX_CHAIN: usize = 100;
+
+/// Distance from `p` to the segment `a`–`b` (mm).
+fn dist_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f64 {
+    let ab = b - a;
+    let l2 = ab.dot(ab);
+    let t = if l2 > 0.0 {
+        ((p - a).dot(ab) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p - (a + ab * t)).norm()
+}
+
+impl NaiveCamChain {
+    /// Whether motion `m` (a G1 line `start` → `end` with Q = `q`) continues the chain.
+    fn links(&self, m: &Motion, end: Vec3, q: f64) -> bool {
+        let Some(last) = &self.last else {
+            return false;
+        };
+        let same_feed = matches!(
+            (last.kind, m.kind),
+            (MotionKind::Feed { feed_mm_per_min: f1, .. }, MotionKind::Feed { feed_mm_per_min: f2, .. })
+                if f1 == f2
+        );
+        same_feed
+            && last.path_mode == m.path_mode
+            && q == self.q_mm
+            && self.lines.len() < NAIVE_CAM_MAX_CHAIN
+            && self
+                .lines
+                .iter()
+                .all(|(_, l)| dist_to_segment(l.end(), self.start, end) <= q)
+    }
 }
 
 impl PathBuilder {
@@ -197,16 +268,76 @@ impl PathBuilder {
             last_point: None,
             s0: 0.0,
             prev_end_tangent: Vec3::ZERO,
+            chain: NaiveCamChain::default(),
         }
     }
 
     /// Add motion number `index`; `prim` is its programmed primitive in machine
-    /// coordinates (None for dwells).
+    /// coordinates (None for dwells). G1 lines under G64 Q are merged first.
     pub fn push(&mut self, index: usize, m: &Motion, prim: Option<Primitive>) {
+        let q = match m.path_mode {
+            PathMode::Blend {
+                naive_cam_mm: Some(q),
+                ..
+            } if q > 0.0 => q,
+            _ => 0.0,
+        };
+        let line = match (m.kind, prim) {
+            (MotionKind::Feed { .. }, Some(l @ Primitive::Line { start, end }))
+                if q > 0.0 && (end - start).norm() >= 1e-9 =>
+            {
+                Some(l)
+            }
+            _ => None,
+        };
+        if let Some(l) = line {
+            if self.chain.links(m, l.end(), q) {
+                self.chain.lines.push((index as u32, l));
+                self.chain.last = Some(*m);
+                return;
+            }
+        }
+        self.flush_chain();
+        match line {
+            Some(l) => {
+                self.chain.last = Some(*m);
+                self.chain.start = l.start();
+                self.chain.q_mm = q;
+                self.chain.lines.push((index as u32, l));
+            }
+            None => self.push_unmerged(index, m, prim),
+        }
+    }
+
+    /// Run the held-back G64 Q chain as one line (its motions' programmed lines go to
+    /// the orphans; the merged element belongs to the chain's last motion).
+    fn flush_chain(&mut self) {
+        let Some(last) = self.chain.last.take() else {
+            return;
+        };
+        let n = self.chain.lines.len();
+        let Some(&(index, last_line)) = self.chain.lines.last() else {
+            return;
+        };
+        let merged = if n > 1 {
+            self.path.orphans.extend(self.chain.lines.iter().copied());
+            Primitive::Line {
+                start: self.chain.start,
+                end: last_line.end(),
+            }
+        } else {
+            last_line
+        };
+        self.chain.lines.clear();
+        self.push_unmerged(index as usize, &last, Some(merged));
+    }
+
+    /// Add motion number `index` as it is programmed (no G64 Q merging).
+    fn push_unmerged(&mut self, index: usize, m: &Motion, prim: Option<Primitive>) {
         let lim = &self.lim;
         let (exact, tol) = match m.path_mode {
             PathMode::ExactStop => (true, lim.tolerance_mm),
-            PathMode::Blend { tolerance_mm } => match tolerance_mm {
+            PathMode::Blend { tolerance_mm, .. } => match tolerance_mm {
                 Some(p) if p > 0.0 => (false, p),
                 _ => (false, lim.tolerance_mm),
             },
@@ -269,12 +400,14 @@ impl PathBuilder {
             tolerance_mm: tol,
             dwell_s: 0.0,
             start_trim: 0.0,
+            start_at: None,
         };
         match self.pending.take() {
             Some(prev) => {
                 let blend = self.blend(&prev, &next);
-                if let Some((_, d)) = blend {
-                    next.start_trim = d;
+                if let Some(b) = blend {
+                    next.start_trim = b.start_trim_next;
+                    next.start_at = b.next_start_at;
                 }
                 self.emit(&prev, blend, false);
             }
@@ -310,16 +443,155 @@ impl PathBuilder {
         }
     }
 
-    /// Blend at a line-line corner: a circular arc tangent to both lines, and how far
-    /// it trims each (G64 P tolerance, half of each line at most).
-    fn blend(&self, a: &Pending, b: &Pending) -> Option<(Geom, f64)> {
-        let lim = &self.lim;
+    /// Blend at a corner: a circular arc tangent to both moves (line–line here,
+    /// line–arc and arc–line in [`crate::fillet`]), and how far it trims each (G64 P
+    /// tolerance, half of each move at most).
+    fn blend(&self, a: &Pending, b: &Pending) -> Option<Blend> {
         if a.exact_stop || a.dwell_s > 0.0 {
             return None;
         }
-        let (Geom::Line { .. }, Geom::Line { .. }) = (a.geom, b.geom) else {
+        if !matches!((a.geom, b.geom), (Geom::Line { .. }, Geom::Line { .. }))
+            && (!self.lim.arc_blends || self.kink_at_speed(a, b))
+        {
+            // arc blends off, or a tangent join taken at speed that needs none
             return None;
+        }
+        let found = match (a.geom, b.geom) {
+            (Geom::Line { .. }, Geom::Line { .. }) => self.blend_lines(a, b),
+            (Geom::Line { end, .. }, Geom::Arc(arc)) => {
+                let view = ArcView::of(&arc, false, self.max_drift_rad())?;
+                let f = fillet::line_arc(
+                    end,
+                    a.dir,
+                    (0.5 * a.len).min(a.len - a.start_trim),
+                    &view,
+                    0.5 * b.len,
+                    a.tolerance_mm.min(b.tolerance_mm),
+                )?;
+                let e1 = (f.p_line - f.center) * (1.0 / f.radius);
+                Some(Blend {
+                    geom: Geom::Blend {
+                        center: f.center,
+                        e1,
+                        e2: a.dir,
+                        radius: f.radius,
+                        sweep: f.sweep,
+                    },
+                    end_trim_prev: f.line_trim,
+                    start_trim_next: f.arc_trim,
+                    prev_end_at: None,
+                    next_start_at: Some(f.p_arc),
+                })
+            }
+            (Geom::Arc(arc), Geom::Line { start, .. }) => {
+                // the line–arc construction on the path run backwards
+                let view = ArcView::of(&arc, true, self.max_drift_rad())?;
+                let f = fillet::line_arc(
+                    start,
+                    -b.dir,
+                    0.5 * b.len,
+                    &view,
+                    (0.5 * a.len).min(a.len - a.start_trim),
+                    a.tolerance_mm.min(b.tolerance_mm),
+                )?;
+                let e1 = (f.p_arc - f.center) * (1.0 / f.radius);
+                // backwards the fillet runs from the line with e2' = −b.dir; forwards
+                // it starts at the arc point with the opposite of its end tangent there
+                let e1_back = (f.p_line - f.center) * (1.0 / f.radius);
+                let t_back = -b.dir * f.sweep.cos() - e1_back * f.sweep.sin();
+                Some(Blend {
+                    geom: Geom::Blend {
+                        center: f.center,
+                        e1,
+                        e2: -t_back,
+                        radius: f.radius,
+                        sweep: f.sweep,
+                    },
+                    end_trim_prev: f.arc_trim,
+                    start_trim_next: f.line_trim,
+                    prev_end_at: Some(f.p_arc),
+                    next_start_at: None,
+                })
+            }
+            (Geom::Arc(arc_a), Geom::Arc(arc_b)) => {
+                let view = ArcView::of(&arc_b, false, self.max_drift_rad())?;
+                let f = fillet::arc_arc(
+                    arc_a.end(),
+                    &arc_a,
+                    (0.5 * a.len).min(a.len - a.start_trim),
+                    &view,
+                    0.5 * b.len,
+                    a.tolerance_mm.min(b.tolerance_mm),
+                    self.max_drift_rad(),
+                )?;
+                let e1 = (f.p_line - f.center) * (1.0 / f.radius);
+                Some(Blend {
+                    geom: Geom::Blend {
+                        center: f.center,
+                        e1,
+                        e2: arc_a.tangent_at(a.len - f.line_trim),
+                        radius: f.radius,
+                        sweep: f.sweep,
+                    },
+                    end_trim_prev: f.line_trim,
+                    start_trim_next: f.arc_trim,
+                    prev_end_at: Some(f.p_line),
+                    next_start_at: Some(f.p_arc),
+                })
+            }
+            _ => None,
+        }?;
+        let lim = &self.lim;
+        if lim.profile == FeedProfile::SCurve {
+            // A blend so tight that the jerk limit crawls through it is slower than
+            // stopping: stop at the corner instead.
+            let Geom::Blend { radius, .. } = found.geom else {
+                return None;
+            };
+            let through = scurve_curve_cap(1.0 / radius, lim);
+            let vmin = lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min);
+            let around = a.feed_mm_per_s.min(b.feed_mm_per_s).min(vmin);
+            if through < SCURVE_MIN_BLEND_SPEED_SHARE * around {
+                return None;
+            }
+        }
+        Some(found)
+    }
+
+    /// The largest angle between a blended arc's tangent and its circle's (rad): the
+    /// velocity step it makes at the highest path speed, v·angle per cycle, stays
+    /// within the kink share of every axis's acceleration.
+    fn max_drift_rad(&self) -> f64 {
+        let lim = &self.lim;
+        let kink = lim.kink_acc.iter().cloned().fold(f64::INFINITY, f64::min);
+        let v_top = Vec3::new(lim.vmax[0], lim.vmax[1], lim.vmax[2]).norm();
+        kink * lim.cycle_s / v_top
+    }
+
+    /// Whether the tangent break between `a` and `b` is small enough that the kink
+    /// share passes it at the feed of both (and the axes' top speed): no blend then.
+    fn kink_at_speed(&self, a: &Pending, b: &Pending) -> bool {
+        let t1 = match a.geom {
+            Geom::Line { .. } => a.dir,
+            Geom::Arc(p) => p.tangent_at(a.len),
+            Geom::Blend { .. } => return false,
         };
+        let t2 = match b.geom {
+            Geom::Line { .. } => b.dir,
+            Geom::Arc(p) => p.tangent_at(0.0),
+            Geom::Blend { .. } => return false,
+        };
+        let lim = &self.lim;
+        let dt = t2 - t1;
+        let v_top = Vec3::new(lim.vmax[0], lim.vmax[1], lim.vmax[2]).norm();
+        let v = a.feed_mm_per_s.min(b.feed_mm_per_s).min(v_top);
+        lim.profile == FeedProfile::Trapezoidal
+            && lim.acc_dec == AccDec::BeforeInterpolation
+            && (0..3).all(|i| dt[i].abs() * v <= lim.kink_acc[i] * lim.cycle_s)
+    }
+
+    /// Blend at a line–line corner.
+    fn blend_lines(&self, a: &Pending, b: &Pending) -> Option<Blend> {
         let (u1, u2) = (a.dir, b.dir);
         let cos_t = u1.dot(u2).clamp(-1.0, 1.0);
         let theta = cos_t.acos();
@@ -351,21 +623,17 @@ impl PathBuilder {
             radius: r,
             sweep: theta,
         };
-        if lim.profile == FeedProfile::SCurve {
-            // A blend so tight that the jerk limit crawls through it is slower than
-            // stopping: stop at the corner instead.
-            let through = scurve_curve_cap(1.0 / r, lim);
-            let vmin = lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min);
-            let around = a.feed_mm_per_s.min(b.feed_mm_per_s).min(vmin);
-            if through < SCURVE_MIN_BLEND_SPEED_SHARE * around {
-                return None;
-            }
-        }
-        Some((blend, d))
+        Some(Blend {
+            geom: blend,
+            end_trim_prev: d,
+            start_trim_next: d,
+            prev_end_at: None,
+            next_start_at: None,
+        })
     }
 
     /// Push the elements of a move whose successor is known (`last`: it has none).
-    fn emit(&mut self, p: &Pending, blend: Option<(Geom, f64)>, last: bool) {
+    fn emit(&mut self, p: &Pending, blend: Option<Blend>, last: bool) {
         let stop = p.exact_stop || p.dwell_s > 0.0 || last;
         let (geom, shape) = match p.geom {
             Geom::Line {
@@ -374,7 +642,7 @@ impl PathBuilder {
                 prog_len,
                 ..
             } => {
-                let to = prog_len - blend.map_or(0.0, |b| b.1);
+                let to = prog_len - blend.map_or(0.0, |b| b.end_trim_prev);
                 let len = (to - p.start_trim).max(0.0);
                 let geom = Geom::Line {
                     start,
@@ -385,11 +653,40 @@ impl PathBuilder {
                 };
                 (geom, ElementShape::line(len, p.dir))
             }
-            Geom::Arc(prim) => (p.geom, ElementShape::arc(&prim)),
+            Geom::Arc(prim) => {
+                let end_trim = blend.map_or(0.0, |b| b.end_trim_prev);
+                if p.start_trim == 0.0 && end_trim == 0.0 {
+                    (p.geom, ElementShape::arc(&prim))
+                } else {
+                    // the programmed arc stays exact among the orphans
+                    self.path.orphans.push((p.motion, prim));
+                    let (from, to) = (p.start_trim, p.len - end_trim);
+                    if to - from < 1e-6 {
+                        // used up by the blends at both its ends
+                        let at = prim.point_at(from);
+                        let dir = Vec3::ZERO;
+                        let geom = Geom::Line {
+                            start: at,
+                            end: at,
+                            from: 0.0,
+                            to: 0.0,
+                            prog_len: 0.0,
+                        };
+                        (geom, ElementShape::line(0.0, dir))
+                    } else {
+                        let at_from = p.start_at.unwrap_or_else(|| prim.point_at(from));
+                        let at_to = blend
+                            .and_then(|b| b.prev_end_at)
+                            .unwrap_or_else(|| prim.point_at(to));
+                        let sub = sub_arc(&prim, at_from, at_to);
+                        (Geom::Arc(sub), ElementShape::arc(&sub))
+                    }
+                }
+            }
             Geom::Blend { .. } => unreachable!("moves are lines or arcs"),
         };
-        let pushed = match blend {
-            Some((
+        let pushed = match blend.map(|b| b.geom) {
+            Some(
                 b @ Geom::Blend {
                     e1,
                     e2,
@@ -397,8 +694,7 @@ impl PathBuilder {
                     sweep,
                     ..
                 },
-                _,
-            )) => {
+            ) => {
                 let pushed = self.push_element(p, &geom, &shape, 0.0, false);
                 self.push_element(
                     p,
@@ -475,6 +771,12 @@ impl PathBuilder {
 
     /// The path: the last move ends in a stop.
     pub fn finish(mut self) -> Path {
+        self.flush_chain();
+        // a G64 Q chain goes to the orphans when it ends, after the moves it held back;
+        // a merged line used up by its blends is an orphan of its last motion too, pushed
+        // after the chain's own lines: the stable sort keeps the programmed one first
+        self.path.orphans.sort_by_key(|o| o.0);
+        self.path.orphans.dedup_by_key(|o| o.0);
         match self.pending.take() {
             Some(p) => self.emit(&p, None, true),
             None => self.start_dwell(),
@@ -491,6 +793,36 @@ impl PathBuilder {
         }
         self.path
     }
+}
+
+/// A blend found at a corner: its geometry and how much it takes from each move.
+#[derive(Debug, Clone, Copy)]
+struct Blend {
+    geom: Geom,
+    /// Arc length taken from the end of the move before the corner (mm).
+    end_trim_prev: f64,
+    /// Arc length taken from the start of the move after it (mm).
+    start_trim_next: f64,
+    /// Where the blend leaves the move before it, if that is an arc.
+    prev_end_at: Option<Vec3>,
+    /// Where the blend meets the move after it, if that is an arc.
+    next_start_at: Option<Vec3>,
+}
+
+/// The stretch of a planar arc of at most one revolution between its points `from`
+/// and `to`, as an arc of its own (same centre, plane and direction).
+fn sub_arc(prim: &Primitive, from: Vec3, to: Vec3) -> Primitive {
+    let Primitive::Arc {
+        center,
+        plane,
+        sweep,
+        ..
+    } = *prim
+    else {
+        return *prim;
+    };
+    let turns = if sweep > 0.0 { 1 } else { -1 };
+    Primitive::arc(from, to, center, plane, turns)
 }
 
 /// Highest speed through the junction of two elements: a tangent break may use
@@ -523,7 +855,7 @@ fn junction_speed(
         for i in 0..3 {
             let di = dt[i].abs();
             if di > 1e-12 {
-                let lim_i = KINK_SHARE * lim.amax[i] * lim.cycle_s;
+                let lim_i = lim.kink_acc[i] * lim.cycle_s;
                 v = v.min(lim_i / di);
             }
         }

@@ -13,6 +13,7 @@
 #![warn(missing_docs)]
 
 pub mod build;
+pub mod fillet;
 pub mod interp;
 pub mod path;
 pub mod plan;

@@ -132,7 +132,9 @@ impl Geom {
 }
 
 /// What the builder needs to know of an element: its length, unit tangents at both
-/// ends, and per-axis weights w_i ≥ max over the element of |t_i| (velocity) and of
+/// ends, and per-axis weights w_i = max over the element of |t_i| (velocity; exact
+/// over the swept part of arcs, so that a short arc along a diagonal runs at the
+/// diagonal's speed, not the slowest axis's) and ≥ max of
 /// √(t_i² + n_i²) (acceleration): how much of the path motion axis i carries.
 #[derive(Debug, Clone, Copy)]
 pub struct ElementShape {
@@ -209,9 +211,24 @@ impl ElementShape {
         } else {
             (rs.abs() / l, normal_travel.abs() / l)
         };
+        // the largest |t_a| and |t_b| over the sweep: t ∝ (−sin θ, cos θ), so
+        // |t_a| peaks (at 1) where cos θ changes sign, |t_b| where sin θ does; a sweep
+        // shorter than π passes each at most once, so the signs at the ends tell
+        let (cos_s, sin_s) = (
+            (start[a] - center[a]) / radius,
+            (start[b] - center[b]) / radius,
+        );
+        let short = sweep.abs() < std::f64::consts::PI && radius > 0.0;
+        let peak = |u0: f64, u1: f64, v0: f64, v1: f64| {
+            if short && u0 * u1 > 0.0 {
+                v0.abs().max(v1.abs()).min(1.0)
+            } else {
+                1.0
+            }
+        };
         let mut w = [0.0; 3];
-        w[a] = horiz;
-        w[b] = horiz;
+        w[a] = horiz * peak(cos_s, cos_e, sin_s, sin_e);
+        w[b] = horiz * peak(sin_s, sin_e, cos_s, cos_e);
         w[n] = vert;
         let mut wa = [0.0; 3];
         wa[a] = 1.0;
@@ -229,13 +246,27 @@ impl ElementShape {
 
     /// A blend arc (see [`Geom::Blend`]).
     pub fn blend(e1: Vec3, e2: Vec3, radius: f64, sweep: f64) -> ElementShape {
-        let w = [0, 1, 2].map(|i| e1[i].hypot(e2[i]).min(1.0));
+        // √(t_i² + n_i²) = √(e1_i² + e2_i²) all along the arc
+        let wa = [0, 1, 2].map(|i| e1[i].hypot(e2[i]).min(1.0));
+        let (cos_s, sin_s) = (sweep.cos(), sweep.sin());
+        let end_tangent = e2 * cos_s - e1 * sin_s;
+        let end_radial = e1 * cos_s + e2 * sin_s;
+        // |t_i| reaches its amplitude √(e1_i² + e2_i²) only where the radial component
+        // r_i = e1_i cos φ + e2_i sin φ changes sign (dt_i/dφ = −r_i); a sweep shorter
+        // than π passes at most one such point, so the signs at the ends tell
+        let wv = [0, 1, 2].map(|i| {
+            if sweep < std::f64::consts::PI && e1[i] * end_radial[i] > 0.0 {
+                e2[i].abs().max(end_tangent[i].abs()).min(wa[i])
+            } else {
+                wa[i]
+            }
+        });
         ElementShape {
             len: radius * sweep,
             start_tangent: e2,
-            end_tangent: (e2 * sweep.cos() - e1 * sweep.sin()).unit(),
-            vel_weight: w,
-            acc_weight: w,
+            end_tangent: end_tangent.unit(),
+            vel_weight: wv,
+            acc_weight: wa,
             curvature: 1.0 / radius,
         }
     }
@@ -284,5 +315,76 @@ pub fn element_limits(g: &ElementShape, vmax: [f64; 3], amax: [f64; 3]) -> Eleme
     ElementLimits {
         vel_mm_per_s: vel,
         acc_mm_per_s2: acc,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use softnc_core::Plane;
+
+    /// Largest |t_i| over an element, by sampling its points finely.
+    fn sampled_peak(geom: &Geom, len: f64) -> [f64; 3] {
+        let n = 20_000;
+        let mut w = [0.0f64; 3];
+        for k in 0..n {
+            let (s0, s1) = (len * k as f64 / n as f64, len * (k + 1) as f64 / n as f64);
+            let t = (geom.point_at(s1) - geom.point_at(s0)) * (1.0 / (s1 - s0));
+            for i in 0..3 {
+                w[i] = w[i].max(t[i].abs());
+            }
+        }
+        w
+    }
+
+    fn assert_tight(weight: [f64; 3], sampled: [f64; 3], what: &str) {
+        for i in 0..3 {
+            // never below the true peak (a limit), and not above it (speed)
+            assert!(
+                weight[i] >= sampled[i] - 1e-9,
+                "{what}: axis {i} {weight:?} < {sampled:?}"
+            );
+            assert!(
+                weight[i] <= sampled[i] + 1e-4,
+                "{what}: axis {i} {weight:?} ≫ {sampled:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn velocity_weights_are_the_peak_over_the_swept_part() {
+        let diag = (0.5f64).sqrt();
+        for (k, sweep) in [0.1, 0.5, 1.5, 3.0, 3.5, 6.2].into_iter().enumerate() {
+            for start_deg in [0.0, 30.0, 45.0, 100.0, 200.0, 300.0] {
+                let a = f64::to_radians(start_deg);
+                // blend in a tilted plane
+                let e1 = Vec3::new(a.cos() * diag, a.sin(), a.cos() * diag);
+                let e2 = Vec3::new(-a.sin() * diag, a.cos(), -a.sin() * diag);
+                let (r, c) = (3.0, Vec3::new(1.0, 2.0, 3.0));
+                let shape = ElementShape::blend(e1, e2, r, sweep);
+                let geom = Geom::Blend {
+                    center: c,
+                    e1,
+                    e2,
+                    radius: r,
+                    sweep,
+                };
+                assert_tight(shape.vel_weight, sampled_peak(&geom, r * sweep), "blend");
+                // programmed arcs and helices, both directions
+                for (turns, dz) in [(1, 0.0), (-1, 0.0), (1, 2.0)] {
+                    let th = if turns > 0 { a + sweep } else { a - sweep };
+                    let start = c + Vec3::new(r * a.cos(), r * a.sin(), 0.0);
+                    let end = c + Vec3::new(r * th.cos(), r * th.sin(), dz);
+                    let p = Primitive::arc(start, end, c, Plane::XY, turns);
+                    let shape = ElementShape::arc(&p);
+                    let what = format!("arc {k} {start_deg} {turns}");
+                    assert_tight(
+                        shape.vel_weight,
+                        sampled_peak(&Geom::Arc(p), p.length()),
+                        &what,
+                    );
+                }
+            }
+        }
     }
 }

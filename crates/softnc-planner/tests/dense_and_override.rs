@@ -173,9 +173,9 @@ fn planned_duration_matches_the_sample_stream() {
 }
 
 /// Two arcs meeting with a 0.015 rad tangent break (like the learnt one-degree arcs of
-/// paper 004's radius ILC): the planner slows down at it; with acc/dec after
-/// interpolation (a CNC without look-ahead, the FANUC 0-M of paper 004) the feed
-/// passes it unchanged.
+/// paper 004's radius ILC): the planner slows down at it (with `arc_blends` off, the
+/// default); with acc/dec after interpolation (a CNC without look-ahead, the FANUC
+/// 0-M of paper 004) the feed passes it unchanged.
 #[test]
 fn acc_dec_after_interpolation_keeps_the_feed_through_tangent_breaks() {
     let feed = 2000.0;
