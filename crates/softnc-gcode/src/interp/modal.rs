@@ -37,7 +37,7 @@ impl Interp<'_> {
         let coord = [540, 550, 560, 570, 580, 590, 591, 592, 593][self.coord.min(8)];
         let (control, g64_p) = match self.path {
             PathMode::ExactStop => (self.exact_stop_code, None),
-            PathMode::Blend { tolerance_mm } => (640, tolerance_mm.map(|t| t / self.scale())),
+            PathMode::Blend { tolerance_mm, .. } => (640, tolerance_mm.map(|t| t / self.scale())),
         };
         Modal {
             g: [
