@@ -139,6 +139,8 @@ impl Daemon {
             // its own process group: a test can signal the controller as a terminal's
             // Ctrl-C does, and nothing else
             .process_group(0)
+            // the instance's lock file in the test's folder (removed with it)
+            .env("SOFTNC_RUN_DIR", &dir)
             .spawn()
             .unwrap();
         Daemon {
@@ -925,6 +927,7 @@ fn killing_softncd_stops_its_children_along_the_path_and_a_new_softncd_runs_the_
     d.child = Command::new(env!("CARGO_BIN_EXE_softncd"))
         .arg("--config")
         .arg(&d.config)
+        .env("SOFTNC_RUN_DIR", &d.dir)
         .env("RUST_LOG", "warn")
         .process_group(0)
         .spawn()
@@ -952,6 +955,7 @@ fn a_second_softncd_on_the_same_instance_is_refused_and_the_first_runs_on() {
     let out = Command::new(env!("CARGO_BIN_EXE_softncd"))
         .arg("--config")
         .arg(&d.config)
+        .env("SOFTNC_RUN_DIR", &d.dir)
         .env("RUST_LOG", "warn")
         .output()
         .unwrap();

@@ -49,9 +49,12 @@ pub fn run(args: DemoArgs, config: &Path) -> Result<ExitCode> {
 }
 
 fn run_on(args: DemoArgs, config: &Path) -> Result<ExitCode> {
+    let run_dir = config.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut daemon = Command::new(softncd_path()?)
         .arg("--config")
         .arg(config)
+        // its own instance's lock lives (and goes) with its temporary folder
+        .env("SOFTNC_RUN_DIR", run_dir)
         .spawn()
         .context("starting softncd")?;
     let result = (|| -> Result<(serde_json::Value, String)> {
