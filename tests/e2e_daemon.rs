@@ -12,6 +12,13 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command};
 use std::time::{Duration, Instant};
 
+/// An empty folder for test `tag` of this run.
+fn fresh_dir(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("softnc-e2e-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
@@ -37,8 +44,7 @@ impl Daemon {
     /// A daemon whose data directory already holds a history of `n` completed jobs
     /// with paths of `path_len` characters.
     fn start_with_history(tag: &str, n: u64, path_len: usize) -> Daemon {
-        let dir = std::env::temp_dir().join(format!("softnc-e2e-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        let dir = fresh_dir(tag);
         std::fs::create_dir_all(dir.join("data")).unwrap();
         let jobs: Vec<serde_json::Value> = (1..=n)
             .map(|id| {
@@ -60,15 +66,13 @@ impl Daemon {
 
     /// A daemon on the machine profile `config/machines/{machine}`.
     fn start_on(tag: &str, clock: &str, trace: bool, machine: &str) -> Daemon {
-        let dir = std::env::temp_dir().join(format!("softnc-e2e-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        let dir = fresh_dir(tag);
         Daemon::start_in(dir, tag, clock, trace, machine, &[])
     }
 
     /// A daemon whose configuration has `edits` (text replacements) made.
     fn start_edited(tag: &str, clock: &str, edits: &[(&str, &str)]) -> Daemon {
-        let dir = std::env::temp_dir().join(format!("softnc-e2e-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        let dir = fresh_dir(tag);
         Daemon::start_in(dir, tag, clock, false, "default.ron", edits)
     }
 
@@ -247,10 +251,14 @@ impl Daemon {
         }
     }
 
-    /// The job history as the MMI wrote it.
-    fn jobs_file(&self) -> serde_json::Value {
+    /// Job `job_id`'s record as the MMI wrote it into its history (null if none).
+    fn job_record(&self, job_id: u64) -> serde_json::Value {
         let text = std::fs::read_to_string(self.dir.join("data/jobs.json")).unwrap_or_default();
-        serde_json::from_str(&text).unwrap_or(serde_json::Value::Null)
+        let jobs: serde_json::Value = serde_json::from_str(&text).unwrap_or_default();
+        jobs.as_array()
+            .and_then(|a| a.iter().find(|j| j["job_id"] == job_id))
+            .cloned()
+            .unwrap_or_default()
     }
 
     fn kill9(&self, name: &str) {
@@ -886,12 +894,7 @@ fn signal_stops_in_order(tag: &str, signal: &str, to_group: bool) {
     assert_eq!(status.code(), Some(0), "softncd exits 0 on SIG{signal}");
     Daemon::wait_gone(&kids, Duration::from_secs(5));
     assert_stops_along_the_path(&d.dir.join(format!("data/trace-job{job_id}.csv")));
-    let jobs = d.jobs_file();
-    let rec = jobs
-        .as_array()
-        .and_then(|a| a.iter().find(|j| j["job_id"] == job_id))
-        .cloned()
-        .unwrap_or_default();
+    let rec = d.job_record(job_id);
     assert_eq!(rec["outcome"], "aborted", "the job's record: {rec}");
     assert_eq!(
         services_of(&instance),
@@ -1042,12 +1045,7 @@ fn commands_say_what_the_machine_does_in_every_state() {
         s["state"] == "Idle"
     });
     assert!(s["alarms"].as_array().unwrap().is_empty(), "cleared: {s}");
-    let rec = d.jobs_file();
-    let rec = rec
-        .as_array()
-        .and_then(|a| a.iter().find(|j| j["job_id"] == job2))
-        .cloned()
-        .unwrap_or_default();
+    let rec = d.job_record(job2);
     assert!(
         rec["alarms"].to_string().contains("EStop"),
         "kept in the record: {rec}"

@@ -60,9 +60,7 @@ pub fn find_config(given: Option<PathBuf>) -> PathBuf {
 /// on a terminal) and load the configuration.
 pub fn start(process: &str) -> Result<Loaded, ExitCode> {
     use clap::Parser;
-    let args = DaemonArgs::parse_from(
-        std::iter::once(process.to_string()).chain(std::env::args().skip(1)),
-    );
+    let args = DaemonArgs::parse();
     let _ = tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),

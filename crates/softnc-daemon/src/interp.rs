@@ -433,14 +433,13 @@ impl InterpTask {
         }
         // a stop asked for by a signal or the supervisor's death: as a Shutdown
         let stop_now = !self.shutdown && self.stop.requested().is_some();
-        let stop_cmd = stop_now.then_some(ControlCommand {
+        let mut pending = stop_now.then(|| ControlCommand {
             seq: 0,
             kind: ControlKind::Shutdown.wire(),
             job_id: 0,
             value: 0.0,
             path: FixedStr::empty(),
         });
-        let mut pending = stop_cmd;
         loop {
             let c = match pending.take() {
                 Some(c) => c,

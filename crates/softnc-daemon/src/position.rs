@@ -85,6 +85,8 @@ pub struct PositionTask<B: ServoBackend> {
     settle_cycles: Option<u64>,
     /// Each axis's in-position band (the profile's).
     in_position_mm: [f64; 3],
+    /// Cycles the axes get to come into position after a job's last sample.
+    in_position_timeout_cycles: u64,
     /// Lockstep: since when the ring has lacked the samples the next cycle needs
     /// (the interpolator's silence, not the time since its last sample: a job whose
     /// preparation took longer than the timeout must not start with a dry stop).
@@ -112,6 +114,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         let bus = Bus::new(names, "position")?;
         let window = filter_window(cfg.config.lookahead_samples);
         let in_position_mm = [0, 1, 2].map(|i| cfg.machine.axes[i].in_position_mm);
+        let in_position_timeout_cycles =
+            (cfg.config.in_position_timeout_s / cfg.machine.interpolation_cycle_s).ceil() as u64;
         let trace = cfg.config.trace.then(|| crate::prep::TraceTo {
             dir: cfg.data_dir.clone(),
             lossless: cfg.config.clock == ClockMode::Lockstep,
@@ -158,6 +162,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             starved_since: None,
             settle_cycles: None,
             in_position_mm,
+            in_position_timeout_cycles,
             last_job_id: 0,
             latency: softnc_rt::LatencyStats::new(),
             stats: LoopStats::new(),
@@ -683,12 +688,9 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             }
             if let Some(n) = self.settle_cycles {
                 let in_position = (0..3).all(|i| fe[i].abs() <= self.in_position_mm[i]);
-                let timeout_cycles = (self.cfg.config.in_position_timeout_s
-                    / self.cfg.machine.interpolation_cycle_s)
-                    .ceil() as u64;
                 if in_position {
                     self.end_job(&mut status);
-                } else if n >= timeout_cycles {
+                } else if n >= self.in_position_timeout_cycles {
                     let job = self.job_id;
                     let timeout_s = self.cfg.config.in_position_timeout_s;
                     self.alarm(

@@ -29,7 +29,7 @@ use softnc_ipc::{
 };
 use std::collections::VecDeque;
 use std::path::PathBuf;
-use std::process::{Child, Command, ExitStatus};
+use std::process::{Child, Command};
 use std::time::{Duration, Instant};
 
 /// How often the supervisor looks at its children.
@@ -234,12 +234,12 @@ impl Supervisor {
             let mut died: Option<String> = None;
             if let Some(c) = p.child.as_mut() {
                 if let Some(status) = c.try_wait().ok().flatten() {
-                    died = Some(describe(status));
+                    died = Some(status.to_string());
                 } else {
                     let silent_since = p.last_hb.unwrap_or(p.started);
                     if silent_since.elapsed() > watchdog {
                         let _ = c.kill();
-                        let status = c.wait().map(describe).unwrap_or_else(|e| e.to_string());
+                        let status = c.wait().map_or_else(|e| e.to_string(), |st| st.to_string());
                         died = Some(format!(
                             "silent for {:.1} s (watchdog {:.1} s), killed: {status}",
                             silent_since.elapsed().as_secs_f64(),
@@ -376,9 +376,4 @@ impl Supervisor {
         }
         clean_dead_nodes();
     }
-}
-
-/// How a child ended, for an alarm.
-fn describe(status: ExitStatus) -> String {
-    status.to_string()
 }
