@@ -261,6 +261,36 @@ impl Daemon {
             .unwrap_or_default()
     }
 
+    /// Shut the controller down as an operator does; it exits 0 and leaves no
+    /// process and no iceoryx2 service of its instance (a killed process's
+    /// resources included).
+    fn shutdown_leaving_nothing(&mut self, tag: &str) {
+        let kids = self.children();
+        let op = self.operator();
+        let r = op.request(ControlKind::Shutdown, 0.0, "").unwrap();
+        assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+        drop(op);
+        let t0 = Instant::now();
+        let status = loop {
+            if let Some(st) = self.child.try_wait().unwrap() {
+                break st;
+            }
+            assert!(
+                t0.elapsed() < Duration::from_secs(15),
+                "softncd still running 15 s after shutdown"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        assert_eq!(status.code(), Some(0), "softncd exits 0 on shutdown");
+        Daemon::wait_gone(&kids, Duration::from_secs(5));
+        let instance = format!("e2e{tag}{}", std::process::id());
+        assert_eq!(
+            services_of(&instance),
+            Vec::<String>::new(),
+            "iceoryx2 services left"
+        );
+    }
+
     fn kill9(&self, name: &str) {
         let pid = self
             .pid_of(name)
@@ -674,7 +704,7 @@ fn a_bad_job_is_refused_with_its_position_and_nothing_moves() {
 
 #[test]
 fn killing_the_interpolator_stops_along_the_path_and_a_reset_recovers() {
-    let d = Daemon::start("kill", "Realtime", true);
+    let mut d = Daemon::start("kill", "Realtime", true);
     let op = d.operator();
     let job = short_job(&d.dir);
     let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
@@ -710,11 +740,14 @@ fn killing_the_interpolator_stops_along_the_path_and_a_reset_recovers() {
     assert_eq!(r2.accepted, 1, "{}", r2.message.as_str());
     let s = d.wait_job(&op, r2.job_id, Duration::from_secs(60));
     assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    drop(op);
+    drop(op2);
+    d.shutdown_leaving_nothing("kill");
 }
 
 #[test]
 fn killing_the_mmi_leaves_motion_running_and_the_client_reconnects() {
-    let d = Daemon::start("mmi", "Realtime", false);
+    let mut d = Daemon::start("mmi", "Realtime", false);
     let op = d.operator();
     let job = short_job(&d.dir);
     let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
@@ -730,15 +763,17 @@ fn killing_the_mmi_leaves_motion_running_and_the_client_reconnects() {
         s["job"]["outcome"], "completed",
         "motion continued without the MMI: {s}"
     );
+    drop(op);
+    drop(op2);
+    d.shutdown_leaving_nothing("mmi");
 }
 
 #[test]
 fn killing_the_position_process_faults_and_reset_restarts_it() {
-    let d = Daemon::start("pos", "Realtime", false);
+    let mut d = Daemon::start("pos", "Realtime", false);
     let op = d.operator();
-    d.wait_status(&op, Duration::from_secs(10), "position alive", |s| {
-        s["processes"]["position"] == "alive"
-    });
+    // mid-job: the servo loop (the simulated drives) dies under a moving job
+    let killed_job = start_moving(&d, &op);
     d.kill9("softnc-position");
     let s = d.wait_status(&op, Duration::from_secs(10), "fault", |s| {
         s["processes"]["position"] == "lost"
@@ -748,6 +783,8 @@ fn killing_the_position_process_faults_and_reset_restarts_it() {
         s["alarms"].to_string().contains("ProcessLost")
     });
     assert!(s["alarms"].to_string().contains("softnc-position"), "{s}");
+    assert_eq!(s["state"], "Faulted", "{s}");
+    assert_eq!(d.job_record(killed_job)["outcome"], "aborted");
     op.request(ControlKind::Reset, 0.0, "").unwrap();
     d.wait_status(&op, Duration::from_secs(15), "position back", |s| {
         s["processes"]["position"] == "alive"
@@ -757,6 +794,8 @@ fn killing_the_position_process_faults_and_reset_restarts_it() {
     assert_eq!(r.accepted, 1, "{}", r.message.as_str());
     let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
     assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    drop(op);
+    d.shutdown_leaving_nothing("pos");
 }
 
 #[test]
@@ -780,9 +819,32 @@ fn feed_hold_stops_motion_within_the_ring_depth_and_resume_finishes_the_job() {
         "standing still in feed hold"
     );
     assert_eq!(b["job"]["outcome"], "running");
+    // progress is the position along the path: it stands still in the hold
+    // while the cycles go on
+    let progress = |s: &serde_json::Value| s["job"]["progress"].as_f64().unwrap();
+    assert!(
+        b["job"]["cycles"].as_u64() > a["job"]["cycles"].as_u64(),
+        "{b}"
+    );
+    assert_eq!(progress(&a), progress(&b), "{a}\n{b}");
+    assert!(progress(&b) > 0.05 && progress(&b) < 0.95, "{b}");
+    // at a quarter of the feed the job runs past its planned cycles while its
+    // progress stays under 100 %
+    op.request(ControlKind::FeedOverride, 0.25, "").unwrap();
     op.request(ControlKind::Resume, 0.0, "").unwrap();
+    let planned = b["job"]["planned_samples"].as_u64().unwrap();
+    let s = d.wait_status(
+        &op,
+        Duration::from_secs(30),
+        "past the planned cycles",
+        |s| s["job"]["cycles"].as_u64().unwrap_or(0) > planned + 200,
+    );
+    assert_eq!(s["job"]["outcome"], "running", "{s}");
+    assert!(progress(&s) > progress(&b) && progress(&s) < 1.0, "{s}");
+    op.request(ControlKind::FeedOverride, 1.0, "").unwrap();
     let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
     assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    assert_eq!(progress(&s), 1.0, "{s}");
 }
 
 #[test]
@@ -949,6 +1011,8 @@ fn killing_softncd_stops_its_children_along_the_path_and_a_new_softncd_runs_the_
         !s["alarms"].to_string().contains("SequenceError"),
         "no second set of processes: {s}"
     );
+    drop(op);
+    d.shutdown_leaving_nothing("orphan");
 }
 
 #[test]

@@ -497,6 +497,12 @@ impl InterpTask {
                     self.state = MachineState::EStopped;
                     return Ok(Some(JobEnd::Aborted));
                 }
+                // the MMI resets only a machine that is not moving (faulted: the
+                // position process was lost under this job): the job is over
+                Some(ControlKind::Reset) => {
+                    self.state = MachineState::Idle;
+                    return Ok(Some(JobEnd::Aborted));
+                }
                 Some(ControlKind::Shutdown) => {
                     self.shutdown = true;
                     s.aborting = true;
@@ -547,6 +553,7 @@ impl InterpTask {
             }
             let mut c = CommandSample::new(s.next_seq, job_id, sample.index, pos_mm);
             c.motion = sample.motion;
+            c.path_mm = sample.path_mm;
             if sample.feed_move {
                 c.flags |= CommandSample::FLAG_FEED_MOVE;
             }

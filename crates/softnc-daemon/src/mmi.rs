@@ -35,6 +35,12 @@ pub struct JobRecord {
     pub planned_samples: u64,
     /// Cycles run.
     pub cycles: u64,
+    /// Length of the planned path (mm).
+    #[serde(default)]
+    pub planned_path_mm: f64,
+    /// How far along the planned path the position loop is (mm).
+    #[serde(default)]
+    pub path_mm: f64,
     /// Accuracy over the job's feed moves.
     pub accuracy: Accuracy,
     /// Remarks that are not alarms (a learned correction applied, faded out, …).
@@ -50,6 +56,23 @@ pub struct JobRecord {
     /// SHA-256 of the program that ran.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sha256: Option<String>,
+}
+
+impl JobRecord {
+    /// How much of the job is done (0..=1): the position along the planned path
+    /// (a completed job is done; a path of length 0, dwells only, counts cycles).
+    pub fn progress(&self) -> f64 {
+        let p = if self.outcome == "completed" {
+            1.0
+        } else if self.planned_path_mm > 0.0 {
+            self.path_mm / self.planned_path_mm
+        } else if self.planned_samples > 0 {
+            self.cycles as f64 / self.planned_samples as f64
+        } else {
+            0.0
+        };
+        p.clamp(0.0, 1.0)
+    }
 }
 
 /// Accuracy of a job, accumulated from the position status stream.
@@ -312,6 +335,7 @@ impl MmiTask {
                 if s.job_id == job.job_id {
                     job.accuracy.add(&s);
                     job.cycles = job.cycles.max(s.time_index + 1);
+                    job.path_mm = job.path_mm.max(s.path_mm);
                 }
             }
             self.last = Some(s);
@@ -363,6 +387,19 @@ impl MmiTask {
                 if let Some(p) = self.peers.get_mut(a.process as usize) {
                     p.lost_pid = Some(p.pid);
                     p.last_seen = None;
+                }
+                if a.process == ProcessId::Position.wire() {
+                    // the servo loop died under the job: it ended there (faulted)
+                    let alarm = format!("ProcessLost: {}", a.message.as_str());
+                    if let Some(j) = self.running_job() {
+                        j.outcome = "aborted".into();
+                        if a.job_id != j.job_id {
+                            j.alarms.push(alarm);
+                        }
+                        changed = true;
+                    }
+                    self.intent = None;
+                    self.abort_asked = None;
                 }
             }
             // kept in the record of the job it concerns; a job the interpolator
@@ -511,6 +548,8 @@ impl MmiTask {
                             outcome: "running".into(),
                             planned_samples: plan.stats().samples,
                             cycles: 0,
+                            planned_path_mm: plan.stats().path_length_mm,
+                            path_mm: 0.0,
                             accuracy: Accuracy::default(),
                             notes: Vec::new(),
                             alarms: Vec::new(),
@@ -674,7 +713,8 @@ impl MmiTask {
             "job": job.map(|j| serde_json::json!({
                 "job_id": j.job_id, "path": j.path, "outcome": j.outcome,
                 "cycles": j.cycles, "planned_samples": j.planned_samples,
-                "progress": if j.planned_samples > 0 { (j.cycles as f64 / j.planned_samples as f64).min(1.0) } else { 0.0 },
+                "path_mm": j.path_mm, "planned_path_mm": j.planned_path_mm,
+                "progress": j.progress(),
                 "accuracy": j.accuracy,
                 "notes": j.notes,
             })),

@@ -77,7 +77,7 @@ pub struct PositionTask<B: ServoBackend> {
     job_id: u64,
     primitives: Vec<Option<Primitive>>,
     current: Option<CommandSample>,
-    flags: std::collections::VecDeque<(u32, u32)>,
+    flags: std::collections::VecDeque<(u32, u32, f64)>,
     last_cmd: [f64; 3],
     prev_cmd: [f64; 3],
     dry: Option<DryStop>,
@@ -362,7 +362,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 pos_mm: [c.pos_mm[0], c.pos_mm[1], c.pos_mm[2]],
             };
             match self.ring.push(s, c.is_end()) {
-                Ok(()) => self.flags.push_back((c.motion, c.flags)),
+                Ok(()) => self.flags.push_back((c.motion, c.flags, c.path_mm)),
                 Err(e) => {
                     let job = self.job_id;
                     self.alarm(
@@ -556,7 +556,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 // stepped below by `step_ring`, which filters it (paper 002 eq 1) over
                 // the window [i−N, i+N]: exactly what `softnc sim` steps
                 cmd = p;
-                let (motion, flags) = self.flags.front().copied().unwrap_or((0, 0));
+                let (motion, flags, path_mm) = self.flags.front().copied().unwrap_or((0, 0, 0.0));
                 feed_move = flags & CommandSample::FLAG_FEED_MOVE != 0;
                 ring_motion = Some(motion);
                 self.current = Some(CommandSample {
@@ -567,6 +567,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     motion,
                     flags,
                     sent_unix_ns: 0,
+                    path_mm,
                 });
             }
         }
@@ -663,6 +664,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 (true, Some(s)) if self.job_id != 0 => s.effective_rpm(),
                 _ => 0.0,
             },
+            path_mm: self.current.map_or(0.0, |c| c.path_mm),
+            motion: self.current.map_or(0, |c| c.motion),
         };
         status.cmd_mm[..3].copy_from_slice(&cmd);
         status.actual_mm[..3].copy_from_slice(&rec.actual_mm);

@@ -66,6 +66,8 @@ fn status(seq: u64, job_id: u64) -> PositionStatus {
         state: MachineState::Running.wire(),
         spindle_override: 1.0,
         spindle_rpm: 0.0,
+        path_mm: 0.0,
+        motion: 0,
     }
 }
 

@@ -26,6 +26,8 @@ pub struct CommandSample {
     /// When the interpolator published it (ns since the Unix epoch): the position
     /// process measures the interp → position latency from it.
     pub sent_unix_ns: u64,
+    /// Distance along the planned path from the job's start (mm).
+    pub path_mm: f64,
 }
 
 impl CommandSample {
@@ -46,6 +48,7 @@ impl CommandSample {
             motion: 0,
             flags: 0,
             sent_unix_ns: 0,
+            path_mm: 0.0,
         }
     }
     /// True if this is the job's last sample.
@@ -102,6 +105,11 @@ pub struct PositionStatus {
     /// Speed the spindle turns at, programmed × override (rpm; 0 without a spindle
     /// model in the profile or between jobs).
     pub spindle_rpm: f64,
+    /// Distance along the planned path of the sample this cycle used (mm): the
+    /// job's progress.
+    pub path_mm: f64,
+    /// Program motion of the sample this cycle used.
+    pub motion: u32,
 }
 
 /// Which process.

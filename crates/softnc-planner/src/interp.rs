@@ -31,6 +31,8 @@ pub struct Sample {
     pub motion: u32,
     /// True while that motion is a feed move (G1/G2/G3), false for traverses/dwells.
     pub feed_move: bool,
+    /// Distance along the planned path from its start (mm): the job's progress.
+    pub path_mm: f64,
 }
 
 /// Pulls samples from a plan, one per interpolation cycle, without allocating.
@@ -341,6 +343,7 @@ impl Iterator for Interpolator<'_> {
                 pos_mm: self.start,
                 motion: 0,
                 feed_move: false,
+                path_mm: 0.0,
             });
         }
         if self.index > 0 {
@@ -366,21 +369,21 @@ impl Iterator for Interpolator<'_> {
         };
         let done_raw = self.raw_done && !self.holding;
         let settled = done_raw && (n == 1 || self.ring.iter().all(|&x| x == raw));
-        let (pos, seg) = if settled {
+        let (pos, seg, path_mm) = if settled {
             let last = self.segs.len() - 1;
             self.cursor = last;
-            (
-                self.geoms[last].point_at(self.segs[last].len),
-                &self.segs[last],
-            )
+            let seg = &self.segs[last];
+            (self.geoms[last].point_at(seg.len), seg, seg.s0 + seg.len)
         } else {
-            self.point_at(s_path)
+            let (pos, seg) = self.point_at(s_path);
+            (pos, seg, s_path)
         };
         let sample = Sample {
             index: self.index,
             pos_mm: pos,
             motion: seg.motion,
             feed_move: seg.feed_move,
+            path_mm,
         };
         self.index += 1;
         if settled {
