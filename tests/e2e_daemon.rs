@@ -1276,3 +1276,77 @@ fn a_stopped_interpolator_is_noticed_killed_and_restarted_and_reset_recovers() {
     let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
     assert_eq!(s["job"]["outcome"], "completed", "{s}");
 }
+
+/// SIGSTOP a child mid-job (alive to the kernel, silent to everyone) and wait until
+/// the supervisor's watchdog has killed it; returns its pid.
+fn sigstop_until_the_watchdog_acts(d: &Daemon, op: &Operator, name: &str) -> u32 {
+    let pid = d.pid_of(name).unwrap();
+    assert!(Command::new("kill")
+        .args(["-STOP", &pid.to_string()])
+        .status()
+        .unwrap()
+        .success());
+    let t0 = Instant::now();
+    while std::fs::read_to_string(format!("/proc/{pid}/stat"))
+        .is_ok_and(|st| !st.contains(") Z "))
+    {
+        assert!(
+            t0.elapsed() < Duration::from_secs(10),
+            "the stopped {name} was not killed"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let _ = op;
+    pid
+}
+
+#[test]
+fn a_stopped_position_process_is_noticed_killed_and_restarted_and_reset_recovers() {
+    let mut d = Daemon::start_edited(
+        "sigstoppos",
+        "Realtime",
+        &[("watchdog_s: 10.0", "watchdog_s: 1.5")],
+    );
+    let op = d.operator();
+    let job = start_moving(&d, &op);
+    sigstop_until_the_watchdog_acts(&d, &op, "softnc-position");
+    let s = d.wait_status(&op, Duration::from_secs(10), "watchdog alarm", |s| {
+        s["alarms"].to_string().contains("watchdog")
+    });
+    assert!(s["alarms"].to_string().contains("softnc-position"), "{s}");
+    assert_eq!(s["state"], "Faulted", "{s}");
+    assert_eq!(d.job_record(job)["outcome"], "aborted");
+    op.request(ControlKind::Reset, 0.0, "").unwrap();
+    d.wait_status(&op, Duration::from_secs(15), "idle + a new position process", |s| {
+        s["state"] == "Idle" && s["processes"]["position"] == "alive"
+    });
+    let r = op
+        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
+        .unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    drop(op);
+    d.shutdown_leaving_nothing("sigstoppos");
+}
+
+#[test]
+fn a_stopped_mmi_is_killed_and_restarted_while_the_job_runs_on() {
+    let mut d = Daemon::start_edited(
+        "sigstopmmi",
+        "Realtime",
+        &[("watchdog_s: 10.0", "watchdog_s: 1.5")],
+    );
+    let op = d.operator();
+    let job = start_moving(&d, &op);
+    sigstop_until_the_watchdog_acts(&d, &op, "softnc-mmi");
+    drop(op);
+    let op = d.operator();
+    let s = d.wait_job(&op, job, Duration::from_secs(60));
+    assert_eq!(
+        s["job"]["outcome"], "completed",
+        "motion went on without the MMI: {s}"
+    );
+    drop(op);
+    d.shutdown_leaving_nothing("sigstopmmi");
+}
