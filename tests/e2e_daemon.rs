@@ -1287,8 +1287,7 @@ fn sigstop_until_the_watchdog_acts(d: &Daemon, op: &Operator, name: &str) -> u32
         .unwrap()
         .success());
     let t0 = Instant::now();
-    while std::fs::read_to_string(format!("/proc/{pid}/stat"))
-        .is_ok_and(|st| !st.contains(") Z "))
+    while std::fs::read_to_string(format!("/proc/{pid}/stat")).is_ok_and(|st| !st.contains(") Z "))
     {
         assert!(
             t0.elapsed() < Duration::from_secs(10),
@@ -1317,9 +1316,12 @@ fn a_stopped_position_process_is_noticed_killed_and_restarted_and_reset_recovers
     assert_eq!(s["state"], "Faulted", "{s}");
     assert_eq!(d.job_record(job)["outcome"], "aborted");
     op.request(ControlKind::Reset, 0.0, "").unwrap();
-    d.wait_status(&op, Duration::from_secs(15), "idle + a new position process", |s| {
-        s["state"] == "Idle" && s["processes"]["position"] == "alive"
-    });
+    d.wait_status(
+        &op,
+        Duration::from_secs(15),
+        "idle + a new position process",
+        |s| s["state"] == "Idle" && s["processes"]["position"] == "alive",
+    );
     let r = op
         .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
         .unwrap();
@@ -1349,4 +1351,69 @@ fn a_stopped_mmi_is_killed_and_restarted_while_the_job_runs_on() {
     );
     drop(op);
     d.shutdown_leaving_nothing("sigstopmmi");
+}
+
+/// A program whose check takes seconds: a few MB of comments (they raise the
+/// executed-block limit) and a loop of millions of blocks, then one move.
+fn slow_to_check_job(dir: &Path) -> PathBuf {
+    let p = dir.join("slow-check.ngc");
+    let mut text = String::from("G21 G90\n");
+    for _ in 0..100_000 {
+        text.push_str("(a long comment line that only makes the file bigger ....)\n");
+    }
+    text.push_str("#1=0\no100 while [#1 LT 1900000]\n#1=[#1+1]\no100 endwhile\nG1 X10 F600\nM2\n");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+#[test]
+fn a_job_is_checked_off_the_loop_status_and_estop_answer_meanwhile() {
+    let d = Daemon::start("check", "Realtime", false);
+    let op = d.operator();
+    let job = slow_to_check_job(&d.dir);
+    let config = d.config.clone();
+    let path = abs(&job);
+    let submit = std::thread::spawn(move || {
+        let op = Operator::connect(&config).unwrap();
+        op.request(ControlKind::StartJob, 0.0, &path).unwrap()
+    });
+    // while it is checked the MMI answers at once and says so
+    let s = d.wait_status(&op, Duration::from_secs(10), "checking", |s| {
+        s["checking"].is_string()
+    });
+    assert_eq!(s["state"], "Idle", "{s}");
+    let t0 = Instant::now();
+    let e = op.request(ControlKind::EStop, 0.0, "").unwrap();
+    assert_eq!(e.accepted, 1, "{}", e.message.as_str());
+    assert!(
+        t0.elapsed() < Duration::from_secs(1),
+        "E-stop answered in {:?} while a job was checked",
+        t0.elapsed()
+    );
+    // the job checked under an E-stop is not started: nothing moves
+    let r = submit.join().unwrap();
+    assert_eq!(r.accepted, 0, "{}", r.message.as_str());
+    assert!(
+        r.message.as_str().contains("emergency stop"),
+        "{}",
+        r.message.as_str()
+    );
+    let s = op.status().unwrap();
+    assert!(s["checking"].is_null(), "{s}");
+    assert_eq!(
+        s["axes"]["cmd_mm"],
+        serde_json::json!([0.0, 0.0, 0.0]),
+        "{s}"
+    );
+    assert!(op.jobs().unwrap().is_empty(), "no job record");
+    // reset; the same program checked again runs
+    op.request(ControlKind::Reset, 0.0, "").unwrap();
+    d.wait_status(&op, Duration::from_secs(10), "idle", |s| {
+        s["state"] == "Idle"
+    });
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    assert_eq!(s["axes"]["cmd_mm"][0], 10.0, "{s}");
 }

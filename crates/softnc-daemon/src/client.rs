@@ -11,6 +11,8 @@ use std::time::{Duration, Instant};
 
 /// How long a request waits for the MMI's reply.
 const REPLY_TIMEOUT: Duration = Duration::from_secs(5);
+/// A job is answered once it is read and checked (a long program takes a while).
+const JOB_CHECK_TIMEOUT: Duration = Duration::from_secs(300);
 
 /// A connection to one controller instance's MMI.
 pub struct Operator {
@@ -49,13 +51,17 @@ impl Operator {
             value,
             path,
         })?;
+        let timeout = match kind {
+            ControlKind::StartJob => JOB_CHECK_TIMEOUT,
+            _ => REPLY_TIMEOUT,
+        };
         let t0 = Instant::now();
         loop {
             if let Some(r) = pending.receive()? {
                 return Ok(*r);
             }
-            if t0.elapsed() > REPLY_TIMEOUT {
-                bail!("no reply from softnc-mmi within {REPLY_TIMEOUT:?}: is softncd running?");
+            if t0.elapsed() > timeout {
+                bail!("no reply from softnc-mmi within {timeout:?}: is softncd running?");
             }
             let _ = self.node.wait(Duration::from_millis(2));
         }

@@ -17,6 +17,7 @@ use softnc_ipc::{
     Alarm, AlarmCode, ControlCommand, ControlKind, FixedStr, Heartbeat, LoopStats, MachineState,
     OperatorReply, OperatorRequest, PositionStatus, ProcessId,
 };
+use softnc_planner::PlanStats;
 use std::collections::VecDeque;
 use std::time::{Duration, Instant, SystemTime};
 
@@ -146,8 +147,28 @@ pub struct MmiTask {
     /// A hold or an abort of the running job, accepted (Held, Stopping); cleared by
     /// resume and at the job's end.
     intent: Option<MachineState>,
+    /// A submitted job being read and checked off the loop; answered when done.
+    checking: Option<Checking>,
     stop: StopWatch,
     _bus: Bus,
+}
+
+type OperatorRequestIn =
+    iceoryx2::active_request::ActiveRequest<ipc::Service, OperatorRequest, (), OperatorReply, ()>;
+
+/// What the check of a submitted job gives: the program taken in, the path of its
+/// copy and the plan's figures; or why it is refused.
+type CheckResult = std::result::Result<(crate::jobfile::JobFile, String, PlanStats), String>;
+
+/// A job being taken in (read once, copied, planned from the machine's position) on
+/// a thread of its own: the loop goes on serving status, E-stop and heartbeats.
+struct Checking {
+    path: String,
+    /// The operator's request, answered when the check ends.
+    request: Option<OperatorRequestIn>,
+    result: std::sync::mpsc::Receiver<CheckResult>,
+    /// An E-stop or a stop came while checking: the job is not started.
+    cancelled: Option<&'static str>,
 }
 
 const ALARM_HISTORY: usize = 50;
@@ -198,6 +219,7 @@ impl MmiTask {
             hb_counter: 0,
             last_hb: Instant::now() - Duration::from_secs(1),
             shutdown: false,
+            checking: None,
             abort_asked: None,
             intent: None,
             stop: StopWatch::manual(),
@@ -430,9 +452,20 @@ impl MmiTask {
         }
         while let Some(req) = self.server.receive()? {
             let r = *req;
-            let reply = self.handle(&r)?;
-            req.send_copy(reply)?;
+            match self.handle(&r)? {
+                Some(reply) => {
+                    req.send_copy(reply)?;
+                }
+                // a job taken in off the loop: answered when its check ends
+                None => match self.checking.as_mut() {
+                    Some(c) => c.request = Some(req),
+                    None => {
+                        req.send_copy(Self::reply(false, 0, "job not started"))?;
+                    }
+                },
+            }
         }
+        self.poll_checking()?;
         if self.last_hb.elapsed().as_secs_f64() >= self.cfg.config.heartbeat_period_s {
             self.hb_counter += 1;
             self.heartbeat.send_copy(Heartbeat {
@@ -443,6 +476,88 @@ impl MmiTask {
                 job_id: self.last.map_or(0, |s| s.job_id),
             })?;
             self.last_hb = Instant::now();
+        }
+        Ok(())
+    }
+
+    /// The end of a job's check: start it (its record, the interpolator told) or
+    /// refuse it, and answer the operator who submitted it.
+    fn poll_checking(&mut self) -> Result<()> {
+        let Some(c) = self.checking.as_mut() else {
+            return Ok(());
+        };
+        if self.stop.requested().is_some() && c.cancelled.is_none() {
+            c.cancelled = Some("the controller is stopping");
+        }
+        let result = match c.result.try_recv() {
+            Ok(r) => r,
+            Err(std::sync::mpsc::TryRecvError::Empty) => return Ok(()),
+            Err(std::sync::mpsc::TryRecvError::Disconnected) => {
+                Err("the job's check ended without a result".to_string())
+            }
+        };
+        let Some(c) = self.checking.take() else {
+            return Ok(());
+        };
+        let path = c.path;
+        let state = self.machine_state();
+        let result = match (c.cancelled, result) {
+            (Some(why), _) => Err(format!("{path}: {why}; job not started")),
+            (None, Ok(_)) if state != MachineState::Idle || self.job_active() => Err(format!(
+                "{path}: the machine became {state:?} while it was checked; job not started"
+            )),
+            (None, r) => r,
+        };
+        let reply = match result {
+            Err(msg) => {
+                self.alarms_pub.send_copy(Alarm {
+                    code: AlarmCode::JobRefused.wire(),
+                    axis: u32::MAX,
+                    process: ProcessId::Mmi.wire(),
+                    job_id: 0,
+                    time_index: 0,
+                    message: FixedStr::truncated(&msg),
+                })?;
+                Self::reply(false, 0, &msg)
+            }
+            Ok((job, copy, stats)) => {
+                let job_id = self
+                    .jobs
+                    .iter()
+                    .map(|j| j.job_id)
+                    .max()
+                    .unwrap_or(0)
+                    .max(self.job_id_floor)
+                    + 1;
+                let submitted = SystemTime::now()
+                    .duration_since(SystemTime::UNIX_EPOCH)
+                    .map(|d| d.as_secs())
+                    .unwrap_or(0);
+                self.jobs.push(JobRecord {
+                    job_id,
+                    path: path.clone(),
+                    submitted_unix_s: submitted,
+                    outcome: "running".into(),
+                    planned_samples: stats.samples,
+                    cycles: 0,
+                    planned_path_mm: stats.path_length_mm,
+                    path_mm: 0.0,
+                    accuracy: Accuracy::default(),
+                    notes: Vec::new(),
+                    alarms: Vec::new(),
+                    program: Some(copy.clone()),
+                    sha256: Some(job.sha256.clone()),
+                });
+                self.save_jobs();
+                // the feed override is the machine's, not the job's: the job starts at
+                // the one in force (carried here, so a restarted interpolator knows it)
+                self.send_control(ControlKind::StartJob, job_id, self.feed_override, &copy)?;
+                Self::reply(true, job_id, &format!("job {job_id} started: {path}"))
+            }
+        };
+        if let Some(req) = c.request {
+            // the operator may be gone (timed out): the job stands either way
+            let _ = req.send_copy(reply);
         }
         Ok(())
     }
@@ -463,27 +578,33 @@ impl MmiTask {
         }
     }
 
-    fn handle(&mut self, r: &OperatorRequest) -> Result<OperatorReply> {
+    /// The reply to a request; `None` when it is answered later (a job being
+    /// checked, see [`Checking`]).
+    fn handle(&mut self, r: &OperatorRequest) -> Result<Option<OperatorReply>> {
         let Some(kind) = ControlKind::from_wire(r.kind) else {
-            return Ok(Self::reply(false, 0, "unknown request"));
+            return Ok(Some(Self::reply(false, 0, "unknown request")));
         };
         let state = self.machine_state();
-        Ok(match kind {
+        Ok(Some(match kind {
             ControlKind::StartJob => {
                 let path = r.path.as_str().to_string();
                 if self.shutdown {
-                    return Ok(Self::reply(false, 0, "shutting down; job not started"));
+                    return Ok(Some(Self::reply(
+                        false,
+                        0,
+                        "shutting down; job not started",
+                    )));
                 }
                 if state != MachineState::Idle || self.job_active() {
-                    return Ok(Self::reply(
+                    return Ok(Some(Self::reply(
                         false,
                         0,
                         &format!("machine is busy ({state:?}); job not started"),
-                    ));
+                    )));
                 }
                 for p in [ProcessId::Interp, ProcessId::Position] {
                     if self.peer_status(p) != "alive" {
-                        return Ok(Self::reply(
+                        return Ok(Some(Self::reply(
                             false,
                             0,
                             &format!(
@@ -491,92 +612,58 @@ impl MmiTask {
                                 p.name(),
                                 self.peer_status(p)
                             ),
-                        ));
+                        )));
                     }
+                }
+                if let Some(c) = &self.checking {
+                    return Ok(Some(Self::reply(
+                        false,
+                        0,
+                        &format!("{} is being checked; job not started", c.path),
+                    )));
                 }
                 // read once (a regular file under the limit), checked, and run from
-                // its immutable copy
-                let taken = intake(
-                    &path,
-                    self.cfg.config.max_job_bytes,
-                    &self.cfg.data_dir.join("programs"),
-                )
-                .map_err(|e| e.to_string())
-                .and_then(|job| {
-                    // planned from where the machine is, as the interpolator plans it
-                    let start_mm = self
-                        .last
-                        .map_or([0.0; 3], |s| [s.cmd_mm[0], s.cmd_mm[1], s.cmd_mm[2]]);
-                    let plan = plan_bytes(&job.bytes, &path, &self.cfg.machine, start_mm)?;
-                    let copy = job.copy.display().to_string();
-                    if !FixedStr::<512>::fits(&copy) {
-                        return Err(format!(
-                            "{copy}: the job's copy has a path over 512 bytes (data_dir too deep)"
-                        ));
-                    }
-                    Ok((job, copy, plan))
-                });
-                match taken {
-                    Err(msg) => {
-                        self.alarms_pub.send_copy(Alarm {
-                            code: AlarmCode::JobRefused.wire(),
-                            axis: u32::MAX,
-                            process: ProcessId::Mmi.wire(),
-                            job_id: 0,
-                            time_index: 0,
-                            message: FixedStr::truncated(&msg),
-                        })?;
-                        Self::reply(false, 0, &msg)
-                    }
-                    Ok((job, copy, plan)) => {
-                        let job_id = self
-                            .jobs
-                            .iter()
-                            .map(|j| j.job_id)
-                            .max()
-                            .unwrap_or(0)
-                            .max(self.job_id_floor)
-                            + 1;
-                        let submitted = SystemTime::now()
-                            .duration_since(SystemTime::UNIX_EPOCH)
-                            .map(|d| d.as_secs())
-                            .unwrap_or(0);
-                        self.jobs.push(JobRecord {
-                            job_id,
-                            path: path.clone(),
-                            submitted_unix_s: submitted,
-                            outcome: "running".into(),
-                            planned_samples: plan.stats().samples,
-                            cycles: 0,
-                            planned_path_mm: plan.stats().path_length_mm,
-                            path_mm: 0.0,
-                            accuracy: Accuracy::default(),
-                            notes: Vec::new(),
-                            alarms: Vec::new(),
-                            program: Some(copy.clone()),
-                            sha256: Some(job.sha256.clone()),
+                // its immutable copy; on a thread of its own (a long program takes a
+                // while) — the loop goes on serving status and E-stop
+                let limit = self.cfg.config.max_job_bytes;
+                let programs = self.cfg.data_dir.join("programs");
+                let machine = self.cfg.machine.clone();
+                // planned from where the machine is, as the interpolator plans it
+                let start_mm = self
+                    .last
+                    .map_or([0.0; 3], |s| [s.cmd_mm[0], s.cmd_mm[1], s.cmd_mm[2]]);
+                let (tx, rx) = std::sync::mpsc::channel();
+                let job_path = path.clone();
+                let spawned =
+                    std::thread::Builder::new()
+                        .name("job-check".into())
+                        .spawn(move || {
+                            let _ =
+                                tx.send(check_job(&job_path, limit, &programs, &machine, start_mm));
                         });
-                        self.save_jobs();
-                        // the feed override is the machine's, not the job's: the job starts at
-                        // the one in force (carried here, so a restarted interpolator knows it)
-                        self.send_control(
-                            ControlKind::StartJob,
-                            job_id,
-                            self.feed_override,
-                            &copy,
-                        )?;
-                        Self::reply(true, job_id, &format!("job {job_id} started: {path}"))
-                    }
+                if let Err(e) = spawned {
+                    return Ok(Some(Self::reply(
+                        false,
+                        0,
+                        &format!("cannot check the job: {e}; job not started"),
+                    )));
                 }
+                self.checking = Some(Checking {
+                    path,
+                    request: None,
+                    result: rx,
+                    cancelled: None,
+                });
+                return Ok(None);
             }
             ControlKind::FeedOverride => {
                 let max = self.cfg.machine.planner.max_feed_override;
                 if !(0.0..=max).contains(&r.value) {
-                    return Ok(Self::reply(
+                    return Ok(Some(Self::reply(
                         false,
                         0,
                         &format!("override must be 0..={:.0} %", max * 100.0),
-                    ));
+                    )));
                 }
                 self.feed_override = r.value;
                 self.send_control(kind, 0, r.value, "")?;
@@ -585,7 +672,7 @@ impl MmiTask {
             ControlKind::SpindleOverride => {
                 let range = self.cfg.machine.spindle;
                 if !(range.min_override..=range.max_override).contains(&r.value) {
-                    return Ok(Self::reply(
+                    return Ok(Some(Self::reply(
                         false,
                         0,
                         &format!(
@@ -593,7 +680,7 @@ impl MmiTask {
                             range.min_override * 100.0,
                             range.max_override * 100.0
                         ),
-                    ));
+                    )));
                 }
                 self.send_control(kind, 0, r.value, "")?;
                 Self::reply(
@@ -622,6 +709,11 @@ impl MmiTask {
                             // records keep theirs
                             self.alarms.clear();
                         }
+                        ControlKind::EStop => {
+                            if let Some(c) = self.checking.as_mut() {
+                                c.cancelled = Some("emergency stop while it was checked");
+                            }
+                        }
                         _ => {}
                     }
                     if kind != ControlKind::Reset || state != MachineState::Idle {
@@ -639,6 +731,9 @@ impl MmiTask {
                 }
             },
             ControlKind::Shutdown => {
+                if let Some(c) = self.checking.as_mut() {
+                    c.cancelled = Some("the controller is shutting down");
+                }
                 self.abort_asked = self.running_job().map(|j| j.job_id);
                 self.send_control(kind, 0, 0.0, "")?;
                 self.shutdown = true;
@@ -646,7 +741,7 @@ impl MmiTask {
             }
             ControlKind::Status => Self::reply(true, 0, &self.status_json().to_string()),
             ControlKind::Jobs => Self::reply(true, 0, &self.jobs_page(r.value)),
-        })
+        }))
     }
 
     /// "alive" (a heartbeat within the timeout), "lost" (silent, or reported lost and
@@ -707,6 +802,7 @@ impl MmiTask {
         let s = self.last;
         serde_json::json!({
             "state": format!("{:?}", self.machine_state()),
+            "checking": self.checking.as_ref().map(|c| c.path.as_str()),
             "feed_override": self.feed_override,
             "spindle_override": s.map(|s| s.spindle_override),
             "spindle_rpm": s.map(|s| s.spindle_rpm),
@@ -876,4 +972,25 @@ mod tests {
         assert!(!path.exists(), "a new history starts");
         let _ = std::fs::remove_dir_all(&dir);
     }
+}
+
+/// Take a submitted job in: read once (a regular file under `limit`), stored as an
+/// immutable copy under `programs`, planned from `start_mm` as the interpolator will
+/// plan it. Runs off the MMI's loop.
+fn check_job(
+    path: &str,
+    limit: u64,
+    programs: &std::path::Path,
+    machine: &softnc_core::MachineProfile,
+    start_mm: [f64; 3],
+) -> CheckResult {
+    let job = intake(path, limit, programs).map_err(|e| e.to_string())?;
+    let plan = plan_bytes(&job.bytes, path, machine, start_mm)?;
+    let copy = job.copy.display().to_string();
+    if !FixedStr::<512>::fits(&copy) {
+        return Err(format!(
+            "{copy}: the job's copy has a path over 512 bytes (data_dir too deep)"
+        ));
+    }
+    Ok((job, copy, plan.stats()))
 }
