@@ -911,6 +911,27 @@ fn highest_job_id(text: &str) -> u64 {
         .unwrap_or(0)
 }
 
+/// Take a submitted job in: read once (a regular file under `limit`), stored as an
+/// immutable copy under `programs`, planned from `start_mm` as the interpolator will
+/// plan it. Runs off the MMI's loop.
+fn check_job(
+    path: &str,
+    limit: u64,
+    programs: &std::path::Path,
+    machine: &softnc_core::MachineProfile,
+    start_mm: [f64; 3],
+) -> CheckResult {
+    let job = intake(path, limit, programs).map_err(|e| e.to_string())?;
+    let plan = plan_bytes(&job.bytes, path, machine, start_mm)?;
+    let copy = job.copy.display().to_string();
+    if !FixedStr::<512>::fits(&copy) {
+        return Err(format!(
+            "{copy}: the job's copy has a path over 512 bytes (data_dir too deep)"
+        ));
+    }
+    Ok((job, copy, plan.stats()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -972,25 +993,4 @@ mod tests {
         assert!(!path.exists(), "a new history starts");
         let _ = std::fs::remove_dir_all(&dir);
     }
-}
-
-/// Take a submitted job in: read once (a regular file under `limit`), stored as an
-/// immutable copy under `programs`, planned from `start_mm` as the interpolator will
-/// plan it. Runs off the MMI's loop.
-fn check_job(
-    path: &str,
-    limit: u64,
-    programs: &std::path::Path,
-    machine: &softnc_core::MachineProfile,
-    start_mm: [f64; 3],
-) -> CheckResult {
-    let job = intake(path, limit, programs).map_err(|e| e.to_string())?;
-    let plan = plan_bytes(&job.bytes, path, machine, start_mm)?;
-    let copy = job.copy.display().to_string();
-    if !FixedStr::<512>::fits(&copy) {
-        return Err(format!(
-            "{copy}: the job's copy has a path over 512 bytes (data_dir too deep)"
-        ));
-    }
-    Ok((job, copy, plan.stats()))
 }
