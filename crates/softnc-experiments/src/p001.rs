@@ -183,7 +183,7 @@ pub struct PreparedCase {
 
 /// Read and plan the G-code of `case` for `machine`.
 pub fn prepare(case: &Case, machine: &MachineProfile) -> Result<PreparedCase> {
-    let path = workspace_file(&case.file());
+    let path = workspace_file(case.file());
     let text = std::fs::read_to_string(&path)
         .with_context(|| format!("cannot read {}", path.display()))?;
     let program = softnc_gcode::read_program(&text, &case.file(), machine).map_err(failed)?;

@@ -12,6 +12,7 @@
 
 use crate::error::{ExperimentError, Result};
 use crate::p001::{machine_for, prepare, run, table, Row, Stack, CASES};
+use nalgebra::{Matrix2, Vector2};
 use softnc_control::discrete_tf::{is_schur_stable, poly_add, poly_mul};
 use softnc_control::fuzzy::{EquivalentGains, FuzzyController, SectorGrid};
 use softnc_core::fuzzy::FuzzyConfig;
@@ -260,8 +261,9 @@ pub fn audit(machine: &MachineProfile, flc: &FuzzyConfig, seeds: &[u64]) -> Resu
     let mut visited = Vec::new();
     for (ci, case) in CASES.iter().enumerate() {
         let prepared = prepare(case, machine)?;
-        // normal equations of F ≈ P e + D Δe
-        let (mut see, mut sed, mut sdd, mut sef, mut sdf) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        // normal equations (Σ x xᵀ) [P, D]ᵀ = Σ x F of F ≈ P e + D Δe, x = [e, Δe]ᵀ
+        let mut normal = Matrix2::<f64>::zeros();
+        let mut rhs = Vector2::<f64>::zeros();
         let (mut n, mut inner) = (0usize, 0usize);
         for &seed in seeds {
             let mut prev = [0.0f64; 2];
@@ -271,11 +273,9 @@ pub fn audit(machine: &MachineProfile, flc: &FuzzyConfig, seeds: &[u64]) -> Resu
                     let de = e - *p;
                     *p = e;
                     let f = ctl.surface(e, de);
-                    see += e * e;
-                    sed += e * de;
-                    sdd += de * de;
-                    sef += e * f;
-                    sdf += de * f;
+                    let x = Vector2::new(e, de);
+                    normal += x * x.transpose();
+                    rhs += x * f;
                     n += 1;
                     if e.abs() <= c_e && de.abs() <= c_de {
                         inner += 1;
@@ -283,12 +283,16 @@ pub fn audit(machine: &MachineProfile, flc: &FuzzyConfig, seeds: &[u64]) -> Resu
                 }
             })?;
         }
-        let det = see * sdd - sed * sed;
+        // Σ x xᵀ is symmetric positive definite unless e and Δe never varied
+        // independently; then the fit is undefined (NaN), as the printed table says
+        let fit = normal
+            .cholesky()
+            .map_or(Vector2::repeat(f64::NAN), |c| c.solve(&rhs));
         visited.push(VisitedRange {
             case: ci,
             inner_share: inner as f64 / n.max(1) as f64,
-            p: (sef * sdd - sdf * sed) / det,
-            d: (sdf * see - sef * sed) / det,
+            p: fit[0],
+            d: fit[1],
         });
     }
     // the profile's PID gains are per mm; the paper's per BLU

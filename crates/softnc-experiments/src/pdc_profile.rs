@@ -3,6 +3,7 @@
 //! axis (from the machine profile's velocity-loop servo model when there is one).
 
 use crate::error::{failed, Context, ExperimentError, Result};
+use crate::workspace_file;
 use serde::Deserialize;
 use softnc_control::discrete_tf::DiscreteTf;
 use softnc_control::dob::DobConfig;
@@ -40,45 +41,30 @@ pub struct AxisPlant {
     pub den: Vec<f64>,
 }
 
-/// A path relative to the current directory, else to the workspace root.
-pub fn resolve(rel: &Path) -> PathBuf {
-    if rel.exists() || rel.is_absolute() {
-        return rel.to_path_buf();
-    }
-    let ws = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .join(rel);
-    if ws.exists() {
-        ws
-    } else {
-        rel.to_path_buf()
-    }
-}
-
 /// The machine profile path for a name or path.
 pub fn machine_path(machine: &str) -> PathBuf {
     let p = PathBuf::from(machine);
     if machine.ends_with(".ron") || p.exists() {
-        return resolve(&p);
+        return workspace_file(&p);
     }
-    resolve(&PathBuf::from(format!("config/machines/{machine}.ron")))
+    workspace_file(PathBuf::from(format!("config/machines/{machine}.ron")))
 }
 
 /// The compensator design file for a machine name or profile path.
 pub fn pdc_profile_path(machine: &str, explicit: Option<&PathBuf>) -> PathBuf {
     if let Some(p) = explicit {
-        return resolve(p);
+        return workspace_file(p);
     }
     let stem = Path::new(machine)
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| machine.to_string());
-    let first = resolve(&PathBuf::from(format!("config/pdc/{stem}.ron")));
+    let first = workspace_file(PathBuf::from(format!("config/pdc/{stem}.ron")));
     if first.exists() {
         return first;
     }
     let short = stem.trim_end_matches("-pdc");
-    resolve(&PathBuf::from(format!("config/pdc/{short}.ron")))
+    workspace_file(PathBuf::from(format!("config/pdc/{short}.ron")))
 }
 
 /// Load a compensator design file, naming the bad field on error.

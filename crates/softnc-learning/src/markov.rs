@@ -10,6 +10,8 @@
 //! repetition domain. `p` is the learning buffer size (how many Markov terms are
 //! used); the paper's Fig. 4 shows a small p already converges fast.
 
+use nalgebra::DVectorView;
+
 /// Identify the first `p` Markov parameters h(1..=p) from the measured response `y`
 /// of the closed loop, at rest, to a one-sample pulse of `height` commanded at index
 /// `at`: h(i) = y(at + i) / height.
@@ -55,13 +57,18 @@ impl MarkovLearner {
         }
     }
 
-    /// Update `command` (P_{j−1} → P_j) in place from the last repetition's error.
+    /// Update `command` (P_{j−1} → P_j) in place from the last repetition's error:
+    /// P_j = P_{j−1} + s·H_pᵀe, H_p the lower-triangular banded Toeplitz matrix of
+    /// h(1..=p). Row k of H_pᵀe is the dot product of h with e(k+1..k+p), taken over
+    /// nalgebra vector views of the buffers (H_p itself, n × n for n samples, is
+    /// never formed).
     pub fn update(&self, command: &mut [f64], error: &[f64]) {
         let n = command.len().min(error.len());
-        for (k, c) in command.iter_mut().enumerate().take(n) {
-            let ahead = &error[(k + 1).min(n)..n];
-            let acc: f64 = self.markov.iter().zip(ahead).map(|(h, e)| h * e).sum();
-            *c += self.gain * acc;
+        let h = DVectorView::from_slice(&self.markov, self.markov.len());
+        let e = DVectorView::from_slice(&error[..n], n);
+        for (k, c) in command[..n].iter_mut().enumerate() {
+            let terms = h.len().min(n - k - 1);
+            *c += self.gain * h.rows(0, terms).dot(&e.rows(k + 1, terms));
         }
     }
 
@@ -227,6 +234,42 @@ mod tests {
                 i + 1
             );
         }
+    }
+
+    /// The update is eq 5 term by term: c(k) += s Σ_{i=1..p} h(i) e(k+i), e = 0 past
+    /// the end, for buffers shorter and longer than the job.
+    #[test]
+    fn update_is_eq5_term_by_term() {
+        let n = 37;
+        let error: Vec<f64> = (0..n).map(|k| (k as f64 * 0.7).sin() + 0.1).collect();
+        let start: Vec<f64> = (0..n).map(|k| k as f64 * 0.01).collect();
+        let h_all: Vec<f64> = (1..=60)
+            .map(|i| 0.8f64.powi(i) * (i as f64).cos())
+            .collect();
+        for p in [0usize, 1, 3, 8, 9, 36, 37, 60] {
+            let learner = MarkovLearner::new(0.5, &h_all, p);
+            let mut cmd = start.clone();
+            learner.update(&mut cmd, &error);
+            for k in 0..n {
+                let mut acc = 0.0;
+                for i in 1..=p {
+                    if k + i < n {
+                        acc += h_all[i - 1] * error[k + i];
+                    }
+                }
+                let want = start[k] + 0.5 * acc;
+                assert!(
+                    (cmd[k] - want).abs() <= 1e-12 * (1.0 + want.abs()),
+                    "p {p}, k {k}: {} vs {want}",
+                    cmd[k]
+                );
+            }
+        }
+        // a shorter error than command: only the common samples move
+        let learner = MarkovLearner::new(1.0, &[1.0, 1.0], 2);
+        let mut cmd = vec![0.0; 4];
+        learner.update(&mut cmd, &[1.0, 2.0, 3.0]);
+        assert_eq!(cmd, vec![5.0, 3.0, 0.0, 0.0]);
     }
 
     #[test]
