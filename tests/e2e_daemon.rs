@@ -399,7 +399,7 @@ fn simulator_trace_learned(job: &Path, machine: &Path, out: &Path, learned: Opti
     let text = std::fs::read_to_string(job).unwrap();
     let program = softnc_gcode::read_program(&text, &job.display().to_string(), &profile).unwrap();
     let plan = softnc_planner::plan(&program, &profile, &Default::default()).unwrap();
-    let mut engine = softnc_sim::CycleEngine::simulated(
+    let mut engine = softnc_sim::simulated_engine(
         &profile,
         profile.servo.seed,
         softnc_sim::SimOptions::default(),
@@ -1416,4 +1416,45 @@ fn a_job_is_checked_off_the_loop_status_and_estop_answer_meanwhile() {
     let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
     assert_eq!(s["job"]["outcome"], "completed", "{s}");
     assert_eq!(s["axes"]["cmd_mm"][0], 10.0, "{s}");
+}
+
+#[test]
+fn a_loopback_daemon_runs_a_job_whose_axes_follow_the_command_exactly() {
+    let d = Daemon::start_in(
+        fresh_dir("loopback"),
+        "loopback",
+        "Lockstep",
+        true,
+        "default.ron",
+        &[("backend: Simulated", "backend: Loopback")],
+    );
+    let op = d.operator();
+    let r = op
+        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
+        .unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    // each cycle measures where the previous one commanded, to a nanometre
+    let trace = std::fs::read_to_string(d.dir.join(format!("data/trace-job{}.csv", r.job_id)))
+        .unwrap();
+    let rows: Vec<Vec<f64>> = trace
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').take(7).map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert!(rows.len() > 1000, "{} rows", rows.len());
+    for w in rows.windows(2) {
+        for axis in 0..3 {
+            let (cmd_before, act_now) = (w[0][1 + axis], w[1][4 + axis]);
+            assert!(
+                (act_now - cmd_before).abs() <= 1e-9,
+                "t {}: axis {axis} at {act_now}, commanded {cmd_before}",
+                w[1][0]
+            );
+        }
+    }
+    // far below the simulated machine's (tens of µm) on the same job
+    let rms = s["job"]["accuracy"]["contour_rms_um"].as_f64().unwrap();
+    assert!(rms < 1.0, "contour rms {rms} µm");
 }

@@ -18,6 +18,19 @@ pub struct DemoArgs {
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
+    /// The servo backend: the profile's simulated machine, or a loopback that
+    /// follows the command exactly (contour error ≈ 0).
+    #[arg(long, value_enum, default_value_t = Backend::Simulated)]
+    backend: Backend,
+}
+
+/// `--backend` of `softnc demo`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Backend {
+    /// The machine profile's simulated machine.
+    Simulated,
+    /// Axes that follow the command exactly.
+    Loopback,
 }
 
 /// Where `softncd` is: beside this binary.
@@ -40,8 +53,12 @@ pub fn run(args: DemoArgs, config: &Path) -> Result<ExitCode> {
     let loaded = softnc_daemon::config::DaemonConfig::load(config)?;
     let dir = std::env::temp_dir().join(format!("softnc-demo-{}", std::process::id()));
     let instance = format!("demo{}", std::process::id());
+    let backend = match args.backend {
+        Backend::Simulated => softnc_daemon::config::BackendKind::Simulated,
+        Backend::Loopback => softnc_daemon::config::BackendKind::Loopback,
+    };
     let demo_config = loaded
-        .write_instance_copy(&dir, &instance)
+        .write_instance_copy_on(&dir, &instance, backend)
         .with_context(|| format!("writing the demo's configuration into {}", dir.display()))?;
     let r = run_on(args, &demo_config);
     let _ = std::fs::remove_dir_all(&dir);
@@ -49,6 +66,7 @@ pub fn run(args: DemoArgs, config: &Path) -> Result<ExitCode> {
 }
 
 fn run_on(args: DemoArgs, config: &Path) -> Result<ExitCode> {
+    let backend = args.backend;
     let run_dir = config.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut daemon = Command::new(softncd_path()?)
         .arg("--config")
@@ -78,6 +96,7 @@ fn run_on(args: DemoArgs, config: &Path) -> Result<ExitCode> {
             "alarms": status["alarms"],
         });
         report["outcome"] = serde_json::Value::String(outcome.clone());
+        report["backend"] = serde_json::Value::String(format!("{backend:?}"));
         Ok((report, outcome))
     })();
     // wait for a clean shutdown; kill only if it hangs
@@ -114,6 +133,10 @@ fn print_report(r: &serde_json::Value) {
         j["job_id"],
         j["outcome"].as_str().unwrap_or("?"),
         j["path"].as_str().unwrap_or("")
+    );
+    println!(
+        "  servo backend: {}",
+        r["backend"].as_str().unwrap_or("?")
     );
     println!(
         "  cycles {} (planned {}), wall time {:.2} s",

@@ -16,7 +16,7 @@ use softnc_learning::markov::{Improvement, MarkovJob};
 use softnc_learning::radius_ilc::RadiusIlc;
 use softnc_learning::sim_runs::{self as learn_sim, IterationStats, PreparedJob};
 use softnc_learning::{LearningKey, LearningStore};
-use softnc_sim::{CycleEngine, SimOptions};
+use softnc_sim::{simulated_engine, SimOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -184,7 +184,7 @@ pub fn run(args: LearnArgs) -> Result<ExitCode> {
         state: LawState::Markov(MarkovJob::new(Default::default(), 1, Some(1.0), 0)),
     };
     let first = entry.iterations.len();
-    let mut engine = CycleEngine::simulated(&machine, seed, SimOptions::default());
+    let mut engine = simulated_engine(&machine, seed, SimOptions::default());
     // the entry is written after every run: a killed run keeps what it had learnt
     let put = |entry: &Learned| {
         store

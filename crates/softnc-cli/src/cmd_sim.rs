@@ -5,7 +5,8 @@ use crate::cmd_plan::{load_machine, read_file};
 use anyhow::{Context, Result};
 use plotters::prelude::*;
 use softnc_core::{Primitive, Vec3};
-use softnc_sim::{simulate, CommandSample, CycleEngine, ErrorStats, SimOptions, TraceRow};
+use softnc_sim::{simulate, simulated_engine, CommandSample, ErrorStats, SimOptions};
+use softnc_servo::TraceRow;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -116,7 +117,7 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
     } else {
         None
     };
-    let mut engine = CycleEngine::simulated(&machine, seed, SimOptions::default());
+    let mut engine = simulated_engine(&machine, seed, SimOptions::default());
     // the job's S words: PDC designs per spindle speed, as the position process makes them
     if let Err(e) = engine.set_spindle_schedule(&machine, plan.spindle_changes(), spindle_override)
     {

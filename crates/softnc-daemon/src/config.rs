@@ -28,6 +28,9 @@ pub struct DaemonConfig {
     pub machine: PathBuf,
     /// Clock mode of the position loop.
     pub clock: ClockMode,
+    /// The servo backend the position process drives.
+    #[serde(default)]
+    pub backend: BackendKind,
     /// Samples the position process holds ahead of the current one before motion
     /// starts and keeps filled during motion (≥ the zero-lag filter's N).
     pub lookahead_samples: usize,
@@ -106,6 +109,18 @@ impl Default for SupervisorConfig {
     }
 }
 
+/// Which servo backend (`softnc_servo::ServoBackend`) the position process drives.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum BackendKind {
+    /// The profile's simulated machine (`softnc_sim::SimBackend`), seeded by the
+    /// profile: a lockstep run equals `softnc sim` bit for bit.
+    #[default]
+    Simulated,
+    /// Axes that follow the command exactly (`softnc_servo::LoopbackBackend`): dry
+    /// runs without dynamics.
+    Loopback,
+}
+
 /// Largest lookahead the position process can hold (its ring holds twice this).
 pub const MAX_LOOKAHEAD_SAMPLES: usize = 1000;
 
@@ -136,9 +151,20 @@ impl Loaded {
     /// controller of its own beside this one (`softnc demo`) that shares nothing with
     /// it but the machine profile and the learning store.
     pub fn write_instance_copy(&self, dir: &Path, instance: &str) -> std::io::Result<PathBuf> {
+        self.write_instance_copy_on(dir, instance, self.config.backend)
+    }
+
+    /// [`Loaded::write_instance_copy`] on servo backend `backend`.
+    pub fn write_instance_copy_on(
+        &self,
+        dir: &Path,
+        instance: &str,
+        backend: BackendKind,
+    ) -> std::io::Result<PathBuf> {
         let abs = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
         let mut c = self.config.clone();
         c.instance = instance.to_string();
+        c.backend = backend;
         c.machine = abs(&self.machine_path);
         c.iceoryx2_config = abs(&self.iceoryx2_config);
         c.learning_dir = Some(abs(&self.learning_dir));
@@ -245,17 +271,17 @@ impl DaemonConfig {
             ));
         }
         // the controller stacks must design (PDC eq 11–13, filters) before any process starts
-        if let Err(e) = softnc_sim::CycleEngine::try_new(
+        if let Err(e) = softnc_servo::CycleEngine::try_new(
             &machine,
             softnc_sim::SimBackend::new(&machine, machine.servo.seed, Default::default()),
         ) {
             return Err(ConfigError::Invalid {
                 file: machine_path.display().to_string(),
                 path: match &e {
-                    softnc_sim::EngineError::Compensation(c) => {
+                    softnc_servo::EngineError::Compensation(c) => {
                         format!("servo.axes[{}].compensation", c.axis)
                     }
-                    softnc_sim::EngineError::Filter { axis, .. } => {
+                    softnc_servo::EngineError::Filter { axis, .. } => {
                         format!("servo.axes[{axis}].command_filter")
                     }
                 },

@@ -24,8 +24,8 @@ use softnc_ipc::{
     LoopStats as LoopStatsMsg, MachineState, PositionStatus, ProcessId, MAX_AXES,
 };
 use softnc_rt::{LoopStats, PeriodicClock};
-use softnc_sim::spindle::SpindleDesigns;
-use softnc_sim::{CycleEngine, ServoBackend};
+use softnc_servo::spindle::SpindleDesigns;
+use softnc_servo::{CycleEngine, ServoBackend};
 use std::time::{Duration, Instant};
 
 /// A stop asked of this process itself: how long the interpolator gets to stop the
@@ -244,6 +244,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             self.stats.record(jitter, woke.elapsed(), late);
             self.housekeeping()?;
         }
+        // at rest: the drives stop following commands (CiA 402: disabled)
+        self.engine.backend_mut().disable();
         // a trace still open (the job stopped along its path) is written out when
         // the preparation thread ends with this task
         if let Some(t) = self.trace.take() {
@@ -595,7 +597,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                         u32::MAX,
                         format_args!("servo backend fault: {e}"),
                     )?;
-                    softnc_sim::CycleRecord {
+                    softnc_servo::CycleRecord {
                         cmd_mm: cmd,
                         ..Default::default()
                     }
@@ -603,7 +605,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             }
         } else {
             let actual_mm = self.engine.measured_mm();
-            softnc_sim::CycleRecord {
+            softnc_servo::CycleRecord {
                 cmd_mm: cmd,
                 actual_mm,
                 following_mm: [0, 1, 2].map(|i| cmd[i] - actual_mm[i]),
@@ -639,7 +641,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         };
         if moving {
             if let (Some(t), Some(c)) = (&self.trace, self.current) {
-                t.push(softnc_sim::sim::TraceRow {
+                t.push(softnc_servo::TraceRow {
                     cycle: c.time_index,
                     time_s: c.time_index as f64 * self.cfg.machine.interpolation_cycle_s,
                     motion: c.motion,

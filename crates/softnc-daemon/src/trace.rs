@@ -1,69 +1,15 @@
-//! Per-cycle traces (CSV): the format `softnc sim --trace` writes, so a daemon run in
-//! lockstep and the offline simulator can be compared byte for byte. Numbers are in
-//! Rust's shortest round-trip form: equal files ⇔ bit-identical values.
+//! Per-cycle traces of the position loop, in the format of [`softnc_servo::trace`]
+//! (the one `softnc sim --trace` writes).
 //!
 //! The position loop hands rows to a writer thread through a bounded lock-free queue
 //! ([`TraceSink`]); formatting and file I/O never run on the cycle path.
 
 use crossbeam_queue::ArrayQueue;
-use softnc_sim::sim::TraceRow;
-use std::fmt::Write as _;
-use std::io::Write;
+pub use softnc_servo::trace::{format_row, TraceFile, HEADER};
+use softnc_servo::TraceRow;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
-
-/// Header line of a trace.
-pub const HEADER: &str =
-    "time_s,cmd_x_mm,cmd_y_mm,cmd_z_mm,act_x_mm,act_y_mm,act_z_mm,fe_x_um,fe_y_um,fe_z_um,contour_um";
-
-/// Append one row to `out` (no trailing allocation once `out` has grown).
-pub fn format_row(out: &mut String, row: &TraceRow) {
-    let r = &row.record;
-    let _ = write!(out, "{}", row.time_s);
-    for v in r.cmd_mm.iter().chain(&r.actual_mm) {
-        let _ = write!(out, ",{v}");
-    }
-    for v in r.following_mm {
-        let _ = write!(out, ",{}", v * 1000.0);
-    }
-    match row.contour_mm {
-        Some(c) => {
-            let _ = write!(out, ",{}", c * 1000.0);
-        }
-        None => out.push(','),
-    }
-    out.push('\n');
-}
-
-/// Write a whole trace file from rows (the simulator's path).
-pub struct TraceFile {
-    w: std::io::BufWriter<std::fs::File>,
-    buf: String,
-}
-
-impl TraceFile {
-    /// Create `path` and write the header.
-    pub fn create(path: &Path) -> std::io::Result<Self> {
-        let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
-        writeln!(w, "{HEADER}")?;
-        Ok(TraceFile {
-            w,
-            buf: String::with_capacity(256),
-        })
-    }
-    /// One row.
-    pub fn row(&mut self, row: &TraceRow) -> std::io::Result<()> {
-        self.buf.clear();
-        format_row(&mut self.buf, row);
-        self.w.write_all(self.buf.as_bytes())
-    }
-    /// Flush to disk.
-    pub fn finish(mut self) -> std::io::Result<()> {
-        self.w.flush()?;
-        self.w.get_ref().sync_all()
-    }
-}
 
 /// The position loop's end of a trace: push rows, a thread writes them.
 pub struct TraceSink {

@@ -95,7 +95,7 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed
     let names = ServiceNames::new(&loaded.config.service_prefix, &loaded.config.instance);
     let machine = loaded.machine.clone();
     let make_engine: EngineFactory<softnc_sim::SimBackend> = Box::new(move || {
-        softnc_sim::CycleEngine::simulated(
+        softnc_sim::simulated_engine(
             &machine,
             machine.servo.seed,
             softnc_sim::SimOptions::default(),

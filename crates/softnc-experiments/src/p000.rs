@@ -31,7 +31,8 @@ use plotters::style::colors::{BLACK, BLUE, GREEN, MAGENTA, RED};
 use softnc_core::compensation::{Compensation, OuterCompensator};
 use softnc_core::servo::PlantModel;
 use softnc_core::MachineProfile;
-use softnc_sim::{CycleEngine, SimBackend, SimOptions};
+use softnc_sim::{simulated_engine, SimBackend, SimOptions};
+use softnc_servo::CycleEngine;
 use std::path::{Path, PathBuf};
 
 /// The machine of the experiment.
@@ -261,7 +262,7 @@ pub fn reference(p: &Prepared, base: &MachineProfile) -> Result<Vec<[f64; 2]>> {
         cutting: false,
         variation: false,
     };
-    errors(p, &mut CycleEngine::simulated(&m, SEED, opts))
+    errors(p, &mut simulated_engine(&m, SEED, opts))
 }
 
 /// Run configuration `comp` at `rpm` (see the module docs for off-design speeds).

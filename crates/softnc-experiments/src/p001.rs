@@ -14,7 +14,7 @@ use crate::{workspace_file, Experiment, ExperimentId, Report, RunOptions};
 use plotters::style::colors::{BLUE, RED};
 use softnc_core::fuzzy::FuzzyConfig;
 use softnc_core::MachineProfile;
-use softnc_sim::{CycleEngine, SimOptions};
+use softnc_sim::{simulated_engine, SimOptions};
 use std::path::{Path, PathBuf};
 
 /// Time the command is held at the end point after the program ends (s), so the final
@@ -201,7 +201,7 @@ pub fn run(
 ) -> Result<Stats> {
     let plan = &prepared.plan;
     let cycle_s = plan.cycle_s();
-    let mut engine = CycleEngine::simulated(machine, seed, SimOptions::default());
+    let mut engine = simulated_engine(machine, seed, SimOptions::default());
     let samples: Vec<softnc_planner::Sample> = plan.interpolator().collect();
     let first = samples.first().context("empty plan")?;
     engine.reset(first.pos_mm.0);

@@ -12,7 +12,7 @@ use crate::{workspace_file, Experiment, ExperimentId, Report, RunOptions};
 use softnc_core::MachineProfile;
 use softnc_learning::markov::MarkovJob;
 use softnc_learning::sim_runs::{self as learn_sim, IterationStats, PreparedJob};
-use softnc_sim::{CycleEngine, SimOptions};
+use softnc_sim::{simulated_engine, SimOptions};
 
 /// The job.
 pub const JOB: &str = "examples/learning/lines-arcs.ngc";
@@ -47,7 +47,7 @@ pub fn curves(
     let n = job.samples.len();
     let mut out = Vec::new();
     for &buffer in buffers {
-        let mut engine = CycleEngine::simulated(machine, seed, SimOptions::default());
+        let mut engine = simulated_engine(machine, seed, SimOptions::default());
         let h =
             learn_sim::identify(&mut engine, machine, job.samples[0].pos_mm, n).map_err(failed)?;
         let mut mj = MarkovJob::new(h, buffer.unwrap_or(n), Some(gain), n);

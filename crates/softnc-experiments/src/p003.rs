@@ -35,7 +35,7 @@ use softnc_core::force::{ForceCase, ForceEvent, ForceProfile};
 use softnc_core::MachineProfile;
 use softnc_sim::milling::{CutProfile, MillingProcess};
 use softnc_sim::pmsm::PmsmFeedMotor;
-use softnc_sim::{CycleEngine, Rng, SimOptions};
+use softnc_sim::{simulated_engine, Rng, SimOptions};
 use std::path::{Path, PathBuf};
 
 /// Random stream of the current sensors' noise.
@@ -152,7 +152,7 @@ pub fn run_cut(
         cutting: false,
         variation: false,
     };
-    let mut engine = CycleEngine::simulated(machine, machine.servo.seed, options);
+    let mut engine = simulated_engine(machine, machine.servo.seed, options);
     engine.reset([0.0; 3]);
     let mut milling = MillingProcess::new(tool, spec.spindle_rpm);
     let mut motor = PmsmFeedMotor::new(

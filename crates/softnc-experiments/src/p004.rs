@@ -13,7 +13,7 @@ use softnc_core::servo::PlantModel;
 use softnc_core::MachineProfile;
 use softnc_learning::radius_ilc::{self, POINTS};
 use softnc_learning::sim_runs::{self as learn_sim, IterationStats};
-use softnc_sim::{CycleEngine, SimOptions};
+use softnc_sim::{simulated_engine, SimOptions};
 
 /// The machine.
 pub const MACHINE: &str = "config/machines/tnv40-ilc.ron";
@@ -100,7 +100,7 @@ pub fn run_all(machine: &MachineProfile, seed: u64, iterations: usize) -> Result
         let f_mm_s = circle.feed_mm_per_min / 60.0;
         let theory_um = 1000.0 * f_mm_s * f_mm_s * tau_s * tau_s / (2.0 * r_mm);
         let start_deg = circle.start_rad.to_degrees();
-        let mut engine = CycleEngine::simulated(machine, seed, SimOptions::default());
+        let mut engine = simulated_engine(machine, seed, SimOptions::default());
         let mut ilc = radius_ilc::RadiusIlc::new(r_mm, ALPHA);
         let mut its = Vec::new();
         learn_sim::learn_radius(

@@ -7,7 +7,8 @@
 use crate::markov::{identify_markov, settled_terms, Improvement, MarkovJob, AXES};
 use crate::radius_ilc::{Circle, RadiusIlc, POINTS};
 use softnc_core::{MachineProfile, Primitive};
-use softnc_sim::{simulate, CommandSample, CycleEngine, ErrorStats, ServoBackend, SimBackend};
+use softnc_sim::{simulate, CommandSample, ErrorStats, SimBackend};
+use softnc_servo::{CycleEngine, ServoBackend};
 
 pub use crate::entry::{IterationStats, HOLD_S};
 
@@ -416,7 +417,7 @@ mod tests {
             .join(rel)
     }
     use softnc_core::servo::CommandFilterConfig;
-    use softnc_sim::SimOptions;
+    use softnc_sim::{simulated_engine, SimOptions};
 
     /// With a command filter on, the measured positions stay one per job sample and
     /// aligned with them: on a constant-velocity line the zero-lag filter leaves the
@@ -439,7 +440,7 @@ mod tests {
                 variation: false,
                 ..SimOptions::default()
             };
-            let mut engine = CycleEngine::simulated(m, 1, opts);
+            let mut engine = simulated_engine(m, 1, opts);
             assert_eq!(
                 engine.filter_window(),
                 if std::ptr::eq(m, &plain) { 0 } else { 40 }

@@ -8,7 +8,7 @@ use softnc_learning::markov::{MarkovJob, DEFAULT_GAIN};
 use softnc_learning::sim_runs::{
     correction_bound_mm, find_circle, identify, learn_markov, run_job, PreparedJob,
 };
-use softnc_sim::{CycleEngine, SimOptions};
+use softnc_sim::{simulated_engine, SimOptions};
 use std::path::PathBuf;
 
 fn workspace_file(rel: &str) -> PathBuf {
@@ -24,7 +24,7 @@ fn machine(name: &str) -> MachineProfile {
 /// Contour-error RMS (µm) of `job` on a fresh simulated machine (seed 1) with the
 /// correction of `mj` (or none).
 fn rerun_rms_um(m: &MachineProfile, job: &PreparedJob, mj: Option<&MarkovJob>) -> f64 {
-    let mut engine = CycleEngine::simulated(m, 1, SimOptions::default());
+    let mut engine = simulated_engine(m, 1, SimOptions::default());
     let run = run_job(&mut engine, job, |k, p| mj.map_or(p, |mj| mj.command(k, p))).unwrap();
     run.contour.rms() * 1000.0
 }
@@ -34,7 +34,7 @@ fn rerun_rms_um(m: &MachineProfile, job: &PreparedJob, mj: Option<&MarkovJob>) -
 fn learn(m: &MachineProfile, text: &str, iterations: usize) -> (PreparedJob, MarkovJob, usize) {
     let job = PreparedJob::new(text, "job.ngc", m).unwrap();
     let n = job.samples.len();
-    let mut engine = CycleEngine::simulated(m, 1, SimOptions::default());
+    let mut engine = simulated_engine(m, 1, SimOptions::default());
     let h = identify(&mut engine, m, job.samples[0].pos_mm, n).unwrap();
     let bound = correction_bound_mm(m, &h);
     let mut mj = MarkovJob::new(h, n, Some(DEFAULT_GAIN), n).bounded(bound);
@@ -147,7 +147,7 @@ fn a_diverging_radius_run_stops() {
     use softnc_learning::sim_runs::learn_radius;
     let m = machine("tnv40-ilc.ron");
     let (c, r) = find_circle(CIRCLE_40MM_1800, "C.ngc", &m).unwrap();
-    let mut engine = CycleEngine::simulated(&m, 1, SimOptions::default());
+    let mut engine = simulated_engine(&m, 1, SimOptions::default());
     let mut ilc = RadiusIlc::new(r, 3.0);
     let its = learn_radius(&mut engine, &m, &c, &mut ilc, 5, |_, _, _| Ok(())).unwrap();
     assert_eq!(its.len(), 2, "{its:?}");

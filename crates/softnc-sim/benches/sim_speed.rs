@@ -6,7 +6,7 @@ use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use softnc_control::AxisController;
 use softnc_core::servo::ControllerConfig;
 use softnc_core::MachineProfile;
-use softnc_sim::{simulate, CommandSample, CycleEngine, SimOptions};
+use softnc_sim::{simulate, simulated_engine, CommandSample, SimOptions};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -45,7 +45,7 @@ fn samples(n: u64) -> impl Iterator<Item = CommandSample> {
 }
 
 fn run(p: &MachineProfile, n: u64) -> f64 {
-    let mut engine = CycleEngine::simulated(p, 1, SimOptions::default());
+    let mut engine = simulated_engine(p, 1, SimOptions::default());
     let r = simulate(
         &mut engine,
         0.001,

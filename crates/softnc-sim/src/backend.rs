@@ -1,15 +1,12 @@
-//! The servo backend: the boundary a real drive implements (write commands, read encoder
-//! counts, currents and status once per cycle), and the simulated machine behind it.
+//! The simulated machine behind the servo boundary ([`softnc_servo::ServoBackend`]).
 
 use crate::cutting_disturbance::Cutting;
 use crate::encoder::Encoder;
-use crate::plant::{CommandMode, Plant};
+use crate::plant::Plant;
+use softnc_servo::{AxisStatus, BackendError, CommandMode, ServoBackend, SimulatedMachine, MAX_AXES};
 use crate::resonance::Resonance;
 use crate::rng::Rng;
 use softnc_core::MachineProfile;
-
-/// Axes a backend serves (X, Y, Z).
-pub const MAX_AXES: usize = 3;
 
 /// Resolution reported when encoder quantisation is switched off (mm per count): fine
 /// enough that the count is the position to floating-point precision over any travel.
@@ -19,63 +16,6 @@ pub const UNQUANTISED_MM_PER_COUNT: f64 = 1e-9;
 const STREAM_VARIATION: u64 = 100;
 /// Random stream of axis `i`'s measurement noise: `STREAM_NOISE + i`.
 const STREAM_NOISE: u64 = 200;
-
-/// Status of one drive.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct AxisStatus {
-    /// Enabled and following commands.
-    pub enabled: bool,
-    /// The drive reports a fault.
-    pub fault: bool,
-    /// The command was clipped by the drive's input range (DAC saturation).
-    pub saturated: bool,
-    /// The axis is held by static friction (simulation only; real drives report false).
-    pub stuck: bool,
-}
-
-/// Why a backend cycle failed. Small and `Copy`: it can happen on the cycle path.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum BackendError {
-    /// A drive reported a fault.
-    #[error("drive fault on axis {axis}")]
-    DriveFault {
-        /// Axis index.
-        axis: u8,
-    },
-    /// The drives did not answer within the cycle.
-    #[error("no answer from the drives within the cycle")]
-    Timeout,
-}
-
-/// A servo backend: the simulated machine now, real drives later. One cycle is
-/// `write_commands` → `cycle` → `read_*`.
-pub trait ServoBackend {
-    /// Number of axes served (≤ [`MAX_AXES`]).
-    fn axes(&self) -> usize;
-    /// What axis `axis`'s command means.
-    fn command_mode(&self, axis: usize) -> CommandMode;
-    /// Encoder resolution of axis `axis` (mm per count).
-    fn mm_per_count(&self, axis: usize) -> f64;
-    /// Declare the current actual position to be `pos_mm` (homing; the simulation
-    /// places its axes there at rest).
-    fn home(&mut self, pos_mm: [f64; MAX_AXES]);
-    /// This cycle's command per axis, in the units of its [`CommandMode`].
-    fn write_commands(&mut self, cmd: [f64; MAX_AXES]);
-    /// Exchange with the drives: the machine moves for one cycle.
-    fn cycle(&mut self) -> Result<(), BackendError>;
-    /// Actual positions, encoder counts.
-    fn read_counts(&self) -> [i64; MAX_AXES];
-    /// Motor currents (or their model equivalents).
-    fn read_currents(&self) -> [f64; MAX_AXES];
-    /// Drive status.
-    fn read_status(&self) -> [AxisStatus; MAX_AXES];
-    /// Tell the machine whether the tool is cutting (simulation: switches the periodic
-    /// cutting disturbance; a real backend ignores it).
-    fn set_cutting(&mut self, _cutting: bool) {}
-    /// The spindle now turns at `rpm` (an S word took effect); backends whose
-    /// machine has no spindle ignore it.
-    fn set_spindle_rpm(&mut self, _rpm: f64) {}
-}
 
 /// Switches of the simulated machine's imperfections (all on by default).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -237,8 +177,28 @@ impl ServoBackend for SimBackend {
         self.currents = [0.0; MAX_AXES];
         self.measure();
     }
+    fn enable(&mut self) -> Result<(), BackendError> {
+        for s in &mut self.status {
+            s.enabled = true;
+        }
+        Ok(())
+    }
+    fn disable(&mut self) {
+        // drives off: no torque, no speed; a position-mode drive holds where it is
+        for i in 0..MAX_AXES {
+            self.status[i].enabled = false;
+            self.cmd[i] = match self.plants[i].command_mode() {
+                CommandMode::Position => self.plants[i].pos_mm(),
+                CommandMode::Velocity | CommandMode::Effort => 0.0,
+            };
+        }
+    }
     fn write_commands(&mut self, cmd: [f64; MAX_AXES]) {
-        self.cmd = cmd;
+        for i in 0..MAX_AXES {
+            if self.status[i].enabled {
+                self.cmd[i] = cmd[i];
+            }
+        }
     }
     fn cycle(&mut self) -> Result<(), BackendError> {
         let t0 = self.cycle as f64 * self.cycle_s;
@@ -260,11 +220,6 @@ impl ServoBackend for SimBackend {
             if let Some(m) = &mut self.modes[i] {
                 m.cycle(plant.pos_mm());
             }
-            self.status[i].stuck = match plant {
-                Plant::VelocityLoop(p) => p.speed_rad_per_s() == 0.0,
-                Plant::DcMotor(p) => p.vel_mm_per_s() == 0.0,
-                Plant::FirstOrderLag(p) => p.is_stuck(),
-            };
         }
         self.cycle += 1;
         self.measure();
@@ -279,13 +234,26 @@ impl ServoBackend for SimBackend {
     fn read_status(&self) -> [AxisStatus; MAX_AXES] {
         self.status
     }
-    fn set_cutting(&mut self, cutting: bool) {
-        self.cutting_on = cutting;
-    }
     fn set_spindle_rpm(&mut self, rpm: f64) {
         let t_s = self.cycle as f64 * self.cycle_s;
         if let Some(c) = &mut self.cutting {
             c.set_spindle_rpm(rpm, t_s);
+        }
+    }
+    fn simulated(&mut self) -> Option<&mut dyn SimulatedMachine> {
+        Some(self)
+    }
+}
+
+impl SimulatedMachine for SimBackend {
+    fn set_cutting(&mut self, cutting: bool) {
+        self.cutting_on = cutting;
+    }
+    fn stuck(&self, axis: usize) -> bool {
+        match &self.plants[axis] {
+            Plant::VelocityLoop(p) => p.speed_rad_per_s() == 0.0,
+            Plant::DcMotor(p) => p.vel_mm_per_s() == 0.0,
+            Plant::FirstOrderLag(p) => p.is_stuck(),
         }
     }
 }

@@ -1,11 +1,12 @@
 //! softnc's simulated servo backend and offline simulator, built from the papers'
-//! identified machines, seeded and bit-reproducible.
+//! identified machines, seeded and bit-reproducible. The boundary it implements and
+//! the position cycle in front of it are `softnc-servo`'s.
 //!
 //! ```
-//! use softnc_sim::{simulate, CommandSample, CycleEngine, SimOptions};
+//! use softnc_sim::{simulate, simulated_engine, CommandSample, SimOptions};
 //! let profile = softnc_core::MachineProfile::from_ron_str(
 //!     include_str!("../../../config/machines/default.ron"), "default.ron").unwrap();
-//! let mut engine = CycleEngine::simulated(&profile, 7, SimOptions::default());
+//! let mut engine = simulated_engine(&profile, 7, SimOptions::default());
 //! // 100 ms of a 10 mm/s move along X
 //! let t = profile.interpolation_cycle_s;
 //! let samples = (0..100).map(|k| CommandSample {
@@ -15,7 +16,7 @@
 //! ```
 #![warn(missing_docs)]
 
-/// The [`ServoBackend`] trait and the simulated machine [`SimBackend`].
+/// The simulated machine [`SimBackend`] behind the servo boundary.
 pub mod backend;
 /// Periodic cutting disturbance (paper 000 eq 2–3).
 pub mod cutting_disturbance;
@@ -23,8 +24,6 @@ pub mod cutting_disturbance;
 pub mod dc_motor;
 /// Encoder noise and quantisation.
 pub mod encoder;
-/// One position cycle: encoders → controller stacks → drives.
-pub mod engine;
 /// First-order-lag servo with stick at reversals (paper 004 eq 1).
 pub mod first_order_lag;
 /// Max / RMS / mean of an error signal.
@@ -41,16 +40,29 @@ pub mod resonance;
 pub mod rng;
 /// Running a job: samples in, errors and trace out.
 pub mod sim;
-/// S words in a running job: PDC designs per spindle speed, swapped at the cycle.
-pub mod spindle;
 /// Karnopp stick–slip friction.
 pub mod stick_slip;
 /// Identified discrete velocity loops (paper 000 eq 35, 36).
 pub mod velocity_loop;
 
-pub use backend::{AxisStatus, BackendError, ServoBackend, SimBackend, SimOptions, MAX_AXES};
-pub use engine::{CompensationDesignError, CycleEngine, CycleRecord, EngineError};
+pub use backend::{SimBackend, SimOptions};
 pub use metrics::ErrorStats;
-pub use plant::{CommandMode, Plant};
+pub use plant::Plant;
 pub use rng::Rng;
-pub use sim::{simulate, simulate_observed, CommandSample, SimReport, TraceRow};
+pub use sim::{simulate, simulate_observed, CommandSample, SimReport};
+
+use softnc_core::MachineProfile;
+use softnc_servo::CycleEngine;
+
+/// The simulated machine of `profile` with its controllers, seeded by `seed`.
+///
+/// # Panics
+/// When the profile's disturbance compensation or command filter cannot be
+/// designed; see [`CycleEngine::try_new`].
+pub fn simulated_engine(
+    profile: &MachineProfile,
+    seed: u64,
+    options: SimOptions,
+) -> CycleEngine<SimBackend> {
+    CycleEngine::new(profile, SimBackend::new(profile, seed, options))
+}

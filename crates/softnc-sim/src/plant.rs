@@ -2,6 +2,7 @@
 //! parameter variation drawn once from the seed.
 
 use crate::dc_motor::DcMotor;
+pub use softnc_servo::CommandMode;
 use crate::first_order_lag::FirstOrderLag;
 use crate::rng::Rng;
 use crate::velocity_loop::VelocityLoop;
@@ -14,17 +15,6 @@ pub const MAX_SUBSTEP_S: f64 = 0.001;
 
 /// Paper 001's K is per minute; the model integrates in seconds.
 const SECONDS_PER_MINUTE: f64 = 60.0;
-
-/// What the drive's command means.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum CommandMode {
-    /// Position command (mm): the drive closes the position loop (paper 004).
-    Position,
-    /// Velocity command (rad/s) to a velocity loop (paper 000).
-    Velocity,
-    /// Effort: a DAC count to a power amplifier (paper 001).
-    Effort,
-}
 
 /// A simulated axis.
 #[derive(Debug, Clone, PartialEq)]

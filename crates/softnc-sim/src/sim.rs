@@ -1,8 +1,7 @@
 //! Running a job offline: command samples → controller stacks → simulated machine, with
 //! following error per axis and contour error during feed moves.
 
-use crate::backend::{BackendError, ServoBackend, MAX_AXES};
-use crate::engine::{CycleEngine, CycleRecord};
+use softnc_servo::{BackendError, CycleEngine, ServoBackend, TraceRow, MAX_AXES};
 use crate::metrics::ErrorStats;
 use softnc_core::{CommandRing, Primitive, RingSample, Vec3, COMMAND_RING_CAPACITY};
 use std::collections::VecDeque;
@@ -16,22 +15,6 @@ pub struct CommandSample {
     pub motion: u32,
     /// True during feed moves (G1/G2/G3): the tool cuts, contour error is measured.
     pub feed_move: bool,
-}
-
-/// What one simulated cycle produced, for traces and plots.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TraceRow {
-    /// Cycle index from the start of the job.
-    pub cycle: u64,
-    /// Time (s) = cycle · T.
-    pub time_s: f64,
-    /// The sample's motion index.
-    pub motion: u32,
-    /// Command, measured position, following error, drive commands.
-    pub record: CycleRecord,
-    /// Signed contour error against the active feed move's programmed path (mm);
-    /// `None` outside feed moves.
-    pub contour_mm: Option<f64>,
 }
 
 /// Accuracy figures of a run.

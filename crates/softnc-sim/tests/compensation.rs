@@ -6,7 +6,8 @@ use softnc_core::compensation::{
     Compensation, DobConfig, OuterCompensator, PdcConfig, UncertaintyPoint,
 };
 use softnc_core::MachineProfile;
-use softnc_sim::{CycleEngine, SimBackend, SimOptions};
+use softnc_sim::{simulated_engine, SimBackend, SimOptions};
+use softnc_servo::CycleEngine;
 use std::path::PathBuf;
 
 fn tnv40() -> MachineProfile {
@@ -74,7 +75,7 @@ fn pdc_from_the_profile_removes_the_periodic_error() {
         quantisation: false,
         ..SimOptions::default()
     };
-    let mut only_dob = CycleEngine::simulated(
+    let mut only_dob = simulated_engine(
         &with(
             &base,
             Compensation {
@@ -85,7 +86,7 @@ fn pdc_from_the_profile_removes_the_periodic_error() {
         1,
         opts,
     );
-    let mut dob_pdc = CycleEngine::simulated(
+    let mut dob_pdc = simulated_engine(
         &with(
             &base,
             Compensation {
@@ -127,7 +128,7 @@ fn spindle_change_redesigns_and_swaps_between_cycles() {
     };
     let e_stale = ripple_rms(&mut stale(), |_| {});
     let e_redesigned = ripple_rms(&mut stale(), |e| e.redesign_pdc(60.0).unwrap());
-    let e_direct = ripple_rms(&mut CycleEngine::simulated(&at_1800, 1, opts), |_| {});
+    let e_direct = ripple_rms(&mut simulated_engine(&at_1800, 1, opts), |_| {});
     assert!(
         (e_redesigned - e_direct).abs() <= 1e-9 + 1e-6 * e_direct,
         "{e_redesigned} vs {e_direct}"
@@ -215,7 +216,7 @@ fn stale_and_direct_at_1800(m1500: &MachineProfile, opts: SimOptions) -> (f64, f
     let mut m1800 = m1500.clone();
     m1800.servo.cutting.as_mut().unwrap().spindle_rpm = 1800.0;
     let mut stale = CycleEngine::try_new(m1500, SimBackend::new(&m1800, 1, opts)).unwrap();
-    let mut direct = CycleEngine::simulated(&m1800, 1, opts);
+    let mut direct = simulated_engine(&m1800, 1, opts);
     (ripple_rms_ring(&mut stale), ripple_rms_ring(&mut direct))
 }
 
@@ -224,7 +225,7 @@ fn an_s_word_mid_job_redesigns_the_pdc_at_its_cycle() {
     let (m1500, opts) = tnv40_with_pdc();
     // the job: S1500 M3 from motion 0, S1800 from motion 1
     let changes = [(0u32, 1500.0), (1, 1800.0)];
-    let mut followed = CycleEngine::simulated(&m1500, 1, opts);
+    let mut followed = simulated_engine(&m1500, 1, opts);
     followed
         .set_spindle_schedule(&m1500, &changes, 1.0)
         .unwrap();
@@ -244,7 +245,7 @@ fn an_s_word_mid_job_redesigns_the_pdc_at_its_cycle() {
         "{e_followed} vs direct {e_direct}"
     );
     // a speed whose design fails eq 13 refuses the job before motion
-    let mut bad = CycleEngine::simulated(&m1500, 1, opts);
+    let mut bad = simulated_engine(&m1500, 1, opts);
     assert!(bad
         .set_spindle_schedule(&m1500, &[(0, 29_000.0)], 1.0)
         .is_err());
@@ -256,7 +257,7 @@ fn a_spindle_override_mid_job_redesigns_every_speed_off_the_cycle() {
     // the job runs S1500 throughout; the operator turns the spindle override to 120 %
     // at 0.5 s: a design thread makes the table, the cycle installs it
     let changes = [(0u32, 1500.0)];
-    let mut overridden = CycleEngine::simulated(&m1500, 1, opts);
+    let mut overridden = simulated_engine(&m1500, 1, opts);
     overridden
         .set_spindle_schedule(&m1500, &changes, 1.0)
         .unwrap();

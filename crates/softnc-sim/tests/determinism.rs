@@ -1,7 +1,7 @@
 //! Same seed ⇒ bit-identical trace; different seeds ⇒ different traces.
 
 use softnc_core::{MachineProfile, Plane, Primitive, Vec3};
-use softnc_sim::{simulate, CommandSample, CycleEngine, SimOptions};
+use softnc_sim::{simulate, simulated_engine, CommandSample, SimOptions};
 use std::f64::consts::TAU;
 use std::path::PathBuf;
 
@@ -40,7 +40,7 @@ fn trace(p: &MachineProfile, seed: u64) -> Vec<u64> {
             feed_move: true,
         }
     });
-    let mut engine = CycleEngine::simulated(p, seed, SimOptions::default());
+    let mut engine = simulated_engine(p, seed, SimOptions::default());
     let mut bits = Vec::new();
     simulate(
         &mut engine,

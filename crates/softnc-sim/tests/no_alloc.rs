@@ -1,7 +1,7 @@
 //! The per-cycle step (controller stacks + simulated machine) allocates nothing.
 
 use softnc_core::MachineProfile;
-use softnc_sim::{CycleEngine, SimOptions};
+use softnc_sim::{simulated_engine, SimOptions};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::path::PathBuf;
@@ -50,7 +50,7 @@ fn cycle_step_allocates_nothing() {
         for a in &mut p.servo.axes {
             a.noise_mm = 0.001;
         }
-        let mut engine = CycleEngine::simulated(&p, 3, SimOptions::default());
+        let mut engine = simulated_engine(&p, 3, SimOptions::default());
         let t = p.interpolation_cycle_s;
         let before = allocs();
         let mut sink = 0.0;
@@ -76,7 +76,7 @@ fn filtered_cycle_from_the_ring_allocates_nothing() {
     let path =
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/machines/mill-resonance.ron");
     let p = MachineProfile::load(&path).unwrap();
-    let mut engine = CycleEngine::simulated(&p, 3, SimOptions::default());
+    let mut engine = simulated_engine(&p, 3, SimOptions::default());
     assert_eq!(engine.filter_window(), 75);
     let t = p.interpolation_cycle_s;
     let x = |k: u64| 5.0 * (k as f64 * t).sin();

@@ -5,7 +5,7 @@ use softnc_core::{MachineProfile, Plane, Primitive, Vec3};
 use softnc_sim::dc_motor::DcMotor;
 use softnc_sim::first_order_lag::FirstOrderLag;
 use softnc_sim::velocity_loop::VelocityLoop;
-use softnc_sim::{simulate, CommandSample, CycleEngine, SimOptions};
+use softnc_sim::{simulate, simulated_engine, CommandSample, SimOptions};
 use std::f64::consts::{PI, TAU};
 use std::path::PathBuf;
 
@@ -69,7 +69,7 @@ fn ramp_following_error(profile: &MachineProfile, v_mm_per_s: f64, secs: f64) ->
         cutting: false,
         variation: false,
     };
-    let mut engine = CycleEngine::simulated(profile, 1, opts);
+    let mut engine = simulated_engine(profile, 1, opts);
     let n = (secs / t).round() as u64;
     let tail = (1.0 / t).round() as u64;
     let mut sum = 0.0;
@@ -265,7 +265,7 @@ fn circle_contour(p: &MachineProfile, r_mm: f64, f_mm_per_min: f64) -> Vec<(f64,
         variation: false,
         ..SimOptions::default()
     };
-    let mut engine = CycleEngine::simulated(p, 1, opts);
+    let mut engine = simulated_engine(p, 1, opts);
     let mut out = Vec::new();
     simulate(
         &mut engine,

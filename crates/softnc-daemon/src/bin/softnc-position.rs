@@ -1,4 +1,9 @@
-//! `softnc-position`: the position-control process on the simulated machine.
+//! `softnc-position`: the position-control process, on the servo backend the
+//! configuration names (`backend:`; the profile's simulated machine by default).
+use softnc_daemon::config::{BackendKind, Loaded};
+use softnc_daemon::lifecycle::StopWatch;
+use softnc_daemon::position::{EngineFactory, PositionTask};
+use softnc_servo::{CycleEngine, LoopbackBackend, ServoBackend};
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
@@ -7,25 +12,50 @@ fn main() -> ExitCode {
         Err(code) => return code,
     };
     // SIGTERM/SIGINT and softncd's death stop it in order (a job along its path)
-    let stop = match softnc_daemon::lifecycle::StopWatch::start(true) {
+    let stop = match StopWatch::start(true) {
         Ok(s) => s,
         Err(e) => return softnc_daemon::cli::finish("softnc-position", Err(e.into())),
     };
-    // the simulated machine, seeded by the profile, exactly as `softnc sim` builds it
     let machine = cfg.machine.clone();
-    let make_engine: softnc_daemon::position::EngineFactory<softnc_sim::SimBackend> =
-        Box::new(move || {
-            softnc_sim::CycleEngine::simulated(
-                &machine,
-                machine.servo.seed,
-                softnc_sim::SimOptions::default(),
-            )
-        });
+    let r = match cfg.config.backend {
+        // the simulated machine, seeded by the profile, exactly as `softnc sim` builds it
+        BackendKind::Simulated => run(
+            cfg,
+            stop,
+            Box::new(move || {
+                softnc_sim::simulated_engine(
+                    &machine,
+                    machine.servo.seed,
+                    softnc_sim::SimOptions::default(),
+                )
+            }),
+        ),
+        BackendKind::Loopback => run(
+            cfg,
+            stop,
+            Box::new(move || CycleEngine::new(&machine, LoopbackBackend::new())),
+        ),
+    };
+    softnc_daemon::cli::finish("softnc-position", r)
+}
+
+fn run<B: ServoBackend + Send + 'static>(
+    cfg: Loaded,
+    stop: StopWatch,
+    mut make_engine: EngineFactory<B>,
+) -> anyhow::Result<()> {
+    tracing::info!("servo backend: {:?}", cfg.config.backend);
     let rt = softnc_rt::setup_realtime(&cfg.config.position_rt);
     tracing::info!("position real-time set-up: {rt:?}");
-    let r = softnc_daemon::position::PositionTask::new(cfg, make_engine).and_then(|mut t| {
-        t.set_stop_watch(stop);
-        t.run()
+    // every engine's drives enabled before it runs (off the cycle)
+    let enabled: EngineFactory<B> = Box::new(move || {
+        let mut e = make_engine();
+        if let Err(err) = e.backend_mut().enable() {
+            tracing::error!("servo backend: {err}");
+        }
+        e
     });
-    softnc_daemon::cli::finish("softnc-position", r)
+    let mut t = PositionTask::new(cfg, enabled)?;
+    t.set_stop_watch(stop);
+    t.run()
 }

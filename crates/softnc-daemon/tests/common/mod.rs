@@ -95,7 +95,7 @@ pub fn learn_job(store: &Path, job: &Path, machine: &Path, iterations: usize) ->
     let prepared = PreparedJob::new(&text, "job.ngc", &profile).unwrap();
     let seed = profile.servo.seed;
     let mut engine =
-        softnc_sim::CycleEngine::simulated(&profile, seed, softnc_sim::SimOptions::default());
+        softnc_sim::simulated_engine(&profile, seed, softnc_sim::SimOptions::default());
     let n = prepared.samples.len();
     let h = identify(&mut engine, &profile, prepared.samples[0].pos_mm, n).unwrap();
     let gain = softnc_learning::markov::DEFAULT_GAIN;

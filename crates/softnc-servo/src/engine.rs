@@ -1,8 +1,7 @@
 //! One position cycle, as the daemon and the simulator both run it: read the encoders,
 //! step every axis's controller stack, write the commands, let the machine move.
 
-use crate::backend::{BackendError, ServoBackend, SimBackend, SimOptions, MAX_AXES};
-use crate::plant::CommandMode;
+use crate::backend::{BackendError, CommandMode, ServoBackend, MAX_AXES};
 use softnc_control::compensation::{AxisCompensation, CompensationError};
 use softnc_control::discrete_tf::DiscreteTf;
 use softnc_control::zero_lag_fir::{CommandFilter, FirDesignError};
@@ -68,17 +67,6 @@ pub struct CycleEngine<B: ServoBackend> {
     modes: [CommandMode; MAX_AXES],
     mm_per_count: [f64; MAX_AXES],
     backend: B,
-}
-
-impl CycleEngine<SimBackend> {
-    /// The simulated machine of `profile` with its controllers, seeded by `seed`.
-    ///
-    /// # Panics
-    /// When the profile's disturbance compensation cannot be designed; see
-    /// [`CycleEngine::try_new`].
-    pub fn simulated(profile: &MachineProfile, seed: u64, options: SimOptions) -> Self {
-        CycleEngine::new(profile, SimBackend::new(profile, seed, options))
-    }
 }
 
 impl<B: ServoBackend> CycleEngine<B> {
@@ -220,7 +208,9 @@ impl<B: ServoBackend> CycleEngine<B> {
             };
         }
         // 3. outputs, and the machine moves one cycle
-        self.backend.set_cutting(cutting);
+        if let Some(sim) = self.backend.simulated() {
+            sim.set_cutting(cutting);
+        }
         self.backend.write_commands(out);
         self.backend.cycle()?;
         Ok(CycleRecord {
@@ -422,6 +412,11 @@ impl<B: ServoBackend> CycleEngine<B> {
     /// The backend.
     pub fn backend(&self) -> &B {
         &self.backend
+    }
+
+    /// The backend, to enable or disable its drives (off the cycle path).
+    pub fn backend_mut(&mut self) -> &mut B {
+        &mut self.backend
     }
 
     /// The controller of axis `axis`.

@@ -1,0 +1,101 @@
+//! The servo boundary: what every drive implements — enable and disable, write
+//! commands, exchange once per cycle, read encoder counts, currents and status.
+//!
+//! The cycle is `write_commands` → `cycle` → `read_*`, the order of a fieldbus's
+//! process-data exchange. An EtherCAT CiA 402 drive in cyclic synchronous position
+//! mode maps onto it directly (see docs/architecture.md, "A real drive").
+
+/// Axes a backend serves (X, Y, Z).
+pub const MAX_AXES: usize = 3;
+
+/// What the drive's command means.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CommandMode {
+    /// Position command (mm): the drive closes the position loop (paper 004; CiA 402
+    /// cyclic synchronous position, CSP).
+    Position,
+    /// Velocity command (rad/s) to a velocity loop (paper 000; CiA 402 CSV).
+    Velocity,
+    /// Effort: a DAC count to a power amplifier (paper 001; CiA 402 CST).
+    Effort,
+}
+
+/// Status of one drive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct AxisStatus {
+    /// Enabled and following commands (CiA 402 "operation enabled").
+    pub enabled: bool,
+    /// The drive reports a fault.
+    pub fault: bool,
+    /// The command was clipped by the drive's input range (DAC saturation).
+    pub saturated: bool,
+}
+
+/// Why a backend cycle failed. Small and `Copy`: it can happen on the cycle path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum BackendError {
+    /// A drive reported a fault.
+    #[error("drive fault on axis {axis}")]
+    DriveFault {
+        /// Axis index.
+        axis: u8,
+    },
+    /// The drives did not answer within the cycle.
+    #[error("no answer from the drives within the cycle")]
+    Timeout,
+    /// A drive did not reach "enabled" when asked.
+    #[error("axis {axis} could not be enabled")]
+    NotEnabled {
+        /// Axis index.
+        axis: u8,
+    },
+}
+
+/// A servo backend: the simulated machine, a loopback, real drives. One cycle is
+/// `write_commands` → `cycle` → `read_*`; nothing in a cycle allocates or blocks
+/// beyond the exchange itself.
+pub trait ServoBackend {
+    /// Number of axes served (≤ [`MAX_AXES`]).
+    fn axes(&self) -> usize;
+    /// What axis `axis`'s command means.
+    fn command_mode(&self, axis: usize) -> CommandMode;
+    /// Encoder resolution of axis `axis` (mm per count).
+    fn mm_per_count(&self, axis: usize) -> f64;
+    /// Power the drives and make them follow commands (CiA 402: shutdown → switch
+    /// on → enable operation). Off the cycle path; may take a while on real drives.
+    fn enable(&mut self) -> Result<(), BackendError>;
+    /// Stop following commands: the drives hold or brake by themselves (CiA 402:
+    /// quick stop, then disable voltage). Commands written while disabled are
+    /// ignored.
+    fn disable(&mut self);
+    /// Declare the current actual position to be `pos_mm` (homing; the simulation
+    /// places its axes there at rest).
+    fn home(&mut self, pos_mm: [f64; MAX_AXES]);
+    /// This cycle's command per axis, in the units of its [`CommandMode`].
+    fn write_commands(&mut self, cmd: [f64; MAX_AXES]);
+    /// Exchange with the drives: the machine moves for one cycle.
+    fn cycle(&mut self) -> Result<(), BackendError>;
+    /// Actual positions, encoder counts.
+    fn read_counts(&self) -> [i64; MAX_AXES];
+    /// Motor currents (or their model equivalents).
+    fn read_currents(&self) -> [f64; MAX_AXES];
+    /// Drive status.
+    fn read_status(&self) -> [AxisStatus; MAX_AXES];
+    /// The spindle now turns at `rpm` (an S word took effect); backends whose
+    /// machine has no spindle ignore it.
+    fn set_spindle_rpm(&mut self, _rpm: f64) {}
+    /// The simulation-only inputs, when this backend is a simulated machine.
+    fn simulated(&mut self) -> Option<&mut dyn SimulatedMachine> {
+        None
+    }
+}
+
+/// Inputs and readings only a simulated machine has (a real drive has no use for
+/// them): reached through [`ServoBackend::simulated`].
+pub trait SimulatedMachine {
+    /// Whether the tool is in the material (switches the periodic cutting
+    /// disturbance during feed moves).
+    fn set_cutting(&mut self, cutting: bool);
+    /// Axis `axis` is held by static friction.
+    fn stuck(&self, axis: usize) -> bool;
+}

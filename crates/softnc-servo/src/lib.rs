@@ -1,0 +1,27 @@
+//! softnc's servo boundary: what every drive implements, and the position cycle
+//! that runs in front of it — the same for the daemon, the offline simulator and
+//! the learning runs.
+//!
+//! - [`backend`]: the [`ServoBackend`] trait every drive implements (enable/disable,
+//!   commands, counts, status), its errors, and the simulation-only extension.
+//! - [`engine`]: one position cycle — encoders → controller stacks → drives.
+//! - [`spindle`]: S words in a running job: PDC designs per spindle speed, swapped
+//!   at the cycle.
+//! - [`trace`]: the per-cycle trace row and its CSV format.
+//! - [`loopback`]: a backend without dynamics (dry runs).
+//! - [`conformance`]: the checks every backend passes.
+#![warn(missing_docs)]
+
+pub mod backend;
+pub mod conformance;
+pub mod engine;
+pub mod loopback;
+pub mod spindle;
+pub mod trace;
+
+pub use backend::{
+    AxisStatus, BackendError, CommandMode, ServoBackend, SimulatedMachine, MAX_AXES,
+};
+pub use engine::{CompensationDesignError, CycleEngine, CycleRecord, EngineError};
+pub use loopback::LoopbackBackend;
+pub use trace::TraceRow;

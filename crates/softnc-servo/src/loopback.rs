@@ -1,0 +1,92 @@
+//! A backend without dynamics: every axis follows its command exactly, in one cycle.
+//! For dry runs of programs and for testing everything above the servo boundary
+//! (`backend: Loopback` in the daemon's configuration; `softnc demo --backend
+//! loopback`). It passes the same [`conformance`](crate::conformance) suite as the
+//! simulated machine.
+
+use crate::backend::{AxisStatus, BackendError, CommandMode, ServoBackend, MAX_AXES};
+
+/// Resolution the loopback reports (mm per count): fine enough that its counts are
+/// the command to floating-point precision over any travel.
+pub const LOOPBACK_MM_PER_COUNT: f64 = 1e-9;
+
+/// Axes that take a position command and are there at the next cycle.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoopbackBackend {
+    cmd_mm: [f64; MAX_AXES],
+    counts: [i64; MAX_AXES],
+    status: [AxisStatus; MAX_AXES],
+}
+
+impl Default for LoopbackBackend {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl LoopbackBackend {
+    /// Axes at 0, enabled.
+    pub fn new() -> Self {
+        LoopbackBackend {
+            cmd_mm: [0.0; MAX_AXES],
+            counts: [0; MAX_AXES],
+            status: [AxisStatus {
+                enabled: true,
+                ..AxisStatus::default()
+            }; MAX_AXES],
+        }
+    }
+
+    fn count_of(pos_mm: f64) -> i64 {
+        (pos_mm / LOOPBACK_MM_PER_COUNT).round() as i64
+    }
+}
+
+impl ServoBackend for LoopbackBackend {
+    fn axes(&self) -> usize {
+        MAX_AXES
+    }
+    fn command_mode(&self, _axis: usize) -> CommandMode {
+        CommandMode::Position
+    }
+    fn mm_per_count(&self, _axis: usize) -> f64 {
+        LOOPBACK_MM_PER_COUNT
+    }
+    fn enable(&mut self) -> Result<(), BackendError> {
+        for s in &mut self.status {
+            s.enabled = true;
+        }
+        Ok(())
+    }
+    fn disable(&mut self) {
+        for (i, s) in self.status.iter_mut().enumerate() {
+            s.enabled = false;
+            // held where it is
+            self.cmd_mm[i] = self.counts[i] as f64 * LOOPBACK_MM_PER_COUNT;
+        }
+    }
+    fn home(&mut self, pos_mm: [f64; MAX_AXES]) {
+        self.cmd_mm = pos_mm;
+        self.counts = pos_mm.map(Self::count_of);
+    }
+    fn write_commands(&mut self, cmd: [f64; MAX_AXES]) {
+        for i in 0..MAX_AXES {
+            if self.status[i].enabled && cmd[i].is_finite() {
+                self.cmd_mm[i] = cmd[i];
+            }
+        }
+    }
+    fn cycle(&mut self) -> Result<(), BackendError> {
+        self.counts = self.cmd_mm.map(Self::count_of);
+        Ok(())
+    }
+    fn read_counts(&self) -> [i64; MAX_AXES] {
+        self.counts
+    }
+    fn read_currents(&self) -> [f64; MAX_AXES] {
+        [0.0; MAX_AXES]
+    }
+    fn read_status(&self) -> [AxisStatus; MAX_AXES] {
+        self.status
+    }
+}

@@ -1,0 +1,91 @@
+//! The loopback backend passes the same conformance suite as the simulated machine,
+//! and follows its command exactly.
+
+use softnc_core::MachineProfile;
+use softnc_servo::{conformance, CycleEngine, LoopbackBackend, ServoBackend};
+use std::path::PathBuf;
+
+fn profile(name: &str) -> MachineProfile {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../config/machines")
+        .join(format!("{name}.ron"));
+    MachineProfile::load(&path).unwrap()
+}
+
+#[test]
+fn loopback_conforms() {
+    for name in ["default", "mill-friction", "tnv40-ilc"] {
+        let p = profile(name);
+        conformance::run(&format!("loopback/{name}"), &p, &LoopbackBackend::new);
+        conformance::deterministic(&format!("loopback/{name}"), &p, &LoopbackBackend::new);
+    }
+}
+
+#[test]
+fn loopback_is_where_it_was_commanded_one_cycle_later() {
+    let p = profile("default");
+    let mut e = CycleEngine::new(&p, LoopbackBackend::new());
+    e.reset([1.0, 2.0, 3.0]);
+    let mut last = [1.0, 2.0, 3.0];
+    for k in 0..1000 {
+        let t = k as f64 * 1e-3;
+        let cmd = [1.0 + t.sin(), 2.0 + t.cos(), 3.0 - t];
+        let rec = e.step(cmd, true).unwrap();
+        // measured at the start of the cycle: the previous command, to a nanometre
+        for i in 0..3 {
+            assert!((rec.actual_mm[i] - last[i]).abs() <= 1e-9, "cycle {k} axis {i}");
+        }
+        last = cmd;
+    }
+    e.backend_mut().disable();
+    let held = e.measured_mm();
+    e.step([50.0; 3], false).unwrap();
+    e.step([50.0; 3], false).unwrap();
+    assert_eq!(e.measured_mm(), held, "disabled: it stays");
+    assert!(e.backend().read_status().iter().all(|s| !s.enabled));
+}
+
+/// A backend that keeps following commands after `disable` (a drive that ignores
+/// its control word): the suite must catch it.
+struct IgnoresDisable(LoopbackBackend);
+
+impl ServoBackend for IgnoresDisable {
+    fn axes(&self) -> usize {
+        self.0.axes()
+    }
+    fn command_mode(&self, axis: usize) -> softnc_servo::CommandMode {
+        self.0.command_mode(axis)
+    }
+    fn mm_per_count(&self, axis: usize) -> f64 {
+        self.0.mm_per_count(axis)
+    }
+    fn enable(&mut self) -> Result<(), softnc_servo::BackendError> {
+        self.0.enable()
+    }
+    fn disable(&mut self) {}
+    fn home(&mut self, pos_mm: [f64; softnc_servo::MAX_AXES]) {
+        self.0.home(pos_mm)
+    }
+    fn write_commands(&mut self, cmd: [f64; softnc_servo::MAX_AXES]) {
+        self.0.write_commands(cmd)
+    }
+    fn cycle(&mut self) -> Result<(), softnc_servo::BackendError> {
+        self.0.cycle()
+    }
+    fn read_counts(&self) -> [i64; softnc_servo::MAX_AXES] {
+        self.0.read_counts()
+    }
+    fn read_currents(&self) -> [f64; softnc_servo::MAX_AXES] {
+        self.0.read_currents()
+    }
+    fn read_status(&self) -> [softnc_servo::AxisStatus; softnc_servo::MAX_AXES] {
+        self.0.read_status()
+    }
+}
+
+#[test]
+#[should_panic(expected = "enabled after disable()")]
+fn the_suite_catches_a_drive_that_ignores_disable() {
+    let p = profile("default");
+    conformance::run("ignores-disable", &p, &|| IgnoresDisable(LoopbackBackend::new()));
+}
