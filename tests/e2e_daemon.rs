@@ -1436,8 +1436,8 @@ fn a_loopback_daemon_runs_a_job_whose_axes_follow_the_command_exactly() {
     let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
     assert_eq!(s["job"]["outcome"], "completed", "{s}");
     // each cycle measures where the previous one commanded, to a nanometre
-    let trace = std::fs::read_to_string(d.dir.join(format!("data/trace-job{}.csv", r.job_id)))
-        .unwrap();
+    let trace =
+        std::fs::read_to_string(d.dir.join(format!("data/trace-job{}.csv", r.job_id))).unwrap();
     let rows: Vec<Vec<f64>> = trace
         .lines()
         .skip(1)

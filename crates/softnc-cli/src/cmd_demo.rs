@@ -134,10 +134,7 @@ fn print_report(r: &serde_json::Value) {
         j["outcome"].as_str().unwrap_or("?"),
         j["path"].as_str().unwrap_or("")
     );
-    println!(
-        "  servo backend: {}",
-        r["backend"].as_str().unwrap_or("?")
-    );
+    println!("  servo backend: {}", r["backend"].as_str().unwrap_or("?"));
     println!(
         "  cycles {} (planned {}), wall time {:.2} s",
         j["cycles"],

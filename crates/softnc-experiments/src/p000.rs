@@ -31,8 +31,8 @@ use plotters::style::colors::{BLACK, BLUE, GREEN, MAGENTA, RED};
 use softnc_core::compensation::{Compensation, OuterCompensator};
 use softnc_core::servo::PlantModel;
 use softnc_core::MachineProfile;
-use softnc_sim::{simulated_engine, SimBackend, SimOptions};
 use softnc_servo::CycleEngine;
+use softnc_sim::{simulated_engine, SimBackend, SimOptions};
 use std::path::{Path, PathBuf};
 
 /// The machine of the experiment.

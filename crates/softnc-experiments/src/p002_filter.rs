@@ -23,8 +23,8 @@
 use crate::error::{failed, Context, ExperimentError, Result};
 use crate::{workspace_file, Experiment, ExperimentId, Report, RunOptions};
 use softnc_core::MachineProfile;
-use softnc_sim::{simulate_observed, CommandSample, SimOptions};
 use softnc_servo::CycleEngine;
+use softnc_sim::{simulate_observed, CommandSample, SimOptions};
 
 /// The machine of the experiment.
 pub const MACHINE: &str = "config/machines/mill-resonance.ron";

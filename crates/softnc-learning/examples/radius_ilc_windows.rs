@@ -22,7 +22,8 @@
 use softnc_core::MachineProfile;
 use softnc_learning::radius_ilc::{Circle, RadiusIlc, POINTS};
 use softnc_learning::sim_runs::{find_circle, PreparedJob, HOLD_S};
-use softnc_sim::{simulate_observed, CycleEngine, ServoBackend, SimOptions};
+use softnc_servo::SimulatedMachine;
+use softnc_sim::{simulate_observed, simulated_engine, SimOptions};
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Window {
@@ -153,7 +154,7 @@ fn main() -> Result<(), String> {
     let file = format!("examples/learning/circle-r50-f{}.ngc", a.feed);
     let text = std::fs::read_to_string(root.join(&file)).map_err(|e| format!("{file}: {e}"))?;
     let (circle, r_d) = find_circle(&text, &file, &machine)?;
-    let mut engine = CycleEngine::simulated(&machine, machine.servo.seed, SimOptions::default());
+    let mut engine = simulated_engine(&machine, machine.servo.seed, SimOptions::default());
     let mut ilc = RadiusIlc::new(r_d, a.alpha);
     println!(
         "{file}, window {:?}, lead {}°, α = {} (µm; centred = the figures of softnc reproduce 004-ilc)",
@@ -188,8 +189,8 @@ fn main() -> Result<(), String> {
             |m| job.prims.get(m as usize).copied().flatten(),
             |row, e| {
                 measured.push([row.record.actual_mm[0], row.record.actual_mm[1]]);
-                let st = e.backend().read_status();
-                held.push(st[0].stuck || st[1].stuck);
+                let b = e.backend();
+                held.push(b.stuck(0) || b.stuck(1));
             },
         )
         .map_err(|e| format!("servo backend: {e}"))?;

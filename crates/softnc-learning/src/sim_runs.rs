@@ -7,8 +7,8 @@
 use crate::markov::{identify_markov, settled_terms, Improvement, MarkovJob, AXES};
 use crate::radius_ilc::{Circle, RadiusIlc, POINTS};
 use softnc_core::{MachineProfile, Primitive};
-use softnc_sim::{simulate, CommandSample, ErrorStats, SimBackend};
 use softnc_servo::{CycleEngine, ServoBackend};
+use softnc_sim::{simulate, CommandSample, ErrorStats, SimBackend};
 
 pub use crate::entry::{IterationStats, HOLD_S};
 

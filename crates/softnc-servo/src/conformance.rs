@@ -36,10 +36,17 @@ pub fn run<B: ServoBackend>(name: &str, profile: &MachineProfile, make: &dyn Fn(
 
 /// Axis count within [`MAX_AXES`], a finite positive resolution per axis.
 pub fn describes_itself<B: ServoBackend>(name: &str, b: &B) {
-    assert!(b.axes() >= 1 && b.axes() <= MAX_AXES, "{name}: {} axes", b.axes());
+    assert!(
+        b.axes() >= 1 && b.axes() <= MAX_AXES,
+        "{name}: {} axes",
+        b.axes()
+    );
     for i in 0..b.axes() {
         let res = b.mm_per_count(i);
-        assert!(res > 0.0 && res.is_finite(), "{name}: axis {i} resolution {res}");
+        assert!(
+            res > 0.0 && res.is_finite(),
+            "{name}: axis {i} resolution {res}"
+        );
     }
 }
 
@@ -128,7 +135,10 @@ pub fn deterministic<B: ServoBackend>(name: &str, profile: &MachineProfile, make
         }
         counts
     };
-    assert!(run() == run(), "{name}: two runs of the same commands differ");
+    assert!(
+        run() == run(),
+        "{name}: two runs of the same commands differ"
+    );
 }
 
 fn holding_command<B: ServoBackend>(b: &B, at_mm: [f64; MAX_AXES]) -> [f64; MAX_AXES] {

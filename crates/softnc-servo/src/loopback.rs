@@ -70,9 +70,9 @@ impl ServoBackend for LoopbackBackend {
         self.counts = pos_mm.map(Self::count_of);
     }
     fn write_commands(&mut self, cmd: [f64; MAX_AXES]) {
-        for i in 0..MAX_AXES {
-            if self.status[i].enabled && cmd[i].is_finite() {
-                self.cmd_mm[i] = cmd[i];
+        for ((c, s), new) in self.cmd_mm.iter_mut().zip(&self.status).zip(cmd) {
+            if s.enabled && new.is_finite() {
+                *c = new;
             }
         }
     }

@@ -75,4 +75,3 @@ impl TraceFile {
         self.w.get_ref().sync_all()
     }
 }
-

@@ -32,8 +32,8 @@ fn loopback_is_where_it_was_commanded_one_cycle_later() {
         let cmd = [1.0 + t.sin(), 2.0 + t.cos(), 3.0 - t];
         let rec = e.step(cmd, true).unwrap();
         // measured at the start of the cycle: the previous command, to a nanometre
-        for i in 0..3 {
-            assert!((rec.actual_mm[i] - last[i]).abs() <= 1e-9, "cycle {k} axis {i}");
+        for (i, (act, want)) in rec.actual_mm.iter().zip(last).enumerate() {
+            assert!((act - want).abs() <= 1e-9, "cycle {k} axis {i}");
         }
         last = cmd;
     }
@@ -87,5 +87,7 @@ impl ServoBackend for IgnoresDisable {
 #[should_panic(expected = "enabled after disable()")]
 fn the_suite_catches_a_drive_that_ignores_disable() {
     let p = profile("default");
-    conformance::run("ignores-disable", &p, &|| IgnoresDisable(LoopbackBackend::new()));
+    conformance::run("ignores-disable", &p, &|| {
+        IgnoresDisable(LoopbackBackend::new())
+    });
 }

@@ -3,10 +3,12 @@
 use crate::cutting_disturbance::Cutting;
 use crate::encoder::Encoder;
 use crate::plant::Plant;
-use softnc_servo::{AxisStatus, BackendError, CommandMode, ServoBackend, SimulatedMachine, MAX_AXES};
 use crate::resonance::Resonance;
 use crate::rng::Rng;
 use softnc_core::MachineProfile;
+use softnc_servo::{
+    AxisStatus, BackendError, CommandMode, ServoBackend, SimulatedMachine, MAX_AXES,
+};
 
 /// Resolution reported when encoder quantisation is switched off (mm per count): fine
 /// enough that the count is the position to floating-point precision over any travel.
@@ -194,9 +196,9 @@ impl ServoBackend for SimBackend {
         }
     }
     fn write_commands(&mut self, cmd: [f64; MAX_AXES]) {
-        for i in 0..MAX_AXES {
-            if self.status[i].enabled {
-                self.cmd[i] = cmd[i];
+        for ((c, s), new) in self.cmd.iter_mut().zip(&self.status).zip(cmd) {
+            if s.enabled {
+                *c = new;
             }
         }
     }

@@ -2,11 +2,11 @@
 //! parameter variation drawn once from the seed.
 
 use crate::dc_motor::DcMotor;
-pub use softnc_servo::CommandMode;
 use crate::first_order_lag::FirstOrderLag;
 use crate::rng::Rng;
 use crate::velocity_loop::VelocityLoop;
 use softnc_core::servo::PlantModel;
+pub use softnc_servo::CommandMode;
 
 /// Longest integration sub-step of the continuous models (s). A numerical setting: the
 /// plants' time constants are ≥ 10 ms, so 1 ms steps of their exact (ZOH) solutions

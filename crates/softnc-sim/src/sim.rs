@@ -1,9 +1,9 @@
 //! Running a job offline: command samples → controller stacks → simulated machine, with
 //! following error per axis and contour error during feed moves.
 
-use softnc_servo::{BackendError, CycleEngine, ServoBackend, TraceRow, MAX_AXES};
 use crate::metrics::ErrorStats;
 use softnc_core::{CommandRing, Primitive, RingSample, Vec3, COMMAND_RING_CAPACITY};
+use softnc_servo::{BackendError, CycleEngine, ServoBackend, TraceRow, MAX_AXES};
 use std::collections::VecDeque;
 
 /// One interpolated command sample (the planner's `Sample`, decoupled).

@@ -30,8 +30,6 @@ fn simulated_backend_conforms_for_every_profile() {
             ..SimOptions::default()
         };
         conformance::run(&name, &p, &|| SimBackend::new(&p, 1, opts));
-        conformance::deterministic(&name, &p, &|| {
-            SimBackend::new(&p, 1, SimOptions::default())
-        });
+        conformance::deterministic(&name, &p, &|| SimBackend::new(&p, 1, SimOptions::default()));
     }
 }

@@ -6,8 +6,8 @@ use softnc_core::compensation::{
     Compensation, DobConfig, OuterCompensator, PdcConfig, UncertaintyPoint,
 };
 use softnc_core::MachineProfile;
-use softnc_sim::{simulated_engine, SimBackend, SimOptions};
 use softnc_servo::CycleEngine;
+use softnc_sim::{simulated_engine, SimBackend, SimOptions};
 use std::path::PathBuf;
 
 fn tnv40() -> MachineProfile {
