@@ -49,6 +49,9 @@ pub(crate) trait SegmentSource {
     fn ended(&self) -> bool;
     /// Elements before `k` will not be asked for again.
     fn release_before(&mut self, _k: usize) {}
+    /// Take in some of what has been delivered (once per sample), so that the
+    /// lookahead finds it when it looks further.
+    fn top_up(&mut self) {}
 }
 
 /// A whole plan's elements.
@@ -524,6 +527,7 @@ impl<S: SegmentSource> Core<S> {
                 feed_move: false,
             });
         }
+        self.src.top_up();
         if self.index > 0 {
             self.advance(self.lim.cycle_s);
         }

@@ -48,6 +48,11 @@ pub const STREAM_QUEUE_ELEMENTS: usize = 1024;
 /// How long a producer whose queue is full waits before it tries again.
 const PRODUCER_BACKOFF: std::time::Duration = std::time::Duration::from_micros(200);
 
+/// Elements the window takes from the queue per sample at most (beside what the
+/// lookahead asks for): keeps the window full ahead of the lookahead, in bounded time
+/// per cycle.
+const TOP_UP_PER_SAMPLE: usize = 64;
+
 /// Elements the builder gathers before handing the settled ones on.
 const DRAIN_BATCH: usize = 64;
 
@@ -426,6 +431,13 @@ impl SegmentSource for Window {
     }
     fn ended(&self) -> bool {
         self.state == StreamState::Ended
+    }
+    fn top_up(&mut self) {
+        for _ in 0..TOP_UP_PER_SAMPLE {
+            if self.state != StreamState::Open || !self.room() || !self.take_one(false) {
+                break;
+            }
+        }
     }
     fn release_before(&mut self, k: usize) {
         self.tail = self.tail.max(k.min(self.end));
