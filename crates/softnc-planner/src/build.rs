@@ -192,6 +192,9 @@ pub struct PathBuilder {
     prev_end_tangent: Vec3,
     /// G64 Q: the G1 lines held back while they stay within Q of one line.
     chain: NaiveCamChain,
+    /// Elements already handed on by [`PathBuilder::drain_settled`] (a streamed
+    /// path keeps only the last one, whose end speed the next may still change).
+    base: usize,
 }
 
 /// LinuxCNC's "naive CAM" merging (G64 Q, its `emccanon.cc` `see_segment` /
@@ -269,6 +272,39 @@ impl PathBuilder {
             s0: 0.0,
             prev_end_tangent: Vec3::ZERO,
             chain: NaiveCamChain::default(),
+            base: 0,
+        }
+    }
+
+    /// Elements whose limits are settled (all but the last, whose end speed the next
+    /// element still sets) once at least `batch` of them wait: handed to `out` in
+    /// order and dropped, together with the orphans (a streamed path does not keep
+    /// the programmed primitives).
+    pub(crate) fn drain_settled(&mut self, batch: usize, out: &mut impl FnMut(&Segment, &Geom)) {
+        let n = self.path.segs.len();
+        if n <= batch.max(1) {
+            return;
+        }
+        for (s, g) in self.path.segs[..n - 1]
+            .iter()
+            .zip(&self.path.geoms[..n - 1])
+        {
+            out(s, g);
+        }
+        self.path.segs.drain(..n - 1);
+        self.path.geoms.drain(..n - 1);
+        self.path.orphans.clear();
+        self.base += n - 1;
+    }
+
+    /// The end of a streamed path: the rest of its elements to `out` (limits as
+    /// [`PathBuilder::finish`] leaves them before the S-curve spreading of caps,
+    /// which [`CapDilator`] does on the stream).
+    pub(crate) fn finish_stream(mut self, out: &mut impl FnMut(&Segment, &Geom)) {
+        self.close();
+        self.drain_settled(0, out);
+        if let (Some(s), Some(g)) = (self.path.segs.last(), self.path.geoms.last()) {
+            out(s, g);
         }
     }
 
@@ -736,9 +772,10 @@ impl PathBuilder {
             acc = acc.min(lim.scurve_acc);
             vel_cap = vel_cap.min(scurve_curve_cap(shape.curvature, lim));
         }
-        // the junction with the element before (not after a stop)
+        // the junction with the element before (not after a stop); a streamed path
+        // keeps the last element (`drain_settled`), so n > 0 whenever base + n > 0
         let n = self.path.segs.len();
-        if n > self.path.lead_in {
+        if self.base + n > self.path.lead_in && n > 0 {
             let a = &mut self.path.segs[n - 1];
             if a.v_end_hard != 0.0 {
                 let prev_geom = &self.path.geoms[n - 1];
@@ -771,6 +808,19 @@ impl PathBuilder {
 
     /// The path: the last move ends in a stop.
     pub fn finish(mut self) -> Path {
+        self.close();
+        if self.lim.profile == FeedProfile::SCurve {
+            dilate_caps(
+                &mut self.path.segs,
+                self.lim.scurve_window_s,
+                self.lim.scurve_acc,
+            );
+        }
+        self.path
+    }
+
+    /// Push what is held back; the last element ends in a stop.
+    fn close(&mut self) {
         self.flush_chain();
         // a G64 Q chain goes to the orphans when it ends, after the moves it held back;
         // a merged line used up by its blends is an orphan of its last motion too, pushed
@@ -784,14 +834,6 @@ impl PathBuilder {
         if let Some(last) = self.path.segs.last_mut() {
             last.v_end_hard = 0.0;
         }
-        if self.lim.profile == FeedProfile::SCurve {
-            dilate_caps(
-                &mut self.path.segs,
-                self.lim.scurve_window_s,
-                self.lim.scurve_acc,
-            );
-        }
-        self.path
     }
 }
 
@@ -947,5 +989,109 @@ fn dilate_caps(segs: &mut [Segment], window_s: f64, acc: f64) {
         segs[k].vel_cap = dilated[k];
         let next = if k + 1 < n { dilated[k + 1] } else { 0.0 };
         segs[k].v_end_hard = segs[k].v_end_hard.min(dilated[k]).min(next);
+    }
+}
+
+/// [`dilate_caps`] on a stream of elements, with bounded memory: the same caps, bit
+/// for bit (a minimum over the same constraints), each element handed on once no
+/// later constraint can reach it. Every constraint's reach is at most that of the
+/// fastest speed the axes allow (|V|, the norm of the axes' limits: an element's cap
+/// keeps every axis within its V_i, so v² = Σ(t_i·v)² ≤ Σ V_i²), so an element is
+/// settled once the path has gone that reach beyond the end of the element after it.
+pub(crate) struct CapDilator {
+    window_s: f64,
+    acc: f64,
+    /// Reach of the fastest constraint possible (mm).
+    reach_max_mm: f64,
+    /// Elements not yet settled and their dilated cap, in order.
+    held: std::collections::VecDeque<(Segment, Geom, f64)>,
+    /// Constraints reaching forward: (last path position they reach, cap).
+    ahead: Vec<(f64, f64)>,
+}
+
+impl CapDilator {
+    /// For the limits `lim` (S-curve window and acceleration).
+    pub(crate) fn new(lim: &Limits) -> CapDilator {
+        let v_top = Vec3::new(lim.vmax[0], lim.vmax[1], lim.vmax[2]).norm();
+        let mut d = CapDilator {
+            window_s: lim.scurve_window_s,
+            acc: lim.scurve_acc,
+            reach_max_mm: 0.0,
+            held: std::collections::VecDeque::new(),
+            ahead: Vec::new(),
+        };
+        // rounding may put a cap a few ulps above |V|: a margin far above that
+        d.reach_max_mm = d.reach(v_top * (1.0 + 1e-6));
+        d
+    }
+
+    /// R(c) exactly as [`dilate_caps`] computes it.
+    fn reach(&self, c: f64) -> f64 {
+        let (window_s, acc) = (self.window_s, self.acc);
+        (window_s * c).max((c * c + acc * acc * window_s * window_s) / (2.0 * acc))
+    }
+
+    /// The next element (its limits as the builder settled them); settled elements go
+    /// to `out` with their dilated caps.
+    pub(crate) fn push(
+        &mut self,
+        seg: &Segment,
+        geom: &Geom,
+        out: &mut impl FnMut(&Segment, &Geom),
+    ) {
+        let (a, b) = (seg.s0, seg.s0 + seg.len);
+        // constraints of the elements before that reach this one
+        let mut d = seg.vel_cap;
+        self.ahead.retain(|&(until, c)| {
+            if a <= until {
+                d = d.min(c);
+                true
+            } else {
+                false // the path only goes on: it never reaches another element
+            }
+        });
+        // this element's own, back over the held elements and ahead
+        let own = |c: f64, from: f64, to: f64, d: &mut f64, this: &mut CapDilator| {
+            let r = this.reach(c);
+            *d = d.min(c);
+            for h in this.held.iter_mut().rev() {
+                if h.0.s0 + h.0.len >= from - r {
+                    h.2 = h.2.min(c);
+                } else {
+                    break;
+                }
+            }
+            this.ahead.push((to + r, c));
+        };
+        if seg.len > 0.0 {
+            own(seg.vel_cap, a, b, &mut d, self);
+        }
+        let v = seg.v_end_hard;
+        if v > 0.0 && v.is_finite() {
+            own(v, b, b, &mut d, self);
+        }
+        self.held.push_back((*seg, *geom, d));
+        // no later constraint reaches back before `settled`
+        let settled = b - self.reach_max_mm;
+        while self.held.len() >= 2 && self.held[1].0.s0 + self.held[1].0.len < settled {
+            self.emit_front(out);
+        }
+    }
+
+    fn emit_front(&mut self, out: &mut impl FnMut(&Segment, &Geom)) {
+        let Some((mut seg, geom, d)) = self.held.pop_front() else {
+            return;
+        };
+        let next = self.held.front().map_or(0.0, |h| h.2);
+        seg.vel_cap = d;
+        seg.v_end_hard = seg.v_end_hard.min(d).min(next);
+        out(&seg, &geom);
+    }
+
+    /// The end of the path: the held elements to `out`.
+    pub(crate) fn finish(mut self, out: &mut impl FnMut(&Segment, &Geom)) {
+        while !self.held.is_empty() {
+            self.emit_front(out);
+        }
     }
 }

@@ -35,10 +35,62 @@ pub struct Sample {
     pub path_mm: f64,
 }
 
-/// Pulls samples from a plan, one per interpolation cycle, without allocating.
-pub struct Interpolator<'a> {
+/// Where the interpolator finds the path elements, by their index from the start of
+/// the path: a whole plan's arrays ([`SliceSource`]), or the window of a streamed
+/// plan ([`crate::stream`]), which holds the elements between the output cursor and
+/// what the producer has delivered.
+pub(crate) trait SegmentSource {
+    /// Element `k`'s limits (`k` must be available: [`SegmentSource::has`]).
+    fn seg(&self, k: usize) -> &Segment;
+    /// Element `k`'s geometry (`k` must be available).
+    fn geom(&self, k: usize) -> &Geom;
+    /// Whether element `k` is available, taking in what has been delivered.
+    fn has(&mut self, k: usize) -> bool;
+    /// True once no element beyond the available ones will ever come: the path ends
+    /// with the last available one.
+    fn ended(&self) -> bool;
+    /// Elements before `k` will not be asked for again.
+    fn release_before(&mut self, _k: usize) {}
+    /// Take in some of what has been delivered (once per sample), so that the
+    /// lookahead finds it when it looks further.
+    fn top_up(&mut self) {}
+}
+
+/// A whole plan's elements.
+pub(crate) struct SliceSource<'a> {
     segs: &'a [Segment],
     geoms: &'a [Geom],
+}
+
+impl SegmentSource for SliceSource<'_> {
+    #[inline(always)]
+    fn seg(&self, k: usize) -> &Segment {
+        &self.segs[k]
+    }
+    #[inline(always)]
+    fn geom(&self, k: usize) -> &Geom {
+        &self.geoms[k]
+    }
+    #[inline(always)]
+    fn has(&mut self, k: usize) -> bool {
+        k < self.segs.len()
+    }
+    #[inline(always)]
+    fn ended(&self) -> bool {
+        true
+    }
+}
+
+/// Pulls samples from a plan, one per interpolation cycle, without allocating.
+pub struct Interpolator<'a> {
+    core: Core<SliceSource<'a>>,
+}
+
+/// The interpolator over any [`SegmentSource`]: the whole plan's and the streamed
+/// plan's sample streams are this same code, so they are equal bit for bit whenever
+/// the stream delivers the elements the lookahead asks for.
+pub(crate) struct Core<S> {
+    src: S,
     lim: Limits,
     brake_dist_mm: f64,
     override_frac: f64,
@@ -62,6 +114,13 @@ pub struct Interpolator<'a> {
     index: u64,
     finished: bool,
     start: Vec3,
+    /// Set once the first sample's element is known (at once for a whole plan).
+    primed: bool,
+    /// Waiting at the end of the last delivered element for the next one.
+    waiting: bool,
+    /// Times the path ran short: a lookahead cut by the end of the delivered elements,
+    /// a wait for the next one, or a first sample without any.
+    starved: u64,
 }
 
 impl<'a> Interpolator<'a> {
@@ -72,15 +131,67 @@ impl<'a> Interpolator<'a> {
         brake_dist_mm: f64,
         max_override: f64,
     ) -> Self {
+        let start = geoms.first().map(|g| g.point_at(0.0)).unwrap_or_default();
+        let mut core = Core::new(
+            SliceSource { segs, geoms },
+            lim,
+            brake_dist_mm,
+            max_override,
+            start,
+        );
+        core.prime();
+        Interpolator { core }
+    }
+
+    /// Set the live feed override (0.0 ..= the profile's maximum); applied smoothly
+    /// from the next cycle on, within the acceleration (and jerk) limits.
+    pub fn set_feed_override(&mut self, fraction: f64) {
+        self.core.set_feed_override(fraction)
+    }
+
+    /// The live feed override in force.
+    pub fn feed_override(&self) -> f64 {
+        self.core.override_frac
+    }
+
+    /// Current path speed of the acceleration-limited profile (mm/s).
+    pub fn path_speed_mm_per_s(&self) -> f64 {
+        self.core.v
+    }
+
+    /// True once the last sample has been produced.
+    pub fn is_finished(&self) -> bool {
+        self.core.finished
+    }
+}
+
+impl Iterator for Interpolator<'_> {
+    type Item = Sample;
+
+    #[inline]
+    fn next(&mut self) -> Option<Sample> {
+        self.core.next_sample()
+    }
+}
+
+impl<S: SegmentSource> Core<S> {
+    /// A sample stream from the start of the path; `start` is where the path starts
+    /// (its first sample when it has no element). Call [`Core::prime`] before the first
+    /// sample once the first element is there (else the first sample waits for it).
+    pub(crate) fn new(
+        src: S,
+        lim: Limits,
+        brake_dist_mm: f64,
+        max_override: f64,
+        start: Vec3,
+    ) -> Self {
         let window = match lim.profile {
             FeedProfile::Trapezoidal => 1,
             FeedProfile::SCurve => ((lim.scurve_window_s / lim.cycle_s).round() as usize)
                 .clamp(1, MAX_SCURVE_WINDOW_CYCLES),
         };
-        let start = geoms.first().map(|g| g.point_at(0.0)).unwrap_or_default();
-        let mut it = Interpolator {
-            segs,
-            geoms,
+        Core {
+            src,
             lim,
             brake_dist_mm,
             override_frac: 1.0,
@@ -90,7 +201,7 @@ impl<'a> Interpolator<'a> {
             v: 0.0,
             hold_left_s: 0.0,
             holding: false,
-            raw_done: segs.is_empty(),
+            raw_done: false,
             vend_soft: 0.0,
             vend_hard: 0.0,
             envelope_dirty: true,
@@ -101,14 +212,44 @@ impl<'a> Interpolator<'a> {
             index: 0,
             finished: false,
             start,
-        };
-        it.skip_empty();
-        it
+            primed: false,
+            waiting: false,
+            starved: 0,
+        }
     }
 
-    /// Set the live feed override (0.0 ..= the profile's maximum); applied smoothly
-    /// from the next cycle on, within the acceleration (and jerk) limits.
-    pub fn set_feed_override(&mut self, fraction: f64) {
+    /// Take the first element if it is there (or the path is known to be empty):
+    /// true once done. Before it, the first sample waits at the start.
+    pub(crate) fn prime(&mut self) -> bool {
+        if !self.primed {
+            if self.src.has(0) {
+                self.primed = true;
+                self.skip_empty();
+            } else if self.src.ended() {
+                self.primed = true;
+                self.raw_done = true;
+            }
+        }
+        self.primed
+    }
+
+    /// The element source.
+    pub(crate) fn source(&self) -> &S {
+        &self.src
+    }
+
+    /// The element source, to fill it.
+    pub(crate) fn src_mut(&mut self) -> &mut S {
+        &mut self.src
+    }
+
+    /// Times the path ran short (see the field).
+    pub(crate) fn starved(&self) -> u64 {
+        self.starved
+    }
+
+    /// Set the live feed override (see [`Interpolator::set_feed_override`]).
+    pub(crate) fn set_feed_override(&mut self, fraction: f64) {
         let f = if fraction.is_finite() {
             fraction.clamp(0.0, self.max_override)
         } else {
@@ -121,17 +262,17 @@ impl<'a> Interpolator<'a> {
     }
 
     /// The live feed override in force.
-    pub fn feed_override(&self) -> f64 {
+    pub(crate) fn feed_override(&self) -> f64 {
         self.override_frac
     }
 
     /// Current path speed of the acceleration-limited profile (mm/s).
-    pub fn path_speed_mm_per_s(&self) -> f64 {
+    pub(crate) fn path_speed_mm_per_s(&self) -> f64 {
         self.v
     }
 
     /// True once the last sample has been produced.
-    pub fn is_finished(&self) -> bool {
+    pub(crate) fn is_finished(&self) -> bool {
         self.finished
     }
 
@@ -141,46 +282,62 @@ impl<'a> Interpolator<'a> {
 
     /// Skip zero-length elements without a dwell at the current position.
     fn skip_empty(&mut self) {
-        while !self.raw_done && self.segs[self.k].len <= 0.0 && self.segs[self.k].dwell_s <= 0.0 {
+        while !self.raw_done
+            && !self.waiting
+            && self.src.seg(self.k).len <= 0.0
+            && self.src.seg(self.k).dwell_s <= 0.0
+        {
             self.next_element();
         }
     }
 
     fn next_element(&mut self) {
-        if self.segs[self.k].v_end_hard == 0.0 {
+        if self.src.seg(self.k).v_end_hard == 0.0 {
             self.v = 0.0;
         }
-        if self.k + 1 >= self.segs.len() {
-            self.raw_done = true;
-            self.s = self.segs[self.k].len;
-            self.v = 0.0;
-        } else {
+        if self.src.has(self.k + 1) {
             self.k += 1;
             self.s = 0.0;
+        } else if self.src.ended() {
+            self.raw_done = true;
+            self.s = self.src.seg(self.k).len;
+            self.v = 0.0;
+        } else {
+            // the next element has not come: stand at the end of this one (the
+            // lookahead braked to a stop there) until it does
+            self.waiting = true;
+            self.starved += 1;
+            self.s = self.src.seg(self.k).len;
+            self.v = 0.0;
         }
         self.envelope_dirty = true;
         self.force_brake = false;
     }
 
-    /// Highest speeds at the end of element k: (with feed caps, geometric only).
-    fn end_speed_limits(&self, k: usize) -> (f64, f64) {
-        let n = self.segs.len();
+    /// Highest speeds at the end of element k: (with feed caps, geometric only). The
+    /// end of the delivered elements counts as a stop (a starved lookahead).
+    fn end_speed_limits(&mut self, k: usize) -> (f64, f64) {
         let mut j = k;
         let mut dist = 0.0;
-        while j + 1 < n
-            && self.segs[j].v_end_hard > 0.0
+        while self.src.seg(j).v_end_hard > 0.0
             && j - k < MAX_LOOKAHEAD_SEGMENTS
             && dist < self.brake_dist_mm
         {
+            if !self.src.has(j + 1) {
+                if !self.src.ended() {
+                    self.starved += 1;
+                }
+                break;
+            }
             j += 1;
-            dist += self.segs[j].len;
+            dist += self.src.seg(j).len;
         }
         // Backward pass from a stop at the end of element j.
         let mut soft_next = 0.0f64;
         let mut hard_next = 0.0f64;
         let mut m = j;
         loop {
-            let seg = &self.segs[m];
+            let seg = self.src.seg(m);
             let soft_end = seg.v_end_hard.min(soft_next).min(self.soft_cap(seg));
             let hard_end = seg.v_end_hard.min(hard_next).min(seg.vel_cap);
             if m == k {
@@ -203,6 +360,22 @@ impl<'a> Interpolator<'a> {
             if guard > 1_000_000 {
                 break; // cannot happen with finite inputs; never spin forever
             }
+            if self.waiting {
+                if !self.src.has(self.k + 1) {
+                    if self.src.ended() {
+                        self.waiting = false;
+                        self.raw_done = true;
+                    }
+                    break; // standing: the cycle passes
+                }
+                self.waiting = false;
+                self.k += 1;
+                self.s = 0.0;
+                self.envelope_dirty = true;
+                self.force_brake = false;
+                self.skip_empty();
+                continue;
+            }
             if self.holding {
                 let h = self.hold_left_s.min(dt);
                 self.hold_left_s -= h;
@@ -221,7 +394,7 @@ impl<'a> Interpolator<'a> {
                 self.envelope_dirty = false;
                 self.force_brake = false;
             }
-            let seg = self.segs[self.k];
+            let seg = *self.src.seg(self.k);
             let d = seg.len - self.s;
             if d <= 1e-12 {
                 self.arrive(&seg);
@@ -314,29 +487,41 @@ impl<'a> Interpolator<'a> {
     }
 
     fn raw_position(&self) -> f64 {
-        let seg = &self.segs[self.k];
+        let seg = self.src.seg(self.k);
         seg.s0 + self.s.min(seg.len)
     }
 
-    fn point_at(&mut self, s_path: f64) -> (Vec3, &'a Segment) {
-        let segs = self.segs;
-        while self.cursor + 1 < segs.len() && s_path > segs[self.cursor].s0 + segs[self.cursor].len
-        {
+    /// The point at path position `s_path` and the element it lies on.
+    fn point_at(&mut self, s_path: f64) -> (Vec3, u32, bool) {
+        loop {
+            let seg = self.src.seg(self.cursor);
+            if !(s_path > seg.s0 + seg.len && self.src.has(self.cursor + 1)) {
+                break;
+            }
             self.cursor += 1;
         }
-        let seg = &segs[self.cursor];
-        (self.geoms[self.cursor].point_at(s_path - seg.s0), seg)
+        let seg = self.src.seg(self.cursor);
+        let pos = self.src.geom(self.cursor).point_at(s_path - seg.s0);
+        (pos, seg.motion, seg.feed_move)
     }
-}
 
-impl Iterator for Interpolator<'_> {
-    type Item = Sample;
-
-    fn next(&mut self) -> Option<Sample> {
+    /// The next sample (see [`Interpolator`]'s `next`).
+    pub(crate) fn next_sample(&mut self) -> Option<Sample> {
         if self.finished {
             return None;
         }
-        if self.segs.is_empty() {
+        if !self.prime() {
+            // the first element has not come: the start, again
+            self.starved += 1;
+            return Some(Sample {
+                index: 0,
+                pos_mm: self.start,
+                motion: 0,
+                feed_move: false,
+                path_mm: 0.0,
+            });
+        }
+        if self.raw_done && self.index == 0 && !self.src.has(0) {
             self.finished = true;
             return Some(Sample {
                 index: 0,
@@ -346,6 +531,7 @@ impl Iterator for Interpolator<'_> {
                 path_mm: 0.0,
             });
         }
+        self.src.top_up();
         if self.index > 0 {
             self.advance(self.lim.cycle_s);
         }
@@ -369,26 +555,33 @@ impl Iterator for Interpolator<'_> {
         };
         let done_raw = self.raw_done && !self.holding;
         let settled = done_raw && (n == 1 || self.ring.iter().all(|&x| x == raw));
-        let (pos, seg, path_mm) = if settled {
-            let last = self.segs.len() - 1;
+        let (pos, motion, feed_move, path_mm) = if settled {
+            // raw_done: k is the last element
+            let last = self.k;
             self.cursor = last;
-            let seg = &self.segs[last];
-            (self.geoms[last].point_at(seg.len), seg, seg.s0 + seg.len)
+            let seg = self.src.seg(last);
+            (
+                self.src.geom(last).point_at(seg.len),
+                seg.motion,
+                seg.feed_move,
+                seg.s0 + seg.len,
+            )
         } else {
-            let (pos, seg) = self.point_at(s_path);
-            (pos, seg, s_path)
+            let (pos, motion, feed_move) = self.point_at(s_path);
+            (pos, motion, feed_move, s_path)
         };
         let sample = Sample {
             index: self.index,
             pos_mm: pos,
-            motion: seg.motion,
-            feed_move: seg.feed_move,
+            motion,
+            feed_move,
             path_mm,
         };
         self.index += 1;
         if settled {
             self.finished = true;
         }
+        self.src.release_before(self.cursor.min(self.k));
         Some(sample)
     }
 }

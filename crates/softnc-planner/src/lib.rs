@@ -10,6 +10,7 @@
 //! - [`build`]: motions → elements: blending, exact stops, junction speeds.
 //! - [`interp`]: the sample stream (time-optimal, lookahead, override, S-curve).
 //! - [`plan`](mod@plan): the entry point and the plan's figures.
+//! - [`stream`]: a plan streamed through a bounded window (long programs).
 #![warn(missing_docs)]
 
 pub mod build;
@@ -17,9 +18,14 @@ pub mod fillet;
 pub mod interp;
 pub mod path;
 pub mod plan;
+pub mod stream;
 
 pub use interp::{Interpolator, Sample};
 pub use plan::{
     plan, read_and_plan, read_and_plan_parallel, Plan, PlanError, PlanOptions, PlanStats,
     ReadPlanError,
+};
+pub use stream::{
+    check_and_stream, check_program, stream_program, CheckedProgram, StreamInterpolator,
+    StreamMode, StreamProducer,
 };

@@ -14,10 +14,15 @@ pub struct PlanOptions {
     /// Where the machine is when the job starts (machine coordinates, mm): the
     /// program is read and planned from there. `None`: the origin.
     pub start_mm: Option<[f64; 3]>,
+    /// Elements the window of a streamed plan holds
+    /// ([`stream_program`](crate::stream::stream_program)); 0: the default,
+    /// [`DEFAULT_STREAM_WINDOW_SEGMENTS`](crate::stream::DEFAULT_STREAM_WINDOW_SEGMENTS).
+    /// Rounded up to a power of two of at least the lookahead's reach.
+    pub stream_window_segments: usize,
 }
 
 impl PlanOptions {
-    fn read_options(&self) -> softnc_gcode::ReadOptions {
+    pub(crate) fn read_options(&self) -> softnc_gcode::ReadOptions {
         softnc_gcode::ReadOptions {
             start_mm: self.start_mm.map(softnc_core::Vec3),
             ..Default::default()
@@ -212,20 +217,24 @@ pub fn read_and_plan_parallel(
 
 /// Checks motions one at a time and gathers the plan's figures: soft limits, the
 /// bounding box, the highest feed, the spindle speed changes.
-struct Checker<'a> {
+pub(crate) struct Checker<'a> {
     profile: &'a MachineProfile,
     options: &'a PlanOptions,
     file: &'a str,
     bmin: Vec3,
     bmax: Vec3,
     max_feed: f64,
-    n_motions: usize,
+    pub(crate) n_motions: usize,
     n_moves: usize,
-    spindle_changes: Vec<(u32, f64)>,
+    pub(crate) spindle_changes: Vec<(u32, f64)>,
 }
 
 impl<'a> Checker<'a> {
-    fn new(profile: &'a MachineProfile, options: &'a PlanOptions, file: &'a str) -> Self {
+    pub(crate) fn new(
+        profile: &'a MachineProfile,
+        options: &'a PlanOptions,
+        file: &'a str,
+    ) -> Self {
         Checker {
             profile,
             options,
@@ -241,7 +250,7 @@ impl<'a> Checker<'a> {
 
     /// Check a motion whose programmed primitive in machine coordinates is `prim`
     /// (None for dwells): the soft limit it breaks, if any.
-    fn check(&mut self, m: &Motion, prim: &Option<Primitive>) -> Result<(), PlanError> {
+    pub(crate) fn check(&mut self, m: &Motion, prim: &Option<Primitive>) -> Result<(), PlanError> {
         if let Some(p) = prim {
             self.n_moves += 1;
             self.max_feed = match m.kind {
@@ -294,13 +303,34 @@ impl<'a> Checker<'a> {
 
     /// The plan of the checked motions, whose path is `path`.
     fn finish(self, lim: Limits, path: Path) -> Plan {
+        let path_length_mm = path.segs.last().map_or(0.0, |s| s.s0 + s.len);
+        let (stats, brake_dist_mm) =
+            self.figures(&lim, path_length_mm, planned_duration(&path.segs, &lim));
+        Plan {
+            path,
+            n_motions: self.n_motions,
+            spindle_changes: self.spindle_changes,
+            lim,
+            brake_dist_mm,
+            max_override: self.profile.planner.max_feed_override,
+            stats,
+        }
+    }
+
+    /// The figures of the checked motions, whose path is `path_length_mm` long and
+    /// whose [`planned_duration`] is `timed`; and the lookahead's braking distance.
+    pub(crate) fn figures(
+        &self,
+        lim: &Limits,
+        path_length_mm: f64,
+        timed: (f64, f64, f64),
+    ) -> (PlanStats, f64) {
         let (mut bmin, mut bmax) = (self.bmin, self.bmax);
         if !bmin[0].is_finite() {
             bmin = Vec3::ZERO;
             bmax = Vec3::ZERO;
         }
-        let path_length_mm = path.segs.last().map_or(0.0, |s| s.s0 + s.len);
-        let (duration_s, v_top, a_min) = planned_duration(&path.segs, &lim);
+        let (duration_s, v_top, a_min) = timed;
         let brake_dist_mm = if a_min.is_finite() && a_min > 0.0 {
             v_top * v_top / (2.0 * a_min)
         } else {
@@ -316,15 +346,7 @@ impl<'a> Checker<'a> {
             bounds_min_mm: bmin,
             bounds_max_mm: bmax,
         };
-        Plan {
-            path,
-            n_motions: self.n_motions,
-            spindle_changes: self.spindle_changes,
-            lim,
-            brake_dist_mm,
-            max_override: self.profile.planner.max_feed_override,
-            stats,
-        }
+        (stats, brake_dist_mm)
     }
 }
 
@@ -418,7 +440,6 @@ fn planned_duration(segs: &[Segment], lim: &Limits) -> (f64, f64, f64) {
     if n == 0 {
         return (0.0, 0.0, f64::INFINITY);
     }
-    let cap = |s: &Segment| s.vel_cap.min(s.feed_mm_per_s);
     // backward: highest speed at the end of each element
     let mut vend = vec![0.0f64; n];
     let mut next_start = 0.0f64;
@@ -429,34 +450,171 @@ fn planned_duration(segs: &[Segment], lim: &Limits) -> (f64, f64, f64) {
             v_top = v_top.max(s.vel_cap);
         }
         a_min = a_min.min(s.acc);
-        vend[k] = s.v_end_hard.min(next_start).min(cap(s));
-        next_start = cap(s).min((vend[k] * vend[k] + 2.0 * s.acc * s.len).sqrt());
+        (vend[k], next_start) = backward_step(s, next_start);
     }
     // forward
-    let mut t = 0.0;
-    let mut v0 = 0.0f64;
-    let settle = match lim.profile {
-        FeedProfile::SCurve => lim.scurve_window_s,
-        FeedProfile::Trapezoidal => 0.0,
-    };
+    let mut fwd = ForwardTime::new(lim);
     for (k, s) in segs.iter().enumerate() {
+        fwd.step(s, vend[k]);
+    }
+    (fwd.t, v_top, a_min)
+}
+
+/// The element's cap: the hard one and the feed at 100 %.
+#[inline(always)]
+fn cap(s: &Segment) -> f64 {
+    s.vel_cap.min(s.feed_mm_per_s)
+}
+
+/// One step of the backward pass of [`planned_duration`]: the highest end speed of
+/// element `s` given the highest start speed `next_start` of the one after it, and
+/// its own highest start speed.
+#[inline(always)]
+fn backward_step(s: &Segment, next_start: f64) -> (f64, f64) {
+    let vend = s.v_end_hard.min(next_start).min(cap(s));
+    (vend, start_speed(s, vend))
+}
+
+/// The highest start speed of element `s` that can still end at `vend`.
+#[inline(always)]
+fn start_speed(s: &Segment, vend: f64) -> f64 {
+    cap(s).min((vend * vend + 2.0 * s.acc * s.len).sqrt())
+}
+
+/// The forward pass of [`planned_duration`]: time along the elements in order.
+struct ForwardTime {
+    t: f64,
+    v0: f64,
+    settle: f64,
+}
+
+impl ForwardTime {
+    fn new(lim: &Limits) -> ForwardTime {
+        let settle = match lim.profile {
+            FeedProfile::SCurve => lim.scurve_window_s,
+            FeedProfile::Trapezoidal => 0.0,
+        };
+        ForwardTime {
+            t: 0.0,
+            v0: 0.0,
+            settle,
+        }
+    }
+
+    /// Element `s`, whose end speed the backward pass capped at `vend`.
+    #[inline(always)]
+    fn step(&mut self, s: &Segment, vend: f64) {
+        let v0 = self.v0;
         let c = cap(s);
-        let v1 = vend[k].min((v0 * v0 + 2.0 * s.acc * s.len).sqrt());
+        let v1 = vend.min((v0 * v0 + 2.0 * s.acc * s.len).sqrt());
         if s.len > 0.0 {
             let vp = c.min(((v0 * v0 + v1 * v1) / 2.0 + s.acc * s.len).sqrt());
             let d_acc = (vp * vp - v0 * v0) / (2.0 * s.acc);
             let d_dec = (vp * vp - v1 * v1) / (2.0 * s.acc);
             let cruise = (s.len - d_acc - d_dec).max(0.0);
-            t += (vp - v0).max(0.0) / s.acc
+            self.t += (vp - v0).max(0.0) / s.acc
                 + (vp - v1).max(0.0) / s.acc
                 + if vp > 0.0 { cruise / vp } else { 0.0 };
         }
         if s.v_end_hard == 0.0 {
-            t += s.dwell_s + settle;
+            self.t += s.dwell_s + self.settle;
         }
-        v0 = v1;
+        self.v0 = v1;
     }
-    (t, v_top, a_min)
+}
+
+/// [`planned_duration`] on a stream of elements, with bounded memory: the same
+/// figures bit for bit. An element's end speed from the backward pass depends on the
+/// elements after it only until the pass saturates (a stop, or a start speed at the
+/// element's cap whatever comes after): the elements up to such a point are timed and
+/// dropped. The pass is monotonic in the speed coming from behind, so where it gives
+/// the same end speed from a stop (0) and from no limit (∞) after the last element
+/// held, that end speed is the whole path's.
+pub(crate) struct DurationPass {
+    held: std::collections::VecDeque<Segment>,
+    /// Scratch for the end speeds of the held elements.
+    vend: Vec<f64>,
+    fwd: ForwardTime,
+    v_top: f64,
+    a_min: f64,
+    /// Held elements at which to look for a saturated point again.
+    scan_at: usize,
+}
+
+/// Held elements before [`DurationPass`] first looks for a saturated point.
+const DURATION_SCAN_MIN: usize = 256;
+
+impl DurationPass {
+    pub(crate) fn new(lim: &Limits) -> DurationPass {
+        DurationPass {
+            held: std::collections::VecDeque::new(),
+            vend: Vec::new(),
+            fwd: ForwardTime::new(lim),
+            v_top: 0.0,
+            a_min: f64::INFINITY,
+            scan_at: DURATION_SCAN_MIN,
+        }
+    }
+
+    /// The next element of the path (limits final).
+    pub(crate) fn push(&mut self, s: &Segment) {
+        if s.vel_cap.is_finite() {
+            self.v_top = self.v_top.max(s.vel_cap);
+        }
+        self.a_min = self.a_min.min(s.acc);
+        self.held.push_back(*s);
+        if self.held.len() >= self.scan_at {
+            self.settle();
+        }
+    }
+
+    /// Time the held elements up to the last saturated point.
+    fn settle(&mut self) {
+        let n = self.held.len();
+        let (mut lo, mut hi) = (0.0f64, f64::INFINITY);
+        let mut at = None;
+        for k in (0..n).rev() {
+            let s = &self.held[k];
+            let (vlo, next_lo) = backward_step(s, lo);
+            let (vhi, next_hi) = backward_step(s, hi);
+            if vlo == vhi {
+                at = Some((k, vlo));
+                break;
+            }
+            (lo, hi) = (next_lo, next_hi);
+        }
+        let Some((k, vend_k)) = at else {
+            self.scan_at = 2 * n;
+            return;
+        };
+        self.time_upto(k, vend_k);
+        self.scan_at = 2 * self.held.len() + DURATION_SCAN_MIN;
+    }
+
+    /// Time the held elements 0..=k, element k's end speed being `vend_k`.
+    fn time_upto(&mut self, k: usize, vend_k: f64) {
+        self.vend.clear();
+        self.vend.resize(k + 1, 0.0);
+        self.vend[k] = vend_k;
+        let mut next_start = start_speed(&self.held[k], vend_k);
+        for j in (0..k).rev() {
+            (self.vend[j], next_start) = backward_step(&self.held[j], next_start);
+        }
+        for (j, s) in self.held.drain(..=k).enumerate() {
+            self.fwd.step(&s, self.vend[j]);
+        }
+    }
+
+    /// The run time, the highest finite speed cap and the lowest acceleration, as
+    /// [`planned_duration`] gives them for the whole path.
+    pub(crate) fn finish(mut self) -> (f64, f64, f64) {
+        let n = self.held.len();
+        if n > 0 {
+            let vend_last = backward_step(&self.held[n - 1], 0.0).0;
+            self.time_upto(n - 1, vend_last);
+        }
+        (self.fwd.t, self.v_top, self.a_min)
+    }
 }
 
 /// Whether a primitive lies inside the box [lo, hi]: its end points and, for an arc,

@@ -1,0 +1,605 @@
+//! Streamed plans: a long program never sits in memory as a whole plan (issue 15).
+//!
+//! A whole [`Plan`](crate::Plan) holds every element of the path; for a 20 MB program
+//! that is hundreds of MB of locked memory in the interpolation process. A streamed
+//! plan holds a bounded window instead:
+//!
+//! - [`check_program`] reads and plans the program once, keeping nothing of the path
+//!   (the elements are timed as they settle and dropped): the same first error and the
+//!   same figures as [`read_and_plan`](crate::read_and_plan) — planned cycles, motions,
+//!   spindle changes, bounding box — in memory bounded by the braking distance, not
+//!   the program. The daemon checks a job with it before any motion ("no motion from
+//!   a rejected job").
+//! - [`stream_program`] gives the two ends of a stream: a [`StreamProducer`] that reads
+//!   and plans the program again on a non-real-time thread, handing over each element
+//!   once its limits are settled, through a bounded, preallocated queue; and a
+//!   [`StreamInterpolator`] that pulls one [`Sample`] per call into a preallocated ring
+//!   of elements (the window, [`PlanOptions::stream_window_segments`]) and allocates
+//!   nothing after [`StreamInterpolator::fill`].
+//!
+//! The interpolator is the whole plan's own code (`interp::Core`) over the window, so
+//! the samples equal [`Plan::interpolator`](crate::Plan::interpolator)'s bit for bit
+//! whenever the producer keeps ahead of the lookahead (the tests check it on the test
+//! programs and the shared corpus). When it does not, the end of the window counts as
+//! a stop: the path brakes within its limits to what it has, never runs past it, and
+//! [`StreamInterpolator::starved`] counts the event so that the daemon can alarm.
+
+use crate::build::{motion_primitive, CapDilator, Limits, PathBuilder, Segment};
+use crate::interp::{Core, SegmentSource, MAX_LOOKAHEAD_SEGMENTS};
+use crate::path::Geom;
+use crate::plan::{
+    Checker, DurationPass, PlanError, PlanOptions, PlanStats, ReadPlanError, READ_CHUNK_MOTIONS,
+};
+use crate::Sample;
+use softnc_core::{FeedProfile, MachineProfile, Vec3};
+use softnc_gcode::{Motion, Program};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TryRecvError, TrySendError};
+use std::sync::Arc;
+
+/// Elements the window holds by default: the lookahead's
+/// [`MAX_LOOKAHEAD_SEGMENTS`] ahead of the element being run, plus room for the
+/// elements between it and the output cursor (which lags by the S-curve window) and
+/// for those in flight. About 3.6 MB of elements.
+pub const DEFAULT_STREAM_WINDOW_SEGMENTS: usize = 1 << 15;
+
+/// Elements in flight between the producer and the window.
+pub const STREAM_QUEUE_ELEMENTS: usize = 1024;
+
+/// How long a producer whose queue is full waits before it tries again.
+const PRODUCER_BACKOFF: std::time::Duration = std::time::Duration::from_micros(200);
+
+/// Elements the window takes from the queue per sample at most (beside what the
+/// lookahead asks for): keeps the window full ahead of the lookahead, in bounded time
+/// per cycle.
+const TOP_UP_PER_SAMPLE: usize = 64;
+
+/// Elements the builder gathers before handing the settled ones on.
+const DRAIN_BATCH: usize = 64;
+
+/// The window size `options` ask for: a power of two, at least the lookahead's
+/// [`MAX_LOOKAHEAD_SEGMENTS`] + 2.
+pub fn stream_window_segments(options: &PlanOptions) -> usize {
+    let asked = if options.stream_window_segments == 0 {
+        DEFAULT_STREAM_WINDOW_SEGMENTS
+    } else {
+        options.stream_window_segments
+    };
+    asked.max(MAX_LOOKAHEAD_SEGMENTS + 2).next_power_of_two()
+}
+
+/// Bytes one element takes in the window (its limits and its geometry).
+pub fn window_element_bytes() -> usize {
+    std::mem::size_of::<Segment>() + std::mem::size_of::<Geom>()
+}
+
+/// What checking a program gives: the figures of its plan, without the plan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CheckedProgram {
+    stats: PlanStats,
+    motions: usize,
+    elements: usize,
+    spindle_changes: Vec<(u32, f64)>,
+    brake_dist_mm: f64,
+    max_override: f64,
+    start_mm: Vec3,
+}
+
+impl CheckedProgram {
+    /// Figures of the plan (as [`Plan::stats`](crate::Plan::stats)).
+    pub fn stats(&self) -> PlanStats {
+        self.stats.clone()
+    }
+    /// Number of program motions (as [`Plan::motions`](crate::Plan::motions)).
+    pub fn motions(&self) -> usize {
+        self.motions
+    }
+    /// Number of path elements (as [`Plan::elements`](crate::Plan::elements)).
+    pub fn elements(&self) -> usize {
+        self.elements
+    }
+    /// The spindle speed changes (as
+    /// [`Plan::spindle_changes`](crate::Plan::spindle_changes)).
+    pub fn spindle_changes(&self) -> &[(u32, f64)] {
+        &self.spindle_changes
+    }
+}
+
+/// Plans motions one at a time and hands on each element once its limits are
+/// settled, keeping only the elements that later ones may still change.
+struct StreamPlanner<'a> {
+    checker: Checker<'a>,
+    builder: PathBuilder,
+    settled: Settled,
+}
+
+/// The settling stages after the builder: the S-curve spreading of caps, then the
+/// figures.
+struct Settled {
+    dilator: Option<CapDilator>,
+    duration: DurationPass,
+    elements: usize,
+    start_mm: Option<Vec3>,
+    path_length_mm: f64,
+}
+
+impl Settled {
+    /// An element from the builder: through the dilator (S-curve) to `out`.
+    fn take(&mut self, s: &Segment, g: &Geom, out: &mut impl FnMut(&Segment, &Geom)) {
+        let Settled {
+            dilator,
+            duration,
+            elements,
+            start_mm,
+            path_length_mm,
+        } = self;
+        let mut last = |s: &Segment, g: &Geom| {
+            duration.push(s);
+            *elements += 1;
+            start_mm.get_or_insert_with(|| g.point_at(0.0));
+            *path_length_mm = s.s0 + s.len;
+            out(s, g);
+        };
+        match dilator {
+            Some(d) => d.push(s, g, &mut last),
+            None => last(s, g),
+        }
+    }
+}
+
+impl<'a> StreamPlanner<'a> {
+    fn new(profile: &'a MachineProfile, options: &'a PlanOptions, file: &'a str) -> Self {
+        let lim = Limits::from_profile(profile);
+        StreamPlanner {
+            checker: Checker::new(profile, options, file),
+            builder: PathBuilder::new(&lim, DRAIN_BATCH),
+            settled: Settled {
+                dilator: (lim.profile == FeedProfile::SCurve).then(|| CapDilator::new(&lim)),
+                duration: DurationPass::new(&lim),
+                elements: 0,
+                start_mm: None,
+                path_length_mm: 0.0,
+            },
+        }
+    }
+
+    fn push(&mut self, m: &Motion, out: &mut impl FnMut(&Segment, &Geom)) -> Result<(), PlanError> {
+        let prim = motion_primitive(m);
+        let index = self.checker.n_motions;
+        self.checker.check(m, &prim)?;
+        self.builder.push(index, m, prim);
+        let settled = &mut self.settled;
+        self.builder
+            .drain_settled(DRAIN_BATCH, &mut |s, g| settled.take(s, g, out));
+        Ok(())
+    }
+
+    fn finish(
+        self,
+        profile: &MachineProfile,
+        out: &mut impl FnMut(&Segment, &Geom),
+    ) -> CheckedProgram {
+        let StreamPlanner {
+            checker,
+            builder,
+            mut settled,
+        } = self;
+        builder.finish_stream(&mut |s, g| settled.take(s, g, out));
+        let Settled {
+            dilator,
+            duration,
+            elements,
+            start_mm,
+            path_length_mm,
+        } = settled;
+        let mut duration = duration;
+        let mut elements = elements;
+        let mut path_length_mm = path_length_mm;
+        if let Some(d) = dilator {
+            d.finish(&mut |s, g| {
+                duration.push(s);
+                elements += 1;
+                path_length_mm = s.s0 + s.len;
+                out(s, g);
+            });
+        }
+        let lim = Limits::from_profile(profile);
+        let (stats, brake_dist_mm) = checker.figures(&lim, path_length_mm, duration.finish());
+        CheckedProgram {
+            stats,
+            motions: checker.n_motions,
+            elements,
+            spindle_changes: checker.spindle_changes,
+            brake_dist_mm,
+            max_override: profile.planner.max_feed_override,
+            start_mm: start_mm.unwrap_or_default(),
+        }
+    }
+}
+
+/// Read a program from `text` and plan it the way [`stream_program`] will, keeping
+/// nothing of the path: the same first error (a G-code error anywhere before a soft
+/// limit) and the same figures as [`read_and_plan`](crate::read_and_plan), in memory
+/// bounded by the braking distance rather than the program. The returned [`Program`]
+/// has no motions (blocks and warnings only).
+pub fn check_program(
+    text: &str,
+    file: &str,
+    profile: &MachineProfile,
+    options: &PlanOptions,
+) -> Result<(Program, CheckedProgram), ReadPlanError> {
+    let mut planner = StreamPlanner::new(profile, options, file);
+    let mut refused: Option<PlanError> = None;
+    let program = softnc_gcode::read_program_chunked_with(
+        text,
+        file,
+        profile,
+        &options.read_options(),
+        READ_CHUNK_MOTIONS,
+        &mut |chunk: &mut Vec<Motion>| {
+            if refused.is_none() {
+                for m in chunk.iter() {
+                    if let Err(e) = planner.push(m, &mut |_, _| {}) {
+                        refused = Some(e);
+                        break;
+                    }
+                }
+            }
+        },
+    )?;
+    match refused {
+        Some(e) => Err(e.into()),
+        None => Ok((program, planner.finish(profile, &mut |_, _| {}))),
+    }
+}
+
+/// What goes from the producer to the window.
+#[derive(Debug, Clone, Copy)]
+enum Msg {
+    /// The next element, its limits settled.
+    Element(Segment, Geom),
+    /// The path ends with the last element sent.
+    End,
+    /// The producer could not plan the program (an error, reported by
+    /// [`StreamProducer::run`]): nothing more comes.
+    Failed,
+}
+
+/// The producing end of a streamed plan: reads and plans the program and hands the
+/// elements to its [`StreamInterpolator`]. Run it on a thread of its own (not a
+/// real-time one): it allocates, and it waits while the window is full.
+pub struct StreamProducer {
+    text: Arc<str>,
+    file: String,
+    profile: MachineProfile,
+    options: PlanOptions,
+    tx: SyncSender<Msg>,
+}
+
+impl StreamProducer {
+    /// Read and plan the program, handing each settled element over; returns when
+    /// the last is handed over (or the interpolator is gone). The error is the one
+    /// [`check_program`] gives for the same text; the interpolator then stops at the
+    /// end of what it got and reports [`StreamInterpolator::failed`].
+    pub fn run(self) -> Result<(), ReadPlanError> {
+        let StreamProducer {
+            text,
+            file,
+            profile,
+            options,
+            tx,
+        } = self;
+        let mut gone = false;
+        let mut send = |msg: Msg| {
+            let mut msg = msg;
+            while !gone {
+                match tx.try_send(msg) {
+                    Ok(()) => return,
+                    Err(TrySendError::Full(m)) => {
+                        msg = m;
+                        std::thread::sleep(PRODUCER_BACKOFF);
+                    }
+                    Err(TrySendError::Disconnected(_)) => gone = true,
+                }
+            }
+        };
+        let mut planner = StreamPlanner::new(&profile, &options, &file);
+        let mut refused: Option<PlanError> = None;
+        let read = softnc_gcode::read_program_chunked_with(
+            &text,
+            &file,
+            &profile,
+            &options.read_options(),
+            READ_CHUNK_MOTIONS,
+            &mut |chunk: &mut Vec<Motion>| {
+                if refused.is_none() {
+                    for m in chunk.iter() {
+                        if let Err(e) = planner.push(m, &mut |s, g| send(Msg::Element(*s, *g))) {
+                            refused = Some(e);
+                            send(Msg::Failed);
+                            break;
+                        }
+                    }
+                }
+            },
+        );
+        let result = match (read, refused) {
+            (Err(e), _) => Err(ReadPlanError::from(e)),
+            (Ok(_), Some(e)) => Err(e.into()),
+            (Ok(_), None) => {
+                planner.finish(&profile, &mut |s, g| send(Msg::Element(*s, *g)));
+                Ok(())
+            }
+        };
+        send(if result.is_ok() {
+            Msg::End
+        } else {
+            Msg::Failed
+        });
+        result
+    }
+}
+
+/// Whether the interpolator may wait for the producer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StreamMode {
+    /// Never wait (the interpolation cycle): when the producer is behind, brake to a
+    /// stop at the end of what has come and count [`StreamInterpolator::starved`].
+    RealTime,
+    /// Wait for the producer whenever the lookahead needs an element that has not
+    /// come (offline simulation and tests): samples equal the whole plan's unless the
+    /// window is too small.
+    Offline,
+}
+
+/// Where the stream stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum StreamState {
+    Open,
+    Ended,
+    Failed,
+}
+
+/// The window: a preallocated ring of elements [tail, end) by their index from the
+/// start of the path, filled from the producer's queue.
+struct Window {
+    segs: Vec<Segment>,
+    geoms: Vec<Geom>,
+    mask: usize,
+    tail: usize,
+    end: usize,
+    rx: Receiver<Msg>,
+    state: StreamState,
+    blocking: bool,
+}
+
+impl Window {
+    /// Take the next message, waiting for it if `wait`: false if none came.
+    fn take_one(&mut self, wait: bool) -> bool {
+        let msg = if wait {
+            self.rx.recv().map_err(|_| TryRecvError::Disconnected)
+        } else {
+            self.rx.try_recv()
+        };
+        match msg {
+            Ok(Msg::Element(s, g)) => {
+                let i = self.end & self.mask;
+                self.segs[i] = s;
+                self.geoms[i] = g;
+                self.end += 1;
+                true
+            }
+            Ok(Msg::End) => {
+                self.state = StreamState::Ended;
+                false
+            }
+            Ok(Msg::Failed) | Err(TryRecvError::Disconnected) => {
+                self.state = StreamState::Failed;
+                false
+            }
+            Err(TryRecvError::Empty) => false,
+        }
+    }
+
+    fn room(&self) -> bool {
+        self.end - self.tail <= self.mask
+    }
+
+    /// Wait until the window is full or the stream has ended or failed.
+    fn fill(&mut self) {
+        while self.state == StreamState::Open && self.room() {
+            self.take_one(true);
+        }
+    }
+}
+
+impl SegmentSource for Window {
+    #[inline]
+    fn seg(&self, k: usize) -> &Segment {
+        &self.segs[k & self.mask]
+    }
+    #[inline]
+    fn geom(&self, k: usize) -> &Geom {
+        &self.geoms[k & self.mask]
+    }
+    fn has(&mut self, k: usize) -> bool {
+        while k >= self.end {
+            if self.state != StreamState::Open || !self.room() || !self.take_one(self.blocking) {
+                return false;
+            }
+        }
+        true
+    }
+    fn ended(&self) -> bool {
+        self.state == StreamState::Ended
+    }
+    fn top_up(&mut self) {
+        for _ in 0..TOP_UP_PER_SAMPLE {
+            if self.state != StreamState::Open || !self.room() || !self.take_one(false) {
+                break;
+            }
+        }
+    }
+    fn release_before(&mut self, k: usize) {
+        self.tail = self.tail.max(k.min(self.end));
+    }
+}
+
+/// The consuming end of a streamed plan: one [`Sample`] per call, as
+/// [`Plan::interpolator`](crate::Plan::interpolator) gives them, from a bounded window
+/// of elements. Allocates nothing after [`StreamInterpolator::fill`].
+pub struct StreamInterpolator {
+    core: Core<Window>,
+}
+
+impl StreamInterpolator {
+    /// Wait until the window is full or the stream has ended (before the first
+    /// sample; it may allocate). In [`StreamMode::RealTime`] a stream that was not
+    /// filled first starts with [`StreamInterpolator::starved`] samples at the start.
+    pub fn fill(&mut self) {
+        self.core.src_mut().fill();
+        self.core.prime();
+    }
+
+    /// Set the live feed override (as
+    /// [`Interpolator::set_feed_override`](crate::Interpolator::set_feed_override)).
+    pub fn set_feed_override(&mut self, fraction: f64) {
+        self.core.set_feed_override(fraction)
+    }
+
+    /// The live feed override in force.
+    pub fn feed_override(&self) -> f64 {
+        self.core.feed_override()
+    }
+
+    /// Current path speed of the acceleration-limited profile (mm/s).
+    pub fn path_speed_mm_per_s(&self) -> f64 {
+        self.core.path_speed_mm_per_s()
+    }
+
+    /// True once the last sample has been produced.
+    pub fn is_finished(&self) -> bool {
+        self.core.is_finished()
+    }
+
+    /// Times the stream ran short of elements (0 while the producer keeps up): the
+    /// lookahead found the end of the window where the whole plan would have looked
+    /// further, the path waited at the end of the window for the next element, or a
+    /// first sample came before any element. From the first such event on, the
+    /// samples may differ from the whole plan's (slower, within every limit).
+    pub fn starved(&self) -> u64 {
+        self.core.starved()
+    }
+
+    /// True if the producer failed (its [`StreamProducer::run`] gives the error): the
+    /// path stops at the end of what it got and the stream never finishes.
+    pub fn failed(&self) -> bool {
+        self.core.source().state == StreamState::Failed
+    }
+
+    /// Elements the window holds at most.
+    pub fn window_segments(&self) -> usize {
+        self.core.source().mask + 1
+    }
+}
+
+impl Iterator for StreamInterpolator {
+    type Item = Sample;
+
+    fn next(&mut self) -> Option<Sample> {
+        self.core.next_sample()
+    }
+}
+
+/// The two ends of a streamed plan of `text`, which `checked` is the
+/// [`check_program`] of (with the same profile and options): run the producer on a
+/// thread of its own, [`fill`](StreamInterpolator::fill) the interpolator, then pull
+/// samples. Everything the interpolator needs is allocated here.
+pub fn stream_program(
+    text: Arc<str>,
+    file: &str,
+    profile: &MachineProfile,
+    options: &PlanOptions,
+    checked: &CheckedProgram,
+    mode: StreamMode,
+) -> (StreamProducer, StreamInterpolator) {
+    let (tx, rx) = sync_channel(STREAM_QUEUE_ELEMENTS);
+    let n = stream_window_segments(options);
+    let blank = Segment {
+        s0: 0.0,
+        len: 0.0,
+        motion: 0,
+        feed_move: false,
+        feed_mm_per_s: 0.0,
+        vel_cap: 0.0,
+        acc: 1.0,
+        v_end_hard: 0.0,
+        dwell_s: 0.0,
+    };
+    let window = Window {
+        segs: vec![blank; n],
+        geoms: vec![
+            Geom::Line {
+                start: Vec3::ZERO,
+                end: Vec3::ZERO,
+                from: 0.0,
+                to: 0.0,
+                prog_len: 0.0,
+            };
+            n
+        ],
+        mask: n - 1,
+        tail: 0,
+        end: 0,
+        rx,
+        state: StreamState::Open,
+        blocking: mode == StreamMode::Offline,
+    };
+    let core = Core::new(
+        window,
+        Limits::from_profile(profile),
+        checked.brake_dist_mm,
+        checked.max_override,
+        checked.start_mm,
+    );
+    let producer = StreamProducer {
+        text,
+        file: file.to_string(),
+        profile: profile.clone(),
+        options: options.clone(),
+        tx,
+    };
+    (producer, StreamInterpolator { core })
+}
+
+/// Check `text`, then stream it offline ([`StreamMode::Offline`]): the producer on a
+/// scoped thread, `consume` given the filled interpolator on this one. The samples
+/// are the whole plan's, in the window's memory. Gives the check's error, or the
+/// check and what `consume` returned.
+pub fn check_and_stream<R>(
+    text: &str,
+    file: &str,
+    profile: &MachineProfile,
+    options: &PlanOptions,
+    consume: impl FnOnce(&mut StreamInterpolator) -> R,
+) -> Result<(CheckedProgram, R), ReadPlanError> {
+    let (_, checked) = check_program(text, file, profile, options)?;
+    let (producer, mut it) = stream_program(
+        Arc::from(text),
+        file,
+        profile,
+        options,
+        &checked,
+        StreamMode::Offline,
+    );
+    let r = std::thread::scope(|scope| {
+        let produced = scope.spawn(move || producer.run());
+        it.fill();
+        let r = consume(&mut it);
+        drop(it); // a consumer that stopped early releases the producer
+        produced
+            .join()
+            .unwrap_or_else(|e| std::panic::resume_unwind(e))
+            .map(|()| r)
+    })?;
+    Ok((checked, r))
+}
