@@ -1458,3 +1458,46 @@ fn a_loopback_daemon_runs_a_job_whose_axes_follow_the_command_exactly() {
     let rms = s["job"]["accuracy"]["contour_rms_um"].as_f64().unwrap();
     assert!(rms < 1.0, "contour rms {rms} µm");
 }
+
+/// Peak resident memory of a process (kB), from /proc.
+fn peak_rss_kb(pid: u32) -> u64 {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
+        .unwrap()
+}
+
+#[test]
+fn a_long_program_is_streamed_not_held_whole_in_the_interpolator() {
+    let d = Daemon::start("stream", "Realtime", false);
+    let op = d.operator();
+    // 400,000 short moves (8.5 MB): its whole plan would take some 200 MB
+    let job = d.dir.join("long.ngc");
+    let mut text = String::from("G21 G90 G64 P0.01\nG0 X0 Y0 Z0\nF3000\n");
+    for k in 0..400_000u32 {
+        let x = f64::from(k % 1000) * 0.05;
+        let y = f64::from(k / 1000) * 0.05;
+        text.push_str(&format!("G1 X{x:.3} Y{y:.3}\n"));
+    }
+    text.push_str("M2\n");
+    std::fs::write(&job, &text).unwrap();
+    let interp = d.pid_of("softnc-interp").unwrap();
+    let before_kb = peak_rss_kb(interp);
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    d.wait_status(&op, Duration::from_secs(60), "motion", |s| {
+        s["job"]["cycles"].as_u64().unwrap_or(0) > 500
+    });
+    let grew_kb = peak_rss_kb(interp) - before_kb;
+    assert!(
+        grew_kb < 64 * 1024,
+        "the interpolation process grew by {grew_kb} kB for an {} kB program",
+        text.len() / 1024
+    );
+    let a = op.request(ControlKind::Abort, 0.0, "").unwrap();
+    assert_eq!(a.accepted, 1, "{}", a.message.as_str());
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(30));
+    assert_eq!(s["job"]["outcome"], "aborted", "{s}");
+}

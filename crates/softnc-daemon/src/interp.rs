@@ -27,14 +27,18 @@ use crate::bus::{Bus, Sub};
 use crate::config::{ClockMode, Loaded};
 use crate::lifecycle::StopWatch;
 use crate::outbox::{InterpMsg, Outbox, OUTBOX_CAPACITY};
-use anyhow::Result;
+use anyhow::{Context, Result};
 use softnc_ipc::{
     Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, FixedStr, Heartbeat,
     MachineState, PositionStatus, ProcessId,
 };
 use softnc_learning::{JobCorrection, LearningStore, Lookup};
-use softnc_planner::{Interpolator, Plan, PlanOptions};
+use softnc_planner::stream::{
+    check_and_stream, check_program, stream_program, CheckedProgram, StreamInterpolator, StreamMode,
+};
+use softnc_planner::{PlanOptions, ReadPlanError};
 use std::fmt::Write;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// How long the loop sleeps when it has nothing to send.
@@ -73,11 +77,16 @@ pub enum JobEnd {
     Refused,
 }
 
-/// A job read and planned, its learned correction (if any) loaded: everything that
-/// reads a file or allocates is done. [`InterpTask::start`] streams it.
+/// A job read and checked (its plan's figures, no plan held), its learned correction
+/// (if any) loaded: everything that reads a file is done. [`InterpTask::start`]
+/// streams it.
 pub struct PlannedJob {
     job_id: u64,
-    plan: Plan,
+    path: String,
+    /// The program's text: all the interpolation process holds of it.
+    text: Arc<str>,
+    options: PlanOptions,
+    checked: CheckedProgram,
     /// The feed override in force when the job starts (fraction).
     feed_override: f64,
     learned: Option<JobCorrection>,
@@ -96,10 +105,15 @@ impl PlannedJob {
 }
 
 /// A job being streamed: the state [`InterpTask::cycle`] advances, one call per
-/// interpolation cycle.
+/// interpolation cycle. The plan comes in a bounded window from a producer thread
+/// (`softnc_planner::stream`), never whole.
 pub struct Streaming<'p> {
     job_id: u64,
-    it: Interpolator<'p>,
+    it: StreamInterpolator,
+    /// The thread reading and planning the program into `it`'s window.
+    producer: Option<std::thread::JoinHandle<Result<(), ReadPlanError>>>,
+    /// Times the stream ran short, already reported.
+    starved_reported: u64,
     learned: Option<JobCorrection>,
     /// The feed override the learned correction belongs to (fraction).
     learned_override: f64,
@@ -114,12 +128,23 @@ pub struct Streaming<'p> {
     aborting: bool,
     /// The last planned sample, repeated while a learned correction still runs out.
     end_hold: Option<softnc_planner::Sample>,
+    _job: std::marker::PhantomData<&'p mut PlannedJob>,
 }
 
 impl Streaming<'_> {
     /// Samples sent so far.
     pub fn sent(&self) -> u64 {
         self.next_seq
+    }
+
+    /// End the stream: the producer thread stops (it finds the window gone) and is
+    /// joined. Off the cycle path.
+    pub fn finish(mut self) {
+        let producer = self.producer.take();
+        drop(self);
+        if let Some(p) = producer {
+            let _ = p.join();
+        }
     }
 }
 
@@ -273,20 +298,22 @@ impl InterpTask {
 
     /// The learned correction of the job `bytes` planned as `plan`, at the feed
     /// override `override_pct` in force, if the store has one that applies.
-    fn learned(
-        &mut self,
-        bytes: &[u8],
-        plan: &Plan,
-        override_pct: u32,
-    ) -> Result<Option<JobCorrection>> {
+    fn learned(&mut self, job: &PlannedJob, override_pct: u32) -> Result<Option<JobCorrection>> {
         let store = LearningStore::new(&self.cfg.learning_dir);
+        let machine = &self.cfg.machine;
+        // the planned samples, counted on a stream of their own (only when the store
+        // has an entry for the program)
+        let count = || {
+            check_and_stream(&job.text, &job.path, machine, &job.options, |it| it.count())
+                .map_or(0, |(_, n)| n)
+        };
         let found = softnc_learning::entry::lookup(
             &store,
-            bytes,
+            job.text.as_bytes(),
             &self.cfg.machine_bytes,
             override_pct,
-            || plan.interpolator().count(),
-            plan.cycle_s(),
+            count,
+            machine.interpolation_cycle_s,
         );
         match found {
             Ok(Lookup::None) => Ok(None),
@@ -319,7 +346,7 @@ impl InterpTask {
         let Some(mut job) = self.plan_job(path, job_id, feed_override)? else {
             return Ok(JobEnd::Refused);
         };
-        let mut s = self.start(&mut job);
+        let mut s = self.start(&mut job)?;
         // realtime: one cycle per interpolation period on absolute deadlines (timed);
         // lockstep: as fast as the position process consumes
         let realtime = self.cfg.config.clock == ClockMode::Realtime;
@@ -336,6 +363,7 @@ impl InterpTask {
                 self.stats.record(jitter, woke.elapsed(), late);
             }
             if let Some(end) = end {
+                s.finish();
                 return Ok(end);
             }
             if !realtime {
@@ -353,7 +381,7 @@ impl InterpTask {
         feed_override: f64,
     ) -> Result<Option<PlannedJob>> {
         self.job_id = job_id;
-        let (bytes, plan) = match read_job(path, &self.cfg.machine, self.machine_mm) {
+        let (text, options, checked) = match check_job(path, &self.cfg.machine, self.machine_mm) {
             Ok(p) => p,
             Err(msg) => {
                 self.alarm(AlarmCode::JobRefused, &msg)?;
@@ -361,30 +389,56 @@ impl InterpTask {
                 return Ok(None);
             }
         };
+        let mut job = PlannedJob {
+            job_id,
+            path: path.to_string(),
+            text,
+            options,
+            checked,
+            feed_override,
+            learned: None,
+        };
         // a learned correction belongs to the feed override it was learned at
         let override_pct = (feed_override * 100.0).round() as u32;
-        let learned = self.learned(&bytes, &plan, override_pct)?;
-        Ok(Some(PlannedJob {
-            job_id,
-            plan,
-            feed_override,
-            learned,
-        }))
+        job.learned = self.learned(&job, override_pct)?;
+        Ok(Some(job))
     }
 
     /// Start streaming a planned job: the machine runs it from the next
     /// [`InterpTask::cycle`] on.
-    pub fn start<'p>(&mut self, job: &'p mut PlannedJob) -> Streaming<'p> {
+    pub fn start<'p>(&mut self, job: &'p mut PlannedJob) -> Result<Streaming<'p>> {
         self.job_id = job.job_id;
         self.state = MachineState::Running;
-        let mut it = job.plan.interpolator();
+        // lockstep runs exactly as the simulator (the interpolator waits for the
+        // producer); real time never waits: a producer behind brakes the path to a
+        // stop within its limits, and is reported
+        let mode = match self.cfg.config.clock {
+            ClockMode::Lockstep => StreamMode::Offline,
+            ClockMode::Realtime => StreamMode::RealTime,
+        };
+        let (producer, mut it) = stream_program(
+            job.text.clone(),
+            &job.path,
+            &self.cfg.machine,
+            &job.options,
+            &job.checked,
+            mode,
+        );
+        let producer = std::thread::Builder::new()
+            .name("plan-stream".into())
+            .spawn(move || producer.run())
+            .context("starting the plan's producer thread")?;
+        // before motion: the window filled (allocation happens here, not later)
+        it.fill();
         if job.feed_override != 1.0 {
             // from rest: the first sample already runs at the operator's override
             it.set_feed_override(job.feed_override);
         }
-        Streaming {
+        Ok(Streaming {
             job_id: job.job_id,
             it,
+            producer: Some(producer),
+            starved_reported: 0,
             learned: job.learned.take(),
             learned_override: job.feed_override,
             ahead: self.cfg.config.lookahead_samples as u64,
@@ -395,7 +449,8 @@ impl InterpTask {
             held: false,
             aborting: false,
             end_hold: None,
-        }
+            _job: std::marker::PhantomData,
+        })
     }
 
     /// One interpolation cycle of a streaming job: the position process's progress,
@@ -512,6 +567,29 @@ impl InterpTask {
                 _ => {}
             }
         }
+        // the stream: a producer behind (real time) is reported as it grows; one that
+        // failed ends the job along its path
+        let starved = s.it.starved();
+        if starved > 0 && starved >= 2 * s.starved_reported {
+            s.starved_reported = starved;
+            let mut msg = FixedStr::<256>::empty();
+            let _ = write!(
+                msg,
+                "the plan fell behind the interpolation {starved} times: the path slowed to a stop at the end of what was planned"
+            );
+            self.raise(AlarmCode::PlanStarved, msg)?;
+        }
+        if s.it.failed() && !s.aborting {
+            s.aborting = true;
+            s.it.set_feed_override(0.0);
+            self.state = MachineState::Stopping;
+            self.raise(
+                AlarmCode::PlanFailed,
+                FixedStr::truncated(
+                    "the program could not be planned again while it ran: stopped along the path",
+                ),
+            )?;
+        }
         // keep the ring filled `ahead` samples beyond the one in use
         let limit = s.consumed.map_or(ahead + 1, |c| c + 1 + ahead);
         while !s.sent_last && s.next_seq < limit {
@@ -577,34 +655,51 @@ impl InterpTask {
     }
 }
 
-/// Plan a program's bytes (read from `path`) for `machine`, from where the machine
-/// is (`start_mm`, machine coordinates); the error text is the operator's
-/// (`path:line:column: reason`).
-pub fn plan_bytes(
+/// Check a program's bytes (read from `path`) for `machine`, from where the machine
+/// is (`start_mm`, machine coordinates), as it will be streamed: its plan's figures
+/// and first error, in memory bounded by the braking distance, never the whole plan.
+/// The error text is the operator's (`path:line:column: reason`).
+pub fn check_bytes(
     bytes: &[u8],
     path: &str,
     machine: &softnc_core::MachineProfile,
     start_mm: [f64; 3],
-) -> Result<Plan, String> {
-    let text = String::from_utf8_lossy(bytes);
+) -> Result<(Arc<str>, PlanOptions, CheckedProgram), String> {
+    let text: Arc<str> = Arc::from(String::from_utf8_lossy(bytes));
     let options = PlanOptions {
         start_mm: Some(start_mm),
         ..Default::default()
     };
-    // one pass: the motions are planned as they are read, never all held at once
-    softnc_planner::read_and_plan(&text, path, machine, &options)
-        .map(|(_, plan)| plan)
-        .map_err(|e| e.to_string())
+    let (_, checked) = check_program(&text, path, machine, &options).map_err(|e| e.to_string())?;
+    Ok((text, options, checked))
 }
 
-/// Read a program (the MMI's copy) and plan it from `start_mm`, also giving its
-/// bytes (the learning store's key).
+/// Read a program (the MMI's copy) and check it from `start_mm`
+/// ([`check_bytes`]); its text is the learning store's key.
+pub fn check_job(
+    path: &str,
+    machine: &softnc_core::MachineProfile,
+    start_mm: [f64; 3],
+) -> Result<(Arc<str>, PlanOptions, CheckedProgram), String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{path}: cannot read: {e}"))?;
+    check_bytes(&bytes, path, machine, start_mm)
+}
+
+/// Read a program and plan it whole from `start_mm` (the position process's
+/// preparation: the programmed primitive of every motion).
 pub fn read_job(
     path: &str,
     machine: &softnc_core::MachineProfile,
     start_mm: [f64; 3],
-) -> Result<(Vec<u8>, Plan), String> {
+) -> Result<(Vec<u8>, softnc_planner::Plan), String> {
     let bytes = std::fs::read(path).map_err(|e| format!("{path}: cannot read: {e}"))?;
-    let plan = plan_bytes(&bytes, path, machine, start_mm)?;
+    let text = String::from_utf8_lossy(&bytes);
+    let options = PlanOptions {
+        start_mm: Some(start_mm),
+        ..Default::default()
+    };
+    let plan = softnc_planner::read_and_plan(&text, path, machine, &options)
+        .map(|(_, plan)| plan)
+        .map_err(|e| e.to_string())?;
     Ok((bytes, plan))
 }

@@ -5,7 +5,7 @@
 
 use crate::bus::{Bus, Pub, Sub};
 use crate::config::Loaded;
-use crate::interp::plan_bytes;
+use crate::interp::check_bytes;
 use crate::jobfile::intake;
 use crate::lifecycle::StopWatch;
 use anyhow::{Context, Result};
@@ -922,14 +922,15 @@ fn check_job(
     start_mm: [f64; 3],
 ) -> CheckResult {
     let job = intake(path, limit, programs).map_err(|e| e.to_string())?;
-    let plan = plan_bytes(&job.bytes, path, machine, start_mm)?;
+    // checked as it will be streamed: the plan's figures, never the whole plan
+    let (_, _, checked) = check_bytes(&job.bytes, path, machine, start_mm)?;
     let copy = job.copy.display().to_string();
     if !FixedStr::<512>::fits(&copy) {
         return Err(format!(
             "{copy}: the job's copy has a path over 512 bytes (data_dir too deep)"
         ));
     }
-    Ok((job, copy, plan.stats()))
+    Ok((job, copy, checked.stats()))
 }
 
 #[cfg(test)]

@@ -122,7 +122,7 @@ fn run_counted(
         learned,
         "a learned correction was loaded"
     );
-    let mut stream = task.start(&mut planned);
+    let mut stream = task.start(&mut planned).unwrap();
     assert_eq!(task.state(), MachineState::Running);
 
     let mut received: Vec<CommandSample> = Vec::new();

@@ -241,6 +241,13 @@ pub enum AlarmCode {
     /// Not an alarm: a remark for the job's record (e.g. a learned correction applied
     /// or faded out); the MMI keeps it with the job, not in the alarm list.
     Note = 7,
+    /// The plan's producer fell behind the interpolation (a long program streamed in
+    /// real time): the path slowed to a stop, within its limits, at the end of what
+    /// was planned, and went on when more came.
+    PlanStarved = 8,
+    /// The program could not be planned again while it ran (the check passed): the
+    /// job stopped along its path at the end of what was planned.
+    PlanFailed = 9,
     /// Anything else.
     Other = 99,
 }
@@ -317,7 +324,8 @@ mod tests {
         // sizes are part of the wire format between processes built together
         assert_eq!(
             std::mem::size_of::<CommandSample>(),
-            8 * 3 + 8 * MAX_AXES + 8 + 8
+            // seq, job, time index; positions; motion + flags; sent time; path
+            8 * 3 + 8 * MAX_AXES + 8 + 8 + 8
         );
         assert!(std::mem::size_of::<PositionStatus>() < 512);
         assert!(std::mem::size_of::<ControlCommand>() < 1024);
@@ -374,5 +382,7 @@ wire_enum!(AlarmCode {
     EStop,
     JobRefused,
     Note,
+    PlanStarved,
+    PlanFailed,
     Other
 });
