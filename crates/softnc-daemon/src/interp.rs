@@ -684,22 +684,3 @@ pub fn check_job(
     let bytes = std::fs::read(path).map_err(|e| format!("{path}: cannot read: {e}"))?;
     check_bytes(&bytes, path, machine, start_mm)
 }
-
-/// Read a program and plan it whole from `start_mm` (the position process's
-/// preparation: the programmed primitive of every motion).
-pub fn read_job(
-    path: &str,
-    machine: &softnc_core::MachineProfile,
-    start_mm: [f64; 3],
-) -> Result<(Vec<u8>, softnc_planner::Plan), String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("{path}: cannot read: {e}"))?;
-    let text = String::from_utf8_lossy(&bytes);
-    let options = PlanOptions {
-        start_mm: Some(start_mm),
-        ..Default::default()
-    };
-    let plan = softnc_planner::read_and_plan(&text, path, machine, &options)
-        .map(|(_, plan)| plan)
-        .map_err(|e| e.to_string())?;
-    Ok((bytes, plan))
-}

@@ -312,6 +312,35 @@ impl<B: ServoBackend> Worker<B> {
     }
 }
 
+/// (first motion, rpm) wherever a job's spindle speed changes.
+type SpindleChanges = Vec<(u32, f64)>;
+
+/// The programmed primitive of every motion of the program at `path` (what the
+/// contour error is measured against; a plan keeps the same ones,
+/// `softnc-planner/tests/motion_primitives.rs`) and its spindle speed changes, read
+/// from `start_mm` without planning the program whole: the motions are read in
+/// chunks, the spindle changes come from the streamed check.
+fn job_primitives(
+    path: &str,
+    machine: &MachineProfile,
+    start_mm: [f64; 3],
+) -> Result<(Vec<Option<Primitive>>, SpindleChanges), String> {
+    let (text, options, checked) = crate::interp::check_job(path, machine, start_mm)?;
+    let mut primitives = Vec::with_capacity(checked.motions());
+    softnc_gcode::read_program_chunked_with(
+        &text,
+        path,
+        machine,
+        &options.read_options(),
+        softnc_planner::plan::READ_CHUNK_MOTIONS,
+        &mut |chunk| {
+            primitives.extend(chunk.iter().map(softnc_planner::build::motion_primitive));
+        },
+    )
+    .map_err(|e| e.to_string())?;
+    Ok((primitives, checked.spindle_changes().to_vec()))
+}
+
 /// Read and plan the program at `path` (if any), build the job's engine and design
 /// its PDC tables at `spindle_override`. A program that cannot be read gives no
 /// path: the interpolator refuses it and raises the alarm.
@@ -326,15 +355,7 @@ pub fn prepare_job<B: ServoBackend>(
     let (primitives, spindle_changes) = if path.is_empty() {
         (Vec::new(), Vec::new())
     } else {
-        match crate::interp::read_job(path, machine, start_mm).map(|(_, plan)| plan) {
-            Ok(plan) => (
-                (0..plan.motions())
-                    .map(|i| plan.motion_primitive(i))
-                    .collect(),
-                plan.spindle_changes().to_vec(),
-            ),
-            Err(_) => (Vec::new(), Vec::new()),
-        }
+        job_primitives(path, machine, start_mm).unwrap_or_default()
     };
     // a fresh machine for every job, exactly as `softnc sim` starts one
     let mut engine = make_engine();

@@ -22,7 +22,9 @@ pub struct PlanOptions {
 }
 
 impl PlanOptions {
-    pub(crate) fn read_options(&self) -> softnc_gcode::ReadOptions {
+    /// How the G-code reader reads a program planned with these options (the
+    /// motions the plan is built from).
+    pub fn read_options(&self) -> softnc_gcode::ReadOptions {
         softnc_gcode::ReadOptions {
             start_mm: self.start_mm.map(softnc_core::Vec3),
             ..Default::default()
