@@ -828,6 +828,11 @@ fn feed_hold_stops_motion_within_the_ring_depth_and_resume_finishes_the_job() {
     );
     assert_eq!(progress(&a), progress(&b), "{a}\n{b}");
     assert!(progress(&b) > 0.05 && progress(&b) < 0.95, "{b}");
+    // the line of the sample the position loop stands on: a move of the program
+    // (lines 3-10), the same while held
+    let line = b["program_line"].as_u64().unwrap_or(0);
+    assert!((3..=10).contains(&line), "{b}");
+    assert_eq!(a["program_line"], b["program_line"]);
     // at a quarter of the feed the job runs past its planned cycles while its
     // progress stays under 100 %
     op.request(ControlKind::FeedOverride, 0.25, "").unwrap();
@@ -845,6 +850,8 @@ fn feed_hold_stops_motion_within_the_ring_depth_and_resume_finishes_the_job() {
     let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
     assert_eq!(s["job"]["outcome"], "completed", "{s}");
     assert_eq!(progress(&s), 1.0, "{s}");
+    assert!(s["program_line"].is_null(), "no line outside a job: {s}");
+    assert_eq!(s["machine_mm"], s["axes"]["cmd_mm"], "{s}");
 }
 
 #[test]

@@ -160,6 +160,12 @@ pub fn status_text(s: &serde_json::Value) -> String {
             f(&j["progress"]) * 100.0,
             j["path"].as_str().unwrap_or("")
         );
+        if let Some(line) = s["program_line"].as_u64() {
+            let _ = writeln!(out, "    at program line {line}");
+        }
+        if let Some(path) = s["checking"].as_str() {
+            let _ = writeln!(out, "    checking {path}");
+        }
         let a = &j["accuracy"];
         let _ = writeln!(
             out,

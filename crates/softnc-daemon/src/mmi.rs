@@ -803,6 +803,8 @@ impl MmiTask {
         serde_json::json!({
             "state": format!("{:?}", self.machine_state()),
             "checking": self.checking.as_ref().map(|c| c.path.as_str()),
+            "machine_mm": s.map(|s| [s.cmd_mm[0], s.cmd_mm[1], s.cmd_mm[2]]),
+            "program_line": s.filter(|s| s.job_id != 0 && s.line != 0).map(|s| s.line),
             "feed_override": self.feed_override,
             "spindle_override": s.map(|s| s.spindle_override),
             "spindle_rpm": s.map(|s| s.spindle_rpm),

@@ -76,6 +76,8 @@ pub struct PositionTask<B: ServoBackend> {
     state: MachineState,
     job_id: u64,
     primitives: Vec<Option<Primitive>>,
+    /// The running job's program line per motion.
+    lines: Vec<u32>,
     current: Option<CommandSample>,
     flags: std::collections::VecDeque<(u32, u32, f64)>,
     last_cmd: [f64; 3],
@@ -154,6 +156,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             state: MachineState::Idle,
             job_id: 0,
             primitives: Vec::new(),
+            lines: Vec::new(),
             current: None,
             flags: std::collections::VecDeque::with_capacity(COMMAND_RING_CAPACITY),
             last_cmd: [0.0; 3],
@@ -488,6 +491,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         }
         std::mem::swap(&mut self.engine, &mut p.engine);
         std::mem::swap(&mut self.primitives, &mut p.primitives);
+        std::mem::swap(&mut self.lines, &mut p.lines);
         std::mem::swap(&mut self.trace, &mut p.trace);
         self.engine.reset(self.start_mm);
         self.job_ready = true;
@@ -668,6 +672,12 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             },
             path_mm: self.current.map_or(0.0, |c| c.path_mm),
             motion: self.current.map_or(0, |c| c.motion),
+            line: match self.current {
+                Some(c) if self.job_id != 0 => {
+                    self.lines.get(c.motion as usize).copied().unwrap_or(0)
+                }
+                _ => 0,
+            },
         };
         status.cmd_mm[..3].copy_from_slice(&cmd);
         status.actual_mm[..3].copy_from_slice(&rec.actual_mm);

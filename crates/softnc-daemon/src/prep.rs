@@ -59,6 +59,8 @@ pub struct JobPrep<B: ServoBackend> {
     pub engine: CycleEngine<B>,
     /// Its programmed path per motion (for the contour error).
     pub primitives: Vec<Option<Primitive>>,
+    /// The program line of each motion.
+    pub lines: Vec<u32>,
     /// Its trace file, when traces are on.
     pub trace: Option<crate::trace::TraceSink>,
     /// Why its spindle speeds cannot be followed (axis, message): the job faults
@@ -315,6 +317,10 @@ impl<B: ServoBackend> Worker<B> {
 /// (first motion, rpm) wherever a job's spindle speed changes.
 type SpindleChanges = Vec<(u32, f64)>;
 
+/// A job's motions as the position process keeps them: each one's programmed
+/// primitive and program line.
+type JobMotions = (Vec<Option<Primitive>>, Vec<u32>);
+
 /// The programmed primitive of every motion of the program at `path` (what the
 /// contour error is measured against; a plan keeps the same ones,
 /// `softnc-planner/tests/motion_primitives.rs`) and its spindle speed changes, read
@@ -324,9 +330,10 @@ fn job_primitives(
     path: &str,
     machine: &MachineProfile,
     start_mm: [f64; 3],
-) -> Result<(Vec<Option<Primitive>>, SpindleChanges), String> {
+) -> Result<(JobMotions, SpindleChanges), String> {
     let (text, options, checked) = crate::interp::check_job(path, machine, start_mm)?;
     let mut primitives = Vec::with_capacity(checked.motions());
+    let mut lines = Vec::with_capacity(checked.motions());
     softnc_gcode::read_program_chunked_with(
         &text,
         path,
@@ -335,10 +342,11 @@ fn job_primitives(
         softnc_planner::plan::READ_CHUNK_MOTIONS,
         &mut |chunk| {
             primitives.extend(chunk.iter().map(softnc_planner::build::motion_primitive));
+            lines.extend(chunk.iter().map(|m| m.line));
         },
     )
     .map_err(|e| e.to_string())?;
-    Ok((primitives, checked.spindle_changes().to_vec()))
+    Ok(((primitives, lines), checked.spindle_changes().to_vec()))
 }
 
 /// Read and plan the program at `path` (if any), build the job's engine and design
@@ -352,8 +360,8 @@ pub fn prepare_job<B: ServoBackend>(
     spindle_override: f64,
     start_mm: [f64; 3],
 ) -> (JobPrep<B>, Option<SpindleDesigner>) {
-    let (primitives, spindle_changes) = if path.is_empty() {
-        (Vec::new(), Vec::new())
+    let ((primitives, lines), spindle_changes) = if path.is_empty() {
+        ((Vec::new(), Vec::new()), Vec::new())
     } else {
         job_primitives(path, machine, start_mm).unwrap_or_default()
     };
@@ -374,6 +382,7 @@ pub fn prepare_job<B: ServoBackend>(
             job_id,
             engine,
             primitives,
+            lines,
             trace: None,
             error,
         },

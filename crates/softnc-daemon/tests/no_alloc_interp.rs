@@ -68,6 +68,7 @@ fn status(seq: u64, job_id: u64) -> PositionStatus {
         spindle_rpm: 0.0,
         path_mm: 0.0,
         motion: 0,
+        line: 0,
     }
 }
 

@@ -110,6 +110,8 @@ pub struct PositionStatus {
     pub path_mm: f64,
     /// Program motion of the sample this cycle used.
     pub motion: u32,
+    /// Program line of that motion (1-based; 0 outside a job).
+    pub line: u32,
 }
 
 /// Which process.
