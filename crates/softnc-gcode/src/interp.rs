@@ -382,6 +382,9 @@ struct Interp<'a> {
     origin: Vec3,
     /// G92/G52 offset (program units; LinuxCNC `axis_offset`).
     g92: Vec3,
+    /// XY rotation of the active system (degrees; LinuxCNC `rotation_xy`, from
+    /// parameter 5210 + 20·n): machine = R(point + g92) + origin + tool.
+    rotation_deg: f64,
     /// Canonical frame → machine (mm): origin + g92 + tool length, kept up to date.
     offset_mm: Vec3,
     /// Parameters hold inches (see [`ReadOptions::parameters_in_inches`]).
@@ -446,6 +449,7 @@ impl<'a> Interp<'a> {
             line_no: 0,
             origin: Vec3::ZERO,
             g92: Vec3::ZERO,
+            rotation_deg: 0.0,
             offset_mm: Vec3::ZERO,
             user_inch: false,
             tool_offset_on: false,
@@ -940,7 +944,7 @@ impl<'a> Interp<'a> {
             }
             self.motions.push(Motion {
                 line: line_no,
-                start: sc(self.pos, self.scale()),
+                start: sc(self.frame(self.pos), self.scale()),
                 kind: MotionKind::Dwell {
                     seconds: p.max(0.0),
                 },
@@ -1089,20 +1093,86 @@ impl<'a> Interp<'a> {
 
     /// `find_ends`: the end point of a move (program units, canonical frame).
     fn find_ends(&self, b: &Block) -> Vec3 {
-        let s = self.scale();
+        if b.g_in(GM_MODAL_0) == Some(G_53) {
+            return self.find_ends_g53(b);
+        }
         let mut end = self.pos;
         for (i, l) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
             if let Some(v) = b.get(l) {
-                end[i] = if b.g_in(GM_MODAL_0) == Some(G_53) {
-                    v - self.offset()[i] / s
-                } else if self.absolute {
-                    v
-                } else {
-                    self.pos[i] + v
-                };
+                end[i] = if self.absolute { v } else { self.pos[i] + v };
             }
         }
         end
+    }
+
+    /// `find_ends` under G53: the words are machine coordinates; X and Y go back
+    /// through the XY rotation (`interp_find.cc`: the current point is rotated
+    /// out, the words replace its coordinates, the result is rotated back in).
+    #[cold]
+    #[inline(never)]
+    fn find_ends_g53(&self, b: &Block) -> Vec3 {
+        let s = self.scale();
+        let (o, g) = (self.origin, self.g92);
+        let (cx, cy) = rotate(self.pos[0] + g[0], self.pos[1] + g[1], self.rotation_deg);
+        let px = b.get(b'X').map_or(cx, |v| v - o[0]);
+        let py = b.get(b'Y').map_or(cy, |v| v - o[1]);
+        let (px, py) = rotate(px, py, -self.rotation_deg);
+        let pz = b
+            .get(b'Z')
+            .map_or(self.pos[2], |v| v - o[2] - g[2] - self.tool_length_mm / s);
+        Vec3([px - g[0], py - g[1], pz])
+    }
+
+    /// A point of the program's frame (program units) in the frame of
+    /// [`Motion`]'s positions: the program's frame turned by the XY rotation
+    /// about the G92 origin, so that `machine = frame + offset` as LinuxCNC's
+    /// `rotate_and_offset_pos` (`emccanon.cc`) maps it. Without rotation the point
+    /// itself.
+    #[inline(always)]
+    fn frame(&self, p: Vec3) -> Vec3 {
+        if self.rotation_deg == 0.0 {
+            p
+        } else {
+            self.rotated(p)
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn rotated(&self, p: Vec3) -> Vec3 {
+        let g = self.g92;
+        let (x, y) = rotate(p[0] + g[0], p[1] + g[1], self.rotation_deg);
+        Vec3([x - g[0], y - g[1], p[2]])
+    }
+
+    /// A motion's kind with its end (and centre) in the rotated frame.
+    #[cold]
+    #[inline(never)]
+    fn rotate_kind(&self, kind: MotionKind, end: Vec3, center: Vec3) -> MotionKind {
+        let s = self.scale();
+        let e = sc(self.rotated(end), s);
+        match kind {
+            MotionKind::Traverse { .. } => MotionKind::Traverse { end: e },
+            MotionKind::Feed {
+                feed_mm_per_min, ..
+            } => MotionKind::Feed {
+                end: e,
+                feed_mm_per_min,
+            },
+            MotionKind::Arc {
+                plane,
+                turns,
+                feed_mm_per_min,
+                ..
+            } => MotionKind::Arc {
+                end: e,
+                center: sc(self.rotated(center), s),
+                plane,
+                turns,
+                feed_mm_per_min,
+            },
+            d @ MotionKind::Dwell { .. } => d,
+        }
     }
 
     /// Spindle speed now (rpm; 0 while stopped).
@@ -1115,9 +1185,14 @@ impl<'a> Interp<'a> {
     }
 
     fn push(&mut self, line_no: u32, kind: MotionKind, end: Vec3, center: Vec3) {
+        let (start, kind) = if self.rotation_deg == 0.0 {
+            (self.pos, kind)
+        } else {
+            (self.rotated(self.pos), self.rotate_kind(kind, end, center))
+        };
         self.motions.push(Motion {
             line: line_no,
-            start: sc(self.pos, self.scale()),
+            start: sc(start, self.scale()),
             kind,
             offset_mm: self.offset(),
             path_mode: self.path,
@@ -1281,6 +1356,15 @@ impl<'a> Interp<'a> {
         let mut center = self.pos;
         center[a1] = c1;
         center[a2] = c2;
+        if self.rotation_deg != 0.0 && self.plane != Plane::XY {
+            // LinuxCNC turns the arc's plane with the system; softnc's arcs lie in
+            // the XY, XZ or YZ plane
+            return unsup(
+                off,
+                fmt_code('G', mode),
+                "arcs in the XZ or YZ plane of a rotated coordinate system (G10 L2 R) are not supported",
+            );
+        }
         let s = self.scale();
         let kind = MotionKind::Arc {
             end: sc(end, s),
@@ -1292,6 +1376,14 @@ impl<'a> Interp<'a> {
         self.push(line_no, kind, end, center);
         Ok(())
     }
+}
+
+/// `Interp::rotate` (`interp_convert.cc`): `(x, y)` turned by `deg` degrees about
+/// the origin, counter-clockwise.
+fn rotate(x: f64, y: f64, deg: f64) -> (f64, f64) {
+    let t = deg * (std::f64::consts::PI / 180.0);
+    let (sin, cos) = t.sin_cos();
+    (x * cos - y * sin, x * sin + y * cos)
 }
 
 /// `v * s` (inlined: the hot path).
@@ -1493,8 +1585,12 @@ pub fn read_with(
     it.init_offsets();
     if let Some(m) = options.start_mm {
         // the machine's position in the program's frame (mm until a G20)
+        // (find_relative: the XY rotation turns back about the G92 origin)
         let (o, k) = (it.offset(), it.scale());
-        it.pos = Vec3([0, 1, 2].map(|i| (m.0[i] - o.0[i]) / k));
+        let p = Vec3([0, 1, 2].map(|i| (m.0[i] - o.0[i]) / k));
+        let g = it.g92;
+        let (x, y) = rotate(p[0] + g[0], p[1] + g[1], -it.rotation_deg);
+        it.pos = Vec3([x - g[0], y - g[1], p[2]]);
         it.canon_pos = it.pos;
     }
     it.motions.reserve((text.len() / 16).min(chunk.max(1)));

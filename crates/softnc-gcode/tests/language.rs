@@ -238,10 +238,6 @@ fn g10_l2_l20_set_work_offsets() {
     assert_eq!(p.motions[1].start.0[0], 1.0);
     assert_eq!(p.motions[1].offset_mm.0[0], 3.0);
     assert!(matches!(
-        error("G10 L2 P1 R30\nM2\n").kind,
-        ErrorKind::Unsupported { .. }
-    ));
-    assert!(matches!(
         error("G10 L1 P1 Y1\nM2\n").kind,
         ErrorKind::Unsupported { .. }
     ));

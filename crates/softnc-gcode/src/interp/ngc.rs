@@ -269,13 +269,18 @@ impl Interp<'_> {
             "_flood" => b(self.flood),
             "_current_tool" => Some(f64::from(self.tool_loaded)),
             "_abs_x" | "_abs_y" | "_abs_z" => {
+                // the machine position: through G92, the XY rotation, the origin
+                // and the tool length (interp_namedparams.cc, NP_ABS_X …)
                 let k = usize::from(name.as_bytes()[5] - b'x');
-                let tool = if k == 2 {
-                    self.tool_length_mm / self.scale()
-                } else {
-                    0.0
-                };
-                Some(self.pos[k] + self.g92[k] + self.origin[k] + tool)
+                let g = self.g92;
+                let (x, y) =
+                    super::rotate(self.pos[0] + g[0], self.pos[1] + g[1], self.rotation_deg);
+                let v = [
+                    x,
+                    y,
+                    self.pos[2] + g[2] + self.tool_length_mm / self.scale(),
+                ];
+                Some(v[k] + self.origin[k])
             }
             "_abs_a" | "_abs_b" | "_abs_c" | "_abs_u" | "_abs_v" | "_abs_w" => Some(0.0),
             "_feed" => Some(self.feed),
