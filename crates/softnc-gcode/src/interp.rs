@@ -1378,6 +1378,10 @@ impl<'a> Interp<'a> {
     }
 }
 
+/// At most this many normalized lines are kept for loops and subroutines (a
+/// bound on memory; lines beyond it are normalized on every read).
+const NORM_CACHE_LINES: usize = 4096;
+
 /// `Interp::rotate` (`interp_convert.cc`): `(x, y)` turned by `deg` degrees about
 /// the origin, counter-clockwise.
 fn rotate(x: f64, y: f64, deg: f64) -> (f64, f64) {
@@ -1598,6 +1602,9 @@ pub fn read_with(
     let mut block = Block::default();
     let mut norm = Norm::default();
     let mut sets: Vec<Setting> = Vec::new();
+    // normalized lines by (source, byte offset), once the program has jumped
+    let mut norm_cache: crate::params::FnvMap<(usize, usize), Norm> = Default::default();
+    let mut jumped = false;
     let bytes = text.as_bytes();
     let mut sources = vec![Source {
         name: file.to_string(),
@@ -1734,10 +1741,21 @@ pub fn read_with(
                 match lexed {
                     Ok(()) => {}
                     Err((SLOW, _)) => {
-                        // parameters, expressions or an O-word: the full reader
-                        oline = it
-                            .read_line_slow(raw, &mut norm, &mut block, &mut line, &mut sets)
-                            .map_err(|x| err_in(src_name, line_no, raw, x))?;
+                        // parameters, expressions or an O-word: the full reader, on
+                        // the normalized line (kept for lines read again once the
+                        // program has jumped: loops and subroutines)
+                        let key = (cur, s);
+                        let r = match norm_cache.get(&key) {
+                            Some(n) => it.read_norm(n, &mut block, &mut line, &mut sets),
+                            None => {
+                                norm.build(significant(raw.as_bytes()));
+                                if jumped && norm_cache.len() < NORM_CACHE_LINES {
+                                    norm_cache.insert(key, norm.clone());
+                                }
+                                it.read_norm(&norm, &mut block, &mut line, &mut sets)
+                            }
+                        };
+                        oline = r.map_err(|x| err_in(src_name, line_no, raw, x))?;
                     }
                     Err(x) => return Err(err_in(src_name, line_no, raw, x)),
                 }
@@ -1818,6 +1836,7 @@ pub fn read_with(
                 cur = f;
                 pos = p;
                 next_line_no = l;
+                jumped = true;
             }
             Jump::OpenSub => {
                 let name = it.wanted_sub().unwrap_or_default().to_string();

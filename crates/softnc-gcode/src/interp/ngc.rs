@@ -12,7 +12,6 @@ use crate::error::ErrorKind;
 use crate::expr::{Env, Norm, Reader};
 use crate::lexer::{bad_character, check_comments, significant, Line, Word};
 use crate::params::{is_readonly, NUM_PARAMS, SUB_PARAMS};
-use std::collections::HashMap;
 
 /// LinuxCNC `INTERP_SUB_ROUTINE_LEVELS`: calls nest at most this deep.
 pub const MAX_CALL_LEVEL: usize = 10;
@@ -140,7 +139,7 @@ struct Frame {
 /// Control-flow state (the `skipping_o`, `defining_sub`, … of LinuxCNC's setup).
 #[derive(Debug, Default)]
 pub struct Control {
-    labels: HashMap<String, Label>,
+    labels: crate::params::NameMap<Label>,
     frames: Vec<Frame>,
     /// M98 L repeats left, per call level of the caller (-1: none running).
     m98_loops: Vec<i64>,
@@ -364,20 +363,17 @@ impl Interp<'_> {
         }
     }
 
-    /// A line the fast lexer hands over, read again by [`Self::read_items_slow`].
-    #[cold]
-    #[inline(never)]
-    pub(super) fn read_line_slow(
+    /// `read_items` on a normalized line (`Norm`), for a line the fast lexer
+    /// hands over.
+    pub(super) fn read_norm(
         &self,
-        raw: &str,
-        norm: &mut Norm,
+        norm: &Norm,
         block: &mut Block,
         line: &mut Line,
         sets: &mut Vec<Setting>,
     ) -> R<Option<OLine>> {
         block.clear();
         line.comment = None;
-        norm.build(significant(raw.as_bytes()));
         self.read_items_slow(norm, block, line, sets)
     }
 
@@ -483,7 +479,7 @@ impl Interp<'_> {
                             );
                         }
                         i = r.i;
-                        sets.push(Setting::Named(name, v));
+                        sets.push(Setting::Named(name.into_owned(), v));
                     } else {
                         let index = r.integer_value().map_err(re)?;
                         if index < 1 || index as usize >= NUM_PARAMS {
@@ -595,7 +591,7 @@ impl Interp<'_> {
             let mut r = Reader::new(b, *i, self);
             let n = r.integer_value().map_err(re)?;
             *i = r.i;
-            n.to_string()
+            std::borrow::Cow::Owned(n.to_string())
         };
         let rest = &b[(*i).min(b.len())..];
         const KINDS: [(&[u8], OKind); 15] = [
@@ -638,7 +634,7 @@ impl Interp<'_> {
             }
             return Ok(Some(OLine {
                 kind: OKind::Bare,
-                name: label,
+                name: label.into_owned(),
                 value: None,
                 args: Vec::new(),
                 at,
@@ -648,7 +644,7 @@ impl Interp<'_> {
         *i += kw.len();
         let ctl = &self.ctl;
         let name = if kind.global() {
-            label
+            label.into_owned()
         } else {
             let sub = if let Some(f) = ctl.frames.last() {
                 f.sub_name.as_str()
@@ -657,7 +653,11 @@ impl Interp<'_> {
             } else {
                 ""
             };
-            format!("{sub}#{label}")
+            let mut q = String::with_capacity(sub.len() + 1 + label.len());
+            q.push_str(sub);
+            q.push('#');
+            q.push_str(&label);
+            q
         };
         let mut o = OLine {
             kind,
