@@ -3,7 +3,7 @@
 //! worked out by hand from `interp_o_word.cc` / `interp_read.cc`).
 
 use softnc_core::MachineProfile;
-use softnc_gcode::{ErrorKind, MotionKind, ReadOptions};
+use softnc_gcode::{ErrorKind, MotionKind, PathMode, ReadOptions};
 use std::path::PathBuf;
 
 fn profile() -> MachineProfile {
@@ -429,6 +429,47 @@ fn m70_m73_save_and_restore_the_modal_state() {
         .kind
         .to_string()
         .contains("missing M70/M73"));
+}
+
+#[test]
+fn m70_m72_restore_g64_p_and_q() {
+    // rs274 (2.9.0~pre1) prints, for the feeds of this program, the modes
+    // SET_MOTION_CONTROL_MODE(CANON_CONTINUOUS, P) + SET_NAIVECAM_TOLERANCE(Q):
+    // X1 (0.5, 0.3); after M72 X2 (0.02, 0.01); X3 after G61 and M72 (0.04, 0.04:
+    // LinuxCNC takes P for a missing Q, softnc merges only with a Q); X4 after
+    // G64 P1 and M72 (0, 0.07)
+    let p = read(
+        "G21 F100\nG64 P0.02 Q0.01\nM70\nG64 P0.5 Q0.3\nG1 X1\nM72\nG1 X2\n\
+         G64 P0.04\nM70\nG61\nM72\nG1 X3\nG64 Q0.07\nM70\nG64 P1\nM72\nG1 X4\nM2\n",
+    );
+    let modes: Vec<PathMode> = p.motions.iter().map(|m| m.path_mode).collect();
+    let blend = |p: Option<f64>, q: Option<f64>| PathMode::Blend {
+        tolerance_mm: p,
+        naive_cam_mm: q,
+    };
+    assert_eq!(
+        modes,
+        vec![
+            blend(Some(0.5), Some(0.3)),
+            blend(Some(0.02), Some(0.01)),
+            blend(Some(0.04), None),
+            blend(None, Some(0.07)),
+        ]
+    );
+    // in inches, P and Q come back in the program's unit
+    let p = read("G20\nF1\nG64 P0.001 Q0.002\nM70\nG64 P0.5\nG21\nM72\nG1 X1\nM2\n");
+    match p.motions[0].path_mode {
+        PathMode::Blend {
+            tolerance_mm: Some(t),
+            naive_cam_mm: Some(q),
+        } => {
+            assert!(
+                (t - 0.0254).abs() < 1e-12 && (q - 0.0508).abs() < 1e-12,
+                "{t} {q}"
+            );
+        }
+        m => panic!("{m:?}"),
+    }
 }
 
 #[test]
