@@ -227,7 +227,6 @@ pub enum Func {
 impl Func {
     /// `execute_unary` (not `Atan`, `Exists`).
     pub fn apply(self, x: f64) -> Result<f64, &'static str> {
-        use std::f64::consts::PI;
         use Func::*;
         Ok(match self {
             Abs => x.abs(),
@@ -235,15 +234,16 @@ impl Func {
                 if !(-1.0..=1.0).contains(&x) {
                     return Err("Argument to acos out of range");
                 }
-                x.acos() * 180.0 / PI
+                crate::x87::rad_to_deg(x.acos())
             }
             Asin => {
                 if !(-1.0..=1.0).contains(&x) {
                     return Err("Argument to asin out of range");
                 }
-                x.asin() * 180.0 / PI
+                crate::x87::rad_to_deg(x.asin())
             }
-            Cos => (x * PI / 180.0).cos(),
+            // in long double, as LinuxCNC (crate::x87)
+            Cos => crate::x87::cos_deg(x),
             Exp => x.exp(),
             Fix => x.floor(),
             Fup => x.ceil(),
@@ -259,14 +259,14 @@ impl Func {
                 let r = x + if x < 0.0 { -0.5 } else { 0.5 };
                 f64::from(r.clamp(i32::MIN as f64, i32::MAX as f64) as i32)
             }
-            Sin => (x * PI / 180.0).sin(),
+            Sin => crate::x87::sin_deg(x),
             Sqrt => {
                 if x < 0.0 {
                     return Err("Negative argument to sqrt");
                 }
                 x.sqrt()
             }
-            Tan => (x * PI / 180.0).tan(),
+            Tan => crate::x87::tan_deg(x),
             Atan | Exists => x,
         })
     }
@@ -542,7 +542,7 @@ impl<'a, E: Env + ?Sized> Reader<'a, E> {
                 return bad(self.i, "Left bracket missing after slash with atan");
             }
             let w = self.expression_d(depth)?;
-            return Ok(v.atan2(w) * 180.0 / std::f64::consts::PI);
+            return Ok(crate::x87::rad_to_deg(v.atan2(w)));
         }
         func.apply(v).or_else(|m| bad(at, m))
     }

@@ -402,6 +402,9 @@ struct Interp<'a> {
     /// Coolant (M7, M8; M9 turns both off), for `#<_mist>` and `#<_flood>`.
     mist: bool,
     flood: bool,
+    /// Named parameters the line being read assigns: they exist from there on
+    /// the line, with the value 0, as LinuxCNC's `add_named_param` makes them.
+    line_named: std::cell::RefCell<Vec<String>>,
 }
 
 type R<T> = Result<T, (u32, ErrorKind)>;
@@ -459,6 +462,7 @@ impl<'a> Interp<'a> {
             tool_loaded: 0,
             mist: false,
             flood: false,
+            line_named: std::cell::RefCell::new(Vec::new()),
         }
     }
 

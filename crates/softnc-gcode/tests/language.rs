@@ -80,6 +80,24 @@ fn recursion_and_the_call_depth_limit() {
     let deep = "o<d> sub\no<d> call [#1+1]\no<d> endsub\no<d> call [0]\nM2\n";
     let e = error(deep);
     assert_eq!(e.kind.to_string(), "Too many subroutine levels");
+    // rs274 runs nine nested levels (its DEBUG prints 1 … 9) and stops at the
+    // tenth call
+    let count = "#<_n>=0\no<r> sub\n#<_n>=[#<_n>+1]\n(DEBUG,#<_n>)\no<r> call\n\
+                 o<r> endsub\no<r> call\nM2\n";
+    let e = error(count);
+    assert_eq!(
+        (e.line, e.kind.to_string().as_str()),
+        (5, "Too many subroutine levels")
+    );
+    let (p, _) = softnc_gcode::read_program_with(
+        "#<_n>=0\no<r> sub\n#<_n>=[#<_n>+1]\n(DEBUG,#<_n>)\no1 if [#<_n> LT 9]\n\
+         o<r> call\no1 endif\no<r> endsub\no<r> call\nM2\n",
+        "t.ngc",
+        &profile(),
+        &ReadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(p.warnings.last().unwrap(), "t.ngc:4: debug: 9.000000");
 }
 
 #[test]

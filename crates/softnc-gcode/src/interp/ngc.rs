@@ -213,7 +213,14 @@ impl Env for Interp<'_> {
             return Ok(Some(v));
         }
         if name.starts_with('_') {
-            return self.predefined(name);
+            if let Some(v) = self.predefined(name)? {
+                return Ok(Some(v));
+            }
+        }
+        // assigned earlier on this line: it exists, with the value 0 (see
+        // `read_items_slow`)
+        if self.line_named.borrow().iter().any(|n| n == name) {
+            return Ok(Some(0.0));
         }
         Ok(None)
     }
@@ -374,6 +381,7 @@ impl Interp<'_> {
     ) -> R<Option<OLine>> {
         block.clear();
         line.comment = None;
+        self.line_named.borrow_mut().clear();
         self.read_items_slow(norm, block, line, sets)
     }
 
@@ -466,6 +474,10 @@ impl Interp<'_> {
                     let mut r = Reader::new(b, i + 1, self);
                     if r.at(r.i) == b'<' {
                         let name = r.name().map_err(re)?;
+                        // read_named_parameter_setting: LinuxCNC creates the
+                        // parameter (value 0) as soon as it reads the name, so the
+                        // rest of the line reads it as 0 (add_named_param)
+                        self.line_named.borrow_mut().push(name.to_string());
                         if r.at(r.i) != b'=' {
                             return bad(raw(r.i), "Equal sign missing in parameter setting");
                         }
@@ -898,7 +910,9 @@ impl Interp<'_> {
                 return Ok(Jump::To(f, pos, line_no + 1));
             }
             OKind::Call | OKind::M98 => {
-                if self.ctl.level() >= MAX_CALL_LEVEL {
+                // enter_context: the level is raised, then checked (`>= 10`): nine
+                // nested calls run, the tenth is the error
+                if self.ctl.level() + 1 >= MAX_CALL_LEVEL {
                     return bad(o.at, "Too many subroutine levels");
                 }
                 self.ctl.skipping = None;
@@ -1085,6 +1099,7 @@ impl Interp<'_> {
     /// Apply the assignments read on a line.
     #[inline(never)]
     pub(super) fn commit(&mut self, sets: &mut Vec<Setting>) {
+        self.line_named.get_mut().clear();
         for s in sets.drain(..) {
             match s {
                 Setting::Numbered(i, v) => self.params.set(i, v),
