@@ -1808,6 +1808,9 @@ pub fn read_with(
                         .execute(line_no as u32, &block)
                         .map_err(|x| err_in(src_name, line_no, raw, x))?;
                     if stop {
+                        // convert_stop (M2, M30): G54 is selected again, so the next
+                        // program starts there; reading ends, so only 5220 shows it
+                        it.params.set(5220, 1.0);
                         return Ok(finish(it, file, executed as usize + first, chunk, sink));
                     }
                     if it.motions.len() >= chunk {

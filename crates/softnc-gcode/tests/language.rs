@@ -491,6 +491,21 @@ fn m70_m72_restore_g64_p_and_q() {
 }
 
 #[test]
+fn program_end_selects_g54_again() {
+    // rs274 -v FILE writes 5220 = 1 after M2 (convert_stop), 2 after a program
+    // that ends with its closing %
+    let end = |text: &str| {
+        let (_, params) =
+            softnc_gcode::read_program_with(text, "t.ngc", &profile(), &ReadOptions::default())
+                .unwrap();
+        params.get(5220)
+    };
+    assert_eq!(end("G55\nG0 X1\nM2\n"), 1.0);
+    assert_eq!(end("G55\nG0 X1\nM30\n"), 1.0);
+    assert_eq!(end("%\nG55\nG0 X1\n%\n"), 2.0);
+}
+
+#[test]
 fn skipped_lines_are_still_lines() {
     // read_text checks comments on every line, also in a branch not taken
     assert_eq!(
