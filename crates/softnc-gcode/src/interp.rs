@@ -404,7 +404,8 @@ struct Interp<'a> {
     flood: bool,
     /// Named parameters the line being read assigns: they exist from there on
     /// the line, with the value 0, as LinuxCNC's `add_named_param` makes them.
-    line_named: std::cell::RefCell<Vec<String>>,
+    /// Each name ends with a `>` (no name holds one); the buffer is reused.
+    line_named: std::cell::RefCell<String>,
 }
 
 type R<T> = Result<T, (u32, ErrorKind)>;
@@ -462,7 +463,7 @@ impl<'a> Interp<'a> {
             tool_loaded: 0,
             mist: false,
             flood: false,
-            line_named: std::cell::RefCell::new(Vec::new()),
+            line_named: std::cell::RefCell::new(String::new()),
         }
     }
 

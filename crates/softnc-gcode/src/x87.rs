@@ -21,6 +21,19 @@ struct Ext {
     exp: i32,
 }
 
+/// `num / d` and `num % d` for a small `d` (< 2^32), by 32-bit long division
+/// (a `u128` division is a slow library call).
+fn div_small(num: u128, d: u64) -> (u128, u64) {
+    let mut q = 0u128;
+    let mut r = 0u64;
+    for k in (0..4).rev() {
+        let cur = (r << 32) | ((num >> (32 * k)) as u64 & 0xffff_ffff);
+        q |= u128::from(cur / d) << (32 * k);
+        r = cur % d;
+    }
+    (q, r)
+}
+
 /// `v × 2^exp` (v > 0) rounded to a 64-bit mantissa, nearest-even; `sticky`:
 /// there were nonzero bits below `v`.
 fn round64(v: u128, exp: i32, sticky: bool) -> Ext {
@@ -52,17 +65,19 @@ fn round64(v: u128, exp: i32, sticky: bool) -> Ext {
 
 /// `v × 2^e`, exactly (v an exact small or 53-bit value; no overflow here).
 fn ldexp(v: f64, e: i32) -> f64 {
+    // 2^k for a normal exponent, built from its bits
+    let pow2 = |k: i32| f64::from_bits(((k + 1023) as u64) << 52);
     let mut v = v;
     let mut e = e;
     while e > 1000 {
-        v *= 2f64.powi(1000);
+        v *= pow2(1000);
         e -= 1000;
     }
     while e < -1000 {
-        v *= 2f64.powi(-1000);
+        v *= pow2(-1000);
         e += 1000;
     }
-    v * 2f64.powi(e)
+    v * pow2(e)
 }
 
 /// A finite nonzero `f64` as (53-bit mantissa, exponent).
@@ -97,9 +112,7 @@ fn deg_to_rad(x: f64) -> (f64, f64) {
     let (m, e) = split(x);
     let prod = round64(u128::from(m) * u128::from(PI_MANT), e - 62, false);
     // ÷ 180 = ÷ 45 and 2^-2
-    let num = u128::from(prod.mant) << 64;
-    let q = num / 45;
-    let r = num % 45;
+    let (q, r) = div_small(u128::from(prod.mant) << 64, 45);
     let t = round64(q, prod.exp - 64 - 2, r != 0);
     let (hi, lo) = t.to_f64_parts();
     if x < 0.0 {
@@ -203,6 +216,21 @@ mod tests {
             assert_eq!(rad_to_deg(x.atan2(7.0)), want, "{x}");
         }
         assert_eq!(rad_to_deg((-1f64).atan2(0.0)), -90.0);
+    }
+
+    #[test]
+    fn long_division_by_a_small_number() {
+        for (n, d) in [
+            (u128::MAX, 45),
+            (12345678901234567890u128 << 64, 45),
+            (44, 45),
+            (0, 7),
+        ] {
+            assert_eq!(
+                div_small(n, d),
+                (n / u128::from(d), (n % u128::from(d)) as u64)
+            );
+        }
     }
 
     #[test]

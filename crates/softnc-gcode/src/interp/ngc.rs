@@ -219,7 +219,12 @@ impl Env for Interp<'_> {
         }
         // assigned earlier on this line: it exists, with the value 0 (see
         // `read_items_slow`)
-        if self.line_named.borrow().iter().any(|n| n == name) {
+        if self
+            .line_named
+            .borrow()
+            .split_terminator('>')
+            .any(|n| n == name)
+        {
             return Ok(Some(0.0));
         }
         Ok(None)
@@ -477,7 +482,11 @@ impl Interp<'_> {
                         // read_named_parameter_setting: LinuxCNC creates the
                         // parameter (value 0) as soon as it reads the name, so the
                         // rest of the line reads it as 0 (add_named_param)
-                        self.line_named.borrow_mut().push(name.to_string());
+                        {
+                            let mut names = self.line_named.borrow_mut();
+                            names.push_str(&name);
+                            names.push('>');
+                        }
                         if r.at(r.i) != b'=' {
                             return bad(raw(r.i), "Equal sign missing in parameter setting");
                         }
