@@ -1,5 +1,6 @@
 //! Reader throughput: a generated 200,000-line program of G1/G2/G3 moves (short lines
-//! and small arcs in both formats, as CAM output looks), read into canonical motions.
+//! and small arcs in both formats, as CAM output looks), read into canonical motions;
+//! and the language: `nested_while.ngc` (loops, expressions, subroutine calls).
 //!
 //! `SOFTNC_WRITE_BIG=1 cargo bench -p softnc-gcode --bench parse` also writes the
 //! program to `$TMPDIR/softnc-gcode-big.ngc`, to time LinuxCNC on the same file:
@@ -65,6 +66,17 @@ fn benches(c: &mut Criterion) {
     g.sample_size(20);
     g.bench_function("read_200k_lines", |b| {
         b.iter(|| softnc_gcode::read_program(&text, "big.ngc", &profile).unwrap())
+    });
+    g.finish();
+    // the language: nested while loops, expressions, a subroutine call per
+    // iteration (benches/nested_while.ngc, 161,621 executed blocks)
+    let nested = include_str!("nested_while.ngc");
+    let program = softnc_gcode::read_program(nested, "nested_while.ngc", &profile).expect("valid");
+    let mut g = c.benchmark_group("gcode");
+    g.throughput(Throughput::Elements(program.blocks as u64));
+    g.sample_size(20);
+    g.bench_function("read_nested_while", |b| {
+        b.iter(|| softnc_gcode::read_program(nested, "nested_while.ngc", &profile).unwrap())
     });
     g.finish();
 }

@@ -64,7 +64,19 @@ fn main() {
                         })
                     })
                     .collect();
-                serde_json::json!({"file": file, "ok": true, "motions": motions})
+                // where each motion ends on the machine (mm), for checking the
+                // motion frame (offsets, XY rotation) against LinuxCNC's #<_abs_x>…
+                let machine: Vec<_> = p
+                    .motions
+                    .iter()
+                    .filter_map(|m| {
+                        let e = m.kind.end()?;
+                        Some(serde_json::json!({"line": m.line, "inch": m.inch,
+                            "mm": (e + m.offset_mm).0}))
+                    })
+                    .collect();
+                serde_json::json!({"file": file, "ok": true, "motions": motions,
+                    "machine": machine, "warnings": p.warnings})
             }
             Err(e) => serde_json::json!({"file": file, "ok": false, "error": e.to_string(),
                 "unsupported": matches!(e.kind, ErrorKind::Unsupported { .. })}),

@@ -2,7 +2,11 @@
 //!
 //! Positions are in the frame of LinuxCNC's canonical output (the active work
 //! coordinate system, mm). `offset_mm` maps that frame to machine coordinates
-//! (work offset + tool length offset): `machine = end + offset_mm`.
+//! (work offset + G92 offset + tool length offset): `machine = end + offset_mm`.
+//! In a system turned by an XY rotation (`G10 L2 R`) `start`, `end` and `center`
+//! are turned with it (about the G92 origin, as LinuxCNC's `emccanon.cc` turns
+//! them), so that this still holds; `canon_end` and `canon_center` keep the
+//! unrotated values `rs274` prints.
 
 use softnc_core::{Plane, Vec3};
 

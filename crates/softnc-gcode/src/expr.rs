@@ -42,6 +42,8 @@ impl Norm {
     pub fn build(&mut self, raw: &[u8]) {
         self.b.clear();
         self.at.clear();
+        self.b.reserve(raw.len());
+        self.at.reserve(raw.len() + 1);
         let mut in_comment = false;
         for (i, &c) in raw.iter().enumerate() {
             if in_comment {
@@ -225,7 +227,6 @@ pub enum Func {
 impl Func {
     /// `execute_unary` (not `Atan`, `Exists`).
     pub fn apply(self, x: f64) -> Result<f64, &'static str> {
-        use std::f64::consts::PI;
         use Func::*;
         Ok(match self {
             Abs => x.abs(),
@@ -233,15 +234,16 @@ impl Func {
                 if !(-1.0..=1.0).contains(&x) {
                     return Err("Argument to acos out of range");
                 }
-                x.acos() * 180.0 / PI
+                crate::x87::rad_to_deg(x.acos())
             }
             Asin => {
                 if !(-1.0..=1.0).contains(&x) {
                     return Err("Argument to asin out of range");
                 }
-                x.asin() * 180.0 / PI
+                crate::x87::rad_to_deg(x.asin())
             }
-            Cos => (x * PI / 180.0).cos(),
+            // in long double, as LinuxCNC (crate::x87)
+            Cos => crate::x87::cos_deg(x),
             Exp => x.exp(),
             Fix => x.floor(),
             Fup => x.ceil(),
@@ -257,14 +259,14 @@ impl Func {
                 let r = x + if x < 0.0 { -0.5 } else { 0.5 };
                 f64::from(r.clamp(i32::MIN as f64, i32::MAX as f64) as i32)
             }
-            Sin => (x * PI / 180.0).sin(),
+            Sin => crate::x87::sin_deg(x),
             Sqrt => {
                 if x < 0.0 {
                     return Err("Negative argument to sqrt");
                 }
                 x.sqrt()
             }
-            Tan => (x * PI / 180.0).tan(),
+            Tan => crate::x87::tan_deg(x),
             Atan | Exists => x,
         })
     }
@@ -363,6 +365,10 @@ impl<'a, E: Env + ?Sized> Reader<'a, E> {
             k = 1;
         }
         let body = &text[k..];
+        if let Some(v) = crate::lexer::plain_decimal(body) {
+            // the common case, bit-identical to the general reading below
+            return Ok(if text[0] == b'-' { -v } else { v });
+        }
         let digits = body.iter().filter(|c| c.is_ascii_digit()).count();
         let points = body.iter().filter(|&&c| c == b'.').count();
         let first_bad = body.iter().position(|c| !matches!(c, b'0'..=b'9' | b'.'));
@@ -401,25 +407,29 @@ impl<'a, E: Env + ?Sized> Reader<'a, E> {
             return bad(self.i, "Bug function should not have been called");
         }
         self.i += 1;
-        let mut values: Vec<f64> = Vec::with_capacity(4);
-        let mut ops: Vec<BinOp> = Vec::with_capacity(4);
-        values.push(self.real_value_d(depth)?);
-        ops.push(self.operation()?);
+        // the operator stack holds strictly rising precedences after each reduction
+        // (six levels), so both stacks fit in eight entries: no allocation
+        let mut values = [0.0f64; 8];
+        let mut ops = [BinOp::RightBracket; 8];
+        values[0] = self.real_value_d(depth)?;
+        ops[0] = self.operation()?;
+        let mut n = 1; // entries on both stacks
         while ops[0] != BinOp::RightBracket {
-            values.push(self.real_value_d(depth)?);
+            if n >= 8 {
+                return bad(self.i, "Bug: expression stack overflow");
+            }
+            values[n] = self.real_value_d(depth)?;
             let op_at = self.i;
-            ops.push(self.operation()?);
+            ops[n] = self.operation()?;
+            n += 1;
             // reduce while the latest operator binds no tighter than the one before
-            while ops.len() >= 2
-                && ops[ops.len() - 1].precedence() <= ops[ops.len() - 2].precedence()
-            {
-                let right = values.pop().unwrap_or(0.0);
-                let latest = ops.pop().unwrap_or(BinOp::RightBracket);
-                let op = ops.pop().unwrap_or(BinOp::RightBracket);
-                let left = values.pop().unwrap_or(0.0);
-                let v = op.apply(left, right).or_else(|m| bad(op_at, m))?;
-                values.push(v);
-                ops.push(latest);
+            while n >= 2 && ops[n - 1].precedence() <= ops[n - 2].precedence() {
+                let v = ops[n - 2]
+                    .apply(values[n - 2], values[n - 1])
+                    .or_else(|m| bad(op_at, m))?;
+                values[n - 2] = v;
+                ops[n - 2] = ops[n - 1];
+                n -= 1;
             }
         }
         Ok(values[0])
@@ -532,7 +542,7 @@ impl<'a, E: Env + ?Sized> Reader<'a, E> {
                 return bad(self.i, "Left bracket missing after slash with atan");
             }
             let w = self.expression_d(depth)?;
-            return Ok(v.atan2(w) * 180.0 / std::f64::consts::PI);
+            return Ok(crate::x87::rad_to_deg(v.atan2(w)));
         }
         func.apply(v).or_else(|m| bad(at, m))
     }
@@ -541,20 +551,24 @@ impl<'a, E: Env + ?Sized> Reader<'a, E> {
     pub fn integer_value(&mut self) -> R<i32> {
         let at = self.i;
         let v = self.real_value()?;
-        to_integer(v).ok_or((
-            at,
-            ErrorKind::Invalid("Non integer value for integer".into()),
-        ))
+        to_integer(v).ok_or_else(|| {
+            (
+                at,
+                ErrorKind::Invalid("Non integer value for integer".into()),
+            )
+        })
     }
 
     /// `read_name`: `<` … `>`, the name without the brackets.
-    pub fn name(&mut self) -> R<String> {
+    pub fn name(&mut self) -> R<std::borrow::Cow<'a, str>> {
         let at = self.i;
         self.i += 1; // '<'
-        let rest = &self.b[self.i.min(self.b.len())..];
+        let b: &'a [u8] = self.b;
+        let rest = &b[self.i.min(b.len())..];
         match rest.iter().position(|&c| c == b'>') {
             Some(k) => {
-                let name = String::from_utf8_lossy(&rest[..k]).into_owned();
+                // borrowed from the line: no allocation per parameter read
+                let name = String::from_utf8_lossy(&rest[..k]);
                 self.i += k + 1;
                 Ok(name)
             }
@@ -578,10 +592,12 @@ impl<'a, E: Env + ?Sized> Reader<'a, E> {
         }
         let iat = self.i;
         let v = self.real_value_d(depth)?;
-        let index = to_integer(v).ok_or((
-            iat,
-            ErrorKind::Invalid("Non integer value for integer".into()),
-        ))?;
+        let index = to_integer(v).ok_or_else(|| {
+            (
+                iat,
+                ErrorKind::Invalid("Non integer value for integer".into()),
+            )
+        })?;
         if exists {
             return Ok(if (1..crate::params::NUM_PARAMS as i32).contains(&index) {
                 1.0

@@ -382,6 +382,9 @@ struct Interp<'a> {
     origin: Vec3,
     /// G92/G52 offset (program units; LinuxCNC `axis_offset`).
     g92: Vec3,
+    /// XY rotation of the active system (degrees; LinuxCNC `rotation_xy`, from
+    /// parameter 5210 + 20·n): machine = R(point + g92) + origin + tool.
+    rotation_deg: f64,
     /// Canonical frame → machine (mm): origin + g92 + tool length, kept up to date.
     offset_mm: Vec3,
     /// Parameters hold inches (see [`ReadOptions::parameters_in_inches`]).
@@ -399,6 +402,10 @@ struct Interp<'a> {
     /// Coolant (M7, M8; M9 turns both off), for `#<_mist>` and `#<_flood>`.
     mist: bool,
     flood: bool,
+    /// Named parameters the line being read assigns: they exist from there on
+    /// the line, with the value 0, as LinuxCNC's `add_named_param` makes them.
+    /// Each name ends with a `>` (no name holds one); the buffer is reused.
+    line_named: std::cell::RefCell<String>,
 }
 
 type R<T> = Result<T, (u32, ErrorKind)>;
@@ -446,6 +453,7 @@ impl<'a> Interp<'a> {
             line_no: 0,
             origin: Vec3::ZERO,
             g92: Vec3::ZERO,
+            rotation_deg: 0.0,
             offset_mm: Vec3::ZERO,
             user_inch: false,
             tool_offset_on: false,
@@ -455,6 +463,7 @@ impl<'a> Interp<'a> {
             tool_loaded: 0,
             mist: false,
             flood: false,
+            line_named: std::cell::RefCell::new(String::new()),
         }
     }
 
@@ -940,7 +949,7 @@ impl<'a> Interp<'a> {
             }
             self.motions.push(Motion {
                 line: line_no,
-                start: sc(self.pos, self.scale()),
+                start: sc(self.frame(self.pos), self.scale()),
                 kind: MotionKind::Dwell {
                     seconds: p.max(0.0),
                 },
@@ -1089,20 +1098,86 @@ impl<'a> Interp<'a> {
 
     /// `find_ends`: the end point of a move (program units, canonical frame).
     fn find_ends(&self, b: &Block) -> Vec3 {
-        let s = self.scale();
+        if b.g_in(GM_MODAL_0) == Some(G_53) {
+            return self.find_ends_g53(b);
+        }
         let mut end = self.pos;
         for (i, l) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
             if let Some(v) = b.get(l) {
-                end[i] = if b.g_in(GM_MODAL_0) == Some(G_53) {
-                    v - self.offset()[i] / s
-                } else if self.absolute {
-                    v
-                } else {
-                    self.pos[i] + v
-                };
+                end[i] = if self.absolute { v } else { self.pos[i] + v };
             }
         }
         end
+    }
+
+    /// `find_ends` under G53: the words are machine coordinates; X and Y go back
+    /// through the XY rotation (`interp_find.cc`: the current point is rotated
+    /// out, the words replace its coordinates, the result is rotated back in).
+    #[cold]
+    #[inline(never)]
+    fn find_ends_g53(&self, b: &Block) -> Vec3 {
+        let s = self.scale();
+        let (o, g) = (self.origin, self.g92);
+        let (cx, cy) = rotate(self.pos[0] + g[0], self.pos[1] + g[1], self.rotation_deg);
+        let px = b.get(b'X').map_or(cx, |v| v - o[0]);
+        let py = b.get(b'Y').map_or(cy, |v| v - o[1]);
+        let (px, py) = rotate(px, py, -self.rotation_deg);
+        let pz = b
+            .get(b'Z')
+            .map_or(self.pos[2], |v| v - o[2] - g[2] - self.tool_length_mm / s);
+        Vec3([px - g[0], py - g[1], pz])
+    }
+
+    /// A point of the program's frame (program units) in the frame of
+    /// [`Motion`]'s positions: the program's frame turned by the XY rotation
+    /// about the G92 origin, so that `machine = frame + offset` as LinuxCNC's
+    /// `rotate_and_offset_pos` (`emccanon.cc`) maps it. Without rotation the point
+    /// itself.
+    #[inline(always)]
+    fn frame(&self, p: Vec3) -> Vec3 {
+        if self.rotation_deg == 0.0 {
+            p
+        } else {
+            self.rotated(p)
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn rotated(&self, p: Vec3) -> Vec3 {
+        let g = self.g92;
+        let (x, y) = rotate(p[0] + g[0], p[1] + g[1], self.rotation_deg);
+        Vec3([x - g[0], y - g[1], p[2]])
+    }
+
+    /// A motion's kind with its end (and centre) in the rotated frame.
+    #[cold]
+    #[inline(never)]
+    fn rotate_kind(&self, kind: MotionKind, end: Vec3, center: Vec3) -> MotionKind {
+        let s = self.scale();
+        let e = sc(self.rotated(end), s);
+        match kind {
+            MotionKind::Traverse { .. } => MotionKind::Traverse { end: e },
+            MotionKind::Feed {
+                feed_mm_per_min, ..
+            } => MotionKind::Feed {
+                end: e,
+                feed_mm_per_min,
+            },
+            MotionKind::Arc {
+                plane,
+                turns,
+                feed_mm_per_min,
+                ..
+            } => MotionKind::Arc {
+                end: e,
+                center: sc(self.rotated(center), s),
+                plane,
+                turns,
+                feed_mm_per_min,
+            },
+            d @ MotionKind::Dwell { .. } => d,
+        }
     }
 
     /// Spindle speed now (rpm; 0 while stopped).
@@ -1115,9 +1190,14 @@ impl<'a> Interp<'a> {
     }
 
     fn push(&mut self, line_no: u32, kind: MotionKind, end: Vec3, center: Vec3) {
+        let (start, kind) = if self.rotation_deg == 0.0 {
+            (self.pos, kind)
+        } else {
+            (self.rotated(self.pos), self.rotate_kind(kind, end, center))
+        };
         self.motions.push(Motion {
             line: line_no,
-            start: sc(self.pos, self.scale()),
+            start: sc(start, self.scale()),
             kind,
             offset_mm: self.offset(),
             path_mode: self.path,
@@ -1281,6 +1361,15 @@ impl<'a> Interp<'a> {
         let mut center = self.pos;
         center[a1] = c1;
         center[a2] = c2;
+        if self.rotation_deg != 0.0 && self.plane != Plane::XY {
+            // LinuxCNC turns the arc's plane with the system; softnc's arcs lie in
+            // the XY, XZ or YZ plane
+            return unsup(
+                off,
+                fmt_code('G', mode),
+                "arcs in the XZ or YZ plane of a rotated coordinate system (G10 L2 R) are not supported",
+            );
+        }
         let s = self.scale();
         let kind = MotionKind::Arc {
             end: sc(end, s),
@@ -1292,6 +1381,18 @@ impl<'a> Interp<'a> {
         self.push(line_no, kind, end, center);
         Ok(())
     }
+}
+
+/// At most this many normalized lines are kept for loops and subroutines (a
+/// bound on memory; lines beyond it are normalized on every read).
+const NORM_CACHE_LINES: usize = 4096;
+
+/// `Interp::rotate` (`interp_convert.cc`): `(x, y)` turned by `deg` degrees about
+/// the origin, counter-clockwise.
+fn rotate(x: f64, y: f64, deg: f64) -> (f64, f64) {
+    let t = deg * (std::f64::consts::PI / 180.0);
+    let (sin, cos) = t.sin_cos();
+    (x * cos - y * sin, x * sin + y * cos)
 }
 
 /// `v * s` (inlined: the hot path).
@@ -1493,8 +1594,12 @@ pub fn read_with(
     it.init_offsets();
     if let Some(m) = options.start_mm {
         // the machine's position in the program's frame (mm until a G20)
+        // (find_relative: the XY rotation turns back about the G92 origin)
         let (o, k) = (it.offset(), it.scale());
-        it.pos = Vec3([0, 1, 2].map(|i| (m.0[i] - o.0[i]) / k));
+        let p = Vec3([0, 1, 2].map(|i| (m.0[i] - o.0[i]) / k));
+        let g = it.g92;
+        let (x, y) = rotate(p[0] + g[0], p[1] + g[1], -it.rotation_deg);
+        it.pos = Vec3([x - g[0], y - g[1], p[2]]);
         it.canon_pos = it.pos;
     }
     it.motions.reserve((text.len() / 16).min(chunk.max(1)));
@@ -1502,6 +1607,9 @@ pub fn read_with(
     let mut block = Block::default();
     let mut norm = Norm::default();
     let mut sets: Vec<Setting> = Vec::new();
+    // normalized lines by (source, byte offset), once the program has jumped
+    let mut norm_cache: crate::params::FnvMap<(usize, usize), Norm> = Default::default();
+    let mut jumped = false;
     let bytes = text.as_bytes();
     let mut sources = vec![Source {
         name: file.to_string(),
@@ -1638,10 +1746,21 @@ pub fn read_with(
                 match lexed {
                     Ok(()) => {}
                     Err((SLOW, _)) => {
-                        // parameters, expressions or an O-word: the full reader
-                        oline = it
-                            .read_line_slow(raw, &mut norm, &mut block, &mut line, &mut sets)
-                            .map_err(|x| err_in(src_name, line_no, raw, x))?;
+                        // parameters, expressions or an O-word: the full reader, on
+                        // the normalized line (kept for lines read again once the
+                        // program has jumped: loops and subroutines)
+                        let key = (cur, s);
+                        let r = match norm_cache.get(&key) {
+                            Some(n) => it.read_norm(n, &mut block, &mut line, &mut sets),
+                            None => {
+                                norm.build(significant(raw.as_bytes()));
+                                if jumped && norm_cache.len() < NORM_CACHE_LINES {
+                                    norm_cache.insert(key, norm.clone());
+                                }
+                                it.read_norm(&norm, &mut block, &mut line, &mut sets)
+                            }
+                        };
+                        oline = r.map_err(|x| err_in(src_name, line_no, raw, x))?;
                     }
                     Err(x) => return Err(err_in(src_name, line_no, raw, x)),
                 }
@@ -1690,6 +1809,9 @@ pub fn read_with(
                         .execute(line_no as u32, &block)
                         .map_err(|x| err_in(src_name, line_no, raw, x))?;
                     if stop {
+                        // convert_stop (M2, M30): G54 is selected again, so the next
+                        // program starts there; reading ends, so only 5220 shows it
+                        it.params.set(5220, 1.0);
                         return Ok(finish(it, file, executed as usize + first, chunk, sink));
                     }
                     if it.motions.len() >= chunk {
@@ -1722,6 +1844,7 @@ pub fn read_with(
                 cur = f;
                 pos = p;
                 next_line_no = l;
+                jumped = true;
             }
             Jump::OpenSub => {
                 let name = it.wanted_sub().unwrap_or_default().to_string();

@@ -16,6 +16,7 @@ pub mod expr;
 pub mod interp;
 pub mod lexer;
 pub mod params;
+pub mod x87;
 
 pub use canon::{Motion, MotionKind, PathMode, Program};
 pub use error::{ErrorKind, GcodeError};

@@ -75,15 +75,47 @@ pub enum ParamFileError {
     },
 }
 
+/// FNV-1a: named parameters are short strings looked up on every read of a
+/// line that uses them; the standard library's SipHash (built against hostile
+/// keys, which a program is not) costs several times more per lookup.
+#[derive(Debug, Clone, Copy)]
+pub struct Fnv(u64);
+
+impl Default for Fnv {
+    fn default() -> Self {
+        Fnv(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl std::hash::Hasher for Fnv {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0 ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+}
+
+/// A map hashed with [`Fnv`].
+pub type FnvMap<K, V> = HashMap<K, V, std::hash::BuildHasherDefault<Fnv>>;
+
+/// A map keyed by names, hashed with [`Fnv`].
+pub type NameMap<V> = FnvMap<String, V>;
+
 /// The table.
 #[derive(Debug, Clone)]
 pub struct Params {
     numbered: Vec<f64>,
     /// Parameters that came from a parameter file (written back with it).
     from_file: BTreeSet<usize>,
-    globals: HashMap<String, f64>,
+    globals: NameMap<f64>,
     /// Local named parameters per call level (0: the main program).
-    locals: Vec<HashMap<String, f64>>,
+    locals: Vec<NameMap<f64>>,
+    /// Emptied scopes of levels left, reused by the next call (no allocation per
+    /// call).
+    spare: Vec<NameMap<f64>>,
     /// Assignments read on the current line, not yet made.
     pending_numbered: Vec<(usize, f64)>,
     pending_named: Vec<(String, f64)>,
@@ -94,8 +126,9 @@ impl Default for Params {
         Params {
             numbered: vec![0.0; NUM_PARAMS],
             from_file: BTreeSet::new(),
-            globals: HashMap::new(),
-            locals: vec![HashMap::new()],
+            globals: NameMap::default(),
+            locals: vec![NameMap::default()],
+            spare: Vec::new(),
             pending_numbered: Vec::new(),
             pending_named: Vec::new(),
         }
@@ -188,29 +221,39 @@ impl Params {
             *s = self.numbered[k + 1];
             self.numbered[k + 1] = args.get(k).copied().unwrap_or(0.0);
         }
-        self.locals.push(HashMap::new());
+        self.push_scope();
         saved
     }
 
     /// Enter an M98 subprogram: a new scope of locals, `#1…#30` passed on as they
     /// are.
     pub fn enter_keep(&mut self) {
-        self.locals.push(HashMap::new());
+        self.push_scope();
+    }
+
+    fn push_scope(&mut self) {
+        let scope = self.spare.pop().unwrap_or_default();
+        self.locals.push(scope);
+    }
+
+    fn pop_scope(&mut self) {
+        if self.locals.len() > 1 {
+            if let Some(mut scope) = self.locals.pop() {
+                scope.clear();
+                self.spare.push(scope);
+            }
+        }
     }
 
     /// Leave an M98 subprogram: its locals dropped.
     pub fn leave_keep(&mut self) {
-        if self.locals.len() > 1 {
-            self.locals.pop();
-        }
+        self.pop_scope();
     }
 
     /// Leave a subroutine: its locals dropped, `#1…#30` restored.
     pub fn leave(&mut self, saved: &[f64; SUB_PARAMS]) {
         self.numbered[1..=SUB_PARAMS].copy_from_slice(saved);
-        if self.locals.len() > 1 {
-            self.locals.pop();
-        }
+        self.pop_scope();
     }
 
     /// All numbered parameters (index 0 unused).

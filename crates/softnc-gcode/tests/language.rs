@@ -3,7 +3,7 @@
 //! worked out by hand from `interp_o_word.cc` / `interp_read.cc`).
 
 use softnc_core::MachineProfile;
-use softnc_gcode::{ErrorKind, MotionKind, ReadOptions};
+use softnc_gcode::{ErrorKind, MotionKind, PathMode, ReadOptions};
 use std::path::PathBuf;
 
 fn profile() -> MachineProfile {
@@ -80,6 +80,24 @@ fn recursion_and_the_call_depth_limit() {
     let deep = "o<d> sub\no<d> call [#1+1]\no<d> endsub\no<d> call [0]\nM2\n";
     let e = error(deep);
     assert_eq!(e.kind.to_string(), "Too many subroutine levels");
+    // rs274 runs nine nested levels (its DEBUG prints 1 … 9) and stops at the
+    // tenth call
+    let count = "#<_n>=0\no<r> sub\n#<_n>=[#<_n>+1]\n(DEBUG,#<_n>)\no<r> call\n\
+                 o<r> endsub\no<r> call\nM2\n";
+    let e = error(count);
+    assert_eq!(
+        (e.line, e.kind.to_string().as_str()),
+        (5, "Too many subroutine levels")
+    );
+    let (p, _) = softnc_gcode::read_program_with(
+        "#<_n>=0\no<r> sub\n#<_n>=[#<_n>+1]\n(DEBUG,#<_n>)\no1 if [#<_n> LT 9]\n\
+         o<r> call\no1 endif\no<r> endsub\no<r> call\nM2\n",
+        "t.ngc",
+        &profile(),
+        &ReadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(p.warnings.last().unwrap(), "t.ngc:4: debug: 9.000000");
 }
 
 #[test]
@@ -237,10 +255,6 @@ fn g10_l2_l20_set_work_offsets() {
     let p = read("G0 X4\nG10 L20 P0 X1\nG0 Y0\nM2\n");
     assert_eq!(p.motions[1].start.0[0], 1.0);
     assert_eq!(p.motions[1].offset_mm.0[0], 3.0);
-    assert!(matches!(
-        error("G10 L2 P1 R30\nM2\n").kind,
-        ErrorKind::Unsupported { .. }
-    ));
     assert!(matches!(
         error("G10 L1 P1 Y1\nM2\n").kind,
         ErrorKind::Unsupported { .. }
@@ -433,6 +447,62 @@ fn m70_m73_save_and_restore_the_modal_state() {
         .kind
         .to_string()
         .contains("missing M70/M73"));
+}
+
+#[test]
+fn m70_m72_restore_g64_p_and_q() {
+    // rs274 (2.9.0~pre1) prints, for the feeds of this program, the modes
+    // SET_MOTION_CONTROL_MODE(CANON_CONTINUOUS, P) + SET_NAIVECAM_TOLERANCE(Q):
+    // X1 (0.5, 0.3); after M72 X2 (0.02, 0.01); X3 after G61 and M72 (0.04, 0.04:
+    // LinuxCNC takes P for a missing Q, softnc merges only with a Q); X4 after
+    // G64 P1 and M72 (0, 0.07)
+    let p = read(
+        "G21 F100\nG64 P0.02 Q0.01\nM70\nG64 P0.5 Q0.3\nG1 X1\nM72\nG1 X2\n\
+         G64 P0.04\nM70\nG61\nM72\nG1 X3\nG64 Q0.07\nM70\nG64 P1\nM72\nG1 X4\nM2\n",
+    );
+    let modes: Vec<PathMode> = p.motions.iter().map(|m| m.path_mode).collect();
+    let blend = |p: Option<f64>, q: Option<f64>| PathMode::Blend {
+        tolerance_mm: p,
+        naive_cam_mm: q,
+    };
+    assert_eq!(
+        modes,
+        vec![
+            blend(Some(0.5), Some(0.3)),
+            blend(Some(0.02), Some(0.01)),
+            blend(Some(0.04), None),
+            blend(None, Some(0.07)),
+        ]
+    );
+    // in inches, P and Q come back in the program's unit
+    let p = read("G20\nF1\nG64 P0.001 Q0.002\nM70\nG64 P0.5\nG21\nM72\nG1 X1\nM2\n");
+    match p.motions[0].path_mode {
+        PathMode::Blend {
+            tolerance_mm: Some(t),
+            naive_cam_mm: Some(q),
+        } => {
+            assert!(
+                (t - 0.0254).abs() < 1e-12 && (q - 0.0508).abs() < 1e-12,
+                "{t} {q}"
+            );
+        }
+        m => panic!("{m:?}"),
+    }
+}
+
+#[test]
+fn program_end_selects_g54_again() {
+    // rs274 -v FILE writes 5220 = 1 after M2 (convert_stop), 2 after a program
+    // that ends with its closing %
+    let end = |text: &str| {
+        let (_, params) =
+            softnc_gcode::read_program_with(text, "t.ngc", &profile(), &ReadOptions::default())
+                .unwrap();
+        params.get(5220)
+    };
+    assert_eq!(end("G55\nG0 X1\nM2\n"), 1.0);
+    assert_eq!(end("G55\nG0 X1\nM30\n"), 1.0);
+    assert_eq!(end("%\nG55\nG0 X1\n%\n"), 2.0);
 }
 
 #[test]

@@ -2,8 +2,8 @@
 //! and `restore_settings` (`interp_convert.cc`) do: the state is compared with the
 //! saved one and the difference is run as G-code text (`gen_settings`,
 //! `gen_m_codes`): first G20/G21, then one line ` F… S… G…` (feed with one decimal,
-//! speed with none, the G codes of the groups that differ, G64 with its P), then
-//! the spindle M code. The motion mode is not restored (LinuxCNC does not either).
+//! speed with none, the G codes of the groups that differ, G64 with its P and Q),
+//! then the spindle M code. The motion mode is not restored (LinuxCNC does not either).
 
 use super::{Block, Interp, GM_MODAL_0, R};
 use crate::canon::PathMode;
@@ -20,6 +20,9 @@ pub struct Modal {
     inch: bool,
     /// G64 P (program units), if given.
     g64_p: Option<f64>,
+    /// G64 Q, the naive-CAM tolerance (program units), if given (LinuxCNC's
+    /// `naivecam_tolerance`, saved as `GM_FIELD_FLOAT_NAIVE_CAM_TOLERANCE`).
+    g64_q: Option<f64>,
     feed: f64,
     speed: f64,
     /// M3, M4 or M5.
@@ -35,9 +38,16 @@ impl Interp<'_> {
             Plane::YZ => 190,
         };
         let coord = [540, 550, 560, 570, 580, 590, 591, 592, 593][self.coord.min(8)];
-        let (control, g64_p) = match self.path {
-            PathMode::ExactStop => (self.exact_stop_code, None),
-            PathMode::Blend { tolerance_mm, .. } => (640, tolerance_mm.map(|t| t / self.scale())),
+        let (control, g64_p, g64_q) = match self.path {
+            PathMode::ExactStop => (self.exact_stop_code, None, None),
+            PathMode::Blend {
+                tolerance_mm,
+                naive_cam_mm,
+            } => (
+                640,
+                tolerance_mm.map(|t| t / self.scale()),
+                naive_cam_mm.map(|t| t / self.scale()),
+            ),
         };
         Modal {
             g: [
@@ -60,6 +70,7 @@ impl Interp<'_> {
             ],
             inch: self.inch,
             g64_p,
+            g64_q,
             feed: self.feed,
             speed: self.s_rpm,
             spindle: self.spindle_code,
@@ -140,9 +151,11 @@ impl Interp<'_> {
             }
         }
         if saved.g[6].1 == 640 {
-            match saved.g64_p {
-                None => cmd.push_str(" G64"),
-                Some(p) => cmd.push_str(&format!(" G64 P{p:.6}")),
+            // gen_settings: " G64", " G64 P%f" or " G64 P%f Q%f"
+            match (saved.g64_p, saved.g64_q) {
+                (None, None) => cmd.push_str(" G64"),
+                (Some(p), None) => cmd.push_str(&format!(" G64 P{p:.6}")),
+                (p, Some(q)) => cmd.push_str(&format!(" G64 P{:.6} Q{q:.6}", p.unwrap_or(0.0))),
             }
         }
         self.run_text(line_no, &cmd, off)?;

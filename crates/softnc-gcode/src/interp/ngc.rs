@@ -12,7 +12,6 @@ use crate::error::ErrorKind;
 use crate::expr::{Env, Norm, Reader};
 use crate::lexer::{bad_character, check_comments, significant, Line, Word};
 use crate::params::{is_readonly, NUM_PARAMS, SUB_PARAMS};
-use std::collections::HashMap;
 
 /// LinuxCNC `INTERP_SUB_ROUTINE_LEVELS`: calls nest at most this deep.
 pub const MAX_CALL_LEVEL: usize = 10;
@@ -140,7 +139,7 @@ struct Frame {
 /// Control-flow state (the `skipping_o`, `defining_sub`, … of LinuxCNC's setup).
 #[derive(Debug, Default)]
 pub struct Control {
-    labels: HashMap<String, Label>,
+    labels: crate::params::NameMap<Label>,
     frames: Vec<Frame>,
     /// M98 L repeats left, per call level of the caller (-1: none running).
     m98_loops: Vec<i64>,
@@ -214,7 +213,19 @@ impl Env for Interp<'_> {
             return Ok(Some(v));
         }
         if name.starts_with('_') {
-            return self.predefined(name);
+            if let Some(v) = self.predefined(name)? {
+                return Ok(Some(v));
+            }
+        }
+        // assigned earlier on this line: it exists, with the value 0 (see
+        // `read_items_slow`)
+        if self
+            .line_named
+            .borrow()
+            .split_terminator('>')
+            .any(|n| n == name)
+        {
+            return Ok(Some(0.0));
         }
         Ok(None)
     }
@@ -269,13 +280,18 @@ impl Interp<'_> {
             "_flood" => b(self.flood),
             "_current_tool" => Some(f64::from(self.tool_loaded)),
             "_abs_x" | "_abs_y" | "_abs_z" => {
+                // the machine position: through G92, the XY rotation, the origin
+                // and the tool length (interp_namedparams.cc, NP_ABS_X …)
                 let k = usize::from(name.as_bytes()[5] - b'x');
-                let tool = if k == 2 {
-                    self.tool_length_mm / self.scale()
-                } else {
-                    0.0
-                };
-                Some(self.pos[k] + self.g92[k] + self.origin[k] + tool)
+                let g = self.g92;
+                let (x, y) =
+                    super::rotate(self.pos[0] + g[0], self.pos[1] + g[1], self.rotation_deg);
+                let v = [
+                    x,
+                    y,
+                    self.pos[2] + g[2] + self.tool_length_mm / self.scale(),
+                ];
+                Some(v[k] + self.origin[k])
             }
             "_abs_a" | "_abs_b" | "_abs_c" | "_abs_u" | "_abs_v" | "_abs_w" => Some(0.0),
             "_feed" => Some(self.feed),
@@ -359,20 +375,18 @@ impl Interp<'_> {
         }
     }
 
-    /// A line the fast lexer hands over, read again by [`Self::read_items_slow`].
-    #[cold]
-    #[inline(never)]
-    pub(super) fn read_line_slow(
+    /// `read_items` on a normalized line (`Norm`), for a line the fast lexer
+    /// hands over.
+    pub(super) fn read_norm(
         &self,
-        raw: &str,
-        norm: &mut Norm,
+        norm: &Norm,
         block: &mut Block,
         line: &mut Line,
         sets: &mut Vec<Setting>,
     ) -> R<Option<OLine>> {
         block.clear();
         line.comment = None;
-        norm.build(significant(raw.as_bytes()));
+        self.line_named.borrow_mut().clear();
         self.read_items_slow(norm, block, line, sets)
     }
 
@@ -465,6 +479,14 @@ impl Interp<'_> {
                     let mut r = Reader::new(b, i + 1, self);
                     if r.at(r.i) == b'<' {
                         let name = r.name().map_err(re)?;
+                        // read_named_parameter_setting: LinuxCNC creates the
+                        // parameter (value 0) as soon as it reads the name, so the
+                        // rest of the line reads it as 0 (add_named_param)
+                        {
+                            let mut names = self.line_named.borrow_mut();
+                            names.push_str(&name);
+                            names.push('>');
+                        }
                         if r.at(r.i) != b'=' {
                             return bad(raw(r.i), "Equal sign missing in parameter setting");
                         }
@@ -478,7 +500,7 @@ impl Interp<'_> {
                             );
                         }
                         i = r.i;
-                        sets.push(Setting::Named(name, v));
+                        sets.push(Setting::Named(name.into_owned(), v));
                     } else {
                         let index = r.integer_value().map_err(re)?;
                         if index < 1 || index as usize >= NUM_PARAMS {
@@ -590,7 +612,7 @@ impl Interp<'_> {
             let mut r = Reader::new(b, *i, self);
             let n = r.integer_value().map_err(re)?;
             *i = r.i;
-            n.to_string()
+            std::borrow::Cow::Owned(n.to_string())
         };
         let rest = &b[(*i).min(b.len())..];
         const KINDS: [(&[u8], OKind); 15] = [
@@ -633,7 +655,7 @@ impl Interp<'_> {
             }
             return Ok(Some(OLine {
                 kind: OKind::Bare,
-                name: label,
+                name: label.into_owned(),
                 value: None,
                 args: Vec::new(),
                 at,
@@ -643,7 +665,7 @@ impl Interp<'_> {
         *i += kw.len();
         let ctl = &self.ctl;
         let name = if kind.global() {
-            label
+            label.into_owned()
         } else {
             let sub = if let Some(f) = ctl.frames.last() {
                 f.sub_name.as_str()
@@ -652,7 +674,11 @@ impl Interp<'_> {
             } else {
                 ""
             };
-            format!("{sub}#{label}")
+            let mut q = String::with_capacity(sub.len() + 1 + label.len());
+            q.push_str(sub);
+            q.push('#');
+            q.push_str(&label);
+            q
         };
         let mut o = OLine {
             kind,
@@ -893,7 +919,9 @@ impl Interp<'_> {
                 return Ok(Jump::To(f, pos, line_no + 1));
             }
             OKind::Call | OKind::M98 => {
-                if self.ctl.level() >= MAX_CALL_LEVEL {
+                // enter_context: the level is raised, then checked (`>= 10`): nine
+                // nested calls run, the tenth is the error
+                if self.ctl.level() + 1 >= MAX_CALL_LEVEL {
                     return bad(o.at, "Too many subroutine levels");
                 }
                 self.ctl.skipping = None;
@@ -1080,6 +1108,7 @@ impl Interp<'_> {
     /// Apply the assignments read on a line.
     #[inline(never)]
     pub(super) fn commit(&mut self, sets: &mut Vec<Setting>) {
+        self.line_named.get_mut().clear();
         for s in sets.drain(..) {
             match s {
                 Setting::Numbered(i, v) => self.params.set(i, v),

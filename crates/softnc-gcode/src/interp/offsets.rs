@@ -9,9 +9,16 @@
 //!
 //! Parameters hold machine units (mm; LinuxCNC's `PROGRAM_TO_USER_LEN`), the
 //! interpreter's offsets hold program units. Axes other than X, Y, Z are refused
-//! where they are written, and so is an XY rotation other than 0.
+//! where they are written.
+//!
+//! The XY rotation of a system (`G10 L2 R`, parameter 5210 + 20·n, degrees) turns
+//! the program's X and Y about the G92 origin: machine = R(point + G92) + origin +
+//! tool (`rotate_and_offset_pos` of `emccanon.cc`). The interpreter's current
+//! point stays in the unrotated program frame, as LinuxCNC's `current_x`; each
+//! place LinuxCNC rotates (`find_current_in_system`, `find_relative`,
+//! `convert_setup`, `convert_savehome`, G53 in `find_ends`) rotates here too.
 
-use super::{bad, unsup, Block, Interp, GM_MODAL_0, MM_PER_INCH, R};
+use super::{bad, rotate, unsup, Block, Interp, GM_MODAL_0, MM_PER_INCH, R};
 use crate::canon::MotionKind;
 use softnc_core::Vec3;
 
@@ -63,6 +70,7 @@ impl Interp<'_> {
         };
         self.coord = n - 1;
         self.params.set(5220, n as f64);
+        self.rotation_deg = self.params.get(base(n) + 9);
         self.origin = Vec3([
             self.to_prog(self.params.get(base(n))),
             self.to_prog(self.params.get(base(n) + 1)),
@@ -86,19 +94,48 @@ impl Interp<'_> {
         self.offset_mm = o;
     }
 
-    /// G54 … G59.3 (`idx` 0 … 8).
-    #[inline(never)]
-    pub(super) fn select_coord(&mut self, idx: usize) {
-        let n = idx + 1;
-        let new = Vec3([
+    /// The origin of system `n` (program units).
+    fn origin_of(&self, n: usize) -> Vec3 {
+        Vec3([
             self.to_prog(self.params.get(base(n))),
             self.to_prog(self.params.get(base(n) + 1)),
             self.to_prog(self.params.get(base(n) + 2)),
-        ]);
-        let shift = self.origin - new;
-        self.pos += shift;
-        self.canon_pos += shift;
+        ])
+    }
+
+    /// `find_current_in_system`: the current point as system `n` would give it
+    /// (program units): out through G92, the rotation and the active origin, in
+    /// through system `n`'s origin and rotation and the G92 offset in 5211 …
+    /// (when 5210 says it is applied).
+    fn current_in_system(&self, n: usize) -> Vec3 {
+        let g = self.g92;
+        let (x, y) = rotate(self.pos[0] + g[0], self.pos[1] + g[1], self.rotation_deg);
+        let mut c = Vec3([x, y, self.pos[2] + g[2]]) + self.origin - self.origin_of(n);
+        let (x, y) = rotate(c[0], c[1], -self.params.get(base(n) + 9));
+        c[0] = x;
+        c[1] = y;
+        if self.params.get(5210) != 0.0 {
+            for k in 0..3 {
+                c[k] -= self.to_prog(self.params.get(5211 + k));
+            }
+        }
+        c
+    }
+
+    /// G54 … G59.3 (`idx` 0 … 8), as `convert_coordinate_system`: nothing when
+    /// the system is already in use.
+    #[inline(never)]
+    pub(super) fn select_coord(&mut self, idx: usize) {
+        if idx == self.coord {
+            return;
+        }
+        let n = idx + 1;
+        let new = self.origin_of(n);
+        self.pos = self.current_in_system(n);
+        // rs274's canonical interface shifts its point by the origin change only
+        self.canon_pos += self.origin - new;
         self.origin = new;
+        self.rotation_deg = self.params.get(base(n) + 9);
         self.coord = idx;
         self.params.set(5220, n as f64);
         self.refresh_offset();
@@ -124,11 +161,14 @@ impl Interp<'_> {
             100 => self.g10(b, off),
             280 | 300 => self.home(line_no, code, b),
             281 | 301 => {
+                // convert_savehome
                 let first = if code == 281 { 5161 } else { 5181 };
+                let g = self.g92;
+                let (x, y) = rotate(self.pos[0] + g[0], self.pos[1] + g[1], self.rotation_deg);
+                let machine = Vec3([x, y, self.pos[2] + g[2]]) + self.origin;
                 for k in 0..3 {
-                    let machine = self.pos[k] + self.origin[k] + self.g92[k];
                     let tool = if k == 2 { self.tool_length_mm } else { 0.0 };
-                    let v = self.to_user(machine) + tool / self.user_mm();
+                    let v = self.to_user(machine[k]) + tool / self.user_mm();
                     self.params.set(first + k, v);
                 }
                 Ok(())
@@ -201,46 +241,55 @@ impl Interp<'_> {
         if p == 0 {
             p = self.coord + 1;
         }
-        if let Some(r) = b.get(b'R') {
-            if l == 20 {
-                return bad(off, "R not allowed in G10 L20");
+        let c = self.current_in_system(p);
+        let r = match b.get(b'R') {
+            Some(_) if l == 20 => return bad(off, "R not allowed in G10 L20"),
+            Some(r) => {
+                self.params.set(base(p) + 9, r);
+                r
             }
-            if r != 0.0 {
-                return unsup(
-                    b.off(b'R'),
-                    "R".into(),
-                    "rotated coordinate systems (G10 L2 R) are not supported yet",
-                );
+            None => self.params.get(base(p) + 9),
+        };
+        let active = p == self.coord + 1;
+        let old = self.origin_of(p);
+        let mut new = old;
+        let [wx, wy, wz] = Self::axis_words(b);
+        if l == 20 {
+            // the wanted point and the current one, both out of the rotated system
+            let (ox, oy) = rotate(c[0], c[1], r);
+            let (x, y) = rotate(wx.unwrap_or(c[0]), wy.unwrap_or(c[1]), r);
+            new[0] = ox + old[0] - x;
+            new[1] = oy + old[1] - y;
+            self.params.set(base(p), self.to_user(new[0]));
+            self.params.set(base(p) + 1, self.to_user(new[1]));
+            if active {
+                let (x, y) = rotate(self.pos[0], self.pos[1], self.rotation_deg);
+                self.pos[0] = x;
+                self.pos[1] = y;
+                self.rotation_deg = 0.0;
             }
-            self.params.set(5210 + 20 * p, 0.0);
-        } else if self.params.get(5210 + 20 * p) != 0.0 {
-            return unsup(
-                off,
-                "G10".into(),
-                "rotated coordinate systems (parameter 5210+20n) are not supported yet",
-            );
-        }
-        // the current point as seen in system p (find_current_in_system)
-        let mut cur = Vec3::ZERO;
-        for k in 0..3 {
-            cur[k] = self.pos[k] + self.g92[k] + self.origin[k]
-                - self.to_prog(self.params.get(base(p) + k));
-        }
-        let mut new = Vec3::ZERO;
-        for (k, w) in Self::axis_words(b).into_iter().enumerate() {
-            let old = self.to_prog(self.params.get(base(p) + k));
-            new[k] = match w {
-                Some(v) if l == 20 => cur[k] + old - v,
-                Some(v) => v,
-                None => old,
-            };
-            if w.is_some() {
-                self.params.set(base(p) + k, self.to_user(new[k]));
+        } else {
+            for (k, w) in [wx, wy].into_iter().enumerate() {
+                if let Some(v) = w {
+                    new[k] = v;
+                    self.params.set(base(p) + k, self.to_user(v));
+                }
             }
         }
-        if p == self.coord + 1 {
-            let d = self.origin - new;
-            self.shift(d);
+        if let Some(v) = wz {
+            new[2] = if l == 20 { c[2] + old[2] - v } else { v };
+            self.params.set(base(p) + 2, self.to_user(new[2]));
+        }
+        if active {
+            // the current point: out of the old system, into the new one
+            let (x, y) = rotate(self.pos[0], self.pos[1], self.rotation_deg);
+            self.pos = Vec3([x, y, self.pos[2]]) + self.origin - new;
+            let (x, y) = rotate(self.pos[0], self.pos[1], -r);
+            self.pos[0] = x;
+            self.pos[1] = y;
+            self.rotation_deg = r;
+            // rs274's canonical interface shifts its point by the origin change only
+            self.canon_pos += self.origin - new;
             self.origin = new;
             self.refresh_offset();
         }
@@ -323,11 +372,15 @@ impl Interp<'_> {
             Vec3::ZERO,
         );
         let first = if code == 280 { 5161 } else { 5181 };
-        let mut home = Vec3::ZERO;
-        for k in 0..3 {
-            home[k] = self.to_prog(self.params.get(first + k)) - self.origin[k] - self.g92[k];
-        }
-        home[2] -= self.tool_length_mm / self.scale();
+        // find_relative: machine → this system, back through the rotation
+        let stored = Vec3([0, 1, 2].map(|k| self.to_prog(self.params.get(first + k))));
+        let d = stored - self.origin;
+        let (x, y) = rotate(d[0], d[1], -self.rotation_deg);
+        let home = Vec3([
+            x - self.g92[0],
+            y - self.g92[1],
+            d[2] - self.g92[2] - self.tool_length_mm / self.scale(),
+        ]);
         let words = Self::axis_words(b);
         let mut end = waypoint;
         let none = words.iter().all(Option::is_none);

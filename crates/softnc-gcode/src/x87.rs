@@ -1,0 +1,255 @@
+//! LinuxCNC's angle conversions in x86 `long double`.
+//!
+//! `execute_unary` and `read_atan` (`interp_execute.cc`, `interp_read.cc`) convert
+//! with `M_PIl`: `cos((x * M_PIl) / 180.0)` (the argument is a `long double`, so
+//! C++ calls `cosl`), `((acos(x) * 180.0) / M_PIl)` (the quotient is rounded to
+//! 64 bits, then to a `double` when stored). In `double` arithmetic the results
+//! differ in the last bits, and where the mathematical value is 0 (`COS[90]`,
+//! `SIN[180]`, `COS[ATAN[-1]/[0]]`) even in sign, which comparisons (`LT 0`) then
+//! show. This module rounds as the x87 unit does (64-bit mantissa, nearest-even)
+//! with exact integer arithmetic; `cosl`, `sinl`, `tanl` of the 64-bit argument
+//! are taken to first order around its `double` part, which gives their sign and
+//! their value to about 13 digits also where they vanish.
+
+/// `M_PIl`: π rounded to a 64-bit mantissa, `PI_MANT × 2^-62`.
+const PI_MANT: u64 = 0xC90F_DAA2_2168_C235;
+
+/// A positive extended value `mant × 2^exp` (`mant` with its top bit set).
+#[derive(Debug, Clone, Copy)]
+struct Ext {
+    mant: u64,
+    exp: i32,
+}
+
+/// `num / d` and `num % d` for a small `d` (< 2^32), by 32-bit long division
+/// (a `u128` division is a slow library call).
+fn div_small(num: u128, d: u64) -> (u128, u64) {
+    let mut q = 0u128;
+    let mut r = 0u64;
+    for k in (0..4).rev() {
+        let cur = (r << 32) | ((num >> (32 * k)) as u64 & 0xffff_ffff);
+        q |= u128::from(cur / d) << (32 * k);
+        r = cur % d;
+    }
+    (q, r)
+}
+
+/// `v × 2^exp` (v > 0) rounded to a 64-bit mantissa, nearest-even; `sticky`:
+/// there were nonzero bits below `v`.
+fn round64(v: u128, exp: i32, sticky: bool) -> Ext {
+    let bits = 128 - v.leading_zeros() as i32;
+    if bits <= 64 {
+        let shift = 64 - bits;
+        return Ext {
+            mant: (v << shift) as u64,
+            exp: exp - shift,
+        };
+    }
+    let shift = bits - 64;
+    let mut q = v >> shift;
+    let rem = v & ((1u128 << shift) - 1);
+    let half = 1u128 << (shift - 1);
+    if rem > half || (rem == half && (sticky || q & 1 == 1)) {
+        q += 1;
+    }
+    let mut exp = exp + shift;
+    if q >> 64 != 0 {
+        q >>= 1;
+        exp += 1;
+    }
+    Ext {
+        mant: q as u64,
+        exp,
+    }
+}
+
+/// `v × 2^e`, exactly (v an exact small or 53-bit value; no overflow here).
+fn ldexp(v: f64, e: i32) -> f64 {
+    // 2^k for a normal exponent, built from its bits
+    let pow2 = |k: i32| f64::from_bits(((k + 1023) as u64) << 52);
+    let mut v = v;
+    let mut e = e;
+    while e > 1000 {
+        v *= pow2(1000);
+        e -= 1000;
+    }
+    while e < -1000 {
+        v *= pow2(-1000);
+        e += 1000;
+    }
+    v * pow2(e)
+}
+
+/// A finite nonzero `f64` as (53-bit mantissa, exponent).
+fn split(x: f64) -> (u64, i32) {
+    let bits = x.abs().to_bits();
+    let e = ((bits >> 52) & 0x7ff) as i32;
+    let frac = bits & ((1u64 << 52) - 1);
+    if e == 0 {
+        (frac, -1074) // subnormal
+    } else {
+        (frac | (1u64 << 52), e - 1075)
+    }
+}
+
+impl Ext {
+    /// The `double` the x87 stores (nearest-even from 64 bits: `u64 as f64`),
+    /// and the exact rest.
+    fn to_f64_parts(self) -> (f64, f64) {
+        let hi = self.mant as f64; // rounds to 53 bits, nearest-even
+        let lo = (i128::from(self.mant) - hi as i128) as f64; // exact, |lo| ≤ 2^10
+        (ldexp(hi, self.exp), ldexp(lo, self.exp))
+    }
+}
+
+/// `(x * M_PIl) / 180.0` in `long double`, as `hi + lo` (`hi` the `double` it
+/// rounds to, `lo` the exact rest).
+fn deg_to_rad(x: f64) -> (f64, f64) {
+    if x == 0.0 || !x.is_finite() {
+        let r = x * (std::f64::consts::PI / 180.0);
+        return (r, 0.0);
+    }
+    let (m, e) = split(x);
+    let prod = round64(u128::from(m) * u128::from(PI_MANT), e - 62, false);
+    // ÷ 180 = ÷ 45 and 2^-2
+    let (q, r) = div_small(u128::from(prod.mant) << 64, 45);
+    let t = round64(q, prod.exp - 64 - 2, r != 0);
+    let (hi, lo) = t.to_f64_parts();
+    if x < 0.0 {
+        (-hi, -lo)
+    } else {
+        (hi, lo)
+    }
+}
+
+/// `((r * 180.0) / M_PIl)` stored in a `double`.
+pub fn rad_to_deg(r: f64) -> f64 {
+    let a = r * 180.0; // double × double: a double
+    if a == 0.0 || !a.is_finite() {
+        return r * 180.0 / std::f64::consts::PI;
+    }
+    let (m, e) = split(a);
+    let num = u128::from(m) << 75;
+    let q = num / u128::from(PI_MANT);
+    let rem = num % u128::from(PI_MANT);
+    let t = round64(q, e - 75 + 62, rem != 0);
+    let v = ldexp(t.mant as f64, t.exp);
+    if a < 0.0 {
+        -v
+    } else {
+        v
+    }
+}
+
+/// `sin` and `cos` of `hi + lo` (the exact extended argument): to first order
+/// in `lo` where it is tiny (as for any angle a program uses), else by the
+/// addition theorem (a huge argument, whose rest is large in absolute terms).
+fn sin_cos(x: f64) -> (f64, f64) {
+    let (hi, lo) = deg_to_rad(x);
+    let (s, c) = hi.sin_cos();
+    if lo.abs() < 1e-9 {
+        (c.mul_add(lo, s), (-s).mul_add(lo, c))
+    } else {
+        let (sl, cl) = lo.sin_cos();
+        (s * cl + c * sl, c * cl - s * sl)
+    }
+}
+
+/// `cos((x * M_PIl) / 180.0)` as LinuxCNC computes it (`cosl`), as a `double`.
+pub fn cos_deg(x: f64) -> f64 {
+    sin_cos(x).1
+}
+
+/// `sin((x * M_PIl) / 180.0)` (`sinl`).
+pub fn sin_deg(x: f64) -> f64 {
+    sin_cos(x).0
+}
+
+/// `tan((x * M_PIl) / 180.0)` (`tanl`).
+pub fn tan_deg(x: f64) -> f64 {
+    let (hi, lo) = deg_to_rad(x);
+    let c = hi.cos();
+    if c.abs() > 1e-8 && lo.abs() < 1e-9 {
+        let t = hi.tan();
+        t.mul_add(t, 1.0).mul_add(lo, t)
+    } else {
+        // near a pole, or a huge argument: sinl / cosl
+        let (s, c) = sin_cos(x);
+        s / c
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    // the values as the C program printed them (%.17g), π/2 among them
+    #[allow(clippy::excessive_precision, clippy::approx_constant)]
+    fn long_double_conversions_as_gcc_computes_them() {
+        // (x * M_PIl) / 180.0 rounded to a double and ((atan2(x, 7) * 180.0) /
+        // M_PIl) stored in a double, printed with %.17g by a C program compiled
+        // with gcc on x86-64; plain double arithmetic differs in the last bit
+        // for each of these
+        for (x, want) in [
+            (-699.26, -12.20438932749555),
+            (-698.89, -12.19793160926317),
+            (-696.67, -12.159185299868895),
+            (-696.3, -12.152727581636515),
+            (-695.93, -12.146269863404138),
+            (-695.56, -12.139812145171758),
+            (-90.0, -1.5707963267948966),
+            (123.456, 2.1547136813421197),
+        ] {
+            assert_eq!(deg_to_rad(x).0, want, "{x}");
+        }
+        for (x, want) in [
+            (-698.52f64, -89.425847460811966),
+            (-697.41, -89.424933699103931),
+            (-696.3, -89.424017024360836),
+            (-694.08, -89.422174879873296),
+            (-690.75, -89.419389463670711),
+            (-685.2, -89.414686945878756),
+            (45.0, 81.158185439808321),
+            (7.3, 46.201833064452124),
+        ] {
+            assert_eq!(rad_to_deg(x.atan2(7.0)), want, "{x}");
+        }
+        assert_eq!(rad_to_deg((-1f64).atan2(0.0)), -90.0);
+    }
+
+    #[test]
+    fn long_division_by_a_small_number() {
+        for (n, d) in [
+            (u128::MAX, 45),
+            (12345678901234567890u128 << 64, 45),
+            (44, 45),
+            (0, 7),
+        ] {
+            assert_eq!(
+                div_small(n, d),
+                (n / u128::from(d), (n % u128::from(d)) as u64)
+            );
+        }
+    }
+
+    #[test]
+    fn vanishing_values_have_the_sign_of_cosl() {
+        // rs274 (LinuxCNC 2.9.0~pre1) prints 1 for [COS[-90] LT 0], [COS[90] LT 0]
+        // and [COS[270] GT 0], 0 for [SIN[180] GT 0], [SIN[360] LT 0],
+        // [TAN[90] GT 0] and [TAN[180] LT 0] (M_PIl lies beyond π)
+        assert!(cos_deg(-90.0) < 0.0 && cos_deg(-90.0).abs() < 1e-18);
+        assert!(cos_deg(90.0) < 0.0);
+        assert!(cos_deg(270.0) > 0.0);
+        assert!(sin_deg(180.0) < 0.0 && sin_deg(180.0).abs() < 1e-18);
+        assert!(sin_deg(360.0) > 0.0);
+        assert!(tan_deg(90.0) < -1e18);
+        assert!(tan_deg(180.0) >= 0.0);
+        // a huge argument stays a sine: rs274 prints SIN[EXP[20]] as 0.579420
+        assert!((sin_deg(20f64.exp()) - 0.579420).abs() < 5e-7);
+        assert!(sin_deg(1e300).abs() <= 1.0 && cos_deg(-1e300).abs() <= 1.0);
+        assert_eq!(cos_deg(0.0), 1.0);
+        assert!((cos_deg(60.0) - 0.5).abs() < 1e-15);
+        assert!((tan_deg(45.0) - 1.0).abs() < 1e-15);
+    }
+}
