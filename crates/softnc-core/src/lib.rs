@@ -29,4 +29,8 @@ pub use config::{
     ToolEntry,
 };
 pub use geom::{Plane, Primitive, Vec3};
+
+/// Axes the whole stack carries, X, Y, Z: the one axis count of the profile, the
+/// servo boundary, the learning store and the messages between the processes.
+pub const MAX_AXES: usize = 3;
 pub use ring::{CommandRing, LookaheadRing, RingError, RingSample, COMMAND_RING_CAPACITY};

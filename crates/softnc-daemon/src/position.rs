@@ -569,7 +569,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     seq: self.ring.source_index(),
                     job_id: self.job_id,
                     time_index: self.ring.current_index(),
-                    pos_mm: [p[0], p[1], p[2], 0.0, 0.0, 0.0],
+                    pos_mm: p,
                     motion,
                     flags,
                     sent_unix_ns: 0,

@@ -3,8 +3,8 @@
 use crate::fixed_str::FixedStr;
 use iceoryx2::prelude::ZeroCopySend;
 
-/// Largest number of axes a sample carries.
-pub const MAX_AXES: usize = 6;
+/// Axes a sample carries: the stack's one axis count.
+pub use softnc_core::MAX_AXES;
 
 /// One command sample per interpolation cycle, interpolation → position control.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
@@ -38,8 +38,7 @@ impl CommandSample {
 
     /// A sample for three axes.
     pub fn new(seq: u64, job_id: u64, time_index: u64, xyz_mm: [f64; 3]) -> Self {
-        let mut pos_mm = [0.0; MAX_AXES];
-        pos_mm[..3].copy_from_slice(&xyz_mm);
+        let pos_mm = xyz_mm;
         CommandSample {
             seq,
             job_id,

@@ -94,7 +94,7 @@ impl MarkovLearner {
 pub const DEFAULT_GAIN: f64 = 0.5;
 
 /// Axes a job's learning covers (X, Y, Z).
-pub const AXES: usize = 3;
+pub const AXES: usize = softnc_core::MAX_AXES;
 
 /// Eq 5 applied to a whole job, one learner per axis, with the two buffers the paper
 /// keeps beside the command buffer: the corrected command P_j (as a correction added

@@ -5,8 +5,8 @@
 //! process-data exchange. An EtherCAT CiA 402 drive in cyclic synchronous position
 //! mode maps onto it directly (see docs/architecture.md, "A real drive").
 
-/// Axes a backend serves (X, Y, Z).
-pub const MAX_AXES: usize = 3;
+/// Axes a backend serves at most: the stack's one axis count.
+pub use softnc_core::MAX_AXES;
 
 /// What the drive's command means.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
