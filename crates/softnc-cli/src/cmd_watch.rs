@@ -1,7 +1,7 @@
 //! `softnc watch`: a terminal UI — axis positions, following and contour error, job
-//! progress, alarms, loop jitter and a live plot of the contour error. Keys: q quit,
-//! h hold, r resume, + / − feed override ±10 %, ] / [ spindle override ±10 %, e E-stop,
-//! x reset.
+//! progress and program line, alarms, loop jitter and a live plot of the contour
+//! error, on an 80×24 terminal or larger. Keys: q quit, h hold, r resume, a abort,
+//! + / − feed override ±10 %, ] / [ spindle override ±10 %, e E-stop, x reset.
 
 use anyhow::Result;
 use ratatui::crossterm::event::{self, Event, KeyCode};
@@ -51,6 +51,7 @@ pub fn run(config: &Path) -> Result<ExitCode> {
                         KeyCode::Char('q') | KeyCode::Esc => return Ok(()),
                         KeyCode::Char('h') => Some((ControlKind::Hold, 0.0)),
                         KeyCode::Char('r') => Some((ControlKind::Resume, 0.0)),
+                        KeyCode::Char('a') => Some((ControlKind::Abort, 0.0)),
                         KeyCode::Char('+') => {
                             Some((ControlKind::FeedOverride, (ov + 0.1).min(2.55)))
                         }
@@ -81,6 +82,20 @@ fn f(v: &serde_json::Value) -> f64 {
     v.as_f64().unwrap_or(f64::NAN)
 }
 
+/// A number for the screen: `-` where there is none (idle, no status yet), never NaN.
+fn num(v: &serde_json::Value, scale: f64, width: usize, decimals: usize) -> String {
+    match v.as_f64().filter(|x| x.is_finite()) {
+        Some(x) => format!("{:width$.decimals$}", x * scale),
+        None => format!("{:>width$}", "-"),
+    }
+}
+
+/// The keys, on the bottom line (fits 80 columns).
+const KEY_HELP: &str =
+    "q quit  h hold  r resume  a abort  +/- feed  ]/[ spindle  e E-STOP  x reset";
+
+/// The screen, laid out to fit an 80×24 terminal: a status line, the job's progress,
+/// the axes (DRO), the live contour error, loops and alarms, the keys.
 fn draw(
     frame: &mut ratatui::Frame,
     s: &serde_json::Value,
@@ -90,36 +105,46 @@ fn draw(
     let rows = Layout::default()
         .direction(Direction::Vertical)
         .constraints([
-            Constraint::Length(3),
-            Constraint::Length(3),
+            Constraint::Length(1),
+            Constraint::Length(1),
             Constraint::Length(6),
-            Constraint::Min(8),
-            Constraint::Length(7),
+            Constraint::Min(4),
+            Constraint::Length(5),
+            Constraint::Length(1),
         ])
         .split(frame.area());
     let job = &s["job"];
     let head = format!(
-        "state {}   feed {:.0} %   spindle {:.0} % {:.0} rpm   job {} {}   interp {}  position {}   {}",
+        "{}  feed {} %  spindle {} % {} rpm  interp {} position {}  {}",
         s["state"].as_str().unwrap_or("?"),
-        f(&s["feed_override"]) * 100.0,
-        f(&s["spindle_override"]) * 100.0,
-        f(&s["spindle_rpm"]),
-        job["job_id"],
-        job["path"].as_str().unwrap_or(""),
+        num(&s["feed_override"], 100.0, 0, 0),
+        num(&s["spindle_override"], 100.0, 0, 0),
+        num(&s["spindle_rpm"], 1.0, 0, 0),
         s["processes"]["interp"].as_str().unwrap_or("?"),
         s["processes"]["position"].as_str().unwrap_or("?"),
         note
     );
-    frame.render_widget(
-        Paragraph::new(head).block(Block::default().borders(Borders::ALL).title("softnc")),
-        rows[0],
-    );
+    frame.render_widget(Paragraph::new(head), rows[0]);
     let progress = job["progress"].as_f64().unwrap_or(0.0).clamp(0.0, 1.0);
+    let label = if job.is_null() {
+        "no job".to_string()
+    } else {
+        let line = s["program_line"]
+            .as_u64()
+            .map_or(String::new(), |l| format!(" line {l}"));
+        format!(
+            "job {} {} {:.0} %{line}  {}",
+            job["job_id"],
+            job["outcome"].as_str().unwrap_or("?"),
+            progress * 100.0,
+            job["path"].as_str().unwrap_or("")
+        )
+    };
     frame.render_widget(
         Gauge::default()
-            .block(Block::default().borders(Borders::ALL).title("job progress"))
             .gauge_style(Style::default().fg(Color::Green))
-            .ratio(progress),
+            .ratio(progress)
+            .label(label),
         rows[1],
     );
     let axes = &s["axes"];
@@ -128,9 +153,9 @@ fn draw(
         .map(|i| {
             Row::new(vec![
                 names[i].to_string(),
-                format!("{:10.4}", f(&axes["cmd_mm"][i])),
-                format!("{:10.4}", f(&axes["actual_mm"][i])),
-                format!("{:9.2}", f(&axes["following_err_um"][i])),
+                num(&axes["cmd_mm"][i], 1.0, 10, 4),
+                num(&axes["actual_mm"][i], 1.0, 10, 4),
+                num(&axes["following_err_um"][i], 1.0, 9, 2),
             ])
         })
         .collect();
@@ -150,9 +175,9 @@ fn draw(
         "following µm",
     ]))
     .block(Block::default().borders(Borders::ALL).title(format!(
-        "axes   contour error {:.2} µm   ring {}",
-        f(&axes["contour_err_um"]),
-        axes["ring_fill"]
+        "axes  contour error {} µm  ring {}",
+        num(&axes["contour_err_um"], 1.0, 0, 2),
+        axes["ring_fill"].as_u64().map_or("-".into(), |r| r.to_string())
     )));
     frame.render_widget(table, rows[2]);
     let data: Vec<(f64, f64)> = plot.iter().copied().collect();
@@ -162,7 +187,6 @@ fn draw(
     );
     let ymax = data.iter().map(|p| p.1.abs()).fold(1.0, f64::max);
     let chart = Chart::new(vec![Dataset::default()
-        .name("contour error µm")
         .marker(symbols::Marker::Braille)
         .graph_type(GraphType::Line)
         .style(Style::default().fg(Color::Cyan))
@@ -170,7 +194,7 @@ fn draw(
     .block(
         Block::default()
             .borders(Borders::ALL)
-            .title("contour error (live)"),
+            .title("contour error µm (live)"),
     )
     .x_axis(Axis::default().bounds([x0, x1.max(x0 + 1.0)]))
     .y_axis(Axis::default().bounds([-ymax, ymax]).labels(vec![
@@ -181,23 +205,21 @@ fn draw(
     frame.render_widget(chart, rows[3]);
     let bottom = Layout::default()
         .direction(Direction::Horizontal)
-        .constraints([Constraint::Percentage(50), Constraint::Percentage(50)])
+        .constraints([Constraint::Percentage(45), Constraint::Percentage(55)])
         .split(rows[4]);
     let mut loops = vec![];
     for name in ["interp", "position"] {
         let l = &s["loops"][name];
         if !l.is_null() {
             loops.push(ListItem::new(format!(
-                "{name}: jitter p50 {:.1} p99 {:.1} p99.9 {:.1} max {:.1} µs",
-                f(&l["jitter_ns"]["p50"]) / 1e3,
-                f(&l["jitter_ns"]["p99"]) / 1e3,
-                f(&l["jitter_ns"]["p999"]) / 1e3,
-                f(&l["jitter_ns"]["max"]) / 1e3
+                "{name}: p99 {} max {} µs",
+                num(&l["jitter_ns"]["p99"], 1e-3, 0, 1),
+                num(&l["jitter_ns"]["max"], 1e-3, 0, 1)
             )));
         }
     }
     frame.render_widget(
-        List::new(loops).block(Block::default().borders(Borders::ALL).title("loops")),
+        List::new(loops).block(Block::default().borders(Borders::ALL).title("loop jitter")),
         bottom[0],
     );
     let alarms: Vec<ListItem> = s["alarms"]
@@ -213,11 +235,68 @@ fn draw(
         })
         .collect();
     frame.render_widget(
-        List::new(alarms).block(
-            Block::default().borders(Borders::ALL).title(
-                "alarms (q quit, h hold, r resume, +/- feed, ]/[ spindle, e E-stop, x reset)",
-            ),
-        ),
+        List::new(alarms).block(Block::default().borders(Borders::ALL).title("alarms")),
         bottom[1],
     );
+    frame.render_widget(Paragraph::new(KEY_HELP), rows[5]);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ratatui::backend::TestBackend;
+    use ratatui::Terminal;
+
+    fn screen(s: &serde_json::Value, width: u16, height: u16) -> String {
+        let mut t = Terminal::new(TestBackend::new(width, height)).unwrap();
+        let plot: VecDeque<(f64, f64)> = (0..50).map(|k| (k as f64, (k as f64).sin())).collect();
+        t.draw(|f| draw(f, s, &plot, "")).unwrap();
+        let buf = t.backend().buffer().clone();
+        let mut out = String::new();
+        for y in 0..buf.area.height {
+            for x in 0..buf.area.width {
+                out.push_str(buf[(x, y)].symbol());
+            }
+            out.push('\n');
+        }
+        out
+    }
+
+    fn running() -> serde_json::Value {
+        serde_json::json!({
+            "state": "Running", "feed_override": 1.0, "spindle_override": 1.0, "spindle_rpm": 0.0,
+            "program_line": 7,
+            "job": {"job_id": 3, "outcome": "running", "progress": 0.42, "path": "/tmp/a.ngc"},
+            "axes": {"cmd_mm": [1.0, 2.0, 3.0], "actual_mm": [1.0, 2.0, 3.0],
+                     "following_err_um": [0.5, 0.25, 0.0], "contour_err_um": 1.5, "ring_fill": 100},
+            "processes": {"interp": "alive", "position": "alive"},
+            "loops": {"interp": {"jitter_ns": {"p99": 1000.0, "max": 5000.0}}},
+            "alarms": [{"code": "RingDry", "message": "ran dry"}],
+        })
+    }
+
+    #[test]
+    fn an_80_by_24_terminal_shows_every_axis_the_line_and_every_key() {
+        let out = screen(&running(), 80, 24);
+        for row in ["X ", "Y ", "Z "] {
+            assert!(
+                out.lines()
+                    .any(|l| l.trim_start_matches('│').trim_start().starts_with(row)),
+                "axis row {row} missing:\n{out}"
+            );
+        }
+        assert!(out.contains("line 7"), "{out}");
+        assert!(out.contains("e E-STOP  x reset"), "key help cut:\n{out}");
+        assert!(out.contains("RingDry"), "{out}");
+    }
+
+    #[test]
+    fn idle_without_a_job_or_status_shows_no_nan() {
+        let idle = serde_json::json!({"state": "Idle", "job": null, "axes": null, "alarms": []});
+        let out = screen(&idle, 80, 24);
+        assert!(!out.contains("NaN"), "{out}");
+        assert!(out.contains("no job"), "{out}");
+        let none = serde_json::json!({"state": "no MMI: timed out"});
+        assert!(!screen(&none, 80, 24).contains("NaN"));
+    }
 }
