@@ -78,10 +78,6 @@ pub fn run(config: &Path) -> Result<ExitCode> {
     result.map(|()| ExitCode::SUCCESS)
 }
 
-fn f(v: &serde_json::Value) -> f64 {
-    v.as_f64().unwrap_or(f64::NAN)
-}
-
 /// A number for the screen: `-` where there is none (idle, no status yet), never NaN.
 fn num(v: &serde_json::Value, scale: f64, width: usize, decimals: usize) -> String {
     match v.as_f64().filter(|x| x.is_finite()) {
