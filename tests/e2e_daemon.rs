@@ -1389,6 +1389,16 @@ fn a_job_is_checked_off_the_loop_status_and_estop_answer_meanwhile() {
         s["checking"].is_string()
     });
     assert_eq!(s["state"], "Idle", "{s}");
+    // one job at a time: a second one is refused while the first is checked
+    let second = op
+        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
+        .unwrap();
+    assert_eq!(second.accepted, 0, "{}", second.message.as_str());
+    assert!(
+        second.message.as_str().contains("being checked"),
+        "{}",
+        second.message.as_str()
+    );
     let t0 = Instant::now();
     let e = op.request(ControlKind::EStop, 0.0, "").unwrap();
     assert_eq!(e.accepted, 1, "{}", e.message.as_str());
