@@ -62,6 +62,12 @@ pub struct DaemonConfig {
     /// How `softncd` watches and restarts its processes.
     #[serde(default)]
     pub supervisor: SupervisorConfig,
+    /// How long each part of a controlled stop (SIGTERM, shutdown) may take.
+    #[serde(default)]
+    pub stopping: StoppingConfig,
+    /// How often the running job's record is written to the history (s).
+    #[serde(default = "default_job_record_period_s")]
+    pub job_record_period_s: f64,
     /// How long the axes get after a job's last sample to come within their
     /// in-position bands (s); the job then ends with an alarm.
     #[serde(default = "default_in_position_timeout_s")]
@@ -77,6 +83,35 @@ fn default_in_position_timeout_s() -> f64 {
 
 fn default_max_job_bytes() -> u64 {
     64 << 20
+}
+
+fn default_job_record_period_s() -> f64 {
+    1.0
+}
+
+/// The controlled stop's time limits.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct StoppingConfig {
+    /// How long `softncd` gives its children to stop (a running job decelerates
+    /// along its path first) before it kills them (s).
+    pub children_grace_s: f64,
+    /// How long the position process, asked to stop itself, gives the interpolator
+    /// to stop the job along its path before the axes stop on what its ring holds (s).
+    pub interp_grace_s: f64,
+    /// How long the MMI, asked to stop, waits for the running job to stop so that
+    /// its record says how it ended (s).
+    pub record_wait_s: f64,
+}
+
+impl Default for StoppingConfig {
+    fn default() -> Self {
+        StoppingConfig {
+            children_grace_s: 5.0,
+            interp_grace_s: 2.0,
+            record_wait_s: 4.0,
+        }
+    }
 }
 
 /// How `softncd` watches and restarts its processes.
@@ -240,6 +275,20 @@ impl DaemonConfig {
                 "restart_window_s > 0 and 0 <= restart_delay_s <= restart_delay_max_s (finite)",
             ));
         }
+        let st = config.stopping;
+        if !(st.interp_grace_s > 0.0
+            && st.record_wait_s > st.interp_grace_s
+            && st.children_grace_s > st.record_wait_s
+            && st.children_grace_s.is_finite())
+        {
+            return Err(bad(
+                "stopping",
+                "0 < interp_grace_s < record_wait_s < children_grace_s (finite): each part of a stop waits for the one inside it",
+            ));
+        }
+        if !(config.job_record_period_s > 0.0 && config.job_record_period_s.is_finite()) {
+            return Err(bad("job_record_period_s", "must be a finite number > 0"));
+        }
         if !(config.following_error_limit_mm > 0.0 && config.following_error_limit_mm.is_finite()) {
             return Err(bad(
                 "following_error_limit_mm",
@@ -309,5 +358,63 @@ impl DaemonConfig {
             path: path.to_path_buf(),
             iceoryx2_config,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The shipped configuration with `edits`, beside a copy of its machine profile.
+    fn load_edited(tag: &str, edits: &[(&str, &str)]) -> Result<Loaded, ConfigError> {
+        let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let dir = std::env::temp_dir().join(format!("softnc-config-{tag}-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("machines")).unwrap();
+        std::fs::copy(
+            repo.join("config/machines/default.ron"),
+            dir.join("machines/default.ron"),
+        )
+        .unwrap();
+        std::fs::copy(repo.join("config/iceoryx2.toml"), dir.join("iceoryx2.toml")).unwrap();
+        let mut text = std::fs::read_to_string(repo.join("config/default.ron")).unwrap();
+        for (from, to) in edits {
+            assert!(text.contains(from), "no {from:?} in config/default.ron");
+            text = text.replace(from, to);
+        }
+        std::fs::write(dir.join("default.ron"), text).unwrap();
+        let r = DaemonConfig::load(&dir.join("default.ron"));
+        let _ = std::fs::remove_dir_all(&dir);
+        r
+    }
+
+    #[test]
+    fn the_shipped_configuration_loads_with_its_backend_and_stop_limits() {
+        let c = load_edited("shipped", &[]).unwrap().config;
+        assert_eq!(c.backend, BackendKind::Simulated);
+        assert_eq!(c.stopping, StoppingConfig::default());
+        assert_eq!(c.job_record_period_s, 1.0);
+        let c = load_edited("loopback", &[("backend: Simulated", "backend: Loopback")])
+            .unwrap()
+            .config;
+        assert_eq!(c.backend, BackendKind::Loopback);
+    }
+
+    #[test]
+    fn a_bad_backend_or_stop_limit_is_refused_with_its_ron_path() {
+        let e = load_edited("badbackend", &[("backend: Simulated", "backend: Ethercat")])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("backend") && e.contains("Loopback"), "{e}");
+        let e = load_edited("badstop", &[("record_wait_s: 4.0", "record_wait_s: 9.0")])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("stopping"), "{e}");
+        let e = load_edited(
+            "badperiod",
+            &[("job_record_period_s: 1.0", "job_record_period_s: 0.0")],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("job_record_period_s"), "{e}");
     }
 }

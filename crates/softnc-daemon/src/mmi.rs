@@ -172,11 +172,6 @@ struct Checking {
 }
 
 const ALARM_HISTORY: usize = 50;
-/// How often the running job's record is written.
-const JOB_SAVE_PERIOD: Duration = Duration::from_secs(1);
-/// After a stop is asked for, how long the MMI waits for the running job to stop
-/// (to record how it ended) before it exits.
-const STOP_WAIT: Duration = Duration::from_secs(4);
 
 impl MmiTask {
     /// Open the services and the job history.
@@ -310,7 +305,7 @@ impl MmiTask {
     }
 
     /// Serve until a `Shutdown` request or a stop (signal, the supervisor's death),
-    /// then until the running job has stopped (its record says how) or [`STOP_WAIT`].
+    /// then until the running job has stopped (its record says how) or `stopping.record_wait_s`.
     pub fn run(&mut self) -> Result<()> {
         let mut stopping_since: Option<Instant> = None;
         loop {
@@ -328,7 +323,8 @@ impl MmiTask {
                             Some(MachineState::Running | MachineState::Held | MachineState::Idle)
                         )
                 });
-                if !moving || since.elapsed() > STOP_WAIT {
+                if !moving || since.elapsed().as_secs_f64() > self.cfg.config.stopping.record_wait_s
+                {
                     self.save_jobs();
                     return Ok(());
                 }
@@ -447,7 +443,10 @@ impl MmiTask {
         }
         // the running job's record is written as it progresses (once a second)
         let running = self.jobs.iter().any(|j| j.outcome == "running");
-        if changed || (running && self.last_save.elapsed() >= JOB_SAVE_PERIOD) {
+        if changed
+            || (running
+                && self.last_save.elapsed().as_secs_f64() >= self.cfg.config.job_record_period_s)
+        {
             self.save_jobs();
         }
         while let Some(req) = self.server.receive()? {

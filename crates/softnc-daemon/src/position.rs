@@ -28,10 +28,6 @@ use softnc_servo::spindle::SpindleDesigns;
 use softnc_servo::{CycleEngine, ServoBackend};
 use std::time::{Duration, Instant};
 
-/// A stop asked of this process itself: how long the interpolator gets to stop the
-/// job along its path before the axes stop on the ring's remaining samples.
-const OWN_STOP_GRACE: Duration = Duration::from_secs(2);
-
 /// Decelerating along the path left in the ring after it ran dry.
 #[derive(Debug, Clone, Copy)]
 struct DryStop {
@@ -216,11 +212,14 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         // death): the interpolator normally stops the job along its path; if it has
         // not within the grace, the axes stop on what the ring holds
         let mut own_stop: Option<Instant> = None;
+        // a stop asked of this process itself: how long the interpolator gets to stop
+        // the job along its path before the axes stop on the ring's remaining samples
+        let own_stop_grace = Duration::from_secs_f64(self.cfg.config.stopping.interp_grace_s);
         loop {
             if self.stop.requested().is_some() {
                 self.shutdown = true;
                 let since = *own_stop.get_or_insert_with(Instant::now);
-                if !self.at_rest() && self.dry.is_none() && since.elapsed() > OWN_STOP_GRACE {
+                if !self.at_rest() && self.dry.is_none() && since.elapsed() > own_stop_grace {
                     self.begin_dry_stop();
                 }
             }

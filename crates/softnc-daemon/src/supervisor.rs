@@ -15,7 +15,7 @@
 //!   `reset`.
 //! - One `softncd` per instance ([`crate::lifecycle::InstanceLock`]); SIGTERM/SIGINT
 //!   or a `Shutdown` command: the children are told to stop (a running job
-//!   decelerates along its path), given [`STOP_GRACE`], then killed; exit 0.
+//!   decelerates along its path), given `stopping.children_grace_s`, then killed; exit 0.
 //!   Children stop by themselves when `softncd` dies (`kill -9`).
 //! - systemd: `READY=1` once every child has sent a heartbeat, `WATCHDOG=1` at half
 //!   `WatchdogSec`, `STOPPING=1` ([`crate::lifecycle::Notify`]).
@@ -34,9 +34,6 @@ use std::time::{Duration, Instant};
 
 /// How often the supervisor looks at its children.
 const WATCH_PERIOD: Duration = Duration::from_millis(20);
-/// How long children get to stop on shutdown before they are killed: a running job
-/// decelerates along its path first.
-const STOP_GRACE: Duration = Duration::from_secs(5);
 
 struct Proc {
     name: &'static str,
@@ -334,7 +331,7 @@ impl Supervisor {
 
     /// Stop the children as a signal to the group would: SIGTERM to each (a running
     /// job decelerates along its path, the MMI records how it ended), then
-    /// [`STOP_GRACE`], then SIGKILL for any left.
+    /// `stopping.children_grace_s`, then SIGKILL for any left.
     fn stop_all(&mut self) {
         use iceoryx2_bb_posix::process::{Process, ProcessId as Pid};
         use iceoryx2_bb_posix::signal::Signal;
@@ -356,7 +353,7 @@ impl Supervisor {
             }
         }
         let t0 = Instant::now();
-        while t0.elapsed() < STOP_GRACE
+        while t0.elapsed().as_secs_f64() < self.cfg.config.stopping.children_grace_s
             && self.procs.iter_mut().any(|p| {
                 p.child
                     .as_mut()
