@@ -6,8 +6,10 @@
 mod common;
 use common::{limit_ratios, profile};
 use softnc_core::{FeedProfile, MachineProfile};
+use softnc_gcode::Program;
 use softnc_planner::{
-    check_and_stream, check_program, read_and_plan, stream_program, PlanOptions, Sample, StreamMode,
+    check_and_stream, check_program, check_program_parallel, read_and_plan, stream_program,
+    CheckedProgram, PlanOptions, ReadPlanError, Sample, StreamMode,
 };
 use std::fmt::Write;
 use std::sync::Arc;
@@ -21,6 +23,16 @@ fn same_as_whole(text: &str, file: &str, p: &MachineProfile, limit: Option<usize
     };
     let whole = read_and_plan(text, file, p, &opts);
     let checked = check_program(text, file, p, &opts);
+    let key = |r: &Result<(Program, CheckedProgram), ReadPlanError>| {
+        r.as_ref()
+            .map(|(p, c)| (p.blocks, p.warnings.clone(), c.clone()))
+            .map_err(|e| e.clone())
+    };
+    assert_eq!(
+        key(&check_program_parallel(text, file, p, &opts)),
+        key(&checked),
+        "{file}: on two threads"
+    );
     let (want_prog, plan) = match whole {
         Err(e) => {
             assert_eq!(checked.unwrap_err(), e, "{file}: the first error");
@@ -145,6 +157,10 @@ fn errors_are_the_whole_plans() {
     for t in [format!("{text}G1 X1 Y2 X3\nM2\n"), format!("{text}M2\n")] {
         let want = read_and_plan(&t, "e.ngc", &p, &opts).unwrap_err();
         assert_eq!(check_program(&t, "e.ngc", &p, &opts).unwrap_err(), want);
+        assert_eq!(
+            check_program_parallel(&t, "e.ngc", &p, &opts).unwrap_err(),
+            want
+        );
         assert_eq!(
             check_and_stream(&t, "e.ngc", &p, &opts, |_| ()).unwrap_err(),
             want
