@@ -116,33 +116,45 @@ struct StreamPlanner<'a> {
 /// figures.
 struct Settled {
     dilator: Option<CapDilator>,
+    fin: Figures,
+}
+
+/// What the settled elements add up to.
+struct Figures {
     duration: DurationPass,
     elements: usize,
     start_mm: Option<Vec3>,
     path_length_mm: f64,
 }
 
+impl Figures {
+    /// A settled element (final limits), on its way to `out`.
+    fn take(&mut self, s: &Segment, g: &Geom, out: &mut impl FnMut(&Segment, &Geom)) {
+        self.duration.push(s);
+        self.elements += 1;
+        self.start_mm.get_or_insert_with(|| g.point_at(0.0));
+        self.path_length_mm = s.s0 + s.len;
+        out(s, g);
+    }
+}
+
 impl Settled {
     /// An element from the builder: through the dilator (S-curve) to `out`.
     fn take(&mut self, s: &Segment, g: &Geom, out: &mut impl FnMut(&Segment, &Geom)) {
-        let Settled {
-            dilator,
-            duration,
-            elements,
-            start_mm,
-            path_length_mm,
-        } = self;
-        let mut last = |s: &Segment, g: &Geom| {
-            duration.push(s);
-            *elements += 1;
-            start_mm.get_or_insert_with(|| g.point_at(0.0));
-            *path_length_mm = s.s0 + s.len;
-            out(s, g);
-        };
-        match dilator {
-            Some(d) => d.push(s, g, &mut last),
-            None => last(s, g),
+        let fin = &mut self.fin;
+        match &mut self.dilator {
+            Some(d) => d.push(s, g, &mut |s, g| fin.take(s, g, out)),
+            None => fin.take(s, g, out),
         }
+    }
+
+    /// The path has ended: what the dilator holds to `out`.
+    fn finish(mut self, out: &mut impl FnMut(&Segment, &Geom)) -> Figures {
+        let fin = &mut self.fin;
+        if let Some(d) = self.dilator {
+            d.finish(&mut |s, g| fin.take(s, g, out));
+        }
+        self.fin
     }
 }
 
@@ -154,10 +166,12 @@ impl<'a> StreamPlanner<'a> {
             builder: PathBuilder::new(&lim, DRAIN_BATCH),
             settled: Settled {
                 dilator: (lim.profile == FeedProfile::SCurve).then(|| CapDilator::new(&lim)),
-                duration: DurationPass::new(&lim),
-                elements: 0,
-                start_mm: None,
-                path_length_mm: 0.0,
+                fin: Figures {
+                    duration: DurationPass::new(&lim),
+                    elements: 0,
+                    start_mm: None,
+                    path_length_mm: 0.0,
+                },
             },
         }
     }
@@ -193,24 +207,12 @@ impl<'a> StreamPlanner<'a> {
             mut settled,
         } = self;
         builder.finish_stream(&mut |s, g| settled.take(s, g, out));
-        let Settled {
-            dilator,
+        let Figures {
             duration,
             elements,
             start_mm,
             path_length_mm,
-        } = settled;
-        let mut duration = duration;
-        let mut elements = elements;
-        let mut path_length_mm = path_length_mm;
-        if let Some(d) = dilator {
-            d.finish(&mut |s, g| {
-                duration.push(s);
-                elements += 1;
-                path_length_mm = s.s0 + s.len;
-                out(s, g);
-            });
-        }
+        } = settled.finish(out);
         let lim = Limits::from_profile(profile);
         let (stats, brake_dist_mm) = checker.figures(&lim, path_length_mm, duration.finish());
         CheckedProgram {
