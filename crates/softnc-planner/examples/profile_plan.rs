@@ -3,8 +3,9 @@
 //! best and mean time per line of: reading then planning (`read_program` + `plan`),
 //! reading alone (`read_program`, all motions kept; `chunks`: handed on in chunks of
 //! 1024 and dropped, the reader's share of the streaming runs), the streaming
-//! `read_and_plan`, and `read_and_plan_parallel` (two threads). A third argument runs
-//! only the named one.
+//! `read_and_plan`, `read_and_plan_parallel` (two threads), and the checking passes
+//! `check_program` (`check`) and `check_program_parallel` (`check2`). A third
+//! argument runs only the named one. `ARC_BLENDS=1` turns `planner.arc_blends` on.
 use softnc_planner::PlanOptions;
 
 #[path = "../benches/common/workload.rs"]
@@ -15,7 +16,9 @@ fn main() {
     let text = std::fs::read_to_string(&args[1]).expect("file");
     let repeat: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1);
     let only = args.get(3).cloned();
-    let profile = workload::default_profile();
+    let mut profile = workload::default_profile();
+    // ARC_BLENDS=1: with `planner.arc_blends` on (line–arc and arc–arc fillets)
+    profile.planner.arc_blends |= std::env::var("ARC_BLENDS").is_ok_and(|v| v == "1");
     let opts = PlanOptions {
         ignore_soft_limits: true,
         ..Default::default()
@@ -90,6 +93,20 @@ fn main() {
             softnc_planner::read_and_plan_parallel(&text, "f", &profile, &opts).unwrap();
         let total = t0.elapsed().as_secs_f64();
         std::hint::black_box(plan.stats());
+        (total, 0.0)
+    });
+    time("check", &|| {
+        let t0 = std::time::Instant::now();
+        let (_, c) = softnc_planner::check_program(&text, "f", &profile, &opts).unwrap();
+        let total = t0.elapsed().as_secs_f64();
+        std::hint::black_box(c.stats());
+        (total, 0.0)
+    });
+    time("check2", &|| {
+        let t0 = std::time::Instant::now();
+        let (_, c) = softnc_planner::check_program_parallel(&text, "f", &profile, &opts).unwrap();
+        let total = t0.elapsed().as_secs_f64();
+        std::hint::black_box(c.stats());
         (total, 0.0)
     });
 }

@@ -1,7 +1,8 @@
 //! Whole sample streams of a streamed plan against the whole plan's, file by file:
 //! `cargo run --release -p softnc-planner --example stream_corpus -- FILE...`
 //! (profile `config/machines/default.ron`, trapezoidal and S-curve, soft limits
-//! ignored). Prints one line per file and a summary; exits 1 if any differs.
+//! ignored; `ARC_BLENDS=1`: with `planner.arc_blends` on). Prints one line per file
+//! that differs and a summary; exits 1 if any differs.
 use softnc_core::FeedProfile;
 use softnc_planner::{check_and_stream, read_and_plan, PlanOptions};
 
@@ -22,6 +23,7 @@ fn main() {
         for fp in [FeedProfile::Trapezoidal, FeedProfile::SCurve] {
             let mut profile = workload::default_profile();
             profile.planner.feed_profile = fp;
+            profile.planner.arc_blends |= std::env::var("ARC_BLENDS").is_ok_and(|v| v == "1");
             let whole = read_and_plan(&text, &file, &profile, &opts);
             let streamed = check_and_stream(&text, &file, &profile, &opts, |it| {
                 let Ok((_, plan)) = &whole else {

@@ -471,8 +471,25 @@ fn cap(s: &Segment) -> f64 {
 /// One step of the backward pass of [`planned_duration`]: the highest end speed of
 /// element `s` given the highest start speed `next_start` of the one after it, and
 /// its own highest start speed.
+///
+/// Where the element's own end limit binds (`next_start` ≥ min(v_end_hard, cap), the
+/// common case) the result does not depend on `next_start`: min(min(a, n), c) is
+/// then min(a, c), the same value. Taking that branch keeps the square root out of
+/// the chain of dependent steps, so successive elements' roots overlap.
 #[inline(always)]
 fn backward_step(s: &Segment, next_start: f64) -> (f64, f64) {
+    let own = s.v_end_hard.min(cap(s));
+    if next_start >= own {
+        (own, start_speed(s, own))
+    } else {
+        backward_step_bound(s, next_start)
+    }
+}
+
+/// [`backward_step`] where the next element's start speed binds.
+#[cold]
+#[inline(never)]
+fn backward_step_bound(s: &Segment, next_start: f64) -> (f64, f64) {
     let vend = s.v_end_hard.min(next_start).min(cap(s));
     (vend, start_speed(s, vend))
 }
@@ -508,9 +525,27 @@ impl ForwardTime {
     fn step(&mut self, s: &Segment, vend: f64) {
         let v0 = self.v0;
         let c = cap(s);
-        let v1 = vend.min((v0 * v0 + 2.0 * s.acc * s.len).sqrt());
+        // v1 = min(vend, √x); where x ≥ vend² surely (x ≥ fl(vend²)·(1 + 2⁻⁵⁰) > vend²,
+        // and a correctly rounded root of x ≥ y² is ≥ y), v1 is vend without the root:
+        // the next element's v0 then does not wait for it
+        let x = v0 * v0 + 2.0 * s.acc * s.len;
+        let v1 = if vend.is_finite() && x >= (vend * vend) * (1.0 + 4.0 * f64::EPSILON) {
+            vend
+        } else {
+            vend.min(x.sqrt())
+        };
         if s.len > 0.0 {
             let vp = c.min(((v0 * v0 + v1 * v1) / 2.0 + s.acc * s.len).sqrt());
+            if vp == v0 && vp == v1 && vp > 0.0 && vp.is_finite() && s.acc > 0.0 {
+                // cruising through: the terms below are exactly 0 (x − x = 0, 0/a =
+                // 0, 0 + 0 + c = c) but for len/vp; four divisions spared
+                self.t += s.len / vp;
+                if s.v_end_hard == 0.0 {
+                    self.t += s.dwell_s + self.settle;
+                }
+                self.v0 = v1;
+                return;
+            }
             let d_acc = (vp * vp - v0 * v0) / (2.0 * s.acc);
             let d_dec = (vp * vp - v1 * v1) / (2.0 * s.acc);
             let cruise = (s.len - d_acc - d_dec).max(0.0);

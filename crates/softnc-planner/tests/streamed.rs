@@ -6,8 +6,10 @@
 mod common;
 use common::{limit_ratios, profile};
 use softnc_core::{FeedProfile, MachineProfile};
+use softnc_gcode::Program;
 use softnc_planner::{
-    check_and_stream, check_program, read_and_plan, stream_program, PlanOptions, Sample, StreamMode,
+    check_and_stream, check_program, check_program_parallel, read_and_plan, stream_program,
+    CheckedProgram, PlanOptions, ReadPlanError, Sample, StreamMode,
 };
 use std::fmt::Write;
 use std::sync::Arc;
@@ -21,6 +23,16 @@ fn same_as_whole(text: &str, file: &str, p: &MachineProfile, limit: Option<usize
     };
     let whole = read_and_plan(text, file, p, &opts);
     let checked = check_program(text, file, p, &opts);
+    let key = |r: &Result<(Program, CheckedProgram), ReadPlanError>| {
+        r.as_ref()
+            .map(|(p, c)| (p.blocks, p.warnings.clone(), c.clone()))
+            .map_err(|e| e.clone())
+    };
+    assert_eq!(
+        key(&check_program_parallel(text, file, p, &opts)),
+        key(&checked),
+        "{file}: on two threads"
+    );
     let (want_prog, plan) = match whole {
         Err(e) => {
             assert_eq!(checked.unwrap_err(), e, "{file}: the first error");
@@ -134,6 +146,33 @@ fn streamed_plan_is_the_whole_plan() {
     }
 }
 
+/// Every machine profile of `config/machines` (acc/dec after interpolation, other
+/// cycles and limits), and the default one with arc blends (fillets, trimmed arcs) in
+/// both feed profiles.
+#[test]
+fn streamed_plan_is_the_whole_plan_on_every_profile() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machines");
+    let mut profiles = vec![];
+    for e in std::fs::read_dir(&dir).unwrap().flatten() {
+        let path = e.path();
+        if path.extension().is_some_and(|x| x == "ron") {
+            profiles.push(MachineProfile::load(&path).unwrap());
+        }
+    }
+    assert!(profiles.len() >= 2);
+    for fp in [FeedProfile::Trapezoidal, FeedProfile::SCurve] {
+        let mut p = profile(fp);
+        p.planner.arc_blends = true;
+        profiles.push(p);
+    }
+    let texts = [program(1500), dense_circles(6000)];
+    for p in &profiles {
+        for t in &texts {
+            assert!(same_as_whole(t, "p.ngc", p, None));
+        }
+    }
+}
+
 #[test]
 fn errors_are_the_whole_plans() {
     let p = profile(FeedProfile::Trapezoidal);
@@ -145,6 +184,10 @@ fn errors_are_the_whole_plans() {
     for t in [format!("{text}G1 X1 Y2 X3\nM2\n"), format!("{text}M2\n")] {
         let want = read_and_plan(&t, "e.ngc", &p, &opts).unwrap_err();
         assert_eq!(check_program(&t, "e.ngc", &p, &opts).unwrap_err(), want);
+        assert_eq!(
+            check_program_parallel(&t, "e.ngc", &p, &opts).unwrap_err(),
+            want
+        );
         assert_eq!(
             check_and_stream(&t, "e.ngc", &p, &opts, |_| ()).unwrap_err(),
             want
@@ -294,4 +337,39 @@ fn failed_stream_stops_at_what_it_has() {
     assert!(it.failed() && !it.is_finished());
     let r = limit_ratios(&samples, &p);
     assert!(r[0] <= 1.0 + 1e-9 && r[1] <= 1.0 + 1e-9, "{r:?}");
+}
+
+/// Before any element has come, the first sample is where the path starts (short
+/// programs too, whose elements the S-curve stage holds until the end).
+#[test]
+fn unfilled_stream_starts_where_the_path_starts() {
+    for fp in [FeedProfile::Trapezoidal, FeedProfile::SCurve] {
+        let p = profile(fp);
+        // the machine is not at the origin
+        let opts = PlanOptions {
+            start_mm: Some([7.0, -3.0, 1.0]),
+            ..Default::default()
+        };
+        for text in [
+            "G21 G90\nG0 X10 Y5\nG1 X20 F600\nM2\n",
+            "G21 G90\nG4 P0.5\nG0 X-3 Y2 Z-1\nM2\n",
+            dense_circles(50).as_str(),
+        ] {
+            let (_, checked) = check_program(text, "s.ngc", &p, &opts).unwrap();
+            let plan = read_and_plan(text, "s.ngc", &p, &opts).unwrap().1;
+            let (producer, mut it) = stream_program(
+                Arc::from(text),
+                "s.ngc",
+                &p,
+                &opts,
+                &checked,
+                StreamMode::RealTime,
+            );
+            let first = it.next().unwrap();
+            assert_eq!(first.pos_mm, softnc_core::Vec3::new(7.0, -3.0, 1.0));
+            assert_eq!(first, plan.interpolator().next().unwrap(), "{fp:?} {text}");
+            assert_eq!(it.starved(), 1);
+            drop(producer);
+        }
+    }
 }
