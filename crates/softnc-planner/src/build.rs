@@ -2,7 +2,7 @@
 //! (G64), exact stops (G61/G9), per-segment limits and junction speeds.
 
 use crate::fillet::{self, ArcView};
-use crate::path::{curve_tangential_acc, element_limits, ElementShape, Geom};
+use crate::path::{element_limits, ElementShape, Geom};
 use softnc_core::{AccDec, FeedProfile, MachineProfile, Primitive, Vec3};
 use softnc_gcode::{Motion, MotionKind, PathMode, Program};
 
@@ -91,9 +91,6 @@ pub struct Limits {
     pub scurve_acc: f64,
     /// S-curve only: smoothing window (s).
     pub scurve_window_s: f64,
-    /// Highest live feed override (fraction): the fastest a feed move may run is
-    /// its feed times this.
-    pub max_override: f64,
 }
 
 impl Limits {
@@ -122,7 +119,6 @@ impl Limits {
             arc_blends: p.planner.arc_blends,
             scurve_acc,
             scurve_window_s: window,
-            max_override: p.planner.max_feed_override,
         }
     }
 }
@@ -780,13 +776,6 @@ impl PathBuilder {
         let el = element_limits(shape, lim.vmax, lim.amax);
         let mut vel_cap = el.vel_mm_per_s;
         let mut acc = el.acc_mm_per_s2;
-        // a curve run below its centripetal cap leaves its axes room for more than the
-        // static tangential share (a CNC with acc/dec after interpolation keeps the
-        // static split: paper 004's machine)
-        if shape.curvature > 0.0 && lim.acc_dec == AccDec::BeforeInterpolation {
-            let v_top = vel_cap.min(m.feed_mm_per_s * lim.max_override);
-            acc = curve_tangential_acc(shape, lim.amax, v_top);
-        }
         if lim.profile == FeedProfile::SCurve {
             acc = acc.min(lim.scurve_acc);
             vel_cap = vel_cap.min(scurve_curve_cap(shape.curvature, lim));

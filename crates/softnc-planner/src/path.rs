@@ -272,27 +272,6 @@ impl ElementShape {
     }
 }
 
-/// Tangential acceleration a curved element may use when its path speed never
-/// exceeds `v_top_mm_per_s` (its hard cap, or below it its feed at the highest
-/// override): on axis i the acceleration is t_i·a_t + n_i·a_n, at most
-/// √(t_i² + n_i²)·√(a_t² + a_n²) ≤ w_i·√(a_t² + a_n²), so with a_n = κ·v² ≤ κ·v_top²
-/// every axis keeps within its limit while a_t ≤ √(A² − (κ·v_top²)²), A the axes'
-/// limit over their weights. Never below the static share
-/// (`ARC_TANGENTIAL_SHARE`·A, which goes with the normal share at the hard cap).
-pub fn curve_tangential_acc(g: &ElementShape, amax: [f64; 3], v_top_mm_per_s: f64) -> f64 {
-    let mut a_axis = f64::INFINITY;
-    for (&a, &w) in amax.iter().zip(&g.acc_weight) {
-        if w > 1e-12 {
-            a_axis = a_axis.min(if w == 1.0 { a } else { a / w });
-        }
-    }
-    // a margin far above the rounding of κ·v²
-    let a_n = g.curvature * v_top_mm_per_s * v_top_mm_per_s * (1.0 + 1e-9);
-    let room = a_axis * a_axis - a_n * a_n;
-    let a_t = if room > 0.0 { room.sqrt() } else { 0.0 };
-    a_t.max(ARC_TANGENTIAL_SHARE * a_axis)
-}
-
 /// Path limits of one element derived from the axis limits.
 #[derive(Debug, Clone, Copy)]
 pub struct ElementLimits {
