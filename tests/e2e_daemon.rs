@@ -155,7 +155,15 @@ impl Daemon {
         }
     }
 
+    /// The operator client, with the machine on (the daemon starts off).
     fn operator(&self) -> Operator {
+        let op = self.operator_off();
+        op.machine_on(Duration::from_secs(30)).expect("machine on");
+        op
+    }
+
+    /// The operator client, the machine left as it is.
+    fn operator_off(&self) -> Operator {
         Operator::wait_ready(&self.config, Duration::from_secs(30)).expect("MMI answers")
     }
 

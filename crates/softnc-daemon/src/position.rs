@@ -38,6 +38,9 @@ struct DryStop {
     s_mm: f64,
 }
 
+/// Every axis homed (a machine with absolute encoders).
+const ALL_HOMED: u32 = (1 << 3) - 1;
+
 /// Builds the engine for a job: controller stacks in front of the servo backend (on
 /// the preparation thread).
 pub type EngineFactory<B> = Box<dyn FnMut() -> CycleEngine<B> + Send>;
@@ -70,6 +73,10 @@ pub struct PositionTask<B: ServoBackend> {
     /// Status, heartbeats, loop stats and alarms leave through the outbox thread.
     outbox: Outbox<PositionMsg>,
     state: MachineState,
+    /// The operator's program-flow switches (a job's motions are read with them).
+    switches: crate::interp::Switches,
+    /// The line the requested job runs from.
+    from_line: Option<u32>,
     job_id: u64,
     primitives: Vec<Option<Primitive>>,
     /// The running job's program line per motion.
@@ -91,6 +98,8 @@ pub struct PositionTask<B: ServoBackend> {
     starved_since: Option<Instant>,
     /// The job started last.
     last_job_id: u64,
+    /// Bit i: axis i is homed.
+    homed: u32,
     latency: softnc_rt::LatencyStats,
     stats: LoopStats,
     hb_counter: u64,
@@ -118,7 +127,15 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             dir: cfg.data_dir.clone(),
             lossless: cfg.config.clock == ClockMode::Lockstep,
         });
-        let prep = Prep::start(cfg.machine.clone(), make_engine, trace)?;
+        let prep = Prep::start(
+            cfg.machine.clone(),
+            make_engine,
+            trace,
+            crate::machine_store::MachineStore::new(&cfg.data_dir),
+        )?;
+        // a controller starts with its drives off; restarted under a running one
+        // (the process was lost), it comes back as the machine was: on
+        let restarted = std::env::var_os(crate::cli::RESTARTED_ENV).is_some();
         // DaemonConfig::load refuses a filter wider than the window
         anyhow::ensure!(
             engine.filter_window() <= window,
@@ -149,7 +166,13 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             trace: None,
             ring: CommandRing::new(),
             window,
-            state: MachineState::Idle,
+            state: if restarted {
+                MachineState::Idle
+            } else {
+                MachineState::Off
+            },
+            switches: crate::interp::Switches::default(),
+            from_line: None,
             job_id: 0,
             primitives: Vec::new(),
             lines: Vec::new(),
@@ -163,6 +186,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             in_position_mm,
             in_position_timeout_cycles,
             last_job_id: 0,
+            homed: ALL_HOMED,
             latency: softnc_rt::LatencyStats::new(),
             stats: LoopStats::new(),
             hb_counter: 0,
@@ -320,13 +344,49 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     // the programmed path, a fresh engine, the PDC designs: made off
                     // the cycle, swapped in before motion
                     self.requested_job = c.job_id;
+                    self.from_line = (c.axis != 0 && c.axis != u32::MAX).then_some(c.axis);
                     self.prep.request(PrepRequest::Job {
                         job_id: c.job_id,
                         path: c.path,
                         spindle_override: self.spindle_override,
                         start_mm: self.last_cmd,
+                        from_line: self.from_line,
+                        switches: self.switches,
                     });
                 }
+                Some(ControlKind::MachineOn) => {
+                    if self.state == MachineState::Off {
+                        match self.engine.backend_mut().enable() {
+                            Ok(()) => {
+                                // holding where the axes stand: the last command if
+                                // they are still in position there
+                                let measured = self.engine.measured_mm();
+                                for i in 0..3 {
+                                    if (measured[i] - self.last_cmd[i]).abs()
+                                        > self.in_position_mm[i]
+                                    {
+                                        self.last_cmd[i] = measured[i];
+                                    }
+                                }
+                                self.prev_cmd = self.last_cmd;
+                                self.state = MachineState::Idle;
+                            }
+                            Err(e) => self.alarm(
+                                AlarmCode::Other,
+                                u32::MAX,
+                                format_args!("machine on: {e}"),
+                            )?,
+                        }
+                    }
+                }
+                Some(ControlKind::MachineOff) => {
+                    // the MMI asks only when nothing moves
+                    if self.state == MachineState::Idle && self.job_id == 0 {
+                        self.engine.backend_mut().disable();
+                        self.state = MachineState::Off;
+                    }
+                }
+                Some(k) if self.switches.apply(k, c.value) => {}
                 Some(ControlKind::SpindleOverride) => {
                     // the MMI checked the profile's range
                     self.spindle_override = c.value;
@@ -403,6 +463,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 path: FixedStr::empty(),
                 spindle_override: self.spindle_override,
                 start_mm: self.last_cmd,
+                from_line: None,
+                switches: self.switches,
             });
         }
         self.last_cmd = start;
@@ -538,6 +600,11 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             // the position process never enters Stopping (the interpolator's and
             // the MMI's view of an abort)
             MachineState::Faulted | MachineState::EStopped | MachineState::Stopping => {}
+            MachineState::Off
+            | MachineState::Homing
+            | MachineState::Jogging
+            | MachineState::Paused
+            | MachineState::Mdi => {}
         }
         if matches!(self.state, MachineState::Running | MachineState::Held) {
             if let Some(stop) = self.dry {
@@ -677,6 +744,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 }
                 _ => 0,
             },
+            homed: self.homed,
         };
         status.cmd_mm[..3].copy_from_slice(&cmd);
         status.actual_mm[..3].copy_from_slice(&rec.actual_mm);

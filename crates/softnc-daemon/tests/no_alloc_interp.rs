@@ -69,6 +69,7 @@ fn status(seq: u64, job_id: u64) -> PositionStatus {
         path_mm: 0.0,
         motion: 0,
         line: 0,
+        homed: 0,
     }
 }
 
@@ -177,6 +178,7 @@ fn run_counted(
                         seq: i as u64,
                         kind: kind.wire(),
                         job_id: 0,
+                        axis: u32::MAX,
                         value,
                         path: FixedStr::empty(),
                     })

@@ -19,6 +19,9 @@ pub struct PlanOptions {
     /// [`DEFAULT_STREAM_WINDOW_SEGMENTS`](crate::stream::DEFAULT_STREAM_WINDOW_SEGMENTS).
     /// Rounded up to a power of two of at least the lookahead's reach.
     pub stream_window_segments: usize,
+    /// The machine's parameters at the start (offsets, G92, active system: the
+    /// parameter file); `None`: the profile's work offsets.
+    pub params: Option<softnc_gcode::Params>,
 }
 
 impl PlanOptions {
@@ -27,6 +30,7 @@ impl PlanOptions {
     pub fn read_options(&self) -> softnc_gcode::ReadOptions {
         softnc_gcode::ReadOptions {
             start_mm: self.start_mm.map(softnc_core::Vec3),
+            params: self.params.clone(),
             ..Default::default()
         }
     }
