@@ -22,6 +22,26 @@
 //!   `home_mm`. Switch homing only (no index pulse), latching opposite to the search.
 //!
 //! Nothing here allocates; every `step` is a handful of floating-point operations.
+//!
+//! # Stepping it from the position cycle
+//!
+//! Between jobs, per axis `i`, once per cycle T:
+//!
+//! - Jog: `mover.reset(last_cmd[i])` when manual mode begins; on "jog +/−" pressed,
+//!   `mover.move_to(jog_target(axis, mover.pos_mm(), dir, homed), speed)` with
+//!   `speed = profile.jog.speed_mm_per_s(axis, requested)`; released → `mover.stop()`;
+//!   an increment → `move_to(pos ± step, speed)`. Each cycle
+//!   `cmd[i] = mover.step()`.
+//! - Homing (profiles with a `homing` section; axes in `profile.homing_order()`,
+//!   one at a time, the others holding): `HomingSequence::from_profile(&profile, i,
+//!   cmd[i])`, then each cycle `let s = seq.step(actual_mm[i], switch[i]);
+//!   cmd[i] = s.command_mm;` with the latest measured position (in the same frame as
+//!   the commands) and the switch input. On [`HomingEvent::Rereferenced`] add
+//!   `correction_mm` to the axis's offset (machine = encoder + offset) from this
+//!   cycle on: the command already jumped by it, so the command in the encoder frame
+//!   (`cmd − offset`) stays continuous. [`HomingEvent::Done`] → the axis is homed
+//!   (at `home_mm`; wait for in-position if needed); [`HomingEvent::Failed`] → alarm,
+//!   the axis is at rest and stays unhomed.
 
 use softnc_core::{AxisConfig, AxisHoming, MachineProfile};
 
