@@ -920,13 +920,15 @@ impl MmiTask {
                 } else {
                     match coords_number(coords) {
                         Some(n) => n,
-                        None => return Ok(Some(Self::reply(
-                            false,
-                            0,
-                            &format!(
+                        None => {
+                            return Ok(Some(Self::reply(
+                                false,
+                                0,
+                                &format!(
                                 "touch-off: {coords:?} is not a coordinate system (G54 … G59.3)"
                             ),
-                        ))),
+                            )))
+                        }
                     }
                 };
                 if matches!(

@@ -15,6 +15,7 @@
 use crate::bus::{Bus, Sub};
 use crate::config::{ClockMode, Loaded};
 use crate::lifecycle::StopWatch;
+use crate::manual::{Manual, ManualEvent};
 use crate::outbox::{Outbox, PositionMsg, OUTBOX_CAPACITY};
 use crate::prep::{JobPrep, Prep, PrepRequest, Prepared, Retired};
 use anyhow::Result;
@@ -100,6 +101,8 @@ pub struct PositionTask<B: ServoBackend> {
     last_job_id: u64,
     /// Bit i: axis i is homed.
     homed: u32,
+    /// Jogs and homing between jobs.
+    manual: Manual,
     latency: softnc_rt::LatencyStats,
     stats: LoopStats,
     hb_counter: u64,
@@ -136,6 +139,13 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         // a controller starts with its drives off; restarted under a running one
         // (the process was lost), it comes back as the machine was: on
         let restarted = std::env::var_os(crate::cli::RESTARTED_ENV).is_some();
+        // absolute encoders (no homing section): homed from the start
+        let homed = if cfg.machine.homed_at_start() {
+            ALL_HOMED
+        } else {
+            0
+        };
+        let manual = Manual::new(&cfg.machine, [0.0; 3])?;
         // DaemonConfig::load refuses a filter wider than the window
         anyhow::ensure!(
             engine.filter_window() <= window,
@@ -186,7 +196,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             in_position_mm,
             in_position_timeout_cycles,
             last_job_id: 0,
-            homed: ALL_HOMED,
+            homed,
+            manual,
             latency: softnc_rt::LatencyStats::new(),
             stats: LoopStats::new(),
             hb_counter: 0,
@@ -323,6 +334,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         while let Some(c) = self.control.receive()? {
             match ControlKind::from_wire(c.kind) {
                 Some(ControlKind::EStop) => {
+                    self.manual.stop();
+                    self.manual.hold(self.last_cmd);
                     self.state = MachineState::EStopped;
                     self.alarm(AlarmCode::EStop, u32::MAX, format_args!("emergency stop"))?;
                 }
@@ -354,37 +367,77 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                         switches: self.switches,
                     });
                 }
-                Some(ControlKind::MachineOn) => {
-                    if self.state == MachineState::Off {
-                        match self.engine.backend_mut().enable() {
-                            Ok(()) => {
-                                // holding where the axes stand: the last command if
-                                // they are still in position there
-                                let measured = self.engine.measured_mm();
-                                for i in 0..3 {
-                                    if (measured[i] - self.last_cmd[i]).abs()
-                                        > self.in_position_mm[i]
-                                    {
-                                        self.last_cmd[i] = measured[i];
-                                    }
+                Some(ControlKind::MachineOn) if self.state == MachineState::Off => {
+                    match self.engine.backend_mut().enable() {
+                        Ok(()) => {
+                            // holding where the axes stand: the last command if they
+                            // are still in position there
+                            let measured = self.engine.measured_mm();
+                            for ((cmd, m), band) in self
+                                .last_cmd
+                                .iter_mut()
+                                .zip(measured)
+                                .zip(self.in_position_mm)
+                            {
+                                if (m - *cmd).abs() > band {
+                                    *cmd = m;
                                 }
-                                self.prev_cmd = self.last_cmd;
-                                self.state = MachineState::Idle;
                             }
-                            Err(e) => self.alarm(
-                                AlarmCode::Other,
-                                u32::MAX,
-                                format_args!("machine on: {e}"),
-                            )?,
+                            self.prev_cmd = self.last_cmd;
+                            self.state = MachineState::Idle;
+                        }
+                        Err(e) => {
+                            self.alarm(AlarmCode::Other, u32::MAX, format_args!("machine on: {e}"))?
                         }
                     }
                 }
-                Some(ControlKind::MachineOff) => {
-                    // the MMI asks only when nothing moves
-                    if self.state == MachineState::Idle && self.job_id == 0 {
-                        self.engine.backend_mut().disable();
-                        self.state = MachineState::Off;
+                // the MMI asks only when nothing moves
+                Some(ControlKind::MachineOff)
+                    if self.state == MachineState::Idle && self.job_id == 0 =>
+                {
+                    self.engine.backend_mut().disable();
+                    self.state = MachineState::Off;
+                }
+                Some(ControlKind::Home) if self.idle_between_jobs() => {
+                    self.manual.hold(self.last_cmd);
+                    let axis = (c.axis != u32::MAX).then_some(c.axis as usize);
+                    if self.manual.home(axis) {
+                        // homing again: the axes it homes are not homed until done
+                        match axis {
+                            Some(i) => self.homed &= !(1 << i),
+                            None => self.homed = 0,
+                        }
+                        self.state = MachineState::Homing;
+                    } else if self.cfg.machine.homed_at_start() {
+                        // absolute encoders: nothing to do
+                        self.homed = ALL_HOMED;
                     }
+                }
+                Some(ControlKind::Jog)
+                    if self.idle_between_jobs() || self.state == MachineState::Jogging =>
+                {
+                    if self.state != MachineState::Jogging {
+                        self.manual.hold(self.last_cmd);
+                    }
+                    let i = c.axis as usize;
+                    let homed = self.homed & (1 << i) != 0;
+                    self.manual.jog(i, c.value / 60.0, homed);
+                    if self.manual.active() {
+                        self.state = MachineState::Jogging;
+                    }
+                }
+                Some(ControlKind::JogStep) if self.idle_between_jobs() => {
+                    self.manual.hold(self.last_cmd);
+                    let i = c.axis as usize;
+                    let homed = self.homed & (1 << i) != 0;
+                    if self.manual.jog_step(i, c.value, homed) {
+                        self.state = MachineState::Jogging;
+                    }
+                }
+                Some(ControlKind::Abort)
+                    if matches!(self.state, MachineState::Homing | MachineState::Jogging) =>
+                {
+                    self.manual.stop();
                 }
                 Some(k) if self.switches.apply(k, c.value) => {}
                 Some(ControlKind::SpindleOverride) => {
@@ -564,6 +617,47 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         Ok(())
     }
 
+    /// On, no job, nothing moving by hand.
+    fn idle_between_jobs(&self) -> bool {
+        self.state == MachineState::Idle && self.job_id == 0
+    }
+
+    /// One cycle of a jog or homing: the command, and the state when it is over.
+    fn manual_step(&mut self) -> Result<[f64; 3]> {
+        let (cmd, event) = self.manual.step(self.engine.measured_mm());
+        match event {
+            Some(ManualEvent::Rereferenced {
+                axis,
+                correction_mm,
+            }) => {
+                // the axis's coordinates move by the correction (the encoder is
+                // re-referenced where it stands, at rest): the engine restarts there,
+                // the other axes where they are commanded
+                let mut at = self.last_cmd;
+                at[axis] = self.engine.measured_mm()[axis] + correction_mm;
+                self.engine.reset(at);
+                self.last_cmd[axis] += correction_mm;
+                self.prev_cmd[axis] += correction_mm;
+            }
+            Some(ManualEvent::Homed { axis }) => {
+                self.homed |= 1 << axis;
+            }
+            Some(ManualEvent::HomingFailed { axis, why }) => {
+                let name = ["X", "Y", "Z"][axis];
+                self.alarm(
+                    AlarmCode::Other,
+                    axis as u32,
+                    format_args!("homing {name} failed: {why}"),
+                )?;
+            }
+            None => {}
+        }
+        if !self.manual.active() {
+            self.state = MachineState::Idle;
+        }
+        Ok(cmd)
+    }
+
     /// Set the programmed path of the job (for the contour error).
     pub fn set_job_primitives(&mut self, prims: Vec<Option<Primitive>>) {
         self.primitives = prims;
@@ -649,7 +743,11 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             matches!(self.state, MachineState::Running | MachineState::Held) || self.dry.is_some();
         // between jobs the servo holds the last command: the machine keeps running
         // (not in a fault or E-stop, where the drives are off)
-        let holding = self.state == MachineState::Idle && self.job_id == 0;
+        let holding = self.idle_between_jobs()
+            || matches!(self.state, MachineState::Homing | MachineState::Jogging);
+        if matches!(self.state, MachineState::Homing | MachineState::Jogging) {
+            cmd = self.manual_step()?;
+        }
         let rec = if moving || holding {
             let stepped = match ring_motion {
                 Some(motion) => self.engine.step_ring(&self.ring, motion, feed_move),
