@@ -116,7 +116,7 @@ fn run_counted(
 
     let job_id = 1;
     let mut planned = task
-        .plan_job(job.to_str().unwrap(), job_id, 1.0)
+        .plan_job(job.to_str().unwrap(), job_id, 1.0, None)
         .unwrap()
         .expect("the job is planned");
     assert_eq!(
