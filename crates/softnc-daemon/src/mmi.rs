@@ -1373,6 +1373,7 @@ impl MmiTask {
             "spindle_rpm": s.map(|s| s.spindle_rpm),
             "job": job.map(|j| serde_json::json!({
                 "job_id": j.job_id, "path": j.path, "outcome": j.outcome,
+                "program": j.program, "mdi": j.mdi, "from_line": j.from_line,
                 "cycles": j.cycles, "planned_samples": j.planned_samples,
                 "path_mm": j.path_mm, "planned_path_mm": j.planned_path_mm,
                 "progress": j.progress(),
