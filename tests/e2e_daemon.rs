@@ -1568,7 +1568,8 @@ fn quick_homing_profile(dir: &Path) -> PathBuf {
 #[test]
 fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     let tag = "shopday";
-    let profile_dir = std::env::temp_dir().join(format!("softnc-e2e-profile-{}", std::process::id()));
+    let profile_dir =
+        std::env::temp_dir().join(format!("softnc-e2e-profile-{}", std::process::id()));
     let profile = quick_homing_profile(&profile_dir);
     let dir = fresh_dir(tag);
     let mut d = Daemon::start_in(
@@ -1594,7 +1595,10 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     // not homed: jobs and MDI refused, state unchanged
     let s = op.status().unwrap();
     assert_eq!(s["homed"], serde_json::json!([false, false, false]), "{s}");
-    for (kind, path) in [(ControlKind::StartJob, abs(&job)), (ControlKind::Mdi, "G0 X1".into())] {
+    for (kind, path) in [
+        (ControlKind::StartJob, abs(&job)),
+        (ControlKind::Mdi, "G0 X1".into()),
+    ] {
         let (ok, msg) = ask(&op, kind, 0, 0.0, &path);
         assert!(!ok && msg.contains("not homed"), "{kind:?}: {msg}");
     }
@@ -1623,7 +1627,10 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     assert!(!ok && msg.contains("soft limit"), "{msg}");
     std::thread::sleep(Duration::from_millis(200));
     let s = op.status().unwrap();
-    assert_eq!((s["state"].as_str(), machine_mm(&s)[0]), (Some("Idle"), 10.0));
+    assert_eq!(
+        (s["state"].as_str(), machine_mm(&s)[0]),
+        (Some("Idle"), 10.0)
+    );
 
     // continuous jog X+ at 12 m/min (clamped to the profile's jog limit), renewed
     // by its client: stops at the soft limit, never beyond
@@ -1637,7 +1644,10 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
         if s["state"] == "Idle" {
             break;
         }
-        assert!(t0.elapsed() < Duration::from_secs(20), "jog never ended: {s}");
+        assert!(
+            t0.elapsed() < Duration::from_secs(20),
+            "jog never ended: {s}"
+        );
         let (ok, _) = ask(&op, ControlKind::Jog, 0, 12000.0, "");
         assert!(ok || op.status().unwrap()["state"] == "Idle");
         std::thread::sleep(Duration::from_millis(50));
@@ -1655,7 +1665,10 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
         s["state"] == "Idle"
     });
     let x = machine_mm(&s)[0];
-    assert!(x < 400.0 && x > 300.0, "the dead-man stopped the jog at {x}");
+    assert!(
+        x < 400.0 && x > 300.0,
+        "the dead-man stopped the jog at {x}"
+    );
     assert!(
         s["alarms"].to_string().contains("did not renew"),
         "the stop is reported: {s}"
@@ -1670,12 +1683,14 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
         assert!(ok, "{msg}");
     }
     let offsets: serde_json::Value =
-        serde_json::from_str(ask(&op, ControlKind::Offsets, u32::MAX, 0.0, "").1.as_str())
-            .unwrap();
+        serde_json::from_str(ask(&op, ControlKind::Offsets, u32::MAX, 0.0, "").1.as_str()).unwrap();
     let g55 = &offsets["systems"][1];
     assert_eq!(g55["coords"], "G55");
     for i in 0..3 {
-        assert!((g55["origin_mm"][i].as_f64().unwrap() - p[i]).abs() < 1e-6, "{offsets}");
+        assert!(
+            (g55["origin_mm"][i].as_f64().unwrap() - p[i]).abs() < 1e-6,
+            "{offsets}"
+        );
     }
     // move away, then MDI `G55 G0 X0 Y0` lands on the touch-off point in X and Y
     let (ok, msg) = ask(&op, ControlKind::JogStep, 1, -15.0, "");
@@ -1687,10 +1702,15 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     assert_eq!(r.accepted, 1, "{}", r.message.as_str());
     let s = d.wait_job(&op, r.job_id, Duration::from_secs(20));
     assert_eq!(s["job"]["outcome"], "completed", "{s}");
-    let s = d.wait_status(&op, Duration::from_secs(5), "at rest", |s| s["state"] == "Idle");
+    let s = d.wait_status(&op, Duration::from_secs(5), "at rest", |s| {
+        s["state"] == "Idle"
+    });
     let at = machine_mm(&s);
     for i in 0..3 {
-        assert!((at[i] - p[i]).abs() < 1e-6, "MDI landed at {at:?}, touch-off point {p:?}");
+        assert!(
+            (at[i] - p[i]).abs() < 1e-6,
+            "MDI landed at {at:?}, touch-off point {p:?}"
+        );
     }
     // the MDI's G55 stays active: work coordinates read 0 there
     assert_eq!(s["coords"], "G55", "{s}");
@@ -1703,7 +1723,9 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     std::fs::write(&slow, "%\nG21 G90\nG1 X-20 F300\nG1 X0\n%\n").unwrap();
     let r = op.request(ControlKind::StartJob, 0.0, &abs(&slow)).unwrap();
     assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    d.wait_status(&op, Duration::from_secs(10), "moving", |s| s["state"] == "Running");
+    d.wait_status(&op, Duration::from_secs(10), "moving", |s| {
+        s["state"] == "Running"
+    });
     let (ok, msg) = ask(&op, ControlKind::Mdi, 0, 0.0, "G0 X1");
     assert!(!ok && msg.contains("busy"), "{msg}");
     let (ok, msg) = ask(&op, ControlKind::TouchOff, 0, 0.0, "");
@@ -1715,13 +1737,13 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
 
     // a restart keeps the offsets, the active system and the tools (not the homing)
     d.keep_dir = true;
+    drop(op);
     d.shutdown_leaving_nothing(tag);
     drop(d);
     let d = Daemon::start_in(dir, tag, "Lockstep", false, profile.to_str().unwrap(), &[]);
     let op = d.operator();
     let offsets: serde_json::Value =
-        serde_json::from_str(ask(&op, ControlKind::Offsets, u32::MAX, 0.0, "").1.as_str())
-            .unwrap();
+        serde_json::from_str(ask(&op, ControlKind::Offsets, u32::MAX, 0.0, "").1.as_str()).unwrap();
     assert_eq!(offsets["active"], "G55", "{offsets}");
     for i in 0..3 {
         let got = offsets["systems"][1]["origin_mm"][i].as_f64().unwrap();
@@ -1735,7 +1757,13 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
         .iter()
         .find(|t| t["number"] == 5)
         .unwrap_or_else(|| panic!("tool 5 kept: {tools}"));
-    assert_eq!((t5["length_mm"].as_f64(), t5["diameter_mm"].as_f64()), (Some(42.5), Some(6.0)));
-    assert_eq!(op.status().unwrap()["homed"], serde_json::json!([false, false, false]));
+    assert_eq!(
+        (t5["length_mm"].as_f64(), t5["diameter_mm"].as_f64()),
+        (Some(42.5), Some(6.0))
+    );
+    assert_eq!(
+        op.status().unwrap()["homed"],
+        serde_json::json!([false, false, false])
+    );
     let _ = std::fs::remove_dir_all(&profile_dir);
 }

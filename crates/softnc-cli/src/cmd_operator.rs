@@ -541,7 +541,25 @@ pub fn status_text(s: &serde_json::Value) -> String {
                 .collect();
             format!("{name:<18}{}\n", cells.join(""))
         };
-        let _ = writeln!(out, "{:<18}{:>12}{:>12}{:>12}", "", "X", "Y", "Z");
+        let homed: Vec<&str> = s["homed"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .map(|h| if h == true { "homed" } else { "NOT homed" })
+            .collect();
+        let _ = writeln!(
+            out,
+            "{:<18}{:>12}{:>12}{:>12}",
+            "",
+            format!("X {}", homed.first().unwrap_or(&"")),
+            format!("Y {}", homed.get(1).unwrap_or(&"")),
+            format!("Z {}", homed.get(2).unwrap_or(&""))
+        );
+        out.push_str(&row(
+            &format!("work mm ({})", s["coords"].as_str().unwrap_or("?")),
+            &s["work_mm"],
+            1.0,
+        ));
         out.push_str(&row("command mm", &ax["cmd_mm"], 1.0));
         out.push_str(&row("actual mm", &ax["actual_mm"], 1.0));
         out.push_str(&row("following err µm", &ax["following_err_um"], 1.0));
