@@ -165,6 +165,9 @@ const KEY_HELP: &str = "  x reset  h hold  r resume  a abort  m MDI  t touch  v 
 /// The last line while typing an MDI block.
 const KEY_HELP_MDI: &str = "  Enter send  Esc cancel  Backspace erase  (keys type text)";
 
+/// The line above the last while typing an MDI block (the jog keys do not act).
+const MDI_HELP: &str = "MDI: the block runs as a job from where the machine stands";
+
 /// The jog keys and the jog mode, for the line above the last.
 fn jog_help(ui: &Ui) -> String {
     let how = if ui.continuous {
@@ -286,13 +289,13 @@ fn draw(
         Mode::Normal => Line::raw(ui.note.clone()),
     };
     frame.render_widget(Paragraph::new(message), rows[5]);
-    let (stop, rest) = match ui.mode {
-        Mode::Mdi(_) => ("F1 E-STOP", KEY_HELP_MDI),
-        _ => (KEY_HELP_STOP, KEY_HELP),
+    let (first, stop, rest) = match ui.mode {
+        Mode::Mdi(_) => (MDI_HELP.to_string(), "F1 E-STOP", KEY_HELP_MDI),
+        _ => (jog_help(ui), KEY_HELP_STOP, KEY_HELP),
     };
     frame.render_widget(
         Paragraph::new(vec![
-            Line::raw(jog_help(ui)),
+            Line::raw(first),
             Line::from(vec![
                 Span::styled(
                     stop,
@@ -444,8 +447,8 @@ fn draw_listing(
         Some(l) => {
             let what = if l.mdi { "MDI" } else { "program" };
             let title = match current {
-                Some(c) => format!("{what}  line {c}/{}", l.len()),
-                None => format!("{what}  {} lines", l.len()),
+                Some(c) => format!("{what}  line {c}/{}", l.line_count()),
+                None => format!("{what}  {} lines", l.line_count()),
             };
             let first = l.window_start(current, height);
             let lines = (first..first + height)
@@ -817,6 +820,11 @@ mod tests {
         assert!(
             !out.contains("e E-STOP"),
             "e types text while entering MDI:\n{out}"
+        );
+        assert!(out.contains(MDI_HELP), "{out}");
+        assert!(
+            !out.contains("jog ←→"),
+            "the jog keys do not act while typing:\n{out}"
         );
     }
 

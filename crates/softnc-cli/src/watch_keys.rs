@@ -536,13 +536,8 @@ impl Listing {
     }
 
     /// How many lines.
-    pub fn len(&self) -> usize {
+    pub fn line_count(&self) -> usize {
         self.lines.len()
-    }
-
-    /// Whether it has no line.
-    pub fn is_empty(&self) -> bool {
-        self.lines.is_empty()
     }
 
     /// Line `n` (1-based, as `program_line`).
@@ -555,7 +550,7 @@ impl Listing {
     /// a third of the way down (or the top when there is no current line).
     pub fn window_start(&self, current: Option<usize>, height: usize) -> usize {
         let Some(c) = current else { return 1 };
-        let last_start = self.len().saturating_sub(height) + 1;
+        let last_start = self.line_count().saturating_sub(height) + 1;
         c.saturating_sub(height / 3).clamp(1, last_start.max(1))
     }
 }
@@ -876,7 +871,7 @@ mod tests {
         Listing::refresh(&mut cache, &s);
         let l = cache.clone().unwrap();
         assert_eq!(
-            (l.len(), l.line(1), l.line(20)),
+            (l.line_count(), l.line(1), l.line(20)),
             (20, Some("N1 G1 X1"), Some("N20 G1 X20"))
         );
         assert_eq!(l.line(0), None);
