@@ -1,79 +1,150 @@
-//! `softnc watch`: a terminal UI — axis positions, following and contour error, job
-//! progress and program line, alarms, loop jitter and a live plot of the contour
-//! error, on an 80×24 terminal or larger. Keys: q quit, h hold, r resume, a abort,
-//! + / − feed override ±10 %, ] / [ spindle override ±10 %, e E-stop, x reset.
+//! `softnc watch`: the operator's terminal UI (issue 19, machine operation) on an
+//! 80×24 terminal or larger — state, coordinate system, tool, overrides and the
+//! single block / optional stop / block delete switches; the job's progress; the DRO
+//! (machine, work and actual position, following error, homed flag per axis); the
+//! live contour error or the offsets; the program listing around the current line;
+//! loop jitter and alarms; a message line (replies, the MDI entry, the touch-off
+//! prompt); the keys on the last two lines.
+//!
+//! Keys (what they do is `watch_keys::on_key`, tested without a daemon; `?` shows
+//! them all):
+//! - jog: ←/→ X−/X+, ↑/↓ Y+/Y−, PgUp/PgDn Z+/Z−, by the selected step (`i` cycles
+//!   0.01, 0.1, 1, 10 mm); `c` continuous: a key held (its repeats) jogs at the
+//!   selected speed (`,`/`.`: 60 … 6000 mm/min) and the jog stops 0.5 s after the
+//!   last repeat, at the release where the terminal reports it, at any other key, or
+//!   by the MMI's dead-man if the UI goes away;
+//! - `H` home all axes, `o` machine on, `O` machine off;
+//! - `m` MDI line (text, Backspace, Enter sends, Esc cancels; other keys type);
+//! - `t` then `x`/`y`/`z`: touch that axis off to 0 in the active system;
+//! - `v` offsets view (G54 … G59.3, G92, tool), in place of the live plot;
+//! - `s` single block, `n` next block, `1` optional stop, `/` block delete;
+//! - `h` hold, `r` resume, `a` abort, `+`/`-` feed ±10 %, `]`/`[` spindle ±10 %;
+//! - `e` (or F1, which also works while typing MDI) E-stop, `x` reset;
+//! - `?` help, Esc closes it (or the offsets view), `q` or Ctrl-C quits.
 
+use crate::watch_keys::{self, Action, Listing, Mode, Ui, AXIS_NAMES, KEY_MAP};
 use anyhow::Result;
-use ratatui::crossterm::event::{self, Event, KeyCode};
-use ratatui::layout::{Constraint, Direction, Layout};
-use ratatui::style::{Color, Style};
+use ratatui::crossterm::event::{
+    self, Event, KeyboardEnhancementFlags, PopKeyboardEnhancementFlags,
+    PushKeyboardEnhancementFlags,
+};
+use ratatui::crossterm::execute;
+use ratatui::layout::{Constraint, Direction, Layout, Rect};
+use ratatui::style::{Color, Modifier, Style};
 use ratatui::symbols;
-use ratatui::text::Line;
+use ratatui::text::{Line, Span};
 use ratatui::widgets::{
-    Axis, Block, Borders, Chart, Dataset, Gauge, GraphType, List, ListItem, Paragraph, Row, Table,
+    Axis, Block, Borders, Chart, Clear, Dataset, Gauge, GraphType, List, ListItem, Paragraph, Row,
+    Table,
 };
 use softnc_daemon::client::Operator;
 use softnc_ipc::ControlKind;
 use std::collections::VecDeque;
 use std::path::Path;
 use std::process::ExitCode;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// Points kept in the live plot.
 const PLOT_POINTS: usize = 300;
+/// The status is asked for this often (and the screen drawn).
+const STATUS_PERIOD: Duration = Duration::from_millis(100);
+/// How long the loop waits for a key before it runs its timers (status, the held
+/// jog's renewal): a fraction of `watch_keys::JOG_RENEW`.
+const INPUT_POLL: Duration = Duration::from_millis(20);
 
-/// Run the terminal UI until `q`.
+/// Ask the terminal to report key repeats and releases (kitty keyboard protocol),
+/// where it can: a continuous jog then stops at the key's release. Returns whether
+/// it was turned on (to be turned off on the way out).
+fn report_key_releases() -> bool {
+    let supported = matches!(
+        ratatui::crossterm::terminal::supports_keyboard_enhancement(),
+        Ok(true)
+    );
+    supported
+        && execute!(
+            std::io::stdout(),
+            PushKeyboardEnhancementFlags(
+                KeyboardEnhancementFlags::DISAMBIGUATE_ESCAPE_CODES
+                    | KeyboardEnhancementFlags::REPORT_EVENT_TYPES
+            )
+        )
+        .is_ok()
+}
+
+/// Send one request and give its reply to the UI.
+fn send(op: &Operator, ui: &mut Ui, r: &watch_keys::Request) {
+    let reply = op
+        .request_axis(r.kind, r.axis, r.value, &r.text)
+        .map(|rep| (rep.accepted == 1, rep.message.as_str().to_string()))
+        .map_err(|e| e.to_string());
+    watch_keys::on_reply(ui, r, reply);
+}
+
+/// Run the terminal UI until `q` (or Ctrl-C).
 pub fn run(config: &Path) -> Result<ExitCode> {
     let op = Operator::connect(config)?;
     let mut terminal = ratatui::init();
+    let enhanced = report_key_releases();
+    if enhanced {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            let _ = execute!(std::io::stdout(), PopKeyboardEnhancementFlags);
+            previous(info);
+        }));
+    }
     let mut plot: VecDeque<(f64, f64)> = VecDeque::with_capacity(PLOT_POINTS);
     let mut tick = 0u64;
-    let mut note = String::new();
+    let mut ui = Ui::default();
+    let mut listing: Option<Listing> = None;
+    let mut s = serde_json::json!({"state": "connecting"});
+    let mut status_at: Option<Instant> = None;
     let result = (|| -> Result<()> {
         loop {
-            let s = op
-                .status()
-                .unwrap_or_else(|e| serde_json::json!({"state": format!("no MMI: {e}")}));
-            tick += 1;
-            if let Some(c) = s["axes"]["contour_err_um"].as_f64() {
-                if plot.len() == PLOT_POINTS {
-                    plot.pop_front();
+            let mut redraw = false;
+            if !matches!(status_at, Some(t) if t.elapsed() < STATUS_PERIOD) {
+                status_at = Some(Instant::now());
+                s = op
+                    .status()
+                    .unwrap_or_else(|e| serde_json::json!({"state": format!("no MMI: {e}")}));
+                tick += 1;
+                if let Some(c) = s["axes"]["contour_err_um"].as_f64() {
+                    if plot.len() == PLOT_POINTS {
+                        plot.pop_front();
+                    }
+                    plot.push_back((tick as f64, c));
                 }
-                plot.push_back((tick as f64, c));
+                Listing::refresh(&mut listing, &s);
+                redraw = true;
             }
-            terminal.draw(|f| draw(f, &s, &plot, &note))?;
-            if event::poll(Duration::from_millis(100))? {
+            let mut actions = Vec::new();
+            if event::poll(INPUT_POLL)? {
                 if let Event::Key(k) = event::read()? {
-                    let ov = s["feed_override"].as_f64().unwrap_or(1.0);
-                    // the MMI refuses what is outside the profile's spindle range
-                    let sov = s["spindle_override"].as_f64().unwrap_or(1.0);
-                    let req = match k.code {
-                        KeyCode::Char('q') | KeyCode::Esc => return Ok(()),
-                        KeyCode::Char('h') => Some((ControlKind::Hold, 0.0)),
-                        KeyCode::Char('r') => Some((ControlKind::Resume, 0.0)),
-                        KeyCode::Char('a') => Some((ControlKind::Abort, 0.0)),
-                        KeyCode::Char('+') => {
-                            Some((ControlKind::FeedOverride, (ov + 0.1).min(2.55)))
-                        }
-                        KeyCode::Char('-') => {
-                            Some((ControlKind::FeedOverride, (ov - 0.1).max(0.0)))
-                        }
-                        KeyCode::Char(']') => Some((ControlKind::SpindleOverride, sov + 0.1)),
-                        KeyCode::Char('[') => Some((ControlKind::SpindleOverride, sov - 0.1)),
-                        KeyCode::Char('e') => Some((ControlKind::EStop, 0.0)),
-                        KeyCode::Char('x') => Some((ControlKind::Reset, 0.0)),
-                        _ => None,
-                    };
-                    if let Some((kind, v)) = req {
-                        note = match op.request(kind, v, "") {
-                            Ok(r) => r.message.as_str().to_string(),
-                            Err(e) => e.to_string(),
-                        };
+                    actions = watch_keys::on_key(&mut ui, k, &s, Instant::now());
+                    redraw = true;
+                }
+            }
+            actions.extend(watch_keys::on_tick(&mut ui, Instant::now()));
+            for a in actions {
+                match a {
+                    Action::Quit => return Ok(()),
+                    Action::Send(r) => {
+                        send(&op, &mut ui, &r);
+                        redraw = true;
                     }
                 }
             }
+            if redraw {
+                terminal.draw(|f| draw(f, &s, &plot, &ui, listing.as_ref()))?;
+            }
         }
     })();
+    // a jog left held (an error on the way out) is stopped, not left to the dead-man
+    if let Some(j) = ui.jog.take() {
+        let _ = op.request_axis(ControlKind::Jog, j.axis, 0.0, "");
+    }
+    if enhanced {
+        let _ = execute!(std::io::stdout(), PopKeyboardEnhancementFlags);
+    }
     ratatui::restore();
     result.map(|()| ExitCode::SUCCESS)
 }
@@ -86,17 +157,88 @@ fn num(v: &serde_json::Value, scale: f64, width: usize, decimals: usize) -> Stri
     }
 }
 
-/// The keys, on the bottom line (fits 80 columns).
-const KEY_HELP: &str =
-    "q quit  h hold  r resume  a abort  +/- feed  ]/[ spindle  e E-STOP  x reset";
+/// The keys that stop or clear the machine, first on the last line, always shown
+/// (F1 also works while typing MDI).
+const KEY_HELP_STOP: &str = "F1, e E-STOP";
+/// The rest of the last line in the operator's mode (all keys: `?`).
+const KEY_HELP: &str = "  x reset  h hold  r resume  a abort  m MDI  t touch  v offs  ? all";
+/// The last line while typing an MDI block.
+const KEY_HELP_MDI: &str = "  Enter send  Esc cancel  Backspace erase  (keys type text)";
 
-/// The screen, laid out to fit an 80×24 terminal: a status line, the job's progress,
-/// the axes (DRO), the live contour error, loops and alarms, the keys.
+/// The line above the last while typing an MDI block (the jog keys do not act).
+const MDI_HELP: &str = "MDI: the block runs as a job from where the machine stands";
+
+/// The jog keys and the jog mode, for the line above the last.
+fn jog_help(ui: &Ui) -> String {
+    let how = if ui.continuous {
+        format!("{} mm/min (,/.)  c steps", ui.speed_mm_per_min())
+    } else {
+        format!("step {} mm (i)  c continuous", ui.step_mm())
+    };
+    format!("jog ←→ X  ↑↓ Y  PgUp/PgDn Z  {how}  H home  o/O on/off")
+}
+
+/// The status line: state (and the processes when one is not alive), coordinate
+/// system, tool, overrides, switches.
+fn header(s: &serde_json::Value) -> String {
+    let on = |k: &str| {
+        if s["switches"][k].as_bool() == Some(true) {
+            "on"
+        } else {
+            "off"
+        }
+    };
+    let mut head = s["state"].as_str().unwrap_or("?").to_string();
+    for p in ["interp", "position"] {
+        if let Some(state) = s["processes"][p].as_str().filter(|st| *st != "alive") {
+            head.push_str(&format!("  {p} {state}"));
+        }
+    }
+    head.push_str(&format!(
+        "  {}  T{}  feed {}% spindle {}% {} rpm  SB {} OS {} BD {}",
+        s["coords"].as_str().unwrap_or("-"),
+        s["tool"].as_u64().map_or("-".into(), |t| t.to_string()),
+        num(&s["feed_override"], 100.0, 0, 0),
+        num(&s["spindle_override"], 100.0, 0, 0),
+        num(&s["spindle_rpm"], 1.0, 0, 0),
+        on("single_block"),
+        on("optional_stop"),
+        on("block_delete"),
+    ));
+    head
+}
+
+/// The style of the state on the status line.
+fn state_style(state: &str) -> Style {
+    match state {
+        "EStopped" | "Faulted" => Style::default()
+            .fg(Color::White)
+            .bg(Color::Red)
+            .add_modifier(Modifier::BOLD),
+        "Running" | "Mdi" | "Jogging" | "Homing" => Style::default().fg(Color::Green),
+        "Held" | "Paused" | "Stopping" => Style::default().fg(Color::Yellow),
+        _ => Style::default(),
+    }
+}
+
+/// The style of the program's current line.
+fn current_line_style() -> Style {
+    Style::default()
+        .fg(Color::Black)
+        .bg(Color::Yellow)
+        .add_modifier(Modifier::BOLD)
+}
+
+/// The screen, laid out to fit an 80×24 terminal: the status line, the job's
+/// progress, the DRO, the live contour error (or the offsets) beside the program
+/// listing, loops and alarms, the message line, two lines of keys; `?` lays the key
+/// map over the middle.
 fn draw(
     frame: &mut ratatui::Frame,
     s: &serde_json::Value,
     plot: &VecDeque<(f64, f64)>,
-    note: &str,
+    ui: &Ui,
+    listing: Option<&Listing>,
 ) {
     let rows = Layout::default()
         .direction(Direction::Vertical)
@@ -104,23 +246,90 @@ fn draw(
             Constraint::Length(1),
             Constraint::Length(1),
             Constraint::Length(6),
-            Constraint::Min(4),
-            Constraint::Length(5),
+            Constraint::Min(6),
+            Constraint::Length(4),
             Constraint::Length(1),
+            Constraint::Length(2),
         ])
         .split(frame.area());
-    let job = &s["job"];
-    let head = format!(
-        "{}  feed {} %  spindle {} % {} rpm  interp {} position {}  {}",
-        s["state"].as_str().unwrap_or("?"),
-        num(&s["feed_override"], 100.0, 0, 0),
-        num(&s["spindle_override"], 100.0, 0, 0),
-        num(&s["spindle_rpm"], 1.0, 0, 0),
-        s["processes"]["interp"].as_str().unwrap_or("?"),
-        s["processes"]["position"].as_str().unwrap_or("?"),
-        note
+    let head = header(s);
+    let state = s["state"].as_str().unwrap_or("?");
+    let (state_part, rest) = head.split_at(head.find("  ").unwrap_or(head.len()));
+    frame.render_widget(
+        Paragraph::new(Line::from(vec![
+            Span::styled(state_part.to_string(), state_style(state)),
+            Span::raw(rest.to_string()),
+        ])),
+        rows[0],
     );
-    frame.render_widget(Paragraph::new(head), rows[0]);
+    draw_job(frame, s, rows[1]);
+    draw_dro(frame, s, rows[2]);
+    if ui.offsets_view {
+        draw_offsets(frame, s, ui, rows[3]);
+    } else {
+        let middle = Layout::default()
+            .direction(Direction::Horizontal)
+            .constraints([Constraint::Percentage(50), Constraint::Percentage(50)])
+            .split(rows[3]);
+        draw_plot(frame, plot, middle[0]);
+        draw_listing(frame, s, listing, middle[1]);
+    }
+    draw_loops_and_alarms(frame, s, rows[4]);
+    let coords = s["coords"].as_str().unwrap_or("the active system");
+    let message = match &ui.mode {
+        Mode::Mdi(text) => Line::from(vec![
+            Span::styled("MDI> ", Style::default().add_modifier(Modifier::BOLD)),
+            Span::raw(text.clone()),
+            Span::styled("_", Style::default().add_modifier(Modifier::SLOW_BLINK)),
+        ]),
+        Mode::TouchOff => Line::styled(
+            format!("touch-off: x, y or z sets that axis to 0 in {coords}; Esc cancels"),
+            Style::default().fg(Color::Yellow),
+        ),
+        Mode::Normal => Line::raw(ui.note.clone()),
+    };
+    frame.render_widget(Paragraph::new(message), rows[5]);
+    let (first, stop, rest) = match ui.mode {
+        Mode::Mdi(_) => (MDI_HELP.to_string(), "F1 E-STOP", KEY_HELP_MDI),
+        _ => (jog_help(ui), KEY_HELP_STOP, KEY_HELP),
+    };
+    frame.render_widget(
+        Paragraph::new(vec![
+            Line::raw(first),
+            Line::from(vec![
+                Span::styled(
+                    stop,
+                    Style::default().fg(Color::Red).add_modifier(Modifier::BOLD),
+                ),
+                Span::raw(rest),
+            ]),
+        ]),
+        rows[6],
+    );
+    if ui.help {
+        let area = Rect {
+            height: rows[3].height + rows[4].height,
+            ..rows[3]
+        };
+        let lines: Vec<Line> = KEY_MAP
+            .iter()
+            .map(|(a, b)| Line::raw(format!("{a:<38} {b}")))
+            .collect();
+        frame.render_widget(Clear, area);
+        frame.render_widget(
+            Paragraph::new(lines).block(
+                Block::default()
+                    .borders(Borders::ALL)
+                    .title("keys (? or Esc closes)"),
+            ),
+            area,
+        );
+    }
+}
+
+/// The job's progress bar, with the job, its outcome, the line and the file.
+fn draw_job(frame: &mut ratatui::Frame, s: &serde_json::Value, area: Rect) {
+    let job = &s["job"];
     let progress = job["progress"].as_f64().unwrap_or(0.0).clamp(0.0, 1.0);
     let label = if job.is_null() {
         "no job".to_string()
@@ -128,12 +337,16 @@ fn draw(
         let line = s["program_line"]
             .as_u64()
             .map_or(String::new(), |l| format!(" line {l}"));
+        let what = if job["mdi"].is_string() {
+            "MDI"
+        } else {
+            job["path"].as_str().unwrap_or("")
+        };
         format!(
-            "job {} {} {:.0} %{line}  {}",
+            "job {} {} {:.0} %{line}  {what}",
             job["job_id"],
             job["outcome"].as_str().unwrap_or("?"),
             progress * 100.0,
-            job["path"].as_str().unwrap_or("")
         )
     };
     frame.render_widget(
@@ -141,17 +354,28 @@ fn draw(
             .gauge_style(Style::default().fg(Color::Green))
             .ratio(progress)
             .label(label),
-        rows[1],
+        area,
     );
+}
+
+/// The DRO: per axis (`*` when homed) the machine position (the command), the work
+/// position (in the active system, G92 and tool offset taken off), the actual
+/// position and the following error; the active system in the title.
+fn draw_dro(frame: &mut ratatui::Frame, s: &serde_json::Value, area: Rect) {
     let axes = &s["axes"];
-    let names = ["X", "Y", "Z"];
-    let table_rows: Vec<Row> = (0..3)
+    let table_rows: Vec<Row> = (0..AXIS_NAMES.len())
         .map(|i| {
+            let homed = if s["homed"][i].as_bool() == Some(true) {
+                '*'
+            } else {
+                ' '
+            };
             Row::new(vec![
-                names[i].to_string(),
-                num(&axes["cmd_mm"][i], 1.0, 10, 4),
-                num(&axes["actual_mm"][i], 1.0, 10, 4),
-                num(&axes["following_err_um"][i], 1.0, 9, 2),
+                format!("{} {homed}", AXIS_NAMES[i]),
+                num(&s["machine_mm"][i], 1.0, 11, 4),
+                num(&s["work_mm"][i], 1.0, 11, 4),
+                num(&axes["actual_mm"][i], 1.0, 11, 4),
+                num(&axes["following_err_um"][i], 1.0, 11, 2),
             ])
         })
         .collect();
@@ -161,21 +385,28 @@ fn draw(
             Constraint::Length(4),
             Constraint::Length(12),
             Constraint::Length(12),
-            Constraint::Length(14),
+            Constraint::Length(12),
+            Constraint::Length(13),
         ],
     )
     .header(Row::new(vec![
         "axis",
-        "command mm",
-        "actual mm",
+        " machine mm",
+        "    work mm",
+        "  actual mm",
         "following µm",
     ]))
     .block(Block::default().borders(Borders::ALL).title(format!(
-        "axes  contour error {} µm  ring {}",
+        "DRO {}  (* homed)  contour error {} µm  ring {}",
+        s["coords"].as_str().unwrap_or("-"),
         num(&axes["contour_err_um"], 1.0, 0, 2),
         axes["ring_fill"].as_u64().map_or("-".into(), |r| r.to_string())
     )));
-    frame.render_widget(table, rows[2]);
+    frame.render_widget(table, area);
+}
+
+/// The live contour error.
+fn draw_plot(frame: &mut ratatui::Frame, plot: &VecDeque<(f64, f64)>, area: Rect) {
     let data: Vec<(f64, f64)> = plot.iter().copied().collect();
     let (x0, x1) = (
         data.first().map_or(0.0, |p| p.0),
@@ -198,11 +429,120 @@ fn draw(
         Line::from("0"),
         Line::from(format!("{:.1}", ymax)),
     ]));
-    frame.render_widget(chart, rows[3]);
+    frame.render_widget(chart, area);
+}
+
+/// The program around the current line (`program_line`), which is highlighted and
+/// marked `>`; an MDI job lists its block(s).
+fn draw_listing(
+    frame: &mut ratatui::Frame,
+    s: &serde_json::Value,
+    listing: Option<&Listing>,
+    area: Rect,
+) {
+    let height = area.height.saturating_sub(2) as usize;
+    let current = s["program_line"].as_u64().map(|l| l as usize);
+    let (title, lines) = match listing {
+        None => ("program".to_string(), vec![Line::raw("(no job)")]),
+        Some(l) => {
+            let what = if l.mdi { "MDI" } else { "program" };
+            let title = match current {
+                Some(c) => format!("{what}  line {c}/{}", l.line_count()),
+                None => format!("{what}  {} lines", l.line_count()),
+            };
+            let first = l.window_start(current, height);
+            let lines = (first..first + height)
+                .filter_map(|n| {
+                    let text = l.line(n)?;
+                    Some(if Some(n) == current {
+                        Line::styled(format!(">{n:>5} {text}"), current_line_style())
+                    } else {
+                        Line::raw(format!(" {n:>5} {text}"))
+                    })
+                })
+                .collect();
+            (title, lines)
+        }
+    };
+    frame.render_widget(
+        Paragraph::new(lines).block(Block::default().borders(Borders::ALL).title(title)),
+        area,
+    );
+}
+
+/// One entry of the offsets panel: name, `*` when active, X Y Z (mm), 37 columns.
+fn offsets_entry(name: &str, active: bool, mm: &serde_json::Value) -> String {
+    format!(
+        "{name:<6}{}{}{}{}",
+        if active { '*' } else { ' ' },
+        num(&mm[0], 1.0, 10, 3),
+        num(&mm[1], 1.0, 10, 3),
+        num(&mm[2], 1.0, 10, 3)
+    )
+}
+
+/// The offsets: the origins of G54 … G59.3 (the `Offsets` reply, two per line, the
+/// active one marked and highlighted), G92 and the tool offset (live, from the
+/// status).
+fn draw_offsets(frame: &mut ratatui::Frame, s: &serde_json::Value, ui: &Ui, area: Rect) {
+    let columns = format!("{:<7}{:>10}{:>10}{:>10}", "", "X", "Y", "Z");
+    let mut lines = vec![Line::raw(format!("{columns}   {columns}"))];
+    let empty = Vec::new();
+    let systems = ui
+        .offsets
+        .as_ref()
+        .and_then(|o| o["systems"].as_array())
+        .unwrap_or(&empty);
+    if ui.offsets.is_none() {
+        lines.push(Line::raw("(asking softnc-mmi for the offsets …)"));
+    }
+    for pair in systems.chunks(2) {
+        let mut spans = Vec::new();
+        for (k, sys) in pair.iter().enumerate() {
+            let active = sys["active"] == true;
+            let text = offsets_entry(
+                sys["coords"].as_str().unwrap_or("?"),
+                active,
+                &sys["origin_mm"],
+            );
+            if k > 0 {
+                spans.push(Span::raw("   "));
+            }
+            spans.push(if active {
+                Span::styled(text, current_line_style())
+            } else {
+                Span::raw(text)
+            });
+        }
+        lines.push(Line::from(spans));
+    }
+    let o = &s["offsets"];
+    let tool = format!(
+        "T{}",
+        s["tool"].as_u64().map_or("-".into(), |t| t.to_string())
+    );
+    lines.push(Line::raw(format!(
+        "{}   {}",
+        offsets_entry("G92", false, &o["g92_mm"]),
+        offsets_entry(&tool, false, &o["tool_offset_mm"])
+    )));
+    let title = format!(
+        "offsets (v closes)  active {}  rotation {}°  t x/y/z: touch off to 0",
+        s["coords"].as_str().unwrap_or("-"),
+        num(&o["rotation_deg"], 1.0, 0, 1)
+    );
+    frame.render_widget(
+        Paragraph::new(lines).block(Block::default().borders(Borders::ALL).title(title)),
+        area,
+    );
+}
+
+/// Loop jitter and the alarms.
+fn draw_loops_and_alarms(frame: &mut ratatui::Frame, s: &serde_json::Value, area: Rect) {
     let bottom = Layout::default()
         .direction(Direction::Horizontal)
-        .constraints([Constraint::Percentage(45), Constraint::Percentage(55)])
-        .split(rows[4]);
+        .constraints([Constraint::Percentage(40), Constraint::Percentage(60)])
+        .split(area);
     let mut loops = vec![];
     for name in ["interp", "position"] {
         let l = &s["loops"][name];
@@ -234,19 +574,25 @@ fn draw(
         List::new(alarms).block(Block::default().borders(Borders::ALL).title("alarms")),
         bottom[1],
     );
-    frame.render_widget(Paragraph::new(KEY_HELP), rows[5]);
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use ratatui::backend::TestBackend;
+    use ratatui::buffer::Buffer;
     use ratatui::Terminal;
 
-    fn screen(s: &serde_json::Value, width: u16, height: u16) -> String {
+    fn render(
+        s: &serde_json::Value,
+        ui: &Ui,
+        listing: Option<&Listing>,
+        width: u16,
+        height: u16,
+    ) -> (String, Buffer) {
         let mut t = Terminal::new(TestBackend::new(width, height)).unwrap();
         let plot: VecDeque<(f64, f64)> = (0..50).map(|k| (k as f64, (k as f64).sin())).collect();
-        t.draw(|f| draw(f, s, &plot, "")).unwrap();
+        t.draw(|f| draw(f, s, &plot, ui, listing)).unwrap();
         let buf = t.backend().buffer().clone();
         let mut out = String::new();
         for y in 0..buf.area.height {
@@ -255,20 +601,40 @@ mod tests {
             }
             out.push('\n');
         }
-        out
+        (out, buf)
+    }
+
+    fn screen(s: &serde_json::Value, width: u16, height: u16) -> String {
+        render(s, &Ui::default(), None, width, height).0
     }
 
     fn running() -> serde_json::Value {
         serde_json::json!({
             "state": "Running", "feed_override": 1.0, "spindle_override": 1.0, "spindle_rpm": 0.0,
+            "homed": [true, true, false], "coords": "G55", "tool": 2,
+            "machine_mm": [1.0, 2.0, 3.0], "work_mm": [-9.0, -18.0, 3.0],
+            "switches": {"single_block": true, "optional_stop": false, "block_delete": false},
             "program_line": 7,
-            "job": {"job_id": 3, "outcome": "running", "progress": 0.42, "path": "/tmp/a.ngc"},
+            "job": {"job_id": 3, "outcome": "running", "progress": 0.42, "path": "/tmp/a.ngc",
+                    "program": "/nonexistent/programs/abc.ngc"},
             "axes": {"cmd_mm": [1.0, 2.0, 3.0], "actual_mm": [1.0, 2.0, 3.0],
                      "following_err_um": [0.5, 0.25, 0.0], "contour_err_um": 1.5, "ring_fill": 100},
             "processes": {"interp": "alive", "position": "alive"},
             "loops": {"interp": {"jitter_ns": {"p99": 1000.0, "max": 5000.0}}},
             "alarms": [{"code": "RingDry", "message": "ran dry"}],
         })
+    }
+
+    fn program() -> Listing {
+        let text: String = (1..=40).map(|k| format!("N{k} G1 X{k} F600\n")).collect();
+        Listing::from_text(3, false, text)
+    }
+
+    /// The screen row holding `needle`.
+    fn row_of(out: &str, needle: &str) -> usize {
+        out.lines()
+            .position(|l| l.contains(needle))
+            .unwrap_or_else(|| panic!("{needle:?} not on screen:\n{out}"))
     }
 
     #[test]
@@ -284,6 +650,42 @@ mod tests {
         assert!(out.contains("line 7"), "{out}");
         assert!(out.contains("e E-STOP  x reset"), "key help cut:\n{out}");
         assert!(out.contains("RingDry"), "{out}");
+        // both key lines whole, in either jog mode
+        assert!(out.contains(&format!("{KEY_HELP_STOP}{KEY_HELP}")), "{out}");
+        assert!(out.contains(&jog_help(&Ui::default())), "{out}");
+        let cont = Ui {
+            continuous: true,
+            speed_idx: watch_keys::JOG_SPEEDS_MM_PER_MIN.len() - 1,
+            ..Ui::default()
+        };
+        let (out, _) = render(&running(), &cont, None, 80, 24);
+        assert!(out.contains(&jog_help(&cont)), "{out}");
+        assert!(jog_help(&cont).contains("6000 mm/min"));
+    }
+
+    #[test]
+    fn the_dro_shows_machine_and_work_position_homed_flags_and_the_system() {
+        let out = screen(&running(), 80, 24);
+        assert!(out.contains("DRO G55"), "{out}");
+        let x = &out.lines().nth(row_of(&out, "X *")).unwrap().to_string();
+        assert!(
+            x.contains("1.0000") && x.contains("-9.0000") && x.contains("0.50"),
+            "{x}"
+        );
+        let z = out.lines().nth(row_of(&out, "│Z ")).unwrap();
+        assert!(!z.contains("Z *"), "Z is not homed: {z}");
+        let head = out.lines().next().unwrap();
+        for part in [
+            "Running",
+            "G55",
+            "T2",
+            "SB on",
+            "OS off",
+            "BD off",
+            "feed 100%",
+        ] {
+            assert!(head.contains(part), "{part} missing: {head}");
+        }
     }
 
     #[test]
@@ -294,5 +696,160 @@ mod tests {
         assert!(out.contains("no job"), "{out}");
         let none = serde_json::json!({"state": "no MMI: timed out"});
         assert!(!screen(&none, 80, 24).contains("NaN"));
+    }
+
+    #[test]
+    fn a_machine_off_before_the_position_process_reports_shows_dashes_not_nan() {
+        let off = serde_json::json!({
+            "state": "Off", "homed": [false, false, false], "machine_mm": null, "work_mm": null,
+            "coords": "G54", "offsets": {"g5x_mm": [0.0, 0.0, 0.0], "rotation_deg": 0.0,
+                "g92_mm": [0.0, 0.0, 0.0], "tool_offset_mm": [0.0, 0.0, 0.0]},
+            "tool": 0, "switches": {"single_block": false, "optional_stop": false,
+                "block_delete": false},
+            "program_line": null, "feed_override": 1.0, "spindle_override": null,
+            "spindle_rpm": null, "job": null, "axes": null, "alarms": [],
+            "processes": {"interp": "alive", "position": "starting"},
+        });
+        let out = screen(&off, 80, 24);
+        assert!(!out.contains("NaN"), "{out}");
+        assert!(out.starts_with("Off  position starting  G54  T0"), "{out}");
+        assert!(out.contains("position starting"), "{out}");
+        let x = out.lines().nth(row_of(&out, "│X ")).unwrap();
+        assert!(x.matches(" -").count() >= 4, "{x}");
+        assert!(out.contains("(no job)"), "{out}");
+        // the offsets view of the same status: dashes where the reply has not come
+        let ui = Ui {
+            offsets_view: true,
+            ..Ui::default()
+        };
+        let (out, _) = render(&off, &ui, None, 80, 24);
+        assert!(!out.contains("NaN"), "{out}");
+        assert!(out.contains("asking softnc-mmi"), "{out}");
+    }
+
+    #[test]
+    fn a_running_job_lists_its_program_around_the_current_line_highlighted() {
+        let l = program();
+        let (out, buf) = render(&running(), &Ui::default(), Some(&l), 80, 24);
+        assert!(out.contains("program  line 7/40"), "{out}");
+        let y = row_of(&out, ">    7 N7 G1 X7 F600");
+        // the lines before and after it are there, unmarked
+        assert!(out.contains("     6 N6 G1 X6"), "{out}");
+        assert!(out.contains("     8 N8 G1 X8"), "{out}");
+        assert!(
+            !out.contains("N1 G1"),
+            "the window follows the line:\n{out}"
+        );
+        let x = out
+            .lines()
+            .nth(y)
+            .unwrap()
+            .chars()
+            .position(|c| c == '>')
+            .unwrap();
+        assert_eq!(buf[(x as u16, y as u16)].bg, Color::Yellow);
+        let other = row_of(&out, "     8 N8 G1");
+        assert_ne!(buf[(x as u16, other as u16)].bg, Color::Yellow);
+        // an MDI job lists its block
+        let mut mdi = running();
+        mdi["job"]["mdi"] = "G0 X10 Y5".into();
+        mdi["program_line"] = 1.into();
+        let m = Listing::from_text(3, true, "G0 X10 Y5".into());
+        let (out, _) = render(&mdi, &Ui::default(), Some(&m), 80, 24);
+        assert!(out.contains(">    1 G0 X10 Y5"), "{out}");
+        assert!(out.contains("MDI  line 1/1"), "{out}");
+    }
+
+    #[test]
+    fn the_offsets_view_shows_every_system_g92_and_the_tool_in_place_of_the_plot() {
+        let mut s = running();
+        s["offsets"] = serde_json::json!({"g5x_mm": [10.0, 20.0, 0.0], "rotation_deg": 0.0,
+            "g92_mm": [0.5, 0.0, 0.0], "tool_offset_mm": [0.0, 0.0, 42.125]});
+        let names = [
+            "G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3",
+        ];
+        let systems: Vec<serde_json::Value> = names
+            .iter()
+            .enumerate()
+            .map(|(k, n)| {
+                serde_json::json!({"coords": n, "origin_mm": [k as f64 * 100.0, -1.5, -999.125],
+                    "rotation_deg": 0.0, "active": *n == "G55"})
+            })
+            .collect();
+        let ui = Ui {
+            offsets_view: true,
+            offsets: Some(serde_json::json!({"active": "G55", "systems": systems})),
+            ..Ui::default()
+        };
+        let (out, buf) = render(&s, &ui, Some(&program()), 80, 24);
+        assert!(!out.contains("contour error µm (live)"), "{out}");
+        for n in names {
+            assert!(out.contains(&format!("{n:<6}")), "{n} missing:\n{out}");
+        }
+        assert!(
+            out.contains("G59.3     800.000    -1.500  -999.125"),
+            "{out}"
+        );
+        let y = row_of(&out, "G55   *");
+        let x = out.lines().nth(y).unwrap().find("G55").unwrap();
+        let x = out.lines().nth(y).unwrap()[..x].chars().count();
+        assert_eq!(buf[(x as u16, y as u16)].bg, Color::Yellow);
+        assert!(
+            out.contains("G92         0.500     0.000     0.000"),
+            "{out}"
+        );
+        assert!(
+            out.contains("T2          0.000     0.000    42.125"),
+            "{out}"
+        );
+        assert!(out.contains("active G55"), "{out}");
+        assert!(out.contains("e E-STOP  x reset"), "{out}");
+        assert!(!out.contains("NaN"), "{out}");
+    }
+
+    #[test]
+    fn mdi_entry_shows_the_typed_line_and_its_keys_with_the_e_stop() {
+        let ui = Ui {
+            mode: Mode::Mdi("G0 X10 Y5".into()),
+            ..Ui::default()
+        };
+        let (out, _) = render(&running(), &ui, None, 80, 24);
+        let y = row_of(&out, "MDI> G0 X10 Y5_");
+        assert_eq!(y, 21, "the input line is above the keys:\n{out}");
+        assert!(out.contains("F1 E-STOP  Enter send  Esc cancel"), "{out}");
+        assert!(
+            !out.contains("e E-STOP"),
+            "e types text while entering MDI:\n{out}"
+        );
+        assert!(out.contains(MDI_HELP), "{out}");
+        assert!(
+            !out.contains("jog ←→"),
+            "the jog keys do not act while typing:\n{out}"
+        );
+    }
+
+    #[test]
+    fn touch_off_prompt_names_the_system_and_the_help_overlay_lists_every_key() {
+        let ui = Ui {
+            mode: Mode::TouchOff,
+            ..Ui::default()
+        };
+        let (out, _) = render(&running(), &ui, None, 80, 24);
+        assert!(
+            out.contains("x, y or z sets that axis to 0 in G55"),
+            "{out}"
+        );
+        let help = Ui {
+            help: true,
+            ..Ui::default()
+        };
+        let (out, _) = render(&running(), &help, None, 80, 24);
+        for (a, b) in KEY_MAP {
+            assert!(
+                out.contains(a) && out.contains(b),
+                "{a} / {b} missing:\n{out}"
+            );
+        }
+        assert!(out.contains("e E-STOP  x reset"), "{out}");
     }
 }
