@@ -1767,3 +1767,141 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     );
     let _ = std::fs::remove_dir_all(&profile_dir);
 }
+
+/// Wait until the job pauses (M0/M1, single block) at a line; returns the status.
+fn wait_paused(d: &Daemon, op: &Operator) -> serde_json::Value {
+    d.wait_status(op, Duration::from_secs(30), "a pause", |s| {
+        s["state"] == "Paused"
+    })
+}
+
+#[test]
+fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_whole_job() {
+    let d = Daemon::start("flow", "Lockstep", true);
+    let op = d.operator();
+    // M0 pauses where it is: the axes at rest there, for as long as it takes
+    let m0 = d.dir.join("m0.ngc");
+    std::fs::write(&m0, "G21 G90 G64 P0.01\nG1 X10 F1200\nM0\nG1 X20 Y5\nM2\n").unwrap();
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&m0)).unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let s = wait_paused(&d, &op);
+    assert_eq!(s["program_line"], 3, "paused at the M0's line: {s}");
+    std::thread::sleep(Duration::from_millis(500));
+    let s = op.status().unwrap();
+    assert_eq!(s["state"], "Paused", "{s}");
+    assert!((machine_mm(&s)[0] - 10.0).abs() < 1e-9, "{s}");
+    // hold and step are no resume of a pause; resume is
+    let (ok, msg) = ask(&op, ControlKind::Step, u32::MAX, 0.0, "");
+    assert!(!ok || msg.contains("next block"), "{msg}");
+    let (ok, msg) = ask(&op, ControlKind::Resume, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(30));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    let at = machine_mm(&op.status().unwrap());
+    assert!((at[0] - 20.0).abs() < 1e-9 && (at[1] - 5.0).abs() < 1e-9, "{at:?}");
+
+    // single block: one block per step
+    let blocks = d.dir.join("blocks.ngc");
+    std::fs::write(
+        &blocks,
+        "G21 G90 G64 P0.01\nG1 X30 F3000\nG1 Y15\nG1 X40\nM2\n",
+    )
+    .unwrap();
+    let (ok, msg) = ask(&op, ControlKind::SingleBlock, u32::MAX, 1.0, "");
+    assert!(ok, "{msg}");
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&blocks)).unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let mut lines = Vec::new();
+    for _ in 0..3 {
+        let s = wait_paused(&d, &op);
+        lines.push(s["program_line"].as_u64().unwrap());
+        let (ok, msg) = ask(&op, ControlKind::Step, u32::MAX, 0.0, "");
+        assert!(ok, "{msg}");
+        d.wait_status(&op, Duration::from_secs(10), "stepped", |s| {
+            s["state"] != "Paused" || s["job"]["outcome"] != "running"
+        });
+    }
+    assert!(lines.windows(2).all(|w| w[0] < w[1]), "one block per step: {lines:?}");
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(30));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    let (ok, msg) = ask(&op, ControlKind::SingleBlock, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+
+    // abort while paused: stops, the job ends aborted
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&m0)).unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    wait_paused(&d, &op);
+    let (ok, msg) = ask(&op, ControlKind::Abort, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(30));
+    assert_eq!(s["job"]["outcome"], "aborted", "{s}");
+
+    // run from line: the remaining samples after the safe approach are the whole
+    // job's from that line (an exact stop before it: the job is at rest there too)
+    let whole = d.dir.join("whole.ngc");
+    std::fs::write(
+        &whole,
+        "G21 G90 G61\nG0 X0 Y0 Z5\nG1 Z-1 F600\nG1 X20 F2400\nG2 X30 Y10 R10\nG1 Y30\nG3 X20 Y40 I-10 J0\nG1 X0\nG0 Z5\nM2\n",
+    )
+    .unwrap();
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&whole)).unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let whole_id = r.job_id;
+    d.wait_job(&op, whole_id, Duration::from_secs(60));
+    let r = op
+        .request_axis(ControlKind::StartJob, 6, 0.0, &abs(&whole))
+        .unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let from_id = r.job_id;
+    let s = d.wait_job(&op, from_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    let cmds = |job: u64| -> Vec<String> {
+        // the trace is written out by its own thread: read it once it stops growing
+        let mut text = Vec::new();
+        for _ in 0..100 {
+            let now = d.trace_of(job, 1);
+            if !now.is_empty() && now.len() == text.len() {
+                break;
+            }
+            text = now;
+            std::thread::sleep(Duration::from_millis(200));
+        }
+        String::from_utf8(text)
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').skip(1).take(3).collect::<Vec<_>>().join(","))
+            .collect()
+    };
+    let (a, b) = (cmds(whole_id), cmds(from_id));
+    // the start of line 6 (X30 Y10 Z-1): from the last sample there in each
+    let tail = |v: &[String]| -> Vec<String> {
+        let i = v
+            .iter()
+            .rposition(|p| {
+                let x: Vec<f64> = p.split(',').map(|c| c.parse().unwrap()).collect();
+                (x[0] - 30.0).abs() < 1e-9 && (x[1] - 10.0).abs() < 1e-9 && (x[2] + 1.0).abs() < 1e-9
+            })
+            .expect("at the start of line 6");
+        // up to the job's last command (the axes settle after it for as long as
+        // they take)
+        let last = v.last().unwrap();
+        let end = v.iter().position(|p| p == last).unwrap();
+        v[i..=end.max(i)].to_vec()
+    };
+    let (ta, tb) = (tail(&a), tail(&b));
+    assert!(ta.len() > 100, "{}", ta.len());
+    assert_eq!(ta.len(), tb.len(), "same remaining samples");
+    assert!(ta == tb, "run from line 6 differs from the whole job after the approach");
+    // refused inside a subroutine, as LinuxCNC refuses
+    let sub = d.dir.join("sub.ngc");
+    std::fs::write(
+        &sub,
+        "G21 G90\no100 sub\nG1 X5 F600\no100 endsub\no100 call\nM2\n",
+    )
+    .unwrap();
+    let r = op.request_axis(ControlKind::StartJob, 3, 0.0, &abs(&sub)).unwrap();
+    assert_eq!(r.accepted, 0, "{}", r.message.as_str());
+    assert!(r.message.as_str().contains("sub"), "{}", r.message.as_str());
+    assert_eq!(op.status().unwrap()["state"], "Idle");
+}
