@@ -131,9 +131,7 @@ impl Motion {
         let r = |v: Vec3| Vec3(v.0.map(|x| canon_round(x, self.inch)));
         match self.kind {
             MotionKind::Arc { .. } => (Some(r(self.canon_end)), Some(r(self.canon_center))),
-            MotionKind::Dwell { .. } | MotionKind::Pause { .. } | MotionKind::Sync => {
-                (None, None)
-            }
+            MotionKind::Dwell { .. } | MotionKind::Pause { .. } | MotionKind::Sync => (None, None),
             _ => (Some(r(self.canon_end)), None),
         }
     }

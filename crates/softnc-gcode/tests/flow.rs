@@ -138,12 +138,17 @@ fn run_from_line_recovers_the_state_and_approaches_z_first() {
         ]
     );
     let first = &p.motions[0];
-    assert!(close(first.start + first.offset_mm, Vec3::new(3.0, 4.0, 20.0)));
+    assert!(close(
+        first.start + first.offset_mm,
+        Vec3::new(3.0, 4.0, 20.0)
+    ));
     assert!(p.motions[..2]
         .iter()
         .all(|m| m.path_mode == PathMode::ExactStop));
     // the modal feed of line 5 is recovered
-    assert!(matches!(p.motions[3].kind, MotionKind::Feed { feed_mm_per_min, .. } if feed_mm_per_min == 300.0));
+    assert!(
+        matches!(p.motions[3].kind, MotionKind::Feed { feed_mm_per_min, .. } if feed_mm_per_min == 300.0)
+    );
     // each motion starts where the one before ended
     for w in p.motions.windows(2) {
         let end = w[0].kind.end().unwrap_or(w[0].start) + w[0].offset_mm;
@@ -204,8 +209,9 @@ fn run_from_line_refusals_name_the_line() {
     let sub = "o<s> sub\nG0 X1\no<s> endsub\nG0 Y1\no<s> call\nM2\n";
     let e = read(sub, &options(2)).unwrap_err();
     assert!(
-        e.to_string()
-            .starts_with("t.ngc:2:1: cannot run from line 2: it lies in the definition of subroutine"),
+        e.to_string().starts_with(
+            "t.ngc:2:1: cannot run from line 2: it lies in the definition of subroutine"
+        ),
         "{e}"
     );
     // after the definition it runs

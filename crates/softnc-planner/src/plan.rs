@@ -467,7 +467,8 @@ impl Plan {
             self.max_override,
         );
         it.set_single_block(self.single_block);
-        it.core_mut().set_wait_at_program_stops(self.wait_at_program_stops);
+        it.core_mut()
+            .set_wait_at_program_stops(self.wait_at_program_stops);
         it
     }
 }
