@@ -335,6 +335,35 @@ fn run_from_line_gives_the_uninterrupted_samples_after_its_approach() {
 }
 
 #[test]
+fn run_from_line_stays_within_limits_and_ends_as_the_program() {
+    // from line 6, after a blended corner: the approach, then the rest, both profiles
+    for fp in BOTH {
+        let p = profile(fp);
+        let restart = PlanOptions {
+            from_line: Some(6),
+            start_mm: Some([5.0, -5.0, 8.0]),
+            ..Default::default()
+        };
+        let samples: Vec<Sample> =
+            stream(RESTART, &p, &restart, |it| it.take(MAX_SAMPLES).collect());
+        assert_eq!(samples[0].pos_mm, Vec3::new(5.0, -5.0, 8.0), "{fp:?}");
+        assert_eq!(
+            samples.last().unwrap().pos_mm,
+            Vec3::new(70.0, 0.0, 10.0),
+            "{fp:?}"
+        );
+        // the approach ends exactly at line 6's start (40, 20, 2), from Z 8 down
+        assert!(
+            samples
+                .iter()
+                .any(|s| (s.pos_mm - Vec3::new(40.0, 20.0, 2.0)).norm() < 1e-9),
+            "{fp:?}"
+        );
+        assert_within_limits(&samples, &p, "run from line 6");
+    }
+}
+
+#[test]
 fn end_parameters_carry_a_touch_off_to_the_next_program() {
     let p = profile(FeedProfile::Trapezoidal);
     let first = PlanOptions {
