@@ -631,8 +631,8 @@ impl StreamInterpolator {
     /// feed it runs, braking as for any stop; an end too close to stop at is passed),
     /// and at every block end after it, and waits there for
     /// [`StreamInterpolator::resume`]. A block end inside a blended corner is the end
-    /// of the first move's trimmed element, within the blend tolerance of the
-    /// programmed corner; with [`PlanOptions::single_block`] from the start every
+    /// of the first move's trimmed element: on the block's own programmed line, where
+    /// the blend into the next begins; with [`PlanOptions::single_block`] from the start every
     /// block ends in an exact stop at its programmed end. Off: block ends are passed
     /// (a pause the path waits in already still waits for its resume).
     pub fn set_single_block(&mut self, on: bool) {
