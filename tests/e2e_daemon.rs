@@ -32,6 +32,8 @@ struct Daemon {
     child: Child,
     config: PathBuf,
     dir: PathBuf,
+    /// Keep the folder when dropped (the next daemon starts in it).
+    keep_dir: bool,
     /// Held until the daemon is shut down (fields drop after `Drop::drop`).
     _serial: std::sync::MutexGuard<'static, ()>,
 }
@@ -151,11 +153,20 @@ impl Daemon {
             child,
             config,
             dir,
+            keep_dir: false,
             _serial: serial,
         }
     }
 
+    /// The operator client, with the machine on (the daemon starts off).
     fn operator(&self) -> Operator {
+        let op = self.operator_off();
+        op.machine_on(Duration::from_secs(30)).expect("machine on");
+        op
+    }
+
+    /// The operator client, the machine left as it is.
+    fn operator_off(&self) -> Operator {
         Operator::wait_ready(&self.config, Duration::from_secs(30)).expect("MMI answers")
     }
 
@@ -317,7 +328,9 @@ impl Drop for Daemon {
         }
         let _ = self.child.kill();
         let _ = self.child.wait();
-        let _ = std::fs::remove_dir_all(&self.dir);
+        if !self.keep_dir {
+            let _ = std::fs::remove_dir_all(&self.dir);
+        }
     }
 }
 
@@ -1526,4 +1539,203 @@ fn a_long_program_is_streamed_not_held_whole_in_the_interpolator() {
     assert_eq!(a.accepted, 1, "{}", a.message.as_str());
     let s = d.wait_job(&op, r.job_id, Duration::from_secs(30));
     assert_eq!(s["job"]["outcome"], "aborted", "{s}");
+}
+
+/// A request's (accepted, message).
+fn ask(op: &Operator, kind: ControlKind, axis: u32, value: f64, path: &str) -> (bool, String) {
+    let r = op.request_axis(kind, axis, value, path).unwrap();
+    (r.accepted == 1, r.message.as_str().to_string())
+}
+
+/// The machine position in the status.
+fn machine_mm(s: &serde_json::Value) -> [f64; 3] {
+    [0, 1, 2].map(|i| s["machine_mm"][i].as_f64().unwrap())
+}
+
+/// `config/machines/default-incremental.ron` with homing searches 2.5 times as
+/// fast (a shorter test), written into `dir`.
+fn quick_homing_profile(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(repo().join("config/machines/default-incremental.ron"))
+        .unwrap()
+        .replace("search_vel_mm_per_s: 40.0", "search_vel_mm_per_s: 100.0")
+        .replace("search_vel_mm_per_s: 30.0", "search_vel_mm_per_s: 75.0");
+    std::fs::create_dir_all(dir).unwrap();
+    let path = dir.join("incremental-quick.ron");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
+    let tag = "shopday";
+    let profile_dir = std::env::temp_dir().join(format!("softnc-e2e-profile-{}", std::process::id()));
+    let profile = quick_homing_profile(&profile_dir);
+    let dir = fresh_dir(tag);
+    let mut d = Daemon::start_in(
+        dir.clone(),
+        tag,
+        "Lockstep",
+        false,
+        profile.to_str().unwrap(),
+        &[],
+    );
+    let op = d.operator_off();
+    let job = short_job(&d.dir);
+    // the daemon starts off: nothing runs
+    let s = d.wait_status(&op, Duration::from_secs(10), "off", |s| {
+        !s["machine_mm"].is_null()
+    });
+    assert_eq!(s["state"], "Off", "{s}");
+    let (ok, msg) = ask(&op, ControlKind::StartJob, 0, 0.0, &abs(&job));
+    assert!(!ok && msg.contains("off"), "{msg}");
+    let (ok, msg) = ask(&op, ControlKind::JogStep, 0, 10.0, "");
+    assert!(!ok && msg.contains("off"), "{msg}");
+    op.machine_on(Duration::from_secs(10)).unwrap();
+    // not homed: jobs and MDI refused, state unchanged
+    let s = op.status().unwrap();
+    assert_eq!(s["homed"], serde_json::json!([false, false, false]), "{s}");
+    for (kind, path) in [(ControlKind::StartJob, abs(&job)), (ControlKind::Mdi, "G0 X1".into())] {
+        let (ok, msg) = ask(&op, kind, 0, 0.0, &path);
+        assert!(!ok && msg.contains("not homed"), "{kind:?}: {msg}");
+    }
+    assert_eq!(op.status().unwrap()["state"], "Idle");
+
+    // home all: Z, X, Y in the profile's order, each at its home position
+    let (ok, msg) = ask(&op, ControlKind::Home, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    let s = d.wait_status(&op, Duration::from_secs(60), "homed", |s| {
+        s["state"] == "Idle" && s["homed"] == serde_json::json!([true, true, true])
+    });
+    let home = machine_mm(&s);
+    for (got, want) in home.iter().zip([0.0, 0.0, 90.0]) {
+        assert!((got - want).abs() < 1e-9, "home position {home:?}");
+    }
+
+    // jog X+ 10 mm incremental: lands exactly there
+    let (ok, msg) = ask(&op, ControlKind::JogStep, 0, 10.0, "");
+    assert!(ok, "{msg}");
+    let s = d.wait_status(&op, Duration::from_secs(10), "jog step", |s| {
+        s["state"] == "Idle" && (s["machine_mm"][0].as_f64().unwrap() - 10.0).abs() < 1e-9
+    });
+    assert_eq!(machine_mm(&s)[1], 0.0);
+    // a step beyond the soft limit is refused and nothing moves
+    let (ok, msg) = ask(&op, ControlKind::JogStep, 0, 500.0, "");
+    assert!(!ok && msg.contains("soft limit"), "{msg}");
+    std::thread::sleep(Duration::from_millis(200));
+    let s = op.status().unwrap();
+    assert_eq!((s["state"].as_str(), machine_mm(&s)[0]), (Some("Idle"), 10.0));
+
+    // continuous jog X+ at 12 m/min (clamped to the profile's jog limit), renewed
+    // by its client: stops at the soft limit, never beyond
+    let (ok, msg) = ask(&op, ControlKind::Jog, 0, 12000.0, "");
+    assert!(ok, "{msg}");
+    let t0 = Instant::now();
+    let mut max_x: f64 = 0.0;
+    loop {
+        let s = op.status().unwrap();
+        max_x = max_x.max(machine_mm(&s)[0]);
+        if s["state"] == "Idle" {
+            break;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(20), "jog never ended: {s}");
+        let (ok, _) = ask(&op, ControlKind::Jog, 0, 12000.0, "");
+        assert!(ok || op.status().unwrap()["state"] == "Idle");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let s = op.status().unwrap();
+    assert_eq!(machine_mm(&s)[0], 400.0, "stopped on the soft limit: {s}");
+    assert!(max_x <= 400.0, "beyond the soft limit: {max_x}");
+    // at the limit, further out is refused
+    let (ok, msg) = ask(&op, ControlKind::Jog, 0, 600.0, "");
+    assert!(!ok && msg.contains("soft limit"), "{msg}");
+    // a continuous jog whose client goes away stops by itself (the dead-man)
+    let (ok, msg) = ask(&op, ControlKind::Jog, 0, -6000.0, "");
+    assert!(ok, "{msg}");
+    let s = d.wait_status(&op, Duration::from_secs(5), "dead-man stop", |s| {
+        s["state"] == "Idle"
+    });
+    let x = machine_mm(&s)[0];
+    assert!(x < 400.0 && x > 300.0, "the dead-man stopped the jog at {x}");
+    assert!(
+        s["alarms"].to_string().contains("did not renew"),
+        "the stop is reported: {s}"
+    );
+    let (ok, _) = ask(&op, ControlKind::Reset, u32::MAX, 0.0, "");
+    assert!(ok);
+
+    // touch off X0 Y0 Z0 in G55 where the machine stands; G54 stays active
+    let p = machine_mm(&op.status().unwrap());
+    for axis in 0..3 {
+        let (ok, msg) = ask(&op, ControlKind::TouchOff, axis, 0.0, "G55");
+        assert!(ok, "{msg}");
+    }
+    let offsets: serde_json::Value =
+        serde_json::from_str(ask(&op, ControlKind::Offsets, u32::MAX, 0.0, "").1.as_str())
+            .unwrap();
+    let g55 = &offsets["systems"][1];
+    assert_eq!(g55["coords"], "G55");
+    for i in 0..3 {
+        assert!((g55["origin_mm"][i].as_f64().unwrap() - p[i]).abs() < 1e-6, "{offsets}");
+    }
+    // move away, then MDI `G55 G0 X0 Y0` lands on the touch-off point in X and Y
+    let (ok, msg) = ask(&op, ControlKind::JogStep, 1, -15.0, "");
+    assert!(ok, "{msg}");
+    d.wait_status(&op, Duration::from_secs(10), "jog Y", |s| {
+        s["state"] == "Idle" && (s["machine_mm"][1].as_f64().unwrap() - (p[1] - 15.0)).abs() < 1e-9
+    });
+    let r = op.request(ControlKind::Mdi, 0.0, "G55 G0 X0 Y0").unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(20));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    let s = d.wait_status(&op, Duration::from_secs(5), "at rest", |s| s["state"] == "Idle");
+    let at = machine_mm(&s);
+    for i in 0..3 {
+        assert!((at[i] - p[i]).abs() < 1e-6, "MDI landed at {at:?}, touch-off point {p:?}");
+    }
+    // the MDI's G55 stays active: work coordinates read 0 there
+    assert_eq!(s["coords"], "G55", "{s}");
+    for w in s["work_mm"].as_array().unwrap() {
+        assert!(w.as_f64().unwrap().abs() < 1e-6, "{s}");
+    }
+    // touch-off and MDI are refused while a job moves (a slow one, in G55; between
+    // percent signs: no M2, which would make G54 active again, as in LinuxCNC)
+    let slow = d.dir.join("slow.ngc");
+    std::fs::write(&slow, "%\nG21 G90\nG1 X-20 F300\nG1 X0\n%\n").unwrap();
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&slow)).unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    d.wait_status(&op, Duration::from_secs(10), "moving", |s| s["state"] == "Running");
+    let (ok, msg) = ask(&op, ControlKind::Mdi, 0, 0.0, "G0 X1");
+    assert!(!ok && msg.contains("busy"), "{msg}");
+    let (ok, msg) = ask(&op, ControlKind::TouchOff, 0, 0.0, "");
+    assert!(!ok && msg.contains("moving"), "{msg}");
+    d.wait_job(&op, r.job_id, Duration::from_secs(60));
+    // a tool table edit
+    let (ok, msg) = ask(&op, ControlKind::ToolSet, 5, 42.5, "6");
+    assert!(ok, "{msg}");
+
+    // a restart keeps the offsets, the active system and the tools (not the homing)
+    d.keep_dir = true;
+    d.shutdown_leaving_nothing(tag);
+    drop(d);
+    let d = Daemon::start_in(dir, tag, "Lockstep", false, profile.to_str().unwrap(), &[]);
+    let op = d.operator();
+    let offsets: serde_json::Value =
+        serde_json::from_str(ask(&op, ControlKind::Offsets, u32::MAX, 0.0, "").1.as_str())
+            .unwrap();
+    assert_eq!(offsets["active"], "G55", "{offsets}");
+    for i in 0..3 {
+        let got = offsets["systems"][1]["origin_mm"][i].as_f64().unwrap();
+        assert!((got - p[i]).abs() < 1e-6, "{offsets}");
+    }
+    let tools: serde_json::Value =
+        serde_json::from_str(ask(&op, ControlKind::Tools, u32::MAX, 0.0, "").1.as_str()).unwrap();
+    let t5 = tools
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["number"] == 5)
+        .unwrap_or_else(|| panic!("tool 5 kept: {tools}"));
+    assert_eq!((t5["length_mm"].as_f64(), t5["diameter_mm"].as_f64()), (Some(42.5), Some(6.0)));
+    assert_eq!(op.status().unwrap()["homed"], serde_json::json!([false, false, false]));
+    let _ = std::fs::remove_dir_all(&profile_dir);
 }

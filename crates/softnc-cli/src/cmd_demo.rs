@@ -77,6 +77,9 @@ fn run_on(args: DemoArgs, config: &Path) -> Result<ExitCode> {
         .context("starting softncd")?;
     let result = (|| -> Result<(serde_json::Value, String)> {
         let op = Operator::wait_ready(config, Duration::from_secs(20))?;
+        // the controller starts with its drives off, as a machine does
+        op.machine_on(Duration::from_secs(20))?;
+        eprintln!("machine on");
         let job =
             std::fs::canonicalize(&args.job).with_context(|| format!("{}", args.job.display()))?;
         eprintln!("softncd started; submitting {}", args.job.display());

@@ -52,6 +52,114 @@ pub enum OperatorCmd {
     },
     /// Stop the daemon.
     Shutdown,
+    /// Machine on: drives enabled, holding position (the daemon starts off).
+    On,
+    /// Machine off: drives disabled (refused while anything moves).
+    Off,
+    /// Home one axis, or all in the profile's order; waits until done.
+    Home {
+        /// X, Y or Z (default: all).
+        axis: Option<String>,
+    },
+    /// Jog: `jog AXIS SPEED_MM_PER_MIN` runs continuously (to the soft limit once
+    /// homed) while this command runs — Ctrl-C, or `jog AXIS 0` from elsewhere,
+    /// stops it (a client that goes away stops it within `jog_deadman_s`);
+    /// `jog AXIS --step MM` moves by a distance.
+    #[command(allow_negative_numbers = true)]
+    Jog {
+        /// X, Y or Z.
+        axis: String,
+        /// Speed (mm/min, signed); 0 stops a jog.
+        speed: Option<f64>,
+        /// Move by this distance (mm, signed) instead, at the profile's jog speed.
+        #[arg(long, allow_negative_numbers = true)]
+        step: Option<f64>,
+    },
+    /// Run MDI block(s) with the machine's offsets and parameters; waits until done.
+    Mdi {
+        /// One block per argument.
+        #[arg(required = true)]
+        blocks: Vec<String>,
+    },
+    /// Set the work offset so that the current position reads VALUE on AXIS
+    /// (G10 L20), in the active coordinate system or `--coords`.
+    #[command(allow_negative_numbers = true)]
+    TouchOff {
+        /// X, Y or Z.
+        axis: String,
+        /// The value the current position gets (mm).
+        value: f64,
+        /// G54 … G59.3 (default: the active one).
+        #[arg(long)]
+        coords: Option<String>,
+    },
+    /// The work offsets (G54 … G59.3, G92, tool offset).
+    Offsets {
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// The tool table; `tools set N --length L [--diameter D]` edits it.
+    Tools {
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+        #[command(subcommand)]
+        cmd: Option<ToolsCmd>,
+    },
+    /// Single block: stop at the end of every block (`step` runs the next).
+    SingleBlock {
+        /// on or off.
+        switch: OnOff,
+    },
+    /// Single block: run the next block.
+    Step,
+    /// Optional stop: M1 stops when on.
+    OptionalStop {
+        /// on or off.
+        switch: OnOff,
+    },
+    /// Block delete: lines starting with `/` are skipped when on.
+    BlockDelete {
+        /// on or off.
+        switch: OnOff,
+    },
+}
+
+/// A switch position.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum OnOff {
+    /// On.
+    On,
+    /// Off.
+    Off,
+}
+
+/// `softnc tools ...`
+#[derive(clap::Subcommand)]
+pub enum ToolsCmd {
+    /// Set a tool's length (and diameter).
+    #[command(allow_negative_numbers = true)]
+    Set {
+        /// Tool number.
+        number: u32,
+        /// Length offset (mm).
+        #[arg(long, allow_negative_numbers = true)]
+        length: f64,
+        /// Diameter (mm).
+        #[arg(long)]
+        diameter: Option<f64>,
+    },
+}
+
+/// The axis index of a letter X, Y or Z.
+fn axis_index(name: &str) -> Result<u32> {
+    match name.to_ascii_uppercase().as_str() {
+        "X" => Ok(0),
+        "Y" => Ok(1),
+        "Z" => Ok(2),
+        _ => anyhow::bail!("{name:?} is not an axis (X, Y or Z)"),
+    }
 }
 
 /// `softnc job ...`
@@ -64,6 +172,11 @@ pub enum JobCmd {
         /// Wait for the job to end, with a progress bar.
         #[arg(long)]
         wait: bool,
+        /// Run from this line (LinuxCNC's run-from-line): the lines before it set
+        /// the modal state, the machine approaches the start point safely (the
+        /// clearance axis first), then the program runs on from there.
+        #[arg(long)]
+        from_line: Option<u32>,
     },
 }
 
@@ -80,9 +193,21 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
         })
     };
     match cmd {
-        OperatorCmd::Job(JobCmd::Submit { file, wait }) => {
+        OperatorCmd::Job(JobCmd::Submit {
+            file,
+            wait,
+            from_line,
+        }) => {
             let abs = std::fs::canonicalize(&file).unwrap_or(file.clone());
-            let r = op.request(ControlKind::StartJob, 0.0, &abs.display().to_string())?;
+            if from_line == Some(0) {
+                anyhow::bail!("--from-line: lines are numbered from 1");
+            }
+            let r = op.request_axis(
+                ControlKind::StartJob,
+                from_line.unwrap_or(0),
+                0.0,
+                &abs.display().to_string(),
+            )?;
             if r.accepted != 1 {
                 eprintln!("{}", r.message.as_str());
                 return Ok(ExitCode::from(crate::EXIT_REFUSED));
@@ -115,6 +240,148 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
         OperatorCmd::Estop => simple(ControlKind::EStop, 0.0),
         OperatorCmd::Reset => simple(ControlKind::Reset, 0.0),
         OperatorCmd::Shutdown => simple(ControlKind::Shutdown, 0.0),
+        OperatorCmd::On => simple(ControlKind::MachineOn, 0.0),
+        OperatorCmd::Off => simple(ControlKind::MachineOff, 0.0),
+        OperatorCmd::Step => simple(ControlKind::Step, 0.0),
+        OperatorCmd::SingleBlock { switch } => {
+            simple(ControlKind::SingleBlock, (switch == OnOff::On) as u8 as f64)
+        }
+        OperatorCmd::OptionalStop { switch } => simple(
+            ControlKind::OptionalStop,
+            (switch == OnOff::On) as u8 as f64,
+        ),
+        OperatorCmd::BlockDelete { switch } => {
+            simple(ControlKind::BlockDelete, (switch == OnOff::On) as u8 as f64)
+        }
+        OperatorCmd::Home { axis } => {
+            let axis = axis.as_deref().map(axis_index).transpose()?;
+            let r = op.request_axis(ControlKind::Home, axis.unwrap_or(u32::MAX), 0.0, "")?;
+            println!("{}", r.message.as_str());
+            if r.accepted != 1 {
+                return Ok(ExitCode::from(crate::EXIT_REFUSED));
+            }
+            let s = wait_while_state(&op, "Homing")?;
+            let homed = s["homed"].clone();
+            println!("{} (homed {homed})", s["state"].as_str().unwrap_or("?"));
+            let all = axis.map_or_else(
+                || {
+                    homed
+                        .as_array()
+                        .is_some_and(|h| h.iter().all(|b| b == true))
+                },
+                |i| homed[i as usize] == true,
+            );
+            Ok(if all {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            })
+        }
+        OperatorCmd::Jog { axis, speed, step } => {
+            let i = axis_index(&axis)?;
+            let (kind, value) = match (speed, step) {
+                (Some(_), Some(_)) => anyhow::bail!("jog: a speed or --step, not both"),
+                (None, None) => anyhow::bail!("jog: a speed (mm/min) or --step MM"),
+                (Some(v), None) => (ControlKind::Jog, v),
+                (None, Some(d)) => (ControlKind::JogStep, d),
+            };
+            let r = op.request_axis(kind, i, value, "")?;
+            println!("{}", r.message.as_str());
+            if r.accepted != 1 {
+                return Ok(ExitCode::from(crate::EXIT_REFUSED));
+            }
+            if kind == ControlKind::Jog && value == 0.0 {
+                return Ok(ExitCode::SUCCESS);
+            }
+            // a continuous jog lives while this command renews it
+            let renew = (kind == ControlKind::Jog).then_some((i, value));
+            let s = jog_until_stopped(&op, renew)?;
+            println!(
+                "{} at {:.4} mm",
+                s["state"].as_str().unwrap_or("?"),
+                s["machine_mm"][i as usize].as_f64().unwrap_or(f64::NAN)
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        OperatorCmd::Mdi { blocks } => {
+            let r = op.request(ControlKind::Mdi, 0.0, &blocks.join("\n"))?;
+            if r.accepted != 1 {
+                eprintln!("{}", r.message.as_str());
+                return Ok(ExitCode::from(crate::EXIT_REFUSED));
+            }
+            println!("{}", r.message.as_str());
+            let outcome = wait_job(&op, r.job_id, false)?;
+            println!("MDI {}: {outcome}", r.job_id);
+            Ok(if outcome == "completed" {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            })
+        }
+        OperatorCmd::TouchOff {
+            axis,
+            value,
+            coords,
+        } => {
+            let i = axis_index(&axis)?;
+            let r = op.request_axis(
+                ControlKind::TouchOff,
+                i,
+                value,
+                coords.as_deref().unwrap_or(""),
+            )?;
+            if r.accepted != 1 {
+                eprintln!("{}", r.message.as_str());
+                return Ok(ExitCode::from(crate::EXIT_REFUSED));
+            }
+            println!("{}", r.message.as_str());
+            Ok(ExitCode::SUCCESS)
+        }
+        OperatorCmd::Offsets { json } => {
+            let r = op.request(ControlKind::Offsets, 0.0, "")?;
+            let v: serde_json::Value = serde_json::from_str(r.message.as_str())?;
+            if json {
+                println!("{v}");
+            } else {
+                print!("{}", offsets_text(&v));
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        OperatorCmd::Tools { json, cmd } => {
+            if let Some(ToolsCmd::Set {
+                number,
+                length,
+                diameter,
+            }) = cmd
+            {
+                let d = diameter.map(|d| d.to_string()).unwrap_or_default();
+                let r = op.request_axis(ControlKind::ToolSet, number, length, &d)?;
+                println!("{}", r.message.as_str());
+                if r.accepted != 1 {
+                    return Ok(ExitCode::from(crate::EXIT_REFUSED));
+                }
+            }
+            let r = op.request(ControlKind::Tools, 0.0, "")?;
+            if r.accepted != 1 {
+                eprintln!("{}", r.message.as_str());
+                return Ok(ExitCode::from(1));
+            }
+            let v: serde_json::Value = serde_json::from_str(r.message.as_str())?;
+            if json {
+                println!("{v}");
+            } else {
+                println!("{:>6} {:>12} {:>12}", "tool", "length mm", "diameter mm");
+                for t in v.as_array().into_iter().flatten() {
+                    println!(
+                        "{:>6} {:>12.4} {:>12.4}",
+                        t["number"],
+                        t["length_mm"].as_f64().unwrap_or(f64::NAN),
+                        t["diameter_mm"].as_f64().unwrap_or(f64::NAN)
+                    );
+                }
+            }
+            Ok(ExitCode::SUCCESS)
+        }
         OperatorCmd::Jobs { json } => {
             let jobs = op.jobs()?;
             if json {
@@ -135,6 +402,93 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
     }
+}
+
+/// Poll the status until its state is no longer `state` (after it has been, or a
+/// second has passed); returns the last status.
+fn wait_while_state(op: &Operator, state: &str) -> Result<serde_json::Value> {
+    let t0 = std::time::Instant::now();
+    let mut seen = false;
+    loop {
+        let s = op.status()?;
+        let now = s["state"].as_str().unwrap_or("");
+        seen |= now == state;
+        if now != state && (seen || t0.elapsed() > Duration::from_secs(1)) {
+            return Ok(s);
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// Follow a jog until the axis stops; a continuous one (`renew`: axis, speed) is
+/// renewed meanwhile — its dead-man stops it once this command is gone.
+fn jog_until_stopped(op: &Operator, renew: Option<(u32, f64)>) -> Result<serde_json::Value> {
+    let t0 = std::time::Instant::now();
+    let mut seen = false;
+    loop {
+        if let Some((axis, speed)) = renew {
+            let r = op.request_axis(ControlKind::Jog, axis, speed, "")?;
+            if r.accepted != 1 {
+                // it ended (a soft limit, `jog AXIS 0`, an abort)
+                return op.status();
+            }
+        }
+        let s = op.status()?;
+        let jogging = s["state"].as_str() == Some("Jogging");
+        seen |= jogging;
+        if !jogging && (seen || t0.elapsed() > Duration::from_secs(1)) {
+            return Ok(s);
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// The offsets as an operator reads them.
+pub fn offsets_text(v: &serde_json::Value) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+    let _ = writeln!(
+        out,
+        "{:<7}{:>12}{:>12}{:>12}{:>10}",
+        "", "X", "Y", "Z", "R deg"
+    );
+    for sys in v["systems"].as_array().into_iter().flatten() {
+        let o = &sys["origin_mm"];
+        let _ = writeln!(
+            out,
+            "{:<7}{:>12.4}{:>12.4}{:>12.4}{:>10.3}{}",
+            sys["coords"].as_str().unwrap_or("?"),
+            f(&o[0]),
+            f(&o[1]),
+            f(&o[2]),
+            f(&sys["rotation_deg"]),
+            if sys["active"] == true {
+                "  active"
+            } else {
+                ""
+            }
+        );
+    }
+    let g = &v["g92_mm"];
+    let _ = writeln!(
+        out,
+        "{:<7}{:>12.4}{:>12.4}{:>12.4}",
+        "G92",
+        f(&g[0]),
+        f(&g[1]),
+        f(&g[2])
+    );
+    let t = &v["tool_offset_mm"];
+    let _ = writeln!(
+        out,
+        "tool {} offset {:.4} {:.4} {:.4}",
+        v["tool"],
+        f(&t[0]),
+        f(&t[1]),
+        f(&t[2])
+    );
+    out
 }
 
 /// The status as an operator reads it (`--json` gives all of it).

@@ -60,11 +60,61 @@ const PLOT_RMS_SPAN: f64 = 4.0;
 #[derive(Clone, Copy)]
 struct PlotPoint {
     t_s: f64,
-    cmd: [f64; 2],
+    cmd: [f64; 3],
     magnified: Option<[f64; 2]>,
     contour_um: Option<f64>,
-    following_um: [f64; 2],
+    following_um: [f64; 3],
     normal: [f64; 2],
+    /// The blending tolerance in force (µm); `None` at an exact stop.
+    tolerance_um: Option<f64>,
+}
+
+/// Where the contour error was worst, for the plot's labels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct WorstSpot {
+    t_s: f64,
+    contour_um: f64,
+    line: u32,
+}
+
+/// Spots labelled on the plot: the worst of different program lines.
+const WORST_SPOTS: usize = 3;
+/// The error charts' scale: this quantile of |error| (a start-up transient beyond it
+/// runs off the chart, clipped at its edge, and is said so).
+const PLOT_SCALE_QUANTILE: f64 = 0.995;
+
+/// Keep the [`WORST_SPOTS`] worst |contour error|s, one per program line.
+fn note_worst(worst: &mut Vec<WorstSpot>, spot: WorstSpot) {
+    if let Some(w) = worst.iter_mut().find(|w| w.line == spot.line) {
+        if spot.contour_um.abs() > w.contour_um.abs() {
+            *w = spot;
+        }
+    } else if worst.len() < WORST_SPOTS {
+        worst.push(spot);
+    } else if let Some(w) = worst
+        .iter_mut()
+        .min_by(|a, b| a.contour_um.abs().total_cmp(&b.contour_um.abs()))
+    {
+        if spot.contour_um.abs() > w.contour_um.abs() {
+            *w = spot;
+        }
+    }
+}
+
+/// The [`PLOT_SCALE_QUANTILE`] of |v| over `values` (1 when there are none).
+fn robust_scale(values: impl Iterator<Item = f64>) -> f64 {
+    let mut v: Vec<f64> = values.map(f64::abs).filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return 1.0;
+    }
+    v.sort_by(f64::total_cmp);
+    let k = ((v.len() - 1) as f64 * PLOT_SCALE_QUANTILE).round() as usize;
+    let q = v[k.min(v.len() - 1)];
+    if q > 0.0 {
+        1.1 * q
+    } else {
+        1.0
+    }
 }
 
 pub fn run(args: SimArgs) -> Result<ExitCode> {
@@ -151,6 +201,17 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
     };
     let stride = total.div_ceil(PLOT_POINTS).max(1);
     let mut plot_points: Vec<PlotPoint> = Vec::new();
+    let mut worst: Vec<WorstSpot> = Vec::new();
+    let line_of = |m: u32| program.motions.get(m as usize).map_or(0, |m| m.line);
+    let tolerance_um = |m: u32| match program.motions.get(m as usize).map(|m| m.path_mode) {
+        Some(softnc_gcode::PathMode::Blend { tolerance_mm, .. }) => Some(
+            1000.0
+                * tolerance_mm
+                    .filter(|&t| t > 0.0)
+                    .unwrap_or(machine.planner.tolerance_mm),
+        ),
+        _ => None,
+    };
     let (mut next_plot, mut next_progress) = (0u64, 0u64);
     let mut trace_err: Option<anyhow::Error> = None;
 
@@ -168,9 +229,24 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
                 }
             }
         }
-        if args.plot.is_some() && row.cycle >= next_plot {
-            plot_points.push(plot_point(row, path_of(row.motion)));
-            next_plot += stride;
+        if args.plot.is_some() {
+            // every cycle for the worst spots, a decimated few for the curves
+            if let Some(c) = row.contour_mm {
+                note_worst(
+                    &mut worst,
+                    WorstSpot {
+                        t_s: row.time_s,
+                        contour_um: c * 1000.0,
+                        line: line_of(row.motion),
+                    },
+                );
+            }
+            if row.cycle >= next_plot {
+                let mut p = plot_point(row, path_of(row.motion));
+                p.tolerance_um = tolerance_um(row.motion);
+                plot_points.push(p);
+                next_plot += stride;
+            }
         }
         if let Some(bar) = &progress {
             if row.cycle >= next_progress {
@@ -191,7 +267,7 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
         bar.finish_and_clear();
     }
     if let Some(path) = &args.plot {
-        draw_plot(path, &plot_points, &program.file)?;
+        draw_plot(path, &plot_points, &worst, &program.file)?;
     }
 
     let um = 1000.0;
@@ -323,37 +399,37 @@ fn plot_point(row: &TraceRow, prim: Option<Primitive>) -> PlotPoint {
     };
     PlotPoint {
         t_s: row.time_s,
-        cmd: [r.cmd_mm[0], r.cmd_mm[1]],
+        cmd: [r.cmd_mm[0], r.cmd_mm[1], r.cmd_mm[2]],
         magnified: contour_um.map(|_| [r.actual_mm[0], r.actual_mm[1]]),
         contour_um,
-        following_um: [r.following_mm[0] * 1000.0, r.following_mm[1] * 1000.0],
+        following_um: r.following_mm.map(|f| f * 1000.0),
         normal,
+        tolerance_um: None,
     }
 }
 
-fn draw_plot(path: &Path, pts: &[PlotPoint], title: &str) -> Result<()> {
-    let root = SVGBackend::new(path, (1400, 640)).into_drawing_area();
+/// The job's plot (SVG): left, the XY path with the contour error magnified along its
+/// normal (with its µm scale) above the XZ and YZ paths; right, the contour error over
+/// time with the blending tolerance in force and the worst spots' program lines, and
+/// the three axes' following errors. Error scales come from the 99.5 % quantile: a
+/// start-up transient does not set them (it is clipped, and said so).
+fn draw_plot(path: &Path, pts: &[PlotPoint], worst: &[WorstSpot], title: &str) -> Result<()> {
+    let root = SVGBackend::new(path, (1400, 900)).into_drawing_area();
     root.fill(&WHITE)?;
-    let (left, right) = root.split_horizontally(700);
     let plot_err = |e: &dyn std::fmt::Display| anyhow::anyhow!("plot {}: {e}", path.display());
+    let name = Path::new(title)
+        .file_name()
+        .map_or(title.to_string(), |n| n.to_string_lossy().into_owned());
+    let root = root
+        .titled(&name, ("sans-serif", 20))
+        .map_err(|e| plot_err(&e))?;
+    let (left, right) = root.split_horizontally(700);
+    let (xy_area, projections) = left.split_vertically(520);
+    let (xz_area, yz_area) = projections.split_horizontally(350);
 
-    // left: the path, and the contour error magnified along the path's normal
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in pts {
-        for k in 0..2 {
-            lo[k] = lo[k].min(p.cmd[k]);
-            hi[k] = hi[k].max(p.cmd[k]);
-        }
-    }
-    if !lo[0].is_finite() {
-        lo = [0.0; 2];
-        hi = [1.0; 2];
-    }
+    // the XY path, and the contour error magnified along the path's normal
+    let (lo, hi) = bounds(pts.iter().map(|p| p.cmd));
     let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(1e-3);
-    let max_um = pts
-        .iter()
-        .filter_map(|p| p.contour_um)
-        .fold(0.0f64, |m, c| m.max(c.abs()));
     let (n, sq) = pts
         .iter()
         .filter_map(|p| p.contour_um)
@@ -364,17 +440,18 @@ fn draw_plot(path: &Path, pts: &[PlotPoint], title: &str) -> Result<()> {
     } else {
         1.0
     };
-    let pad = 0.1 * extent;
-    let cx = 0.5 * (lo[0] + hi[0]);
-    let cy = 0.5 * (lo[1] + hi[1]);
-    let half = 0.5 * extent + pad;
-    let mut chart = ChartBuilder::on(&left)
+    let half = 0.5 * extent + 0.1 * extent;
+    let (cx, cy) = (0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]));
+    let mut chart = ChartBuilder::on(&xy_area)
         .caption(
-            format!("{title}: contour error x{gain:.0} around the path (XY, mm)"),
-            ("sans-serif", 16),
+            format!(
+                "XY (mm); error ×{gain:.0}: 1 mm here = {:.1} µm",
+                1000.0 / gain
+            ),
+            ("sans-serif", 15),
         )
-        .margin(12)
-        .x_label_area_size(30)
+        .margin(10)
+        .x_label_area_size(28)
         .y_label_area_size(50)
         .build_cartesian_2d(cx - half..cx + half, cy - half..cy + half)
         .map_err(|e| plot_err(&e))?;
@@ -399,45 +476,136 @@ fn draw_plot(path: &Path, pts: &[PlotPoint], title: &str) -> Result<()> {
         }))
         .map_err(|e| plot_err(&e))?;
 
-    // right: contour error (top) and following errors (bottom) over time
-    let (top, bottom) = right.split_vertically(320);
+    // the XZ and YZ paths (the command)
+    for (area, (a, label)) in [(&xz_area, (0, "XZ (mm)")), (&yz_area, (1, "YZ (mm)"))] {
+        let (lo, hi) = bounds(pts.iter().map(|p| [p.cmd[a], p.cmd[2], 0.0]));
+        let pad = |l: f64, h: f64| {
+            let d = (h - l).max(1e-3);
+            (l - 0.05 * d, h + 0.05 * d)
+        };
+        let (x0, x1) = pad(lo[0], hi[0]);
+        let (z0, z1) = pad(lo[1], hi[1]);
+        let mut chart = ChartBuilder::on(area)
+            .caption(label, ("sans-serif", 15))
+            .margin(10)
+            .x_label_area_size(28)
+            .y_label_area_size(45)
+            .build_cartesian_2d(x0..x1, z0..z1)
+            .map_err(|e| plot_err(&e))?;
+        chart
+            .configure_mesh()
+            .x_labels(5)
+            .y_labels(5)
+            .draw()
+            .map_err(|e| plot_err(&e))?;
+        chart
+            .draw_series(LineSeries::new(
+                pts.iter().map(|p| (p.cmd[a], p.cmd[2])),
+                RGBColor(90, 90, 90),
+            ))
+            .map_err(|e| plot_err(&e))?;
+    }
+
+    // the contour error over time, the tolerance in force, the worst spots
+    let (top, bottom) = right.split_vertically(440);
     let t_max = pts.last().map(|p| p.t_s).unwrap_or(1.0).max(1e-3);
-    let c_max = if max_um > 0.0 { max_um } else { 1.0 };
+    let c_scale = robust_scale(pts.iter().filter_map(|p| p.contour_um));
+    let tol_max = pts
+        .iter()
+        .filter_map(|p| p.tolerance_um)
+        .fold(0.0f64, f64::max);
+    let c_max = c_scale.max(1.1 * tol_max.min(10.0 * c_scale));
+    let clipped = pts
+        .iter()
+        .filter_map(|p| p.contour_um)
+        .filter(|c| c.abs() > c_max)
+        .count();
+    // the worst spots are numbered on the plot and listed in the caption, so that
+    // their labels never cover each other or the data
+    let mut worst = worst.to_vec();
+    worst.sort_by(|a, b| b.contour_um.abs().total_cmp(&a.contour_um.abs()));
+    let mut caption = "contour error (µm)".to_string();
+    if !worst.is_empty() {
+        let list: Vec<String> = worst
+            .iter()
+            .enumerate()
+            .map(|(i, w)| format!("{} line {} {:.1}", i + 1, w.line, w.contour_um))
+            .collect();
+        caption.push_str(&format!("; worst: {}", list.join(", ")));
+    }
+    if clipped > 0 {
+        caption.push_str(&format!("; {clipped} beyond ±{c_max:.1} clipped"));
+    }
     let mut chart = ChartBuilder::on(&top)
-        .caption("contour error (µm)", ("sans-serif", 16))
-        .margin(12)
-        .x_label_area_size(30)
-        .y_label_area_size(60)
-        .build_cartesian_2d(0.0..t_max, -1.05 * c_max..1.05 * c_max)
+        .caption(caption, ("sans-serif", 15))
+        .margin(10)
+        .x_label_area_size(28)
+        .y_label_area_size(55)
+        .build_cartesian_2d(0.0..t_max, -c_max..c_max)
         .map_err(|e| plot_err(&e))?;
     chart.configure_mesh().draw().map_err(|e| plot_err(&e))?;
+    for sign in [1.0, -1.0] {
+        let series = chart
+            .draw_series(LineSeries::new(
+                pts.iter()
+                    .filter_map(|p| Some((p.t_s, sign * p.tolerance_um?.min(c_max)))),
+                RED.mix(0.6),
+            ))
+            .map_err(|e| plot_err(&e))?;
+        if sign > 0.0 {
+            series
+                .label("G64 tolerance in force")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], RED));
+        }
+    }
     chart
-        .draw_series(
-            pts.iter()
-                .filter_map(|p| Some(Circle::new((p.t_s, p.contour_um?), 1, BLUE.filled()))),
-        )
+        .draw_series(pts.iter().filter_map(|p| {
+            let c = p.contour_um?.clamp(-c_max, c_max);
+            Some(Circle::new((p.t_s, c), 1, BLUE.filled()))
+        }))
         .map_err(|e| plot_err(&e))?;
-    let f_max = pts
-        .iter()
-        .flat_map(|p| [p.following_um[0].abs(), p.following_um[1].abs()])
-        .fold(0.0, f64::max);
-    let f_max = if f_max > 0.0 { f_max } else { 1.0 };
+    chart
+        .draw_series(worst.iter().enumerate().map(|(i, w)| {
+            let y = w.contour_um.clamp(-c_max, c_max);
+            EmptyElement::at((w.t_s, y))
+                + Circle::new((0, 0), 4, BLACK)
+                + Text::new(
+                    format!("{}", i + 1),
+                    (6, if y >= 0.0 { -14 } else { 4 }),
+                    ("sans-serif", 13),
+                )
+        }))
+        .map_err(|e| plot_err(&e))?;
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.6))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| plot_err(&e))?;
+
+    // the following errors of the three axes
+    let f_max = robust_scale(pts.iter().flat_map(|p| p.following_um));
     let mut chart = ChartBuilder::on(&bottom)
-        .caption("following error (µm)", ("sans-serif", 16))
-        .margin(12)
-        .x_label_area_size(30)
-        .y_label_area_size(60)
-        .build_cartesian_2d(0.0..t_max, -1.05 * f_max..1.05 * f_max)
+        .caption("following error (µm)", ("sans-serif", 15))
+        .margin(10)
+        .x_label_area_size(28)
+        .y_label_area_size(55)
+        .build_cartesian_2d(0.0..t_max, -f_max..f_max)
         .map_err(|e| plot_err(&e))?;
     chart
         .configure_mesh()
         .x_desc("time (s)")
         .draw()
         .map_err(|e| plot_err(&e))?;
-    for (k, (name, color)) in [("X", RED), ("Y", GREEN)].into_iter().enumerate() {
+    for (k, (name, color)) in [("X", RED), ("Y", GREEN), ("Z", BLUE)]
+        .into_iter()
+        .enumerate()
+    {
         chart
             .draw_series(LineSeries::new(
-                pts.iter().map(|p| (p.t_s, p.following_um[k])),
+                pts.iter()
+                    .map(|p| (p.t_s, p.following_um[k].clamp(-f_max, f_max))),
                 color,
             ))
             .map_err(|e| plot_err(&e))?
@@ -452,6 +620,23 @@ fn draw_plot(path: &Path, pts: &[PlotPoint], title: &str) -> Result<()> {
         .map_err(|e| plot_err(&e))?;
     root.present().map_err(|e| plot_err(&e))?;
     Ok(())
+}
+
+/// Smallest and largest of each coordinate (X and Y of `[x, y, _]`); the unit square
+/// when there are no points.
+fn bounds(points: impl Iterator<Item = [f64; 3]>) -> ([f64; 2], [f64; 2]) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in points {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    if lo[0].is_finite() && lo[1].is_finite() {
+        (lo, hi)
+    } else {
+        ([0.0; 2], [1.0; 2])
+    }
 }
 
 #[cfg(test)]
@@ -502,10 +687,49 @@ mod tests {
             svg.starts_with("<svg") && svg.contains("contour error"),
             "plot"
         );
+        // every axis, the µm scale of the magnified path, the tolerance, the worst
+        // spots' program lines
+        for want in [
+            "XZ (mm)",
+            "YZ (mm)",
+            "µm",
+            "G64 tolerance in force",
+            "line ",
+        ] {
+            assert!(svg.contains(want), "the plot has no {want:?}");
+        }
         assert!(files[0] != files[2], "different seeds, same trace");
         let text = String::from_utf8(files[0].clone()).unwrap();
         assert!(text.starts_with("time_s,cmd_x_mm,"), "{}", &text[..40]);
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn the_worst_spots_are_of_different_lines_and_a_transient_does_not_set_the_scale() {
+        let mut worst = Vec::new();
+        for (k, (c, line)) in [(1.0, 5), (-9.0, 5), (3.0, 6), (2.0, 7), (4.0, 8), (0.5, 9)]
+            .into_iter()
+            .enumerate()
+        {
+            note_worst(
+                &mut worst,
+                WorstSpot {
+                    t_s: k as f64,
+                    contour_um: c,
+                    line,
+                },
+            );
+        }
+        let mut lines: Vec<u32> = worst.iter().map(|w| w.line).collect();
+        lines.sort();
+        assert_eq!(lines, [5, 6, 8], "{worst:?}");
+        assert_eq!(worst.iter().find(|w| w.line == 5).unwrap().contour_um, -9.0);
+        // 1000 points within ±2 µm and a start transient of 500 µm
+        let values = (0..1000)
+            .map(|k| 2.0 * (k as f64 * 0.1).sin())
+            .chain([500.0, -480.0]);
+        let scale = robust_scale(values);
+        assert!(scale > 1.9 && scale < 3.0, "{scale}");
     }
 
     #[test]

@@ -164,6 +164,93 @@ pub struct MachineProfile {
     /// Limits of repetition-domain learning (`softnc learn`, stored corrections).
     #[serde(default)]
     pub learning: LearningConfig,
+    /// Homing with switches and incremental encoders (LinuxCNC's HOME sequence).
+    /// Absent: absolute encoders — every axis counts as homed at start and no homing
+    /// motion runs.
+    #[serde(default)]
+    pub homing: Option<HomingConfig>,
+    /// Manual (jog) motion between jobs.
+    #[serde(default)]
+    pub jog: JogConfig,
+}
+
+/// Homing of a machine with incremental encoders and a home switch per axis: the
+/// LinuxCNC homing sequence in short (LinuxCNC docs, "Homing Configuration",
+/// `docs/src/config/ini-homing.adoc`): search the switch, latch its edge moving
+/// away from it at a slow speed, re-reference the axis there, move to the home
+/// position. Only switch homing (no index pulse), latching in the direction
+/// opposite to the search.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HomingConfig {
+    /// Homing order ("home all"): axis names, each once, homed one after the other
+    /// (LinuxCNC's HOME_SEQUENCE, without simultaneous groups). Z first is usual,
+    /// so the tool clears the work before X and Y move.
+    pub order: Vec<String>,
+    /// How far outside the soft limits a home switch may sit; the search travels
+    /// at most the axis's travel span plus twice this before it gives up.
+    #[serde(default = "default_switch_margin_mm")]
+    pub switch_margin_mm: f64,
+    /// One entry per profile axis, in the order of `axes`.
+    pub axes: Vec<AxisHoming>,
+}
+
+/// The switch margin when a profile gives none (mm).
+pub fn default_switch_margin_mm() -> f64 {
+    10.0
+}
+
+/// One axis's homing settings (LinuxCNC's `[JOINT_n]` HOME_* values, in mm and mm/s).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisHoming {
+    /// Machine coordinate of the switch's trip point: after latching, the latched
+    /// position is declared to be this (LinuxCNC's HOME_OFFSET).
+    pub switch_mm: f64,
+    /// Search velocity, signed: the sign is the direction toward the switch
+    /// (LinuxCNC's HOME_SEARCH_VEL), nonzero, |v| ≤ the axis's max velocity.
+    pub search_vel_mm_per_s: f64,
+    /// Latch velocity, signed, opposite in sign to the search: the axis backs off
+    /// the switch at this speed and latches where it releases (HOME_LATCH_VEL).
+    pub latch_vel_mm_per_s: f64,
+    /// Speed of the final move to `home_mm`, > 0 (HOME_FINAL_VEL).
+    pub final_vel_mm_per_s: f64,
+    /// Where the axis goes when homed, inside the soft limits (LinuxCNC's HOME).
+    pub home_mm: f64,
+}
+
+/// Manual (jog) motion: the operator's jog speed.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JogConfig {
+    /// Jog speed when the operator has chosen none (LinuxCNC's
+    /// `[DISPLAY]DEFAULT_LINEAR_VELOCITY`); clamped to each axis's jog limit.
+    pub default_speed_mm_per_s: f64,
+    /// Largest jog speed as a fraction of each axis's `max_vel_mm_per_s`, in (0, 1].
+    pub max_speed_fraction: f64,
+}
+
+impl Default for JogConfig {
+    /// 10 mm/s (600 mm/min) by default, up to each axis's full velocity.
+    fn default() -> Self {
+        JogConfig {
+            default_speed_mm_per_s: 10.0,
+            max_speed_fraction: 1.0,
+        }
+    }
+}
+
+impl JogConfig {
+    /// The jog speed of `axis` for a requested speed (`None`: the default speed),
+    /// clamped to `[0, max_speed_fraction · max_vel_mm_per_s]`.
+    pub fn speed_mm_per_s(&self, axis: &AxisConfig, requested_mm_per_s: Option<f64>) -> f64 {
+        let want = requested_mm_per_s.unwrap_or(self.default_speed_mm_per_s);
+        let limit = self.max_speed_fraction * axis.max_vel_mm_per_s;
+        if want.is_nan() {
+            return 0.0;
+        }
+        want.clamp(0.0, limit)
+    }
 }
 
 /// Limits of repetition-domain learning on this machine (paper 002 eq 5's correction
@@ -303,6 +390,7 @@ impl MachineProfile {
             ));
         }
         self.validate_servo(file)?;
+        self.validate_manual(file)?;
         if let Some(f) = &self.force {
             f.validate(file, self.planner.max_feed_override)?;
         }
@@ -471,6 +559,139 @@ impl MachineProfile {
         Ok(())
     }
 
+    fn validate_manual(&self, file: &str) -> Result<(), ConfigError> {
+        let bad = |path: String, reason: String| ConfigError::Invalid {
+            file: file.to_string(),
+            path,
+            reason,
+        };
+        positive(
+            self.jog.default_speed_mm_per_s,
+            "jog.default_speed_mm_per_s",
+            file,
+        )?;
+        if !(self.jog.max_speed_fraction > 0.0 && self.jog.max_speed_fraction <= 1.0) {
+            return Err(bad(
+                "jog.max_speed_fraction".into(),
+                format!("must lie in (0, 1] (got {})", self.jog.max_speed_fraction),
+            ));
+        }
+        let Some(h) = &self.homing else {
+            return Ok(());
+        };
+        if !(h.switch_margin_mm >= 0.0 && h.switch_margin_mm.is_finite()) {
+            return Err(bad(
+                "homing.switch_margin_mm".into(),
+                format!("must be finite and >= 0 (got {})", h.switch_margin_mm),
+            ));
+        }
+        if h.axes.len() != self.axes.len() {
+            return Err(bad(
+                "homing.axes".into(),
+                format!(
+                    "one entry per profile axis: {} expected, {} given",
+                    self.axes.len(),
+                    h.axes.len()
+                ),
+            ));
+        }
+        for (i, (a, axis)) in h.axes.iter().zip(&self.axes).enumerate() {
+            let p = |f: &str| format!("homing.axes[{i}].{f}");
+            let (lo, hi) = (
+                axis.min_mm - h.switch_margin_mm,
+                axis.max_mm + h.switch_margin_mm,
+            );
+            if !(a.switch_mm.is_finite() && (lo..=hi).contains(&a.switch_mm)) {
+                return Err(bad(
+                    p("switch_mm"),
+                    format!(
+                        "must lie within the soft limits ± switch_margin_mm, [{lo}, {hi}] (got {})",
+                        a.switch_mm
+                    ),
+                ));
+            }
+            let vmax = axis.max_vel_mm_per_s;
+            for (name, v) in [
+                ("search_vel_mm_per_s", a.search_vel_mm_per_s),
+                ("latch_vel_mm_per_s", a.latch_vel_mm_per_s),
+                ("final_vel_mm_per_s", a.final_vel_mm_per_s),
+            ] {
+                if !(v.is_finite() && v != 0.0 && v.abs() <= vmax) {
+                    return Err(bad(
+                        p(name),
+                        format!(
+                            "must be nonzero with |v| <= the axis's max_vel_mm_per_s {vmax} (got {v})"
+                        ),
+                    ));
+                }
+            }
+            if a.final_vel_mm_per_s < 0.0 {
+                return Err(bad(
+                    p("final_vel_mm_per_s"),
+                    format!("must be > 0 (got {})", a.final_vel_mm_per_s),
+                ));
+            }
+            if a.latch_vel_mm_per_s.signum() == a.search_vel_mm_per_s.signum() {
+                return Err(bad(
+                    p("latch_vel_mm_per_s"),
+                    "must be opposite in sign to search_vel_mm_per_s: the latch backs off \
+                     the switch (same-direction latching is not supported)"
+                        .into(),
+                ));
+            }
+            if !(a.home_mm.is_finite() && (axis.min_mm..=axis.max_mm).contains(&a.home_mm)) {
+                return Err(bad(
+                    p("home_mm"),
+                    format!(
+                        "must lie within the soft limits [{}, {}] (got {})",
+                        axis.min_mm, axis.max_mm, a.home_mm
+                    ),
+                ));
+            }
+        }
+        let mut seen = vec![false; self.axes.len()];
+        for (k, name) in h.order.iter().enumerate() {
+            let Some(i) = self.axes.iter().position(|a| &a.name == name) else {
+                return Err(bad(
+                    format!("homing.order[{k}]"),
+                    format!("\"{name}\" is not an axis of this profile"),
+                ));
+            };
+            if std::mem::replace(&mut seen[i], true) {
+                return Err(bad(
+                    format!("homing.order[{k}]"),
+                    format!("axis \"{name}\" appears twice"),
+                ));
+            }
+        }
+        if let Some(i) = seen.iter().position(|s| !s) {
+            return Err(bad(
+                "homing.order".into(),
+                format!(
+                    "must name every axis once; \"{}\" is missing",
+                    self.axes[i].name
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// True when the axes count as homed at start: the profile has no `homing`
+    /// section (absolute encoders).
+    pub fn homed_at_start(&self) -> bool {
+        self.homing.is_none()
+    }
+
+    /// Axis indices in homing order (empty without a `homing` section).
+    pub fn homing_order(&self) -> Vec<usize> {
+        self.homing.as_ref().map_or_else(Vec::new, |h| {
+            h.order
+                .iter()
+                .filter_map(|n| self.axes.iter().position(|a| &a.name == n))
+                .collect()
+        })
+    }
+
     /// Servo settings of axis `i` (defaults when the profile has none).
     pub fn axis_servo(&self, i: usize) -> crate::servo::AxisServo {
         self.servo.axes.get(i).cloned().unwrap_or_default()
@@ -614,6 +835,130 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("tolerence"), "{err}");
+    }
+
+    const INCREMENTAL: &str = include_str!("../../../config/machines/default-incremental.ron");
+
+    fn invalid(text: &str) -> String {
+        MachineProfile::from_ron_str(text, "m.ron")
+            .unwrap_err()
+            .to_string()
+    }
+
+    #[test]
+    fn profiles_without_homing_count_as_homed_and_keep_default_jog() {
+        let p = MachineProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
+        assert!(p.homing.is_none());
+        assert!(p.homed_at_start());
+        assert!(p.homing_order().is_empty());
+        assert_eq!(p.jog, JogConfig::default());
+    }
+
+    #[test]
+    fn incremental_profile_loads_with_homing_z_first() {
+        let p = MachineProfile::from_ron_str(INCREMENTAL, "default-incremental.ron").unwrap();
+        assert!(!p.homed_at_start());
+        assert_eq!(p.homing_order(), vec![2, 0, 1]);
+        let h = p.homing.as_ref().unwrap();
+        for (a, axis) in h.axes.iter().zip(&p.axes) {
+            // switches near the positive end, searched toward it, latched backing off
+            assert!(a.switch_mm >= axis.max_mm && a.switch_mm <= axis.max_mm + h.switch_margin_mm);
+            assert!(a.search_vel_mm_per_s > 0.0 && a.latch_vel_mm_per_s < 0.0);
+        }
+        assert_eq!(p.jog.max_speed_fraction, 0.5);
+        // everything else is default.ron's
+        let d = MachineProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
+        assert_eq!((p.axes.clone(), p.servo.clone()), (d.axes, d.servo));
+    }
+
+    #[test]
+    fn jog_speed_is_clamped_to_the_axis_fraction() {
+        let p = MachineProfile::from_ron_str(INCREMENTAL, "default-incremental.ron").unwrap();
+        let x = &p.axes[0];
+        assert_eq!(p.jog.speed_mm_per_s(x, None), 10.0);
+        assert_eq!(p.jog.speed_mm_per_s(x, Some(1e6)), 0.5 * x.max_vel_mm_per_s);
+        assert_eq!(p.jog.speed_mm_per_s(x, Some(-3.0)), 0.0);
+        assert_eq!(p.jog.speed_mm_per_s(x, Some(f64::NAN)), 0.0);
+    }
+
+    #[test]
+    fn bad_homing_values_name_their_path() {
+        let cases = [
+            (
+                "switch_mm: 405.0",
+                "switch_mm: 420.0",
+                "homing.axes[0].switch_mm",
+            ),
+            (
+                "search_vel_mm_per_s: 40.0",
+                "search_vel_mm_per_s: 0.0",
+                "homing.axes[0].search_vel_mm_per_s",
+            ),
+            (
+                "search_vel_mm_per_s: 40.0",
+                "search_vel_mm_per_s: 500.0",
+                "homing.axes[0].search_vel_mm_per_s",
+            ),
+            (
+                "latch_vel_mm_per_s: -2.0",
+                "latch_vel_mm_per_s: 2.0",
+                "homing.axes[0].latch_vel_mm_per_s",
+            ),
+            (
+                "final_vel_mm_per_s: 100.0",
+                "final_vel_mm_per_s: -100.0",
+                "homing.axes[0].final_vel_mm_per_s",
+            ),
+            ("home_mm: 90.0", "home_mm: 101.0", "homing.axes[2].home_mm"),
+            (
+                "order: [\"Z\", \"X\", \"Y\"]",
+                "order: [\"Z\", \"X\", \"X\"]",
+                "homing.order[2]",
+            ),
+            (
+                "order: [\"Z\", \"X\", \"Y\"]",
+                "order: [\"Z\", \"X\", \"A\"]",
+                "homing.order[2]",
+            ),
+            (
+                "order: [\"Z\", \"X\", \"Y\"]",
+                "order: [\"Z\", \"X\"]",
+                "homing.order",
+            ),
+            (
+                "switch_margin_mm: 10.0",
+                "switch_margin_mm: -1.0",
+                "homing.switch_margin_mm",
+            ),
+            (
+                "max_speed_fraction: 0.5",
+                "max_speed_fraction: 1.5",
+                "jog.max_speed_fraction",
+            ),
+            (
+                "default_speed_mm_per_s: 10.0",
+                "default_speed_mm_per_s: 0.0",
+                "jog.default_speed_mm_per_s",
+            ),
+        ];
+        for (from, to, path) in cases {
+            let text = INCREMENTAL.replacen(from, to, 1);
+            assert_ne!(text, INCREMENTAL, "fixture text changed: {from}");
+            let err = invalid(&text);
+            assert!(err.contains(&format!("`{path}`")), "{to}: {err}");
+        }
+        // one entry per axis
+        let i = INCREMENTAL.find("            (switch_mm: 255.0").unwrap();
+        let j = INCREMENTAL[i..].find("(switch_mm: 105.0").unwrap() + i;
+        let text = format!("{}{}", &INCREMENTAL[..i], &INCREMENTAL[j..]);
+        assert!(
+            invalid(&text).contains("`homing.axes`"),
+            "{}",
+            invalid(&text)
+        );
+        // unknown field
+        let text = INCREMENTAL.replacen("home_mm: 0.0", "home_mm: 0.0, home_offset: 1.0", 1);
+        assert!(invalid(&text).contains("home_offset"));
     }
 
     #[test]

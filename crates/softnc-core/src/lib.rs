@@ -25,8 +25,8 @@ pub mod servo;
 pub mod store;
 
 pub use config::{
-    AccDec, AxisConfig, ConfigError, FeedProfile, MachineProfile, PlannerConfig, SpindleConfig,
-    ToolEntry,
+    AccDec, AxisConfig, AxisHoming, ConfigError, FeedProfile, HomingConfig, JogConfig,
+    MachineProfile, PlannerConfig, SpindleConfig, ToolEntry,
 };
 pub use geom::{Plane, Primitive, Vec3};
 

@@ -1,6 +1,9 @@
 //! Shared start-up of the daemon binaries: arguments (clap), logging, the
 //! configuration found, exit status.
 
+/// Set by `softncd` in a child it restarts (not at its first start).
+pub const RESTARTED_ENV: &str = "SOFTNC_RESTARTED";
+
 use crate::config::{DaemonConfig, Loaded};
 use std::io::IsTerminal;
 use std::path::PathBuf;

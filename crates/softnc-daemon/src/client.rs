@@ -44,15 +44,28 @@ impl Operator {
 
     /// Send one request and wait for the reply.
     pub fn request(&self, kind: ControlKind, value: f64, path: &str) -> Result<OperatorReply> {
+        self.request_axis(kind, u32::MAX, value, path)
+    }
+
+    /// [`Operator::request`] naming an axis (or a tool, or a line: see
+    /// [`OperatorRequest::axis`]).
+    pub fn request_axis(
+        &self,
+        kind: ControlKind,
+        axis: u32,
+        value: f64,
+        path: &str,
+    ) -> Result<OperatorReply> {
         let path = FixedStr::try_new(path)
             .map_err(|e| anyhow::anyhow!("path of {e}: refused, nothing sent"))?;
         let pending = self.client.send_copy(OperatorRequest {
             kind: kind.wire(),
+            axis,
             value,
             path,
         })?;
         let timeout = match kind {
-            ControlKind::StartJob => JOB_CHECK_TIMEOUT,
+            ControlKind::StartJob | ControlKind::Mdi | ControlKind::TouchOff => JOB_CHECK_TIMEOUT,
             _ => REPLY_TIMEOUT,
         };
         let t0 = Instant::now();
@@ -64,6 +77,33 @@ impl Operator {
                 bail!("no reply from softnc-mmi within {timeout:?}: is softncd running?");
             }
             let _ = self.node.wait(Duration::from_millis(2));
+        }
+    }
+
+    /// Switch the machine on if it is off (the daemon starts off) and wait until it
+    /// reports on; an error if it refuses or does not within `timeout`.
+    pub fn machine_on(&self, timeout: Duration) -> Result<()> {
+        let t0 = Instant::now();
+        let mut asked = false;
+        loop {
+            let s = self.status()?;
+            match s["state"].as_str() {
+                // the position process has not reported yet
+                _ if s["machine_mm"].is_null() => {}
+                Some("Off") if !asked => {
+                    let r = self.request(ControlKind::MachineOn, 0.0, "")?;
+                    if r.accepted != 1 {
+                        bail!("machine on refused: {}", r.message.as_str());
+                    }
+                    asked = true;
+                }
+                Some("Off") | None => {}
+                Some(_) => return Ok(()),
+            }
+            if t0.elapsed() > timeout {
+                bail!("the machine did not come on within {timeout:?}: {s}");
+            }
+            std::thread::sleep(Duration::from_millis(20));
         }
     }
 

@@ -75,6 +75,14 @@ pub struct DaemonConfig {
     /// Largest job program the MMI takes (bytes).
     #[serde(default = "default_max_job_bytes")]
     pub max_job_bytes: u64,
+    /// A continuous jog stops when its client has not renewed it for this long (s):
+    /// the dead-man of a client that went away.
+    #[serde(default = "default_jog_deadman_s")]
+    pub jog_deadman_s: f64,
+}
+
+fn default_jog_deadman_s() -> f64 {
+    0.5
 }
 
 fn default_in_position_timeout_s() -> f64 {
@@ -288,6 +296,9 @@ impl DaemonConfig {
         }
         if !(config.job_record_period_s > 0.0 && config.job_record_period_s.is_finite()) {
             return Err(bad("job_record_period_s", "must be a finite number > 0"));
+        }
+        if !(config.jog_deadman_s > 0.0 && config.jog_deadman_s.is_finite()) {
+            return Err(bad("jog_deadman_s", "must be a finite number > 0"));
         }
         if !(config.following_error_limit_mm > 0.0 && config.following_error_limit_mm.is_finite()) {
             return Err(bad(

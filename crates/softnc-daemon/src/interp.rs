@@ -60,6 +60,10 @@ pub struct InterpTask {
     /// Where the machine is, from the position process's status: a job is planned
     /// from there.
     machine_mm: [f64; 3],
+    /// The operator's program-flow switches, as the MMI last set them.
+    switches: Switches,
+    /// The machine's parameter file and tool table: a job is read with them.
+    store: crate::machine_store::MachineStore,
     shutdown: bool,
     /// SIGTERM/SIGINT or the supervisor's death: stop the job along its path, end.
     stop: StopWatch,
@@ -82,6 +86,8 @@ pub enum JobEnd {
 /// streams it.
 pub struct PlannedJob {
     job_id: u64,
+    /// The profile with the machine's tool table.
+    machine: softnc_core::MachineProfile,
     path: String,
     /// The program's text: all the interpolation process holds of it.
     text: Arc<str>,
@@ -157,6 +163,7 @@ impl InterpTask {
         // position process's ring); twice that can never fill it, heartbeats and
         // notes included
         let capacity = OUTBOX_CAPACITY.max(4 * (cfg.config.lookahead_samples + 1));
+        let store = crate::machine_store::MachineStore::new(&cfg.data_dir);
         Ok(InterpTask {
             status: bus.status_subscriber()?,
             control: bus.control_subscriber()?,
@@ -175,6 +182,8 @@ impl InterpTask {
             state: MachineState::Idle,
             job_id: 0,
             machine_mm: [0.0; 3],
+            switches: Switches::default(),
+            store,
             shutdown: false,
             stop: StopWatch::manual(),
             _bus: bus,
@@ -209,7 +218,9 @@ impl InterpTask {
                         };
                         tracing::info!("job {}: planning {}", c.job_id, c.path.as_str());
                         let waits = self.outbox.waits();
-                        let end = self.run_job(c.path.as_str(), c.job_id, feed_override)?;
+                        let from_line = (c.axis != 0 && c.axis != u32::MAX).then_some(c.axis);
+                        let end =
+                            self.run_job(c.path.as_str(), c.job_id, feed_override, from_line)?;
                         tracing::info!("job {} {:?}", c.job_id, end);
                         if self.outbox.waits() > waits {
                             tracing::warn!(
@@ -226,6 +237,7 @@ impl InterpTask {
                     ),
                     Some(ControlKind::EStop) => self.state = MachineState::EStopped,
                     Some(ControlKind::Reset) => self.state = MachineState::Idle,
+                    Some(k) if self.switches.apply(k, c.value) => {}
                     Some(ControlKind::Shutdown) => self.shutdown = true,
                     _ => {}
                 }
@@ -300,7 +312,7 @@ impl InterpTask {
     /// override `override_pct` in force, if the store has one that applies.
     fn learned(&mut self, job: &PlannedJob, override_pct: u32) -> Result<Option<JobCorrection>> {
         let store = LearningStore::new(&self.cfg.learning_dir);
-        let machine = &self.cfg.machine;
+        let machine = &job.machine;
         // the planned samples, counted on a stream of their own (only when the store
         // has an entry for the program)
         let count = || {
@@ -342,8 +354,14 @@ impl InterpTask {
 
     /// Read, plan and stream one job, starting at feed override `feed_override`
     /// (fraction: the operator's, in force when the job starts).
-    pub fn run_job(&mut self, path: &str, job_id: u64, feed_override: f64) -> Result<JobEnd> {
-        let Some(mut job) = self.plan_job(path, job_id, feed_override)? else {
+    pub fn run_job(
+        &mut self,
+        path: &str,
+        job_id: u64,
+        feed_override: f64,
+        from_line: Option<u32>,
+    ) -> Result<JobEnd> {
+        let Some(mut job) = self.plan_job(path, job_id, feed_override, from_line)? else {
             return Ok(JobEnd::Refused);
         };
         let mut s = self.start(&mut job)?;
@@ -379,9 +397,23 @@ impl InterpTask {
         path: &str,
         job_id: u64,
         feed_override: f64,
+        from_line: Option<u32>,
     ) -> Result<Option<PlannedJob>> {
         self.job_id = job_id;
-        let (text, options, checked) = match check_job(path, &self.cfg.machine, self.machine_mm) {
+        // the machine's offsets and tools, as the MMI checked the job with them
+        let setup = self.store.load_params().and_then(|params| {
+            let machine = self.store.profile(&self.cfg.machine)?;
+            let setup = JobSetup {
+                start_mm: self.machine_mm,
+                params,
+                switches: self.switches,
+                from_line,
+            };
+            Ok((machine, setup))
+        });
+        let checked = setup
+            .and_then(|(machine, setup)| check_job(path, &machine, &setup).map(|c| (machine, c)));
+        let (machine, (text, options, checked)) = match checked {
             Ok(p) => p,
             Err(msg) => {
                 self.alarm(AlarmCode::JobRefused, &msg)?;
@@ -391,6 +423,7 @@ impl InterpTask {
         };
         let mut job = PlannedJob {
             job_id,
+            machine,
             path: path.to_string(),
             text,
             options,
@@ -419,7 +452,7 @@ impl InterpTask {
         let (producer, mut it) = stream_program(
             job.text.clone(),
             &job.path,
-            &self.cfg.machine,
+            &job.machine,
             &job.options,
             &job.checked,
             mode,
@@ -492,6 +525,7 @@ impl InterpTask {
             seq: 0,
             kind: ControlKind::Shutdown.wire(),
             job_id: 0,
+            axis: u32::MAX,
             value: 0.0,
             path: FixedStr::empty(),
         });
@@ -655,32 +689,105 @@ impl InterpTask {
     }
 }
 
-/// Check a program's bytes (read from `path`) for `machine`, from where the machine
-/// is (`start_mm`, machine coordinates), as it will be streamed: its plan's figures
-/// and first error, in memory bounded by the braking distance, never the whole plan.
-/// The error text is the operator's (`path:line:column: reason`).
+/// The operator's program-flow switches, read when a job starts.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Switches {
+    /// Stop at the end of every block until `step`.
+    pub single_block: bool,
+    /// M1 stops (optional stop).
+    pub optional_stop: bool,
+    /// Lines starting with `/` are skipped.
+    pub block_delete: bool,
+}
+
+impl Switches {
+    /// Take a switch command (`SingleBlock`, `OptionalStop`, `BlockDelete`, value 1
+    /// on, 0 off); false for any other command.
+    pub fn apply(&mut self, kind: ControlKind, value: f64) -> bool {
+        let on = value != 0.0;
+        match kind {
+            ControlKind::SingleBlock => self.single_block = on,
+            ControlKind::OptionalStop => self.optional_stop = on,
+            ControlKind::BlockDelete => self.block_delete = on,
+            _ => return false,
+        }
+        true
+    }
+}
+
+/// How a job is read beyond its program text: where the machine is, the machine's
+/// parameters (offsets, G92, active system), the operator's switches, and the line
+/// to run from.
+#[derive(Debug, Clone, Default)]
+pub struct JobSetup {
+    /// Where the machine is when the job starts (machine coordinates).
+    pub start_mm: [f64; 3],
+    /// The machine's parameters (`None`: the profile's offsets).
+    pub params: Option<softnc_gcode::Params>,
+    /// The program-flow switches.
+    pub switches: Switches,
+    /// Run from this line (LinuxCNC's run-from-line); `None`: from the start.
+    pub from_line: Option<u32>,
+}
+
+impl JobSetup {
+    /// A job from `start_mm` with the profile's offsets and no switch on.
+    pub fn at(start_mm: [f64; 3]) -> Self {
+        JobSetup {
+            start_mm,
+            ..Default::default()
+        }
+    }
+
+    /// The planner's options for it.
+    pub fn plan_options(&self) -> PlanOptions {
+        PlanOptions {
+            start_mm: Some(self.start_mm),
+            params: self.params.clone(),
+            ..Default::default()
+        }
+    }
+}
+
+/// Check a program's bytes (read from `path`) for `machine` as `setup` says (from
+/// where the machine is, with its parameters), as it will be streamed: its plan's
+/// figures and first error, in memory bounded by the braking distance, never the
+/// whole plan. The error text is the operator's (`path:line:column: reason`).
 pub fn check_bytes(
     bytes: &[u8],
     path: &str,
     machine: &softnc_core::MachineProfile,
-    start_mm: [f64; 3],
+    setup: &JobSetup,
 ) -> Result<(Arc<str>, PlanOptions, CheckedProgram), String> {
     let text: Arc<str> = Arc::from(String::from_utf8_lossy(bytes));
-    let options = PlanOptions {
-        start_mm: Some(start_mm),
-        ..Default::default()
-    };
+    let options = setup.plan_options();
     let (_, checked) = check_program(&text, path, machine, &options).map_err(|e| e.to_string())?;
     Ok((text, options, checked))
 }
 
-/// Read a program (the MMI's copy) and check it from `start_mm`
-/// ([`check_bytes`]); its text is the learning store's key.
+/// The parameters as the program `text` leaves them (G10, G92, the active system):
+/// what the machine keeps when the job completes.
+pub fn end_params(
+    text: &str,
+    path: &str,
+    machine: &softnc_core::MachineProfile,
+    setup: &JobSetup,
+) -> Result<softnc_gcode::Params, String> {
+    let options = setup.plan_options().read_options();
+    let mut params = None;
+    softnc_gcode::interp::read_with(text, path, machine, &options, 4096, &mut |_| {})
+        .map(|(_, p)| params = Some(p))
+        .map_err(|e| e.to_string())?;
+    params.ok_or_else(|| format!("{path}: no parameters"))
+}
+
+/// Read a program (the MMI's copy) and check it as `setup` says ([`check_bytes`]);
+/// its text is the learning store's key.
 pub fn check_job(
     path: &str,
     machine: &softnc_core::MachineProfile,
-    start_mm: [f64; 3],
+    setup: &JobSetup,
 ) -> Result<(Arc<str>, PlanOptions, CheckedProgram), String> {
     let bytes = std::fs::read(path).map_err(|e| format!("{path}: cannot read: {e}"))?;
-    check_bytes(&bytes, path, machine, start_mm)
+    check_bytes(&bytes, path, machine, setup)
 }

@@ -12,6 +12,9 @@
 //!   publisher thread.
 //! - [`jobfile`]: a job's program taken in once (regular file, size limit) and kept
 //!   as an immutable copy named by its hash, which the other processes run.
+//! - [`machine_store`]: the parameter file (work offsets, G92, stored positions)
+//!   and the tool table, kept between jobs and restarts.
+//! - [`manual`]: jogs and homing between jobs, on the position cycle.
 //! - [`mmi`]: `softnc-mmi`, job checks, machine state, alarms, history, operator API.
 //! - [`supervisor`]: `softncd`, starts, watches, restarts and stops the processes.
 //! - [`lifecycle`]: one controller per instance (a lock), stopping on SIGTERM/SIGINT
@@ -28,6 +31,8 @@ pub mod config;
 pub mod interp;
 pub mod jobfile;
 pub mod lifecycle;
+pub mod machine_store;
+pub mod manual;
 pub mod mmi;
 pub mod outbox;
 pub mod position;

@@ -5,9 +5,10 @@
 
 use crate::bus::{Bus, Pub, Sub};
 use crate::config::Loaded;
-use crate::interp::check_bytes;
+use crate::interp::{check_bytes, end_params, JobSetup, Switches};
 use crate::jobfile::intake;
 use crate::lifecycle::StopWatch;
+use crate::machine_store::{coords_number, offsets_json, MachineStore, Offsets};
 use anyhow::{Context, Result};
 use iceoryx2::port::server::Server;
 use iceoryx2::prelude::*;
@@ -57,6 +58,12 @@ pub struct JobRecord {
     /// SHA-256 of the program that ran.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sha256: Option<String>,
+    /// The block(s) of an MDI command (`None`: a job from a file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mdi: Option<String>,
+    /// The line a run-from-line job started at.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub from_line: Option<u32>,
 }
 
 impl JobRecord {
@@ -149,6 +156,19 @@ pub struct MmiTask {
     intent: Option<MachineState>,
     /// A submitted job being read and checked off the loop; answered when done.
     checking: Option<Checking>,
+    /// The parameter file and the tool table.
+    store: MachineStore,
+    /// The machine's parameters as last saved (`None`: the profile's offsets).
+    params: Option<softnc_gcode::Params>,
+    /// Why the parameter file cannot be used: jobs, MDI and touch-off are refused.
+    params_error: Option<String>,
+    /// The running job's parameters at its end: saved when it completes.
+    pending_params: Option<(u64, softnc_gcode::Params)>,
+    /// The operator's program-flow switches.
+    switches: Switches,
+    /// A continuous jog's axis, speed and when its client last renewed it (the
+    /// dead-man).
+    jog_lease: Option<(u32, f64, Instant)>,
     stop: StopWatch,
     _bus: Bus,
 }
@@ -157,13 +177,34 @@ type OperatorRequestIn =
     iceoryx2::active_request::ActiveRequest<ipc::Service, OperatorRequest, (), OperatorReply, ()>;
 
 /// What the check of a submitted job gives: the program taken in, the path of its
-/// copy and the plan's figures; or why it is refused.
-type CheckResult = std::result::Result<(crate::jobfile::JobFile, String, PlanStats), String>;
+/// copy, the plan's figures and the parameters as it leaves them; or why it is
+/// refused.
+type CheckResult = std::result::Result<
+    (
+        crate::jobfile::JobFile,
+        String,
+        PlanStats,
+        softnc_gcode::Params,
+    ),
+    String,
+>;
+
+/// What is being checked.
+#[derive(Debug, Clone, PartialEq)]
+enum CheckKind {
+    /// A job from a file (from a line).
+    Job { from_line: Option<u32> },
+    /// MDI block(s).
+    Mdi { text: String },
+    /// A touch-off (a G10 L20 block: no motion).
+    TouchOff { what: String },
+}
 
 /// A job being taken in (read once, copied, planned from the machine's position) on
 /// a thread of its own: the loop goes on serving status, E-stop and heartbeats.
 struct Checking {
     path: String,
+    kind: CheckKind,
     /// The operator's request, answered when the check ends.
     request: Option<OperatorRequestIn>,
     result: std::sync::mpsc::Receiver<CheckResult>,
@@ -187,6 +228,14 @@ impl MmiTask {
             .context("operator service")?;
         let server = svc.server_builder().create().context("operator server")?;
         let (jobs, job_id_floor) = load_jobs(&cfg.data_dir.join("jobs.json"));
+        let store = MachineStore::new(&cfg.data_dir);
+        let (params, params_error) = match store.load_params() {
+            Ok(p) => (p, None),
+            Err(e) => {
+                tracing::error!("{e}");
+                (None, Some(e))
+            }
+        };
         Ok(MmiTask {
             server,
             control: bus.control_publisher()?,
@@ -215,6 +264,12 @@ impl MmiTask {
             last_hb: Instant::now() - Duration::from_secs(1),
             shutdown: false,
             checking: None,
+            store,
+            params,
+            params_error,
+            pending_params: None,
+            switches: Switches::default(),
+            jog_lease: None,
             abort_asked: None,
             intent: None,
             stop: StopWatch::manual(),
@@ -249,22 +304,35 @@ impl MmiTask {
         value: f64,
         path: &str,
     ) -> Result<()> {
+        self.send_control_axis(kind, job_id, u32::MAX, value, path)
+    }
+
+    fn send_control_axis(
+        &mut self,
+        kind: ControlKind,
+        job_id: u64,
+        axis: u32,
+        value: f64,
+        path: &str,
+    ) -> Result<()> {
         self.control_seq += 1;
         self.control.send_copy(ControlCommand {
             seq: self.control_seq,
             kind: kind.wire(),
             job_id,
+            axis,
             value,
             path: FixedStr::try_new(path)?,
         })?;
         Ok(())
     }
 
-    /// The machine state as the position process reports it (Idle before it reports).
+    /// The machine state as the position process reports it (off before it
+    /// reports).
     pub fn position_state(&self) -> MachineState {
         self.last
             .and_then(|s| MachineState::from_wire(s.state))
-            .unwrap_or(MachineState::Idle)
+            .unwrap_or(MachineState::Off)
     }
 
     /// A job is under way: started and not ended (also before its first sample).
@@ -288,11 +356,20 @@ impl MmiTask {
         match pos {
             MachineState::Faulted | MachineState::EStopped => pos,
             _ if supervisor_faulted || position_lost => MachineState::Faulted,
+            MachineState::Off | MachineState::Homing | MachineState::Jogging => pos,
             _ if self.job_active() => {
                 let interp = MachineState::from_wire(self.peers[ProcessId::Interp as usize].state);
+                let mdi = self
+                    .jobs
+                    .iter()
+                    .rev()
+                    .find(|j| j.outcome == "running")
+                    .is_some_and(|j| j.mdi.is_some());
                 match (self.intent, interp) {
                     (Some(i), _) => i,
                     (None, Some(MachineState::Stopping)) => MachineState::Stopping,
+                    (None, Some(MachineState::Paused)) => MachineState::Paused,
+                    _ if mdi => MachineState::Mdi,
                     _ => MachineState::Running,
                 }
             }
@@ -376,6 +453,7 @@ impl MmiTask {
                     changed = true;
                     self.intent = None;
                     self.abort_asked = None;
+                    self.keep_params_of_completed_job()?;
                 }
             }
         }
@@ -465,6 +543,7 @@ impl MmiTask {
             }
         }
         self.poll_checking()?;
+        self.watch_jog()?;
         if self.last_hb.elapsed().as_secs_f64() >= self.cfg.config.heartbeat_period_s {
             self.hb_counter += 1;
             self.heartbeat.send_copy(Heartbeat {
@@ -477,6 +556,188 @@ impl MmiTask {
             self.last_hb = Instant::now();
         }
         Ok(())
+    }
+
+    /// A completed job's (or MDI's) parameters become the machine's: saved, and
+    /// read back from the file (so that the next check and the interpolator's plan
+    /// read the same values). An aborted job's are dropped.
+    fn keep_params_of_completed_job(&mut self) -> Result<()> {
+        let Some((job_id, params)) = self.pending_params.take() else {
+            return Ok(());
+        };
+        let completed = self
+            .jobs
+            .iter()
+            .any(|j| j.job_id == job_id && j.outcome == "completed");
+        if completed {
+            self.save_params(&params)?;
+        }
+        Ok(())
+    }
+
+    fn save_params(&mut self, params: &softnc_gcode::Params) -> Result<()> {
+        let saved = self
+            .store
+            .save_params(params)
+            .and_then(|()| self.store.load_params());
+        match saved {
+            Ok(p) => {
+                self.params = p;
+                self.params_error = None;
+            }
+            Err(e) => {
+                self.params_error = Some(e.clone());
+                self.alarms_pub.send_copy(Alarm {
+                    code: AlarmCode::Other.wire(),
+                    axis: u32::MAX,
+                    process: ProcessId::Mmi.wire(),
+                    job_id: 0,
+                    time_index: 0,
+                    message: FixedStr::truncated(&format!("parameters not saved: {e}")),
+                })?;
+            }
+        }
+        Ok(())
+    }
+
+    /// A continuous jog whose client stopped renewing it is stopped (the dead-man).
+    fn watch_jog(&mut self) -> Result<()> {
+        let Some((axis, _, renewed)) = self.jog_lease else {
+            return Ok(());
+        };
+        let age = renewed.elapsed().as_secs_f64();
+        let jogging = self.position_state() == MachineState::Jogging;
+        if !jogging && age > self.cfg.config.heartbeat_timeout_s {
+            // it ended (a soft limit, an abort, a stop)
+            self.jog_lease = None;
+        } else if jogging && age > self.cfg.config.jog_deadman_s {
+            self.jog_lease = None;
+            self.send_control_axis(ControlKind::Jog, 0, axis, 0.0, "")?;
+            let name = self.axis_name(axis);
+            let deadman = self.cfg.config.jog_deadman_s;
+            self.alarms_pub.send_copy(Alarm {
+                code: AlarmCode::Other.wire(),
+                axis,
+                process: ProcessId::Mmi.wire(),
+                job_id: 0,
+                time_index: 0,
+                message: FixedStr::truncated(&format!(
+                    "jog of {name} stopped: its client did not renew it for {deadman} s"
+                )),
+            })?;
+        }
+        Ok(())
+    }
+
+    fn axis_name(&self, axis: u32) -> String {
+        self.cfg
+            .machine
+            .axes
+            .get(axis as usize)
+            .map_or_else(|| format!("axis {axis}"), |a| a.name.clone())
+    }
+
+    /// Which axes are homed, as the position process reports them.
+    pub fn homed(&self) -> [bool; 3] {
+        let mask = self.last.map_or(0, |s| s.homed);
+        [0, 1, 2].map(|i| mask & (1 << i) != 0)
+    }
+
+    /// Why a job, MDI or touch-off cannot be taken in now, if it cannot.
+    fn refuse_program(&self, state: MachineState, what: &str) -> Option<String> {
+        if self.shutdown {
+            return Some(format!("shutting down; {what} not started"));
+        }
+        if state == MachineState::Off {
+            return Some(format!("the machine is off; {what} not started"));
+        }
+        if state != MachineState::Idle || self.job_active() {
+            return Some(format!("machine is busy ({state:?}); {what} not started"));
+        }
+        if let Some(e) = &self.params_error {
+            return Some(format!("{e}; {what} not started"));
+        }
+        let homed = self.homed();
+        if homed.iter().any(|h| !h) {
+            let missing: Vec<String> = (0..3)
+                .filter(|&i| !homed[i])
+                .map(|i| self.axis_name(i as u32))
+                .collect();
+            return Some(format!(
+                "not homed ({}): home first (`softnc home`); {what} not started",
+                missing.join(", ")
+            ));
+        }
+        for p in [ProcessId::Interp, ProcessId::Position] {
+            if self.peer_status(p) != "alive" {
+                return Some(format!(
+                    "the {} process is {}; {what} not started",
+                    p.name(),
+                    self.peer_status(p)
+                ));
+            }
+        }
+        if let Some(c) = &self.checking {
+            return Some(format!("{} is being checked; {what} not started", c.path));
+        }
+        None
+    }
+
+    /// Read and check a program off the loop ([`Checking`]); answered when done.
+    fn begin_check(&mut self, path: String, kind: CheckKind) -> Option<OperatorReply> {
+        let limit = self.cfg.config.max_job_bytes;
+        let programs = self.cfg.data_dir.join("programs");
+        let machine = match self.store.profile(&self.cfg.machine) {
+            Ok(m) => m,
+            Err(e) => return Some(Self::reply(false, 0, &format!("{e}; nothing started"))),
+        };
+        // planned from where the machine is, with its offsets, as the interpolator
+        // will plan it
+        let setup = JobSetup {
+            start_mm: self
+                .last
+                .map_or([0.0; 3], |s| [s.cmd_mm[0], s.cmd_mm[1], s.cmd_mm[2]]),
+            params: self.params.clone(),
+            switches: self.switches,
+            from_line: match kind {
+                CheckKind::Job { from_line } => from_line,
+                _ => None,
+            },
+        };
+        let (tx, rx) = std::sync::mpsc::channel();
+        let job_path = path.clone();
+        let spawned = std::thread::Builder::new()
+            .name("job-check".into())
+            .spawn(move || {
+                let _ = tx.send(check_job(&job_path, limit, &programs, &machine, &setup));
+            });
+        if let Err(e) = spawned {
+            return Some(Self::reply(
+                false,
+                0,
+                &format!("cannot check the job: {e}; job not started"),
+            ));
+        }
+        self.checking = Some(Checking {
+            path,
+            kind,
+            request: None,
+            result: rx,
+            cancelled: None,
+        });
+        None
+    }
+
+    /// MDI text (or a touch-off's block) as a program file the check takes in.
+    fn mdi_file(&self, text: &str) -> std::result::Result<String, String> {
+        let dir = self.cfg.data_dir.join("mdi");
+        std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        let path = dir.join("mdi.ngc");
+        // between percent signs: the program ends without M2, whose reset of the
+        // modal state (G54, G90, …) an MDI block must not make
+        let program = format!("%\n{text}\n%\n");
+        write_atomic(&path, program.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
+        Ok(path.display().to_string())
     }
 
     /// The end of a job's check: start it (its record, the interpolator told) or
@@ -501,9 +762,9 @@ impl MmiTask {
         let path = c.path;
         let state = self.machine_state();
         let result = match (c.cancelled, result) {
-            (Some(why), _) => Err(format!("{path}: {why}; job not started")),
+            (Some(why), _) => Err(format!("{path}: {why}; not started")),
             (None, Ok(_)) if state != MachineState::Idle || self.job_active() => Err(format!(
-                "{path}: the machine became {state:?} while it was checked; job not started"
+                "{path}: the machine became {state:?} while it was checked; not started"
             )),
             (None, r) => r,
         };
@@ -519,7 +780,7 @@ impl MmiTask {
                 })?;
                 Self::reply(false, 0, &msg)
             }
-            Ok((job, copy, stats)) => {
+            Ok((job, copy, stats, params)) => {
                 let job_id = self
                     .jobs
                     .iter()
@@ -532,11 +793,18 @@ impl MmiTask {
                     .duration_since(SystemTime::UNIX_EPOCH)
                     .map(|d| d.as_secs())
                     .unwrap_or(0);
+                let (mdi, from_line) = match &c.kind {
+                    CheckKind::Job { from_line } => (None, *from_line),
+                    CheckKind::Mdi { text } => (Some(text.clone()), None),
+                    CheckKind::TouchOff { what } => (Some(what.clone()), None),
+                };
+                // nothing to move (a G10, G92, G5x block, a touch-off): done here
+                let moves = stats.moves > 0;
                 self.jobs.push(JobRecord {
                     job_id,
                     path: path.clone(),
                     submitted_unix_s: submitted,
-                    outcome: "running".into(),
+                    outcome: if moves { "running" } else { "completed" }.into(),
                     planned_samples: stats.samples,
                     cycles: 0,
                     planned_path_mm: stats.path_length_mm,
@@ -546,12 +814,36 @@ impl MmiTask {
                     alarms: Vec::new(),
                     program: Some(copy.clone()),
                     sha256: Some(job.sha256.clone()),
+                    mdi,
+                    from_line,
                 });
                 self.save_jobs();
-                // the feed override is the machine's, not the job's: the job starts at
-                // the one in force (carried here, so a restarted interpolator knows it)
-                self.send_control(ControlKind::StartJob, job_id, self.feed_override, &copy)?;
-                Self::reply(true, job_id, &format!("job {job_id} started: {path}"))
+                if !moves {
+                    self.save_params(&params)?;
+                    let what = match &c.kind {
+                        CheckKind::TouchOff { what } => what.clone(),
+                        _ => format!("job {job_id}"),
+                    };
+                    Self::reply(true, job_id, &format!("{what}: done (nothing to move)"))
+                } else {
+                    self.pending_params = Some((job_id, params));
+                    // the feed override is the machine's, not the job's: the job
+                    // starts at the one in force (carried here, so a restarted
+                    // interpolator knows it)
+                    self.send_control_axis(
+                        ControlKind::StartJob,
+                        job_id,
+                        from_line.unwrap_or(0),
+                        self.feed_override,
+                        &copy,
+                    )?;
+                    let what = if matches!(c.kind, CheckKind::Job { .. }) {
+                        "job"
+                    } else {
+                        "MDI"
+                    };
+                    Self::reply(true, job_id, &format!("{what} {job_id} started: {path}"))
+                }
             }
         };
         if let Some(req) = c.request {
@@ -587,74 +879,216 @@ impl MmiTask {
         Ok(Some(match kind {
             ControlKind::StartJob => {
                 let path = r.path.as_str().to_string();
-                if self.shutdown {
-                    return Ok(Some(Self::reply(
-                        false,
-                        0,
-                        "shutting down; job not started",
-                    )));
-                }
-                if state != MachineState::Idle || self.job_active() {
-                    return Ok(Some(Self::reply(
-                        false,
-                        0,
-                        &format!("machine is busy ({state:?}); job not started"),
-                    )));
-                }
-                for p in [ProcessId::Interp, ProcessId::Position] {
-                    if self.peer_status(p) != "alive" {
-                        return Ok(Some(Self::reply(
-                            false,
-                            0,
-                            &format!(
-                                "the {} process is {}; job not started",
-                                p.name(),
-                                self.peer_status(p)
-                            ),
-                        )));
-                    }
-                }
-                if let Some(c) = &self.checking {
-                    return Ok(Some(Self::reply(
-                        false,
-                        0,
-                        &format!("{} is being checked; job not started", c.path),
-                    )));
+                if let Some(why) = self.refuse_program(state, "job") {
+                    return Ok(Some(Self::reply(false, 0, &why)));
                 }
                 // read once (a regular file under the limit), checked, and run from
                 // its immutable copy; on a thread of its own (a long program takes a
                 // while) — the loop goes on serving status and E-stop
-                let limit = self.cfg.config.max_job_bytes;
-                let programs = self.cfg.data_dir.join("programs");
-                let machine = self.cfg.machine.clone();
-                // planned from where the machine is, as the interpolator plans it
-                let start_mm = self
-                    .last
-                    .map_or([0.0; 3], |s| [s.cmd_mm[0], s.cmd_mm[1], s.cmd_mm[2]]);
-                let (tx, rx) = std::sync::mpsc::channel();
-                let job_path = path.clone();
-                let spawned =
-                    std::thread::Builder::new()
-                        .name("job-check".into())
-                        .spawn(move || {
-                            let _ =
-                                tx.send(check_job(&job_path, limit, &programs, &machine, start_mm));
-                        });
-                if let Err(e) = spawned {
+                let from_line = (r.axis != 0 && r.axis != u32::MAX).then_some(r.axis);
+                return Ok(self.begin_check(path, CheckKind::Job { from_line }));
+            }
+            ControlKind::Mdi => {
+                let text = r.path.as_str().to_string();
+                if text.trim().is_empty() {
+                    return Ok(Some(Self::reply(false, 0, "MDI: no block given")));
+                }
+                if let Some(why) = self.refuse_program(state, "MDI") {
+                    return Ok(Some(Self::reply(false, 0, &why)));
+                }
+                let path = match self.mdi_file(&text) {
+                    Ok(p) => p,
+                    Err(e) => return Ok(Some(Self::reply(false, 0, &format!("MDI: {e}")))),
+                };
+                return Ok(self.begin_check(path, CheckKind::Mdi { text }));
+            }
+            ControlKind::TouchOff => {
+                let axes = self.cfg.machine.axes.len().min(3) as u32;
+                if r.axis >= axes {
+                    return Ok(Some(Self::reply(false, 0, "touch-off: no such axis")));
+                }
+                if !r.value.is_finite() {
                     return Ok(Some(Self::reply(
                         false,
                         0,
-                        &format!("cannot check the job: {e}; job not started"),
+                        "touch-off: the value is not a number",
                     )));
                 }
-                self.checking = Some(Checking {
-                    path,
-                    request: None,
-                    result: rx,
-                    cancelled: None,
-                });
-                return Ok(None);
+                let coords = r.path.as_str();
+                let p = if coords.is_empty() {
+                    0 // the active system
+                } else {
+                    match coords_number(coords) {
+                        Some(n) => n,
+                        None => {
+                            return Ok(Some(Self::reply(
+                                false,
+                                0,
+                                &format!(
+                                "touch-off: {coords:?} is not a coordinate system (G54 … G59.3)"
+                            ),
+                            )))
+                        }
+                    }
+                };
+                if matches!(
+                    state,
+                    MachineState::Running
+                        | MachineState::Held
+                        | MachineState::Paused
+                        | MachineState::Stopping
+                        | MachineState::Mdi
+                        | MachineState::Homing
+                        | MachineState::Jogging
+                ) {
+                    return Ok(Some(Self::reply(
+                        false,
+                        0,
+                        &format!(
+                            "touch-off refused ({state:?}): the axes are moving; touch off at rest"
+                        ),
+                    )));
+                }
+                if let Some(why) = self.refuse_program(state, "touch-off") {
+                    return Ok(Some(Self::reply(false, 0, &why)));
+                }
+                let name = self.axis_name(r.axis);
+                let block = format!("G10 L20 P{p} {name}{:.6}", r.value);
+                let what = format!(
+                    "touch-off {name} = {:.4} in {}",
+                    r.value,
+                    if p == 0 {
+                        Offsets::from_params(self.params.as_ref(), &self.cfg.machine).coords_name()
+                    } else {
+                        crate::machine_store::coords_name(p)
+                    }
+                );
+                let path = match self.mdi_file(&block) {
+                    Ok(p) => p,
+                    Err(e) => return Ok(Some(Self::reply(false, 0, &format!("touch-off: {e}")))),
+                };
+                return Ok(self.begin_check(path, CheckKind::TouchOff { what }));
             }
+            ControlKind::Offsets => Self::reply(
+                true,
+                0,
+                &offsets_json(self.params.as_ref(), &self.cfg.machine).to_string(),
+            ),
+            ControlKind::Tools => match self.store.load_tools(&self.cfg.machine) {
+                Ok(t) => Self::reply(true, 0, &serde_json::to_string(&t).unwrap_or_default()),
+                Err(e) => Self::reply(false, 0, &e),
+            },
+            ControlKind::ToolSet => {
+                if self.job_active() || self.checking.is_some() {
+                    return Ok(Some(Self::reply(
+                        false,
+                        0,
+                        "tool table: a job is running; edit it between jobs",
+                    )));
+                }
+                let diameter = r.path.as_str().trim();
+                let diameter_mm: Option<f64> = if diameter.is_empty() {
+                    None
+                } else {
+                    match diameter.parse::<f64>() {
+                        Ok(d) if d.is_finite() && d >= 0.0 => Some(d),
+                        _ => {
+                            return Ok(Some(Self::reply(
+                                false,
+                                0,
+                                &format!("tool table: diameter {diameter:?} is not a number ≥ 0"),
+                            )))
+                        }
+                    }
+                };
+                if !r.value.is_finite() || r.axis == 0 || r.axis == u32::MAX {
+                    return Ok(Some(Self::reply(
+                        false,
+                        0,
+                        "tool table: a tool number > 0 and a finite length are needed",
+                    )));
+                }
+                let mut tools = match self.store.load_tools(&self.cfg.machine) {
+                    Ok(t) => t,
+                    Err(e) => return Ok(Some(Self::reply(false, 0, &e))),
+                };
+                match tools.iter_mut().find(|t| t.number == r.axis) {
+                    Some(t) => {
+                        t.length_mm = r.value;
+                        if let Some(d) = diameter_mm {
+                            t.diameter_mm = d;
+                        }
+                    }
+                    None => tools.push(softnc_core::config::ToolEntry {
+                        number: r.axis,
+                        length_mm: r.value,
+                        diameter_mm: diameter_mm.unwrap_or(0.0),
+                    }),
+                }
+                tools.sort_by_key(|t| t.number);
+                match self.store.save_tools(&tools) {
+                    Ok(()) => Self::reply(
+                        true,
+                        0,
+                        &format!("tool {}: length {:.4} mm", r.axis, r.value),
+                    ),
+                    Err(e) => Self::reply(false, 0, &e),
+                }
+            }
+            ControlKind::SingleBlock | ControlKind::OptionalStop | ControlKind::BlockDelete => {
+                let on = r.value != 0.0;
+                self.switches.apply(kind, r.value);
+                self.send_control(kind, 0, if on { 1.0 } else { 0.0 }, "")?;
+                let name = match kind {
+                    ControlKind::SingleBlock => "single block",
+                    ControlKind::OptionalStop => "optional stop",
+                    _ => "block delete",
+                };
+                let when = if self.job_active() {
+                    " (from the next job)"
+                } else {
+                    ""
+                };
+                Self::reply(
+                    true,
+                    0,
+                    &format!("{name} {}{when}", if on { "on" } else { "off" }),
+                )
+            }
+            ControlKind::MachineOn | ControlKind::MachineOff | ControlKind::Home => {
+                match transition(kind, state) {
+                    Err(why) => {
+                        Self::reply(false, 0, &format!("{kind:?} refused ({state:?}): {why}"))
+                    }
+                    Ok(next) => {
+                        let axes = self.cfg.machine.axes.len().min(3) as u32;
+                        if kind == ControlKind::Home && r.axis != u32::MAX && r.axis >= axes {
+                            return Ok(Some(Self::reply(false, 0, "home: no such axis")));
+                        }
+                        self.send_control_axis(kind, 0, r.axis, 0.0, "")?;
+                        let what = match kind {
+                            ControlKind::MachineOn => "machine on".to_string(),
+                            ControlKind::MachineOff => "machine off".to_string(),
+                            _ if r.axis == u32::MAX => "homing all axes".to_string(),
+                            _ => format!("homing {}", self.axis_name(r.axis)),
+                        };
+                        Self::reply(true, 0, &format!("{what} ({next:?})"))
+                    }
+                }
+            }
+            ControlKind::Jog | ControlKind::JogStep => self.jog(kind, r, state)?,
+            ControlKind::Step => match transition(kind, state) {
+                Err(why) => Self::reply(false, 0, &format!("Step refused ({state:?}): {why}")),
+                Ok(next) => {
+                    let job_id = self.running_job().map_or(0, |j| j.job_id);
+                    self.send_control(ControlKind::Resume, 0, 0.0, "")?;
+                    Self::reply(
+                        true,
+                        job_id,
+                        &format!("job {job_id}: next block ({next:?})"),
+                    )
+                }
+            },
             ControlKind::FeedOverride => {
                 let max = self.cfg.machine.planner.max_feed_override;
                 if !(0.0..=max).contains(&r.value) {
@@ -743,6 +1177,124 @@ impl MmiTask {
         }))
     }
 
+    /// A continuous jog (speed in mm/min, 0 stops it; renewed by its client within
+    /// `jog_deadman_s`) or an incremental one (a distance in mm), checked against the
+    /// axis's limits and, once homed, its soft limits.
+    fn jog(
+        &mut self,
+        kind: ControlKind,
+        r: &OperatorRequest,
+        state: MachineState,
+    ) -> Result<OperatorReply> {
+        let axes = self.cfg.machine.axes.len().min(3) as u32;
+        if r.axis >= axes {
+            return Ok(Self::reply(false, 0, "jog: no such axis"));
+        }
+        if !r.value.is_finite() {
+            return Ok(Self::reply(false, 0, "jog: the value is not a number"));
+        }
+        let i = r.axis as usize;
+        let a = self.cfg.machine.axes[i].clone();
+        let name = a.name.clone();
+        let homed = self.homed()[i];
+        let pos_mm = self.last.map_or(0.0, |s| s.cmd_mm[i]);
+        let deadman = self.cfg.config.jog_deadman_s;
+        if kind == ControlKind::Jog {
+            let speed = r.value;
+            if speed == 0.0 {
+                if state != MachineState::Jogging {
+                    return Ok(Self::reply(
+                        false,
+                        0,
+                        &format!("jog {name} 0: nothing is jogging"),
+                    ));
+                }
+                self.jog_lease = None;
+                self.send_control_axis(kind, 0, r.axis, 0.0, "")?;
+                return Ok(Self::reply(true, 0, &format!("jog of {name} stopping")));
+            }
+            let max = a.max_vel_mm_per_s * 60.0;
+            if speed.abs() > max {
+                return Ok(Self::reply(
+                    false,
+                    0,
+                    &format!("jog speed {speed} mm/min over {name}'s limit {max} mm/min"),
+                ));
+            }
+            if let Some(lease) = self.jog_lease.as_mut() {
+                if state == MachineState::Jogging && lease.0 == r.axis && lease.1 == speed {
+                    lease.2 = Instant::now();
+                    return Ok(Self::reply(true, 0, &format!("jog of {name} renewed")));
+                }
+            }
+            if let Err(why) = transition(kind, state) {
+                return Ok(Self::reply(
+                    false,
+                    0,
+                    &format!("jog refused ({state:?}): {why}"),
+                ));
+            }
+            if state == MachineState::Jogging && self.jog_lease.is_none_or(|l| l.0 != r.axis) {
+                return Ok(Self::reply(
+                    false,
+                    0,
+                    "another jog is under way: stop it first",
+                ));
+            }
+            let at_limit =
+                (speed > 0.0 && pos_mm >= a.max_mm) || (speed < 0.0 && pos_mm <= a.min_mm);
+            if homed && at_limit {
+                return Ok(Self::reply(
+                    false,
+                    0,
+                    &format!("jog refused: {name} is at its soft limit ({pos_mm:.4} mm)"),
+                ));
+            }
+            self.jog_lease = Some((r.axis, speed, Instant::now()));
+            self.send_control_axis(kind, 0, r.axis, speed, "")?;
+            let until = if homed {
+                "to its soft limit"
+            } else {
+                "(not homed: no soft limits)"
+            };
+            return Ok(Self::reply(
+                true,
+                0,
+                &format!(
+                    "jogging {name} at {speed} mm/min {until}; renew within {deadman} s, `softnc jog {name} 0` stops"
+                ),
+            ));
+        }
+        // incremental
+        if let Err(why) = transition(kind, state) {
+            return Ok(Self::reply(
+                false,
+                0,
+                &format!("jog refused ({state:?}): {why}"),
+            ));
+        }
+        if r.value == 0.0 {
+            return Ok(Self::reply(false, 0, "jog: a step of 0 mm"));
+        }
+        let target_mm = pos_mm + r.value;
+        if homed && !(a.min_mm..=a.max_mm).contains(&target_mm) {
+            return Ok(Self::reply(
+                false,
+                0,
+                &format!(
+                    "jog beyond the soft limit: {name} would reach {target_mm:.4} mm, outside [{}, {}] mm",
+                    a.min_mm, a.max_mm
+                ),
+            ));
+        }
+        self.send_control_axis(kind, 0, r.axis, r.value, "")?;
+        Ok(Self::reply(
+            true,
+            0,
+            &format!("jogging {name} by {} mm to {target_mm:.4} mm", r.value),
+        ))
+    }
+
     /// "alive" (a heartbeat within the timeout), "lost" (silent, or reported lost and
     /// not yet back) or "unseen".
     fn peer_status(&self, p: ProcessId) -> &'static str {
@@ -799,16 +1351,29 @@ impl MmiTask {
             .find(|j| j.outcome == "running")
             .or(self.jobs.last());
         let s = self.last;
+        let offsets = Offsets::from_params(self.params.as_ref(), &self.cfg.machine);
+        let machine_mm = s.map(|s| [s.cmd_mm[0], s.cmd_mm[1], s.cmd_mm[2]]);
         serde_json::json!({
             "state": format!("{:?}", self.machine_state()),
+            "homed": self.homed(),
             "checking": self.checking.as_ref().map(|c| c.path.as_str()),
-            "machine_mm": s.map(|s| [s.cmd_mm[0], s.cmd_mm[1], s.cmd_mm[2]]),
+            "machine_mm": machine_mm,
+            "work_mm": machine_mm.map(|m| offsets.work_mm(m)),
+            "coords": offsets.coords_name(),
+            "offsets": {"g5x_mm": offsets.g5x_mm, "rotation_deg": offsets.rotation_deg,
+                "g92_mm": offsets.g92_mm, "tool_offset_mm": offsets.tool_mm},
+            "tool": offsets.tool,
+            "params_error": self.params_error,
+            "switches": {"single_block": self.switches.single_block,
+                "optional_stop": self.switches.optional_stop,
+                "block_delete": self.switches.block_delete},
             "program_line": s.filter(|s| s.job_id != 0 && s.line != 0).map(|s| s.line),
             "feed_override": self.feed_override,
             "spindle_override": s.map(|s| s.spindle_override),
             "spindle_rpm": s.map(|s| s.spindle_rpm),
             "job": job.map(|j| serde_json::json!({
                 "job_id": j.job_id, "path": j.path, "outcome": j.outcome,
+                "program": j.program, "mdi": j.mdi, "from_line": j.from_line,
                 "cycles": j.cycles, "planned_samples": j.planned_samples,
                 "path_mm": j.path_mm, "planned_path_mm": j.planned_path_mm,
                 "progress": j.progress(),
@@ -833,24 +1398,44 @@ impl MmiTask {
 /// What an operator command does in a machine state (docs/operations.md): the next
 /// state, or why it is refused (and nothing is sent).
 pub fn transition(kind: ControlKind, state: MachineState) -> Result<MachineState, &'static str> {
+    use ControlKind as K;
     use MachineState::*;
     match (kind, state) {
-        (ControlKind::EStop, _) => Ok(EStopped),
-        (ControlKind::Hold, Running) => Ok(Held),
-        (ControlKind::Hold, Held) => Err("already held"),
-        (ControlKind::Resume, Held) => Ok(Running),
-        (ControlKind::Resume, _) => Err("nothing is held"),
-        (ControlKind::Abort, Running | Held) => Ok(Stopping),
-        (ControlKind::Abort, Stopping) => Err("already stopping"),
-        (ControlKind::Reset, Faulted | EStopped) => Ok(Idle),
-        (ControlKind::Reset, Idle) => Ok(Idle),
-        (ControlKind::Reset, Running | Held | Stopping) => {
-            Err("a job is moving: abort it (stops along the path) or E-stop first")
+        (K::EStop, _) => Ok(EStopped),
+        (K::MachineOn, Off) => Ok(Idle),
+        (K::MachineOn, Faulted | EStopped) => Err("the machine needs a reset"),
+        (K::MachineOn, _) => Err("the machine is on"),
+        (K::MachineOff, Idle) => Ok(Off),
+        (K::MachineOff, Off) => Err("the machine is off"),
+        (K::MachineOff, Faulted | EStopped) => Err("the machine needs a reset"),
+        (K::MachineOff, _) => Err("the axes are moving: stop them first"),
+        (K::Home, Idle) => Ok(Homing),
+        (K::Home, Homing) => Err("already homing"),
+        (K::Jog, Idle | Jogging) => Ok(Jogging),
+        (K::JogStep, Idle) => Ok(Jogging),
+        (K::JogStep, Jogging) => Err("a jog is under way: stop it first"),
+        (K::Hold, Running | Mdi) => Ok(Held),
+        (K::Hold, Held) => Err("already held"),
+        (K::Resume, Held | Paused) => Ok(Running),
+        (K::Resume, _) => Err("nothing is held or paused"),
+        (K::Step, Paused) => Ok(Running),
+        (K::Step, _) => Err("nothing is paused at a block end"),
+        (K::Abort, Running | Held | Paused | Mdi) => Ok(Stopping),
+        (K::Abort, Homing | Jogging) => Ok(Idle),
+        (K::Abort, Stopping) => Err("already stopping"),
+        (K::Reset, Faulted | EStopped) => Ok(Idle),
+        (K::Reset, Idle) => Ok(Idle),
+        (K::Reset, Off) => Ok(Off),
+        (K::Reset, Running | Held | Stopping | Paused | Mdi | Homing | Jogging) => {
+            Err("the axes are moving: abort (stops along the path) or E-stop first")
         }
+        (_, Off) => Err("the machine is off"),
         (_, Idle) => Err("no job is running"),
         (_, Faulted | EStopped) => Err("the machine needs a reset"),
         (_, Stopping) => Err("the job is stopping"),
-        _ => Err("not in this state"),
+        (_, Homing) => Err("the axes are homing"),
+        (_, Jogging) => Err("an axis is jogging"),
+        (_, Running | Held | Paused | Mdi) => Err("a job is running"),
     }
 }
 
@@ -913,25 +1498,27 @@ fn highest_job_id(text: &str) -> u64 {
 }
 
 /// Take a submitted job in: read once (a regular file under `limit`), stored as an
-/// immutable copy under `programs`, planned from `start_mm` as the interpolator will
-/// plan it. Runs off the MMI's loop.
+/// immutable copy under `programs`, planned as `setup` says (from where the machine
+/// is, with its offsets) as the interpolator will plan it, and read once more for
+/// the parameters it leaves. Runs off the MMI's loop.
 fn check_job(
     path: &str,
     limit: u64,
     programs: &std::path::Path,
     machine: &softnc_core::MachineProfile,
-    start_mm: [f64; 3],
+    setup: &JobSetup,
 ) -> CheckResult {
     let job = intake(path, limit, programs).map_err(|e| e.to_string())?;
     // checked as it will be streamed: the plan's figures, never the whole plan
-    let (_, _, checked) = check_bytes(&job.bytes, path, machine, start_mm)?;
+    let (text, _, checked) = check_bytes(&job.bytes, path, machine, setup)?;
+    let params = end_params(&text, path, machine, setup)?;
     let copy = job.copy.display().to_string();
     if !FixedStr::<512>::fits(&copy) {
         return Err(format!(
             "{copy}: the job's copy has a path over 512 bytes (data_dir too deep)"
         ));
     }
-    Ok((job, copy, checked.stats()))
+    Ok((job, copy, checked.stats(), params))
 }
 
 #[cfg(test)]

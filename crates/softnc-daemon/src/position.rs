@@ -15,6 +15,7 @@
 use crate::bus::{Bus, Sub};
 use crate::config::{ClockMode, Loaded};
 use crate::lifecycle::StopWatch;
+use crate::manual::{Manual, ManualEvent};
 use crate::outbox::{Outbox, PositionMsg, OUTBOX_CAPACITY};
 use crate::prep::{JobPrep, Prep, PrepRequest, Prepared, Retired};
 use anyhow::Result;
@@ -37,6 +38,9 @@ struct DryStop {
     /// Arc length travelled along the remaining samples.
     s_mm: f64,
 }
+
+/// Every axis homed (a machine with absolute encoders).
+const ALL_HOMED: u32 = (1 << 3) - 1;
 
 /// Builds the engine for a job: controller stacks in front of the servo backend (on
 /// the preparation thread).
@@ -70,6 +74,10 @@ pub struct PositionTask<B: ServoBackend> {
     /// Status, heartbeats, loop stats and alarms leave through the outbox thread.
     outbox: Outbox<PositionMsg>,
     state: MachineState,
+    /// The operator's program-flow switches (a job's motions are read with them).
+    switches: crate::interp::Switches,
+    /// The line the requested job runs from.
+    from_line: Option<u32>,
     job_id: u64,
     primitives: Vec<Option<Primitive>>,
     /// The running job's program line per motion.
@@ -91,6 +99,10 @@ pub struct PositionTask<B: ServoBackend> {
     starved_since: Option<Instant>,
     /// The job started last.
     last_job_id: u64,
+    /// Bit i: axis i is homed.
+    homed: u32,
+    /// Jogs and homing between jobs.
+    manual: Manual,
     latency: softnc_rt::LatencyStats,
     stats: LoopStats,
     hb_counter: u64,
@@ -118,7 +130,22 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             dir: cfg.data_dir.clone(),
             lossless: cfg.config.clock == ClockMode::Lockstep,
         });
-        let prep = Prep::start(cfg.machine.clone(), make_engine, trace)?;
+        let prep = Prep::start(
+            cfg.machine.clone(),
+            make_engine,
+            trace,
+            crate::machine_store::MachineStore::new(&cfg.data_dir),
+        )?;
+        // a controller starts with its drives off; restarted under a running one
+        // (the process was lost), it comes back as the machine was: on
+        let restarted = std::env::var_os(crate::cli::RESTARTED_ENV).is_some();
+        // absolute encoders (no homing section): homed from the start
+        let homed = if cfg.machine.homed_at_start() {
+            ALL_HOMED
+        } else {
+            0
+        };
+        let manual = Manual::new(&cfg.machine, [0.0; 3])?;
         // DaemonConfig::load refuses a filter wider than the window
         anyhow::ensure!(
             engine.filter_window() <= window,
@@ -149,7 +176,13 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             trace: None,
             ring: CommandRing::new(),
             window,
-            state: MachineState::Idle,
+            state: if restarted {
+                MachineState::Idle
+            } else {
+                MachineState::Off
+            },
+            switches: crate::interp::Switches::default(),
+            from_line: None,
             job_id: 0,
             primitives: Vec::new(),
             lines: Vec::new(),
@@ -163,6 +196,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             in_position_mm,
             in_position_timeout_cycles,
             last_job_id: 0,
+            homed,
+            manual,
             latency: softnc_rt::LatencyStats::new(),
             stats: LoopStats::new(),
             hb_counter: 0,
@@ -299,6 +334,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         while let Some(c) = self.control.receive()? {
             match ControlKind::from_wire(c.kind) {
                 Some(ControlKind::EStop) => {
+                    self.manual.stop();
+                    self.manual.hold(self.last_cmd);
                     self.state = MachineState::EStopped;
                     self.alarm(AlarmCode::EStop, u32::MAX, format_args!("emergency stop"))?;
                 }
@@ -320,13 +357,89 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     // the programmed path, a fresh engine, the PDC designs: made off
                     // the cycle, swapped in before motion
                     self.requested_job = c.job_id;
+                    self.from_line = (c.axis != 0 && c.axis != u32::MAX).then_some(c.axis);
                     self.prep.request(PrepRequest::Job {
                         job_id: c.job_id,
                         path: c.path,
                         spindle_override: self.spindle_override,
                         start_mm: self.last_cmd,
+                        from_line: self.from_line,
+                        switches: self.switches,
                     });
                 }
+                Some(ControlKind::MachineOn) if self.state == MachineState::Off => {
+                    match self.engine.backend_mut().enable() {
+                        Ok(()) => {
+                            // holding where the axes stand: the last command if they
+                            // are still in position there
+                            let measured = self.engine.measured_mm();
+                            for ((cmd, m), band) in self
+                                .last_cmd
+                                .iter_mut()
+                                .zip(measured)
+                                .zip(self.in_position_mm)
+                            {
+                                if (m - *cmd).abs() > band {
+                                    *cmd = m;
+                                }
+                            }
+                            self.prev_cmd = self.last_cmd;
+                            self.state = MachineState::Idle;
+                        }
+                        Err(e) => {
+                            self.alarm(AlarmCode::Other, u32::MAX, format_args!("machine on: {e}"))?
+                        }
+                    }
+                }
+                // the MMI asks only when nothing moves
+                Some(ControlKind::MachineOff)
+                    if self.state == MachineState::Idle && self.job_id == 0 =>
+                {
+                    self.engine.backend_mut().disable();
+                    self.state = MachineState::Off;
+                }
+                Some(ControlKind::Home) if self.idle_between_jobs() => {
+                    self.manual.hold(self.last_cmd);
+                    let axis = (c.axis != u32::MAX).then_some(c.axis as usize);
+                    if self.manual.home(axis) {
+                        // homing again: the axes it homes are not homed until done
+                        match axis {
+                            Some(i) => self.homed &= !(1 << i),
+                            None => self.homed = 0,
+                        }
+                        self.state = MachineState::Homing;
+                    } else if self.cfg.machine.homed_at_start() {
+                        // absolute encoders: nothing to do
+                        self.homed = ALL_HOMED;
+                    }
+                }
+                Some(ControlKind::Jog)
+                    if self.idle_between_jobs() || self.state == MachineState::Jogging =>
+                {
+                    if self.state != MachineState::Jogging {
+                        self.manual.hold(self.last_cmd);
+                    }
+                    let i = c.axis as usize;
+                    let homed = self.homed & (1 << i) != 0;
+                    self.manual.jog(i, c.value / 60.0, homed);
+                    if self.manual.active() {
+                        self.state = MachineState::Jogging;
+                    }
+                }
+                Some(ControlKind::JogStep) if self.idle_between_jobs() => {
+                    self.manual.hold(self.last_cmd);
+                    let i = c.axis as usize;
+                    let homed = self.homed & (1 << i) != 0;
+                    if self.manual.jog_step(i, c.value, homed) {
+                        self.state = MachineState::Jogging;
+                    }
+                }
+                Some(ControlKind::Abort)
+                    if matches!(self.state, MachineState::Homing | MachineState::Jogging) =>
+                {
+                    self.manual.stop();
+                }
+                Some(k) if self.switches.apply(k, c.value) => {}
                 Some(ControlKind::SpindleOverride) => {
                     // the MMI checked the profile's range
                     self.spindle_override = c.value;
@@ -403,6 +516,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 path: FixedStr::empty(),
                 spindle_override: self.spindle_override,
                 start_mm: self.last_cmd,
+                from_line: None,
+                switches: self.switches,
             });
         }
         self.last_cmd = start;
@@ -502,6 +617,47 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         Ok(())
     }
 
+    /// On, no job, nothing moving by hand.
+    fn idle_between_jobs(&self) -> bool {
+        self.state == MachineState::Idle && self.job_id == 0
+    }
+
+    /// One cycle of a jog or homing: the command, and the state when it is over.
+    fn manual_step(&mut self) -> Result<[f64; 3]> {
+        let (cmd, event) = self.manual.step(self.engine.measured_mm());
+        match event {
+            Some(ManualEvent::Rereferenced {
+                axis,
+                correction_mm,
+            }) => {
+                // the axis's coordinates move by the correction (the encoder is
+                // re-referenced where it stands, at rest): the engine restarts there,
+                // the other axes where they are commanded
+                let mut at = self.last_cmd;
+                at[axis] = self.engine.measured_mm()[axis] + correction_mm;
+                self.engine.reset(at);
+                self.last_cmd[axis] += correction_mm;
+                self.prev_cmd[axis] += correction_mm;
+            }
+            Some(ManualEvent::Homed { axis }) => {
+                self.homed |= 1 << axis;
+            }
+            Some(ManualEvent::HomingFailed { axis, why }) => {
+                let name = ["X", "Y", "Z"][axis];
+                self.alarm(
+                    AlarmCode::Other,
+                    axis as u32,
+                    format_args!("homing {name} failed: {why}"),
+                )?;
+            }
+            None => {}
+        }
+        if !self.manual.active() {
+            self.state = MachineState::Idle;
+        }
+        Ok(cmd)
+    }
+
     /// Set the programmed path of the job (for the contour error).
     pub fn set_job_primitives(&mut self, prims: Vec<Option<Primitive>>) {
         self.primitives = prims;
@@ -538,6 +694,11 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             // the position process never enters Stopping (the interpolator's and
             // the MMI's view of an abort)
             MachineState::Faulted | MachineState::EStopped | MachineState::Stopping => {}
+            MachineState::Off
+            | MachineState::Homing
+            | MachineState::Jogging
+            | MachineState::Paused
+            | MachineState::Mdi => {}
         }
         if matches!(self.state, MachineState::Running | MachineState::Held) {
             if let Some(stop) = self.dry {
@@ -582,7 +743,11 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             matches!(self.state, MachineState::Running | MachineState::Held) || self.dry.is_some();
         // between jobs the servo holds the last command: the machine keeps running
         // (not in a fault or E-stop, where the drives are off)
-        let holding = self.state == MachineState::Idle && self.job_id == 0;
+        let holding = self.idle_between_jobs()
+            || matches!(self.state, MachineState::Homing | MachineState::Jogging);
+        if matches!(self.state, MachineState::Homing | MachineState::Jogging) {
+            cmd = self.manual_step()?;
+        }
         let rec = if moving || holding {
             let stepped = match ring_motion {
                 Some(motion) => self.engine.step_ring(&self.ring, motion, feed_move),
@@ -677,6 +842,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 }
                 _ => 0,
             },
+            homed: self.homed,
         };
         status.cmd_mm[..3].copy_from_slice(&cmd);
         status.actual_mm[..3].copy_from_slice(&rec.actual_mm);

@@ -41,6 +41,10 @@ pub enum PrepRequest {
         spindle_override: f64,
         /// Where the machine is (the program is planned from there).
         start_mm: [f64; 3],
+        /// The line it runs from (`None`: the start).
+        from_line: Option<u32>,
+        /// The operator's switches when it started.
+        switches: crate::interp::Switches,
     },
     /// Redesign job `job_id`'s PDC tables at spindle override `spindle_override`.
     SpindleOverride {
@@ -128,6 +132,7 @@ impl<B: ServoBackend + Send + 'static> Prep<B> {
         machine: MachineProfile,
         make_engine: EngineFactory<B>,
         trace: Option<TraceTo>,
+        store: crate::machine_store::MachineStore,
     ) -> std::io::Result<Self> {
         let requests = Arc::new(ArrayQueue::new(PREP_QUEUE_CAPACITY));
         let results = Arc::new(ArrayQueue::new(PREP_QUEUE_CAPACITY));
@@ -135,6 +140,7 @@ impl<B: ServoBackend + Send + 'static> Prep<B> {
         let stop = Arc::new(AtomicBool::new(false));
         let mut worker = Worker {
             machine,
+            store,
             make_engine,
             trace,
             requests: requests.clone(),
@@ -208,6 +214,8 @@ impl<B: ServoBackend> Drop for Prep<B> {
 /// The thread's side.
 struct Worker<B: ServoBackend> {
     machine: MachineProfile,
+    /// The machine's parameter file and tool table.
+    store: crate::machine_store::MachineStore,
     make_engine: EngineFactory<B>,
     trace: Option<TraceTo>,
     requests: Arc<ArrayQueue<PrepRequest>>,
@@ -268,15 +276,38 @@ impl<B: ServoBackend> Worker<B> {
                 path,
                 spindle_override,
                 start_mm,
+                from_line,
+                switches,
             } => {
                 tracing::info!("job {job_id}: preparing the position process");
+                // the job read as the interpolator reads it: the machine's offsets
+                // and tools
+                let setup = self.store.load_params().and_then(|params| {
+                    let machine = self.store.profile(&self.machine)?;
+                    Ok((
+                        machine,
+                        crate::interp::JobSetup {
+                            start_mm,
+                            params,
+                            switches,
+                            from_line,
+                        },
+                    ))
+                });
+                let (machine, setup) = match setup {
+                    Ok(s) => s,
+                    Err(e) => {
+                        tracing::warn!("job {job_id}: {e}");
+                        (self.machine.clone(), crate::interp::JobSetup::at(start_mm))
+                    }
+                };
                 let (mut prep, designer) = prepare_job(
-                    &self.machine,
+                    &machine,
                     &mut self.make_engine,
                     job_id,
                     path.as_str(),
                     spindle_override,
-                    start_mm,
+                    &setup,
                 );
                 if let Some(to) = &self.trace {
                     let file = to.dir.join(format!("trace-job{job_id}.csv"));
@@ -329,9 +360,9 @@ type JobMotions = (Vec<Option<Primitive>>, Vec<u32>);
 fn job_primitives(
     path: &str,
     machine: &MachineProfile,
-    start_mm: [f64; 3],
+    setup: &crate::interp::JobSetup,
 ) -> Result<(JobMotions, SpindleChanges), String> {
-    let (text, options, checked) = crate::interp::check_job(path, machine, start_mm)?;
+    let (text, options, checked) = crate::interp::check_job(path, machine, setup)?;
     let mut primitives = Vec::with_capacity(checked.motions());
     let mut lines = Vec::with_capacity(checked.motions());
     softnc_gcode::read_program_chunked_with(
@@ -358,12 +389,12 @@ pub fn prepare_job<B: ServoBackend>(
     job_id: u64,
     path: &str,
     spindle_override: f64,
-    start_mm: [f64; 3],
+    setup: &crate::interp::JobSetup,
 ) -> (JobPrep<B>, Option<SpindleDesigner>) {
     let ((primitives, lines), spindle_changes) = if path.is_empty() {
         ((Vec::new(), Vec::new()), Vec::new())
     } else {
-        job_primitives(path, machine, start_mm).unwrap_or_default()
+        job_primitives(path, machine, setup).unwrap_or_default()
     };
     // a fresh machine for every job, exactly as `softnc sim` starts one
     let mut engine = make_engine();

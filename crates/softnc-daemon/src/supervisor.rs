@@ -49,6 +49,8 @@ struct Proc {
     restart_at: Option<Instant>,
     /// Restarted too often: left down until `reset`.
     given_up: bool,
+    /// Started at least once: the next start is a restart.
+    started_once: bool,
 }
 
 /// The supervisor.
@@ -96,6 +98,7 @@ impl Supervisor {
             started: Instant::now(),
             last_hb: None,
             restarts: VecDeque::new(),
+            started_once: false,
             restart_at: None,
             given_up: false,
         };
@@ -124,13 +127,19 @@ impl Supervisor {
 
     fn spawn(&mut self, i: usize) -> Result<()> {
         let exe = self.bin_dir.join(self.procs[i].name);
-        let child = Command::new(&exe)
-            .arg("--config")
-            .arg(&self.cfg.path)
+        let mut cmd = Command::new(&exe);
+        cmd.arg("--config").arg(&self.cfg.path);
+        if self.procs[i].started_once {
+            // a restart under a running controller (the position process then comes
+            // back with its drives on, as the machine was)
+            cmd.env(crate::cli::RESTARTED_ENV, "1");
+        }
+        let child = cmd
             .spawn()
             .with_context(|| format!("starting {}", exe.display()))?;
         let p = &mut self.procs[i];
         p.child = Some(child);
+        p.started_once = true;
         p.started = Instant::now();
         p.last_hb = None;
         p.restart_at = None;
@@ -339,6 +348,7 @@ impl Supervisor {
             seq: u64::MAX,
             kind: ControlKind::Shutdown.wire(),
             job_id: 0,
+            axis: u32::MAX,
             value: 0.0,
             path: FixedStr::empty(),
         });

@@ -135,6 +135,7 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed
                     seq: 1,
                     kind: ControlKind::SpindleOverride.wire(),
                     job_id: 0,
+                    axis: u32::MAX,
                     value: v,
                     path: FixedStr::empty(),
                 })

@@ -69,6 +69,7 @@ fn status(seq: u64, job_id: u64) -> PositionStatus {
         path_mm: 0.0,
         motion: 0,
         line: 0,
+        homed: 0,
     }
 }
 
@@ -115,7 +116,7 @@ fn run_counted(
 
     let job_id = 1;
     let mut planned = task
-        .plan_job(job.to_str().unwrap(), job_id, 1.0)
+        .plan_job(job.to_str().unwrap(), job_id, 1.0, None)
         .unwrap()
         .expect("the job is planned");
     assert_eq!(
@@ -177,6 +178,7 @@ fn run_counted(
                         seq: i as u64,
                         kind: kind.wire(),
                         job_id: 0,
+                        axis: u32::MAX,
                         value,
                         path: FixedStr::empty(),
                     })

@@ -72,6 +72,16 @@ pub enum MachineState {
     EStopped = 4,
     /// A job being stopped along its path (abort, shutdown); idle when at rest.
     Stopping = 5,
+    /// Machine off: drives disabled, nothing moves; `MachineOn` makes it idle.
+    Off = 6,
+    /// Axes homing (the profile's sequence).
+    Homing = 7,
+    /// An axis jogging (continuous or incremental).
+    Jogging = 8,
+    /// A job stopped at an M0/M1 or a single-block end: `resume` (or `step`) goes on.
+    Paused = 9,
+    /// Running an MDI block.
+    Mdi = 10,
 }
 
 /// Position control → MMI: one per cycle (status and trace).
@@ -111,6 +121,8 @@ pub struct PositionStatus {
     pub motion: u32,
     /// Program line of that motion (1-based; 0 outside a job).
     pub line: u32,
+    /// Bit i set: axis i is homed (its machine coordinates are referenced).
+    pub homed: u32,
 }
 
 /// Which process.
@@ -202,6 +214,35 @@ pub enum ControlKind {
     Jobs = 9,
     /// Set the spindle override to `value` (fraction of the programmed speed).
     SpindleOverride = 10,
+    /// Machine on: drives enabled, holding position.
+    MachineOn = 11,
+    /// Machine off: drives disabled (only when nothing moves).
+    MachineOff = 12,
+    /// Home `axis` (`u32::MAX`: all axes in the profile's order).
+    Home = 13,
+    /// Continuous jog of `axis` at `value` mm/min (signed; 0 stops it).
+    Jog = 14,
+    /// Incremental jog of `axis` by `value` mm at the profile's jog speed.
+    JogStep = 15,
+    /// Operator: run the MDI block(s) in `path`.
+    Mdi = 16,
+    /// Operator: set `axis`'s work offset so the current position reads `value`
+    /// (G10 L20) in the coordinate system named in `path` ("" the active one).
+    TouchOff = 17,
+    /// Operator: the work offsets as JSON.
+    Offsets = 18,
+    /// Operator: the tool table as JSON.
+    Tools = 19,
+    /// Single block on (`value` 1) or off (0).
+    SingleBlock = 20,
+    /// Single block: run the next block.
+    Step = 21,
+    /// Optional stop (M1) switch on (`value` 1) or off (0).
+    OptionalStop = 22,
+    /// Block delete switch on (`value` 1) or off (0).
+    BlockDelete = 23,
+    /// Operator: set tool `axis`'s length (`value`, mm) and diameter (`path`, mm).
+    ToolSet = 24,
 }
 
 /// MMI → interpolation and position control.
@@ -215,6 +256,8 @@ pub struct ControlCommand {
     pub kind: u32,
     /// Job id for `StartJob`.
     pub job_id: u64,
+    /// Axis index for `Home`, `Jog`, `JogStep` (`u32::MAX`: none or all).
+    pub axis: u32,
     /// Argument: the override fraction (for `StartJob`: the feed override in force,
     /// which the job starts at).
     pub value: f64,
@@ -280,6 +323,9 @@ pub struct Alarm {
 pub struct OperatorRequest {
     /// What to do ([`ControlKind`] as `wire()`; `StartJob` submits `path`).
     pub kind: u32,
+    /// Axis index (`Home`, `Jog`, `JogStep`, `TouchOff`; `u32::MAX`: none or all),
+    /// tool number (`ToolSet`), line to run from (`StartJob`, 0: the start).
+    pub axis: u32,
     /// Argument.
     pub value: f64,
     /// Job file.
@@ -354,7 +400,12 @@ wire_enum!(MachineState {
     Held,
     Faulted,
     EStopped,
-    Stopping
+    Stopping,
+    Off,
+    Homing,
+    Jogging,
+    Paused,
+    Mdi
 });
 wire_enum!(ProcessId {
     Supervisor,
@@ -373,7 +424,21 @@ wire_enum!(ControlKind {
     Shutdown,
     Status,
     Jobs,
-    SpindleOverride
+    SpindleOverride,
+    MachineOn,
+    MachineOff,
+    Home,
+    Jog,
+    JogStep,
+    Mdi,
+    TouchOff,
+    Offsets,
+    Tools,
+    SingleBlock,
+    Step,
+    OptionalStop,
+    BlockDelete,
+    ToolSet
 });
 wire_enum!(AlarmCode {
     SequenceError,

@@ -11,11 +11,13 @@
 //! - [`interp`]: the sample stream (time-optimal, lookahead, override, S-curve).
 //! - [`plan`](mod@plan): the entry point and the plan's figures.
 //! - [`stream`]: a plan streamed through a bounded window (long programs).
+//! - [`manual`]: jog and homing motion between jobs, one axis at a time.
 #![warn(missing_docs)]
 
 pub mod build;
 pub mod fillet;
 pub mod interp;
+pub mod manual;
 pub mod path;
 pub mod plan;
 pub mod stream;

@@ -38,9 +38,10 @@ pub struct PlanOptions {
     /// exactly the same way and goes on with the next cycle, for callers that never
     /// resume (offline simulation, figures, tests); the daemon sets it.
     pub wait_at_program_stops: bool,
-    /// Parameters at the start (e.g. those a previous job or MDI left, LinuxCNC's
-    /// persistent parameters; 5220 selects the coordinate system); `None`: all 0 but
-    /// the profile's work offsets.
+    /// The machine's parameters at the start (offsets, G92, active system: the
+    /// parameter file, or what the last job or MDI left, LinuxCNC's persistent
+    /// parameters; 5220 selects the coordinate system); `None`: the profile's work
+    /// offsets.
     pub params: Option<softnc_gcode::Params>,
 }
 

@@ -1,0 +1,298 @@
+//! The machine's own state that outlives jobs and restarts (docs/operations.md):
+//! the parameter file — work offsets G54–G59.3 with their rotations, G92, the G28
+//! and G30 positions and the active coordinate system, LinuxCNC's persistent
+//! parameters 5161–5390 — and the tool table. Both live in the daemon's `data_dir`,
+//! one per machine instance, and are written atomically (a crash leaves the old
+//! file or the new one). The MMI writes them, only between jobs; the MMI's check
+//! and the interpolator's plan of a job both read them, so a job runs with the
+//! offsets it was checked with.
+
+use softnc_core::config::ToolEntry;
+use softnc_core::store::write_atomic;
+use softnc_core::MachineProfile;
+use softnc_gcode::Params;
+use std::path::{Path, PathBuf};
+
+/// The parameter file in `data_dir` (LinuxCNC's `.var` format).
+pub const PARAMS_FILE: &str = "softnc.var";
+/// The tool table in `data_dir` (RON: a list of the profile's tool entries).
+pub const TOOLS_FILE: &str = "tools.ron";
+
+/// Parameter numbers (LinuxCNC 2.9's numbered parameters).
+mod param {
+    /// 5210: G92 offsets applied (1) or not (0).
+    pub const G92_ON: usize = 5210;
+    /// 5211–5213: G92 offset X, Y, Z.
+    pub const G92_X: usize = 5211;
+    /// 5220: the active coordinate system, 1 (G54) … 9 (G59.3).
+    pub const COORDS: usize = 5220;
+    /// 5221: G54's X; each system takes 20 parameters (X, Y, Z, A, B, C, U, V, W, R).
+    pub const G54_X: usize = 5221;
+    /// Parameters per coordinate system.
+    pub const PER_SYSTEM: usize = 20;
+    /// Offset of R (XY rotation, degrees) within a system's parameters.
+    pub const ROTATION: usize = 9;
+    /// 5400: tool in the spindle.
+    pub const TOOL: usize = 5400;
+    /// 5401–5403: tool offset in effect, X, Y, Z.
+    pub const TOOL_X: usize = 5401;
+}
+
+/// Coordinate systems by number (1 … 9), as programs name them.
+pub const COORDS_NAMES: [&str; 9] = [
+    "G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3",
+];
+
+/// The number (1 … 9) of a coordinate system named `G54` … `G59.3` (case-insensitive).
+pub fn coords_number(name: &str) -> Option<usize> {
+    COORDS_NAMES
+        .iter()
+        .position(|n| n.eq_ignore_ascii_case(name.trim()))
+        .map(|i| i + 1)
+}
+
+/// The name of coordinate system `n` (1 … 9).
+pub fn coords_name(n: usize) -> &'static str {
+    COORDS_NAMES
+        .get(n.wrapping_sub(1))
+        .copied()
+        .unwrap_or("G54")
+}
+
+/// Where the parameter file and the tool table live.
+#[derive(Debug, Clone)]
+pub struct MachineStore {
+    dir: PathBuf,
+}
+
+impl MachineStore {
+    /// The store in `data_dir`.
+    pub fn new(data_dir: &Path) -> Self {
+        MachineStore {
+            dir: data_dir.to_path_buf(),
+        }
+    }
+
+    /// The parameter file.
+    pub fn params_path(&self) -> PathBuf {
+        self.dir.join(PARAMS_FILE)
+    }
+
+    /// The tool table.
+    pub fn tools_path(&self) -> PathBuf {
+        self.dir.join(TOOLS_FILE)
+    }
+
+    /// The parameters as last saved; `None` before the first save (the reader then
+    /// starts from the profile's work offsets). An unreadable file is an error that
+    /// names it and the line: nothing runs on offsets that may be wrong.
+    pub fn load_params(&self) -> Result<Option<Params>, String> {
+        let path = self.params_path();
+        if !path.exists() {
+            return Ok(None);
+        }
+        Params::load(&path).map(Some).map_err(|e| {
+            format!(
+                "{e} (the machine's parameter file; fix it or move it aside to start from the profile's offsets)"
+            )
+        })
+    }
+
+    /// Save `params`: the persistent ones, atomically.
+    pub fn save_params(&self, params: &Params) -> Result<(), String> {
+        params.save(&self.params_path()).map_err(|e| e.to_string())
+    }
+
+    /// The tool table: the saved one, or the profile's before the first edit.
+    pub fn load_tools(&self, profile: &MachineProfile) -> Result<Vec<ToolEntry>, String> {
+        let path = self.tools_path();
+        match std::fs::read_to_string(&path) {
+            Ok(text) => ron::from_str::<Vec<ToolEntry>>(&text)
+                .map_err(|e| format!("{}: {e} (the machine's tool table)", path.display())),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(profile.tools.clone()),
+            Err(e) => Err(format!("{}: cannot read: {e}", path.display())),
+        }
+    }
+
+    /// Save the tool table atomically.
+    pub fn save_tools(&self, tools: &[ToolEntry]) -> Result<(), String> {
+        let text = ron::ser::to_string_pretty(tools, ron::ser::PrettyConfig::default())
+            .map_err(|e| e.to_string())?;
+        write_atomic(&self.tools_path(), text.as_bytes())
+            .map_err(|e| format!("{}: {e}", self.tools_path().display()))
+    }
+
+    /// `profile` with the machine's tool table: what programs are read with.
+    pub fn profile(&self, profile: &MachineProfile) -> Result<MachineProfile, String> {
+        let mut p = profile.clone();
+        p.tools = self.load_tools(profile)?;
+        Ok(p)
+    }
+}
+
+/// The offsets in effect, from the parameters: machine = rotate(work + G92) + G5x +
+/// tool offset (LinuxCNC's order).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Offsets {
+    /// Active coordinate system, 1 (G54) … 9 (G59.3).
+    pub coords: usize,
+    /// Its origin in machine coordinates.
+    pub g5x_mm: [f64; 3],
+    /// Its XY rotation (degrees).
+    pub rotation_deg: f64,
+    /// G92 offset (zero when not applied).
+    pub g92_mm: [f64; 3],
+    /// Tool in the spindle (0 none).
+    pub tool: u32,
+    /// Tool offset in effect (G43).
+    pub tool_mm: [f64; 3],
+}
+
+impl Offsets {
+    /// The offsets `params` hold; `None` parameters: the profile's G54, nothing else.
+    pub fn from_params(params: Option<&Params>, profile: &MachineProfile) -> Offsets {
+        let Some(p) = params else {
+            return Offsets {
+                coords: 1,
+                g5x_mm: profile.work_offsets_mm.first().copied().unwrap_or([0.0; 3]),
+                rotation_deg: 0.0,
+                g92_mm: [0.0; 3],
+                tool: 0,
+                tool_mm: [0.0; 3],
+            };
+        };
+        let coords = (p.get(param::COORDS).round() as usize).clamp(1, 9);
+        let g92_on = p.get(param::G92_ON) != 0.0;
+        Offsets {
+            coords,
+            g5x_mm: system_mm(p, coords),
+            rotation_deg: p.get(system_base(coords) + param::ROTATION),
+            g92_mm: if g92_on {
+                [0, 1, 2].map(|i| p.get(param::G92_X + i))
+            } else {
+                [0.0; 3]
+            },
+            tool: p.get(param::TOOL).max(0.0) as u32,
+            tool_mm: [0, 1, 2].map(|i| p.get(param::TOOL_X + i)),
+        }
+    }
+
+    /// Work coordinates (the active system's, G92 and tool offset taken off) of
+    /// machine position `machine_mm`.
+    pub fn work_mm(&self, machine_mm: [f64; 3]) -> [f64; 3] {
+        let r = [0, 1, 2].map(|i| machine_mm[i] - self.g5x_mm[i] - self.tool_mm[i]);
+        let (s, c) = (-self.rotation_deg).to_radians().sin_cos();
+        let unrotated = [r[0] * c - r[1] * s, r[0] * s + r[1] * c, r[2]];
+        [0, 1, 2].map(|i| unrotated[i] - self.g92_mm[i])
+    }
+
+    /// The active system's name.
+    pub fn coords_name(&self) -> &'static str {
+        coords_name(self.coords)
+    }
+}
+
+fn system_base(n: usize) -> usize {
+    param::G54_X + (n - 1) * param::PER_SYSTEM
+}
+
+/// Origin of coordinate system `n` (1 … 9) in machine coordinates.
+fn system_mm(p: &Params, n: usize) -> [f64; 3] {
+    let base = system_base(n);
+    [0, 1, 2].map(|i| p.get(base + i))
+}
+
+/// Every coordinate system's origin and rotation, and G92, as JSON.
+pub fn offsets_json(params: Option<&Params>, profile: &MachineProfile) -> serde_json::Value {
+    let active = Offsets::from_params(params, profile);
+    let systems: Vec<serde_json::Value> = (1..=9)
+        .map(|n| {
+            let (origin, rot) = match params {
+                Some(p) => (system_mm(p, n), p.get(system_base(n) + param::ROTATION)),
+                None => (
+                    profile
+                        .work_offsets_mm
+                        .get(n - 1)
+                        .copied()
+                        .unwrap_or([0.0; 3]),
+                    0.0,
+                ),
+            };
+            serde_json::json!({"coords": coords_name(n), "origin_mm": origin,
+                "rotation_deg": rot, "active": n == active.coords})
+        })
+        .collect();
+    serde_json::json!({
+        "active": active.coords_name(),
+        "systems": systems,
+        "g92_mm": active.g92_mm,
+        "tool": active.tool,
+        "tool_offset_mm": active.tool_mm,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn profile() -> MachineProfile {
+        MachineProfile::load(
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machines/default.ron"),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn work_coordinates_take_off_g5x_rotation_g92_and_tool() {
+        let mut p = Params::default();
+        p.set(param::COORDS, 2.0);
+        let g55 = system_base(2);
+        p.set(g55, 10.0);
+        p.set(g55 + 1, 20.0);
+        p.set(g55 + 2, -5.0);
+        p.set(g55 + param::ROTATION, 90.0);
+        p.set(param::G92_ON, 1.0);
+        p.set(param::G92_X, 1.0);
+        p.set(param::TOOL_X + 2, 3.0);
+        let o = Offsets::from_params(Some(&p), &profile());
+        assert_eq!(o.coords_name(), "G55");
+        // work (1, 0, 0) + G92 (1, 0, 0) = (2, 0, 0), rotated 90° = (0, 2, 0),
+        // + G55 (10, 20, -5) + tool (0, 0, 3) = (10, 22, -2)
+        let w = o.work_mm([10.0, 22.0, -2.0]);
+        for (got, want) in w.iter().zip([1.0, 0.0, 0.0]) {
+            assert!((got - want).abs() < 1e-12, "{w:?}");
+        }
+    }
+
+    #[test]
+    fn the_store_round_trips_and_refuses_a_corrupt_file_by_name() {
+        let dir = std::env::temp_dir().join(format!("softnc-store-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let store = MachineStore::new(&dir);
+        assert!(store.load_params().unwrap().is_none(), "no file: none");
+        let mut p = Params::default();
+        p.set(system_base(1), 12.5);
+        store.save_params(&p).unwrap();
+        let back = store.load_params().unwrap().unwrap();
+        assert_eq!(back.get(system_base(1)), 12.5);
+        std::fs::write(store.params_path(), "5221\tnot-a-number\n").unwrap();
+        let e = store.load_params().unwrap_err();
+        assert!(e.contains(PARAMS_FILE), "{e}");
+        // tools: the profile's until edited, then the edited table
+        let prof = profile();
+        assert_eq!(store.load_tools(&prof).unwrap(), prof.tools);
+        let mut tools = prof.tools.clone();
+        tools[0].length_mm = 42.0;
+        store.save_tools(&tools).unwrap();
+        assert_eq!(store.profile(&prof).unwrap().tools[0].length_mm, 42.0);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn coordinate_systems_are_named_as_programs_name_them() {
+        assert_eq!(coords_number("g55"), Some(2));
+        assert_eq!(coords_number("G59.3"), Some(9));
+        assert_eq!(coords_number("G60"), None);
+        assert_eq!(coords_name(7), "G59.1");
+    }
+}
