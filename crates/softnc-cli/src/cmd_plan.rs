@@ -226,6 +226,10 @@ fn write_canon(out: &mut impl Write, program: &Program) -> Result<()> {
                 "plane": plane.name(), "center": center.map(|c| c.0), "turns": turns}),
             MotionKind::Dwell { seconds } => serde_json::json!({
                 "line": m.line, "kind": "dwell", "seconds": seconds}),
+            // rs274 prints PROGRAM_STOP() / OPTIONAL_PROGRAM_STOP()
+            MotionKind::Pause { optional } => serde_json::json!({
+                "line": m.line, "kind": if optional { "optional_stop" } else { "program_stop" }}),
+            MotionKind::Sync => serde_json::json!({"line": m.line, "kind": "sync"}),
         };
         writeln!(out, "{obj}")?;
     }

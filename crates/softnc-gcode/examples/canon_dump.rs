@@ -60,7 +60,9 @@ fn main() {
                                     "feed_mm_min": feed_mm_per_min, "plane": plane.name(),
                                     "center2": c2, "turns": turns})
                             }
-                            MotionKind::Dwell { .. } => return None,
+                            MotionKind::Dwell { .. }
+                            | MotionKind::Pause { .. }
+                            | MotionKind::Sync => return None,
                         })
                     })
                     .collect();

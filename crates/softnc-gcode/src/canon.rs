@@ -72,6 +72,20 @@ pub enum MotionKind {
         /// Dwell time (s).
         seconds: f64,
     },
+    /// M0 program stop, or M1 optional stop while the optional-stop switch is on
+    /// (`ReadOptions::optional_stop`): LinuxCNC's `PROGRAM_STOP()` /
+    /// `OPTIONAL_PROGRAM_STOP()` (`convert_stop`, the last step of a block). The path
+    /// comes to rest exactly here (no blending across it) and waits for the
+    /// operator's resume (cycle start).
+    Pause {
+        /// True for M1 (optional stop), false for M0.
+        optional: bool,
+    },
+    /// The path comes to rest here and the next motion starts at the next
+    /// interpolation cycle, without waiting for the operator: where LinuxCNC's task
+    /// synchronises with motion before it goes on (the end of run-from-line's safe
+    /// approach, `ReadOptions::from_line`).
+    Sync,
 }
 
 /// One canonical motion with where it came from.
@@ -117,7 +131,7 @@ impl Motion {
         let r = |v: Vec3| Vec3(v.0.map(|x| canon_round(x, self.inch)));
         match self.kind {
             MotionKind::Arc { .. } => (Some(r(self.canon_end)), Some(r(self.canon_center))),
-            MotionKind::Dwell { .. } => (None, None),
+            MotionKind::Dwell { .. } | MotionKind::Pause { .. } | MotionKind::Sync => (None, None),
             _ => (Some(r(self.canon_end)), None),
         }
     }
@@ -130,7 +144,7 @@ impl MotionKind {
             MotionKind::Traverse { end }
             | MotionKind::Feed { end, .. }
             | MotionKind::Arc { end, .. } => Some(end),
-            MotionKind::Dwell { .. } => None,
+            MotionKind::Dwell { .. } | MotionKind::Pause { .. } | MotionKind::Sync => None,
         }
     }
 }

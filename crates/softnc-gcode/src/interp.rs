@@ -406,6 +406,15 @@ struct Interp<'a> {
     /// the line, with the value 0, as LinuxCNC's `add_named_param` makes them.
     /// Each name ends with a `>` (no name holds one); the buffer is reused.
     line_named: std::cell::RefCell<String>,
+    /// The optional-stop switch ([`ReadOptions::optional_stop`]).
+    optional_stop: bool,
+    /// Run from line: motions are left out (the state evolves) until the start
+    /// block ([`ReadOptions::from_line`]).
+    suppress: bool,
+    /// Moves kept after the safe approach of a run from line.
+    moves_after_start: u64,
+    /// Where the machine stood when reading began (machine coordinates, mm).
+    start_machine_mm: Vec3,
 }
 
 type R<T> = Result<T, (u32, ErrorKind)>;
@@ -464,6 +473,10 @@ impl<'a> Interp<'a> {
             mist: false,
             flood: false,
             line_named: std::cell::RefCell::new(String::new()),
+            optional_stop: false,
+            suppress: false,
+            moves_after_start: 0,
+            start_machine_mm: Vec3::ZERO,
         }
     }
 
@@ -947,19 +960,12 @@ impl<'a> Interp<'a> {
                     self.file
                 ));
             }
-            self.motions.push(Motion {
-                line: line_no,
-                start: sc(self.frame(self.pos), self.scale()),
-                kind: MotionKind::Dwell {
+            self.push_standing(
+                line_no,
+                MotionKind::Dwell {
                     seconds: p.max(0.0),
                 },
-                offset_mm: self.offset(),
-                path_mode: self.path,
-                inch: self.inch,
-                canon_end: self.pos,
-                canon_center: Vec3::ZERO,
-                spindle_rpm: self.spindle_rpm(),
-            });
+            );
         }
         match b.g_in(GM_PLANE) {
             Some(170) => self.plane = Plane::XY,
@@ -1092,8 +1098,109 @@ impl<'a> Interp<'a> {
             Some(m @ (G_2 | G_3)) => self.arc(line_no, m, b)?,
             _ => {}
         }
-        // stop codes
+        // stop codes (convert_stop, the last step of execute_block): M0 always, M1
+        // while the optional-stop switch is on; M2, M30 end the program
+        match b.m_in(4) {
+            Some(0) => self.push_standing(line_no, MotionKind::Pause { optional: false }),
+            Some(1) if self.optional_stop => {
+                self.push_standing(line_no, MotionKind::Pause { optional: true })
+            }
+            _ => {}
+        }
         Ok(matches!(b.m_in(4), Some(2) | Some(30)))
+    }
+
+    /// A motion that stands at the current point (dwell, pause).
+    fn push_standing(&mut self, line_no: u32, kind: MotionKind) {
+        let m = Motion {
+            line: line_no,
+            start: sc(self.frame(self.pos), self.scale()),
+            kind,
+            offset_mm: self.offset(),
+            path_mode: self.path,
+            inch: self.inch,
+            canon_end: self.pos,
+            canon_center: Vec3::ZERO,
+            spindle_rpm: self.spindle_rpm(),
+        };
+        self.keep(m);
+    }
+
+    /// Hand a motion on, unless a run from line has not reached its start block.
+    #[inline(always)]
+    fn keep(&mut self, m: Motion) {
+        if !self.suppress {
+            self.moves_after_start += u64::from(m.kind.end().is_some());
+            self.motions.push(m);
+        }
+    }
+
+    /// The machine position of the current point (mm).
+    fn machine_pos(&self) -> Vec3 {
+        sc(self.frame(self.pos), self.scale()) + self.offset()
+    }
+
+    /// A point of [`Motion`]'s frame (mm) in the program's frame and units, as
+    /// LinuxCNC holds it (the XY rotation turned back about the G92 origin).
+    fn unframe(&self, p_mm: Vec3) -> Vec3 {
+        let p = sc(p_mm, 1.0 / self.scale());
+        if self.rotation_deg == 0.0 {
+            return p;
+        }
+        let g = self.g92;
+        let (x, y) = rotate(p[0] + g[0], p[1] + g[1], -self.rotation_deg);
+        Vec3([x - g[0], y - g[1], p[2]])
+    }
+
+    /// Run from line: the start block is reached. Motions are kept from here on,
+    /// after the safe approach from where the machine stood to the current point
+    /// (the start of the start block's first motion), in machine coordinates: Z up
+    /// to the higher of the two, X and Y, Z down; traverses with exact stops, then
+    /// a [`MotionKind::Sync`].
+    fn start_run(&mut self, line_no: u32) {
+        if self.sync_pending {
+            // as execute() would before this block: rs274's point after a tool change
+            self.pos = self.canon_pos;
+            self.sync_pending = false;
+        }
+        self.suppress = false;
+        let from = self.start_machine_mm;
+        let to = self.machine_pos();
+        let clear_z = from[2].max(to[2]);
+        let mut points = [Vec3::ZERO; 3];
+        let mut n = 0;
+        let mut at = from;
+        for p in [
+            Vec3([from[0], from[1], clear_z]),
+            Vec3([to[0], to[1], clear_z]),
+            to,
+        ] {
+            if p != at {
+                points[n] = p;
+                n += 1;
+                at = p;
+            }
+        }
+        let o = self.offset();
+        let mut start = from - o;
+        for &p in &points[..n] {
+            let end = p - o;
+            let m = Motion {
+                line: line_no,
+                start,
+                kind: MotionKind::Traverse { end },
+                offset_mm: o,
+                path_mode: PathMode::ExactStop,
+                inch: self.inch,
+                canon_end: self.unframe(end),
+                canon_center: Vec3::ZERO,
+                spindle_rpm: self.spindle_rpm(),
+            };
+            self.keep(m);
+            start = end;
+        }
+        self.push_standing(line_no, MotionKind::Sync);
+        self.moves_after_start = 0;
     }
 
     /// `find_ends`: the end point of a move (program units, canonical frame).
@@ -1176,7 +1283,7 @@ impl<'a> Interp<'a> {
                 turns,
                 feed_mm_per_min,
             },
-            d @ MotionKind::Dwell { .. } => d,
+            d @ (MotionKind::Dwell { .. } | MotionKind::Pause { .. } | MotionKind::Sync) => d,
         }
     }
 
@@ -1195,7 +1302,7 @@ impl<'a> Interp<'a> {
         } else {
             (self.rotated(self.pos), self.rotate_kind(kind, end, center))
         };
-        self.motions.push(Motion {
+        let m = Motion {
             line: line_no,
             start: sc(start, self.scale()),
             kind,
@@ -1205,7 +1312,8 @@ impl<'a> Interp<'a> {
             canon_end: end,
             canon_center: center,
             spindle_rpm: self.spindle_rpm(),
-        });
+        };
+        self.keep(m);
         self.pos = end;
         self.canon_pos = end;
     }
@@ -1585,6 +1693,8 @@ pub fn read_with(
 ) -> Result<(Program, Params), GcodeError> {
     let mut it = Interp::new(file, profile);
     it.user_inch = options.parameters_in_inches;
+    it.optional_stop = options.optional_stop;
+    it.suppress = options.from_line.is_some();
     match &options.params {
         Some(p) => it.params = p.clone(),
         None => it.params_from_profile(),
@@ -1602,6 +1712,7 @@ pub fn read_with(
         it.pos = Vec3([x - g[0], y - g[1], p[2]]);
         it.canon_pos = it.pos;
     }
+    it.start_machine_mm = it.machine_pos();
     it.motions.reserve((text.len() / 16).min(chunk.max(1)));
     let mut line = Line::default();
     let mut block = Block::default();
@@ -1732,7 +1843,35 @@ pub fn read_with(
                 line_no,
             };
             let mut jump = Jump::Next;
-            if it.ctl.skipping.is_some() {
+            // block delete (read_text): a `/` first makes the line empty
+            let deleted = options.block_delete
+                && raw
+                    .bytes()
+                    .find(|c| !matches!(c, b' ' | b'\t'))
+                    .is_some_and(|c| c == b'/');
+            if let Some(n) = options.from_line {
+                if it.suppress && cur == 0 && it.ctl.level() == 0 && line_no >= n as usize {
+                    if it.ctl.defining_sub {
+                        return Err(err(
+                            n as usize,
+                            "",
+                            (
+                                0,
+                                ErrorKind::Invalid(format!(
+                                    "cannot run from line {n}: it lies in the definition of subroutine o<{}> (LinuxCNC refuses this too)",
+                                    it.ctl.skipping.as_deref().unwrap_or("")
+                                )),
+                            ),
+                        ));
+                    }
+                    if it.ctl.skipping.is_none() && !deleted {
+                        it.start_run(line_no as u32);
+                    }
+                }
+            }
+            if deleted {
+                // not read at all
+            } else if it.ctl.skipping.is_some() {
                 // only O-lines count while skipping; nothing else on a line is read
                 jump = it
                     .skip_line(raw, &mut norm, &mut line, &pc)
@@ -1766,6 +1905,7 @@ pub fn read_with(
                 }
                 if line.percent {
                     if percent_flag && cur == 0 {
+                        run_from_reached(&it, options, file)?;
                         return Ok(finish(it, file, executed as usize + first, chunk, sink));
                     }
                     let off = raw.find('%').unwrap_or(0) as u32;
@@ -1812,6 +1952,7 @@ pub fn read_with(
                         // convert_stop (M2, M30): G54 is selected again, so the next
                         // program starts there; reading ends, so only 5220 shows it
                         it.params.set(5220, 1.0);
+                        run_from_reached(&it, options, file)?;
                         return Ok(finish(it, file, executed as usize + first, chunk, sink));
                     }
                     if it.motions.len() >= chunk {
@@ -1951,6 +2092,26 @@ fn find_newline(b: &[u8]) -> Option<usize> {
         i += 8;
     }
     b[i..].iter().position(|&c| c == b'\n').map(|k| i + k)
+}
+
+/// A run from line must have reached its start block and moved after it.
+fn run_from_reached(it: &Interp, options: &ReadOptions, file: &str) -> Result<(), GcodeError> {
+    let Some(n) = options.from_line else {
+        return Ok(());
+    };
+    let why = if it.suppress {
+        format!("cannot run from line {n}: no block at or after line {n} runs")
+    } else if it.moves_after_start == 0 {
+        format!("cannot run from line {n}: no motion follows it")
+    } else {
+        return Ok(());
+    };
+    Err(GcodeError {
+        file: file.to_string(),
+        line: n,
+        column: 1,
+        kind: ErrorKind::Invalid(why),
+    })
 }
 
 fn finish(

@@ -49,6 +49,27 @@ pub struct ReadOptions {
     /// the first motion starts there, and axes it does not name stay there.
     /// `None`: at the origin.
     pub start_mm: Option<softnc_core::Vec3>,
+    /// The optional-stop switch: M1 stops the program (a
+    /// [`MotionKind::Pause`] with `optional: true`) only while it is on; off
+    /// (default), M1 does nothing, as LinuxCNC with its switch off.
+    pub optional_stop: bool,
+    /// The block-delete switch: on, a line whose first character (spaces and tabs
+    /// aside) is `/` is not read at all, as LinuxCNC's `read_text` makes it an empty
+    /// line (O-lines and comments on it included). Off (default, as `rs274`'s
+    /// driver starts): the `/` is ignored and the line runs.
+    pub block_delete: bool,
+    /// Run from line N (LinuxCNC's run-from-line): the program is read from its
+    /// start with every motion before the start block left out (modal state,
+    /// offsets, parameters and the current point evolve as if it ran). The start
+    /// block is the first block of the main program, at call level 0 and not
+    /// skipped, whose line number is at least N. Before it a safe approach is
+    /// emitted from [`ReadOptions::start_mm`] (where the machine stands) as
+    /// traverses with exact stops: Z up to max(machine Z, the start's Z), then X
+    /// and Y, then Z down to the start point (where the start block's first motion
+    /// starts), ended by a [`MotionKind::Sync`]. Refused (`file:N:1`) when line N
+    /// lies in a subroutine definition, when no block at or after line N runs, or
+    /// when no motion follows it.
+    pub from_line: Option<u32>,
 }
 
 /// [`read_program`] with [`ReadOptions`]; also returns the parameters as the
@@ -97,4 +118,18 @@ pub fn read_program_chunked_with(
     sink: &mut dyn FnMut(&mut Vec<Motion>),
 ) -> Result<Program, GcodeError> {
     interp::read_with(text, file, profile, options, chunk.max(1), sink).map(|(p, _)| p)
+}
+
+/// [`read_program_chunked_with`] that also returns the parameters as the program
+/// left them (what LinuxCNC writes back to its parameter file at the end, and a
+/// daemon keeps for the next program: G10 L2/L20, G92, G28.1/G30.1 persist).
+pub fn read_program_chunked_params(
+    text: &str,
+    file: &str,
+    profile: &MachineProfile,
+    options: &ReadOptions,
+    chunk: usize,
+    sink: &mut dyn FnMut(&mut Vec<Motion>),
+) -> Result<(Program, Params), GcodeError> {
+    interp::read_with(text, file, profile, options, chunk.max(1), sink)
 }

@@ -105,7 +105,7 @@ pub type FnvMap<K, V> = HashMap<K, V, std::hash::BuildHasherDefault<Fnv>>;
 pub type NameMap<V> = FnvMap<String, V>;
 
 /// The table.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Params {
     numbered: Vec<f64>,
     /// Parameters that came from a parameter file (written back with it).

@@ -22,7 +22,7 @@ fn compare(program: &softnc_gcode::Program, canon: &[Value]) -> Option<String> {
     let got: Vec<_> = program
         .motions
         .iter()
-        .filter(|m| !matches!(m.kind, MotionKind::Dwell { .. }))
+        .filter(|m| m.kind.end().is_some())
         .collect();
     if got.len() != canon.len() {
         return Some(format!("{} motions, expected {}", got.len(), canon.len()));
@@ -41,7 +41,9 @@ fn compare(program: &softnc_gcode::Program, canon: &[Value]) -> Option<String> {
             MotionKind::Traverse { .. } => "traverse",
             MotionKind::Feed { .. } => "feed",
             MotionKind::Arc { .. } => "arc",
-            MotionKind::Dwell { .. } => unreachable!(),
+            MotionKind::Dwell { .. } | MotionKind::Pause { .. } | MotionKind::Sync => {
+                unreachable!()
+            }
         };
         if gk != kind || !close(&gend.0, &end, 1e-4) {
             return Some(format!(

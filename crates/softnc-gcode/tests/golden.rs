@@ -56,7 +56,7 @@ fn check(path: &Path, profile: &MachineProfile) -> Result<usize, String> {
     let got: Vec<_> = program
         .motions
         .iter()
-        .filter(|m| !matches!(m.kind, MotionKind::Dwell { .. }))
+        .filter(|m| m.kind.end().is_some())
         .collect();
     if got.len() != expected.len() {
         return Err(format!(
@@ -73,7 +73,9 @@ fn check(path: &Path, profile: &MachineProfile) -> Result<usize, String> {
             MotionKind::Traverse { .. } => "traverse",
             MotionKind::Feed { .. } => "feed",
             MotionKind::Arc { .. } => "arc",
-            MotionKind::Dwell { .. } => unreachable!(),
+            MotionKind::Dwell { .. } | MotionKind::Pause { .. } | MotionKind::Sync => {
+                unreachable!()
+            }
         };
         let close = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-4);
         if kind != e["kind"] || !close(&end.0, &want_end) {

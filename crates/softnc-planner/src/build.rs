@@ -62,6 +62,49 @@ pub struct Segment {
     pub v_end_hard: f64,
     /// Time to stand still at the end (G4 dwell), s.
     pub dwell_s: f64,
+    /// Source line of the motion this element belongs to (for a pause: the line
+    /// of the M0/M1, or of the block that single block stops after).
+    pub line: u32,
+    /// What the path does once it has come to rest at the end (after any dwell).
+    pub stop: StopKind,
+    /// The element ends its block's last motion (the next motion comes from another
+    /// line): where single block stops.
+    pub block_end: bool,
+}
+
+/// What the path does at the end of an element where it comes to rest.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum StopKind {
+    /// Nothing: it goes on (after its dwell).
+    #[default]
+    None,
+    /// M0: waits for the operator's resume.
+    Program,
+    /// M1 with the optional-stop switch on: waits for the operator's resume.
+    Optional,
+    /// Single block (`PlanOptions::single_block`): the end of a block; waits for
+    /// the operator's resume (step) while single block is on.
+    Block,
+    /// Goes on at the next interpolation cycle (the end of run-from-line's
+    /// approach, `MotionKind::Sync`).
+    Sync,
+}
+
+/// The stop that wins where two meet at one point: one that waits for the operator
+/// over a sync, M0 over M1 over single block.
+fn stronger(a: StopKind, b: StopKind) -> StopKind {
+    let rank = |k: StopKind| match k {
+        StopKind::None => 0,
+        StopKind::Sync => 1,
+        StopKind::Block => 2,
+        StopKind::Optional => 3,
+        StopKind::Program => 4,
+    };
+    if rank(b) > rank(a) {
+        b
+    } else {
+        a
+    }
 }
 
 /// What the builder needs from the machine profile.
@@ -137,6 +180,12 @@ struct Pending {
     exact_stop: bool,
     tolerance_mm: f64,
     dwell_s: f64,
+    /// Source line.
+    line: u32,
+    /// What happens once at rest at its end.
+    stop: StopKind,
+    /// Ends its block (set when the next motion comes from another line).
+    block_end: bool,
     /// Arc length taken from the start by the blend at the previous corner.
     start_trim: f64,
     /// Arcs: where the blend at the previous corner meets it (the sub-arc starts
@@ -192,6 +241,11 @@ pub struct PathBuilder {
     prev_end_tangent: Vec3,
     /// G64 Q: the G1 lines held back while they stay within Q of one line.
     chain: NaiveCamChain,
+    /// Single block from the start (`PlanOptions::single_block`): every block
+    /// ends in an exact stop that waits ([`StopKind::Block`]).
+    single_block: bool,
+    /// A pause or sync before the first move (an element of its own).
+    pending_stop_at_start: (StopKind, u32),
     /// Elements already handed on by [`PathBuilder::drain_settled`] (a streamed
     /// path keeps only the last one, whose end speed the next may still change).
     base: usize,
@@ -280,8 +334,16 @@ impl PathBuilder {
             s0: 0.0,
             prev_end_tangent: Vec3::ZERO,
             chain: NaiveCamChain::default(),
+            single_block: false,
+            pending_stop_at_start: (StopKind::None, 0),
             base: 0,
         }
+    }
+
+    /// Single block from the start: every block ends in an exact stop that waits
+    /// for the operator ([`StopKind::Block`]); no G64 Q merging across blocks.
+    pub fn set_single_block(&mut self, on: bool) {
+        self.single_block = on;
     }
 
     /// Elements whose limits are settled (all but the last, whose end speed the next
@@ -323,7 +385,7 @@ impl PathBuilder {
             PathMode::Blend {
                 naive_cam_mm: Some(q),
                 ..
-            } if q > 0.0 => q,
+            } if q > 0.0 && !self.single_block => q,
             _ => 0.0,
         };
         let line = match (m.kind, prim) {
@@ -386,7 +448,39 @@ impl PathBuilder {
                 _ => (false, lim.tolerance_mm),
             },
         };
+        if let Some(last) = self.pending.as_mut() {
+            if last.line != m.line {
+                last.block_end = true;
+                if self.single_block {
+                    last.exact_stop = true;
+                    if last.stop == StopKind::None {
+                        last.stop = StopKind::Block;
+                    }
+                }
+            }
+        }
         let (feed_move, feed) = match m.kind {
+            MotionKind::Pause { .. } | MotionKind::Sync => {
+                let kind = match m.kind {
+                    MotionKind::Pause { optional: false } => StopKind::Program,
+                    MotionKind::Pause { optional: true } => StopKind::Optional,
+                    _ => StopKind::Sync,
+                };
+                match self.pending.as_mut() {
+                    // a stop that waits outranks a sync, a program stop the others
+                    Some(last) => {
+                        last.exact_stop = true;
+                        last.stop = stronger(last.stop, kind);
+                        last.line = m.line;
+                    }
+                    None => {
+                        let (k, _) = self.pending_stop_at_start;
+                        self.pending_stop_at_start = (stronger(k, kind), m.line);
+                        self.last_point.get_or_insert(m.start + m.offset_mm);
+                    }
+                }
+                return;
+            }
             MotionKind::Dwell { seconds } => {
                 if let Some(last) = self.pending.as_mut() {
                     last.exact_stop = true;
@@ -443,6 +537,9 @@ impl PathBuilder {
             exact_stop: exact,
             tolerance_mm: tol,
             dwell_s: 0.0,
+            line: m.line,
+            stop: StopKind::None,
+            block_end: false,
             start_trim: 0.0,
             start_at: None,
         };
@@ -460,9 +557,10 @@ impl PathBuilder {
         self.pending = Some(next);
     }
 
-    /// The dwell before the first move, as an element of its own.
+    /// The dwell (and pause) before the first move, as an element of its own.
     fn start_dwell(&mut self) {
-        if self.pending_dwell_at_start > 0.0 {
+        let (stop, line) = self.pending_stop_at_start;
+        if self.pending_dwell_at_start > 0.0 || stop != StopKind::None {
             let p = self.last_point.unwrap_or(Vec3::ZERO);
             self.path.segs.push(Segment {
                 s0: 0.0,
@@ -474,6 +572,9 @@ impl PathBuilder {
                 acc: 1.0,
                 v_end_hard: 0.0,
                 dwell_s: self.pending_dwell_at_start,
+                line,
+                stop,
+                block_end: stop != StopKind::None,
             });
             self.path.geoms.push(Geom::Line {
                 start: p,
@@ -484,6 +585,7 @@ impl PathBuilder {
             });
             self.path.lead_in = 1;
             self.pending_dwell_at_start = 0.0;
+            self.pending_stop_at_start = (StopKind::None, 0);
         }
     }
 
@@ -678,7 +780,7 @@ impl PathBuilder {
 
     /// Push the elements of a move whose successor is known (`last`: it has none).
     fn emit(&mut self, p: &Pending, blend: Option<Blend>, last: bool) {
-        let stop = p.exact_stop || p.dwell_s > 0.0 || last;
+        let stop = p.exact_stop || p.dwell_s > 0.0 || p.stop != StopKind::None || last;
         let (geom, shape) = match p.geom {
             Geom::Line {
                 start,
@@ -770,6 +872,7 @@ impl PathBuilder {
     ) -> bool {
         let lim = &self.lim;
         let len = shape.len;
+        let is_blend = matches!(geom, Geom::Blend { .. });
         if len < 1e-9 && !stop && dwell == 0.0 {
             return false; // a line used up entirely by the blends at both its ends
         }
@@ -807,6 +910,11 @@ impl PathBuilder {
             acc,
             v_end_hard: if stop { 0.0 } else { f64::INFINITY },
             dwell_s: dwell,
+            line: m.line,
+            // the move's last element carries its stop (a blend arc never: a move
+            // that stops is not blended)
+            stop: if stop { m.stop } else { StopKind::None },
+            block_end: m.block_end && !is_blend,
         });
         self.path.geoms.push(*geom);
         self.s0 += len;
@@ -944,7 +1052,7 @@ pub fn motion_primitive(m: &Motion) -> Option<Primitive> {
             plane,
             turns,
         )),
-        MotionKind::Dwell { .. } => None,
+        MotionKind::Dwell { .. } | MotionKind::Pause { .. } | MotionKind::Sync => None,
     }
 }
 

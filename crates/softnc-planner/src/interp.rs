@@ -9,7 +9,7 @@
 //! smoothed by a moving average of the acceleration-limited one over a fixed window
 //! (a bell-shaped acc/dec, jerk ≤ 2·a/window), still along the exact path.
 
-use crate::build::{Limits, Segment};
+use crate::build::{Limits, Segment, StopKind};
 use crate::path::Geom;
 use softnc_core::{FeedProfile, Vec3};
 
@@ -17,6 +17,14 @@ use softnc_core::{FeedProfile, Vec3};
 /// braking distance are more than this, the planner assumes a stop after them
 /// (safe, slower).
 pub const MAX_LOOKAHEAD_SEGMENTS: usize = 20_000;
+/// An arrival at a block end at most this fast is at rest there: single block
+/// switched on mid-stream brakes to the block end through the feed pass, whose end
+/// speed `sqrt(v² − 2·a·d)`, taken with v and d nearly 0 in the last braking cycle,
+/// keeps a rounding residue (3e-6 mm/s measured on `tests/flow.rs`' zig-zag). Taking
+/// it as 0 is a speed step of at most 1e-3 mm/s: 1e-6 mm in a 1 ms cycle, an
+/// acceleration of 1 mm/s² over it, well inside the 1 % of every axis's limit
+/// that the elements leave for tangent breaks.
+pub const REST_SPEED_MM_PER_S: f64 = 1e-3;
 /// Largest S-curve window in cycles (the ring is allocated once, before motion).
 pub const MAX_SCURVE_WINDOW_CYCLES: usize = 4096;
 
@@ -121,6 +129,17 @@ pub(crate) struct Core<S> {
     /// Times the path ran short: a lookahead cut by the end of the delivered elements,
     /// a wait for the next one, or a first sample without any.
     starved: u64,
+    /// At rest at the end of element `k`, waiting for [`Core::resume`] (M0, M1,
+    /// single block), and why.
+    paused: Option<StopKind>,
+    /// The rest of this cycle stands (a sync: the next element starts with the
+    /// next cycle).
+    cycle_done: bool,
+    /// Single block, live: the path stops at every block end it can still stop at
+    /// and waits there.
+    single_block: bool,
+    /// M0/M1 wait for [`Core::resume`] (else they rest and go on, as a sync).
+    stops_wait: bool,
 }
 
 impl<'a> Interpolator<'a> {
@@ -162,6 +181,38 @@ impl<'a> Interpolator<'a> {
     /// True once the last sample has been produced.
     pub fn is_finished(&self) -> bool {
         self.core.finished
+    }
+
+    /// The core, to set it up.
+    pub(crate) fn core_mut(&mut self) -> &mut Core<SliceSource<'a>> {
+        &mut self.core
+    }
+
+    /// Go on from a pause (M0, M1, a single-block stop); see
+    /// [`StreamInterpolator::resume`](crate::StreamInterpolator::resume).
+    pub fn resume(&mut self) {
+        self.core.resume()
+    }
+
+    /// The source line the path is paused at (waiting for [`Interpolator::resume`]).
+    pub fn paused_at_line(&self) -> Option<u32> {
+        self.core.paused().map(|(_, line)| line)
+    }
+
+    /// Why the path is paused.
+    pub fn pause_kind(&self) -> Option<StopKind> {
+        self.core.paused().map(|(kind, _)| kind)
+    }
+
+    /// Single block on or off, live; see
+    /// [`StreamInterpolator::set_single_block`](crate::StreamInterpolator::set_single_block).
+    pub fn set_single_block(&mut self, on: bool) {
+        self.core.set_single_block(on)
+    }
+
+    /// Whether single block is on.
+    pub fn single_block(&self) -> bool {
+        self.core.single_block()
     }
 }
 
@@ -215,7 +266,79 @@ impl<S: SegmentSource> Core<S> {
             primed: false,
             waiting: false,
             starved: 0,
+            paused: None,
+            cycle_done: false,
+            single_block: false,
+            stops_wait: false,
         }
+    }
+
+    /// Whether M0/M1 wait for [`Core::resume`] (see
+    /// [`PlanOptions::wait_at_program_stops`](crate::PlanOptions::wait_at_program_stops)).
+    pub(crate) fn set_wait_at_program_stops(&mut self, on: bool) {
+        self.stops_wait = on;
+    }
+
+    /// Go on from a pause (M0, M1, single block): the next element starts with the
+    /// next cycle. Nothing while not paused.
+    pub(crate) fn resume(&mut self) {
+        if self.paused.take().is_some() {
+            self.next_element();
+            self.skip_empty();
+        }
+    }
+
+    /// Why and at which source line the path waits for [`Core::resume`].
+    pub(crate) fn paused(&self) -> Option<(StopKind, u32)> {
+        self.paused.map(|k| (k, self.src.seg(self.k).line))
+    }
+
+    /// Single block on or off. On: the path stops at the first block end it can
+    /// still stop at within its limits, and at every one after it, and waits for
+    /// [`Core::resume`] there; off: it goes on through block ends (a pause it
+    /// waits in already still waits).
+    pub(crate) fn set_single_block(&mut self, on: bool) {
+        if on != self.single_block {
+            self.single_block = on;
+            self.envelope_dirty = true;
+        }
+    }
+
+    /// Whether single block is on.
+    pub(crate) fn single_block(&self) -> bool {
+        self.single_block
+    }
+
+    /// Whether the path, at rest at the end of `seg`, waits there: M0, M1, and
+    /// block ends while single block is on.
+    fn waits_at(&self, seg: &Segment) -> Option<StopKind> {
+        match seg.stop {
+            StopKind::Program | StopKind::Optional if self.stops_wait => Some(seg.stop),
+            StopKind::Block if self.single_block => Some(StopKind::Block),
+            StopKind::None
+                if self.single_block && seg.block_end && self.v <= REST_SPEED_MM_PER_S =>
+            {
+                Some(StopKind::Block)
+            }
+            _ => None,
+        }
+    }
+
+    /// At rest at the end of element `k` (after its dwell): wait, stand out the
+    /// cycle (sync), or go on.
+    fn leave(&mut self) {
+        let seg = *self.src.seg(self.k);
+        if let Some(kind) = self.waits_at(&seg) {
+            self.paused = Some(kind);
+            self.v = 0.0;
+            return;
+        }
+        if seg.stop != StopKind::None {
+            // a sync, or a stop that does not wait: on with the next cycle
+            self.cycle_done = true;
+        }
+        self.next_element();
+        self.skip_empty();
     }
 
     /// Take the first element if it is there (or the path is known to be empty):
@@ -286,6 +409,7 @@ impl<S: SegmentSource> Core<S> {
             && !self.waiting
             && self.src.seg(self.k).len <= 0.0
             && self.src.seg(self.k).dwell_s <= 0.0
+            && self.src.seg(self.k).stop == StopKind::None
         {
             self.next_element();
         }
@@ -336,9 +460,16 @@ impl<S: SegmentSource> Core<S> {
         let mut soft_next = 0.0f64;
         let mut hard_next = 0.0f64;
         let mut m = j;
+        let single_block = self.single_block;
         loop {
             let seg = self.src.seg(m);
-            let soft_end = seg.v_end_hard.min(soft_next).min(self.soft_cap(seg));
+            // single block: a block end is a stop for the feed (not a hard limit:
+            // one the path cannot stop at any more is passed)
+            let soft_end = if single_block && seg.block_end {
+                0.0
+            } else {
+                seg.v_end_hard.min(soft_next).min(self.soft_cap(seg))
+            };
             let hard_end = seg.v_end_hard.min(hard_next).min(seg.vel_cap);
             if m == k {
                 return (soft_end, hard_end);
@@ -355,10 +486,14 @@ impl<S: SegmentSource> Core<S> {
     /// Advance the acceleration-limited profile by `dt` seconds.
     fn advance(&mut self, mut dt: f64) {
         let mut guard = 0u32;
+        self.cycle_done = false;
         while dt > 0.0 && !self.raw_done {
             guard += 1;
             if guard > 1_000_000 {
                 break; // cannot happen with finite inputs; never spin forever
+            }
+            if self.paused.is_some() || self.cycle_done {
+                break; // standing: the rest of the cycle passes
             }
             if self.waiting {
                 if !self.src.has(self.k + 1) {
@@ -382,8 +517,7 @@ impl<S: SegmentSource> Core<S> {
                 dt -= h;
                 if self.hold_left_s <= 0.0 {
                     self.holding = false;
-                    self.next_element();
-                    self.skip_empty();
+                    self.leave();
                 }
                 continue;
             }
@@ -467,7 +601,9 @@ impl<S: SegmentSource> Core<S> {
 
     fn arrive(&mut self, seg: &Segment) {
         self.s = seg.len;
-        let hold = if seg.v_end_hard == 0.0 {
+        // at rest here: a stop of the path, or a block end single block stops at
+        let rests = seg.v_end_hard == 0.0 || self.waits_at(seg).is_some();
+        let hold = if rests {
             self.v = 0.0;
             let settle = match self.lim.profile {
                 FeedProfile::SCurve => self.lim.scurve_window_s,
@@ -481,8 +617,7 @@ impl<S: SegmentSource> Core<S> {
             self.holding = true;
             self.hold_left_s = hold;
         } else {
-            self.next_element();
-            self.skip_empty();
+            self.leave();
         }
     }
 
@@ -565,6 +700,18 @@ impl<S: SegmentSource> Core<S> {
                 seg.motion,
                 seg.feed_move,
                 seg.s0 + seg.len,
+            )
+        } else if n == 1 {
+            // trapezoidal: the point at the raw position within its element (from
+            // the element's own start, so that a path run from line N gives the
+            // uninterrupted plan's points bit for bit whatever lies before it)
+            self.cursor = self.k;
+            let seg = self.src.seg(self.k);
+            (
+                self.src.geom(self.k).point_at(self.s.min(seg.len)),
+                seg.motion,
+                seg.feed_move,
+                s_path,
             )
         } else {
             let (pos, motion, feed_move) = self.point_at(s_path);

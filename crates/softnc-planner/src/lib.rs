@@ -22,6 +22,7 @@ pub mod path;
 pub mod plan;
 pub mod stream;
 
+pub use build::StopKind;
 pub use interp::{Interpolator, Sample};
 pub use plan::{
     plan, read_and_plan, read_and_plan_parallel, Plan, PlanError, PlanOptions, PlanStats,

@@ -19,8 +19,29 @@ pub struct PlanOptions {
     /// [`DEFAULT_STREAM_WINDOW_SEGMENTS`](crate::stream::DEFAULT_STREAM_WINDOW_SEGMENTS).
     /// Rounded up to a power of two of at least the lookahead's reach.
     pub stream_window_segments: usize,
+    /// The optional-stop switch: M1 pauses only while it is on
+    /// ([`softnc_gcode::ReadOptions::optional_stop`]).
+    pub optional_stop: bool,
+    /// The block-delete switch: lines starting with `/` are not read
+    /// ([`softnc_gcode::ReadOptions::block_delete`]).
+    pub block_delete: bool,
+    /// Run from this line ([`softnc_gcode::ReadOptions::from_line`]): the motions
+    /// before it are left out and a safe approach from `start_mm` leads to it.
+    pub from_line: Option<u32>,
+    /// Single block from the start: every block ends in an exact stop where the
+    /// path waits for [`StreamInterpolator::resume`](crate::StreamInterpolator::resume)
+    /// (no blending or G64 Q merging across block ends).
+    pub single_block: bool,
+    /// M0 (and M1 with `optional_stop`) wait for
+    /// [`StreamInterpolator::resume`](crate::StreamInterpolator::resume), as a
+    /// machine's program stop does. `false` (default): the path comes to rest there
+    /// exactly the same way and goes on with the next cycle, for callers that never
+    /// resume (offline simulation, figures, tests); the daemon sets it.
+    pub wait_at_program_stops: bool,
     /// The machine's parameters at the start (offsets, G92, active system: the
-    /// parameter file); `None`: the profile's work offsets.
+    /// parameter file, or what the last job or MDI left, LinuxCNC's persistent
+    /// parameters; 5220 selects the coordinate system); `None`: the profile's work
+    /// offsets.
     pub params: Option<softnc_gcode::Params>,
 }
 
@@ -30,6 +51,9 @@ impl PlanOptions {
     pub fn read_options(&self) -> softnc_gcode::ReadOptions {
         softnc_gcode::ReadOptions {
             start_mm: self.start_mm.map(softnc_core::Vec3),
+            optional_stop: self.optional_stop,
+            block_delete: self.block_delete,
+            from_line: self.from_line,
             params: self.params.clone(),
             ..Default::default()
         }
@@ -79,6 +103,10 @@ pub struct PlanStats {
 /// A planned program: the path elements with their limits, ready to interpolate.
 #[derive(Debug, Clone)]
 pub struct Plan {
+    /// Single block from the start ([`PlanOptions::single_block`]).
+    single_block: bool,
+    /// M0/M1 wait ([`PlanOptions::wait_at_program_stops`]).
+    wait_at_program_stops: bool,
     path: Path,
     n_motions: usize,
     /// (first motion, rpm) wherever the spindle speed changes (0 = stopped).
@@ -313,6 +341,8 @@ impl<'a> Checker<'a> {
         let (stats, brake_dist_mm) =
             self.figures(&lim, path_length_mm, planned_duration(&path.segs, &lim));
         Plan {
+            single_block: self.options.single_block,
+            wait_at_program_stops: self.options.wait_at_program_stops,
             path,
             n_motions: self.n_motions,
             spindle_changes: self.spindle_changes,
@@ -371,10 +401,12 @@ impl<'a> Planner<'a> {
         motions_hint: usize,
     ) -> Self {
         let lim = Limits::from_profile(profile);
+        let mut builder = PathBuilder::new(&lim, motions_hint);
+        builder.set_single_block(options.single_block);
         Planner {
             checker: Checker::new(profile, options, file),
             lim,
-            builder: PathBuilder::new(&lim, motions_hint),
+            builder,
         }
     }
 
@@ -428,13 +460,17 @@ impl Plan {
     /// A fresh sample stream from the start of the program. Everything it needs is
     /// allocated here; pulling samples allocates nothing.
     pub fn interpolator(&self) -> Interpolator<'_> {
-        Interpolator::new(
+        let mut it = Interpolator::new(
             &self.path.segs,
             &self.path.geoms,
             self.lim,
             self.brake_dist_mm,
             self.max_override,
-        )
+        );
+        it.set_single_block(self.single_block);
+        it.core_mut()
+            .set_wait_at_program_stops(self.wait_at_program_stops);
+        it
     }
 }
 

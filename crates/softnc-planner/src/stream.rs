@@ -24,7 +24,7 @@
 //! a stop: the path brakes within its limits to what it has, never runs past it, and
 //! [`StreamInterpolator::starved`] counts the event so that the daemon can alarm.
 
-use crate::build::{motion_primitive, CapDilator, Limits, PathBuilder, Segment};
+use crate::build::{motion_primitive, CapDilator, Limits, PathBuilder, Segment, StopKind};
 use crate::interp::{Core, SegmentSource, MAX_LOOKAHEAD_SEGMENTS};
 use crate::path::Geom;
 use crate::plan::{
@@ -32,7 +32,7 @@ use crate::plan::{
 };
 use crate::Sample;
 use softnc_core::{FeedProfile, MachineProfile, Primitive, Vec3};
-use softnc_gcode::{Motion, Program};
+use softnc_gcode::{Motion, Params, Program};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TryRecvError, TrySendError};
 use std::sync::Arc;
 
@@ -82,9 +82,19 @@ pub struct CheckedProgram {
     brake_dist_mm: f64,
     max_override: f64,
     start_mm: Vec3,
+    end_params: Params,
 }
 
 impl CheckedProgram {
+    /// The parameters as the program left them (issue 16's persistent parameters:
+    /// a daemon keeps them for the next job or MDI command through
+    /// [`PlanOptions::params`], as LinuxCNC keeps its parameter file, so that
+    /// G10 L2/L20 touch-offs, G92 and G28.1/G30.1 persist). After M2/M30, 5220 is 1
+    /// (G54), as LinuxCNC's `convert_stop` leaves it.
+    pub fn end_params(&self) -> &Params {
+        &self.end_params
+    }
+
     /// Figures of the plan (as [`Plan::stats`](crate::Plan::stats)).
     pub fn stats(&self) -> PlanStats {
         self.stats.clone()
@@ -161,9 +171,11 @@ impl Settled {
 impl<'a> StreamPlanner<'a> {
     fn new(profile: &'a MachineProfile, options: &'a PlanOptions, file: &'a str) -> Self {
         let lim = Limits::from_profile(profile);
+        let mut builder = PathBuilder::new(&lim, DRAIN_BATCH);
+        builder.set_single_block(options.single_block);
         StreamPlanner {
             checker: Checker::new(profile, options, file),
-            builder: PathBuilder::new(&lim, DRAIN_BATCH),
+            builder,
             settled: Settled {
                 dilator: (lim.profile == FeedProfile::SCurve).then(|| CapDilator::new(&lim)),
                 fin: Figures {
@@ -199,6 +211,7 @@ impl<'a> StreamPlanner<'a> {
     fn finish(
         self,
         profile: &MachineProfile,
+        end_params: Params,
         out: &mut impl FnMut(&Segment, &Geom),
     ) -> CheckedProgram {
         let StreamPlanner {
@@ -223,6 +236,7 @@ impl<'a> StreamPlanner<'a> {
             brake_dist_mm,
             max_override: profile.planner.max_feed_override,
             start_mm: start_mm.unwrap_or_default(),
+            end_params,
         }
     }
 }
@@ -240,7 +254,7 @@ pub fn check_program(
 ) -> Result<(Program, CheckedProgram), ReadPlanError> {
     let mut planner = StreamPlanner::new(profile, options, file);
     let mut refused: Option<PlanError> = None;
-    let program = softnc_gcode::read_program_chunked_with(
+    let (program, end_params) = softnc_gcode::read_program_chunked_params(
         text,
         file,
         profile,
@@ -259,7 +273,7 @@ pub fn check_program(
     )?;
     match refused {
         Some(e) => Err(e.into()),
-        None => Ok((program, planner.finish(profile, &mut |_, _| {}))),
+        None => Ok((program, planner.finish(profile, end_params, &mut |_, _| {}))),
     }
 }
 
@@ -278,6 +292,7 @@ pub fn check_program_parallel(
     use std::sync::mpsc::channel;
     type Chunk = (Vec<Motion>, Vec<Option<Primitive>>);
     let (to_planner, chunks) = sync_channel::<Chunk>(8);
+    let (params_tx, params_rx) = sync_channel::<Params>(1);
     let (recycle, recycled) = channel::<Chunk>();
     std::thread::scope(|scope| {
         let planner = scope.spawn(move || {
@@ -298,10 +313,14 @@ pub fn check_program_parallel(
             }
             match refused {
                 Some(e) => Err(e),
-                None => Ok(planner.finish(profile, &mut |_, _| {})),
+                // the reader sends the parameters once it has read the whole program
+                None => {
+                    let end_params = params_rx.recv().unwrap_or_default();
+                    Ok(planner.finish(profile, end_params, &mut |_, _| {}))
+                }
             }
         });
-        let read = softnc_gcode::read_program_chunked_with(
+        let read = softnc_gcode::read_program_chunked_params(
             text,
             file,
             profile,
@@ -319,7 +338,12 @@ pub fn check_program_parallel(
                 let _ = to_planner.send((std::mem::replace(chunk, fresh), prims));
             },
         );
+        let read = read.map(|(program, params)| {
+            let _ = params_tx.send(params); // a planner that refused is gone
+            program
+        });
         drop(to_planner);
+        drop(params_tx);
         let planned = planner
             .join()
             .unwrap_or_else(|e| std::panic::resume_unwind(e));
@@ -402,7 +426,9 @@ impl StreamProducer {
             (Err(e), _) => Err(ReadPlanError::from(e)),
             (Ok(_), Some(e)) => Err(e.into()),
             (Ok(_), None) => {
-                planner.finish(&profile, &mut |s, g| send(Msg::Element(*s, *g)));
+                planner.finish(&profile, Params::default(), &mut |s, g| {
+                    send(Msg::Element(*s, *g))
+                });
                 Ok(())
             }
         };
@@ -576,6 +602,47 @@ impl StreamInterpolator {
     pub fn window_segments(&self) -> usize {
         self.core.source().mask + 1
     }
+
+    /// Go on from a pause (M0; M1 with the optional-stop switch on; a single-block
+    /// stop): the path leaves the point it rests at with the next cycle. Nothing
+    /// while not paused. The daemon's resume (cycle start) and step call it. A feed
+    /// hold (override 0) is apart: resumed while held, the path stays at rest until
+    /// the override rises; held while paused, it stays paused.
+    pub fn resume(&mut self) {
+        self.core.resume()
+    }
+
+    /// The source line the path is paused at, waiting for
+    /// [`StreamInterpolator::resume`]: the M0/M1's line, or the line of the block
+    /// single block stopped after. `None` while it is not paused (a feed hold is
+    /// not a pause).
+    pub fn paused_at_line(&self) -> Option<u32> {
+        self.core.paused().map(|(_, line)| line)
+    }
+
+    /// Why the path is paused ([`StopKind::Program`], [`StopKind::Optional`] or
+    /// [`StopKind::Block`]); `None` while it is not.
+    pub fn pause_kind(&self) -> Option<StopKind> {
+        self.core.paused().map(|(kind, _)| kind)
+    }
+
+    /// Single block on or off, live (the daemon's step mode). On: the path comes to
+    /// rest at the first block end it can still stop at within its limits (at the
+    /// feed it runs, braking as for any stop; an end too close to stop at is passed),
+    /// and at every block end after it, and waits there for
+    /// [`StreamInterpolator::resume`]. A block end inside a blended corner is the end
+    /// of the first move's trimmed element: on the block's own programmed line, where
+    /// the blend into the next begins; with [`PlanOptions::single_block`] from the start every
+    /// block ends in an exact stop at its programmed end. Off: block ends are passed
+    /// (a pause the path waits in already still waits for its resume).
+    pub fn set_single_block(&mut self, on: bool) {
+        self.core.set_single_block(on)
+    }
+
+    /// Whether single block is on.
+    pub fn single_block(&self) -> bool {
+        self.core.single_block()
+    }
 }
 
 impl Iterator for StreamInterpolator {
@@ -610,6 +677,9 @@ pub fn stream_program(
         acc: 1.0,
         v_end_hard: 0.0,
         dwell_s: 0.0,
+        line: 0,
+        stop: StopKind::None,
+        block_end: false,
     };
     let window = Window {
         segs: vec![blank; n],
@@ -630,13 +700,15 @@ pub fn stream_program(
         state: StreamState::Open,
         blocking: mode == StreamMode::Offline,
     };
-    let core = Core::new(
+    let mut core = Core::new(
         window,
         Limits::from_profile(profile),
         checked.brake_dist_mm,
         checked.max_override,
         checked.start_mm,
     );
+    core.set_single_block(options.single_block);
+    core.set_wait_at_program_stops(options.wait_at_program_stops);
     let producer = StreamProducer {
         text,
         file: file.to_string(),

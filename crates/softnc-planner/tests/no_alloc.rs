@@ -76,3 +76,40 @@ fn sample_generation_allocates_nothing() {
         );
     }
 }
+
+/// Pauses, resume and single block switched live allocate nothing either.
+#[test]
+fn pauses_and_single_block_allocate_nothing() {
+    let text = "G21 G64\nG1 X20 F3000\nG1 X20 Y20\nM0\nG1 X0 Y20\nG1 X0 Y0\nG1 X10 Y5\nM2\n";
+    for fp in [FeedProfile::Trapezoidal, FeedProfile::SCurve] {
+        let p = profile(fp);
+        let options = softnc_planner::PlanOptions {
+            wait_at_program_stops: true,
+            ..Default::default()
+        };
+        let (_, plan) = softnc_planner::read_and_plan(text, "t.ngc", &p, &options).unwrap();
+        let mut it = plan.interpolator();
+        let before = allocs();
+        let (mut n, mut pauses) = (0u64, 0u32);
+        let mut last = Vec3::ZERO;
+        while let Some(s) = it.next() {
+            n += 1;
+            last = s.pos_mm;
+            if it.paused_at_line().is_some() {
+                pauses += 1;
+                it.resume();
+            }
+            if n == 200 {
+                it.set_single_block(true);
+            }
+        }
+        let after = allocs();
+        assert!(pauses >= 2, "{fp:?}: {pauses} pauses");
+        assert_eq!(last, Vec3::new(10.0, 5.0, 0.0));
+        assert_eq!(
+            after - before,
+            0,
+            "{fp:?}: allocations while pulling {n} samples"
+        );
+    }
+}

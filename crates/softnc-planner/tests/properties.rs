@@ -32,34 +32,39 @@ fn build(ops: &[Op], exact: bool) -> Builder {
         b.mode = softnc_gcode::PathMode::ExactStop;
     }
     for o in ops {
-        match *o {
-            Op::Rapid(x, y, z) => {
-                b.rapid(x, y, z);
-            }
-            Op::Line(x, y, z, f) => {
-                b.line(x, y, z, f);
-            }
-            Op::Arc(r, ang, turns, pl, f) => {
-                let plane = [Plane::XY, Plane::XZ, Plane::YZ][pl as usize];
-                let (a, bb, n) = plane.axes();
-                let p = b.pos;
-                let mut c = p;
-                c[a] = p[a] - r * ang.cos();
-                c[bb] = p[bb] - r * ang.sin();
-                let mut e = c;
-                let th = ang + 1.3;
-                e[a] = c[a] + r * th.cos();
-                e[bb] = c[bb] + r * th.sin();
-                e[n] = p[n] + if turns.abs() > 1 { -1.0 } else { 0.0 };
-                let t = if turns == 0 { 1 } else { turns };
-                b.arc(e, c, plane, t, f);
-            }
-            Op::Dwell(s) => {
-                b.dwell(s);
-            }
-        }
+        apply(&mut b, o);
     }
     b
+}
+
+/// One operation onto `b`.
+fn apply(b: &mut Builder, o: &Op) {
+    match *o {
+        Op::Rapid(x, y, z) => {
+            b.rapid(x, y, z);
+        }
+        Op::Line(x, y, z, f) => {
+            b.line(x, y, z, f);
+        }
+        Op::Arc(r, ang, turns, pl, f) => {
+            let plane = [Plane::XY, Plane::XZ, Plane::YZ][pl as usize];
+            let (a, bb, n) = plane.axes();
+            let p = b.pos;
+            let mut c = p;
+            c[a] = p[a] - r * ang.cos();
+            c[bb] = p[bb] - r * ang.sin();
+            let mut e = c;
+            let th = ang + 1.3;
+            e[a] = c[a] + r * th.cos();
+            e[bb] = c[bb] + r * th.sin();
+            e[n] = p[n] + if turns.abs() > 1 { -1.0 } else { 0.0 };
+            let t = if turns == 0 { 1 } else { turns };
+            b.arc(e, c, plane, t, f);
+        }
+        Op::Dwell(s) => {
+            b.dwell(s);
+        }
+    }
 }
 
 proptest! {
@@ -72,6 +77,60 @@ proptest! {
         let plan = plan_of(&b, &p);
         prop_assert!(plan.stats().samples < 2_000_000, "planned {} samples", plan.stats().samples);
         let s = run(&plan);
+        let r = limit_ratios(&s, &p);
+        prop_assert!(r[0] <= 1.0 + 1e-9, "velocity {}", r[0]);
+        prop_assert!(r[1] <= 1.0 + 1e-9, "acceleration {}", r[1]);
+        if scurve {
+            prop_assert!(r[2] <= 1.0 + 1e-9, "jerk {}", r[2]);
+        }
+        prop_assert!((s.last().unwrap().pos_mm - b.pos).norm() < 1e-9);
+        let dev = max_path_deviation(&s, &plan, b.motions.len());
+        prop_assert!(dev <= p.planner.tolerance_mm + 1e-6, "deviation {}", dev);
+    }
+
+    /// M0 pauses waited at and resumed, single block switched on and off at random
+    /// cycles (resumed at every block end it stops at): the same limits, the same
+    /// end, within the tolerance of the program.
+    #[test]
+    fn pauses_and_single_block_stay_within_limits(
+        ops in prop::collection::vec(op(), 1..12),
+        pauses in prop::collection::vec(any::<bool>(), 12),
+        on_at in 0..3000u64,
+        off_for in 0..3000u64,
+        scurve in any::<bool>(),
+    ) {
+        let fp = if scurve { FeedProfile::SCurve } else { FeedProfile::Trapezoidal };
+        let p = profile(fp);
+        let mut b = Builder::new(Vec3::ZERO);
+        for (k, o) in ops.iter().enumerate() {
+            apply(&mut b, o);
+            if pauses[k] {
+                b.pause();
+            }
+        }
+        let options = softnc_planner::PlanOptions {
+            ignore_soft_limits: true,
+            wait_at_program_stops: true,
+            ..Default::default()
+        };
+        let plan = softnc_planner::plan(&b.program(), &p, &options).expect("plans");
+        let mut it = plan.interpolator();
+        let mut s = Vec::new();
+        let limit = plan.stats().samples as usize + 100_000;
+        while let Some(x) = it.next() {
+            s.push(x);
+            let n = s.len() as u64;
+            if n == on_at {
+                it.set_single_block(true);
+            }
+            if n == on_at + off_for {
+                it.set_single_block(false);
+            }
+            if it.paused_at_line().is_some() {
+                it.resume();
+            }
+            prop_assert!(s.len() < limit, "ran past {} samples", limit);
+        }
         let r = limit_ratios(&s, &p);
         prop_assert!(r[0] <= 1.0 + 1e-9, "velocity {}", r[0]);
         prop_assert!(r[1] <= 1.0 + 1e-9, "acceleration {}", r[1]);

@@ -67,6 +67,11 @@ impl Builder {
         });
         self
     }
+    /// M0 here.
+    pub fn pause(&mut self) -> &mut Self {
+        self.push(MotionKind::Pause { optional: false });
+        self
+    }
     pub fn dwell(&mut self, s: f64) -> &mut Self {
         self.push(MotionKind::Dwell { seconds: s });
         self
