@@ -1785,22 +1785,24 @@ fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_w
     let r = op.request(ControlKind::StartJob, 0.0, &abs(&m0)).unwrap();
     assert_eq!(r.accepted, 1, "{}", r.message.as_str());
     let s = wait_paused(&d, &op);
-    assert_eq!(s["program_line"], 3, "paused at the M0's line: {s}");
+    // the line of the motion the axes stand at the end of (the M0 follows it)
+    assert_eq!(s["program_line"], 2, "paused after line 2: {s}");
     std::thread::sleep(Duration::from_millis(500));
     let s = op.status().unwrap();
     assert_eq!(s["state"], "Paused", "{s}");
     assert!((machine_mm(&s)[0] - 10.0).abs() < 1e-9, "{s}");
-    // hold and step are no resume of a pause; resume is
-    let (ok, msg) = ask(&op, ControlKind::Step, u32::MAX, 0.0, "");
-    assert!(!ok || msg.contains("next block"), "{msg}");
     let (ok, msg) = ask(&op, ControlKind::Resume, u32::MAX, 0.0, "");
     assert!(ok, "{msg}");
     let s = d.wait_job(&op, r.job_id, Duration::from_secs(30));
     assert_eq!(s["job"]["outcome"], "completed", "{s}");
     let at = machine_mm(&op.status().unwrap());
-    assert!((at[0] - 20.0).abs() < 1e-9 && (at[1] - 5.0).abs() < 1e-9, "{at:?}");
+    assert!(
+        (at[0] - 20.0).abs() < 1e-9 && (at[1] - 5.0).abs() < 1e-9,
+        "{at:?}"
+    );
 
-    // single block: one block per step
+    // single block: one block per step (from where the last job left the machine,
+    // X20 Y5)
     let blocks = d.dir.join("blocks.ngc");
     std::fs::write(
         &blocks,
@@ -1809,21 +1811,42 @@ fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_w
     .unwrap();
     let (ok, msg) = ask(&op, ControlKind::SingleBlock, u32::MAX, 1.0, "");
     assert!(ok, "{msg}");
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&blocks)).unwrap();
+    let r = op
+        .request(ControlKind::StartJob, 0.0, &abs(&blocks))
+        .unwrap();
     assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let mut lines = Vec::new();
-    for _ in 0..3 {
-        let s = wait_paused(&d, &op);
-        lines.push(s["program_line"].as_u64().unwrap());
+    // paused at the end of each block, standing there until stepped; the last
+    // block runs to the program's end
+    let mut stops = Vec::new();
+    loop {
+        let s = d.wait_status(&op, Duration::from_secs(30), "a pause or the end", |s| {
+            s["state"] == "Paused" || s["job"]["outcome"] != "running"
+        });
+        if s["job"]["outcome"] != "running" {
+            assert_eq!(s["job"]["outcome"], "completed", "{s}");
+            break;
+        }
+        let line = s["program_line"].as_u64().unwrap();
+        let at = machine_mm(&s);
+        std::thread::sleep(Duration::from_millis(200));
+        let s = op.status().unwrap();
+        assert_eq!(
+            (&s["state"], machine_mm(&s)),
+            (&serde_json::json!("Paused"), at)
+        );
+        stops.push((line, at));
         let (ok, msg) = ask(&op, ControlKind::Step, u32::MAX, 0.0, "");
         assert!(ok, "{msg}");
         d.wait_status(&op, Duration::from_secs(10), "stepped", |s| {
-            s["state"] != "Paused" || s["job"]["outcome"] != "running"
+            s["program_line"].as_u64() != Some(line) || s["job"]["outcome"] != "running"
         });
+        assert!(stops.len() < 5, "{stops:?}");
     }
-    assert!(lines.windows(2).all(|w| w[0] < w[1]), "one block per step: {lines:?}");
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(30));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    assert_eq!(
+        stops,
+        [(2, [30.0, 5.0, 0.0]), (3, [30.0, 15.0, 0.0])],
+        "one block per step, each stopped exactly at its end"
+    );
     let (ok, msg) = ask(&op, ControlKind::SingleBlock, u32::MAX, 0.0, "");
     assert!(ok, "{msg}");
 
@@ -1837,19 +1860,31 @@ fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_w
     assert_eq!(s["job"]["outcome"], "aborted", "{s}");
 
     // run from line: the remaining samples after the safe approach are the whole
-    // job's from that line (an exact stop before it: the job is at rest there too)
+    // job's from that line (an M0 before it: the whole job is at rest there too, on
+    // a cycle boundary)
     let whole = d.dir.join("whole.ngc");
     std::fs::write(
         &whole,
-        "G21 G90 G61\nG0 X0 Y0 Z5\nG1 Z-1 F600\nG1 X20 F2400\nG2 X30 Y10 R10\nG1 Y30\nG3 X20 Y40 I-10 J0\nG1 X0\nG0 Z5\nM2\n",
+        "G21 G90 G64 P0.01\nG0 X0 Y0 Z5\nG1 Z-1 F600\nG1 X20 F2400\nG2 X30 Y10 R10\nM0\nG1 Y30\nG3 X20 Y40 I-10 J0\nG1 X0\nG0 Z5\nM2\n",
     )
     .unwrap();
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&whole)).unwrap();
+    let r = op
+        .request(ControlKind::StartJob, 0.0, &abs(&whole))
+        .unwrap();
     assert_eq!(r.accepted, 1, "{}", r.message.as_str());
     let whole_id = r.job_id;
+    wait_paused(&d, &op);
+    let (ok, msg) = ask(&op, ControlKind::Resume, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
     d.wait_job(&op, whole_id, Duration::from_secs(60));
+    // from elsewhere: the approach has something to do
+    let (ok, msg) = ask(&op, ControlKind::JogStep, 0, -25.0, "");
+    assert!(ok, "{msg}");
+    d.wait_status(&op, Duration::from_secs(10), "jogged", |s| {
+        s["state"] == "Idle"
+    });
     let r = op
-        .request_axis(ControlKind::StartJob, 6, 0.0, &abs(&whole))
+        .request_axis(ControlKind::StartJob, 7, 0.0, &abs(&whole))
         .unwrap();
     assert_eq!(r.accepted, 1, "{}", r.message.as_str());
     let from_id = r.job_id;
@@ -1874,15 +1909,17 @@ fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_w
             .collect()
     };
     let (a, b) = (cmds(whole_id), cmds(from_id));
-    // the start of line 6 (X30 Y10 Z-1): from the last sample there in each
+    // the start of line 7 (X30 Y10 Z-1): from the last sample there in each
     let tail = |v: &[String]| -> Vec<String> {
         let i = v
             .iter()
             .rposition(|p| {
                 let x: Vec<f64> = p.split(',').map(|c| c.parse().unwrap()).collect();
-                (x[0] - 30.0).abs() < 1e-9 && (x[1] - 10.0).abs() < 1e-9 && (x[2] + 1.0).abs() < 1e-9
+                (x[0] - 30.0).abs() < 1e-9
+                    && (x[1] - 10.0).abs() < 1e-9
+                    && (x[2] + 1.0).abs() < 1e-9
             })
-            .expect("at the start of line 6");
+            .expect("at the start of line 7");
         // up to the job's last command (the axes settle after it for as long as
         // they take)
         let last = v.last().unwrap();
@@ -1892,7 +1929,22 @@ fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_w
     let (ta, tb) = (tail(&a), tail(&b));
     assert!(ta.len() > 100, "{}", ta.len());
     assert_eq!(ta.len(), tb.len(), "same remaining samples");
-    assert!(ta == tb, "run from line 6 differs from the whole job after the approach");
+    assert!(
+        ta == tb,
+        "run from line 7 differs from the whole job after the approach"
+    );
+    // the approach raised Z first: no sample below Z5 away from X30 Y10 before it
+    let approach_end = b
+        .iter()
+        .rposition(|p| *p == tb[0])
+        .expect("the approach ends at the start of line 7");
+    let approach = &b[..approach_end];
+    assert!(!approach.is_empty(), "an approach was made");
+    for p in approach {
+        let x: Vec<f64> = p.split(',').map(|c| c.parse().unwrap()).collect();
+        let at_xy = (x[0] - 30.0).abs() < 1e-6 && (x[1] - 10.0).abs() < 1e-6;
+        assert!(at_xy || x[2] >= 5.0 - 1e-9, "the approach crossed low: {p}");
+    }
     // refused inside a subroutine, as LinuxCNC refuses
     let sub = d.dir.join("sub.ngc");
     std::fs::write(
@@ -1900,7 +1952,9 @@ fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_w
         "G21 G90\no100 sub\nG1 X5 F600\no100 endsub\no100 call\nM2\n",
     )
     .unwrap();
-    let r = op.request_axis(ControlKind::StartJob, 3, 0.0, &abs(&sub)).unwrap();
+    let r = op
+        .request_axis(ControlKind::StartJob, 3, 0.0, &abs(&sub))
+        .unwrap();
     assert_eq!(r.accepted, 0, "{}", r.message.as_str());
     assert!(r.message.as_str().contains("sub"), "{}", r.message.as_str());
     assert_eq!(op.status().unwrap()["state"], "Idle");

@@ -55,6 +55,8 @@ pub struct InterpTask {
     stats: softnc_rt::LoopStats,
     hb_counter: u64,
     last_hb: Instant,
+    /// A heartbeat is due now (the state changed).
+    beat_now: bool,
     state: MachineState,
     job_id: u64,
     /// Where the machine is, from the position process's status: a job is planned
@@ -134,6 +136,8 @@ pub struct Streaming<'p> {
     aborting: bool,
     /// The last planned sample, repeated while a learned correction still runs out.
     end_hold: Option<softnc_planner::Sample>,
+    /// The first sample sent while the stream stands paused (M0/M1, single block).
+    pause_seq: Option<u64>,
     _job: std::marker::PhantomData<&'p mut PlannedJob>,
 }
 
@@ -178,7 +182,8 @@ impl InterpTask {
             stats: softnc_rt::LoopStats::new(),
             cfg,
             hb_counter: 0,
-            last_hb: Instant::now() - Duration::from_secs(1),
+            last_hb: Instant::now(),
+            beat_now: true,
             state: MachineState::Idle,
             job_id: 0,
             machine_mm: [0.0; 3],
@@ -260,7 +265,10 @@ impl InterpTask {
     }
 
     fn beat(&mut self) -> Result<()> {
-        if self.last_hb.elapsed().as_secs_f64() >= self.cfg.config.heartbeat_period_s {
+        if self.beat_now
+            || self.last_hb.elapsed().as_secs_f64() >= self.cfg.config.heartbeat_period_s
+        {
+            self.beat_now = false;
             self.hb_counter += 1;
             self.send(InterpMsg::Heartbeat(Heartbeat {
                 process: ProcessId::Interp.wire(),
@@ -385,7 +393,14 @@ impl InterpTask {
                 return Ok(end);
             }
             if !realtime {
-                std::thread::sleep(IDLE_SLEEP);
+                // lockstep runs as fast as the position process consumes, but a
+                // paused job stands at the nominal rate (not millions of standing
+                // samples a second)
+                std::thread::sleep(if self.state == MachineState::Paused {
+                    period
+                } else {
+                    IDLE_SLEEP
+                });
             }
         }
     }
@@ -482,6 +497,7 @@ impl InterpTask {
             held: false,
             aborting: false,
             end_hold: None,
+            pause_seq: None,
             _job: std::marker::PhantomData,
         })
     }
@@ -572,10 +588,32 @@ impl InterpTask {
                     s.it.set_feed_override(0.0);
                     self.state = MachineState::Held;
                 }
-                Some(ControlKind::Resume) if !s.aborting => {
+                // a feed hold is resumed first; a pause (M0/M1, a block end in
+                // single block) then
+                Some(ControlKind::Resume) if !s.aborting && s.held => {
                     s.held = false;
                     s.it.set_feed_override(s.operator_override);
                     self.state = MachineState::Running;
+                }
+                Some(ControlKind::Resume) if !s.aborting => {
+                    s.it.set_single_block(self.switches.single_block);
+                    s.it.resume();
+                }
+                // one block, then a stop at its end
+                Some(ControlKind::Step) if !s.aborting && !s.held => {
+                    s.it.set_single_block(true);
+                    s.it.resume();
+                }
+                Some(
+                    k @ (ControlKind::SingleBlock
+                    | ControlKind::OptionalStop
+                    | ControlKind::BlockDelete),
+                ) => {
+                    self.switches.apply(k, c.value);
+                    if k == ControlKind::SingleBlock {
+                        // live: from the next block end the path can still stop at
+                        s.it.set_single_block(self.switches.single_block);
+                    }
                 }
                 Some(ControlKind::Abort) => {
                     s.aborting = true;
@@ -677,6 +715,25 @@ impl InterpTask {
             self.send(InterpMsg::Command(c))?;
             s.next_seq += 1;
         }
+        // paused (M0/M1, single block) once the position process stands there too
+        // (the stream is `ahead` samples ahead of it)
+        let stream_paused = s.it.paused_at_line().is_some() && !s.held && !s.aborting;
+        if !stream_paused {
+            s.pause_seq = None;
+        } else if s.pause_seq.is_none() {
+            s.pause_seq = Some(s.next_seq);
+        }
+        let paused = s
+            .pause_seq
+            .is_some_and(|p| s.consumed.is_some_and(|c| c >= p));
+        let was = self.state;
+        match self.state {
+            MachineState::Running if paused => self.state = MachineState::Paused,
+            MachineState::Paused if !paused => self.state = MachineState::Running,
+            _ => {}
+        }
+        // told at once, not at the next heartbeat
+        self.beat_now |= self.state != was;
         self.beat()?;
         if s.sent_last && s.consumed.is_some_and(|c| c + 1 >= s.next_seq) {
             return Ok(Some(if s.aborting {
@@ -744,6 +801,12 @@ impl JobSetup {
         PlanOptions {
             start_mm: Some(self.start_mm),
             params: self.params.clone(),
+            optional_stop: self.switches.optional_stop,
+            block_delete: self.switches.block_delete,
+            single_block: self.switches.single_block,
+            from_line: self.from_line,
+            // the daemon resumes a pause (`resume`, `step`)
+            wait_at_program_stops: true,
             ..Default::default()
         }
     }
@@ -763,22 +826,6 @@ pub fn check_bytes(
     let options = setup.plan_options();
     let (_, checked) = check_program(&text, path, machine, &options).map_err(|e| e.to_string())?;
     Ok((text, options, checked))
-}
-
-/// The parameters as the program `text` leaves them (G10, G92, the active system):
-/// what the machine keeps when the job completes.
-pub fn end_params(
-    text: &str,
-    path: &str,
-    machine: &softnc_core::MachineProfile,
-    setup: &JobSetup,
-) -> Result<softnc_gcode::Params, String> {
-    let options = setup.plan_options().read_options();
-    let mut params = None;
-    softnc_gcode::interp::read_with(text, path, machine, &options, 4096, &mut |_| {})
-        .map(|(_, p)| params = Some(p))
-        .map_err(|e| e.to_string())?;
-    params.ok_or_else(|| format!("{path}: no parameters"))
 }
 
 /// Read a program (the MMI's copy) and check it as `setup` says ([`check_bytes`]);

@@ -5,7 +5,7 @@
 
 use crate::bus::{Bus, Pub, Sub};
 use crate::config::Loaded;
-use crate::interp::{check_bytes, end_params, JobSetup, Switches};
+use crate::interp::{check_bytes, JobSetup, Switches};
 use crate::jobfile::intake;
 use crate::lifecycle::StopWatch;
 use crate::machine_store::{coords_number, offsets_json, MachineStore, Offsets};
@@ -122,6 +122,8 @@ struct Peer {
     pid: u32,
     /// The pid of an instance reported lost: its heartbeats still queued are stale.
     lost_pid: Option<u32>,
+    /// The job its last heartbeat was about (0 none).
+    job_id: u64,
 }
 
 /// The MMI process.
@@ -252,6 +254,7 @@ impl MmiTask {
                 state: 0,
                 pid: 0,
                 lost_pid: None,
+                job_id: 0,
             }; 4],
             loops: [None; 4],
             alarms: VecDeque::new(),
@@ -358,13 +361,12 @@ impl MmiTask {
             _ if supervisor_faulted || position_lost => MachineState::Faulted,
             MachineState::Off | MachineState::Homing | MachineState::Jogging => pos,
             _ if self.job_active() => {
-                let interp = MachineState::from_wire(self.peers[ProcessId::Interp as usize].state);
-                let mdi = self
-                    .jobs
-                    .iter()
-                    .rev()
-                    .find(|j| j.outcome == "running")
-                    .is_some_and(|j| j.mdi.is_some());
+                let running = self.jobs.iter().rev().find(|j| j.outcome == "running");
+                let mdi = running.is_some_and(|j| j.mdi.is_some());
+                // the interpolator's word on this job (not a stale one on the last)
+                let peer = self.peers[ProcessId::Interp as usize];
+                let interp = MachineState::from_wire(peer.state)
+                    .filter(|_| running.is_some_and(|j| j.job_id == peer.job_id));
                 match (self.intent, interp) {
                     (Some(i), _) => i,
                     (None, Some(MachineState::Stopping)) => MachineState::Stopping,
@@ -465,6 +467,7 @@ impl MmiTask {
                 p.last_seen = Some(Instant::now());
                 p.state = h.state;
                 p.pid = h.pid;
+                p.job_id = h.job_id;
             }
         }
         while let Some(a) = self.alarms_sub.receive()? {
@@ -1044,7 +1047,7 @@ impl MmiTask {
                     ControlKind::OptionalStop => "optional stop",
                     _ => "block delete",
                 };
-                let when = if self.job_active() {
+                let when = if self.job_active() && kind != ControlKind::SingleBlock {
                     " (from the next job)"
                 } else {
                     ""
@@ -1081,7 +1084,7 @@ impl MmiTask {
                 Err(why) => Self::reply(false, 0, &format!("Step refused ({state:?}): {why}")),
                 Ok(next) => {
                     let job_id = self.running_job().map_or(0, |j| j.job_id);
-                    self.send_control(ControlKind::Resume, 0, 0.0, "")?;
+                    self.send_control(ControlKind::Step, 0, 0.0, "")?;
                     Self::reply(
                         true,
                         job_id,
@@ -1499,8 +1502,8 @@ fn highest_job_id(text: &str) -> u64 {
 
 /// Take a submitted job in: read once (a regular file under `limit`), stored as an
 /// immutable copy under `programs`, planned as `setup` says (from where the machine
-/// is, with its offsets) as the interpolator will plan it, and read once more for
-/// the parameters it leaves. Runs off the MMI's loop.
+/// is, with its offsets) as the interpolator will plan it, with the parameters it
+/// leaves. Runs off the MMI's loop.
 fn check_job(
     path: &str,
     limit: u64,
@@ -1510,8 +1513,8 @@ fn check_job(
 ) -> CheckResult {
     let job = intake(path, limit, programs).map_err(|e| e.to_string())?;
     // checked as it will be streamed: the plan's figures, never the whole plan
-    let (text, _, checked) = check_bytes(&job.bytes, path, machine, setup)?;
-    let params = end_params(&text, path, machine, setup)?;
+    let (_, _, checked) = check_bytes(&job.bytes, path, machine, setup)?;
+    let params = checked.end_params().clone();
     let copy = job.copy.display().to_string();
     if !FixedStr::<512>::fits(&copy) {
         return Err(format!(
