@@ -1572,13 +1572,24 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
         std::env::temp_dir().join(format!("softnc-e2e-profile-{}", std::process::id()));
     let profile = quick_homing_profile(&profile_dir);
     let dir = fresh_dir(tag);
+    // a subroutine on the configured search path, for an MDI call
+    std::fs::create_dir_all(dir.join("subs")).unwrap();
+    std::fs::write(
+        dir.join("subs/nudge.ngc"),
+        "o<nudge> sub\nG91 G0 X#1\nG90\no<nudge> endsub\nM2\n",
+    )
+    .unwrap();
+    let subs = [(
+        "subroutine_path: [\"../subroutines\"]",
+        "subroutine_path: [\"subs\"]",
+    )];
     let mut d = Daemon::start_in(
         dir.clone(),
         tag,
         "Lockstep",
         false,
         profile.to_str().unwrap(),
-        &[],
+        &subs,
     );
     let op = d.operator_off();
     let job = short_job(&d.dir);
@@ -1717,6 +1728,16 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     for w in s["work_mm"].as_array().unwrap() {
         assert!(w.as_f64().unwrap().abs() < 1e-6, "{s}");
     }
+    // MDI calls a subroutine found on the search path
+    let r = op
+        .request(ControlKind::Mdi, 0.0, "o<nudge> call [2.5]")
+        .unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    d.wait_job(&op, r.job_id, Duration::from_secs(20));
+    let s = d.wait_status(&op, Duration::from_secs(5), "at rest", |s| {
+        s["state"] == "Idle"
+    });
+    assert!((machine_mm(&s)[0] - (p[0] + 2.5)).abs() < 1e-6, "{s}");
     // touch-off and MDI are refused while a job moves (a slow one, in G55; between
     // percent signs: no M2, which would make G54 active again, as in LinuxCNC)
     let slow = d.dir.join("slow.ngc");
@@ -1740,7 +1761,14 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     drop(op);
     d.shutdown_leaving_nothing(tag);
     drop(d);
-    let d = Daemon::start_in(dir, tag, "Lockstep", false, profile.to_str().unwrap(), &[]);
+    let d = Daemon::start_in(
+        dir,
+        tag,
+        "Lockstep",
+        false,
+        profile.to_str().unwrap(),
+        &subs,
+    );
     let op = d.operator();
     let offsets: serde_json::Value =
         serde_json::from_str(ask(&op, ControlKind::Offsets, u32::MAX, 0.0, "").1.as_str()).unwrap();

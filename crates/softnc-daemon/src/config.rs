@@ -75,6 +75,11 @@ pub struct DaemonConfig {
     /// Largest job program the MMI takes (bytes).
     #[serde(default = "default_max_job_bytes")]
     pub max_job_bytes: u64,
+    /// Folders searched, in order, for a subroutine `O<name> call` a program does not
+    /// define (`name.ngc`; LinuxCNC's `[RS274NGC]SUBROUTINE_PATH`), relative to this
+    /// file; after them the program's own folder.
+    #[serde(default)]
+    pub subroutine_path: Vec<PathBuf>,
     /// A continuous jog stops when its client has not renewed it for this long (s):
     /// the dead-man of a client that went away.
     #[serde(default = "default_jog_deadman_s")]
@@ -180,6 +185,8 @@ pub struct Loaded {
     pub data_dir: PathBuf,
     /// The learning store's folder.
     pub learning_dir: PathBuf,
+    /// Absolute subroutine folders (`subroutine_path`).
+    pub subroutine_path: Vec<PathBuf>,
     /// The machine profile file's bytes as loaded (the learning store's key).
     pub machine_bytes: Vec<u8>,
     /// The configuration file.
@@ -211,6 +218,7 @@ impl Loaded {
         c.machine = abs(&self.machine_path);
         c.iceoryx2_config = abs(&self.iceoryx2_config);
         c.learning_dir = Some(abs(&self.learning_dir));
+        c.subroutine_path = self.subroutine_path.iter().map(|p| abs(p)).collect();
         std::fs::create_dir_all(dir.join("data"))?;
         c.data_dir = abs(&dir.join("data"));
         let text = ron::ser::to_string_pretty(&c, ron::ser::PrettyConfig::default())
@@ -352,6 +360,7 @@ impl DaemonConfig {
         let learning_dir = softnc_learning::store_dir(
             config.learning_dir.as_ref().map(|d| dir.join(d)).as_deref(),
         );
+        let subroutine_path = config.subroutine_path.iter().map(|p| dir.join(p)).collect();
         let iceoryx2_config = dir.join(&config.iceoryx2_config);
         if !iceoryx2_config.is_file() {
             return Err(bad(
@@ -365,6 +374,7 @@ impl DaemonConfig {
             machine_path,
             data_dir,
             learning_dir,
+            subroutine_path,
             machine_bytes,
             path: path.to_path_buf(),
             iceoryx2_config,

@@ -423,12 +423,14 @@ impl InterpTask {
                 params,
                 switches: self.switches,
                 from_line,
+                subroutine_path: self.cfg.subroutine_path.clone(),
+                preamble: self.store.load_modal()?,
             };
             Ok((machine, setup))
         });
         let checked = setup
             .and_then(|(machine, setup)| check_job(path, &machine, &setup).map(|c| (machine, c)));
-        let (machine, (text, options, checked)) = match checked {
+        let (machine, (text, options, checked, _)) = match checked {
             Ok(p) => p,
             Err(msg) => {
                 self.alarm(AlarmCode::JobRefused, &msg)?;
@@ -785,6 +787,10 @@ pub struct JobSetup {
     pub switches: Switches,
     /// Run from this line (LinuxCNC's run-from-line); `None`: from the start.
     pub from_line: Option<u32>,
+    /// Folders searched for subroutine files.
+    pub subroutine_path: Vec<std::path::PathBuf>,
+    /// The modal state the last MDI command or job left (G-code run first).
+    pub preamble: Option<String>,
 }
 
 impl JobSetup {
@@ -807,6 +813,8 @@ impl JobSetup {
             from_line: self.from_line,
             // the daemon resumes a pause (`resume`, `step`)
             wait_at_program_stops: true,
+            subroutine_path: self.subroutine_path.clone(),
+            preamble: self.preamble.clone(),
             ..Default::default()
         }
     }
@@ -821,12 +829,17 @@ pub fn check_bytes(
     path: &str,
     machine: &softnc_core::MachineProfile,
     setup: &JobSetup,
-) -> Result<(Arc<str>, PlanOptions, CheckedProgram), String> {
+) -> Result<Checked, String> {
     let text: Arc<str> = Arc::from(String::from_utf8_lossy(bytes));
     let options = setup.plan_options();
-    let (_, checked) = check_program(&text, path, machine, &options).map_err(|e| e.to_string())?;
-    Ok((text, options, checked))
+    let (program, checked) =
+        check_program(&text, path, machine, &options).map_err(|e| e.to_string())?;
+    Ok((text, options, checked, program.end_modal))
 }
+
+/// A program checked: its text, the options it is planned with, the plan's figures
+/// and the modal state it leaves (G-code).
+pub type Checked = (Arc<str>, PlanOptions, CheckedProgram, String);
 
 /// Read a program (the MMI's copy) and check it as `setup` says ([`check_bytes`]);
 /// its text is the learning store's key.
@@ -834,7 +847,7 @@ pub fn check_job(
     path: &str,
     machine: &softnc_core::MachineProfile,
     setup: &JobSetup,
-) -> Result<(Arc<str>, PlanOptions, CheckedProgram), String> {
+) -> Result<Checked, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("{path}: cannot read: {e}"))?;
     check_bytes(&bytes, path, machine, setup)
 }

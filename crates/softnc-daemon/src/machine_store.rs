@@ -17,6 +17,8 @@ use std::path::{Path, PathBuf};
 pub const PARAMS_FILE: &str = "softnc.var";
 /// The tool table in `data_dir` (RON: a list of the profile's tool entries).
 pub const TOOLS_FILE: &str = "tools.ron";
+/// The modal state the last MDI command or job left, as G-code, in `data_dir`.
+pub const MODAL_FILE: &str = "modal.ngc";
 
 /// Parameter numbers (LinuxCNC 2.9's numbered parameters).
 mod param {
@@ -81,6 +83,33 @@ impl MachineStore {
     /// The tool table.
     pub fn tools_path(&self) -> PathBuf {
         self.dir.join(TOOLS_FILE)
+    }
+
+    /// The modal state file.
+    pub fn modal_path(&self) -> PathBuf {
+        self.dir.join(MODAL_FILE)
+    }
+
+    /// The modal state the last completed MDI command or job left (`None`: the
+    /// interpreter's defaults).
+    pub fn load_modal(&self) -> Result<Option<String>, String> {
+        match std::fs::read_to_string(self.modal_path()) {
+            Ok(t) => Ok(Some(t)),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+            Err(e) => Err(format!("{}: {e}", self.modal_path().display())),
+        }
+    }
+
+    /// Keep `gcode` as the machine's modal state (atomically).
+    pub fn save_modal(&self, gcode: &str) -> Result<(), String> {
+        write_atomic(&self.modal_path(), gcode.as_bytes())
+            .map_err(|e| format!("{}: {e}", self.modal_path().display()))
+    }
+
+    /// Forget the modal state (a controller starting: the interpreter's defaults,
+    /// as LinuxCNC starts).
+    pub fn clear_modal(&self) {
+        let _ = std::fs::remove_file(self.modal_path());
     }
 
     /// The parameters as last saved; `None` before the first save (the reader then

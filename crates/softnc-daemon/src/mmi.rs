@@ -164,8 +164,12 @@ pub struct MmiTask {
     params: Option<softnc_gcode::Params>,
     /// Why the parameter file cannot be used: jobs, MDI and touch-off are refused.
     params_error: Option<String>,
-    /// The running job's parameters at its end: saved when it completes.
-    pending_params: Option<(u64, softnc_gcode::Params)>,
+    /// The running job's parameters and modal state at its end: kept when it
+    /// completes.
+    pending_params: Option<(u64, softnc_gcode::Params, String)>,
+    /// The modal state (G-code) the last completed MDI command or job left: the
+    /// next one starts with it, as in LinuxCNC.
+    modal: Option<String>,
     /// The operator's program-flow switches.
     switches: Switches,
     /// A continuous jog's axis, speed and when its client last renewed it (the
@@ -187,6 +191,7 @@ type CheckResult = std::result::Result<
         String,
         PlanStats,
         softnc_gcode::Params,
+        String,
     ),
     String,
 >;
@@ -231,6 +236,15 @@ impl MmiTask {
         let server = svc.server_builder().create().context("operator server")?;
         let (jobs, job_id_floor) = load_jobs(&cfg.data_dir.join("jobs.json"));
         let store = MachineStore::new(&cfg.data_dir);
+        // a controller starting starts with the interpreter's defaults (as LinuxCNC);
+        // an MMI restarted under a running one keeps the machine's modal state
+        if std::env::var_os(crate::cli::RESTARTED_ENV).is_none() {
+            store.clear_modal();
+        }
+        let modal = store.load_modal().unwrap_or_else(|e| {
+            tracing::error!("{e}");
+            None
+        });
         let (params, params_error) = match store.load_params() {
             Ok(p) => (p, None),
             Err(e) => {
@@ -271,6 +285,7 @@ impl MmiTask {
             params,
             params_error,
             pending_params: None,
+            modal,
             switches: Switches::default(),
             jog_lease: None,
             abort_asked: None,
@@ -565,7 +580,7 @@ impl MmiTask {
     /// read back from the file (so that the next check and the interpolator's plan
     /// read the same values). An aborted job's are dropped.
     fn keep_params_of_completed_job(&mut self) -> Result<()> {
-        let Some((job_id, params)) = self.pending_params.take() else {
+        let Some((job_id, params, modal)) = self.pending_params.take() else {
             return Ok(());
         };
         let completed = self
@@ -574,8 +589,17 @@ impl MmiTask {
             .any(|j| j.job_id == job_id && j.outcome == "completed");
         if completed {
             self.save_params(&params)?;
+            self.save_modal(modal);
         }
         Ok(())
+    }
+
+    /// The modal state a completed MDI command or job left becomes the machine's.
+    fn save_modal(&mut self, modal: String) {
+        if let Err(e) = self.store.save_modal(&modal) {
+            tracing::warn!("modal state not kept: {e}");
+        }
+        self.modal = Some(modal);
     }
 
     fn save_params(&mut self, params: &softnc_gcode::Params) -> Result<()> {
@@ -706,6 +730,8 @@ impl MmiTask {
                 CheckKind::Job { from_line } => from_line,
                 _ => None,
             },
+            subroutine_path: self.cfg.subroutine_path.clone(),
+            preamble: self.modal.clone(),
         };
         let (tx, rx) = std::sync::mpsc::channel();
         let job_path = path.clone();
@@ -783,7 +809,7 @@ impl MmiTask {
                 })?;
                 Self::reply(false, 0, &msg)
             }
-            Ok((job, copy, stats, params)) => {
+            Ok((job, copy, stats, params, modal)) => {
                 let job_id = self
                     .jobs
                     .iter()
@@ -823,13 +849,15 @@ impl MmiTask {
                 self.save_jobs();
                 if !moves {
                     self.save_params(&params)?;
+                    self.save_modal(modal);
                     let what = match &c.kind {
                         CheckKind::TouchOff { what } => what.clone(),
-                        _ => format!("job {job_id}"),
+                        CheckKind::Mdi { .. } => format!("MDI {job_id}"),
+                        CheckKind::Job { .. } => format!("job {job_id}"),
                     };
                     Self::reply(true, job_id, &format!("{what}: done (nothing to move)"))
                 } else {
-                    self.pending_params = Some((job_id, params));
+                    self.pending_params = Some((job_id, params, modal));
                     // the feed override is the machine's, not the job's: the job
                     // starts at the one in force (carried here, so a restarted
                     // interpolator knows it)
@@ -1513,7 +1541,7 @@ fn check_job(
 ) -> CheckResult {
     let job = intake(path, limit, programs).map_err(|e| e.to_string())?;
     // checked as it will be streamed: the plan's figures, never the whole plan
-    let (_, _, checked) = check_bytes(&job.bytes, path, machine, setup)?;
+    let (_, _, checked, modal) = check_bytes(&job.bytes, path, machine, setup)?;
     let params = checked.end_params().clone();
     let copy = job.copy.display().to_string();
     if !FixedStr::<512>::fits(&copy) {
@@ -1521,7 +1549,7 @@ fn check_job(
             "{copy}: the job's copy has a path over 512 bytes (data_dir too deep)"
         ));
     }
-    Ok((job, copy, checked.stats(), params))
+    Ok((job, copy, checked.stats(), params, modal))
 }
 
 #[cfg(test)]

@@ -133,6 +133,7 @@ impl<B: ServoBackend + Send + 'static> Prep<B> {
         make_engine: EngineFactory<B>,
         trace: Option<TraceTo>,
         store: crate::machine_store::MachineStore,
+        subroutine_path: Vec<std::path::PathBuf>,
     ) -> std::io::Result<Self> {
         let requests = Arc::new(ArrayQueue::new(PREP_QUEUE_CAPACITY));
         let results = Arc::new(ArrayQueue::new(PREP_QUEUE_CAPACITY));
@@ -141,6 +142,7 @@ impl<B: ServoBackend + Send + 'static> Prep<B> {
         let mut worker = Worker {
             machine,
             store,
+            subroutine_path,
             make_engine,
             trace,
             requests: requests.clone(),
@@ -216,6 +218,8 @@ struct Worker<B: ServoBackend> {
     machine: MachineProfile,
     /// The machine's parameter file and tool table.
     store: crate::machine_store::MachineStore,
+    /// Folders searched for subroutine files.
+    subroutine_path: Vec<std::path::PathBuf>,
     make_engine: EngineFactory<B>,
     trace: Option<TraceTo>,
     requests: Arc<ArrayQueue<PrepRequest>>,
@@ -284,6 +288,7 @@ impl<B: ServoBackend> Worker<B> {
                 // and tools
                 let setup = self.store.load_params().and_then(|params| {
                     let machine = self.store.profile(&self.machine)?;
+                    let preamble = self.store.load_modal()?;
                     Ok((
                         machine,
                         crate::interp::JobSetup {
@@ -291,6 +296,8 @@ impl<B: ServoBackend> Worker<B> {
                             params,
                             switches,
                             from_line,
+                            subroutine_path: self.subroutine_path.clone(),
+                            preamble,
                         },
                     ))
                 });
@@ -362,7 +369,7 @@ fn job_primitives(
     machine: &MachineProfile,
     setup: &crate::interp::JobSetup,
 ) -> Result<(JobMotions, SpindleChanges), String> {
-    let (text, options, checked) = crate::interp::check_job(path, machine, setup)?;
+    let (text, options, checked, _) = crate::interp::check_job(path, machine, setup)?;
     let mut primitives = Vec::with_capacity(checked.motions());
     let mut lines = Vec::with_capacity(checked.motions());
     softnc_gcode::read_program_chunked_with(

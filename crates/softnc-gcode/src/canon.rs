@@ -162,4 +162,7 @@ pub struct Program {
     /// Things worth telling the operator that do not stop the program
     /// (`file:line: text`).
     pub warnings: Vec<String>,
+    /// The modal state the program left, as G-code that sets it
+    /// ([`crate::ReadOptions::preamble`] of the next MDI command or job).
+    pub end_modal: String,
 }

@@ -1712,6 +1712,20 @@ pub fn read_with(
         it.pos = Vec3([x - g[0], y - g[1], p[2]]);
         it.canon_pos = it.pos;
     }
+    if let Some(pre) = &options.preamble {
+        // the machine's modal state, left by the last MDI or job: it sets modes and
+        // moves nothing (its motion-mode line makes no motion of the program's)
+        let before = it.motions.len();
+        for (i, l) in pre.lines().enumerate() {
+            it.run_preamble(l).map_err(|(off, kind)| GcodeError {
+                file: "<the machine's modal state>".into(),
+                line: i as u32 + 1,
+                column: column(l, off),
+                kind,
+            })?;
+        }
+        it.motions.truncate(before);
+    }
     it.start_machine_mm = it.machine_pos();
     it.motions.reserve((text.len() / 16).min(chunk.max(1)));
     let mut line = Line::default();
@@ -1952,6 +1966,14 @@ pub fn read_with(
                         // convert_stop (M2, M30): G54 is selected again, so the next
                         // program starts there; reading ends, so only 5220 shows it
                         it.params.set(5220, 1.0);
+                        // and the modes it resets (G54 G17 G90 G94 M5 G1): the
+                        // modal state the next program starts with
+                        it.coord = 0;
+                        it.plane = Plane::XY;
+                        it.absolute = true;
+                        it.inverse_time = false;
+                        it.spindle_code = 5;
+                        it.motion = Some(G_1);
                         run_from_reached(&it, options, file)?;
                         return Ok(finish(it, file, executed as usize + first, chunk, sink));
                     }
@@ -2127,12 +2149,14 @@ fn finish(
         }
         it.motions = Vec::new();
     }
+    let end_modal = it.modal_gcode();
     (
         Program {
             file: file.to_string(),
             blocks,
             motions: it.motions,
             warnings: it.warnings,
+            end_modal,
         },
         it.params,
     )

@@ -49,6 +49,10 @@ pub struct ReadOptions {
     /// the first motion starts there, and axes it does not name stay there.
     /// `None`: at the origin.
     pub start_mm: Option<softnc_core::Vec3>,
+    /// G-code run before the program, without line numbers of its own: the modal
+    /// state the machine's last MDI command or job left ([`Program::end_modal`]), as
+    /// LinuxCNC's interpreter keeps it from one to the next.
+    pub preamble: Option<String>,
     /// The optional-stop switch: M1 stops the program (a
     /// [`MotionKind::Pause`] with `optional: true`) only while it is on; off
     /// (default), M1 does nothing, as LinuxCNC with its switch off.

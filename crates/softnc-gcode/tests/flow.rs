@@ -262,3 +262,48 @@ fn touch_off_persists_through_the_end_parameters() {
     let (p, _) = read("G55 G0 X0\nM2\n", &second).unwrap();
     assert_eq!(machine_ends(&p), vec![Vec3::new(12.5, 0.0, 0.0)]);
 }
+
+#[test]
+fn the_modal_state_a_program_leaves_is_where_the_next_one_starts() {
+    // MDI "G91 G1 F300" then "X2": incremental, at F300, in the machine's state
+    let (first, _) = read("%\nG20\nG91 G1 F300 S1200 M3\n%\n", &ReadOptions::default()).unwrap();
+    let modal = first.end_modal.clone();
+    for want in ["G20", "G91", "F300", "S1200", "M3", "G1"] {
+        assert!(modal.contains(want), "{want} not in {modal:?}");
+    }
+    let options = ReadOptions {
+        preamble: Some(modal),
+        start_mm: Some(Vec3([10.0, 0.0, 0.0])),
+        ..Default::default()
+    };
+    let (second, _) = read("%\nX2\n%\n", &options).unwrap();
+    assert_eq!(second.motions.len(), 1, "{:?}", second.motions);
+    let m = &second.motions[0];
+    match m.kind {
+        MotionKind::Feed {
+            end,
+            feed_mm_per_min,
+        } => {
+            // 2 inches on from X10 mm, at 300 in/min
+            assert!((end.0[0] - (10.0 + 2.0 * 25.4)).abs() < 1e-9, "{end:?}");
+            assert!((feed_mm_per_min - 300.0 * 25.4).abs() < 1e-9);
+        }
+        k => panic!("a feed move, not {k:?}"),
+    }
+    assert_eq!(m.line, 2, "the preamble takes no line of the program");
+    assert!(m.spindle_rpm > 0.0, "the spindle still turns");
+    // a program that ends with M2 leaves LinuxCNC's reset state
+    let (ended, _) = read("G91 G55\nM2\n", &ReadOptions::default()).unwrap();
+    assert!(
+        ended.end_modal.contains("G90") && ended.end_modal.contains("G54"),
+        "{}",
+        ended.end_modal
+    );
+    // a bad preamble is an error that names it
+    let bad = ReadOptions {
+        preamble: Some("G1 G0\n".into()),
+        ..Default::default()
+    };
+    let e = read("G0 X1\nM2\n", &bad).unwrap_err();
+    assert!(e.to_string().contains("modal state"), "{e}");
+}

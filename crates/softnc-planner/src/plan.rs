@@ -43,6 +43,11 @@ pub struct PlanOptions {
     /// parameters; 5220 selects the coordinate system); `None`: the profile's work
     /// offsets.
     pub params: Option<softnc_gcode::Params>,
+    /// Folders searched for subroutine files (LinuxCNC's `SUBROUTINE_PATH`).
+    pub subroutine_path: Vec<std::path::PathBuf>,
+    /// The modal state the machine's last MDI command or job left, as G-code run
+    /// before the program ([`softnc_gcode::ReadOptions::preamble`]).
+    pub preamble: Option<String>,
 }
 
 impl PlanOptions {
@@ -55,6 +60,8 @@ impl PlanOptions {
             block_delete: self.block_delete,
             from_line: self.from_line,
             params: self.params.clone(),
+            subroutine_path: self.subroutine_path.clone(),
+            preamble: self.preamble.clone(),
             ..Default::default()
         }
     }

@@ -165,6 +165,63 @@ impl Interp<'_> {
         Ok(())
     }
 
+    /// The modal state as G-code that sets it from any state (LinuxCNC's
+    /// `gen_settings` against nothing, plus the motion mode): what the next MDI
+    /// command or job starts with ([`crate::ReadOptions::preamble`]).
+    pub(crate) fn modal_gcode(&self) -> String {
+        let now = self.modal_now();
+        let mut out = String::from(if now.inch { "G20\n" } else { "G21\n" });
+        out.push_str(&format!("F{} S{}", now.feed, now.speed));
+        for &(slot, code) in &now.g {
+            // G43 needs its tool (the tool in the spindle, H of it); G92.x comes from
+            // the parameters the machine keeps
+            if slot == 9 && code == 430 {
+                out.push_str(" G43");
+                continue;
+            }
+            if slot == 16 || slot == 11 && code == 640 {
+                continue;
+            }
+            if code % 10 != 0 {
+                out.push_str(&format!(" G{}.{}", code / 10, code % 10));
+            } else {
+                out.push_str(&format!(" G{}", code / 10));
+            }
+        }
+        if now.g[6].1 == 640 {
+            match (now.g64_p, now.g64_q) {
+                (None, None) => out.push_str(" G64"),
+                (Some(p), None) => out.push_str(&format!(" G64 P{p}")),
+                (p, Some(q)) => out.push_str(&format!(" G64 P{} Q{q}", p.unwrap_or(0.0))),
+            }
+        }
+        out.push('\n');
+        if let Some(m) = self.motion {
+            if m % 10 == 0 {
+                out.push_str(&format!("G{}\n", m / 10));
+            } else {
+                out.push_str(&format!("G{}.{}\n", m / 10, m % 10));
+            }
+        }
+        if self.spindle_code != 5 {
+            out.push_str(&format!("M{}\n", self.spindle_code));
+        }
+        out
+    }
+
+    /// Run one line of the modal preamble ([`Interp::modal_gcode`]) before a program.
+    pub(crate) fn run_preamble(&mut self, text: &str) -> R<()> {
+        let mut line = Line::default();
+        lex_line(text, &mut line)?;
+        let mut block = Block::default();
+        for w in line.words.iter().copied() {
+            self.sort_word_slow(w, &mut block)?;
+        }
+        self.check(&mut block)?;
+        self.execute(0, &block)?;
+        Ok(())
+    }
+
     /// Read and run one line of G-code made by the interpreter itself; an error in
     /// it is reported at `off` of the line that asked for it.
     fn run_text(&mut self, line_no: u32, text: &str, off: u32) -> R<()> {

@@ -82,6 +82,7 @@ impl Builder {
             blocks: self.motions.len(),
             motions: self.motions.clone(),
             warnings: vec![],
+            end_modal: String::new(),
         }
     }
 }
