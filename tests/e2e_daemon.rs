@@ -1728,6 +1728,23 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     for w in s["work_mm"].as_array().unwrap() {
         assert!(w.as_f64().unwrap().abs() < 1e-6, "{s}");
     }
+    // the modal state stays from one MDI command to the next (G91 here)
+    let r = op.request(ControlKind::Mdi, 0.0, "G91").unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let r = op.request(ControlKind::Mdi, 0.0, "G0 Y-1").unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    d.wait_job(&op, r.job_id, Duration::from_secs(20));
+    let s = d.wait_status(&op, Duration::from_secs(5), "at rest", |s| {
+        s["state"] == "Idle"
+    });
+    assert!(
+        (machine_mm(&s)[1] - (p[1] - 1.0)).abs() < 1e-6,
+        "incremental: {s}"
+    );
+    assert!(s["modal"].to_string().contains("G91"), "{s}");
+    let r = op.request(ControlKind::Mdi, 0.0, "G90 G0 Y0").unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    d.wait_job(&op, r.job_id, Duration::from_secs(20));
     // MDI calls a subroutine found on the search path
     let r = op
         .request(ControlKind::Mdi, 0.0, "o<nudge> call [2.5]")

@@ -36,7 +36,8 @@ enum Command {
     /// Run a program on the simulated machine: planner, controller stacks and plant
     /// in one process; accuracy figures, trace and plot.
     Sim(cmd_sim::SimArgs),
-    /// Terminal UI: axes, errors, progress, alarms, jitter, live plot.
+    /// Terminal UI: DRO (machine and work), program listing, jog, MDI, offsets,
+    /// switches, alarms, jitter, live contour error (`?` for the keys).
     Watch,
     /// Start softncd on the simulated machine, run the demo job, print the report.
     Demo(cmd_demo::DemoArgs),

@@ -1394,6 +1394,9 @@ impl MmiTask {
             "offsets": {"g5x_mm": offsets.g5x_mm, "rotation_deg": offsets.rotation_deg,
                 "g92_mm": offsets.g92_mm, "tool_offset_mm": offsets.tool_mm},
             "tool": offsets.tool,
+            // the modal state the machine is in between programs (the last MDI
+            // command's or job's end), as G-code words
+            "modal": self.modal.as_deref().map(|m| m.split_whitespace().collect::<Vec<_>>()),
             "params_error": self.params_error,
             "switches": {"single_block": self.switches.single_block,
                 "optional_stop": self.switches.optional_stop,

@@ -993,6 +993,11 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         &self.engine
     }
 
+    /// Which axes are homed (bit i: axis i).
+    pub fn homed(&self) -> u32 {
+        self.homed
+    }
+
     /// The machine state as this process sees it.
     pub fn state(&self) -> MachineState {
         self.state

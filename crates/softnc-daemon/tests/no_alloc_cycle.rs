@@ -106,6 +106,17 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed
     let commands = bus.command_publisher().unwrap();
     let control = bus.control_publisher().unwrap();
     let alarms = bus.alarm_subscriber().unwrap();
+    // the machine on (a position process starts with its drives off)
+    control
+        .send_copy(ControlCommand {
+            seq: 0,
+            kind: ControlKind::MachineOn.wire(),
+            job_id: 0,
+            axis: u32::MAX,
+            value: 0.0,
+            path: FixedStr::empty(),
+        })
+        .unwrap();
     // a 2 mm/s cut along X, 1000 samples
     let n = 1000u64;
     let send = |k: u64| {
@@ -180,4 +191,67 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed
         spindle_rpm,
         pdc_fd_hz,
     }
+}
+
+/// Homing and jogging run on the position cycle: the homing sequence (search, latch,
+/// re-referencing, final move) and the jog movers allocate nothing there either.
+#[test]
+fn homing_and_jogging_allocate_nothing_on_the_cycle() {
+    let (dir, loaded) = common::lockstep_config("noallocmanual", "default-incremental.ron", false);
+    let names = ServiceNames::new(&loaded.config.service_prefix, &loaded.config.instance);
+    let machine = loaded.machine.clone();
+    let make_engine: EngineFactory<softnc_sim::SimBackend> = Box::new(move || {
+        softnc_sim::simulated_engine(
+            &machine,
+            machine.servo.seed,
+            softnc_sim::SimOptions::default(),
+        )
+    });
+    let mut task = PositionTask::new(loaded, make_engine).unwrap();
+    let bus = Bus::new(names, "test-operator").unwrap();
+    let control = bus.control_publisher().unwrap();
+    let send = |seq: u64, kind: ControlKind, axis: u32, value: f64| {
+        control
+            .send_copy(ControlCommand {
+                seq,
+                kind: kind.wire(),
+                job_id: 0,
+                axis,
+                value,
+                path: FixedStr::empty(),
+            })
+            .unwrap();
+    };
+    send(1, ControlKind::MachineOn, u32::MAX, 0.0);
+    // all axes, Z X Y: each axis's sequence starts on the cycle
+    send(2, ControlKind::Home, u32::MAX, 0.0);
+    task.cycle().unwrap();
+    assert_eq!(task.state(), MachineState::Homing);
+    let mut cycles = 0;
+    while task.state() == MachineState::Homing {
+        common::count(|| task.cycle()).unwrap();
+        cycles += 1;
+        assert!(cycles < 100_000, "homing did not end");
+    }
+    assert_eq!(task.state(), MachineState::Idle, "homed");
+    assert_eq!(task.homed(), 7, "all homed");
+    // a continuous jog of X stopped mid-way, and a step
+    send(3, ControlKind::Jog, 0, 3000.0);
+    for _ in 0..300 {
+        common::count(|| task.cycle()).unwrap();
+    }
+    assert_eq!(task.state(), MachineState::Jogging);
+    send(4, ControlKind::Jog, 0, 0.0);
+    while task.state() == MachineState::Jogging {
+        common::count(|| task.cycle()).unwrap();
+        cycles += 1;
+    }
+    send(5, ControlKind::JogStep, 1, -2.5);
+    task.cycle().unwrap();
+    while task.state() == MachineState::Jogging {
+        common::count(|| task.cycle()).unwrap();
+    }
+    let allocs = common::allocations();
+    assert_eq!(allocs, 0, "{allocs} allocations homing and jogging");
+    let _ = std::fs::remove_dir_all(&dir);
 }
