@@ -1583,11 +1583,12 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
         "subroutine_path: [\"../subroutines\"]",
         "subroutine_path: [\"subs\"]",
     )];
+    // traced: homing and jogs go to data/trace-manual-<pid>.csv
     let mut d = Daemon::start_in(
         dir.clone(),
         tag,
         "Lockstep",
-        false,
+        true,
         profile.to_str().unwrap(),
         &subs,
     );
@@ -1778,6 +1779,51 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     drop(op);
     d.shutdown_leaving_nothing(tag);
     drop(d);
+    // every sample of the homing and the jogs within each axis's limits
+    let machine = softnc_core::MachineProfile::load(&profile).unwrap();
+    let mut rows = 0;
+    for e in std::fs::read_dir(dir.join("data")).unwrap() {
+        let path = e.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().to_string();
+        if !name.starts_with("trace-manual-") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).unwrap();
+        let pts: Vec<(f64, [f64; 3])> = text
+            .lines()
+            .skip(1)
+            .map(|l| {
+                let f: Vec<f64> = l.split(',').take(4).map(|c| c.parse().unwrap()).collect();
+                (f[0], [f[1], f[2], f[3]])
+            })
+            .collect();
+        rows += pts.len();
+        let t = machine.interpolation_cycle_s;
+        for w in pts.windows(3) {
+            // consecutive cycles only (manual motions are traced apart, and a
+            // re-referencing leaves a gap: the coordinates step there)
+            if (w[1].0 - w[0].0 - t).abs() > 1e-9 || (w[2].0 - w[1].0 - t).abs() > 1e-9 {
+                continue;
+            }
+            for (i, a) in machine.axes.iter().enumerate() {
+                let v = (w[2].1[i] - w[1].1[i]) / t;
+                let acc = ((w[2].1[i] - w[1].1[i]) - (w[1].1[i] - w[0].1[i])) / (t * t);
+                assert!(
+                    v.abs() <= a.max_vel_mm_per_s * (1.0 + 1e-9),
+                    "{name}: {} at {} s: {v} mm/s",
+                    a.name,
+                    w[2].0
+                );
+                assert!(
+                    acc.abs() <= a.max_acc_mm_per_s2 * (1.0 + 1e-6),
+                    "{name}: {} at {} s: {acc} mm/s²",
+                    a.name,
+                    w[2].0
+                );
+            }
+        }
+    }
+    assert!(rows > 10_000, "homing and jogs traced: {rows} rows");
     let d = Daemon::start_in(
         dir,
         tag,

@@ -103,6 +103,10 @@ pub struct PositionTask<B: ServoBackend> {
     homed: u32,
     /// Jogs and homing between jobs.
     manual: Manual,
+    /// Their trace (`trace: true`), the whole process's life.
+    manual_trace: Option<crate::trace::TraceSink>,
+    /// Cycles run (the manual trace's row numbers).
+    cycles: u64,
     latency: softnc_rt::LatencyStats,
     stats: LoopStats,
     hb_counter: u64,
@@ -126,6 +130,19 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         let in_position_mm = [0, 1, 2].map(|i| cfg.machine.axes[i].in_position_mm);
         let in_position_timeout_cycles =
             (cfg.config.in_position_timeout_s / cfg.machine.interpolation_cycle_s).ceil() as u64;
+        // manual motion (homing, jogs) traced, when traces are on, to a file of this
+        // process's own, made here (not on the cycle); rows numbered by the cycle
+        let manual_trace = if cfg.config.trace {
+            let file = cfg
+                .data_dir
+                .join(format!("trace-manual-{}.csv", std::process::id()));
+            let _ = std::fs::create_dir_all(&cfg.data_dir);
+            crate::trace::TraceSink::start(&file, cfg.config.clock == ClockMode::Lockstep)
+                .map_err(|e| tracing::warn!("cannot trace to {}: {e}", file.display()))
+                .ok()
+        } else {
+            None
+        };
         let trace = cfg.config.trace.then(|| crate::prep::TraceTo {
             dir: cfg.data_dir.clone(),
             lossless: cfg.config.clock == ClockMode::Lockstep,
@@ -199,6 +216,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             last_job_id: 0,
             homed,
             manual,
+            manual_trace,
+            cycles: 0,
             latency: softnc_rt::LatencyStats::new(),
             stats: LoopStats::new(),
             hb_counter: 0,
@@ -287,6 +306,9 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         // a trace still open (the job stopped along its path) is written out when
         // the preparation thread ends with this task
         if let Some(t) = self.trace.take() {
+            self.prep.retire(Retired::Trace(t));
+        }
+        if let Some(t) = self.manual_trace.take() {
             self.prep.retire(Retired::Trace(t));
         }
         Ok(())
@@ -639,6 +661,9 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 self.engine.reset(at);
                 self.last_cmd[axis] += correction_mm;
                 self.prev_cmd[axis] += correction_mm;
+                // the manual trace goes on in the new frame after a gap of a cycle
+                // (its positions step by the correction: not a motion)
+                self.cycles += 1;
             }
             Some(ManualEvent::Homed { axis }) => {
                 self.homed |= 1 << axis;
@@ -808,6 +833,19 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             },
             _ => f64::NAN,
         };
+        self.cycles += 1;
+        if let (Some(t), true) = (
+            &self.manual_trace,
+            matches!(self.state, MachineState::Homing | MachineState::Jogging),
+        ) {
+            t.push(softnc_servo::TraceRow {
+                cycle: self.cycles,
+                time_s: self.cycles as f64 * self.cfg.machine.interpolation_cycle_s,
+                motion: 0,
+                record: rec,
+                contour_mm: None,
+            });
+        }
         if moving {
             if let (Some(t), Some(c)) = (&self.trace, self.current) {
                 t.push(softnc_servo::TraceRow {
