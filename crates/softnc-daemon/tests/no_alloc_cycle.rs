@@ -87,11 +87,17 @@ struct Counted {
     pdc_fd_hz: [f64; 2],
 }
 
-/// A move along X on `machine`, the position cycles counted once motion runs; with
-/// `spindle_override`, sent 50 counted cycles in; the feeder sends the first `fed`
-/// samples of the job.
-fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed: u64) -> Counted {
-    let (dir, loaded) = common::lockstep_config(&format!("noalloc{tag}"), machine_file, false);
+/// A position task on the simulated `machine_file` (lockstep, instance `tag`) and a
+/// bus to drive it.
+fn position_task(
+    tag: &str,
+    machine_file: &str,
+) -> (
+    std::path::PathBuf,
+    PositionTask<softnc_sim::SimBackend>,
+    Bus,
+) {
+    let (dir, loaded) = common::lockstep_config(tag, machine_file, false);
     let names = ServiceNames::new(&loaded.config.service_prefix, &loaded.config.instance);
     let machine = loaded.machine.clone();
     let make_engine: EngineFactory<softnc_sim::SimBackend> = Box::new(move || {
@@ -101,8 +107,16 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed
             softnc_sim::SimOptions::default(),
         )
     });
-    let mut task = PositionTask::new(loaded, make_engine).unwrap();
-    let bus = Bus::new(names, "test-feeder").unwrap();
+    let task = PositionTask::new(loaded, make_engine).unwrap();
+    let bus = Bus::new(names, "test-driver").unwrap();
+    (dir, task, bus)
+}
+
+/// A move along X on `machine`, the position cycles counted once motion runs; with
+/// `spindle_override`, sent 50 counted cycles in; the feeder sends the first `fed`
+/// samples of the job.
+fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed: u64) -> Counted {
+    let (dir, mut task, bus) = position_task(&format!("noalloc{tag}"), machine_file);
     let commands = bus.command_publisher().unwrap();
     let control = bus.control_publisher().unwrap();
     let alarms = bus.alarm_subscriber().unwrap();
@@ -197,18 +211,7 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed
 /// re-referencing, final move) and the jog movers allocate nothing there either.
 #[test]
 fn homing_and_jogging_allocate_nothing_on_the_cycle() {
-    let (dir, loaded) = common::lockstep_config("noallocmanual", "default-incremental.ron", false);
-    let names = ServiceNames::new(&loaded.config.service_prefix, &loaded.config.instance);
-    let machine = loaded.machine.clone();
-    let make_engine: EngineFactory<softnc_sim::SimBackend> = Box::new(move || {
-        softnc_sim::simulated_engine(
-            &machine,
-            machine.servo.seed,
-            softnc_sim::SimOptions::default(),
-        )
-    });
-    let mut task = PositionTask::new(loaded, make_engine).unwrap();
-    let bus = Bus::new(names, "test-operator").unwrap();
+    let (dir, mut task, bus) = position_task("noallocmanual", "default-incremental.ron");
     let control = bus.control_publisher().unwrap();
     let send = |seq: u64, kind: ControlKind, axis: u32, value: f64| {
         control

@@ -29,6 +29,26 @@ pub struct Modal {
     spindle: i32,
 }
 
+/// ` G<code/10>` or ` G<code/10>.<code%10>`.
+fn push_g(out: &mut String, code: i32) {
+    if code % 10 != 0 {
+        out.push_str(&format!(" G{}.{}", code / 10, code % 10));
+    } else {
+        out.push_str(&format!(" G{}", code / 10));
+    }
+}
+
+/// G64 with its P and Q when the state blends (`gen_settings`), values by `fmt`.
+fn push_g64(out: &mut String, m: &Modal, fmt: impl Fn(f64) -> String) {
+    if m.g[6].1 == 640 {
+        match (m.g64_p, m.g64_q) {
+            (None, None) => out.push_str(" G64"),
+            (Some(p), None) => out.push_str(&format!(" G64 P{}", fmt(p))),
+            (p, Some(q)) => out.push_str(&format!(" G64 P{} Q{}", fmt(p.unwrap_or(0.0)), fmt(q))),
+        }
+    }
+}
+
 impl Interp<'_> {
     /// The state now.
     fn modal_now(&self) -> Modal {
@@ -144,20 +164,10 @@ impl Interp<'_> {
             if code == now.g[k].1 || slot == 11 && code == 640 {
                 continue;
             }
-            if code % 10 != 0 {
-                cmd.push_str(&format!(" G{}.{}", code / 10, code % 10));
-            } else {
-                cmd.push_str(&format!(" G{}", code / 10));
-            }
+            push_g(&mut cmd, code);
         }
-        if saved.g[6].1 == 640 {
-            // gen_settings: " G64", " G64 P%f" or " G64 P%f Q%f"
-            match (saved.g64_p, saved.g64_q) {
-                (None, None) => cmd.push_str(" G64"),
-                (Some(p), None) => cmd.push_str(&format!(" G64 P{p:.6}")),
-                (p, Some(q)) => cmd.push_str(&format!(" G64 P{:.6} Q{q:.6}", p.unwrap_or(0.0))),
-            }
-        }
+        // gen_settings: " G64", " G64 P%f" or " G64 P%f Q%f"
+        push_g64(&mut cmd, saved, |v| format!("{v:.6}"));
         self.run_text(line_no, &cmd, off)?;
         if saved.spindle != self.spindle_code {
             self.run_text(line_no, &format!("M{}", saved.spindle), off)?;
@@ -173,35 +183,17 @@ impl Interp<'_> {
         let mut out = String::from(if now.inch { "G20\n" } else { "G21\n" });
         out.push_str(&format!("F{} S{}", now.feed, now.speed));
         for &(slot, code) in &now.g {
-            // G43 needs its tool (the tool in the spindle, H of it); G92.x comes from
-            // the parameters the machine keeps
-            if slot == 9 && code == 430 {
-                out.push_str(" G43");
-                continue;
-            }
+            // G92.x comes from the parameters the machine keeps
             if slot == 16 || slot == 11 && code == 640 {
                 continue;
             }
-            if code % 10 != 0 {
-                out.push_str(&format!(" G{}.{}", code / 10, code % 10));
-            } else {
-                out.push_str(&format!(" G{}", code / 10));
-            }
+            push_g(&mut out, code);
         }
-        if now.g[6].1 == 640 {
-            match (now.g64_p, now.g64_q) {
-                (None, None) => out.push_str(" G64"),
-                (Some(p), None) => out.push_str(&format!(" G64 P{p}")),
-                (p, Some(q)) => out.push_str(&format!(" G64 P{} Q{q}", p.unwrap_or(0.0))),
-            }
-        }
+        push_g64(&mut out, &now, |v| v.to_string());
         out.push('\n');
         if let Some(m) = self.motion {
-            if m % 10 == 0 {
-                out.push_str(&format!("G{}\n", m / 10));
-            } else {
-                out.push_str(&format!("G{}.{}\n", m / 10, m % 10));
-            }
+            push_g(&mut out, m);
+            out.push('\n');
         }
         if self.spindle_code != 5 {
             out.push_str(&format!("M{}\n", self.spindle_code));
