@@ -797,6 +797,13 @@ impl MmiTask {
             )),
             (None, r) => r,
         };
+        // an MDI command's errors name its blocks, not the file it was put in
+        let result = match (&c.kind, result) {
+            (CheckKind::Mdi { .. } | CheckKind::TouchOff { .. }, Err(msg)) => {
+                Err(mdi_error(&path, &msg))
+            }
+            (_, r) => r,
+        };
         let reply = match result {
             Err(msg) => {
                 self.alarms_pub.send_copy(Alarm {
@@ -1473,6 +1480,24 @@ pub fn transition(kind: ControlKind, state: MachineState) -> Result<MachineState
     }
 }
 
+/// An error of the MDI file `path` (`path:LINE:COL: why`, its first line the `%`
+/// that opens it) as the operator's blocks: `MDI block N, column C: why`.
+fn mdi_error(path: &str, msg: &str) -> String {
+    let located = msg.strip_prefix(path).and_then(|rest| {
+        let mut parts = rest.strip_prefix(':')?.splitn(3, ':');
+        let line: u32 = parts.next()?.parse().ok()?;
+        let col: u32 = parts.next()?.parse().ok()?;
+        Some((line, col, parts.next()?.trim_start()))
+    });
+    match located {
+        Some((line, col, why)) if line >= 2 => {
+            format!("MDI block {}, column {col}: {why}", line - 1)
+        }
+        Some((_, _, why)) => format!("MDI: {why}"),
+        None => format!("MDI: {msg}"),
+    }
+}
+
 /// The job history in `path`, and the highest job id it ever used. An unreadable
 /// file is kept aside (`jobs.json.unreadable-<unix s>`) and a new history started;
 /// job ids go on from the highest one found in it.
@@ -1589,6 +1614,16 @@ mod tests {
         assert!(transition(Resume, Running)
             .unwrap_err()
             .contains("nothing is held"));
+    }
+
+    #[test]
+    fn mdi_errors_name_the_operators_blocks() {
+        let p = "/d/mdi/mdi.ngc";
+        assert_eq!(
+            mdi_error(p, &format!("{p}:3:7: Failed to find sub")),
+            "MDI block 2, column 7: Failed to find sub"
+        );
+        assert_eq!(mdi_error(p, "cannot read"), "MDI: cannot read");
     }
 
     #[test]
