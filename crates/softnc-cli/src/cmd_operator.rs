@@ -504,6 +504,23 @@ pub fn status_text(s: &serde_json::Value) -> String {
         f(&s["spindle_rpm"]),
         f(&s["spindle_override"]) * 100.0
     );
+    let sw = &s["switches"];
+    let on: Vec<&str> = [
+        ("single_block", "single block"),
+        ("optional_stop", "optional stop"),
+        ("block_delete", "block delete"),
+    ]
+    .into_iter()
+    .filter(|(k, _)| sw[*k] == true)
+    .map(|(_, name)| name)
+    .collect();
+    if !on.is_empty() {
+        let _ = writeln!(out, "switches on: {}", on.join(", "));
+    }
+    if let Some(modal) = s["modal"].as_array() {
+        let words: Vec<&str> = modal.iter().filter_map(|w| w.as_str()).collect();
+        let _ = writeln!(out, "modal: {}", words.join(" "));
+    }
     let j = &s["job"];
     if !j.is_null() {
         let _ = writeln!(
