@@ -1404,6 +1404,10 @@ impl MmiTask {
             // the modal state the machine is in between programs (the last MDI
             // command's or job's end), as G-code words
             "modal": self.modal.as_deref().map(|m| m.split_whitespace().collect::<Vec<_>>()),
+            "coolant": {
+                "mist": self.modal.as_deref().is_some_and(|m| m.lines().any(|l| l.trim() == "M7")),
+                "flood": self.modal.as_deref().is_some_and(|m| m.lines().any(|l| l.trim() == "M8")),
+            },
             "params_error": self.params_error,
             "switches": {"single_block": self.switches.single_block,
                 "optional_stop": self.switches.optional_stop,

@@ -1966,13 +1966,15 @@ pub fn read_with(
                         // convert_stop (M2, M30): G54 is selected again, so the next
                         // program starts there; reading ends, so only 5220 shows it
                         it.params.set(5220, 1.0);
-                        // and the modes it resets (G54 G17 G90 G94 M5 G1): the
+                        // and the modes it resets (G54 G17 G90 G94 M5 M9 G1): the
                         // modal state the next program starts with
                         it.coord = 0;
                         it.plane = Plane::XY;
                         it.absolute = true;
                         it.inverse_time = false;
                         it.spindle_code = 5;
+                        it.mist = false;
+                        it.flood = false;
                         it.motion = Some(G_1);
                         run_from_reached(&it, options, file)?;
                         return Ok(finish(it, file, executed as usize + first, chunk, sink));

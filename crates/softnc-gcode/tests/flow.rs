@@ -266,9 +266,13 @@ fn touch_off_persists_through_the_end_parameters() {
 #[test]
 fn the_modal_state_a_program_leaves_is_where_the_next_one_starts() {
     // MDI "G91 G1 F300" then "X2": incremental, at F300, in the machine's state
-    let (first, _) = read("%\nG20\nG91 G1 F300 S1200 M3\n%\n", &ReadOptions::default()).unwrap();
+    let (first, _) = read(
+        "%\nG20\nG91 G1 F300 S1200 M3\nM8\n%\n",
+        &ReadOptions::default(),
+    )
+    .unwrap();
     let modal = first.end_modal.clone();
-    for want in ["G20", "G91", "F300", "S1200", "M3", "G1"] {
+    for want in ["G20", "G91", "F300", "S1200", "M3", "G1", "M8"] {
         assert!(modal.contains(want), "{want} not in {modal:?}");
     }
     let options = ReadOptions {
@@ -293,9 +297,11 @@ fn the_modal_state_a_program_leaves_is_where_the_next_one_starts() {
     assert_eq!(m.line, 2, "the preamble takes no line of the program");
     assert!(m.spindle_rpm > 0.0, "the spindle still turns");
     // a program that ends with M2 leaves LinuxCNC's reset state
-    let (ended, _) = read("G91 G55\nM2\n", &ReadOptions::default()).unwrap();
+    let (ended, _) = read("G91 G55 M8\nM2\n", &ReadOptions::default()).unwrap();
     assert!(
-        ended.end_modal.contains("G90") && ended.end_modal.contains("G54"),
+        ended.end_modal.contains("G90")
+            && ended.end_modal.contains("G54")
+            && !ended.end_modal.contains("M8"),
         "{}",
         ended.end_modal
     );

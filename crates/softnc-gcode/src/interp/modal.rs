@@ -198,6 +198,13 @@ impl Interp<'_> {
         if self.spindle_code != 5 {
             out.push_str(&format!("M{}\n", self.spindle_code));
         }
+        // coolant: mist and flood
+        if self.mist {
+            out.push_str("M7\n");
+        }
+        if self.flood {
+            out.push_str("M8\n");
+        }
         out
     }
 
