@@ -8,6 +8,7 @@
 //! look only at O-lines, as LinuxCNC does.
 
 use super::{bad, Block, Interp, R};
+use crate::compiled::Kind;
 use crate::error::ErrorKind;
 use crate::expr::{Env, Norm, Reader};
 use crate::lexer::{bad_character, check_comments, significant, Line, Word};
@@ -375,6 +376,38 @@ impl Interp<'_> {
         }
     }
 
+    /// The value of kind `kind` at `norm.b[i]` and the offset after it: compiled
+    /// once and evaluated for a line kept to be read again ([`Norm::keep`]), read
+    /// from the text otherwise (and where it does not compile). Errors as the
+    /// text reader's, offsets in the normalized line.
+    pub(super) fn value(
+        &self,
+        norm: &Norm,
+        i: usize,
+        kind: Kind,
+    ) -> Result<(f64, usize), crate::expr::ExprError> {
+        if norm.keep {
+            let mut cache = norm.code.borrow_mut();
+            let k = match cache.iter().position(|(s, kd, _)| *s == i && *kd == kind) {
+                Some(k) => k,
+                None => {
+                    cache.push((i, kind, crate::compiled::compile(&norm.b, i, kind)));
+                    cache.len() - 1
+                }
+            };
+            if let Some(code) = &cache[k].2 {
+                return Ok((crate::compiled::eval(code, self)?, code.end));
+            }
+        }
+        let mut r = Reader::new(&norm.b, i, self);
+        let v = match kind {
+            Kind::Real => r.real_value()?,
+            Kind::Expression => r.expression()?,
+            Kind::Integer => f64::from(r.integer_value()?),
+        };
+        Ok((v, r.i))
+    }
+
     /// `read_items` on a normalized line (`Norm`), for a line the fast lexer
     /// hands over.
     pub(super) fn read_norm(
@@ -461,9 +494,7 @@ impl Interp<'_> {
             let c = b[i];
             match c {
                 b'a'..=b'z' if c != b'n' && c != b'o' => {
-                    let mut r = Reader::new(b, i + 1, self);
-                    let value = r.real_value().map_err(re)?;
-                    let next = r.i;
+                    let (value, next) = self.value(norm, i + 1, Kind::Real).map_err(re)?;
                     self.sort_word_slow(
                         Word {
                             letter: c.to_ascii_uppercase(),
@@ -490,8 +521,7 @@ impl Interp<'_> {
                         if r.at(r.i) != b'=' {
                             return bad(raw(r.i), "Equal sign missing in parameter setting");
                         }
-                        r.i += 1;
-                        let v = r.real_value().map_err(re)?;
+                        let (v, next) = self.value(norm, r.i + 1, Kind::Real).map_err(re)?;
                         if name.starts_with('_') && self.predefined(&name).ok().flatten().is_some()
                         {
                             return bad(
@@ -499,10 +529,12 @@ impl Interp<'_> {
                                 format!("Cannot assign to read-only parameter #<{name}>"),
                             );
                         }
-                        i = r.i;
+                        i = next;
                         sets.push(Setting::Named(name.into_owned(), v));
                     } else {
-                        let index = r.integer_value().map_err(re)?;
+                        let (index, next) = self.value(norm, r.i, Kind::Integer).map_err(re)?;
+                        r.i = next;
+                        let index = index as i32;
                         if index < 1 || index as usize >= NUM_PARAMS {
                             return bad(raw(at), "Parameter number out of range");
                         }
@@ -512,9 +544,8 @@ impl Interp<'_> {
                         if r.at(r.i) != b'=' {
                             return bad(raw(r.i), "Equal sign missing in parameter setting");
                         }
-                        r.i += 1;
-                        let v = r.real_value().map_err(re)?;
-                        i = r.i;
+                        let (v, next) = self.value(norm, r.i + 1, Kind::Real).map_err(re)?;
+                        i = next;
                         sets.push(Setting::Numbered(index as usize, v));
                     }
                 }
@@ -571,6 +602,7 @@ impl Interp<'_> {
         let rest = Norm {
             b: norm.b[skip..].to_vec(),
             at: norm.at[skip..].to_vec(),
+            ..Default::default()
         };
         self.read_items_slow(&rest, block, line, sets)?;
         if !block.has(b'P') {
@@ -711,9 +743,9 @@ impl Interp<'_> {
                     return Ok(Some(o));
                 }
                 if b.get(*i) == Some(&b'[') {
-                    let mut r = Reader::new(b, *i, self);
-                    o.value = Some(r.expression().map_err(re)?);
-                    *i = r.i;
+                    let (v, next) = self.value(norm, *i, Kind::Expression).map_err(re)?;
+                    o.value = Some(v);
+                    *i = next;
                 }
             }
             OKind::Call => {
@@ -734,9 +766,9 @@ impl Interp<'_> {
                     if o.args.len() >= SUB_PARAMS {
                         return bad(norm.raw(*i), "Too many subroutine parameters");
                     }
-                    let mut r = Reader::new(b, *i, self);
-                    o.args.push(r.expression().map_err(re)?);
-                    *i = r.i;
+                    let (v, next) = self.value(norm, *i, Kind::Expression).map_err(re)?;
+                    o.args.push(v);
+                    *i = next;
                 }
             }
             OKind::While | OKind::Repeat | OKind::If | OKind::ElseIf => {
@@ -749,9 +781,9 @@ impl Interp<'_> {
                         format!("Left bracket missing after '{}'", kind.name()),
                     );
                 }
-                let mut r = Reader::new(b, *i, self);
-                o.value = Some(r.expression().map_err(re)?);
-                *i = r.i;
+                let (v, next) = self.value(norm, *i, Kind::Expression).map_err(re)?;
+                o.value = Some(v);
+                *i = next;
             }
             _ => {}
         }
