@@ -458,3 +458,203 @@ pub fn eval<E: Env + ?Sized>(code: &Code, env: &E) -> R<f64> {
     }
     Ok(stack[0])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::expr::{Norm, Reader};
+    use proptest::prelude::*;
+    use std::collections::HashMap;
+
+    struct Vars(HashMap<String, f64>, Vec<f64>);
+    impl Env for Vars {
+        fn numbered(&self, i: usize) -> f64 {
+            self.1.get(i).copied().unwrap_or(0.0)
+        }
+        fn named(&self, n: &str) -> Result<Option<f64>, ErrorKind> {
+            if n == "_unsupported" {
+                return Err(ErrorKind::Unsupported {
+                    word: n.into(),
+                    why: "test".into(),
+                });
+            }
+            Ok(self.0.get(n).copied())
+        }
+    }
+
+    fn env() -> Vars {
+        let mut v = vec![0.0; NUM_PARAMS];
+        v[1] = 2.0;
+        v[2] = 3.5;
+        v[3] = 1.0;
+        v[4] = -1.0;
+        v[5] = 0.0;
+        Vars(
+            [("x".to_string(), 7.0), ("z".to_string(), 0.0)]
+                .into_iter()
+                .collect(),
+            v,
+        )
+    }
+
+    /// The text reader's answer: value (bits) and end, or offset and message.
+    fn by_text(b: &[u8], kind: Kind, e: &Vars) -> Result<(u64, usize), (usize, String)> {
+        let mut r = Reader::new(b, 0, e);
+        let v = match kind {
+            Kind::Real => r.real_value(),
+            Kind::Expression => r.expression(),
+            Kind::Integer => r.integer_value().map(f64::from),
+        };
+        v.map(|v| (v.to_bits(), r.i))
+            .map_err(|(at, k)| (at, k.to_string()))
+    }
+
+    fn by_code(code: &Code, e: &Vars) -> Result<(u64, usize), (usize, String)> {
+        eval(code, e)
+            .map(|v| (v.to_bits(), code.end))
+            .map_err(|(at, k)| (at, k.to_string()))
+    }
+
+    fn norm(s: &str) -> Vec<u8> {
+        let mut n = Norm::default();
+        n.build(s.as_bytes());
+        n.b
+    }
+
+    #[test]
+    fn loop_lines_compile_and_evaluate_as_read() {
+        let e = env();
+        for s in [
+            "[#1 * 0.5 + SIN[#2 * 3.6] * 2]",
+            "[#<x> LT 100]",
+            "[#<x> + 1]",
+            "-#1",
+            "#[#1 + 1]",
+            "##3",
+            "ATAN[#1]/[#2 - 4]",
+            "[EXISTS[#<x>] + EXISTS[#<nope>] + EXISTS[#7000] * 2]",
+            "[1 / #5]",
+            "[#<nope> + 1]",
+            "[SQRT[#4]]",
+            "#[#1 + 0.5]",
+            "#[#1 * 4000]",
+            "[2 ** 0.5 MOD 1 XOR 0 AND 1 OR 0 GE 0 LE 1 EQ 1 NE 0 GT -1]",
+            "[#<_unsupported>]",
+            "[exp[1000]]",
+        ] {
+            let b = norm(s);
+            let code = compile(&b, 0, Kind::Real).unwrap_or_else(|| panic!("{s} compiles"));
+            assert_eq!(by_code(&code, &e), by_text(&b, Kind::Real, &e), "{s}");
+        }
+        let b = norm("[#1 + 0.00001]");
+        let code = compile(&b, 0, Kind::Integer).unwrap();
+        assert_eq!(by_code(&code, &e), by_text(&b, Kind::Integer, &e));
+        assert_eq!(by_code(&code, &e).unwrap().0, 2.0f64.to_bits());
+        let b = norm("[#2]");
+        let code = compile(&b, 0, Kind::Integer).unwrap();
+        assert_eq!(by_code(&code, &e), by_text(&b, Kind::Integer, &e));
+        assert!(by_code(&code, &e).is_err());
+    }
+
+    #[test]
+    fn syntax_errors_and_deep_nesting_are_left_to_the_text_reader() {
+        for s in [
+            "",
+            "[1 +]",
+            "[1 foo 2]",
+            "[1",
+            "cot[1]",
+            "atan[1]2",
+            "#<x",
+            "exists[1]",
+            "[1+[1+[1+[1+[1+[1+[1+[1+[1+1]]]]]]]]]",
+        ] {
+            let b = norm(s);
+            let compiled = compile(&b, 0, Kind::Real);
+            if s.starts_with("[1+[1+") {
+                // nine nested levels of two values each: within the stack
+                assert!(compiled.is_some(), "{s}");
+            } else {
+                assert!(compiled.is_none(), "{s}");
+            }
+        }
+        let deep = format!("{}1{}", "[".repeat(40), "]".repeat(40));
+        assert!(compile(&norm(&deep), 0, Kind::Real).is_none());
+    }
+
+    /// Random value texts, most of them well formed, some not.
+    fn value_text(depth: u32) -> BoxedStrategy<String> {
+        let leaf = prop_oneof![
+            (0u32..40).prop_map(|n| format!("{}", f64::from(n) / 4.0)),
+            (0u32..7).prop_map(|n| format!("#{n}")),
+            prop::sample::select(vec![
+                "#<x>",
+                "#<z>",
+                "#<nope>",
+                "##3",
+                "#[#1+1]",
+                "#0",
+                "#7000",
+                "-1.5",
+                "+2",
+                ".5",
+                "1..2",
+                "#<_unsupported>",
+                "exists[#<x>]",
+                "exists[#2]",
+                "-#1",
+                "+#2",
+            ])
+            .prop_map(String::from),
+        ];
+        if depth == 0 {
+            return leaf.boxed();
+        }
+        let ops = prop::sample::select(vec![
+            "+", "-", "*", "/", "**", " mod ", " and ", " or ", " xor ", " eq ", " ne ", " gt ",
+            " ge ", " lt ", " le ", " foo ",
+        ]);
+        let funcs = prop::sample::select(vec![
+            "abs", "acos", "asin", "cos", "exp", "fix", "fup", "ln", "round", "sin", "sqrt", "tan",
+            "-", "",
+        ]);
+        let inner = value_text(depth - 1);
+        prop_oneof![
+            2 => leaf,
+            2 => (inner.clone(), prop::collection::vec((ops, inner.clone()), 0..5)).prop_map(
+                |(first, rest)| {
+                    let mut s = format!("[{first}");
+                    for (o, v) in rest {
+                        s.push_str(o);
+                        s.push_str(&v);
+                    }
+                    s.push(']');
+                    s
+                }
+            ),
+            1 => (funcs, inner.clone()).prop_map(|(f, v)| format!("{f}[{v}]")),
+            1 => (inner.clone(), inner).prop_map(|(a, b)| format!("atan[{a}]/[{b}]")),
+        ]
+        .boxed()
+    }
+
+    proptest! {
+        /// Compiled or not, a value reads exactly as the text reader reads it:
+        /// the same bits and end, or the same error at the same offset.
+        #[test]
+        fn compiled_values_match_the_text_reader(s in value_text(3), cut in 0usize..4) {
+            let e = env();
+            let mut b = norm(&s);
+            // now and then a truncated text (a syntax error)
+            if cut == 0 && b.len() > 2 {
+                b.truncate(b.len() - 1);
+            }
+            for kind in [Kind::Real, Kind::Integer, Kind::Expression] {
+                let want = by_text(&b, kind, &e);
+                if let Some(code) = compile(&b, 0, kind) {
+                    prop_assert_eq!(by_code(&code, &e), want, "{:?}", String::from_utf8_lossy(&b));
+                }
+            }
+        }
+    }
+}

@@ -108,11 +108,42 @@ pub struct OLine {
     /// Condition, repeat count or return value, where given and evaluated.
     pub value: Option<f64>,
     /// Call arguments.
-    pub args: Vec<f64>,
+    pub args: Args,
     /// Raw byte offset of the `o`.
     pub at: u32,
     /// M98: the L word (repeats), if given.
     pub repeat: Option<f64>,
+}
+
+/// Call arguments, held in place (at most [`SUB_PARAMS`]; no allocation per call).
+#[derive(Debug, Clone, Copy)]
+pub struct Args {
+    values: [f64; SUB_PARAMS],
+    len: usize,
+}
+
+impl Default for Args {
+    fn default() -> Self {
+        Args {
+            values: [0.0; SUB_PARAMS],
+            len: 0,
+        }
+    }
+}
+
+impl Args {
+    /// Add an argument; the caller refuses more than [`SUB_PARAMS`] first.
+    fn push(&mut self, v: f64) {
+        self.values[self.len] = v;
+        self.len += 1;
+    }
+}
+
+impl std::ops::Deref for Args {
+    type Target = [f64];
+    fn deref(&self) -> &[f64] {
+        &self.values[..self.len]
+    }
 }
 
 /// Where a label was seen (LinuxCNC `offset_struct`).
@@ -478,7 +509,7 @@ impl Interp<'_> {
                         kind: OKind::M99,
                         name,
                         value: None,
-                        args: Vec::new(),
+                        args: Args::default(),
                         at: raw(i),
                         repeat: None,
                     }));
@@ -621,7 +652,7 @@ impl Interp<'_> {
             kind: OKind::M98,
             name: format!("{}", n as i64),
             value: None,
-            args: Vec::new(),
+            args: Args::default(),
             at,
             repeat: block.get(b'L'),
         })
@@ -641,10 +672,9 @@ impl Interp<'_> {
             *i = r.i;
             n
         } else {
-            let mut r = Reader::new(b, *i, self);
-            let n = r.integer_value().map_err(re)?;
-            *i = r.i;
-            std::borrow::Cow::Owned(n.to_string())
+            let (n, next) = self.value(norm, *i, Kind::Integer).map_err(re)?;
+            *i = next;
+            std::borrow::Cow::Owned((n as i32).to_string())
         };
         let rest = &b[(*i).min(b.len())..];
         const KINDS: [(&[u8], OKind); 15] = [
@@ -689,7 +719,7 @@ impl Interp<'_> {
                 kind: OKind::Bare,
                 name: label.into_owned(),
                 value: None,
-                args: Vec::new(),
+                args: Args::default(),
                 at,
                 repeat: None,
             }));
@@ -716,7 +746,7 @@ impl Interp<'_> {
             kind,
             name,
             value: None,
-            args: Vec::new(),
+            args: Args::default(),
             at,
             repeat: None,
         };
@@ -814,16 +844,20 @@ impl Interp<'_> {
     }
 
     fn save_label(&mut self, o: &OLine, pc: &Pc) {
-        self.ctl.labels.insert(
-            o.name.clone(),
-            Label {
-                kind: o.kind,
-                file: pc.file,
-                pos: pc.pos,
-                line_no: pc.line_no,
-                repeat_count: -1,
-            },
-        );
+        let label = Label {
+            kind: o.kind,
+            file: pc.file,
+            pos: pc.pos,
+            line_no: pc.line_no,
+            repeat_count: -1,
+        };
+        // a loop saves its label on every pass: no new key then
+        match self.ctl.labels.get_mut(o.name.as_str()) {
+            Some(l) => *l = label,
+            None => {
+                self.ctl.labels.insert(o.name.clone(), label);
+            }
+        }
     }
 
     fn back_to(&self, name: &str) -> Option<Jump> {
