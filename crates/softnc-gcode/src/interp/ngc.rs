@@ -695,7 +695,12 @@ impl Interp<'_> {
             (b"return", OKind::Return),
         ];
         // in LinuxCNC's order of comparison ("elseif" before "else")
-        let Some(&(kw, kind)) = KINDS.iter().find(|(kw, _)| rest.starts_with(kw)) else {
+        // (the first byte compared alone first: most keywords differ there)
+        let first = rest.first().copied();
+        let Some(&(kw, kind)) = KINDS
+            .iter()
+            .find(|(kw, _)| Some(kw[0]) == first && rest.starts_with(kw))
+        else {
             if !matches!(rest.first(), None | Some(b'(' | b';')) {
                 return bad(at, "Unknown control command in o word");
             }
