@@ -115,26 +115,30 @@ pub struct OLine {
     pub repeat: Option<f64>,
 }
 
-/// Call arguments, held in place (at most [`SUB_PARAMS`]; no allocation per call).
-#[derive(Debug, Clone, Copy)]
+/// Call arguments: the first [`ARGS_IN_PLACE`] held in place (no allocation for a
+/// usual call, and an O-line small enough to move cheaply), more in a vector.
+#[derive(Debug, Clone, Default)]
 pub struct Args {
-    values: [f64; SUB_PARAMS],
+    first: [f64; ARGS_IN_PLACE],
     len: usize,
+    /// All of them, once there are more than fit in place.
+    more: Vec<f64>,
 }
 
-impl Default for Args {
-    fn default() -> Self {
-        Args {
-            values: [0.0; SUB_PARAMS],
-            len: 0,
-        }
-    }
-}
+/// Call arguments held without allocation.
+const ARGS_IN_PLACE: usize = 4;
 
 impl Args {
     /// Add an argument; the caller refuses more than [`SUB_PARAMS`] first.
     fn push(&mut self, v: f64) {
-        self.values[self.len] = v;
+        if self.len < ARGS_IN_PLACE {
+            self.first[self.len] = v;
+        } else {
+            if self.more.is_empty() {
+                self.more.extend_from_slice(&self.first);
+            }
+            self.more.push(v);
+        }
         self.len += 1;
     }
 }
@@ -142,7 +146,11 @@ impl Args {
 impl std::ops::Deref for Args {
     type Target = [f64];
     fn deref(&self) -> &[f64] {
-        &self.values[..self.len]
+        if self.more.is_empty() {
+            &self.first[..self.len]
+        } else {
+            &self.more
+        }
     }
 }
 
@@ -1288,5 +1296,21 @@ impl Interp<'_> {
             }
         }
         Ok(String::from_utf8_lossy(&out).into_owned())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn args_in_place_and_beyond() {
+        let mut a = Args::default();
+        assert!(a.is_empty());
+        for k in 0..SUB_PARAMS {
+            a.push(k as f64 + 0.5);
+            let want: Vec<f64> = (0..=k).map(|j| j as f64 + 0.5).collect();
+            assert_eq!(&a[..], &want[..]);
+        }
     }
 }
