@@ -151,6 +151,25 @@ pub fn rad_to_deg(r: f64) -> f64 {
 /// in `lo` where it is tiny (as for any angle a program uses), else by the
 /// addition theorem (a huge argument, whose rest is large in absolute terms).
 fn sin_cos(x: f64) -> (f64, f64) {
+    // programs take SIN and COS of the same angle, often more than once on a line
+    // (`X[#r * COS[#a]] Y[#r * SIN[#a]]`): the last angle's pair is kept
+    thread_local! {
+        static LAST: std::cell::Cell<Option<(u64, (f64, f64))>> =
+            const { std::cell::Cell::new(None) };
+    }
+    let bits = x.to_bits();
+    if let Some((last, pair)) = LAST.get() {
+        if last == bits {
+            return pair;
+        }
+    }
+    let pair = sin_cos_uncached(x);
+    LAST.set(Some((bits, pair)));
+    pair
+}
+
+/// [`sin_cos`] computed.
+fn sin_cos_uncached(x: f64) -> (f64, f64) {
     let (hi, lo) = deg_to_rad(x);
     let (s, c) = hi.sin_cos();
     if lo.abs() < 1e-9 {
@@ -286,6 +305,28 @@ mod tests {
                 (mant as f64, want.to_bits()),
                 "{mant:#x}"
             );
+        }
+    }
+
+    #[test]
+    fn kept_pairs_are_the_computed_ones() {
+        for x in [
+            0.0,
+            90.0,
+            -0.0,
+            180.0,
+            33.3,
+            33.3,
+            1e300,
+            -45.0,
+            -45.0,
+            90.0,
+            f64::NAN,
+        ] {
+            let want = sin_cos_uncached(x);
+            assert_eq!(sin_deg(x).to_bits(), want.0.to_bits(), "{x}");
+            assert_eq!(sin_deg(x).to_bits(), want.0.to_bits(), "{x} again");
+            assert_eq!(cos_deg(x).to_bits(), want.1.to_bits(), "{x}");
         }
     }
 }
