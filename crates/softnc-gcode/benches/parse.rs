@@ -1,6 +1,8 @@
 //! Reader throughput: a generated 200,000-line program of G1/G2/G3 moves (short lines
 //! and small arcs in both formats, as CAM output looks), read into canonical motions;
-//! and the language: `nested_while.ngc` (loops, expressions, subroutine calls).
+//! and the language: `nested_while.ngc` (loops, expressions, subroutine calls); and
+//! one expression of its loop body read from its text against its compiled form
+//! (`softnc_gcode::compiled`, what lines of loops and subroutines use).
 //!
 //! `SOFTNC_WRITE_BIG=1 cargo bench -p softnc-gcode --bench parse` also writes the
 //! program to `$TMPDIR/softnc-gcode-big.ngc`, to time LinuxCNC on the same file:
@@ -81,5 +83,40 @@ fn benches(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(parse, benches);
+/// Parameters for the expression benchmark.
+struct Vars(Vec<f64>);
+
+impl softnc_gcode::expr::Env for Vars {
+    fn numbered(&self, index: usize) -> f64 {
+        self.0[index]
+    }
+    fn named(&self, _: &str) -> Result<Option<f64>, softnc_gcode::ErrorKind> {
+        Ok(None)
+    }
+}
+
+fn expressions(c: &mut Criterion) {
+    use softnc_gcode::compiled::{compile, eval, Kind};
+    let mut norm = softnc_gcode::expr::Norm::default();
+    norm.build(b"[#1 * 0.5 + SIN[#2 * 3.6] * 2]");
+    let mut vars = vec![0.0; softnc_gcode::params::NUM_PARAMS];
+    vars[1] = 17.0;
+    vars[2] = 42.0;
+    let env = Vars(vars);
+    let code = compile(&norm.b, 0, Kind::Real).expect("compiles");
+    let mut g = c.benchmark_group("expr");
+    g.bench_function("read_from_text", |b| {
+        b.iter(|| {
+            softnc_gcode::expr::Reader::new(std::hint::black_box(&norm.b), 0, &env)
+                .real_value()
+                .unwrap()
+        })
+    });
+    g.bench_function("compiled_eval", |b| {
+        b.iter(|| eval(std::hint::black_box(&code), &env).unwrap())
+    });
+    g.finish();
+}
+
+criterion_group!(parse, benches, expressions);
 criterion_main!(parse);

@@ -33,6 +33,13 @@ pub struct Norm {
     pub b: Vec<u8>,
     /// `at[i]`: offset in the raw line of `b[i]`; one more entry for the end.
     pub at: Vec<u32>,
+    /// Whether the line is kept to be read again (a line of a loop or subroutine):
+    /// its values are then compiled once, into `code`, and evaluated on each pass.
+    pub keep: bool,
+    /// The values compiled so far: offset where each starts, how it is read, and its
+    /// code (`None`: it does not compile and is read from the text).
+    pub code:
+        std::cell::RefCell<Vec<(usize, crate::compiled::Kind, Option<crate::compiled::Code>)>>,
 }
 
 impl Norm {
@@ -42,6 +49,8 @@ impl Norm {
     pub fn build(&mut self, raw: &[u8]) {
         self.b.clear();
         self.at.clear();
+        self.keep = false;
+        self.code.get_mut().clear();
         self.b.reserve(raw.len());
         self.at.reserve(raw.len() + 1);
         let mut in_comment = false;

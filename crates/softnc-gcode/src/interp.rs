@@ -21,7 +21,9 @@ use crate::ReadOptions;
 use ngc::{Control, Jump, Pc, Setting};
 use softnc_core::{MachineProfile, Plane, Vec3};
 use std::borrow::Cow;
+use std::collections::HashMap;
 use std::f64::consts::{FRAC_PI_2, PI, SQRT_2};
+use std::hash::BuildHasherDefault;
 
 const MM_PER_INCH: f64 = 25.4;
 /// R-format arcs: how far the radius may fall short of half the chord, and the
@@ -1495,6 +1497,42 @@ impl<'a> Interp<'a> {
 /// bound on memory; lines beyond it are normalized on every read).
 const NORM_CACHE_LINES: usize = 4096;
 
+/// The lines kept once the program has jumped, by [`line_key`]: the normalized line
+/// (its values compiled as they are read) and the lexer's `block_delete` and
+/// `python` flags for it.
+type LineCache = HashMap<u64, (Norm, (bool, bool)), BuildHasherDefault<KeyHasher>>;
+
+/// Bits of a byte offset in a [`line_key`] (programs are far shorter than 2^48
+/// bytes; a longer one only shares keys, which compare equal, never wrongly).
+const KEY_OFFSET_BITS: u32 = 48;
+
+/// A line's key: its source's index and its byte offset in one word.
+fn line_key(source: usize, offset: usize) -> u64 {
+    ((source as u64) << KEY_OFFSET_BITS) ^ offset as u64
+}
+
+/// Hashes a [`line_key`] with one multiplication (Fibonacci hashing): the keys are
+/// distinct small numbers, for which byte-wise FNV costs several times more.
+#[derive(Default)]
+struct KeyHasher(u64);
+
+impl std::hash::Hasher for KeyHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0.rotate_left(8) ^ u64::from(b)).wrapping_mul(FIB_HASH);
+        }
+    }
+    fn write_u64(&mut self, k: u64) {
+        self.0 = k.wrapping_mul(FIB_HASH);
+    }
+}
+
+/// 2^64 / φ, odd: multiplying by it spreads consecutive keys over the table.
+const FIB_HASH: u64 = 0x9e37_79b9_7f4a_7c15;
+
 /// `Interp::rotate` (`interp_convert.cc`): `(x, y)` turned by `deg` degrees about
 /// the origin, counter-clockwise.
 fn rotate(x: f64, y: f64, deg: f64) -> (f64, f64) {
@@ -1733,7 +1771,7 @@ pub fn read_with(
     let mut norm = Norm::default();
     let mut sets: Vec<Setting> = Vec::new();
     // normalized lines by (source, byte offset), once the program has jumped
-    let mut norm_cache: crate::params::FnvMap<(usize, usize), Norm> = Default::default();
+    let mut norm_cache: LineCache = Default::default();
     let mut jumped = false;
     let bytes = text.as_bytes();
     let mut sources = vec![Source {
@@ -1894,28 +1932,47 @@ pub fn read_with(
                 // each word goes into the block as it is read: words before a lexing
                 // error are read (and may fail) first, as in LinuxCNC
                 block.clear();
-                let lexed = lex_words(raw, &mut line, maybe, |w| it.sort_word(w, &mut block));
+                let key = line_key(cur, s);
+                let kept = if norm_cache.is_empty() {
+                    None
+                } else {
+                    norm_cache.get(&key)
+                };
                 let mut oline = None;
-                match lexed {
-                    Ok(()) => {}
-                    Err((SLOW, _)) => {
-                        // parameters, expressions or an O-word: the full reader, on
-                        // the normalized line (kept for lines read again once the
-                        // program has jumped: loops and subroutines)
-                        let key = (cur, s);
-                        let r = match norm_cache.get(&key) {
-                            Some(n) => it.read_norm(n, &mut block, &mut line, &mut sets),
-                            None => {
-                                norm.build(significant(raw.as_bytes()));
-                                if jumped && norm_cache.len() < NORM_CACHE_LINES {
-                                    norm_cache.insert(key, norm.clone());
-                                }
+                if let Some((n, flags)) = kept {
+                    // read before: the fast lexer handed it to the full reader then,
+                    // and would again (it depends on the text alone), leaving these
+                    // flags
+                    (line.block_delete, line.python) = *flags;
+                    (line.blank, line.percent) = (false, false);
+                    line.comment_offset = 0;
+                    oline = it
+                        .read_norm(n, &mut block, &mut line, &mut sets)
+                        .map_err(|x| err_in(src_name, line_no, raw, x))?;
+                } else {
+                    let lexed = lex_words(raw, &mut line, maybe, |w| it.sort_word(w, &mut block));
+                    match lexed {
+                        Ok(()) => {}
+                        Err((SLOW, _)) => {
+                            // parameters, expressions or an O-word: the full reader,
+                            // on the normalized line (kept, with its values compiled
+                            // as they are read, for lines read again once the program
+                            // has jumped: loops and subroutines)
+                            norm.build(significant(raw.as_bytes()));
+                            let r = if jumped && norm_cache.len() < NORM_CACHE_LINES {
+                                let mut kept = norm.clone();
+                                kept.keep = true;
+                                let (n, _) = norm_cache
+                                    .entry(key)
+                                    .or_insert((kept, (line.block_delete, line.python)));
+                                it.read_norm(n, &mut block, &mut line, &mut sets)
+                            } else {
                                 it.read_norm(&norm, &mut block, &mut line, &mut sets)
-                            }
-                        };
-                        oline = r.map_err(|x| err_in(src_name, line_no, raw, x))?;
+                            };
+                            oline = r.map_err(|x| err_in(src_name, line_no, raw, x))?;
+                        }
+                        Err(x) => return Err(err_in(src_name, line_no, raw, x)),
                     }
-                    Err(x) => return Err(err_in(src_name, line_no, raw, x)),
                 }
                 if line.percent {
                     if percent_flag && cur == 0 {

@@ -11,6 +11,7 @@
 #![warn(missing_docs)]
 
 pub mod canon;
+pub mod compiled;
 pub mod error;
 pub mod expr;
 pub mod interp;

@@ -11,6 +11,9 @@
 //! are taken to first order around its `double` part, which gives their sign and
 //! their value to about 13 digits also where they vanish.
 
+/// 2^64 as a `double`.
+const TWO_POW_64: f64 = 18_446_744_073_709_551_616.0;
+
 /// `M_PIl`: π rounded to a 64-bit mantissa, `PI_MANT × 2^-62`.
 const PI_MANT: u64 = 0xC90F_DAA2_2168_C235;
 
@@ -97,7 +100,10 @@ impl Ext {
     /// and the exact rest.
     fn to_f64_parts(self) -> (f64, f64) {
         let hi = self.mant as f64; // rounds to 53 bits, nearest-even
-        let lo = (i128::from(self.mant) - hi as i128) as f64; // exact, |lo| ≤ 2^10
+                                   // mant - hi, exact (|lo| ≤ 2^10), in 64-bit arithmetic (no i128 library
+                                   // calls): hi is 2^64 when mant rounds up to it, whose low 64 bits are 0
+        let hi_low_bits = if hi >= TWO_POW_64 { 0 } else { hi as u64 };
+        let lo = self.mant.wrapping_sub(hi_low_bits) as i64 as f64;
         (ldexp(hi, self.exp), ldexp(lo, self.exp))
     }
 }
@@ -145,6 +151,25 @@ pub fn rad_to_deg(r: f64) -> f64 {
 /// in `lo` where it is tiny (as for any angle a program uses), else by the
 /// addition theorem (a huge argument, whose rest is large in absolute terms).
 fn sin_cos(x: f64) -> (f64, f64) {
+    // programs take SIN and COS of the same angle, often more than once on a line
+    // (`X[#r * COS[#a]] Y[#r * SIN[#a]]`): the last angle's pair is kept
+    thread_local! {
+        static LAST: std::cell::Cell<Option<(u64, (f64, f64))>> =
+            const { std::cell::Cell::new(None) };
+    }
+    let bits = x.to_bits();
+    if let Some((last, pair)) = LAST.get() {
+        if last == bits {
+            return pair;
+        }
+    }
+    let pair = sin_cos_uncached(x);
+    LAST.set(Some((bits, pair)));
+    pair
+}
+
+/// [`sin_cos`] computed.
+fn sin_cos_uncached(x: f64) -> (f64, f64) {
     let (hi, lo) = deg_to_rad(x);
     let (s, c) = hi.sin_cos();
     if lo.abs() < 1e-9 {
@@ -251,5 +276,57 @@ mod tests {
         assert_eq!(cos_deg(0.0), 1.0);
         assert!((cos_deg(60.0) - 0.5).abs() < 1e-15);
         assert!((tan_deg(45.0) - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn parts_as_exact_wide_arithmetic() {
+        // the rest in 64-bit arithmetic equals the exact 128-bit difference,
+        // including where the mantissa rounds up to 2^64
+        let mut m: u64 = 0x8000_0000_0000_0000;
+        let specials = [
+            u64::MAX,
+            u64::MAX - 1023,
+            u64::MAX - 1024,
+            0x8000_0000_0000_0400,
+        ];
+        for k in 0..20_000u64 {
+            m = m
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            let mant = if (k as usize) < specials.len() {
+                specials[k as usize]
+            } else {
+                m | (1 << 63)
+            };
+            let (hi, lo) = Ext { mant, exp: 0 }.to_f64_parts();
+            let want = (i128::from(mant) - mant as f64 as i128) as f64;
+            assert_eq!(
+                (hi, lo.to_bits()),
+                (mant as f64, want.to_bits()),
+                "{mant:#x}"
+            );
+        }
+    }
+
+    #[test]
+    fn kept_pairs_are_the_computed_ones() {
+        for x in [
+            0.0,
+            90.0,
+            -0.0,
+            180.0,
+            33.3,
+            33.3,
+            1e300,
+            -45.0,
+            -45.0,
+            90.0,
+            f64::NAN,
+        ] {
+            let want = sin_cos_uncached(x);
+            assert_eq!(sin_deg(x).to_bits(), want.0.to_bits(), "{x}");
+            assert_eq!(sin_deg(x).to_bits(), want.0.to_bits(), "{x} again");
+            assert_eq!(cos_deg(x).to_bits(), want.1.to_bits(), "{x}");
+        }
     }
 }

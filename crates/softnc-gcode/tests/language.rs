@@ -584,3 +584,36 @@ fn state_parameters_follow_the_machine_state() {
         vec!["t.ngc:6: print: 1.000000 0.000000 11.0 0.0 1.0 1.0 1.0 0.0"]
     );
 }
+
+/// Lines of loops and subroutines are compiled once and evaluated on each pass
+/// (`softnc_gcode::compiled`): values change from pass to pass, and an error on a
+/// later pass is the one the line's text gives, at its column.
+#[test]
+fn compiled_loop_lines_read_as_their_text() {
+    let loop_text = "#<i> = 3\n\
+        o1 while [#<i> GT -1]\n\
+        G1 X[12 / #<i>] Y#<i> F100\n\
+        #<i> = [#<i> - 1]\n\
+        o1 endwhile\n\
+        M2\n";
+    let e = error(loop_text);
+    // the fourth pass divides by zero: as the same line read once
+    let once = error("#<i> = 0\n#<j> = 0\nG1 X[12 / #<i>] Y#<i> F100\nM2\n");
+    assert_eq!((e.line, e.column), (3, once.column));
+    assert_eq!(e.kind.to_string(), once.kind.to_string());
+    assert!(e.kind.to_string().contains("divide by zero"), "{e}");
+    // three passes before it, each with its own values
+    let ok = loop_text.replace("GT -1", "GT 0");
+    assert_eq!(xs(&ok), vec![4.0, 6.0, 12.0]);
+    // a subroutine called with changing arguments, numbered parameters and labels
+    let sub = "o<f> sub\n\
+        G1 X[#1 * 2 + #2] F100\n\
+        o<f> endsub\n\
+        #1 = 7\n\
+        o2 repeat [3]\n\
+        o<f> call [#1] [ABS[#1 - 10]]\n\
+        #1 = [#1 + 1]\n\
+        o2 endrepeat\n\
+        M2\n";
+    assert_eq!(xs(sub), vec![17.0, 18.0, 19.0]);
+}

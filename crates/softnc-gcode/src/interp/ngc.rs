@@ -8,6 +8,7 @@
 //! look only at O-lines, as LinuxCNC does.
 
 use super::{bad, Block, Interp, R};
+use crate::compiled::Kind;
 use crate::error::ErrorKind;
 use crate::expr::{Env, Norm, Reader};
 use crate::lexer::{bad_character, check_comments, significant, Line, Word};
@@ -107,11 +108,50 @@ pub struct OLine {
     /// Condition, repeat count or return value, where given and evaluated.
     pub value: Option<f64>,
     /// Call arguments.
-    pub args: Vec<f64>,
+    pub args: Args,
     /// Raw byte offset of the `o`.
     pub at: u32,
     /// M98: the L word (repeats), if given.
     pub repeat: Option<f64>,
+}
+
+/// Call arguments: the first [`ARGS_IN_PLACE`] held in place (no allocation for a
+/// usual call, and an O-line small enough to move cheaply), more in a vector.
+#[derive(Debug, Clone, Default)]
+pub struct Args {
+    first: [f64; ARGS_IN_PLACE],
+    len: usize,
+    /// All of them, once there are more than fit in place.
+    more: Vec<f64>,
+}
+
+/// Call arguments held without allocation.
+const ARGS_IN_PLACE: usize = 4;
+
+impl Args {
+    /// Add an argument; the caller refuses more than [`SUB_PARAMS`] first.
+    fn push(&mut self, v: f64) {
+        if self.len < ARGS_IN_PLACE {
+            self.first[self.len] = v;
+        } else {
+            if self.more.is_empty() {
+                self.more.extend_from_slice(&self.first);
+            }
+            self.more.push(v);
+        }
+        self.len += 1;
+    }
+}
+
+impl std::ops::Deref for Args {
+    type Target = [f64];
+    fn deref(&self) -> &[f64] {
+        if self.more.is_empty() {
+            &self.first[..self.len]
+        } else {
+            &self.more
+        }
+    }
 }
 
 /// Where a label was seen (LinuxCNC `offset_struct`).
@@ -375,6 +415,38 @@ impl Interp<'_> {
         }
     }
 
+    /// The value of kind `kind` at `norm.b[i]` and the offset after it: compiled
+    /// once and evaluated for a line kept to be read again ([`Norm::keep`]), read
+    /// from the text otherwise (and where it does not compile). Errors as the
+    /// text reader's, offsets in the normalized line.
+    pub(super) fn value(
+        &self,
+        norm: &Norm,
+        i: usize,
+        kind: Kind,
+    ) -> Result<(f64, usize), crate::expr::ExprError> {
+        if norm.keep {
+            let mut cache = norm.code.borrow_mut();
+            let k = match cache.iter().position(|(s, kd, _)| *s == i && *kd == kind) {
+                Some(k) => k,
+                None => {
+                    cache.push((i, kind, crate::compiled::compile(&norm.b, i, kind)));
+                    cache.len() - 1
+                }
+            };
+            if let Some(code) = &cache[k].2 {
+                return Ok((crate::compiled::eval(code, self)?, code.end));
+            }
+        }
+        let mut r = Reader::new(&norm.b, i, self);
+        let v = match kind {
+            Kind::Real => r.real_value()?,
+            Kind::Expression => r.expression()?,
+            Kind::Integer => f64::from(r.integer_value()?),
+        };
+        Ok((v, r.i))
+    }
+
     /// `read_items` on a normalized line (`Norm`), for a line the fast lexer
     /// hands over.
     pub(super) fn read_norm(
@@ -445,7 +517,7 @@ impl Interp<'_> {
                         kind: OKind::M99,
                         name,
                         value: None,
-                        args: Vec::new(),
+                        args: Args::default(),
                         at: raw(i),
                         repeat: None,
                     }));
@@ -461,9 +533,7 @@ impl Interp<'_> {
             let c = b[i];
             match c {
                 b'a'..=b'z' if c != b'n' && c != b'o' => {
-                    let mut r = Reader::new(b, i + 1, self);
-                    let value = r.real_value().map_err(re)?;
-                    let next = r.i;
+                    let (value, next) = self.value(norm, i + 1, Kind::Real).map_err(re)?;
                     self.sort_word_slow(
                         Word {
                             letter: c.to_ascii_uppercase(),
@@ -490,8 +560,7 @@ impl Interp<'_> {
                         if r.at(r.i) != b'=' {
                             return bad(raw(r.i), "Equal sign missing in parameter setting");
                         }
-                        r.i += 1;
-                        let v = r.real_value().map_err(re)?;
+                        let (v, next) = self.value(norm, r.i + 1, Kind::Real).map_err(re)?;
                         if name.starts_with('_') && self.predefined(&name).ok().flatten().is_some()
                         {
                             return bad(
@@ -499,10 +568,12 @@ impl Interp<'_> {
                                 format!("Cannot assign to read-only parameter #<{name}>"),
                             );
                         }
-                        i = r.i;
+                        i = next;
                         sets.push(Setting::Named(name.into_owned(), v));
                     } else {
-                        let index = r.integer_value().map_err(re)?;
+                        let (index, next) = self.value(norm, r.i, Kind::Integer).map_err(re)?;
+                        r.i = next;
+                        let index = index as i32;
                         if index < 1 || index as usize >= NUM_PARAMS {
                             return bad(raw(at), "Parameter number out of range");
                         }
@@ -512,9 +583,8 @@ impl Interp<'_> {
                         if r.at(r.i) != b'=' {
                             return bad(raw(r.i), "Equal sign missing in parameter setting");
                         }
-                        r.i += 1;
-                        let v = r.real_value().map_err(re)?;
-                        i = r.i;
+                        let (v, next) = self.value(norm, r.i + 1, Kind::Real).map_err(re)?;
+                        i = next;
                         sets.push(Setting::Numbered(index as usize, v));
                     }
                 }
@@ -571,6 +641,7 @@ impl Interp<'_> {
         let rest = Norm {
             b: norm.b[skip..].to_vec(),
             at: norm.at[skip..].to_vec(),
+            ..Default::default()
         };
         self.read_items_slow(&rest, block, line, sets)?;
         if !block.has(b'P') {
@@ -589,7 +660,7 @@ impl Interp<'_> {
             kind: OKind::M98,
             name: format!("{}", n as i64),
             value: None,
-            args: Vec::new(),
+            args: Args::default(),
             at,
             repeat: block.get(b'L'),
         })
@@ -609,10 +680,9 @@ impl Interp<'_> {
             *i = r.i;
             n
         } else {
-            let mut r = Reader::new(b, *i, self);
-            let n = r.integer_value().map_err(re)?;
-            *i = r.i;
-            std::borrow::Cow::Owned(n.to_string())
+            let (n, next) = self.value(norm, *i, Kind::Integer).map_err(re)?;
+            *i = next;
+            std::borrow::Cow::Owned((n as i32).to_string())
         };
         let rest = &b[(*i).min(b.len())..];
         const KINDS: [(&[u8], OKind); 15] = [
@@ -633,7 +703,12 @@ impl Interp<'_> {
             (b"return", OKind::Return),
         ];
         // in LinuxCNC's order of comparison ("elseif" before "else")
-        let Some(&(kw, kind)) = KINDS.iter().find(|(kw, _)| rest.starts_with(kw)) else {
+        // (the first byte compared alone first: most keywords differ there)
+        let first = rest.first().copied();
+        let Some(&(kw, kind)) = KINDS
+            .iter()
+            .find(|(kw, _)| Some(kw[0]) == first && rest.starts_with(kw))
+        else {
             if !matches!(rest.first(), None | Some(b'(' | b';')) {
                 return bad(at, "Unknown control command in o word");
             }
@@ -657,7 +732,7 @@ impl Interp<'_> {
                 kind: OKind::Bare,
                 name: label.into_owned(),
                 value: None,
-                args: Vec::new(),
+                args: Args::default(),
                 at,
                 repeat: None,
             }));
@@ -684,7 +759,7 @@ impl Interp<'_> {
             kind,
             name,
             value: None,
-            args: Vec::new(),
+            args: Args::default(),
             at,
             repeat: None,
         };
@@ -711,9 +786,9 @@ impl Interp<'_> {
                     return Ok(Some(o));
                 }
                 if b.get(*i) == Some(&b'[') {
-                    let mut r = Reader::new(b, *i, self);
-                    o.value = Some(r.expression().map_err(re)?);
-                    *i = r.i;
+                    let (v, next) = self.value(norm, *i, Kind::Expression).map_err(re)?;
+                    o.value = Some(v);
+                    *i = next;
                 }
             }
             OKind::Call => {
@@ -734,9 +809,9 @@ impl Interp<'_> {
                     if o.args.len() >= SUB_PARAMS {
                         return bad(norm.raw(*i), "Too many subroutine parameters");
                     }
-                    let mut r = Reader::new(b, *i, self);
-                    o.args.push(r.expression().map_err(re)?);
-                    *i = r.i;
+                    let (v, next) = self.value(norm, *i, Kind::Expression).map_err(re)?;
+                    o.args.push(v);
+                    *i = next;
                 }
             }
             OKind::While | OKind::Repeat | OKind::If | OKind::ElseIf => {
@@ -749,9 +824,9 @@ impl Interp<'_> {
                         format!("Left bracket missing after '{}'", kind.name()),
                     );
                 }
-                let mut r = Reader::new(b, *i, self);
-                o.value = Some(r.expression().map_err(re)?);
-                *i = r.i;
+                let (v, next) = self.value(norm, *i, Kind::Expression).map_err(re)?;
+                o.value = Some(v);
+                *i = next;
             }
             _ => {}
         }
@@ -782,16 +857,20 @@ impl Interp<'_> {
     }
 
     fn save_label(&mut self, o: &OLine, pc: &Pc) {
-        self.ctl.labels.insert(
-            o.name.clone(),
-            Label {
-                kind: o.kind,
-                file: pc.file,
-                pos: pc.pos,
-                line_no: pc.line_no,
-                repeat_count: -1,
-            },
-        );
+        let label = Label {
+            kind: o.kind,
+            file: pc.file,
+            pos: pc.pos,
+            line_no: pc.line_no,
+            repeat_count: -1,
+        };
+        // a loop saves its label on every pass: no new key then
+        match self.ctl.labels.get_mut(o.name.as_str()) {
+            Some(l) => *l = label,
+            None => {
+                self.ctl.labels.insert(o.name.clone(), label);
+            }
+        }
     }
 
     fn back_to(&self, name: &str) -> Option<Jump> {
@@ -1217,5 +1296,21 @@ impl Interp<'_> {
             }
         }
         Ok(String::from_utf8_lossy(&out).into_owned())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn args_in_place_and_beyond() {
+        let mut a = Args::default();
+        assert!(a.is_empty());
+        for k in 0..SUB_PARAMS {
+            a.push(k as f64 + 0.5);
+            let want: Vec<f64> = (0..=k).map(|j| j as f64 + 0.5).collect();
+            assert_eq!(&a[..], &want[..]);
+        }
     }
 }
