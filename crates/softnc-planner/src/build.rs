@@ -130,6 +130,9 @@ pub struct Limits {
     pub acc_dec: AccDec,
     /// Blend corners that involve arcs (`planner.arc_blends`).
     pub arc_blends: bool,
+    /// Largest feed override (`planner.max_feed_override`): a feed move never runs
+    /// faster than its feed times this.
+    pub max_feed_override: f64,
     /// S-curve only: global tangential acceleration (mm/s²).
     pub scurve_acc: f64,
     /// S-curve only: smoothing window (s).
@@ -137,6 +140,15 @@ pub struct Limits {
 }
 
 impl Limits {
+    /// A bound on any element's path acceleration (mm/s²): the norm of the axes'
+    /// limits (a line's min_i A_i/|u_i| is at most that, since Σ u_i² = 1).
+    pub fn path_acc_bound(&self) -> f64 {
+        (0..3)
+            .map(|i| (self.amax[i] + self.kink_acc[i]).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    }
+
     /// Limits of a machine profile.
     pub fn from_profile(p: &MachineProfile) -> Limits {
         let vmax = p.max_vel();
@@ -160,6 +172,7 @@ impl Limits {
             profile: p.planner.feed_profile,
             acc_dec: p.planner.acc_dec,
             arc_blends: p.planner.arc_blends,
+            max_feed_override: p.planner.max_feed_override,
             scurve_acc,
             scurve_window_s: window,
         }
@@ -239,6 +252,8 @@ pub struct PathBuilder {
     s0: f64,
     /// End tangent of the last element pushed.
     prev_end_tangent: Vec3,
+    /// How much of each axis's acceleration the last element pushed may use.
+    prev_acc_use: AccUse,
     /// G64 Q: the G1 lines held back while they stay within Q of one line.
     chain: NaiveCamChain,
     /// Single block from the start (`PlanOptions::single_block`): every block
@@ -333,6 +348,7 @@ impl PathBuilder {
             last_point: None,
             s0: 0.0,
             prev_end_tangent: Vec3::ZERO,
+            prev_acc_use: AccUse::default(),
             chain: NaiveCamChain::default(),
             single_block: false,
             pending_stop_at_start: (StopKind::None, 0),
@@ -890,12 +906,17 @@ impl PathBuilder {
             let a = &mut self.path.segs[n - 1];
             if a.v_end_hard != 0.0 {
                 let prev_geom = &self.path.geoms[n - 1];
+                let uses = [
+                    self.prev_acc_use,
+                    AccUse::of(shape, acc, vel_cap, m.feed_mm_per_s, lim),
+                ];
                 a.v_end_hard = junction_speed(
                     lim,
                     a.vel_cap,
                     vel_cap,
                     self.prev_end_tangent,
                     shape,
+                    uses,
                     || geom.curvature_vec(false) - prev_geom.curvature_vec(true),
                 );
             }
@@ -919,6 +940,7 @@ impl PathBuilder {
         self.path.geoms.push(*geom);
         self.s0 += len;
         self.prev_end_tangent = shape.end_tangent;
+        self.prev_acc_use = AccUse::of(shape, acc, vel_cap, m.feed_mm_per_s, &self.lim);
         true
     }
 
@@ -983,16 +1005,58 @@ fn sub_arc(prim: &Primitive, from: Vec3, to: Vec3) -> Primitive {
     Primitive::arc(from, to, center, plane, turns)
 }
 
-/// Highest speed through the junction of two elements: a tangent break may use
-/// `KINK_SHARE` of each axis's acceleration over one cycle (S-curve: stop at it, and
-/// keep the curvature step within its jerk share); with acc/dec after interpolation
-/// the feed passes it unchanged, reversals excepted.
+/// What an element may ask of each axis's acceleration: its tangential acceleration
+/// `acc` and, on a curve, the centripetal κv². On axis i the two add up to
+/// |t_i·a_t + n_i·a_n| ≤ √(t_i² + n_i²)·√(a_t² + a_n²) ≤ weight_i·√(acc² + (κv²)²)
+/// (`ElementShape::acc_weight`: |u_i| on a line, √(t_i² + n_i²) on a curve).
+#[derive(Debug, Clone, Copy, Default)]
+struct AccUse {
+    weight: [f64; 3],
+    acc_mm_per_s2: f64,
+    curvature_per_mm: f64,
+    /// The element's highest speed: its cap, and its feed at the largest override.
+    top_mm_per_s: f64,
+    /// The element's length (mm).
+    len_mm: f64,
+}
+
+impl AccUse {
+    fn of(shape: &ElementShape, acc_mm_per_s2: f64, cap: f64, feed: f64, lim: &Limits) -> AccUse {
+        AccUse {
+            weight: shape.acc_weight,
+            acc_mm_per_s2,
+            curvature_per_mm: shape.curvature,
+            top_mm_per_s: cap.min(feed * lim.max_feed_override),
+            len_mm: shape.len,
+        }
+    }
+
+    /// The most of axis i's acceleration the element uses at any speed it runs at.
+    fn on_axis(&self, i: usize) -> f64 {
+        let v = self.top_mm_per_s;
+        let a_n = self.curvature_per_mm * v * v;
+        self.weight[i] * self.acc_mm_per_s2.hypot(a_n)
+    }
+}
+
+/// Highest speed through the junction of two elements. A tangent break of Δt turns
+/// the velocity by v·Δt_i within one cycle: on each axis that takes v·|Δt_i|/T on top
+/// of what the elements on either side use there (the sampled second difference
+/// across the junction averages the two elements' accelerations and adds the step).
+/// So the step may use the room the two elements leave on each axis,
+/// A_i − max(use_a_i, use_b_i) with the uses of [`AccUse`] at the junction's speed
+/// bound — at least `KINK_SHARE` of A_i, which every element leaves (its limits are
+/// planned to `1 − KINK_SHARE`), and about half of A_i between two curves (whose
+/// tangential share is `ARC_TANGENTIAL_SHARE`). S-curve: stop at it, and keep the
+/// curvature step within its jerk share; with acc/dec after interpolation the feed
+/// passes it unchanged, reversals excepted.
 fn junction_speed(
     lim: &Limits,
     cap_a: f64,
     cap_b: f64,
     end_tangent_a: Vec3,
     b: &ElementShape,
+    uses: [AccUse; 2],
     curvature_step: impl Fn() -> Vec3,
 ) -> f64 {
     let mut v = cap_a.min(cap_b);
@@ -1010,13 +1074,29 @@ fn junction_speed(
         return 0.0;
     }
     if kink {
+        let v_bound = v;
+        // the kink share every element leaves
+        let mut v_share = v_bound;
+        // the room the two elements leave
+        let mut v_room = v_bound;
         for i in 0..3 {
             let di = dt[i].abs();
             if di > 1e-12 {
-                let lim_i = lim.kink_acc[i] * lim.cycle_s;
-                v = v.min(lim_i / di);
+                let full = lim.amax[i] + lim.kink_acc[i];
+                let used = uses[0].on_axis(i).max(uses[1].on_axis(i));
+                let room = (full - used).max(lim.kink_acc[i]);
+                v_share = v_share.min(lim.kink_acc[i] * lim.cycle_s / di);
+                v_room = v_room.min(room * lim.cycle_s / di);
             }
         }
+        // More than the kink share only where no other tangent break can fall within
+        // a cycle of this one: both elements at least a cycle's travel long (speed
+        // within a cycle of the junction at most v + a·T). The sampled second
+        // difference weighs the breaks within its two cycles by 1 − |τ|/T, which
+        // then sum to at most 1, and a window of n cycles takes at most n of them.
+        let v_spacing =
+            uses[0].len_mm.min(uses[1].len_mm) / lim.cycle_s - lim.path_acc_bound() * lim.cycle_s;
+        v = v_share.max(v_room.min(v_spacing));
     }
     if lim.profile == FeedProfile::SCurve {
         let dk = curvature_step();
