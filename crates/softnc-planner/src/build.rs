@@ -752,6 +752,49 @@ impl PathBuilder {
             && (0..3).all(|i| dt[i].abs() * v <= lim.kink_acc[i] * lim.cycle_s)
     }
 
+    /// The blend radius at which a line–line corner is fastest, if smaller than the
+    /// largest the tolerance and the lines allow (infinite otherwise). A blend of
+    /// radius r (at least r* = v_b²/(`ARC_NORMAL_SHARE`·a), where its centripetal cap
+    /// reaches v_b) runs at v_b, the lower of its axes' velocity cap and the feed,
+    /// which does not depend on r; it takes r·tan(θ/2) of each line, which run at v_l.
+    /// The corner's time, 2·(L/2 − r·tan(θ/2))/v_l + r·θ/v_b, is linear in r: where
+    /// θ/v_b > 2·tan(θ/2)/v_l (a blend slower than its lines: through a 90° corner
+    /// of two diagonals it passes an axis direction, the lines run at √2·V) the
+    /// smallest blend that keeps v_b, r*, is the fastest, and it also deviates less;
+    /// otherwise the largest. Trapezoidal profile only (the S-curve caps a blend by its
+    /// curvature as well).
+    fn radius_for_speed(&self, a: &Pending, b: &Pending, e1: Vec3, e2: Vec3, theta: f64) -> f64 {
+        let lim = &self.lim;
+        if lim.profile != FeedProfile::Trapezoidal {
+            return f64::INFINITY;
+        }
+        let feed = a.feed_mm_per_s.min(b.feed_mm_per_s);
+        let line_cap =
+            |dir: Vec3| element_limits(&ElementShape::line(1.0, dir), lim.vmax, lim.amax);
+        let v_line = line_cap(a.dir)
+            .vel_mm_per_s
+            .min(line_cap(b.dir).vel_mm_per_s)
+            .min(feed);
+        // the blend's axis velocity cap and acceleration do not depend on its radius
+        let shape = ElementShape::blend(e1, e2, 1.0, theta);
+        let mut v_blend = feed;
+        let mut a_axis = f64::INFINITY;
+        for i in 0..3 {
+            if shape.vel_weight[i] > 1e-12 {
+                v_blend = v_blend.min(lim.vmax[i] / shape.vel_weight[i]);
+            }
+            if shape.acc_weight[i] > 1e-12 {
+                a_axis = a_axis.min(lim.amax[i] / shape.acc_weight[i]);
+            }
+        }
+        if !(v_blend.is_finite() && v_line.is_finite())
+            || theta * v_line <= 2.0 * (0.5 * theta).tan() * v_blend
+        {
+            return f64::INFINITY;
+        }
+        v_blend * v_blend / (crate::path::ARC_NORMAL_SHARE * a_axis)
+    }
+
     /// Blend at a line–line corner.
     fn blend_lines(&self, a: &Pending, b: &Pending) -> Option<Blend> {
         let (u1, u2) = (a.dir, b.dir);
@@ -767,16 +810,17 @@ impl PathBuilder {
         let tan_half = half.tan();
         let r_tol = a.tolerance_mm.min(b.tolerance_mm) / (1.0 / half.cos() - 1.0);
         let r_len = d_max / tan_half;
-        let r = r_tol.min(r_len);
+        let mut r = r_tol.min(r_len);
         if r.is_nan() || r <= 1e-9 {
             return None;
         }
+        let nrm = (u2 - u1 * cos_t).unit();
+        r = r.min(self.radius_for_speed(a, b, -nrm, u1, theta));
         let d = r * tan_half;
         let Geom::Line { end: a1, .. } = a.geom else {
             return None;
         };
         let p1 = a1 - u1 * d;
-        let nrm = (u2 - u1 * cos_t).unit();
         let center = p1 + nrm * r;
         let blend = Geom::Blend {
             center,

@@ -124,3 +124,40 @@ fn breaks_between_lines_and_arcs_at_full_tangential_acceleration_stay_within_lim
     let w5 = window_acc_ratio(&s, 5, &p);
     assert!(w5 <= 1.0 + 1e-9, "acceleration over 5 cycles {w5:.4}x");
 }
+
+/// A 90° corner between two diagonal traverses with no tolerance to speak of: the
+/// lines run at √2 of the axes' limit, any blend through the corner at the limit (it
+/// passes an axis direction), so the blend is the smallest that keeps that speed,
+/// r* = V²/(0.866·A) (62 mm here), not the largest the lines allow (141 mm).
+#[test]
+fn a_blend_slower_than_its_lines_is_only_as_large_as_its_speed_needs() {
+    let mut p = profile(FeedProfile::Trapezoidal);
+    p.planner.tolerance_mm = 1000.0;
+    let mut b = Builder::new(Vec3::ZERO);
+    b.rapid(200.0, 200.0, 0.0).rapid(400.0, 0.0, 0.0);
+    let plan = plan_of(&b, &p);
+    let s = run(&plan);
+    let r = limit_ratios(&s, &p);
+    assert!(r[0] <= 1.0 + 1e-9, "velocity {:.4}x", r[0]);
+    assert!(r[1] <= 1.0 + 1e-9, "acceleration {:.4}x", r[1]);
+    let corner = Vec3::new(200.0, 200.0, 0.0);
+    let closest = s
+        .iter()
+        .map(|x| (x.pos_mm - corner).norm())
+        .fold(f64::INFINITY, f64::min);
+    // a blend of radius r passes r·(√2 − 1) from the corner: 25.7 mm for r*,
+    // 58.6 mm for the largest
+    let a = p.max_acc()[0] * (1.0 - softnc_planner::build::KINK_SHARE);
+    let r_star = p.max_vel()[0].powi(2) / (softnc_planner::path::ARC_NORMAL_SHARE * a);
+    let want = r_star * (2f64.sqrt() - 1.0);
+    assert!(
+        (closest - want).abs() < 0.5,
+        "passes {closest:.2} mm from the corner, r* gives {want:.2} mm"
+    );
+    let v = path_speeds(&s, p.interpolation_cycle_s);
+    let top = v.iter().cloned().fold(0.0, f64::max);
+    assert!(
+        top > 1.4 * p.max_vel()[0],
+        "the diagonals run at √2·V: {top:.1}"
+    );
+}
