@@ -769,6 +769,11 @@ impl PathBuilder {
             return f64::INFINITY;
         }
         let feed = a.feed_mm_per_s.min(b.feed_mm_per_s);
+        // a feed below every axis's limit caps the blend as much as the lines
+        // (v_b ≥ min(F, min_i V_i) = F ≥ v_l, and θ ≤ 2·tan(θ/2))
+        if feed <= lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min) {
+            return f64::INFINITY;
+        }
         let line_cap =
             |dir: Vec3| element_limits(&ElementShape::line(1.0, dir), lim.vmax, lim.amax);
         let v_line = line_cap(a.dir)
@@ -1121,18 +1126,13 @@ fn junction_speed(
         let v_bound = v;
         // the kink share every element leaves
         let mut v_share = v_bound;
-        // the room the two elements leave
-        let mut v_room = v_bound;
         for i in 0..3 {
             let di = dt[i].abs();
             if di > 1e-12 {
-                let full = lim.amax[i] + lim.kink_acc[i];
-                let used = uses[0].on_axis(i).max(uses[1].on_axis(i));
-                let room = (full - used).max(lim.kink_acc[i]);
                 v_share = v_share.min(lim.kink_acc[i] * lim.cycle_s / di);
-                v_room = v_room.min(room * lim.cycle_s / di);
             }
         }
+        v = v_share;
         // More than the kink share only where no other tangent break can fall within
         // a cycle of this one: both elements at least a cycle's travel long (speed
         // within a cycle of the junction at most v + a·T). The sampled second
@@ -1140,7 +1140,20 @@ fn junction_speed(
         // then sum to at most 1, and a window of n cycles takes at most n of them.
         let v_spacing =
             uses[0].len_mm.min(uses[1].len_mm) / lim.cycle_s - lim.path_acc_bound() * lim.cycle_s;
-        v = v_share.max(v_room.min(v_spacing));
+        if v_share < v_bound && v_spacing > v_share {
+            // the room the two elements leave
+            let mut v_room = v_bound.min(v_spacing);
+            for i in 0..3 {
+                let di = dt[i].abs();
+                if di > 1e-12 {
+                    let full = lim.amax[i] + lim.kink_acc[i];
+                    let used = uses[0].on_axis(i).max(uses[1].on_axis(i));
+                    let room = (full - used).max(lim.kink_acc[i]);
+                    v_room = v_room.min(room * lim.cycle_s / di);
+                }
+            }
+            v = v_share.max(v_room);
+        }
     }
     if lim.profile == FeedProfile::SCurve {
         let dk = curvature_step();
