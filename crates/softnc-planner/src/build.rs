@@ -133,6 +133,9 @@ pub struct Limits {
     /// Largest feed override (`planner.max_feed_override`): a feed move never runs
     /// faster than its feed times this.
     pub max_feed_override: f64,
+    /// A bound on any element's path acceleration (mm/s²): the norm of the axes'
+    /// limits (a line's min_i A_i/|u_i| is at most that, since Σ u_i² = 1).
+    pub path_acc_bound_mm_per_s2: f64,
     /// S-curve only: global tangential acceleration (mm/s²).
     pub scurve_acc: f64,
     /// S-curve only: smoothing window (s).
@@ -140,15 +143,6 @@ pub struct Limits {
 }
 
 impl Limits {
-    /// A bound on any element's path acceleration (mm/s²): the norm of the axes'
-    /// limits (a line's min_i A_i/|u_i| is at most that, since Σ u_i² = 1).
-    pub fn path_acc_bound(&self) -> f64 {
-        (0..3)
-            .map(|i| (self.amax[i] + self.kink_acc[i]).powi(2))
-            .sum::<f64>()
-            .sqrt()
-    }
-
     /// Limits of a machine profile.
     pub fn from_profile(p: &MachineProfile) -> Limits {
         let vmax = p.max_vel();
@@ -173,6 +167,7 @@ impl Limits {
             acc_dec: p.planner.acc_dec,
             arc_blends: p.planner.arc_blends,
             max_feed_override: p.planner.max_feed_override,
+            path_acc_bound_mm_per_s2: p.max_acc().iter().map(|a| a * a).sum::<f64>().sqrt(),
             scurve_acc,
             scurve_window_s: window,
         }
@@ -948,6 +943,7 @@ impl PathBuilder {
             acc = acc.min(lim.scurve_acc);
             vel_cap = vel_cap.min(scurve_curve_cap(shape.curvature, lim));
         }
+        let acc_use = AccUse::of(shape, acc, vel_cap, m.feed_mm_per_s, lim);
         // the junction with the element before (not after a stop); a streamed path
         // keeps the last element (`drain_settled`), so n > 0 whenever base + n > 0
         let n = self.path.segs.len();
@@ -955,10 +951,7 @@ impl PathBuilder {
             let a = &mut self.path.segs[n - 1];
             if a.v_end_hard != 0.0 {
                 let prev_geom = &self.path.geoms[n - 1];
-                let uses = [
-                    self.prev_acc_use,
-                    AccUse::of(shape, acc, vel_cap, m.feed_mm_per_s, lim),
-                ];
+                let uses = [self.prev_acc_use, acc_use];
                 a.v_end_hard = junction_speed(
                     lim,
                     a.vel_cap,
@@ -989,7 +982,7 @@ impl PathBuilder {
         self.path.geoms.push(*geom);
         self.s0 += len;
         self.prev_end_tangent = shape.end_tangent;
-        self.prev_acc_use = AccUse::of(shape, acc, vel_cap, m.feed_mm_per_s, &self.lim);
+        self.prev_acc_use = acc_use;
         true
     }
 
@@ -1061,30 +1054,31 @@ fn sub_arc(prim: &Primitive, from: Vec3, to: Vec3) -> Primitive {
 #[derive(Debug, Clone, Copy, Default)]
 struct AccUse {
     weight: [f64; 3],
-    acc_mm_per_s2: f64,
-    curvature_per_mm: f64,
-    /// The element's highest speed: its cap, and its feed at the largest override.
-    top_mm_per_s: f64,
+    /// √(a_t² + (κ·v_top²)²), v_top the element's cap or its feed at the largest
+    /// override (its highest speed).
+    magnitude_mm_per_s2: f64,
     /// The element's length (mm).
     len_mm: f64,
 }
 
 impl AccUse {
     fn of(shape: &ElementShape, acc_mm_per_s2: f64, cap: f64, feed: f64, lim: &Limits) -> AccUse {
+        let v = cap.min(feed * lim.max_feed_override);
+        let a_n = shape.curvature * v * v;
         AccUse {
             weight: shape.acc_weight,
-            acc_mm_per_s2,
-            curvature_per_mm: shape.curvature,
-            top_mm_per_s: cap.min(feed * lim.max_feed_override),
+            magnitude_mm_per_s2: if a_n > 0.0 {
+                (acc_mm_per_s2 * acc_mm_per_s2 + a_n * a_n).sqrt()
+            } else {
+                acc_mm_per_s2
+            },
             len_mm: shape.len,
         }
     }
 
     /// The most of axis i's acceleration the element uses at any speed it runs at.
     fn on_axis(&self, i: usize) -> f64 {
-        let v = self.top_mm_per_s;
-        let a_n = self.curvature_per_mm * v * v;
-        self.weight[i] * self.acc_mm_per_s2.hypot(a_n)
+        self.weight[i] * self.magnitude_mm_per_s2
     }
 }
 
@@ -1124,12 +1118,14 @@ fn junction_speed(
     }
     if kink {
         let v_bound = v;
-        // the kink share every element leaves
+        // the kink share every element leaves; T/|Δt_i| kept for the room below
         let mut v_share = v_bound;
+        let mut t_over_dt = [0.0; 3];
         for i in 0..3 {
             let di = dt[i].abs();
             if di > 1e-12 {
-                v_share = v_share.min(lim.kink_acc[i] * lim.cycle_s / di);
+                t_over_dt[i] = lim.cycle_s / di;
+                v_share = v_share.min(lim.kink_acc[i] * t_over_dt[i]);
             }
         }
         v = v_share;
@@ -1138,18 +1134,21 @@ fn junction_speed(
         // within a cycle of the junction at most v + a·T). The sampled second
         // difference weighs the breaks within its two cycles by 1 − |τ|/T, which
         // then sum to at most 1, and a window of n cycles takes at most n of them.
-        let v_spacing =
-            uses[0].len_mm.min(uses[1].len_mm) / lim.cycle_s - lim.path_acc_bound() * lim.cycle_s;
-        if v_share < v_bound && v_spacing > v_share {
+        let v_spacing = if v_share < v_bound {
+            uses[0].len_mm.min(uses[1].len_mm) / lim.cycle_s
+                - lim.path_acc_bound_mm_per_s2 * lim.cycle_s
+        } else {
+            0.0
+        };
+        if v_spacing > v_share {
             // the room the two elements leave
             let mut v_room = v_bound.min(v_spacing);
-            for i in 0..3 {
-                let di = dt[i].abs();
-                if di > 1e-12 {
+            for (i, &t_dt) in t_over_dt.iter().enumerate() {
+                if t_dt > 0.0 {
                     let full = lim.amax[i] + lim.kink_acc[i];
                     let used = uses[0].on_axis(i).max(uses[1].on_axis(i));
                     let room = (full - used).max(lim.kink_acc[i]);
-                    v_room = v_room.min(room * lim.cycle_s / di);
+                    v_room = v_room.min(room * t_dt);
                 }
             }
             v = v_share.max(v_room);
