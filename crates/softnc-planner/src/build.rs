@@ -130,6 +130,12 @@ pub struct Limits {
     pub acc_dec: AccDec,
     /// Blend corners that involve arcs (`planner.arc_blends`).
     pub arc_blends: bool,
+    /// Largest feed override (`planner.max_feed_override`): a feed move never runs
+    /// faster than its feed times this.
+    pub max_feed_override: f64,
+    /// A bound on any element's path acceleration (mm/s²): the norm of the axes'
+    /// limits (a line's min_i A_i/|u_i| is at most that, since Σ u_i² = 1).
+    pub path_acc_bound_mm_per_s2: f64,
     /// S-curve only: global tangential acceleration (mm/s²).
     pub scurve_acc: f64,
     /// S-curve only: smoothing window (s).
@@ -160,6 +166,8 @@ impl Limits {
             profile: p.planner.feed_profile,
             acc_dec: p.planner.acc_dec,
             arc_blends: p.planner.arc_blends,
+            max_feed_override: p.planner.max_feed_override,
+            path_acc_bound_mm_per_s2: p.max_acc().iter().map(|a| a * a).sum::<f64>().sqrt(),
             scurve_acc,
             scurve_window_s: window,
         }
@@ -239,6 +247,8 @@ pub struct PathBuilder {
     s0: f64,
     /// End tangent of the last element pushed.
     prev_end_tangent: Vec3,
+    /// How much of each axis's acceleration the last element pushed may use.
+    prev_acc_use: AccUse,
     /// G64 Q: the G1 lines held back while they stay within Q of one line.
     chain: NaiveCamChain,
     /// Single block from the start (`PlanOptions::single_block`): every block
@@ -333,6 +343,7 @@ impl PathBuilder {
             last_point: None,
             s0: 0.0,
             prev_end_tangent: Vec3::ZERO,
+            prev_acc_use: AccUse::default(),
             chain: NaiveCamChain::default(),
             single_block: false,
             pending_stop_at_start: (StopKind::None, 0),
@@ -736,6 +747,54 @@ impl PathBuilder {
             && (0..3).all(|i| dt[i].abs() * v <= lim.kink_acc[i] * lim.cycle_s)
     }
 
+    /// The blend radius at which a line–line corner is fastest, if smaller than the
+    /// largest the tolerance and the lines allow (infinite otherwise). A blend of
+    /// radius r (at least r* = v_b²/(`ARC_NORMAL_SHARE`·a), where its centripetal cap
+    /// reaches v_b) runs at v_b, the lower of its axes' velocity cap and the feed,
+    /// which does not depend on r; it takes r·tan(θ/2) of each line, which run at v_l.
+    /// The corner's time, 2·(L/2 − r·tan(θ/2))/v_l + r·θ/v_b, is linear in r: where
+    /// θ/v_b > 2·tan(θ/2)/v_l (a blend slower than its lines: through a 90° corner
+    /// of two diagonals it passes an axis direction, the lines run at √2·V) the
+    /// smallest blend that keeps v_b, r*, is the fastest, and it also deviates less;
+    /// otherwise the largest. Trapezoidal profile only (the S-curve caps a blend by its
+    /// curvature as well).
+    fn radius_for_speed(&self, a: &Pending, b: &Pending, e1: Vec3, e2: Vec3, theta: f64) -> f64 {
+        let lim = &self.lim;
+        if lim.profile != FeedProfile::Trapezoidal {
+            return f64::INFINITY;
+        }
+        let feed = a.feed_mm_per_s.min(b.feed_mm_per_s);
+        // a feed below every axis's limit caps the blend as much as the lines
+        // (v_b ≥ min(F, min_i V_i) = F ≥ v_l, and θ ≤ 2·tan(θ/2))
+        if feed <= lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min) {
+            return f64::INFINITY;
+        }
+        let line_cap =
+            |dir: Vec3| element_limits(&ElementShape::line(1.0, dir), lim.vmax, lim.amax);
+        let v_line = line_cap(a.dir)
+            .vel_mm_per_s
+            .min(line_cap(b.dir).vel_mm_per_s)
+            .min(feed);
+        // the blend's axis velocity cap and acceleration do not depend on its radius
+        let shape = ElementShape::blend(e1, e2, 1.0, theta);
+        let mut v_blend = feed;
+        let mut a_axis = f64::INFINITY;
+        for i in 0..3 {
+            if shape.vel_weight[i] > 1e-12 {
+                v_blend = v_blend.min(lim.vmax[i] / shape.vel_weight[i]);
+            }
+            if shape.acc_weight[i] > 1e-12 {
+                a_axis = a_axis.min(lim.amax[i] / shape.acc_weight[i]);
+            }
+        }
+        if !(v_blend.is_finite() && v_line.is_finite())
+            || theta * v_line <= 2.0 * (0.5 * theta).tan() * v_blend
+        {
+            return f64::INFINITY;
+        }
+        v_blend * v_blend / (crate::path::ARC_NORMAL_SHARE * a_axis)
+    }
+
     /// Blend at a line–line corner.
     fn blend_lines(&self, a: &Pending, b: &Pending) -> Option<Blend> {
         let (u1, u2) = (a.dir, b.dir);
@@ -751,16 +810,17 @@ impl PathBuilder {
         let tan_half = half.tan();
         let r_tol = a.tolerance_mm.min(b.tolerance_mm) / (1.0 / half.cos() - 1.0);
         let r_len = d_max / tan_half;
-        let r = r_tol.min(r_len);
+        let mut r = r_tol.min(r_len);
         if r.is_nan() || r <= 1e-9 {
             return None;
         }
+        let nrm = (u2 - u1 * cos_t).unit();
+        r = r.min(self.radius_for_speed(a, b, -nrm, u1, theta));
         let d = r * tan_half;
         let Geom::Line { end: a1, .. } = a.geom else {
             return None;
         };
         let p1 = a1 - u1 * d;
-        let nrm = (u2 - u1 * cos_t).unit();
         let center = p1 + nrm * r;
         let blend = Geom::Blend {
             center,
@@ -883,6 +943,7 @@ impl PathBuilder {
             acc = acc.min(lim.scurve_acc);
             vel_cap = vel_cap.min(scurve_curve_cap(shape.curvature, lim));
         }
+        let acc_use = AccUse::of(shape, acc, vel_cap, m.feed_mm_per_s, lim);
         // the junction with the element before (not after a stop); a streamed path
         // keeps the last element (`drain_settled`), so n > 0 whenever base + n > 0
         let n = self.path.segs.len();
@@ -890,12 +951,14 @@ impl PathBuilder {
             let a = &mut self.path.segs[n - 1];
             if a.v_end_hard != 0.0 {
                 let prev_geom = &self.path.geoms[n - 1];
+                let uses = [self.prev_acc_use, acc_use];
                 a.v_end_hard = junction_speed(
                     lim,
                     a.vel_cap,
                     vel_cap,
                     self.prev_end_tangent,
                     shape,
+                    uses,
                     || geom.curvature_vec(false) - prev_geom.curvature_vec(true),
                 );
             }
@@ -919,6 +982,7 @@ impl PathBuilder {
         self.path.geoms.push(*geom);
         self.s0 += len;
         self.prev_end_tangent = shape.end_tangent;
+        self.prev_acc_use = acc_use;
         true
     }
 
@@ -983,16 +1047,59 @@ fn sub_arc(prim: &Primitive, from: Vec3, to: Vec3) -> Primitive {
     Primitive::arc(from, to, center, plane, turns)
 }
 
-/// Highest speed through the junction of two elements: a tangent break may use
-/// `KINK_SHARE` of each axis's acceleration over one cycle (S-curve: stop at it, and
-/// keep the curvature step within its jerk share); with acc/dec after interpolation
-/// the feed passes it unchanged, reversals excepted.
+/// What an element may ask of each axis's acceleration: its tangential acceleration
+/// `acc` and, on a curve, the centripetal κv². On axis i the two add up to
+/// |t_i·a_t + n_i·a_n| ≤ √(t_i² + n_i²)·√(a_t² + a_n²) ≤ weight_i·√(acc² + (κv²)²)
+/// (`ElementShape::acc_weight`: |u_i| on a line, √(t_i² + n_i²) on a curve).
+#[derive(Debug, Clone, Copy, Default)]
+struct AccUse {
+    weight: [f64; 3],
+    /// √(a_t² + (κ·v_top²)²), v_top the element's cap or its feed at the largest
+    /// override (its highest speed).
+    magnitude_mm_per_s2: f64,
+    /// The element's length (mm).
+    len_mm: f64,
+}
+
+impl AccUse {
+    fn of(shape: &ElementShape, acc_mm_per_s2: f64, cap: f64, feed: f64, lim: &Limits) -> AccUse {
+        let v = cap.min(feed * lim.max_feed_override);
+        let a_n = shape.curvature * v * v;
+        AccUse {
+            weight: shape.acc_weight,
+            magnitude_mm_per_s2: if a_n > 0.0 {
+                (acc_mm_per_s2 * acc_mm_per_s2 + a_n * a_n).sqrt()
+            } else {
+                acc_mm_per_s2
+            },
+            len_mm: shape.len,
+        }
+    }
+
+    /// The most of axis i's acceleration the element uses at any speed it runs at.
+    fn on_axis(&self, i: usize) -> f64 {
+        self.weight[i] * self.magnitude_mm_per_s2
+    }
+}
+
+/// Highest speed through the junction of two elements. A tangent break of Δt turns
+/// the velocity by v·Δt_i within one cycle: on each axis that takes v·|Δt_i|/T on top
+/// of what the elements on either side use there (the sampled second difference
+/// across the junction averages the two elements' accelerations and adds the step).
+/// So the step may use the room the two elements leave on each axis,
+/// A_i − max(use_a_i, use_b_i) with the uses of [`AccUse`] at the junction's speed
+/// bound — at least `KINK_SHARE` of A_i, which every element leaves (its limits are
+/// planned to `1 − KINK_SHARE`), and about half of A_i between two curves (whose
+/// tangential share is `ARC_TANGENTIAL_SHARE`). S-curve: stop at it, and keep the
+/// curvature step within its jerk share; with acc/dec after interpolation the feed
+/// passes it unchanged, reversals excepted.
 fn junction_speed(
     lim: &Limits,
     cap_a: f64,
     cap_b: f64,
     end_tangent_a: Vec3,
     b: &ElementShape,
+    uses: [AccUse; 2],
     curvature_step: impl Fn() -> Vec3,
 ) -> f64 {
     let mut v = cap_a.min(cap_b);
@@ -1010,12 +1117,41 @@ fn junction_speed(
         return 0.0;
     }
     if kink {
+        let v_bound = v;
+        // the kink share every element leaves; T/|Δt_i| kept for the room below
+        let mut v_share = v_bound;
+        let mut t_over_dt = [0.0; 3];
         for i in 0..3 {
             let di = dt[i].abs();
             if di > 1e-12 {
-                let lim_i = lim.kink_acc[i] * lim.cycle_s;
-                v = v.min(lim_i / di);
+                t_over_dt[i] = lim.cycle_s / di;
+                v_share = v_share.min(lim.kink_acc[i] * t_over_dt[i]);
             }
+        }
+        v = v_share;
+        // More than the kink share only where no other tangent break can fall within
+        // a cycle of this one: both elements at least a cycle's travel long (speed
+        // within a cycle of the junction at most v + a·T). The sampled second
+        // difference weighs the breaks within its two cycles by 1 − |τ|/T, which
+        // then sum to at most 1, and a window of n cycles takes at most n of them.
+        let v_spacing = if v_share < v_bound {
+            uses[0].len_mm.min(uses[1].len_mm) / lim.cycle_s
+                - lim.path_acc_bound_mm_per_s2 * lim.cycle_s
+        } else {
+            0.0
+        };
+        if v_spacing > v_share {
+            // the room the two elements leave
+            let mut v_room = v_bound.min(v_spacing);
+            for (i, &t_dt) in t_over_dt.iter().enumerate() {
+                if t_dt > 0.0 {
+                    let full = lim.amax[i] + lim.kink_acc[i];
+                    let used = uses[0].on_axis(i).max(uses[1].on_axis(i));
+                    let room = (full - used).max(lim.kink_acc[i]);
+                    v_room = v_room.min(room * t_dt);
+                }
+            }
+            v = v_share.max(v_room);
         }
     }
     if lim.profile == FeedProfile::SCurve {

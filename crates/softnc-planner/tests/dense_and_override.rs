@@ -172,10 +172,12 @@ fn planned_duration_matches_the_sample_stream() {
     }
 }
 
-/// Two arcs meeting with a 0.015 rad tangent break (like the learnt one-degree arcs of
-/// paper 004's radius ILC): the planner slows down at it (with `arc_blends` off, the
-/// default); with acc/dec after interpolation (a CNC without look-ahead, the FANUC
-/// 0-M of paper 004) the feed passes it unchanged.
+/// Two arcs meeting with a 0.1 rad tangent break: the planner slows down at it (with
+/// `arc_blends` off, the default: the break may use only the acceleration the arcs
+/// leave, about half of A, over one cycle; a 0.015 rad break like those of the learnt
+/// one-degree arcs of paper 004's radius ILC now passes at this feed, `tests/kinks.rs`);
+/// with acc/dec after interpolation (a CNC without look-ahead, the FANUC 0-M of paper
+/// 004) the feed passes it unchanged.
 #[test]
 fn acc_dec_after_interpolation_keeps_the_feed_through_tangent_breaks() {
     let feed = 2000.0;
@@ -187,11 +189,11 @@ fn acc_dec_after_interpolation_keeps_the_feed_through_tangent_breaks() {
         1,
         feed,
     );
-    // second arc about (0.3, 0): its tangent at (0, R) is turned by ≈ 0.3/R rad
-    let r2 = (0.3f64 * 0.3 + R * R).sqrt();
+    // second arc about (2, 0): its tangent at (0, R) is turned by ≈ 2/R rad
+    let r2 = (2.0f64 * 2.0 + R * R).sqrt();
     b.arc(
-        Vec3::new(0.3 - r2, 0.0, -1.0),
-        Vec3::new(0.3, 0.0, -1.0),
+        Vec3::new(2.0 - r2, 0.0, -1.0),
+        Vec3::new(2.0, 0.0, -1.0),
         Plane::XY,
         1,
         feed,

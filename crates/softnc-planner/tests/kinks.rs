@@ -1,0 +1,163 @@
+//! Small tangent breaks between arcs (CAM arcs that do not quite meet tangentially):
+//! passed at the room the elements on either side leave on each axis, not only at
+//! the kink share, and still within every limit on the samples (second differences
+//! and velocity changes over 5-cycle windows).
+
+mod common;
+use common::*;
+use softnc_core::{FeedProfile, Plane, Vec3};
+
+/// Arcs of radius `r_mm` between points `chord_deg` apart on a circle of radius
+/// `big_mm` about the origin: each meets the next with a tangent break of
+/// 2·(asin(c/2r) − asin(c/2R)).
+fn kinked_arcs(big_mm: f64, r_mm: f64, chord_deg: f64, n: usize, feed_mm_per_min: f64) -> Builder {
+    let at = |k: usize| {
+        let th = (k as f64 * chord_deg).to_radians();
+        Vec3::new(big_mm * th.cos(), big_mm * th.sin(), 0.0)
+    };
+    let mut b = Builder::new(at(0));
+    for k in 0..n {
+        let (p, q) = (at(k), at(k + 1));
+        // centre of the radius-r arc through p and q on the origin's side (CCW)
+        let mid = (p + q) * 0.5;
+        let half = (q - p).norm() * 0.5;
+        let towards_origin = (-mid).unit();
+        let center = mid + towards_origin * (r_mm * r_mm - half * half).sqrt();
+        b.arc(q, center, Plane::XY, 1, feed_mm_per_min);
+    }
+    b
+}
+
+/// Largest velocity change over `n` cycles per axis, as a ratio of the limit.
+fn window_acc_ratio(
+    s: &[softnc_planner::Sample],
+    n: usize,
+    p: &softnc_core::MachineProfile,
+) -> f64 {
+    let t = p.interpolation_cycle_s;
+    let am = p.max_acc();
+    let mut r = 0.0f64;
+    for w in s.windows(n + 2) {
+        for (i, a_lim) in am.iter().enumerate() {
+            let v0 = (w[1].pos_mm[i] - w[0].pos_mm[i]) / t;
+            let v1 = (w[n + 1].pos_mm[i] - w[n].pos_mm[i]) / t;
+            r = r.max((v1 - v0).abs() / (n as f64 * t) / a_lim);
+        }
+    }
+    r
+}
+
+fn path_speeds(s: &[softnc_planner::Sample], cycle_s: f64) -> Vec<f64> {
+    s.windows(2)
+        .map(|w| (w[1].pos_mm - w[0].pos_mm).norm() / cycle_s)
+        .collect()
+}
+
+#[test]
+fn small_breaks_between_arcs_pass_at_the_feed_within_limits() {
+    let p = profile(FeedProfile::Trapezoidal);
+    // chord 10° on R 40 (6.97 mm), arcs of R 38: breaks of 0.52° (0.0091 rad); the
+    // kink share alone (1 % of 3,000 mm/s² over 1 ms) allows 3.3 mm/s there
+    let feed = 3000.0;
+    let b = kinked_arcs(40.0, 38.0, 10.0, 30, feed);
+    let plan = plan_of(&b, &p);
+    let s = run(&plan);
+    let r = limit_ratios(&s, &p);
+    assert!(r[0] <= 1.0 + 1e-9, "velocity {:.4}x", r[0]);
+    assert!(r[1] <= 1.0 + 1e-9, "acceleration {:.4}x", r[1]);
+    let w5 = window_acc_ratio(&s, 5, &p);
+    assert!(w5 <= 1.0 + 1e-9, "acceleration over 5 cycles {w5:.4}x");
+    assert_eq!(s.last().unwrap().pos_mm, b.pos);
+    // between the first arc's end and the last arc's start the path keeps the feed
+    let v = path_speeds(&s, p.interpolation_cycle_s);
+    let (ramp, n) = (v.len() / 10, v.len());
+    let slowest = v[ramp..n - ramp]
+        .iter()
+        .cloned()
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        slowest >= 0.95 * feed / 60.0,
+        "slowest {slowest:.2} mm/s in the middle (feed {:.1})",
+        feed / 60.0
+    );
+}
+
+#[test]
+fn breaks_closer_than_a_cycle_keep_the_kink_share() {
+    let p = profile(FeedProfile::Trapezoidal);
+    // a polygon of nearly straight arcs (R 100) with corners 1° apart on a circle of
+    // R 2 mm (chords of 0.035 mm): breaks of about 0.017 rad all turning the same
+    // way. Each alone could take about 80 mm/s in the room the arcs leave, but then
+    // two or three would fall within a cycle and add up (a circle of R 2 mm at
+    // 80 mm/s needs 3,200 mm/s²); kept a cycle's travel apart they stay within it
+    let b = kinked_arcs(2.0, 100.0, 1.0, 700, 6000.0);
+    let plan = plan_of(&b, &p);
+    let s = run(&plan);
+    let r = limit_ratios(&s, &p);
+    assert!(r[0] <= 1.0 + 1e-9, "velocity {:.4}x", r[0]);
+    assert!(r[1] <= 1.0 + 1e-9, "acceleration {:.4}x", r[1]);
+    let w5 = window_acc_ratio(&s, 5, &p);
+    assert!(w5 <= 1.0 + 1e-9, "acceleration over 5 cycles {w5:.4}x");
+    assert_eq!(s.last().unwrap().pos_mm, b.pos);
+}
+
+#[test]
+fn breaks_between_lines_and_arcs_at_full_tangential_acceleration_stay_within_limits() {
+    // lines at their full tangential acceleration leave little room on their main
+    // axis: the break there takes what is left, never more
+    let p = profile(FeedProfile::Trapezoidal);
+    let mut b = Builder::new(Vec3::ZERO);
+    let f = 20_000.0;
+    b.line(30.0, 0.0, 0.0, f);
+    // an arc leaving 0.3° off the line's direction, then a line off its end tangent
+    let th = 0.3f64.to_radians();
+    let center = Vec3::new(30.0 - 50.0 * th.sin(), 50.0 * th.cos(), 0.0);
+    b.arc(Vec3::new(40.0, 1.2, 0.0), center, Plane::XY, 1, f)
+        .line(60.0, 4.0, 0.0, f)
+        .line(80.0, 4.5, 0.0, f)
+        .line(80.0, 4.5, 0.0, f);
+    let plan = plan_of(&b, &p);
+    let s = run(&plan);
+    let r = limit_ratios(&s, &p);
+    assert!(r[0] <= 1.0 + 1e-9, "velocity {:.4}x", r[0]);
+    assert!(r[1] <= 1.0 + 1e-9, "acceleration {:.4}x", r[1]);
+    let w5 = window_acc_ratio(&s, 5, &p);
+    assert!(w5 <= 1.0 + 1e-9, "acceleration over 5 cycles {w5:.4}x");
+}
+
+/// A 90° corner between two diagonal traverses with no tolerance to speak of: the
+/// lines run at √2 of the axes' limit, any blend through the corner at the limit (it
+/// passes an axis direction), so the blend is the smallest that keeps that speed,
+/// r* = V²/(0.866·A) (62 mm here), not the largest the lines allow (141 mm).
+#[test]
+fn a_blend_slower_than_its_lines_is_only_as_large_as_its_speed_needs() {
+    let mut p = profile(FeedProfile::Trapezoidal);
+    p.planner.tolerance_mm = 1000.0;
+    let mut b = Builder::new(Vec3::ZERO);
+    b.rapid(200.0, 200.0, 0.0).rapid(400.0, 0.0, 0.0);
+    let plan = plan_of(&b, &p);
+    let s = run(&plan);
+    let r = limit_ratios(&s, &p);
+    assert!(r[0] <= 1.0 + 1e-9, "velocity {:.4}x", r[0]);
+    assert!(r[1] <= 1.0 + 1e-9, "acceleration {:.4}x", r[1]);
+    let corner = Vec3::new(200.0, 200.0, 0.0);
+    let closest = s
+        .iter()
+        .map(|x| (x.pos_mm - corner).norm())
+        .fold(f64::INFINITY, f64::min);
+    // a blend of radius r passes r·(√2 − 1) from the corner: 25.7 mm for r*,
+    // 58.6 mm for the largest
+    let a = p.max_acc()[0] * (1.0 - softnc_planner::build::KINK_SHARE);
+    let r_star = p.max_vel()[0].powi(2) / (softnc_planner::path::ARC_NORMAL_SHARE * a);
+    let want = r_star * (2f64.sqrt() - 1.0);
+    assert!(
+        (closest - want).abs() < 0.5,
+        "passes {closest:.2} mm from the corner, r* gives {want:.2} mm"
+    );
+    let v = path_speeds(&s, p.interpolation_cycle_s);
+    let top = v.iter().cloned().fold(0.0, f64::max);
+    assert!(
+        top > 1.4 * p.max_vel()[0],
+        "the diagonals run at √2·V: {top:.1}"
+    );
+}
