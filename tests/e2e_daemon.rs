@@ -1770,9 +1770,16 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     let (ok, msg) = ask(&op, ControlKind::TouchOff, 0, 0.0, "");
     assert!(!ok && msg.contains("moving"), "{msg}");
     d.wait_job(&op, r.job_id, Duration::from_secs(60));
-    // a tool table edit
+    // a tool table edit; the tool loaded with its length offset stays for the next
+    // program
     let (ok, msg) = ask(&op, ControlKind::ToolSet, 5, 42.5, "6");
     assert!(ok, "{msg}");
+    let r = op.request(ControlKind::Mdi, 0.0, "T5 M6 G43").unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    d.wait_job(&op, r.job_id, Duration::from_secs(20));
+    let s = op.status().unwrap();
+    assert_eq!(s["tool"], 5, "{s}");
+    assert_eq!(s["offsets"]["tool_offset_mm"][2], 42.5, "{s}");
 
     // a restart keeps the offsets, the active system and the tools (not the homing)
     d.keep_dir = true;

@@ -206,6 +206,32 @@ impl Offsets {
         }
     }
 
+    /// With the tool in the spindle and the tool length offset in force that the
+    /// machine's modal state says (`T<n> M6`, `G43.1 Z<len>`; the reader writes
+    /// them, [`softnc_gcode::Program::end_modal`]).
+    pub fn with_modal(mut self, modal: Option<&str>) -> Offsets {
+        let Some(m) = modal else { return self };
+        let inch = m.lines().next().is_some_and(|l| l.trim() == "G20");
+        let words: Vec<&str> = m.split_whitespace().collect();
+        for (i, w) in words.iter().enumerate() {
+            if let Some(t) = w.strip_prefix('T') {
+                if words.get(i + 1) == Some(&"M6") {
+                    self.tool = t.parse().unwrap_or(self.tool);
+                }
+            }
+            if *w == "G43.1" {
+                let z = words
+                    .get(i + 1)
+                    .and_then(|z| z.strip_prefix('Z'))
+                    .and_then(|z| z.parse::<f64>().ok());
+                if let Some(z) = z {
+                    self.tool_mm[2] = if inch { z * 25.4 } else { z };
+                }
+            }
+        }
+        self
+    }
+
     /// Work coordinates (the active system's, G92 and tool offset taken off) of
     /// machine position `machine_mm`.
     pub fn work_mm(&self, machine_mm: [f64; 3]) -> [f64; 3] {
@@ -231,9 +257,14 @@ fn system_mm(p: &Params, n: usize) -> [f64; 3] {
     [0, 1, 2].map(|i| p.get(base + i))
 }
 
-/// Every coordinate system's origin and rotation, and G92, as JSON.
-pub fn offsets_json(params: Option<&Params>, profile: &MachineProfile) -> serde_json::Value {
-    let active = Offsets::from_params(params, profile);
+/// Every coordinate system's origin and rotation, G92, the tool and its offset (from
+/// the modal state), as JSON.
+pub fn offsets_json(
+    params: Option<&Params>,
+    modal: Option<&str>,
+    profile: &MachineProfile,
+) -> serde_json::Value {
+    let active = Offsets::from_params(params, profile).with_modal(modal);
     let systems: Vec<serde_json::Value> = (1..=9)
         .map(|n| {
             let (origin, rot) = match params {
@@ -315,6 +346,15 @@ mod tests {
         store.save_tools(&tools).unwrap();
         assert_eq!(store.profile(&prof).unwrap().tools[0].length_mm, 42.0);
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn the_tool_and_its_offset_come_from_the_modal_state() {
+        let o = Offsets::from_params(None, &profile())
+            .with_modal(Some("G21\nT3 M6\nF0 S0 G17 G43.1 Z32.3342 G91.1\n"));
+        assert_eq!((o.tool, o.tool_mm), (3, [0.0, 0.0, 32.3342]));
+        let o = Offsets::from_params(None, &profile()).with_modal(Some("G20\nF0 G43.1 Z1\n"));
+        assert_eq!(o.tool_mm[2], 25.4);
     }
 
     #[test]

@@ -1010,7 +1010,12 @@ impl MmiTask {
             ControlKind::Offsets => Self::reply(
                 true,
                 0,
-                &offsets_json(self.params.as_ref(), &self.cfg.machine).to_string(),
+                &offsets_json(
+                    self.params.as_ref(),
+                    self.modal.as_deref(),
+                    &self.cfg.machine,
+                )
+                .to_string(),
             ),
             ControlKind::Tools => match self.store.load_tools(&self.cfg.machine) {
                 Ok(t) => Self::reply(true, 0, &serde_json::to_string(&t).unwrap_or_default()),
@@ -1389,7 +1394,8 @@ impl MmiTask {
             .find(|j| j.outcome == "running")
             .or(self.jobs.last());
         let s = self.last;
-        let offsets = Offsets::from_params(self.params.as_ref(), &self.cfg.machine);
+        let offsets = Offsets::from_params(self.params.as_ref(), &self.cfg.machine)
+            .with_modal(self.modal.as_deref());
         let machine_mm = s.map(|s| [s.cmd_mm[0], s.cmd_mm[1], s.cmd_mm[2]]);
         serde_json::json!({
             "state": format!("{:?}", self.machine_state()),

@@ -296,6 +296,20 @@ fn the_modal_state_a_program_leaves_is_where_the_next_one_starts() {
     }
     assert_eq!(m.line, 2, "the preamble takes no line of the program");
     assert!(m.spindle_rpm > 0.0, "the spindle still turns");
+    // the tool in the spindle and its length offset stay (tool 1 of the profile)
+    let (tooled, _) = read("%\nT1 M6\nG43\n%\n", &ReadOptions::default()).unwrap();
+    assert!(tooled.end_modal.contains("T1 M6"), "{}", tooled.end_modal);
+    let len = profile().tool_length_mm(1).unwrap();
+    let options = ReadOptions {
+        preamble: Some(tooled.end_modal.clone()),
+        ..Default::default()
+    };
+    let (next, params) = read("%\nG0 Z0\n%\n", &options).unwrap();
+    let m = &next.motions[0];
+    // machine Z = the canonical end + the offset in force (the tool length)
+    let z = m.kind.end().unwrap().0[2] + m.offset_mm.0[2];
+    assert!((z - len).abs() < 1e-9, "Z0 with tool 1's length {len}: {z}");
+    let _ = params;
     // a program that ends with M2 leaves LinuxCNC's reset state
     let (ended, _) = read("G91 G55 M8\nM2\n", &ReadOptions::default()).unwrap();
     assert!(

@@ -181,10 +181,19 @@ impl Interp<'_> {
     pub(crate) fn modal_gcode(&self) -> String {
         let now = self.modal_now();
         let mut out = String::from(if now.inch { "G20\n" } else { "G21\n" });
+        // the tool in the spindle stays there
+        if self.tool_loaded != 0 {
+            out.push_str(&format!("T{} M6\n", self.tool_loaded));
+        }
         out.push_str(&format!("F{} S{}", now.feed, now.speed));
         for &(slot, code) in &now.g {
             // G92.x comes from the parameters the machine keeps
             if slot == 16 || slot == 11 && code == 640 {
+                continue;
+            }
+            if slot == 9 && code == 430 {
+                // the tool length offset in force, whichever H or G43.x set it
+                out.push_str(&format!(" G43.1 Z{}", self.tool_length_mm / self.scale()));
                 continue;
             }
             push_g(&mut out, code);
