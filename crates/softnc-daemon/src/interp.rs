@@ -416,18 +416,13 @@ impl InterpTask {
     ) -> Result<Option<PlannedJob>> {
         self.job_id = job_id;
         // the machine's offsets and tools, as the MMI checked the job with them
-        let setup = self.store.load_params().and_then(|params| {
-            let machine = self.store.profile(&self.cfg.machine)?;
-            let setup = JobSetup {
-                start_mm: self.machine_mm,
-                params,
-                switches: self.switches,
-                from_line,
-                subroutine_path: self.cfg.subroutine_path.clone(),
-                preamble: self.store.load_modal()?,
-            };
-            Ok((machine, setup))
-        });
+        let setup = self.store.job_setup(
+            &self.cfg.machine,
+            self.machine_mm,
+            self.switches,
+            from_line,
+            &self.cfg.subroutine_path,
+        );
         let checked = setup
             .and_then(|(machine, setup)| check_job(path, &machine, &setup).map(|c| (machine, c)));
         let (machine, (text, options, checked, _)) = match checked {

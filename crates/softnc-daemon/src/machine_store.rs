@@ -151,6 +151,29 @@ impl MachineStore {
             .map_err(|e| format!("{}: {e}", self.tools_path().display()))
     }
 
+    /// How the next job is read, from what the MMI saved: `profile` with the machine's
+    /// tool table, and the setup (its parameters and modal state) from `start_mm` with
+    /// the switches, the line to run from and the subroutine folders given. What the
+    /// interpolator and the position process's preparation both read a job with.
+    pub fn job_setup(
+        &self,
+        profile: &MachineProfile,
+        start_mm: [f64; 3],
+        switches: crate::interp::Switches,
+        from_line: Option<u32>,
+        subroutine_path: &[PathBuf],
+    ) -> Result<(MachineProfile, crate::interp::JobSetup), String> {
+        let setup = crate::interp::JobSetup {
+            start_mm,
+            params: self.load_params()?,
+            switches,
+            from_line,
+            subroutine_path: subroutine_path.to_vec(),
+            preamble: self.load_modal()?,
+        };
+        Ok((self.profile(profile)?, setup))
+    }
+
     /// `profile` with the machine's tool table: what programs are read with.
     pub fn profile(&self, profile: &MachineProfile) -> Result<MachineProfile, String> {
         let mut p = profile.clone();

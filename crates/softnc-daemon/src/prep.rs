@@ -286,21 +286,13 @@ impl<B: ServoBackend> Worker<B> {
                 tracing::info!("job {job_id}: preparing the position process");
                 // the job read as the interpolator reads it: the machine's offsets
                 // and tools
-                let setup = self.store.load_params().and_then(|params| {
-                    let machine = self.store.profile(&self.machine)?;
-                    let preamble = self.store.load_modal()?;
-                    Ok((
-                        machine,
-                        crate::interp::JobSetup {
-                            start_mm,
-                            params,
-                            switches,
-                            from_line,
-                            subroutine_path: self.subroutine_path.clone(),
-                            preamble,
-                        },
-                    ))
-                });
+                let setup = self.store.job_setup(
+                    &self.machine,
+                    start_mm,
+                    switches,
+                    from_line,
+                    &self.subroutine_path,
+                );
                 let (machine, setup) = match setup {
                     Ok(s) => s,
                     Err(e) => {
