@@ -81,6 +81,9 @@ pub struct AdaptiveForceControl {
     r: [f64; 2],
     samples: u64,
     rejected: u64,
+    /// An outside ceiling on the applied feed (the operator's override), below
+    /// `v_max`; infinite when none.
+    v_cap: f64,
 }
 
 /// Whether `m` can be the sampled plant of eq 5: two real poles in [0, 1) (condition 1:
@@ -126,6 +129,7 @@ impl AdaptiveForceControl {
             r: [0.0; 2],
             samples: 0,
             rejected: 0,
+            v_cap: f64::INFINITY,
             cfg,
         })
     }
@@ -138,6 +142,15 @@ impl AdaptiveForceControl {
     /// Covariance resets of the estimator so far.
     pub fn covariance_resets(&self) -> u64 {
         self.rls.resets()
+    }
+
+    /// A ceiling on the feed from the next sample on (the operator's override times
+    /// the programmed feed; `f64::INFINITY`: none). The ceiling acts like the clamp:
+    /// the anti-windup observer follows the feed applied under it, and it is applied
+    /// at once, past the rate limit (an operator turning the override down is obeyed
+    /// in one sample).
+    pub fn set_v_cap(&mut self, v_cap: f64) {
+        self.v_cap = v_cap;
     }
 
     /// The feed applied last.
@@ -205,7 +218,8 @@ impl AdaptiveForceControl {
             v_law.clamp(lo, hi)
         } else {
             self.u[0].clamp(lo, hi)
-        };
+        }
+        .min(self.v_cap);
         // the memory of a non-finite law output restarts from the applied feed
         let v_mem = if v_law.is_finite() { v_law } else { v };
         self.v = [v_mem, self.v[0]];
@@ -278,6 +292,41 @@ mod tests {
         for w in us.windows(2) {
             assert!((w[1] - w[0]).abs() <= 50.0 + 1e-9 && (0.0..=510.0).contains(&w[1]));
         }
+    }
+
+    #[test]
+    fn an_operator_cap_bounds_the_feed_at_once_and_the_loop_recovers_without_windup() {
+        let t_s = 0.1;
+        let m = zoh_second_order(1.7, 0.15, 0.3, t_s);
+        let mut ctl = AdaptiveForceControl::new(cfg(m), 200.0).unwrap();
+        let (mut y1, mut y2, mut u1, mut u2) = (0.0, 0.0, 200.0, 200.0);
+        let mut step = |ctl: &mut AdaptiveForceControl| {
+            let y = -m.phi1 * y1 - m.phi2 * y2 + m.theta1 * u1 + m.theta2 * u2;
+            let v = ctl.step(y, 450.0).v;
+            (y2, y1, u2, u1) = (y1, y, u1, v);
+            (y, v)
+        };
+        for _ in 0..100 {
+            step(&mut ctl);
+        }
+        // settled at 450 N ≈ 265 mm/min; the operator caps the feed at 150 mm/min
+        ctl.set_v_cap(150.0);
+        let (_, v) = step(&mut ctl);
+        assert_eq!(v, 150.0, "the cap is obeyed in one sample, past the rate limit");
+        for _ in 0..100 {
+            let (_, v) = step(&mut ctl);
+            assert!(v <= 150.0);
+        }
+        // released: back to the reference within the rate limit, no wound-up overshoot
+        ctl.set_v_cap(f64::INFINITY);
+        let mut peak: f64 = 0.0;
+        let mut last = (0.0, 0.0);
+        for _ in 0..150 {
+            last = step(&mut ctl);
+            peak = peak.max(last.0);
+        }
+        assert!((last.0 - 450.0).abs() < 1.0, "force {}", last.0);
+        assert!(peak < 450.0 * 1.1, "overshoot after the cap: {peak} N");
     }
 
     #[test]

@@ -121,6 +121,17 @@ impl ForceLoop {
         })
     }
 
+    /// The operator's override (fraction) as a ceiling on the loop's: the
+    /// controller's feed is capped at it from the next revolution on (see
+    /// [`AdaptiveForceControl::set_v_cap`]); the override in force now drops to it
+    /// at once when above.
+    pub fn set_override_cap(&mut self, cap_frac: f64) {
+        if let Some((c, _)) = self.controller.as_mut() {
+            c.set_v_cap(cap_frac * self.programmed_feed);
+        }
+        self.override_frac = self.override_frac.min(cap_frac);
+    }
+
     /// The override in force (fraction).
     pub fn override_frac(&self) -> f64 {
         self.override_frac

@@ -26,6 +26,51 @@ pub struct ForceProfile {
     pub controller: ForceControllerConfig,
     /// The experiments (the paper's cases I, II, III).
     pub cases: Vec<ForceCase>,
+    /// Adaptive feed on a running job (the daemon, `softnc sim --adaptive-force`):
+    /// which case's controller and reference, and the calibration in force.
+    #[serde(default)]
+    pub adaptive_feed: Option<AdaptiveFeed>,
+    /// The stock the simulated machine cuts (the simulated backend's cutting force
+    /// and feed-motor currents); `None`: the simulated machine cuts nothing.
+    #[serde(default)]
+    pub sim_workpiece: Option<SimWorkpiece>,
+}
+
+/// Adaptive feed on a running job: the force loop of paper 003 closed in the
+/// controller, its override capped by the operator's.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AdaptiveFeed {
+    /// Every job runs with adaptive feed (else only `job submit --adaptive-force`).
+    pub enabled: bool,
+    /// The case whose reference force, poles, spindle speed and programmed feed the
+    /// loop runs with (the override is the feed over that programmed feed).
+    pub case: String,
+    /// The force estimate's calibration I_q = a·F + b (003 eq 32), as `softnc
+    /// reproduce 003-force` fits it on this machine.
+    pub calibration: ForceCalibrationLine,
+}
+
+/// A fitted calibration line I_q = a·F + b (003 eq 32).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ForceCalibrationLine {
+    /// Slope a (A/N).
+    pub a_per_n: f64,
+    /// Offset b (A).
+    pub b_a: f64,
+}
+
+/// The stock on the simulated machine's table: a case's segments (depth and
+/// material along the feed axis) from `start_mm` on the feed axis, cut with the
+/// case's tool at its spindle speed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimWorkpiece {
+    /// The case whose tool, spindle speed and segments the stock is.
+    pub case: String,
+    /// Feed-axis position (mm) where the stock begins.
+    pub start_mm: f64,
 }
 
 /// A work material.
@@ -350,7 +395,30 @@ impl ForceProfile {
                 }
             }
         }
+        if let Some(a) = &self.adaptive_feed {
+            if self.case(&a.case).is_none() {
+                return Err(bad("adaptive_feed.case".into(), "no case of that name in force.cases"));
+            }
+            pos(a.calibration.a_per_n, "adaptive_feed.calibration.a_per_n")?;
+            if !a.calibration.b_a.is_finite() {
+                return Err(bad("adaptive_feed.calibration.b_a".into(), "must be finite"));
+            }
+        }
+        if let Some(w) = &self.sim_workpiece {
+            if self.case(&w.case).is_none() {
+                return Err(bad("sim_workpiece.case".into(), "no case of that name in force.cases"));
+            }
+            if !w.start_mm.is_finite() {
+                return Err(bad("sim_workpiece.start_mm".into(), "must be finite"));
+            }
+        }
         Ok(())
+    }
+
+    /// The case adaptive feed runs with (validated).
+    pub fn adaptive_case(&self) -> Option<(&AdaptiveFeed, &ForceCase)> {
+        let a = self.adaptive_feed.as_ref()?;
+        Some((a, self.case(&a.case)?))
     }
 
     fn check_names(

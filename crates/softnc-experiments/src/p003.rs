@@ -28,8 +28,7 @@ use crate::plot::{self, write_svg, Panel, Series};
 use crate::{Experiment, ExperimentId, RunOptions};
 use plotters::style::colors::{BLACK, BLUE, CYAN, GREEN, MAGENTA, RED};
 use softnc_adaptive::{
-    Arma2, ForceCalibration, ForceControlConfig, ForceEstimator, ForceLoop, ForceLoopConfig,
-    ForceLoopControl, RevolutionPeak, RlsConfig, ServoGains,
+    Arma2, ForceCalibration, ForceEstimator, ForceLoop, RevolutionPeak, ServoGains,
 };
 use softnc_core::force::{ForceCase, ForceEvent, ForceProfile};
 use softnc_core::MachineProfile;
@@ -38,8 +37,8 @@ use softnc_sim::pmsm::PmsmFeedMotor;
 use softnc_sim::{simulated_engine, Rng, SimOptions};
 use std::path::{Path, PathBuf};
 
-/// Random stream of the current sensors' noise.
-const STREAM_CURRENT_NOISE: u64 = 300;
+/// Random stream of the current sensors' noise: the simulated stock's.
+use softnc_sim::workpiece::STREAM_CURRENT_NOISE;
 /// Seconds per minute.
 const SECONDS_PER_MINUTE: f64 = 60.0;
 
@@ -163,38 +162,15 @@ pub fn run_cut(
     let t_rev = milling.revolution_s();
     let cycles_per_rev = ForceLoop::cycles_per_revolution(t_rev, h);
     let f_prog = spec.programmed_feed_mm_per_min;
-    let k = &force.controller;
-    let loop_control = control.map(|c| ForceLoopControl {
-        config: ForceControlConfig {
-            poles: c.poles,
-            t_s: cycles_per_rev as f64 * h,
-            rls: RlsConfig {
-                p0: k.rls.p0,
-                forgetting: k.rls.forgetting,
-                dead_zone: k.rls.dead_zone_n,
-                reset_trace: k.rls.reset_trace,
-            },
-            prior: softnc_adaptive::zoh_second_order(
-                k.prior.gain_n_per_mm_min,
-                k.prior.tau_s,
-                k.prior.tau_c_s,
-                cycles_per_rev as f64 * h,
-            ),
-            v_min: k.override_min * f_prog,
-            v_max: k.override_max * f_prog,
-            dv_max: k.override_step_max * f_prog,
-        },
-        force_ref_n: c.force_ref_n,
-    });
-    let mut force_loop = ForceLoop::new(ForceLoopConfig {
-        calibration: control.map(|c| c.calibration).unwrap_or(ForceCalibration {
-            a_per_n: 1.0,
-            b_a: 0.0,
-        }),
-        cycles_per_revolution: cycles_per_rev,
-        programmed_feed: f_prog,
-        control: loop_control,
-    })
+    let loop_cfg = softnc_servo::adaptive_feed::loop_config(
+        h,
+        &force.controller,
+        spec.spindle_rpm,
+        f_prog,
+        control.map(|c| (c.poles, c.force_ref_n, c.calibration)),
+    );
+    debug_assert_eq!(loop_cfg.cycles_per_revolution, cycles_per_rev);
+    let mut force_loop = ForceLoop::new(loop_cfg)
     .context("prior model")?;
     let mut true_peak = RevolutionPeak::default();
     let mut interp = plan.interpolator();

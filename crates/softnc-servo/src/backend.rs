@@ -84,10 +84,29 @@ pub trait ServoBackend {
     /// The spindle now turns at `rpm` (an S word took effect); backends whose
     /// machine has no spindle ignore it.
     fn set_spindle_rpm(&mut self, _rpm: f64) {}
+    /// Axis `axis`'s motor phase currents and electrical angle this cycle (paper
+    /// 003's force estimate reads them); `None` when the drive does not report them.
+    /// A CiA 402 drive maps its current feedback here (a vendor PDO with i_u, i_v
+    /// and the commutation angle; where a drive reports only the torque-producing
+    /// current 0x6078, the estimate would take I_q directly).
+    fn read_phase_currents(&self, _axis: usize) -> Option<PhaseCurrents> {
+        None
+    }
     /// The simulation-only inputs, when this backend is a simulated machine.
     fn simulated(&mut self) -> Option<&mut dyn SimulatedMachine> {
         None
     }
+}
+
+/// A motor's measured phase currents and electrical angle (paper 003 eq 24–28).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PhaseCurrents {
+    /// Measured phase current i_u (A).
+    pub i_u_a: f64,
+    /// Measured phase current i_v (A).
+    pub i_v_a: f64,
+    /// Electrical angle n_p·θ (rad).
+    pub theta_e_rad: f64,
 }
 
 /// Inputs and readings only a simulated machine has (a real drive has no use for

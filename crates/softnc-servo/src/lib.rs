@@ -10,8 +10,11 @@
 //! - [`trace`]: the per-cycle trace row and its CSV format.
 //! - [`loopback`]: a backend without dynamics (dry runs).
 //! - [`conformance`]: the checks every backend passes.
+//! - [`adaptive_feed`]: paper 003's force loop on a running job (currents in,
+//!   feed override out) and the interpolator's schedule of its overrides.
 #![warn(missing_docs)]
 
+pub mod adaptive_feed;
 pub mod backend;
 pub mod conformance;
 pub mod engine;
@@ -20,7 +23,7 @@ pub mod spindle;
 pub mod trace;
 
 pub use backend::{
-    AxisStatus, BackendError, CommandMode, ServoBackend, SimulatedMachine, MAX_AXES,
+    AxisStatus, BackendError, CommandMode, PhaseCurrents, ServoBackend, SimulatedMachine, MAX_AXES,
 };
 pub use engine::{CompensationDesignError, CycleEngine, CycleRecord, EngineError};
 pub use loopback::LoopbackBackend;

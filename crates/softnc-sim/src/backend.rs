@@ -5,9 +5,11 @@ use crate::encoder::Encoder;
 use crate::plant::Plant;
 use crate::resonance::Resonance;
 use crate::rng::Rng;
+use crate::workpiece::StockCut;
 use softnc_core::MachineProfile;
 use softnc_servo::{
-    AxisStatus, BackendError, CommandMode, ServoBackend, SimulatedMachine, MAX_AXES,
+    AxisStatus, BackendError, CommandMode, PhaseCurrents, ServoBackend, SimulatedMachine,
+    MAX_AXES,
 };
 
 /// Resolution reported when encoder quantisation is switched off (mm per count): fine
@@ -54,6 +56,8 @@ pub struct SimBackend {
     modes: [Option<Resonance>; MAX_AXES],
     cutting: Option<Cutting>,
     cutting_on: bool,
+    /// The stock the cutter goes through (the profile's `force.sim_workpiece`).
+    stock: Option<StockCut>,
     options: SimOptions,
     cycle_s: f64,
     cycle: u64,
@@ -96,6 +100,10 @@ impl SimBackend {
         } else {
             None
         };
+        let stock = profile
+            .force
+            .as_ref()
+            .and_then(|f| StockCut::from_profile(f, seed, options.noise));
         let mut b = SimBackend {
             plants,
             encoders,
@@ -103,6 +111,7 @@ impl SimBackend {
             modes,
             cutting,
             cutting_on: false,
+            stock,
             options,
             cycle_s,
             cycle: 0,
@@ -135,6 +144,11 @@ impl SimBackend {
             Some(m) => m.table_mm(),
             None => self.plants[i].pos_mm(),
         })
+    }
+
+    /// The stock on the table, when the profile has one.
+    pub fn stock(&self) -> Option<&StockCut> {
+        self.stock.as_ref()
     }
 
     /// The switches in force.
@@ -177,6 +191,9 @@ impl ServoBackend for SimBackend {
         }
         self.cycle = 0;
         self.currents = [0.0; MAX_AXES];
+        if let Some(s) = &mut self.stock {
+            s.reset();
+        }
         self.measure();
     }
     fn enable(&mut self) -> Result<(), BackendError> {
@@ -225,6 +242,11 @@ impl ServoBackend for SimBackend {
         }
         self.cycle += 1;
         self.measure();
+        if let Some(s) = &mut self.stock {
+            let i = s.feed_axis();
+            let measured_mm = self.counts[i] as f64 * self.encoders[i].mm_per_count();
+            s.cycle(self.plants[i].pos_mm(), measured_mm, self.cycle_s);
+        }
         Ok(())
     }
     fn read_counts(&self) -> [i64; MAX_AXES] {
@@ -235,6 +257,12 @@ impl ServoBackend for SimBackend {
     }
     fn read_status(&self) -> [AxisStatus; MAX_AXES] {
         self.status
+    }
+    fn read_phase_currents(&self, axis: usize) -> Option<PhaseCurrents> {
+        self.stock
+            .as_ref()
+            .filter(|s| s.feed_axis() == axis)
+            .map(|s| s.phases())
     }
     fn set_spindle_rpm(&mut self, rpm: f64) {
         let t_s = self.cycle as f64 * self.cycle_s;

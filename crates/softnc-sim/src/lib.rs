@@ -42,6 +42,8 @@ pub mod rng;
 pub mod sim;
 /// Karnopp stick–slip friction.
 pub mod stick_slip;
+/// The stock on the table and the feed motor cutting through it (paper 003).
+pub mod workpiece;
 /// Identified discrete velocity loops (paper 000 eq 35, 36).
 pub mod velocity_loop;
 
