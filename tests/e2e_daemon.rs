@@ -520,6 +520,123 @@ fn assert_same_trace(got: &[u8], want: &[u8]) {
     }
 }
 
+#[test]
+fn adaptive_force_in_the_daemon_holds_the_force_where_the_depth_changes_bit_for_bit_as_the_simulator(
+) {
+    // paper 003's case I on its machine: a cut through 2, 3.5 and 5 mm of duralumin
+    // with the force loop closed in the position process and its override applied by
+    // the interpolator; the operator's override (255 %) is its ceiling
+    let d = Daemon::start_on("adaptive", "Lockstep", true, "mch10-force.ron");
+    let op = d.operator();
+    let job = d.dir.join("cut.ngc");
+    std::fs::write(&job, "G21 G90 G17 G94\nS600 M3\nG1 X90 F200\nM5\nM2\n").unwrap();
+    let r = op.request(ControlKind::FeedOverride, 2.55, "").unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let r = op
+        .submit_job(&abs(&job), 0, softnc_ipc::JOB_ADAPTIVE_FORCE)
+        .unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(120));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    assert!(s["alarms"].as_array().unwrap().is_empty(), "{s}");
+    let jobs = op.jobs().unwrap();
+    let rec = jobs.iter().find(|j| j["job_id"] == r.job_id).unwrap();
+    assert_eq!(rec["adaptive_force"], true, "{rec}");
+
+    // the simulator, the same job: the same samples, overrides and machine
+    let profile = softnc_core::MachineProfile::load(&d.dir.join("machines/default.ron")).unwrap();
+    let latency = softnc_daemon::config::DaemonConfig::load(&d.config)
+        .unwrap()
+        .config
+        .lookahead_samples as u64;
+    let text = std::fs::read_to_string(&job).unwrap();
+    let program = softnc_gcode::read_program(&text, &job.display().to_string(), &profile).unwrap();
+    let plan = softnc_planner::plan(&program, &profile, &Default::default()).unwrap();
+    let mut engine = softnc_sim::simulated_engine(
+        &profile,
+        profile.servo.seed,
+        softnc_sim::SimOptions::default(),
+    );
+    engine
+        .set_spindle_schedule(&profile, plan.spindle_changes(), 1.0)
+        .unwrap();
+    let mut feed = softnc_servo::adaptive_feed::AdaptiveFeed::from_profile(&profile, 2.55).unwrap();
+    let sim_trace = d.dir.join("sim.csv");
+    let mut file = softnc_daemon::trace::TraceFile::create(&sim_trace).unwrap();
+    // per revolution: the stock's segment (None across a change) and its true peak force
+    let mut revs: Vec<(Option<usize>, f64)> = Vec::new();
+    let (mut peak, mut seg0, mut across) = (0.0f64, None, false);
+    softnc_sim::simulate_adaptive(
+        &mut engine,
+        plan.cycle_s(),
+        softnc_daemon::plan_samples::PlanSamples(plan.interpolator()),
+        &mut feed,
+        latency,
+        2.55,
+        |m| plan.motion_primitive(m as usize),
+        |row, engine, rev| {
+            file.row(row).unwrap();
+            let b = engine.backend();
+            let stock = b.stock().unwrap();
+            let seg = stock.segment_at(b.true_pos_mm()[0]);
+            across |= seg != seg0;
+            peak = peak.max(stock.force_n());
+            if rev.is_some() {
+                revs.push((if across { None } else { seg }, peak));
+                (peak, seg0, across) = (0.0, seg, false);
+            }
+        },
+    )
+    .unwrap();
+    file.finish().unwrap();
+    let want = std::fs::read(&sim_trace).unwrap();
+    let got = d.trace_of(r.job_id, want.len());
+    assert_same_trace(&got, &want);
+
+    // the force: at the reference within 5 % once settled in every depth
+    let (_, case) = profile.force.as_ref().unwrap().adaptive_case().unwrap();
+    let f_ref = case.force_ref_n;
+    let mut settled_feed_mm_per_s = Vec::new();
+    for (i, seg) in case.segments.iter().enumerate() {
+        let forces: Vec<f64> = revs
+            .iter()
+            .filter(|r| r.0 == Some(i))
+            .map(|r| r.1)
+            .collect();
+        let n = case.settled_revolutions as usize;
+        assert!(
+            forces.len() > n,
+            "segment {i}: {} revolutions",
+            forces.len()
+        );
+        let last = &forces[forces.len() - n..];
+        let mean = last.iter().sum::<f64>() / n as f64;
+        assert!(
+            (mean - f_ref).abs() <= 0.05 * f_ref,
+            "segment {i} ({} mm deep): {mean:.1} N against {f_ref} N",
+            seg.depth_mm
+        );
+        // the daemon's trace: the feed it ran at in the segment's settled stretch
+        // (X command advance per cycle, its last second before the segment ends)
+        let end_mm: f64 = case.segments[..=i].iter().map(|s| s.length_mm).sum();
+        let xs: Vec<f64> = String::from_utf8_lossy(&got)
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(1).unwrap().parse::<f64>().unwrap())
+            .filter(|x| *x < end_mm - 1.0 && *x > end_mm - 6.0)
+            .collect();
+        let v = (xs.last().unwrap() - xs[0]) / ((xs.len() - 1) as f64 * plan.cycle_s());
+        settled_feed_mm_per_s.push(v);
+    }
+    // slower in deeper cuts, faster than programmed in the shallow one (the loop
+    // raised the override above 100 %, within the operator's 255 %)
+    let f = &settled_feed_mm_per_s;
+    assert!(
+        f[0] > 200.0 / 60.0 && f[0] > f[1] && f[1] > f[2],
+        "{f:?} mm/s"
+    );
+}
+
 /// Contour-error RMS (µm) of a trace (its `contour_um` column, feed moves only).
 fn trace_contour_rms_um(trace: &[u8]) -> f64 {
     let (mut n, mut sq) = (0usize, 0.0f64);
@@ -710,6 +827,18 @@ fn a_bad_job_is_refused_with_its_position_and_nothing_moves() {
         assert_eq!(r.accepted, 0);
         assert!(r.message.as_str().contains(want), "{}", r.message.as_str());
     }
+    // adaptive feed on a machine without a force model: refused by name
+    let good = d.dir.join("good.ngc");
+    std::fs::write(&good, "G21 G90\nG1 X10 F600\nM2\n").unwrap();
+    let r = op
+        .submit_job(&abs(&good), 0, softnc_ipc::JOB_ADAPTIVE_FORCE)
+        .unwrap();
+    assert_eq!(r.accepted, 0);
+    assert!(
+        r.message.as_str().contains("force.adaptive_feed"),
+        "{}",
+        r.message.as_str()
+    );
     let s = op.status().unwrap();
     assert_eq!(s["state"], "Idle");
     assert!(s["job"].is_null(), "no job was started: {s}");

@@ -312,7 +312,10 @@ mod tests {
         // settled at 450 N ≈ 265 mm/min; the operator caps the feed at 150 mm/min
         ctl.set_v_cap(150.0);
         let (_, v) = step(&mut ctl);
-        assert_eq!(v, 150.0, "the cap is obeyed in one sample, past the rate limit");
+        assert_eq!(
+            v, 150.0,
+            "the cap is obeyed in one sample, past the rate limit"
+        );
         for _ in 0..100 {
             let (_, v) = step(&mut ctl);
             assert!(v <= 150.0);

@@ -177,6 +177,11 @@ pub enum JobCmd {
         /// clearance axis first), then the program runs on from there.
         #[arg(long)]
         from_line: Option<u32>,
+        /// Adaptive feed (paper 003): the force loop of the profile's
+        /// `force.adaptive_feed` drives the feed override, live; the operator's
+        /// feed override is its ceiling (at 100 % it can only slow the cut down).
+        #[arg(long)]
+        adaptive_force: bool,
     },
 }
 
@@ -197,17 +202,18 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
             file,
             wait,
             from_line,
+            adaptive_force,
         }) => {
             let abs = std::fs::canonicalize(&file).unwrap_or(file.clone());
             if from_line == Some(0) {
                 anyhow::bail!("--from-line: lines are numbered from 1");
             }
-            let r = op.request_axis(
-                ControlKind::StartJob,
-                from_line.unwrap_or(0),
-                0.0,
-                &abs.display().to_string(),
-            )?;
+            let flags = if adaptive_force {
+                softnc_ipc::JOB_ADAPTIVE_FORCE
+            } else {
+                0
+            };
+            let r = op.submit_job(&abs.display().to_string(), from_line.unwrap_or(0), flags)?;
             if r.accepted != 1 {
                 eprintln!("{}", r.message.as_str());
                 return Ok(ExitCode::from(crate::EXIT_REFUSED));
@@ -536,6 +542,16 @@ pub fn status_text(s: &serde_json::Value) -> String {
         }
         if let Some(path) = s["checking"].as_str() {
             let _ = writeln!(out, "    checking {path}");
+        }
+        let af = &s["adaptive_force"];
+        if !af.is_null() {
+            let _ = writeln!(
+                out,
+                "    adaptive force: override {:.0} %, {} revolutions, last force estimate {:.0} N",
+                f(&af["override"]) * 100.0,
+                af["revolutions"],
+                f(&af["force_n"])
+            );
         }
         let a = &j["accuracy"];
         let _ = writeln!(

@@ -5,8 +5,12 @@ use crate::cmd_plan::{load_machine, read_file};
 use anyhow::{Context, Result};
 use plotters::prelude::*;
 use softnc_core::{Primitive, Vec3};
+use softnc_daemon::plan_samples::PlanSamples;
 use softnc_servo::TraceRow;
-use softnc_sim::{simulate, simulated_engine, CommandSample, ErrorStats, SimOptions};
+use softnc_sim::{
+    simulate, simulate_adaptive, simulated_engine, CommandSample, ErrorStats, OverridableSamples,
+    SimOptions,
+};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -44,6 +48,21 @@ pub struct SimArgs {
     /// Learning store folder --learned reads (default: as `softnc learn`).
     #[arg(long)]
     store: Option<PathBuf>,
+    /// Feed override in percent in force from the start (as the daemon's `softnc
+    /// feed-override` before a job); with --adaptive-force the ceiling of the force
+    /// loop's override.
+    #[arg(long, value_name = "PCT", default_value_t = 100.0)]
+    feed_override: f64,
+    /// Close paper 003's force loop on the job (the profile's `force.adaptive_feed`,
+    /// the simulated stock of `force.sim_workpiece`), exactly as the daemon closes it
+    /// for `softnc job submit --adaptive-force`.
+    #[arg(long)]
+    adaptive_force: bool,
+    /// With --adaptive-force: samples between the cycle an override is computed at
+    /// and the sample it acts on (default: the daemon configuration's
+    /// `lookahead_samples`, as the daemon applies it).
+    #[arg(long, value_name = "SAMPLES")]
+    lookahead: Option<u64>,
 }
 
 /// Cycles between progress-bar updates.
@@ -117,7 +136,7 @@ fn robust_scale(values: impl Iterator<Item = f64>) -> f64 {
     }
 }
 
-pub fn run(args: SimArgs) -> Result<ExitCode> {
+pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
     let machine = match load_machine(args.machine.as_ref()) {
         Ok(m) => m,
         Err(e) => {
@@ -156,12 +175,48 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
     }
     let cycle_s = plan.cycle_s();
     let total = plan.stats().samples;
+    if args.adaptive_force && args.learned {
+        eprintln!("softnc: --adaptive-force re-times the job: not with --learned");
+        return Ok(ExitCode::from(crate::EXIT_REFUSED));
+    }
     let learned = if args.learned {
         match learned_correction(&args, &plan)? {
             Ok(c) => Some(c),
             Err(msg) => {
                 eprintln!("softnc sim --learned: {msg}");
                 return Ok(ExitCode::from(1));
+            }
+        }
+    } else {
+        None
+    };
+    let feed_override = args.feed_override / 100.0;
+    let max_override = machine.planner.max_feed_override;
+    if !(0.0..=max_override).contains(&feed_override) || (learned.is_some() && feed_override != 1.0)
+    {
+        eprintln!(
+            "softnc: --feed-override {} %: must be 0..={:.0} % (the planner's max_feed_override), and 100 % with --learned",
+            args.feed_override,
+            max_override * 100.0
+        );
+        return Ok(ExitCode::from(crate::EXIT_REFUSED));
+    }
+    let mut adaptive = if args.adaptive_force {
+        let latency = match args.lookahead {
+            Some(n) => n,
+            None => match softnc_daemon::config::DaemonConfig::load(config) {
+                Ok(l) => l.config.lookahead_samples as u64,
+                Err(e) => {
+                    eprintln!("softnc: --adaptive-force needs the daemon's lookahead (--lookahead N, or its configuration): {e}");
+                    return Ok(ExitCode::from(crate::EXIT_REFUSED));
+                }
+            },
+        };
+        match softnc_servo::adaptive_feed::AdaptiveFeed::from_profile(&machine, feed_override) {
+            Ok(a) => Some((a, latency, ForceLog::default())),
+            Err(e) => {
+                eprintln!("softnc: --adaptive-force: {e}");
+                return Ok(ExitCode::from(crate::EXIT_REFUSED));
             }
         }
     } else {
@@ -218,10 +273,17 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
     let path_of = |m: u32| plan.motion_primitive(m as usize);
     let samples: Box<dyn Iterator<Item = CommandSample>> = match &learned {
         Some(c) => Box::new(c.corrected(command_samples(&plan))),
-        None => Box::new(command_samples(&plan)),
+        None => {
+            let mut s = PlanSamples(plan.interpolator());
+            if feed_override != 1.0 {
+                // from rest: the first sample already runs at it (as the daemon)
+                s.set_feed_override(feed_override);
+            }
+            Box::new(s)
+        }
     };
     let started = Instant::now();
-    let report = simulate(&mut engine, cycle_s, samples, path_of, |row: &TraceRow| {
+    let mut on_row = |row: &TraceRow| {
         if let Some(w) = trace.as_mut() {
             if trace_err.is_none() {
                 if let Err(e) = w.row(row) {
@@ -254,7 +316,26 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
                 bar.set_position(row.cycle);
             }
         }
-    })
+    };
+    let report = match adaptive.as_mut() {
+        None => simulate(&mut engine, cycle_s, samples, path_of, on_row),
+        Some((feed, latency, log)) => {
+            drop(samples);
+            simulate_adaptive(
+                &mut engine,
+                cycle_s,
+                PlanSamples(plan.interpolator()),
+                feed,
+                *latency,
+                feed_override,
+                path_of,
+                |row, engine, rev| {
+                    on_row(row);
+                    log.cycle(engine.backend(), rev);
+                },
+            )
+        }
+    }
     .map_err(|e| anyhow::anyhow!("servo backend: {e}"))?;
     if let Some(e) = trace_err {
         return Err(e);
@@ -273,7 +354,11 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
     let um = 1000.0;
     let axis =
         |s: &ErrorStats| serde_json::json!({"max_abs": s.max_abs() * um, "rms": s.rms() * um});
+    let adaptive_summary = adaptive
+        .as_ref()
+        .map(|(_, latency, log)| log.summary(&machine, *latency));
     let summary = serde_json::json!({
+        "adaptive_force": adaptive_summary,
         "learned": learned.as_ref().map(|c| serde_json::json!({
             "entry": c.entry, "repetitions": c.repetitions, "max_abs_correction_um": c.max_abs_mm() * um,
         })),
@@ -306,6 +391,31 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
             wall_time_s,
             report.sim_time_s / wall_time_s.max(1e-12)
         )?;
+        if let Some(a) = &adaptive_summary {
+            writeln!(
+                out,
+                "adaptive force: {} revolutions, override {:.0}..{:.0} %, reference {:.0} N (override acts {} samples after its revolution)",
+                a["revolutions"],
+                a["override_range"][0].as_f64().unwrap_or(0.0) * 100.0,
+                a["override_range"][1].as_f64().unwrap_or(0.0) * 100.0,
+                a["force_ref_n"].as_f64().unwrap_or(0.0),
+                a["latency_samples"],
+            )?;
+            writeln!(out, "  segment  depth mm  force N  error %  est. N  feed mm/min  (settled: the segment's last revolutions)")?;
+            for g in a["segments"].as_array().into_iter().flatten() {
+                let f = |k: &str| g[k].as_f64().unwrap_or(f64::NAN);
+                writeln!(
+                    out,
+                    "  {:>7}  {:>8.1}  {:>7.1}  {:>7.2}  {:>6.1}  {:>11.1}",
+                    g["segment"],
+                    f("depth_mm"),
+                    f("force_n"),
+                    f("error_pct"),
+                    f("est_force_n"),
+                    f("feed_mm_per_min")
+                )?;
+            }
+        }
         if let Some(c) = &learned {
             writeln!(
                 out,
@@ -332,6 +442,106 @@ pub fn run(args: SimArgs) -> Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// One revolution of adaptive feed, as the simulated stock saw it.
+struct RevRecord {
+    /// The stock's segment the whole revolution was cut in (`None`: out of the
+    /// stock, or across a change).
+    segment: Option<usize>,
+    /// True peak cutting force of the revolution (N).
+    force_n: f64,
+    /// The loop's estimate (N).
+    est_force_n: f64,
+    /// The override it gave (fraction).
+    override_frac: f64,
+}
+
+/// The revolutions of an adaptive-feed run.
+#[derive(Default)]
+struct ForceLog {
+    peak_n: f64,
+    segment: Option<usize>,
+    straddled: bool,
+    started: bool,
+    revs: Vec<RevRecord>,
+}
+
+impl ForceLog {
+    /// After a cycle: the stock's force, and the revolution the loop closed.
+    fn cycle(
+        &mut self,
+        b: &softnc_sim::SimBackend,
+        rev: Option<softnc_servo::adaptive_feed::Revolution>,
+    ) {
+        let Some(stock) = b.stock() else { return };
+        let seg = stock.segment_at(b.true_pos_mm()[stock.feed_axis()]);
+        if !self.started {
+            self.segment = seg;
+            self.started = true;
+        }
+        self.straddled |= seg != self.segment;
+        self.peak_n = self.peak_n.max(stock.force_n());
+        if let Some(r) = rev {
+            self.revs.push(RevRecord {
+                segment: if self.straddled { None } else { seg },
+                force_n: self.peak_n,
+                est_force_n: r.est_force_n,
+                override_frac: r.override_frac,
+            });
+            self.peak_n = 0.0;
+            self.segment = seg;
+            self.straddled = false;
+        }
+    }
+
+    /// Per segment of the stock, the means over its last `settled_revolutions`
+    /// whole revolutions (as `softnc reproduce 003-force` reports its cases).
+    fn summary(&self, machine: &softnc_core::MachineProfile, latency: u64) -> serde_json::Value {
+        let Some((_, case)) = machine.force.as_ref().and_then(|f| f.adaptive_case()) else {
+            return serde_json::Value::Null;
+        };
+        let f_ref = case.force_ref_n;
+        let mean = |v: &[&RevRecord], f: fn(&RevRecord) -> f64| {
+            v.iter().map(|r| f(r)).sum::<f64>() / v.len().max(1) as f64
+        };
+        let segments: Vec<_> = case
+            .segments
+            .iter()
+            .enumerate()
+            .map(|(i, seg)| {
+                let revs: Vec<&RevRecord> =
+                    self.revs.iter().filter(|r| r.segment == Some(i)).collect();
+                let n = case.settled_revolutions as usize;
+                let last = &revs[revs.len().saturating_sub(n)..];
+                let force = mean(last, |r| r.force_n);
+                serde_json::json!({
+                    "segment": i,
+                    "depth_mm": seg.depth_mm,
+                    "material": seg.material,
+                    "revolutions": revs.len(),
+                    "force_n": force,
+                    "error_pct": (force - f_ref) / f_ref * 100.0,
+                    "est_force_n": mean(last, |r| r.est_force_n),
+                    "feed_mm_per_min": mean(last, |r| r.override_frac) * case.programmed_feed_mm_per_min,
+                })
+            })
+            .collect();
+        let (lo, hi) = self
+            .revs
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), r| {
+                (l.min(r.override_frac), h.max(r.override_frac))
+            });
+        serde_json::json!({
+            "case": case.name,
+            "force_ref_n": f_ref,
+            "latency_samples": latency,
+            "revolutions": self.revs.len(),
+            "override_range": [lo, hi],
+            "segments": segments,
+        })
+    }
 }
 
 /// The stored Markov correction of the job for --learned, or why there is none.
@@ -660,7 +870,39 @@ mod tests {
             spindle_override: 100.0,
             learned: false,
             store: None,
+            feed_override: 100.0,
+            adaptive_force: false,
+            lookahead: None,
         }
+    }
+
+    /// The daemon configuration (`--adaptive-force` reads its lookahead).
+    fn config() -> PathBuf {
+        ws("config/default.ron")
+    }
+
+    fn run_args(a: SimArgs) -> Result<ExitCode> {
+        run(a, &config())
+    }
+
+    #[test]
+    fn adaptive_force_needs_a_force_model_and_no_learned_correction() {
+        let prog = "crates/softnc-sim/tests/data/circle-r20-f400.ngc";
+        let mut a = args(prog, "config/machines/mill-friction.ron", None, 1);
+        a.adaptive_force = true;
+        let code = run_args(a).unwrap();
+        assert_eq!(
+            format!("{code:?}"),
+            format!("{:?}", ExitCode::from(crate::EXIT_REFUSED))
+        );
+        let mut a = args(prog, "config/machines/mch10-force.ron", None, 1);
+        a.adaptive_force = true;
+        a.learned = true;
+        let code = run_args(a).unwrap();
+        assert_eq!(
+            format!("{code:?}"),
+            format!("{:?}", ExitCode::from(crate::EXIT_REFUSED))
+        );
     }
 
     #[test]
@@ -672,7 +914,7 @@ mod tests {
         let mut files = Vec::new();
         for (i, seed) in [3, 3, 4].into_iter().enumerate() {
             let out = dir.join(format!("t{i}.csv"));
-            let code = run(args(prog, mach, Some(out.clone()), seed)).unwrap();
+            let code = run_args(args(prog, mach, Some(out.clone()), seed)).unwrap();
             assert_eq!(format!("{code:?}"), format!("{:?}", ExitCode::SUCCESS));
             files.push(std::fs::read(&out).unwrap());
         }
@@ -681,7 +923,7 @@ mod tests {
         let svg = dir.join("p.svg");
         let mut a = args(prog, mach, None, 3);
         a.plot = Some(svg.clone());
-        run(a).unwrap();
+        run(a, &config()).unwrap();
         let svg = std::fs::read_to_string(&svg).unwrap();
         assert!(
             svg.starts_with("<svg") && svg.contains("contour error"),
@@ -734,7 +976,7 @@ mod tests {
 
     #[test]
     fn a_bad_program_is_refused_with_status_2() {
-        let code = run(args(
+        let code = run_args(args(
             "crates/softnc-sim/tests/data/bad.ngc",
             "config/machines/mill-friction.ron",
             None,

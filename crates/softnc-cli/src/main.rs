@@ -74,7 +74,7 @@ fn main() -> ExitCode {
     let config = softnc_daemon::cli::find_config(cli.config.clone());
     let result: Result<ExitCode> = match cli.command {
         Command::Plan(args) => cmd_plan::run(args),
-        Command::Sim(args) => cmd_sim::run(args),
+        Command::Sim(args) => cmd_sim::run(args, &config),
         Command::Operator(cmd) => cmd_operator::run(cmd, &config),
         Command::Demo(args) => cmd_demo::run(args, &config),
         Command::Design(args) => cmd_design::run(args),

@@ -397,16 +397,25 @@ impl ForceProfile {
         }
         if let Some(a) = &self.adaptive_feed {
             if self.case(&a.case).is_none() {
-                return Err(bad("adaptive_feed.case".into(), "no case of that name in force.cases"));
+                return Err(bad(
+                    "adaptive_feed.case".into(),
+                    "no case of that name in force.cases",
+                ));
             }
             pos(a.calibration.a_per_n, "adaptive_feed.calibration.a_per_n")?;
             if !a.calibration.b_a.is_finite() {
-                return Err(bad("adaptive_feed.calibration.b_a".into(), "must be finite"));
+                return Err(bad(
+                    "adaptive_feed.calibration.b_a".into(),
+                    "must be finite",
+                ));
             }
         }
         if let Some(w) = &self.sim_workpiece {
             if self.case(&w.case).is_none() {
-                return Err(bad("sim_workpiece.case".into(), "no case of that name in force.cases"));
+                return Err(bad(
+                    "sim_workpiece.case".into(),
+                    "no case of that name in force.cases",
+                ));
             }
             if !w.start_mm.is_finite() {
                 return Err(bad("sim_workpiece.start_mm".into(), "must be finite"));

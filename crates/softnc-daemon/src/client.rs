@@ -56,12 +56,30 @@ impl Operator {
         value: f64,
         path: &str,
     ) -> Result<OperatorReply> {
+        self.send_request(kind, axis, value, 0, path)
+    }
+
+    /// Submit job `path`, from line `from_line` (0: the start), with job options
+    /// `flags` (bits: [`softnc_ipc::JOB_ADAPTIVE_FORCE`]).
+    pub fn submit_job(&self, path: &str, from_line: u32, flags: u32) -> Result<OperatorReply> {
+        self.send_request(ControlKind::StartJob, from_line, 0.0, flags, path)
+    }
+
+    fn send_request(
+        &self,
+        kind: ControlKind,
+        axis: u32,
+        value: f64,
+        flags: u32,
+        path: &str,
+    ) -> Result<OperatorReply> {
         let path = FixedStr::try_new(path)
             .map_err(|e| anyhow::anyhow!("path of {e}: refused, nothing sent"))?;
         let pending = self.client.send_copy(OperatorRequest {
             kind: kind.wire(),
             axis,
             value,
+            flags,
             path,
         })?;
         let timeout = match kind {

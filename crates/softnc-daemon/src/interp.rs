@@ -30,13 +30,14 @@ use crate::outbox::{InterpMsg, Outbox, OUTBOX_CAPACITY};
 use anyhow::{Context, Result};
 use softnc_ipc::{
     Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, FixedStr, Heartbeat,
-    MachineState, PositionStatus, ProcessId,
+    MachineState, PositionStatus, ProcessId, JOB_ADAPTIVE_FORCE,
 };
 use softnc_learning::{JobCorrection, LearningStore, Lookup};
 use softnc_planner::stream::{
     check_and_stream, check_program, stream_program, CheckedProgram, StreamInterpolator, StreamMode,
 };
 use softnc_planner::{PlanOptions, ReadPlanError};
+use softnc_servo::adaptive_feed::OverrideSchedule;
 use std::fmt::Write;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -64,6 +65,8 @@ pub struct InterpTask {
     machine_mm: [f64; 3],
     /// The operator's program-flow switches, as the MMI last set them.
     switches: Switches,
+    /// The job about to be planned runs with adaptive feed (its `StartJob`'s flag).
+    adaptive_next: bool,
     /// The machine's parameter file and tool table: a job is read with them.
     store: crate::machine_store::MachineStore,
     shutdown: bool,
@@ -98,6 +101,8 @@ pub struct PlannedJob {
     /// The feed override in force when the job starts (fraction).
     feed_override: f64,
     learned: Option<JobCorrection>,
+    /// With adaptive feed: the position process's force loop gives the override.
+    adaptive: bool,
 }
 
 impl PlannedJob {
@@ -132,6 +137,8 @@ pub struct Streaming<'p> {
     consumed: Option<u64>,
     sent_last: bool,
     operator_override: f64,
+    /// Adaptive feed: the force loop's overrides in flight and in force.
+    force: Option<ForceOverride>,
     held: bool,
     aborting: bool,
     /// The last planned sample, repeated while a learned correction still runs out.
@@ -141,7 +148,28 @@ pub struct Streaming<'p> {
     _job: std::marker::PhantomData<&'p mut PlannedJob>,
 }
 
+/// The interpolator's side of adaptive feed.
+#[derive(Debug, Clone, Copy)]
+struct ForceOverride {
+    /// The position process's overrides, each due `lookahead` samples after the
+    /// sample it was computed at (as `softnc sim --adaptive-force` applies them).
+    schedule: OverrideSchedule,
+    /// The force loop's override in force (fraction).
+    override_frac: f64,
+    /// Revolutions already scheduled.
+    revolutions: u64,
+}
+
 impl Streaming<'_> {
+    /// The override the path runs at when neither held nor stopping: the
+    /// operator's, or with adaptive feed the force loop's capped by it.
+    fn running_override(&self) -> f64 {
+        match &self.force {
+            Some(f) => f.override_frac.min(self.operator_override),
+            None => self.operator_override,
+        }
+    }
+
     /// Samples sent so far.
     pub fn sent(&self) -> u64 {
         self.next_seq
@@ -188,6 +216,7 @@ impl InterpTask {
             job_id: 0,
             machine_mm: [0.0; 3],
             switches: Switches::default(),
+            adaptive_next: false,
             store,
             shutdown: false,
             stop: StopWatch::manual(),
@@ -224,6 +253,7 @@ impl InterpTask {
                         tracing::info!("job {}: planning {}", c.job_id, c.path.as_str());
                         let waits = self.outbox.waits();
                         let from_line = (c.axis != 0 && c.axis != u32::MAX).then_some(c.axis);
+                        self.adaptive_next = c.flags & JOB_ADAPTIVE_FORCE != 0;
                         let end =
                             self.run_job(c.path.as_str(), c.job_id, feed_override, from_line)?;
                         tracing::info!("job {} {:?}", c.job_id, end);
@@ -442,10 +472,16 @@ impl InterpTask {
             checked,
             feed_override,
             learned: None,
+            adaptive: std::mem::take(&mut self.adaptive_next),
         };
-        // a learned correction belongs to the feed override it was learned at
-        let override_pct = (feed_override * 100.0).round() as u32;
-        job.learned = self.learned(&job, override_pct)?;
+        if job.adaptive {
+            // a learned correction belongs to a job that is not re-timed
+            self.note("adaptive feed re-times the job: no learned correction applied")?;
+        } else {
+            // a learned correction belongs to the feed override it was learned at
+            let override_pct = (feed_override * 100.0).round() as u32;
+            job.learned = self.learned(&job, override_pct)?;
+        }
         Ok(Some(job))
     }
 
@@ -475,9 +511,15 @@ impl InterpTask {
             .context("starting the plan's producer thread")?;
         // before motion: the window filled (allocation happens here, not later)
         it.fill();
-        if job.feed_override != 1.0 {
+        // adaptive feed: the force loop starts at 100 %, capped by the operator's
+        let start_override = if job.adaptive {
+            job.feed_override.min(1.0)
+        } else {
+            job.feed_override
+        };
+        if start_override != 1.0 {
             // from rest: the first sample already runs at the operator's override
-            it.set_feed_override(job.feed_override);
+            it.set_feed_override(start_override);
         }
         Ok(Streaming {
             job_id: job.job_id,
@@ -491,6 +533,11 @@ impl InterpTask {
             consumed: None,
             sent_last: false,
             operator_override: job.feed_override,
+            force: job.adaptive.then(|| ForceOverride {
+                schedule: OverrideSchedule::new(self.cfg.config.lookahead_samples as u64),
+                override_frac: 1.0,
+                revolutions: 0,
+            }),
             held: false,
             aborting: false,
             end_hold: None,
@@ -522,6 +569,13 @@ impl InterpTask {
             self.machine_mm = [st.cmd_mm[0], st.cmd_mm[1], st.cmd_mm[2]];
             if st.job_id == job_id {
                 s.consumed = Some(s.consumed.map_or(st.seq, |c: u64| c.max(st.seq)));
+                // adaptive feed: a revolution closed at sample `seq`
+                if let Some(f) = s.force.as_mut() {
+                    if st.force_revolutions > f.revolutions && st.force_override.is_finite() {
+                        f.revolutions = st.force_revolutions;
+                        f.schedule.push(st.seq, st.force_override);
+                    }
+                }
             }
             let stopped = matches!(
                 MachineState::from_wire(st.state),
@@ -535,6 +589,7 @@ impl InterpTask {
         // a stop asked for by a signal or the supervisor's death: as a Shutdown
         let stop_now = !self.shutdown && self.stop.requested().is_some();
         let mut pending = stop_now.then(|| ControlCommand {
+            flags: 0,
             seq: 0,
             kind: ControlKind::Shutdown.wire(),
             job_id: 0,
@@ -577,7 +632,7 @@ impl InterpTask {
                 Some(ControlKind::FeedOverride) => {
                     s.operator_override = c.value;
                     if !s.held && !s.aborting {
-                        s.it.set_feed_override(s.operator_override);
+                        s.it.set_feed_override(s.running_override());
                     }
                 }
                 Some(ControlKind::Hold) => {
@@ -589,7 +644,7 @@ impl InterpTask {
                 // single block) then
                 Some(ControlKind::Resume) if !s.aborting && s.held => {
                     s.held = false;
-                    s.it.set_feed_override(s.operator_override);
+                    s.it.set_feed_override(s.running_override());
                     self.state = MachineState::Running;
                 }
                 Some(ControlKind::Resume) if !s.aborting => {
@@ -669,6 +724,15 @@ impl InterpTask {
                     *h
                 }
                 None => {
+                    // adaptive feed: the force loop's override due at this sample
+                    let due = s.force.as_mut().and_then(|f| {
+                        let v = f.schedule.due(s.next_seq)?;
+                        f.override_frac = v;
+                        Some(v)
+                    });
+                    if due.is_some() && !s.held && !s.aborting {
+                        s.it.set_feed_override(s.running_override());
+                    }
                     let Some(sample) = s.it.next() else { break };
                     sample
                 }

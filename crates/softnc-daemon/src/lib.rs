@@ -21,6 +21,8 @@
 //!   or the parent's death, systemd's readiness and watchdog.
 //! - [`cli`]: shared start-up of the binaries.
 //! - [`trace`]: per-cycle CSV traces, written off the cycle path.
+//! - [`plan_samples`]: a plan's samples for the offline simulator, their feed
+//!   override open to adaptive feed as the interpolation process opens it.
 //! - [`client`]: the operator client (request-response to the MMI).
 #![warn(missing_docs)]
 
@@ -35,6 +37,7 @@ pub mod machine_store;
 pub mod manual;
 pub mod mmi;
 pub mod outbox;
+pub mod plan_samples;
 pub mod position;
 pub mod prep;
 pub mod supervisor;

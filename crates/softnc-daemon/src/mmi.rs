@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 use softnc_core::store::write_atomic;
 use softnc_ipc::{
     Alarm, AlarmCode, ControlCommand, ControlKind, FixedStr, Heartbeat, LoopStats, MachineState,
-    OperatorReply, OperatorRequest, PositionStatus, ProcessId,
+    OperatorReply, OperatorRequest, PositionStatus, ProcessId, JOB_ADAPTIVE_FORCE,
 };
 use softnc_planner::PlanStats;
 use std::collections::VecDeque;
@@ -64,6 +64,9 @@ pub struct JobRecord {
     /// The line a run-from-line job started at.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub from_line: Option<u32>,
+    /// The job ran with adaptive feed (paper 003's force loop on the override).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub adaptive_force: bool,
 }
 
 impl JobRecord {
@@ -200,7 +203,11 @@ type CheckResult = std::result::Result<
 #[derive(Debug, Clone, PartialEq)]
 enum CheckKind {
     /// A job from a file (from a line).
-    Job { from_line: Option<u32> },
+    Job {
+        from_line: Option<u32>,
+        /// With adaptive feed.
+        adaptive_force: bool,
+    },
     /// MDI block(s).
     Mdi { text: String },
     /// A touch-off (a G10 L20 block: no motion).
@@ -333,6 +340,18 @@ impl MmiTask {
         value: f64,
         path: &str,
     ) -> Result<()> {
+        self.send_control_flags(kind, job_id, axis, value, 0, path)
+    }
+
+    fn send_control_flags(
+        &mut self,
+        kind: ControlKind,
+        job_id: u64,
+        axis: u32,
+        value: f64,
+        flags: u32,
+        path: &str,
+    ) -> Result<()> {
         self.control_seq += 1;
         self.control.send_copy(ControlCommand {
             seq: self.control_seq,
@@ -340,6 +359,7 @@ impl MmiTask {
             job_id,
             axis,
             value,
+            flags,
             path: FixedStr::try_new(path)?,
         })?;
         Ok(())
@@ -727,7 +747,7 @@ impl MmiTask {
             params: self.params.clone(),
             switches: self.switches,
             from_line: match kind {
-                CheckKind::Job { from_line } => from_line,
+                CheckKind::Job { from_line, .. } => from_line,
                 _ => None,
             },
             subroutine_path: self.cfg.subroutine_path.clone(),
@@ -829,10 +849,13 @@ impl MmiTask {
                     .duration_since(SystemTime::UNIX_EPOCH)
                     .map(|d| d.as_secs())
                     .unwrap_or(0);
-                let (mdi, from_line) = match &c.kind {
-                    CheckKind::Job { from_line } => (None, *from_line),
-                    CheckKind::Mdi { text } => (Some(text.clone()), None),
-                    CheckKind::TouchOff { what } => (Some(what.clone()), None),
+                let (mdi, from_line, adaptive_force) = match &c.kind {
+                    CheckKind::Job {
+                        from_line,
+                        adaptive_force,
+                    } => (None, *from_line, *adaptive_force),
+                    CheckKind::Mdi { text } => (Some(text.clone()), None, false),
+                    CheckKind::TouchOff { what } => (Some(what.clone()), None, false),
                 };
                 // nothing to move (a G10, G92, G5x block, a touch-off): done here
                 let moves = stats.moves > 0;
@@ -852,6 +875,7 @@ impl MmiTask {
                     sha256: Some(job.sha256.clone()),
                     mdi,
                     from_line,
+                    adaptive_force,
                 });
                 self.save_jobs();
                 if !moves {
@@ -868,11 +892,16 @@ impl MmiTask {
                     // the feed override is the machine's, not the job's: the job
                     // starts at the one in force (carried here, so a restarted
                     // interpolator knows it)
-                    self.send_control_axis(
+                    self.send_control_flags(
                         ControlKind::StartJob,
                         job_id,
                         from_line.unwrap_or(0),
                         self.feed_override,
+                        if adaptive_force {
+                            JOB_ADAPTIVE_FORCE
+                        } else {
+                            0
+                        },
                         &copy,
                     )?;
                     let what = if matches!(c.kind, CheckKind::Job { .. }) {
@@ -924,7 +953,33 @@ impl MmiTask {
                 // its immutable copy; on a thread of its own (a long program takes a
                 // while) — the loop goes on serving status and E-stop
                 let from_line = (r.axis != 0 && r.axis != u32::MAX).then_some(r.axis);
-                return Ok(self.begin_check(path, CheckKind::Job { from_line }));
+                // adaptive feed: asked for, or the profile's default; only on a
+                // machine whose profile has the force loop
+                let adaptive_feed = self
+                    .cfg
+                    .machine
+                    .force
+                    .as_ref()
+                    .and_then(|f| f.adaptive_feed.as_ref());
+                let adaptive_force =
+                    r.flags & JOB_ADAPTIVE_FORCE != 0 || adaptive_feed.is_some_and(|a| a.enabled);
+                if adaptive_force && adaptive_feed.is_none() {
+                    return Ok(Some(Self::reply(
+                        false,
+                        0,
+                        &format!(
+                            "adaptive force refused: the machine profile {} has no force.adaptive_feed section; nothing started",
+                            self.cfg.machine_path.display()
+                        ),
+                    )));
+                }
+                return Ok(self.begin_check(
+                    path,
+                    CheckKind::Job {
+                        from_line,
+                        adaptive_force,
+                    },
+                ));
             }
             ControlKind::Mdi => {
                 let text = r.path.as_str().to_string();
@@ -1422,9 +1477,15 @@ impl MmiTask {
             "feed_override": self.feed_override,
             "spindle_override": s.map(|s| s.spindle_override),
             "spindle_rpm": s.map(|s| s.spindle_rpm),
+            "adaptive_force": s.filter(|s| s.job_id != 0 && s.force_override.is_finite()).map(|s| serde_json::json!({
+                "override": s.force_override,
+                "revolutions": s.force_revolutions,
+                "force_n": s.force_n.is_finite().then_some(s.force_n),
+            })),
             "job": job.map(|j| serde_json::json!({
                 "job_id": j.job_id, "path": j.path, "outcome": j.outcome,
                 "program": j.program, "mdi": j.mdi, "from_line": j.from_line,
+                "adaptive_force": j.adaptive_force,
                 "cycles": j.cycles, "planned_samples": j.planned_samples,
                 "path_mm": j.path_mm, "planned_path_mm": j.planned_path_mm,
                 "progress": j.progress(),

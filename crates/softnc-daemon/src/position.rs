@@ -101,6 +101,11 @@ pub struct PositionTask<B: ServoBackend> {
     last_job_id: u64,
     /// Bit i: axis i is homed.
     homed: u32,
+    /// The running job's force loop (adaptive feed), when it runs with one.
+    adaptive: Option<softnc_servo::adaptive_feed::AdaptiveFeed>,
+    /// A feed hold, an abort or a stop is in force: the force loop stands (the feed
+    /// is the operator's, not its own).
+    feed_held: bool,
     /// Jogs and homing between jobs.
     manual: Manual,
     /// Their trace (`trace: true`), the whole process's life.
@@ -215,6 +220,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             in_position_timeout_cycles,
             last_job_id: 0,
             homed,
+            adaptive: None,
+            feed_held: false,
             manual,
             manual_trace,
             cycles: 0,
@@ -381,6 +388,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     // the cycle, swapped in before motion
                     self.requested_job = c.job_id;
                     self.from_line = (c.axis != 0 && c.axis != u32::MAX).then_some(c.axis);
+                    self.feed_held = false;
                     self.prep.request(PrepRequest::Job {
                         job_id: c.job_id,
                         path: c.path,
@@ -388,6 +396,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                         start_mm: self.last_cmd,
                         from_line: self.from_line,
                         switches: self.switches,
+                        adaptive_cap: (c.flags & softnc_ipc::JOB_ADAPTIVE_FORCE != 0)
+                            .then_some(c.value),
                     });
                 }
                 Some(ControlKind::MachineOn) if self.state == MachineState::Off => {
@@ -463,6 +473,15 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     self.manual.stop();
                 }
                 Some(k) if self.switches.apply(k, c.value) => {}
+                // adaptive feed: the operator's override caps the force loop's; a
+                // hold or an abort stops it (the interpolator owns the override)
+                Some(ControlKind::FeedOverride) => {
+                    if let Some(a) = self.adaptive.as_mut() {
+                        a.set_override_cap(c.value);
+                    }
+                }
+                Some(ControlKind::Hold | ControlKind::Abort) => self.feed_held = true,
+                Some(ControlKind::Resume) => self.feed_held = false,
                 Some(ControlKind::SpindleOverride) => {
                     // the MMI checked the profile's range
                     self.spindle_override = c.value;
@@ -541,6 +560,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 start_mm: self.last_cmd,
                 from_line: None,
                 switches: self.switches,
+                // (a restarted process does not know the job's options: without)
+                adaptive_cap: None,
             });
         }
         self.last_cmd = start;
@@ -630,6 +651,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         std::mem::swap(&mut self.primitives, &mut p.primitives);
         std::mem::swap(&mut self.lines, &mut p.lines);
         std::mem::swap(&mut self.trace, &mut p.trace);
+        std::mem::swap(&mut self.adaptive, &mut p.adaptive);
         self.engine.reset(self.start_mm);
         self.job_ready = true;
         if let Some((axis, msg)) = p.error.take() {
@@ -806,6 +828,13 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 ctrl_out: [0.0; 3],
             }
         };
+        // the force loop (adaptive feed) on the cycles that step the job's samples,
+        // as the simulator steps it: its override goes out in the status
+        if let (Some(a), Some(_)) = (self.adaptive.as_mut(), ring_motion) {
+            if !self.feed_held && self.dry.is_none() {
+                a.cycle(self.engine.backend());
+            }
+        }
         let fe = rec.following_mm;
         // 4. faults: following error
         if matches!(self.state, MachineState::Running | MachineState::Held) {
@@ -882,7 +911,15 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 _ => 0,
             },
             homed: self.homed,
+            force_override: f64::NAN,
+            force_revolutions: 0,
+            force_n: f64::NAN,
         };
+        if let (Some(a), true) = (&self.adaptive, self.job_id != 0) {
+            status.force_override = a.override_frac();
+            status.force_revolutions = a.revolutions();
+            status.force_n = a.last().map_or(f64::NAN, |r| r.est_force_n);
+        }
         status.cmd_mm[..3].copy_from_slice(&cmd);
         status.actual_mm[..3].copy_from_slice(&rec.actual_mm);
         status.following_err_mm[..3].copy_from_slice(&fe);

@@ -16,6 +16,7 @@ use crate::position::EngineFactory;
 use crossbeam_queue::ArrayQueue;
 use softnc_core::{MachineProfile, Primitive};
 use softnc_ipc::FixedStr;
+use softnc_servo::adaptive_feed::AdaptiveFeed;
 use softnc_servo::spindle::{SpindleDesigner, SpindleDesigns};
 use softnc_servo::{CycleEngine, ServoBackend};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -45,6 +46,9 @@ pub enum PrepRequest {
         from_line: Option<u32>,
         /// The operator's switches when it started.
         switches: crate::interp::Switches,
+        /// With adaptive feed: the operator's override when it started (the force
+        /// loop's ceiling); `None` without.
+        adaptive_cap: Option<f64>,
     },
     /// Redesign job `job_id`'s PDC tables at spindle override `spindle_override`.
     SpindleOverride {
@@ -70,6 +74,8 @@ pub struct JobPrep<B: ServoBackend> {
     /// Why its spindle speeds cannot be followed (axis, message): the job faults
     /// before motion.
     pub error: Option<(usize, String)>,
+    /// Its force loop (adaptive feed), when it runs with one.
+    pub adaptive: Option<AdaptiveFeed>,
 }
 
 /// Where job traces go.
@@ -282,6 +288,7 @@ impl<B: ServoBackend> Worker<B> {
                 start_mm,
                 from_line,
                 switches,
+                adaptive_cap,
             } => {
                 tracing::info!("job {job_id}: preparing the position process");
                 // the job read as the interpolator reads it: the machine's offsets
@@ -314,6 +321,15 @@ impl<B: ServoBackend> Worker<B> {
                     match crate::trace::TraceSink::start(&file, to.lossless) {
                         Ok(t) => prep.trace = Some(t),
                         Err(e) => tracing::warn!("cannot trace to {}: {e}", file.display()),
+                    }
+                }
+                if let Some(cap) = adaptive_cap {
+                    match AdaptiveFeed::from_profile(&machine, cap) {
+                        Ok(a) => prep.adaptive = Some(a),
+                        Err(e) => {
+                            prep.error
+                                .get_or_insert((usize::MAX, format!("job {job_id}: {e}")));
+                        }
                     }
                 }
                 self.job = Some((job_id, designer));
@@ -415,6 +431,7 @@ pub fn prepare_job<B: ServoBackend>(
             lines,
             trace: None,
             error,
+            adaptive: None,
         },
         designer,
     )

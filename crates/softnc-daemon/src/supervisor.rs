@@ -345,6 +345,7 @@ impl Supervisor {
         use iceoryx2_bb_posix::process::{Process, ProcessId as Pid};
         use iceoryx2_bb_posix::signal::Signal;
         let _ = self.control_pub.send_copy(ControlCommand {
+            flags: 0,
             seq: u64::MAX,
             kind: ControlKind::Shutdown.wire(),
             job_id: 0,

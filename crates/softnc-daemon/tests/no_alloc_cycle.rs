@@ -123,6 +123,7 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed
     // the machine on (a position process starts with its drives off)
     control
         .send_copy(ControlCommand {
+            flags: 0,
             seq: 0,
             kind: ControlKind::MachineOn.wire(),
             job_id: 0,
@@ -157,6 +158,7 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed
         if let (50, Some(v)) = (i, spindle_override) {
             control
                 .send_copy(ControlCommand {
+                    flags: 0,
                     seq: 1,
                     kind: ControlKind::SpindleOverride.wire(),
                     job_id: 0,
@@ -216,6 +218,7 @@ fn homing_and_jogging_allocate_nothing_on_the_cycle() {
     let send = |seq: u64, kind: ControlKind, axis: u32, value: f64| {
         control
             .send_copy(ControlCommand {
+                flags: 0,
                 seq,
                 kind: kind.wire(),
                 job_id: 0,

@@ -70,6 +70,9 @@ fn status(seq: u64, job_id: u64) -> PositionStatus {
         motion: 0,
         line: 0,
         homed: 0,
+        force_override: f64::NAN,
+        force_revolutions: 0,
+        force_n: f64::NAN,
     }
 }
 
@@ -175,6 +178,7 @@ fn run_counted(
             if at == i {
                 control
                     .send_copy(ControlCommand {
+                        flags: 0,
                         seq: i as u64,
                         kind: kind.wire(),
                         job_id: 0,

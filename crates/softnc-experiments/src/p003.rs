@@ -170,8 +170,7 @@ pub fn run_cut(
         control.map(|c| (c.poles, c.force_ref_n, c.calibration)),
     );
     debug_assert_eq!(loop_cfg.cycles_per_revolution, cycles_per_rev);
-    let mut force_loop = ForceLoop::new(loop_cfg)
-    .context("prior model")?;
+    let mut force_loop = ForceLoop::new(loop_cfg).context("prior model")?;
     let mut true_peak = RevolutionPeak::default();
     let mut interp = plan.interpolator();
     let mut rows = Vec::new();

@@ -18,5 +18,6 @@ pub use fixed_str::{FixedStr, TooLong};
 pub use names::ServiceNames;
 pub use payload::{
     Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, Heartbeat, LoopStats,
-    MachineState, OperatorReply, OperatorRequest, PositionStatus, ProcessId, MAX_AXES,
+    MachineState, OperatorReply, OperatorRequest, PositionStatus, ProcessId, JOB_ADAPTIVE_FORCE,
+    MAX_AXES,
 };

@@ -123,6 +123,15 @@ pub struct PositionStatus {
     pub line: u32,
     /// Bit i set: axis i is homed (its machine coordinates are referenced).
     pub homed: u32,
+    /// Adaptive feed: the override the force loop gives (fraction), from sample
+    /// `seq` + the lookahead on; NaN when the job runs without it.
+    pub force_override: f64,
+    /// Adaptive feed: spindle revolutions the force loop has closed in this job (a
+    /// new override each).
+    pub force_revolutions: u64,
+    /// Adaptive feed: the last revolution's estimated peak cutting force (N); NaN
+    /// without it.
+    pub force_n: f64,
 }
 
 /// Which process.
@@ -261,9 +270,15 @@ pub struct ControlCommand {
     /// Argument: the override fraction (for `StartJob`: the feed override in force,
     /// which the job starts at).
     pub value: f64,
+    /// Job options for `StartJob` (bits: [`JOB_ADAPTIVE_FORCE`]); 0 otherwise.
+    pub flags: u32,
     /// Job file for `StartJob`.
     pub path: FixedStr<512>,
 }
+
+/// Job option: the job runs with adaptive feed (paper 003's force loop drives the
+/// feed override, capped by the operator's).
+pub const JOB_ADAPTIVE_FORCE: u32 = 1;
 
 /// Alarm codes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -328,6 +343,8 @@ pub struct OperatorRequest {
     pub axis: u32,
     /// Argument.
     pub value: f64,
+    /// Job options for `StartJob` (bits: [`JOB_ADAPTIVE_FORCE`]); 0 otherwise.
+    pub flags: u32,
     /// Job file.
     pub path: FixedStr<512>,
 }

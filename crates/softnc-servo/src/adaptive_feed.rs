@@ -11,9 +11,11 @@
 //!   applied from the sample it is due at).
 
 use crate::ServoBackend;
+/// What the loop did at the end of a revolution (the force estimate, the override).
+pub use softnc_adaptive::Revolution;
 use softnc_adaptive::{
     zoh_second_order, ForceCalibration, ForceControlConfig, ForceLoop, ForceLoopConfig,
-    ForceLoopControl, PlacementError, Revolution, RlsConfig,
+    ForceLoopControl, PlacementError, RlsConfig,
 };
 use softnc_core::force::ForceControllerConfig;
 use softnc_core::MachineProfile;
@@ -97,9 +99,17 @@ impl AdaptiveFeed {
     /// The loop of the profile's `force.adaptive_feed` (its case's reference, poles,
     /// spindle speed and programmed feed), override 100 % capped at `cap_frac` (the
     /// operator's override when the job starts).
-    pub fn from_profile(profile: &MachineProfile, cap_frac: f64) -> Result<Self, AdaptiveFeedError> {
-        let force = profile.force.as_ref().ok_or(AdaptiveFeedError::NotConfigured)?;
-        let (a, case) = force.adaptive_case().ok_or(AdaptiveFeedError::NotConfigured)?;
+    pub fn from_profile(
+        profile: &MachineProfile,
+        cap_frac: f64,
+    ) -> Result<Self, AdaptiveFeedError> {
+        let force = profile
+            .force
+            .as_ref()
+            .ok_or(AdaptiveFeedError::NotConfigured)?;
+        let (a, case) = force
+            .adaptive_case()
+            .ok_or(AdaptiveFeedError::NotConfigured)?;
         let k = &force.controller;
         let calibration = ForceCalibration {
             a_per_n: a.calibration.a_per_n,

@@ -8,8 +8,7 @@ use crate::rng::Rng;
 use crate::workpiece::StockCut;
 use softnc_core::MachineProfile;
 use softnc_servo::{
-    AxisStatus, BackendError, CommandMode, PhaseCurrents, ServoBackend, SimulatedMachine,
-    MAX_AXES,
+    AxisStatus, BackendError, CommandMode, PhaseCurrents, ServoBackend, SimulatedMachine, MAX_AXES,
 };
 
 /// Resolution reported when encoder quantisation is switched off (mm per count): fine

@@ -42,16 +42,19 @@ pub mod rng;
 pub mod sim;
 /// Karnopp stick–slip friction.
 pub mod stick_slip;
-/// The stock on the table and the feed motor cutting through it (paper 003).
-pub mod workpiece;
 /// Identified discrete velocity loops (paper 000 eq 35, 36).
 pub mod velocity_loop;
+/// The stock on the table and the feed motor cutting through it (paper 003).
+pub mod workpiece;
 
 pub use backend::{SimBackend, SimOptions};
 pub use metrics::ErrorStats;
 pub use plant::Plant;
 pub use rng::Rng;
-pub use sim::{simulate, simulate_observed, CommandSample, SimReport};
+pub use sim::{
+    simulate, simulate_adaptive, simulate_observed, simulate_sequenced, CommandSample,
+    OverridableSamples, SimReport,
+};
 
 use softnc_core::MachineProfile;
 use softnc_servo::CycleEngine;

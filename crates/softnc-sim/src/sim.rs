@@ -3,6 +3,7 @@
 
 use crate::metrics::ErrorStats;
 use softnc_core::{CommandRing, Primitive, RingSample, Vec3, COMMAND_RING_CAPACITY};
+use softnc_servo::adaptive_feed::{AdaptiveFeed, OverrideSchedule, Revolution};
 use softnc_servo::{BackendError, CycleEngine, ServoBackend, TraceRow, MAX_AXES};
 use std::collections::VecDeque;
 
@@ -67,6 +68,27 @@ where
     P: Fn(u32) -> Option<Primitive>,
     F: FnMut(&TraceRow, &CycleEngine<B>),
 {
+    simulate_sequenced(engine, cycle_s, samples, path, |row, engine, _| {
+        observe(row, engine)
+    })
+}
+
+/// [`simulate_observed`], with `observe` also told the sequence number of the
+/// sample the cycle used (0 for the job's first; the lead-in and run-out use the
+/// first and the last) — the `seq` the position process reports in its status.
+pub fn simulate_sequenced<B, I, P, F>(
+    engine: &mut CycleEngine<B>,
+    cycle_s: f64,
+    samples: I,
+    path: P,
+    mut observe: F,
+) -> Result<SimReport, BackendError>
+where
+    B: ServoBackend,
+    I: IntoIterator<Item = CommandSample>,
+    P: Fn(u32) -> Option<Primitive>,
+    F: FnMut(&TraceRow, &CycleEngine<B>, u64),
+{
     let mut samples = samples.into_iter().peekable();
     let mut report = SimReport::default();
     let Some(first) = samples.peek() else {
@@ -121,6 +143,7 @@ where
                 contour_mm,
             },
             engine,
+            ring.source_index(),
         );
         report.cycles += 1;
         let source = ring.source_index();
@@ -133,4 +156,69 @@ where
     }
     report.sim_time_s = report.cycles as f64 * cycle_s;
     Ok(report)
+}
+
+/// A command stream whose feed override can change between samples (the planner's
+/// interpolator): what adaptive feed steers.
+pub trait OverridableSamples: Iterator<Item = CommandSample> {
+    /// The feed override (fraction) from the next sample on.
+    fn set_feed_override(&mut self, override_frac: f64);
+}
+
+/// [`simulate_sequenced`] with adaptive feed (paper 003) closed as the daemon closes
+/// it: `feed` steps on every cycle after the machine's; the override it gives at the
+/// cycle that used sample `seq` acts from sample `seq + latency` on (the daemon's
+/// `lookahead_samples`: the position process reports it, the interpolator applies it
+/// to the first sample it has not sent), capped by `operator_override` (fraction),
+/// and the job starts at 100 % capped the same way. `observe` also sees each
+/// revolution the loop closed.
+///
+/// # Panics
+/// When `latency` is not beyond the samples the simulator reads ahead (the filter
+/// window and one): the override would act on a sample already read.
+#[allow(clippy::too_many_arguments)]
+pub fn simulate_adaptive<B, I, P, F>(
+    engine: &mut CycleEngine<B>,
+    cycle_s: f64,
+    samples: I,
+    feed: &mut AdaptiveFeed,
+    latency: u64,
+    operator_override: f64,
+    path: P,
+    mut observe: F,
+) -> Result<SimReport, BackendError>
+where
+    B: ServoBackend,
+    I: OverridableSamples,
+    P: Fn(u32) -> Option<Primitive>,
+    F: FnMut(&TraceRow, &CycleEngine<B>, Option<Revolution>),
+{
+    assert!(
+        latency > engine.filter_window() as u64 + 1,
+        "adaptive feed: a latency of {latency} samples is within the simulator's read-ahead"
+    );
+    let schedule = std::cell::RefCell::new(OverrideSchedule::new(latency));
+    let mut samples = samples;
+    feed.set_override_cap(operator_override);
+    let start = operator_override.min(1.0);
+    if start != 1.0 {
+        samples.set_feed_override(start);
+    }
+    let mut next_seq = 0u64;
+    let mut force_frac = 1.0f64;
+    let stream = std::iter::from_fn(|| {
+        if let Some(v) = schedule.borrow_mut().due(next_seq) {
+            force_frac = v;
+            samples.set_feed_override(force_frac.min(operator_override));
+        }
+        next_seq += 1;
+        samples.next()
+    });
+    simulate_sequenced(engine, cycle_s, stream, path, |row, engine, seq| {
+        let rev = feed.cycle(engine.backend());
+        if let Some(r) = rev {
+            schedule.borrow_mut().push(seq, r.override_frac);
+        }
+        observe(row, engine, rev)
+    })
 }

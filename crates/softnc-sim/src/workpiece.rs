@@ -44,11 +44,7 @@ impl StockCut {
             start_mm: w.start_mm,
             cut: CutProfile::from_case(force, case),
             milling: MillingProcess::new(tool, case.spindle_rpm),
-            motor: PmsmFeedMotor::new(
-                &force.motor,
-                Rng::stream(seed, STREAM_CURRENT_NOISE),
-                noise,
-            ),
+            motor: PmsmFeedMotor::new(&force.motor, Rng::stream(seed, STREAM_CURRENT_NOISE), noise),
             last_pos_mm: None,
             force_n: 0.0,
             phases: PhaseCurrents::default(),
