@@ -73,8 +73,8 @@ fn update(ilc: &mut RadiusIlc, y_mm: &[f64], last: &mut Option<Last>, a: &Args) 
         step_mm: vec![0.0; POINTS],
         gain: vec![ilc.alpha; POINTS],
     };
-    for i in 0..POINTS {
-        let e = y_mm[i] - ilc.desired_mm;
+    for (i, y) in y_mm.iter().enumerate().take(POINTS) {
+        let e = y - ilc.desired_mm;
         let gain = match (last.as_ref(), a.law) {
             (Some(l), Law::Secant) => {
                 let s = l.step_mm[i];
