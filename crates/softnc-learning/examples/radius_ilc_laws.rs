@@ -6,7 +6,7 @@
 //! cargo run --release -p softnc-learning --example radius_ilc_laws -- \
 //!     [--law eq8|secant|sign|broyden|anderson] [--iterations N] [--machine PROFILE] \
 //!     [--revert] [--g-min G] [--g-max G] [--guard Q] [--grow F] [--gain-max K] [--rho R] \
-//!     [--rho-hi R] [--band B] [--init G] [--clip K] [--memory M] [--window W] [--reg R]
+//!     [--rho-hi R] [--peak W] [--band B] [--init G] [--clip K] [--memory M] [--window W] [--reg R]
 //! ```
 //!
 //! Every law steps r^{k+1}(i) = r^k(i) − γ_k(i) e^k(i), e = y − r^d (eq 8 has γ = α = 1):
@@ -18,8 +18,7 @@
 //! - `sign` (sign-consistent acceleration, Rprop / delta-bar-delta style): γ grows
 //!   ×`--grow` (up to `--gain-max`) while e(i) keeps its sign, |e| ≥ [`FLOOR_UM`] and
 //!   the error stagnates (`--rho` |e^{k−1}| < |e^k| < `--rho-hi` |e^{k−1}|); back to α
-//!   when it changes sign.
-//!
+//!   when it changes sign; with `--peak W` only where |e(i)| is the largest within ±W.
 //! - `broyden` (sparse Broyden, Schubert's update): a Jacobian ∂e(i)/∂r(j) banded to
 //!   |i − j| ≤ `--band`, starting from I/α (the first step is eq 8), each row updated
 //!   from the last step; the step solves J Δr = −e, each degree's step clipped to
@@ -74,6 +73,7 @@ struct Args {
     memory: usize,
     reg: f64,
     window: usize,
+    peak: Option<usize>,
 }
 
 /// The previous step of every degree.
@@ -293,7 +293,14 @@ fn update(ilc: &mut RadiusIlc, y_mm: &[f64], last: &mut Option<Last>, a: &Args) 
             (Some(l), Law::Sign) => {
                 let (ep, gp) = (l.error_mm[i], l.gain[i]);
                 let ratio = e.abs() / ep.abs();
-                if e * ep > 0.0 && e.abs() >= floor_mm && ratio > a.rho && ratio < a.rho_hi {
+                let peak = a.peak.is_none_or(|w| {
+                    (1..=w).all(|d| {
+                        (y_mm[(i + d) % POINTS] - ilc.desired_mm).abs() <= e.abs()
+                            && (y_mm[(i + POINTS - d) % POINTS] - ilc.desired_mm).abs() <= e.abs()
+                    })
+                });
+                if peak && e * ep > 0.0 && e.abs() >= floor_mm && ratio > a.rho && ratio < a.rho_hi
+                {
                     (gp * a.grow).min(a.gain_max)
                 } else if e * ep < 0.0 {
                     ilc.alpha
@@ -329,6 +336,7 @@ fn parse() -> Result<(Args, String), String> {
         memory: 2,
         reg: 1e-10,
         window: 180,
+        peak: None,
     };
     let mut machine = "config/machines/tnv40-ilc.ron".to_string();
     let mut it = std::env::args().skip(1);
@@ -363,6 +371,7 @@ fn parse() -> Result<(Args, String), String> {
             "--init" => a.init = num()?,
             "--clip" => a.clip = num()?,
             "--reg" => a.reg = num()?,
+            "--peak" => a.peak = Some(v.parse().map_err(|_| format!("bad {v}"))?),
             "--window" => a.window = v.parse().map_err(|_| format!("bad {v}"))?,
             "--memory" => a.memory = v.parse().map_err(|_| format!("bad {v}"))?,
             _ => return Err(format!("unknown option {k}")),
