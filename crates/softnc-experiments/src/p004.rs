@@ -295,7 +295,10 @@ mod tests {
     /// docs/reproduce-004.md) carries most of the RMS left. This pins the measured
     /// figure (−80.5 % ± 2 points) as a regression figure, not as the acceptance: a
     /// change that reaches −90 % fails here and moves the 1000 mm/min RMS into the
-    /// test above.
+    /// test above. Per-degree adaptive gains beyond the paper (secant, sign-consistent,
+    /// sparse Broyden, Anderson; `softnc-learning` example `radius_ilc_laws`) were
+    /// measured and none reaches it robustly (docs/reproduce-004.md, "Per-degree
+    /// adaptive gains (beyond the paper), tried and not met").
     #[test]
     fn radius_rms_at_1000_is_down_80_percent_not_the_90_asked() {
         let r = runs()
