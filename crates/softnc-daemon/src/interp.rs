@@ -65,8 +65,7 @@ pub struct InterpTask {
     machine_mm: [f64; 3],
     /// The operator's program-flow switches, as the MMI last set them.
     switches: Switches,
-    /// The job about to be planned runs with adaptive feed (its `StartJob`'s flag).
-    adaptive_next: bool,
+
     /// The machine's parameter file and tool table: a job is read with them.
     store: crate::machine_store::MachineStore,
     shutdown: bool,
@@ -216,7 +215,7 @@ impl InterpTask {
             job_id: 0,
             machine_mm: [0.0; 3],
             switches: Switches::default(),
-            adaptive_next: false,
+
             store,
             shutdown: false,
             stop: StopWatch::manual(),
@@ -253,9 +252,14 @@ impl InterpTask {
                         tracing::info!("job {}: planning {}", c.job_id, c.path.as_str());
                         let waits = self.outbox.waits();
                         let from_line = (c.axis != 0 && c.axis != u32::MAX).then_some(c.axis);
-                        self.adaptive_next = c.flags & JOB_ADAPTIVE_FORCE != 0;
-                        let end =
-                            self.run_job(c.path.as_str(), c.job_id, feed_override, from_line)?;
+                        let adaptive = c.flags & JOB_ADAPTIVE_FORCE != 0;
+                        let end = self.run_job(
+                            c.path.as_str(),
+                            c.job_id,
+                            feed_override,
+                            from_line,
+                            adaptive,
+                        )?;
                         tracing::info!("job {} {:?}", c.job_id, end);
                         if self.outbox.waits() > waits {
                             tracing::warn!(
@@ -391,15 +395,18 @@ impl InterpTask {
     }
 
     /// Read, plan and stream one job, starting at feed override `feed_override`
-    /// (fraction: the operator's, in force when the job starts).
+    /// (fraction: the operator's, in force when the job starts); with `adaptive`,
+    /// the position process's force loop gives the override, capped by the
+    /// operator's.
     pub fn run_job(
         &mut self,
         path: &str,
         job_id: u64,
         feed_override: f64,
         from_line: Option<u32>,
+        adaptive: bool,
     ) -> Result<JobEnd> {
-        let Some(mut job) = self.plan_job(path, job_id, feed_override, from_line)? else {
+        let Some(mut job) = self.plan_job(path, job_id, feed_override, from_line, adaptive)? else {
             return Ok(JobEnd::Refused);
         };
         let mut s = self.start(&mut job)?;
@@ -443,6 +450,7 @@ impl InterpTask {
         job_id: u64,
         feed_override: f64,
         from_line: Option<u32>,
+        adaptive: bool,
     ) -> Result<Option<PlannedJob>> {
         self.job_id = job_id;
         // the machine's offsets and tools, as the MMI checked the job with them
@@ -472,15 +480,14 @@ impl InterpTask {
             checked,
             feed_override,
             learned: None,
-            adaptive: std::mem::take(&mut self.adaptive_next),
+            adaptive,
         };
-        if job.adaptive {
-            // a learned correction belongs to a job that is not re-timed
-            self.note("adaptive feed re-times the job: no learned correction applied")?;
-        } else {
-            // a learned correction belongs to the feed override it was learned at
-            let override_pct = (feed_override * 100.0).round() as u32;
-            job.learned = self.learned(&job, override_pct)?;
+        // a learned correction belongs to the feed override it was learned at
+        let override_pct = (feed_override * 100.0).round() as u32;
+        job.learned = self.learned(&job, override_pct)?;
+        if job.adaptive && job.learned.take().is_some() {
+            // and to a job that is not re-timed
+            self.note("adaptive feed re-times the job: its learned correction is not applied")?;
         }
         Ok(Some(job))
     }

@@ -706,6 +706,11 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         Ok(cmd)
     }
 
+    /// The running job's force loop, when it runs with adaptive feed.
+    pub fn adaptive_feed(&self) -> Option<&softnc_servo::adaptive_feed::AdaptiveFeed> {
+        self.adaptive.as_ref()
+    }
+
     /// Set the programmed path of the job (for the contour error).
     pub fn set_job_primitives(&mut self, prims: Vec<Option<Primitive>>) {
         self.primitives = prims;

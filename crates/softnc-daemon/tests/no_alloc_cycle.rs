@@ -74,6 +74,20 @@ fn a_spindle_override_during_motion_allocates_nothing_on_the_cycle() {
     );
 }
 
+/// Paper 003's force loop on the cycle (adaptive feed): the phase currents of the
+/// simulated stock's feed motor every cycle, a revolution's RLS update, pole placement
+/// and servo law every 100 ms — no allocation on the cycle.
+#[test]
+fn adaptive_feed_allocates_nothing_on_the_cycle() {
+    let counted = run_counted_with("mch10-force.ron", "adaptive", None, FED_WHOLE_JOB, true);
+    assert_eq!(counted.state, MachineState::Running, "still moving");
+    assert!(
+        counted.revolutions >= 6,
+        "{} revolutions of the force loop while counted",
+        counted.revolutions
+    );
+}
+
 /// Samples of the 1000-sample job that the feeder sends: all of them.
 const FED_WHOLE_JOB: u64 = 1000;
 
@@ -85,6 +99,8 @@ struct Counted {
     spindle_rpm: f64,
     /// The tooth frequency X's and Y's PDC run (0 without one).
     pdc_fd_hz: [f64; 2],
+    /// Revolutions the force loop closed (adaptive feed).
+    revolutions: u64,
 }
 
 /// A position task on the simulated `machine_file` (lockstep, instance `tag`) and a
@@ -116,6 +132,17 @@ fn position_task(
 /// `spindle_override`, sent 50 counted cycles in; the feeder sends the first `fed`
 /// samples of the job.
 fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed: u64) -> Counted {
+    run_counted_with(machine_file, tag, spindle_override, fed, false)
+}
+
+/// [`run_counted`]; with `adaptive`, the job is started with adaptive feed.
+fn run_counted_with(
+    machine_file: &str,
+    tag: &str,
+    spindle_override: Option<f64>,
+    fed: u64,
+    adaptive: bool,
+) -> Counted {
     let (dir, mut task, bus) = position_task(&format!("noalloc{tag}"), machine_file);
     let commands = bus.command_publisher().unwrap();
     let control = bus.control_publisher().unwrap();
@@ -132,6 +159,20 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed
             path: FixedStr::empty(),
         })
         .unwrap();
+    if adaptive {
+        // job 7 with adaptive feed (no program to read: the samples come below)
+        control
+            .send_copy(ControlCommand {
+                flags: softnc_ipc::JOB_ADAPTIVE_FORCE,
+                seq: 1,
+                kind: ControlKind::StartJob.wire(),
+                job_id: 7,
+                axis: 0,
+                value: 1.0,
+                path: FixedStr::empty(),
+            })
+            .unwrap();
+    }
     // a 2 mm/s cut along X, 1000 samples
     let n = 1000u64;
     let send = |k: u64| {
@@ -206,6 +247,7 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed
         alarms: texts,
         spindle_rpm,
         pdc_fd_hz,
+        revolutions: task.adaptive_feed().map_or(0, |a| a.revolutions()),
     }
 }
 

@@ -85,6 +85,8 @@ struct Counted {
     /// The job's notes.
     notes: Vec<String>,
     learned: bool,
+    /// Path length of the last sample sent while counted (mm).
+    last_counted_step_mm: f64,
 }
 
 /// Stream `job_text` as job 1 through an interpolation task, the cycles counted
@@ -94,6 +96,19 @@ fn run_counted(
     job_text: &str,
     learned: bool,
     controls: &[(usize, ControlKind, f64)],
+) -> Counted {
+    run_counted_with(tag, job_text, learned, controls, None)
+}
+
+/// [`run_counted`]; with `force_override`, the job runs with adaptive feed and the
+/// position process played by the test reports a force-loop revolution with that
+/// override every [`SAMPLES_PER_REVOLUTION`] samples.
+fn run_counted_with(
+    tag: &str,
+    job_text: &str,
+    learned: bool,
+    controls: &[(usize, ControlKind, f64)],
+    force_override: Option<f64>,
 ) -> Counted {
     let (dir, loaded) = setup(tag);
     let job = dir.join("job.ngc");
@@ -119,7 +134,13 @@ fn run_counted(
 
     let job_id = 1;
     let mut planned = task
-        .plan_job(job.to_str().unwrap(), job_id, 1.0, None)
+        .plan_job(
+            job.to_str().unwrap(),
+            job_id,
+            1.0,
+            None,
+            force_override.is_some(),
+        )
         .unwrap()
         .expect("the job is planned");
     assert_eq!(
@@ -146,7 +167,12 @@ fn run_counted(
                 consumed.map_or(0, |c| (c + 1).min(last.seq))
             };
             consumed = Some(next);
-            statuses.send_copy(status(next, job_id)).unwrap();
+            let mut st = status(next, job_id);
+            if let Some(f) = force_override {
+                st.force_override = f;
+                st.force_revolutions = next / SAMPLES_PER_REVOLUTION;
+            }
+            statuses.send_copy(st).unwrap();
         }
     };
     let collect_notes = |notes: &mut Vec<String>| {
@@ -233,13 +259,49 @@ fn run_counted(
     collect_notes(&mut notes);
     drop(task);
     let _ = std::fs::remove_dir_all(&dir);
+    let step_mm = |k: usize| {
+        let (a, b) = (received[k - 1].pos_mm, received[k].pos_mm);
+        ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
+    };
     Counted {
         cycles,
         sent,
         heartbeats: hb,
         notes,
         learned,
+        last_counted_step_mm: step_mm((sent_before + sent - 1) as usize),
     }
+}
+
+/// Samples between the force-loop revolutions the test's position process reports.
+const SAMPLES_PER_REVOLUTION: u64 = 50;
+
+/// Adaptive feed: the force loop's overrides arrive in the position process's
+/// status, are scheduled `lookahead` samples on and applied through the override
+/// path — nothing allocated; the operator's override caps them.
+#[test]
+fn adaptive_feed_overrides_allocate_nothing_and_the_operator_caps_them() {
+    // 600 mm/min = 0.01 mm a 1 ms sample; the loop asks for 50 %, later 80 %, and
+    // the operator caps at 60 % (counted cycle 250)
+    let text = "G21 G90 G17\nG0 X0 Y0 Z0\nG1 X50 F600\nM2\n";
+    let c = run_counted_with("adaptive", text, false, &[], Some(0.5));
+    assert!(
+        (c.last_counted_step_mm - 0.005).abs() < 1e-6,
+        "{} mm a sample at the loop's 50 %",
+        c.last_counted_step_mm
+    );
+    let c = run_counted_with(
+        "adaptivecap",
+        text,
+        false,
+        &[(250, ControlKind::FeedOverride, 0.6)],
+        Some(0.8),
+    );
+    assert!(
+        (c.last_counted_step_mm - 0.006).abs() < 1e-6,
+        "{} mm a sample: 80 % capped at the operator's 60 %",
+        c.last_counted_step_mm
+    );
 }
 
 #[test]
