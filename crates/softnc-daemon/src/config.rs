@@ -169,8 +169,7 @@ pub enum BackendKind {
     Loopback,
 }
 
-/// Largest lookahead the position process can hold (its ring holds twice this).
-pub const MAX_LOOKAHEAD_SAMPLES: usize = 1000;
+pub use softnc_core::ring::MAX_LOOKAHEAD_SAMPLES;
 
 /// A loaded configuration with its machine profile and resolved paths.
 #[derive(Debug, Clone)]
@@ -326,7 +325,7 @@ impl DaemonConfig {
             .filter_map(|i| machine.axis_servo(i).command_filter.map(|f| f.order))
             .max()
             .unwrap_or(0);
-        let window = crate::position::filter_window(config.lookahead_samples);
+        let window = softnc_core::ring::window_for_lookahead(config.lookahead_samples);
         if needed > window {
             return Err(bad(
                 "lookahead_samples",
@@ -334,7 +333,7 @@ impl DaemonConfig {
                     "the machine's command filter reads {needed} samples ahead, the position \
                      process keeps {window} for {} lookahead samples: raise it to at least {}",
                     config.lookahead_samples,
-                    crate::position::lookahead_for_window(needed)
+                    softnc_core::ring::lookahead_for_window(needed)
                 ),
             ));
         }

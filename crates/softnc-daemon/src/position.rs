@@ -131,7 +131,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         let engine = make_engine();
         let names = softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance);
         let bus = Bus::new(names, "position")?;
-        let window = filter_window(cfg.config.lookahead_samples);
+        let window = softnc_core::ring::window_for_lookahead(cfg.config.lookahead_samples);
         let in_position_mm = [0, 1, 2].map(|i| cfg.machine.axes[i].in_position_mm);
         let in_position_timeout_cycles =
             (cfg.config.in_position_timeout_s / cfg.machine.interpolation_cycle_s).ceil() as u64;
@@ -1087,19 +1087,6 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     pub fn stats(&self) -> &LoopStats {
         &self.stats
     }
-}
-
-/// Samples the position process needs ahead before and during motion: the
-/// configured lookahead less a quarter of slack for the interpolator's latency.
-pub fn filter_window(lookahead_samples: usize) -> usize {
-    (lookahead_samples - lookahead_samples / 4).max(1)
-}
-
-/// The smallest `lookahead_samples` whose [`filter_window`] holds `window` samples.
-pub fn lookahead_for_window(window: usize) -> usize {
-    (window..)
-        .find(|&l| filter_window(l) >= window)
-        .unwrap_or(window)
 }
 
 fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
