@@ -30,13 +30,69 @@ use softnc_servo::{CycleEngine, ServoBackend};
 use std::time::{Duration, Instant};
 
 /// Decelerating along the path left in the ring after it ran dry.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 struct DryStop {
     /// Where the stop starts: the position last commanded.
     origin: [f64; 3],
     speed_mm_per_s: f64,
     /// Arc length travelled along the remaining samples.
     s_mm: f64,
+}
+
+/// Where the job on the machine is, as the position cycle steps it: one value for
+/// what were a job id, a "prepared" flag, a dry stop and a settling counter that had
+/// to agree.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum JobPhase {
+    /// No job on the machine.
+    NoJob,
+    /// Job `id`'s first sample is in; its preparation (engine, path, trace) is not.
+    Preparing { id: u64 },
+    /// Job `id` is prepared: its samples are stepped once the window is in.
+    Ready { id: u64 },
+    /// Job `id`'s last sample was stepped; the axes settle into position (`cycles`
+    /// so far).
+    Settling { id: u64, cycles: u64 },
+    /// Job `id`'s ring ran dry: stopping along the path still in it (and standing
+    /// there, faulted, once stopped, until a reset).
+    DryStop { id: u64, stop: DryStop },
+}
+
+impl JobPhase {
+    /// The job (0: none).
+    fn job_id(self) -> u64 {
+        match self {
+            JobPhase::NoJob => 0,
+            JobPhase::Preparing { id }
+            | JobPhase::Ready { id }
+            | JobPhase::Settling { id, .. }
+            | JobPhase::DryStop { id, .. } => id,
+        }
+    }
+
+    /// The job's preparation is in (its engine runs it).
+    fn prepared(self) -> bool {
+        matches!(
+            self,
+            JobPhase::Ready { .. } | JobPhase::Settling { .. } | JobPhase::DryStop { .. }
+        )
+    }
+
+    /// The dry stop under way.
+    fn dry(self) -> Option<DryStop> {
+        match self {
+            JobPhase::DryStop { stop, .. } => Some(stop),
+            _ => None,
+        }
+    }
+
+    /// Cycles the axes have been settling after the job's last sample.
+    fn settling(self) -> Option<u64> {
+        match self {
+            JobPhase::Settling { cycles, .. } => Some(cycles),
+            _ => None,
+        }
+    }
 }
 
 /// Every axis homed (a machine with absolute encoders).
@@ -56,8 +112,6 @@ pub struct PositionTask<B: ServoBackend> {
     requested_job: u64,
     /// A job's preparation, until its first sample arrives.
     staged_job: Option<Box<JobPrep<B>>>,
-    /// The running job's preparation is in: motion may start.
-    job_ready: bool,
     /// Where the job starts (its first sample).
     start_mm: [f64; 3],
     /// PDC tables of a spindle override, until the engine takes them (job id).
@@ -78,7 +132,8 @@ pub struct PositionTask<B: ServoBackend> {
     switches: crate::interp::Switches,
     /// The line the requested job runs from.
     from_line: Option<u32>,
-    job_id: u64,
+    /// The job on the machine and where it is.
+    phase: JobPhase,
     primitives: Vec<Option<Primitive>>,
     /// The running job's program line per motion.
     lines: Vec<u32>,
@@ -86,9 +141,6 @@ pub struct PositionTask<B: ServoBackend> {
     flags: std::collections::VecDeque<(u32, u32, f64)>,
     last_cmd: [f64; 3],
     prev_cmd: [f64; 3],
-    dry: Option<DryStop>,
-    /// Cycles since the job's last sample while the axes settle into position.
-    settle_cycles: Option<u64>,
     /// Each axis's in-position band (the profile's).
     in_position_mm: [f64; 3],
     /// Cycles the axes get to come into position after a job's last sample.
@@ -191,7 +243,6 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             prep,
             requested_job: 0,
             staged_job: None,
-            job_ready: false,
             start_mm: [0.0; 3],
             pending_designs: None,
             spindle_override: 1.0,
@@ -206,16 +257,14 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             },
             switches: crate::interp::Switches::default(),
             from_line: None,
-            job_id: 0,
+            phase: JobPhase::NoJob,
             primitives: Vec::new(),
             lines: Vec::new(),
             current: None,
             flags: std::collections::VecDeque::with_capacity(COMMAND_RING_CAPACITY),
             last_cmd: [0.0; 3],
             prev_cmd: [0.0; 3],
-            dry: None,
             starved_since: None,
-            settle_cycles: None,
             in_position_mm,
             in_position_timeout_cycles,
             last_job_id: 0,
@@ -257,7 +306,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             code: code.wire(),
             axis,
             process: ProcessId::Position.wire(),
-            job_id: self.job_id,
+            job_id: self.phase.job_id(),
             time_index: self.current.map_or(0, |c| c.time_index),
             message,
         }))?;
@@ -281,14 +330,15 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             if self.stop.requested().is_some() {
                 self.shutdown = true;
                 let since = *own_stop.get_or_insert_with(Instant::now);
-                if !self.at_rest() && self.dry.is_none() && since.elapsed() > own_stop_grace {
+                if !self.at_rest() && self.phase.dry().is_none() && since.elapsed() > own_stop_grace
+                {
                     self.begin_dry_stop();
                 }
             }
             if self.shutdown && self.at_rest() {
                 // one last status: at rest, and no job (the one that stopped is over)
-                if self.job_id != 0 && self.state == MachineState::Idle {
-                    self.job_id = 0;
+                if self.phase.job_id() != 0 && self.state == MachineState::Idle {
+                    self.phase = JobPhase::NoJob;
                 }
                 self.cycle()?;
                 break;
@@ -331,10 +381,10 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             self.pull_commands()?;
             self.take_prepared()?;
             let moving = matches!(self.state, MachineState::Running | MachineState::Held)
-                && self.dry.is_none();
-            let starting = self.state == MachineState::Idle && self.job_id != 0;
-            if (moving || (starting && self.job_ready)) && self.ring.ready(self.window)
-                || (moving && self.settle_cycles.is_some())
+                && self.phase.dry().is_none();
+            let starting = self.state == MachineState::Idle && self.phase.job_id() != 0;
+            if (moving || (starting && self.phase.prepared())) && self.ring.ready(self.window)
+                || (moving && self.phase.settling().is_some())
             {
                 self.starved_since = None;
                 return Ok(true);
@@ -374,12 +424,9 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                         self.state = MachineState::Idle;
                         self.ring.reset();
                         self.flags.clear();
-                        self.job_id = 0;
+                        self.phase = JobPhase::NoJob;
                         self.requested_job = 0;
-                        self.job_ready = false;
                         self.current = None;
-                        self.dry = None;
-                        self.settle_cycles = None;
                     }
                 }
                 Some(ControlKind::Shutdown) => self.shutdown = true,
@@ -426,7 +473,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 }
                 // the MMI asks only when nothing moves
                 Some(ControlKind::MachineOff)
-                    if self.state == MachineState::Idle && self.job_id == 0 =>
+                    if self.state == MachineState::Idle && self.phase.job_id() == 0 =>
                 {
                     self.engine.backend_mut().disable();
                     self.state = MachineState::Off;
@@ -510,10 +557,10 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             }
             // another job's first sample starts it when no job runs; late samples of
             // the job that just finished or was aborted are ignored
-            if self.job_id == 0 && c.job_id != 0 && c.job_id != self.last_job_id {
+            if self.phase.job_id() == 0 && c.job_id != 0 && c.job_id != self.last_job_id {
                 self.start_job(c)?;
             }
-            if c.job_id != self.job_id {
+            if c.job_id != self.phase.job_id() {
                 continue; // a late sample of an aborted job
             }
             let s = RingSample {
@@ -523,7 +570,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             match self.ring.push(s, c.is_end()) {
                 Ok(()) => self.flags.push_back((c.motion, c.flags, c.path_mm)),
                 Err(e) => {
-                    let job = self.job_id;
+                    let job = self.phase.job_id();
                     self.alarm(
                         AlarmCode::SequenceError,
                         u32::MAX,
@@ -538,12 +585,9 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
 
     fn start_job(&mut self, first: CommandSample) -> Result<()> {
         self.flags.clear();
-        self.job_id = first.job_id;
+        self.phase = JobPhase::Preparing { id: first.job_id };
         self.last_job_id = first.job_id;
         self.current = None;
-        self.dry = None;
-        self.settle_cycles = None;
-        self.job_ready = false;
         let start = [first.pos_mm[0], first.pos_mm[1], first.pos_mm[2]];
         self.start_mm = start;
         // N lead-in and run-out cycles for the engine's command filters (paper 002);
@@ -613,12 +657,12 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             }
         }
         self.install_job()?;
-        if self.job_ready {
+        if self.phase.prepared() {
             if let Some(old) = self.engine.take_replaced_spindle_designs() {
                 self.prep.retire(Retired::Spindle(old));
             }
             if let Some((job_id, designs)) = self.pending_designs.take() {
-                if job_id != self.job_id {
+                if job_id != self.phase.job_id() {
                     self.prep.retire(Retired::Spindle(designs));
                 } else if let Err(back) = self.engine.install_spindle_designs(designs) {
                     // the last table is still being swapped out: next cycle
@@ -632,15 +676,15 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     /// Swap the running job's preparation in once it and the job's first sample
     /// are both there: its engine at rest at the start, its path, its trace.
     fn install_job(&mut self) -> Result<()> {
-        if self.job_id == 0 || self.job_ready {
+        let JobPhase::Preparing { id: job_id } = self.phase else {
             return Ok(());
-        }
+        };
         let Some(mut p) = self.staged_job.take() else {
             return Ok(());
         };
-        if p.job_id != self.job_id {
+        if p.job_id != self.phase.job_id() {
             // an earlier job's, or a later one's: keep a later one staged
-            if p.job_id > self.job_id {
+            if p.job_id > self.phase.job_id() {
                 self.staged_job = Some(p);
             } else {
                 self.prep.retire(Retired::Job(p));
@@ -653,7 +697,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         std::mem::swap(&mut self.trace, &mut p.trace);
         std::mem::swap(&mut self.adaptive, &mut p.adaptive);
         self.engine.reset(self.start_mm);
-        self.job_ready = true;
+        self.phase = JobPhase::Ready { id: job_id };
         if let Some((axis, msg)) = p.error.take() {
             self.state = MachineState::Faulted;
             self.alarm(AlarmCode::Other, axis as u32, format_args!("{msg}"))?;
@@ -664,7 +708,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
 
     /// On, no job, nothing moving by hand.
     fn idle_between_jobs(&self) -> bool {
-        self.state == MachineState::Idle && self.job_id == 0
+        self.state == MachineState::Idle && self.phase.job_id() == 0
     }
 
     /// One cycle of a jog or homing: the command, and the state when it is over.
@@ -717,13 +761,18 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     }
 
     fn begin_dry_stop(&mut self) {
-        if self.dry.is_none() && matches!(self.state, MachineState::Running | MachineState::Held) {
+        if self.phase.dry().is_none()
+            && matches!(self.state, MachineState::Running | MachineState::Held)
+        {
             let v = dist(self.last_cmd, self.prev_cmd) / self.cfg.machine.interpolation_cycle_s;
-            self.dry = Some(DryStop {
-                origin: self.last_cmd,
-                speed_mm_per_s: v,
-                s_mm: 0.0,
-            });
+            self.phase = JobPhase::DryStop {
+                id: self.phase.job_id(),
+                stop: DryStop {
+                    origin: self.last_cmd,
+                    speed_mm_per_s: v,
+                    s_mm: 0.0,
+                },
+            };
         }
     }
 
@@ -739,7 +788,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         let mut ring_motion = None;
         match self.state {
             MachineState::Idle => {
-                if self.job_id != 0 && self.job_ready && self.ring.ready(self.window) {
+                if matches!(self.phase, JobPhase::Ready { .. }) && self.ring.ready(self.window) {
                     self.state = MachineState::Running;
                 }
             }
@@ -754,9 +803,9 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             | MachineState::Mdi => {}
         }
         if matches!(self.state, MachineState::Running | MachineState::Held) {
-            if let Some(stop) = self.dry {
+            if let Some(stop) = self.phase.dry() {
                 cmd = self.dry_stop_step(stop);
-            } else if self.settle_cycles.is_some() {
+            } else if self.phase.settling().is_some() {
                 // after the job's last sample: the command stands, the axes settle
             } else if !self.ring.ready(self.window) {
                 let (ahead, needed) = (self.ring.ahead().saturating_sub(1), self.window);
@@ -768,7 +817,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     ),
                 )?;
                 self.begin_dry_stop();
-                if let Some(stop) = self.dry {
+                if let Some(stop) = self.phase.dry() {
                     cmd = self.dry_stop_step(stop);
                 }
             } else if let Some(p) = self.ring.at(0) {
@@ -780,7 +829,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 ring_motion = Some(motion);
                 self.current = Some(CommandSample {
                     seq: self.ring.source_index(),
-                    job_id: self.job_id,
+                    job_id: self.phase.job_id(),
                     time_index: self.ring.current_index(),
                     pos_mm: p,
                     motion,
@@ -792,8 +841,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         }
         // 3. controller stacks and servo backend (the engine `softnc sim` steps); the
         //    machine stands still (not stepped) between jobs
-        let moving =
-            matches!(self.state, MachineState::Running | MachineState::Held) || self.dry.is_some();
+        let moving = matches!(self.state, MachineState::Running | MachineState::Held)
+            || self.phase.dry().is_some();
         // between jobs the servo holds the last command: the machine keeps running
         // (not in a fault or E-stop, where the drives are off)
         let holding = self.idle_between_jobs()
@@ -836,7 +885,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         // the force loop (adaptive feed) on the cycles that step the job's samples,
         // as the simulator steps it: its override goes out in the status
         if let (Some(a), Some(_)) = (self.adaptive.as_mut(), ring_motion) {
-            if !self.feed_held && self.dry.is_none() {
+            if !self.feed_held && self.phase.dry().is_none() {
                 a.cycle(self.engine.backend());
             }
         }
@@ -893,7 +942,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         }
         let mut status = PositionStatus {
             seq: self.current.map_or(0, |c| c.seq),
-            job_id: self.job_id,
+            job_id: self.phase.job_id(),
             time_index: self.current.map_or(0, |c| c.time_index),
             cmd_mm: [0.0; MAX_AXES],
             actual_mm: [0.0; MAX_AXES],
@@ -903,14 +952,14 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             ring_fill: self.ring.ahead() as u32,
             state: self.state.wire(),
             spindle_override: self.spindle_override,
-            spindle_rpm: match (self.job_ready, self.engine.spindle_schedule()) {
-                (true, Some(s)) if self.job_id != 0 => s.effective_rpm(),
+            spindle_rpm: match (self.phase.prepared(), self.engine.spindle_schedule()) {
+                (true, Some(s)) => s.effective_rpm(),
                 _ => 0.0,
             },
             path_mm: self.current.map_or(0.0, |c| c.path_mm),
             motion: self.current.map_or(0, |c| c.motion),
             line: match self.current {
-                Some(c) if self.job_id != 0 => {
+                Some(c) if self.phase.job_id() != 0 => {
                     self.lines.get(c.motion as usize).copied().unwrap_or(0)
                 }
                 _ => 0,
@@ -920,7 +969,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             force_revolutions: 0,
             force_n: f64::NAN,
         };
-        if let (Some(a), true) = (&self.adaptive, self.job_id != 0) {
+        if let (Some(a), true) = (&self.adaptive, self.phase.job_id() != 0) {
             status.force_override = a.override_frac();
             status.force_revolutions = a.revolutions();
             status.force_n = a.last().map_or(f64::NAN, |r| r.est_force_n);
@@ -932,27 +981,30 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         self.prev_cmd = self.last_cmd;
         self.last_cmd = cmd;
         // 6. advance
-        if self.state == MachineState::Running && self.dry.is_none() {
+        if self.state == MachineState::Running && self.phase.dry().is_none() {
             let source = self.ring.source_index();
             if self.ring.advance() {
                 if self.ring.source_index() > source {
                     self.flags.pop_front();
                 }
-            } else if self.ring.ended() && self.settle_cycles.is_none() {
+            } else if self.ring.ended() && self.phase.settling().is_none() {
                 // the job's last sample: its trace (the samples, as `softnc sim`
                 // writes them) is closed off the cycle path; the job ends when the
                 // axes are in position
                 if let Some(t) = self.trace.take() {
                     self.prep.retire(Retired::Trace(t));
                 }
-                self.settle_cycles = Some(0);
+                self.phase = JobPhase::Settling {
+                    id: self.phase.job_id(),
+                    cycles: 0,
+                };
             }
-            if let Some(n) = self.settle_cycles {
+            if let Some(n) = self.phase.settling() {
                 let in_position = (0..3).all(|i| fe[i].abs() <= self.in_position_mm[i]);
                 if in_position {
                     self.end_job(&mut status);
                 } else if n >= self.in_position_timeout_cycles {
-                    let job = self.job_id;
+                    let job = self.phase.job_id();
                     let timeout_s = self.cfg.config.in_position_timeout_s;
                     self.alarm(
                         AlarmCode::Other,
@@ -966,7 +1018,10 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     )?;
                     self.end_job(&mut status);
                 } else {
-                    self.settle_cycles = Some(n + 1);
+                    self.phase = JobPhase::Settling {
+                        id: self.phase.job_id(),
+                        cycles: n + 1,
+                    };
                 }
             }
         }
@@ -977,15 +1032,13 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     /// The job is over (in position, or settling timed out): report once more with
     /// its id, as idle; the next cycles report idle with no job.
     fn end_job(&mut self, status: &mut PositionStatus) {
-        self.settle_cycles = None;
-        if self.requested_job == self.job_id {
+        if self.requested_job == self.phase.job_id() {
             self.requested_job = 0; // (not if the next job was asked for)
         }
-        self.job_ready = false;
         // the last status still names the job (the interpolator counts it as
         // consumed); the next cycles report idle with no job
         self.state = MachineState::Idle;
-        self.job_id = 0;
+        self.phase = JobPhase::NoJob;
         status.state = self.state.wire();
         self.current = None;
     }
@@ -1024,7 +1077,10 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             p = q;
             k += 1;
         }
-        self.dry = Some(stop);
+        self.phase = JobPhase::DryStop {
+            id: self.phase.job_id(),
+            stop,
+        };
         if stop.speed_mm_per_s == 0.0 {
             self.state = MachineState::Faulted;
             // the job is over: close its trace (off the cycle path)
@@ -1043,7 +1099,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 pid: std::process::id(),
                 counter: self.hb_counter,
                 state: self.state.wire(),
-                job_id: self.job_id,
+                job_id: self.phase.job_id(),
             }))?;
             let j = self.stats.jitter();
             let c = self.stats.compute();
