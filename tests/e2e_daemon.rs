@@ -437,7 +437,7 @@ fn simulator_trace_learned(job: &Path, machine: &Path, out: &Path, learned: Opti
     });
     let mut file = softnc_daemon::trace::TraceFile::create(out).unwrap();
     let planned = plan.interpolator().map(|s| softnc_sim::sim::CommandSample {
-        pos_mm: s.pos_mm.0,
+        pos_mm: softnc_core::Axes::from_xyz(s.pos_mm.0, 0.0),
         motion: s.motion,
         feed_move: s.feed_move,
     });

@@ -207,7 +207,7 @@ pub fn run(args: LearnArgs) -> Result<ExitCode> {
                 Some(LawState::Markov(mj)) if mj.samples() == job.samples.len() => mj,
                 _ => {
                     let n = job.samples.len();
-                    let h = learn_sim::identify(&mut engine, &machine, job.samples[0].pos_mm, n)
+                    let h = learn_sim::identify(&mut engine, &machine, job.samples[0].pos_mm.0, n)
                         .map_err(anyhow::Error::msg)?;
                     let bound = learn_sim::correction_bound_mm(&machine, &h);
                     MarkovJob::new(

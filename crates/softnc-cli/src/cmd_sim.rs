@@ -432,7 +432,10 @@ pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
             c.rms() * um,
             c.mean() * um
         )?;
-        for (name, s) in ["X", "Y", "Z"].iter().zip(&report.following) {
+        for (name, s) in softnc_core::Axis::carried()
+            .map(softnc_core::Axis::name)
+            .zip(&report.following)
+        {
             writeln!(
                 out,
                 "following error {name}: max |e| {:.3} µm, rms {:.3} µm",
@@ -577,12 +580,8 @@ fn learned_correction(
 }
 
 /// The plan's sample stream as the simulator takes it.
-pub fn command_samples(plan: &softnc_planner::Plan) -> impl Iterator<Item = CommandSample> + '_ {
-    plan.interpolator().map(|s| CommandSample {
-        pos_mm: s.pos_mm.0,
-        motion: s.motion,
-        feed_move: s.feed_move,
-    })
+pub fn command_samples(plan: &softnc_planner::Plan) -> PlanSamples<'_> {
+    PlanSamples(plan.interpolator())
 }
 
 /// Outward unit normal of the contour-error field at `p` (its gradient), in XY.
@@ -604,7 +603,7 @@ fn normal_xy(prim: &Primitive, p: [f64; 3]) -> [f64; 2] {
 fn plot_point(row: &TraceRow, prim: Option<Primitive>) -> PlotPoint {
     let r = &row.record;
     let (contour_um, normal) = match (row.contour_mm, prim) {
-        (Some(c), Some(p)) => (Some(c * 1000.0), normal_xy(&p, r.actual_mm)),
+        (Some(c), Some(p)) => (Some(c * 1000.0), normal_xy(&p, r.actual_mm.xyz())),
         _ => (None, [0.0, 0.0]),
     };
     PlotPoint {
@@ -612,7 +611,7 @@ fn plot_point(row: &TraceRow, prim: Option<Primitive>) -> PlotPoint {
         cmd: [r.cmd_mm[0], r.cmd_mm[1], r.cmd_mm[2]],
         magnified: contour_um.map(|_| [r.actual_mm[0], r.actual_mm[1]]),
         contour_um,
-        following_um: r.following_mm.map(|f| f * 1000.0),
+        following_um: r.following_mm.xyz().map(|f| f * 1000.0),
         normal,
         tolerance_um: None,
     }

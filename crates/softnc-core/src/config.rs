@@ -321,7 +321,12 @@ impl MachineProfile {
                 "exactly three axes (X, Y, Z) are supported",
             ));
         }
-        for (i, (axis, want)) in self.axes.iter().zip(["X", "Y", "Z"]).enumerate() {
+        for (i, (axis, want)) in self
+            .axes
+            .iter()
+            .zip(crate::Axis::carried().map(crate::Axis::name))
+            .enumerate()
+        {
             let p = |f: &str| format!("axes[{i}].{f}");
             if axis.name != want {
                 return Err(bad(
@@ -699,15 +704,15 @@ impl MachineProfile {
 
     /// Per-axis maximum velocities [x, y, z] (mm/s).
     pub fn max_vel(&self) -> [f64; 3] {
-        [0, 1, 2].map(|i| self.axes[i].max_vel_mm_per_s)
+        std::array::from_fn(|i| self.axes[i].max_vel_mm_per_s)
     }
     /// Per-axis maximum accelerations [x, y, z] (mm/s²).
     pub fn max_acc(&self) -> [f64; 3] {
-        [0, 1, 2].map(|i| self.axes[i].max_acc_mm_per_s2)
+        std::array::from_fn(|i| self.axes[i].max_acc_mm_per_s2)
     }
     /// Per-axis maximum jerks [x, y, z] (mm/s³).
     pub fn max_jerk(&self) -> [f64; 3] {
-        [0, 1, 2].map(|i| self.axes[i].max_jerk_mm_per_s3)
+        std::array::from_fn(|i| self.axes[i].max_jerk_mm_per_s3)
     }
     /// Tool length of tool `number`, if it is in the table.
     pub fn tool_length_mm(&self, number: u32) -> Option<f64> {

@@ -1,5 +1,7 @@
 //! softnc core: the types every other crate shares.
 //!
+//! - [`axes`]: the one axis type: [`Axis`] (LinuxCNC's nine letters) and
+//!   [`Axes<T>`], one value per axis the stack carries ([`MAX_AXES`]).
 //! - [`geom`]: 3-vectors in mm and the path primitives (lines, arcs/helices) that the
 //!   G-code front end produces, the planner follows and the contour-error metric measures.
 //! - [`config`]: machine profiles in RON, validated; a bad field fails with its RON path.
@@ -15,6 +17,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod axes;
 pub mod compensation;
 pub mod config;
 pub mod force;
@@ -24,6 +27,7 @@ pub mod ring;
 pub mod servo;
 pub mod store;
 
+pub use axes::{Axes, Axis, ALL_AXES};
 pub use config::{
     AccDec, AxisConfig, AxisHoming, ConfigError, FeedProfile, HomingConfig, JogConfig,
     MachineProfile, PlannerConfig, SpindleConfig, ToolEntry,

@@ -18,8 +18,8 @@
 /// of ±[`crate::servo::MAX_COMMAND_FILTER_ORDER`] samples fits with room to spare.
 pub const COMMAND_RING_CAPACITY: usize = 2048;
 
-/// The ring of X, Y, Z command samples the position task (daemon and simulator) reads.
-pub type CommandRing = LookaheadRing<3, COMMAND_RING_CAPACITY>;
+/// The ring of command samples (every axis the stack carries) the position task (daemon and simulator) reads.
+pub type CommandRing = LookaheadRing<{ crate::MAX_AXES }, COMMAND_RING_CAPACITY>;
 
 /// Largest lookahead the interpolator may keep in flight: the ring holds twice this
 /// (a window's past and future).

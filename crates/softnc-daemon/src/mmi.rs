@@ -687,7 +687,7 @@ impl MmiTask {
     /// Which axes are homed, as the position process reports them.
     pub fn homed(&self) -> [bool; 3] {
         let mask = self.last.map_or(0, |s| s.homed);
-        [0, 1, 2].map(|i| mask & (1 << i) != 0)
+        std::array::from_fn(|i| mask & (1 << i) != 0)
     }
 
     /// Why a job, MDI or touch-off cannot be taken in now, if it cannot.

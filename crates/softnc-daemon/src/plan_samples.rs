@@ -13,7 +13,7 @@ impl Iterator for PlanSamples<'_> {
     type Item = CommandSample;
     fn next(&mut self) -> Option<CommandSample> {
         self.0.next().map(|s| CommandSample {
-            pos_mm: s.pos_mm.0,
+            pos_mm: softnc_core::Axes::from_xyz(s.pos_mm.0, 0.0),
             motion: s.motion,
             feed_move: s.feed_move,
         })

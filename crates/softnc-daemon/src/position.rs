@@ -19,7 +19,7 @@ use crate::manual::{Manual, ManualEvent};
 use crate::outbox::{Outbox, PositionMsg, OUTBOX_CAPACITY};
 use crate::prep::{JobPrep, Prep, PrepRequest, Prepared, Retired};
 use anyhow::Result;
-use softnc_core::{CommandRing, Primitive, RingSample, Vec3, COMMAND_RING_CAPACITY};
+use softnc_core::{Axes, CommandRing, Primitive, RingSample, Vec3, COMMAND_RING_CAPACITY};
 use softnc_ipc::{
     Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, FixedStr, Heartbeat,
     LoopStats as LoopStatsMsg, MachineState, PositionStatus, ProcessId, MAX_AXES,
@@ -33,7 +33,7 @@ use std::time::{Duration, Instant};
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct DryStop {
     /// Where the stop starts: the position last commanded.
-    origin: [f64; 3],
+    origin: [f64; MAX_AXES],
     speed_mm_per_s: f64,
     /// Arc length travelled along the remaining samples.
     s_mm: f64,
@@ -96,7 +96,7 @@ impl JobPhase {
 }
 
 /// Every axis homed (a machine with absolute encoders).
-const ALL_HOMED: u32 = (1 << 3) - 1;
+const ALL_HOMED: u32 = (1 << MAX_AXES) - 1;
 
 /// Builds the engine for a job: controller stacks in front of the servo backend (on
 /// the preparation thread).
@@ -113,7 +113,7 @@ pub struct PositionTask<B: ServoBackend> {
     /// A job's preparation, until its first sample arrives.
     staged_job: Option<Box<JobPrep<B>>>,
     /// Where the job starts (its first sample).
-    start_mm: [f64; 3],
+    start_mm: [f64; MAX_AXES],
     /// PDC tables of a spindle override, until the engine takes them (job id).
     pending_designs: Option<(u64, Box<SpindleDesigns>)>,
     /// Spindle override in force (fraction of the programmed speed).
@@ -139,10 +139,10 @@ pub struct PositionTask<B: ServoBackend> {
     lines: Vec<u32>,
     current: Option<CommandSample>,
     flags: std::collections::VecDeque<(u32, u32, f64)>,
-    last_cmd: [f64; 3],
-    prev_cmd: [f64; 3],
+    last_cmd: [f64; MAX_AXES],
+    prev_cmd: [f64; MAX_AXES],
     /// Each axis's in-position band (the profile's).
-    in_position_mm: [f64; 3],
+    in_position_mm: [f64; MAX_AXES],
     /// Cycles the axes get to come into position after a job's last sample.
     in_position_timeout_cycles: u64,
     /// Lockstep: since when the ring has lacked the samples the next cycle needs
@@ -184,7 +184,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         let names = softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance);
         let bus = Bus::new(names, "position")?;
         let window = softnc_core::ring::window_for_lookahead(cfg.config.lookahead_samples);
-        let in_position_mm = [0, 1, 2].map(|i| cfg.machine.axes[i].in_position_mm);
+        let in_position_mm = std::array::from_fn(|i| cfg.machine.axes[i].in_position_mm);
         let in_position_timeout_cycles =
             (cfg.config.in_position_timeout_s / cfg.machine.interpolation_cycle_s).ceil() as u64;
         // manual motion (homing, jogs) traced, when traces are on, to a file of this
@@ -220,7 +220,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         } else {
             0
         };
-        let manual = Manual::new(&cfg.machine, [0.0; 3])?;
+        let manual = Manual::new(&cfg.machine, [0.0; MAX_AXES])?;
         // DaemonConfig::load refuses a filter wider than the window
         anyhow::ensure!(
             engine.filter_window() <= window,
@@ -243,7 +243,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             prep,
             requested_job: 0,
             staged_job: None,
-            start_mm: [0.0; 3],
+            start_mm: [0.0; MAX_AXES],
             pending_designs: None,
             spindle_override: 1.0,
             prep_lost: false,
@@ -262,8 +262,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             lines: Vec::new(),
             current: None,
             flags: std::collections::VecDeque::with_capacity(COMMAND_RING_CAPACITY),
-            last_cmd: [0.0; 3],
-            prev_cmd: [0.0; 3],
+            last_cmd: [0.0; MAX_AXES],
+            prev_cmd: [0.0; MAX_AXES],
             starved_since: None,
             in_position_mm,
             in_position_timeout_cycles,
@@ -712,8 +712,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     }
 
     /// One cycle of a jog or homing: the command, and the state when it is over.
-    fn manual_step(&mut self) -> Result<[f64; 3]> {
-        let (cmd, event) = self.manual.step(self.engine.measured_mm());
+    fn manual_step(&mut self) -> Result<[f64; MAX_AXES]> {
+        let (cmd, event) = self.manual.step(self.engine.measured_mm().0);
         match event {
             Some(ManualEvent::Rereferenced {
                 axis,
@@ -735,7 +735,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 self.homed |= 1 << axis;
             }
             Some(ManualEvent::HomingFailed { axis, why }) => {
-                let name = ["X", "Y", "Z"][axis];
+                let name = softnc_core::Axis::name_of(axis);
                 self.alarm(
                     AlarmCode::Other,
                     axis as u32,
@@ -857,7 +857,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             };
             match stepped.unwrap_or_else(|| self.engine.step(cmd, feed_move)) {
                 Ok(r) => {
-                    cmd = r.cmd_mm;
+                    cmd = r.cmd_mm.0;
                     r
                 }
                 Err(e) => {
@@ -868,7 +868,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                         format_args!("servo backend fault: {e}"),
                     )?;
                     softnc_servo::CycleRecord {
-                        cmd_mm: cmd,
+                        cmd_mm: Axes(cmd),
                         ..Default::default()
                     }
                 }
@@ -876,10 +876,10 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         } else {
             let actual_mm = self.engine.measured_mm();
             softnc_servo::CycleRecord {
-                cmd_mm: cmd,
+                cmd_mm: Axes(cmd),
                 actual_mm,
-                following_mm: [0, 1, 2].map(|i| cmd[i] - actual_mm[i]),
-                ctrl_out: [0.0; 3],
+                following_mm: Axes::from_fn(|a| cmd[a.index()] - actual_mm[a]),
+                ctrl_out: Axes::splat(0.0),
             }
         };
         // the force loop (adaptive feed) on the cycles that step the job's samples,
@@ -893,7 +893,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         // 4. faults: following error
         if matches!(self.state, MachineState::Running | MachineState::Held) {
             if let Some(axis) =
-                (0..3).find(|&i| fe[i].abs() > self.cfg.config.following_error_limit_mm)
+                (0..MAX_AXES).find(|&i| fe[i].abs() > self.cfg.config.following_error_limit_mm)
             {
                 self.state = MachineState::EStopped;
                 let limit_mm = self.cfg.config.following_error_limit_mm;
@@ -903,7 +903,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     format_args!(
                         "following error {:.3} mm on {} over the limit {limit_mm} mm: emergency stop",
                         fe[axis],
-                        ["X", "Y", "Z"][axis],
+                        softnc_core::Axis::name_of(axis),
                     ),
                 )?;
             }
@@ -911,7 +911,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         // 5. status (contour error exactly as the simulator computes it)
         let contour = match (feed_move, self.current) {
             (true, Some(c)) => match self.primitives.get(c.motion as usize).copied().flatten() {
-                Some(p) => p.contour_error(Vec3(rec.actual_mm)),
+                Some(p) => p.contour_error(Vec3(rec.actual_mm.xyz())),
                 None => f64::NAN,
             },
             _ => f64::NAN,
@@ -975,9 +975,9 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             status.force_n = a.last().map_or(f64::NAN, |r| r.est_force_n);
         }
         status.cmd_mm[..3].copy_from_slice(&cmd);
-        status.actual_mm[..3].copy_from_slice(&rec.actual_mm);
-        status.following_err_mm[..3].copy_from_slice(&fe);
-        status.ctrl_out[..3].copy_from_slice(&rec.ctrl_out);
+        status.actual_mm[..MAX_AXES].copy_from_slice(&*rec.actual_mm);
+        status.following_err_mm[..MAX_AXES].copy_from_slice(&*fe);
+        status.ctrl_out[..MAX_AXES].copy_from_slice(&*rec.ctrl_out);
         self.prev_cmd = self.last_cmd;
         self.last_cmd = cmd;
         // 6. advance
@@ -1000,7 +1000,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 };
             }
             if let Some(n) = self.phase.settling() {
-                let in_position = (0..3).all(|i| fe[i].abs() <= self.in_position_mm[i]);
+                let in_position = (0..MAX_AXES).all(|i| fe[i].abs() <= self.in_position_mm[i]);
                 if in_position {
                     self.end_job(&mut status);
                 } else if n >= self.in_position_timeout_cycles {
@@ -1043,7 +1043,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         self.current = None;
     }
 
-    fn dry_stop_step(&mut self, mut stop: DryStop) -> [f64; 3] {
+    fn dry_stop_step(&mut self, mut stop: DryStop) -> [f64; MAX_AXES] {
         let t = self.cfg.machine.interpolation_cycle_s;
         let a = self
             .cfg
@@ -1145,6 +1145,6 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     }
 }
 
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+fn dist(a: [f64; MAX_AXES], b: [f64; MAX_AXES]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }

@@ -14,7 +14,7 @@
 
 use crate::position::EngineFactory;
 use crossbeam_queue::ArrayQueue;
-use softnc_core::{MachineProfile, Primitive};
+use softnc_core::{MachineProfile, Primitive, MAX_AXES};
 use softnc_ipc::FixedStr;
 use softnc_servo::adaptive_feed::AdaptiveFeed;
 use softnc_servo::spindle::{SpindleDesigner, SpindleDesigns};
@@ -41,7 +41,7 @@ pub enum PrepRequest {
         /// Spindle override in force (fraction).
         spindle_override: f64,
         /// Where the machine is (the program is planned from there).
-        start_mm: [f64; 3],
+        start_mm: [f64; MAX_AXES],
         /// The line it runs from (`None`: the start).
         from_line: Option<u32>,
         /// The operator's switches when it started.

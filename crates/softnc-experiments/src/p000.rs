@@ -230,7 +230,7 @@ fn errors(p: &Prepared, engine: &mut CycleEngine<SimBackend>) -> Result<Vec<[f64
                     .plan
                     .motion_primitive(s.motion as usize)
                     .filter(|_| s.feed_move)
-                    .map(|prim| prim.contour_error(softnc_core::Vec3(pos)))
+                    .map(|prim| prim.contour_error(softnc_core::Vec3(pos.xyz())))
                     .unwrap_or(0.0);
                 [c, 0.0]
             }

@@ -222,7 +222,7 @@ pub fn run(
             continue;
         };
         let p = engine.backend().true_pos_mm();
-        let e = prim.contour_error(softnc_core::Vec3(p));
+        let e = prim.contour_error(softnc_core::Vec3(p.xyz()));
         observe(TracePoint {
             cmd_mm: [s.pos_mm.0[0], s.pos_mm.0[1]],
             contour_mm: e,

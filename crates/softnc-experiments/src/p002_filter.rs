@@ -102,7 +102,7 @@ pub fn experiment(machine: &MachineProfile) -> Result<FilterResult> {
     let raw: Vec<CommandSample> = plan
         .interpolator()
         .map(|s| CommandSample {
-            pos_mm: s.pos_mm.0,
+            pos_mm: softnc_core::Axes::from_xyz(s.pos_mm.0, 0.0),
             motion: s.motion,
             feed_move: s.feed_move,
         })

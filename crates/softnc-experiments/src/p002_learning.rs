@@ -48,10 +48,10 @@ pub fn curves(
     let mut out = Vec::new();
     for &buffer in buffers {
         let mut engine = simulated_engine(machine, seed, SimOptions::default());
-        let h =
-            learn_sim::identify(&mut engine, machine, job.samples[0].pos_mm, n).map_err(failed)?;
+        let h = learn_sim::identify(&mut engine, machine, job.samples[0].pos_mm.0, n)
+            .map_err(failed)?;
         let mut mj = MarkovJob::new(h, buffer.unwrap_or(n), Some(gain), n);
-        let terms = [0, 1, 2].map(|a| mj.buffer.min(mj.markov[a].len()));
+        let terms = std::array::from_fn(|a| mj.buffer.min(mj.markov[a].len()));
         let its = learn_sim::learn_markov(&mut engine, &job, &mut mj, iterations, |_, _| Ok(()))
             .map_err(failed)?;
         out.push(Curve {

@@ -136,7 +136,7 @@ pub fn run_cut(
         .tool(spec.tool)
         .with_context(|| format!("no tool `{}`", spec.tool))?;
     let length = spec.cut.length_mm();
-    let letter = ["X", "Y", "Z"][axis];
+    let letter = softnc_core::Axis::name_of(axis);
     let text = format!(
         "G90 G21 G17 G94\nG1 {letter}{length:.4} F{:.4}\nM2\n",
         spec.programmed_feed_mm_per_min

@@ -259,7 +259,7 @@ impl JobCorrection {
                 let left = 1.0 - (k - f.from + 1) as f64 / f.samples as f64;
                 f.frozen_mm.map(|c| c * left.max(0.0))
             }
-            _ => [0, 1, 2].map(|a| self.correction_mm[a].get(k).copied().unwrap_or(0.0)),
+            _ => std::array::from_fn(|a| self.correction_mm[a].get(k).copied().unwrap_or(0.0)),
         }
     }
 

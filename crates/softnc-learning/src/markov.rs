@@ -149,14 +149,15 @@ impl MarkovJob {
     /// A job of `samples` samples with no correction yet. `gain` `None` takes
     /// [`MarkovLearner::default_gain`] per axis.
     pub fn new(markov: [Vec<f64>; AXES], buffer: usize, gain: Option<f64>, samples: usize) -> Self {
-        let gain = [0, 1, 2]
-            .map(|a| gain.unwrap_or_else(|| MarkovLearner::default_gain(&markov[a], buffer)));
+        let gain: [f64; AXES] = std::array::from_fn(|a| {
+            gain.unwrap_or_else(|| MarkovLearner::default_gain(&markov[a], buffer))
+        });
         MarkovJob {
             gain,
             buffer,
             markov,
-            correction_mm: [0, 1, 2].map(|_| vec![0.0; samples]),
-            last_error_mm: [0, 1, 2].map(|_| vec![0.0; samples]),
+            correction_mm: std::array::from_fn(|_| vec![0.0; samples]),
+            last_error_mm: std::array::from_fn(|_| vec![0.0; samples]),
             repetitions: 0,
             max_correction_mm: None,
             improvement: None,
@@ -176,7 +177,9 @@ impl MarkovJob {
 
     /// The command of the next repetition at sample `k`: planned + correction.
     pub fn command(&self, k: usize, planned_mm: [f64; AXES]) -> [f64; AXES] {
-        [0, 1, 2].map(|a| planned_mm[a] + self.correction_mm[a].get(k).copied().unwrap_or(0.0))
+        std::array::from_fn(|a| {
+            planned_mm[a] + self.correction_mm[a].get(k).copied().unwrap_or(0.0)
+        })
     }
 
     /// Learn from one repetition: `planned_mm[k]` the desired positions, `measured_mm[k]`

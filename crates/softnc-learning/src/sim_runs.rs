@@ -6,6 +6,7 @@
 
 use crate::markov::{identify_markov, settled_terms, Improvement, MarkovJob, AXES};
 use crate::radius_ilc::{Circle, RadiusIlc, POINTS};
+use softnc_core::Axes;
 use softnc_core::{MachineProfile, Primitive};
 use softnc_servo::{CycleEngine, ServoBackend};
 use softnc_sim::{simulate, CommandSample, ErrorStats, SimBackend};
@@ -39,7 +40,7 @@ impl PreparedJob {
         let mut samples: Vec<CommandSample> = plan
             .interpolator()
             .map(|s| CommandSample {
-                pos_mm: s.pos_mm.0,
+                pos_mm: Axes::from_xyz(s.pos_mm.0, 0.0),
                 motion: s.motion,
                 feed_move: s.feed_move,
             })
@@ -66,7 +67,7 @@ impl PreparedJob {
 
     /// Planned positions per sample.
     pub fn planned_mm(&self) -> Vec<[f64; AXES]> {
-        self.samples.iter().map(|s| s.pos_mm).collect()
+        self.samples.iter().map(|s| s.pos_mm.0).collect()
     }
 }
 
@@ -91,7 +92,7 @@ pub fn run_job(
     let mut measured_mm = Vec::with_capacity(job.samples.len());
     let lead_in = engine.filter_window() as u64;
     let samples = job.samples.iter().enumerate().map(|(k, s)| CommandSample {
-        pos_mm: command(k, s.pos_mm),
+        pos_mm: Axes(command(k, s.pos_mm.0)),
         motion: s.motion,
         feed_move: s.feed_move,
     });
@@ -102,7 +103,7 @@ pub fn run_job(
         |m| job.prims.get(m as usize).copied().flatten(),
         |row| {
             if row.cycle >= lead_in && measured_mm.len() < job.samples.len() {
-                measured_mm.push(row.record.actual_mm);
+                measured_mm.push(row.record.actual_mm.0);
             }
         },
     )
@@ -171,7 +172,7 @@ pub fn correction_bound_mm(machine: &MachineProfile, h: &[Vec<f64>; AXES]) -> [f
     if let Some(m) = machine.learning.max_correction_mm {
         return [m; AXES];
     }
-    [0, 1, 2].map(|a| {
+    std::array::from_fn(|a| {
         let (mut w, mut s) = (0.0, 0.0);
         for (i, v) in h[a].iter().enumerate() {
             w += (i + 1) as f64 * v.abs();

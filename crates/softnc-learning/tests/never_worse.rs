@@ -35,7 +35,7 @@ fn learn(m: &MachineProfile, text: &str, iterations: usize) -> (PreparedJob, Mar
     let job = PreparedJob::new(text, "job.ngc", m).unwrap();
     let n = job.samples.len();
     let mut engine = simulated_engine(m, 1, SimOptions::default());
-    let h = identify(&mut engine, m, job.samples[0].pos_mm, n).unwrap();
+    let h = identify(&mut engine, m, job.samples[0].pos_mm.0, n).unwrap();
     let bound = correction_bound_mm(m, &h);
     let mut mj = MarkovJob::new(h, n, Some(DEFAULT_GAIN), n).bounded(bound);
     let its = learn_markov(&mut engine, &job, &mut mj, iterations, |_, _| Ok(())).unwrap();

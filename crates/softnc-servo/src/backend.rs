@@ -5,6 +5,8 @@
 //! process-data exchange. An EtherCAT CiA 402 drive in cyclic synchronous position
 //! mode maps onto it directly (see docs/architecture.md, "A real drive").
 
+use softnc_core::Axes;
+
 /// Axes a backend serves at most: the stack's one axis count.
 pub use softnc_core::MAX_AXES;
 
@@ -70,17 +72,17 @@ pub trait ServoBackend {
     fn disable(&mut self);
     /// Declare the current actual position to be `pos_mm` (homing; the simulation
     /// places its axes there at rest).
-    fn home(&mut self, pos_mm: [f64; MAX_AXES]);
+    fn home(&mut self, pos_mm: Axes<f64>);
     /// This cycle's command per axis, in the units of its [`CommandMode`].
-    fn write_commands(&mut self, cmd: [f64; MAX_AXES]);
+    fn write_commands(&mut self, cmd: Axes<f64>);
     /// Exchange with the drives: the machine moves for one cycle.
     fn cycle(&mut self) -> Result<(), BackendError>;
     /// Actual positions, encoder counts.
-    fn read_counts(&self) -> [i64; MAX_AXES];
+    fn read_counts(&self) -> Axes<i64>;
     /// Motor currents (or their model equivalents).
-    fn read_currents(&self) -> [f64; MAX_AXES];
+    fn read_currents(&self) -> Axes<f64>;
     /// Drive status.
-    fn read_status(&self) -> [AxisStatus; MAX_AXES];
+    fn read_status(&self) -> Axes<AxisStatus>;
     /// The spindle now turns at `rpm` (an S word took effect); backends whose
     /// machine has no spindle ignore it.
     fn set_spindle_rpm(&mut self, _rpm: f64) {}

@@ -14,10 +14,11 @@
 
 use crate::backend::{CommandMode, ServoBackend, MAX_AXES};
 use crate::engine::CycleEngine;
+use softnc_core::Axes;
 use softnc_core::MachineProfile;
 
 /// Where the checks home the axes (mm): off zero, signs mixed.
-pub const HOME_MM: [f64; MAX_AXES] = [12.5, -7.25, 3.0];
+pub const HOME_MM: Axes<f64> = Axes([12.5, -7.25, 3.0]);
 /// The move [`follows_when_enabled`] and [`ignores_commands_when_disabled`] command
 /// on each axis (mm).
 pub const MOVE_MM: f64 = 1.0;
@@ -141,8 +142,8 @@ pub fn deterministic<B: ServoBackend>(name: &str, profile: &MachineProfile, make
     );
 }
 
-fn holding_command<B: ServoBackend>(b: &B, at_mm: [f64; MAX_AXES]) -> [f64; MAX_AXES] {
-    let mut hold = [0.0; MAX_AXES];
+fn holding_command<B: ServoBackend>(b: &B, at_mm: Axes<f64>) -> Axes<f64> {
+    let mut hold = Axes::splat(0.0);
     for (i, h) in hold.iter_mut().enumerate() {
         *h = match b.command_mode(i) {
             CommandMode::Position => at_mm[i],
@@ -159,7 +160,7 @@ fn ramp_through<B: ServoBackend>(
     profile: &MachineProfile,
     b: B,
     enabled: bool,
-) -> ([f64; MAX_AXES], [f64; MAX_AXES]) {
+) -> (Axes<f64>, Axes<f64>) {
     let mut e = CycleEngine::try_new(profile, b)
         .unwrap_or_else(|err| panic!("{name}: the profile's controllers: {err}"));
     e.reset(HOME_MM);

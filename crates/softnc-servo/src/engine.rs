@@ -7,6 +7,7 @@ use softnc_control::discrete_tf::DiscreteTf;
 use softnc_control::zero_lag_fir::{CommandFilter, FirDesignError};
 use softnc_control::AxisController;
 use softnc_core::servo::PlantModel;
+use softnc_core::Axes;
 use softnc_core::{CommandRing, MachineProfile};
 
 /// Why an axis's disturbance compensation (paper 000) could not be designed.
@@ -49,13 +50,13 @@ impl EngineError {
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CycleRecord {
     /// Command position per axis (mm).
-    pub cmd_mm: [f64; MAX_AXES],
+    pub cmd_mm: Axes<f64>,
     /// Measured position at the start of the cycle, when the command was compared (mm).
-    pub actual_mm: [f64; MAX_AXES],
+    pub actual_mm: Axes<f64>,
     /// Following error command − measured (mm).
-    pub following_mm: [f64; MAX_AXES],
+    pub following_mm: Axes<f64>,
     /// Command written to each drive (its command mode's units).
-    pub ctrl_out: [f64; MAX_AXES],
+    pub ctrl_out: Axes<f64>,
 }
 
 /// Controller stacks and a servo backend, stepped one cycle at a time.
@@ -65,7 +66,7 @@ pub struct CycleEngine<B: ServoBackend> {
     spindle: Option<crate::spindle::SpindleSchedule>,
     controllers: [AxisController; MAX_AXES],
     modes: [CommandMode; MAX_AXES],
-    mm_per_count: [f64; MAX_AXES],
+    mm_per_count: Axes<f64>,
     backend: B,
 }
 
@@ -88,13 +89,13 @@ impl<B: ServoBackend> CycleEngine<B> {
     pub fn try_new(profile: &MachineProfile, backend: B) -> Result<Self, EngineError> {
         let mut e = Self::without_compensation(profile, backend);
         e.filter = CommandFilter::design(
-            [0, 1, 2].map(|i| profile.axis_servo(i).command_filter),
+            std::array::from_fn(|i| profile.axis_servo(i).command_filter),
             profile.interpolation_cycle_s,
         )
         .map_err(|(axis, error)| EngineError::Filter { axis, error })?;
         let fd_hz = profile.servo.cutting.as_ref().map(|c| c.frequency_hz());
         e.design_compensation(profile, fd_hz)?;
-        e.reset([0.0; MAX_AXES]);
+        e.reset(Axes::splat(0.0));
         Ok(e)
     }
 
@@ -156,24 +157,26 @@ impl<B: ServoBackend> CycleEngine<B> {
     /// The profile's controllers without compensation in front of `backend`.
     fn without_compensation(profile: &MachineProfile, backend: B) -> Self {
         let cycle_s = profile.interpolation_cycle_s;
-        let controllers =
-            [0, 1, 2].map(|i| AxisController::new(&profile.axis_servo(i).controller, cycle_s));
-        let modes = [0, 1, 2].map(|i| backend.command_mode(i));
-        let mm_per_count = [0, 1, 2].map(|i| backend.mm_per_count(i));
+        let controllers = std::array::from_fn(|i| {
+            AxisController::new(&profile.axis_servo(i).controller, cycle_s)
+        });
+        let modes = std::array::from_fn(|i| backend.command_mode(i));
+        let mm_per_count = std::array::from_fn(|i| backend.mm_per_count(i));
         let mut e = CycleEngine {
             filter: CommandFilter::default(),
             spindle: None,
             controllers,
             modes,
-            mm_per_count,
+            mm_per_count: Axes(mm_per_count),
             backend,
         };
-        e.reset([0.0; MAX_AXES]);
+        e.reset(Axes::splat(0.0));
         e
     }
 
     /// Put the axes at rest at `pos_mm` (start of a job).
-    pub fn reset(&mut self, pos_mm: [f64; MAX_AXES]) {
+    pub fn reset(&mut self, pos_mm: impl Into<Axes<f64>>) {
+        let pos_mm = pos_mm.into();
         self.backend.home(pos_mm);
         for (c, x) in self.controllers.iter_mut().zip(pos_mm) {
             c.reset(x);
@@ -182,9 +185,9 @@ impl<B: ServoBackend> CycleEngine<B> {
 
     /// Measured positions (mm).
     #[inline]
-    pub fn measured_mm(&self) -> [f64; MAX_AXES] {
+    pub fn measured_mm(&self) -> Axes<f64> {
         let counts = self.backend.read_counts();
-        [0, 1, 2].map(|i| counts[i] as f64 * self.mm_per_count[i])
+        Axes::from_fn(|a| counts[a] as f64 * self.mm_per_count[a])
     }
 
     /// One cycle with command `cmd_mm`; `cutting` tells the machine whether the tool
@@ -192,13 +195,14 @@ impl<B: ServoBackend> CycleEngine<B> {
     #[inline]
     pub fn step(
         &mut self,
-        cmd_mm: [f64; MAX_AXES],
+        cmd_mm: impl Into<Axes<f64>>,
         cutting: bool,
     ) -> Result<CycleRecord, BackendError> {
+        let cmd_mm = cmd_mm.into();
         // 1. inputs
         let actual_mm = self.measured_mm();
         // 2. controller stacks
-        let mut out = [0.0; MAX_AXES];
+        let mut out = Axes::splat(0.0);
         for i in 0..MAX_AXES {
             let u = self.controllers[i].step(cmd_mm[i], actual_mm[i]).u;
             out[i] = match self.modes[i] {
@@ -216,7 +220,7 @@ impl<B: ServoBackend> CycleEngine<B> {
         Ok(CycleRecord {
             cmd_mm,
             actual_mm,
-            following_mm: [0, 1, 2].map(|i| cmd_mm[i] - actual_mm[i]),
+            following_mm: Axes::from_fn(|a| cmd_mm[a] - actual_mm[a]),
             ctrl_out: out,
         })
     }
@@ -235,7 +239,7 @@ impl<B: ServoBackend> CycleEngine<B> {
         let cutting = profile.servo.cutting.as_ref()?;
         let (speeds_rpm, _) = crate::spindle::SpindleSchedule::plan(cutting.spindle_rpm, changes);
         Some(crate::spindle::SpindleDesigner {
-            designers: [0, 1, 2].map(|i| {
+            designers: std::array::from_fn(|i| {
                 self.controllers[i]
                     .compensation
                     .as_deref()
@@ -406,7 +410,7 @@ impl<B: ServoBackend> CycleEngine<B> {
     ) -> Option<Result<CycleRecord, BackendError>> {
         let cmd_mm = self.filter.apply(ring)?;
         self.follow_spindle(motion);
-        Some(self.step(cmd_mm, cutting))
+        Some(self.step(Axes(cmd_mm), cutting))
     }
 
     /// The backend.

@@ -5,6 +5,7 @@
 //! simulated machine.
 
 use crate::backend::{AxisStatus, BackendError, CommandMode, ServoBackend, MAX_AXES};
+use softnc_core::Axes;
 
 /// Resolution the loopback reports (mm per count): fine enough that its counts are
 /// the command to floating-point precision over any travel.
@@ -13,9 +14,9 @@ pub const LOOPBACK_MM_PER_COUNT: f64 = 1e-9;
 /// Axes that take a position command and are there at the next cycle.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LoopbackBackend {
-    cmd_mm: [f64; MAX_AXES],
-    counts: [i64; MAX_AXES],
-    status: [AxisStatus; MAX_AXES],
+    cmd_mm: Axes<f64>,
+    counts: Axes<i64>,
+    status: Axes<AxisStatus>,
 }
 
 impl Default for LoopbackBackend {
@@ -28,12 +29,12 @@ impl LoopbackBackend {
     /// Axes at 0, enabled.
     pub fn new() -> Self {
         LoopbackBackend {
-            cmd_mm: [0.0; MAX_AXES],
-            counts: [0; MAX_AXES],
-            status: [AxisStatus {
+            cmd_mm: Axes::splat(0.0),
+            counts: Axes::splat(0),
+            status: Axes::splat(AxisStatus {
                 enabled: true,
                 ..AxisStatus::default()
-            }; MAX_AXES],
+            }),
         }
     }
 
@@ -65,11 +66,11 @@ impl ServoBackend for LoopbackBackend {
             self.cmd_mm[i] = self.counts[i] as f64 * LOOPBACK_MM_PER_COUNT;
         }
     }
-    fn home(&mut self, pos_mm: [f64; MAX_AXES]) {
+    fn home(&mut self, pos_mm: Axes<f64>) {
         self.cmd_mm = pos_mm;
         self.counts = pos_mm.map(Self::count_of);
     }
-    fn write_commands(&mut self, cmd: [f64; MAX_AXES]) {
+    fn write_commands(&mut self, cmd: Axes<f64>) {
         for ((c, s), new) in self.cmd_mm.iter_mut().zip(&self.status).zip(cmd) {
             if s.enabled && new.is_finite() {
                 *c = new;
@@ -80,13 +81,13 @@ impl ServoBackend for LoopbackBackend {
         self.counts = self.cmd_mm.map(Self::count_of);
         Ok(())
     }
-    fn read_counts(&self) -> [i64; MAX_AXES] {
+    fn read_counts(&self) -> Axes<i64> {
         self.counts
     }
-    fn read_currents(&self) -> [f64; MAX_AXES] {
-        [0.0; MAX_AXES]
+    fn read_currents(&self) -> Axes<f64> {
+        Axes::splat(0.0)
     }
-    fn read_status(&self) -> [AxisStatus; MAX_AXES] {
+    fn read_status(&self) -> Axes<AxisStatus> {
         self.status
     }
 }

@@ -63,22 +63,22 @@ impl ServoBackend for IgnoresDisable {
         self.0.enable()
     }
     fn disable(&mut self) {}
-    fn home(&mut self, pos_mm: [f64; softnc_servo::MAX_AXES]) {
+    fn home(&mut self, pos_mm: softnc_core::Axes<f64>) {
         self.0.home(pos_mm)
     }
-    fn write_commands(&mut self, cmd: [f64; softnc_servo::MAX_AXES]) {
+    fn write_commands(&mut self, cmd: softnc_core::Axes<f64>) {
         self.0.write_commands(cmd)
     }
     fn cycle(&mut self) -> Result<(), softnc_servo::BackendError> {
         self.0.cycle()
     }
-    fn read_counts(&self) -> [i64; softnc_servo::MAX_AXES] {
+    fn read_counts(&self) -> softnc_core::Axes<i64> {
         self.0.read_counts()
     }
-    fn read_currents(&self) -> [f64; softnc_servo::MAX_AXES] {
+    fn read_currents(&self) -> softnc_core::Axes<f64> {
         self.0.read_currents()
     }
-    fn read_status(&self) -> [softnc_servo::AxisStatus; softnc_servo::MAX_AXES] {
+    fn read_status(&self) -> softnc_core::Axes<softnc_servo::AxisStatus> {
         self.0.read_status()
     }
 }

@@ -33,11 +33,11 @@ fn samples(n: u64) -> impl Iterator<Item = CommandSample> {
     (0..n).map(move |k| {
         let t = k as f64 * 0.001;
         CommandSample {
-            pos_mm: [
+            pos_mm: softnc_core::Axes([
                 20.0 * (w * t).cos(),
                 20.0 * (w * t).sin(),
                 2.0 * (0.5 * w * t).sin(),
-            ],
+            ]),
             motion: 0,
             feed_move: true,
         }

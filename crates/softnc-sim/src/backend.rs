@@ -6,6 +6,7 @@ use crate::plant::Plant;
 use crate::resonance::Resonance;
 use crate::rng::Rng;
 use crate::workpiece::StockCut;
+use softnc_core::Axes;
 use softnc_core::MachineProfile;
 use softnc_servo::{
     AxisStatus, BackendError, CommandMode, PhaseCurrents, ServoBackend, SimulatedMachine, MAX_AXES,
@@ -60,21 +61,21 @@ pub struct SimBackend {
     options: SimOptions,
     cycle_s: f64,
     cycle: u64,
-    cmd: [f64; MAX_AXES],
-    counts: [i64; MAX_AXES],
-    currents: [f64; MAX_AXES],
-    status: [AxisStatus; MAX_AXES],
+    cmd: Axes<f64>,
+    counts: Axes<i64>,
+    currents: Axes<f64>,
+    status: Axes<AxisStatus>,
 }
 
 impl SimBackend {
     /// The machine of `profile` (its `servo` section) with random seed `seed`.
     pub fn new(profile: &MachineProfile, seed: u64, options: SimOptions) -> Self {
         let cycle_s = profile.interpolation_cycle_s;
-        let plants = [0, 1, 2].map(|i| {
+        let plants = std::array::from_fn(|i| {
             let mut rng = Rng::stream(seed, STREAM_VARIATION + i as u64);
             Plant::new(&profile.axis_servo(i).plant, &mut rng, options.variation)
         });
-        let encoders = [0, 1, 2].map(|i| {
+        let encoders = std::array::from_fn(|i| {
             let res = if options.quantisation {
                 profile.axes[i].encoder_resolution_mm
             } else {
@@ -87,8 +88,8 @@ impl SimBackend {
             };
             Encoder::new(res, noise, Rng::stream(seed, STREAM_NOISE + i as u64))
         });
-        let substeps = [0, 1, 2].map(|i| plants[i].substeps(cycle_s));
-        let modes = [0, 1, 2].map(|i| {
+        let substeps = std::array::from_fn(|i| plants[i].substeps(cycle_s));
+        let modes = std::array::from_fn(|i| {
             profile
                 .axis_servo(i)
                 .resonance
@@ -114,15 +115,15 @@ impl SimBackend {
             options,
             cycle_s,
             cycle: 0,
-            cmd: [0.0; MAX_AXES],
-            counts: [0; MAX_AXES],
-            currents: [0.0; MAX_AXES],
-            status: [AxisStatus {
+            cmd: Axes::splat(0.0),
+            counts: Axes::splat(0),
+            currents: Axes::splat(0.0),
+            status: Axes::splat(AxisStatus {
                 enabled: true,
                 ..AxisStatus::default()
-            }; MAX_AXES],
+            }),
         };
-        b.home([0.0; MAX_AXES]);
+        b.home(Axes::splat(0.0));
         b
     }
 
@@ -132,16 +133,16 @@ impl SimBackend {
     }
 
     /// True (unmeasured) positions (mm) of the motors, which the encoders read.
-    pub fn true_pos_mm(&self) -> [f64; MAX_AXES] {
-        [0, 1, 2].map(|i| self.plants[i].pos_mm())
+    pub fn true_pos_mm(&self) -> Axes<f64> {
+        Axes::from_fn(|a| self.plants[a.index()].pos_mm())
     }
 
     /// True table positions (mm): the motor's, moved by the structural mode where the
     /// axis has one.
-    pub fn table_pos_mm(&self) -> [f64; MAX_AXES] {
-        [0, 1, 2].map(|i| match &self.modes[i] {
+    pub fn table_pos_mm(&self) -> Axes<f64> {
+        Axes::from_fn(|a| match &self.modes[a.index()] {
             Some(m) => m.table_mm(),
-            None => self.plants[i].pos_mm(),
+            None => self.plants[a.index()].pos_mm(),
         })
     }
 
@@ -173,7 +174,7 @@ impl ServoBackend for SimBackend {
     fn mm_per_count(&self, axis: usize) -> f64 {
         self.encoders[axis].mm_per_count()
     }
-    fn home(&mut self, pos_mm: [f64; MAX_AXES]) {
+    fn home(&mut self, pos_mm: Axes<f64>) {
         for (p, x) in self.plants.iter_mut().zip(pos_mm) {
             p.reset(x);
         }
@@ -182,14 +183,14 @@ impl ServoBackend for SimBackend {
                 m.reset(x);
             }
         }
-        self.cmd = [0.0; MAX_AXES];
+        self.cmd = Axes::splat(0.0);
         for (i, c) in self.cmd.iter_mut().enumerate() {
             if self.plants[i].command_mode() == CommandMode::Position {
                 *c = pos_mm[i];
             }
         }
         self.cycle = 0;
-        self.currents = [0.0; MAX_AXES];
+        self.currents = Axes::splat(0.0);
         if let Some(s) = &mut self.stock {
             s.reset();
         }
@@ -211,7 +212,7 @@ impl ServoBackend for SimBackend {
             };
         }
     }
-    fn write_commands(&mut self, cmd: [f64; MAX_AXES]) {
+    fn write_commands(&mut self, cmd: Axes<f64>) {
         for ((c, s), new) in self.cmd.iter_mut().zip(&self.status).zip(cmd) {
             if s.enabled {
                 *c = new;
@@ -248,13 +249,13 @@ impl ServoBackend for SimBackend {
         }
         Ok(())
     }
-    fn read_counts(&self) -> [i64; MAX_AXES] {
+    fn read_counts(&self) -> Axes<i64> {
         self.counts
     }
-    fn read_currents(&self) -> [f64; MAX_AXES] {
+    fn read_currents(&self) -> Axes<f64> {
         self.currents
     }
-    fn read_status(&self) -> [AxisStatus; MAX_AXES] {
+    fn read_status(&self) -> Axes<AxisStatus> {
         self.status
     }
     fn read_phase_currents(&self, axis: usize) -> Option<PhaseCurrents> {

@@ -10,7 +10,7 @@
 //! // 100 ms of a 10 mm/s move along X
 //! let t = profile.interpolation_cycle_s;
 //! let samples = (0..100).map(|k| CommandSample {
-//!     pos_mm: [10.0 * t * k as f64, 0.0, 0.0], motion: 0, feed_move: false });
+//!     pos_mm: softnc_core::Axes([10.0 * t * k as f64, 0.0, 0.0]), motion: 0, feed_move: false });
 //! let report = simulate(&mut engine, t, samples, |_| None, |_| {}).unwrap();
 //! assert_eq!(report.cycles, 100);
 //! ```

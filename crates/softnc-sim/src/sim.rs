@@ -2,6 +2,7 @@
 //! following error per axis and contour error during feed moves.
 
 use crate::metrics::ErrorStats;
+use softnc_core::Axes;
 use softnc_core::{CommandRing, Primitive, RingSample, Vec3, COMMAND_RING_CAPACITY};
 use softnc_servo::adaptive_feed::{AdaptiveFeed, OverrideSchedule, Revolution};
 use softnc_servo::{BackendError, CycleEngine, ServoBackend, TraceRow, MAX_AXES};
@@ -11,7 +12,7 @@ use std::collections::VecDeque;
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CommandSample {
     /// Command position (mm).
-    pub pos_mm: [f64; MAX_AXES],
+    pub pos_mm: Axes<f64>,
     /// Index of the program motion being executed.
     pub motion: u32,
     /// True during feed moves (G1/G2/G3): the tool cuts, contour error is measured.
@@ -111,7 +112,7 @@ where
             ring.push(
                 RingSample {
                     seq,
-                    pos_mm: s.pos_mm,
+                    pos_mm: s.pos_mm.0,
                 },
                 last,
             )
@@ -124,7 +125,7 @@ where
             .step_ring(&ring, motion, feed_move)
             .expect("the window is in: N future samples or the end")?;
         let contour_mm = if feed_move {
-            path(motion).map(|p| p.contour_error(Vec3(record.actual_mm)))
+            path(motion).map(|p| p.contour_error(Vec3(record.actual_mm.xyz())))
         } else {
             None
         };

@@ -35,7 +35,7 @@ fn trace(p: &MachineProfile, seed: u64) -> Vec<u64> {
     let samples = (0..n).map(|k| {
         let th = omega * t * k as f64;
         CommandSample {
-            pos_mm: [r * th.cos(), r * th.sin(), 0.0],
+            pos_mm: softnc_core::Axes([r * th.cos(), r * th.sin(), 0.0]),
             motion: 0,
             feed_move: true,
         }

@@ -74,7 +74,7 @@ fn ramp_following_error(profile: &MachineProfile, v_mm_per_s: f64, secs: f64) ->
     let tail = (1.0 / t).round() as u64;
     let mut sum = 0.0;
     let samples = (0..n).map(|k| CommandSample {
-        pos_mm: [v_mm_per_s * t * k as f64, 0.0, 0.0],
+        pos_mm: softnc_core::Axes([v_mm_per_s * t * k as f64, 0.0, 0.0]),
         motion: 0,
         feed_move: false,
     });
@@ -255,7 +255,7 @@ fn circle_contour(p: &MachineProfile, r_mm: f64, f_mm_per_min: f64) -> Vec<(f64,
     let samples = (0..2 * n).map(|k| {
         let th = omega * t * k as f64;
         CommandSample {
-            pos_mm: [r_mm * th.cos(), r_mm * th.sin(), 0.0],
+            pos_mm: softnc_core::Axes([r_mm * th.cos(), r_mm * th.sin(), 0.0]),
             motion: 0,
             feed_move: true,
         }

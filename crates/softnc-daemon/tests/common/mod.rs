@@ -97,7 +97,7 @@ pub fn learn_job(store: &Path, job: &Path, machine: &Path, iterations: usize) ->
     let mut engine =
         softnc_sim::simulated_engine(&profile, seed, softnc_sim::SimOptions::default());
     let n = prepared.samples.len();
-    let h = identify(&mut engine, &profile, prepared.samples[0].pos_mm, n).unwrap();
+    let h = identify(&mut engine, &profile, prepared.samples[0].pos_mm.0, n).unwrap();
     let gain = softnc_learning::markov::DEFAULT_GAIN;
     let mut mj = softnc_learning::markov::MarkovJob::new(h, n, Some(gain), n);
     let its = learn_markov(&mut engine, &prepared, &mut mj, iterations, |_, _| Ok(())).unwrap();
