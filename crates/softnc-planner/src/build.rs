@@ -613,7 +613,30 @@ impl PathBuilder {
             // arc blends off, or a tangent join taken at speed that needs none
             return None;
         }
-        let found = match (a.geom, b.geom) {
+        let found = self.circle_blend(a, b).or_else(|| self.biarc_blend(a, b))?;
+        let lim = &self.lim;
+        if lim.profile == FeedProfile::SCurve {
+            // A blend so tight that the jerk limit crawls through it is slower than
+            // stopping: stop at the corner instead.
+            let radius = |g: Option<Geom>| match g {
+                Some(Geom::Blend { radius, .. }) => radius,
+                _ => f64::INFINITY,
+            };
+            let tightest = radius(Some(found.geom)).min(radius(found.geom2));
+            let through = scurve_curve_cap(1.0 / tightest, lim);
+            let vmin = lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min);
+            let around = a.feed_mm_per_s.min(b.feed_mm_per_s).min(vmin);
+            if through < SCURVE_MIN_BLEND_SPEED_SHARE * around {
+                return None;
+            }
+        }
+        Some(found)
+    }
+
+    /// A single circular blend: line–line here, line–arc, arc–line and arc–arc of
+    /// one plane in [`crate::fillet`].
+    fn circle_blend(&self, a: &Pending, b: &Pending) -> Option<Blend> {
+        match (a.geom, b.geom) {
             (Geom::Line { .. }, Geom::Line { .. }) => self.blend_lines(a, b),
             (Geom::Line { end, .. }, Geom::Arc(arc)) => {
                 let view = ArcView::of(&arc, false, self.max_drift_rad())?;
@@ -627,6 +650,7 @@ impl PathBuilder {
                 )?;
                 let e1 = (f.p_line - f.center) * (1.0 / f.radius);
                 Some(Blend {
+                    geom2: None,
                     geom: Geom::Blend {
                         center: f.center,
                         e1,
@@ -657,6 +681,7 @@ impl PathBuilder {
                 let e1_back = (f.p_line - f.center) * (1.0 / f.radius);
                 let t_back = -b.dir * f.sweep.cos() - e1_back * f.sweep.sin();
                 Some(Blend {
+                    geom2: None,
                     geom: Geom::Blend {
                         center: f.center,
                         e1,
@@ -683,6 +708,7 @@ impl PathBuilder {
                 )?;
                 let e1 = (f.p_line - f.center) * (1.0 / f.radius);
                 Some(Blend {
+                    geom2: None,
                     geom: Geom::Blend {
                         center: f.center,
                         e1,
@@ -697,22 +723,69 @@ impl PathBuilder {
                 })
             }
             _ => None,
-        }?;
-        let lim = &self.lim;
-        if lim.profile == FeedProfile::SCurve {
-            // A blend so tight that the jerk limit crawls through it is slower than
-            // stopping: stop at the corner instead.
-            let Geom::Blend { radius, .. } = found.geom else {
-                return None;
-            };
-            let through = scurve_curve_cap(1.0 / radius, lim);
-            let vmin = lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min);
-            let around = a.feed_mm_per_s.min(b.feed_mm_per_s).min(vmin);
-            if through < SCURVE_MIN_BLEND_SPEED_SHARE * around {
+        }
+    }
+
+    /// A biarc blend ([`fillet::biarc`]) at a corner with an arc or helix that no
+    /// single circle blends (helices, arcs of different planes, fillets not found):
+    /// each move gives at most half its length (less what the blend at its start
+    /// took), arcs only if they can be trimmed ([`trimmable_arc`]).
+    fn biarc_blend(&self, a: &Pending, b: &Pending) -> Option<Blend> {
+        if matches!((a.geom, b.geom), (Geom::Line { .. }, Geom::Line { .. })) {
+            return None;
+        }
+        let drift = self.max_drift_rad();
+        let before_avail = (0.5 * a.len).min(a.len - a.start_trim);
+        let after_avail = 0.5 * b.len;
+        let corner = match a.geom {
+            Geom::Line { end, .. } => end,
+            Geom::Arc(p) if trimmable_arc(&p, drift) => p.end(),
+            _ => return None,
+        };
+        if let Geom::Arc(p) = b.geom {
+            if !trimmable_arc(&p, drift) {
                 return None;
             }
         }
-        Some(found)
+        let (t_in, t_out) = (
+            end_tangent(&a.geom, a.dir, a.len),
+            start_tangent(&b.geom, b.dir),
+        );
+        if t_in.dot(t_out).clamp(-1.0, 1.0).acos() > MAX_BLEND_TURN_RAD {
+            return None;
+        }
+        let before = |d: f64| match a.geom {
+            Geom::Arc(p) => (p.point_at(a.len - d), p.tangent_at(a.len - d)),
+            _ => (corner - a.dir * d, a.dir),
+        };
+        let after = |d: f64| match b.geom {
+            Geom::Arc(p) => (p.point_at(d), p.tangent_at(d)),
+            _ => (corner + b.dir * d, b.dir),
+        };
+        let f = fillet::biarc(
+            corner,
+            before,
+            before_avail,
+            after,
+            after_avail,
+            a.tolerance_mm.min(b.tolerance_mm),
+        )?;
+        let piece = |p: &fillet::ArcPiece| Geom::Blend {
+            center: p.center,
+            e1: p.e1,
+            e2: p.e2,
+            radius: p.radius,
+            sweep: p.sweep,
+        };
+        let on_arc = |g: &Geom, at: Vec3| matches!(g, Geom::Arc(_)).then_some(at);
+        Some(Blend {
+            geom: piece(&f.arcs[0]),
+            geom2: Some(piece(&f.arcs[1])),
+            end_trim_prev: f.trim_before,
+            start_trim_next: f.trim_after,
+            prev_end_at: on_arc(&a.geom, f.p_before),
+            next_start_at: on_arc(&b.geom, f.p_after),
+        })
     }
 
     /// The largest angle between a blended arc's tangent and its circle's (rad): the
@@ -831,6 +904,7 @@ impl PathBuilder {
         };
         Some(Blend {
             geom: blend,
+            geom2: None,
             end_trim_prev: d,
             start_trim_next: d,
             prev_end_at: None,
@@ -884,34 +958,37 @@ impl PathBuilder {
                         let at_to = blend
                             .and_then(|b| b.prev_end_at)
                             .unwrap_or_else(|| prim.point_at(to));
-                        let sub = sub_arc(&prim, at_from, at_to);
+                        let sub = if prim_sweep(&prim).abs() < std::f64::consts::TAU {
+                            sub_arc(&prim, at_from, at_to)
+                        } else {
+                            // a helix of a turn or more, trimmed by biarcs only
+                            sub_arc_span(&prim, from, to, at_from, at_to)
+                        };
                         (Geom::Arc(sub), ElementShape::arc(&sub))
                     }
                 }
             }
             Geom::Blend { .. } => unreachable!("moves are lines or arcs"),
         };
-        let pushed = match blend.map(|b| b.geom) {
-            Some(
-                b @ Geom::Blend {
-                    e1,
-                    e2,
-                    radius,
-                    sweep,
-                    ..
-                },
-            ) => {
+        let pushed = match blend {
+            Some(b) => {
                 let pushed = self.push_element(p, &geom, &shape, 0.0, false);
-                self.push_element(
-                    p,
-                    &b,
-                    &ElementShape::blend(e1, e2, radius, sweep),
-                    0.0,
-                    false,
-                );
+                for g in std::iter::once(b.geom).chain(b.geom2) {
+                    if let Geom::Blend {
+                        e1,
+                        e2,
+                        radius,
+                        sweep,
+                        ..
+                    } = g
+                    {
+                        let shape = ElementShape::blend(e1, e2, radius, sweep);
+                        self.push_element(p, &g, &shape, 0.0, false);
+                    }
+                }
                 pushed
             }
-            _ => self.push_element(p, &geom, &shape, p.dwell_s, stop),
+            None => self.push_element(p, &geom, &shape, p.dwell_s, stop),
         };
         if !pushed {
             if let Some(prim) = geom.programmed() {
@@ -1021,6 +1098,8 @@ impl PathBuilder {
 #[derive(Debug, Clone, Copy)]
 struct Blend {
     geom: Geom,
+    /// The second arc of a biarc blend ([`fillet::biarc`]), run after `geom`.
+    geom2: Option<Geom>,
     /// Arc length taken from the end of the move before the corner (mm).
     end_trim_prev: f64,
     /// Arc length taken from the start of the move after it (mm).
@@ -1045,6 +1124,89 @@ fn sub_arc(prim: &Primitive, from: Vec3, to: Vec3) -> Primitive {
     };
     let turns = if sweep > 0.0 { 1 } else { -1 };
     Primitive::arc(from, to, center, plane, turns)
+}
+
+/// The signed sweep of an arc (0 for a line).
+fn prim_sweep(prim: &Primitive) -> f64 {
+    match *prim {
+        Primitive::Arc { sweep, .. } => sweep,
+        Primitive::Line { .. } => 0.0,
+    }
+}
+
+/// The stretch [`from`, `to`] (arc length) of an arc or helix, of any number of
+/// turns, as an arc of its own: the programmed parametrisation (angle, normal travel
+/// and the radius's linear change all proportional to arc length) restricted to it;
+/// `at_from`, `at_to` are its points there (`Primitive::point_at`).
+fn sub_arc_span(prim: &Primitive, from: f64, to: f64, at_from: Vec3, at_to: Vec3) -> Primitive {
+    let Primitive::Arc {
+        center,
+        plane,
+        radius,
+        start_angle,
+        sweep,
+        normal_travel,
+        end,
+        ..
+    } = *prim
+    else {
+        return *prim;
+    };
+    let len = prim.length();
+    let (u0, u1) = (from / len, to / len);
+    let (a, b, n) = plane.axes();
+    let end_radius = (end[a] - center[a]).hypot(end[b] - center[b]);
+    let mut c = center;
+    c[n] = at_from[n];
+    Primitive::Arc {
+        start: at_from,
+        center: c,
+        plane,
+        radius: radius + (end_radius - radius) * u0,
+        start_angle: start_angle + sweep * u0,
+        sweep: sweep * (u1 - u0),
+        normal_travel: normal_travel * (u1 - u0),
+        end: at_to,
+    }
+}
+
+/// Whether an arc or helix may be trimmed by a biarc: its end radius within
+/// `MAX_RADIUS_MISMATCH_MM` of the start's, and its tangent leaving the circle's
+/// by at most `max_drift_rad` (as [`ArcView::of`] asks of planar fillets: the
+/// biarc is tangent to the programmed parametrisation's circle).
+fn trimmable_arc(prim: &Primitive, max_drift_rad: f64) -> bool {
+    let Primitive::Arc {
+        center,
+        plane,
+        radius,
+        sweep,
+        end,
+        ..
+    } = *prim
+    else {
+        return true;
+    };
+    let (a, b, _) = plane.axes();
+    let mismatch = ((end[a] - center[a]).hypot(end[b] - center[b]) - radius).abs();
+    radius > 0.0
+        && mismatch <= fillet::MAX_RADIUS_MISMATCH_MM
+        && 2.0 * mismatch <= max_drift_rad * radius * sweep.abs()
+}
+
+/// Unit tangent at the end of a move held back by the builder.
+fn end_tangent(g: &Geom, dir: Vec3, len: f64) -> Vec3 {
+    match g {
+        Geom::Arc(p) => p.tangent_at(len),
+        _ => dir,
+    }
+}
+
+/// Unit tangent at the start of a move held back by the builder.
+fn start_tangent(g: &Geom, dir: Vec3) -> Vec3 {
+    match g {
+        Geom::Arc(p) => p.tangent_at(0.0),
+        _ => dir,
+    }
 }
 
 /// What an element may ask of each axis's acceleration: its tangential acceleration
