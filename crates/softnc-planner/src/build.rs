@@ -823,34 +823,37 @@ impl PathBuilder {
     /// The blend radius at which a line–line corner is fastest, if smaller than the
     /// largest the tolerance and the lines allow (infinite otherwise). A blend of
     /// radius r (at least r* = v_b²/(`ARC_NORMAL_SHARE`·a), where its centripetal cap
-    /// reaches v_b) runs at v_b, the lower of its axes' velocity cap and the feed,
-    /// which does not depend on r; it takes r·tan(θ/2) of each line, which run at v_l.
-    /// The corner's time, 2·(L/2 − r·tan(θ/2))/v_l + r·θ/v_b, is linear in r: where
-    /// θ/v_b > 2·tan(θ/2)/v_l (a blend slower than its lines: through a 90° corner
-    /// of two diagonals it passes an axis direction, the lines run at √2·V) the
-    /// smallest blend that keeps v_b, r*, is the fastest, and it also deviates less;
-    /// otherwise the largest. Trapezoidal profile only (the S-curve caps a blend by its
-    /// curvature as well).
+    /// reaches v_b) runs at v_b, the lower of its axes' velocity cap and its feed (the
+    /// first move's), which does not depend on r; it takes r·tan(θ/2) of each line,
+    /// which run at v₁ and v₂ (each its own feed and axis cap). The corner's time,
+    /// (L₁/2 − r·tan(θ/2))/v₁ + (L₂/2 − r·tan(θ/2))/v₂ + r·θ/v_b, is linear in r:
+    /// where θ/v_b > tan(θ/2)·(1/v₁ + 1/v₂) (a blend slower than its lines: through a
+    /// 90° corner of two diagonals it passes an axis direction while the lines run at
+    /// √2·V; or a slow feed move's blend eats into a traverse) the smallest blend that
+    /// keeps v_b, r*, is the fastest, and it also deviates less; otherwise the
+    /// largest. Trapezoidal profile only (the S-curve caps a blend by its curvature as
+    /// well).
     fn radius_for_speed(&self, a: &Pending, b: &Pending, e1: Vec3, e2: Vec3, theta: f64) -> f64 {
         let lim = &self.lim;
         if lim.profile != FeedProfile::Trapezoidal {
             return f64::INFINITY;
         }
-        let feed = a.feed_mm_per_s.min(b.feed_mm_per_s);
-        // a feed below every axis's limit caps the blend as much as the lines
-        // (v_b ≥ min(F, min_i V_i) = F ≥ v_l, and θ ≤ 2·tan(θ/2))
-        if feed <= lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min) {
+        // one feed below every axis's limit caps the blend as much as the lines
+        // (v_b = v₁ = v₂ = F, and θ ≤ 2·tan(θ/2))
+        if a.feed_mm_per_s == b.feed_mm_per_s
+            && a.feed_mm_per_s <= lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min)
+        {
             return f64::INFINITY;
         }
-        let line_cap =
-            |dir: Vec3| element_limits(&ElementShape::line(1.0, dir), lim.vmax, lim.amax);
-        let v_line = line_cap(a.dir)
-            .vel_mm_per_s
-            .min(line_cap(b.dir).vel_mm_per_s)
-            .min(feed);
+        let line_speed = |p: &Pending| {
+            element_limits(&ElementShape::line(1.0, p.dir), lim.vmax, lim.amax)
+                .vel_mm_per_s
+                .min(p.feed_mm_per_s)
+        };
+        let (v1, v2) = (line_speed(a), line_speed(b));
         // the blend's axis velocity cap and acceleration do not depend on its radius
         let shape = ElementShape::blend(e1, e2, 1.0, theta);
-        let mut v_blend = feed;
+        let mut v_blend = a.feed_mm_per_s;
         let mut a_axis = f64::INFINITY;
         for i in 0..3 {
             if shape.vel_weight[i] > 1e-12 {
@@ -860,8 +863,8 @@ impl PathBuilder {
                 a_axis = a_axis.min(lim.amax[i] / shape.acc_weight[i]);
             }
         }
-        if !(v_blend.is_finite() && v_line.is_finite())
-            || theta * v_line <= 2.0 * (0.5 * theta).tan() * v_blend
+        if !(v_blend.is_finite() && v1.is_finite() && v2.is_finite())
+            || theta * v1 * v2 <= (0.5 * theta).tan() * (v1 + v2) * v_blend
         {
             return f64::INFINITY;
         }
