@@ -734,16 +734,15 @@ impl PathBuilder {
         if matches!((a.geom, b.geom), (Geom::Line { .. }, Geom::Line { .. })) {
             return None;
         }
-        let drift = self.max_drift_rad();
         let before_avail = (0.5 * a.len).min(a.len - a.start_trim);
         let after_avail = 0.5 * b.len;
         let corner = match a.geom {
             Geom::Line { end, .. } => end,
-            Geom::Arc(p) if trimmable_arc(&p, drift) => p.end(),
+            Geom::Arc(p) if trimmable_arc(&p) => p.end(),
             _ => return None,
         };
         if let Geom::Arc(p) = b.geom {
-            if !trimmable_arc(&p, drift) {
+            if !trimmable_arc(&p) {
                 return None;
             }
         }
@@ -755,11 +754,11 @@ impl PathBuilder {
             return None;
         }
         let before = |d: f64| match a.geom {
-            Geom::Arc(p) => (p.point_at(a.len - d), p.tangent_at(a.len - d)),
+            Geom::Arc(p) => (p.point_at(a.len - d), path_tangent(&p, a.len - d)),
             _ => (corner - a.dir * d, a.dir),
         };
         let after = |d: f64| match b.geom {
-            Geom::Arc(p) => (p.point_at(d), p.tangent_at(d)),
+            Geom::Arc(p) => (p.point_at(d), path_tangent(&p, d)),
             _ => (corner + b.dir * d, b.dir),
         };
         let f = fillet::biarc(
@@ -1173,27 +1172,55 @@ fn sub_arc_span(prim: &Primitive, from: f64, to: f64, at_from: Vec3, at_to: Vec3
     }
 }
 
-/// Whether an arc or helix may be trimmed by a biarc: its end radius within
-/// `MAX_RADIUS_MISMATCH_MM` of the start's, and its tangent leaving the circle's
-/// by at most `max_drift_rad` (as [`ArcView::of`] asks of planar fillets: the
-/// biarc is tangent to the programmed parametrisation's circle).
-fn trimmable_arc(prim: &Primitive, max_drift_rad: f64) -> bool {
+/// Whether an arc or helix may be trimmed by a biarc: any the reader took (an end
+/// radius that differs from the start's runs as the programmed spiral, the radius
+/// changing linearly with the angle; the biarc touches it along its true tangent,
+/// [`path_tangent`], and the sub-arc keeps its parametrisation).
+fn trimmable_arc(prim: &Primitive) -> bool {
+    match *prim {
+        Primitive::Arc { radius, .. } => radius > 0.0,
+        Primitive::Line { .. } => true,
+    }
+}
+
+/// The unit tangent at arc length `s` of the path `Primitive::point_at` draws: on an
+/// arc whose end radius differs from its start's, the derivative of
+/// c + r(u)·(cos θ(u), sin θ(u)) + h·u·n with r, θ linear in u = s/length, which
+/// has the radial component r_e − r₀ beside the circle's r(u)·sweep
+/// (`Primitive::tangent_at` gives the circle's).
+fn path_tangent(prim: &Primitive, s: f64) -> Vec3 {
     let Primitive::Arc {
         center,
         plane,
         radius,
+        start_angle,
         sweep,
+        normal_travel,
         end,
         ..
     } = *prim
     else {
-        return true;
+        return prim.tangent_at(s);
     };
-    let (a, b, _) = plane.axes();
-    let mismatch = ((end[a] - center[a]).hypot(end[b] - center[b]) - radius).abs();
-    radius > 0.0
-        && mismatch <= fillet::MAX_RADIUS_MISMATCH_MM
-        && 2.0 * mismatch <= max_drift_rad * radius * sweep.abs()
+    let len = prim.length();
+    let u = if len > 0.0 {
+        (s / len).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let (a, b, n) = plane.axes();
+    let dr = (end[a] - center[a]).hypot(end[b] - center[b]) - radius;
+    if dr == 0.0 {
+        return prim.tangent_at(s);
+    }
+    let r = radius + dr * u;
+    let th = start_angle + sweep * u;
+    let (sin, cos) = th.sin_cos();
+    let mut t = Vec3::ZERO;
+    t[a] = dr * cos - r * sweep * sin;
+    t[b] = dr * sin + r * sweep * cos;
+    t[n] = normal_travel;
+    t.unit()
 }
 
 /// Unit tangent at the end of a move held back by the builder.

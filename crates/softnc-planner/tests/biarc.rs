@@ -164,14 +164,15 @@ fn helix_and_cross_plane_corners_are_blended_within_limits_and_tolerance() {
 proptest! {
     #![proptest_config(ProptestConfig { cases: 16, ..ProptestConfig::default() })]
     /// Random chains of 3-D lines and helices (any plane, both senses, up to two
-    /// turns, rising or falling along the normal) under random tolerances, both
-    /// profiles: within every limit, within the tolerance of the program, ending
+    /// turns, rising or falling along the normal, some with an end radius a few µm
+    /// off the start's) under random tolerances, both profiles: within every limit, within the tolerance of the program, ending
     /// exactly, every primitive given back.
     #[test]
     fn random_helix_chains_stay_within_limits_and_tolerance(
         ops in prop::collection::vec(
             (0.2..15.0f64, 0.0..6.3f64, -0.9..0.9f64, 0..3u8, any::<bool>(), 0.2..12.0f64, any::<bool>(), -6.0..6.0f64),
             1..8),
+        wobble_mm in prop::sample::select(vec![0.0, 0.0, 0.003, -0.004]),
         tol in 0.005..0.5f64,
         scurve in any::<bool>(),
     ) {
@@ -190,6 +191,9 @@ proptest! {
                 let mut e = c;
                 e[a] = c[a] + len * th.cos();
                 e[bb] = c[bb] + len * th.sin();
+                // an end radius rounded as CAM output rounds it (a spiral)
+                e[a] += wobble_mm * th.cos();
+                e[bb] += wobble_mm * th.sin();
                 e[n] = pos[n] + travel;
                 let turns = 1 + (sweep / std::f64::consts::TAU) as i32;
                 b.arc(e, c, plane, if ccw { turns } else { -turns }, 3000.0);
@@ -203,5 +207,43 @@ proptest! {
             }
         }
         check(&b, fp, tol, "random chain");
+    }
+}
+
+/// A line, a quarter arc whose end radius is 3 µm off its start's (CAM rounding in
+/// inch programs: 1e-4 in; the reader takes it and runs the spiral), a line; both
+/// corners 90°. No circle fillet takes such an arc (its tangent drifts from the
+/// circle's by 2ΔR/(R·sweep) ≈ 7.6e-4 rad); the biarc touches the spiral along its
+/// own tangent, so the corners do not stop.
+#[test]
+fn corners_at_an_arc_whose_end_radius_is_rounded_are_blended() {
+    let spiral = |tol: f64| {
+        let mut b = Builder::new(Vec3::ZERO);
+        b.mode = PathMode::Blend {
+            tolerance_mm: Some(tol),
+            naive_cam_mm: None,
+        };
+        b.line(10.0, 0.0, 0.0, 3000.0);
+        b.arc(
+            Vec3::new(15.0, -5.003, 0.0),
+            Vec3::new(15.0, 0.0, 0.0),
+            Plane::XY,
+            1,
+            3000.0,
+        );
+        b.line(15.0, -15.003, 0.0, 3000.0);
+        b
+    };
+    for fp in [FeedProfile::Trapezoidal, FeedProfile::SCurve] {
+        for tol in [0.05, 1000.0] {
+            let b = spiral(tol);
+            let what = format!("{fp:?} tol {tol}");
+            let plan = check(&b, fp, tol, &what);
+            if fp == FeedProfile::Trapezoidal {
+                let p = with_arc_blends(fp, true);
+                let v = min_inner_speed(&run(&plan), p.interpolation_cycle_s);
+                assert!(v > 2.0, "{what}: slowest {v} mm/s");
+            }
+        }
     }
 }
