@@ -802,12 +802,12 @@ impl PathBuilder {
     fn kink_at_speed(&self, a: &Pending, b: &Pending) -> bool {
         let t1 = match a.geom {
             Geom::Line { .. } => a.dir,
-            Geom::Arc(p) => p.tangent_at(a.len),
+            Geom::Arc(p) => arc_end_tangent(&p, true),
             Geom::Blend { .. } => return false,
         };
         let t2 = match b.geom {
             Geom::Line { .. } => b.dir,
-            Geom::Arc(p) => p.tangent_at(0.0),
+            Geom::Arc(p) => arc_end_tangent(&p, false),
             Geom::Blend { .. } => return false,
         };
         let lim = &self.lim;
@@ -1219,6 +1219,40 @@ fn path_tangent(prim: &Primitive, s: f64) -> Vec3 {
     let mut t = Vec3::ZERO;
     t[a] = dr * cos - r * sweep * sin;
     t[b] = dr * sin + r * sweep * cos;
+    t[n] = normal_travel;
+    t.unit()
+}
+
+/// Unit tangent of an arc or helix at its start or end (`Primitive::tangent_at` there)
+/// from the radial vector of the start or end point, without trigonometry:
+/// R·sweep·(−sin θ, cos θ) = sweep·(−r_b, r_a)·R/|r| in the plane, the normal travel
+/// along the normal.
+fn arc_end_tangent(p: &Primitive, at_end: bool) -> Vec3 {
+    let Primitive::Arc {
+        start,
+        center,
+        plane,
+        radius,
+        sweep,
+        normal_travel,
+        end,
+        ..
+    } = *p
+    else {
+        return p.tangent_at(0.0);
+    };
+    let (a, b, n) = plane.axes();
+    let q = if at_end { end } else { start };
+    let (ra, rb) = (q[a] - center[a], q[b] - center[b]);
+    // the start point is at the radius; the end point of a helix may not be
+    let scale = if at_end && normal_travel != 0.0 {
+        radius / ra.hypot(rb)
+    } else {
+        1.0
+    };
+    let mut t = Vec3::ZERO;
+    t[a] = -sweep * rb * scale;
+    t[b] = sweep * ra * scale;
     t[n] = normal_travel;
     t.unit()
 }

@@ -127,13 +127,26 @@ pub struct Fillet {
 /// The first trim tried: what a line–line blend within 0.9·`tol_mm` would take at
 /// a corner turning from `t1` to `t2` (the curvature of the arc changes it by a
 /// factor near one; the tries halve it from there).
+///
+/// With c = cos θ = t1·t2 and s = sin θ = |t1 × t2| (no trigonometry): tan(θ/2) =
+/// s/(1 + c), cos(θ/2) = √((1 + c)/2) and sec(θ/2) − 1 = (1 − cos(θ/2))/cos(θ/2)
+/// with 1 − cos(θ/2) = (s²/(2(1 + c)))/(1 + cos(θ/2)), which keeps its precision at
+/// small turns.
 fn first_trim(t1: Vec3, t2: Vec3, tol_mm: f64) -> f64 {
-    let half = 0.5 * t1.dot(t2).clamp(-1.0, 1.0).acos();
-    let sec_minus_one = 1.0 / half.cos() - 1.0;
+    let c = t1.dot(t2).clamp(-1.0, 1.0);
+    let s = t1.cross(t2).norm().min(1.0);
+    let one_plus_c = 1.0 + c;
+    if one_plus_c <= 0.0 {
+        return 0.0; // a reversal: no fillet
+    }
+    let cos_half = (0.5 * one_plus_c).sqrt();
+    let one_minus_cos_half = s * s / (2.0 * one_plus_c) / (1.0 + cos_half);
+    let sec_minus_one = one_minus_cos_half / cos_half;
     if sec_minus_one <= 0.0 {
         return f64::INFINITY;
     }
-    DEVIATION_SHARE * tol_mm / sec_minus_one * half.tan()
+    let tan_half = s / one_plus_c;
+    DEVIATION_SHARE * tol_mm / sec_minus_one * tan_half
 }
 
 /// The fillet at corner `corner` between a line arriving along unit `u` (of which
@@ -237,15 +250,22 @@ fn candidate(
             continue;
         }
         let t = arc.center + fc.unit() * big_r;
-        // sweep from P₁ to T about F, in the direction of u at P₁
+        // sweep from P₁ to T about F, in the direction of u at P₁: q = r·(cos φ·e1 +
+        // sin φ·e2) (T, F, P₁ and u lie in one plane), so its cosine and sine come
+        // from q without trigonometry; a sweep in (0, π) has sin φ > 0
         let (e1, e2) = ((p1 - f) * (1.0 / r), u);
         let q = t - f;
-        let sweep = q.dot(e2).atan2(q.dot(e1));
-        if !(sweep > 1e-9 && sweep < std::f64::consts::PI - 1e-6) {
+        let (q1, q2) = (q.dot(e1), q.dot(e2));
+        if q2 <= 0.0 {
             continue;
         }
-        let t_fillet = e2 * sweep.cos() - e1 * sweep.sin();
+        let qn = (q1 * q1 + q2 * q2).sqrt();
+        let t_fillet = (e2 * q1 - e1 * q2) * (1.0 / qn);
         if t_fillet.dot(arc.tangent(t)) < 1.0 - 1e-9 {
+            continue;
+        }
+        let sweep = q2.atan2(q1);
+        if !(sweep > 1e-9 && sweep < std::f64::consts::PI - 1e-6) {
             continue;
         }
         let arc_trim = arc.arc_len_to(corner, t);
