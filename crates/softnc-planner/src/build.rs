@@ -613,7 +613,30 @@ impl PathBuilder {
             // arc blends off, or a tangent join taken at speed that needs none
             return None;
         }
-        let found = match (a.geom, b.geom) {
+        let found = self.circle_blend(a, b).or_else(|| self.biarc_blend(a, b))?;
+        let lim = &self.lim;
+        if lim.profile == FeedProfile::SCurve {
+            // A blend so tight that the jerk limit crawls through it is slower than
+            // stopping: stop at the corner instead.
+            let radius = |g: Option<Geom>| match g {
+                Some(Geom::Blend { radius, .. }) => radius,
+                _ => f64::INFINITY,
+            };
+            let tightest = radius(Some(found.geom)).min(radius(found.geom2));
+            let through = scurve_curve_cap(1.0 / tightest, lim);
+            let vmin = lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min);
+            let around = a.feed_mm_per_s.min(b.feed_mm_per_s).min(vmin);
+            if through < SCURVE_MIN_BLEND_SPEED_SHARE * around {
+                return None;
+            }
+        }
+        Some(found)
+    }
+
+    /// A single circular blend: line–line here, line–arc, arc–line and arc–arc of
+    /// one plane in [`crate::fillet`].
+    fn circle_blend(&self, a: &Pending, b: &Pending) -> Option<Blend> {
+        match (a.geom, b.geom) {
             (Geom::Line { .. }, Geom::Line { .. }) => self.blend_lines(a, b),
             (Geom::Line { end, .. }, Geom::Arc(arc)) => {
                 let view = ArcView::of(&arc, false, self.max_drift_rad())?;
@@ -627,6 +650,7 @@ impl PathBuilder {
                 )?;
                 let e1 = (f.p_line - f.center) * (1.0 / f.radius);
                 Some(Blend {
+                    geom2: None,
                     geom: Geom::Blend {
                         center: f.center,
                         e1,
@@ -657,6 +681,7 @@ impl PathBuilder {
                 let e1_back = (f.p_line - f.center) * (1.0 / f.radius);
                 let t_back = -b.dir * f.sweep.cos() - e1_back * f.sweep.sin();
                 Some(Blend {
+                    geom2: None,
                     geom: Geom::Blend {
                         center: f.center,
                         e1,
@@ -683,6 +708,7 @@ impl PathBuilder {
                 )?;
                 let e1 = (f.p_line - f.center) * (1.0 / f.radius);
                 Some(Blend {
+                    geom2: None,
                     geom: Geom::Blend {
                         center: f.center,
                         e1,
@@ -697,22 +723,68 @@ impl PathBuilder {
                 })
             }
             _ => None,
-        }?;
-        let lim = &self.lim;
-        if lim.profile == FeedProfile::SCurve {
-            // A blend so tight that the jerk limit crawls through it is slower than
-            // stopping: stop at the corner instead.
-            let Geom::Blend { radius, .. } = found.geom else {
-                return None;
-            };
-            let through = scurve_curve_cap(1.0 / radius, lim);
-            let vmin = lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min);
-            let around = a.feed_mm_per_s.min(b.feed_mm_per_s).min(vmin);
-            if through < SCURVE_MIN_BLEND_SPEED_SHARE * around {
+        }
+    }
+
+    /// A biarc blend ([`fillet::biarc`]) at a corner with an arc or helix that no
+    /// single circle blends (helices, arcs of different planes, fillets not found):
+    /// each move gives at most half its length (less what the blend at its start
+    /// took), arcs only if they can be trimmed ([`trimmable_arc`]).
+    fn biarc_blend(&self, a: &Pending, b: &Pending) -> Option<Blend> {
+        if matches!((a.geom, b.geom), (Geom::Line { .. }, Geom::Line { .. })) {
+            return None;
+        }
+        let before_avail = (0.5 * a.len).min(a.len - a.start_trim);
+        let after_avail = 0.5 * b.len;
+        let corner = match a.geom {
+            Geom::Line { end, .. } => end,
+            Geom::Arc(p) if trimmable_arc(&p) => p.end(),
+            _ => return None,
+        };
+        if let Geom::Arc(p) = b.geom {
+            if !trimmable_arc(&p) {
                 return None;
             }
         }
-        Some(found)
+        let (t_in, t_out) = (
+            end_tangent(&a.geom, a.dir, a.len),
+            start_tangent(&b.geom, b.dir),
+        );
+        if t_in.dot(t_out).clamp(-1.0, 1.0).acos() > MAX_BLEND_TURN_RAD {
+            return None;
+        }
+        let before = |d: f64| match a.geom {
+            Geom::Arc(p) => (p.point_at(a.len - d), path_tangent(&p, a.len - d)),
+            _ => (corner - a.dir * d, a.dir),
+        };
+        let after = |d: f64| match b.geom {
+            Geom::Arc(p) => (p.point_at(d), path_tangent(&p, d)),
+            _ => (corner + b.dir * d, b.dir),
+        };
+        let f = fillet::biarc(
+            corner,
+            before,
+            before_avail,
+            after,
+            after_avail,
+            a.tolerance_mm.min(b.tolerance_mm),
+        )?;
+        let piece = |p: &fillet::ArcPiece| Geom::Blend {
+            center: p.center,
+            e1: p.e1,
+            e2: p.e2,
+            radius: p.radius,
+            sweep: p.sweep,
+        };
+        let on_arc = |g: &Geom, at: Vec3| matches!(g, Geom::Arc(_)).then_some(at);
+        Some(Blend {
+            geom: piece(&f.arcs[0]),
+            geom2: Some(piece(&f.arcs[1])),
+            end_trim_prev: f.trim_before,
+            start_trim_next: f.trim_after,
+            prev_end_at: on_arc(&a.geom, f.p_before),
+            next_start_at: on_arc(&b.geom, f.p_after),
+        })
     }
 
     /// The largest angle between a blended arc's tangent and its circle's (rad): the
@@ -730,12 +802,12 @@ impl PathBuilder {
     fn kink_at_speed(&self, a: &Pending, b: &Pending) -> bool {
         let t1 = match a.geom {
             Geom::Line { .. } => a.dir,
-            Geom::Arc(p) => p.tangent_at(a.len),
+            Geom::Arc(p) => arc_end_tangent(&p, true),
             Geom::Blend { .. } => return false,
         };
         let t2 = match b.geom {
             Geom::Line { .. } => b.dir,
-            Geom::Arc(p) => p.tangent_at(0.0),
+            Geom::Arc(p) => arc_end_tangent(&p, false),
             Geom::Blend { .. } => return false,
         };
         let lim = &self.lim;
@@ -750,34 +822,37 @@ impl PathBuilder {
     /// The blend radius at which a line–line corner is fastest, if smaller than the
     /// largest the tolerance and the lines allow (infinite otherwise). A blend of
     /// radius r (at least r* = v_b²/(`ARC_NORMAL_SHARE`·a), where its centripetal cap
-    /// reaches v_b) runs at v_b, the lower of its axes' velocity cap and the feed,
-    /// which does not depend on r; it takes r·tan(θ/2) of each line, which run at v_l.
-    /// The corner's time, 2·(L/2 − r·tan(θ/2))/v_l + r·θ/v_b, is linear in r: where
-    /// θ/v_b > 2·tan(θ/2)/v_l (a blend slower than its lines: through a 90° corner
-    /// of two diagonals it passes an axis direction, the lines run at √2·V) the
-    /// smallest blend that keeps v_b, r*, is the fastest, and it also deviates less;
-    /// otherwise the largest. Trapezoidal profile only (the S-curve caps a blend by its
-    /// curvature as well).
+    /// reaches v_b) runs at v_b, the lower of its axes' velocity cap and its feed (the
+    /// first move's), which does not depend on r; it takes r·tan(θ/2) of each line,
+    /// which run at v₁ and v₂ (each its own feed and axis cap). The corner's time,
+    /// (L₁/2 − r·tan(θ/2))/v₁ + (L₂/2 − r·tan(θ/2))/v₂ + r·θ/v_b, is linear in r:
+    /// where θ/v_b > tan(θ/2)·(1/v₁ + 1/v₂) (a blend slower than its lines: through a
+    /// 90° corner of two diagonals it passes an axis direction while the lines run at
+    /// √2·V; or a slow feed move's blend eats into a traverse) the smallest blend that
+    /// keeps v_b, r*, is the fastest, and it also deviates less; otherwise the
+    /// largest. Trapezoidal profile only (the S-curve caps a blend by its curvature as
+    /// well).
     fn radius_for_speed(&self, a: &Pending, b: &Pending, e1: Vec3, e2: Vec3, theta: f64) -> f64 {
         let lim = &self.lim;
         if lim.profile != FeedProfile::Trapezoidal {
             return f64::INFINITY;
         }
-        let feed = a.feed_mm_per_s.min(b.feed_mm_per_s);
-        // a feed below every axis's limit caps the blend as much as the lines
-        // (v_b ≥ min(F, min_i V_i) = F ≥ v_l, and θ ≤ 2·tan(θ/2))
-        if feed <= lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min) {
+        // one feed below every axis's limit caps the blend as much as the lines
+        // (v_b = v₁ = v₂ = F, and θ ≤ 2·tan(θ/2))
+        if a.feed_mm_per_s == b.feed_mm_per_s
+            && a.feed_mm_per_s <= lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min)
+        {
             return f64::INFINITY;
         }
-        let line_cap =
-            |dir: Vec3| element_limits(&ElementShape::line(1.0, dir), lim.vmax, lim.amax);
-        let v_line = line_cap(a.dir)
-            .vel_mm_per_s
-            .min(line_cap(b.dir).vel_mm_per_s)
-            .min(feed);
+        let line_speed = |p: &Pending| {
+            element_limits(&ElementShape::line(1.0, p.dir), lim.vmax, lim.amax)
+                .vel_mm_per_s
+                .min(p.feed_mm_per_s)
+        };
+        let (v1, v2) = (line_speed(a), line_speed(b));
         // the blend's axis velocity cap and acceleration do not depend on its radius
         let shape = ElementShape::blend(e1, e2, 1.0, theta);
-        let mut v_blend = feed;
+        let mut v_blend = a.feed_mm_per_s;
         let mut a_axis = f64::INFINITY;
         for i in 0..3 {
             if shape.vel_weight[i] > 1e-12 {
@@ -787,8 +862,8 @@ impl PathBuilder {
                 a_axis = a_axis.min(lim.amax[i] / shape.acc_weight[i]);
             }
         }
-        if !(v_blend.is_finite() && v_line.is_finite())
-            || theta * v_line <= 2.0 * (0.5 * theta).tan() * v_blend
+        if !(v_blend.is_finite() && v1.is_finite() && v2.is_finite())
+            || theta * v1 * v2 <= (0.5 * theta).tan() * (v1 + v2) * v_blend
         {
             return f64::INFINITY;
         }
@@ -831,6 +906,7 @@ impl PathBuilder {
         };
         Some(Blend {
             geom: blend,
+            geom2: None,
             end_trim_prev: d,
             start_trim_next: d,
             prev_end_at: None,
@@ -884,34 +960,37 @@ impl PathBuilder {
                         let at_to = blend
                             .and_then(|b| b.prev_end_at)
                             .unwrap_or_else(|| prim.point_at(to));
-                        let sub = sub_arc(&prim, at_from, at_to);
+                        let sub = if prim_sweep(&prim).abs() < std::f64::consts::TAU {
+                            sub_arc(&prim, at_from, at_to)
+                        } else {
+                            // a helix of a turn or more, trimmed by biarcs only
+                            sub_arc_span(&prim, from, to, at_from, at_to)
+                        };
                         (Geom::Arc(sub), ElementShape::arc(&sub))
                     }
                 }
             }
             Geom::Blend { .. } => unreachable!("moves are lines or arcs"),
         };
-        let pushed = match blend.map(|b| b.geom) {
-            Some(
-                b @ Geom::Blend {
-                    e1,
-                    e2,
-                    radius,
-                    sweep,
-                    ..
-                },
-            ) => {
+        let pushed = match blend {
+            Some(b) => {
                 let pushed = self.push_element(p, &geom, &shape, 0.0, false);
-                self.push_element(
-                    p,
-                    &b,
-                    &ElementShape::blend(e1, e2, radius, sweep),
-                    0.0,
-                    false,
-                );
+                for g in std::iter::once(b.geom).chain(b.geom2) {
+                    if let Geom::Blend {
+                        e1,
+                        e2,
+                        radius,
+                        sweep,
+                        ..
+                    } = g
+                    {
+                        let shape = ElementShape::blend(e1, e2, radius, sweep);
+                        self.push_element(p, &g, &shape, 0.0, false);
+                    }
+                }
                 pushed
             }
-            _ => self.push_element(p, &geom, &shape, p.dwell_s, stop),
+            None => self.push_element(p, &geom, &shape, p.dwell_s, stop),
         };
         if !pushed {
             if let Some(prim) = geom.programmed() {
@@ -1021,6 +1100,8 @@ impl PathBuilder {
 #[derive(Debug, Clone, Copy)]
 struct Blend {
     geom: Geom,
+    /// The second arc of a biarc blend ([`fillet::biarc`]), run after `geom`.
+    geom2: Option<Geom>,
     /// Arc length taken from the end of the move before the corner (mm).
     end_trim_prev: f64,
     /// Arc length taken from the start of the move after it (mm).
@@ -1045,6 +1126,151 @@ fn sub_arc(prim: &Primitive, from: Vec3, to: Vec3) -> Primitive {
     };
     let turns = if sweep > 0.0 { 1 } else { -1 };
     Primitive::arc(from, to, center, plane, turns)
+}
+
+/// The signed sweep of an arc (0 for a line).
+fn prim_sweep(prim: &Primitive) -> f64 {
+    match *prim {
+        Primitive::Arc { sweep, .. } => sweep,
+        Primitive::Line { .. } => 0.0,
+    }
+}
+
+/// The stretch [`from`, `to`] (arc length) of an arc or helix, of any number of
+/// turns, as an arc of its own: the programmed parametrisation (angle, normal travel
+/// and the radius's linear change all proportional to arc length) restricted to it;
+/// `at_from`, `at_to` are its points there (`Primitive::point_at`).
+fn sub_arc_span(prim: &Primitive, from: f64, to: f64, at_from: Vec3, at_to: Vec3) -> Primitive {
+    let Primitive::Arc {
+        center,
+        plane,
+        radius,
+        start_angle,
+        sweep,
+        normal_travel,
+        end,
+        ..
+    } = *prim
+    else {
+        return *prim;
+    };
+    let len = prim.length();
+    let (u0, u1) = (from / len, to / len);
+    let (a, b, n) = plane.axes();
+    let end_radius = (end[a] - center[a]).hypot(end[b] - center[b]);
+    let mut c = center;
+    c[n] = at_from[n];
+    Primitive::Arc {
+        start: at_from,
+        center: c,
+        plane,
+        radius: radius + (end_radius - radius) * u0,
+        start_angle: start_angle + sweep * u0,
+        sweep: sweep * (u1 - u0),
+        normal_travel: normal_travel * (u1 - u0),
+        end: at_to,
+    }
+}
+
+/// Whether an arc or helix may be trimmed by a biarc: any the reader took (an end
+/// radius that differs from the start's runs as the programmed spiral, the radius
+/// changing linearly with the angle; the biarc touches it along its true tangent,
+/// [`path_tangent`], and the sub-arc keeps its parametrisation).
+fn trimmable_arc(prim: &Primitive) -> bool {
+    match *prim {
+        Primitive::Arc { radius, .. } => radius > 0.0,
+        Primitive::Line { .. } => true,
+    }
+}
+
+/// The unit tangent at arc length `s` of the path `Primitive::point_at` draws: on an
+/// arc whose end radius differs from its start's, the derivative of
+/// c + r(u)·(cos θ(u), sin θ(u)) + h·u·n with r, θ linear in u = s/length, which
+/// has the radial component r_e − r₀ beside the circle's r(u)·sweep
+/// (`Primitive::tangent_at` gives the circle's).
+fn path_tangent(prim: &Primitive, s: f64) -> Vec3 {
+    let Primitive::Arc {
+        center,
+        plane,
+        radius,
+        start_angle,
+        sweep,
+        normal_travel,
+        end,
+        ..
+    } = *prim
+    else {
+        return prim.tangent_at(s);
+    };
+    let len = prim.length();
+    let u = if len > 0.0 {
+        (s / len).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let (a, b, n) = plane.axes();
+    let dr = (end[a] - center[a]).hypot(end[b] - center[b]) - radius;
+    if dr == 0.0 {
+        return prim.tangent_at(s);
+    }
+    let r = radius + dr * u;
+    let th = start_angle + sweep * u;
+    let (sin, cos) = th.sin_cos();
+    let mut t = Vec3::ZERO;
+    t[a] = dr * cos - r * sweep * sin;
+    t[b] = dr * sin + r * sweep * cos;
+    t[n] = normal_travel;
+    t.unit()
+}
+
+/// Unit tangent of an arc or helix at its start or end (`Primitive::tangent_at` there)
+/// from the radial vector of the start or end point, without trigonometry:
+/// R·sweep·(−sin θ, cos θ) = sweep·(−r_b, r_a)·R/|r| in the plane, the normal travel
+/// along the normal.
+fn arc_end_tangent(p: &Primitive, at_end: bool) -> Vec3 {
+    let Primitive::Arc {
+        start,
+        center,
+        plane,
+        radius,
+        sweep,
+        normal_travel,
+        end,
+        ..
+    } = *p
+    else {
+        return p.tangent_at(0.0);
+    };
+    let (a, b, n) = plane.axes();
+    let q = if at_end { end } else { start };
+    let (ra, rb) = (q[a] - center[a], q[b] - center[b]);
+    // the start point is at the radius; the end point of a helix may not be
+    let scale = if at_end && normal_travel != 0.0 {
+        radius / ra.hypot(rb)
+    } else {
+        1.0
+    };
+    let mut t = Vec3::ZERO;
+    t[a] = -sweep * rb * scale;
+    t[b] = sweep * ra * scale;
+    t[n] = normal_travel;
+    t.unit()
+}
+
+/// Unit tangent at the end of a move held back by the builder.
+fn end_tangent(g: &Geom, dir: Vec3, len: f64) -> Vec3 {
+    match g {
+        Geom::Arc(p) => p.tangent_at(len),
+        _ => dir,
+    }
+}
+
+/// Unit tangent at the start of a move held back by the builder.
+fn start_tangent(g: &Geom, dir: Vec3) -> Vec3 {
+    match g {
+        Geom::Arc(p) => p.tangent_at(0.0),
+        _ => dir,
+    }
 }
 
 /// What an element may ask of each axis's acceleration: its tangential acceleration

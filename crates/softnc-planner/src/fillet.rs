@@ -21,7 +21,7 @@ const DEVIATION_SHARE: f64 = 0.9;
 /// Largest difference between an arc's start and end radius (CAM rounding) for which
 /// it is blended: near each end it is taken as the circle through that end, the
 /// sub-arc between the blends keeps the programmed change of radius.
-const MAX_RADIUS_MISMATCH_MM: f64 = 1e-4;
+pub(crate) const MAX_RADIUS_MISMATCH_MM: f64 = 1e-4;
 /// Halvings of the line's trim tried before giving up on a blend.
 const TRIM_TRIES: usize = 16;
 
@@ -127,13 +127,26 @@ pub struct Fillet {
 /// The first trim tried: what a line–line blend within 0.9·`tol_mm` would take at
 /// a corner turning from `t1` to `t2` (the curvature of the arc changes it by a
 /// factor near one; the tries halve it from there).
+///
+/// With c = cos θ = t1·t2 and s = sin θ = |t1 × t2| (no trigonometry): tan(θ/2) =
+/// s/(1 + c), cos(θ/2) = √((1 + c)/2) and sec(θ/2) − 1 = (1 − cos(θ/2))/cos(θ/2)
+/// with 1 − cos(θ/2) = (s²/(2(1 + c)))/(1 + cos(θ/2)), which keeps its precision at
+/// small turns.
 fn first_trim(t1: Vec3, t2: Vec3, tol_mm: f64) -> f64 {
-    let half = 0.5 * t1.dot(t2).clamp(-1.0, 1.0).acos();
-    let sec_minus_one = 1.0 / half.cos() - 1.0;
+    let c = t1.dot(t2).clamp(-1.0, 1.0);
+    let s = t1.cross(t2).norm().min(1.0);
+    let one_plus_c = 1.0 + c;
+    if one_plus_c <= 0.0 {
+        return 0.0; // a reversal: no fillet
+    }
+    let cos_half = (0.5 * one_plus_c).sqrt();
+    let one_minus_cos_half = s * s / (2.0 * one_plus_c) / (1.0 + cos_half);
+    let sec_minus_one = one_minus_cos_half / cos_half;
     if sec_minus_one <= 0.0 {
         return f64::INFINITY;
     }
-    DEVIATION_SHARE * tol_mm / sec_minus_one * half.tan()
+    let tan_half = s / one_plus_c;
+    DEVIATION_SHARE * tol_mm / sec_minus_one * tan_half
 }
 
 /// The fillet at corner `corner` between a line arriving along unit `u` (of which
@@ -237,15 +250,22 @@ fn candidate(
             continue;
         }
         let t = arc.center + fc.unit() * big_r;
-        // sweep from P₁ to T about F, in the direction of u at P₁
+        // sweep from P₁ to T about F, in the direction of u at P₁: q = r·(cos φ·e1 +
+        // sin φ·e2) (T, F, P₁ and u lie in one plane), so its cosine and sine come
+        // from q without trigonometry; a sweep in (0, π) has sin φ > 0
         let (e1, e2) = ((p1 - f) * (1.0 / r), u);
         let q = t - f;
-        let sweep = q.dot(e2).atan2(q.dot(e1));
-        if !(sweep > 1e-9 && sweep < std::f64::consts::PI - 1e-6) {
+        let (q1, q2) = (q.dot(e1), q.dot(e2));
+        if q2 <= 0.0 {
             continue;
         }
-        let t_fillet = e2 * sweep.cos() - e1 * sweep.sin();
+        let qn = (q1 * q1 + q2 * q2).sqrt();
+        let t_fillet = (e2 * q1 - e1 * q2) * (1.0 / qn);
         if t_fillet.dot(arc.tangent(t)) < 1.0 - 1e-9 {
+            continue;
+        }
+        let sweep = q2.atan2(q1);
+        if !(sweep > 1e-9 && sweep < std::f64::consts::PI - 1e-6) {
             continue;
         }
         let arc_trim = arc.arc_len_to(corner, t);
@@ -273,4 +293,187 @@ fn candidate(
 /// corner; the tests measure the samples' distance to the programmed path).
 fn corner_deviation(f: &Fillet, corner: Vec3) -> f64 {
     ((corner - f.center).norm() - f.radius).abs()
+}
+
+/// One circular arc of a [`Biarc`], in the form of [`crate::path::Geom::Blend`]:
+/// `center + radius·(cos φ·e1 + sin φ·e2)`, φ ∈ [0, sweep].
+#[derive(Debug, Clone, Copy)]
+pub struct ArcPiece {
+    /// Centre.
+    pub center: Vec3,
+    /// Unit vector from the centre to the start point.
+    pub e1: Vec3,
+    /// Unit tangent at the start.
+    pub e2: Vec3,
+    /// Radius (mm).
+    pub radius: f64,
+    /// Sweep (rad, in (0, π)).
+    pub sweep: f64,
+}
+
+impl ArcPiece {
+    /// The arc that leaves `from` along the unit tangent `t` and ends at `to`, if it
+    /// is a real turn of less than π (None for a (nearly) straight piece).
+    fn through(from: Vec3, t: Vec3, to: Vec3) -> Option<ArcPiece> {
+        let c = to - from;
+        let n = c - t * t.dot(c);
+        let n_len = n.norm();
+        if !(n_len > BIARC_MIN_OFFSET_MM && c.dot(t) > -c.norm()) {
+            return None;
+        }
+        let radius = c.dot(c) / (2.0 * n_len);
+        let e1 = n * (-1.0 / n_len);
+        let center = from - e1 * radius;
+        let q = to - center;
+        let sweep = q.dot(t).atan2(q.dot(e1));
+        if !(sweep > 1e-9 && sweep < std::f64::consts::PI - 1e-6 && radius.is_finite()) {
+            return None;
+        }
+        Some(ArcPiece {
+            center,
+            e1,
+            e2: t,
+            radius,
+            sweep,
+        })
+    }
+
+    /// Point at angle φ.
+    fn point(&self, phi: f64) -> Vec3 {
+        self.center + self.e1 * (self.radius * phi.cos()) + self.e2 * (self.radius * phi.sin())
+    }
+
+    /// Unit tangent at angle φ.
+    fn tangent(&self, phi: f64) -> Vec3 {
+        self.e2 * phi.cos() - self.e1 * phi.sin()
+    }
+
+    /// The largest distance from `x` to a point of the arc: |q − x|² =
+    /// R² + |w|² − 2R·(w₁ cos φ + w₂ sin φ) (w = x − centre, w₁, w₂ its components
+    /// along e1, e2) is largest where φ points away from w's projection, if the sweep
+    /// reaches that angle, else at an end.
+    fn farthest_from(&self, x: Vec3) -> f64 {
+        let w = x - self.center;
+        let (w1, w2) = (w.dot(self.e1), w.dot(self.e2));
+        let mut away = (-w2).atan2(-w1);
+        if away < 0.0 {
+            away += std::f64::consts::TAU;
+        }
+        let ends = (self.point(0.0) - x)
+            .norm()
+            .max((self.point(self.sweep) - x).norm());
+        if away <= self.sweep {
+            let r2 = self.radius * self.radius + w.dot(w) + 2.0 * self.radius * w1.hypot(w2);
+            ends.max(r2.max(0.0).sqrt())
+        } else {
+            ends
+        }
+    }
+}
+
+/// A blend of two circular arcs (in their own planes, tangent to each other where
+/// they meet) at a corner that no single circle can blend: a helix and a line, two
+/// helices, arcs of different planes.
+#[derive(Debug, Clone, Copy)]
+pub struct Biarc {
+    /// Arc length given by the move before the corner (mm).
+    pub trim_before: f64,
+    /// Arc length given by the move after the corner (mm).
+    pub trim_after: f64,
+    /// Where the blend leaves the move before the corner.
+    pub p_before: Vec3,
+    /// Where the blend meets the move after the corner.
+    pub p_after: Vec3,
+    /// The two arcs, in the order they run.
+    pub arcs: [ArcPiece; 2],
+}
+
+/// Smallest offset of a biarc's end from the tangent line at its start for which it
+/// is taken as an arc (mm): below it the radius is not well determined.
+const BIARC_MIN_OFFSET_MM: f64 = 1e-7;
+/// Largest mismatch between where a biarc piece ends and where it should (its join
+/// point, the next move's touch point; mm, and the same in its unit tangent).
+const BIARC_CLOSURE_MM: f64 = 1e-7;
+
+/// The biarc blend at `corner`: it leaves the move before at `before(d)` = (point,
+/// unit tangent) d mm of arc length before the corner and meets the move after at
+/// `after(d)` d mm after it, the largest d found trying from the smallest of
+/// `before_avail`, `after_avail` and 0.9·`tol_mm` down by 0.7.
+///
+/// Construction (the equal-tangent-length biarc of Bolton, "Biarc curves", CAD 7(2),
+/// 1975): with ends P₀, P₁ and unit tangents T₀, T₁, the control points Q₀ = P₀ + αT₀
+/// and Q₁ = P₁ − αT₁ must lie 2α apart, |V − α(T₀ + T₁)| = 2α with V = P₁ − P₀:
+/// 2(T₀·T₁ − 1)α² − 2(V·(T₀ + T₁))α + V·V = 0, whose positive root gives the join
+/// point J = (Q₀ + Q₁)/2 with tangent (Q₁ − Q₀)/2α; each half is the circle arc from
+/// its end along its tangent through J. Every point of the blend lies within
+/// 0.9·`tol_mm` of the programmed corner (its largest distance from the corner,
+/// computed per arc), so within that of the programmed path.
+pub fn biarc(
+    corner: Vec3,
+    before: impl Fn(f64) -> (Vec3, Vec3),
+    before_avail: f64,
+    after: impl Fn(f64) -> (Vec3, Vec3),
+    after_avail: f64,
+    tol_mm: f64,
+) -> Option<Biarc> {
+    let mut d = before_avail.min(after_avail).min(DEVIATION_SHARE * tol_mm);
+    for _ in 0..TRIM_TRIES {
+        if d.is_nan() || d <= 1e-9 {
+            return None;
+        }
+        let ((p0, t0), (p1, t1)) = (before(d), after(d));
+        if let Some(arcs) = biarc_pieces(p0, t0, p1, t1) {
+            let dev = arcs[0]
+                .farthest_from(corner)
+                .max(arcs[1].farthest_from(corner));
+            if dev <= DEVIATION_SHARE * tol_mm {
+                return Some(Biarc {
+                    trim_before: d,
+                    trim_after: d,
+                    p_before: p0,
+                    p_after: p1,
+                    arcs,
+                });
+            }
+        }
+        d *= 0.7;
+    }
+    None
+}
+
+/// The two arcs of the equal-tangent-length biarc from (p0, t0) to (p1, t1), if both
+/// are real turns and close on their ends.
+fn biarc_pieces(p0: Vec3, t0: Vec3, p1: Vec3, t1: Vec3) -> Option<[ArcPiece; 2]> {
+    let v = p1 - p0;
+    let ts = t0 + t1;
+    let qa = 2.0 * (t0.dot(t1) - 1.0);
+    let qb = -2.0 * v.dot(ts);
+    let qc = v.dot(v);
+    let alpha = if qa.abs() < 1e-12 {
+        // parallel tangents: the equation is linear
+        if qb.abs() < 1e-300 {
+            return None;
+        }
+        -qc / qb
+    } else {
+        let disc = qb * qb - 4.0 * qa * qc;
+        if disc < 0.0 {
+            return None;
+        }
+        // qa < 0 < qc: the roots have opposite signs; the positive one
+        (-qb - disc.sqrt()) / (2.0 * qa)
+    };
+    if !(alpha.is_finite() && alpha > 0.0) {
+        return None;
+    }
+    let (q0, q1) = (p0 + t0 * alpha, p1 - t1 * alpha);
+    let join = (q0 + q1) * 0.5;
+    let tj = (q1 - q0).unit();
+    let first = ArcPiece::through(p0, t0, join)?;
+    let second = ArcPiece::through(join, tj, p1)?;
+    let closes = |arc: &ArcPiece, p: Vec3, t: Vec3| {
+        (arc.point(arc.sweep) - p).norm() <= BIARC_CLOSURE_MM
+            && (arc.tangent(arc.sweep) - t).norm() <= BIARC_CLOSURE_MM
+    };
+    (closes(&first, join, tj) && closes(&second, p1, t1)).then_some([first, second])
 }

@@ -161,3 +161,41 @@ fn a_blend_slower_than_its_lines_is_only_as_large_as_its_speed_needs() {
         "the diagonals run at √2·V: {top:.1}"
     );
 }
+
+/// A slow feed move (10 mm/s) turning 90° into a traverse, no tolerance to speak of:
+/// the blend runs at the feed move's feed, so every millimetre of the traverse it
+/// takes is run slowly; the fastest blend is the smallest that keeps the feed,
+/// r* = F²/(0.866·A), not the largest the lines allow (50 mm, passing 20.7 mm from
+/// the corner), since θ/F > tan(θ/2)·(1/F + 1/V).
+#[test]
+fn a_slow_feed_move_blends_into_a_traverse_with_the_smallest_blend_that_keeps_its_feed() {
+    let mut p = profile(FeedProfile::Trapezoidal);
+    p.planner.tolerance_mm = 1000.0;
+    let feed_mm_per_s = 10.0;
+    let mut b = Builder::new(Vec3::ZERO);
+    b.line(100.0, 0.0, 0.0, feed_mm_per_s * 60.0)
+        .rapid(100.0, 100.0, 0.0);
+    let plan = plan_of(&b, &p);
+    let s = run(&plan);
+    let r = limit_ratios(&s, &p);
+    assert!(r[0] <= 1.0 + 1e-9, "velocity {:.4}x", r[0]);
+    assert!(r[1] <= 1.0 + 1e-9, "acceleration {:.4}x", r[1]);
+    let corner = Vec3::new(100.0, 0.0, 0.0);
+    let closest = s
+        .iter()
+        .map(|x| (x.pos_mm - corner).norm())
+        .fold(f64::INFINITY, f64::min);
+    let a = p.max_acc()[0] * (1.0 - softnc_planner::build::KINK_SHARE);
+    let r_star = feed_mm_per_s.powi(2) / (softnc_planner::path::ARC_NORMAL_SHARE * a);
+    let want = r_star * (2f64.sqrt() - 1.0);
+    // a sample lands within a cycle's travel of the blend's middle
+    let cycle_travel = feed_mm_per_s * p.interpolation_cycle_s;
+    assert!(
+        (closest - want).abs() <= cycle_travel,
+        "passes {closest:.4} mm from the corner, r* gives {want:.4} mm"
+    );
+    // and the traverse after it reaches the axis's limit
+    let v = path_speeds(&s, p.interpolation_cycle_s);
+    let top = v.iter().cloned().fold(0.0, f64::max);
+    assert!(top > 0.99 * p.max_vel()[1], "traverse at {top:.1} mm/s");
+}
