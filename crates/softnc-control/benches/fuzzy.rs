@@ -17,7 +17,11 @@ fn errors() -> Vec<f64> {
 }
 
 fn bench(c: &mut Criterion) {
-    let cfg = FuzzyConfig::paper001();
+    let cfg = FuzzyConfig::from_ron_str(
+        include_str!("../../../config/fuzzy/paper001.ron"),
+        "paper001.ron",
+    )
+    .unwrap();
     let es = errors();
     let mut flc = FuzzyController::new(&cfg);
     let mut k = 0usize;

@@ -13,7 +13,11 @@ fn main() {
                 std::process::exit(2);
             }
         },
-        None => FuzzyConfig::paper001(),
+        None => FuzzyConfig::from_ron_str(
+            include_str!("../../../config/fuzzy/paper001.ron"),
+            "paper001.ron",
+        )
+        .expect("config/fuzzy/paper001.ron"),
     };
     let flc = FuzzyController::new(&cfg);
     print!("{:>8}", "e \\ de");

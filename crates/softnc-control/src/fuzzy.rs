@@ -21,14 +21,17 @@
 //!
 //! ```
 //! use softnc_control::fuzzy::{FuzzyConfig, FuzzyController};
-//! let mut flc = FuzzyController::new(&FuzzyConfig::paper001());
+//! // paper 001's controller lives in a file, not in code
+//! let cfg = FuzzyConfig::from_ron_str(
+//!     include_str!("../../../config/fuzzy/paper001.ron"), "paper001.ron").unwrap();
+//! let mut flc = FuzzyController::new(&cfg);
 //! // e = 7 BLU (PS) and Δe = 0: rule (PS, ZR) → PS, centre 15, plus K_I·e = 0.7.
 //! flc.reset(7.0);
 //! let u = flc.step(7.0);
 //! assert!((u - 15.7).abs() < 1e-12);
 //! ```
 
-pub use softnc_core::fuzzy::{FuzzyConfig, FuzzyVariable, MAX_SETS, PAPER001_RULES, PAPER001_SETS};
+pub use softnc_core::fuzzy::{FuzzyConfig, FuzzyVariable, MAX_SETS};
 
 /// Triangular/trapezoidal partition of one input, precomputed.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -255,18 +258,22 @@ mod tests {
 
     const PAPER_RON: &str = include_str!("../../../config/fuzzy/paper001.ron");
 
+    /// Paper 001's controller, from its file.
+    fn paper_cfg() -> FuzzyConfig {
+        FuzzyConfig::from_ron_str(PAPER_RON, "paper001.ron").unwrap()
+    }
+
     fn paper() -> FuzzyController {
-        FuzzyController::new(&FuzzyConfig::from_ron_str(PAPER_RON, "paper001.ron").unwrap())
+        FuzzyController::new(&paper_cfg())
+    }
+
+    /// The file's rule base, 7×7 (rows e = NL..PL, columns Δe = NL..PL).
+    fn paper_rules() -> Vec<Vec<String>> {
+        paper_cfg().rules
     }
 
     fn set_index(name: &str) -> usize {
-        PAPER001_SETS.iter().position(|s| *s == name).unwrap()
-    }
-
-    #[test]
-    fn ron_file_is_the_built_in_default() {
-        let cfg = FuzzyConfig::from_ron_str(PAPER_RON, "paper001.ron").unwrap();
-        assert_eq!(cfg, FuzzyConfig::paper001());
+        paper_cfg().u.names.iter().position(|s| s == name).unwrap()
     }
 
     #[test]
@@ -282,29 +289,31 @@ mod tests {
             ["PS", "PS", "PM", "PM", "PL", "PL"],
             ["PL", "PL", "PL", "PL", "PL", "PL"],
         ];
+        let rules = paper_rules();
         for (i, row) in printed.iter().enumerate() {
-            assert_eq!(&PAPER001_RULES[i][1..], &row[..], "row {i}");
+            assert_eq!(&rules[i][1..], &row[..], "row {i}");
         }
     }
 
     #[test]
     fn rule_table_is_odd_symmetric_and_monotone() {
+        let rules = paper_rules();
         let n = 7;
         for i in 0..n {
             for j in 0..n {
-                let u = set_index(PAPER001_RULES[i][j]) as i32 - 3;
-                let m = set_index(PAPER001_RULES[n - 1 - i][n - 1 - j]) as i32 - 3;
+                let u = set_index(rules[i][j].as_str()) as i32 - 3;
+                let m = set_index(rules[n - 1 - i][n - 1 - j].as_str()) as i32 - 3;
                 assert_eq!(u, -m, "u(-e,-de) != -u(e,de) at ({i},{j})");
                 if j + 1 < n {
-                    let next = set_index(PAPER001_RULES[i][j + 1]);
+                    let next = set_index(rules[i][j + 1].as_str());
                     // Positive e: a growing error (larger Δe) needs a larger command;
                     // negative e: larger Δe means converging, so a smaller |command|.
                     // Both read as: non-decreasing along Δe.
-                    assert!(next >= set_index(PAPER001_RULES[i][j]), "row {i} col {j}");
+                    assert!(next >= set_index(rules[i][j].as_str()), "row {i} col {j}");
                 }
                 if i + 1 < n {
                     assert!(
-                        set_index(PAPER001_RULES[i + 1][j]) >= set_index(PAPER001_RULES[i][j]),
+                        set_index(rules[i + 1][j].as_str()) >= set_index(rules[i][j].as_str()),
                         "col {j} row {i}"
                     );
                 }
@@ -316,19 +325,21 @@ mod tests {
     fn principle_small_diverging_beats_large_converging() {
         // "a small error not converging needs a larger command than a large error
         // decreasing fast": (PS, PL) > (PM, NL) and mirrored.
-        assert!(set_index(PAPER001_RULES[4][6]) > set_index(PAPER001_RULES[5][0]));
-        assert!(set_index(PAPER001_RULES[2][0]) < set_index(PAPER001_RULES[1][6]));
+        let rules = paper_rules();
+        assert!(set_index(rules[4][6].as_str()) > set_index(rules[5][0].as_str()));
+        assert!(set_index(rules[2][0].as_str()) < set_index(rules[1][6].as_str()));
     }
 
     #[test]
     fn surface_hits_rule_centres_and_is_odd() {
+        let rules = paper_rules();
         let f = paper();
         let ec = [-21.0, -14.0, -7.0, 0.0, 7.0, 14.0, 21.0];
         let dc = [-4.5, -3.0, -1.5, 0.0, 1.5, 3.0, 4.5];
         let uc = [-55.0, -35.0, -15.0, 0.0, 15.0, 35.0, 55.0];
         for (i, &e) in ec.iter().enumerate() {
             for (j, &d) in dc.iter().enumerate() {
-                let want = uc[set_index(PAPER001_RULES[i][j])];
+                let want = uc[set_index(rules[i][j].as_str())];
                 assert_eq!(f.surface(e, d), want, "({e},{d})");
             }
         }
@@ -370,10 +381,7 @@ mod tests {
         // Held integrator recovers at once when the error reverses.
         let u = f.step(-50.0);
         assert!(u < 127.0 - 55.0, "{u}");
-        assert_eq!(
-            FuzzyController::new(&FuzzyConfig::paper001()).step(-1e9),
-            -128.0
-        );
+        assert_eq!(FuzzyController::new(&paper_cfg()).step(-1e9), -128.0);
     }
 
     #[test]
@@ -466,7 +474,7 @@ mod tests {
         ));
         assert!(err.contains("e.names[5]"), "{err}");
         // Inside a profile the prefix is part of the path.
-        let mut cfg = FuzzyConfig::paper001();
+        let mut cfg = paper_cfg();
         cfg.rules[0][0] = "XX".into();
         let err = cfg
             .validate_at("m.ron", "axes[1].fuzzy")
@@ -485,7 +493,7 @@ mod tests {
             vff: 0.0,
             aff: 0.0,
             output_limit: 127.0,
-            fuzzy: Some(FuzzyConfig::paper001()),
+            fuzzy: Some(paper_cfg()),
         };
         let mut axis = AxisController::new(&cfg, 0.01);
         assert!(matches!(axis.feedback, Feedback::Fuzzy(_)));

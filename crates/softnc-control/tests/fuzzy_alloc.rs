@@ -41,7 +41,12 @@ static GLOBAL: Counting = Counting;
 
 #[test]
 fn step_allocates_nothing() {
-    let mut flc = FuzzyController::new(&FuzzyConfig::paper001());
+    let cfg = FuzzyConfig::from_ron_str(
+        include_str!("../../../config/fuzzy/paper001.ron"),
+        "paper001.ron",
+    )
+    .unwrap();
+    let mut flc = FuzzyController::new(&cfg);
     let before = allocs();
     let mut s = 0.0;
     for k in 0..100_000 {

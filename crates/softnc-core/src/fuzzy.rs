@@ -42,53 +42,7 @@ pub struct FuzzyConfig {
     pub u_max: f64,
 }
 
-/// Paper 001's default set names, NL..PL.
-pub const PAPER001_SETS: [&str; 7] = ["NL", "NM", "NS", "ZR", "PS", "PM", "PL"];
-
-/// Paper 001's rule base, reconstructed to 7×7 (rows e = NL..PL, columns Δe = NL..PL).
-///
-/// The printed Table 1 shows six entries per row; every row is consistent with the
-/// Δe = NL column having been lost, and odd symmetry plus monotonicity fix that column
-/// uniquely (reasoning in `docs/controllers.md`). Only column 0 is new here.
-pub const PAPER001_RULES: [[&str; 7]; 7] = [
-    ["NL", "NL", "NL", "NL", "NL", "NL", "NL"],
-    ["NL", "NL", "NM", "NM", "NS", "NS", "NS"],
-    ["NL", "NM", "NM", "NS", "NS", "NS", "ZR"],
-    ["ZR", "ZR", "ZR", "ZR", "ZR", "ZR", "ZR"],
-    ["ZR", "PS", "PS", "PS", "PM", "PM", "PL"],
-    ["PS", "PS", "PS", "PM", "PM", "PL", "PL"],
-    ["PL", "PL", "PL", "PL", "PL", "PL", "PL"],
-];
-
 impl FuzzyConfig {
-    /// Paper 001's controller: Table 3 centres, the reconstructed Table 1, K_I = 0.1
-    /// (Table 4), signed 8-bit output.
-    pub fn paper001() -> Self {
-        let names = || PAPER001_SETS.iter().map(|s| s.to_string()).collect();
-        FuzzyConfig {
-            input_unit_mm: 0.01,
-            e: FuzzyVariable {
-                names: names(),
-                centres: vec![-21.0, -14.0, -7.0, 0.0, 7.0, 14.0, 21.0],
-            },
-            de: FuzzyVariable {
-                names: names(),
-                centres: vec![-4.5, -3.0, -1.5, 0.0, 1.5, 3.0, 4.5],
-            },
-            u: FuzzyVariable {
-                names: names(),
-                centres: vec![-55.0, -35.0, -15.0, 0.0, 15.0, 35.0, 55.0],
-            },
-            rules: PAPER001_RULES
-                .iter()
-                .map(|row| row.iter().map(|s| s.to_string()).collect())
-                .collect(),
-            k_i: 0.1,
-            u_min: -128.0,
-            u_max: 127.0,
-        }
-    }
-
     /// Parse and validate RON text; `file` names it in errors.
     pub fn from_ron_str(text: &str, file: &str) -> Result<Self, ConfigError> {
         let cfg: FuzzyConfig = parse_ron(text, file)?;
@@ -250,7 +204,7 @@ mod tests {
         assert_eq!(p.axis_servo(0).controller.fuzzy, None);
         assert_eq!(
             p.axis_servo(1).controller.fuzzy,
-            Some(FuzzyConfig::paper001())
+            Some(FuzzyConfig::from_ron_str(PAPER, "paper001.ron").unwrap())
         );
     }
 
@@ -264,7 +218,11 @@ mod tests {
         .unwrap();
         for i in 0..2 {
             let c = &mut flc.servo.axes[i].controller;
-            assert_eq!(c.fuzzy, Some(FuzzyConfig::paper001()), "axis {i}");
+            assert_eq!(
+                c.fuzzy,
+                Some(FuzzyConfig::from_ron_str(PAPER, "paper001.ron").unwrap()),
+                "axis {i}"
+            );
             *c = pid.servo.axes[i].controller.clone();
         }
         flc.name = pid.name.clone();
