@@ -40,6 +40,13 @@ pub struct Norm {
     /// code (`None`: it does not compile and is read from the text).
     pub code:
         std::cell::RefCell<Vec<(usize, crate::compiled::Kind, Option<crate::compiled::Code>)>>,
+    /// For a kept line: the names read so far (parameter names of assignments,
+    /// O-word labels), by the offset where each starts, with the offset after it,
+    /// so that later passes neither scan nor allocate them again.
+    pub names: std::cell::RefCell<Vec<(usize, usize, std::rc::Rc<str>)>>,
+    /// For a kept line: O-word labels qualified with the subroutine they were read
+    /// in (`sub#label`), by label offset and subroutine name.
+    pub qualified: std::cell::RefCell<Vec<(usize, std::rc::Rc<str>, std::rc::Rc<str>)>>,
 }
 
 impl Norm {
@@ -51,6 +58,8 @@ impl Norm {
         self.at.clear();
         self.keep = false;
         self.code.get_mut().clear();
+        self.names.get_mut().clear();
+        self.qualified.get_mut().clear();
         self.b.reserve(raw.len());
         self.at.reserve(raw.len() + 1);
         let mut in_comment = false;

@@ -14,6 +14,11 @@ use crate::expr::{Env, Norm, Reader};
 use crate::lexer::{bad_character, check_comments, significant, Line, Word};
 use crate::params::{is_readonly, NUM_PARAMS, SUB_PARAMS};
 
+/// A parameter name or an O-word label as read: shared, so that a kept line's
+/// names are read once and passing them on (frames, labels, skips) allocates
+/// nothing.
+pub type Name = std::rc::Rc<str>;
+
 /// LinuxCNC `INTERP_SUB_ROUTINE_LEVELS`: calls nest at most this deep.
 pub const MAX_CALL_LEVEL: usize = 10;
 
@@ -104,7 +109,7 @@ pub struct OLine {
     /// What it does.
     pub kind: OKind,
     /// Its label, qualified as LinuxCNC does (`sub#label` for local labels).
-    pub name: String,
+    pub name: Name,
     /// Condition, repeat count or return value, where given and evaluated.
     pub value: Option<f64>,
     /// Call arguments.
@@ -167,7 +172,7 @@ struct Label {
 /// One call level (LinuxCNC `context`).
 #[derive(Debug, Clone)]
 struct Frame {
-    sub_name: String,
+    sub_name: Name,
     /// Where to go on return: file, byte offset of the line after the call, and
     /// the call's line number.
     ret: (usize, usize, usize),
@@ -186,14 +191,14 @@ pub struct Control {
     /// M70/M73 state saved per call level, and whether M73 restores it on return.
     pub(super) saved_modal: Vec<(Option<super::modal::Modal>, bool)>,
     /// Skipping forward to this label.
-    pub skipping: Option<String>,
+    pub skipping: Option<Name>,
     /// Skipping forward to this subroutine's `sub` line (a call).
-    skipping_to_sub: Option<String>,
+    skipping_to_sub: Option<Name>,
     /// Line where the skip started (messages).
     pub skipping_start: usize,
     /// A subroutine definition is being skipped at level 0.
     pub defining_sub: bool,
-    sub_name: String,
+    sub_name: Option<Name>,
     executed_if: bool,
     doing_break: bool,
     doing_continue: bool,
@@ -279,7 +284,7 @@ pub enum Setting {
     /// `#n=…`
     Numbered(usize, f64),
     /// `#<name>=…`
-    Named(String, f64),
+    Named(Name, f64),
 }
 
 impl Interp<'_> {
@@ -511,8 +516,7 @@ impl Interp<'_> {
                         .ctl
                         .frames
                         .last()
-                        .map(|f| f.sub_name.clone())
-                        .unwrap_or_default();
+                        .map_or_else(|| Name::from(""), |f| f.sub_name.clone());
                     return Ok(Some(OLine {
                         kind: OKind::M99,
                         name,
@@ -548,7 +552,8 @@ impl Interp<'_> {
                     let at = i;
                     let mut r = Reader::new(b, i + 1, self);
                     if r.at(r.i) == b'<' {
-                        let name = r.name().map_err(re)?;
+                        let (name, next) = self.name_at(norm, r.i).map_err(re)?;
+                        r.i = next;
                         // read_named_parameter_setting: LinuxCNC creates the
                         // parameter (value 0) as soon as it reads the name, so the
                         // rest of the line reads it as 0 (add_named_param)
@@ -569,7 +574,7 @@ impl Interp<'_> {
                             );
                         }
                         i = next;
-                        sets.push(Setting::Named(name.into_owned(), v));
+                        sets.push(Setting::Named(name, v));
                     } else {
                         let (index, next) = self.value(norm, r.i, Kind::Integer).map_err(re)?;
                         r.i = next;
@@ -658,7 +663,7 @@ impl Interp<'_> {
         };
         Ok(OLine {
             kind: OKind::M98,
-            name: format!("{}", n as i64),
+            name: Name::from(format!("{}", n as i64)),
             value: None,
             args: Args::default(),
             at,
@@ -674,16 +679,13 @@ impl Interp<'_> {
         let re = |(k, e): (usize, ErrorKind)| (norm.raw(k), e);
         let at = norm.raw(*i);
         *i += 1;
-        let label = if b.get(*i) == Some(&b'<') {
-            let mut r = Reader::new(b, *i, self);
-            let n = r.name().map_err(re)?;
-            *i = r.i;
-            n
+        let (label, next) = if b.get(*i) == Some(&b'<') {
+            self.name_at(norm, *i).map_err(re)?
         } else {
-            let (n, next) = self.value(norm, *i, Kind::Integer).map_err(re)?;
-            *i = next;
-            std::borrow::Cow::Owned((n as i32).to_string())
+            self.number_label(norm, *i).map_err(re)?
         };
+        let label_at = *i;
+        *i = next;
         let rest = &b[(*i).min(b.len())..];
         const KINDS: [(&[u8], OKind); 15] = [
             (b"sub", OKind::Sub),
@@ -718,7 +720,7 @@ impl Interp<'_> {
                 return bad(at, "Nested subroutine definition");
             }
             if let (Some(f), None) = (ctl.frames.last(), &ctl.skipping) {
-                if f.sub_name != label {
+                if *f.sub_name != *label {
                     return bad(
                         at,
                         format!(
@@ -730,7 +732,7 @@ impl Interp<'_> {
             }
             return Ok(Some(OLine {
                 kind: OKind::Bare,
-                name: label.into_owned(),
+                name: label,
                 value: None,
                 args: Args::default(),
                 at,
@@ -740,20 +742,16 @@ impl Interp<'_> {
         *i += kw.len();
         let ctl = &self.ctl;
         let name = if kind.global() {
-            label.into_owned()
+            label
         } else {
-            let sub = if let Some(f) = ctl.frames.last() {
-                f.sub_name.as_str()
+            let sub: &str = if let Some(f) = ctl.frames.last() {
+                &f.sub_name
             } else if ctl.defining_sub {
-                ctl.sub_name.as_str()
+                ctl.sub_name.as_deref().unwrap_or("")
             } else {
                 ""
             };
-            let mut q = String::with_capacity(sub.len() + 1 + label.len());
-            q.push_str(sub);
-            q.push('#');
-            q.push_str(&label);
-            q
+            qualified(norm, label_at, sub, &label)
         };
         let mut o = OLine {
             kind,
@@ -865,10 +863,10 @@ impl Interp<'_> {
             repeat_count: -1,
         };
         // a loop saves its label on every pass: no new key then
-        match self.ctl.labels.get_mut(o.name.as_str()) {
+        match self.ctl.labels.get_mut(&*o.name) {
             Some(l) => *l = label,
             None => {
-                self.ctl.labels.insert(o.name.clone(), label);
+                self.ctl.labels.insert(o.name.to_string(), label);
             }
         }
     }
@@ -881,7 +879,7 @@ impl Interp<'_> {
     }
 
     fn label_of(&self, o: &OLine, what: &str) -> R<&Label> {
-        let Some(l) = self.ctl.labels.get(&o.name) else {
+        let Some(l) = self.ctl.labels.get(&*o.name) else {
             return bad(o.at, format!("undefined O-word label: '{}'", o.name));
         };
         let ok = match o.kind {
@@ -944,7 +942,7 @@ impl Interp<'_> {
                     self.ctl.skipping = Some(o.name.clone());
                     self.ctl.skipping_start = pc.line_no;
                     self.ctl.defining_sub = true;
-                    self.ctl.sub_name = o.name.clone();
+                    self.ctl.sub_name = Some(o.name.clone());
                 }
             }
             OKind::EndSub | OKind::Return | OKind::M99 => {
@@ -974,7 +972,7 @@ impl Interp<'_> {
                     // in a definition: its endsub ends it, a return changes nothing
                     if o.kind == OKind::EndSub {
                         self.ctl.defining_sub = false;
-                        self.ctl.sub_name.clear();
+                        self.ctl.sub_name = None;
                         self.ctl.skipping = None;
                     }
                     return Ok(Jump::Next);
@@ -1053,14 +1051,14 @@ impl Interp<'_> {
             }
             OKind::Do => {
                 self.ctl.skipping = None;
-                if !self.ctl.labels.contains_key(&o.name) {
+                if !self.ctl.labels.contains_key(&*o.name) {
                     self.save_label(o, pc);
                 }
             }
             OKind::Repeat => {
                 self.check_duplicate(o, pc)?;
                 self.ctl.skipping = None;
-                let l = self.ctl.labels.get_mut(&o.name);
+                let l = self.ctl.labels.get_mut(&*o.name);
                 if let Some(l) = l.filter(|l| l.kind == OKind::Repeat) {
                     if l.repeat_count == -1 {
                         l.repeat_count = i64::from(super::round_to_int(test));
@@ -1075,7 +1073,7 @@ impl Interp<'_> {
                 }
             }
             OKind::While => {
-                let existing = self.ctl.labels.get(&o.name).map(|l| (l.kind, l.line_no));
+                let existing = self.ctl.labels.get(&*o.name).map(|l| (l.kind, l.line_no));
                 match existing {
                     Some((OKind::Do, _)) => {
                         self.ctl.skipping = None;
@@ -1163,7 +1161,7 @@ impl Interp<'_> {
     /// The same label on another line is a duplicate (LinuxCNC `duplicate O-word
     /// label`); a new one is recorded.
     fn check_duplicate(&mut self, o: &OLine, pc: &Pc) -> R<()> {
-        match self.ctl.labels.get(&o.name) {
+        match self.ctl.labels.get(&*o.name) {
             Some(l) if l.file != pc.file || l.pos != pc.pos => {
                 if o.kind == OKind::While && l.kind == OKind::Do {
                     return Ok(());
@@ -1200,6 +1198,68 @@ impl Interp<'_> {
     pub(super) fn wanted_sub(&self) -> Option<&str> {
         self.ctl.skipping_to_sub.as_deref()
     }
+}
+
+impl Interp<'_> {
+    /// The name of `<name>` at `norm.b[i]` (the `<`) and the offset after its `>`
+    /// (LinuxCNC's `read_name`). A kept line remembers it: later passes neither
+    /// scan nor allocate it again.
+    fn name_at(&self, norm: &Norm, i: usize) -> Result<(Name, usize), crate::expr::ExprError> {
+        if norm.keep {
+            if let Some((_, end, n)) = norm.names.borrow().iter().find(|(s, _, _)| *s == i) {
+                return Ok((n.clone(), *end));
+            }
+        }
+        let mut r = Reader::new(&norm.b, i, self);
+        let name = Name::from(&*r.name()?);
+        if norm.keep {
+            norm.names.borrow_mut().push((i, r.i, name.clone()));
+        }
+        Ok((name, r.i))
+    }
+
+    /// A numbered O-word label at `norm.b[i]` (`read_integer_value`, as text) and
+    /// the offset after it. A label of digits alone is remembered by a kept line
+    /// (its value cannot change); an expression is evaluated on every pass.
+    fn number_label(&self, norm: &Norm, i: usize) -> Result<(Name, usize), crate::expr::ExprError> {
+        if norm.keep {
+            if let Some((_, end, n)) = norm.names.borrow().iter().find(|(s, _, _)| *s == i) {
+                return Ok((n.clone(), *end));
+            }
+        }
+        let (n, next) = self.value(norm, i, Kind::Integer)?;
+        let name = Name::from((n as i32).to_string());
+        if norm.keep && next > i && norm.b[i..next].iter().all(u8::is_ascii_digit) {
+            norm.names.borrow_mut().push((i, next, name.clone()));
+        }
+        Ok((name, next))
+    }
+}
+
+/// A local label qualified as LinuxCNC does (`sub#label`); a kept line remembers it
+/// per subroutine name (the label at offset `at` of it).
+fn qualified(norm: &Norm, at: usize, sub: &str, label: &str) -> Name {
+    if norm.keep {
+        if let Some((_, _, q)) = norm
+            .qualified
+            .borrow()
+            .iter()
+            .find(|(s, ctx, _)| *s == at && **ctx == *sub)
+        {
+            return q.clone();
+        }
+    }
+    let mut q = String::with_capacity(sub.len() + 1 + label.len());
+    q.push_str(sub);
+    q.push('#');
+    q.push_str(label);
+    let q = Name::from(q);
+    if norm.keep {
+        norm.qualified
+            .borrow_mut()
+            .push((at, Name::from(sub), q.clone()));
+    }
+    q
 }
 
 impl Interp<'_> {
