@@ -109,6 +109,17 @@ pub trait Env {
     /// (locals of the current call level, globals starting with `_`, predefined).
     /// `Err` for a predefined name whose meaning softnc does not build.
     fn named(&self, name: &str) -> Result<Option<f64>, ErrorKind>;
+    /// The slot of named parameter `name` where the environment keeps its named
+    /// parameters by slot (a name's slot never changes); `None` otherwise.
+    fn named_slot(&self, _name: &str) -> Option<u32> {
+        None
+    }
+    /// The value of the named parameter of slot `slot` where it is set in its
+    /// scope: then exactly what [`Env::named`] of its name gives. `None`: ask
+    /// [`Env::named`].
+    fn slot_value(&self, _slot: u32) -> Option<f64> {
+        None
+    }
     /// True while a subroutine definition is being skipped (undefined named
     /// parameters are then no error, as in LinuxCNC).
     fn defining_sub(&self) -> bool {

@@ -277,6 +277,12 @@ impl Env for Interp<'_> {
     fn defining_sub(&self) -> bool {
         self.ctl.defining_sub
     }
+    fn named_slot(&self, name: &str) -> Option<u32> {
+        self.params.slot(name)
+    }
+    fn slot_value(&self, slot: u32) -> Option<f64> {
+        self.params.slot_value(slot)
+    }
 }
 
 /// An assignment read on a line.
