@@ -47,6 +47,9 @@ pub struct Norm {
     /// For a kept line: O-word labels qualified with the subroutine they were read
     /// in (`sub#label`), by label offset and subroutine name.
     pub qualified: std::cell::RefCell<Vec<(usize, std::rc::Rc<str>, std::rc::Rc<str>)>>,
+    /// For a kept line: the parameter slot ([`crate::params::Params::slot`]) of
+    /// the name assigned at an offset, once it has one.
+    pub slots: std::cell::RefCell<Vec<(usize, u32)>>,
 }
 
 impl Norm {
@@ -60,6 +63,7 @@ impl Norm {
         self.code.get_mut().clear();
         self.names.get_mut().clear();
         self.qualified.get_mut().clear();
+        self.slots.get_mut().clear();
         self.b.reserve(raw.len());
         self.at.reserve(raw.len() + 1);
         let mut in_comment = false;

@@ -1514,7 +1514,7 @@ fn line_key(source: usize, offset: usize) -> u64 {
 /// Hashes a [`line_key`] with one multiplication (Fibonacci hashing): the keys are
 /// distinct small numbers, for which byte-wise FNV costs several times more.
 #[derive(Default)]
-struct KeyHasher(u64);
+pub(super) struct KeyHasher(u64);
 
 impl std::hash::Hasher for KeyHasher {
     fn finish(&self) -> u64 {

@@ -253,6 +253,21 @@ impl Params {
         scope.put(slot, value);
     }
 
+    /// [`Params::set_named`] of the name of slot `slot` (a slot [`Params::slot`]
+    /// gave).
+    pub fn set_slot(&mut self, slot: u32, value: f64) {
+        let global = self.names[slot as usize].starts_with('_');
+        let scope = if global {
+            &mut self.globals
+        } else {
+            match self.locals.last_mut() {
+                Some(l) => l,
+                None => return,
+            }
+        };
+        scope.put(slot, value);
+    }
+
     /// The named parameters set in `scope`, by name (for comparing tables).
     fn scope_entries(&self, scope: &Scope) -> BTreeMap<&str, f64> {
         scope
@@ -303,10 +318,11 @@ impl Params {
     /// (missing ones 0). Returns the saved values.
     pub fn enter(&mut self, args: &[f64]) -> [f64; SUB_PARAMS] {
         let mut saved = [0.0; SUB_PARAMS];
-        for (k, s) in saved.iter_mut().enumerate() {
-            *s = self.numbered[k + 1];
-            self.numbered[k + 1] = args.get(k).copied().unwrap_or(0.0);
-        }
+        let sub = &mut self.numbered[1..=SUB_PARAMS];
+        saved.copy_from_slice(sub);
+        let given = args.len().min(SUB_PARAMS);
+        sub[..given].copy_from_slice(&args[..given]);
+        sub[given..].fill(0.0);
         self.push_scope();
         saved
     }

@@ -184,7 +184,14 @@ struct Frame {
 /// Control-flow state (the `skipping_o`, `defining_sub`, … of LinuxCNC's setup).
 #[derive(Debug, Default)]
 pub struct Control {
-    labels: crate::params::NameMap<Label>,
+    /// Labels by [`label_key`] of their (interned) name.
+    labels: std::collections::HashMap<u64, Label, std::hash::BuildHasherDefault<super::KeyHasher>>,
+    /// Every label and parameter name read, once ([`Interp::intern`]): equal
+    /// names are one [`Name`], so a label is found by its name's address (one
+    /// multiplication, no hashing of its text).
+    names: std::cell::RefCell<
+        std::collections::HashSet<Name, std::hash::BuildHasherDefault<crate::params::Fnv>>,
+    >,
     frames: Vec<Frame>,
     /// M98 L repeats left, per call level of the caller (-1: none running).
     m98_loops: Vec<i64>,
@@ -289,8 +296,8 @@ impl Env for Interp<'_> {
 pub enum Setting {
     /// `#n=…`
     Numbered(usize, f64),
-    /// `#<name>=…`
-    Named(Name, f64),
+    /// `#<name>=…`, with the name's parameter slot where known.
+    Named(Name, f64, Option<u32>),
 }
 
 impl Interp<'_> {
@@ -522,7 +529,7 @@ impl Interp<'_> {
                         .ctl
                         .frames
                         .last()
-                        .map_or_else(|| Name::from(""), |f| f.sub_name.clone());
+                        .map_or_else(|| self.intern(""), |f| f.sub_name.clone());
                     return Ok(Some(OLine {
                         kind: OKind::M99,
                         name,
@@ -580,7 +587,8 @@ impl Interp<'_> {
                             );
                         }
                         i = next;
-                        sets.push(Setting::Named(name, v));
+                        let slot = self.assigned_slot(norm, at, &name);
+                        sets.push(Setting::Named(name, v, slot));
                     } else {
                         let (index, next) = self.value(norm, r.i, Kind::Integer).map_err(re)?;
                         r.i = next;
@@ -669,7 +677,7 @@ impl Interp<'_> {
         };
         Ok(OLine {
             kind: OKind::M98,
-            name: Name::from(format!("{}", n as i64)),
+            name: self.intern(&format!("{}", n as i64)),
             value: None,
             args: Args::default(),
             at,
@@ -757,7 +765,7 @@ impl Interp<'_> {
             } else {
                 ""
             };
-            qualified(norm, label_at, sub, &label)
+            self.qualified(norm, label_at, sub, &label)
         };
         let mut o = OLine {
             kind,
@@ -869,23 +877,18 @@ impl Interp<'_> {
             repeat_count: -1,
         };
         // a loop saves its label on every pass: no new key then
-        match self.ctl.labels.get_mut(&*o.name) {
-            Some(l) => *l = label,
-            None => {
-                self.ctl.labels.insert(o.name.to_string(), label);
-            }
-        }
+        self.ctl.labels.insert(label_key(&o.name), label);
     }
 
-    fn back_to(&self, name: &str) -> Option<Jump> {
+    fn back_to(&self, name: &Name) -> Option<Jump> {
         self.ctl
             .labels
-            .get(name)
+            .get(&label_key(name))
             .map(|l| Jump::To(l.file, l.pos, l.line_no))
     }
 
     fn label_of(&self, o: &OLine, what: &str) -> R<&Label> {
-        let Some(l) = self.ctl.labels.get(&*o.name) else {
+        let Some(l) = self.ctl.labels.get(&label_key(&o.name)) else {
             return bad(o.at, format!("undefined O-word label: '{}'", o.name));
         };
         let ok = match o.kind {
@@ -1057,14 +1060,14 @@ impl Interp<'_> {
             }
             OKind::Do => {
                 self.ctl.skipping = None;
-                if !self.ctl.labels.contains_key(&*o.name) {
+                if !self.ctl.labels.contains_key(&label_key(&o.name)) {
                     self.save_label(o, pc);
                 }
             }
             OKind::Repeat => {
                 self.check_duplicate(o, pc)?;
                 self.ctl.skipping = None;
-                let l = self.ctl.labels.get_mut(&*o.name);
+                let l = self.ctl.labels.get_mut(&label_key(&o.name));
                 if let Some(l) = l.filter(|l| l.kind == OKind::Repeat) {
                     if l.repeat_count == -1 {
                         l.repeat_count = i64::from(super::round_to_int(test));
@@ -1079,7 +1082,11 @@ impl Interp<'_> {
                 }
             }
             OKind::While => {
-                let existing = self.ctl.labels.get(&*o.name).map(|l| (l.kind, l.line_no));
+                let existing = self
+                    .ctl
+                    .labels
+                    .get(&label_key(&o.name))
+                    .map(|l| (l.kind, l.line_no));
                 match existing {
                     Some((OKind::Do, _)) => {
                         self.ctl.skipping = None;
@@ -1167,7 +1174,7 @@ impl Interp<'_> {
     /// The same label on another line is a duplicate (LinuxCNC `duplicate O-word
     /// label`); a new one is recorded.
     fn check_duplicate(&mut self, o: &OLine, pc: &Pc) -> R<()> {
-        match self.ctl.labels.get(&*o.name) {
+        match self.ctl.labels.get(&label_key(&o.name)) {
             Some(l) if l.file != pc.file || l.pos != pc.pos => {
                 if o.kind == OKind::While && l.kind == OKind::Do {
                     return Ok(());
@@ -1195,7 +1202,8 @@ impl Interp<'_> {
         for s in sets.drain(..) {
             match s {
                 Setting::Numbered(i, v) => self.params.set(i, v),
-                Setting::Named(n, v) => self.params.set_named(&n, v),
+                Setting::Named(_, v, Some(k)) => self.params.set_slot(k, v),
+                Setting::Named(n, v, None) => self.params.set_named(&n, v),
             }
         }
     }
@@ -1217,11 +1225,25 @@ impl Interp<'_> {
             }
         }
         let mut r = Reader::new(&norm.b, i, self);
-        let name = Name::from(&*r.name()?);
+        let name = self.intern(&r.name()?);
         if norm.keep {
             norm.names.borrow_mut().push((i, r.i, name.clone()));
         }
         Ok((name, r.i))
+    }
+
+    /// The parameter slot of `name`, assigned by the `#` at `norm.b[at]`, where it
+    /// has one (then a kept line remembers it: no lookup by name on later passes).
+    fn assigned_slot(&self, norm: &Norm, at: usize, name: &str) -> Option<u32> {
+        if !norm.keep {
+            return None;
+        }
+        if let Some(&(_, k)) = norm.slots.borrow().iter().find(|(s, _)| *s == at) {
+            return Some(k);
+        }
+        let k = self.params.slot(name)?;
+        norm.slots.borrow_mut().push((at, k));
+        Some(k)
     }
 
     /// A numbered O-word label at `norm.b[i]` (`read_integer_value`, as text) and
@@ -1234,7 +1256,7 @@ impl Interp<'_> {
             }
         }
         let (n, next) = self.value(norm, i, Kind::Integer)?;
-        let name = Name::from((n as i32).to_string());
+        let name = self.intern(&(n as i32).to_string());
         if norm.keep && next > i && norm.b[i..next].iter().all(u8::is_ascii_digit) {
             norm.names.borrow_mut().push((i, next, name.clone()));
         }
@@ -1242,30 +1264,53 @@ impl Interp<'_> {
     }
 }
 
-/// A local label qualified as LinuxCNC does (`sub#label`); a kept line remembers it
-/// per subroutine name (the label at offset `at` of it).
-fn qualified(norm: &Norm, at: usize, sub: &str, label: &str) -> Name {
-    if norm.keep {
-        if let Some((_, _, q)) = norm
-            .qualified
-            .borrow()
-            .iter()
-            .find(|(s, ctx, _)| *s == at && **ctx == *sub)
-        {
-            return q.clone();
+/// The key of an interned name in [`Control::labels`]: its address (its low bits,
+/// always 0 by alignment, dropped).
+fn label_key(name: &Name) -> u64 {
+    (std::rc::Rc::as_ptr(name).cast::<u8>() as usize as u64) >> LABEL_KEY_ALIGN_BITS
+}
+
+/// Bits of a name's address that its alignment leaves 0 (the allocator's 16
+/// bytes); dropping them spreads keys over the table's low bits.
+const LABEL_KEY_ALIGN_BITS: u32 = 4;
+
+impl Interp<'_> {
+    /// The one [`Name`] of `s` (made the first time it is read).
+    fn intern(&self, s: &str) -> Name {
+        let mut names = self.ctl.names.borrow_mut();
+        if let Some(n) = names.get(s) {
+            return n.clone();
         }
+        let n = Name::from(s);
+        names.insert(n.clone());
+        n
     }
-    let mut q = String::with_capacity(sub.len() + 1 + label.len());
-    q.push_str(sub);
-    q.push('#');
-    q.push_str(label);
-    let q = Name::from(q);
-    if norm.keep {
-        norm.qualified
-            .borrow_mut()
-            .push((at, Name::from(sub), q.clone()));
+
+    /// A local label qualified as LinuxCNC does (`sub#label`); a kept line remembers it
+    /// per subroutine name (the label at offset `at` of it).
+    fn qualified(&self, norm: &Norm, at: usize, sub: &str, label: &str) -> Name {
+        if norm.keep {
+            if let Some((_, _, q)) = norm
+                .qualified
+                .borrow()
+                .iter()
+                .find(|(s, ctx, _)| *s == at && **ctx == *sub)
+            {
+                return q.clone();
+            }
+        }
+        let mut q = String::with_capacity(sub.len() + 1 + label.len());
+        q.push_str(sub);
+        q.push('#');
+        q.push_str(label);
+        let q = self.intern(&q);
+        if norm.keep {
+            norm.qualified
+                .borrow_mut()
+                .push((at, Name::from(sub), q.clone()));
+        }
+        q
     }
-    q
 }
 
 impl Interp<'_> {
