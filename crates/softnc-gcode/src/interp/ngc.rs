@@ -437,6 +437,7 @@ impl Interp<'_> {
     /// once and evaluated for a line kept to be read again ([`Norm::keep`]), read
     /// from the text otherwise (and where it does not compile). Errors as the
     /// text reader's, offsets in the normalized line.
+    #[inline(always)]
     pub(super) fn value(
         &self,
         norm: &Norm,
@@ -1218,6 +1219,7 @@ impl Interp<'_> {
     /// The name of `<name>` at `norm.b[i]` (the `<`) and the offset after its `>`
     /// (LinuxCNC's `read_name`). A kept line remembers it: later passes neither
     /// scan nor allocate it again.
+    #[inline(always)]
     fn name_at(&self, norm: &Norm, i: usize) -> Result<(Name, usize), crate::expr::ExprError> {
         if norm.keep {
             if let Some((_, end, n)) = norm.names.borrow().iter().find(|(s, _, _)| *s == i) {
