@@ -25,6 +25,10 @@ fn bad<T>(at: usize, msg: impl Into<String>) -> R<T> {
     Err((at, ErrorKind::Invalid(msg.into())))
 }
 
+/// A label qualified on a kept line: the label's offset, the subroutine it was
+/// read in and the qualified name (`sub#label`).
+pub type Qualified = (usize, std::rc::Rc<str>, std::rc::Rc<str>);
+
 /// A line as `close_and_downcase` leaves it, with the byte offset in the raw line of
 /// each byte (for columns in messages).
 #[derive(Debug, Default, Clone)]
@@ -46,7 +50,7 @@ pub struct Norm {
     pub names: std::cell::RefCell<Vec<(usize, usize, std::rc::Rc<str>)>>,
     /// For a kept line: O-word labels qualified with the subroutine they were read
     /// in (`sub#label`), by label offset and subroutine name.
-    pub qualified: std::cell::RefCell<Vec<(usize, std::rc::Rc<str>, std::rc::Rc<str>)>>,
+    pub qualified: std::cell::RefCell<Vec<Qualified>>,
     /// For a kept line: the parameter slot ([`crate::params::Params::slot`]) of
     /// the name assigned at an offset, once it has one.
     pub slots: std::cell::RefCell<Vec<(usize, u32)>>,
