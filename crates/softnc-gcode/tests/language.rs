@@ -617,3 +617,23 @@ fn compiled_loop_lines_read_as_their_text() {
         M2\n";
     assert_eq!(xs(sub), vec![17.0, 18.0, 19.0]);
 }
+
+/// A kept line (read again by a loop or a call) is found by its start and its end
+/// remembered: line numbers, lines ended by CRLF or by the end of the text, and a
+/// line sharing a loop's text read as when it was read once.
+#[test]
+fn kept_lines_read_again_as_read_once() {
+    // the loop body's lines end in CRLF; the program's last line has no newline
+    let text =
+        "#1=0\r\no1 while [#1 LT 3]\r\nG0 X[#1*2]\r\n#1=[#1+1]\r\no1 endwhile\r\nG0 X9\r\nM2";
+    assert_eq!(xs(text), vec![0.0, 2.0, 4.0, 9.0]);
+    // a subroutine called from its own last line's neighbour, the last line of the
+    // text (no newline) read on every pass
+    let text = "o<s> sub\nG0 X#1\no<s> endsub\n#2=0\no2 while [#2 LT 2]\no<s> call [#2+5]\n#2=[#2+1]\no2 endwhile\nM2";
+    assert_eq!(xs(text), vec![5.0, 6.0]);
+    // an error on a later pass (the third: 10/0) names the line and column it has
+    // when read once
+    let e = error("#1=0\no1 while [#1 LT 5]\n#1=[#1+1]\nG0 X[10/[3-#1]]\no1 endwhile\nM2\n");
+    let once = error("#1=3\nG0 X[10/[3-#1]]\nM2\n");
+    assert_eq!((e.line, e.column, e.kind), (4, once.column, once.kind));
+}
