@@ -157,6 +157,9 @@ pub struct Params {
     /// Emptied scopes of levels left, reused by the next call (no allocation per
     /// call).
     spare: Vec<Scope>,
+    /// `#1…#30` as each subroutine call found them, [`SUB_PARAMS`] values per
+    /// call level entered with [`Params::enter`] (restored by [`Params::leave`]).
+    saved_args: Vec<f64>,
     /// Assignments read on the current line, not yet made.
     pending_numbered: Vec<(usize, f64)>,
     pending_named: Vec<(String, f64)>,
@@ -172,6 +175,7 @@ impl Default for Params {
             globals: Scope::default(),
             locals: vec![Scope::default()],
             spare: Vec::new(),
+            saved_args: Vec::new(),
             pending_numbered: Vec::new(),
             pending_named: Vec::new(),
         }
@@ -185,6 +189,7 @@ impl PartialEq for Params {
             && self.from_file == other.from_file
             && self.pending_numbered == other.pending_numbered
             && self.pending_named == other.pending_named
+            && self.saved_args == other.saved_args
             && self.scope_entries(&self.globals) == other.scope_entries(&other.globals)
             && self.locals.len() == other.locals.len()
             && self
@@ -314,17 +319,16 @@ impl Params {
         !self.pending_numbered.is_empty() || !self.pending_named.is_empty()
     }
 
-    /// Enter a subroutine: a new scope of locals, `#1…#30` saved and set to `args`
-    /// (missing ones 0). Returns the saved values.
-    pub fn enter(&mut self, args: &[f64]) -> [f64; SUB_PARAMS] {
-        let mut saved = [0.0; SUB_PARAMS];
+    /// Enter a subroutine: a new scope of locals, `#1…#30` saved (on a stack that
+    /// [`Params::leave`] pops) and set to `args` (missing ones 0).
+    pub fn enter(&mut self, args: &[f64]) {
+        self.saved_args
+            .extend_from_slice(&self.numbered[1..=SUB_PARAMS]);
         let sub = &mut self.numbered[1..=SUB_PARAMS];
-        saved.copy_from_slice(sub);
         let given = args.len().min(SUB_PARAMS);
         sub[..given].copy_from_slice(&args[..given]);
         sub[given..].fill(0.0);
         self.push_scope();
-        saved
     }
 
     /// Enter an M98 subprogram: a new scope of locals, `#1…#30` passed on as they
@@ -352,9 +356,13 @@ impl Params {
         self.pop_scope();
     }
 
-    /// Leave a subroutine: its locals dropped, `#1…#30` restored.
-    pub fn leave(&mut self, saved: &[f64; SUB_PARAMS]) {
-        self.numbered[1..=SUB_PARAMS].copy_from_slice(saved);
+    /// Leave a subroutine: its locals dropped, `#1…#30` restored as the matching
+    /// [`Params::enter`] saved them.
+    pub fn leave(&mut self) {
+        if let Some(from) = self.saved_args.len().checked_sub(SUB_PARAMS) {
+            self.numbered[1..=SUB_PARAMS].copy_from_slice(&self.saved_args[from..]);
+            self.saved_args.truncate(from);
+        }
         self.pop_scope();
     }
 
@@ -468,12 +476,12 @@ mod tests {
         p.set(1, 9.0);
         p.set_named("a", 1.0);
         p.set_named("_g", 2.0);
-        let saved = p.enter(&[4.0, 5.0]);
+        p.enter(&[4.0, 5.0]);
         assert_eq!((p.get(1), p.get(2), p.get(3)), (4.0, 5.0, 0.0));
         assert_eq!(p.named("a"), None);
         assert_eq!(p.named("_g"), Some(2.0));
         p.set_named("a", 3.0);
-        p.leave(&saved);
+        p.leave();
         assert_eq!(p.get(1), 9.0);
         assert_eq!(p.named("a"), Some(1.0));
         assert!(is_readonly(5420) && !is_readonly(5220));
@@ -489,21 +497,21 @@ mod tests {
         assert_ne!(a, g);
         assert_eq!((p.slot_value(a), p.slot_value(g)), (Some(1.0), Some(2.0)));
         // a call: the local is unset there, the global seen; the slot is kept
-        let saved = p.enter(&[]);
+        p.enter(&[]);
         assert_eq!((p.slot_value(a), p.slot_value(g)), (None, Some(2.0)));
         p.set_named("b", 7.0);
         p.set_named("a", 3.0);
         assert_eq!(p.slot("a"), Some(a));
         assert_eq!(p.slot_value(a), Some(3.0));
         let b = p.slot("b").unwrap();
-        p.leave(&saved);
+        p.leave();
         // back: the caller's value, the callee's locals gone (their slots kept)
         assert_eq!((p.slot_value(a), p.slot_value(b)), (Some(1.0), None));
         assert_eq!((p.named("a"), p.named("b")), (Some(1.0), None));
         // the next call starts with no locals again (its scope reused)
-        let saved = p.enter(&[]);
+        p.enter(&[]);
         assert_eq!((p.slot_value(a), p.slot_value(b)), (None, None));
-        p.leave(&saved);
+        p.leave();
         // tables compare by names and values, whatever the slots
         let mut q = Params::default();
         q.set_named("_g", 2.0);

@@ -176,7 +176,6 @@ struct Frame {
     /// Where to go on return: file, byte offset of the line after the call, and
     /// the call's line number.
     ret: (usize, usize, usize),
-    saved: [f64; SUB_PARAMS],
     /// Called with M98 (Fanuc style: ends with M99, `#1…#30` passed on).
     m98: bool,
 }
@@ -999,7 +998,7 @@ impl Interp<'_> {
                 if frame.m98 {
                     self.params.leave_keep();
                 } else {
-                    self.params.leave(&frame.saved);
+                    self.params.leave();
                 }
                 self.leave_modal(from, pc.line_no as u32, o.at)?;
                 let (f, pos, line_no) = frame.ret;
@@ -1036,16 +1035,14 @@ impl Interp<'_> {
                         *left = -1;
                     }
                 }
-                let saved = if m98 {
+                if m98 {
                     self.params.enter_keep();
-                    [0.0; SUB_PARAMS]
                 } else {
-                    self.params.enter(&o.args)
-                };
+                    self.params.enter(&o.args);
+                }
                 self.ctl.frames.push(Frame {
                     sub_name: o.name.clone(),
                     ret,
-                    saved,
                     m98,
                 });
                 self.enter_modal();
