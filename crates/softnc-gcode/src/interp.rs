@@ -408,6 +408,9 @@ struct Interp<'a> {
     /// the line, with the value 0, as LinuxCNC's `add_named_param` makes them.
     /// Each name ends with a `>` (no name holds one); the buffer is reused.
     line_named: std::cell::RefCell<String>,
+    /// The arguments of the last `call` read (`read_o`), for `control` to pass: kept
+    /// here, not in the `OLine`, so that a read O-line is small to move.
+    call_args: std::cell::RefCell<Vec<f64>>,
     /// The optional-stop switch ([`ReadOptions::optional_stop`]).
     optional_stop: bool,
     /// Run from line: motions are left out (the state evolves) until the start
@@ -475,6 +478,7 @@ impl<'a> Interp<'a> {
             mist: false,
             flood: false,
             line_named: std::cell::RefCell::new(String::new()),
+            call_args: std::cell::RefCell::new(Vec::new()),
             optional_stop: false,
             suppress: false,
             moves_after_start: 0,

@@ -637,3 +637,26 @@ fn kept_lines_read_again_as_read_once() {
     let once = error("#1=3\nG0 X[10/[3-#1]]\nM2\n");
     assert_eq!((e.line, e.column, e.kind), (4, once.column, once.kind));
 }
+
+/// Call arguments beyond the first few, up to LinuxCNC's 30, reach `#1`…`#30` (the
+/// missing ones 0, the caller's restored on return); a 31st is refused.
+#[test]
+fn call_arguments_up_to_thirty() {
+    let args: String = (1..=30).map(|k| format!(" [{k}]")).collect();
+    let text = format!(
+        "o<s> sub\nG0 X#5 Y#30\nG0 X#6 Y#7\no<s> endsub\n#5=9\no<s> call [1] [2] [3] [4] [5] [6]\no<s> call{args}\nG0 X#5 Y0\nM2\n"
+    );
+    assert_eq!(xs(&text), vec![5.0, 6.0, 5.0, 6.0, 9.0]);
+    let p = softnc_gcode::read_program(&text, "t.ngc", &profile()).unwrap();
+    let ys: Vec<f64> = p
+        .motions
+        .iter()
+        .filter_map(|m| m.kind.end().map(|e| e.0[1]))
+        .collect();
+    assert_eq!(ys, vec![0.0, 0.0, 30.0, 7.0, 0.0]);
+    let e = error(&format!(
+        "o<s> sub\no<s> endsub\no<s> call{args} [31]\nM2\n"
+    ));
+    assert_eq!(e.kind.to_string(), "Too many subroutine parameters");
+    assert_eq!(e.line, 3);
+}

@@ -112,51 +112,10 @@ pub struct OLine {
     pub name: Name,
     /// Condition, repeat count or return value, where given and evaluated.
     pub value: Option<f64>,
-    /// Call arguments.
-    pub args: Args,
     /// Raw byte offset of the `o`.
     pub at: u32,
     /// M98: the L word (repeats), if given.
     pub repeat: Option<f64>,
-}
-
-/// Call arguments: the first [`ARGS_IN_PLACE`] held in place (no allocation for a
-/// usual call, and an O-line small enough to move cheaply), more in a vector.
-#[derive(Debug, Clone, Default)]
-pub struct Args {
-    first: [f64; ARGS_IN_PLACE],
-    len: usize,
-    /// All of them, once there are more than fit in place.
-    more: Vec<f64>,
-}
-
-/// Call arguments held without allocation.
-const ARGS_IN_PLACE: usize = 4;
-
-impl Args {
-    /// Add an argument; the caller refuses more than [`SUB_PARAMS`] first.
-    fn push(&mut self, v: f64) {
-        if self.len < ARGS_IN_PLACE {
-            self.first[self.len] = v;
-        } else {
-            if self.more.is_empty() {
-                self.more.extend_from_slice(&self.first);
-            }
-            self.more.push(v);
-        }
-        self.len += 1;
-    }
-}
-
-impl std::ops::Deref for Args {
-    type Target = [f64];
-    fn deref(&self) -> &[f64] {
-        if self.more.is_empty() {
-            &self.first[..self.len]
-        } else {
-            &self.more
-        }
-    }
 }
 
 /// Where a label was seen (LinuxCNC `offset_struct`).
@@ -534,7 +493,6 @@ impl Interp<'_> {
                         kind: OKind::M99,
                         name,
                         value: None,
-                        args: Args::default(),
                         at: raw(i),
                         repeat: None,
                     }));
@@ -679,7 +637,6 @@ impl Interp<'_> {
             kind: OKind::M98,
             name: self.intern(&format!("{}", n as i64)),
             value: None,
-            args: Args::default(),
             at,
             repeat: block.get(b'L'),
         })
@@ -748,7 +705,6 @@ impl Interp<'_> {
                 kind: OKind::Bare,
                 name: label,
                 value: None,
-                args: Args::default(),
                 at,
                 repeat: None,
             }));
@@ -771,7 +727,6 @@ impl Interp<'_> {
             kind,
             name,
             value: None,
-            args: Args::default(),
             at,
             repeat: None,
         };
@@ -807,6 +762,8 @@ impl Interp<'_> {
                 if ctl.skipping.is_some() {
                     return Ok(None);
                 }
+                let mut args = self.call_args.borrow_mut();
+                args.clear();
                 while matches!(b.get(*i), Some(b'[' | b'(')) {
                     if b[*i] == b'(' {
                         let end = b[*i..]
@@ -818,11 +775,11 @@ impl Interp<'_> {
                         *i = (end + 1).min(b.len());
                         continue;
                     }
-                    if o.args.len() >= SUB_PARAMS {
+                    if args.len() >= SUB_PARAMS {
                         return bad(norm.raw(*i), "Too many subroutine parameters");
                     }
                     let (v, next) = self.value(norm, *i, Kind::Expression).map_err(re)?;
-                    o.args.push(v);
+                    args.push(v);
                     *i = next;
                 }
             }
@@ -1038,7 +995,9 @@ impl Interp<'_> {
                 if m98 {
                     self.params.enter_keep();
                 } else {
-                    self.params.enter(&o.args);
+                    // the arguments of this call, read by `read_o` just before
+                    let args = self.call_args.borrow();
+                    self.params.enter(&args);
                 }
                 self.ctl.frames.push(Frame {
                     sub_name: o.name.clone(),
@@ -1406,21 +1365,5 @@ impl Interp<'_> {
             }
         }
         Ok(String::from_utf8_lossy(&out).into_owned())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn args_in_place_and_beyond() {
-        let mut a = Args::default();
-        assert!(a.is_empty());
-        for k in 0..SUB_PARAMS {
-            a.push(k as f64 + 0.5);
-            let want: Vec<f64> = (0..=k).map(|j| j as f64 + 0.5).collect();
-            assert_eq!(&a[..], &want[..]);
-        }
     }
 }
