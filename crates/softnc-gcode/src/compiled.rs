@@ -26,6 +26,9 @@ const MAX_COMPILED_DEPTH: u32 = 24;
 /// text reader reads it).
 const STACK: usize = 16;
 
+/// A name with no slot yet (see [`Code`]).
+const NO_SLOT: u32 = u32::MAX;
+
 /// Which reader a value is read with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
@@ -73,6 +76,11 @@ enum Op {
 pub struct Code {
     ops: Vec<Op>,
     names: Vec<Box<str>>,
+    /// `slots[k]`: the slot of `names[k]` in the environment's table once it has
+    /// one ([`Env::named_slot`]; [`NO_SLOT`] before). A name keeps its slot for
+    /// the whole reading, so it is looked up by name until it has been assigned
+    /// once, then read by slot: a code is evaluated with one environment only.
+    slots: Vec<std::cell::Cell<u32>>,
     /// Offset just after the value in the normalized line.
     pub end: usize,
 }
@@ -110,6 +118,7 @@ pub fn compile(b: &[u8], i: usize, kind: Kind) -> Option<Code> {
     }
     Some(Code {
         ops: c.ops,
+        slots: vec![std::cell::Cell::new(NO_SLOT); c.names.len()],
         names: c.names,
         end: c.i,
     })
@@ -403,8 +412,23 @@ pub fn eval<E: Env + ?Sized>(code: &Code, env: &E) -> R<f64> {
                 };
             }
             Op::Named { at, name, exists } => {
+                let slot = &code.slots[name];
                 let name = &code.names[name];
-                let found = env.named(name).map_err(|k| (at, k))?;
+                if slot.get() == NO_SLOT {
+                    if let Some(k) = env.named_slot(name) {
+                        slot.set(k);
+                    }
+                }
+                // by slot where it is set in its scope (the same value the name
+                // gives), by name otherwise (predefined, unset, …)
+                let by_slot = match slot.get() {
+                    NO_SLOT => None,
+                    k => env.slot_value(k),
+                };
+                let found = match by_slot {
+                    Some(v) => Some(v),
+                    None => env.named(name).map_err(|k| (at, k))?,
+                };
                 stack[n] = match (exists, found) {
                     (true, f) => {
                         if f.is_some() {

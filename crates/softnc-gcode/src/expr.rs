@@ -25,6 +25,10 @@ fn bad<T>(at: usize, msg: impl Into<String>) -> R<T> {
     Err((at, ErrorKind::Invalid(msg.into())))
 }
 
+/// A label qualified on a kept line: the label's offset, the subroutine it was
+/// read in and the qualified name (`sub#label`).
+pub type Qualified = (usize, std::rc::Rc<str>, std::rc::Rc<str>);
+
 /// A line as `close_and_downcase` leaves it, with the byte offset in the raw line of
 /// each byte (for columns in messages).
 #[derive(Debug, Default, Clone)]
@@ -40,6 +44,16 @@ pub struct Norm {
     /// code (`None`: it does not compile and is read from the text).
     pub code:
         std::cell::RefCell<Vec<(usize, crate::compiled::Kind, Option<crate::compiled::Code>)>>,
+    /// For a kept line: the names read so far (parameter names of assignments,
+    /// O-word labels), by the offset where each starts, with the offset after it,
+    /// so that later passes neither scan nor allocate them again.
+    pub names: std::cell::RefCell<Vec<(usize, usize, std::rc::Rc<str>)>>,
+    /// For a kept line: O-word labels qualified with the subroutine they were read
+    /// in (`sub#label`), by label offset and subroutine name.
+    pub qualified: std::cell::RefCell<Vec<Qualified>>,
+    /// For a kept line: the parameter slot ([`crate::params::Params::slot`]) of
+    /// the name assigned at an offset, once it has one.
+    pub slots: std::cell::RefCell<Vec<(usize, u32)>>,
 }
 
 impl Norm {
@@ -51,6 +65,9 @@ impl Norm {
         self.at.clear();
         self.keep = false;
         self.code.get_mut().clear();
+        self.names.get_mut().clear();
+        self.qualified.get_mut().clear();
+        self.slots.get_mut().clear();
         self.b.reserve(raw.len());
         self.at.reserve(raw.len() + 1);
         let mut in_comment = false;
@@ -100,6 +117,17 @@ pub trait Env {
     /// (locals of the current call level, globals starting with `_`, predefined).
     /// `Err` for a predefined name whose meaning softnc does not build.
     fn named(&self, name: &str) -> Result<Option<f64>, ErrorKind>;
+    /// The slot of named parameter `name` where the environment keeps its named
+    /// parameters by slot (a name's slot never changes); `None` otherwise.
+    fn named_slot(&self, _name: &str) -> Option<u32> {
+        None
+    }
+    /// The value of the named parameter of slot `slot` where it is set in its
+    /// scope: then exactly what [`Env::named`] of its name gives. `None`: ask
+    /// [`Env::named`].
+    fn slot_value(&self, _slot: u32) -> Option<f64> {
+        None
+    }
     /// True while a subroutine definition is being skipped (undefined named
     /// parameters are then no error, as in LinuxCNC).
     fn defining_sub(&self) -> bool {

@@ -408,6 +408,9 @@ struct Interp<'a> {
     /// the line, with the value 0, as LinuxCNC's `add_named_param` makes them.
     /// Each name ends with a `>` (no name holds one); the buffer is reused.
     line_named: std::cell::RefCell<String>,
+    /// The arguments of the last `call` read (`read_o`), for `control` to pass: kept
+    /// here, not in the `OLine`, so that a read O-line is small to move.
+    call_args: std::cell::RefCell<Vec<f64>>,
     /// The optional-stop switch ([`ReadOptions::optional_stop`]).
     optional_stop: bool,
     /// Run from line: motions are left out (the state evolves) until the start
@@ -475,6 +478,7 @@ impl<'a> Interp<'a> {
             mist: false,
             flood: false,
             line_named: std::cell::RefCell::new(String::new()),
+            call_args: std::cell::RefCell::new(Vec::new()),
             optional_stop: false,
             suppress: false,
             moves_after_start: 0,
@@ -1498,9 +1502,13 @@ impl<'a> Interp<'a> {
 const NORM_CACHE_LINES: usize = 4096;
 
 /// The lines kept once the program has jumped, by [`line_key`]: the normalized line
-/// (its values compiled as they are read) and the lexer's `block_delete` and
-/// `python` flags for it.
-type LineCache = HashMap<u64, (Norm, (bool, bool)), BuildHasherDefault<KeyHasher>>;
+/// (its values compiled as they are read), the lexer's `block_delete` and `python`
+/// flags for it, and where it ends ([`LineEnd`]).
+type LineCache = HashMap<u64, (Norm, (bool, bool), LineEnd), BuildHasherDefault<KeyHasher>>;
+
+/// Where a kept line ends, as [`LineSplit`] found it: the offset of its end, of the
+/// next line, and whether a newline ended it (a kept line is not scanned again).
+type LineEnd = (usize, usize, bool);
 
 /// Bits of a byte offset in a [`line_key`] (programs are far shorter than 2^48
 /// bytes; a longer one only shares keys, which compare equal, never wrongly).
@@ -1514,7 +1522,7 @@ fn line_key(source: usize, offset: usize) -> u64 {
 /// Hashes a [`line_key`] with one multiplication (Fibonacci hashing): the keys are
 /// distinct small numbers, for which byte-wise FNV costs several times more.
 #[derive(Default)]
-struct KeyHasher(u64);
+pub(super) struct KeyHasher(u64);
 
 impl std::hash::Hasher for KeyHasher {
     fn finish(&self) -> u64 {
@@ -1838,7 +1846,22 @@ pub fn read_with(
         };
         // the lines of this file, up to a jump
         let (jump, after) = loop {
-            let Some((s, e, newline)) = split.next() else {
+            // a kept line (once the program has jumped): its end is known, and its
+            // normalized text at hand
+            let kept_here = if norm_cache.is_empty() {
+                None
+            } else {
+                norm_cache.get(&line_key(cur, split.pos))
+            };
+            let next = match kept_here {
+                Some((_, _, (e, next, newline))) => {
+                    let s = split.pos;
+                    split.pos = *next;
+                    Some((s, *e, *newline))
+                }
+                None => split.next(),
+            };
+            let Some((s, e, newline)) = next else {
                 if let Some(sk) = &it.ctl.skipping {
                     return Err(err_in(
                         &src.name,
@@ -1933,13 +1956,8 @@ pub fn read_with(
                 // error are read (and may fail) first, as in LinuxCNC
                 block.clear();
                 let key = line_key(cur, s);
-                let kept = if norm_cache.is_empty() {
-                    None
-                } else {
-                    norm_cache.get(&key)
-                };
                 let mut oline = None;
-                if let Some((n, flags)) = kept {
+                if let Some((n, flags, _)) = kept_here {
                     // read before: the fast lexer handed it to the full reader then,
                     // and would again (it depends on the text alone), leaving these
                     // flags
@@ -1962,9 +1980,11 @@ pub fn read_with(
                             let r = if jumped && norm_cache.len() < NORM_CACHE_LINES {
                                 let mut kept = norm.clone();
                                 kept.keep = true;
-                                let (n, _) = norm_cache
-                                    .entry(key)
-                                    .or_insert((kept, (line.block_delete, line.python)));
+                                let (n, _, _) = norm_cache.entry(key).or_insert((
+                                    kept,
+                                    (line.block_delete, line.python),
+                                    (e, split.pos, newline),
+                                ));
                                 it.read_norm(n, &mut block, &mut line, &mut sets)
                             } else {
                                 it.read_norm(&norm, &mut block, &mut line, &mut sets)

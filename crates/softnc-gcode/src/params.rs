@@ -8,7 +8,7 @@
 //! - assignments on a line are gathered while it is read and take effect after it
 //!   (parameters are "set in parallel").
 
-use std::collections::{BTreeSet, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::Path;
 
 /// Numbered parameters are `1..NUM_PARAMS` (LinuxCNC `RS274NGC_MAX_PARAMETERS`).
@@ -104,18 +104,62 @@ pub type FnvMap<K, V> = HashMap<K, V, std::hash::BuildHasherDefault<Fnv>>;
 /// A map keyed by names, hashed with [`Fnv`].
 pub type NameMap<V> = FnvMap<String, V>;
 
+/// The named parameters of one scope (the globals, or the locals of one call
+/// level), by slot (see [`Params::slot`]).
+#[derive(Debug, Clone, Default)]
+struct Scope {
+    /// `values[slot]`: the parameter's value, `None` where it is not set.
+    values: Vec<Option<f64>>,
+    /// The slots set, in the order first set (emptied in that many steps).
+    set: Vec<u32>,
+}
+
+impl Scope {
+    fn get(&self, slot: u32) -> Option<f64> {
+        self.values.get(slot as usize).copied().flatten()
+    }
+
+    fn put(&mut self, slot: u32, value: f64) {
+        let k = slot as usize;
+        if self.values.len() <= k {
+            self.values.resize(k + 1, None);
+        }
+        if self.values[k].is_none() {
+            self.set.push(slot);
+        }
+        self.values[k] = Some(value);
+    }
+
+    /// Unset everything (the storage is kept).
+    fn clear(&mut self) {
+        for &k in &self.set {
+            self.values[k as usize] = None;
+        }
+        self.set.clear();
+    }
+}
+
 /// The table.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct Params {
     numbered: Vec<f64>,
     /// Parameters that came from a parameter file (written back with it).
     from_file: BTreeSet<usize>,
-    globals: NameMap<f64>,
+    /// Every name ever assigned, by its slot: a name keeps its slot for the whole
+    /// program, so a compiled value looks the slot up once ([`Params::slot`]) and
+    /// reads the value without hashing the name again ([`Params::slot_value`]).
+    slots: NameMap<u32>,
+    /// `names[slot]`: the name of a slot.
+    names: Vec<Box<str>>,
+    globals: Scope,
     /// Local named parameters per call level (0: the main program).
-    locals: Vec<NameMap<f64>>,
+    locals: Vec<Scope>,
     /// Emptied scopes of levels left, reused by the next call (no allocation per
     /// call).
-    spare: Vec<NameMap<f64>>,
+    spare: Vec<Scope>,
+    /// `#1…#30` as each subroutine call found them, [`SUB_PARAMS`] values per
+    /// call level entered with [`Params::enter`] (restored by [`Params::leave`]).
+    saved_args: Vec<f64>,
     /// Assignments read on the current line, not yet made.
     pending_numbered: Vec<(usize, f64)>,
     pending_named: Vec<(String, f64)>,
@@ -126,12 +170,33 @@ impl Default for Params {
         Params {
             numbered: vec![0.0; NUM_PARAMS],
             from_file: BTreeSet::new(),
-            globals: NameMap::default(),
-            locals: vec![NameMap::default()],
+            slots: NameMap::default(),
+            names: Vec::new(),
+            globals: Scope::default(),
+            locals: vec![Scope::default()],
             spare: Vec::new(),
+            saved_args: Vec::new(),
             pending_numbered: Vec::new(),
             pending_named: Vec::new(),
         }
+    }
+}
+
+impl PartialEq for Params {
+    /// The same values (numbered, and named in each scope, whatever their slots).
+    fn eq(&self, other: &Params) -> bool {
+        self.numbered == other.numbered
+            && self.from_file == other.from_file
+            && self.pending_numbered == other.pending_numbered
+            && self.pending_named == other.pending_named
+            && self.saved_args == other.saved_args
+            && self.scope_entries(&self.globals) == other.scope_entries(&other.globals)
+            && self.locals.len() == other.locals.len()
+            && self
+                .locals
+                .iter()
+                .zip(&other.locals)
+                .all(|(a, b)| self.scope_entries(a) == other.scope_entries(b))
     }
 }
 
@@ -151,16 +216,38 @@ impl Params {
     /// A named parameter as assigned by the program: globals (leading `_`) or the
     /// locals of the current call level.
     pub fn named(&self, name: &str) -> Option<f64> {
+        self.slot_value(self.slot(name)?)
+    }
+
+    /// The slot of a name that has been assigned (in any scope) at some time;
+    /// `None` for a name never assigned (it is set nowhere).
+    pub fn slot(&self, name: &str) -> Option<u32> {
+        self.slots.get(name).copied()
+    }
+
+    /// [`Params::named`] of the name of slot `slot`: its value in its scope (the
+    /// globals for a leading `_`, else the current call level's locals).
+    pub fn slot_value(&self, slot: u32) -> Option<f64> {
+        let name = self.names.get(slot as usize)?;
         if name.starts_with('_') {
-            self.globals.get(name).copied()
+            self.globals.get(slot)
         } else {
-            self.locals.last().and_then(|l| l.get(name).copied())
+            self.locals.last().and_then(|l| l.get(slot))
         }
     }
 
     /// Set a named parameter now, in its scope.
     pub fn set_named(&mut self, name: &str, value: f64) {
-        let map = if name.starts_with('_') {
+        let slot = match self.slots.get(name) {
+            Some(&k) => k,
+            None => {
+                let k = self.names.len() as u32;
+                self.slots.insert(name.to_string(), k);
+                self.names.push(name.into());
+                k
+            }
+        };
+        let scope = if name.starts_with('_') {
             &mut self.globals
         } else {
             match self.locals.last_mut() {
@@ -168,12 +255,31 @@ impl Params {
                 None => return,
             }
         };
-        match map.get_mut(name) {
-            Some(v) => *v = value,
-            None => {
-                map.insert(name.to_string(), value);
+        scope.put(slot, value);
+    }
+
+    /// [`Params::set_named`] of the name of slot `slot` (a slot [`Params::slot`]
+    /// gave).
+    pub fn set_slot(&mut self, slot: u32, value: f64) {
+        let global = self.names[slot as usize].starts_with('_');
+        let scope = if global {
+            &mut self.globals
+        } else {
+            match self.locals.last_mut() {
+                Some(l) => l,
+                None => return,
             }
-        }
+        };
+        scope.put(slot, value);
+    }
+
+    /// The named parameters set in `scope`, by name (for comparing tables).
+    fn scope_entries(&self, scope: &Scope) -> BTreeMap<&str, f64> {
+        scope
+            .set
+            .iter()
+            .filter_map(|&k| Some((&*self.names[k as usize], scope.get(k)?)))
+            .collect()
     }
 
     /// Remember an assignment read on the current line.
@@ -213,16 +319,16 @@ impl Params {
         !self.pending_numbered.is_empty() || !self.pending_named.is_empty()
     }
 
-    /// Enter a subroutine: a new scope of locals, `#1…#30` saved and set to `args`
-    /// (missing ones 0). Returns the saved values.
-    pub fn enter(&mut self, args: &[f64]) -> [f64; SUB_PARAMS] {
-        let mut saved = [0.0; SUB_PARAMS];
-        for (k, s) in saved.iter_mut().enumerate() {
-            *s = self.numbered[k + 1];
-            self.numbered[k + 1] = args.get(k).copied().unwrap_or(0.0);
-        }
+    /// Enter a subroutine: a new scope of locals, `#1…#30` saved (on a stack that
+    /// [`Params::leave`] pops) and set to `args` (missing ones 0).
+    pub fn enter(&mut self, args: &[f64]) {
+        self.saved_args
+            .extend_from_slice(&self.numbered[1..=SUB_PARAMS]);
+        let sub = &mut self.numbered[1..=SUB_PARAMS];
+        let given = args.len().min(SUB_PARAMS);
+        sub[..given].copy_from_slice(&args[..given]);
+        sub[given..].fill(0.0);
         self.push_scope();
-        saved
     }
 
     /// Enter an M98 subprogram: a new scope of locals, `#1…#30` passed on as they
@@ -250,9 +356,13 @@ impl Params {
         self.pop_scope();
     }
 
-    /// Leave a subroutine: its locals dropped, `#1…#30` restored.
-    pub fn leave(&mut self, saved: &[f64; SUB_PARAMS]) {
-        self.numbered[1..=SUB_PARAMS].copy_from_slice(saved);
+    /// Leave a subroutine: its locals dropped, `#1…#30` restored as the matching
+    /// [`Params::enter`] saved them.
+    pub fn leave(&mut self) {
+        if let Some(from) = self.saved_args.len().checked_sub(SUB_PARAMS) {
+            self.numbered[1..=SUB_PARAMS].copy_from_slice(&self.saved_args[from..]);
+            self.saved_args.truncate(from);
+        }
         self.pop_scope();
     }
 
@@ -366,15 +476,49 @@ mod tests {
         p.set(1, 9.0);
         p.set_named("a", 1.0);
         p.set_named("_g", 2.0);
-        let saved = p.enter(&[4.0, 5.0]);
+        p.enter(&[4.0, 5.0]);
         assert_eq!((p.get(1), p.get(2), p.get(3)), (4.0, 5.0, 0.0));
         assert_eq!(p.named("a"), None);
         assert_eq!(p.named("_g"), Some(2.0));
         p.set_named("a", 3.0);
-        p.leave(&saved);
+        p.leave();
         assert_eq!(p.get(1), 9.0);
         assert_eq!(p.named("a"), Some(1.0));
         assert!(is_readonly(5420) && !is_readonly(5220));
+    }
+
+    #[test]
+    fn slots_read_as_names_in_every_scope() {
+        let mut p = Params::default();
+        assert_eq!(p.slot("a"), None);
+        p.set_named("a", 1.0);
+        p.set_named("_g", 2.0);
+        let (a, g) = (p.slot("a").unwrap(), p.slot("_g").unwrap());
+        assert_ne!(a, g);
+        assert_eq!((p.slot_value(a), p.slot_value(g)), (Some(1.0), Some(2.0)));
+        // a call: the local is unset there, the global seen; the slot is kept
+        p.enter(&[]);
+        assert_eq!((p.slot_value(a), p.slot_value(g)), (None, Some(2.0)));
+        p.set_named("b", 7.0);
+        p.set_named("a", 3.0);
+        assert_eq!(p.slot("a"), Some(a));
+        assert_eq!(p.slot_value(a), Some(3.0));
+        let b = p.slot("b").unwrap();
+        p.leave();
+        // back: the caller's value, the callee's locals gone (their slots kept)
+        assert_eq!((p.slot_value(a), p.slot_value(b)), (Some(1.0), None));
+        assert_eq!((p.named("a"), p.named("b")), (Some(1.0), None));
+        // the next call starts with no locals again (its scope reused)
+        p.enter(&[]);
+        assert_eq!((p.slot_value(a), p.slot_value(b)), (None, None));
+        p.leave();
+        // tables compare by names and values, whatever the slots
+        let mut q = Params::default();
+        q.set_named("_g", 2.0);
+        q.set_named("a", 1.0);
+        assert_eq!(p, q);
+        q.set_named("a", 4.0);
+        assert_ne!(p, q);
     }
 
     #[test]

@@ -617,3 +617,46 @@ fn compiled_loop_lines_read_as_their_text() {
         M2\n";
     assert_eq!(xs(sub), vec![17.0, 18.0, 19.0]);
 }
+
+/// A kept line (read again by a loop or a call) is found by its start and its end
+/// remembered: line numbers, lines ended by CRLF or by the end of the text, and a
+/// line sharing a loop's text read as when it was read once.
+#[test]
+fn kept_lines_read_again_as_read_once() {
+    // the loop body's lines end in CRLF; the program's last line has no newline
+    let text =
+        "#1=0\r\no1 while [#1 LT 3]\r\nG0 X[#1*2]\r\n#1=[#1+1]\r\no1 endwhile\r\nG0 X9\r\nM2";
+    assert_eq!(xs(text), vec![0.0, 2.0, 4.0, 9.0]);
+    // a subroutine called from its own last line's neighbour, the last line of the
+    // text (no newline) read on every pass
+    let text = "o<s> sub\nG0 X#1\no<s> endsub\n#2=0\no2 while [#2 LT 2]\no<s> call [#2+5]\n#2=[#2+1]\no2 endwhile\nM2";
+    assert_eq!(xs(text), vec![5.0, 6.0]);
+    // an error on a later pass (the third: 10/0) names the line and column it has
+    // when read once
+    let e = error("#1=0\no1 while [#1 LT 5]\n#1=[#1+1]\nG0 X[10/[3-#1]]\no1 endwhile\nM2\n");
+    let once = error("#1=3\nG0 X[10/[3-#1]]\nM2\n");
+    assert_eq!((e.line, e.column, e.kind), (4, once.column, once.kind));
+}
+
+/// Call arguments beyond the first few, up to LinuxCNC's 30, reach `#1`…`#30` (the
+/// missing ones 0, the caller's restored on return); a 31st is refused.
+#[test]
+fn call_arguments_up_to_thirty() {
+    let args: String = (1..=30).map(|k| format!(" [{k}]")).collect();
+    let text = format!(
+        "o<s> sub\nG0 X#5 Y#30\nG0 X#6 Y#7\no<s> endsub\n#5=9\no<s> call [1] [2] [3] [4] [5] [6]\no<s> call{args}\nG0 X#5 Y0\nM2\n"
+    );
+    assert_eq!(xs(&text), vec![5.0, 6.0, 5.0, 6.0, 9.0]);
+    let p = softnc_gcode::read_program(&text, "t.ngc", &profile()).unwrap();
+    let ys: Vec<f64> = p
+        .motions
+        .iter()
+        .filter_map(|m| m.kind.end().map(|e| e.0[1]))
+        .collect();
+    assert_eq!(ys, vec![0.0, 0.0, 30.0, 7.0, 0.0]);
+    let e = error(&format!(
+        "o<s> sub\no<s> endsub\no<s> call{args} [31]\nM2\n"
+    ));
+    assert_eq!(e.kind.to_string(), "Too many subroutine parameters");
+    assert_eq!(e.line, 3);
+}

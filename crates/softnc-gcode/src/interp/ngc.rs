@@ -14,6 +14,11 @@ use crate::expr::{Env, Norm, Reader};
 use crate::lexer::{bad_character, check_comments, significant, Line, Word};
 use crate::params::{is_readonly, NUM_PARAMS, SUB_PARAMS};
 
+/// A parameter name or an O-word label as read: shared, so that a kept line's
+/// names are read once and passing them on (frames, labels, skips) allocates
+/// nothing.
+pub type Name = std::rc::Rc<str>;
+
 /// LinuxCNC `INTERP_SUB_ROUTINE_LEVELS`: calls nest at most this deep.
 pub const MAX_CALL_LEVEL: usize = 10;
 
@@ -104,54 +109,13 @@ pub struct OLine {
     /// What it does.
     pub kind: OKind,
     /// Its label, qualified as LinuxCNC does (`sub#label` for local labels).
-    pub name: String,
+    pub name: Name,
     /// Condition, repeat count or return value, where given and evaluated.
     pub value: Option<f64>,
-    /// Call arguments.
-    pub args: Args,
     /// Raw byte offset of the `o`.
     pub at: u32,
     /// M98: the L word (repeats), if given.
     pub repeat: Option<f64>,
-}
-
-/// Call arguments: the first [`ARGS_IN_PLACE`] held in place (no allocation for a
-/// usual call, and an O-line small enough to move cheaply), more in a vector.
-#[derive(Debug, Clone, Default)]
-pub struct Args {
-    first: [f64; ARGS_IN_PLACE],
-    len: usize,
-    /// All of them, once there are more than fit in place.
-    more: Vec<f64>,
-}
-
-/// Call arguments held without allocation.
-const ARGS_IN_PLACE: usize = 4;
-
-impl Args {
-    /// Add an argument; the caller refuses more than [`SUB_PARAMS`] first.
-    fn push(&mut self, v: f64) {
-        if self.len < ARGS_IN_PLACE {
-            self.first[self.len] = v;
-        } else {
-            if self.more.is_empty() {
-                self.more.extend_from_slice(&self.first);
-            }
-            self.more.push(v);
-        }
-        self.len += 1;
-    }
-}
-
-impl std::ops::Deref for Args {
-    type Target = [f64];
-    fn deref(&self) -> &[f64] {
-        if self.more.is_empty() {
-            &self.first[..self.len]
-        } else {
-            &self.more
-        }
-    }
 }
 
 /// Where a label was seen (LinuxCNC `offset_struct`).
@@ -167,11 +131,10 @@ struct Label {
 /// One call level (LinuxCNC `context`).
 #[derive(Debug, Clone)]
 struct Frame {
-    sub_name: String,
+    sub_name: Name,
     /// Where to go on return: file, byte offset of the line after the call, and
     /// the call's line number.
     ret: (usize, usize, usize),
-    saved: [f64; SUB_PARAMS],
     /// Called with M98 (Fanuc style: ends with M99, `#1…#30` passed on).
     m98: bool,
 }
@@ -179,21 +142,28 @@ struct Frame {
 /// Control-flow state (the `skipping_o`, `defining_sub`, … of LinuxCNC's setup).
 #[derive(Debug, Default)]
 pub struct Control {
-    labels: crate::params::NameMap<Label>,
+    /// Labels by [`label_key`] of their (interned) name.
+    labels: std::collections::HashMap<u64, Label, std::hash::BuildHasherDefault<super::KeyHasher>>,
+    /// Every label and parameter name read, once ([`Interp::intern`]): equal
+    /// names are one [`Name`], so a label is found by its name's address (one
+    /// multiplication, no hashing of its text).
+    names: std::cell::RefCell<
+        std::collections::HashSet<Name, std::hash::BuildHasherDefault<crate::params::Fnv>>,
+    >,
     frames: Vec<Frame>,
     /// M98 L repeats left, per call level of the caller (-1: none running).
     m98_loops: Vec<i64>,
     /// M70/M73 state saved per call level, and whether M73 restores it on return.
     pub(super) saved_modal: Vec<(Option<super::modal::Modal>, bool)>,
     /// Skipping forward to this label.
-    pub skipping: Option<String>,
+    pub skipping: Option<Name>,
     /// Skipping forward to this subroutine's `sub` line (a call).
-    skipping_to_sub: Option<String>,
+    skipping_to_sub: Option<Name>,
     /// Line where the skip started (messages).
     pub skipping_start: usize,
     /// A subroutine definition is being skipped at level 0.
     pub defining_sub: bool,
-    sub_name: String,
+    sub_name: Option<Name>,
     executed_if: bool,
     doing_break: bool,
     doing_continue: bool,
@@ -272,14 +242,20 @@ impl Env for Interp<'_> {
     fn defining_sub(&self) -> bool {
         self.ctl.defining_sub
     }
+    fn named_slot(&self, name: &str) -> Option<u32> {
+        self.params.slot(name)
+    }
+    fn slot_value(&self, slot: u32) -> Option<f64> {
+        self.params.slot_value(slot)
+    }
 }
 
 /// An assignment read on a line.
 pub enum Setting {
     /// `#n=…`
     Numbered(usize, f64),
-    /// `#<name>=…`
-    Named(String, f64),
+    /// `#<name>=…`, with the name's parameter slot where known.
+    Named(Name, f64, Option<u32>),
 }
 
 impl Interp<'_> {
@@ -419,6 +395,7 @@ impl Interp<'_> {
     /// once and evaluated for a line kept to be read again ([`Norm::keep`]), read
     /// from the text otherwise (and where it does not compile). Errors as the
     /// text reader's, offsets in the normalized line.
+    #[inline(always)]
     pub(super) fn value(
         &self,
         norm: &Norm,
@@ -511,13 +488,11 @@ impl Interp<'_> {
                         .ctl
                         .frames
                         .last()
-                        .map(|f| f.sub_name.clone())
-                        .unwrap_or_default();
+                        .map_or_else(|| self.intern(""), |f| f.sub_name.clone());
                     return Ok(Some(OLine {
                         kind: OKind::M99,
                         name,
                         value: None,
-                        args: Args::default(),
                         at: raw(i),
                         repeat: None,
                     }));
@@ -548,7 +523,8 @@ impl Interp<'_> {
                     let at = i;
                     let mut r = Reader::new(b, i + 1, self);
                     if r.at(r.i) == b'<' {
-                        let name = r.name().map_err(re)?;
+                        let (name, next) = self.name_at(norm, r.i).map_err(re)?;
+                        r.i = next;
                         // read_named_parameter_setting: LinuxCNC creates the
                         // parameter (value 0) as soon as it reads the name, so the
                         // rest of the line reads it as 0 (add_named_param)
@@ -569,7 +545,8 @@ impl Interp<'_> {
                             );
                         }
                         i = next;
-                        sets.push(Setting::Named(name.into_owned(), v));
+                        let slot = self.assigned_slot(norm, at, &name);
+                        sets.push(Setting::Named(name, v, slot));
                     } else {
                         let (index, next) = self.value(norm, r.i, Kind::Integer).map_err(re)?;
                         r.i = next;
@@ -658,9 +635,8 @@ impl Interp<'_> {
         };
         Ok(OLine {
             kind: OKind::M98,
-            name: format!("{}", n as i64),
+            name: self.intern(&format!("{}", n as i64)),
             value: None,
-            args: Args::default(),
             at,
             repeat: block.get(b'L'),
         })
@@ -674,16 +650,13 @@ impl Interp<'_> {
         let re = |(k, e): (usize, ErrorKind)| (norm.raw(k), e);
         let at = norm.raw(*i);
         *i += 1;
-        let label = if b.get(*i) == Some(&b'<') {
-            let mut r = Reader::new(b, *i, self);
-            let n = r.name().map_err(re)?;
-            *i = r.i;
-            n
+        let (label, next) = if b.get(*i) == Some(&b'<') {
+            self.name_at(norm, *i).map_err(re)?
         } else {
-            let (n, next) = self.value(norm, *i, Kind::Integer).map_err(re)?;
-            *i = next;
-            std::borrow::Cow::Owned((n as i32).to_string())
+            self.number_label(norm, *i).map_err(re)?
         };
+        let label_at = *i;
+        *i = next;
         let rest = &b[(*i).min(b.len())..];
         const KINDS: [(&[u8], OKind); 15] = [
             (b"sub", OKind::Sub),
@@ -718,7 +691,7 @@ impl Interp<'_> {
                 return bad(at, "Nested subroutine definition");
             }
             if let (Some(f), None) = (ctl.frames.last(), &ctl.skipping) {
-                if f.sub_name != label {
+                if *f.sub_name != *label {
                     return bad(
                         at,
                         format!(
@@ -730,9 +703,8 @@ impl Interp<'_> {
             }
             return Ok(Some(OLine {
                 kind: OKind::Bare,
-                name: label.into_owned(),
+                name: label,
                 value: None,
-                args: Args::default(),
                 at,
                 repeat: None,
             }));
@@ -740,26 +712,21 @@ impl Interp<'_> {
         *i += kw.len();
         let ctl = &self.ctl;
         let name = if kind.global() {
-            label.into_owned()
+            label
         } else {
-            let sub = if let Some(f) = ctl.frames.last() {
-                f.sub_name.as_str()
+            let sub: &str = if let Some(f) = ctl.frames.last() {
+                &f.sub_name
             } else if ctl.defining_sub {
-                ctl.sub_name.as_str()
+                ctl.sub_name.as_deref().unwrap_or("")
             } else {
                 ""
             };
-            let mut q = String::with_capacity(sub.len() + 1 + label.len());
-            q.push_str(sub);
-            q.push('#');
-            q.push_str(&label);
-            q
+            self.qualified(norm, label_at, sub, &label)
         };
         let mut o = OLine {
             kind,
             name,
             value: None,
-            args: Args::default(),
             at,
             repeat: None,
         };
@@ -795,6 +762,8 @@ impl Interp<'_> {
                 if ctl.skipping.is_some() {
                     return Ok(None);
                 }
+                let mut args = self.call_args.borrow_mut();
+                args.clear();
                 while matches!(b.get(*i), Some(b'[' | b'(')) {
                     if b[*i] == b'(' {
                         let end = b[*i..]
@@ -806,11 +775,11 @@ impl Interp<'_> {
                         *i = (end + 1).min(b.len());
                         continue;
                     }
-                    if o.args.len() >= SUB_PARAMS {
+                    if args.len() >= SUB_PARAMS {
                         return bad(norm.raw(*i), "Too many subroutine parameters");
                     }
                     let (v, next) = self.value(norm, *i, Kind::Expression).map_err(re)?;
-                    o.args.push(v);
+                    args.push(v);
                     *i = next;
                 }
             }
@@ -865,23 +834,18 @@ impl Interp<'_> {
             repeat_count: -1,
         };
         // a loop saves its label on every pass: no new key then
-        match self.ctl.labels.get_mut(o.name.as_str()) {
-            Some(l) => *l = label,
-            None => {
-                self.ctl.labels.insert(o.name.clone(), label);
-            }
-        }
+        self.ctl.labels.insert(label_key(&o.name), label);
     }
 
-    fn back_to(&self, name: &str) -> Option<Jump> {
+    fn back_to(&self, name: &Name) -> Option<Jump> {
         self.ctl
             .labels
-            .get(name)
+            .get(&label_key(name))
             .map(|l| Jump::To(l.file, l.pos, l.line_no))
     }
 
     fn label_of(&self, o: &OLine, what: &str) -> R<&Label> {
-        let Some(l) = self.ctl.labels.get(&o.name) else {
+        let Some(l) = self.ctl.labels.get(&label_key(&o.name)) else {
             return bad(o.at, format!("undefined O-word label: '{}'", o.name));
         };
         let ok = match o.kind {
@@ -944,7 +908,7 @@ impl Interp<'_> {
                     self.ctl.skipping = Some(o.name.clone());
                     self.ctl.skipping_start = pc.line_no;
                     self.ctl.defining_sub = true;
-                    self.ctl.sub_name = o.name.clone();
+                    self.ctl.sub_name = Some(o.name.clone());
                 }
             }
             OKind::EndSub | OKind::Return | OKind::M99 => {
@@ -974,7 +938,7 @@ impl Interp<'_> {
                     // in a definition: its endsub ends it, a return changes nothing
                     if o.kind == OKind::EndSub {
                         self.ctl.defining_sub = false;
-                        self.ctl.sub_name.clear();
+                        self.ctl.sub_name = None;
                         self.ctl.skipping = None;
                     }
                     return Ok(Jump::Next);
@@ -991,7 +955,7 @@ impl Interp<'_> {
                 if frame.m98 {
                     self.params.leave_keep();
                 } else {
-                    self.params.leave(&frame.saved);
+                    self.params.leave();
                 }
                 self.leave_modal(from, pc.line_no as u32, o.at)?;
                 let (f, pos, line_no) = frame.ret;
@@ -1028,16 +992,16 @@ impl Interp<'_> {
                         *left = -1;
                     }
                 }
-                let saved = if m98 {
+                if m98 {
                     self.params.enter_keep();
-                    [0.0; SUB_PARAMS]
                 } else {
-                    self.params.enter(&o.args)
-                };
+                    // the arguments of this call, read by `read_o` just before
+                    let args = self.call_args.borrow();
+                    self.params.enter(&args);
+                }
                 self.ctl.frames.push(Frame {
                     sub_name: o.name.clone(),
                     ret,
-                    saved,
                     m98,
                 });
                 self.enter_modal();
@@ -1053,14 +1017,14 @@ impl Interp<'_> {
             }
             OKind::Do => {
                 self.ctl.skipping = None;
-                if !self.ctl.labels.contains_key(&o.name) {
+                if !self.ctl.labels.contains_key(&label_key(&o.name)) {
                     self.save_label(o, pc);
                 }
             }
             OKind::Repeat => {
                 self.check_duplicate(o, pc)?;
                 self.ctl.skipping = None;
-                let l = self.ctl.labels.get_mut(&o.name);
+                let l = self.ctl.labels.get_mut(&label_key(&o.name));
                 if let Some(l) = l.filter(|l| l.kind == OKind::Repeat) {
                     if l.repeat_count == -1 {
                         l.repeat_count = i64::from(super::round_to_int(test));
@@ -1075,7 +1039,11 @@ impl Interp<'_> {
                 }
             }
             OKind::While => {
-                let existing = self.ctl.labels.get(&o.name).map(|l| (l.kind, l.line_no));
+                let existing = self
+                    .ctl
+                    .labels
+                    .get(&label_key(&o.name))
+                    .map(|l| (l.kind, l.line_no));
                 match existing {
                     Some((OKind::Do, _)) => {
                         self.ctl.skipping = None;
@@ -1163,7 +1131,7 @@ impl Interp<'_> {
     /// The same label on another line is a duplicate (LinuxCNC `duplicate O-word
     /// label`); a new one is recorded.
     fn check_duplicate(&mut self, o: &OLine, pc: &Pc) -> R<()> {
-        match self.ctl.labels.get(&o.name) {
+        match self.ctl.labels.get(&label_key(&o.name)) {
             Some(l) if l.file != pc.file || l.pos != pc.pos => {
                 if o.kind == OKind::While && l.kind == OKind::Do {
                     return Ok(());
@@ -1191,7 +1159,8 @@ impl Interp<'_> {
         for s in sets.drain(..) {
             match s {
                 Setting::Numbered(i, v) => self.params.set(i, v),
-                Setting::Named(n, v) => self.params.set_named(&n, v),
+                Setting::Named(_, v, Some(k)) => self.params.set_slot(k, v),
+                Setting::Named(n, v, None) => self.params.set_named(&n, v),
             }
         }
     }
@@ -1199,6 +1168,106 @@ impl Interp<'_> {
     /// The label a call is looking for (when it must open a file).
     pub(super) fn wanted_sub(&self) -> Option<&str> {
         self.ctl.skipping_to_sub.as_deref()
+    }
+}
+
+impl Interp<'_> {
+    /// The name of `<name>` at `norm.b[i]` (the `<`) and the offset after its `>`
+    /// (LinuxCNC's `read_name`). A kept line remembers it: later passes neither
+    /// scan nor allocate it again.
+    #[inline(always)]
+    fn name_at(&self, norm: &Norm, i: usize) -> Result<(Name, usize), crate::expr::ExprError> {
+        if norm.keep {
+            if let Some((_, end, n)) = norm.names.borrow().iter().find(|(s, _, _)| *s == i) {
+                return Ok((n.clone(), *end));
+            }
+        }
+        let mut r = Reader::new(&norm.b, i, self);
+        let name = self.intern(&r.name()?);
+        if norm.keep {
+            norm.names.borrow_mut().push((i, r.i, name.clone()));
+        }
+        Ok((name, r.i))
+    }
+
+    /// The parameter slot of `name`, assigned by the `#` at `norm.b[at]`, where it
+    /// has one (then a kept line remembers it: no lookup by name on later passes).
+    fn assigned_slot(&self, norm: &Norm, at: usize, name: &str) -> Option<u32> {
+        if !norm.keep {
+            return None;
+        }
+        if let Some(&(_, k)) = norm.slots.borrow().iter().find(|(s, _)| *s == at) {
+            return Some(k);
+        }
+        let k = self.params.slot(name)?;
+        norm.slots.borrow_mut().push((at, k));
+        Some(k)
+    }
+
+    /// A numbered O-word label at `norm.b[i]` (`read_integer_value`, as text) and
+    /// the offset after it. A label of digits alone is remembered by a kept line
+    /// (its value cannot change); an expression is evaluated on every pass.
+    fn number_label(&self, norm: &Norm, i: usize) -> Result<(Name, usize), crate::expr::ExprError> {
+        if norm.keep {
+            if let Some((_, end, n)) = norm.names.borrow().iter().find(|(s, _, _)| *s == i) {
+                return Ok((n.clone(), *end));
+            }
+        }
+        let (n, next) = self.value(norm, i, Kind::Integer)?;
+        let name = self.intern(&(n as i32).to_string());
+        if norm.keep && next > i && norm.b[i..next].iter().all(u8::is_ascii_digit) {
+            norm.names.borrow_mut().push((i, next, name.clone()));
+        }
+        Ok((name, next))
+    }
+}
+
+/// The key of an interned name in [`Control::labels`]: its address (its low bits,
+/// always 0 by alignment, dropped).
+fn label_key(name: &Name) -> u64 {
+    (std::rc::Rc::as_ptr(name).cast::<u8>() as usize as u64) >> LABEL_KEY_ALIGN_BITS
+}
+
+/// Bits of a name's address that its alignment leaves 0 (the allocator's 16
+/// bytes); dropping them spreads keys over the table's low bits.
+const LABEL_KEY_ALIGN_BITS: u32 = 4;
+
+impl Interp<'_> {
+    /// The one [`Name`] of `s` (made the first time it is read).
+    fn intern(&self, s: &str) -> Name {
+        let mut names = self.ctl.names.borrow_mut();
+        if let Some(n) = names.get(s) {
+            return n.clone();
+        }
+        let n = Name::from(s);
+        names.insert(n.clone());
+        n
+    }
+
+    /// A local label qualified as LinuxCNC does (`sub#label`); a kept line remembers it
+    /// per subroutine name (the label at offset `at` of it).
+    fn qualified(&self, norm: &Norm, at: usize, sub: &str, label: &str) -> Name {
+        if norm.keep {
+            if let Some((_, _, q)) = norm
+                .qualified
+                .borrow()
+                .iter()
+                .find(|(s, ctx, _)| *s == at && **ctx == *sub)
+            {
+                return q.clone();
+            }
+        }
+        let mut q = String::with_capacity(sub.len() + 1 + label.len());
+        q.push_str(sub);
+        q.push('#');
+        q.push_str(label);
+        let q = self.intern(&q);
+        if norm.keep {
+            norm.qualified
+                .borrow_mut()
+                .push((at, Name::from(sub), q.clone()));
+        }
+        q
     }
 }
 
@@ -1296,21 +1365,5 @@ impl Interp<'_> {
             }
         }
         Ok(String::from_utf8_lossy(&out).into_owned())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn args_in_place_and_beyond() {
-        let mut a = Args::default();
-        assert!(a.is_empty());
-        for k in 0..SUB_PARAMS {
-            a.push(k as f64 + 0.5);
-            let want: Vec<f64> = (0..=k).map(|j| j as f64 + 0.5).collect();
-            assert_eq!(&a[..], &want[..]);
-        }
     }
 }
