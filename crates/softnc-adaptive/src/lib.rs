@@ -1,6 +1,8 @@
 //! Adaptive cutting-force control (paper 003): keep the peak feed-direction cutting
 //! force at a reference by driving the feed override.
 //!
+//! - [`config`]: the profile's `force` section (process, motor, calibration,
+//!   controller, cases, adaptive feed, simulated stock) and its validation.
 //! - [`zoh`]: the plant f_c/v_c = K_c d / ((1 + τ_s s)(1 + τ_c s)) discretised with a
 //!   zero-order hold into the ARMA form of eq 8 (eq 5–7, derived anew: the printed
 //!   eq 7 has typos).
@@ -22,6 +24,7 @@
 // Index loops mirror the papers' matrix equations; iterator chains would hide them.
 #![allow(clippy::needless_range_loop)]
 
+pub mod config;
 pub mod force_control;
 pub mod force_estimate;
 pub mod force_loop;

@@ -7,14 +7,17 @@
 
 use nalgebra::{Matrix4, Vector4};
 
-/// Estimator settings (machine profile).
+/// Estimator settings (the profile's `force.controller.rls`).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct RlsConfig {
     /// Initial and reset covariance P = p0·I.
     pub p0: f64,
     /// Forgetting factor λ (1 = none).
     pub forgetting: f64,
-    /// Dead zone: no update while |prediction error| ≤ this (output units).
+    /// Dead zone: no update while |prediction error| ≤ this (output units: N for
+    /// the force loop).
+    #[serde(rename = "dead_zone_n")]
     pub dead_zone: f64,
     /// Reset P to p0·I when its trace falls below this.
     pub reset_trace: f64,

@@ -397,7 +397,12 @@ impl MachineProfile {
         self.validate_servo(file)?;
         self.validate_manual(file)?;
         if let Some(f) = &self.force {
-            f.validate(file, self.planner.max_feed_override)?;
+            f.validate(self.planner.max_feed_override)
+                .map_err(|e| ConfigError::Invalid {
+                    file: file.to_string(),
+                    path: e.path,
+                    reason: e.reason,
+                })?;
         }
         if self.work_offsets_mm.len() > 6 {
             return Err(bad(

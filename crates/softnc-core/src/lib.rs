@@ -20,7 +20,9 @@
 pub mod axes;
 pub mod compensation;
 pub mod config;
-pub mod force;
+/// The adaptive cutting-force section (paper 003): owned by `softnc-adaptive`,
+/// composed into the profile here.
+pub use softnc_adaptive::config as force;
 pub mod fuzzy;
 pub mod geom;
 pub mod ring;

@@ -15,7 +15,7 @@ use crate::ServoBackend;
 pub use softnc_adaptive::Revolution;
 use softnc_adaptive::{
     zoh_second_order, ForceCalibration, ForceControlConfig, ForceLoop, ForceLoopConfig,
-    ForceLoopControl, PlacementError, RlsConfig,
+    ForceLoopControl, PlacementError,
 };
 use softnc_core::force::ForceControllerConfig;
 use softnc_core::MachineProfile;
@@ -65,12 +65,7 @@ pub fn loop_config(
             config: ForceControlConfig {
                 poles,
                 t_s,
-                rls: RlsConfig {
-                    p0: k.rls.p0,
-                    forgetting: k.rls.forgetting,
-                    dead_zone: k.rls.dead_zone_n,
-                    reset_trace: k.rls.reset_trace,
-                },
+                rls: k.rls,
                 prior: zoh_second_order(
                     k.prior.gain_n_per_mm_min,
                     k.prior.tau_s,

@@ -3,10 +3,23 @@
 //! the adaptive controller's settings and the experiments (cases I–III).
 //!
 //! Units are in the field names; every number of the paper's machine and process
-//! lives in `config/machines/mch10-force.ron`, none in code.
+//! lives in `config/machines/mch10-force.ron`, none in code. This crate owns the
+//! schema and its validation; the machine profile (`softnc_core::MachineProfile`)
+//! composes it as its `force` section (`softnc_core::force` re-exports it).
 
-use crate::config::ConfigError;
+use crate::rls::RlsConfig;
 use serde::{Deserialize, Serialize};
+
+/// A value of the section that parses but is not acceptable: its RON path (from the
+/// profile's root, `force.…`) and why.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("at `{path}`: {reason}")]
+pub struct Invalid {
+    /// RON path of the offending field.
+    pub path: String,
+    /// What is wrong and what is expected.
+    pub reason: String,
+}
 
 /// Everything paper 003 needs beyond the axes and the servo section.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -140,20 +153,6 @@ pub struct CalibrationRun {
     pub skip_revolutions: u32,
 }
 
-/// RLS settings (003 eq 11–12 with covariance resetting and a dead zone).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RlsSettings {
-    /// Initial and reset covariance P = p0·I.
-    pub p0: f64,
-    /// Forgetting factor λ (1 = none).
-    pub forgetting: f64,
-    /// No update while |prediction error| ≤ this (N).
-    pub dead_zone_n: f64,
-    /// Reset P when its trace falls below this.
-    pub reset_trace: f64,
-}
-
 /// The prior model the estimator starts from: K/((1 + τ_s s)(1 + τ_c s)), v in mm/min.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -173,7 +172,7 @@ pub struct ForceControllerConfig {
     /// Closed-loop poles (z) unless the case gives its own.
     pub poles: [f64; 4],
     /// Estimator.
-    pub rls: RlsSettings,
+    pub rls: RlsConfig,
     /// Starting model.
     pub prior: PriorModel,
     /// Lowest feed override (fraction; the paper's range is 0–2.55).
@@ -253,9 +252,8 @@ impl ForceProfile {
     }
 
     /// Check every value; `max_override` is the planner's.
-    pub fn validate(&self, file: &str, max_override: f64) -> Result<(), ConfigError> {
-        let bad = |path: String, reason: &str| ConfigError::Invalid {
-            file: file.to_string(),
+    pub fn validate(&self, max_override: f64) -> Result<(), Invalid> {
+        let bad = |path: String, reason: &str| Invalid {
             path: format!("force.{path}"),
             reason: reason.to_string(),
         };
@@ -324,7 +322,7 @@ impl ForceProfile {
         if !(k.rls.forgetting > 0.0 && k.rls.forgetting <= 1.0) {
             return Err(bad("controller.rls.forgetting".into(), "must be in (0, 1]"));
         }
-        if !(k.rls.dead_zone_n.is_finite() && k.rls.dead_zone_n >= 0.0) {
+        if !(k.rls.dead_zone.is_finite() && k.rls.dead_zone >= 0.0) {
             return Err(bad(
                 "controller.rls.dead_zone_n".into(),
                 "must be finite and >= 0",
@@ -435,8 +433,8 @@ impl ForceProfile {
         material: &str,
         tool: &str,
         at: &str,
-        bad: &dyn Fn(String, &str) -> ConfigError,
-    ) -> Result<(), ConfigError> {
+        bad: &dyn Fn(String, &str) -> Invalid,
+    ) -> Result<(), Invalid> {
         if self.material(material).is_none() {
             return Err(bad(format!("{at}.material"), "no material of that name"));
         }
@@ -450,55 +448,11 @@ impl ForceProfile {
 fn check_poles(
     poles: &[f64; 4],
     path: &str,
-    bad: &dyn Fn(String, &str) -> ConfigError,
-) -> Result<(), ConfigError> {
+    bad: &dyn Fn(String, &str) -> Invalid,
+) -> Result<(), Invalid> {
     if poles.iter().all(|p| p.is_finite() && p.abs() < 1.0) {
         Ok(())
     } else {
         Err(bad(path.into(), "poles must lie inside the unit circle"))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use crate::config::{ConfigError, MachineProfile};
-
-    const PROFILE: &str = include_str!("../../../config/machines/mch10-force.ron");
-
-    #[test]
-    fn the_paper_003_profile_loads() {
-        let p = MachineProfile::from_ron_str(PROFILE, "mch10-force.ron").unwrap();
-        let f = p.force.unwrap();
-        assert_eq!(f.cases.len(), 4);
-        assert!(f.case("I").is_some() && f.material("SM45C").is_some());
-    }
-
-    #[test]
-    fn bad_force_values_are_refused_with_their_path() {
-        for (from, to, path) in [
-            (
-                "material: \"SM45C\", paper",
-                "material: \"brass\", paper",
-                "force.cases[1].segments[1].material",
-            ),
-            (
-                "override_max: 2.55",
-                "override_max: 3.0",
-                "force.controller.override_max",
-            ),
-            (
-                "poles: (0.4, 0.45, 0.65, 0.7),\n            rls",
-                "poles: (0.4, 0.45, 1.65, 0.7),\n            rls",
-                "force.controller.poles",
-            ),
-            ("pole_pairs: 4", "pole_pairs: 0", "force.motor.pole_pairs"),
-        ] {
-            assert!(PROFILE.contains(from), "{from}");
-            let text = PROFILE.replacen(from, to, 1);
-            match MachineProfile::from_ron_str(&text, "m.ron") {
-                Err(ConfigError::Invalid { path: p, .. }) => assert_eq!(p, path),
-                other => panic!("{from}: {other:?}"),
-            }
-        }
     }
 }
