@@ -3,11 +3,13 @@
 //!
 //! `cargo run --release -p softnc-planner --example tp_limits -- PROFILE.ron FILE...`
 //! plans each program from the origin (soft limits ignored, block delete off, as
-//! `softnc sim` runs it; `ARC_BLENDS=1`: with `planner.arc_blends` on) and measures
+//! `softnc sim` runs it; `ARC_BLENDS=1`: with `planner.arc_blends` on; `SCURVE=1`:
+//! the S-curve feed profile) and measures
 //! every 1 ms sample: per axis the first difference / T against the velocity limit
 //! and the second difference / T² against the acceleration limit. It prints one line
-//! per program (worst velocity and acceleration ratio, with the axis, sample and
-//! source line of each), then every program whose worst ratio is above
+//! per program (planned run time, worst velocity and acceleration ratio, with the
+//! axis, sample and source line of each; and the acceleration over 5-cycle windows),
+//! then every program whose worst ratio is above
 //! 1 + [`STRICT_SLACK`], and exits 1 if there is one.
 use softnc_core::MachineProfile;
 use softnc_planner::{plan, PlanOptions, Sample};
@@ -65,10 +67,14 @@ fn main() {
     let mut profile =
         MachineProfile::load(std::path::Path::new(&profile_path)).expect("profile loads");
     profile.planner.arc_blends |= std::env::var("ARC_BLENDS").is_ok_and(|v| v == "1");
+    if std::env::var("SCURVE").is_ok_and(|v| v == "1") {
+        profile.planner.feed_profile = softnc_core::FeedProfile::SCurve;
+    }
     let t = profile.interpolation_cycle_s;
     let (vmax, amax) = (profile.max_vel(), profile.max_acc());
     let (mut planned, mut refused, mut over) = (0, 0, Vec::new());
     let (mut all_v, mut all_a, mut all_a5) = (0.0f64, 0.0f64, 0.0f64);
+    let mut total_s = 0.0;
     for file in args {
         let Ok(text) = std::fs::read_to_string(&file) else {
             continue;
@@ -134,13 +140,15 @@ fn main() {
         all_v = all_v.max(wv.ratio);
         all_a = all_a.max(wa.ratio);
         all_a5 = all_a5.max(wa5.ratio);
-        println!("{file}: v {wv}  a {wa}  a5 {wa5}");
+        let duration_s = plan.stats().duration_s;
+        total_s += duration_s;
+        println!("{file}: {duration_s:.3} s  v {wv}  a {wa}  a5 {wa5}");
         if wv.ratio > 1.0 + STRICT_SLACK || wa.ratio > 1.0 + STRICT_SLACK {
             over.push(format!("{file}: v {wv}  a {wa}"));
         }
     }
     println!(
-        "tp_limits: {planned} planned, {refused} refused, worst v {all_v:.9}x a {all_a:.9}x (a over 5 cycles {all_a5:.9}x), {} over 1 + {STRICT_SLACK:e}",
+        "tp_limits: {planned} planned ({total_s:.3} s planned run time), {refused} refused, worst v {all_v:.9}x a {all_a:.9}x (a over 5 cycles {all_a5:.9}x), {} over 1 + {STRICT_SLACK:e}",
         over.len()
     );
     for o in &over {

@@ -27,8 +27,8 @@ fn axis_mm(fp: FeedProfile) -> MachineProfile {
     p
 }
 
-/// Plans `b` on `p`, checks every sample's velocity and acceleration on every axis
-/// and that the path ends exactly at the program's end.
+/// Plans `b` on `p`, checks every sample's velocity and acceleration (and, S-curve,
+/// jerk) on every axis and that the path ends exactly at the program's end.
 fn check(b: &Builder, p: &MachineProfile, what: &str) {
     let plan = plan_of(b, p);
     let s = run(&plan);
@@ -40,6 +40,9 @@ fn check(b: &Builder, p: &MachineProfile, what: &str) {
         r[1]
     );
     assert!((s.last().unwrap().pos_mm - b.pos).norm() < 1e-9, "{what}");
+    if p.planner.feed_profile == FeedProfile::SCurve {
+        assert!(r[2] <= 1.0 + SLACK, "{what}: jerk {:.9}x", r[2]);
+    }
 }
 
 /// Lines 3–8 of `violation_checks/bug424_long.ngc`: three CAM arcs, each with an end
