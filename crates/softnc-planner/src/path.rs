@@ -140,9 +140,10 @@ impl Geom {
 pub struct ElementShape {
     /// Arc length (mm).
     pub len: f64,
-    /// Unit tangent at the start.
+    /// Unit tangent at the start; on a spiral (an arc whose end radius differs from
+    /// its start radius) dp/ds, the path's velocity per unit of planned speed there.
     pub start_tangent: Vec3,
-    /// Unit tangent at the end.
+    /// Unit tangent at the end; dp/ds on a spiral.
     pub end_tangent: Vec3,
     /// Velocity weights per axis.
     pub vel_weight: [f64; 3],
@@ -204,6 +205,19 @@ impl ElementShape {
         te[a] = -rs * sin_e;
         te[b] = rs * cos_e;
         te[n] = normal_travel;
+        let is_spiral = re != radius && radius > 0.0;
+        if is_spiral {
+            // a spiral (`spiral_weights`): its true tangents, (ΔR·cos θ − r·φ·sin θ,
+            // ΔR·sin θ + r·φ·cos θ, h) at r = R₀ and r = R₁, not its circle's; a
+            // junction between spirals the circles would call tangent breaks by
+            // about ΔR/(R·φ) (2.7× A on the samples with the circles' tangents)
+            let d_radius = re - radius;
+            ts[a] += d_radius * (start[a] - center[a]) / radius;
+            ts[b] += d_radius * (start[b] - center[b]) / radius;
+            let re_phi = re * sweep;
+            te[a] = d_radius * cos_e - re_phi * sin_e;
+            te[b] = d_radius * sin_e + re_phi * cos_e;
+        }
         let l = len.max(f64::MIN_POSITIVE);
         // (in the plane, l = |rs|: the divisions would give exactly 1 and 0)
         let (horiz, vert) = if normal_travel == 0.0 && l == rs.abs() {
@@ -226,18 +240,37 @@ impl ElementShape {
                 1.0
             }
         };
+        // the largest |sin θ| and |cos θ| over the sweep (|t_a| and |t_b| of the circle)
+        let (peak_a, peak_b) = (
+            peak(cos_s, cos_e, sin_s, sin_e),
+            peak(sin_s, sin_e, cos_s, cos_e),
+        );
         let mut w = [0.0; 3];
-        w[a] = horiz * peak(cos_s, cos_e, sin_s, sin_e);
-        w[b] = horiz * peak(sin_s, sin_e, cos_s, cos_e);
-        w[n] = vert;
         let mut wa = [0.0; 3];
-        wa[a] = 1.0;
-        wa[b] = 1.0;
+        // (a degenerate arc from its centre keeps the circle's weights)
+        if !is_spiral {
+            w[a] = horiz * peak_a;
+            w[b] = horiz * peak_b;
+            wa[a] = 1.0;
+            wa[b] = 1.0;
+        } else {
+            let spiral = spiral_weights(radius, re, sweep, l, peak_a, peak_b);
+            (w[a], w[b], wa[a], wa[b]) = spiral;
+        }
+        w[n] = vert;
         wa[n] = vert;
+        // a spiral's tangents are dp/ds, not unit vectors: its path runs at
+        // |dp/ds| ≠ 1 times the planned speed at its ends, so that a junction sees
+        // the step in velocity both in direction and in size
+        let (start_tangent, end_tangent) = if is_spiral {
+            (ts * (1.0 / l), te * (1.0 / l))
+        } else {
+            (ts.unit(), te.unit())
+        };
         ElementShape {
             len,
-            start_tangent: ts.unit(),
-            end_tangent: te.unit(),
+            start_tangent,
+            end_tangent,
             vel_weight: w,
             acc_weight: wa,
             curvature: p.curvature(),
@@ -270,6 +303,40 @@ impl ElementShape {
             curvature: 1.0 / radius,
         }
     }
+}
+
+/// In-plane velocity and acceleration weights `(w_a, w_b, wa_a, wa_b)` of a spiral:
+/// an arc whose end radius `end_radius` differs from its start radius `radius`, run
+/// as `Primitive::point_at` runs it, with the radius r(u) = R₀ + ΔR·u and the angle
+/// θ(u) = θ₀ + φ·u linear in u = s/L, L = [`Primitive::length`] (R₀·|φ| in the
+/// plane: the circle's length, not the spiral's). Then
+/// dp_a/ds = (ΔR·cos θ − r·φ·sin θ)/L and dp_b/ds = (ΔR·sin θ + r·φ·cos θ)/L, whose
+/// peaks exceed the circle's |t_a| ≤ 1 by about |ΔR|/R₀ (the path runs faster than
+/// its nominal speed where r > R₀) and |ΔR|/(R₀·|φ|) (the radial drift, large on
+/// short arcs): bounded by (|ΔR|·max|cos θ| + r_max·|φ|·max|sin θ|)/L, `peak_a` =
+/// max|sin θ| and `peak_b` = max|cos θ| over the sweep, and by
+/// √(ΔR² + r_max²φ²)/L. The acceleration weight bounds √(T_i² + (N_i/κ)²) (T = dp/ds,
+/// N = d²p/ds², κ = [`Primitive::curvature`] = R₀φ²/L²): with e = ΔR/φ,
+/// R₀²·(T_a² + (N_a/κ)²) ≤ r² + e²(cos²θ + 4 sin²θ) + 2e·r·sin θ·cos θ
+/// ≤ r_max² + |e|·r_max + 4e², so that `element_limits`'s split
+/// (|a_t| ≤ 0.5·A, κv² ≤ 0.866·A) keeps every axis within A on the spiral too.
+fn spiral_weights(
+    radius: f64,
+    end_radius: f64,
+    sweep: f64,
+    len: f64,
+    peak_a: f64,
+    peak_b: f64,
+) -> (f64, f64, f64, f64) {
+    let d_radius = (end_radius - radius).abs();
+    let r_max = radius.max(end_radius);
+    let r_phi = r_max * sweep.abs();
+    let norm = d_radius.hypot(r_phi);
+    let w_a = (d_radius * peak_b + r_phi * peak_a).min(norm) / len;
+    let w_b = (d_radius * peak_a + r_phi * peak_b).min(norm) / len;
+    let e = d_radius / sweep.abs().max(f64::MIN_POSITIVE);
+    let wa = (r_max * r_max + e * r_max + 4.0 * e * e).sqrt() / radius;
+    (w_a, w_b, wa, wa)
 }
 
 /// Path limits of one element derived from the axis limits.
@@ -382,6 +449,92 @@ mod tests {
                         shape.vel_weight,
                         sampled_peak(&Geom::Arc(p), p.length()),
                         &what,
+                    );
+                }
+            }
+        }
+    }
+
+    /// Spirals (end radius off the start radius, as `Primitive::point_at` runs them):
+    /// the velocity weights bound the sampled |dp_i/ds| and exceed it by at most
+    /// twice the radial drift and |ΔR|/R₀,
+    /// the acceleration weights bound √(T_i² + (N_i/κ)²) sampled by second
+    /// differences, and the end tangents are dp/ds at the ends (a junction sees the
+    /// velocity step). With the circle's weights and tangents (before) the first
+    /// assertion fails: |dp_a/ds| reaches (R₀ + ΔR)/R₀ > 1 on an axis.
+    #[test]
+    fn spiral_weights_and_tangents_are_its_own() {
+        let c = Vec3::new(1.0, 2.0, 3.0);
+        for (radius, d_radius, sweep) in [
+            (3.599, 0.0005, 0.0286),
+            (3.599, -0.0005, 0.0286),
+            (20.0, 0.01, 1.2),
+            (20.0, -0.4, 3.0),
+            (5.0, 0.002, 6.0),
+            (0.5, 0.01, 0.3),
+        ] {
+            for start_deg in [-90.0, 0.0, 30.0, 135.0, 250.0] {
+                for (turns, dz) in [(1, 0.0), (-1, 0.0), (1, 0.7)] {
+                    let a = f64::to_radians(start_deg);
+                    let th = if turns > 0 { a + sweep } else { a - sweep };
+                    let r1 = radius + d_radius;
+                    let start = c + Vec3::new(radius * a.cos(), radius * a.sin(), 0.0);
+                    let end = c + Vec3::new(r1 * th.cos(), r1 * th.sin(), dz);
+                    let p = Primitive::arc(start, end, c, Plane::XY, turns);
+                    let shape = ElementShape::arc(&p);
+                    let what =
+                        format!("R {radius} ΔR {d_radius} φ {sweep} at {start_deg}° {turns} {dz}");
+                    let len = p.length();
+                    let geom = Geom::Arc(p);
+                    let sampled = sampled_peak(&geom, len);
+                    for i in 0..3 {
+                        assert!(
+                            shape.vel_weight[i] >= sampled[i] - 1e-9,
+                            "{what}: velocity weight {i} {:?} < {sampled:?}",
+                            shape.vel_weight
+                        );
+                        // (conservative by at most twice the radial drift
+                        // |ΔR|/(R₀·φ), whose sign against the circle's term is not
+                        // looked at, and |ΔR|/R₀, r_max taken all along)
+                        let drift = (d_radius / (radius * sweep)).abs();
+                        let slack = 2.0 * drift + (d_radius / radius).abs() + 1e-4;
+                        assert!(
+                            shape.vel_weight[i] <= sampled[i] + slack,
+                            "{what}: velocity weight {i} {:?} ≫ {sampled:?}",
+                            shape.vel_weight
+                        );
+                    }
+                    // √(T_i² + (N_i/κ)²) by differences over 2,000 steps
+                    let (n, kappa) = (2_000, shape.curvature);
+                    let h = len / n as f64;
+                    for k in 1..n {
+                        let s = k as f64 * h;
+                        let (q0, q1, q2) =
+                            (geom.point_at(s - h), geom.point_at(s), geom.point_at(s + h));
+                        let t = (q2 - q0) * (0.5 / h);
+                        let nn = (q2 - q1 * 2.0 + q0) * (1.0 / (h * h));
+                        for i in 0..3 {
+                            let need = t[i].hypot(nn[i] / kappa);
+                            assert!(
+                                shape.acc_weight[i] >= need - 1e-6,
+                                "{what}: acceleration weight {i} {:?} < {need} at {k}",
+                                shape.acc_weight
+                            );
+                        }
+                    }
+                    // the end tangents: dp/ds at the ends, by differences
+                    let e = 1e-7 * len;
+                    let t0 = (geom.point_at(e) - geom.point_at(0.0)) * (1.0 / e);
+                    let t1 = (geom.point_at(len) - geom.point_at(len - e)) * (1.0 / e);
+                    assert!(
+                        (t0 - shape.start_tangent).norm() < 1e-6,
+                        "{what}: start {t0:?} {:?}",
+                        shape.start_tangent
+                    );
+                    assert!(
+                        (t1 - shape.end_tangent).norm() < 1e-6,
+                        "{what}: end {t1:?} {:?}",
+                        shape.end_tangent
                     );
                 }
             }
