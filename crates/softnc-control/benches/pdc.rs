@@ -8,12 +8,12 @@
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use softnc_control::compensation::AxisCompensation;
+use softnc_control::config::compensation::{Compensation, OuterCompensator};
+use softnc_control::config::ControllerConfig;
 use softnc_control::discrete_tf::{DiscreteTf, TfFilter};
 use softnc_control::dob::{Dob, DobConfig};
 use softnc_control::pdc::{self, Pdc, PdcConfig, UncertaintyPoint};
 use softnc_control::AxisController;
-use softnc_core::compensation::{Compensation, OuterCompensator};
-use softnc_core::servo::ControllerConfig;
 
 const T_S: f64 = 0.001;
 

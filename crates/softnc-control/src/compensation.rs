@@ -19,11 +19,11 @@
 //! the next [`AxisCompensation::step`] swaps it in at the cycle boundary without
 //! allocating (the filter history is kept).
 
+use crate::config::compensation::{Compensation, OuterCompensator, PdcConfig};
 use crate::discrete_tf::{DiscreteTf, TfError};
 use crate::dob::{Dob, DobDesignError};
 use crate::mbda::{Mbda, MbdaDesignError};
 use crate::pdc::{self, Pdc, PdcDesign, PdcDesignError};
-use softnc_core::compensation::{Compensation, OuterCompensator, PdcConfig};
 
 /// Why an axis's compensation cannot be designed.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
@@ -230,8 +230,8 @@ impl AxisCompensation {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::compensation::{DobConfig, MbdaConfig, UncertaintyPoint};
     use crate::discrete_tf::TfFilter;
-    use softnc_core::compensation::{DobConfig, MbdaConfig, UncertaintyPoint};
     use std::f64::consts::TAU;
 
     const T: f64 = 0.001;

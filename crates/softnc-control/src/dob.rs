@@ -20,8 +20,8 @@
 //! a plant with one sample of input delay. A plant model with d > 1 samples of
 //! delay gets `z^{−(d−1)}` folded into Q.
 
+pub use crate::config::compensation::DobConfig;
 use crate::discrete_tf::{is_schur_stable, poly_mul, DiscreteTf, TfFilter};
-pub use softnc_core::compensation::DobConfig;
 
 /// Why a DOB cannot be designed.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]

@@ -31,7 +31,7 @@
 //! assert!((u - 15.7).abs() < 1e-12);
 //! ```
 
-pub use softnc_core::fuzzy::{FuzzyConfig, FuzzyVariable, MAX_SETS};
+pub use crate::config::fuzzy::{FuzzyConfig, FuzzyVariable, MAX_SETS};
 
 /// Triangular/trapezoidal partition of one input, precomputed.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -486,7 +486,7 @@ mod tests {
     #[test]
     fn stack_runs_the_flc_when_the_profile_selects_it() {
         use crate::stack::{AxisController, Feedback};
-        let cfg = softnc_core::servo::ControllerConfig {
+        let cfg = crate::config::ControllerConfig {
             kp: 240.0,
             ki: 10.0,
             kd: 670.0,
@@ -506,7 +506,7 @@ mod tests {
             assert_eq!(u, flc.step_mm(cmd - meas), "cycle {k}");
         }
         let pid = AxisController::new(
-            &softnc_core::servo::ControllerConfig { fuzzy: None, ..cfg },
+            &crate::config::ControllerConfig { fuzzy: None, ..cfg },
             0.01,
         );
         assert!(matches!(pid.feedback, Feedback::Pid(_)));

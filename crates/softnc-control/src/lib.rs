@@ -8,12 +8,14 @@
 #![warn(missing_docs)]
 
 pub mod compensation;
+pub mod config;
 pub mod discrete_tf;
 pub mod dob;
 pub mod fuzzy;
 pub mod mbda;
 pub mod pdc;
 pub mod pid;
+pub mod ring;
 pub mod stack;
 pub mod zero_lag_fir;
 

@@ -11,8 +11,8 @@
 //! refuses gains for which `1 + M P_n` has a closed-loop pole on or outside the
 //! unit circle.
 
+pub use crate::config::compensation::MbdaConfig;
 use crate::discrete_tf::{is_schur_stable, poly_add, poly_mul, DiscreteTf, TfFilter};
-pub use softnc_core::compensation::MbdaConfig;
 
 /// Why an MBDA cannot be designed.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]

@@ -28,10 +28,10 @@
 //!   configured tolerances, and eq 13 holds for the configured multiplicative
 //!   uncertainty `|Δ(f)|` on a frequency grid.
 
+pub use crate::config::compensation::{PdcConfig, UncertaintyPoint, ZeroAngleReading, ZeroSpec};
 use crate::discrete_tf::{poly_mul, Complex, DiscreteTf, FirFilter, FirSwapError, TfFilter};
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
-pub use softnc_core::compensation::{PdcConfig, UncertaintyPoint, ZeroAngleReading, ZeroSpec};
 use std::f64::consts::PI;
 
 /// Why a PDC design is refused.

@@ -5,9 +5,9 @@
 //! further variants of [`Feedback`] and fields of [`AxisController`].
 
 use crate::compensation::AxisCompensation;
+use crate::config::ControllerConfig;
 use crate::fuzzy::FuzzyController;
 use crate::pid::IncrementalPid;
-use softnc_core::servo::ControllerConfig;
 
 /// The feedback law.
 #[derive(Debug, Clone, PartialEq)]

@@ -4,8 +4,8 @@
 //! can filter with a symmetric window around the current sample: zero phase, hence
 //! no lag, where a causal filter with the same coefficients lags N samples.
 
-use softnc_core::servo::CommandFilterConfig;
-use softnc_core::LookaheadRing;
+use crate::config::CommandFilterConfig;
+use crate::ring::LookaheadRing;
 
 /// Why a filter cannot be designed.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
@@ -179,7 +179,7 @@ impl<const AXES: usize> CommandFilter<AXES> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use softnc_core::RingSample;
+    use crate::ring::RingSample;
 
     #[test]
     fn unity_dc_gain_and_symmetry() {

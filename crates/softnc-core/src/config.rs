@@ -5,38 +5,7 @@
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// Why a machine profile could not be loaded.
-#[derive(Debug, thiserror::Error)]
-pub enum ConfigError {
-    /// The file could not be read.
-    #[error("{file}: cannot read: {source}")]
-    Io {
-        /// File name.
-        file: String,
-        /// Cause.
-        source: std::io::Error,
-    },
-    /// The RON text does not parse or has a field of the wrong type or name.
-    #[error("{file}: at `{path}`: {message}")]
-    Parse {
-        /// File name.
-        file: String,
-        /// RON path of the offending field (`axes[1].max_acc_mm_per_s2`), `.` for the root.
-        path: String,
-        /// What is wrong.
-        message: String,
-    },
-    /// A field parses but its value is not acceptable.
-    #[error("{file}: at `{path}`: {reason}")]
-    Invalid {
-        /// File name.
-        file: String,
-        /// RON path of the offending field.
-        path: String,
-        /// What is wrong and what is expected.
-        reason: String,
-    },
-}
+pub use softnc_config::{parse_ron, ConfigError};
 
 /// One axis of the machine.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -730,30 +699,6 @@ impl MachineProfile {
     pub fn work_offset_mm(&self, index: usize) -> [f64; 3] {
         self.work_offsets_mm.get(index).copied().unwrap_or([0.0; 3])
     }
-}
-
-/// Deserialize any RON document, reporting the path of a bad field.
-pub fn parse_ron<T: serde::de::DeserializeOwned>(text: &str, file: &str) -> Result<T, ConfigError> {
-    let mut de = ron::Deserializer::from_str(text).map_err(|e| ConfigError::Parse {
-        file: format!("{file}:{}:{}", e.position.line, e.position.col),
-        path: ".".into(),
-        message: e.code.to_string(),
-    })?;
-    let value = serde_path_to_error::deserialize(&mut de).map_err(|e| {
-        let path = e.path().to_string();
-        let message = e.into_inner().to_string();
-        ConfigError::Parse {
-            file: file.to_string(),
-            path,
-            message,
-        }
-    })?;
-    de.end().map_err(|e| ConfigError::Parse {
-        file: file.to_string(),
-        path: ".".into(),
-        message: format!("trailing text after the document: {e}"),
-    })?;
-    Ok(value)
 }
 
 fn finite(v: f64, path: &str, file: &str) -> Result<(), ConfigError> {

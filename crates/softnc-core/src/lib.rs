@@ -18,12 +18,14 @@
 #![warn(missing_docs)]
 
 pub mod axes;
-pub mod compensation;
+/// Paper 000's compensation section: owned by `softnc-control`.
+pub use softnc_control::config::compensation;
 pub mod config;
 /// The adaptive cutting-force section (paper 003): owned by `softnc-adaptive`,
 /// composed into the profile here.
 pub use softnc_adaptive::config as force;
-pub mod fuzzy;
+/// Paper 001's fuzzy-controller section: owned by `softnc-control`.
+pub use softnc_control::config::fuzzy;
 pub mod geom;
 pub mod ring;
 pub mod servo;

@@ -6,6 +6,8 @@
 
 use serde::{Deserialize, Serialize};
 
+pub use softnc_control::config::{CommandFilterConfig, ControllerConfig, MAX_COMMAND_FILTER_ORDER};
+
 /// Servo settings of the whole machine.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
@@ -38,7 +40,7 @@ pub struct AxisServo {
     pub noise_mm: f64,
     /// Disturbance compensation (paper 000 DOB/MBDA and PDC); none by default.
     #[serde(default)]
-    pub compensation: crate::compensation::Compensation,
+    pub compensation: softnc_control::config::compensation::Compensation,
     /// Zero-lag non-causal command filter (paper 002 eq 1–3); off when absent.
     #[serde(default)]
     pub command_filter: Option<CommandFilterConfig>,
@@ -159,48 +161,6 @@ impl Friction001 {
     }
 }
 
-/// The position controller of one axis (the stack's feedback and feedforward).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ControllerConfig {
-    /// Proportional gain (output units per mm of error).
-    pub kp: f64,
-    /// Integral gain per cycle (output units per mm per cycle), incremental form.
-    #[serde(default)]
-    pub ki: f64,
-    /// Derivative gain (output units per mm of error change per cycle).
-    #[serde(default)]
-    pub kd: f64,
-    /// Velocity feedforward (output units per mm/s of command velocity).
-    #[serde(default)]
-    pub vff: f64,
-    /// Acceleration feedforward (output units per mm/s² of command acceleration).
-    #[serde(default)]
-    pub aff: f64,
-    /// Output saturation (±, output units); 0 = none.
-    #[serde(default)]
-    pub output_limit: f64,
-    /// Fuzzy-logic feedback (paper 001) instead of the PID: when present, `kp`, `ki`
-    /// and `kd` are unused and this rule base, membership table and integral gain
-    /// act on the error (feedforward and `output_limit` still apply).
-    #[serde(default)]
-    pub fuzzy: Option<crate::fuzzy::FuzzyConfig>,
-}
-
-impl Default for ControllerConfig {
-    fn default() -> Self {
-        ControllerConfig {
-            kp: 30.0,
-            ki: 0.0,
-            kd: 0.0,
-            vff: 1.0,
-            aff: 0.0,
-            output_limit: 0.0,
-            fuzzy: None,
-        }
-    }
-}
-
 /// Periodic cutting disturbance T = A·sin(2π f_d t + θ) with f_d = rpm·flutes/60
 /// (paper 000 eq 2–3), added at every axis's plant input during feed moves.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -222,20 +182,6 @@ impl CuttingDisturbance {
     pub fn frequency_hz(&self) -> f64 {
         self.spindle_rpm * self.flutes as f64 / 60.0
     }
-}
-
-/// Largest order N of the zero-lag command filter: its window of 2N + 1 samples must
-/// fit the position process's lookahead ring.
-pub const MAX_COMMAND_FILTER_ORDER: usize = 1000;
-
-/// The zero-lag non-causal FIR of paper 002 (eq 1–3) on one axis's command positions.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CommandFilterConfig {
-    /// Filter frequency f (Hz), below the Nyquist frequency of the cycle.
-    pub frequency_hz: f64,
-    /// Order N: the filter reads N past and N future command samples.
-    pub order: usize,
 }
 
 /// A structural mode between the motor (whose encoder the loop reads) and the table:
