@@ -402,45 +402,9 @@ impl MachineProfile {
             if !(a.noise_mm >= 0.0 && a.noise_mm.is_finite()) {
                 return Err(bad(p("noise_mm"), "must be finite and >= 0"));
             }
-            let c = &a.controller;
-            for (name, v) in [
-                ("kp", c.kp),
-                ("ki", c.ki),
-                ("kd", c.kd),
-                ("vff", c.vff),
-                ("aff", c.aff),
-                ("output_limit", c.output_limit),
-            ] {
-                if !v.is_finite() {
-                    return Err(bad(
-                        p(&format!("controller.{name}")),
-                        "must be a finite number",
-                    ));
-                }
-            }
-            if c.output_limit < 0.0 {
-                return Err(bad(
-                    p("controller.output_limit"),
-                    "must be >= 0 (0 = no limit)",
-                ));
-            }
-            if let Some(f) = &c.fuzzy {
-                f.validate_at(file, &p("controller.fuzzy"))?;
-            }
+            a.controller.validate_at(file, &p("controller"))?;
             if let Some(f) = &a.command_filter {
-                let nyquist_hz = 0.5 / self.interpolation_cycle_s;
-                if !(f.frequency_hz > 0.0 && f.frequency_hz < nyquist_hz) {
-                    return Err(bad(
-                        p("command_filter.frequency_hz"),
-                        &format!("must lie between 0 and the Nyquist frequency {nyquist_hz} Hz"),
-                    ));
-                }
-                if !(1..=crate::servo::MAX_COMMAND_FILTER_ORDER).contains(&f.order) {
-                    return Err(bad(
-                        p("command_filter.order"),
-                        &format!("must be 1 to {}", crate::servo::MAX_COMMAND_FILTER_ORDER),
-                    ));
-                }
+                f.validate_at(file, &p("command_filter"), self.interpolation_cycle_s)?;
             }
             if let Some(m) = &a.resonance {
                 positive(m.frequency_hz, &p("resonance.frequency_hz"), file)?;

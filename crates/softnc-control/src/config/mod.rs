@@ -11,6 +11,16 @@ pub mod compensation;
 pub mod fuzzy;
 
 use serde::{Deserialize, Serialize};
+use softnc_config::ConfigError;
+
+/// `ConfigError::Invalid` at `path` of `file`.
+fn invalid(file: &str, path: String, reason: &str) -> ConfigError {
+    ConfigError::Invalid {
+        file: file.to_string(),
+        path,
+        reason: reason.to_string(),
+    }
+}
 
 /// The position controller of one axis (the stack's feedback and feedforward).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -54,6 +64,37 @@ impl Default for ControllerConfig {
     }
 }
 
+impl ControllerConfig {
+    /// Check every value; `prefix` is this section's RON path in its document
+    /// (`servo.axes[1].controller`).
+    pub fn validate_at(&self, file: &str, prefix: &str) -> Result<(), ConfigError> {
+        let p = |f: &str| format!("{prefix}.{f}");
+        for (name, v) in [
+            ("kp", self.kp),
+            ("ki", self.ki),
+            ("kd", self.kd),
+            ("vff", self.vff),
+            ("aff", self.aff),
+            ("output_limit", self.output_limit),
+        ] {
+            if !v.is_finite() {
+                return Err(invalid(file, p(name), "must be a finite number"));
+            }
+        }
+        if self.output_limit < 0.0 {
+            return Err(invalid(
+                file,
+                p("output_limit"),
+                "must be >= 0 (0 = no limit)",
+            ));
+        }
+        if let Some(f) = &self.fuzzy {
+            f.validate_at(file, &p("fuzzy"))?;
+        }
+        Ok(())
+    }
+}
+
 /// Largest order N of the zero-lag command filter: its window of 2N + 1 samples must
 /// fit the position process's lookahead ring.
 pub const MAX_COMMAND_FILTER_ORDER: usize = 1000;
@@ -66,4 +107,27 @@ pub struct CommandFilterConfig {
     pub frequency_hz: f64,
     /// Order N: the filter reads N past and N future command samples.
     pub order: usize,
+}
+
+impl CommandFilterConfig {
+    /// Check the filter against the interpolation cycle `cycle_s`; `prefix` is its
+    /// RON path (`servo.axes[0].command_filter`).
+    pub fn validate_at(&self, file: &str, prefix: &str, cycle_s: f64) -> Result<(), ConfigError> {
+        let nyquist_hz = 0.5 / cycle_s;
+        if !(self.frequency_hz > 0.0 && self.frequency_hz < nyquist_hz) {
+            return Err(invalid(
+                file,
+                format!("{prefix}.frequency_hz"),
+                &format!("must lie between 0 and the Nyquist frequency {nyquist_hz} Hz"),
+            ));
+        }
+        if !(1..=MAX_COMMAND_FILTER_ORDER).contains(&self.order) {
+            return Err(invalid(
+                file,
+                format!("{prefix}.order"),
+                &format!("must be 1 to {MAX_COMMAND_FILTER_ORDER}"),
+            ));
+        }
+        Ok(())
+    }
 }
