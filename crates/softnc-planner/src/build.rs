@@ -41,7 +41,8 @@ fn scurve_curve_cap(k: f64, lim: &Limits) -> f64 {
 }
 
 /// S-curve: whether blending the corner between `a` and `b` at `through` (the
-/// blend's curvature cap) costs less time than stopping there. The blend's cap holds
+/// blend's curvature cap) costs less time than stopping there (acc/dec before
+/// interpolation: an S-curve corner that is not blended is a stop). The blend's cap holds
 /// on every element within its reach, in full (`dilate_caps`: an element has one
 /// cap), so both moves run at `through` wherever that is below their own speed
 /// (min(feed, slowest axis limit)): a rapid after a 10 mm/min feed, blended at
@@ -660,7 +661,10 @@ impl PathBuilder {
             if through < SCURVE_MIN_BLEND_SPEED_SHARE * around {
                 return None;
             }
-            if !scurve_blend_pays(lim, a, b, &found, through, vmin) {
+            // (acc/dec after interpolation passes the corner at its feed instead)
+            if lim.acc_dec == AccDec::BeforeInterpolation
+                && !scurve_blend_pays(lim, a, b, &found, through, vmin)
+            {
                 return None;
             }
         }
@@ -1465,8 +1469,10 @@ pub fn build_path(program: &Program, lim: &Limits) -> Path {
 /// limit c (an element's cap or a junction's limit) must already hold on the
 /// acceleration-limited profile within R = max(W·c, (c² + a²W²)/(2a)) of where it
 /// applies (W the window, a the path acceleration): inside, the window sees no faster
-/// motion; outside, braking at a keeps v ≤ distance/W. Stops are not spread: the
-/// profile waits one window at them.
+/// motion; outside, braking at a keeps v ≤ distance/W. Stops are not spread, and no
+/// limit is spread across a stop: the profile waits one window there, so a smoothed
+/// sample before the stop averages only motion before it, one after only motion
+/// after it.
 fn dilate_caps(segs: &mut [Segment], window_s: f64, acc: f64) {
     let n = segs.len();
     let mut dilated: Vec<f64> = segs.iter().map(|s| s.vel_cap).collect();
@@ -1477,12 +1483,13 @@ fn dilate_caps(segs: &mut [Segment], window_s: f64, acc: f64) {
         let r = reach(c);
         dilated[k] = dilated[k].min(c);
         let mut j = k;
-        while j > 0 && segs[j - 1].s0 + segs[j - 1].len >= from - r {
+        while j > 0 && segs[j - 1].v_end_hard != 0.0 && segs[j - 1].s0 + segs[j - 1].len >= from - r
+        {
             j -= 1;
             dilated[j] = dilated[j].min(c);
         }
         let mut j = k + 1;
-        while j < n && segs[j].s0 <= to + r {
+        while j < n && segs[j - 1].v_end_hard != 0.0 && segs[j].s0 <= to + r {
             dilated[j] = dilated[j].min(c);
             j += 1;
         }
@@ -1552,6 +1559,10 @@ impl CapDilator {
         out: &mut impl FnMut(&Segment, &Geom),
     ) {
         let (a, b) = (seg.s0, seg.s0 + seg.len);
+        // no constraint reaches across a stop
+        if self.held.back().is_some_and(|h| h.0.v_end_hard == 0.0) {
+            self.ahead.clear();
+        }
         // constraints of the elements before that reach this one
         let mut d = seg.vel_cap;
         self.ahead.retain(|&(until, c)| {
@@ -1567,7 +1578,7 @@ impl CapDilator {
             let r = this.reach(c);
             *d = d.min(c);
             for h in this.held.iter_mut().rev() {
-                if h.0.s0 + h.0.len >= from - r {
+                if h.0.v_end_hard != 0.0 && h.0.s0 + h.0.len >= from - r {
                     h.2 = h.2.min(c);
                 } else {
                     break;
