@@ -40,6 +40,38 @@ fn scurve_curve_cap(k: f64, lim: &Limits) -> f64 {
         .min(budget / (3.0 * k * lim.scurve_acc))
 }
 
+/// S-curve: whether blending the corner between `a` and `b` at `through` (the
+/// blend's curvature cap) costs less time than stopping there (acc/dec before
+/// interpolation: an S-curve corner that is not blended is a stop). The blend's cap holds
+/// on every element within its reach, in full (`dilate_caps`: an element has one
+/// cap), so both moves run at `through` wherever that is below their own speed
+/// (min(feed, slowest axis limit)): a rapid after a 10 mm/min feed, blended at
+/// 0.057 mm/s, crawled its 96.5 mm for 1,690 s. Stopping costs the profile's wait
+/// of one window plus braking from and accelerating back to each move's speed
+/// (v/(2a) more than running through at v, each side).
+fn scurve_blend_pays(
+    lim: &Limits,
+    a: &Pending,
+    b: &Pending,
+    found: &Blend,
+    through_mm_per_s: f64,
+    vmin_mm_per_s: f64,
+) -> bool {
+    let speed = |p: &Pending| p.feed_mm_per_s.min(vmin_mm_per_s);
+    let crawl_s = |len_mm: f64, v: f64| {
+        if through_mm_per_s < v {
+            len_mm.max(0.0) * (1.0 / through_mm_per_s - 1.0 / v)
+        } else {
+            0.0
+        }
+    };
+    let (v_a, v_b) = (speed(a), speed(b));
+    let blend_cost_s = crawl_s(a.len - a.start_trim - found.end_trim_prev, v_a)
+        + crawl_s(b.len - found.start_trim_next, v_b);
+    let stop_cost_s = lim.scurve_window_s + (v_a + v_b) / (2.0 * lim.scurve_acc);
+    blend_cost_s <= stop_cost_s
+}
+
 /// One element of the planned path with its limits (its geometry is kept apart, in
 /// the same order, so that the passes over the limits touch less memory).
 #[derive(Debug, Clone, Copy)]
@@ -627,6 +659,12 @@ impl PathBuilder {
             let vmin = lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min);
             let around = a.feed_mm_per_s.min(b.feed_mm_per_s).min(vmin);
             if through < SCURVE_MIN_BLEND_SPEED_SHARE * around {
+                return None;
+            }
+            // (acc/dec after interpolation passes the corner at its feed instead)
+            if lim.acc_dec == AccDec::BeforeInterpolation
+                && !scurve_blend_pays(lim, a, b, &found, through, vmin)
+            {
                 return None;
             }
         }
@@ -1431,8 +1469,10 @@ pub fn build_path(program: &Program, lim: &Limits) -> Path {
 /// limit c (an element's cap or a junction's limit) must already hold on the
 /// acceleration-limited profile within R = max(W·c, (c² + a²W²)/(2a)) of where it
 /// applies (W the window, a the path acceleration): inside, the window sees no faster
-/// motion; outside, braking at a keeps v ≤ distance/W. Stops are not spread: the
-/// profile waits one window at them.
+/// motion; outside, braking at a keeps v ≤ distance/W. Stops are not spread, and no
+/// limit is spread across a stop: the profile waits one window there, so a smoothed
+/// sample before the stop averages only motion before it, one after only motion
+/// after it.
 fn dilate_caps(segs: &mut [Segment], window_s: f64, acc: f64) {
     let n = segs.len();
     let mut dilated: Vec<f64> = segs.iter().map(|s| s.vel_cap).collect();
@@ -1443,12 +1483,13 @@ fn dilate_caps(segs: &mut [Segment], window_s: f64, acc: f64) {
         let r = reach(c);
         dilated[k] = dilated[k].min(c);
         let mut j = k;
-        while j > 0 && segs[j - 1].s0 + segs[j - 1].len >= from - r {
+        while j > 0 && segs[j - 1].v_end_hard != 0.0 && segs[j - 1].s0 + segs[j - 1].len >= from - r
+        {
             j -= 1;
             dilated[j] = dilated[j].min(c);
         }
         let mut j = k + 1;
-        while j < n && segs[j].s0 <= to + r {
+        while j < n && segs[j - 1].v_end_hard != 0.0 && segs[j].s0 <= to + r {
             dilated[j] = dilated[j].min(c);
             j += 1;
         }
@@ -1518,6 +1559,10 @@ impl CapDilator {
         out: &mut impl FnMut(&Segment, &Geom),
     ) {
         let (a, b) = (seg.s0, seg.s0 + seg.len);
+        // no constraint reaches across a stop
+        if self.held.back().is_some_and(|h| h.0.v_end_hard == 0.0) {
+            self.ahead.clear();
+        }
         // constraints of the elements before that reach this one
         let mut d = seg.vel_cap;
         self.ahead.retain(|&(until, c)| {
@@ -1533,7 +1578,7 @@ impl CapDilator {
             let r = this.reach(c);
             *d = d.min(c);
             for h in this.held.iter_mut().rev() {
-                if h.0.s0 + h.0.len >= from - r {
+                if h.0.v_end_hard != 0.0 && h.0.s0 + h.0.len >= from - r {
                     h.2 = h.2.min(c);
                 } else {
                     break;

@@ -19,7 +19,10 @@ fn with_arc_blends(fp: FeedProfile, on: bool) -> softnc_core::MachineProfile {
 }
 
 /// Distance of `q` from a primitive: a line exactly; an arc or helix by a search
-/// over 1,000 points refined by golden-section search around the nearest.
+/// over 1,000 points refined by golden-section search around every one of them
+/// within h/2 of the nearest (h their spacing): the point nearest the true foot lies
+/// within h/2 of it, and an arc of more than a turn passes near `q` once per turn,
+/// so the nearest grid point may lie on another turn than the foot.
 fn dist(prim: &Primitive, q: Vec3) -> f64 {
     if let Primitive::Line { .. } = prim {
         return distance(prim, q);
@@ -28,22 +31,28 @@ fn dist(prim: &Primitive, q: Vec3) -> f64 {
     let len = prim.length();
     let h = len / n as f64;
     let d = |s: f64| (prim.point_at(s) - q).norm();
-    let k = (0..=n)
-        .min_by(|&i, &j| d(i as f64 * h).total_cmp(&d(j as f64 * h)))
-        .unwrap();
-    let (mut lo, mut hi) = (((k as f64) - 1.0) * h, ((k as f64) + 1.0) * h);
-    lo = lo.max(0.0);
-    hi = hi.min(len);
+    let grid: Vec<f64> = (0..=n).map(|i| d(i as f64 * h)).collect();
+    let nearest = grid.iter().cloned().fold(f64::INFINITY, f64::min);
     let g = 0.5 * (5f64.sqrt() - 1.0);
-    for _ in 0..80 {
-        let (m1, m2) = (hi - g * (hi - lo), lo + g * (hi - lo));
-        if d(m1) < d(m2) {
-            hi = m2;
-        } else {
-            lo = m1;
+    let refine = |k: usize| {
+        let (mut lo, mut hi) = (
+            (((k as f64) - 1.0) * h).max(0.0),
+            (((k as f64) + 1.0) * h).min(len),
+        );
+        for _ in 0..80 {
+            let (m1, m2) = (hi - g * (hi - lo), lo + g * (hi - lo));
+            if d(m1) < d(m2) {
+                hi = m2;
+            } else {
+                lo = m1;
+            }
         }
-    }
-    d(0.5 * (lo + hi)).min(d(k as f64 * h))
+        d(0.5 * (lo + hi)).min(grid[k])
+    };
+    (0..=n)
+        .filter(|&k| grid[k] <= nearest + 0.5 * h)
+        .map(refine)
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// Largest distance of any sample from the whole programmed path.

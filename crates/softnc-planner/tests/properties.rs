@@ -142,3 +142,103 @@ proptest! {
         prop_assert!(dev <= p.planner.tolerance_mm + 1e-6, "deviation {}", dev);
     }
 }
+
+/// Largest ratio of the S-curve plan's run time to the trapezoidal one's on the
+/// programs below: the S-curve waits one window (78 ms) at each of its stops.
+const MAX_SCURVE_OVER_TRAPEZOIDAL: f64 = 1.01;
+
+/// Plans `ops` with both feed profiles; checks the S-curve plan's limits, end and
+/// path deviation, and gives (S-curve, trapezoidal) planned samples.
+fn scurve_and_trapezoidal_samples(ops: &[Op]) -> (u64, u64) {
+    let b = build(ops, false);
+    let p = profile(FeedProfile::SCurve);
+    let plan = plan_of(&b, &p);
+    let trapezoidal = plan_of(&b, &profile(FeedProfile::Trapezoidal));
+    let s = run(&plan);
+    let r = limit_ratios(&s, &p);
+    assert!(r.iter().all(|&x| x <= 1.0 + 1e-9), "limit ratios {r:?}");
+    assert!((s.last().unwrap().pos_mm - b.pos).norm() < 1e-9);
+    let dev = max_path_deviation(&s, &plan, b.motions.len());
+    assert!(dev <= p.planner.tolerance_mm + 1e-6, "deviation {dev}");
+    (plan.stats().samples, trapezoidal.stats().samples)
+}
+
+/// The proptest case `cc 125de1c1…` (`properties.proptest-regressions`): with the
+/// S-curve, the corner from a 96.5 mm rapid into a 10 mm/min feed was blended at
+/// 0.057 mm/s (the blend's jerk cap), a cap that holds on every element within its
+/// reach in full, so the rapid and the feed after it crawled at 0.057 mm/s: 2,455,944
+/// samples against 468,409 trapezoidal. Stopping at that corner costs a window.
+#[test]
+fn scurve_rapid_between_slow_feeds_does_not_crawl() {
+    let ops = [
+        Op::Line(-40.65384959787173, 32.67460696703266, 0.0, 10.0),
+        Op::Rapid(37.84728877898609, -23.470344547315296, 0.0),
+        Op::Line(48.765187645581996, 0.0, 0.0, 10.0),
+    ];
+    let (scurve, trapezoidal) = scurve_and_trapezoidal_samples(&ops);
+    assert!(
+        scurve as f64 <= MAX_SCURVE_OVER_TRAPEZOIDAL * trapezoidal as f64,
+        "S-curve {scurve} samples, trapezoidal {trapezoidal}"
+    );
+}
+
+/// The same corner (100.6°) between two 10 mm/min feeds: blended at 0.057 mm/s, both
+/// lines would run at a third of their feed.
+#[test]
+fn scurve_corner_of_slow_feeds_does_not_crawl() {
+    let ops = [
+        Op::Line(20.0, -14.322, 0.0, 10.0),
+        Op::Line(24.219, -5.254, 0.0, 10.0),
+    ];
+    let (scurve, trapezoidal) = scurve_and_trapezoidal_samples(&ops);
+    assert!(
+        scurve as f64 <= MAX_SCURVE_OVER_TRAPEZOIDAL * trapezoidal as f64,
+        "S-curve {scurve} samples, trapezoidal {trapezoidal}"
+    );
+}
+
+/// S-curve: no limit reaches across a stop (the profile waits one window there, so
+/// the smoothed samples on either side average motion of that side only). A 50 mm
+/// line at 1,200 mm/min stopping before a zig-zag of 0.3 mm lines, blended at
+/// 4.8 mm/s (3.8 mm reach), took its time at 4.8 mm/s; now the program takes the
+/// line's time and the zig-zag's, each planned alone.
+/// Largest ratio of a program's run time to the sum of its two halves' planned alone,
+/// where a stop parts them.
+const MAX_OVER_PLANNED_APART: f64 = 1.01;
+
+#[test]
+fn scurve_limits_do_not_reach_across_a_stop() {
+    const FEED_MM_PER_MIN: f64 = 1200.0;
+    const START: Vec3 = Vec3::new(50.0, 0.0, 0.0);
+    let zigzag = |b: &mut Builder| {
+        let (step_x, step_y) = (0.3 * 0.1f64.cos(), 0.3 * 0.1f64.sin());
+        for k in 1..=20 {
+            let y = if k % 2 == 1 { step_y } else { 0.0 };
+            b.line(START[0] + step_x * k as f64, y, 0.0, FEED_MM_PER_MIN);
+        }
+    };
+    let p = profile(FeedProfile::SCurve);
+    let mut line = Builder::new(Vec3::ZERO);
+    line.mode = softnc_gcode::PathMode::ExactStop;
+    line.line(START[0], START[1], START[2], FEED_MM_PER_MIN);
+    let mut alone = Builder::new(START);
+    zigzag(&mut alone);
+    let mut both = Builder::new(Vec3::ZERO);
+    both.mode = softnc_gcode::PathMode::ExactStop;
+    both.line(START[0], START[1], START[2], FEED_MM_PER_MIN);
+    both.mode = softnc_gcode::PathMode::default();
+    zigzag(&mut both);
+    let samples = |b: &Builder| plan_of(b, &p).stats().samples as f64;
+    let (t_line, t_alone, t_both) = (samples(&line), samples(&alone), samples(&both));
+    assert!(
+        t_both <= MAX_OVER_PLANNED_APART * (t_line + t_alone),
+        "line {t_line}, zig-zag {t_alone}, both {t_both} samples"
+    );
+    let plan = plan_of(&both, &p);
+    let s = run(&plan);
+    let r = limit_ratios(&s, &p);
+    assert!(r.iter().all(|&x| x <= 1.0 + 1e-9), "limit ratios {r:?}");
+    assert!((s.last().unwrap().pos_mm - both.pos).norm() < 1e-9);
+    let dev = max_path_deviation(&s, &plan, both.motions.len());
+    assert!(dev <= p.planner.tolerance_mm + 1e-6, "deviation {dev}");
+}
