@@ -29,6 +29,10 @@ fn bad<T>(at: usize, msg: impl Into<String>) -> R<T> {
 /// read in and the qualified name (`sub#label`).
 pub type Qualified = (usize, std::rc::Rc<str>, std::rc::Rc<str>);
 
+/// A kept O-line's head ([`Norm::o_head`]): its label, the offset after the
+/// label, and the index of its keyword in the O-line reader's table.
+pub type OHead = (std::rc::Rc<str>, usize, Option<u8>);
+
 /// A line as `close_and_downcase` leaves it, with the byte offset in the raw line of
 /// each byte (for columns in messages).
 #[derive(Debug, Default, Clone)]
@@ -54,6 +58,11 @@ pub struct Norm {
     /// For a kept line: the parameter slot ([`crate::params::Params::slot`]) of
     /// the name assigned at an offset, once it has one.
     pub slots: std::cell::RefCell<Vec<(usize, u32)>>,
+    /// For a kept O-line whose label is remembered in `names`: the label, the
+    /// offset after it, and the index of the keyword after it in the O-line
+    /// reader's table (`None`: no keyword) — all fixed by the text, so later
+    /// passes neither look the label up nor compare keywords again.
+    pub o_head: std::cell::RefCell<Option<OHead>>,
 }
 
 impl Norm {
@@ -68,6 +77,7 @@ impl Norm {
         self.names.get_mut().clear();
         self.qualified.get_mut().clear();
         self.slots.get_mut().clear();
+        *self.o_head.get_mut() = None;
         self.b.reserve(raw.len());
         self.at.reserve(raw.len() + 1);
         let mut in_comment = false;

@@ -295,6 +295,11 @@ impl Block {
     fn has(&self, l: u8) -> bool {
         self.val_set & letter_bit(l) != 0
     }
+    /// No word on the line (a line of assignments or comments alone): no G or M
+    /// code and no letter with a value (P and Q set their letter too).
+    fn is_empty(&self) -> bool {
+        self.g_set == 0 && self.m_set == 0 && self.val_set == 0
+    }
     fn has_g(&self, group: usize) -> bool {
         self.g_set & (1 << group) != 0
     }
@@ -656,6 +661,11 @@ impl<'a> Interp<'a> {
 
     /// `enhance_block` and `check_items`.
     fn check(&self, b: &mut Block) -> R<()> {
+        if b.is_empty() {
+            // nothing below applies to a block without words (every test asks for
+            // a word); a loop's assignment lines take this way on every pass
+            return Ok(());
+        }
         let axis = b.has(b'X') || b.has(b'Y') || b.has(b'Z');
         let ijk = b.has(b'I') || b.has(b'J') || b.has(b'K');
         let mode0 = b.g_in(GM_MODAL_0);
@@ -879,6 +889,10 @@ impl<'a> Interp<'a> {
             // rs274 re-reads its position from the canonical interface after a tool change
             self.pos = self.canon_pos;
             self.sync_pending = false;
+        }
+        if b.is_empty() {
+            // nothing below acts without a word (every step asks for one)
+            return Ok(false);
         }
         // feed mode, feed rate
         match b.g_in(GM_FEED_MODE) {
@@ -2244,6 +2258,42 @@ fn finish(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A block is empty only without any word: `check` and `execute` skip such
+    /// a block, so a G code, an M code or a lettered value alone must not count
+    /// as empty.
+    #[test]
+    fn a_block_with_any_word_is_not_empty() {
+        let profile = MachineProfile::load(
+            &std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                .join("../../config/machines/default.ron"),
+        )
+        .unwrap();
+        let it = Interp::new("t.ngc", &profile);
+        for (letter, value) in [
+            (b'G', 1.0),
+            (b'M', 3.0),
+            (b'P', 2.0),
+            (b'Q', 1.0),
+            (b'X', 0.0),
+            (b'F', 100.0),
+        ] {
+            let mut b = Block::default();
+            assert!(b.is_empty());
+            it.sort_word(
+                Word {
+                    letter,
+                    value,
+                    offset: 0,
+                },
+                &mut b,
+            )
+            .unwrap();
+            assert!(!b.is_empty(), "{} alone", letter as char);
+            b.clear();
+            assert!(b.is_empty());
+        }
+    }
 
     #[test]
     fn lines_split_as_str_split() {

@@ -100,6 +100,18 @@ fn recursion_and_the_call_depth_limit() {
     assert_eq!(p.warnings.last().unwrap(), "t.ngc:4: debug: 9.000000");
 }
 
+/// A kept O-line remembers its label and keyword only where the label is fixed
+/// text: a label read from an expression is evaluated again on every pass. Here
+/// the loop calls o11, o12, then o13 (as `rs274` does); lines are kept from the
+/// second pass on, so the third is the first that could reuse a kept label.
+#[test]
+fn an_o_label_from_an_expression_is_read_on_every_pass() {
+    let text = "o11 sub\nG0 X11\no11 endsub\no12 sub\nG0 X12\no12 endsub\n\
+                o13 sub\nG0 X13\no13 endsub\n#1=0\no1 while [#1 lt 3]\n#1=[#1+1]\n\
+                o[10+#1] call\no1 endwhile\nM2\n";
+    assert_eq!(xs(text), vec![11.0, 12.0, 13.0]);
+}
+
 #[test]
 fn loops_and_conditionals() {
     let w = "#1=0\no1 while [#1 lt 3]\nG0 X#1\n#1=[#1+1]\no1 endwhile\nM2\n";

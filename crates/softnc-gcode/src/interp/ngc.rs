@@ -103,6 +103,26 @@ impl OKind {
     }
 }
 
+/// The O-word keywords and what each does, in LinuxCNC's order of comparison
+/// (`read_o`: "elseif" before "else").
+const O_KEYWORDS: [(&[u8], OKind); 15] = [
+    (b"sub", OKind::Sub),
+    (b"endsub", OKind::EndSub),
+    (b"call", OKind::Call),
+    (b"do", OKind::Do),
+    (b"while", OKind::While),
+    (b"repeat", OKind::Repeat),
+    (b"if", OKind::If),
+    (b"elseif", OKind::ElseIf),
+    (b"else", OKind::Else),
+    (b"endif", OKind::EndIf),
+    (b"break", OKind::Break),
+    (b"continue", OKind::Continue),
+    (b"endwhile", OKind::EndWhile),
+    (b"endrepeat", OKind::EndRepeat),
+    (b"return", OKind::Return),
+];
+
 /// An O-line as read.
 #[derive(Debug, Clone)]
 pub struct OLine {
@@ -650,38 +670,43 @@ impl Interp<'_> {
         let re = |(k, e): (usize, ErrorKind)| (norm.raw(k), e);
         let at = norm.raw(*i);
         *i += 1;
-        let (label, next) = if b.get(*i) == Some(&b'<') {
-            self.name_at(norm, *i).map_err(re)?
-        } else {
-            self.number_label(norm, *i).map_err(re)?
-        };
         let label_at = *i;
-        *i = next;
+        // a kept line's label and keyword, read on an earlier pass
+        let head = if norm.keep {
+            norm.o_head.borrow().clone()
+        } else {
+            None
+        };
+        let (label, found) = match head {
+            Some((label, next, found)) => {
+                *i = next;
+                (label, found)
+            }
+            None => {
+                let (label, next) = if b.get(*i) == Some(&b'<') {
+                    self.name_at(norm, *i).map_err(re)?
+                } else {
+                    self.number_label(norm, *i).map_err(re)?
+                };
+                *i = next;
+                let rest = &b[next.min(b.len())..];
+                // in LinuxCNC's order of comparison ("elseif" before "else")
+                // (the first byte compared alone first: most keywords differ there)
+                let first = rest.first().copied();
+                let found = O_KEYWORDS
+                    .iter()
+                    .position(|(kw, _)| Some(kw[0]) == first && rest.starts_with(kw))
+                    .map(|k| k as u8);
+                // remembered where the label is (a name, or a number of digits
+                // alone): an expression's label is evaluated on every pass
+                if norm.keep && norm.names.borrow().iter().any(|(s, _, _)| *s == label_at) {
+                    *norm.o_head.borrow_mut() = Some((label.clone(), next, found));
+                }
+                (label, found)
+            }
+        };
         let rest = &b[(*i).min(b.len())..];
-        const KINDS: [(&[u8], OKind); 15] = [
-            (b"sub", OKind::Sub),
-            (b"endsub", OKind::EndSub),
-            (b"call", OKind::Call),
-            (b"do", OKind::Do),
-            (b"while", OKind::While),
-            (b"repeat", OKind::Repeat),
-            (b"if", OKind::If),
-            (b"elseif", OKind::ElseIf),
-            (b"else", OKind::Else),
-            (b"endif", OKind::EndIf),
-            (b"break", OKind::Break),
-            (b"continue", OKind::Continue),
-            (b"endwhile", OKind::EndWhile),
-            (b"endrepeat", OKind::EndRepeat),
-            (b"return", OKind::Return),
-        ];
-        // in LinuxCNC's order of comparison ("elseif" before "else")
-        // (the first byte compared alone first: most keywords differ there)
-        let first = rest.first().copied();
-        let Some(&(kw, kind)) = KINDS
-            .iter()
-            .find(|(kw, _)| Some(kw[0]) == first && rest.starts_with(kw))
-        else {
+        let Some(&(kw, kind)) = found.map(|k| &O_KEYWORDS[usize::from(k)]) else {
             if !matches!(rest.first(), None | Some(b'(' | b';')) {
                 return bad(at, "Unknown control command in o word");
             }
