@@ -356,6 +356,15 @@ mod tests {
         d
     }
 
+    /// Removes the test's folder when the test ends, also when it fails.
+    struct Cleanup(PathBuf);
+
+    impl Drop for Cleanup {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
     fn entry(samples: usize, repetitions: usize) -> Learned {
         let mut mj = MarkovJob::new(Default::default(), 1, Some(0.5), samples);
         for (k, c) in mj.correction_mm[0].iter_mut().enumerate() {
@@ -379,6 +388,7 @@ mod tests {
     #[test]
     fn lookup_checks_key_law_and_length() {
         let store = LearningStore::new(tmpdir("lookup"));
+        let _cleanup = Cleanup(store.dir().to_path_buf());
         let key = LearningKey::new(b"job", b"profile", 100);
         // 10 planned samples at 1 ms + 200 held
         store.put(&key, &entry(210, 3)).unwrap();

@@ -222,9 +222,19 @@ mod tests {
         d
     }
 
+    /// Removes the test's folder when the test ends, also when it fails.
+    struct Cleanup(PathBuf);
+
+    impl Drop for Cleanup {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
     #[test]
     fn keyed_by_job_profile_and_override() {
         let store = LearningStore::new(tmpdir("key"));
+        let _cleanup = Cleanup(store.dir().to_path_buf());
         let k = LearningKey::new(b"G1 X1\n", b"profile", 100);
         store.put(&k, &vec![1.0, 2.0]).unwrap();
         assert_eq!(store.get::<Vec<f64>>(&k).unwrap(), Some(vec![1.0, 2.0]));
