@@ -271,17 +271,6 @@ pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
     let mut trace_err: Option<anyhow::Error> = None;
 
     let path_of = |m: u32| plan.motion_primitive(m as usize);
-    let samples: Box<dyn Iterator<Item = CommandSample>> = match &learned {
-        Some(c) => Box::new(c.corrected(command_samples(&plan))),
-        None => {
-            let mut s = PlanSamples(plan.interpolator());
-            if feed_override != 1.0 {
-                // from rest: the first sample already runs at it (as the daemon)
-                s.set_feed_override(feed_override);
-            }
-            Box::new(s)
-        }
-    };
     let started = Instant::now();
     let mut on_row = |row: &TraceRow| {
         if let Some(w) = trace.as_mut() {
@@ -318,23 +307,33 @@ pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
         }
     };
     let report = match adaptive.as_mut() {
-        None => simulate(&mut engine, cycle_s, samples, path_of, on_row),
-        Some((feed, latency, log)) => {
-            drop(samples);
-            simulate_adaptive(
-                &mut engine,
-                cycle_s,
-                PlanSamples(plan.interpolator()),
-                feed,
-                *latency,
-                feed_override,
-                path_of,
-                |row, engine, rev| {
-                    on_row(row);
-                    log.cycle(engine.backend(), rev);
-                },
-            )
+        None => {
+            let samples: Box<dyn Iterator<Item = CommandSample>> = match &learned {
+                Some(c) => Box::new(c.corrected(command_samples(&plan))),
+                None => {
+                    let mut s = PlanSamples(plan.interpolator());
+                    if feed_override != 1.0 {
+                        // from rest: the first sample already runs at it (as the daemon)
+                        s.set_feed_override(feed_override);
+                    }
+                    Box::new(s)
+                }
+            };
+            simulate(&mut engine, cycle_s, samples, path_of, on_row)
         }
+        Some((feed, latency, log)) => simulate_adaptive(
+            &mut engine,
+            cycle_s,
+            PlanSamples(plan.interpolator()),
+            feed,
+            *latency,
+            feed_override,
+            path_of,
+            |row, engine, rev| {
+                on_row(row);
+                log.cycle(engine.backend(), rev);
+            },
+        ),
     }
     .map_err(|e| anyhow::anyhow!("servo backend: {e}"))?;
     if let Some(e) = trace_err {

@@ -145,6 +145,14 @@ impl Plane {
             Plane::YZ => (1, 2, 0),
         }
     }
+    /// Distance of `p` from `center` within the plane (mm): an arc's radius at `p`
+    /// (its end radius may differ a little from its start's: the path is then a
+    /// spiral, the radius changing linearly with the angle).
+    #[inline]
+    pub fn radius_at(self, center: Vec3, p: Vec3) -> f64 {
+        let (a, b, _) = self.axes();
+        (p[a] - center[a]).hypot(p[b] - center[b])
+    }
     /// Lower-case name as in canonical output: "xy", "xz", "yz".
     pub const fn name(self) -> &'static str {
         match self {
@@ -319,7 +327,7 @@ impl Primitive {
                     return end;
                 }
                 let (a, b, n) = plane.axes();
-                let end_radius = (end[a] - center[a]).hypot(end[b] - center[b]);
+                let end_radius = plane.radius_at(center, end);
                 let r = radius + (end_radius - radius) * u;
                 let th = start_angle + sweep * u;
                 let mut p = center;

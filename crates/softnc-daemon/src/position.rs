@@ -429,7 +429,11 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                         self.current = None;
                     }
                 }
-                Some(ControlKind::Shutdown) => self.shutdown = true,
+                Some(ControlKind::Shutdown) => {
+                    self.shutdown = true;
+                    // the job stops along its path: the feed is not the force loop's
+                    self.feed_held = true;
+                }
                 Some(ControlKind::StartJob) => {
                     // the programmed path, a fresh engine, the PDC designs: made off
                     // the cycle, swapped in before motion

@@ -1194,8 +1194,8 @@ fn sub_arc_span(prim: &Primitive, from: f64, to: f64, at_from: Vec3, at_to: Vec3
     };
     let len = prim.length();
     let (u0, u1) = (from / len, to / len);
-    let (a, b, n) = plane.axes();
-    let end_radius = (end[a] - center[a]).hypot(end[b] - center[b]);
+    let n = plane.axes().2;
+    let end_radius = plane.radius_at(center, end);
     let mut c = center;
     c[n] = at_from[n];
     Primitive::Arc {
@@ -1247,7 +1247,7 @@ fn path_tangent(prim: &Primitive, s: f64) -> Vec3 {
         0.0
     };
     let (a, b, n) = plane.axes();
-    let dr = (end[a] - center[a]).hypot(end[b] - center[b]) - radius;
+    let dr = plane.radius_at(center, end) - radius;
     if dr == 0.0 {
         return prim.tangent_at(s);
     }

@@ -62,8 +62,8 @@ impl ArcView {
         else {
             return None;
         };
-        let (a, b, n) = plane.axes();
-        let re = (end[a] - center[a]).hypot(end[b] - center[b]);
+        let n = plane.axes().2;
+        let re = plane.radius_at(center, end);
         if normal_travel != 0.0
             || (re - radius).abs() > MAX_RADIUS_MISMATCH_MM
             || 2.0 * (re - radius).abs() > max_drift_rad * radius * sweep.abs()
