@@ -25,7 +25,7 @@ fn pdc_config() -> PdcConfig {
     PdcConfig {
         robust_grid_points: 2000,
         w_dc_block_level: 0.5,
-        ..PdcConfig::paper000(vec![
+        uncertainty: vec![
             UncertaintyPoint {
                 freq_hz: 0.0,
                 relative: 0.2,
@@ -38,7 +38,12 @@ fn pdc_config() -> PdcConfig {
                 freq_hz: 500.0,
                 relative: 1.0,
             },
-        ])
+        ],
+        ..softnc_config::parse_ron::<PdcConfig>(
+            include_str!("../../../config/pdc/paper000-canceller.ron"),
+            "config/pdc/paper000-canceller.ron",
+        )
+        .unwrap()
     }
 }
 

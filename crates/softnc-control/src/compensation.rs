@@ -230,7 +230,7 @@ impl AxisCompensation {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::compensation::{DobConfig, MbdaConfig, UncertaintyPoint};
+    use crate::config::compensation::{DobConfig, MbdaConfig};
     use crate::discrete_tf::TfFilter;
     use std::f64::consts::TAU;
 
@@ -242,16 +242,11 @@ mod tests {
     }
 
     fn pdc_cfg() -> PdcConfig {
-        PdcConfig::paper000(vec![
-            UncertaintyPoint {
-                freq_hz: 0.0,
-                relative: 0.2,
-            },
-            UncertaintyPoint {
-                freq_hz: 500.0,
-                relative: 1.0,
-            },
-        ])
+        softnc_config::parse_ron::<PdcConfig>(
+            include_str!("../../../config/pdc/paper000-canceller.ron"),
+            "config/pdc/paper000-canceller.ron",
+        )
+        .unwrap()
     }
 
     /// Position-loop run of the nominal velocity loop with a sinusoidal disturbance

@@ -376,16 +376,23 @@ mod tests {
 
     /// The paper's design data (zeros as printed, read θ − π).
     pub(crate) fn paper_config() -> PdcConfig {
-        PdcConfig::paper000(vec![
-            UncertaintyPoint {
-                freq_hz: 0.0,
-                relative: 0.2,
-            },
-            UncertaintyPoint {
-                freq_hz: 500.0,
-                relative: 0.5,
-            },
-        ])
+        PdcConfig {
+            uncertainty: vec![
+                UncertaintyPoint {
+                    freq_hz: 0.0,
+                    relative: 0.2,
+                },
+                UncertaintyPoint {
+                    freq_hz: 500.0,
+                    relative: 0.5,
+                },
+            ],
+            ..softnc_config::parse_ron::<PdcConfig>(
+                include_str!("../../../config/pdc/paper000-canceller.ron"),
+                "config/pdc/paper000-canceller.ron",
+            )
+            .unwrap()
+        }
     }
 
     #[test]

@@ -388,7 +388,6 @@ impl MachineProfile {
     }
 
     fn validate_servo(&self, file: &str) -> Result<(), ConfigError> {
-        use crate::servo::PlantModel;
         let bad = |path: String, reason: &str| ConfigError::Invalid {
             file: file.to_string(),
             path,
@@ -407,97 +406,13 @@ impl MachineProfile {
                 f.validate_at(file, &p("command_filter"), self.interpolation_cycle_s)?;
             }
             if let Some(m) = &a.resonance {
-                positive(m.frequency_hz, &p("resonance.frequency_hz"), file)?;
-                if !(m.damping_ratio > 0.0 && m.damping_ratio < 1.0) {
-                    return Err(bad(
-                        p("resonance.damping_ratio"),
-                        "must lie between 0 and 1 (a lightly damped mode)",
-                    ));
-                }
+                m.validate_at(file, &p("resonance"))?;
             }
-            match &a.plant {
-                PlantModel::VelocityLoop {
-                    num,
-                    den,
-                    sample_s,
-                    lead_mm,
-                    coulomb_rad_s,
-                } => {
-                    if (sample_s - self.interpolation_cycle_s).abs() > 1e-12 {
-                        return Err(bad(
-                            p("plant.sample_s"),
-                            "must equal interpolation_cycle_s (the model is discrete at that rate)",
-                        ));
-                    }
-                    positive(*lead_mm, &p("plant.lead_mm"), file)?;
-                    if !(num.iter().chain(den.iter()).all(|v| v.is_finite())
-                        && *coulomb_rad_s >= 0.0)
-                    {
-                        return Err(bad(
-                            p("plant"),
-                            "coefficients must be finite and coulomb_rad_s >= 0",
-                        ));
-                    }
-                    // poles inside the unit circle: |a2| < 1 and |a1| < 1 + a2
-                    if !(den[1].abs() < 1.0 && den[0].abs() < 1.0 + den[1]) {
-                        return Err(bad(
-                            p("plant.den"),
-                            "the velocity loop is unstable (poles outside the unit circle)",
-                        ));
-                    }
-                }
-                PlantModel::DcMotor {
-                    gain_mm_per_min_per_dac,
-                    tau_s,
-                    dac_limit,
-                    param_variation,
-                    friction_variation,
-                    ..
-                } => {
-                    positive(
-                        *gain_mm_per_min_per_dac,
-                        &p("plant.gain_mm_per_min_per_dac"),
-                        file,
-                    )?;
-                    positive(*tau_s, &p("plant.tau_s"), file)?;
-                    positive(*dac_limit, &p("plant.dac_limit"), file)?;
-                    for (n, v) in [
-                        ("param_variation", param_variation),
-                        ("friction_variation", friction_variation),
-                    ] {
-                        if !(0.0..0.5).contains(v) {
-                            return Err(bad(p(&format!("plant.{n}")), "must be in [0, 0.5)"));
-                        }
-                    }
-                }
-                PlantModel::FirstOrderLag {
-                    tau_s,
-                    stick_mm,
-                    stick_integral_s,
-                } => {
-                    positive(*tau_s, &p("plant.tau_s"), file)?;
-                    for (n, v) in [
-                        ("stick_mm", stick_mm),
-                        ("stick_integral_s", stick_integral_s),
-                    ] {
-                        if !(*v >= 0.0 && v.is_finite()) {
-                            return Err(bad(p(&format!("plant.{n}")), "must be finite and >= 0"));
-                        }
-                    }
-                }
-            }
+            a.plant
+                .validate_at(file, &p("plant"), self.interpolation_cycle_s)?;
         }
         if let Some(c) = &self.servo.cutting {
-            positive(c.spindle_rpm, "servo.cutting.spindle_rpm", file)?;
-            if c.flutes == 0 {
-                return Err(bad("servo.cutting.flutes".into(), "must be at least 1"));
-            }
-            if c.frequency_hz() >= 0.5 / self.interpolation_cycle_s {
-                return Err(bad(
-                    "servo.cutting.spindle_rpm".into(),
-                    "tooth frequency at or above the Nyquist frequency of the cycle",
-                ));
-            }
+            c.validate_at(file, "servo.cutting", self.interpolation_cycle_s)?;
         }
         Ok(())
     }

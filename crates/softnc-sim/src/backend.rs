@@ -1,13 +1,13 @@
 //! The simulated machine behind the servo boundary ([`softnc_servo::ServoBackend`]).
 
-use crate::cutting_disturbance::Cutting;
-use crate::encoder::Encoder;
 use crate::plant::Plant;
-use crate::resonance::Resonance;
-use crate::rng::Rng;
 use crate::workpiece::StockCut;
 use softnc_core::Axes;
 use softnc_core::MachineProfile;
+use softnc_plant::cutting_disturbance::Cutting;
+use softnc_plant::encoder::Encoder;
+use softnc_plant::resonance::Resonance;
+use softnc_plant::rng::Rng;
 use softnc_servo::{
     AxisStatus, BackendError, CommandMode, PhaseCurrents, ServoBackend, SimulatedMachine, MAX_AXES,
 };

@@ -1,6 +1,7 @@
 //! softnc's simulated servo backend and offline simulator, built from the papers'
 //! identified machines, seeded and bit-reproducible. The boundary it implements and
-//! the position cycle in front of it are `softnc-servo`'s.
+//! the position cycle in front of it are `softnc-servo`'s; the plant models it
+//! assembles into an axis are `softnc-plant`'s.
 //!
 //! ```
 //! use softnc_sim::{simulate, simulated_engine, CommandSample, SimOptions};
@@ -18,14 +19,6 @@
 
 /// The simulated machine [`SimBackend`] behind the servo boundary.
 pub mod backend;
-/// Periodic cutting disturbance (paper 000 eq 2–3).
-pub mod cutting_disturbance;
-/// DC servo with friction eq 15 and stick–slip (paper 001).
-pub mod dc_motor;
-/// Encoder noise and quantisation.
-pub mod encoder;
-/// First-order-lag servo with stick at reversals (paper 004 eq 1).
-pub mod first_order_lag;
 /// Max / RMS / mean of an error signal.
 pub mod metrics;
 /// End-milling force process (paper 003 eq 2–4) and the cut's depth/material profile.
@@ -34,27 +27,19 @@ pub mod milling;
 pub mod plant;
 /// PMSM feed motor and its phase-current sensors (paper 003 eq 24–30).
 pub mod pmsm;
-/// A lightly damped structural mode between motor and table.
-pub mod resonance;
-/// Seeded generator (xoshiro256**, SplitMix64, Box–Muller).
-pub mod rng;
 /// Running a job: samples in, errors and trace out.
 pub mod sim;
-/// Karnopp stick–slip friction.
-pub mod stick_slip;
-/// Identified discrete velocity loops (paper 000 eq 35, 36).
-pub mod velocity_loop;
 /// The stock on the table and the feed motor cutting through it (paper 003).
 pub mod workpiece;
 
 pub use backend::{SimBackend, SimOptions};
 pub use metrics::ErrorStats;
 pub use plant::Plant;
-pub use rng::Rng;
 pub use sim::{
     simulate, simulate_adaptive, simulate_observed, simulate_sequenced, CommandSample,
     OverridableSamples, SimReport,
 };
+pub use softnc_plant::Rng;
 
 use softnc_core::MachineProfile;
 use softnc_servo::CycleEngine;

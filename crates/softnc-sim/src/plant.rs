@@ -1,11 +1,11 @@
 //! One simulated axis: the profile's plant model (000, 001 or 004) with its random
 //! parameter variation drawn once from the seed.
 
-use crate::dc_motor::DcMotor;
-use crate::first_order_lag::FirstOrderLag;
-use crate::rng::Rng;
-use crate::velocity_loop::VelocityLoop;
 use softnc_core::servo::PlantModel;
+use softnc_plant::dc_motor::DcMotor;
+use softnc_plant::first_order_lag::FirstOrderLag;
+use softnc_plant::rng::Rng;
+use softnc_plant::velocity_loop::VelocityLoop;
 pub use softnc_servo::CommandMode;
 
 /// Longest integration sub-step of the continuous models (s). A numerical setting: the

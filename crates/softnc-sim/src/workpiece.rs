@@ -9,8 +9,8 @@
 
 use crate::milling::{CutProfile, MillingProcess};
 use crate::pmsm::PmsmFeedMotor;
-use crate::rng::Rng;
 use softnc_core::force::ForceProfile;
+use softnc_plant::rng::Rng;
 use softnc_servo::PhaseCurrents;
 
 /// Random stream of the phase-current sensors' noise (the one paper 003's

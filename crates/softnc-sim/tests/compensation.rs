@@ -17,16 +17,11 @@ fn tnv40() -> MachineProfile {
 }
 
 fn pdc() -> PdcConfig {
-    PdcConfig::paper000(vec![
-        UncertaintyPoint {
-            freq_hz: 0.0,
-            relative: 0.2,
-        },
-        UncertaintyPoint {
-            freq_hz: 500.0,
-            relative: 1.0,
-        },
-    ])
+    softnc_config::parse_ron::<PdcConfig>(
+        include_str!("../../../config/pdc/paper000-canceller.ron"),
+        "config/pdc/paper000-canceller.ron",
+    )
+    .unwrap()
 }
 
 fn with(base: &MachineProfile, comp: Compensation) -> MachineProfile {

@@ -2,9 +2,9 @@
 
 use softnc_core::servo::{Friction001, PlantModel};
 use softnc_core::{MachineProfile, Plane, Primitive, Vec3};
-use softnc_sim::dc_motor::DcMotor;
-use softnc_sim::first_order_lag::FirstOrderLag;
-use softnc_sim::velocity_loop::VelocityLoop;
+use softnc_plant::dc_motor::DcMotor;
+use softnc_plant::first_order_lag::FirstOrderLag;
+use softnc_plant::velocity_loop::VelocityLoop;
 use softnc_sim::{simulate, simulated_engine, CommandSample, SimOptions};
 use std::f64::consts::{PI, TAU};
 use std::path::PathBuf;

@@ -118,27 +118,3 @@ pub struct PdcConfig {
     #[serde(default)]
     pub w_dc_block_level: f64,
 }
-
-impl PdcConfig {
-    /// Paper 000's design data at 1 kHz: the three printed zeros read θ − π, a 3-tap
-    /// W fitted by RLS (δ = 1e-4, 2000 samples), the eq 11–12 tolerances and the
-    /// −30 dB Nyquist bound, with the stated model uncertainty `uncertainty` for
-    /// eq 13 (the paper states none; each use names its own).
-    pub fn paper000(uncertainty: Vec<UncertaintyPoint>) -> Self {
-        let zero = |radius, angle_pi| ZeroSpec { radius, angle_pi };
-        PdcConfig {
-            zeros: vec![zero(0.9, 1.3), zero(0.8, 1.57), zero(0.85, 1.86)],
-            angle_reading: ZeroAngleReading::MinusPi,
-            w_taps: 3,
-            rls_delta: 1e-4,
-            rls_samples: 2000,
-            rls_warmup_samples: 0,
-            gain_tolerance: 0.01,
-            phase_tolerance_deg: 1.0,
-            max_l_gain_nyquist_db: -30.0,
-            uncertainty,
-            robust_grid_points: 1000,
-            w_dc_block_level: 0.0,
-        }
-    }
-}

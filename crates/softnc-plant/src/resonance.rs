@@ -8,7 +8,7 @@
 //! and the deflection decays freely in between: the cycle is solved exactly by the
 //! free response's state-transition matrix, computed once.
 
-use softnc_core::servo::StructuralMode;
+use crate::config::StructuralMode;
 
 /// The mode's state and its exact one-cycle transition.
 #[derive(Debug, Clone, PartialEq)]

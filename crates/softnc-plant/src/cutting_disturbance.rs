@@ -1,6 +1,6 @@
 //! Periodic cutting disturbance T = A sin(2π f_d t + θ_d), f_d = w_s l / 60 (paper 000 eq 2–3).
 
-use softnc_core::servo::CuttingDisturbance;
+use crate::config::CuttingDisturbance;
 
 /// The disturbance of one profile, evaluated at a time.
 #[derive(Debug, Clone, Copy, PartialEq)]

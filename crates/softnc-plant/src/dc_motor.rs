@@ -1,8 +1,8 @@
 //! DC servo of open-loop gain K and time constant τ: τ dV/dt + V = K (u − F_d(V)) (paper 001
 //! Fig. 2 and Table 2), friction F_d of eq 15 with Karnopp stick–slip, u from an 8-bit DAC.
 
+use crate::config::Friction001;
 use crate::stick_slip::{karnopp, Breakaway, Contact};
-use softnc_core::servo::Friction001;
 
 /// One axis of paper 001's milling machine, integrated exactly over each sub-step
 /// (zero-order hold on the net drive).
