@@ -321,7 +321,7 @@ impl DaemonConfig {
             source,
         })?;
         // the position process must hold the command filters' window (paper 002)
-        let needed = (0..3)
+        let needed = (0..softnc_core::MAX_AXES)
             .filter_map(|i| machine.axis_servo(i).command_filter.map(|f| f.order))
             .max()
             .unwrap_or(0);

@@ -13,6 +13,7 @@ use anyhow::{Context, Result};
 use iceoryx2::port::server::Server;
 use iceoryx2::prelude::*;
 use serde::{Deserialize, Serialize};
+use softnc_core::{Axes, MAX_AXES};
 use softnc_core::store::write_atomic;
 use softnc_ipc::{
     Alarm, AlarmCode, ControlCommand, ControlKind, FixedStr, Heartbeat, LoopStats, MachineState,
@@ -94,7 +95,7 @@ pub struct Accuracy {
     /// RMS contour error (µm).
     pub contour_rms_um: f64,
     /// Largest |following error| per axis (µm).
-    pub following_max_abs_um: [f64; 3],
+    pub following_max_abs_um: Axes<f64>,
     #[serde(skip)]
     sum_sq: f64,
     #[serde(skip)]
@@ -110,9 +111,8 @@ impl Accuracy {
             self.n += 1;
             self.contour_rms_um = (self.sum_sq / self.n as f64).sqrt();
         }
-        for i in 0..3 {
-            self.following_max_abs_um[i] =
-                self.following_max_abs_um[i].max(s.following_err_mm[i].abs() * 1000.0);
+        for (i, max_um) in self.following_max_abs_um.iter_mut().enumerate() {
+            *max_um = max_um.max(s.following_err_mm[i].abs() * 1000.0);
         }
     }
 }
@@ -685,9 +685,9 @@ impl MmiTask {
     }
 
     /// Which axes are homed, as the position process reports them.
-    pub fn homed(&self) -> [bool; 3] {
+    pub fn homed(&self) -> Axes<bool> {
         let mask = self.last.map_or(0, |s| s.homed);
-        std::array::from_fn(|i| mask & (1 << i) != 0)
+        Axes::from_fn(|a| mask & (1 << a.index()) != 0)
     }
 
     /// Why a job, MDI or touch-off cannot be taken in now, if it cannot.
@@ -706,7 +706,7 @@ impl MmiTask {
         }
         let homed = self.homed();
         if homed.iter().any(|h| !h) {
-            let missing: Vec<String> = (0..3)
+            let missing: Vec<String> = (0..MAX_AXES)
                 .filter(|&i| !homed[i])
                 .map(|i| self.axis_name(i as u32))
                 .collect();
