@@ -2006,6 +2006,11 @@ fn wait_paused(d: &Daemon, op: &Operator) -> serde_json::Value {
 fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_whole_job() {
     let d = Daemon::start("flow", "Lockstep", true);
     let op = d.operator();
+    // the switches start as LinuxCNC's controller starts them
+    assert_eq!(
+        op.status().unwrap()["switches"],
+        serde_json::json!({"single_block": false, "optional_stop": true, "block_delete": true})
+    );
     // M0 pauses where it is: the axes at rest there, for as long as it takes
     let m0 = d.dir.join("m0.ngc");
     std::fs::write(&m0, "G21 G90 G64 P0.01\nG1 X10 F1200\nM0\nG1 X20 Y5\nM2\n").unwrap();
@@ -2026,6 +2031,25 @@ fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_w
     assert!(
         (at[0] - 20.0).abs() < 1e-9 && (at[1] - 5.0).abs() < 1e-9,
         "{at:?}"
+    );
+
+    // block delete (on): the line starting with `/` is not run
+    let deleted = d.dir.join("deleted.ngc");
+    std::fs::write(
+        &deleted,
+        "G21 G90 G64 P0.01\n/G1 Y50 F3000\nG1 X22 F3000\nG1 X20\nM2\n",
+    )
+    .unwrap();
+    let r = op
+        .request(ControlKind::StartJob, 0.0, &abs(&deleted))
+        .unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(30));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    let at = machine_mm(&op.status().unwrap());
+    assert!(
+        (at[0] - 20.0).abs() < 1e-9 && (at[1] - 5.0).abs() < 1e-9,
+        "the deleted move ran: {at:?}"
     );
 
     // single block: one block per step (from where the last job left the machine,

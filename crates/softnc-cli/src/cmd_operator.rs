@@ -135,6 +135,13 @@ pub enum OnOff {
     Off,
 }
 
+impl OnOff {
+    /// True when on.
+    pub fn on(self) -> bool {
+        self == OnOff::On
+    }
+}
+
 /// `softnc tools ...`
 #[derive(clap::Subcommand)]
 pub enum ToolsCmd {

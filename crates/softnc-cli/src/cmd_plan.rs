@@ -53,12 +53,21 @@ pub fn load_machine(path: Option<&PathBuf>) -> Result<MachineProfile> {
     Ok(MachineProfile::load(&path)?)
 }
 
-/// Read a program file and interpret it. `Err(Ok(msg))` is a refusal (exit 2).
-pub fn read_file(file: &PathBuf, machine: &MachineProfile) -> Result<Result<Program, String>> {
+/// Read a program file and interpret it with `options` (the operator's switches).
+/// `Err(Ok(msg))` is a refusal (exit 2).
+pub fn read_file(
+    file: &PathBuf,
+    machine: &MachineProfile,
+    options: &softnc_gcode::ReadOptions,
+) -> Result<Result<Program, String>> {
     let bytes = std::fs::read(file).with_context(|| format!("cannot read {}", file.display()))?;
     let text = String::from_utf8_lossy(&bytes);
     let name = file.display().to_string();
-    Ok(softnc_gcode::read_program(&text, &name, machine).map_err(|e| e.to_string()))
+    Ok(
+        softnc_gcode::read_program_with(&text, &name, machine, options)
+            .map(|(program, _)| program)
+            .map_err(|e| e.to_string()),
+    )
 }
 
 /// [`read_file`] with the parameter file and search path of `args`; writes the

@@ -63,6 +63,14 @@ pub struct SimArgs {
     /// `lookahead_samples`, as the daemon applies it).
     #[arg(long, value_name = "SAMPLES")]
     lookahead: Option<u64>,
+    /// Block delete: lines starting with `/` are skipped. On by default, as the
+    /// daemon (and LinuxCNC's controller) starts.
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    block_delete: crate::cmd_operator::OnOff,
+    /// Optional stop: M1 brings the path to rest. On by default, as the daemon (and
+    /// LinuxCNC's controller) starts.
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    optional_stop: crate::cmd_operator::OnOff,
 }
 
 /// Cycles between progress-bar updates.
@@ -144,7 +152,12 @@ pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
             return Ok(ExitCode::from(crate::EXIT_REFUSED));
         }
     };
-    let program = match read_file(&args.file, &machine)? {
+    let options = softnc_planner::PlanOptions {
+        block_delete: args.block_delete.on(),
+        optional_stop: args.optional_stop.on(),
+        ..Default::default()
+    };
+    let program = match read_file(&args.file, &machine, &options.read_options())? {
         Ok(p) => p,
         Err(msg) => {
             eprintln!("{msg}");
@@ -154,7 +167,7 @@ pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
     for w in &program.warnings {
         eprintln!("warning: {w}");
     }
-    let plan = match softnc_planner::plan(&program, &machine, &Default::default()) {
+    let plan = match softnc_planner::plan(&program, &machine, &options) {
         Ok(p) => p,
         Err(e) => {
             eprintln!("{e}");

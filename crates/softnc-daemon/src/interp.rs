@@ -815,7 +815,7 @@ impl InterpTask {
 }
 
 /// The operator's program-flow switches, read when a job starts.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Switches {
     /// Stop at the end of every block until `step`.
     pub single_block: bool,
@@ -823,6 +823,18 @@ pub struct Switches {
     pub optional_stop: bool,
     /// Lines starting with `/` are skipped.
     pub block_delete: bool,
+}
+
+impl Default for Switches {
+    /// As LinuxCNC's controller starts (`emccanon.cc`: block delete and optional
+    /// stop "enabled by default (previous EMC behaviour)"), single block off.
+    fn default() -> Self {
+        Switches {
+            single_block: false,
+            optional_stop: true,
+            block_delete: true,
+        }
+    }
 }
 
 impl Switches {

@@ -13,8 +13,8 @@ use anyhow::{Context, Result};
 use iceoryx2::port::server::Server;
 use iceoryx2::prelude::*;
 use serde::{Deserialize, Serialize};
-use softnc_core::{Axes, MAX_AXES};
 use softnc_core::store::write_atomic;
+use softnc_core::{Axes, MAX_AXES};
 use softnc_ipc::{
     Alarm, AlarmCode, ControlCommand, ControlKind, FixedStr, Heartbeat, LoopStats, MachineState,
     OperatorReply, OperatorRequest, PositionStatus, ProcessId, JOB_ADAPTIVE_FORCE,
