@@ -884,6 +884,8 @@ mod tests {
             feed_override: 100.0,
             adaptive_force: false,
             lookahead: None,
+            block_delete: crate::cmd_operator::OnOff::On,
+            optional_stop: crate::cmd_operator::OnOff::On,
         }
     }
 
