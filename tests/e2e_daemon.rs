@@ -1616,6 +1616,30 @@ fn a_loopback_daemon_runs_a_job_whose_axes_follow_the_command_exactly() {
     // far below the simulated machine's (tens of µm) on the same job
     let rms = s["job"]["accuracy"]["contour_rms_um"].as_f64().unwrap();
     assert!(rms < 1.0, "contour rms {rms} µm");
+    // the next job takes the drive over where the first left it (not homed again)
+    let end1 = machine_mm(&op.status().unwrap());
+    let r2 = op
+        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
+        .unwrap();
+    assert_eq!(r2.accepted, 1, "{}", r2.message.as_str());
+    let s = d.wait_job(&op, r2.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    let trace2 =
+        std::fs::read_to_string(d.dir.join(format!("data/trace-job{}.csv", r2.job_id))).unwrap();
+    let first: Vec<f64> = trace2
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .take(7)
+        .map(|v| v.parse().unwrap())
+        .collect();
+    for axis in 0..3 {
+        assert!(
+            (first[4 + axis] - end1[axis]).abs() <= 1e-9,
+            "job 2 starts at {first:?}, job 1 ended at {end1:?}"
+        );
+    }
 }
 
 /// Peak resident memory of a process (kB), from /proc.

@@ -695,12 +695,14 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             }
             return Ok(());
         }
+        // the new engine takes the machine over (a drive handed on, or a fresh
+        // simulated machine at the start)
+        p.engine.take_over(&mut self.engine, self.start_mm);
         std::mem::swap(&mut self.engine, &mut p.engine);
         std::mem::swap(&mut self.primitives, &mut p.primitives);
         std::mem::swap(&mut self.lines, &mut p.lines);
         std::mem::swap(&mut self.trace, &mut p.trace);
         std::mem::swap(&mut self.adaptive, &mut p.adaptive);
-        self.engine.reset(self.start_mm);
         self.phase = JobPhase::Ready { id: job_id };
         if let Some((axis, msg)) = p.error.take() {
             self.state = MachineState::Faulted;

@@ -98,6 +98,16 @@ pub trait ServoBackend {
     fn simulated(&mut self) -> Option<&mut dyn SimulatedMachine> {
         None
     }
+    /// Whether this backend is opened once and handed from job to job (true, a
+    /// drive: enabled, homed and standing where it is, the next job's engine takes
+    /// it over without enabling or homing it again,
+    /// [`CycleEngine::take_over`](crate::CycleEngine::take_over)), or replaced by
+    /// the next job's fresh one homed at the job's start (false: the simulated
+    /// machine, so that a daemon's job runs on the machine `softnc sim` builds and
+    /// their traces are equal bit for bit).
+    fn kept_across_jobs(&self) -> bool {
+        true
+    }
 }
 
 /// A motor's measured phase currents and electrical angle (paper 003 eq 24–28).

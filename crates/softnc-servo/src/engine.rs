@@ -183,6 +183,25 @@ impl<B: ServoBackend> CycleEngine<B> {
         }
     }
 
+    /// This engine runs the next job from `start_mm`, after `running`, the engine
+    /// of the machine until now: a backend [kept across
+    /// jobs](ServoBackend::kept_across_jobs) moves over from `running` as it stands
+    /// (enabled, homed: a drive is not re-homed to the command, which would fold
+    /// the following error into its offset) and only the controllers start at
+    /// `start_mm`; any other backend is this engine's own, homed at `start_mm`
+    /// ([`reset`](Self::reset)). At a cycle boundary: swaps, allocates nothing.
+    pub fn take_over(&mut self, running: &mut CycleEngine<B>, start_mm: impl Into<Axes<f64>>) {
+        let start_mm = start_mm.into();
+        if running.backend.kept_across_jobs() {
+            std::mem::swap(&mut self.backend, &mut running.backend);
+            for (c, x) in self.controllers.iter_mut().zip(start_mm) {
+                c.reset(x);
+            }
+        } else {
+            self.reset(start_mm);
+        }
+    }
+
     /// Measured positions (mm).
     #[inline]
     pub fn measured_mm(&self) -> Axes<f64> {

@@ -165,6 +165,11 @@ impl SimBackend {
 }
 
 impl ServoBackend for SimBackend {
+    /// Each job runs on a fresh simulated machine at rest at its start, as `softnc
+    /// sim` builds it.
+    fn kept_across_jobs(&self) -> bool {
+        false
+    }
     fn axes(&self) -> usize {
         MAX_AXES
     }

@@ -47,11 +47,15 @@ fn run<B: ServoBackend + Send + 'static>(
     tracing::info!("servo backend: {:?}", cfg.config.backend);
     let rt = softnc_rt::setup_realtime(&cfg.config.position_rt);
     tracing::info!("position real-time set-up: {rt:?}");
-    // every engine's drives enabled before it runs (off the cycle)
+    // drives enabled before they run (off the cycle): a backend kept across jobs
+    // once, the first (the next jobs take it over), any other with every engine
+    let mut first = true;
     let enabled: EngineFactory<B> = Box::new(move || {
         let mut e = make_engine();
-        if let Err(err) = e.backend_mut().enable() {
-            tracing::error!("servo backend: {err}");
+        if std::mem::take(&mut first) || !e.backend().kept_across_jobs() {
+            if let Err(err) = e.backend_mut().enable() {
+                tracing::error!("servo backend: {err}");
+            }
         }
         e
     });
