@@ -39,6 +39,30 @@ pub enum ConfigError {
     },
 }
 
+impl ConfigError {
+    /// [`ConfigError::Invalid`]: the value at `path` of `file` is not acceptable.
+    pub fn invalid(file: &str, path: impl Into<String>, reason: impl Into<String>) -> Self {
+        ConfigError::Invalid {
+            file: file.to_string(),
+            path: path.into(),
+            reason: reason.into(),
+        }
+    }
+}
+
+/// `v` (at `path` of `file`) must be a finite number > 0.
+pub fn positive(v: f64, path: &str, file: &str) -> Result<(), ConfigError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(ConfigError::invalid(
+            file,
+            path,
+            format!("must be a finite number > 0 (got {v})"),
+        ))
+    }
+}
+
 /// Deserialize any RON document, reporting the path of a bad field.
 pub fn parse_ron<T: serde::de::DeserializeOwned>(text: &str, file: &str) -> Result<T, ConfigError> {
     let mut de = ron::Deserializer::from_str(text).map_err(|e| ConfigError::Parse {

@@ -5,6 +5,7 @@
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
+use softnc_config::positive;
 pub use softnc_config::{parse_ron, ConfigError};
 
 /// One axis of the machine.
@@ -588,18 +589,6 @@ fn finite(v: f64, path: &str, file: &str) -> Result<(), ConfigError> {
             file: file.into(),
             path: path.into(),
             reason: "must be a finite number".into(),
-        })
-    }
-}
-
-fn positive(v: f64, path: &str, file: &str) -> Result<(), ConfigError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(ConfigError::Invalid {
-            file: file.into(),
-            path: path.into(),
-            reason: format!("must be a finite number > 0 (got {v})"),
         })
     }
 }

@@ -3,29 +3,7 @@
 //! `softnc-core`. Paper values are in the profiles under `config/machines/`.
 
 use serde::{Deserialize, Serialize};
-use softnc_config::ConfigError;
-
-/// `ConfigError::Invalid` at `path` of `file`.
-fn invalid(file: &str, path: String, reason: &str) -> ConfigError {
-    ConfigError::Invalid {
-        file: file.to_string(),
-        path,
-        reason: reason.to_string(),
-    }
-}
-
-/// `v` must be finite and > 0.
-fn positive(v: f64, file: &str, path: String) -> Result<(), ConfigError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(ConfigError::Invalid {
-            file: file.into(),
-            path,
-            reason: format!("must be a finite number > 0 (got {v})"),
-        })
-    }
-}
+use softnc_config::{positive, ConfigError};
 
 /// Simulated plant of one axis.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -169,15 +147,15 @@ impl PlantModel {
                 coulomb_rad_s,
             } => {
                 if (sample_s - cycle_s).abs() > 1e-12 {
-                    return Err(invalid(
+                    return Err(ConfigError::invalid(
                         file,
                         p("sample_s"),
                         "must equal interpolation_cycle_s (the model is discrete at that rate)",
                     ));
                 }
-                positive(*lead_mm, file, p("lead_mm"))?;
+                positive(*lead_mm, &p("lead_mm"), file)?;
                 if !(num.iter().chain(den.iter()).all(|v| v.is_finite()) && *coulomb_rad_s >= 0.0) {
-                    return Err(invalid(
+                    return Err(ConfigError::invalid(
                         file,
                         prefix.to_string(),
                         "coefficients must be finite and coulomb_rad_s >= 0",
@@ -185,7 +163,7 @@ impl PlantModel {
                 }
                 // poles inside the unit circle: |a2| < 1 and |a1| < 1 + a2
                 if !(den[1].abs() < 1.0 && den[0].abs() < 1.0 + den[1]) {
-                    return Err(invalid(
+                    return Err(ConfigError::invalid(
                         file,
                         p("den"),
                         "the velocity loop is unstable (poles outside the unit circle)",
@@ -200,15 +178,19 @@ impl PlantModel {
                 friction_variation,
                 ..
             } => {
-                positive(*gain_mm_per_min_per_dac, file, p("gain_mm_per_min_per_dac"))?;
-                positive(*tau_s, file, p("tau_s"))?;
-                positive(*dac_limit, file, p("dac_limit"))?;
+                positive(
+                    *gain_mm_per_min_per_dac,
+                    &p("gain_mm_per_min_per_dac"),
+                    file,
+                )?;
+                positive(*tau_s, &p("tau_s"), file)?;
+                positive(*dac_limit, &p("dac_limit"), file)?;
                 for (n, v) in [
                     ("param_variation", param_variation),
                     ("friction_variation", friction_variation),
                 ] {
                     if !(0.0..MAX_RELATIVE_VARIATION).contains(v) {
-                        return Err(invalid(file, p(n), "must be in [0, 0.5)"));
+                        return Err(ConfigError::invalid(file, p(n), "must be in [0, 0.5)"));
                     }
                 }
             }
@@ -217,13 +199,13 @@ impl PlantModel {
                 stick_mm,
                 stick_integral_s,
             } => {
-                positive(*tau_s, file, p("tau_s"))?;
+                positive(*tau_s, &p("tau_s"), file)?;
                 for (n, v) in [
                     ("stick_mm", stick_mm),
                     ("stick_integral_s", stick_integral_s),
                 ] {
                     if !(*v >= 0.0 && v.is_finite()) {
-                        return Err(invalid(file, p(n), "must be finite and >= 0"));
+                        return Err(ConfigError::invalid(file, p(n), "must be finite and >= 0"));
                     }
                 }
             }
@@ -240,16 +222,16 @@ impl CuttingDisturbance {
     /// Checks the disturbance at RON path `prefix` of `file`: its tooth frequency
     /// must lie below the Nyquist frequency of the cycle `cycle_s`.
     pub fn validate_at(&self, file: &str, prefix: &str, cycle_s: f64) -> Result<(), ConfigError> {
-        positive(self.spindle_rpm, file, format!("{prefix}.spindle_rpm"))?;
+        positive(self.spindle_rpm, &format!("{prefix}.spindle_rpm"), file)?;
         if self.flutes == 0 {
-            return Err(invalid(
+            return Err(ConfigError::invalid(
                 file,
                 format!("{prefix}.flutes"),
                 "must be at least 1",
             ));
         }
         if self.frequency_hz() >= 0.5 / cycle_s {
-            return Err(invalid(
+            return Err(ConfigError::invalid(
                 file,
                 format!("{prefix}.spindle_rpm"),
                 "tooth frequency at or above the Nyquist frequency of the cycle",
@@ -262,9 +244,9 @@ impl CuttingDisturbance {
 impl StructuralMode {
     /// Checks the mode at RON path `prefix` of `file`.
     pub fn validate_at(&self, file: &str, prefix: &str) -> Result<(), ConfigError> {
-        positive(self.frequency_hz, file, format!("{prefix}.frequency_hz"))?;
+        positive(self.frequency_hz, &format!("{prefix}.frequency_hz"), file)?;
         if !(self.damping_ratio > 0.0 && self.damping_ratio < 1.0) {
-            return Err(invalid(
+            return Err(ConfigError::invalid(
                 file,
                 format!("{prefix}.damping_ratio"),
                 "must lie between 0 and 1 (a lightly damped mode)",

@@ -13,15 +13,6 @@ pub mod fuzzy;
 use serde::{Deserialize, Serialize};
 use softnc_config::ConfigError;
 
-/// `ConfigError::Invalid` at `path` of `file`.
-fn invalid(file: &str, path: String, reason: &str) -> ConfigError {
-    ConfigError::Invalid {
-        file: file.to_string(),
-        path,
-        reason: reason.to_string(),
-    }
-}
-
 /// The position controller of one axis (the stack's feedback and feedforward).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -78,11 +69,15 @@ impl ControllerConfig {
             ("output_limit", self.output_limit),
         ] {
             if !v.is_finite() {
-                return Err(invalid(file, p(name), "must be a finite number"));
+                return Err(ConfigError::invalid(
+                    file,
+                    p(name),
+                    "must be a finite number",
+                ));
             }
         }
         if self.output_limit < 0.0 {
-            return Err(invalid(
+            return Err(ConfigError::invalid(
                 file,
                 p("output_limit"),
                 "must be >= 0 (0 = no limit)",
@@ -115,17 +110,17 @@ impl CommandFilterConfig {
     pub fn validate_at(&self, file: &str, prefix: &str, cycle_s: f64) -> Result<(), ConfigError> {
         let nyquist_hz = 0.5 / cycle_s;
         if !(self.frequency_hz > 0.0 && self.frequency_hz < nyquist_hz) {
-            return Err(invalid(
+            return Err(ConfigError::invalid(
                 file,
                 format!("{prefix}.frequency_hz"),
-                &format!("must lie between 0 and the Nyquist frequency {nyquist_hz} Hz"),
+                format!("must lie between 0 and the Nyquist frequency {nyquist_hz} Hz"),
             ));
         }
         if !(1..=MAX_COMMAND_FILTER_ORDER).contains(&self.order) {
-            return Err(invalid(
+            return Err(ConfigError::invalid(
                 file,
                 format!("{prefix}.order"),
-                &format!("must be 1 to {MAX_COMMAND_FILTER_ORDER}"),
+                format!("must be 1 to {MAX_COMMAND_FILTER_ORDER}"),
             ));
         }
         Ok(())
