@@ -62,8 +62,11 @@ impl ArcView {
         else {
             return None;
         };
-        let n = plane.axes().2;
-        let re = plane.radius_at(center, end);
+        let (a, b, n) = plane.axes();
+        // |end − c| in the plane (`Plane::radius_at` without `hypot`: the squares
+        // cannot overflow for coordinates a machine reaches)
+        let (ea, eb) = (end[a] - center[a], end[b] - center[b]);
+        let re = (ea * ea + eb * eb).sqrt();
         if normal_travel != 0.0
             || (re - radius).abs() > MAX_RADIUS_MISMATCH_MM
             || 2.0 * (re - radius).abs() > max_drift_rad * radius * sweep.abs()
@@ -86,17 +89,16 @@ impl ArcView {
         })
     }
 
-    /// Arc length from the corner `c0` to the circle point nearest `x`, in the
-    /// direction of travel away from the corner, in [0, 2πR).
-    fn arc_len_to(&self, c0: Vec3, x: Vec3) -> f64 {
+    /// Angle about the centre from the corner `c0` to the circle point nearest `x`,
+    /// in the direction of travel away from the corner, in [0, 2π) (rad).
+    fn angle_to(&self, c0: Vec3, x: Vec3) -> f64 {
         let (p, q) = (c0 - self.center, x - self.center);
         let ang = (p.cross(q).dot(self.normal) * self.sense).atan2(p.dot(q));
-        let ang = if ang < 0.0 {
+        if ang < 0.0 {
             ang + std::f64::consts::TAU
         } else {
             ang
-        };
-        ang * self.radius
+        }
     }
 
     /// Unit tangent (direction of travel away from the corner) at circle point `x`.
@@ -112,6 +114,9 @@ pub struct Fillet {
     pub line_trim: f64,
     /// Where it meets the arc (arc length from the corner, mm).
     pub arc_trim: f64,
+    /// The same as an angle about the arc's centre (rad): `arc_trim` over the radius
+    /// the arc is seen with ([`ArcView::radius`]).
+    pub arc_trim_rad: f64,
     /// Centre.
     pub center: Vec3,
     /// Radius (mm).
@@ -122,6 +127,10 @@ pub struct Fillet {
     pub p_arc: Vec3,
     /// Turn (rad, in (0, π)).
     pub sweep: f64,
+    /// cos of `sweep` (from the construction, no trigonometry).
+    pub cos_sweep: f64,
+    /// sin of `sweep`.
+    pub sin_sweep: f64,
 }
 
 /// The first trim tried: what a line–line blend within 0.9·`tol_mm` would take at
@@ -226,6 +235,12 @@ pub fn arc_arc(
 
 /// The fillet leaving the first move at `p1` (direction of travel `u` there, `d` before
 /// the corner) with its centre along one of `normals`, if one is a real blend.
+///
+/// Of the candidates (each normal, the fillet outside or inside the circle) that are
+/// real blends the one that turns least is kept. The sweep φ ∈ (0, π) of each comes
+/// from its cosine q₁/|q| (decreasing in φ), so the `atan2`s of the sweep and of the
+/// arc position are taken only for a candidate that would beat the best so far (one
+/// per corner on CAM programs: the other tangency turns the wrong way).
 fn candidate(
     corner: Vec3,
     p1: Vec3,
@@ -237,52 +252,69 @@ fn candidate(
 ) -> Option<Fillet> {
     let w = p1 - arc.center;
     let big_r = arc.radius;
+    let w_sq = w.dot(w);
+    // every normal is ⟂ u, so F − c = w + r·n has (F − c)·u = w·u, and
+    // q = T − F = −σr·(F − c)/|F − c| (|F − c| = R + σr): q·u > 0, a sweep in (0, π),
+    // needs σ·(w·u) < 0; the other tangency is not built
+    let wu = w.dot(u);
     let mut best: Option<Fillet> = None;
-    for (&n, sigma) in normals.iter().flat_map(|n| [(n, 1.0), (n, -1.0)]) {
-        let den = 2.0 * (w.dot(n) - sigma * big_r);
-        let r = (big_r * big_r - w.dot(w)) / den;
-        if !(r.is_finite() && r > 1e-6) {
-            continue;
-        }
-        let f = p1 + n * r;
-        let fc = f - arc.center;
-        if fc.norm() < 1e-12 || ((fc.norm() - (big_r + sigma * r)).abs() > 1e-7 * big_r.max(1.0)) {
-            continue;
-        }
-        let t = arc.center + fc.unit() * big_r;
-        // sweep from P₁ to T about F, in the direction of u at P₁: q = r·(cos φ·e1 +
-        // sin φ·e2) (T, F, P₁ and u lie in one plane), so its cosine and sine come
-        // from q without trigonometry; a sweep in (0, π) has sin φ > 0
-        let (e1, e2) = ((p1 - f) * (1.0 / r), u);
-        let q = t - f;
-        let (q1, q2) = (q.dot(e1), q.dot(e2));
-        if q2 <= 0.0 {
-            continue;
-        }
-        let qn = (q1 * q1 + q2 * q2).sqrt();
-        let t_fillet = (e2 * q1 - e1 * q2) * (1.0 / qn);
-        if t_fillet.dot(arc.tangent(t)) < 1.0 - 1e-9 {
-            continue;
-        }
-        let sweep = q2.atan2(q1);
-        if !(sweep > 1e-9 && sweep < std::f64::consts::PI - 1e-6) {
-            continue;
-        }
-        let arc_trim = arc.arc_len_to(corner, t);
-        if !(arc_trim > 1e-9 && arc_trim <= arc_avail) {
-            continue;
-        }
-        let this = Fillet {
-            line_trim: d,
-            arc_trim,
-            center: f,
-            radius: r,
-            p_line: p1,
-            p_arc: t,
-            sweep,
-        };
-        if best.is_none_or(|b| this.sweep < b.sweep) {
-            best = Some(this);
+    for &n in normals {
+        let wn = w.dot(n);
+        for sigma in [1.0, -1.0] {
+            if sigma * wu >= 0.0 {
+                continue;
+            }
+            let den = 2.0 * (wn - sigma * big_r);
+            let r = (big_r * big_r - w_sq) / den;
+            if !(r.is_finite() && r > 1e-6) {
+                continue;
+            }
+            let f = p1 + n * r;
+            let fc = f - arc.center;
+            let fc_norm = fc.norm();
+            if fc_norm < 1e-12 || ((fc_norm - (big_r + sigma * r)).abs() > 1e-7 * big_r.max(1.0)) {
+                continue;
+            }
+            let t = arc.center + fc * (1.0 / fc_norm) * big_r;
+            // sweep from P₁ to T about F, in the direction of u at P₁: q = r·(cos φ·e1 +
+            // sin φ·e2) (T, F, P₁ and u lie in one plane), so its cosine and sine come
+            // from q without trigonometry; a sweep in (0, π) has sin φ > 0
+            let (e1, e2) = ((p1 - f) * (1.0 / r), u);
+            let q = t - f;
+            let (q1, q2) = (q.dot(e1), q.dot(e2));
+            if q2 <= 0.0 {
+                continue;
+            }
+            let qn = (q1 * q1 + q2 * q2).sqrt();
+            let (cos_sweep, sin_sweep) = (q1 / qn, q2 / qn);
+            if best.is_some_and(|b| cos_sweep <= b.cos_sweep) {
+                continue; // turns at least as far as the best so far
+            }
+            let t_fillet = e2 * cos_sweep - e1 * sin_sweep;
+            if t_fillet.dot(arc.tangent(t)) < 1.0 - 1e-9 {
+                continue;
+            }
+            let sweep = q2.atan2(q1);
+            if !(sweep > 1e-9 && sweep < std::f64::consts::PI - 1e-6) {
+                continue;
+            }
+            let arc_trim_rad = arc.angle_to(corner, t);
+            let arc_trim = arc_trim_rad * arc.radius;
+            if !(arc_trim > 1e-9 && arc_trim <= arc_avail) {
+                continue;
+            }
+            best = Some(Fillet {
+                line_trim: d,
+                arc_trim,
+                arc_trim_rad,
+                center: f,
+                radius: r,
+                p_line: p1,
+                p_arc: t,
+                sweep,
+                cos_sweep,
+                sin_sweep,
+            });
         }
     }
     best
