@@ -231,6 +231,9 @@ struct Pending {
     /// Arcs: where the blend at the previous corner meets it (the sub-arc starts
     /// exactly there).
     start_at: Option<Vec3>,
+    /// Arcs: the angle about the centre the fillet at the previous corner takes
+    /// (rad; None for a biarc, whose sub-arc takes its angles from its points).
+    start_trim_rad: Option<f64>,
 }
 
 /// The path built so far: limits and geometry of every element, in order.
@@ -585,6 +588,7 @@ impl PathBuilder {
             block_end: false,
             start_trim: 0.0,
             start_at: None,
+            start_trim_rad: None,
         };
         match self.pending.take() {
             Some(prev) => {
@@ -592,6 +596,7 @@ impl PathBuilder {
                 if let Some(b) = blend {
                     next.start_trim = b.start_trim_next;
                     next.start_at = b.next_start_at;
+                    next.start_trim_rad = b.next_start_trim_rad;
                 }
                 self.emit(&prev, blend, false);
             }
@@ -696,10 +701,13 @@ impl PathBuilder {
                         radius: f.radius,
                         sweep: f.sweep,
                     },
+                    sweep_cos_sin: Some((f.cos_sweep, f.sin_sweep)),
                     end_trim_prev: f.line_trim,
                     start_trim_next: f.arc_trim,
                     prev_end_at: None,
                     next_start_at: Some(f.p_arc),
+                    prev_end_trim_rad: None,
+                    next_start_trim_rad: Some(f.arc_trim_rad),
                 })
             }
             (Geom::Arc(arc), Geom::Line { start, .. }) => {
@@ -717,7 +725,7 @@ impl PathBuilder {
                 // backwards the fillet runs from the line with e2' = −b.dir; forwards
                 // it starts at the arc point with the opposite of its end tangent there
                 let e1_back = (f.p_line - f.center) * (1.0 / f.radius);
-                let t_back = -b.dir * f.sweep.cos() - e1_back * f.sweep.sin();
+                let t_back = -b.dir * f.cos_sweep - e1_back * f.sin_sweep;
                 Some(Blend {
                     geom2: None,
                     geom: Geom::Blend {
@@ -727,10 +735,13 @@ impl PathBuilder {
                         radius: f.radius,
                         sweep: f.sweep,
                     },
+                    sweep_cos_sin: Some((f.cos_sweep, f.sin_sweep)),
                     end_trim_prev: f.arc_trim,
                     start_trim_next: f.line_trim,
                     prev_end_at: Some(f.p_arc),
                     next_start_at: None,
+                    prev_end_trim_rad: Some(f.arc_trim_rad),
+                    next_start_trim_rad: None,
                 })
             }
             (Geom::Arc(arc_a), Geom::Arc(arc_b)) => {
@@ -754,10 +765,16 @@ impl PathBuilder {
                         radius: f.radius,
                         sweep: f.sweep,
                     },
+                    // (e2 is the first arc's tangent, not quite the construction's u)
+                    sweep_cos_sin: None,
                     end_trim_prev: f.line_trim,
                     start_trim_next: f.arc_trim,
                     prev_end_at: Some(f.p_line),
                     next_start_at: Some(f.p_arc),
+                    // the first arc's point d before its end: `Primitive::point_at`'s
+                    // angle there, sweep·d/length
+                    prev_end_trim_rad: Some(prim_sweep(&arc_a).abs() * f.line_trim / a.len),
+                    next_start_trim_rad: Some(f.arc_trim_rad),
                 })
             }
             _ => None,
@@ -818,10 +835,13 @@ impl PathBuilder {
         Some(Blend {
             geom: piece(&f.arcs[0]),
             geom2: Some(piece(&f.arcs[1])),
+            sweep_cos_sin: None,
             end_trim_prev: f.trim_before,
             start_trim_next: f.trim_after,
             prev_end_at: on_arc(&a.geom, f.p_before),
             next_start_at: on_arc(&b.geom, f.p_after),
+            prev_end_trim_rad: None,
+            next_start_trim_rad: None,
         })
     }
 
@@ -945,10 +965,13 @@ impl PathBuilder {
         Some(Blend {
             geom: blend,
             geom2: None,
+            sweep_cos_sin: None,
             end_trim_prev: d,
             start_trim_next: d,
             prev_end_at: None,
             next_start_at: None,
+            prev_end_trim_rad: None,
+            next_start_trim_rad: None,
         })
     }
 
@@ -998,7 +1021,20 @@ impl PathBuilder {
                         let at_to = blend
                             .and_then(|b| b.prev_end_at)
                             .unwrap_or_else(|| prim.point_at(to));
-                        let sub = if prim_sweep(&prim).abs() < std::f64::consts::TAU {
+                        // the angles the fillets took at either end (0 where none)
+                        let start_rad = if p.start_trim == 0.0 {
+                            Some(0.0)
+                        } else {
+                            p.start_trim_rad
+                        };
+                        let end_rad = if end_trim == 0.0 {
+                            Some(0.0)
+                        } else {
+                            blend.and_then(|b| b.prev_end_trim_rad)
+                        };
+                        let sub = if let (Some(s_rad), Some(e_rad)) = (start_rad, end_rad) {
+                            sub_arc_by_angles(&prim, at_from, at_to, s_rad, e_rad)
+                        } else if prim_sweep(&prim).abs() < std::f64::consts::TAU {
                             sub_arc(&prim, at_from, at_to)
                         } else {
                             // a helix of a turn or more, trimmed by biarcs only
@@ -1013,7 +1049,8 @@ impl PathBuilder {
         let pushed = match blend {
             Some(b) => {
                 let pushed = self.push_element(p, &geom, &shape, 0.0, false);
-                for g in std::iter::once(b.geom).chain(b.geom2) {
+                let trig = [b.sweep_cos_sin, None];
+                for (g, trig) in std::iter::once(b.geom).chain(b.geom2).zip(trig) {
                     if let Geom::Blend {
                         e1,
                         e2,
@@ -1022,7 +1059,12 @@ impl PathBuilder {
                         ..
                     } = g
                     {
-                        let shape = ElementShape::blend(e1, e2, radius, sweep);
+                        let shape = match trig {
+                            Some((cos_s, sin_s)) => {
+                                ElementShape::blend_trig(e1, e2, radius, sweep, cos_s, sin_s)
+                            }
+                            None => ElementShape::blend(e1, e2, radius, sweep),
+                        };
                         self.push_element(p, &g, &shape, 0.0, false);
                     }
                 }
@@ -1140,6 +1182,9 @@ struct Blend {
     geom: Geom,
     /// The second arc of a biarc blend ([`fillet::biarc`]), run after `geom`.
     geom2: Option<Geom>,
+    /// cos and sin of `geom`'s sweep where the construction gave them (fillets):
+    /// its shape then needs no trigonometry.
+    sweep_cos_sin: Option<(f64, f64)>,
     /// Arc length taken from the end of the move before the corner (mm).
     end_trim_prev: f64,
     /// Arc length taken from the start of the move after it (mm).
@@ -1148,6 +1193,11 @@ struct Blend {
     prev_end_at: Option<Vec3>,
     /// Where the blend meets the move after it, if that is an arc.
     next_start_at: Option<Vec3>,
+    /// The angle about the centre the blend takes from the end of the arc before it,
+    /// where a fillet gave it (rad): the sub-arc's angles then need no `atan2`.
+    prev_end_trim_rad: Option<f64>,
+    /// The angle the blend takes from the start of the arc after it (rad).
+    next_start_trim_rad: Option<f64>,
 }
 
 /// The stretch of a planar arc of at most one revolution between its points `from`
@@ -1164,6 +1214,47 @@ fn sub_arc(prim: &Primitive, from: Vec3, to: Vec3) -> Primitive {
     };
     let turns = if sweep > 0.0 { 1 } else { -1 };
     Primitive::arc(from, to, center, plane, turns)
+}
+
+/// The stretch of a planar arc of at most one revolution (fillets take only those,
+/// [`fillet::ArcView::of`]) that leaves `start_rad` of its sweep at its start and
+/// `end_rad` at its end to fillets, between their touch points `from` and `to`, as an
+/// arc of its own: [`sub_arc`] with the angles the fillets gave instead of two
+/// `atan2`s of the points. Its radius is the programmed start radius, which `from`
+/// lies on (the fillet's touch point, or the arc's start); `to` lies on the circle
+/// through the arc's end, so a rounded end radius still runs as a spiral between the
+/// two.
+fn sub_arc_by_angles(
+    prim: &Primitive,
+    from: Vec3,
+    to: Vec3,
+    start_rad: f64,
+    end_rad: f64,
+) -> Primitive {
+    let Primitive::Arc {
+        center,
+        plane,
+        radius,
+        start_angle,
+        sweep,
+        ..
+    } = *prim
+    else {
+        return *prim;
+    };
+    let sign = sweep.signum();
+    let mut c = center;
+    c[plane.axes().2] = from[plane.axes().2];
+    Primitive::Arc {
+        start: from,
+        center: c,
+        plane,
+        radius,
+        start_angle: start_angle + sign * start_rad,
+        sweep: sweep - sign * (start_rad + end_rad),
+        normal_travel: 0.0,
+        end: to,
+    }
 }
 
 /// The signed sweep of an arc (0 for a line).
@@ -1615,6 +1706,67 @@ impl CapDilator {
     pub(crate) fn finish(mut self, out: &mut impl FnMut(&Segment, &Geom)) {
         while !self.held.is_empty() {
             self.emit_front(out);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use softnc_core::Plane;
+
+    /// `sub_arc_by_angles` (the fillets' angles) gives the stretch `sub_arc` (two
+    /// `atan2`s of the touch points) gives: same start angle, sweep and points, for
+    /// both directions, in all three planes, trimmed at one end or both.
+    #[test]
+    fn sub_arc_by_angles_is_sub_arc() {
+        for plane in [Plane::XY, Plane::XZ, Plane::YZ] {
+            let (a, b, n) = plane.axes();
+            for turns in [1, -1] {
+                let (radius, th0, th1) = (2.5f64, 0.3f64, 2.9f64);
+                let at = |th: f64| {
+                    let mut p = Vec3::ZERO;
+                    p[a] = 1.0 + radius * th.cos();
+                    p[b] = -2.0 + radius * th.sin();
+                    p[n] = 0.7;
+                    p
+                };
+                let mut c = Vec3::ZERO;
+                c[a] = 1.0;
+                c[b] = -2.0;
+                let (start, end) = if turns > 0 {
+                    (at(th0), at(th1))
+                } else {
+                    (at(th1), at(th0))
+                };
+                let prim = Primitive::arc(start, end, c, plane, turns);
+                let sweep = prim_sweep(&prim);
+                for (s_rad, e_rad) in [(0.4, 0.0), (0.0, 0.7), (0.25, 0.5)] {
+                    let sign = sweep.signum();
+                    let prim_angle = |th: f64| match prim {
+                        Primitive::Arc { start_angle, .. } => start_angle + sign * th,
+                        _ => unreachable!(),
+                    };
+                    let from = at(prim_angle(s_rad));
+                    let to = at(prim_angle(sweep.abs() - e_rad));
+                    let want = sub_arc(&prim, from, to);
+                    let got = sub_arc_by_angles(&prim, from, to, s_rad, e_rad);
+                    let (Primitive::Arc { sweep: ws, .. }, Primitive::Arc { sweep: gs, .. }) =
+                        (want, got)
+                    else {
+                        unreachable!()
+                    };
+                    assert!((ws - gs).abs() < 1e-12, "{plane:?} {turns}: {ws} vs {gs}");
+                    assert!((want.length() - got.length()).abs() < 1e-12);
+                    for k in 0..=10 {
+                        let s = want.length() * k as f64 / 10.0;
+                        let d = (want.point_at(s) - got.point_at(s)).norm();
+                        assert!(d < 1e-12, "{plane:?} {turns} at {s}: {d}");
+                    }
+                    assert_eq!(got.start(), from);
+                    assert_eq!(got.end(), to);
+                }
+            }
         }
     }
 }

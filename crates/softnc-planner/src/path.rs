@@ -282,6 +282,36 @@ impl ElementShape {
         // √(t_i² + n_i²) = √(e1_i² + e2_i²) all along the arc
         let wa = [0, 1, 2].map(|i| e1[i].hypot(e2[i]).min(1.0));
         let (cos_s, sin_s) = (sweep.cos(), sweep.sin());
+        Self::blend_with(e1, e2, radius, sweep, cos_s, sin_s, wa)
+    }
+
+    /// A blend arc whose construction gave the cosine and sine of its sweep (the
+    /// fillets of `crate::fillet`): [`ElementShape::blend`] without trigonometry, and
+    /// √(e1_i² + e2_i²) as a square root rather than `hypot` (unit vectors: no
+    /// overflow to guard against).
+    pub fn blend_trig(
+        e1: Vec3,
+        e2: Vec3,
+        radius: f64,
+        sweep: f64,
+        cos_s: f64,
+        sin_s: f64,
+    ) -> ElementShape {
+        let wa = [0, 1, 2].map(|i| (e1[i] * e1[i] + e2[i] * e2[i]).sqrt().min(1.0));
+        Self::blend_with(e1, e2, radius, sweep, cos_s, sin_s, wa)
+    }
+
+    /// The shape of a blend arc from its sweep's cosine and sine and its
+    /// acceleration weights √(e1_i² + e2_i²).
+    fn blend_with(
+        e1: Vec3,
+        e2: Vec3,
+        radius: f64,
+        sweep: f64,
+        cos_s: f64,
+        sin_s: f64,
+        wa: [f64; 3],
+    ) -> ElementShape {
         let end_tangent = e2 * cos_s - e1 * sin_s;
         let end_radial = e1 * cos_s + e2 * sin_s;
         // |t_i| reaches its amplitude √(e1_i² + e2_i²) only where the radial component
@@ -537,6 +567,46 @@ mod tests {
                         shape.end_tangent
                     );
                 }
+            }
+        }
+    }
+
+    /// `blend_trig` (the fillets' shape from the construction's cos and sin) is
+    /// `blend`'s shape: same tangents and weights, in and out of the coordinate
+    /// planes, short and long sweeps.
+    #[test]
+    fn blend_trig_is_blend() {
+        let cases = [
+            (Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0), 0.3, 1.2),
+            (
+                Vec3::new(0.0, -1.0, 0.0),
+                Vec3::new(1.0, 0.0, 0.0),
+                2.0,
+                3.0,
+            ),
+            (
+                Vec3::new(0.6, 0.0, 0.8),
+                Vec3::new(0.0, 1.0, 0.0),
+                0.01,
+                0.05,
+            ),
+            (
+                Vec3::new(0.48, 0.6, 0.64),
+                Vec3::new(-0.8, 0.6, 0.0),
+                5.0,
+                2.5,
+            ),
+        ];
+        for (e1, e2, radius, sweep) in cases {
+            let e2 = (e2 - e1 * e1.dot(e2)).unit();
+            let a = ElementShape::blend(e1, e2, radius, sweep);
+            let b = ElementShape::blend_trig(e1, e2, radius, sweep, sweep.cos(), sweep.sin());
+            assert_eq!(a.len, b.len);
+            assert_eq!(a.curvature, b.curvature);
+            assert!((a.end_tangent - b.end_tangent).norm() < 1e-15);
+            for i in 0..3 {
+                assert!((a.vel_weight[i] - b.vel_weight[i]).abs() < 1e-15, "{i}");
+                assert!((a.acc_weight[i] - b.acc_weight[i]).abs() < 1e-15, "{i}");
             }
         }
     }
