@@ -63,6 +63,8 @@ enum Op {
     Check(usize),
     /// Pop two, push `left op right` (error at `at`).
     Bin(BinOp, usize),
+    /// `Num(right)` then `Bin(op, at)` in one step: the top becomes `top op right`.
+    BinNum(BinOp, f64, usize),
     /// Apply a function to the top (error at `at`).
     Func(Func, usize),
     /// Pop two, push `atan2` in degrees.
@@ -103,12 +105,14 @@ pub fn compile(b: &[u8], i: usize, kind: Kind) -> Option<Code> {
             c.ops.push(Op::Integer(at));
         }
     }
+    let ops = fold(c.ops);
     // the stack the steps need
     let (mut height, mut most) = (0usize, 0usize);
-    for op in &c.ops {
+    for op in &ops {
         match op {
             Op::Num(_) | Op::Param(_) | Op::Named { .. } => height += 1,
             Op::Bin(..) | Op::Atan => height -= 1,
+            Op::BinNum(..) => {}
             _ => {}
         }
         most = most.max(height);
@@ -117,11 +121,51 @@ pub fn compile(b: &[u8], i: usize, kind: Kind) -> Option<Code> {
         return None;
     }
     Some(Code {
-        ops: c.ops,
+        ops,
         slots: vec![std::cell::Cell::new(NO_SLOT); c.names.len()],
         names: c.names,
         end: c.i,
     })
+}
+
+/// The steps `ops` with the work that needs no parameter done once, here: a check
+/// of a finite constant (it cannot fail) or of a value just checked is dropped, an
+/// operation or function of constants that succeeds becomes its result (the same
+/// function on the same values: the same bits), and a constant right operand is
+/// taken by its operation ([`Op::BinNum`]). Steps that can fail stay where they are,
+/// so errors come at the same step with the same offset.
+fn fold(ops: Vec<Op>) -> Vec<Op> {
+    let mut out: Vec<Op> = Vec::with_capacity(ops.len());
+    for op in ops {
+        match (op, out.as_slice()) {
+            (Op::Check(_), [.., Op::Num(v)]) if v.is_finite() => {}
+            (Op::Check(_), [.., Op::Check(_)]) => {}
+            (Op::Neg, [.., Op::Num(v)]) => {
+                let v = -*v;
+                out.pop();
+                out.push(Op::Num(v));
+            }
+            (Op::Func(f, at), [.., Op::Num(v)]) => match f.apply(*v) {
+                Ok(r) => {
+                    out.pop();
+                    out.push(Op::Num(r));
+                }
+                Err(_) => out.push(Op::Func(f, at)),
+            },
+            (Op::Bin(op, at), [.., Op::Num(a), Op::Num(b)]) if op.apply(*a, *b).is_ok() => {
+                let r = op.apply(*a, *b).unwrap_or_default();
+                out.truncate(out.len() - 2);
+                out.push(Op::Num(r));
+            }
+            (Op::Bin(op, at), [.., Op::Num(b)]) => {
+                let b = *b;
+                out.pop();
+                out.push(Op::BinNum(op, b, at));
+            }
+            (op, _) => out.push(op),
+        }
+    }
+    out
 }
 
 struct Compiler<'a> {
@@ -372,53 +416,28 @@ fn bad<T>(at: usize, msg: impl Into<String>) -> R<T> {
 /// Evaluate `code` with the parameters of `env`: the value, or the error the text
 /// reader gives for the same line and parameters.
 pub fn eval<E: Env + ?Sized>(code: &Code, env: &E) -> R<f64> {
+    // `compile` bounds the height by STACK, a power of two: masking the index
+    // keeps it in the array without a bounds check
+    const MASK: usize = STACK - 1;
     let mut stack = [0.0f64; STACK];
     let mut n = 0usize;
+    macro_rules! top {
+        () => {
+            stack[n.wrapping_sub(1) & MASK]
+        };
+    }
     for op in &code.ops {
         match *op {
             Op::Num(v) => {
-                stack[n] = v;
+                stack[n & MASK] = v;
                 n += 1;
             }
             Op::Param(k) => {
-                stack[n] = env.numbered(k);
+                stack[n & MASK] = env.numbered(k);
                 n += 1;
-            }
-            Op::ParamAt { at, iat } => {
-                let v = stack[n - 1];
-                let index = to_integer(v).ok_or_else(|| {
-                    (
-                        iat,
-                        ErrorKind::Invalid("Non integer value for integer".into()),
-                    )
-                })?;
-                if !(1..NUM_PARAMS as i32).contains(&index) {
-                    return bad(at, "Parameter number out of range");
-                }
-                stack[n - 1] = env.numbered(index as usize);
-            }
-            Op::ExistsAt { iat } => {
-                let v = stack[n - 1];
-                let index = to_integer(v).ok_or_else(|| {
-                    (
-                        iat,
-                        ErrorKind::Invalid("Non integer value for integer".into()),
-                    )
-                })?;
-                stack[n - 1] = if (1..NUM_PARAMS as i32).contains(&index) {
-                    1.0
-                } else {
-                    0.0
-                };
             }
             Op::Named { at, name, exists } => {
                 let slot = &code.slots[name];
-                let name = &code.names[name];
-                if slot.get() == NO_SLOT {
-                    if let Some(k) = env.named_slot(name) {
-                        slot.set(k);
-                    }
-                }
                 // by slot where it is set in its scope (the same value the name
                 // gives), by name otherwise (predefined, unset, …)
                 let by_slot = match slot.get() {
@@ -427,9 +446,9 @@ pub fn eval<E: Env + ?Sized>(code: &Code, env: &E) -> R<f64> {
                 };
                 let found = match by_slot {
                     Some(v) => Some(v),
-                    None => env.named(name).map_err(|k| (at, k))?,
+                    None => named(code, name, at, env)?,
                 };
-                stack[n] = match (exists, found) {
+                stack[n & MASK] = match (exists, found) {
                     (true, f) => {
                         if f.is_some() {
                             1.0
@@ -440,47 +459,108 @@ pub fn eval<E: Env + ?Sized>(code: &Code, env: &E) -> R<f64> {
                     (false, Some(v)) => v,
                     (false, None) if env.defining_sub() => 0.0,
                     (false, None) => {
-                        return bad(at, format!("Named parameter #<{name}> not defined"))
+                        return bad(
+                            at,
+                            format!("Named parameter #<{}> not defined", code.names[name]),
+                        )
                     }
                 };
                 n += 1;
             }
-            Op::Neg => stack[n - 1] = -stack[n - 1],
-            Op::Check(start) => {
-                let v = stack[n - 1];
-                if v.is_nan() {
-                    return bad(start, "Calculation resulted in 'not a number'");
-                }
-                if v.is_infinite() {
-                    return bad(start, "Calculation resulted in 'infinity'");
-                }
+            Op::BinNum(op, right, at) => {
+                let left = top!();
+                top!() = match op {
+                    BinOp::Plus => left + right,
+                    BinOp::Minus => left - right,
+                    BinOp::Times => left * right,
+                    BinOp::Lt => f64::from(u8::from(left < right)),
+                    _ => op.apply(left, right).or_else(|m| bad(at, m))?,
+                };
             }
             Op::Bin(op, at) => {
-                let v = op
-                    .apply(stack[n - 2], stack[n - 1])
-                    .or_else(|m| bad(at, m))?;
+                let right = top!();
                 n -= 1;
-                stack[n - 1] = v;
+                let left = top!();
+                top!() = match op {
+                    BinOp::Plus => left + right,
+                    BinOp::Minus => left - right,
+                    BinOp::Times => left * right,
+                    _ => op.apply(left, right).or_else(|m| bad(at, m))?,
+                };
             }
-            Op::Func(f, at) => stack[n - 1] = f.apply(stack[n - 1]).or_else(|m| bad(at, m))?,
+            Op::Check(start) => {
+                let v = top!();
+                if !v.is_finite() {
+                    let what = if v.is_nan() {
+                        "not a number"
+                    } else {
+                        "infinity"
+                    };
+                    return bad(start, format!("Calculation resulted in '{what}'"));
+                }
+            }
+            Op::Neg => top!() = -top!(),
+            Op::ParamAt { at, iat } => {
+                let index = to_integer(top!()).ok_or_else(|| {
+                    (
+                        iat,
+                        ErrorKind::Invalid("Non integer value for integer".into()),
+                    )
+                })?;
+                if !(1..NUM_PARAMS as i32).contains(&index) {
+                    return bad(at, "Parameter number out of range");
+                }
+                top!() = env.numbered(index as usize);
+            }
+            Op::ExistsAt { iat } => {
+                let index = to_integer(top!()).ok_or_else(|| {
+                    (
+                        iat,
+                        ErrorKind::Invalid("Non integer value for integer".into()),
+                    )
+                })?;
+                top!() = if (1..NUM_PARAMS as i32).contains(&index) {
+                    1.0
+                } else {
+                    0.0
+                };
+            }
+            Op::Func(f, at) => top!() = f.apply(top!()).or_else(|m| bad(at, m))?,
             Op::Atan => {
-                let v = crate::x87::rad_to_deg(stack[n - 2].atan2(stack[n - 1]));
+                let right = top!();
                 n -= 1;
-                stack[n - 1] = v;
+                top!() = crate::x87::rad_to_deg(top!().atan2(right));
             }
             Op::Integer(at) => {
-                let v = stack[n - 1];
-                let k = to_integer(v).ok_or_else(|| {
+                let k = to_integer(top!()).ok_or_else(|| {
                     (
                         at,
                         ErrorKind::Invalid("Non integer value for integer".into()),
                     )
                 })?;
-                stack[n - 1] = f64::from(k);
+                top!() = f64::from(k);
             }
         }
     }
     Ok(stack[0])
+}
+
+/// A named parameter read by its name (no slot yet, or unset in its slot's scope):
+/// the name's slot is remembered once it has one.
+#[cold]
+#[inline(never)]
+fn named<E: Env + ?Sized>(code: &Code, name: usize, at: usize, env: &E) -> R<Option<f64>> {
+    let slot = &code.slots[name];
+    let name = &code.names[name];
+    if slot.get() == NO_SLOT {
+        if let Some(k) = env.named_slot(name) {
+            slot.set(k);
+            if let Some(v) = env.slot_value(k) {
+                return Ok(Some(v));
+            }
+        }
+    }
+    env.named(name).map_err(|k| (at, k))
 }
 
 #[cfg(test)]
@@ -578,6 +658,37 @@ mod tests {
         let code = compile(&b, 0, Kind::Integer).unwrap();
         assert_eq!(by_code(&code, &e), by_text(&b, Kind::Integer, &e));
         assert!(by_code(&code, &e).is_err());
+    }
+
+    #[test]
+    fn constants_fold_and_failing_steps_stay() {
+        let e = env();
+        // SIN[30] * 2 and the checks of constants are done once, at compile time
+        let b = norm("[#1 * 0.5 + SIN[30] * 2]");
+        let code = compile(&b, 0, Kind::Real).unwrap();
+        assert!(
+            matches!(
+                code.ops[..],
+                [
+                    Op::Param(1),
+                    Op::Check(_),
+                    Op::BinNum(BinOp::Times, ..),
+                    Op::BinNum(BinOp::Plus, ..),
+                    Op::Check(_)
+                ]
+            ),
+            "{:?}",
+            code.ops
+        );
+        assert_eq!(by_code(&code, &e), by_text(&b, Kind::Real, &e));
+        // a division by a constant zero, an infinite constant: still errors, where
+        // the text reader gives them
+        for s in ["[1 / 0]", "[#1 / [2 - 2]]", "[10 ** 400]", "[-SQRT[-1]]"] {
+            let b = norm(s);
+            let code = compile(&b, 0, Kind::Real).unwrap();
+            assert!(by_code(&code, &e).is_err(), "{s}");
+            assert_eq!(by_code(&code, &e), by_text(&b, Kind::Real, &e), "{s}");
+        }
     }
 
     #[test]
