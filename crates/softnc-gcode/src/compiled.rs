@@ -87,6 +87,81 @@ pub struct Code {
     pub end: usize,
 }
 
+/// A kept line compiled whole ([`crate::expr::Norm::plan`]): LinuxCNC's
+/// `read_items` takes a line's items in order (`read_one_item`); the items of a
+/// line of words, parameter settings and comments are fixed by its text, so they
+/// are found once and only their values are evaluated on later passes.
+#[derive(Debug, Clone, Default)]
+pub enum Plan {
+    /// Not read whole yet.
+    #[default]
+    Unread,
+    /// Read from its text on every pass (a value that does not compile, an item
+    /// other than a word, a setting or a comment).
+    Text,
+    /// The items, in the order of the line.
+    Items(Vec<Item>),
+    /// An O-line with a label of fixed text and nothing after its values.
+    O(OPlan),
+}
+
+/// A kept O-line compiled whole ([`Plan::O`]).
+#[derive(Debug, Clone)]
+pub struct OPlan {
+    /// What it does (its keyword).
+    pub(crate) kind: crate::interp::ngc::OKind,
+    /// Its label as read (a local label is qualified on each pass, by the
+    /// subroutine it runs in).
+    pub(crate) label: std::rc::Rc<str>,
+    /// The normalized offset of the label.
+    pub(crate) label_at: usize,
+    /// The raw offset of the `o`.
+    pub(crate) at: u32,
+    /// Its condition, repeat count or return value, where it has one.
+    pub(crate) value: Option<Code>,
+    /// A call's arguments, in order.
+    pub(crate) args: Vec<Code>,
+}
+
+/// One item of a line compiled whole ([`Plan`]).
+#[derive(Debug, Clone)]
+pub enum Item {
+    /// A word.
+    Word {
+        /// Its letter, upper case.
+        letter: u8,
+        /// Its value.
+        code: Code,
+        /// The raw offset of its letter.
+        offset: u32,
+    },
+    /// `#<name>=value`.
+    Named {
+        /// The name.
+        name: std::rc::Rc<str>,
+        /// The value.
+        code: Code,
+        /// The normalized offset of the `#`.
+        at: usize,
+    },
+    /// `#index=value`.
+    Numbered {
+        /// The index (read as an integer).
+        index: Code,
+        /// The value.
+        code: Code,
+        /// The normalized offset of the `#`.
+        at: usize,
+    },
+    /// A comment.
+    Comment {
+        /// The raw offsets of its text, start and end.
+        text: (u32, u32),
+        /// The raw offset of its `(`.
+        offset: u32,
+    },
+}
+
 /// Compile the value of kind `kind` at `b[i]`; `None` where the text does not read
 /// without a syntax error (or nests deeper than this compiler takes).
 pub fn compile(b: &[u8], i: usize, kind: Kind) -> Option<Code> {
@@ -152,7 +227,7 @@ fn fold(ops: Vec<Op>) -> Vec<Op> {
                 }
                 Err(_) => out.push(Op::Func(f, at)),
             },
-            (Op::Bin(op, at), [.., Op::Num(a), Op::Num(b)]) if op.apply(*a, *b).is_ok() => {
+            (Op::Bin(op, _), [.., Op::Num(a), Op::Num(b)]) if op.apply(*a, *b).is_ok() => {
                 let r = op.apply(*a, *b).unwrap_or_default();
                 out.truncate(out.len() - 2);
                 out.push(Op::Num(r));

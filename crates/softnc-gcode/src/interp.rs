@@ -9,7 +9,7 @@
 //! converted to mm.
 
 mod modal;
-mod ngc;
+pub(crate) mod ngc;
 mod offsets;
 
 use crate::canon::{Motion, MotionKind, PathMode, Program};
