@@ -71,6 +71,20 @@ enum Op {
     Atan,
     /// Refuse a top that is no integer (`read_integer_value`, value at `at`).
     Integer(usize),
+    /// `Param(index)` then `Check(start)`.
+    ParamC(usize, usize),
+    /// `Named` (not `exists`) then `Check(start)`.
+    NamedC {
+        at: usize,
+        name: usize,
+        start: usize,
+    },
+    /// `Bin(op, at)` then `Check(start)`.
+    BinC(BinOp, usize, usize),
+    /// `BinNum(op, right, at)` then `Check(start)`.
+    BinNumC(BinOp, f64, usize, usize),
+    /// `Func(f, at)` then `Check(start)`.
+    FuncC(Func, usize, usize),
 }
 
 /// A compiled value.
@@ -185,9 +199,11 @@ pub fn compile(b: &[u8], i: usize, kind: Kind) -> Option<Code> {
     let (mut height, mut most) = (0usize, 0usize);
     for op in &ops {
         match op {
-            Op::Num(_) | Op::Param(_) | Op::Named { .. } => height += 1,
-            Op::Bin(..) | Op::Atan => height -= 1,
-            Op::BinNum(..) => {}
+            Op::Num(_) | Op::Param(_) | Op::Named { .. } | Op::ParamC(..) | Op::NamedC { .. } => {
+                height += 1
+            }
+            Op::Bin(..) | Op::BinC(..) | Op::Atan => height -= 1,
+            Op::BinNum(..) | Op::BinNumC(..) | Op::FuncC(..) => {}
             _ => {}
         }
         most = most.max(height);
@@ -207,14 +223,31 @@ pub fn compile(b: &[u8], i: usize, kind: Kind) -> Option<Code> {
 /// of a finite constant (it cannot fail) or of a value just checked is dropped, an
 /// operation or function of constants that succeeds becomes its result (the same
 /// function on the same values: the same bits), and a constant right operand is
-/// taken by its operation ([`Op::BinNum`]). Steps that can fail stay where they are,
-/// so errors come at the same step with the same offset.
+/// taken by its operation ([`Op::BinNum`]); a check is done by the step before it
+/// (`Op::ParamC`, …: one step fewer to dispatch). Steps that can fail stay where
+/// they are, so errors come at the same step with the same offset.
 fn fold(ops: Vec<Op>) -> Vec<Op> {
     let mut out: Vec<Op> = Vec::with_capacity(ops.len());
     for op in ops {
         match (op, out.as_slice()) {
             (Op::Check(_), [.., Op::Num(v)]) if v.is_finite() => {}
-            (Op::Check(_), [.., Op::Check(_)]) => {}
+            // checked already (a check leaves the top as it is); whether a
+            // parameter exists is 0 or 1
+            (
+                Op::Check(_),
+                [.., Op::Check(_)
+                | Op::ParamC(..)
+                | Op::NamedC { .. }
+                | Op::BinC(..)
+                | Op::BinNumC(..)
+                | Op::FuncC(..)
+                | Op::Named { exists: true, .. }],
+            ) => {}
+            (Op::Check(start), [.., last]) if checked(last, start).is_some() => {
+                let fused = checked(last, start).unwrap_or(Op::Check(start));
+                out.pop();
+                out.push(fused);
+            }
             (Op::Neg, [.., Op::Num(v)]) => {
                 let v = -*v;
                 out.pop();
@@ -241,6 +274,22 @@ fn fold(ops: Vec<Op>) -> Vec<Op> {
         }
     }
     out
+}
+
+/// Step `last` followed by `Check(start)` as one step, where there is one.
+fn checked(last: &Op, start: usize) -> Option<Op> {
+    Some(match *last {
+        Op::Param(k) => Op::ParamC(k, start),
+        Op::Named {
+            at,
+            name,
+            exists: false,
+        } => Op::NamedC { at, name, start },
+        Op::Bin(op, at) => Op::BinC(op, at, start),
+        Op::BinNum(op, right, at) => Op::BinNumC(op, right, at, start),
+        Op::Func(f, at) => Op::FuncC(f, at, start),
+        _ => return None,
+    })
 }
 
 struct Compiler<'a> {
@@ -511,68 +560,37 @@ pub fn eval<E: Env + ?Sized>(code: &Code, env: &E) -> R<f64> {
                 stack[n & MASK] = env.numbered(k);
                 n += 1;
             }
-            Op::Named { at, name, exists } => {
-                let slot = &code.slots[name];
-                // by slot where it is set in its scope (the same value the name
-                // gives), by name otherwise (predefined, unset, …)
-                let by_slot = match slot.get() {
-                    NO_SLOT => None,
-                    k => env.slot_value(k),
-                };
-                let found = match by_slot {
-                    Some(v) => Some(v),
-                    None => named(code, name, at, env)?,
-                };
-                stack[n & MASK] = match (exists, found) {
-                    (true, f) => {
-                        if f.is_some() {
-                            1.0
-                        } else {
-                            0.0
-                        }
-                    }
-                    (false, Some(v)) => v,
-                    (false, None) if env.defining_sub() => 0.0,
-                    (false, None) => {
-                        return bad(
-                            at,
-                            format!("Named parameter #<{}> not defined", code.names[name]),
-                        )
-                    }
-                };
+            Op::ParamC(k, start) => {
+                stack[n & MASK] = check(env.numbered(k), start)?;
                 n += 1;
             }
-            Op::BinNum(op, right, at) => {
-                let left = top!();
-                top!() = match op {
-                    BinOp::Plus => left + right,
-                    BinOp::Minus => left - right,
-                    BinOp::Times => left * right,
-                    BinOp::Lt => f64::from(u8::from(left < right)),
-                    _ => op.apply(left, right).or_else(|m| bad(at, m))?,
-                };
+            Op::NamedC { at, name, start } => {
+                stack[n & MASK] = check(named_value(code, name, at, false, env)?, start)?;
+                n += 1;
+            }
+            Op::Named { at, name, exists } => {
+                stack[n & MASK] = named_value(code, name, at, exists, env)?;
+                n += 1;
+            }
+            Op::BinNum(op, right, at) => top!() = bin(op, top!(), right, at)?,
+            Op::BinNumC(op, right, at, start) => {
+                top!() = check(bin(op, top!(), right, at)?, start)?;
             }
             Op::Bin(op, at) => {
                 let right = top!();
                 n -= 1;
-                let left = top!();
-                top!() = match op {
-                    BinOp::Plus => left + right,
-                    BinOp::Minus => left - right,
-                    BinOp::Times => left * right,
-                    _ => op.apply(left, right).or_else(|m| bad(at, m))?,
-                };
+                top!() = bin(op, top!(), right, at)?;
+            }
+            Op::BinC(op, at, start) => {
+                let right = top!();
+                n -= 1;
+                top!() = check(bin(op, top!(), right, at)?, start)?;
+            }
+            Op::FuncC(f, at, start) => {
+                top!() = check(f.apply(top!()).or_else(|m| bad(at, m))?, start)?;
             }
             Op::Check(start) => {
-                let v = top!();
-                if !v.is_finite() {
-                    let what = if v.is_nan() {
-                        "not a number"
-                    } else {
-                        "infinity"
-                    };
-                    return bad(start, format!("Calculation resulted in '{what}'"));
-                }
+                check(top!(), start)?;
             }
             Op::Neg => top!() = -top!(),
             Op::ParamAt { at, iat } => {
@@ -618,6 +636,71 @@ pub fn eval<E: Env + ?Sized>(code: &Code, env: &E) -> R<f64> {
         }
     }
     Ok(stack[0])
+}
+
+/// `read_real_value`'s end: `v`, or the error for a value that is not a number or
+/// infinite (value at `start`).
+#[inline(always)]
+fn check(v: f64, start: usize) -> R<f64> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        not_finite(v, start)
+    }
+}
+
+/// The error of [`check`].
+#[cold]
+#[inline(never)]
+fn not_finite(v: f64, start: usize) -> R<f64> {
+    let what = if v.is_nan() {
+        "not a number"
+    } else {
+        "infinity"
+    };
+    bad(start, format!("Calculation resulted in '{what}'"))
+}
+
+/// `left op right` (`BinOp::apply`, the commonest operations written out).
+#[inline(always)]
+fn bin(op: BinOp, left: f64, right: f64, at: usize) -> R<f64> {
+    Ok(match op {
+        BinOp::Plus => left + right,
+        BinOp::Minus => left - right,
+        BinOp::Times => left * right,
+        BinOp::Lt => f64::from(u8::from(left < right)),
+        _ => op.apply(left, right).or_else(|m| bad(at, m))?,
+    })
+}
+
+/// Named parameter `code.names[name]` (`#` at `at`), or whether it exists: by
+/// slot where it is set in its scope (the same value the name gives), by name
+/// otherwise (predefined, unset, …).
+#[inline(always)]
+fn named_value<E: Env + ?Sized>(
+    code: &Code,
+    name: usize,
+    at: usize,
+    exists: bool,
+    env: &E,
+) -> R<f64> {
+    let by_slot = match code.slots[name].get() {
+        NO_SLOT => None,
+        k => env.slot_value(k),
+    };
+    let found = match by_slot {
+        Some(v) => Some(v),
+        None => named(code, name, at, env)?,
+    };
+    match (exists, found) {
+        (true, f) => Ok(if f.is_some() { 1.0 } else { 0.0 }),
+        (false, Some(v)) => Ok(v),
+        (false, None) if env.defining_sub() => Ok(0.0),
+        (false, None) => bad(
+            at,
+            format!("Named parameter #<{}> not defined", code.names[name]),
+        ),
+    }
 }
 
 /// A named parameter read by its name (no slot yet, or unset in its slot's scope):
@@ -745,11 +828,9 @@ mod tests {
             matches!(
                 code.ops[..],
                 [
-                    Op::Param(1),
-                    Op::Check(_),
+                    Op::ParamC(1, _),
                     Op::BinNum(BinOp::Times, ..),
-                    Op::BinNum(BinOp::Plus, ..),
-                    Op::Check(_)
+                    Op::BinNumC(BinOp::Plus, ..)
                 ]
             ),
             "{:?}",
