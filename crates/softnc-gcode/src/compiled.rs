@@ -135,6 +135,9 @@ pub struct OPlan {
     pub(crate) value: Option<Code>,
     /// A call's arguments, in order.
     pub(crate) args: Vec<Code>,
+    /// A local label: its qualified name in the subroutine it ran in last (the
+    /// key of that subroutine's name, 0 for the main program).
+    pub(crate) qualified: std::cell::RefCell<Option<(u64, std::rc::Rc<str>)>>,
 }
 
 /// One item of a line compiled whole ([`Plan`]).

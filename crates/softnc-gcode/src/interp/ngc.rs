@@ -446,6 +446,7 @@ impl Interp<'_> {
 
     /// `read_items` on a normalized line (`Norm`), for a line the fast lexer
     /// hands over.
+    #[inline(always)]
     pub(super) fn read_norm(
         &self,
         norm: &Norm,
@@ -477,14 +478,31 @@ impl Interp<'_> {
     /// [`Self::read_o`] for a kept O-line compiled whole (not skipping, no
     /// definition being skipped): its label and keyword as read before, its values
     /// evaluated, with the same checks and errors.
+    #[inline(never)]
     fn run_o(&self, norm: &Norm, p: &OPlan) -> R<OLine> {
         let re = |(k, e): (usize, ErrorKind)| (norm.raw(k), e);
         let ctl = &self.ctl;
         let name = if p.kind.global() {
             p.label.clone()
         } else {
-            let sub: &str = ctl.frames.last().map_or("", |f| &f.sub_name);
-            self.qualified(norm, p.label_at, sub, &p.label)
+            // qualified by the subroutine it runs in, kept for the last one (by its
+            // interned name's address, as labels are found; 0: the main program)
+            let sub = ctl.frames.last().map(|f| &f.sub_name);
+            let key = sub.map_or(0, label_key);
+            let last = p
+                .qualified
+                .borrow()
+                .as_ref()
+                .filter(|(k, _)| *k == key)
+                .map(|(_, q)| q.clone());
+            match last {
+                Some(q) => q,
+                None => {
+                    let q = self.qualified(norm, p.label_at, sub.map_or("", |s| s), &p.label);
+                    *p.qualified.borrow_mut() = Some((key, q.clone()));
+                    q
+                }
+            }
         };
         let mut o = OLine {
             kind: p.kind,
@@ -739,6 +757,7 @@ impl Interp<'_> {
 
     /// [`Self::read_items_slow`] for a kept line compiled whole: its items in
     /// order, with the same values, side effects and errors as read from its text.
+    #[inline(never)]
     fn run_items(
         &self,
         norm: &Norm,
@@ -1041,6 +1060,7 @@ impl Interp<'_> {
             if let (Some(value), Some(args)) = (value, args) {
                 let label = norm.o_head.borrow().as_ref().map(|h| h.0.clone());
                 *norm.plan.borrow_mut() = Plan::O(OPlan {
+                    qualified: Default::default(),
                     kind,
                     label: label.unwrap_or_else(|| o.name.clone()),
                     label_at,
