@@ -63,12 +63,28 @@ enum Op {
     Check(usize),
     /// Pop two, push `left op right` (error at `at`).
     Bin(BinOp, usize),
+    /// `Num(right)` then `Bin(op, at)` in one step: the top becomes `top op right`.
+    BinNum(BinOp, f64, usize),
     /// Apply a function to the top (error at `at`).
     Func(Func, usize),
     /// Pop two, push `atan2` in degrees.
     Atan,
     /// Refuse a top that is no integer (`read_integer_value`, value at `at`).
     Integer(usize),
+    /// `Param(index)` then `Check(start)`.
+    ParamC(usize, usize),
+    /// `Named` (not `exists`) then `Check(start)`.
+    NamedC {
+        at: usize,
+        name: usize,
+        start: usize,
+    },
+    /// `Bin(op, at)` then `Check(start)`.
+    BinC(BinOp, usize, usize),
+    /// `BinNum(op, right, at)` then `Check(start)`.
+    BinNumC(BinOp, f64, usize, usize),
+    /// `Func(f, at)` then `Check(start)`.
+    FuncC(Func, usize, usize),
 }
 
 /// A compiled value.
@@ -83,6 +99,84 @@ pub struct Code {
     slots: Vec<std::cell::Cell<u32>>,
     /// Offset just after the value in the normalized line.
     pub end: usize,
+}
+
+/// A kept line compiled whole ([`crate::expr::Norm::plan`]): LinuxCNC's
+/// `read_items` takes a line's items in order (`read_one_item`); the items of a
+/// line of words, parameter settings and comments are fixed by its text, so they
+/// are found once and only their values are evaluated on later passes.
+#[derive(Debug, Clone, Default)]
+pub enum Plan {
+    /// Not read whole yet.
+    #[default]
+    Unread,
+    /// Read from its text on every pass (a value that does not compile, an item
+    /// other than a word, a setting or a comment).
+    Text,
+    /// The items, in the order of the line.
+    Items(Vec<Item>),
+    /// An O-line with a label of fixed text and nothing after its values.
+    O(OPlan),
+}
+
+/// A kept O-line compiled whole ([`Plan::O`]).
+#[derive(Debug, Clone)]
+pub struct OPlan {
+    /// What it does (its keyword).
+    pub(crate) kind: crate::interp::ngc::OKind,
+    /// Its label as read (a local label is qualified on each pass, by the
+    /// subroutine it runs in).
+    pub(crate) label: std::rc::Rc<str>,
+    /// The normalized offset of the label.
+    pub(crate) label_at: usize,
+    /// The raw offset of the `o`.
+    pub(crate) at: u32,
+    /// Its condition, repeat count or return value, where it has one.
+    pub(crate) value: Option<Code>,
+    /// A call's arguments, in order.
+    pub(crate) args: Vec<Code>,
+    /// A local label: its qualified name in the subroutine it ran in last (the
+    /// key of that subroutine's name, 0 for the main program).
+    pub(crate) qualified: std::cell::RefCell<Option<(u64, std::rc::Rc<str>)>>,
+}
+
+/// One item of a line compiled whole ([`Plan`]).
+#[derive(Debug, Clone)]
+pub enum Item {
+    /// A word.
+    Word {
+        /// Its letter, upper case.
+        letter: u8,
+        /// Its value.
+        code: Code,
+        /// The raw offset of its letter.
+        offset: u32,
+    },
+    /// `#<name>=value`.
+    Named {
+        /// The name.
+        name: std::rc::Rc<str>,
+        /// The value.
+        code: Code,
+        /// The normalized offset of the `#`.
+        at: usize,
+    },
+    /// `#index=value`.
+    Numbered {
+        /// The index (read as an integer).
+        index: Code,
+        /// The value.
+        code: Code,
+        /// The normalized offset of the `#`.
+        at: usize,
+    },
+    /// A comment.
+    Comment {
+        /// The raw offsets of its text, start and end.
+        text: (u32, u32),
+        /// The raw offset of its `(`.
+        offset: u32,
+    },
 }
 
 /// Compile the value of kind `kind` at `b[i]`; `None` where the text does not read
@@ -103,12 +197,16 @@ pub fn compile(b: &[u8], i: usize, kind: Kind) -> Option<Code> {
             c.ops.push(Op::Integer(at));
         }
     }
+    let ops = fold(c.ops);
     // the stack the steps need
     let (mut height, mut most) = (0usize, 0usize);
-    for op in &c.ops {
+    for op in &ops {
         match op {
-            Op::Num(_) | Op::Param(_) | Op::Named { .. } => height += 1,
-            Op::Bin(..) | Op::Atan => height -= 1,
+            Op::Num(_) | Op::Param(_) | Op::Named { .. } | Op::ParamC(..) | Op::NamedC { .. } => {
+                height += 1
+            }
+            Op::Bin(..) | Op::BinC(..) | Op::Atan => height -= 1,
+            Op::BinNum(..) | Op::BinNumC(..) | Op::FuncC(..) => {}
             _ => {}
         }
         most = most.max(height);
@@ -117,10 +215,83 @@ pub fn compile(b: &[u8], i: usize, kind: Kind) -> Option<Code> {
         return None;
     }
     Some(Code {
-        ops: c.ops,
+        ops,
         slots: vec![std::cell::Cell::new(NO_SLOT); c.names.len()],
         names: c.names,
         end: c.i,
+    })
+}
+
+/// The steps `ops` with the work that needs no parameter done once, here: a check
+/// of a finite constant (it cannot fail) or of a value just checked is dropped, an
+/// operation or function of constants that succeeds becomes its result (the same
+/// function on the same values: the same bits), and a constant right operand is
+/// taken by its operation ([`Op::BinNum`]); a check is done by the step before it
+/// (`Op::ParamC`, …: one step fewer to dispatch). Steps that can fail stay where
+/// they are, so errors come at the same step with the same offset.
+fn fold(ops: Vec<Op>) -> Vec<Op> {
+    let mut out: Vec<Op> = Vec::with_capacity(ops.len());
+    for op in ops {
+        match (op, out.as_slice()) {
+            (Op::Check(_), [.., Op::Num(v)]) if v.is_finite() => {}
+            // checked already (a check leaves the top as it is); whether a
+            // parameter exists is 0 or 1
+            (
+                Op::Check(_),
+                [.., Op::Check(_)
+                | Op::ParamC(..)
+                | Op::NamedC { .. }
+                | Op::BinC(..)
+                | Op::BinNumC(..)
+                | Op::FuncC(..)
+                | Op::Named { exists: true, .. }],
+            ) => {}
+            (Op::Check(start), [.., last]) if checked(last, start).is_some() => {
+                let fused = checked(last, start).unwrap_or(Op::Check(start));
+                out.pop();
+                out.push(fused);
+            }
+            (Op::Neg, [.., Op::Num(v)]) => {
+                let v = -*v;
+                out.pop();
+                out.push(Op::Num(v));
+            }
+            (Op::Func(f, at), [.., Op::Num(v)]) => match f.apply(*v) {
+                Ok(r) => {
+                    out.pop();
+                    out.push(Op::Num(r));
+                }
+                Err(_) => out.push(Op::Func(f, at)),
+            },
+            (Op::Bin(op, _), [.., Op::Num(a), Op::Num(b)]) if op.apply(*a, *b).is_ok() => {
+                let r = op.apply(*a, *b).unwrap_or_default();
+                out.truncate(out.len() - 2);
+                out.push(Op::Num(r));
+            }
+            (Op::Bin(op, at), [.., Op::Num(b)]) => {
+                let b = *b;
+                out.pop();
+                out.push(Op::BinNum(op, b, at));
+            }
+            (op, _) => out.push(op),
+        }
+    }
+    out
+}
+
+/// Step `last` followed by `Check(start)` as one step, where there is one.
+fn checked(last: &Op, start: usize) -> Option<Op> {
+    Some(match *last {
+        Op::Param(k) => Op::ParamC(k, start),
+        Op::Named {
+            at,
+            name,
+            exists: false,
+        } => Op::NamedC { at, name, start },
+        Op::Bin(op, at) => Op::BinC(op, at, start),
+        Op::BinNum(op, right, at) => Op::BinNumC(op, right, at, start),
+        Op::Func(f, at) => Op::FuncC(f, at, start),
+        _ => return None,
     })
 }
 
@@ -372,21 +543,61 @@ fn bad<T>(at: usize, msg: impl Into<String>) -> R<T> {
 /// Evaluate `code` with the parameters of `env`: the value, or the error the text
 /// reader gives for the same line and parameters.
 pub fn eval<E: Env + ?Sized>(code: &Code, env: &E) -> R<f64> {
+    // `compile` bounds the height by STACK, a power of two: masking the index
+    // keeps it in the array without a bounds check
+    const MASK: usize = STACK - 1;
     let mut stack = [0.0f64; STACK];
     let mut n = 0usize;
+    macro_rules! top {
+        () => {
+            stack[n.wrapping_sub(1) & MASK]
+        };
+    }
     for op in &code.ops {
         match *op {
             Op::Num(v) => {
-                stack[n] = v;
+                stack[n & MASK] = v;
                 n += 1;
             }
             Op::Param(k) => {
-                stack[n] = env.numbered(k);
+                stack[n & MASK] = env.numbered(k);
                 n += 1;
             }
+            Op::ParamC(k, start) => {
+                stack[n & MASK] = check(env.numbered(k), start)?;
+                n += 1;
+            }
+            Op::NamedC { at, name, start } => {
+                stack[n & MASK] = check(named_value(code, name, at, false, env)?, start)?;
+                n += 1;
+            }
+            Op::Named { at, name, exists } => {
+                stack[n & MASK] = named_value(code, name, at, exists, env)?;
+                n += 1;
+            }
+            Op::BinNum(op, right, at) => top!() = bin(op, top!(), right, at)?,
+            Op::BinNumC(op, right, at, start) => {
+                top!() = check(bin(op, top!(), right, at)?, start)?;
+            }
+            Op::Bin(op, at) => {
+                let right = top!();
+                n -= 1;
+                top!() = bin(op, top!(), right, at)?;
+            }
+            Op::BinC(op, at, start) => {
+                let right = top!();
+                n -= 1;
+                top!() = check(bin(op, top!(), right, at)?, start)?;
+            }
+            Op::FuncC(f, at, start) => {
+                top!() = check(f.apply(top!()).or_else(|m| bad(at, m))?, start)?;
+            }
+            Op::Check(start) => {
+                check(top!(), start)?;
+            }
+            Op::Neg => top!() = -top!(),
             Op::ParamAt { at, iat } => {
-                let v = stack[n - 1];
-                let index = to_integer(v).ok_or_else(|| {
+                let index = to_integer(top!()).ok_or_else(|| {
                     (
                         iat,
                         ErrorKind::Invalid("Non integer value for integer".into()),
@@ -395,92 +606,122 @@ pub fn eval<E: Env + ?Sized>(code: &Code, env: &E) -> R<f64> {
                 if !(1..NUM_PARAMS as i32).contains(&index) {
                     return bad(at, "Parameter number out of range");
                 }
-                stack[n - 1] = env.numbered(index as usize);
+                top!() = env.numbered(index as usize);
             }
             Op::ExistsAt { iat } => {
-                let v = stack[n - 1];
-                let index = to_integer(v).ok_or_else(|| {
+                let index = to_integer(top!()).ok_or_else(|| {
                     (
                         iat,
                         ErrorKind::Invalid("Non integer value for integer".into()),
                     )
                 })?;
-                stack[n - 1] = if (1..NUM_PARAMS as i32).contains(&index) {
+                top!() = if (1..NUM_PARAMS as i32).contains(&index) {
                     1.0
                 } else {
                     0.0
                 };
             }
-            Op::Named { at, name, exists } => {
-                let slot = &code.slots[name];
-                let name = &code.names[name];
-                if slot.get() == NO_SLOT {
-                    if let Some(k) = env.named_slot(name) {
-                        slot.set(k);
-                    }
-                }
-                // by slot where it is set in its scope (the same value the name
-                // gives), by name otherwise (predefined, unset, …)
-                let by_slot = match slot.get() {
-                    NO_SLOT => None,
-                    k => env.slot_value(k),
-                };
-                let found = match by_slot {
-                    Some(v) => Some(v),
-                    None => env.named(name).map_err(|k| (at, k))?,
-                };
-                stack[n] = match (exists, found) {
-                    (true, f) => {
-                        if f.is_some() {
-                            1.0
-                        } else {
-                            0.0
-                        }
-                    }
-                    (false, Some(v)) => v,
-                    (false, None) if env.defining_sub() => 0.0,
-                    (false, None) => {
-                        return bad(at, format!("Named parameter #<{name}> not defined"))
-                    }
-                };
-                n += 1;
-            }
-            Op::Neg => stack[n - 1] = -stack[n - 1],
-            Op::Check(start) => {
-                let v = stack[n - 1];
-                if v.is_nan() {
-                    return bad(start, "Calculation resulted in 'not a number'");
-                }
-                if v.is_infinite() {
-                    return bad(start, "Calculation resulted in 'infinity'");
-                }
-            }
-            Op::Bin(op, at) => {
-                let v = op
-                    .apply(stack[n - 2], stack[n - 1])
-                    .or_else(|m| bad(at, m))?;
-                n -= 1;
-                stack[n - 1] = v;
-            }
-            Op::Func(f, at) => stack[n - 1] = f.apply(stack[n - 1]).or_else(|m| bad(at, m))?,
+            Op::Func(f, at) => top!() = f.apply(top!()).or_else(|m| bad(at, m))?,
             Op::Atan => {
-                let v = crate::x87::rad_to_deg(stack[n - 2].atan2(stack[n - 1]));
+                let right = top!();
                 n -= 1;
-                stack[n - 1] = v;
+                top!() = crate::x87::rad_to_deg(top!().atan2(right));
             }
             Op::Integer(at) => {
-                let v = stack[n - 1];
-                let k = to_integer(v).ok_or_else(|| {
+                let k = to_integer(top!()).ok_or_else(|| {
                     (
                         at,
                         ErrorKind::Invalid("Non integer value for integer".into()),
                     )
                 })?;
-                stack[n - 1] = f64::from(k);
+                top!() = f64::from(k);
             }
         }
     }
     Ok(stack[0])
+}
+
+/// `read_real_value`'s end: `v`, or the error for a value that is not a number or
+/// infinite (value at `start`).
+#[inline(always)]
+fn check(v: f64, start: usize) -> R<f64> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        not_finite(v, start)
+    }
+}
+
+/// The error of [`check`].
+#[cold]
+#[inline(never)]
+fn not_finite(v: f64, start: usize) -> R<f64> {
+    let what = if v.is_nan() {
+        "not a number"
+    } else {
+        "infinity"
+    };
+    bad(start, format!("Calculation resulted in '{what}'"))
+}
+
+/// `left op right` (`BinOp::apply`, the commonest operations written out).
+#[inline(always)]
+fn bin(op: BinOp, left: f64, right: f64, at: usize) -> R<f64> {
+    Ok(match op {
+        BinOp::Plus => left + right,
+        BinOp::Minus => left - right,
+        BinOp::Times => left * right,
+        BinOp::Lt => f64::from(u8::from(left < right)),
+        _ => op.apply(left, right).or_else(|m| bad(at, m))?,
+    })
+}
+
+/// Named parameter `code.names[name]` (`#` at `at`), or whether it exists: by
+/// slot where it is set in its scope (the same value the name gives), by name
+/// otherwise (predefined, unset, …).
+#[inline(always)]
+fn named_value<E: Env + ?Sized>(
+    code: &Code,
+    name: usize,
+    at: usize,
+    exists: bool,
+    env: &E,
+) -> R<f64> {
+    let by_slot = match code.slots[name].get() {
+        NO_SLOT => None,
+        k => env.slot_value(k),
+    };
+    let found = match by_slot {
+        Some(v) => Some(v),
+        None => named(code, name, at, env)?,
+    };
+    match (exists, found) {
+        (true, f) => Ok(if f.is_some() { 1.0 } else { 0.0 }),
+        (false, Some(v)) => Ok(v),
+        (false, None) if env.defining_sub() => Ok(0.0),
+        (false, None) => bad(
+            at,
+            format!("Named parameter #<{}> not defined", code.names[name]),
+        ),
+    }
+}
+
+/// A named parameter read by its name (no slot yet, or unset in its slot's scope):
+/// the name's slot is remembered once it has one.
+#[cold]
+#[inline(never)]
+fn named<E: Env + ?Sized>(code: &Code, name: usize, at: usize, env: &E) -> R<Option<f64>> {
+    let slot = &code.slots[name];
+    let name = &code.names[name];
+    if slot.get() == NO_SLOT {
+        if let Some(k) = env.named_slot(name) {
+            slot.set(k);
+            if let Some(v) = env.slot_value(k) {
+                return Ok(Some(v));
+            }
+        }
+    }
+    env.named(name).map_err(|k| (at, k))
 }
 
 #[cfg(test)]
@@ -578,6 +819,35 @@ mod tests {
         let code = compile(&b, 0, Kind::Integer).unwrap();
         assert_eq!(by_code(&code, &e), by_text(&b, Kind::Integer, &e));
         assert!(by_code(&code, &e).is_err());
+    }
+
+    #[test]
+    fn constants_fold_and_failing_steps_stay() {
+        let e = env();
+        // SIN[30] * 2 and the checks of constants are done once, at compile time
+        let b = norm("[#1 * 0.5 + SIN[30] * 2]");
+        let code = compile(&b, 0, Kind::Real).unwrap();
+        assert!(
+            matches!(
+                code.ops[..],
+                [
+                    Op::ParamC(1, _),
+                    Op::BinNum(BinOp::Times, ..),
+                    Op::BinNumC(BinOp::Plus, ..)
+                ]
+            ),
+            "{:?}",
+            code.ops
+        );
+        assert_eq!(by_code(&code, &e), by_text(&b, Kind::Real, &e));
+        // a division by a constant zero, an infinite constant: still errors, where
+        // the text reader gives them
+        for s in ["[1 / 0]", "[#1 / [2 - 2]]", "[10 ** 400]", "[-SQRT[-1]]"] {
+            let b = norm(s);
+            let code = compile(&b, 0, Kind::Real).unwrap();
+            assert!(by_code(&code, &e).is_err(), "{s}");
+            assert_eq!(by_code(&code, &e), by_text(&b, Kind::Real, &e), "{s}");
+        }
     }
 
     #[test]

@@ -63,6 +63,10 @@ pub struct Norm {
     /// reader's table (`None`: no keyword) — all fixed by the text, so later
     /// passes neither look the label up nor compare keywords again.
     pub o_head: std::cell::RefCell<Option<OHead>>,
+    /// For a kept line of words, assignments and comments: its items compiled
+    /// whole the first time it reads without error, so that later passes
+    /// evaluate them in order without walking the text again.
+    pub plan: std::cell::RefCell<crate::compiled::Plan>,
 }
 
 impl Norm {
@@ -78,6 +82,7 @@ impl Norm {
         self.qualified.get_mut().clear();
         self.slots.get_mut().clear();
         *self.o_head.get_mut() = None;
+        *self.plan.get_mut() = crate::compiled::Plan::Unread;
         self.b.reserve(raw.len());
         self.at.reserve(raw.len() + 1);
         let mut in_comment = false;

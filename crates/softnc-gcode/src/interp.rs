@@ -9,7 +9,7 @@
 //! converted to mm.
 
 mod modal;
-mod ngc;
+pub(crate) mod ngc;
 mod offsets;
 
 use crate::canon::{Motion, MotionKind, PathMode, Program};
@@ -236,6 +236,23 @@ struct Block {
     q_number: f64,
     motion_to_be: Option<i32>,
 }
+
+/// The letters of [`Block::val_set`] that a step of `Interp::execute` before the
+/// motion reads, the feed rate aside (S, T; H for G43): a block without them, any
+/// M code or any G code but its motion's takes the short way.
+const NOT_MOTION_ONLY: u32 = letter_bit(b'S') | letter_bit(b'T') | letter_bit(b'H');
+
+/// The letters `check_other_codes` tests (Q: `q_number` is set only with it).
+const OTHER_CODES: u32 = letter_bit(b'D')
+    | letter_bit(b'E')
+    | letter_bit(b'H')
+    | letter_bit(b'I')
+    | letter_bit(b'J')
+    | letter_bit(b'K')
+    | letter_bit(b'L')
+    | letter_bit(b'P')
+    | letter_bit(b'Q')
+    | letter_bit(b'R');
 
 /// The bit of letter `l` in [`Block::val_set`].
 const fn letter_bit(l: u8) -> u32 {
@@ -758,7 +775,11 @@ impl<'a> Interp<'a> {
                 "Too many m codes on line",
             );
         }
-        // check_other_codes (what the supported codes could use)
+        // check_other_codes (what the supported codes could use): each test asks
+        // for one of these letters
+        if b.val_set & OTHER_CODES == 0 {
+            return Ok(());
+        }
         if b.has(b'D') {
             return bad(
                 b.off(b'D'),
@@ -892,6 +913,22 @@ impl<'a> Interp<'a> {
         }
         if b.is_empty() {
             // nothing below acts without a word (every step asks for one)
+            return Ok(false);
+        }
+        if b.m_set == 0 && b.g_set & !(1 << GM_MOTION) == 0 && b.val_set & NOT_MOTION_ONLY == 0 {
+            // a motion line (no M code, no G code but the motion's, no S, T or H):
+            // of the steps below only the feed rate and the motion act
+            if let Some(f) = b.get(b'F') {
+                if !self.inverse_time {
+                    self.feed = f;
+                }
+            }
+            match b.motion_to_be {
+                Some(G_80) => self.motion = None,
+                Some(m @ (G_0 | G_1)) => self.straight(line_no, m, b)?,
+                Some(m @ (G_2 | G_3)) => self.arc(line_no, m, b)?,
+                _ => {}
+            }
             return Ok(false);
         }
         // feed mode, feed rate

@@ -152,21 +152,44 @@ pub fn rad_to_deg(r: f64) -> f64 {
 /// addition theorem (a huge argument, whose rest is large in absolute terms).
 fn sin_cos(x: f64) -> (f64, f64) {
     // programs take SIN and COS of the same angle, often more than once on a line
-    // (`X[#r * COS[#a]] Y[#r * SIN[#a]]`): the last angle's pair is kept
+    // (`X[#r * COS[#a]] Y[#r * SIN[#a]]`), and loops come back to the same angles
+    // (a circle of holes, a pattern repeated): the pairs of the last angles are
+    // kept, two in each set of entries their bits pick, the newer first (a pure
+    // function: the same bits)
     thread_local! {
-        static LAST: std::cell::Cell<Option<(u64, (f64, f64))>> =
-            const { std::cell::Cell::new(None) };
+        static KEPT: std::cell::RefCell<[[Option<KeptSinCos>; 2]; SIN_COS_SETS]> =
+            const { std::cell::RefCell::new([[None; 2]; SIN_COS_SETS]) };
     }
     let bits = x.to_bits();
-    if let Some((last, pair)) = LAST.get() {
-        if last == bits {
-            return pair;
+    // the high bits folded down first: whole-number angles differ there alone
+    let folded = bits ^ (bits >> 32);
+    let set = (folded.wrapping_mul(SIN_COS_HASH) >> (64 - SIN_COS_SETS.trailing_zeros())) as usize;
+    KEPT.with_borrow_mut(|kept| {
+        let set = &mut kept[set];
+        match *set {
+            [Some((k, pair)), _] if k == bits => pair,
+            [newer, Some((k, pair))] if k == bits => {
+                *set = [Some((k, pair)), newer];
+                pair
+            }
+            [newer, _] => {
+                let pair = sin_cos_uncached(x);
+                *set = [Some((bits, pair)), newer];
+                pair
+            }
         }
-    }
-    let pair = sin_cos_uncached(x);
-    LAST.set(Some((bits, pair)));
-    pair
+    })
 }
+
+/// An angle's bits with its sine and cosine ([`sin_cos`]).
+type KeptSinCos = (u64, (f64, f64));
+
+/// Sets of two angles whose sine and cosine are kept ([`sin_cos`]); a power of
+/// two.
+const SIN_COS_SETS: usize = 128;
+
+/// 2^64 / φ, odd: an angle's (folded) bits times it, top bits, pick its set.
+const SIN_COS_HASH: u64 = 0x9e37_79b9_7f4a_7c15;
 
 /// [`sin_cos`] computed.
 fn sin_cos_uncached(x: f64) -> (f64, f64) {
@@ -305,6 +328,21 @@ mod tests {
                 (mant as f64, want.to_bits()),
                 "{mant:#x}"
             );
+        }
+    }
+
+    #[test]
+    fn many_kept_angles_are_the_computed_ones() {
+        // more angles than entries, twice over: entries are replaced, never wrong
+        let angles: Vec<f64> = (0..6 * SIN_COS_SETS)
+            .map(|k| k as f64 * 0.37 - 90.0)
+            .collect();
+        for _ in 0..2 {
+            for &x in &angles {
+                let want = sin_cos_uncached(x);
+                assert_eq!(sin_deg(x).to_bits(), want.0.to_bits(), "{x}");
+                assert_eq!(cos_deg(x).to_bits(), want.1.to_bits(), "{x}");
+            }
         }
     }
 

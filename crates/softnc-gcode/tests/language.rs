@@ -650,6 +650,46 @@ fn kept_lines_read_again_as_read_once() {
     assert_eq!((e.line, e.column, e.kind), (4, once.column, once.kind));
 }
 
+/// A kept line is compiled whole once read (its words, settings and comments; an
+/// O-line's condition or arguments): later passes evaluate only its values, with
+/// the same values, side effects and errors as its text gives.
+#[test]
+fn lines_compiled_whole_read_as_their_text() {
+    // words, a named and a numbered setting, a comment expanded on every pass
+    let text = "#<k>=3\no1 while [#<k> GT 0]\nG0 X[#<k>*2] Y#2 (PRINT,k=%d#<k>)\n\
+                #<k>=[#<k>-1] #2=[#2+1]\no1 endwhile\nM2\n";
+    assert_eq!(xs(text), vec![6.0, 4.0, 2.0]);
+    let p = read(text);
+    assert_eq!(
+        p.warnings,
+        vec![
+            "t.ngc:3: print: k=3",
+            "t.ngc:3: print: k=2",
+            "t.ngc:3: print: k=1"
+        ]
+    );
+    // a numbered setting whose index leaves the range on the third pass
+    let e = error("#<k>=2\no1 while [#<k> GT -5]\n#<k>=[#<k>-1] #[#<k>]=1\no1 endwhile\nM2\n");
+    let once = error("#<k>=0\n#<k>=[#<k>-1] #[#<k>]=1\nM2\n");
+    assert_eq!((e.line, e.column), (3, once.column));
+    assert_eq!(e.kind.to_string(), "Parameter number out of range");
+    // a condition and a call argument dividing by zero on a later pass
+    let e = error("#<k>=2\no1 while [10/#<k> GT -100]\n#<k>=[#<k>-1]\no1 endwhile\nM2\n");
+    let once = error("#<k>=0\no1 while [10/#<k> GT -100]\no1 endwhile\nM2\n");
+    assert_eq!((e.line, e.column, e.kind), (2, once.column, once.kind));
+    let e = error(
+        "o<s> sub\no<s> endsub\n#<k>=2\no1 while [#<k> GT -1]\no<s> call [1] [10/#<k>]\n\
+         #<k>=[#<k>-1]\no1 endwhile\nM2\n",
+    );
+    let once = error("o<s> sub\no<s> endsub\n#<k>=0\no<s> call [1] [10/#<k>]\nM2\n");
+    assert_eq!((e.line, e.column, e.kind), (5, once.column, once.kind));
+    // a return value and a local label read in the subroutine that runs them
+    let text = "o<s> sub\no1 if [#1 GT 1]\no<s> return [#1*10]\no1 endif\no<s> endsub [#1]\n\
+                #<k>=0\no2 while [#<k> LT 4]\no<s> call [#<k>]\nG0 X#<_value>\n#<k>=[#<k>+1]\n\
+                o2 endwhile\nM2\n";
+    assert_eq!(xs(text), vec![0.0, 1.0, 20.0, 30.0]);
+}
+
 /// Call arguments beyond the first few, up to LinuxCNC's 30, reach `#1`…`#30` (the
 /// missing ones 0, the caller's restored on return); a 31st is refused.
 #[test]

@@ -8,7 +8,7 @@
 //! look only at O-lines, as LinuxCNC does.
 
 use super::{bad, Block, Interp, R};
-use crate::compiled::Kind;
+use crate::compiled::{Code, Item, Kind, OPlan, Plan};
 use crate::error::ErrorKind;
 use crate::expr::{Env, Norm, Reader};
 use crate::lexer::{bad_character, check_comments, significant, Line, Word};
@@ -446,6 +446,7 @@ impl Interp<'_> {
 
     /// `read_items` on a normalized line (`Norm`), for a line the fast lexer
     /// hands over.
+    #[inline(always)]
     pub(super) fn read_norm(
         &self,
         norm: &Norm,
@@ -456,7 +457,88 @@ impl Interp<'_> {
         block.clear();
         line.comment = None;
         self.line_named.borrow_mut().clear();
+        if norm.keep {
+            match &*norm.plan.borrow() {
+                Plan::Items(items) => {
+                    return self
+                        .run_items(norm, items, block, line, sets)
+                        .map(|()| None)
+                }
+                // read from the text while a definition is skipped (that line
+                // reads differently then)
+                Plan::O(o) if !self.ctl.defining_sub && self.ctl.skipping.is_none() => {
+                    return self.run_o(norm, o).map(Some)
+                }
+                _ => {}
+            }
+        }
         self.read_items_slow(norm, block, line, sets)
+    }
+
+    /// [`Self::read_o`] for a kept O-line compiled whole (not skipping, no
+    /// definition being skipped): its label and keyword as read before, its values
+    /// evaluated, with the same checks and errors.
+    #[inline(never)]
+    fn run_o(&self, norm: &Norm, p: &OPlan) -> R<OLine> {
+        let re = |(k, e): (usize, ErrorKind)| (norm.raw(k), e);
+        let ctl = &self.ctl;
+        let name = if p.kind.global() {
+            p.label.clone()
+        } else {
+            // qualified by the subroutine it runs in, kept for the last one (by its
+            // interned name's address, as labels are found; 0: the main program)
+            let sub = ctl.frames.last().map(|f| &f.sub_name);
+            let key = sub.map_or(0, label_key);
+            let last = p
+                .qualified
+                .borrow()
+                .as_ref()
+                .filter(|(k, _)| *k == key)
+                .map(|(_, q)| q.clone());
+            match last {
+                Some(q) => q,
+                None => {
+                    let q = self.qualified(norm, p.label_at, sub.map_or("", |s| s), &p.label);
+                    *p.qualified.borrow_mut() = Some((key, q.clone()));
+                    q
+                }
+            }
+        };
+        let mut o = OLine {
+            kind: p.kind,
+            name,
+            value: None,
+            at: p.at,
+            repeat: None,
+        };
+        match p.kind {
+            OKind::Sub => {
+                if let Some(f) = ctl.frames.last() {
+                    if f.sub_name != o.name {
+                        return bad(
+                            o.at,
+                            format!(
+                                "Nested subroutine definition: 'O{} sub' found inside called subroutine 'O{}'",
+                                o.name, f.sub_name
+                            ),
+                        );
+                    }
+                }
+            }
+            OKind::Call => {
+                let mut args = self.call_args.borrow_mut();
+                args.clear();
+                for code in &p.args {
+                    args.push(crate::compiled::eval(code, self).map_err(re)?);
+                }
+            }
+            _ => {
+                if let Some(code) = &p.value {
+                    o.value = Some(crate::compiled::eval(code, self).map_err(re)?);
+                }
+            }
+        }
+        Ok(o)
     }
 
     /// `read_items` for a line the fast lexer hands over (parameters, expressions,
@@ -524,6 +606,11 @@ impl Interp<'_> {
             let o = self.read_o(norm, &mut i, line)?;
             return Ok(o);
         }
+        // a kept line read whole the first time: its items are recorded (an `M`
+        // first may be M99, which reads as an O-line at a call level: not recorded)
+        let recording =
+            norm.keep && b.get(i) != Some(&b'm') && matches!(*norm.plan.borrow(), Plan::Unread);
+        let mut rec: Option<Vec<Item>> = recording.then(Vec::new);
         while i < b.len() {
             let c = b[i];
             match c {
@@ -537,6 +624,16 @@ impl Interp<'_> {
                         },
                         block,
                     )?;
+                    if rec.is_some() {
+                        record(
+                            &mut rec,
+                            compiled_at(norm, i + 1, Kind::Real).map(|code| Item::Word {
+                                letter: c.to_ascii_uppercase(),
+                                code,
+                                offset: raw(i),
+                            }),
+                        );
+                    }
                     i = next;
                 }
                 b'#' => {
@@ -556,7 +653,8 @@ impl Interp<'_> {
                         if r.at(r.i) != b'=' {
                             return bad(raw(r.i), "Equal sign missing in parameter setting");
                         }
-                        let (v, next) = self.value(norm, r.i + 1, Kind::Real).map_err(re)?;
+                        let next_eq = r.i + 1;
+                        let (v, next) = self.value(norm, next_eq, Kind::Real).map_err(re)?;
                         if name.starts_with('_') && self.predefined(&name).ok().flatten().is_some()
                         {
                             return bad(
@@ -564,10 +662,21 @@ impl Interp<'_> {
                                 format!("Cannot assign to read-only parameter #<{name}>"),
                             );
                         }
+                        if rec.is_some() {
+                            record(
+                                &mut rec,
+                                compiled_at(norm, next_eq, Kind::Real).map(|code| Item::Named {
+                                    name: name.clone(),
+                                    code,
+                                    at,
+                                }),
+                            );
+                        }
                         i = next;
                         let slot = self.assigned_slot(norm, at, &name);
                         sets.push(Setting::Named(name, v, slot));
                     } else {
+                        let index_at = r.i;
                         let (index, next) = self.value(norm, r.i, Kind::Integer).map_err(re)?;
                         r.i = next;
                         let index = index as i32;
@@ -581,6 +690,18 @@ impl Interp<'_> {
                             return bad(raw(r.i), "Equal sign missing in parameter setting");
                         }
                         let (v, next) = self.value(norm, r.i + 1, Kind::Real).map_err(re)?;
+                        if rec.is_some() {
+                            let index = compiled_at(norm, index_at, Kind::Integer);
+                            let code = compiled_at(norm, r.i + 1, Kind::Real);
+                            record(
+                                &mut rec,
+                                index.zip(code).map(|(index, code)| Item::Numbered {
+                                    index,
+                                    code,
+                                    at,
+                                }),
+                            );
+                        }
                         i = next;
                         sets.push(Setting::Numbered(index as usize, v));
                     }
@@ -592,6 +713,15 @@ impl Interp<'_> {
                         .map_or(b.len(), |k| i + k);
                     line.comment = Some((raw(i) + 1, raw(end)));
                     line.comment_offset = raw(i);
+                    if rec.is_some() {
+                        record(
+                            &mut rec,
+                            Some(Item::Comment {
+                                text: (raw(i) + 1, raw(end)),
+                                offset: raw(i),
+                            }),
+                        );
+                    }
                     i = (end + 1).min(b.len());
                 }
                 b';' => break,
@@ -619,7 +749,77 @@ impl Interp<'_> {
                 }
             }
         }
+        if recording {
+            *norm.plan.borrow_mut() = rec.map_or(Plan::Text, Plan::Items);
+        }
         Ok(None)
+    }
+
+    /// [`Self::read_items_slow`] for a kept line compiled whole: its items in
+    /// order, with the same values, side effects and errors as read from its text.
+    #[inline(never)]
+    fn run_items(
+        &self,
+        norm: &Norm,
+        items: &[Item],
+        block: &mut Block,
+        line: &mut Line,
+        sets: &mut Vec<Setting>,
+    ) -> R<()> {
+        let re = |(i, k): (usize, ErrorKind)| (norm.raw(i), k);
+        for item in items {
+            match item {
+                Item::Word {
+                    letter,
+                    code,
+                    offset,
+                } => {
+                    let value = crate::compiled::eval(code, self).map_err(re)?;
+                    self.sort_word_slow(
+                        Word {
+                            letter: *letter,
+                            value,
+                            offset: *offset,
+                        },
+                        block,
+                    )?;
+                }
+                Item::Named { name, code, at } => {
+                    // created (value 0) as soon as its name is read: see
+                    // `read_items_slow`
+                    {
+                        let mut names = self.line_named.borrow_mut();
+                        names.push_str(name);
+                        names.push('>');
+                    }
+                    let v = crate::compiled::eval(code, self).map_err(re)?;
+                    if name.starts_with('_') && self.predefined(name).ok().flatten().is_some() {
+                        return bad(
+                            norm.raw(*at),
+                            format!("Cannot assign to read-only parameter #<{name}>"),
+                        );
+                    }
+                    let slot = self.assigned_slot(norm, *at, name);
+                    sets.push(Setting::Named(name.clone(), v, slot));
+                }
+                Item::Numbered { index, code, at } => {
+                    let index = crate::compiled::eval(index, self).map_err(re)? as i32;
+                    if index < 1 || index as usize >= NUM_PARAMS {
+                        return bad(norm.raw(*at), "Parameter number out of range");
+                    }
+                    if is_readonly(index as usize) {
+                        return bad(norm.raw(*at), "Parameter is readonly");
+                    }
+                    let v = crate::compiled::eval(code, self).map_err(re)?;
+                    sets.push(Setting::Numbered(index as usize, v));
+                }
+                Item::Comment { text, offset } => {
+                    line.comment = Some(*text);
+                    line.comment_offset = *offset;
+                }
+            }
+        }
+        Ok(())
     }
 
     /// `read_o` for `M98 P… [L…]` at `b[i]`: the rest of the line is read as
@@ -756,6 +956,16 @@ impl Interp<'_> {
             repeat: None,
         };
         let skip_other = ctl.skipping.as_ref().is_some_and(|s| *s != o.name);
+        // a kept line with a kept head read whole (not skipping): where its values
+        // are, to keep them compiled with the head (`Plan::O`)
+        let recording = norm.keep
+            && ctl.skipping.is_none()
+            && !ctl.defining_sub
+            && norm.o_head.borrow().is_some()
+            && matches!(*norm.plan.borrow(), Plan::Unread);
+        let mut value_at = None;
+        let mut arg_ats = Vec::new();
+        let mut comment_in_args = false;
         match kind {
             OKind::Sub => {
                 if ctl.defining_sub {
@@ -778,6 +988,7 @@ impl Interp<'_> {
                     return Ok(Some(o));
                 }
                 if b.get(*i) == Some(&b'[') {
+                    value_at = Some(*i);
                     let (v, next) = self.value(norm, *i, Kind::Expression).map_err(re)?;
                     o.value = Some(v);
                     *i = next;
@@ -791,6 +1002,7 @@ impl Interp<'_> {
                 args.clear();
                 while matches!(b.get(*i), Some(b'[' | b'(')) {
                     if b[*i] == b'(' {
+                        comment_in_args = true;
                         let end = b[*i..]
                             .iter()
                             .position(|&x| x == b')')
@@ -802,6 +1014,9 @@ impl Interp<'_> {
                     }
                     if args.len() >= SUB_PARAMS {
                         return bad(norm.raw(*i), "Too many subroutine parameters");
+                    }
+                    if recording {
+                        arg_ats.push(*i);
                     }
                     let (v, next) = self.value(norm, *i, Kind::Expression).map_err(re)?;
                     args.push(v);
@@ -818,6 +1033,7 @@ impl Interp<'_> {
                         format!("Left bracket missing after '{}'", kind.name()),
                     );
                 }
+                value_at = Some(*i);
                 let (v, next) = self.value(norm, *i, Kind::Expression).map_err(re)?;
                 o.value = Some(v);
                 *i = next;
@@ -830,6 +1046,29 @@ impl Interp<'_> {
         }
         if ctl.skipping.is_some() {
             return Ok(Some(o));
+        }
+        if recording && *i == b.len() && !comment_in_args {
+            // nothing after the values: kept whole where they compile
+            let value = match value_at {
+                Some(k) => compiled_at(norm, k, Kind::Expression).map(Some),
+                None => Some(None),
+            };
+            let args: Option<Vec<Code>> = arg_ats
+                .iter()
+                .map(|&k| compiled_at(norm, k, Kind::Expression))
+                .collect();
+            if let (Some(value), Some(args)) = (value, args) {
+                let label = norm.o_head.borrow().as_ref().map(|h| h.0.clone());
+                *norm.plan.borrow_mut() = Plan::O(OPlan {
+                    qualified: Default::default(),
+                    kind,
+                    label: label.unwrap_or_else(|| o.name.clone()),
+                    label_at,
+                    at,
+                    value,
+                    args,
+                });
+            }
         }
         // after the O-word only comments may follow
         while *i < b.len() {
@@ -1244,6 +1483,29 @@ impl Interp<'_> {
             norm.names.borrow_mut().push((i, next, name.clone()));
         }
         Ok((name, next))
+    }
+}
+
+/// The compiled value of kind `kind` at `norm.b[i]` of a kept line, once read
+/// ([`Interp::value`] compiles it): `None` where it does not compile.
+fn compiled_at(norm: &Norm, i: usize, kind: Kind) -> Option<Code> {
+    norm.code
+        .borrow()
+        .iter()
+        .find(|(s, k, _)| *s == i && *k == kind)
+        .and_then(|(_, _, c)| c.clone())
+}
+
+/// Record `item` of a line being compiled whole; `None` (a value that does not
+/// compile) ends the recording: the line is read from its text.
+fn record(rec: &mut Option<Vec<Item>>, item: Option<Item>) {
+    match item {
+        Some(item) => {
+            if let Some(r) = rec {
+                r.push(item);
+            }
+        }
+        None => *rec = None,
     }
 }
 
