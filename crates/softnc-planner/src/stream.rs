@@ -201,11 +201,23 @@ impl<'a> StreamPlanner<'a> {
     ) -> Result<(), PlanError> {
         let index = self.checker.n_motions;
         self.checker.check(m, &prim)?;
+        self.push_checked(index, m, prim, out);
+        Ok(())
+    }
+
+    /// Plan motion number `index`, which a [`Checker`] (this one's or another's)
+    /// has passed.
+    fn push_checked(
+        &mut self,
+        index: usize,
+        m: &Motion,
+        prim: Option<Primitive>,
+        out: &mut impl FnMut(&Segment, &Geom),
+    ) {
         self.builder.push(index, m, prim);
         let settled = &mut self.settled;
         self.builder
             .drain_settled(DRAIN_BATCH, &mut |s, g| settled.take(s, g, out));
-        Ok(())
     }
 
     fn finish(
@@ -217,8 +229,20 @@ impl<'a> StreamPlanner<'a> {
         let StreamPlanner {
             checker,
             builder,
-            mut settled,
+            settled,
         } = self;
+        Self::finish_with(checker, builder, settled, profile, end_params, out)
+    }
+
+    /// [`StreamPlanner::finish`] with the [`Checker`] that passed the motions.
+    fn finish_with(
+        checker: Checker<'a>,
+        builder: PathBuilder,
+        mut settled: Settled,
+        profile: &MachineProfile,
+        end_params: Params,
+        out: &mut impl FnMut(&Segment, &Geom),
+    ) -> CheckedProgram {
         builder.finish_stream(&mut |s, g| settled.take(s, g, out));
         let Figures {
             duration,
@@ -292,16 +316,22 @@ pub fn check_program_parallel(
     use std::sync::mpsc::channel;
     type Chunk = (Vec<Motion>, Vec<Option<Primitive>>);
     let (to_planner, chunks) = sync_channel::<Chunk>(8);
-    let (params_tx, params_rx) = sync_channel::<Params>(1);
+    // the end parameters, and the reader's checker where it checked the motions
+    let (params_tx, params_rx) = sync_channel::<(Params, Option<Checker>)>(1);
     let (recycle, recycled) = channel::<Chunk>();
+    let reader_checks = reader_checks(profile);
     std::thread::scope(|scope| {
         let planner = scope.spawn(move || {
             let mut planner = StreamPlanner::new(profile, options, file);
             let mut refused: Option<PlanError> = None;
+            let mut index = 0;
             for (mut motions, mut prims) in chunks {
                 if refused.is_none() {
                     for (m, prim) in motions.iter().zip(&prims) {
-                        if let Err(e) = planner.push_primitive(m, *prim, &mut |_, _| {}) {
+                        if reader_checks {
+                            planner.push_checked(index, m, *prim, &mut |_, _| {});
+                            index += 1;
+                        } else if let Err(e) = planner.push_primitive(m, *prim, &mut |_, _| {}) {
                             refused = Some(e);
                             break;
                         }
@@ -314,12 +344,29 @@ pub fn check_program_parallel(
             match refused {
                 Some(e) => Err(e),
                 // the reader sends the parameters once it has read the whole program
-                None => {
-                    let end_params = params_rx.recv().unwrap_or_default();
-                    Ok(planner.finish(profile, end_params, &mut |_, _| {}))
-                }
+                None => match params_rx.recv() {
+                    Ok((end_params, Some(checker))) => {
+                        let StreamPlanner {
+                            builder, settled, ..
+                        } = planner;
+                        Ok(StreamPlanner::finish_with(
+                            checker,
+                            builder,
+                            settled,
+                            profile,
+                            end_params,
+                            &mut |_, _| {},
+                        ))
+                    }
+                    Ok((end_params, None)) => {
+                        Ok(planner.finish(profile, end_params, &mut |_, _| {}))
+                    }
+                    Err(_) => Ok(planner.finish(profile, Params::default(), &mut |_, _| {})),
+                },
             }
         });
+        let mut checker = reader_checks.then(|| Checker::new(profile, options, file));
+        let mut refused: Option<PlanError> = None;
         let read = softnc_gcode::read_program_chunked_params(
             text,
             file,
@@ -327,6 +374,9 @@ pub fn check_program_parallel(
             &options.read_options(),
             READ_CHUNK_MOTIONS,
             &mut |chunk: &mut Vec<Motion>| {
+                if refused.is_some() {
+                    return; // refused: the planner's figures are not needed
+                }
                 let (fresh, mut prims) = recycled.try_recv().unwrap_or_else(|_| {
                     (
                         Vec::with_capacity(READ_CHUNK_MOTIONS),
@@ -334,22 +384,44 @@ pub fn check_program_parallel(
                     )
                 });
                 prims.extend(chunk.iter().map(motion_primitive));
+                if let Some(c) = checker.as_mut() {
+                    for (m, prim) in chunk.iter().zip(&prims) {
+                        if let Err(e) = c.check(m, prim) {
+                            refused = Some(e);
+                            return;
+                        }
+                    }
+                }
                 // a planner that stopped early (it cannot) only loses the chunk
                 let _ = to_planner.send((std::mem::replace(chunk, fresh), prims));
             },
         );
+        drop(to_planner);
         let read = read.map(|(program, params)| {
-            let _ = params_tx.send(params); // a planner that refused is gone
+            // a planner that refused is gone
+            let _ = params_tx.send((params, checker.take()));
             program
         });
-        drop(to_planner);
         drop(params_tx);
         let planned = planner
             .join()
             .unwrap_or_else(|e| std::panic::resume_unwind(e));
         let program = read?;
-        Ok((program, planned?))
+        match refused {
+            Some(e) => Err(e.into()),
+            None => Ok((program, planned?)),
+        }
     })
+}
+
+/// Whether [`check_program_parallel`]'s reading thread checks the motions (soft
+/// limits, bounding box, spindle changes: [`Checker::check`]) as well as working out
+/// their primitives. With `arc_blends` the planning thread has about twice the
+/// elements to build and time (a fillet per line–arc join) and is the slower of the
+/// two, so the reader takes the checks over; without, the reader is the slower and
+/// the planner keeps them. The figures and errors are the same either way.
+fn reader_checks(profile: &MachineProfile) -> bool {
+    profile.planner.arc_blends
 }
 
 /// What goes from the producer to the window.

@@ -175,7 +175,17 @@ fn streamed_plan_is_the_whole_plan_on_every_profile() {
 
 #[test]
 fn errors_are_the_whole_plans() {
-    let p = profile(FeedProfile::Trapezoidal);
+    // with arc blends the reading thread of `check_program_parallel` checks the
+    // motions, without them the planning thread does
+    for arc_blends in [false, true] {
+        let mut p = profile(FeedProfile::Trapezoidal);
+        p.planner.arc_blends = arc_blends;
+        errors_are_the_whole_plans_on(&p);
+    }
+}
+
+fn errors_are_the_whole_plans_on(p: &MachineProfile) {
+    let p = p.clone();
     let opts = PlanOptions::default();
     let mut text = String::from("G21 G90\nG0 X-5000\n");
     for i in 0..5000 {
