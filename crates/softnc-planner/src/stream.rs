@@ -24,7 +24,7 @@
 //! a stop: the path brakes within its limits to what it has, never runs past it, and
 //! [`StreamInterpolator::starved`] counts the event so that the daemon can alarm.
 
-use crate::build::{motion_primitive, CapDilator, Limits, PathBuilder, Segment, StopKind};
+use crate::build::{motion_primitive, ArcPrep, CapDilator, Limits, PathBuilder, Segment, StopKind};
 use crate::interp::{Core, SegmentSource, MAX_LOOKAHEAD_SEGMENTS};
 use crate::path::Geom;
 use crate::plan::{
@@ -215,6 +215,24 @@ impl<'a> StreamPlanner<'a> {
         out: &mut impl FnMut(&Segment, &Geom),
     ) {
         self.builder.push(index, m, prim);
+        self.drain(out);
+    }
+
+    /// [`StreamPlanner::push_checked`] with the arc data of `prim` worked out ahead.
+    fn push_prepared(
+        &mut self,
+        index: usize,
+        m: &Motion,
+        prim: Option<Primitive>,
+        prep: Option<ArcPrep>,
+        out: &mut impl FnMut(&Segment, &Geom),
+    ) {
+        self.builder.push_prepared(index, m, prim, prep);
+        self.drain(out);
+    }
+
+    /// Hand the settled elements on.
+    fn drain(&mut self, out: &mut impl FnMut(&Segment, &Geom)) {
         let settled = &mut self.settled;
         self.builder
             .drain_settled(DRAIN_BATCH, &mut |s, g| settled.take(s, g, out));
@@ -314,7 +332,8 @@ pub fn check_program_parallel(
     options: &PlanOptions,
 ) -> Result<(Program, CheckedProgram), ReadPlanError> {
     use std::sync::mpsc::channel;
-    type Chunk = (Vec<Motion>, Vec<Option<Primitive>>);
+    // the motions, their primitives and (where the reader checks) their arc data
+    type Chunk = (Vec<Motion>, Vec<Option<Primitive>>, Vec<Option<ArcPrep>>);
     let (to_planner, chunks) = sync_channel::<Chunk>(8);
     // the end parameters, and the reader's checker where it checked the motions
     let (params_tx, params_rx) = sync_channel::<(Params, Option<Checker>)>(1);
@@ -325,11 +344,11 @@ pub fn check_program_parallel(
             let mut planner = StreamPlanner::new(profile, options, file);
             let mut refused: Option<PlanError> = None;
             let mut index = 0;
-            for (mut motions, mut prims) in chunks {
+            for (mut motions, mut prims, mut preps) in chunks {
                 if refused.is_none() {
-                    for (m, prim) in motions.iter().zip(&prims) {
+                    for (k, (m, prim)) in motions.iter().zip(&prims).enumerate() {
                         if reader_checks {
-                            planner.push_checked(index, m, *prim, &mut |_, _| {});
+                            planner.push_prepared(index, m, *prim, preps[k], &mut |_, _| {});
                             index += 1;
                         } else if let Err(e) = planner.push_primitive(m, *prim, &mut |_, _| {}) {
                             refused = Some(e);
@@ -339,7 +358,8 @@ pub fn check_program_parallel(
                 }
                 motions.clear();
                 prims.clear();
-                let _ = recycle.send((motions, prims)); // the reader may be gone
+                preps.clear();
+                let _ = recycle.send((motions, prims, preps)); // the reader may be gone
             }
             match refused {
                 Some(e) => Err(e),
@@ -377,10 +397,11 @@ pub fn check_program_parallel(
                 if refused.is_some() {
                     return; // refused: the planner's figures are not needed
                 }
-                let (fresh, mut prims) = recycled.try_recv().unwrap_or_else(|_| {
+                let (fresh, mut prims, mut preps) = recycled.try_recv().unwrap_or_else(|_| {
                     (
                         Vec::with_capacity(READ_CHUNK_MOTIONS),
                         Vec::with_capacity(READ_CHUNK_MOTIONS),
+                        Vec::new(),
                     )
                 });
                 prims.extend(chunk.iter().map(motion_primitive));
@@ -391,9 +412,10 @@ pub fn check_program_parallel(
                             return;
                         }
                     }
+                    preps.extend(prims.iter().map(ArcPrep::of));
                 }
                 // a planner that stopped early (it cannot) only loses the chunk
-                let _ = to_planner.send((std::mem::replace(chunk, fresh), prims));
+                let _ = to_planner.send((std::mem::replace(chunk, fresh), prims, preps));
             },
         );
         drop(to_planner);
@@ -416,10 +438,11 @@ pub fn check_program_parallel(
 
 /// Whether [`check_program_parallel`]'s reading thread checks the motions (soft
 /// limits, bounding box, spindle changes: [`Checker::check`]) as well as working out
-/// their primitives. With `arc_blends` the planning thread has about twice the
-/// elements to build and time (a fillet per line–arc join) and is the slower of the
-/// two, so the reader takes the checks over; without, the reader is the slower and
-/// the planner keeps them. The figures and errors are the same either way.
+/// their primitives, and works out the arcs' data for the blends ([`ArcPrep`]).
+/// With `arc_blends` the planning thread has about twice the elements to build and
+/// time (a fillet per line–arc join) and is the slower of the two, so the reader
+/// takes these over; without, the reader is the slower and the planner keeps them.
+/// The figures and errors are the same either way.
 fn reader_checks(profile: &MachineProfile) -> bool {
     profile.planner.arc_blends
 }
