@@ -132,6 +132,10 @@ struct Settled {
 /// What the settled elements add up to.
 struct Figures {
     duration: DurationPass,
+    /// Where the elements are timed on another thread (`check_program_parallel`
+    /// with `arc_blends`): the settled elements not yet handed over, in order, instead
+    /// of `duration`.
+    handoff: Option<Vec<Segment>>,
     elements: usize,
     start_mm: Option<Vec3>,
     path_length_mm: f64,
@@ -140,7 +144,10 @@ struct Figures {
 impl Figures {
     /// A settled element (final limits), on its way to `out`.
     fn take(&mut self, s: &Segment, g: &Geom, out: &mut impl FnMut(&Segment, &Geom)) {
-        self.duration.push(s);
+        match &mut self.handoff {
+            Some(v) => v.push(*s),
+            None => self.duration.push(s),
+        }
         self.elements += 1;
         self.start_mm.get_or_insert_with(|| g.point_at(0.0));
         self.path_length_mm = s.s0 + s.len;
@@ -180,6 +187,7 @@ impl<'a> StreamPlanner<'a> {
                 dilator: (lim.profile == FeedProfile::SCurve).then(|| CapDilator::new(&lim)),
                 fin: Figures {
                     duration: DurationPass::new(&lim),
+                    handoff: None,
                     elements: 0,
                     start_mm: None,
                     path_length_mm: 0.0,
@@ -267,6 +275,7 @@ impl<'a> StreamPlanner<'a> {
             elements,
             start_mm,
             path_length_mm,
+            ..
         } = settled.finish(out);
         let lim = Limits::from_profile(profile);
         let (stats, brake_dist_mm) = checker.figures(&lim, path_length_mm, duration.finish());
@@ -321,7 +330,11 @@ pub fn check_program(
 
 /// [`check_program`] on two threads: the calling thread reads and works out each
 /// motion's programmed primitive, a second one checks and plans the motions chunk by
-/// chunk as they come (the same figures and errors).
+/// chunk as they come (the same figures and errors). With `arc_blends`, whose fillets
+/// make the planning thread the slower of the two, the reading thread also checks
+/// the motions, works out the arcs' data ([`ArcPrep`]) and times the settled
+/// elements the planner hands back ([`DurationPass`], the same figures bit for bit:
+/// the elements come in order), see [`reader_checks`].
 /// What `softnc plan` needs for its summary: no path is stored, so a long program
 /// costs no memory for one (the page faults of a whole plan's 44 MB were a quarter
 /// of `softnc plan`'s time on the 200,000-line benchmark program).
@@ -336,12 +349,17 @@ pub fn check_program_parallel(
     type Chunk = (Vec<Motion>, Vec<Option<Primitive>>, Vec<Option<ArcPrep>>);
     let (to_planner, chunks) = sync_channel::<Chunk>(8);
     // the end parameters, and the reader's checker where it checked the motions
-    let (params_tx, params_rx) = sync_channel::<(Params, Option<Checker>)>(1);
+    let (params_tx, params_rx) = sync_channel::<Params>(1);
     let (recycle, recycled) = channel::<Chunk>();
+    // with the reader checking: the settled elements, for the reader to time
+    let (timing_tx, timing_rx) = channel::<Vec<Segment>>();
     let reader_checks = reader_checks(profile);
     std::thread::scope(|scope| {
         let planner = scope.spawn(move || {
             let mut planner = StreamPlanner::new(profile, options, file);
+            if reader_checks {
+                planner.settled.fin.handoff = Some(Vec::new());
+            }
             let mut refused: Option<PlanError> = None;
             let mut index = 0;
             for (mut motions, mut prims, mut preps) in chunks {
@@ -360,32 +378,32 @@ pub fn check_program_parallel(
                 prims.clear();
                 preps.clear();
                 let _ = recycle.send((motions, prims, preps)); // the reader may be gone
+                if let Some(v) = planner.settled.fin.handoff.as_mut() {
+                    let batch = std::mem::replace(v, Vec::with_capacity(v.capacity()));
+                    let _ = timing_tx.send(batch);
+                }
+            }
+            if reader_checks {
+                // the reader finishes the figures, with its checker and timing
+                return Ok(Planned::Unfinished(Box::new(planner)));
             }
             match refused {
                 Some(e) => Err(e),
                 // the reader sends the parameters once it has read the whole program
-                None => match params_rx.recv() {
-                    Ok((end_params, Some(checker))) => {
-                        let StreamPlanner {
-                            builder, settled, ..
-                        } = planner;
-                        Ok(StreamPlanner::finish_with(
-                            checker,
-                            builder,
-                            settled,
-                            profile,
-                            end_params,
-                            &mut |_, _| {},
-                        ))
-                    }
-                    Ok((end_params, None)) => {
-                        Ok(planner.finish(profile, end_params, &mut |_, _| {}))
-                    }
-                    Err(_) => Ok(planner.finish(profile, Params::default(), &mut |_, _| {})),
-                },
+                None => {
+                    let end_params = params_rx.recv().unwrap_or_default();
+                    let checked = planner.finish(profile, end_params, &mut |_, _| {});
+                    Ok(Planned::Finished(Box::new(checked)))
+                }
             }
         });
         let mut checker = reader_checks.then(|| Checker::new(profile, options, file));
+        let mut duration = DurationPass::new(&Limits::from_profile(profile));
+        let mut time = |batch: Vec<Segment>| {
+            for s in &batch {
+                duration.push(s);
+            }
+        };
         let mut refused: Option<PlanError> = None;
         let read = softnc_gcode::read_program_chunked_params(
             text,
@@ -394,6 +412,9 @@ pub fn check_program_parallel(
             &options.read_options(),
             READ_CHUNK_MOTIONS,
             &mut |chunk: &mut Vec<Motion>| {
+                while let Ok(batch) = timing_rx.try_recv() {
+                    time(batch);
+                }
                 if refused.is_some() {
                     return; // refused: the planner's figures are not needed
                 }
@@ -420,29 +441,64 @@ pub fn check_program_parallel(
         );
         drop(to_planner);
         let read = read.map(|(program, params)| {
-            // a planner that refused is gone
-            let _ = params_tx.send((params, checker.take()));
-            program
+            let _ = params_tx.send(params.clone()); // a planner that refused is gone
+            (program, params)
         });
         drop(params_tx);
+        // until the planner is done (its sender then goes)
+        for batch in timing_rx.iter() {
+            time(batch);
+        }
         let planned = planner
             .join()
             .unwrap_or_else(|e| std::panic::resume_unwind(e));
-        let program = read?;
-        match refused {
-            Some(e) => Err(e.into()),
-            None => Ok((program, planned?)),
+        let (program, end_params) = read?;
+        if let Some(e) = refused {
+            return Err(e.into());
         }
+        let checked = match planned? {
+            Planned::Finished(c) => *c,
+            Planned::Unfinished(sp) => {
+                let StreamPlanner {
+                    builder,
+                    mut settled,
+                    ..
+                } = *sp;
+                if let Some(rest) = settled.fin.handoff.take() {
+                    time(rest);
+                }
+                settled.fin.duration = duration;
+                let checker = checker.unwrap_or_else(|| Checker::new(profile, options, file));
+                StreamPlanner::finish_with(
+                    checker,
+                    builder,
+                    settled,
+                    profile,
+                    end_params,
+                    &mut |_, _| {},
+                )
+            }
+        };
+        Ok((program, checked))
     })
+}
+
+/// What the planning thread of [`check_program_parallel`] gives back.
+enum Planned<'a> {
+    /// The figures, where it checked the motions itself.
+    Finished(Box<CheckedProgram>),
+    /// The planner with its last move still pending, where the reader checked the
+    /// motions and timed the elements handed over: the reader finishes it.
+    Unfinished(Box<StreamPlanner<'a>>),
 }
 
 /// Whether [`check_program_parallel`]'s reading thread checks the motions (soft
 /// limits, bounding box, spindle changes: [`Checker::check`]) as well as working out
-/// their primitives, and works out the arcs' data for the blends ([`ArcPrep`]).
-/// With `arc_blends` the planning thread has about twice the elements to build and
-/// time (a fillet per line–arc join) and is the slower of the two, so the reader
-/// takes these over; without, the reader is the slower and the planner keeps them.
-/// The figures and errors are the same either way.
+/// their primitives, works out the arcs' data for the blends ([`ArcPrep`]) and times
+/// the settled elements. With `arc_blends` the planning thread has about twice the
+/// elements to build and time (a fillet per line–arc join) and is the slower of the
+/// two, so the reader takes these over; without, the reader is the slower and the
+/// planner keeps them. The figures and errors are the same either way.
 fn reader_checks(profile: &MachineProfile) -> bool {
     profile.planner.arc_blends
 }
