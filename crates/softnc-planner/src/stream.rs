@@ -353,6 +353,7 @@ pub fn check_program_parallel(
     let (recycle, recycled) = channel::<Chunk>();
     // with the reader checking: the settled elements, for the reader to time
     let (timing_tx, timing_rx) = channel::<Vec<Segment>>();
+    let (timed_tx, timed_rx) = channel::<Vec<Segment>>(); // the emptied batches back
     let reader_checks = reader_checks(profile);
     std::thread::scope(|scope| {
         let planner = scope.spawn(move || {
@@ -379,8 +380,10 @@ pub fn check_program_parallel(
                 preps.clear();
                 let _ = recycle.send((motions, prims, preps)); // the reader may be gone
                 if let Some(v) = planner.settled.fin.handoff.as_mut() {
-                    let batch = std::mem::replace(v, Vec::with_capacity(v.capacity()));
-                    let _ = timing_tx.send(batch);
+                    let fresh = timed_rx
+                        .try_recv()
+                        .unwrap_or_else(|_| Vec::with_capacity(v.capacity()));
+                    let _ = timing_tx.send(std::mem::replace(v, fresh));
                 }
             }
             if reader_checks {
@@ -399,10 +402,12 @@ pub fn check_program_parallel(
         });
         let mut checker = reader_checks.then(|| Checker::new(profile, options, file));
         let mut duration = DurationPass::new(&Limits::from_profile(profile));
-        let mut time = |batch: Vec<Segment>| {
+        let mut time = |mut batch: Vec<Segment>| {
             for s in &batch {
                 duration.push(s);
             }
+            batch.clear();
+            let _ = timed_tx.send(batch); // the planner may be done
         };
         let mut refused: Option<PlanError> = None;
         let read = softnc_gcode::read_program_chunked_params(
