@@ -204,6 +204,63 @@ impl Limits {
             scurve_window_s: window,
         }
     }
+
+    /// The most an arc's tangent may turn away from its circle's for a fillet to
+    /// touch it ([`ArcView::of`]): the angle the kink share passes at the axes' top
+    /// speed (rad).
+    pub(crate) fn max_drift_rad(&self) -> f64 {
+        let kink = self.kink_acc.iter().cloned().fold(f64::INFINITY, f64::min);
+        let v_top = Vec3::new(self.vmax[0], self.vmax[1], self.vmax[2]).norm();
+        kink * self.cycle_s / v_top
+    }
+}
+
+/// What the builder asks of a programmed arc at its joins that depends on the arc
+/// and the limits alone: its end tangents (`PathBuilder::kink_at_speed`) and its
+/// views from either end (`PathBuilder::circle_blend`). [`ArcPrep::of`] works them
+/// out ahead, on the reading thread of `check_program_parallel` with `arc_blends`
+/// (where the planning thread is the slower of the two), and
+/// [`PathBuilder::push_prepared`] takes them; the same functions of the same
+/// arguments, so the same bits as the builder's own.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct ArcPrep {
+    /// `arc_end_tangent` at the start.
+    start_tangent: Vec3,
+    /// `arc_end_tangent` at the end.
+    end_tangent: Vec3,
+    /// |end − centre| in the arc's plane, as [`ArcView::of`] computes it (mm).
+    end_radius_mm: f64,
+    /// `Primitive::length` (mm).
+    len_mm: f64,
+}
+
+impl ArcPrep {
+    /// The arc's data; None for a line (or no primitive).
+    pub(crate) fn of(prim: &Option<Primitive>) -> Option<ArcPrep> {
+        let p = prim.as_ref()?;
+        if !matches!(p, Primitive::Arc { .. }) {
+            return None;
+        }
+        let Primitive::Arc {
+            center, plane, end, ..
+        } = *p
+        else {
+            return None;
+        };
+        let (a, b, _) = plane.axes();
+        let (ea, eb) = (end[a] - center[a], end[b] - center[b]);
+        Some(ArcPrep {
+            start_tangent: arc_end_tangent(p, false),
+            end_tangent: arc_end_tangent(p, true),
+            end_radius_mm: (ea * ea + eb * eb).sqrt(),
+            len_mm: p.length(),
+        })
+    }
+
+    /// [`ArcView::of`] the arc `p` whose data this is.
+    fn view(&self, p: &Primitive, at_end: bool, max_drift_rad: f64) -> Option<ArcView> {
+        ArcView::of_measured(p, at_end, max_drift_rad, self.end_radius_mm, self.len_mm)
+    }
 }
 
 /// A move in machine coordinates that waits for its successor: a blend at the corner
@@ -294,6 +351,13 @@ pub struct PathBuilder {
     /// Elements already handed on by [`PathBuilder::drain_settled`] (a streamed
     /// path keeps only the last one, whose end speed the next may still change).
     base: usize,
+    /// The arc data given with the motion being pushed, and its index
+    /// ([`PathBuilder::push_prepared`]).
+    prep_in: Option<(usize, ArcPrep)>,
+    /// The arc data of the pending move, if given.
+    prep_prev: Option<ArcPrep>,
+    /// The arc data of the move after it while their corner is blended, if given.
+    prep_next: Option<ArcPrep>,
 }
 
 /// LinuxCNC's "naive CAM" merging (G64 Q, its `emccanon.cc` `see_segment` /
@@ -383,6 +447,9 @@ impl PathBuilder {
             single_block: false,
             pending_stop_at_start: (StopKind::None, 0),
             base: 0,
+            prep_in: None,
+            prep_prev: None,
+            prep_next: None,
         }
     }
 
@@ -422,6 +489,20 @@ impl PathBuilder {
         if let (Some(s), Some(g)) = (self.path.segs.last(), self.path.geoms.last()) {
             out(s, g);
         }
+    }
+
+    /// [`PathBuilder::push`] with the arc data of `prim` worked out ahead
+    /// ([`ArcPrep::of`] of `prim` and these limits; None for a line): the same path.
+    pub(crate) fn push_prepared(
+        &mut self,
+        index: usize,
+        m: &Motion,
+        prim: Option<Primitive>,
+        prep: Option<ArcPrep>,
+    ) {
+        self.prep_in = prep.map(|p| (index, p));
+        self.push(index, m, prim);
+        self.prep_in = None;
     }
 
     /// Add motion number `index`; `prim` is its programmed primitive in machine
@@ -590,6 +671,13 @@ impl PathBuilder {
             start_at: None,
             start_trim_rad: None,
         };
+        // (a G64 Q chain flushed before this motion is another motion: not its data)
+        if self.prep_in.is_some() || self.prep_prev.is_some() {
+            self.prep_next = match self.prep_in {
+                Some((i, p)) if i == index => Some(p),
+                _ => None,
+            };
+        }
         match self.pending.take() {
             Some(prev) => {
                 let blend = self.blend(&prev, &next);
@@ -603,6 +691,9 @@ impl PathBuilder {
             None => self.start_dwell(),
         }
         self.pending = Some(next);
+        if self.prep_next.is_some() || self.prep_prev.is_some() {
+            self.prep_prev = self.prep_next.take();
+        }
     }
 
     /// The dwell (and pause) before the first move, as an element of its own.
@@ -682,7 +773,7 @@ impl PathBuilder {
         match (a.geom, b.geom) {
             (Geom::Line { .. }, Geom::Line { .. }) => self.blend_lines(a, b),
             (Geom::Line { end, .. }, Geom::Arc(arc)) => {
-                let view = ArcView::of(&arc, false, self.max_drift_rad())?;
+                let view = self.view_next(&arc)?;
                 let f = fillet::line_arc(
                     end,
                     a.dir,
@@ -712,7 +803,10 @@ impl PathBuilder {
             }
             (Geom::Arc(arc), Geom::Line { start, .. }) => {
                 // the line–arc construction on the path run backwards
-                let view = ArcView::of(&arc, true, self.max_drift_rad())?;
+                let view = match &self.prep_prev {
+                    Some(p) => p.view(&arc, true, self.max_drift_rad()),
+                    None => ArcView::of(&arc, true, self.max_drift_rad()),
+                }?;
                 let f = fillet::line_arc(
                     start,
                     -b.dir,
@@ -745,7 +839,7 @@ impl PathBuilder {
                 })
             }
             (Geom::Arc(arc_a), Geom::Arc(arc_b)) => {
-                let view = ArcView::of(&arc_b, false, self.max_drift_rad())?;
+                let view = self.view_next(&arc_b)?;
                 let f = fillet::arc_arc(
                     arc_a.end(),
                     &arc_a,
@@ -849,10 +943,16 @@ impl PathBuilder {
     /// velocity step it makes at the highest path speed, v·angle per cycle, stays
     /// within the kink share of every axis's acceleration.
     fn max_drift_rad(&self) -> f64 {
-        let lim = &self.lim;
-        let kink = lim.kink_acc.iter().cloned().fold(f64::INFINITY, f64::min);
-        let v_top = Vec3::new(lim.vmax[0], lim.vmax[1], lim.vmax[2]).norm();
-        kink * lim.cycle_s / v_top
+        self.lim.max_drift_rad()
+    }
+
+    /// [`ArcView::of`] the move after the corner being blended (an arc, `arc`), from
+    /// its start: from its [`ArcPrep`] where one came with it.
+    fn view_next(&self, arc: &Primitive) -> Option<ArcView> {
+        match &self.prep_next {
+            Some(p) => p.view(arc, false, self.max_drift_rad()),
+            None => ArcView::of(arc, false, self.max_drift_rad()),
+        }
     }
 
     /// Whether the tangent break between `a` and `b` is small enough that the kink
@@ -860,12 +960,18 @@ impl PathBuilder {
     fn kink_at_speed(&self, a: &Pending, b: &Pending) -> bool {
         let t1 = match a.geom {
             Geom::Line { .. } => a.dir,
-            Geom::Arc(p) => arc_end_tangent(&p, true),
+            Geom::Arc(p) => match &self.prep_prev {
+                Some(q) => q.end_tangent,
+                None => arc_end_tangent(&p, true),
+            },
             Geom::Blend { .. } => return false,
         };
         let t2 = match b.geom {
             Geom::Line { .. } => b.dir,
-            Geom::Arc(p) => arc_end_tangent(&p, false),
+            Geom::Arc(p) => match &self.prep_next {
+                Some(q) => q.start_tangent,
+                None => arc_end_tangent(&p, false),
+            },
             Geom::Blend { .. } => return false,
         };
         let lim = &self.lim;

@@ -56,22 +56,41 @@ impl ArcView {
     /// does not see: the caller bounds it by what the kink share allows at top speed).
     pub fn of(p: &Primitive, at_end: bool, max_drift_rad: f64) -> Option<ArcView> {
         let Primitive::Arc {
+            center, plane, end, ..
+        } = *p
+        else {
+            return None;
+        };
+        let (a, b, _) = plane.axes();
+        // |end − c| in the plane (`Plane::radius_at` without `hypot`: the squares
+        // cannot overflow for coordinates a machine reaches)
+        let (ea, eb) = (end[a] - center[a], end[b] - center[b]);
+        let re = (ea * ea + eb * eb).sqrt();
+        Self::of_measured(p, at_end, max_drift_rad, re, p.length())
+    }
+
+    /// [`ArcView::of`] given the arc's end radius in its plane `re` (|end − c|,
+    /// computed as `of` does) and its length `len` (`Primitive::length`): no square
+    /// root, the same view.
+    pub fn of_measured(
+        p: &Primitive,
+        at_end: bool,
+        max_drift_rad: f64,
+        re: f64,
+        len: f64,
+    ) -> Option<ArcView> {
+        let Primitive::Arc {
             center,
             plane,
             radius,
             sweep,
             normal_travel,
-            end,
             ..
         } = *p
         else {
             return None;
         };
         let (a, b, n) = plane.axes();
-        // |end − c| in the plane (`Plane::radius_at` without `hypot`: the squares
-        // cannot overflow for coordinates a machine reaches)
-        let (ea, eb) = (end[a] - center[a], end[b] - center[b]);
-        let re = (ea * ea + eb * eb).sqrt();
         if normal_travel != 0.0
             || (re - radius).abs() > MAX_RADIUS_MISMATCH_MM
             || 2.0 * (re - radius).abs() > max_drift_rad * radius * sweep.abs()
@@ -90,7 +109,7 @@ impl ArcView {
             radius: if at_end { re } else { radius },
             normal,
             sense: if at_end { -s } else { s },
-            len: p.length(),
+            len,
             axes: (a, b, n),
             // (a, b, n) cyclic (0 1 2, 1 2 0, 2 0 1) is right-handed
             orient: if b == (a + 1) % 3 { 1.0 } else { -1.0 },

@@ -547,6 +547,16 @@ fn start_speed(s: &Segment, vend: f64) -> f64 {
     cap(s).min((vend * vend + 2.0 * s.acc * s.len).sqrt())
 }
 
+/// Whether element `s`'s highest start speed from a stop at its end,
+/// [`start_speed`]`(s, 0)` = min(cap, √(2·acc·len)), is surely at least `v` (≥ 0):
+/// where 2·acc·len ≥ fl(v²)·(1 + 4ε) > v² the correctly rounded root is ≥ v (the
+/// bound of [`ForwardTime::step`]); false may be a false negative, never a false
+/// positive.
+#[inline(always)]
+fn starts_at_least(s: &Segment, v: f64) -> bool {
+    v <= 0.0 || (cap(s) >= v && 2.0 * s.acc * s.len >= (v * v) * (1.0 + 4.0 * f64::EPSILON))
+}
+
 /// The forward pass of [`planned_duration`]: time along the elements in order.
 struct ForwardTime {
     t: f64,
@@ -646,6 +656,22 @@ impl DurationPass {
             self.v_top = self.v_top.max(s.vel_cap);
         }
         self.a_min = self.a_min.min(s.acc);
+        // the common case: `s`'s start speed even from a stop at its end reaches the
+        // end limit of the element before it, whose end speed is then that limit
+        // whatever comes after: the held elements are timed at once (the same
+        // figures as `settle` would find later, without holding and scanning them)
+        if let Some(last) = self.held.back() {
+            let own = last.v_end_hard.min(cap(last));
+            if starts_at_least(s, own) {
+                let k = self.held.len() - 1;
+                if k == 0 {
+                    self.fwd.step(last, own);
+                    self.held.clear();
+                } else {
+                    self.time_upto(k, own);
+                }
+            }
+        }
         self.held.push_back(*s);
         if self.held.len() >= self.scan_at {
             self.settle();
@@ -775,6 +801,79 @@ const CARDINAL: [(f64, f64); 4] = [
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An element for the duration passes: length, acceleration, hard cap, feed and
+    /// end limit.
+    fn seg(len: f64, acc: f64, cap: f64, feed: f64, v_end_hard: f64) -> Segment {
+        Segment {
+            s0: 0.0,
+            len,
+            motion: 0,
+            feed_move: true,
+            feed_mm_per_s: feed,
+            vel_cap: cap,
+            acc,
+            v_end_hard,
+            dwell_s: 0.0,
+            line: 0,
+            stop: crate::build::StopKind::None,
+            block_end: false,
+        }
+    }
+
+    /// `DurationPass` (timing each element as soon as the next one's start speed
+    /// from a stop reaches its end limit, or at a saturated point) gives
+    /// `planned_duration`'s figures bit for bit: long elements that settle at once,
+    /// runs of short ones whose end speeds depend on elements far ahead (which the
+    /// pass must hold), stops, and infinite end limits.
+    #[test]
+    fn duration_pass_matches_the_whole_path_bit_for_bit() {
+        let text = include_str!("../../../config/machines/default.ron");
+        let profile = MachineProfile::from_ron_str(text, "default.ron").unwrap();
+        let lim = Limits::from_profile(&profile);
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            // xorshift64: a fixed pseudo-random sequence
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for case in 0..40 {
+            let n = 1 + case * 37;
+            let segs: Vec<Segment> = (0..n)
+                .map(|k| {
+                    let short = (k / 50) % 2 == 1; // runs of tiny elements
+                    let len = if short { 1e-4 * next() } else { 5.0 * next() };
+                    let acc = 50.0 + 2000.0 * next();
+                    let cap = if next() < 0.1 {
+                        f64::INFINITY
+                    } else {
+                        10.0 + 90.0 * next()
+                    };
+                    let end = if k + 1 == n || next() < 0.02 {
+                        0.0
+                    } else {
+                        f64::INFINITY
+                    };
+                    seg(len, acc, cap, 20.0 + 80.0 * next(), end)
+                })
+                .collect();
+            let mut pass = DurationPass::new(&lim);
+            for s in &segs {
+                pass.push(s);
+            }
+            let (t, v_top, a_min) = pass.finish();
+            let (t_whole, v_whole, a_whole) = planned_duration(&segs, &lim);
+            assert_eq!(
+                t.to_bits(),
+                t_whole.to_bits(),
+                "case {case}: {t} vs {t_whole}"
+            );
+            assert_eq!(v_top.to_bits(), v_whole.to_bits(), "case {case}");
+            assert_eq!(a_min.to_bits(), a_whole.to_bits(), "case {case}");
+        }
+    }
 
     #[test]
     fn cardinal_table_matches_the_library() {

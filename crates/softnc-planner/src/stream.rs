@@ -24,7 +24,7 @@
 //! a stop: the path brakes within its limits to what it has, never runs past it, and
 //! [`StreamInterpolator::starved`] counts the event so that the daemon can alarm.
 
-use crate::build::{motion_primitive, CapDilator, Limits, PathBuilder, Segment, StopKind};
+use crate::build::{motion_primitive, ArcPrep, CapDilator, Limits, PathBuilder, Segment, StopKind};
 use crate::interp::{Core, SegmentSource, MAX_LOOKAHEAD_SEGMENTS};
 use crate::path::Geom;
 use crate::plan::{
@@ -132,6 +132,10 @@ struct Settled {
 /// What the settled elements add up to.
 struct Figures {
     duration: DurationPass,
+    /// Where the elements are timed on another thread (`check_program_parallel`
+    /// with `arc_blends`): the settled elements not yet handed over, in order, instead
+    /// of `duration`.
+    handoff: Option<Vec<Segment>>,
     elements: usize,
     start_mm: Option<Vec3>,
     path_length_mm: f64,
@@ -140,7 +144,10 @@ struct Figures {
 impl Figures {
     /// A settled element (final limits), on its way to `out`.
     fn take(&mut self, s: &Segment, g: &Geom, out: &mut impl FnMut(&Segment, &Geom)) {
-        self.duration.push(s);
+        match &mut self.handoff {
+            Some(v) => v.push(*s),
+            None => self.duration.push(s),
+        }
         self.elements += 1;
         self.start_mm.get_or_insert_with(|| g.point_at(0.0));
         self.path_length_mm = s.s0 + s.len;
@@ -180,6 +187,7 @@ impl<'a> StreamPlanner<'a> {
                 dilator: (lim.profile == FeedProfile::SCurve).then(|| CapDilator::new(&lim)),
                 fin: Figures {
                     duration: DurationPass::new(&lim),
+                    handoff: None,
                     elements: 0,
                     start_mm: None,
                     path_length_mm: 0.0,
@@ -201,11 +209,41 @@ impl<'a> StreamPlanner<'a> {
     ) -> Result<(), PlanError> {
         let index = self.checker.n_motions;
         self.checker.check(m, &prim)?;
+        self.push_checked(index, m, prim, out);
+        Ok(())
+    }
+
+    /// Plan motion number `index`, which a [`Checker`] (this one's or another's)
+    /// has passed.
+    fn push_checked(
+        &mut self,
+        index: usize,
+        m: &Motion,
+        prim: Option<Primitive>,
+        out: &mut impl FnMut(&Segment, &Geom),
+    ) {
         self.builder.push(index, m, prim);
+        self.drain(out);
+    }
+
+    /// [`StreamPlanner::push_checked`] with the arc data of `prim` worked out ahead.
+    fn push_prepared(
+        &mut self,
+        index: usize,
+        m: &Motion,
+        prim: Option<Primitive>,
+        prep: Option<ArcPrep>,
+        out: &mut impl FnMut(&Segment, &Geom),
+    ) {
+        self.builder.push_prepared(index, m, prim, prep);
+        self.drain(out);
+    }
+
+    /// Hand the settled elements on.
+    fn drain(&mut self, out: &mut impl FnMut(&Segment, &Geom)) {
         let settled = &mut self.settled;
         self.builder
             .drain_settled(DRAIN_BATCH, &mut |s, g| settled.take(s, g, out));
-        Ok(())
     }
 
     fn finish(
@@ -217,14 +255,27 @@ impl<'a> StreamPlanner<'a> {
         let StreamPlanner {
             checker,
             builder,
-            mut settled,
+            settled,
         } = self;
+        Self::finish_with(checker, builder, settled, profile, end_params, out)
+    }
+
+    /// [`StreamPlanner::finish`] with the [`Checker`] that passed the motions.
+    fn finish_with(
+        checker: Checker<'a>,
+        builder: PathBuilder,
+        mut settled: Settled,
+        profile: &MachineProfile,
+        end_params: Params,
+        out: &mut impl FnMut(&Segment, &Geom),
+    ) -> CheckedProgram {
         builder.finish_stream(&mut |s, g| settled.take(s, g, out));
         let Figures {
             duration,
             elements,
             start_mm,
             path_length_mm,
+            ..
         } = settled.finish(out);
         let lim = Limits::from_profile(profile);
         let (stats, brake_dist_mm) = checker.figures(&lim, path_length_mm, duration.finish());
@@ -279,7 +330,11 @@ pub fn check_program(
 
 /// [`check_program`] on two threads: the calling thread reads and works out each
 /// motion's programmed primitive, a second one checks and plans the motions chunk by
-/// chunk as they come (the same figures and errors).
+/// chunk as they come (the same figures and errors). With `arc_blends`, whose fillets
+/// make the planning thread the slower of the two, the reading thread also checks
+/// the motions, works out the arcs' data ([`ArcPrep`]) and times the settled
+/// elements the planner hands back ([`DurationPass`], the same figures bit for bit:
+/// the elements come in order), see [`reader_checks`].
 /// What `softnc plan` needs for its summary: no path is stored, so a long program
 /// costs no memory for one (the page faults of a whole plan's 44 MB were a quarter
 /// of `softnc plan`'s time on the 200,000-line benchmark program).
@@ -290,18 +345,31 @@ pub fn check_program_parallel(
     options: &PlanOptions,
 ) -> Result<(Program, CheckedProgram), ReadPlanError> {
     use std::sync::mpsc::channel;
-    type Chunk = (Vec<Motion>, Vec<Option<Primitive>>);
+    // the motions, their primitives and (where the reader checks) their arc data
+    type Chunk = (Vec<Motion>, Vec<Option<Primitive>>, Vec<Option<ArcPrep>>);
     let (to_planner, chunks) = sync_channel::<Chunk>(8);
+    // the end parameters, and the reader's checker where it checked the motions
     let (params_tx, params_rx) = sync_channel::<Params>(1);
     let (recycle, recycled) = channel::<Chunk>();
+    // with the reader checking: the settled elements, for the reader to time
+    let (timing_tx, timing_rx) = channel::<Vec<Segment>>();
+    let (timed_tx, timed_rx) = channel::<Vec<Segment>>(); // the emptied batches back
+    let reader_checks = reader_checks(profile);
     std::thread::scope(|scope| {
         let planner = scope.spawn(move || {
             let mut planner = StreamPlanner::new(profile, options, file);
+            if reader_checks {
+                planner.settled.fin.handoff = Some(Vec::new());
+            }
             let mut refused: Option<PlanError> = None;
-            for (mut motions, mut prims) in chunks {
+            let mut index = 0;
+            for (mut motions, mut prims, mut preps) in chunks {
                 if refused.is_none() {
-                    for (m, prim) in motions.iter().zip(&prims) {
-                        if let Err(e) = planner.push_primitive(m, *prim, &mut |_, _| {}) {
+                    for (k, (m, prim)) in motions.iter().zip(&prims).enumerate() {
+                        if reader_checks {
+                            planner.push_prepared(index, m, *prim, preps[k], &mut |_, _| {});
+                            index += 1;
+                        } else if let Err(e) = planner.push_primitive(m, *prim, &mut |_, _| {}) {
                             refused = Some(e);
                             break;
                         }
@@ -309,17 +377,39 @@ pub fn check_program_parallel(
                 }
                 motions.clear();
                 prims.clear();
-                let _ = recycle.send((motions, prims)); // the reader may be gone
+                preps.clear();
+                let _ = recycle.send((motions, prims, preps)); // the reader may be gone
+                if let Some(v) = planner.settled.fin.handoff.as_mut() {
+                    let fresh = timed_rx
+                        .try_recv()
+                        .unwrap_or_else(|_| Vec::with_capacity(v.capacity()));
+                    let _ = timing_tx.send(std::mem::replace(v, fresh));
+                }
+            }
+            if reader_checks {
+                // the reader finishes the figures, with its checker and timing
+                return Ok(Planned::Unfinished(Box::new(planner)));
             }
             match refused {
                 Some(e) => Err(e),
                 // the reader sends the parameters once it has read the whole program
                 None => {
                     let end_params = params_rx.recv().unwrap_or_default();
-                    Ok(planner.finish(profile, end_params, &mut |_, _| {}))
+                    let checked = planner.finish(profile, end_params, &mut |_, _| {});
+                    Ok(Planned::Finished(Box::new(checked)))
                 }
             }
         });
+        let mut checker = reader_checks.then(|| Checker::new(profile, options, file));
+        let mut duration = DurationPass::new(&Limits::from_profile(profile));
+        let mut time = |mut batch: Vec<Segment>| {
+            for s in &batch {
+                duration.push(s);
+            }
+            batch.clear();
+            let _ = timed_tx.send(batch); // the planner may be done
+        };
+        let mut refused: Option<PlanError> = None;
         let read = softnc_gcode::read_program_chunked_params(
             text,
             file,
@@ -327,29 +417,95 @@ pub fn check_program_parallel(
             &options.read_options(),
             READ_CHUNK_MOTIONS,
             &mut |chunk: &mut Vec<Motion>| {
-                let (fresh, mut prims) = recycled.try_recv().unwrap_or_else(|_| {
+                while let Ok(batch) = timing_rx.try_recv() {
+                    time(batch);
+                }
+                if refused.is_some() {
+                    return; // refused: the planner's figures are not needed
+                }
+                let (fresh, mut prims, mut preps) = recycled.try_recv().unwrap_or_else(|_| {
                     (
                         Vec::with_capacity(READ_CHUNK_MOTIONS),
                         Vec::with_capacity(READ_CHUNK_MOTIONS),
+                        Vec::new(),
                     )
                 });
                 prims.extend(chunk.iter().map(motion_primitive));
+                if let Some(c) = checker.as_mut() {
+                    for (m, prim) in chunk.iter().zip(&prims) {
+                        if let Err(e) = c.check(m, prim) {
+                            refused = Some(e);
+                            return;
+                        }
+                    }
+                    preps.extend(prims.iter().map(ArcPrep::of));
+                }
                 // a planner that stopped early (it cannot) only loses the chunk
-                let _ = to_planner.send((std::mem::replace(chunk, fresh), prims));
+                let _ = to_planner.send((std::mem::replace(chunk, fresh), prims, preps));
             },
         );
-        let read = read.map(|(program, params)| {
-            let _ = params_tx.send(params); // a planner that refused is gone
-            program
-        });
         drop(to_planner);
+        let read = read.map(|(program, params)| {
+            let _ = params_tx.send(params.clone()); // a planner that refused is gone
+            (program, params)
+        });
         drop(params_tx);
+        // until the planner is done (its sender then goes)
+        for batch in timing_rx.iter() {
+            time(batch);
+        }
         let planned = planner
             .join()
             .unwrap_or_else(|e| std::panic::resume_unwind(e));
-        let program = read?;
-        Ok((program, planned?))
+        let (program, end_params) = read?;
+        if let Some(e) = refused {
+            return Err(e.into());
+        }
+        let checked = match planned? {
+            Planned::Finished(c) => *c,
+            Planned::Unfinished(sp) => {
+                let StreamPlanner {
+                    builder,
+                    mut settled,
+                    ..
+                } = *sp;
+                if let Some(rest) = settled.fin.handoff.take() {
+                    time(rest);
+                }
+                settled.fin.duration = duration;
+                let checker = checker.unwrap_or_else(|| Checker::new(profile, options, file));
+                StreamPlanner::finish_with(
+                    checker,
+                    builder,
+                    settled,
+                    profile,
+                    end_params,
+                    &mut |_, _| {},
+                )
+            }
+        };
+        Ok((program, checked))
     })
+}
+
+/// What the planning thread of [`check_program_parallel`] gives back.
+enum Planned<'a> {
+    /// The figures, where it checked the motions itself.
+    Finished(Box<CheckedProgram>),
+    /// The planner with its last move still pending, where the reader checked the
+    /// motions and timed the elements handed over: the reader finishes it.
+    Unfinished(Box<StreamPlanner<'a>>),
+}
+
+/// Whether [`check_program_parallel`]'s reading thread checks the motions (soft
+/// limits, bounding box, spindle changes: [`Checker::check`]) as well as working out
+/// their primitives, works out the arcs' data for the blends ([`ArcPrep`]) and times
+/// the settled elements. With `arc_blends` the planning thread has about twice the
+/// elements to build and time (a fillet per line–arc join) and is the slower of the
+/// two, so the reader takes these over; without, the reader is the slower and the
+/// planner keeps them. The figures and errors are the same either way.
+fn reader_checks(profile: &MachineProfile) -> bool {
+    profile.planner.arc_blends
 }
 
 /// What goes from the producer to the window.

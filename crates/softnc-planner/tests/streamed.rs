@@ -127,6 +127,51 @@ fn dense_circles(n: usize) -> String {
     s
 }
 
+/// Lines merged under G64 Q, arcs into and out of them (the arc after a chain comes
+/// while the chain is flushed), pauses, dwells and exact stops between: with
+/// `arc_blends` the reading thread of `check_program_parallel` works out the arcs'
+/// data for the blends ([`softnc_planner`]'s `ArcPrep`), which must reach the arc
+/// they belong to and no other move.
+fn arcs_among_chains(n: usize) -> String {
+    let mut s = String::from("G21 G90 G17 G64 P0.02 Q0.01\nG0 X0 Y0 Z1\nG1 Z0 F900\n");
+    let mut x = 0.0;
+    for i in 0..n {
+        for k in 1..=4 {
+            writeln!(
+                s,
+                "G1 X{:.4} Y{:.4}",
+                x + 0.2 * k as f64,
+                0.001 * (k % 2) as f64
+            )
+            .unwrap();
+        }
+        x += 0.8;
+        let dir = if i % 2 == 0 { "G2" } else { "G3" };
+        writeln!(s, "{dir} X{:.4} Y0 R0.25", x + 0.5).unwrap();
+        x += 0.5;
+        match i % 7 {
+            2 => s.push_str("G4 P0.01\n"),
+            4 => s.push_str("M0\n"),
+            5 => s.push_str("G61\nG1 Y0.1\nG1 Y0\nG64 P0.02 Q0.01\n"),
+            _ => {}
+        }
+        writeln!(s, "G3 X{:.4} Y0 I0.25 J0", x + 0.5).unwrap();
+        x += 0.5;
+    }
+    s.push_str("M2\n");
+    s
+}
+
+#[test]
+fn arc_data_reach_their_arcs_on_two_threads() {
+    for arc_blends in [false, true] {
+        let mut p = profile(FeedProfile::Trapezoidal);
+        p.planner.arc_blends = arc_blends;
+        p.axes[0].max_mm = 1e6;
+        assert!(same_as_whole(&arcs_among_chains(400), "q.ngc", &p, None));
+    }
+}
+
 #[test]
 fn streamed_plan_is_the_whole_plan() {
     for fp in [FeedProfile::Trapezoidal, FeedProfile::SCurve] {
@@ -175,7 +220,17 @@ fn streamed_plan_is_the_whole_plan_on_every_profile() {
 
 #[test]
 fn errors_are_the_whole_plans() {
-    let p = profile(FeedProfile::Trapezoidal);
+    // with arc blends the reading thread of `check_program_parallel` checks the
+    // motions, without them the planning thread does
+    for arc_blends in [false, true] {
+        let mut p = profile(FeedProfile::Trapezoidal);
+        p.planner.arc_blends = arc_blends;
+        errors_are_the_whole_plans_on(&p);
+    }
+}
+
+fn errors_are_the_whole_plans_on(p: &MachineProfile) {
+    let p = p.clone();
     let opts = PlanOptions::default();
     let mut text = String::from("G21 G90\nG0 X-5000\n");
     for i in 0..5000 {
