@@ -228,8 +228,9 @@ struct Block {
     m: [(i32, u32); M_GROUPS],
     m_set: u32,
     m_count: usize,
-    /// Value and offset per letter A..Z (P and Q: the last one read).
-    val: [(f64, u32); 26],
+    /// Value and offset per letter A..Z and the polar words `@` and `^` (P and Q:
+    /// the last one read), at [`slot`].
+    val: [(f64, u32); SLOTS],
     val_set: u32,
     /// LinuxCNC keeps P and Q as numbers with -1 meaning "none".
     p_number: f64,
@@ -254,10 +255,22 @@ const OTHER_CODES: u32 = letter_bit(b'D')
     | letter_bit(b'Q')
     | letter_bit(b'R');
 
+/// Slots of [`Block::val`]: A..Z at 0..25, `^` at 29, `@` at 31.
+const SLOTS: usize = 32;
+
+/// The slot of word letter `l` (A..Z, `@`, `^`) in [`Block::val`]: without a branch,
+/// `^` and `@` fall on slots no letter uses.
+const fn slot(l: u8) -> usize {
+    (l.wrapping_sub(b'A') & (SLOTS as u8 - 1)) as usize
+}
+
 /// The bit of letter `l` in [`Block::val_set`].
 const fn letter_bit(l: u8) -> u32 {
-    1 << (l - b'A')
+    1 << slot(l)
 }
+
+/// The polar-coordinate words `@` (distance) and `^` (angle, degrees).
+const POLAR: u32 = letter_bit(b'@') | letter_bit(b'^');
 
 impl Default for Block {
     fn default() -> Self {
@@ -267,7 +280,7 @@ impl Default for Block {
             m: [(0, 0); M_GROUPS],
             m_set: 0,
             m_count: 0,
-            val: [(0.0, 0); 26],
+            val: [(0.0, 0); SLOTS],
             val_set: 0,
             p_number: -1.0,
             q_number: -1.0,
@@ -296,21 +309,34 @@ impl Block {
         self.m_set |= 1 << group;
     }
     fn set_val(&mut self, l: u8, value: f64, off: u32) {
-        self.val[(l - b'A') as usize] = (value, off);
+        self.val[slot(l)] = (value, off);
         self.val_set |= letter_bit(l);
     }
     fn get(&self, l: u8) -> Option<f64> {
-        self.has(l).then(|| self.val[(l - b'A') as usize].0)
+        self.has(l).then(|| self.val[slot(l)].0)
     }
     fn off(&self, l: u8) -> u32 {
         if self.has(l) {
-            self.val[(l - b'A') as usize].1
+            self.val[slot(l)].1
         } else {
             0
         }
     }
     fn has(&self, l: u8) -> bool {
         self.val_set & letter_bit(l) != 0
+    }
+    /// A polar-coordinate word (`@` or `^`) is on the line.
+    fn polar(&self) -> bool {
+        self.val_set & POLAR != 0
+    }
+    /// Offset of the first polar word (for messages).
+    fn polar_off(&self) -> u32 {
+        [b'@', b'^']
+            .iter()
+            .filter(|l| self.has(**l))
+            .map(|l| self.off(*l))
+            .min()
+            .unwrap_or(0)
     }
     /// No word on the line (a line of assignments or comments alone): no G or M
     /// code and no letter with a value (P and Q set their letter too).
@@ -609,6 +635,8 @@ impl<'a> Interp<'a> {
                     "axes other than X, Y and Z are not supported",
                 );
             }
+            // LinuxCNC 2.9 takes the last of several (`@5 @6` is @6)
+            b'@' | b'^' => b.set_val(letter, value, offset),
             b'P' | b'Q' => {
                 let number = if letter == b'P' {
                     &mut b.p_number
@@ -683,13 +711,31 @@ impl<'a> Interp<'a> {
             // a word); a loop's assignment lines take this way on every pass
             return Ok(());
         }
+        let polar = b.polar();
+        if polar {
+            for (l, msg) in [
+                (b'X', "Cannot specify both polar coordinate and X word"),
+                (b'Y', "Cannot specify both polar coordinate and Y word"),
+            ] {
+                if b.has(l) {
+                    return bad(b.off(l), msg);
+                }
+            }
+        }
         let axis = b.has(b'X') || b.has(b'Y') || b.has(b'Z');
         let ijk = b.has(b'I') || b.has(b'J') || b.has(b'K');
         let mode0 = b.g_in(GM_MODAL_0);
         let covets = matches!(mode0, Some(100 | 280 | 300 | 520 | 920));
         if let Some(mode1) = b.g_in(GM_MOTION) {
-            if mode1 == G_80 && axis && !covets {
-                return bad(b.axis_off(), "Cannot use axis values with g80");
+            if mode1 == G_80 && (axis || polar) && !covets {
+                let off = if axis { b.axis_off() } else { b.polar_off() };
+                return bad(off, "Cannot use axis values with g80");
+            }
+            if mode1 == G_80 && polar && mode0 == Some(920) {
+                return bad(
+                    b.polar_off(),
+                    "Polar coordinates can only be used for motion",
+                );
             }
             if mode1 == G_80 && !axis && matches!(mode0, Some(520 | 920)) {
                 return bad(b.g_off(GM_MODAL_0), "All axes missing with g52 or g92");
@@ -702,18 +748,25 @@ impl<'a> Interp<'a> {
             }
             b.motion_to_be = Some(mode1);
         } else if covets {
+            if polar && mode0 == Some(920) {
+                return bad(
+                    b.polar_off(),
+                    "Polar coordinates can only be used for motion",
+                );
+            }
             if !axis && matches!(mode0, Some(520 | 920)) {
                 return bad(b.g_off(GM_MODAL_0), "All axes missing with g52 or g92");
             }
-        } else if axis {
+        } else if axis || polar {
             let tool_mode = b.g_in(GM_TOOL_LENGTH);
             let dynamic = matches!(tool_mode, Some(431 | 432));
             match self.motion {
                 None if !dynamic => {
+                    let off = if axis { b.axis_off() } else { b.polar_off() };
                     return bad(
-                        b.axis_off(),
+                        off,
                         "Cannot use axis values without a g code that uses them",
-                    )
+                    );
                 }
                 // G43.1 takes the axis words; G43.2 leaves them to the motion too
                 Some(m) if tool_mode != Some(431) => b.motion_to_be = Some(m),
@@ -723,6 +776,12 @@ impl<'a> Interp<'a> {
             b.motion_to_be = self.motion;
         }
         let motion = b.motion_to_be;
+        if polar && motion.is_none() {
+            return bad(
+                b.polar_off(),
+                "Polar coordinates can only be used for motion",
+            );
+        }
         let arc = matches!(motion, Some(G_2 | G_3));
         // check_g_codes
         if mode0 == Some(G_4) {
@@ -1261,9 +1320,12 @@ impl<'a> Interp<'a> {
     }
 
     /// `find_ends`: the end point of a move (program units, canonical frame).
-    fn find_ends(&self, b: &Block) -> Vec3 {
+    fn find_ends(&self, b: &Block) -> R<Vec3> {
         if b.g_in(GM_MODAL_0) == Some(G_53) {
-            return self.find_ends_g53(b);
+            if b.polar() {
+                return bad(b.polar_off(), "Cannot use polar coordinates with G53");
+            }
+            return Ok(self.find_ends_g53(b));
         }
         let mut end = self.pos;
         for (i, l) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
@@ -1271,7 +1333,68 @@ impl<'a> Interp<'a> {
                 end[i] = if self.absolute { v } else { self.pos[i] + v };
             }
         }
-        end
+        if b.polar() {
+            self.polar_ends(b, &mut end)?;
+        }
+        Ok(end)
+    }
+
+    /// The X and Y of `end` from the polar words (`interp_find.cc` `find_ends`):
+    /// `@` the distance from the origin of the program's frame (G90) or added to
+    /// the current one (G91), `^` the angle in degrees from +X (G91: added to the
+    /// current point's), each keeping the other coordinate where it is given none.
+    #[cold]
+    #[inline(never)]
+    fn polar_ends(&self, b: &Block, end: &mut Vec3) -> R<()> {
+        let (x, y) = (end[0], end[1]);
+        let at_origin = x == 0.0 && y == 0.0;
+        let d2r = |deg: f64| deg * (std::f64::consts::PI / 180.0);
+        let (radius, theta) = (b.get(b'@'), b.get(b'^'));
+        let (r, t) = if self.absolute {
+            match (radius, theta) {
+                (Some(r), Some(t)) => (r, d2r(t)),
+                (Some(r), None) => {
+                    if at_origin {
+                        return bad(
+                            b.off(b'@'),
+                            "Must specify angle in polar coordinate if at the origin",
+                        );
+                    }
+                    (r, y.atan2(x))
+                }
+                (None, Some(t)) => (y.hypot(x), d2r(t)),
+                (None, None) => return Ok(()),
+            }
+        } else {
+            // the distance first, then the angle, each from the point before it
+            let (mut px, mut py) = (x, y);
+            if let Some(r) = radius {
+                if px == 0.0 && py == 0.0 {
+                    return bad(
+                        b.off(b'@'),
+                        "Incremental motion with polar coordinates is indeterminate when at the origin",
+                    );
+                }
+                let (t, r) = (py.atan2(px), py.hypot(px) + r);
+                (px, py) = (r * t.cos(), r * t.sin());
+            }
+            if let Some(t) = theta {
+                if px == 0.0 && py == 0.0 {
+                    return bad(
+                        b.off(b'^'),
+                        "G91 motion with polar coordinates is indeterminate when at the origin",
+                    );
+                }
+                let (t, r) = (py.atan2(px) + d2r(t), py.hypot(px));
+                (px, py) = (r * t.cos(), r * t.sin());
+            }
+            end[0] = px;
+            end[1] = py;
+            return Ok(());
+        };
+        end[0] = r * t.cos();
+        end[1] = r * t.sin();
+        Ok(())
     }
 
     /// `find_ends` under G53: the words are machine coordinates; X and Y go back
@@ -1387,7 +1510,7 @@ impl<'a> Interp<'a> {
             }
         }
         self.motion = Some(mode);
-        let end = self.find_ends(b);
+        let end = self.find_ends(b)?;
         let s = self.scale();
         let kind = if mode == G_0 {
             MotionKind::Traverse { end: sc(end, s) }
@@ -1460,7 +1583,8 @@ impl<'a> Interp<'a> {
             o2 = b.get(l2).unwrap_or(0.0);
         } else {
             let (x1, x2) = (axis_letter[a1], axis_letter[a2]);
-            if !b.has(x1) && !b.has(x2) {
+            // in the XY plane a polar word gives the end (`convert_arc`)
+            if !b.has(x1) && !b.has(x2) && !(b.polar() && self.plane == Plane::XY) {
                 let (f, s2) = if a1 < a2 { (x1, x2) } else { (x2, x1) };
                 return bad(
                     off,
@@ -1472,7 +1596,7 @@ impl<'a> Interp<'a> {
                 );
             }
         }
-        let end = self.find_ends(b);
+        let end = self.find_ends(b)?;
         self.motion = Some(mode);
         let inch = self.inch;
         let turns_abs = if b.has(b'P') {

@@ -226,7 +226,7 @@ pub(crate) fn lex_words(
         let c = b[i].to_ascii_lowercase();
         match c {
             b' ' | b'\t' | b'\r' => i += 1,
-            b'a'..=b'z' if c != b'n' && c != b'o' => {
+            b'a'..=b'z' | b'@' | b'^' if c != b'n' && c != b'o' => {
                 let (value, next) = match plain_number(b, i + 1) {
                     Some(read) => read,
                     None => {
@@ -260,13 +260,6 @@ pub(crate) fn lex_words(
                     at,
                     word_text(b, at),
                     "spindle selection ($ words) is not supported",
-                ))
-            }
-            b'@' | b'^' => {
-                return Err(unsupported(
-                    at,
-                    word_text(b, at),
-                    "polar coordinates (@ and ^ words) are not supported",
                 ))
             }
             _ => return Err(invalid(at, bad_character(b[at]))),
@@ -626,12 +619,20 @@ mod tests {
         ] {
             assert_eq!(lex(s).unwrap_err().0, SLOW, "{s}");
         }
-        for s in ["G1 @1 ^2", "M3 $1"] {
-            assert!(
-                matches!(lex(s).unwrap_err().1, ErrorKind::Unsupported { .. }),
-                "{s}"
-            );
-        }
+        assert!(matches!(
+            lex("M3 $1").unwrap_err().1,
+            ErrorKind::Unsupported { .. }
+        ));
+        // the polar words are words like the letters
+        let polar = lex("G1 @1 ^2").unwrap();
+        assert_eq!(
+            polar
+                .words
+                .iter()
+                .map(|w| (w.letter, w.value))
+                .collect::<Vec<_>>(),
+            [(b'G', 1.0), (b'@', 1.0), (b'^', 2.0)]
+        );
         let inv = |s: &str| match lex(s).unwrap_err().1 {
             ErrorKind::Invalid(m) => m,
             k => panic!("{s}: {k:?}"),

@@ -712,3 +712,96 @@ fn call_arguments_up_to_thirty() {
     assert_eq!(e.kind.to_string(), "Too many subroutine parameters");
     assert_eq!(e.line, 3);
 }
+
+/// XY of every motion end (mm).
+fn xys(text: &str) -> Vec<(f64, f64)> {
+    read(text)
+        .motions
+        .iter()
+        .filter_map(|m| m.kind.end().map(|e| (e.0[0], e.0[1])))
+        .collect()
+}
+
+#[test]
+fn polar_coordinates_as_linuxcnc() {
+    // LinuxCNC 2.9 `rs274 -g` on each program: the same points to its 4 decimals
+    let near = |got: Vec<(f64, f64)>, want: &[(f64, f64)]| {
+        assert_eq!(got.len(), want.len(), "{got:?}");
+        for (g, w) in got.iter().zip(want) {
+            assert!(
+                (g.0 - w.0).abs() < 5e-5 && (g.1 - w.1).abs() < 5e-5,
+                "{got:?} vs {want:?}"
+            );
+        }
+    };
+    // G90: @ from the origin, ^ in degrees from +X; the last of two @ counts
+    near(xys("G0 X10\n@5 ^90\nM2\n"), &[(10.0, 0.0), (0.0, 5.0)]);
+    near(xys("G0 X1\n@5 @6\nM2\n"), &[(1.0, 0.0), (6.0, 0.0)]);
+    near(xys("G0 X1\n^5 ^6\nM2\n"), &[(1.0, 0.0), (0.9945, 0.1045)]);
+    // one of the two: the other from the current point
+    near(
+        xys("G0 X10\nG1 @[2*3] ^-90 F100\n@-5\nM2\n"),
+        &[(10.0, 0.0), (0.0, -6.0), (0.0, 5.0)],
+    );
+    // G91: the distance added, then the angle turned, each from the point before
+    near(xys("G0 X1\nG91 @2 ^90\nM2\n"), &[(1.0, 0.0), (0.0, 3.0)]);
+    near(
+        xys("G0 X1 Y1\nG91 @1\nG91 ^45\nG90 ^0\nM2\n"),
+        &[(1.0, 1.0), (1.7071, 1.7071), (0.0, 2.4142), (2.4142, 0.0)],
+    );
+    // arcs end there too (R and IJK); LinuxCNC 2.9 takes them in any plane
+    near(
+        xys("G0 X10\nG2 ^90 R10 F100\nM2\n"),
+        &[(10.0, 0.0), (0.0, 10.0)],
+    );
+    near(
+        xys("G0 X10 Y0\nG3 ^90 I-10 F100\nM2\n"),
+        &[(10.0, 0.0), (0.0, 10.0)],
+    );
+    near(xys("G18 G0 @5 ^1\nM2\n"), &[(4.9992, 0.0873)]);
+    for (text, msg) in [
+        (
+            "G0 X1\n@5 Y1\nM2\n",
+            "Cannot specify both polar coordinate and Y word",
+        ),
+        (
+            "G0 @5 X1\nM2\n",
+            "Cannot specify both polar coordinate and X word",
+        ),
+        (
+            "G0 @5\nM2\n",
+            "Must specify angle in polar coordinate if at the origin",
+        ),
+        (
+            "G91 G0 ^5\nM2\n",
+            "G91 motion with polar coordinates is indeterminate when at the origin",
+        ),
+        (
+            "G91 G0 @5\nM2\n",
+            "Incremental motion with polar coordinates is indeterminate when at the origin",
+        ),
+        (
+            "G53 G0 @5 ^0\nM2\n",
+            "Cannot use polar coordinates with G53",
+        ),
+        (
+            "G0 X3\nG28 @5\nM2\n",
+            "Polar coordinates can only be used for motion",
+        ),
+        (
+            "G92 @5\nM2\n",
+            "Polar coordinates can only be used for motion",
+        ),
+        (
+            "@5 ^3\nM2\n",
+            "Cannot use axis values without a g code that uses them",
+        ),
+        ("G80 @1\nM2\n", "Cannot use axis values with g80"),
+        (
+            "G0 X10\nG18 G2 ^90 R10 F100\nM2\n",
+            "X and z words missing for arc in xz plane",
+        ),
+    ] {
+        assert_eq!(error(text).kind.to_string(), msg, "{text}");
+    }
+}

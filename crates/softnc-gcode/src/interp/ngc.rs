@@ -614,7 +614,7 @@ impl Interp<'_> {
         while i < b.len() {
             let c = b[i];
             match c {
-                b'a'..=b'z' if c != b'n' && c != b'o' => {
+                b'a'..=b'z' | b'@' | b'^' if c != b'n' && c != b'o' => {
                     let (value, next) = self.value(norm, i + 1, Kind::Real).map_err(re)?;
                     self.sort_word_slow(
                         Word {
@@ -731,15 +731,6 @@ impl Interp<'_> {
                         ErrorKind::Unsupported {
                             word: "$".into(),
                             why: "spindle selection ($ words) is not supported".into(),
-                        },
-                    ))
-                }
-                b'@' | b'^' => {
-                    return Err((
-                        raw(i),
-                        ErrorKind::Unsupported {
-                            word: (c as char).to_string(),
-                            why: "polar coordinates (@ and ^ words) are not supported".into(),
                         },
                     ))
                 }

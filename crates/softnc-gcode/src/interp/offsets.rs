@@ -363,7 +363,7 @@ impl Interp<'_> {
     /// `convert_home`: G28 / G30, through the point given (a traverse, also when
     /// it is where the tool is), then to the stored position.
     fn home(&mut self, line_no: u32, code: i32, b: &Block) -> R<()> {
-        let waypoint = self.find_ends(b);
+        let waypoint = self.find_ends(b)?;
         let s = self.scale();
         self.push(
             line_no,
