@@ -16,6 +16,13 @@ fn arc_profile(fp: FeedProfile) -> softnc_core::MachineProfile {
     p
 }
 
+/// The test profile with arc blends off (the corners stop).
+fn stop_profile(fp: FeedProfile) -> softnc_core::MachineProfile {
+    let mut p = profile(fp);
+    p.planner.arc_blends = false;
+    p
+}
+
 /// Largest distance of any sample from the whole programmed path.
 fn deviation_from_program(samples: &[Sample], b: &Builder) -> f64 {
     let prims: Vec<Primitive> = b
@@ -91,7 +98,7 @@ fn line_arc_corners_are_blended_in_every_plane_within_limits_and_tolerance() {
                 let tol = 0.05;
                 let b = line_arc_line(plane, cw, tol);
                 let mut exact = line_arc_line(plane, cw, tol);
-                let off = plan_of(&b, &profile(fp));
+                let off = plan_of(&b, &stop_profile(fp));
                 for m in &mut exact.motions {
                     m.path_mode = PathMode::ExactStop;
                 }
