@@ -695,6 +695,7 @@ impl Interp<'_> {
                                     name: name.clone(),
                                     code,
                                     at,
+                                    slot: Default::default(),
                                 }),
                             );
                         }
@@ -812,7 +813,12 @@ impl Interp<'_> {
                         block,
                     )?;
                 }
-                Item::Named { name, code, at } => {
+                Item::Named {
+                    name,
+                    code,
+                    at,
+                    slot,
+                } => {
                     // created (value 0) as soon as its name is read: see
                     // `read_items_slow`
                     {
@@ -827,7 +833,12 @@ impl Interp<'_> {
                             format!("Cannot assign to read-only parameter #<{name}>"),
                         );
                     }
-                    sets.push(match self.assigned_slot(norm, *at, name) {
+                    let k = slot.get().or_else(|| {
+                        let k = self.assigned_slot(norm, *at, name);
+                        slot.set(k);
+                        k
+                    });
+                    sets.push(match k {
                         Some(k) => Setting::Slot(k, v),
                         None => Setting::Named(name.clone(), v),
                     });
