@@ -160,6 +160,9 @@ pub enum Item {
         code: Code,
         /// The normalized offset of the `#`.
         at: usize,
+        /// The name's parameter slot once it has one (a name keeps its slot for
+        /// the whole reading: later passes assign by it without a lookup).
+        slot: std::cell::Cell<Option<u32>>,
     },
     /// `#index=value`.
     Numbered {

@@ -2139,6 +2139,18 @@ pub fn read_with(
                     (line.block_delete, line.python) = *flags;
                     (line.blank, line.percent) = (false, false);
                     line.comment_offset = 0;
+                    // a kept O-line compiled whole: read and run at once (nothing
+                    // between them applies: no `%`, no Python — the first read of a
+                    // line with it ended the program —, no assignments)
+                    if !line.python {
+                        if let Some(r) = it.run_kept_o(n, &mut line, &pc) {
+                            let jump = r.map_err(|x| err_in(src_name, line_no, raw, x))?;
+                            if jump != Jump::Next {
+                                break (jump, split.pos);
+                            }
+                            continue;
+                        }
+                    }
                     oline = it
                         .read_norm(n, &mut block, &mut line, &mut sets)
                         .map_err(|x| err_in(src_name, line_no, raw, x))?;
@@ -2147,6 +2159,8 @@ pub fn read_with(
                     match lexed {
                         Ok(()) => {}
                         Err((SLOW, _)) => {
+                            // the words the lexer sorted before handing over
+                            block.clear();
                             // parameters, expressions or an O-word: the full reader,
                             // on the normalized line (kept, with its values compiled
                             // as they are read, for lines read again once the program

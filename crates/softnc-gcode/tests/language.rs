@@ -100,6 +100,24 @@ fn recursion_and_the_call_depth_limit() {
     assert_eq!(p.warnings.last().unwrap(), "t.ngc:4: debug: 9.000000");
 }
 
+/// A kept O-line compiled whole is read and run at once (`Interp::run_kept_o`):
+/// loops, calls and returns through kept lines go where the text says, and an
+/// error of its control flow has the line and column of the line read once.
+#[test]
+fn kept_o_lines_read_and_run_at_once() {
+    // the call line is kept from the second call on; the tenth call fails there
+    let e = error("o<r> sub\n  o<r> call [#1+1]\no<r> endsub\no<r> call [0]\nM2\n");
+    assert_eq!(
+        (e.line, e.column, e.kind.to_string().as_str()),
+        (2, 3, "Too many subroutine levels")
+    );
+    let text = "o<s> sub\nG0 X[#1*10+#2]\no<s> endsub\n#1=0\no1 do\n#1=[#1+1]\n#2=0\n\
+                o2 while [#2 lt 3]\n#2=[#2+1]\no3 if [#2 eq 2]\no2 continue\no3 endif\n\
+                o<s> call [#1] [#2]\no2 endwhile\no4 repeat [2]\no1 while [#1 lt 3]\n\
+                o4 endrepeat\nM2\n";
+    assert_eq!(xs(text), vec![11.0, 13.0, 21.0, 23.0, 31.0, 33.0]);
+}
+
 /// A kept O-line remembers its label and keyword only where the label is fixed
 /// text: a label read from an expression is evaluated again on every pass. Here
 /// the loop calls o11, o12, then o13 (as `rs274` does); lines are kept from the

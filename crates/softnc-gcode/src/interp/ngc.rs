@@ -274,8 +274,11 @@ impl Env for Interp<'_> {
 pub enum Setting {
     /// `#n=…`
     Numbered(usize, f64),
-    /// `#<name>=…`, with the name's parameter slot where known.
-    Named(Name, f64, Option<u32>),
+    /// `#<name>=…` where the name has no parameter slot yet.
+    Named(Name, f64),
+    /// `#<name>=…` by the name's parameter slot ([`crate::params::Params::set_slot`]): no name
+    /// carried (nor its reference count touched).
+    Slot(u32, f64),
 }
 
 impl Interp<'_> {
@@ -444,8 +447,32 @@ impl Interp<'_> {
         Ok((v, r.i))
     }
 
+    /// A kept O-line compiled whole ([`Plan::O`]) run as [`Self::read_norm`] then
+    /// [`Self::control`] would run it, with the read `OLine` built here and lent
+    /// to `control` (not moved through `Option`s and `Result`s on its way back to
+    /// the reader's loop). `None` where the line is not such a line, or is to be
+    /// read from its text (a definition skipped, a label skipped to): read it with
+    /// [`Self::read_norm`].
+    #[inline(always)]
+    pub(super) fn run_kept_o(&mut self, norm: &Norm, line: &mut Line, pc: &Pc) -> Option<R<Jump>> {
+        if !norm.keep || self.ctl.defining_sub || self.ctl.skipping.is_some() {
+            return None;
+        }
+        let plan = norm.plan.borrow();
+        let Plan::O(p) = &*plan else {
+            return None;
+        };
+        // what `read_norm` resets for every line
+        line.comment = None;
+        self.line_named.get_mut().clear();
+        Some(match self.run_o(norm, p) {
+            Ok(o) => self.control(&o, pc),
+            Err(e) => Err(e),
+        })
+    }
+
     /// `read_items` on a normalized line (`Norm`), for a line the fast lexer
-    /// hands over.
+    /// hands over; `block` is empty (the caller clears it).
     #[inline(always)]
     pub(super) fn read_norm(
         &self,
@@ -454,7 +481,6 @@ impl Interp<'_> {
         line: &mut Line,
         sets: &mut Vec<Setting>,
     ) -> R<Option<OLine>> {
-        block.clear();
         line.comment = None;
         self.line_named.borrow_mut().clear();
         if norm.keep {
@@ -478,7 +504,7 @@ impl Interp<'_> {
     /// [`Self::read_o`] for a kept O-line compiled whole (not skipping, no
     /// definition being skipped): its label and keyword as read before, its values
     /// evaluated, with the same checks and errors.
-    #[inline(never)]
+    #[inline(always)]
     fn run_o(&self, norm: &Norm, p: &OPlan) -> R<OLine> {
         let re = |(k, e): (usize, ErrorKind)| (norm.raw(k), e);
         let ctl = &self.ctl;
@@ -669,12 +695,15 @@ impl Interp<'_> {
                                     name: name.clone(),
                                     code,
                                     at,
+                                    slot: Default::default(),
                                 }),
                             );
                         }
                         i = next;
-                        let slot = self.assigned_slot(norm, at, &name);
-                        sets.push(Setting::Named(name, v, slot));
+                        sets.push(match self.assigned_slot(norm, at, &name) {
+                            Some(k) => Setting::Slot(k, v),
+                            None => Setting::Named(name, v),
+                        });
                     } else {
                         let index_at = r.i;
                         let (index, next) = self.value(norm, r.i, Kind::Integer).map_err(re)?;
@@ -775,7 +804,12 @@ impl Interp<'_> {
                         block,
                     )?;
                 }
-                Item::Named { name, code, at } => {
+                Item::Named {
+                    name,
+                    code,
+                    at,
+                    slot,
+                } => {
                     // created (value 0) as soon as its name is read: see
                     // `read_items_slow`
                     {
@@ -790,8 +824,15 @@ impl Interp<'_> {
                             format!("Cannot assign to read-only parameter #<{name}>"),
                         );
                     }
-                    let slot = self.assigned_slot(norm, *at, name);
-                    sets.push(Setting::Named(name.clone(), v, slot));
+                    let k = slot.get().or_else(|| {
+                        let k = self.assigned_slot(norm, *at, name);
+                        slot.set(k);
+                        k
+                    });
+                    sets.push(match k {
+                        Some(k) => Setting::Slot(k, v),
+                        None => Setting::Named(name.clone(), v),
+                    });
                 }
                 Item::Numbered { index, code, at } => {
                     let index = crate::compiled::eval(index, self).map_err(re)? as i32;
@@ -1411,13 +1452,14 @@ impl Interp<'_> {
     #[inline(never)]
     pub(super) fn commit(&mut self, sets: &mut Vec<Setting>) {
         self.line_named.get_mut().clear();
-        for s in sets.drain(..) {
+        for s in sets.iter() {
             match s {
-                Setting::Numbered(i, v) => self.params.set(i, v),
-                Setting::Named(_, v, Some(k)) => self.params.set_slot(k, v),
-                Setting::Named(n, v, None) => self.params.set_named(&n, v),
+                Setting::Numbered(i, v) => self.params.set(*i, *v),
+                Setting::Slot(k, v) => self.params.set_slot(*k, *v),
+                Setting::Named(n, v) => self.params.set_named(n, *v),
             }
         }
+        sets.clear();
     }
 
     /// The label a call is looking for (when it must open a file).
