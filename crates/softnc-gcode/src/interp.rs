@@ -1584,7 +1584,7 @@ impl<'a> Interp<'a> {
         } else {
             let (x1, x2) = (axis_letter[a1], axis_letter[a2]);
             // in the XY plane a polar word gives the end (`convert_arc`)
-            if !b.has(x1) && !b.has(x2) && !(b.polar() && self.plane == Plane::XY) {
+            if !(b.has(x1) || b.has(x2) || b.polar() && self.plane == Plane::XY) {
                 let (f, s2) = if a1 < a2 { (x1, x2) } else { (x2, x1) };
                 return bad(
                     off,
