@@ -119,15 +119,24 @@ impl Scope {
         self.values.get(slot as usize).copied().flatten()
     }
 
+    #[inline(always)]
     fn put(&mut self, slot: u32, value: f64) {
         let k = slot as usize;
         if self.values.len() <= k {
-            self.values.resize(k + 1, None);
+            self.grow(k);
         }
         if self.values[k].is_none() {
             self.set.push(slot);
         }
         self.values[k] = Some(value);
+    }
+
+    /// Room for slot `k` (once per slot and scope: kept out of the assignment's
+    /// way).
+    #[cold]
+    #[inline(never)]
+    fn grow(&mut self, k: usize) {
+        self.values.resize(k + 1, None);
     }
 
     /// Unset everything (the storage is kept).
@@ -257,6 +266,7 @@ impl Params {
 
     /// [`Params::set_named`] of the name of slot `slot` (a slot [`Params::slot`]
     /// gave).
+    #[inline]
     pub fn set_slot(&mut self, slot: u32, value: f64) {
         let scope = if self.global[slot as usize] {
             &mut self.globals
