@@ -545,7 +545,69 @@ fn bad<T>(at: usize, msg: impl Into<String>) -> R<T> {
 
 /// Evaluate `code` with the parameters of `env`: the value, or the error the text
 /// reader gives for the same line and parameters.
+#[inline(always)]
 pub fn eval<E: Env + ?Sized>(code: &Code, env: &E) -> R<f64> {
+    // most values of a loop are one or two steps (a call argument `[#<i>]`, a
+    // condition `[#<j> LT 100]`): the same steps on one value, without the stack
+    match code.ops.as_slice() {
+        [a] => {
+            if let Some(v) = push_step(a, code, env) {
+                return v;
+            }
+        }
+        [a, b] if is_top_step(b) => {
+            if let Some(v) = push_step(a, code, env) {
+                return top_step(b, v?);
+            }
+        }
+        _ => {}
+    }
+    eval_stack(code, env)
+}
+
+/// A step that pushes a value onto an empty stack, as [`eval_stack`] does it;
+/// `None` for a step that takes values from the stack.
+#[inline(always)]
+fn push_step<E: Env + ?Sized>(op: &Op, code: &Code, env: &E) -> Option<R<f64>> {
+    Some(match *op {
+        Op::Num(v) => Ok(v),
+        Op::Param(k) => Ok(env.numbered(k)),
+        Op::ParamC(k, start) => check(env.numbered(k), start),
+        Op::NamedC { at, name, start } => {
+            named_value(code, name, at, false, env).and_then(|v| check(v, start))
+        }
+        Op::Named { at, name, exists } => named_value(code, name, at, exists, env),
+        _ => return None,
+    })
+}
+
+/// Whether [`top_step`] takes `op`.
+#[inline(always)]
+fn is_top_step(op: &Op) -> bool {
+    matches!(
+        op,
+        Op::BinNum(..) | Op::BinNumC(..) | Op::Check(_) | Op::Neg | Op::Func(..) | Op::FuncC(..)
+    )
+}
+
+/// A step that replaces the top of a stack of one value `v`, as [`eval_stack`]
+/// does it (only the steps [`is_top_step`] takes).
+#[inline(always)]
+fn top_step(op: &Op, v: f64) -> R<f64> {
+    match *op {
+        Op::BinNum(op, right, at) => bin(op, v, right, at),
+        Op::BinNumC(op, right, at, start) => check(bin(op, v, right, at)?, start),
+        Op::Check(start) => check(v, start),
+        Op::Neg => Ok(-v),
+        Op::Func(f, at) => f.apply(v).or_else(|m| bad(at, m)),
+        Op::FuncC(f, at, start) => check(f.apply(v).or_else(|m| bad(at, m))?, start),
+        _ => unreachable!("is_top_step takes only the steps above"),
+    }
+}
+
+/// [`eval`] of any code, on a fixed stack.
+#[inline(never)]
+fn eval_stack<E: Env + ?Sized>(code: &Code, env: &E) -> R<f64> {
     // `compile` bounds the height by STACK, a power of two: masking the index
     // keeps it in the array without a bounds check
     const MASK: usize = STACK - 1;
@@ -822,6 +884,41 @@ mod tests {
         let code = compile(&b, 0, Kind::Integer).unwrap();
         assert_eq!(by_code(&code, &e), by_text(&b, Kind::Integer, &e));
         assert!(by_code(&code, &e).is_err());
+    }
+
+    #[test]
+    fn short_values_take_the_stackless_steps_as_the_stack() {
+        let e = env();
+        for kind in [Kind::Real, Kind::Expression] {
+            for s in [
+                "[#<x>]",
+                "[#<x> LT 100]",
+                "[#<x> + 1]",
+                "[#<z> / 0]",
+                "[#<nope>]",
+                "[#<_unsupported>]",
+                "#1",
+                "[#2 * 2]",
+                "[SQRT[#4]]",
+                "[SIN[#<x>]]",
+                "[3]",
+                "[EXISTS[#<x>]]",
+            ] {
+                if kind == Kind::Expression && !s.starts_with('[') {
+                    continue;
+                }
+                let b = norm(s);
+                let code = compile(&b, 0, kind).unwrap_or_else(|| panic!("{s} compiles"));
+                assert!(code.ops.len() <= 2, "{s}: {:?}", code.ops);
+                let by_stack = eval_stack(&code, &e)
+                    .map(|v| (v.to_bits(), code.end))
+                    .map_err(|(at, k)| (at, k.to_string()));
+                assert_eq!(by_code(&code, &e), by_stack, "{s}");
+                if kind == Kind::Real {
+                    assert_eq!(by_code(&code, &e), by_text(&b, kind, &e), "{s}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -119,15 +119,24 @@ impl Scope {
         self.values.get(slot as usize).copied().flatten()
     }
 
+    #[inline(always)]
     fn put(&mut self, slot: u32, value: f64) {
         let k = slot as usize;
         if self.values.len() <= k {
-            self.values.resize(k + 1, None);
+            self.grow(k);
         }
         if self.values[k].is_none() {
             self.set.push(slot);
         }
         self.values[k] = Some(value);
+    }
+
+    /// Room for slot `k` (once per slot and scope: kept out of the assignment's
+    /// way).
+    #[cold]
+    #[inline(never)]
+    fn grow(&mut self, k: usize) {
+        self.values.resize(k + 1, None);
     }
 
     /// Unset everything (the storage is kept).
@@ -151,12 +160,17 @@ pub struct Params {
     slots: NameMap<u32>,
     /// `names[slot]`: the name of a slot.
     names: Vec<Box<str>>,
+    /// `global[slot]`: whether the name of a slot is global (a leading `_`,
+    /// LinuxCNC `interp_namedparams.cc`), so that reads and assignments by slot
+    /// do not test the name's text.
+    global: Vec<bool>,
     globals: Scope,
-    /// Local named parameters per call level (0: the main program).
+    /// Local named parameters per call level (0: the main program), kept in
+    /// place: `locals[depth]` is the current level's, the scopes above it are
+    /// empty and reused by the next call (no allocation or move per call).
     locals: Vec<Scope>,
-    /// Emptied scopes of levels left, reused by the next call (no allocation per
-    /// call).
-    spare: Vec<Scope>,
+    /// The current call level (an index into `locals`).
+    depth: usize,
     /// `#1…#30` as each subroutine call found them, [`SUB_PARAMS`] values per
     /// call level entered with [`Params::enter`] (restored by [`Params::leave`]).
     saved_args: Vec<f64>,
@@ -172,9 +186,10 @@ impl Default for Params {
             from_file: BTreeSet::new(),
             slots: NameMap::default(),
             names: Vec::new(),
+            global: Vec::new(),
             globals: Scope::default(),
             locals: vec![Scope::default()],
-            spare: Vec::new(),
+            depth: 0,
             saved_args: Vec::new(),
             pending_numbered: Vec::new(),
             pending_named: Vec::new(),
@@ -191,11 +206,10 @@ impl PartialEq for Params {
             && self.pending_named == other.pending_named
             && self.saved_args == other.saved_args
             && self.scope_entries(&self.globals) == other.scope_entries(&other.globals)
-            && self.locals.len() == other.locals.len()
-            && self
-                .locals
+            && self.depth == other.depth
+            && self.locals[..=self.depth]
                 .iter()
-                .zip(&other.locals)
+                .zip(&other.locals[..=other.depth])
                 .all(|(a, b)| self.scope_entries(a) == other.scope_entries(b))
     }
 }
@@ -228,11 +242,10 @@ impl Params {
     /// [`Params::named`] of the name of slot `slot`: its value in its scope (the
     /// globals for a leading `_`, else the current call level's locals).
     pub fn slot_value(&self, slot: u32) -> Option<f64> {
-        let name = self.names.get(slot as usize)?;
-        if name.starts_with('_') {
+        if *self.global.get(slot as usize)? {
             self.globals.get(slot)
         } else {
-            self.locals.last().and_then(|l| l.get(slot))
+            self.locals[self.depth].get(slot)
         }
     }
 
@@ -244,31 +257,21 @@ impl Params {
                 let k = self.names.len() as u32;
                 self.slots.insert(name.to_string(), k);
                 self.names.push(name.into());
+                self.global.push(name.starts_with('_'));
                 k
             }
         };
-        let scope = if name.starts_with('_') {
-            &mut self.globals
-        } else {
-            match self.locals.last_mut() {
-                Some(l) => l,
-                None => return,
-            }
-        };
-        scope.put(slot, value);
+        self.set_slot(slot, value);
     }
 
     /// [`Params::set_named`] of the name of slot `slot` (a slot [`Params::slot`]
     /// gave).
+    #[inline]
     pub fn set_slot(&mut self, slot: u32, value: f64) {
-        let global = self.names[slot as usize].starts_with('_');
-        let scope = if global {
+        let scope = if self.global[slot as usize] {
             &mut self.globals
         } else {
-            match self.locals.last_mut() {
-                Some(l) => l,
-                None => return,
-            }
+            &mut self.locals[self.depth]
         };
         scope.put(slot, value);
     }
@@ -338,16 +341,16 @@ impl Params {
     }
 
     fn push_scope(&mut self) {
-        let scope = self.spare.pop().unwrap_or_default();
-        self.locals.push(scope);
+        self.depth += 1;
+        if self.locals.len() <= self.depth {
+            self.locals.push(Scope::default());
+        }
     }
 
     fn pop_scope(&mut self) {
-        if self.locals.len() > 1 {
-            if let Some(mut scope) = self.locals.pop() {
-                scope.clear();
-                self.spare.push(scope);
-            }
+        if self.depth > 0 {
+            self.locals[self.depth].clear();
+            self.depth -= 1;
         }
     }
 
@@ -518,6 +521,40 @@ mod tests {
         q.set_named("a", 1.0);
         assert_eq!(p, q);
         q.set_named("a", 4.0);
+        assert_ne!(p, q);
+    }
+
+    #[test]
+    fn nested_scopes_are_kept_by_depth_and_globals_by_flag() {
+        let mut p = Params::default();
+        p.enter(&[1.0]);
+        p.set_named("a", 1.0);
+        p.enter(&[2.0]);
+        assert_eq!(p.named("a"), None);
+        p.set_named("a", 2.0);
+        // a global first assigned two levels down is global
+        p.set_named("_g", 5.0);
+        p.leave();
+        assert_eq!(
+            (p.get(1), p.named("a"), p.named("_g")),
+            (1.0, Some(1.0), Some(5.0))
+        );
+        p.leave();
+        assert_eq!(
+            (p.get(1), p.named("a"), p.named("_g")),
+            (0.0, None, Some(5.0))
+        );
+        // the scopes of the levels left are empty when entered again
+        p.enter(&[]);
+        p.enter(&[]);
+        assert_eq!(p.named("a"), None);
+        p.leave();
+        p.leave();
+        // the scopes above the current level do not take part in comparing
+        let mut q = Params::default();
+        q.set_named("_g", 5.0);
+        assert_eq!(p, q);
+        q.enter(&[]);
         assert_ne!(p, q);
     }
 

@@ -1409,16 +1409,18 @@ impl Interp<'_> {
                 }
             }
             OKind::EndWhile | OKind::EndRepeat => {
-                self.label_of(o, "")?;
+                // the label found is the one `back_to` would look up again
+                let l = self.label_of(o, "")?;
+                let back = Jump::To(l.file, l.pos, l.line_no);
                 if self.ctl.skipping.is_some() {
                     self.ctl.skipping = None;
                     if self.ctl.doing_continue {
                         self.ctl.doing_continue = false;
-                        return Ok(self.back_to(&o.name).unwrap_or(Jump::Next));
+                        return Ok(back);
                     }
                     return Ok(Jump::Next);
                 }
-                return Ok(self.back_to(&o.name).unwrap_or(Jump::Next));
+                return Ok(back);
             }
         }
         Ok(Jump::Next)
