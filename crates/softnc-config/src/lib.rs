@@ -63,6 +63,16 @@ pub fn positive(v: f64, path: &str, file: &str) -> Result<(), ConfigError> {
     }
 }
 
+/// The text of the configuration file at `path`, with the file's name for messages;
+/// a file that cannot be read is [`ConfigError::Io`].
+pub fn read_text(path: &std::path::Path) -> Result<(String, String), ConfigError> {
+    let file = path.display().to_string();
+    match std::fs::read_to_string(path) {
+        Ok(text) => Ok((file, text)),
+        Err(source) => Err(ConfigError::Io { file, source }),
+    }
+}
+
 /// Deserialize any RON document, reporting the path of a bad field.
 pub fn parse_ron<T: serde::de::DeserializeOwned>(text: &str, file: &str) -> Result<T, ConfigError> {
     let mut de = ron::Deserializer::from_str(text).map_err(|e| ConfigError::Parse {

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 use softnc_config::positive;
-pub use softnc_config::{parse_ron, ConfigError};
+pub use softnc_config::{parse_ron, read_text, ConfigError};
 
 /// One axis of the machine.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -263,11 +263,7 @@ impl Default for SpindleConfig {
 impl MachineProfile {
     /// Load and validate a profile from a RON file.
     pub fn load(path: &Path) -> Result<Self, ConfigError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-            file: file.clone(),
-            source,
-        })?;
+        let (file, text) = read_text(path)?;
         Self::from_ron_str(&text, &file)
     }
 

@@ -242,11 +242,7 @@ impl Loaded {
 impl DaemonConfig {
     /// Load, validate, and load the machine profile it names.
     pub fn load(path: &Path) -> Result<Loaded, ConfigError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-            file: file.clone(),
-            source,
-        })?;
+        let (file, text) = softnc_core::config::read_text(path)?;
         let config: DaemonConfig = parse_ron(&text, &file)?;
         let bad = |p: &str, r: &str| ConfigError::Invalid {
             file: file.clone(),

@@ -238,21 +238,10 @@ impl ArcPrep {
     /// The arc's data; None for a line (or no primitive).
     pub(crate) fn of(prim: &Option<Primitive>) -> Option<ArcPrep> {
         let p = prim.as_ref()?;
-        if !matches!(p, Primitive::Arc { .. }) {
-            return None;
-        }
-        let Primitive::Arc {
-            center, plane, end, ..
-        } = *p
-        else {
-            return None;
-        };
-        let (a, b, _) = plane.axes();
-        let (ea, eb) = (end[a] - center[a], end[b] - center[b]);
         Some(ArcPrep {
+            end_radius_mm: fillet::end_radius_mm(p)?,
             start_tangent: arc_end_tangent(p, false),
             end_tangent: arc_end_tangent(p, true),
-            end_radius_mm: (ea * ea + eb * eb).sqrt(),
             len_mm: p.length(),
         })
     }

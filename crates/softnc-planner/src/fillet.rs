@@ -55,17 +55,7 @@ impl ArcView {
     /// touching it is tangent to the circle, so the angle is a kink the junction speed
     /// does not see: the caller bounds it by what the kink share allows at top speed).
     pub fn of(p: &Primitive, at_end: bool, max_drift_rad: f64) -> Option<ArcView> {
-        let Primitive::Arc {
-            center, plane, end, ..
-        } = *p
-        else {
-            return None;
-        };
-        let (a, b, _) = plane.axes();
-        // |end − c| in the plane (`Plane::radius_at` without `hypot`: the squares
-        // cannot overflow for coordinates a machine reaches)
-        let (ea, eb) = (end[a] - center[a], end[b] - center[b]);
-        let re = (ea * ea + eb * eb).sqrt();
+        let re = end_radius_mm(p)?;
         Self::of_measured(p, at_end, max_drift_rad, re, p.length())
     }
 
@@ -168,6 +158,20 @@ pub struct Fillet {
 /// s/(1 + c), cos(θ/2) = √((1 + c)/2) and sec(θ/2) − 1 = (1 − cos(θ/2))/cos(θ/2)
 /// with 1 − cos(θ/2) = (s²/(2(1 + c)))/(1 + cos(θ/2)), which keeps its precision at
 /// small turns.
+/// An arc's end radius |end − c| in its plane (`Plane::radius_at` without `hypot`:
+/// the squares cannot overflow for coordinates a machine reaches); None for a line.
+pub(crate) fn end_radius_mm(p: &Primitive) -> Option<f64> {
+    let Primitive::Arc {
+        center, plane, end, ..
+    } = *p
+    else {
+        return None;
+    };
+    let (a, b, _) = plane.axes();
+    let (ea, eb) = (end[a] - center[a], end[b] - center[b]);
+    Some((ea * ea + eb * eb).sqrt())
+}
+
 fn first_trim(t1: Vec3, t2: Vec3, tol_mm: f64) -> f64 {
     first_trim_cs(t1.dot(t2), t1.cross(t2).norm(), tol_mm)
 }

@@ -52,11 +52,7 @@ impl FuzzyConfig {
 
     /// Load and validate a RON file.
     pub fn load(path: &std::path::Path) -> Result<Self, ConfigError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-            file: file.clone(),
-            source,
-        })?;
+        let (file, text) = softnc_config::read_text(path)?;
         Self::from_ron_str(&text, &file)
     }
 
