@@ -2,120 +2,35 @@
 //! (iceoryx2 request-response). It checks a job completely — G-code, planning, soft
 //! limits — before anything moves, and forwards operator commands to the
 //! interpolation and position processes.
+//!
+//! - this module: the loop (`poll`), the machine state and its transitions
+//!   ([`transition`], docs/operations.md), the operator's commands, status;
+//! - `check`: a submitted job, MDI block or touch-off taken in off the loop;
+//! - `setup`: jog, touch-off, the tool table, and why a program is refused now;
+//! - `history`: the job records and `jobs.json`.
+
+mod check;
+mod history;
+mod setup;
+
+use check::{CheckKind, Checking};
+use history::load_jobs;
+pub use history::{Accuracy, JobRecord};
 
 use crate::bus::{Bus, Pub, Sub};
 use crate::config::Loaded;
-use crate::interp::{check_bytes, JobSetup, Switches};
-use crate::jobfile::intake;
+use crate::interp::Switches;
 use crate::lifecycle::StopWatch;
-use crate::machine_store::{coords_number, offsets_json, MachineStore, Offsets};
+use crate::machine_store::{offsets_json, MachineStore, Offsets};
 use anyhow::{Context, Result};
 use iceoryx2::port::server::Server;
 use iceoryx2::prelude::*;
-use serde::{Deserialize, Serialize};
-use softnc_core::store::write_atomic;
-use softnc_core::{Axes, MAX_AXES};
 use softnc_ipc::{
     Alarm, AlarmCode, ControlCommand, ControlKind, FixedStr, Heartbeat, LoopStats, MachineState,
     OperatorReply, OperatorRequest, PositionStatus, ProcessId, JOB_ADAPTIVE_FORCE,
 };
-use softnc_planner::PlanStats;
 use std::collections::VecDeque;
-use std::time::{Duration, Instant, SystemTime};
-
-/// One job in the history.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct JobRecord {
-    /// Job id.
-    pub job_id: u64,
-    /// Program file.
-    pub path: String,
-    /// Submitted (seconds since the Unix epoch).
-    pub submitted_unix_s: u64,
-    /// "running", "completed", "aborted".
-    pub outcome: String,
-    /// Planned samples.
-    pub planned_samples: u64,
-    /// Cycles run.
-    pub cycles: u64,
-    /// Length of the planned path (mm).
-    #[serde(default)]
-    pub planned_path_mm: f64,
-    /// How far along the planned path the position loop is (mm).
-    #[serde(default)]
-    pub path_mm: f64,
-    /// Accuracy over the job's feed moves.
-    pub accuracy: Accuracy,
-    /// Remarks that are not alarms (a learned correction applied, faded out, …).
-    #[serde(default)]
-    pub notes: Vec<String>,
-    /// The alarms raised while it ran ("Code: message"); kept when the operator
-    /// clears the machine's alarms.
-    #[serde(default)]
-    pub alarms: Vec<String>,
-    /// The immutable copy of the program that ran (`<data_dir>/programs/<sha256>.ngc`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub program: Option<String>,
-    /// SHA-256 of the program that ran.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub sha256: Option<String>,
-    /// The block(s) of an MDI command (`None`: a job from a file).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub mdi: Option<String>,
-    /// The line a run-from-line job started at.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub from_line: Option<u32>,
-    /// The job ran with adaptive feed (paper 003's force loop on the override).
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub adaptive_force: bool,
-}
-
-impl JobRecord {
-    /// How much of the job is done (0..=1): the position along the planned path
-    /// (a completed job is done; a path of length 0, dwells only, counts cycles).
-    pub fn progress(&self) -> f64 {
-        let p = if self.outcome == "completed" {
-            1.0
-        } else if self.planned_path_mm > 0.0 {
-            self.path_mm / self.planned_path_mm
-        } else if self.planned_samples > 0 {
-            self.cycles as f64 / self.planned_samples as f64
-        } else {
-            0.0
-        };
-        p.clamp(0.0, 1.0)
-    }
-}
-
-/// Accuracy of a job, accumulated from the position status stream.
-#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
-pub struct Accuracy {
-    /// Largest |contour error| (µm).
-    pub contour_max_abs_um: f64,
-    /// RMS contour error (µm).
-    pub contour_rms_um: f64,
-    /// Largest |following error| per axis (µm).
-    pub following_max_abs_um: Axes<f64>,
-    #[serde(skip)]
-    sum_sq: f64,
-    #[serde(skip)]
-    n: u64,
-}
-
-impl Accuracy {
-    fn add(&mut self, s: &PositionStatus) {
-        if s.contour_err_mm.is_finite() {
-            let e = s.contour_err_mm * 1000.0;
-            self.contour_max_abs_um = self.contour_max_abs_um.max(e.abs());
-            self.sum_sq += e * e;
-            self.n += 1;
-            self.contour_rms_um = (self.sum_sq / self.n as f64).sqrt();
-        }
-        for (i, max_um) in self.following_max_abs_um.iter_mut().enumerate() {
-            *max_um = max_um.max(s.following_err_mm[i].abs() * 1000.0);
-        }
-    }
-}
+use std::time::{Duration, Instant};
 
 #[derive(Debug, Clone, Copy)]
 struct Peer {
@@ -184,47 +99,6 @@ pub struct MmiTask {
 
 type OperatorRequestIn =
     iceoryx2::active_request::ActiveRequest<ipc::Service, OperatorRequest, (), OperatorReply, ()>;
-
-/// What the check of a submitted job gives: the program taken in, the path of its
-/// copy, the plan's figures and the parameters as it leaves them; or why it is
-/// refused.
-type CheckResult = std::result::Result<
-    (
-        crate::jobfile::JobFile,
-        String,
-        PlanStats,
-        softnc_gcode::Params,
-        String,
-    ),
-    String,
->;
-
-/// What is being checked.
-#[derive(Debug, Clone, PartialEq)]
-enum CheckKind {
-    /// A job from a file (from a line).
-    Job {
-        from_line: Option<u32>,
-        /// With adaptive feed.
-        adaptive_force: bool,
-    },
-    /// MDI block(s).
-    Mdi { text: String },
-    /// A touch-off (a G10 L20 block: no motion).
-    TouchOff { what: String },
-}
-
-/// A job being taken in (read once, copied, planned from the machine's position) on
-/// a thread of its own: the loop goes on serving status, E-stop and heartbeats.
-struct Checking {
-    path: String,
-    kind: CheckKind,
-    /// The operator's request, answered when the check ends.
-    request: Option<OperatorRequestIn>,
-    result: std::sync::mpsc::Receiver<CheckResult>,
-    /// An E-stop or a stop came while checking: the job is not started.
-    cancelled: Option<&'static str>,
-}
 
 const ALARM_HISTORY: usize = 50;
 
@@ -305,21 +179,6 @@ impl MmiTask {
     /// Stop when `stop` asks (SIGTERM/SIGINT, the supervisor's death).
     pub fn set_stop_watch(&mut self, stop: StopWatch) {
         self.stop = stop;
-    }
-
-    fn jobs_path(&self) -> std::path::PathBuf {
-        self.cfg.data_dir.join("jobs.json")
-    }
-
-    fn save_jobs(&mut self) {
-        self.last_save = Instant::now();
-        let text = serde_json::to_vec_pretty(&self.jobs).unwrap_or_default();
-        if let Err(e) = write_atomic(&self.jobs_path(), &text) {
-            tracing::warn!(
-                "cannot write job history {}: {e}",
-                self.jobs_path().display()
-            );
-        }
     }
 
     fn send_control(
@@ -647,279 +506,6 @@ impl MmiTask {
         Ok(())
     }
 
-    /// A continuous jog whose client stopped renewing it is stopped (the dead-man).
-    fn watch_jog(&mut self) -> Result<()> {
-        let Some((axis, _, renewed)) = self.jog_lease else {
-            return Ok(());
-        };
-        let age = renewed.elapsed().as_secs_f64();
-        let jogging = self.position_state() == MachineState::Jogging;
-        if !jogging && age > self.cfg.config.heartbeat_timeout_s {
-            // it ended (a soft limit, an abort, a stop)
-            self.jog_lease = None;
-        } else if jogging && age > self.cfg.config.jog_deadman_s {
-            self.jog_lease = None;
-            self.send_control_axis(ControlKind::Jog, 0, axis, 0.0, "")?;
-            let name = self.axis_name(axis);
-            let deadman = self.cfg.config.jog_deadman_s;
-            self.alarms_pub.send_copy(Alarm {
-                code: AlarmCode::Other.wire(),
-                axis,
-                process: ProcessId::Mmi.wire(),
-                job_id: 0,
-                time_index: 0,
-                message: FixedStr::truncated(&format!(
-                    "jog of {name} stopped: its client did not renew it for {deadman} s"
-                )),
-            })?;
-        }
-        Ok(())
-    }
-
-    fn axis_name(&self, axis: u32) -> String {
-        self.cfg
-            .machine
-            .axes
-            .get(axis as usize)
-            .map_or_else(|| format!("axis {axis}"), |a| a.name.clone())
-    }
-
-    /// Which axes are homed, as the position process reports them.
-    pub fn homed(&self) -> Axes<bool> {
-        let mask = self.last.map_or(0, |s| s.homed);
-        Axes::from_fn(|a| mask & (1 << a.index()) != 0)
-    }
-
-    /// Why a job, MDI or touch-off cannot be taken in now, if it cannot.
-    fn refuse_program(&self, state: MachineState, what: &str) -> Option<String> {
-        if self.shutdown {
-            return Some(format!("shutting down; {what} not started"));
-        }
-        if state == MachineState::Off {
-            return Some(format!("the machine is off; {what} not started"));
-        }
-        if state != MachineState::Idle || self.job_active() {
-            return Some(format!("machine is busy ({state:?}); {what} not started"));
-        }
-        if let Some(e) = &self.params_error {
-            return Some(format!("{e}; {what} not started"));
-        }
-        let homed = self.homed();
-        if homed.iter().any(|h| !h) {
-            let missing: Vec<String> = (0..MAX_AXES)
-                .filter(|&i| !homed[i])
-                .map(|i| self.axis_name(i as u32))
-                .collect();
-            return Some(format!(
-                "not homed ({}): home first (`softnc home`); {what} not started",
-                missing.join(", ")
-            ));
-        }
-        for p in [ProcessId::Interp, ProcessId::Position] {
-            if self.peer_status(p) != "alive" {
-                return Some(format!(
-                    "the {} process is {}; {what} not started",
-                    p.name(),
-                    self.peer_status(p)
-                ));
-            }
-        }
-        if let Some(c) = &self.checking {
-            return Some(format!("{} is being checked; {what} not started", c.path));
-        }
-        None
-    }
-
-    /// Read and check a program off the loop ([`Checking`]); answered when done.
-    fn begin_check(&mut self, path: String, kind: CheckKind) -> Option<OperatorReply> {
-        let limit = self.cfg.config.max_job_bytes;
-        let programs = self.cfg.data_dir.join("programs");
-        let machine = match self.store.profile(&self.cfg.machine) {
-            Ok(m) => m,
-            Err(e) => return Some(Self::reply(false, 0, &format!("{e}; nothing started"))),
-        };
-        // planned from where the machine is, with its offsets, as the interpolator
-        // will plan it
-        let setup = JobSetup {
-            start_mm: self
-                .last
-                .map_or([0.0; 3], |s| [s.cmd_mm[0], s.cmd_mm[1], s.cmd_mm[2]]),
-            params: self.params.clone(),
-            switches: self.switches,
-            from_line: match kind {
-                CheckKind::Job { from_line, .. } => from_line,
-                _ => None,
-            },
-            subroutine_path: self.cfg.subroutine_path.clone(),
-            preamble: self.modal.clone(),
-        };
-        let (tx, rx) = std::sync::mpsc::channel();
-        let job_path = path.clone();
-        let spawned = std::thread::Builder::new()
-            .name("job-check".into())
-            .spawn(move || {
-                let _ = tx.send(check_job(&job_path, limit, &programs, &machine, &setup));
-            });
-        if let Err(e) = spawned {
-            return Some(Self::reply(
-                false,
-                0,
-                &format!("cannot check the job: {e}; job not started"),
-            ));
-        }
-        self.checking = Some(Checking {
-            path,
-            kind,
-            request: None,
-            result: rx,
-            cancelled: None,
-        });
-        None
-    }
-
-    /// MDI text (or a touch-off's block) as a program file the check takes in.
-    fn mdi_file(&self, text: &str) -> std::result::Result<String, String> {
-        let dir = self.cfg.data_dir.join("mdi");
-        std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-        let path = dir.join("mdi.ngc");
-        // between percent signs: the program ends without M2, whose reset of the
-        // modal state (G54, G90, …) an MDI block must not make
-        let program = format!("%\n{text}\n%\n");
-        write_atomic(&path, program.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
-        Ok(path.display().to_string())
-    }
-
-    /// The end of a job's check: start it (its record, the interpolator told) or
-    /// refuse it, and answer the operator who submitted it.
-    fn poll_checking(&mut self) -> Result<()> {
-        let Some(c) = self.checking.as_mut() else {
-            return Ok(());
-        };
-        if self.stop.requested().is_some() && c.cancelled.is_none() {
-            c.cancelled = Some("the controller is stopping");
-        }
-        let result = match c.result.try_recv() {
-            Ok(r) => r,
-            Err(std::sync::mpsc::TryRecvError::Empty) => return Ok(()),
-            Err(std::sync::mpsc::TryRecvError::Disconnected) => {
-                Err("the job's check ended without a result".to_string())
-            }
-        };
-        let Some(c) = self.checking.take() else {
-            return Ok(());
-        };
-        let path = c.path;
-        let state = self.machine_state();
-        let result = match (c.cancelled, result) {
-            (Some(why), _) => Err(format!("{path}: {why}; not started")),
-            (None, Ok(_)) if state != MachineState::Idle || self.job_active() => Err(format!(
-                "{path}: the machine became {state:?} while it was checked; not started"
-            )),
-            (None, r) => r,
-        };
-        // an MDI command's errors name its blocks, not the file it was put in
-        let result = match (&c.kind, result) {
-            (CheckKind::Mdi { .. } | CheckKind::TouchOff { .. }, Err(msg)) => {
-                Err(mdi_error(&path, &msg))
-            }
-            (_, r) => r,
-        };
-        let reply = match result {
-            Err(msg) => {
-                self.alarms_pub.send_copy(Alarm {
-                    code: AlarmCode::JobRefused.wire(),
-                    axis: u32::MAX,
-                    process: ProcessId::Mmi.wire(),
-                    job_id: 0,
-                    time_index: 0,
-                    message: FixedStr::truncated(&msg),
-                })?;
-                Self::reply(false, 0, &msg)
-            }
-            Ok((job, copy, stats, params, modal)) => {
-                let job_id = self
-                    .jobs
-                    .iter()
-                    .map(|j| j.job_id)
-                    .max()
-                    .unwrap_or(0)
-                    .max(self.job_id_floor)
-                    + 1;
-                let submitted = SystemTime::now()
-                    .duration_since(SystemTime::UNIX_EPOCH)
-                    .map(|d| d.as_secs())
-                    .unwrap_or(0);
-                let (mdi, from_line, adaptive_force) = match &c.kind {
-                    CheckKind::Job {
-                        from_line,
-                        adaptive_force,
-                    } => (None, *from_line, *adaptive_force),
-                    CheckKind::Mdi { text } => (Some(text.clone()), None, false),
-                    CheckKind::TouchOff { what } => (Some(what.clone()), None, false),
-                };
-                // nothing to move (a G10, G92, G5x block, a touch-off): done here
-                let moves = stats.moves > 0;
-                self.jobs.push(JobRecord {
-                    job_id,
-                    path: path.clone(),
-                    submitted_unix_s: submitted,
-                    outcome: if moves { "running" } else { "completed" }.into(),
-                    planned_samples: stats.samples,
-                    cycles: 0,
-                    planned_path_mm: stats.path_length_mm,
-                    path_mm: 0.0,
-                    accuracy: Accuracy::default(),
-                    notes: Vec::new(),
-                    alarms: Vec::new(),
-                    program: Some(copy.clone()),
-                    sha256: Some(job.sha256.clone()),
-                    mdi,
-                    from_line,
-                    adaptive_force,
-                });
-                self.save_jobs();
-                if !moves {
-                    self.save_params(&params)?;
-                    self.save_modal(modal);
-                    let what = match &c.kind {
-                        CheckKind::TouchOff { what } => what.clone(),
-                        CheckKind::Mdi { .. } => format!("MDI {job_id}"),
-                        CheckKind::Job { .. } => format!("job {job_id}"),
-                    };
-                    Self::reply(true, job_id, &format!("{what}: done (nothing to move)"))
-                } else {
-                    self.pending_params = Some((job_id, params, modal));
-                    // the feed override is the machine's, not the job's: the job
-                    // starts at the one in force (carried here, so a restarted
-                    // interpolator knows it)
-                    self.send_control_flags(
-                        ControlKind::StartJob,
-                        job_id,
-                        from_line.unwrap_or(0),
-                        self.feed_override,
-                        if adaptive_force {
-                            JOB_ADAPTIVE_FORCE
-                        } else {
-                            0
-                        },
-                        &copy,
-                    )?;
-                    let what = if matches!(c.kind, CheckKind::Job { .. }) {
-                        "job"
-                    } else {
-                        "MDI"
-                    };
-                    Self::reply(true, job_id, &format!("{what} {job_id} started: {path}"))
-                }
-            }
-        };
-        if let Some(req) = c.request {
-            // the operator may be gone (timed out): the job stands either way
-            let _ = req.send_copy(reply);
-        }
-        Ok(())
-    }
-
     /// A reply; one too long for the wire is refused whole, never cut.
     fn reply(accepted: bool, job_id: u64, msg: &str) -> OperatorReply {
         match FixedStr::try_new(msg) {
@@ -995,73 +581,7 @@ impl MmiTask {
                 };
                 return Ok(self.begin_check(path, CheckKind::Mdi { text }));
             }
-            ControlKind::TouchOff => {
-                let axes = self.cfg.machine.axes.len().min(3) as u32;
-                if r.axis >= axes {
-                    return Ok(Some(Self::reply(false, 0, "touch-off: no such axis")));
-                }
-                if !r.value.is_finite() {
-                    return Ok(Some(Self::reply(
-                        false,
-                        0,
-                        "touch-off: the value is not a number",
-                    )));
-                }
-                let coords = r.path.as_str();
-                let p = if coords.is_empty() {
-                    0 // the active system
-                } else {
-                    match coords_number(coords) {
-                        Some(n) => n,
-                        None => {
-                            return Ok(Some(Self::reply(
-                                false,
-                                0,
-                                &format!(
-                                "touch-off: {coords:?} is not a coordinate system (G54 … G59.3)"
-                            ),
-                            )))
-                        }
-                    }
-                };
-                if matches!(
-                    state,
-                    MachineState::Running
-                        | MachineState::Held
-                        | MachineState::Paused
-                        | MachineState::Stopping
-                        | MachineState::Mdi
-                        | MachineState::Homing
-                        | MachineState::Jogging
-                ) {
-                    return Ok(Some(Self::reply(
-                        false,
-                        0,
-                        &format!(
-                            "touch-off refused ({state:?}): the axes are moving; touch off at rest"
-                        ),
-                    )));
-                }
-                if let Some(why) = self.refuse_program(state, "touch-off") {
-                    return Ok(Some(Self::reply(false, 0, &why)));
-                }
-                let name = self.axis_name(r.axis);
-                let block = format!("G10 L20 P{p} {name}{:.6}", r.value);
-                let what = format!(
-                    "touch-off {name} = {:.4} in {}",
-                    r.value,
-                    if p == 0 {
-                        Offsets::from_params(self.params.as_ref(), &self.cfg.machine).coords_name()
-                    } else {
-                        crate::machine_store::coords_name(p)
-                    }
-                );
-                let path = match self.mdi_file(&block) {
-                    Ok(p) => p,
-                    Err(e) => return Ok(Some(Self::reply(false, 0, &format!("touch-off: {e}")))),
-                };
-                return Ok(self.begin_check(path, CheckKind::TouchOff { what }));
-            }
+            ControlKind::TouchOff => return self.touch_off(r, state),
             ControlKind::Offsets => Self::reply(
                 true,
                 0,
@@ -1076,63 +596,7 @@ impl MmiTask {
                 Ok(t) => Self::reply(true, 0, &serde_json::to_string(&t).unwrap_or_default()),
                 Err(e) => Self::reply(false, 0, &e),
             },
-            ControlKind::ToolSet => {
-                if self.job_active() || self.checking.is_some() {
-                    return Ok(Some(Self::reply(
-                        false,
-                        0,
-                        "tool table: a job is running; edit it between jobs",
-                    )));
-                }
-                let diameter = r.path.as_str().trim();
-                let diameter_mm: Option<f64> = if diameter.is_empty() {
-                    None
-                } else {
-                    match diameter.parse::<f64>() {
-                        Ok(d) if d.is_finite() && d >= 0.0 => Some(d),
-                        _ => {
-                            return Ok(Some(Self::reply(
-                                false,
-                                0,
-                                &format!("tool table: diameter {diameter:?} is not a number ≥ 0"),
-                            )))
-                        }
-                    }
-                };
-                if !r.value.is_finite() || r.axis == 0 || r.axis == u32::MAX {
-                    return Ok(Some(Self::reply(
-                        false,
-                        0,
-                        "tool table: a tool number > 0 and a finite length are needed",
-                    )));
-                }
-                let mut tools = match self.store.load_tools(&self.cfg.machine) {
-                    Ok(t) => t,
-                    Err(e) => return Ok(Some(Self::reply(false, 0, &e))),
-                };
-                match tools.iter_mut().find(|t| t.number == r.axis) {
-                    Some(t) => {
-                        t.length_mm = r.value;
-                        if let Some(d) = diameter_mm {
-                            t.diameter_mm = d;
-                        }
-                    }
-                    None => tools.push(softnc_core::config::ToolEntry {
-                        number: r.axis,
-                        length_mm: r.value,
-                        diameter_mm: diameter_mm.unwrap_or(0.0),
-                    }),
-                }
-                tools.sort_by_key(|t| t.number);
-                match self.store.save_tools(&tools) {
-                    Ok(()) => Self::reply(
-                        true,
-                        0,
-                        &format!("tool {}: length {:.4} mm", r.axis, r.value),
-                    ),
-                    Err(e) => Self::reply(false, 0, &e),
-                }
-            }
+            ControlKind::ToolSet => return self.tool_set(r),
             ControlKind::SingleBlock | ControlKind::OptionalStop | ControlKind::BlockDelete => {
                 let on = r.value != 0.0;
                 self.switches.apply(kind, r.value);
@@ -1275,124 +739,6 @@ impl MmiTask {
         }))
     }
 
-    /// A continuous jog (speed in mm/min, 0 stops it; renewed by its client within
-    /// `jog_deadman_s`) or an incremental one (a distance in mm), checked against the
-    /// axis's limits and, once homed, its soft limits.
-    fn jog(
-        &mut self,
-        kind: ControlKind,
-        r: &OperatorRequest,
-        state: MachineState,
-    ) -> Result<OperatorReply> {
-        let axes = self.cfg.machine.axes.len().min(3) as u32;
-        if r.axis >= axes {
-            return Ok(Self::reply(false, 0, "jog: no such axis"));
-        }
-        if !r.value.is_finite() {
-            return Ok(Self::reply(false, 0, "jog: the value is not a number"));
-        }
-        let i = r.axis as usize;
-        let a = self.cfg.machine.axes[i].clone();
-        let name = a.name.clone();
-        let homed = self.homed()[i];
-        let pos_mm = self.last.map_or(0.0, |s| s.cmd_mm[i]);
-        let deadman = self.cfg.config.jog_deadman_s;
-        if kind == ControlKind::Jog {
-            let speed = r.value;
-            if speed == 0.0 {
-                if state != MachineState::Jogging {
-                    return Ok(Self::reply(
-                        false,
-                        0,
-                        &format!("jog {name} 0: nothing is jogging"),
-                    ));
-                }
-                self.jog_lease = None;
-                self.send_control_axis(kind, 0, r.axis, 0.0, "")?;
-                return Ok(Self::reply(true, 0, &format!("jog of {name} stopping")));
-            }
-            let max = a.max_vel_mm_per_s * 60.0;
-            if speed.abs() > max {
-                return Ok(Self::reply(
-                    false,
-                    0,
-                    &format!("jog speed {speed} mm/min over {name}'s limit {max} mm/min"),
-                ));
-            }
-            if let Some(lease) = self.jog_lease.as_mut() {
-                if state == MachineState::Jogging && lease.0 == r.axis && lease.1 == speed {
-                    lease.2 = Instant::now();
-                    return Ok(Self::reply(true, 0, &format!("jog of {name} renewed")));
-                }
-            }
-            if let Err(why) = transition(kind, state) {
-                return Ok(Self::reply(
-                    false,
-                    0,
-                    &format!("jog refused ({state:?}): {why}"),
-                ));
-            }
-            if state == MachineState::Jogging && self.jog_lease.is_none_or(|l| l.0 != r.axis) {
-                return Ok(Self::reply(
-                    false,
-                    0,
-                    "another jog is under way: stop it first",
-                ));
-            }
-            let at_limit =
-                (speed > 0.0 && pos_mm >= a.max_mm) || (speed < 0.0 && pos_mm <= a.min_mm);
-            if homed && at_limit {
-                return Ok(Self::reply(
-                    false,
-                    0,
-                    &format!("jog refused: {name} is at its soft limit ({pos_mm:.4} mm)"),
-                ));
-            }
-            self.jog_lease = Some((r.axis, speed, Instant::now()));
-            self.send_control_axis(kind, 0, r.axis, speed, "")?;
-            let until = if homed {
-                "to its soft limit"
-            } else {
-                "(not homed: no soft limits)"
-            };
-            return Ok(Self::reply(
-                true,
-                0,
-                &format!(
-                    "jogging {name} at {speed} mm/min {until}; renew within {deadman} s, `softnc jog {name} 0` stops"
-                ),
-            ));
-        }
-        // incremental
-        if let Err(why) = transition(kind, state) {
-            return Ok(Self::reply(
-                false,
-                0,
-                &format!("jog refused ({state:?}): {why}"),
-            ));
-        }
-        if r.value == 0.0 {
-            return Ok(Self::reply(false, 0, "jog: a step of 0 mm"));
-        }
-        let target_mm = pos_mm + r.value;
-        if homed && !(a.min_mm..=a.max_mm).contains(&target_mm) {
-            return Ok(Self::reply(
-                false,
-                0,
-                &format!(
-                    "jog beyond the soft limit: {name} would reach {target_mm:.4} mm, outside [{}, {}] mm",
-                    a.min_mm, a.max_mm
-                ),
-            ));
-        }
-        self.send_control_axis(kind, 0, r.axis, r.value, "")?;
-        Ok(Self::reply(
-            true,
-            0,
-            &format!("jogging {name} by {} mm to {target_mm:.4} mm", r.value),
-        ))
-    }
-
     /// "alive" (a heartbeat within the timeout), "lost" (silent, or reported lost and
     /// not yet back) or "unseen".
     fn peer_status(&self, p: ProcessId) -> &'static str {
@@ -1403,32 +749,6 @@ impl MmiTask {
             None if self.peers[p as usize].lost_pid.is_some() => "lost",
             None => "unseen",
         }
-    }
-
-    /// One page of the job history, newest first, from `offset` (skipped newest
-    /// records): `{"total", "offset", "jobs"}` with as many records as fit a reply.
-    pub fn jobs_page(&self, offset: f64) -> String {
-        let total = self.jobs.len();
-        let offset = if offset.is_finite() && offset > 0.0 {
-            (offset as usize).min(total)
-        } else {
-            0
-        };
-        // room for the envelope; each record is added while the page still fits
-        let cap = OperatorReply::MESSAGE_CAPACITY - 64;
-        let mut body = String::from("[");
-        for j in self.jobs.iter().rev().skip(offset) {
-            let rec = serde_json::to_string(j).unwrap_or_default();
-            if body.len() + rec.len() + 2 > cap && body.len() > 1 {
-                break;
-            }
-            if body.len() > 1 {
-                body.push(',');
-            }
-            body.push_str(&rec);
-        }
-        body.push(']');
-        format!("{{\"total\":{total},\"offset\":{offset},\"jobs\":{body}}}")
     }
 
     /// The status the operator sees.
@@ -1551,106 +871,6 @@ pub fn transition(kind: ControlKind, state: MachineState) -> Result<MachineState
     }
 }
 
-/// An error of the MDI file `path` (`path:LINE:COL: why`, its first line the `%`
-/// that opens it) as the operator's blocks: `MDI block N, column C: why`.
-fn mdi_error(path: &str, msg: &str) -> String {
-    let located = msg.strip_prefix(path).and_then(|rest| {
-        let mut parts = rest.strip_prefix(':')?.splitn(3, ':');
-        let line: u32 = parts.next()?.parse().ok()?;
-        let col: u32 = parts.next()?.parse().ok()?;
-        Some((line, col, parts.next()?.trim_start()))
-    });
-    match located {
-        Some((line, col, why)) if line >= 2 => {
-            format!("MDI block {}, column {col}: {why}", line - 1)
-        }
-        Some((_, _, why)) => format!("MDI: {why}"),
-        None => format!("MDI: {msg}"),
-    }
-}
-
-/// The job history in `path`, and the highest job id it ever used. An unreadable
-/// file is kept aside (`jobs.json.unreadable-<unix s>`) and a new history started;
-/// job ids go on from the highest one found in it.
-fn load_jobs(path: &std::path::Path) -> (Vec<JobRecord>, u64) {
-    let bytes = match std::fs::read(path) {
-        Ok(b) => b,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return (Vec::new(), 0),
-        Err(e) => {
-            tracing::error!("{}: cannot read the job history: {e}", path.display());
-            return (Vec::new(), 0);
-        }
-    };
-    match serde_json::from_slice::<Vec<JobRecord>>(&bytes) {
-        Ok(mut jobs) => {
-            // a job "running" when the MMI last stopped did not finish under it
-            for j in jobs.iter_mut().filter(|j| j.outcome == "running") {
-                j.outcome = "interrupted".into();
-            }
-            let max = jobs.iter().map(|j| j.job_id).max().unwrap_or(0);
-            (jobs, max)
-        }
-        Err(e) => {
-            let stamp = SystemTime::now()
-                .duration_since(SystemTime::UNIX_EPOCH)
-                .map(|d| d.as_secs())
-                .unwrap_or(0);
-            let aside = path.with_extension(format!("json.unreadable-{stamp}"));
-            match std::fs::rename(path, &aside) {
-                Ok(()) => tracing::error!(
-                    "{}: unreadable job history ({e}); kept as {}, starting a new one",
-                    path.display(),
-                    aside.display()
-                ),
-                Err(re) => tracing::error!(
-                    "{}: unreadable job history ({e}), and it cannot be kept aside ({re})",
-                    path.display()
-                ),
-            }
-            (Vec::new(), highest_job_id(&String::from_utf8_lossy(&bytes)))
-        }
-    }
-}
-
-/// The highest `"job_id": N` in a history that no longer parses.
-fn highest_job_id(text: &str) -> u64 {
-    text.match_indices("\"job_id\"")
-        .filter_map(|(i, k)| {
-            let rest = text[i + k.len()..]
-                .trim_start()
-                .strip_prefix(':')?
-                .trim_start();
-            let digits: String = rest.chars().take_while(|c| c.is_ascii_digit()).collect();
-            digits.parse().ok()
-        })
-        .max()
-        .unwrap_or(0)
-}
-
-/// Take a submitted job in: read once (a regular file under `limit`), stored as an
-/// immutable copy under `programs`, planned as `setup` says (from where the machine
-/// is, with its offsets) as the interpolator will plan it, with the parameters it
-/// leaves. Runs off the MMI's loop.
-fn check_job(
-    path: &str,
-    limit: u64,
-    programs: &std::path::Path,
-    machine: &softnc_core::MachineProfile,
-    setup: &JobSetup,
-) -> CheckResult {
-    let job = intake(path, limit, programs).map_err(|e| e.to_string())?;
-    // checked as it will be streamed: the plan's figures, never the whole plan
-    let (_, _, checked, modal) = check_bytes(&job.bytes, path, machine, setup)?;
-    let params = checked.end_params().clone();
-    let copy = job.copy.display().to_string();
-    if !FixedStr::<512>::fits(&copy) {
-        return Err(format!(
-            "{copy}: the job's copy has a path over 512 bytes (data_dir too deep)"
-        ));
-    }
-    Ok((job, copy, checked.stats(), params, modal))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1685,41 +905,5 @@ mod tests {
         assert!(transition(Resume, Running)
             .unwrap_err()
             .contains("nothing is held"));
-    }
-
-    #[test]
-    fn mdi_errors_name_the_operators_blocks() {
-        let p = "/d/mdi/mdi.ngc";
-        assert_eq!(
-            mdi_error(p, &format!("{p}:3:7: Failed to find sub")),
-            "MDI block 2, column 7: Failed to find sub"
-        );
-        assert_eq!(mdi_error(p, "cannot read"), "MDI: cannot read");
-    }
-
-    #[test]
-    fn an_unreadable_history_is_kept_aside_and_job_ids_go_on() {
-        let dir = std::env::temp_dir().join(format!("softnc-jobs-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("jobs.json");
-        let whole = r#"[{"job_id": 50, "path": "a.ngc"}, {"job_id": 51, "path": "b.ngc"}]"#;
-        let cut = &whole[..whole.len() - 8];
-        std::fs::write(&path, cut).unwrap();
-        let (jobs, floor) = load_jobs(&path);
-        assert!(jobs.is_empty());
-        assert_eq!(floor, 51);
-        let kept: Vec<_> = std::fs::read_dir(&dir)
-            .unwrap()
-            .filter_map(|e| e.ok())
-            .filter(|e| {
-                e.file_name()
-                    .to_string_lossy()
-                    .starts_with("jobs.json.unreadable-")
-            })
-            .collect();
-        assert_eq!(kept.len(), 1, "kept aside");
-        assert_eq!(std::fs::read_to_string(kept[0].path()).unwrap(), cut);
-        assert!(!path.exists(), "a new history starts");
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -1,0 +1,392 @@
+//! Setting the machine up between jobs: jog (continuous with a dead-man, or by a
+//! step), touch-off, the tool table, MDI files, and the checks that refuse a program
+//! while the machine is not ready for one.
+
+use super::check::CheckKind;
+use super::{transition, MmiTask};
+use crate::machine_store::{coords_number, Offsets};
+use anyhow::Result;
+use softnc_core::store::write_atomic;
+use softnc_core::{Axes, MAX_AXES};
+use softnc_ipc::{
+    Alarm, AlarmCode, ControlKind, FixedStr, MachineState, OperatorReply, OperatorRequest,
+    ProcessId,
+};
+use std::time::Instant;
+
+/// An error of the MDI file `path` (`path:LINE:COL: why`, its first line the `%`
+/// that opens it) as the operator's blocks: `MDI block N, column C: why`.
+pub(super) fn mdi_error(path: &str, msg: &str) -> String {
+    let located = msg.strip_prefix(path).and_then(|rest| {
+        let mut parts = rest.strip_prefix(':')?.splitn(3, ':');
+        let line: u32 = parts.next()?.parse().ok()?;
+        let col: u32 = parts.next()?.parse().ok()?;
+        Some((line, col, parts.next()?.trim_start()))
+    });
+    match located {
+        Some((line, col, why)) if line >= 2 => {
+            format!("MDI block {}, column {col}: {why}", line - 1)
+        }
+        Some((_, _, why)) => format!("MDI: {why}"),
+        None => format!("MDI: {msg}"),
+    }
+}
+
+impl MmiTask {
+    /// A continuous jog whose client stopped renewing it is stopped (the dead-man).
+    pub(super) fn watch_jog(&mut self) -> Result<()> {
+        let Some((axis, _, renewed)) = self.jog_lease else {
+            return Ok(());
+        };
+        let age = renewed.elapsed().as_secs_f64();
+        let jogging = self.position_state() == MachineState::Jogging;
+        if !jogging && age > self.cfg.config.heartbeat_timeout_s {
+            // it ended (a soft limit, an abort, a stop)
+            self.jog_lease = None;
+        } else if jogging && age > self.cfg.config.jog_deadman_s {
+            self.jog_lease = None;
+            self.send_control_axis(ControlKind::Jog, 0, axis, 0.0, "")?;
+            let name = self.axis_name(axis);
+            let deadman = self.cfg.config.jog_deadman_s;
+            self.alarms_pub.send_copy(Alarm {
+                code: AlarmCode::Other.wire(),
+                axis,
+                process: ProcessId::Mmi.wire(),
+                job_id: 0,
+                time_index: 0,
+                message: FixedStr::truncated(&format!(
+                    "jog of {name} stopped: its client did not renew it for {deadman} s"
+                )),
+            })?;
+        }
+        Ok(())
+    }
+
+    pub(super) fn axis_name(&self, axis: u32) -> String {
+        self.cfg
+            .machine
+            .axes
+            .get(axis as usize)
+            .map_or_else(|| format!("axis {axis}"), |a| a.name.clone())
+    }
+
+    /// Which axes are homed, as the position process reports them.
+    pub fn homed(&self) -> Axes<bool> {
+        let mask = self.last.map_or(0, |s| s.homed);
+        Axes::from_fn(|a| mask & (1 << a.index()) != 0)
+    }
+
+    /// Why a job, MDI or touch-off cannot be taken in now, if it cannot.
+    pub(super) fn refuse_program(&self, state: MachineState, what: &str) -> Option<String> {
+        if self.shutdown {
+            return Some(format!("shutting down; {what} not started"));
+        }
+        if state == MachineState::Off {
+            return Some(format!("the machine is off; {what} not started"));
+        }
+        if state != MachineState::Idle || self.job_active() {
+            return Some(format!("machine is busy ({state:?}); {what} not started"));
+        }
+        if let Some(e) = &self.params_error {
+            return Some(format!("{e}; {what} not started"));
+        }
+        let homed = self.homed();
+        if homed.iter().any(|h| !h) {
+            let missing: Vec<String> = (0..MAX_AXES)
+                .filter(|&i| !homed[i])
+                .map(|i| self.axis_name(i as u32))
+                .collect();
+            return Some(format!(
+                "not homed ({}): home first (`softnc home`); {what} not started",
+                missing.join(", ")
+            ));
+        }
+        for p in [ProcessId::Interp, ProcessId::Position] {
+            if self.peer_status(p) != "alive" {
+                return Some(format!(
+                    "the {} process is {}; {what} not started",
+                    p.name(),
+                    self.peer_status(p)
+                ));
+            }
+        }
+        if let Some(c) = &self.checking {
+            return Some(format!("{} is being checked; {what} not started", c.path));
+        }
+        None
+    }
+
+    /// MDI text (or a touch-off's block) as a program file the check takes in.
+    pub(super) fn mdi_file(&self, text: &str) -> std::result::Result<String, String> {
+        let dir = self.cfg.data_dir.join("mdi");
+        std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        let path = dir.join("mdi.ngc");
+        // between percent signs: the program ends without M2, whose reset of the
+        // modal state (G54, G90, …) an MDI block must not make
+        let program = format!("%\n{text}\n%\n");
+        write_atomic(&path, program.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
+        Ok(path.display().to_string())
+    }
+
+    /// A continuous jog (speed in mm/min, 0 stops it; renewed by its client within
+    /// `jog_deadman_s`) or an incremental one (a distance in mm), checked against the
+    /// axis's limits and, once homed, its soft limits.
+    pub(super) fn jog(
+        &mut self,
+        kind: ControlKind,
+        r: &OperatorRequest,
+        state: MachineState,
+    ) -> Result<OperatorReply> {
+        let axes = self.cfg.machine.axes.len().min(3) as u32;
+        if r.axis >= axes {
+            return Ok(Self::reply(false, 0, "jog: no such axis"));
+        }
+        if !r.value.is_finite() {
+            return Ok(Self::reply(false, 0, "jog: the value is not a number"));
+        }
+        let i = r.axis as usize;
+        let a = self.cfg.machine.axes[i].clone();
+        let name = a.name.clone();
+        let homed = self.homed()[i];
+        let pos_mm = self.last.map_or(0.0, |s| s.cmd_mm[i]);
+        let deadman = self.cfg.config.jog_deadman_s;
+        if kind == ControlKind::Jog {
+            let speed = r.value;
+            if speed == 0.0 {
+                if state != MachineState::Jogging {
+                    return Ok(Self::reply(
+                        false,
+                        0,
+                        &format!("jog {name} 0: nothing is jogging"),
+                    ));
+                }
+                self.jog_lease = None;
+                self.send_control_axis(kind, 0, r.axis, 0.0, "")?;
+                return Ok(Self::reply(true, 0, &format!("jog of {name} stopping")));
+            }
+            let max = a.max_vel_mm_per_s * 60.0;
+            if speed.abs() > max {
+                return Ok(Self::reply(
+                    false,
+                    0,
+                    &format!("jog speed {speed} mm/min over {name}'s limit {max} mm/min"),
+                ));
+            }
+            if let Some(lease) = self.jog_lease.as_mut() {
+                if state == MachineState::Jogging && lease.0 == r.axis && lease.1 == speed {
+                    lease.2 = Instant::now();
+                    return Ok(Self::reply(true, 0, &format!("jog of {name} renewed")));
+                }
+            }
+            if let Err(why) = transition(kind, state) {
+                return Ok(Self::reply(
+                    false,
+                    0,
+                    &format!("jog refused ({state:?}): {why}"),
+                ));
+            }
+            if state == MachineState::Jogging && self.jog_lease.is_none_or(|l| l.0 != r.axis) {
+                return Ok(Self::reply(
+                    false,
+                    0,
+                    "another jog is under way: stop it first",
+                ));
+            }
+            let at_limit =
+                (speed > 0.0 && pos_mm >= a.max_mm) || (speed < 0.0 && pos_mm <= a.min_mm);
+            if homed && at_limit {
+                return Ok(Self::reply(
+                    false,
+                    0,
+                    &format!("jog refused: {name} is at its soft limit ({pos_mm:.4} mm)"),
+                ));
+            }
+            self.jog_lease = Some((r.axis, speed, Instant::now()));
+            self.send_control_axis(kind, 0, r.axis, speed, "")?;
+            let until = if homed {
+                "to its soft limit"
+            } else {
+                "(not homed: no soft limits)"
+            };
+            return Ok(Self::reply(
+                true,
+                0,
+                &format!(
+                    "jogging {name} at {speed} mm/min {until}; renew within {deadman} s, `softnc jog {name} 0` stops"
+                ),
+            ));
+        }
+        // incremental
+        if let Err(why) = transition(kind, state) {
+            return Ok(Self::reply(
+                false,
+                0,
+                &format!("jog refused ({state:?}): {why}"),
+            ));
+        }
+        if r.value == 0.0 {
+            return Ok(Self::reply(false, 0, "jog: a step of 0 mm"));
+        }
+        let target_mm = pos_mm + r.value;
+        if homed && !(a.min_mm..=a.max_mm).contains(&target_mm) {
+            return Ok(Self::reply(
+                false,
+                0,
+                &format!(
+                    "jog beyond the soft limit: {name} would reach {target_mm:.4} mm, outside [{}, {}] mm",
+                    a.min_mm, a.max_mm
+                ),
+            ));
+        }
+        self.send_control_axis(kind, 0, r.axis, r.value, "")?;
+        Ok(Self::reply(
+            true,
+            0,
+            &format!("jogging {name} by {} mm to {target_mm:.4} mm", r.value),
+        ))
+    }
+
+    /// Touch off an axis: a `G10 L20` block for the active (or a named) coordinate
+    /// system, checked and run as MDI; only at rest.
+    pub(super) fn touch_off(
+        &mut self,
+        r: &OperatorRequest,
+        state: MachineState,
+    ) -> Result<Option<OperatorReply>> {
+        let axes = self.cfg.machine.axes.len().min(3) as u32;
+        if r.axis >= axes {
+            return Ok(Some(Self::reply(false, 0, "touch-off: no such axis")));
+        }
+        if !r.value.is_finite() {
+            return Ok(Some(Self::reply(
+                false,
+                0,
+                "touch-off: the value is not a number",
+            )));
+        }
+        let coords = r.path.as_str();
+        let p = if coords.is_empty() {
+            0 // the active system
+        } else {
+            match coords_number(coords) {
+                Some(n) => n,
+                None => {
+                    return Ok(Some(Self::reply(
+                        false,
+                        0,
+                        &format!("touch-off: {coords:?} is not a coordinate system (G54 … G59.3)"),
+                    )))
+                }
+            }
+        };
+        if matches!(
+            state,
+            MachineState::Running
+                | MachineState::Held
+                | MachineState::Paused
+                | MachineState::Stopping
+                | MachineState::Mdi
+                | MachineState::Homing
+                | MachineState::Jogging
+        ) {
+            return Ok(Some(Self::reply(
+                false,
+                0,
+                &format!("touch-off refused ({state:?}): the axes are moving; touch off at rest"),
+            )));
+        }
+        if let Some(why) = self.refuse_program(state, "touch-off") {
+            return Ok(Some(Self::reply(false, 0, &why)));
+        }
+        let name = self.axis_name(r.axis);
+        let block = format!("G10 L20 P{p} {name}{:.6}", r.value);
+        let what = format!(
+            "touch-off {name} = {:.4} in {}",
+            r.value,
+            if p == 0 {
+                Offsets::from_params(self.params.as_ref(), &self.cfg.machine).coords_name()
+            } else {
+                crate::machine_store::coords_name(p)
+            }
+        );
+        let path = match self.mdi_file(&block) {
+            Ok(p) => p,
+            Err(e) => return Ok(Some(Self::reply(false, 0, &format!("touch-off: {e}")))),
+        };
+        Ok(self.begin_check(path, CheckKind::TouchOff { what }))
+    }
+
+    /// Set a tool's length (and diameter) in the tool table; only between jobs.
+    pub(super) fn tool_set(&mut self, r: &OperatorRequest) -> Result<Option<OperatorReply>> {
+        if self.job_active() || self.checking.is_some() {
+            return Ok(Some(Self::reply(
+                false,
+                0,
+                "tool table: a job is running; edit it between jobs",
+            )));
+        }
+        let diameter = r.path.as_str().trim();
+        let diameter_mm: Option<f64> = if diameter.is_empty() {
+            None
+        } else {
+            match diameter.parse::<f64>() {
+                Ok(d) if d.is_finite() && d >= 0.0 => Some(d),
+                _ => {
+                    return Ok(Some(Self::reply(
+                        false,
+                        0,
+                        &format!("tool table: diameter {diameter:?} is not a number ≥ 0"),
+                    )))
+                }
+            }
+        };
+        if !r.value.is_finite() || r.axis == 0 || r.axis == u32::MAX {
+            return Ok(Some(Self::reply(
+                false,
+                0,
+                "tool table: a tool number > 0 and a finite length are needed",
+            )));
+        }
+        let mut tools = match self.store.load_tools(&self.cfg.machine) {
+            Ok(t) => t,
+            Err(e) => return Ok(Some(Self::reply(false, 0, &e))),
+        };
+        match tools.iter_mut().find(|t| t.number == r.axis) {
+            Some(t) => {
+                t.length_mm = r.value;
+                if let Some(d) = diameter_mm {
+                    t.diameter_mm = d;
+                }
+            }
+            None => tools.push(softnc_core::config::ToolEntry {
+                number: r.axis,
+                length_mm: r.value,
+                diameter_mm: diameter_mm.unwrap_or(0.0),
+            }),
+        }
+        tools.sort_by_key(|t| t.number);
+        Ok(Some(match self.store.save_tools(&tools) {
+            Ok(()) => Self::reply(
+                true,
+                0,
+                &format!("tool {}: length {:.4} mm", r.axis, r.value),
+            ),
+            Err(e) => Self::reply(false, 0, &e),
+        }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mdi_errors_name_the_operators_blocks() {
+        let p = "/d/mdi/mdi.ngc";
+        assert_eq!(
+            mdi_error(p, &format!("{p}:3:7: Failed to find sub")),
+            "MDI block 2, column 7: Failed to find sub"
+        );
+        assert_eq!(mdi_error(p, "cannot read"), "MDI: cannot read");
+    }
+}
