@@ -1772,6 +1772,8 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     // home all: Z, X, Y in the profile's order, each at its home position
     let (ok, msg) = ask(&op, ControlKind::Home, u32::MAX, 0.0, "");
     assert!(ok, "{msg}");
+    // the state the command asked for, from the reply on (not the one before it)
+    assert_eq!(op.status().unwrap()["state"], "Homing");
     let s = d.wait_status(&op, Duration::from_secs(60), "homed", |s| {
         s["state"] == "Idle" && s["homed"] == serde_json::json!([true, true, true])
     });
@@ -1826,6 +1828,7 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     // a continuous jog whose client goes away stops by itself (the dead-man)
     let (ok, msg) = ask(&op, ControlKind::Jog, 0, -6000.0, "");
     assert!(ok, "{msg}");
+    assert_eq!(op.status().unwrap()["state"], "Jogging");
     let s = d.wait_status(&op, Duration::from_secs(5), "dead-man stop", |s| {
         s["state"] == "Idle"
     });

@@ -598,6 +598,7 @@ impl InterpTask {
         let mut pending = stop_now.then(|| ControlCommand {
             flags: 0,
             seq: 0,
+            sender: softnc_ipc::ProcessId::Interp.wire(),
             kind: ControlKind::Shutdown.wire(),
             job_id: 0,
             axis: u32::MAX,

@@ -153,6 +153,8 @@ pub struct PositionTask<B: ServoBackend> {
     last_job_id: u64,
     /// Bit i: axis i is homed.
     homed: u32,
+    /// The `seq` of the last control command from the MMI taken (its acknowledgement).
+    mmi_control_seq: u64,
     /// The running job's force loop (adaptive feed), when it runs with one.
     adaptive: Option<softnc_servo::adaptive_feed::AdaptiveFeed>,
     /// A feed hold, an abort or a stop is in force: the force loop stands (the feed
@@ -269,6 +271,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             in_position_timeout_cycles,
             last_job_id: 0,
             homed,
+            mmi_control_seq: 0,
             adaptive: None,
             feed_held: false,
             manual,
@@ -412,6 +415,9 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     /// Control commands from the MMI.
     fn pull_control(&mut self) -> Result<()> {
         while let Some(c) = self.control.receive()? {
+            if c.sender == ProcessId::Mmi.wire() {
+                self.mmi_control_seq = c.seq;
+            }
             match ControlKind::from_wire(c.kind) {
                 Some(ControlKind::EStop) => {
                     self.manual.stop();
@@ -971,6 +977,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 _ => 0,
             },
             homed: self.homed,
+            mmi_control_seq: self.mmi_control_seq,
             force_override: f64::NAN,
             force_revolutions: 0,
             force_n: f64::NAN,

@@ -347,6 +347,7 @@ impl Supervisor {
         let _ = self.control_pub.send_copy(ControlCommand {
             flags: 0,
             seq: u64::MAX,
+            sender: softnc_ipc::ProcessId::Supervisor.wire(),
             kind: ControlKind::Shutdown.wire(),
             job_id: 0,
             axis: u32::MAX,

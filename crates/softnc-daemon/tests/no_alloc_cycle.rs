@@ -152,6 +152,7 @@ fn run_counted_with(
         .send_copy(ControlCommand {
             flags: 0,
             seq: 0,
+            sender: softnc_ipc::ProcessId::Mmi.wire(),
             kind: ControlKind::MachineOn.wire(),
             job_id: 0,
             axis: u32::MAX,
@@ -165,6 +166,7 @@ fn run_counted_with(
             .send_copy(ControlCommand {
                 flags: softnc_ipc::JOB_ADAPTIVE_FORCE,
                 seq: 1,
+                sender: softnc_ipc::ProcessId::Mmi.wire(),
                 kind: ControlKind::StartJob.wire(),
                 job_id: 7,
                 axis: 0,
@@ -201,6 +203,7 @@ fn run_counted_with(
                 .send_copy(ControlCommand {
                     flags: 0,
                     seq: 1,
+                    sender: softnc_ipc::ProcessId::Mmi.wire(),
                     kind: ControlKind::SpindleOverride.wire(),
                     job_id: 0,
                     axis: u32::MAX,
@@ -262,6 +265,7 @@ fn homing_and_jogging_allocate_nothing_on_the_cycle() {
             .send_copy(ControlCommand {
                 flags: 0,
                 seq,
+                sender: softnc_ipc::ProcessId::Mmi.wire(),
                 kind: kind.wire(),
                 job_id: 0,
                 axis,

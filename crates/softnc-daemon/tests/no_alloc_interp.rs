@@ -70,6 +70,7 @@ fn status(seq: u64, job_id: u64) -> PositionStatus {
         motion: 0,
         line: 0,
         homed: 0,
+        mmi_control_seq: 0,
         force_override: f64::NAN,
         force_revolutions: 0,
         force_n: f64::NAN,
@@ -206,6 +207,7 @@ fn run_counted_with(
                     .send_copy(ControlCommand {
                         flags: 0,
                         seq: i as u64,
+                        sender: softnc_ipc::ProcessId::Mmi.wire(),
                         kind: kind.wire(),
                         job_id: 0,
                         axis: u32::MAX,

@@ -123,6 +123,10 @@ pub struct PositionStatus {
     pub line: u32,
     /// Bit i set: axis i is homed (its machine coordinates are referenced).
     pub homed: u32,
+    /// The `seq` of the last MMI control command this process has taken (0: none
+    /// since it started): a state the MMI asked for (a jog, homing) is in this
+    /// status or already over once this reaches the command's `seq`.
+    pub mmi_control_seq: u64,
     /// Adaptive feed: the override the force loop gives (fraction), from sample
     /// `seq` + the lookahead on; NaN when the job runs without it.
     pub force_override: f64,
@@ -261,6 +265,9 @@ pub enum ControlKind {
 pub struct ControlCommand {
     /// Consecutive per sender.
     pub seq: u64,
+    /// Who sent it (a [`ProcessId`] as `wire()`): the position process
+    /// acknowledges the MMI's commands ([`PositionStatus::mmi_control_seq`]).
+    pub sender: u32,
     /// What to do ([`ControlKind`] as `wire()`).
     pub kind: u32,
     /// Job id for `StartJob`.

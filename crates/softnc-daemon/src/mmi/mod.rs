@@ -93,6 +93,12 @@ pub struct MmiTask {
     /// A continuous jog's axis, speed and when its client last renewed it (the
     /// dead-man).
     jog_lease: Option<(u32, f64, Instant)>,
+    /// A state a command just sent asks the position process for (machine on/off,
+    /// homing, a jog), the command's `seq` and when it was sent: the state the
+    /// operator sees until the position process's status acknowledges the command
+    /// (`mmi_control_seq`), so that a status read right after the reply does not
+    /// show the state before it.
+    asked: Option<(MachineState, u64, Instant)>,
     stop: StopWatch,
     _bus: Bus,
 }
@@ -169,6 +175,7 @@ impl MmiTask {
             modal,
             switches: Switches::default(),
             jog_lease: None,
+            asked: None,
             abort_asked: None,
             intent: None,
             stop: StopWatch::manual(),
@@ -214,6 +221,7 @@ impl MmiTask {
         self.control_seq += 1;
         self.control.send_copy(ControlCommand {
             seq: self.control_seq,
+            sender: ProcessId::Mmi.wire(),
             kind: kind.wire(),
             job_id,
             axis,
@@ -250,9 +258,12 @@ impl MmiTask {
             && supervisor.state == MachineState::Faulted.wire();
         // the position process's last word does not stand once it is gone
         let position_lost = self.peer_status(ProcessId::Position) == "lost";
+        // a command sent and not yet taken: what it asked for, not the state before
+        let asked = self.asked_pending();
         match pos {
             MachineState::Faulted | MachineState::EStopped => pos,
             _ if supervisor_faulted || position_lost => MachineState::Faulted,
+            _ if asked.is_some() => asked.unwrap_or(pos),
             MachineState::Off | MachineState::Homing | MachineState::Jogging => pos,
             _ if self.job_active() => {
                 let running = self.jobs.iter().rev().find(|j| j.outcome == "running");
@@ -271,6 +282,21 @@ impl MmiTask {
             }
             _ => MachineState::Idle,
         }
+    }
+
+    /// Remember the state the command just sent asks for ([`MmiTask::asked`]).
+    fn ask_state(&mut self, state: MachineState) {
+        self.asked = Some((state, self.control_seq, Instant::now()));
+    }
+
+    /// The state asked for by a command the position process has not yet
+    /// acknowledged (at most a heartbeat timeout: a process that restarted in
+    /// between never will).
+    fn asked_pending(&self) -> Option<MachineState> {
+        let (state, seq, sent) = self.asked?;
+        let acknowledged = self.last.is_some_and(|s| s.mmi_control_seq >= seq);
+        let waited = sent.elapsed().as_secs_f64() > self.cfg.config.heartbeat_timeout_s;
+        (!acknowledged && !waited).then_some(state)
     }
 
     fn running_job(&mut self) -> Option<&mut JobRecord> {
@@ -628,6 +654,7 @@ impl MmiTask {
                             return Ok(Some(Self::reply(false, 0, "home: no such axis")));
                         }
                         self.send_control_axis(kind, 0, r.axis, 0.0, "")?;
+                        self.ask_state(next);
                         let what = match kind {
                             ControlKind::MachineOn => "machine on".to_string(),
                             ControlKind::MachineOff => "machine off".to_string(),

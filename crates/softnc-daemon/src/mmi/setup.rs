@@ -203,6 +203,7 @@ impl MmiTask {
             }
             self.jog_lease = Some((r.axis, speed, Instant::now()));
             self.send_control_axis(kind, 0, r.axis, speed, "")?;
+            self.ask_state(MachineState::Jogging);
             let until = if homed {
                 "to its soft limit"
             } else {
@@ -239,6 +240,7 @@ impl MmiTask {
             ));
         }
         self.send_control_axis(kind, 0, r.axis, r.value, "")?;
+        self.ask_state(MachineState::Jogging);
         Ok(Self::reply(
             true,
             0,
