@@ -675,7 +675,7 @@ impl PathBuilder {
                     next.start_at = b.next_start_at;
                     next.start_trim_rad = b.next_start_trim_rad;
                 }
-                self.emit(&prev, blend, false);
+                self.emit(&prev, blend.as_ref(), false);
             }
             None => self.start_dwell(),
         }
@@ -1071,7 +1071,7 @@ impl PathBuilder {
     }
 
     /// Push the elements of a move whose successor is known (`last`: it has none).
-    fn emit(&mut self, p: &Pending, blend: Option<Blend>, last: bool) {
+    fn emit(&mut self, p: &Pending, blend: Option<&Blend>, last: bool) {
         let stop = p.exact_stop || p.dwell_s > 0.0 || p.stop != StopKind::None || last;
         let (geom, shape) = match p.geom {
             Geom::Line {
@@ -1127,15 +1127,20 @@ impl PathBuilder {
                         } else {
                             blend.and_then(|b| b.prev_end_trim_rad)
                         };
-                        let sub = if let (Some(s_rad), Some(e_rad)) = (start_rad, end_rad) {
-                            sub_arc_by_angles(&prim, at_from, at_to, s_rad, e_rad)
-                        } else if prim_sweep(&prim).abs() < std::f64::consts::TAU {
-                            sub_arc(&prim, at_from, at_to)
+                        if let (Some(s_rad), Some(e_rad)) = (start_rad, end_rad) {
+                            // cut from the circle by fillets: planned as a circle
+                            // where its end radius is off by rounding only
+                            let sub = sub_arc_by_angles(&prim, at_from, at_to, s_rad, e_rad);
+                            (Geom::Arc(sub), ElementShape::sub_arc(&sub))
                         } else {
-                            // a helix of a turn or more, trimmed by biarcs only
-                            sub_arc_span(&prim, from, to, at_from, at_to)
-                        };
-                        (Geom::Arc(sub), ElementShape::arc(&sub))
+                            let sub = if prim_sweep(&prim).abs() < std::f64::consts::TAU {
+                                sub_arc(&prim, at_from, at_to)
+                            } else {
+                                // a helix of a turn or more, trimmed by biarcs only
+                                sub_arc_span(&prim, from, to, at_from, at_to)
+                            };
+                            (Geom::Arc(sub), ElementShape::arc(&sub))
+                        }
                     }
                 }
             }

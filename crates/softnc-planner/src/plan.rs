@@ -625,7 +625,10 @@ impl ForwardTime {
 /// the same end speed from a stop (0) and from no limit (∞) after the last element
 /// held, that end speed is the whole path's.
 pub(crate) struct DurationPass {
-    held: std::collections::VecDeque<Segment>,
+    /// The elements not yet timed, in order. A `Vec`, not a deque: the common case
+    /// times all of them at once ([`DurationPass::push`]), and only
+    /// [`DurationPass::settle`] leaves some behind (moved to the front, rarely).
+    held: Vec<Segment>,
     /// Scratch for the end speeds of the held elements.
     vend: Vec<f64>,
     fwd: ForwardTime,
@@ -641,7 +644,7 @@ const DURATION_SCAN_MIN: usize = 256;
 impl DurationPass {
     pub(crate) fn new(lim: &Limits) -> DurationPass {
         DurationPass {
-            held: std::collections::VecDeque::new(),
+            held: Vec::new(),
             vend: Vec::new(),
             fwd: ForwardTime::new(lim),
             v_top: 0.0,
@@ -660,7 +663,7 @@ impl DurationPass {
         // end limit of the element before it, whose end speed is then that limit
         // whatever comes after: the held elements are timed at once (the same
         // figures as `settle` would find later, without holding and scanning them)
-        if let Some(last) = self.held.back() {
+        if let Some(last) = self.held.last() {
             let own = last.v_end_hard.min(cap(last));
             if starts_at_least(s, own) {
                 let k = self.held.len() - 1;
@@ -672,7 +675,7 @@ impl DurationPass {
                 }
             }
         }
-        self.held.push_back(*s);
+        self.held.push(*s);
         if self.held.len() >= self.scan_at {
             self.settle();
         }
