@@ -453,16 +453,26 @@ impl PathBuilder {
     /// order and dropped, together with the orphans (a streamed path does not keep
     /// the programmed primitives).
     pub(crate) fn drain_settled(&mut self, batch: usize, out: &mut impl FnMut(&Segment, &Geom)) {
+        self.drain_settled_slices(batch, &mut |segs, geoms| {
+            for (s, g) in segs.iter().zip(geoms) {
+                out(s, g);
+            }
+        });
+    }
+
+    /// [`PathBuilder::drain_settled`] handing the settled elements over all at once:
+    /// their limits and their geometry, in order, as two slices of one length (the
+    /// stream's figures copy a batch's limits in one go).
+    pub(crate) fn drain_settled_slices(
+        &mut self,
+        batch: usize,
+        out: &mut impl FnMut(&[Segment], &[Geom]),
+    ) {
         let n = self.path.segs.len();
         if n <= batch.max(1) {
             return;
         }
-        for (s, g) in self.path.segs[..n - 1]
-            .iter()
-            .zip(&self.path.geoms[..n - 1])
-        {
-            out(s, g);
-        }
+        out(&self.path.segs[..n - 1], &self.path.geoms[..n - 1]);
         self.path.segs.drain(..n - 1);
         self.path.geoms.drain(..n - 1);
         self.path.orphans.clear();

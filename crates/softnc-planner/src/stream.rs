@@ -153,6 +153,34 @@ impl Figures {
         self.path_length_mm = s.s0 + s.len;
         out(s, g);
     }
+
+    /// [`Figures::take`] of the settled elements `segs` (geometry `geoms`) in order:
+    /// the same figures, the limits handed over in one copy.
+    fn take_slices(
+        &mut self,
+        segs: &[Segment],
+        geoms: &[Geom],
+        out: &mut impl FnMut(&Segment, &Geom),
+    ) {
+        let (Some(last), Some(first_geom)) = (segs.last(), geoms.first()) else {
+            return;
+        };
+        match &mut self.handoff {
+            Some(v) => v.extend_from_slice(segs),
+            None => {
+                for s in segs {
+                    self.duration.push(s);
+                }
+            }
+        }
+        self.elements += segs.len();
+        self.start_mm
+            .get_or_insert_with(|| first_geom.point_at(0.0));
+        self.path_length_mm = last.s0 + last.len;
+        for (s, g) in segs.iter().zip(geoms) {
+            out(s, g);
+        }
+    }
 }
 
 impl Settled {
@@ -162,6 +190,23 @@ impl Settled {
         match &mut self.dilator {
             Some(d) => d.push(s, g, &mut |s, g| fin.take(s, g, out)),
             None => fin.take(s, g, out),
+        }
+    }
+
+    /// [`Settled::take`] of the elements `segs` (geometry `geoms`) in order.
+    fn take_slices(
+        &mut self,
+        segs: &[Segment],
+        geoms: &[Geom],
+        out: &mut impl FnMut(&Segment, &Geom),
+    ) {
+        match &mut self.dilator {
+            Some(_) => {
+                for (s, g) in segs.iter().zip(geoms) {
+                    self.take(s, g, out);
+                }
+            }
+            None => self.fin.take_slices(segs, geoms, out),
         }
     }
 
@@ -243,7 +288,9 @@ impl<'a> StreamPlanner<'a> {
     fn drain(&mut self, out: &mut impl FnMut(&Segment, &Geom)) {
         let settled = &mut self.settled;
         self.builder
-            .drain_settled(DRAIN_BATCH, &mut |s, g| settled.take(s, g, out));
+            .drain_settled_slices(DRAIN_BATCH, &mut |segs, geoms| {
+                settled.take_slices(segs, geoms, out)
+            });
     }
 
     fn finish(
