@@ -347,6 +347,10 @@ pub struct PathBuilder {
     prep_prev: Option<ArcPrep>,
     /// The arc data of the move after it while their corner is blended, if given.
     prep_next: Option<ArcPrep>,
+    /// [`Limits::max_drift_rad`] of `lim`, worked out once (rad).
+    max_drift_rad: f64,
+    /// The axes' top speed |vmax| of `lim`, worked out once (mm/s).
+    v_top_mm_per_s: f64,
 }
 
 /// LinuxCNC's "naive CAM" merging (G64 Q, its `emccanon.cc` `see_segment` /
@@ -439,6 +443,8 @@ impl PathBuilder {
             prep_in: None,
             prep_prev: None,
             prep_next: None,
+            max_drift_rad: lim.max_drift_rad(),
+            v_top_mm_per_s: Vec3::new(lim.vmax[0], lim.vmax[1], lim.vmax[2]).norm(),
         }
     }
 
@@ -942,7 +948,7 @@ impl PathBuilder {
     /// velocity step it makes at the highest path speed, v·angle per cycle, stays
     /// within the kink share of every axis's acceleration.
     fn max_drift_rad(&self) -> f64 {
-        self.lim.max_drift_rad()
+        self.max_drift_rad
     }
 
     /// [`ArcView::of`] the move after the corner being blended (an arc, `arc`), from
@@ -975,8 +981,10 @@ impl PathBuilder {
         };
         let lim = &self.lim;
         let dt = t2 - t1;
-        let v_top = Vec3::new(lim.vmax[0], lim.vmax[1], lim.vmax[2]).norm();
-        let v = a.feed_mm_per_s.min(b.feed_mm_per_s).min(v_top);
+        let v = a
+            .feed_mm_per_s
+            .min(b.feed_mm_per_s)
+            .min(self.v_top_mm_per_s);
         lim.profile == FeedProfile::Trapezoidal
             && lim.acc_dec == AccDec::BeforeInterpolation
             && (0..3).all(|i| dt[i].abs() * v <= lim.kink_acc[i] * lim.cycle_s)
