@@ -746,9 +746,11 @@ impl PathBuilder {
             // arc blends off, or a tangent join taken at speed that needs none
             return None;
         }
-        let found = self.circle_blend(a, b).or_else(|| self.biarc_blend(a, b))?;
+        // (the blend found goes back as it came, not unwrapped and wrapped again: a
+        // `Blend` is a few hundred bytes)
+        let found = self.circle_blend(a, b).or_else(|| self.biarc_blend(a, b));
         let lim = &self.lim;
-        if lim.profile == FeedProfile::SCurve {
+        if let (FeedProfile::SCurve, Some(found)) = (lim.profile, &found) {
             // A blend so tight that the jerk limit crawls through it is slower than
             // stopping: stop at the corner instead.
             let radius = |g: Option<Geom>| match g {
@@ -764,12 +766,12 @@ impl PathBuilder {
             }
             // (acc/dec after interpolation passes the corner at its feed instead)
             if lim.acc_dec == AccDec::BeforeInterpolation
-                && !scurve_blend_pays(lim, a, b, &found, through, vmin)
+                && !scurve_blend_pays(lim, a, b, found, through, vmin)
             {
                 return None;
             }
         }
-        Some(found)
+        found
     }
 
     /// A single circular blend: line–line here, line–arc, arc–line and arc–arc of
@@ -1167,24 +1169,10 @@ impl PathBuilder {
         let pushed = match blend {
             Some(b) => {
                 let pushed = self.push_element(p, &geom, &shape, 0.0, false);
-                let trig = [b.sweep_cos_sin, None];
-                for (g, trig) in std::iter::once(b.geom).chain(b.geom2).zip(trig) {
-                    if let Geom::Blend {
-                        e1,
-                        e2,
-                        radius,
-                        sweep,
-                        ..
-                    } = g
-                    {
-                        let shape = match trig {
-                            Some((cos_s, sin_s)) => {
-                                ElementShape::blend_trig(e1, e2, radius, sweep, cos_s, sin_s)
-                            }
-                            None => ElementShape::blend(e1, e2, radius, sweep),
-                        };
-                        self.push_element(p, &g, &shape, 0.0, false);
-                    }
+                // the blend's arcs, by reference (no copies of the geometry)
+                self.push_blend_piece(p, &b.geom, b.sweep_cos_sin);
+                if let Some(g2) = &b.geom2 {
+                    self.push_blend_piece(p, g2, None);
                 }
                 pushed
             }
@@ -1194,6 +1182,27 @@ impl PathBuilder {
             if let Some(prim) = geom.programmed() {
                 self.path.orphans.push((p.motion, prim));
             }
+        }
+    }
+
+    /// Push a blend arc `g` of move `p`'s corner (its sweep's cosine and sine where
+    /// the construction gave them).
+    fn push_blend_piece(&mut self, p: &Pending, g: &Geom, trig: Option<(f64, f64)>) {
+        if let Geom::Blend {
+            e1,
+            e2,
+            radius,
+            sweep,
+            ..
+        } = *g
+        {
+            let shape = match trig {
+                Some((cos_s, sin_s)) => {
+                    ElementShape::blend_trig(e1, e2, radius, sweep, cos_s, sin_s)
+                }
+                None => ElementShape::blend(e1, e2, radius, sweep),
+            };
+            self.push_element(p, g, &shape, 0.0, false);
         }
     }
 
@@ -1228,7 +1237,7 @@ impl PathBuilder {
             let a = &mut self.path.segs[n - 1];
             if a.v_end_hard != 0.0 {
                 let prev_geom = &self.path.geoms[n - 1];
-                let uses = [self.prev_acc_use, acc_use];
+                let uses = [&self.prev_acc_use, &acc_use];
                 a.v_end_hard = junction_speed(
                     lim,
                     a.vel_cap,
@@ -1572,7 +1581,7 @@ fn junction_speed(
     cap_b: f64,
     end_tangent_a: Vec3,
     b: &ElementShape,
-    uses: [AccUse; 2],
+    uses: [&AccUse; 2],
     curvature_step: impl Fn() -> Vec3,
 ) -> f64 {
     let mut v = cap_a.min(cap_b);
