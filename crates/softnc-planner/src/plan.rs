@@ -681,6 +681,46 @@ impl DurationPass {
         }
     }
 
+    /// [`DurationPass::push`] of each of `segs` in order, the same figures bit for
+    /// bit, without copying each element into the held ones: while every element
+    /// settles the one before it at once (the common case of `push`), the one before
+    /// is timed where it lies in `segs`; the first that does not, and the last of
+    /// `segs`, go through `push`.
+    pub(crate) fn push_slice(&mut self, segs: &[Segment]) {
+        let Some((first, rest)) = segs.split_first() else {
+            return;
+        };
+        // `segs[k]` stands for the one held element after its push ([`push`] of it
+        // with one element held before: time that, hold it alone)
+        self.push(first);
+        if self.held.len() != 1 {
+            for s in rest {
+                self.push(s);
+            }
+            return;
+        }
+        self.held.clear(); // it is `segs[0]`
+        let mut k = 0;
+        while k + 1 < segs.len() {
+            let (last, s) = (&segs[k], &segs[k + 1]);
+            let own = last.v_end_hard.min(cap(last));
+            if !starts_at_least(s, own) {
+                break;
+            }
+            if s.vel_cap.is_finite() {
+                self.v_top = self.v_top.max(s.vel_cap);
+            }
+            self.a_min = self.a_min.min(s.acc);
+            self.fwd.step(last, own);
+            k += 1;
+        }
+        // `segs[k]` is the one element held; the rest as `push` takes them
+        self.held.push(segs[k]);
+        for s in &segs[k + 1..] {
+            self.push(s);
+        }
+    }
+
     /// Time the held elements up to the last saturated point.
     fn settle(&mut self) {
         let n = self.held.len();
@@ -866,15 +906,28 @@ mod tests {
             for s in &segs {
                 pass.push(s);
             }
-            let (t, v_top, a_min) = pass.finish();
+            // and in slices of all lengths (`push_slice`, as the reader of
+            // `check_program_parallel` times the planner's batches)
+            let mut sliced = DurationPass::new(&lim);
+            let mut rest = &segs[..];
+            let mut width = 0;
+            while !rest.is_empty() {
+                width = width % 7 + 1 + case % 5;
+                let (batch, after) = rest.split_at(width.min(rest.len()));
+                sliced.push_slice(batch);
+                rest = after;
+            }
             let (t_whole, v_whole, a_whole) = planned_duration(&segs, &lim);
-            assert_eq!(
-                t.to_bits(),
-                t_whole.to_bits(),
-                "case {case}: {t} vs {t_whole}"
-            );
-            assert_eq!(v_top.to_bits(), v_whole.to_bits(), "case {case}");
-            assert_eq!(a_min.to_bits(), a_whole.to_bits(), "case {case}");
+            for (how, pass) in [("push", pass), ("push_slice", sliced)] {
+                let (t, v_top, a_min) = pass.finish();
+                assert_eq!(
+                    t.to_bits(),
+                    t_whole.to_bits(),
+                    "case {case} {how}: {t} vs {t_whole}"
+                );
+                assert_eq!(v_top.to_bits(), v_whole.to_bits(), "case {case} {how}");
+                assert_eq!(a_min.to_bits(), a_whole.to_bits(), "case {case} {how}");
+            }
         }
     }
 

@@ -167,11 +167,7 @@ impl Figures {
         };
         match &mut self.handoff {
             Some(v) => v.extend_from_slice(segs),
-            None => {
-                for s in segs {
-                    self.duration.push(s);
-                }
-            }
+            None => self.duration.push_slice(segs),
         }
         self.elements += segs.len();
         self.start_mm
@@ -450,9 +446,7 @@ pub fn check_program_parallel(
         let mut checker = reader_checks.then(|| Checker::new(profile, options, file));
         let mut duration = DurationPass::new(&Limits::from_profile(profile));
         let mut time = |mut batch: Vec<Segment>| {
-            for s in &batch {
-                duration.push(s);
-            }
+            duration.push_slice(&batch);
             batch.clear();
             let _ = timed_tx.send(batch); // the planner may be done
         };
