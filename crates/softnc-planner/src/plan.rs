@@ -640,6 +640,9 @@ pub(crate) struct DurationPass {
 
 /// Held elements before [`DurationPass`] first looks for a saturated point.
 const DURATION_SCAN_MIN: usize = 256;
+/// Longest run of elements [`DurationPass::push_slice`] times where they lie; below
+/// `DURATION_SCAN_MIN`, the fewest held elements at which `push` scans.
+const DURATION_RUN_MAX: usize = 128;
 
 impl DurationPass {
     pub(crate) fn new(lim: &Limits) -> DurationPass {
@@ -682,42 +685,65 @@ impl DurationPass {
     }
 
     /// [`DurationPass::push`] of each of `segs` in order, the same figures bit for
-    /// bit, without copying each element into the held ones: while every element
-    /// settles the one before it at once (the common case of `push`), the one before
-    /// is timed where it lies in `segs`; the first that does not, and the last of
-    /// `segs`, go through `push`.
+    /// bit, without copying each element into the held ones: once `push` leaves one
+    /// element held, the held elements are a run `segs[j..=k]` where they lie, timed
+    /// (as [`DurationPass::time_upto`] times them) when the next element's start from
+    /// a stop reaches the run's last end limit. A run of `DURATION_RUN_MAX` (below any
+    /// `scan_at`, so that `push` would not have scanned it either) and the run left at
+    /// the end of `segs` are copied into the held elements, as `push` holds them.
     pub(crate) fn push_slice(&mut self, segs: &[Segment]) {
-        let Some((first, rest)) = segs.split_first() else {
-            return;
-        };
-        // `segs[k]` stands for the one held element after its push ([`push`] of it
-        // with one element held before: time that, hold it alone)
-        self.push(first);
-        if self.held.len() != 1 {
-            for s in rest {
-                self.push(s);
+        let mut i = 0;
+        while i < segs.len() {
+            self.push(&segs[i]);
+            i += 1;
+            if self.held.len() == 1 {
+                break; // it is `segs[i - 1]`
             }
+        }
+        if i == segs.len() {
             return;
         }
-        self.held.clear(); // it is `segs[0]`
-        let mut k = 0;
+        self.held.clear();
+        let (mut j, mut k) = (i - 1, i - 1);
         while k + 1 < segs.len() {
             let (last, s) = (&segs[k], &segs[k + 1]);
-            let own = last.v_end_hard.min(cap(last));
-            if !starts_at_least(s, own) {
-                break;
-            }
             if s.vel_cap.is_finite() {
                 self.v_top = self.v_top.max(s.vel_cap);
             }
             self.a_min = self.a_min.min(s.acc);
-            self.fwd.step(last, own);
+            let own = last.v_end_hard.min(cap(last));
+            if starts_at_least(s, own) {
+                if j == k {
+                    self.fwd.step(last, own);
+                } else {
+                    self.time_run(&segs[j..=k], own);
+                }
+                j = k + 1;
+            }
             k += 1;
+            if k + 1 - j >= DURATION_RUN_MAX {
+                break;
+            }
         }
-        // `segs[k]` is the one element held; the rest as `push` takes them
-        self.held.push(segs[k]);
+        self.held.extend_from_slice(&segs[j..=k]);
         for s in &segs[k + 1..] {
             self.push(s);
+        }
+    }
+
+    /// Time the elements `run`, the last one's end speed being `vend_last`: the
+    /// arithmetic of [`DurationPass::time_upto`] on elements not held.
+    fn time_run(&mut self, run: &[Segment], vend_last: f64) {
+        let k = run.len() - 1;
+        self.vend.clear();
+        self.vend.resize(k + 1, 0.0);
+        self.vend[k] = vend_last;
+        let mut next_start = start_speed(&run[k], vend_last);
+        for j in (0..k).rev() {
+            (self.vend[j], next_start) = backward_step(&run[j], next_start);
+        }
+        for (j, s) in run.iter().enumerate() {
+            self.fwd.step(s, self.vend[j]);
         }
     }
 
@@ -886,7 +912,10 @@ mod tests {
             let n = 1 + case * 37;
             let segs: Vec<Segment> = (0..n)
                 .map(|k| {
-                    let short = (k / 50) % 2 == 1; // runs of tiny elements
+                    // runs of tiny elements, some longer than `push_slice` times
+                    // where they lie and than `push` holds before it scans
+                    let run = if case % 3 == 0 { 300 } else { 50 };
+                    let short = (k / run) % 2 == 1;
                     let len = if short { 1e-4 * next() } else { 5.0 * next() };
                     let acc = 50.0 + 2000.0 * next();
                     let cap = if next() < 0.1 {
@@ -910,9 +939,11 @@ mod tests {
             // `check_program_parallel` times the planner's batches)
             let mut sliced = DurationPass::new(&lim);
             let mut rest = &segs[..];
-            let mut width = 0;
+            let widths = [1, 3, 200, 7, 1000, 2];
+            let mut w = case;
             while !rest.is_empty() {
-                width = width % 7 + 1 + case % 5;
+                w += 1;
+                let width = widths[w % widths.len()];
                 let (batch, after) = rest.split_at(width.min(rest.len()));
                 sliced.push_slice(batch);
                 rest = after;
