@@ -282,6 +282,35 @@ struct Pending {
     start_trim_rad: Option<f64>,
 }
 
+impl Pending {
+    /// A record to be written over ([`PathBuilder`]'s first boxes).
+    fn placeholder() -> Pending {
+        Pending {
+            geom: Geom::Line {
+                start: Vec3::ZERO,
+                end: Vec3::ZERO,
+                from: 0.0,
+                to: 0.0,
+                prog_len: 0.0,
+            },
+            len: 0.0,
+            dir: Vec3::ZERO,
+            motion: 0,
+            feed_move: false,
+            feed_mm_per_s: 0.0,
+            exact_stop: false,
+            tolerance_mm: 0.0,
+            dwell_s: 0.0,
+            line: 0,
+            stop: StopKind::None,
+            block_end: false,
+            start_trim: 0.0,
+            start_at: None,
+            start_trim_rad: None,
+        }
+    }
+}
+
 /// The path built so far: limits and geometry of every element, in order.
 #[derive(Debug, Clone, Default)]
 pub struct Path {
@@ -322,7 +351,11 @@ impl Path {
 pub struct PathBuilder {
     lim: Limits,
     path: Path,
-    pending: Option<Pending>,
+    /// The last move, held back (boxed: a move's record goes from `spare` to here
+    /// to `spare` again without being copied, about 250 bytes twice a move).
+    pending: Option<Box<Pending>>,
+    /// The record of the move emitted last, for the next move to be written into.
+    spare: Option<Box<Pending>>,
     pending_dwell_at_start: f64,
     last_point: Option<Vec3>,
     s0: f64,
@@ -431,6 +464,7 @@ impl PathBuilder {
                 lead_in: 0,
             },
             pending: None,
+            spare: None,
             pending_dwell_at_start: 0.0,
             last_point: None,
             s0: 0.0,
@@ -659,7 +693,11 @@ impl PathBuilder {
         if self.last_point.is_none() {
             self.last_point = Some(prim.start());
         }
-        let mut next = Pending {
+        let mut next = self
+            .spare
+            .take()
+            .unwrap_or_else(|| Box::new(Pending::placeholder()));
+        *next = Pending {
             geom,
             len,
             dir,
@@ -692,6 +730,7 @@ impl PathBuilder {
                     next.start_trim_rad = b.next_start_trim_rad;
                 }
                 self.emit(&prev, blend.as_ref(), false);
+                self.spare = Some(prev);
             }
             None => self.start_dwell(),
         }
