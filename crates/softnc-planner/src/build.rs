@@ -779,7 +779,7 @@ impl PathBuilder {
         if a.exact_stop || a.dwell_s > 0.0 {
             return None;
         }
-        if !matches!((a.geom, b.geom), (Geom::Line { .. }, Geom::Line { .. }))
+        if !matches!((&a.geom, &b.geom), (Geom::Line { .. }, Geom::Line { .. }))
             && (!self.lim.arc_blends || self.kink_at_speed(a, b))
         {
             // arc blends off, or a tangent join taken at speed that needs none
@@ -787,9 +787,16 @@ impl PathBuilder {
         }
         // (the blend found goes back as it came, not unwrapped and wrapped again: a
         // `Blend` is a few hundred bytes)
-        let found = self.circle_blend(a, b).or_else(|| self.biarc_blend(a, b));
         let lim = &self.lim;
-        if let (FeedProfile::SCurve, Some(found)) = (lim.profile, &found) {
+        if lim.profile != FeedProfile::SCurve {
+            let found = self.circle_blend(a, b);
+            if found.is_some() {
+                return found;
+            }
+            return self.biarc_blend(a, b);
+        }
+        let found = self.circle_blend(a, b).or_else(|| self.biarc_blend(a, b));
+        if let Some(found) = &found {
             // A blend so tight that the jerk limit crawls through it is slower than
             // stopping: stop at the corner instead.
             let radius = |g: Option<Geom>| match g {
@@ -816,9 +823,10 @@ impl PathBuilder {
     /// A single circular blend: line–line here, line–arc, arc–line and arc–arc of
     /// one plane in [`crate::fillet`].
     fn circle_blend(&self, a: &Pending, b: &Pending) -> Option<Blend> {
-        match (a.geom, b.geom) {
+        // (by reference: the geometries are not copied to be matched)
+        match (&a.geom, &b.geom) {
             (Geom::Line { .. }, Geom::Line { .. }) => self.blend_lines(a, b),
-            (Geom::Line { end, .. }, Geom::Arc(arc)) => {
+            (&Geom::Line { end, .. }, Geom::Arc(arc)) => {
                 let view = self.view_next(&arc)?;
                 let f = fillet::line_arc(
                     end,
@@ -847,7 +855,7 @@ impl PathBuilder {
                     next_start_trim_rad: Some(f.arc_trim_rad),
                 })
             }
-            (Geom::Arc(arc), Geom::Line { start, .. }) => {
+            (Geom::Arc(arc), &Geom::Line { start, .. }) => {
                 // the line–arc construction on the path run backwards
                 let view = match &self.prep_prev {
                     Some(p) => p.view(&arc, true, self.max_drift_rad()),
@@ -1004,19 +1012,19 @@ impl PathBuilder {
     /// Whether the tangent break between `a` and `b` is small enough that the kink
     /// share passes it at the feed of both (and the axes' top speed): no blend then.
     fn kink_at_speed(&self, a: &Pending, b: &Pending) -> bool {
-        let t1 = match a.geom {
+        let t1 = match &a.geom {
             Geom::Line { .. } => a.dir,
             Geom::Arc(p) => match &self.prep_prev {
                 Some(q) => q.end_tangent,
-                None => arc_end_tangent(&p, true),
+                None => arc_end_tangent(p, true),
             },
             Geom::Blend { .. } => return false,
         };
-        let t2 = match b.geom {
+        let t2 = match &b.geom {
             Geom::Line { .. } => b.dir,
             Geom::Arc(p) => match &self.prep_next {
                 Some(q) => q.start_tangent,
-                None => arc_end_tangent(&p, false),
+                None => arc_end_tangent(p, false),
             },
             Geom::Blend { .. } => return false,
         };
