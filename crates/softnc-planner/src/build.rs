@@ -1140,8 +1140,8 @@ impl PathBuilder {
     /// Push the elements of a move whose successor is known (`last`: it has none).
     fn emit(&mut self, p: &Pending, blend: Option<&Blend>, last: bool) {
         let stop = p.exact_stop || p.dwell_s > 0.0 || p.stop != StopKind::None || last;
-        let (geom, shape) = match p.geom {
-            Geom::Line {
+        let (geom, shape) = match &p.geom {
+            &Geom::Line {
                 start,
                 end,
                 prog_len,
@@ -1158,7 +1158,7 @@ impl PathBuilder {
                 };
                 (geom, ElementShape::line(len, p.dir))
             }
-            Geom::Arc(prim) => {
+            &Geom::Arc(prim) => {
                 let end_trim = blend.map_or(0.0, |b| b.end_trim_prev);
                 if p.start_trim == 0.0 && end_trim == 0.0 {
                     (p.geom, ElementShape::arc(&prim))
@@ -1583,9 +1583,11 @@ fn start_tangent(g: &Geom, dir: Vec3) -> Vec3 {
 #[derive(Debug, Clone, Copy, Default)]
 struct AccUse {
     weight: [f64; 3],
-    /// √(a_t² + (κ·v_top²)²), v_top the element's cap or its feed at the largest
-    /// override (its highest speed).
-    magnitude_mm_per_s2: f64,
+    /// The tangential acceleration a_t (mm/s²).
+    acc_mm_per_s2: f64,
+    /// The centripetal κ·v_top², v_top the element's cap or its feed at the largest
+    /// override (its highest speed) (mm/s²).
+    normal_mm_per_s2: f64,
     /// The element's length (mm).
     len_mm: f64,
 }
@@ -1593,21 +1595,23 @@ struct AccUse {
 impl AccUse {
     fn of(shape: &ElementShape, acc_mm_per_s2: f64, cap: f64, feed: f64, lim: &Limits) -> AccUse {
         let v = cap.min(feed * lim.max_feed_override);
-        let a_n = shape.curvature * v * v;
         AccUse {
             weight: shape.acc_weight,
-            magnitude_mm_per_s2: if a_n > 0.0 {
-                (acc_mm_per_s2 * acc_mm_per_s2 + a_n * a_n).sqrt()
-            } else {
-                acc_mm_per_s2
-            },
+            acc_mm_per_s2,
+            normal_mm_per_s2: shape.curvature * v * v,
             len_mm: shape.len,
         }
     }
 
-    /// The most of axis i's acceleration the element uses at any speed it runs at.
-    fn on_axis(&self, i: usize) -> f64 {
-        self.weight[i] * self.magnitude_mm_per_s2
+    /// √(a_t² + (κ·v_top²)²) (mm/s²): worked out only where a junction needs it
+    /// (a tangent break with room to look at), not for every element.
+    fn magnitude_mm_per_s2(&self) -> f64 {
+        let (a_t, a_n) = (self.acc_mm_per_s2, self.normal_mm_per_s2);
+        if a_n > 0.0 {
+            (a_t * a_t + a_n * a_n).sqrt()
+        } else {
+            a_t
+        }
     }
 }
 
@@ -1672,10 +1676,14 @@ fn junction_speed(
         if v_spacing > v_share {
             // the room the two elements leave
             let mut v_room = v_bound.min(v_spacing);
+            let magnitudes = [uses[0].magnitude_mm_per_s2(), uses[1].magnitude_mm_per_s2()];
             for (i, &t_dt) in t_over_dt.iter().enumerate() {
                 if t_dt > 0.0 {
                     let full = lim.amax[i] + lim.kink_acc[i];
-                    let used = uses[0].on_axis(i).max(uses[1].on_axis(i));
+                    // the most of axis i's acceleration either element uses at any
+                    // speed it runs at
+                    let used =
+                        (uses[0].weight[i] * magnitudes[0]).max(uses[1].weight[i] * magnitudes[1]);
                     let room = (full - used).max(lim.kink_acc[i]);
                     v_room = v_room.min(room * t_dt);
                 }

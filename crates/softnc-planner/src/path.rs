@@ -410,6 +410,7 @@ pub struct ElementLimits {
 }
 
 /// Limits of an element of shape `g` given per-axis velocity and acceleration limits.
+#[inline]
 pub fn element_limits(g: &ElementShape, vmax: [f64; 3], amax: [f64; 3]) -> ElementLimits {
     let (wv, wa) = (g.vel_weight, g.acc_weight);
     // an axis's limit over its weight (the division skipped for the common weight 1,
