@@ -373,9 +373,6 @@ pub struct PathBuilder {
     /// Elements already handed on by [`PathBuilder::drain_settled`] (a streamed
     /// path keeps only the last one, whose end speed the next may still change).
     base: usize,
-    /// The arc data given with the motion being pushed, and its index
-    /// ([`PathBuilder::push_prepared`]).
-    prep_in: Option<(usize, ArcPrep)>,
     /// The arc data of the pending move, if given.
     prep_prev: Option<ArcPrep>,
     /// The arc data of the move after it while their corner is blended, if given.
@@ -474,7 +471,6 @@ impl PathBuilder {
             single_block: false,
             pending_stop_at_start: (StopKind::None, 0),
             base: 0,
-            prep_in: None,
             prep_prev: None,
             prep_next: None,
             max_drift_rad: lim.max_drift_rad(),
@@ -536,17 +532,27 @@ impl PathBuilder {
         &mut self,
         index: usize,
         m: &Motion,
-        prim: Option<Primitive>,
-        prep: Option<ArcPrep>,
+        prim: &Option<Primitive>,
+        prep: Option<&ArcPrep>,
     ) {
-        self.prep_in = prep.map(|p| (index, p));
-        self.push(index, m, prim);
-        self.prep_in = None;
+        self.push_with(index, m, prim, prep);
     }
 
     /// Add motion number `index`; `prim` is its programmed primitive in machine
     /// coordinates (None for dwells). G1 lines under G64 Q are merged first.
     pub fn push(&mut self, index: usize, m: &Motion, prim: Option<Primitive>) {
+        self.push_with(index, m, &prim, None);
+    }
+
+    /// [`PathBuilder::push`] with the arc data of `prim`, if given (by reference:
+    /// the motion's records are copied once, into the held move).
+    fn push_with(
+        &mut self,
+        index: usize,
+        m: &Motion,
+        prim: &Option<Primitive>,
+        prep: Option<&ArcPrep>,
+    ) {
         let q = match m.path_mode {
             PathMode::Blend {
                 naive_cam_mm: Some(q),
@@ -554,8 +560,8 @@ impl PathBuilder {
             } if q > 0.0 && !self.single_block => q,
             _ => 0.0,
         };
-        let line = match (m.kind, prim) {
-            (MotionKind::Feed { .. }, Some(l @ Primitive::Line { start, end }))
+        let line = match (&m.kind, prim) {
+            (MotionKind::Feed { .. }, &Some(l @ Primitive::Line { start, end }))
                 if q > 0.0 && (end - start).norm() >= 1e-9 =>
             {
                 Some(l)
@@ -577,7 +583,7 @@ impl PathBuilder {
                 self.chain.q_mm = q;
                 self.chain.lines.push((index as u32, l));
             }
-            None => self.push_unmerged(index, m, prim),
+            None => self.push_unmerged(index, m, prim, prep),
         }
     }
 
@@ -601,11 +607,18 @@ impl PathBuilder {
             last_line
         };
         self.chain.lines.clear();
-        self.push_unmerged(index as usize, &last, Some(merged));
+        // (a G64 Q chain flushed before a motion is another motion: not its arc data)
+        self.push_unmerged(index as usize, &last, &Some(merged), None);
     }
 
     /// Add motion number `index` as it is programmed (no G64 Q merging).
-    fn push_unmerged(&mut self, index: usize, m: &Motion, prim: Option<Primitive>) {
+    fn push_unmerged(
+        &mut self,
+        index: usize,
+        m: &Motion,
+        prim: &Option<Primitive>,
+        prep: Option<&ArcPrep>,
+    ) {
         let lim = &self.lim;
         let (exact, tol) = match m.path_mode {
             PathMode::ExactStop => (true, lim.tolerance_mm),
@@ -665,7 +678,7 @@ impl PathBuilder {
                 feed_mm_per_min, ..
             } => (true, feed_mm_per_min / 60.0),
         };
-        let Some(prim) = prim else { return };
+        let &Some(prim) = prim else { return };
         let (geom, len, dir) = match prim {
             Primitive::Line { start, end } => {
                 let d = end - start;
@@ -714,12 +727,8 @@ impl PathBuilder {
             start_at: None,
             start_trim_rad: None,
         };
-        // (a G64 Q chain flushed before this motion is another motion: not its data)
-        if self.prep_in.is_some() || self.prep_prev.is_some() {
-            self.prep_next = match self.prep_in {
-                Some((i, p)) if i == index => Some(p),
-                _ => None,
-            };
+        if prep.is_some() || self.prep_prev.is_some() {
+            self.prep_next = prep.copied();
         }
         match self.pending.take() {
             Some(prev) => {

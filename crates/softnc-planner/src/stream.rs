@@ -272,8 +272,8 @@ impl<'a> StreamPlanner<'a> {
         &mut self,
         index: usize,
         m: &Motion,
-        prim: Option<Primitive>,
-        prep: Option<ArcPrep>,
+        prim: &Option<Primitive>,
+        prep: Option<&ArcPrep>,
         out: &mut impl FnMut(&Segment, &Geom),
     ) {
         self.builder.push_prepared(index, m, prim, prep);
@@ -410,7 +410,13 @@ pub fn check_program_parallel(
                 if refused.is_none() {
                     for (k, (m, prim)) in motions.iter().zip(&prims).enumerate() {
                         if reader_checks {
-                            planner.push_prepared(index, m, *prim, preps[k], &mut |_, _| {});
+                            planner.push_prepared(
+                                index,
+                                m,
+                                prim,
+                                preps[k].as_ref(),
+                                &mut |_, _| {},
+                            );
                             index += 1;
                         } else if let Err(e) = planner.push_primitive(m, *prim, &mut |_, _| {}) {
                             refused = Some(e);
