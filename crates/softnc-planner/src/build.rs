@@ -836,7 +836,7 @@ impl PathBuilder {
         match (&a.geom, &b.geom) {
             (Geom::Line { .. }, Geom::Line { .. }) => self.blend_lines(a, b),
             (&Geom::Line { end, .. }, Geom::Arc(arc)) => {
-                let view = self.view_next(&arc)?;
+                let view = self.view_next(arc)?;
                 let f = fillet::line_arc(
                     end,
                     a.dir,
@@ -867,8 +867,8 @@ impl PathBuilder {
             (Geom::Arc(arc), &Geom::Line { start, .. }) => {
                 // the line–arc construction on the path run backwards
                 let view = match &self.prep_prev {
-                    Some(p) => p.view(&arc, true, self.max_drift_rad()),
-                    None => ArcView::of(&arc, true, self.max_drift_rad()),
+                    Some(p) => p.view(arc, true, self.max_drift_rad()),
+                    None => ArcView::of(arc, true, self.max_drift_rad()),
                 }?;
                 let f = fillet::line_arc(
                     start,
@@ -902,10 +902,10 @@ impl PathBuilder {
                 })
             }
             (Geom::Arc(arc_a), Geom::Arc(arc_b)) => {
-                let view = self.view_next(&arc_b)?;
+                let view = self.view_next(arc_b)?;
                 let f = fillet::arc_arc(
                     arc_a.end(),
-                    &arc_a,
+                    arc_a,
                     (0.5 * a.len).min(a.len - a.start_trim),
                     &view,
                     0.5 * b.len,
@@ -930,7 +930,7 @@ impl PathBuilder {
                     next_start_at: Some(f.p_arc),
                     // the first arc's point d before its end: `Primitive::point_at`'s
                     // angle there, sweep·d/length
-                    prev_end_trim_rad: Some(prim_sweep(&arc_a).abs() * f.line_trim / a.len),
+                    prev_end_trim_rad: Some(prim_sweep(arc_a).abs() * f.line_trim / a.len),
                     next_start_trim_rad: Some(f.arc_trim_rad),
                 })
             }

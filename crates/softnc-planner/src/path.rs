@@ -603,6 +603,44 @@ mod tests {
         }
     }
 
+    /// `ElementShape::sub_arc` plans a sub-arc whose end radius is off by rounding
+    /// (|ΔR| ≤ `SUB_ARC_SNAP_REL`·R·|φ|) as its circle (acceleration weights 1 in the
+    /// plane, unit tangents), and one off by more as `arc` does (a spiral: weights
+    /// above 1). Fails if the snap is dropped (first case) or taken too far (second).
+    #[test]
+    fn sub_arc_takes_a_rounded_end_radius_as_the_circle() {
+        let (c, radius, a0, sweep) = (Vec3::new(300.0, 2.0, -1.0), 0.25, 0.3f64, 1.2f64);
+        let at = |r: f64, th: f64| c + Vec3::new(r * th.cos(), r * th.sin(), 0.0);
+        let arc_to = |end_radius: f64| Primitive::Arc {
+            start: at(radius, a0),
+            center: c,
+            plane: Plane::XY,
+            radius,
+            start_angle: a0,
+            sweep,
+            normal_travel: 0.0,
+            end: at(end_radius, a0 + sweep),
+        };
+        // rounding: 40 ulps of the coordinates (1e-14 mm at 300 mm), under 3e-13
+        let rounded = arc_to(radius + 1e-14);
+        let spiral = ElementShape::arc(&rounded);
+        assert!(spiral.acc_weight[0] > 1.0, "{:?}", spiral.acc_weight);
+        let snapped = ElementShape::sub_arc(&rounded);
+        assert_eq!(snapped.acc_weight, [1.0, 1.0, 0.0]);
+        assert!((snapped.end_tangent.norm() - 1.0).abs() < 1e-15);
+        assert!((snapped.end_tangent - spiral.end_tangent).norm() < 1e-12);
+        for i in 0..3 {
+            assert!((snapped.vel_weight[i] - spiral.vel_weight[i]).abs() < 1e-12);
+        }
+        // a programmed change of radius (CAM rounding of 1e-9 mm) stays a spiral
+        let cam = arc_to(radius + 1e-9);
+        let (a, b) = (ElementShape::arc(&cam), ElementShape::sub_arc(&cam));
+        assert!(a.acc_weight[0] > 1.0);
+        assert_eq!(a.acc_weight, b.acc_weight);
+        assert_eq!(a.vel_weight, b.vel_weight);
+        assert_eq!(a.end_tangent, b.end_tangent);
+    }
+
     /// `blend_trig` (the fillets' shape from the construction's cos and sin) is
     /// `blend`'s shape: same tangents and weights, in and out of the coordinate
     /// planes, short and long sweeps.
