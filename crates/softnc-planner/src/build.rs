@@ -282,6 +282,35 @@ struct Pending {
     start_trim_rad: Option<f64>,
 }
 
+impl Pending {
+    /// A record to be written over ([`PathBuilder`]'s first boxes).
+    fn placeholder() -> Pending {
+        Pending {
+            geom: Geom::Line {
+                start: Vec3::ZERO,
+                end: Vec3::ZERO,
+                from: 0.0,
+                to: 0.0,
+                prog_len: 0.0,
+            },
+            len: 0.0,
+            dir: Vec3::ZERO,
+            motion: 0,
+            feed_move: false,
+            feed_mm_per_s: 0.0,
+            exact_stop: false,
+            tolerance_mm: 0.0,
+            dwell_s: 0.0,
+            line: 0,
+            stop: StopKind::None,
+            block_end: false,
+            start_trim: 0.0,
+            start_at: None,
+            start_trim_rad: None,
+        }
+    }
+}
+
 /// The path built so far: limits and geometry of every element, in order.
 #[derive(Debug, Clone, Default)]
 pub struct Path {
@@ -322,7 +351,11 @@ impl Path {
 pub struct PathBuilder {
     lim: Limits,
     path: Path,
-    pending: Option<Pending>,
+    /// The last move, held back (boxed: a move's record goes from `spare` to here
+    /// to `spare` again without being copied, about 250 bytes twice a move).
+    pending: Option<Box<Pending>>,
+    /// The record of the move emitted last, for the next move to be written into.
+    spare: Option<Box<Pending>>,
     pending_dwell_at_start: f64,
     last_point: Option<Vec3>,
     s0: f64,
@@ -340,13 +373,14 @@ pub struct PathBuilder {
     /// Elements already handed on by [`PathBuilder::drain_settled`] (a streamed
     /// path keeps only the last one, whose end speed the next may still change).
     base: usize,
-    /// The arc data given with the motion being pushed, and its index
-    /// ([`PathBuilder::push_prepared`]).
-    prep_in: Option<(usize, ArcPrep)>,
     /// The arc data of the pending move, if given.
     prep_prev: Option<ArcPrep>,
     /// The arc data of the move after it while their corner is blended, if given.
     prep_next: Option<ArcPrep>,
+    /// [`Limits::max_drift_rad`] of `lim`, worked out once (rad).
+    max_drift_rad: f64,
+    /// The axes' top speed |vmax| of `lim`, worked out once (mm/s).
+    v_top_mm_per_s: f64,
 }
 
 /// LinuxCNC's "naive CAM" merging (G64 Q, its `emccanon.cc` `see_segment` /
@@ -427,6 +461,7 @@ impl PathBuilder {
                 lead_in: 0,
             },
             pending: None,
+            spare: None,
             pending_dwell_at_start: 0.0,
             last_point: None,
             s0: 0.0,
@@ -436,9 +471,10 @@ impl PathBuilder {
             single_block: false,
             pending_stop_at_start: (StopKind::None, 0),
             base: 0,
-            prep_in: None,
             prep_prev: None,
             prep_next: None,
+            max_drift_rad: lim.max_drift_rad(),
+            v_top_mm_per_s: Vec3::new(lim.vmax[0], lim.vmax[1], lim.vmax[2]).norm(),
         }
     }
 
@@ -453,16 +489,26 @@ impl PathBuilder {
     /// order and dropped, together with the orphans (a streamed path does not keep
     /// the programmed primitives).
     pub(crate) fn drain_settled(&mut self, batch: usize, out: &mut impl FnMut(&Segment, &Geom)) {
+        self.drain_settled_slices(batch, &mut |segs, geoms| {
+            for (s, g) in segs.iter().zip(geoms) {
+                out(s, g);
+            }
+        });
+    }
+
+    /// [`PathBuilder::drain_settled`] handing the settled elements over all at once:
+    /// their limits and their geometry, in order, as two slices of one length (the
+    /// stream's figures copy a batch's limits in one go).
+    pub(crate) fn drain_settled_slices(
+        &mut self,
+        batch: usize,
+        out: &mut impl FnMut(&[Segment], &[Geom]),
+    ) {
         let n = self.path.segs.len();
         if n <= batch.max(1) {
             return;
         }
-        for (s, g) in self.path.segs[..n - 1]
-            .iter()
-            .zip(&self.path.geoms[..n - 1])
-        {
-            out(s, g);
-        }
+        out(&self.path.segs[..n - 1], &self.path.geoms[..n - 1]);
         self.path.segs.drain(..n - 1);
         self.path.geoms.drain(..n - 1);
         self.path.orphans.clear();
@@ -486,17 +532,27 @@ impl PathBuilder {
         &mut self,
         index: usize,
         m: &Motion,
-        prim: Option<Primitive>,
-        prep: Option<ArcPrep>,
+        prim: &Option<Primitive>,
+        prep: Option<&ArcPrep>,
     ) {
-        self.prep_in = prep.map(|p| (index, p));
-        self.push(index, m, prim);
-        self.prep_in = None;
+        self.push_with(index, m, prim, prep);
     }
 
     /// Add motion number `index`; `prim` is its programmed primitive in machine
     /// coordinates (None for dwells). G1 lines under G64 Q are merged first.
     pub fn push(&mut self, index: usize, m: &Motion, prim: Option<Primitive>) {
+        self.push_with(index, m, &prim, None);
+    }
+
+    /// [`PathBuilder::push`] with the arc data of `prim`, if given (by reference:
+    /// the motion's records are copied once, into the held move).
+    fn push_with(
+        &mut self,
+        index: usize,
+        m: &Motion,
+        prim: &Option<Primitive>,
+        prep: Option<&ArcPrep>,
+    ) {
         let q = match m.path_mode {
             PathMode::Blend {
                 naive_cam_mm: Some(q),
@@ -504,8 +560,8 @@ impl PathBuilder {
             } if q > 0.0 && !self.single_block => q,
             _ => 0.0,
         };
-        let line = match (m.kind, prim) {
-            (MotionKind::Feed { .. }, Some(l @ Primitive::Line { start, end }))
+        let line = match (&m.kind, prim) {
+            (MotionKind::Feed { .. }, &Some(l @ Primitive::Line { start, end }))
                 if q > 0.0 && (end - start).norm() >= 1e-9 =>
             {
                 Some(l)
@@ -527,7 +583,7 @@ impl PathBuilder {
                 self.chain.q_mm = q;
                 self.chain.lines.push((index as u32, l));
             }
-            None => self.push_unmerged(index, m, prim),
+            None => self.push_unmerged(index, m, prim, prep),
         }
     }
 
@@ -551,11 +607,18 @@ impl PathBuilder {
             last_line
         };
         self.chain.lines.clear();
-        self.push_unmerged(index as usize, &last, Some(merged));
+        // (a G64 Q chain flushed before a motion is another motion: not its arc data)
+        self.push_unmerged(index as usize, &last, &Some(merged), None);
     }
 
     /// Add motion number `index` as it is programmed (no G64 Q merging).
-    fn push_unmerged(&mut self, index: usize, m: &Motion, prim: Option<Primitive>) {
+    fn push_unmerged(
+        &mut self,
+        index: usize,
+        m: &Motion,
+        prim: &Option<Primitive>,
+        prep: Option<&ArcPrep>,
+    ) {
         let lim = &self.lim;
         let (exact, tol) = match m.path_mode {
             PathMode::ExactStop => (true, lim.tolerance_mm),
@@ -615,7 +678,7 @@ impl PathBuilder {
                 feed_mm_per_min, ..
             } => (true, feed_mm_per_min / 60.0),
         };
-        let Some(prim) = prim else { return };
+        let &Some(prim) = prim else { return };
         let (geom, len, dir) = match prim {
             Primitive::Line { start, end } => {
                 let d = end - start;
@@ -643,7 +706,11 @@ impl PathBuilder {
         if self.last_point.is_none() {
             self.last_point = Some(prim.start());
         }
-        let mut next = Pending {
+        let mut next = self
+            .spare
+            .take()
+            .unwrap_or_else(|| Box::new(Pending::placeholder()));
+        *next = Pending {
             geom,
             len,
             dir,
@@ -660,12 +727,8 @@ impl PathBuilder {
             start_at: None,
             start_trim_rad: None,
         };
-        // (a G64 Q chain flushed before this motion is another motion: not its data)
-        if self.prep_in.is_some() || self.prep_prev.is_some() {
-            self.prep_next = match self.prep_in {
-                Some((i, p)) if i == index => Some(p),
-                _ => None,
-            };
+        if prep.is_some() || self.prep_prev.is_some() {
+            self.prep_next = prep.copied();
         }
         match self.pending.take() {
             Some(prev) => {
@@ -675,7 +738,8 @@ impl PathBuilder {
                     next.start_at = b.next_start_at;
                     next.start_trim_rad = b.next_start_trim_rad;
                 }
-                self.emit(&prev, blend, false);
+                self.emit(&prev, blend.as_ref(), false);
+                self.spare = Some(prev);
             }
             None => self.start_dwell(),
         }
@@ -724,15 +788,24 @@ impl PathBuilder {
         if a.exact_stop || a.dwell_s > 0.0 {
             return None;
         }
-        if !matches!((a.geom, b.geom), (Geom::Line { .. }, Geom::Line { .. }))
+        if !matches!((&a.geom, &b.geom), (Geom::Line { .. }, Geom::Line { .. }))
             && (!self.lim.arc_blends || self.kink_at_speed(a, b))
         {
             // arc blends off, or a tangent join taken at speed that needs none
             return None;
         }
-        let found = self.circle_blend(a, b).or_else(|| self.biarc_blend(a, b))?;
+        // (the blend found goes back as it came, not unwrapped and wrapped again: a
+        // `Blend` is a few hundred bytes)
         let lim = &self.lim;
-        if lim.profile == FeedProfile::SCurve {
+        if lim.profile != FeedProfile::SCurve {
+            let found = self.circle_blend(a, b);
+            if found.is_some() {
+                return found;
+            }
+            return self.biarc_blend(a, b);
+        }
+        let found = self.circle_blend(a, b).or_else(|| self.biarc_blend(a, b));
+        if let Some(found) = &found {
             // A blend so tight that the jerk limit crawls through it is slower than
             // stopping: stop at the corner instead.
             let radius = |g: Option<Geom>| match g {
@@ -748,21 +821,22 @@ impl PathBuilder {
             }
             // (acc/dec after interpolation passes the corner at its feed instead)
             if lim.acc_dec == AccDec::BeforeInterpolation
-                && !scurve_blend_pays(lim, a, b, &found, through, vmin)
+                && !scurve_blend_pays(lim, a, b, found, through, vmin)
             {
                 return None;
             }
         }
-        Some(found)
+        found
     }
 
     /// A single circular blend: line–line here, line–arc, arc–line and arc–arc of
     /// one plane in [`crate::fillet`].
     fn circle_blend(&self, a: &Pending, b: &Pending) -> Option<Blend> {
-        match (a.geom, b.geom) {
+        // (by reference: the geometries are not copied to be matched)
+        match (&a.geom, &b.geom) {
             (Geom::Line { .. }, Geom::Line { .. }) => self.blend_lines(a, b),
-            (Geom::Line { end, .. }, Geom::Arc(arc)) => {
-                let view = self.view_next(&arc)?;
+            (&Geom::Line { end, .. }, Geom::Arc(arc)) => {
+                let view = self.view_next(arc)?;
                 let f = fillet::line_arc(
                     end,
                     a.dir,
@@ -790,11 +864,11 @@ impl PathBuilder {
                     next_start_trim_rad: Some(f.arc_trim_rad),
                 })
             }
-            (Geom::Arc(arc), Geom::Line { start, .. }) => {
+            (Geom::Arc(arc), &Geom::Line { start, .. }) => {
                 // the line–arc construction on the path run backwards
                 let view = match &self.prep_prev {
-                    Some(p) => p.view(&arc, true, self.max_drift_rad()),
-                    None => ArcView::of(&arc, true, self.max_drift_rad()),
+                    Some(p) => p.view(arc, true, self.max_drift_rad()),
+                    None => ArcView::of(arc, true, self.max_drift_rad()),
                 }?;
                 let f = fillet::line_arc(
                     start,
@@ -828,10 +902,10 @@ impl PathBuilder {
                 })
             }
             (Geom::Arc(arc_a), Geom::Arc(arc_b)) => {
-                let view = self.view_next(&arc_b)?;
+                let view = self.view_next(arc_b)?;
                 let f = fillet::arc_arc(
                     arc_a.end(),
-                    &arc_a,
+                    arc_a,
                     (0.5 * a.len).min(a.len - a.start_trim),
                     &view,
                     0.5 * b.len,
@@ -856,7 +930,7 @@ impl PathBuilder {
                     next_start_at: Some(f.p_arc),
                     // the first arc's point d before its end: `Primitive::point_at`'s
                     // angle there, sweep·d/length
-                    prev_end_trim_rad: Some(prim_sweep(&arc_a).abs() * f.line_trim / a.len),
+                    prev_end_trim_rad: Some(prim_sweep(arc_a).abs() * f.line_trim / a.len),
                     next_start_trim_rad: Some(f.arc_trim_rad),
                 })
             }
@@ -932,7 +1006,7 @@ impl PathBuilder {
     /// velocity step it makes at the highest path speed, v·angle per cycle, stays
     /// within the kink share of every axis's acceleration.
     fn max_drift_rad(&self) -> f64 {
-        self.lim.max_drift_rad()
+        self.max_drift_rad
     }
 
     /// [`ArcView::of`] the move after the corner being blended (an arc, `arc`), from
@@ -947,26 +1021,28 @@ impl PathBuilder {
     /// Whether the tangent break between `a` and `b` is small enough that the kink
     /// share passes it at the feed of both (and the axes' top speed): no blend then.
     fn kink_at_speed(&self, a: &Pending, b: &Pending) -> bool {
-        let t1 = match a.geom {
+        let t1 = match &a.geom {
             Geom::Line { .. } => a.dir,
             Geom::Arc(p) => match &self.prep_prev {
                 Some(q) => q.end_tangent,
-                None => arc_end_tangent(&p, true),
+                None => arc_end_tangent(p, true),
             },
             Geom::Blend { .. } => return false,
         };
-        let t2 = match b.geom {
+        let t2 = match &b.geom {
             Geom::Line { .. } => b.dir,
             Geom::Arc(p) => match &self.prep_next {
                 Some(q) => q.start_tangent,
-                None => arc_end_tangent(&p, false),
+                None => arc_end_tangent(p, false),
             },
             Geom::Blend { .. } => return false,
         };
         let lim = &self.lim;
         let dt = t2 - t1;
-        let v_top = Vec3::new(lim.vmax[0], lim.vmax[1], lim.vmax[2]).norm();
-        let v = a.feed_mm_per_s.min(b.feed_mm_per_s).min(v_top);
+        let v = a
+            .feed_mm_per_s
+            .min(b.feed_mm_per_s)
+            .min(self.v_top_mm_per_s);
         lim.profile == FeedProfile::Trapezoidal
             && lim.acc_dec == AccDec::BeforeInterpolation
             && (0..3).all(|i| dt[i].abs() * v <= lim.kink_acc[i] * lim.cycle_s)
@@ -1071,10 +1147,10 @@ impl PathBuilder {
     }
 
     /// Push the elements of a move whose successor is known (`last`: it has none).
-    fn emit(&mut self, p: &Pending, blend: Option<Blend>, last: bool) {
+    fn emit(&mut self, p: &Pending, blend: Option<&Blend>, last: bool) {
         let stop = p.exact_stop || p.dwell_s > 0.0 || p.stop != StopKind::None || last;
-        let (geom, shape) = match p.geom {
-            Geom::Line {
+        let (geom, shape) = match &p.geom {
+            &Geom::Line {
                 start,
                 end,
                 prog_len,
@@ -1091,7 +1167,7 @@ impl PathBuilder {
                 };
                 (geom, ElementShape::line(len, p.dir))
             }
-            Geom::Arc(prim) => {
+            &Geom::Arc(prim) => {
                 let end_trim = blend.map_or(0.0, |b| b.end_trim_prev);
                 if p.start_trim == 0.0 && end_trim == 0.0 {
                     (p.geom, ElementShape::arc(&prim))
@@ -1127,15 +1203,20 @@ impl PathBuilder {
                         } else {
                             blend.and_then(|b| b.prev_end_trim_rad)
                         };
-                        let sub = if let (Some(s_rad), Some(e_rad)) = (start_rad, end_rad) {
-                            sub_arc_by_angles(&prim, at_from, at_to, s_rad, e_rad)
-                        } else if prim_sweep(&prim).abs() < std::f64::consts::TAU {
-                            sub_arc(&prim, at_from, at_to)
+                        if let (Some(s_rad), Some(e_rad)) = (start_rad, end_rad) {
+                            // cut from the circle by fillets: planned as a circle
+                            // where its end radius is off by rounding only
+                            let sub = sub_arc_by_angles(&prim, at_from, at_to, s_rad, e_rad);
+                            (Geom::Arc(sub), ElementShape::sub_arc(&sub))
                         } else {
-                            // a helix of a turn or more, trimmed by biarcs only
-                            sub_arc_span(&prim, from, to, at_from, at_to)
-                        };
-                        (Geom::Arc(sub), ElementShape::arc(&sub))
+                            let sub = if prim_sweep(&prim).abs() < std::f64::consts::TAU {
+                                sub_arc(&prim, at_from, at_to)
+                            } else {
+                                // a helix of a turn or more, trimmed by biarcs only
+                                sub_arc_span(&prim, from, to, at_from, at_to)
+                            };
+                            (Geom::Arc(sub), ElementShape::arc(&sub))
+                        }
                     }
                 }
             }
@@ -1144,24 +1225,10 @@ impl PathBuilder {
         let pushed = match blend {
             Some(b) => {
                 let pushed = self.push_element(p, &geom, &shape, 0.0, false);
-                let trig = [b.sweep_cos_sin, None];
-                for (g, trig) in std::iter::once(b.geom).chain(b.geom2).zip(trig) {
-                    if let Geom::Blend {
-                        e1,
-                        e2,
-                        radius,
-                        sweep,
-                        ..
-                    } = g
-                    {
-                        let shape = match trig {
-                            Some((cos_s, sin_s)) => {
-                                ElementShape::blend_trig(e1, e2, radius, sweep, cos_s, sin_s)
-                            }
-                            None => ElementShape::blend(e1, e2, radius, sweep),
-                        };
-                        self.push_element(p, &g, &shape, 0.0, false);
-                    }
+                // the blend's arcs, by reference (no copies of the geometry)
+                self.push_blend_piece(p, &b.geom, b.sweep_cos_sin);
+                if let Some(g2) = &b.geom2 {
+                    self.push_blend_piece(p, g2, None);
                 }
                 pushed
             }
@@ -1171,6 +1238,27 @@ impl PathBuilder {
             if let Some(prim) = geom.programmed() {
                 self.path.orphans.push((p.motion, prim));
             }
+        }
+    }
+
+    /// Push a blend arc `g` of move `p`'s corner (its sweep's cosine and sine where
+    /// the construction gave them).
+    fn push_blend_piece(&mut self, p: &Pending, g: &Geom, trig: Option<(f64, f64)>) {
+        if let Geom::Blend {
+            e1,
+            e2,
+            radius,
+            sweep,
+            ..
+        } = *g
+        {
+            let shape = match trig {
+                Some((cos_s, sin_s)) => {
+                    ElementShape::blend_trig(e1, e2, radius, sweep, cos_s, sin_s)
+                }
+                None => ElementShape::blend(e1, e2, radius, sweep),
+            };
+            self.push_element(p, g, &shape, 0.0, false);
         }
     }
 
@@ -1205,7 +1293,7 @@ impl PathBuilder {
             let a = &mut self.path.segs[n - 1];
             if a.v_end_hard != 0.0 {
                 let prev_geom = &self.path.geoms[n - 1];
-                let uses = [self.prev_acc_use, acc_use];
+                let uses = [&self.prev_acc_use, &acc_use];
                 a.v_end_hard = junction_speed(
                     lim,
                     a.vel_cap,
@@ -1504,9 +1592,11 @@ fn start_tangent(g: &Geom, dir: Vec3) -> Vec3 {
 #[derive(Debug, Clone, Copy, Default)]
 struct AccUse {
     weight: [f64; 3],
-    /// √(a_t² + (κ·v_top²)²), v_top the element's cap or its feed at the largest
-    /// override (its highest speed).
-    magnitude_mm_per_s2: f64,
+    /// The tangential acceleration a_t (mm/s²).
+    acc_mm_per_s2: f64,
+    /// The centripetal κ·v_top², v_top the element's cap or its feed at the largest
+    /// override (its highest speed) (mm/s²).
+    normal_mm_per_s2: f64,
     /// The element's length (mm).
     len_mm: f64,
 }
@@ -1514,21 +1604,23 @@ struct AccUse {
 impl AccUse {
     fn of(shape: &ElementShape, acc_mm_per_s2: f64, cap: f64, feed: f64, lim: &Limits) -> AccUse {
         let v = cap.min(feed * lim.max_feed_override);
-        let a_n = shape.curvature * v * v;
         AccUse {
             weight: shape.acc_weight,
-            magnitude_mm_per_s2: if a_n > 0.0 {
-                (acc_mm_per_s2 * acc_mm_per_s2 + a_n * a_n).sqrt()
-            } else {
-                acc_mm_per_s2
-            },
+            acc_mm_per_s2,
+            normal_mm_per_s2: shape.curvature * v * v,
             len_mm: shape.len,
         }
     }
 
-    /// The most of axis i's acceleration the element uses at any speed it runs at.
-    fn on_axis(&self, i: usize) -> f64 {
-        self.weight[i] * self.magnitude_mm_per_s2
+    /// √(a_t² + (κ·v_top²)²) (mm/s²): worked out only where a junction needs it
+    /// (a tangent break with room to look at), not for every element.
+    fn magnitude_mm_per_s2(&self) -> f64 {
+        let (a_t, a_n) = (self.acc_mm_per_s2, self.normal_mm_per_s2);
+        if a_n > 0.0 {
+            (a_t * a_t + a_n * a_n).sqrt()
+        } else {
+            a_t
+        }
     }
 }
 
@@ -1549,7 +1641,7 @@ fn junction_speed(
     cap_b: f64,
     end_tangent_a: Vec3,
     b: &ElementShape,
-    uses: [AccUse; 2],
+    uses: [&AccUse; 2],
     curvature_step: impl Fn() -> Vec3,
 ) -> f64 {
     let mut v = cap_a.min(cap_b);
@@ -1593,10 +1685,14 @@ fn junction_speed(
         if v_spacing > v_share {
             // the room the two elements leave
             let mut v_room = v_bound.min(v_spacing);
+            let magnitudes = [uses[0].magnitude_mm_per_s2(), uses[1].magnitude_mm_per_s2()];
             for (i, &t_dt) in t_over_dt.iter().enumerate() {
                 if t_dt > 0.0 {
                     let full = lim.amax[i] + lim.kink_acc[i];
-                    let used = uses[0].on_axis(i).max(uses[1].on_axis(i));
+                    // the most of axis i's acceleration either element uses at any
+                    // speed it runs at
+                    let used =
+                        (uses[0].weight[i] * magnitudes[0]).max(uses[1].weight[i] * magnitudes[1]);
                     let room = (full - used).max(lim.kink_acc[i]);
                     v_room = v_room.min(room * t_dt);
                 }

@@ -10,6 +10,14 @@ pub const ARC_TANGENTIAL_SHARE: f64 = 0.5;
 /// Share of an axis's acceleration a curved element may spend on centripetal acceleration.
 pub const ARC_NORMAL_SHARE: f64 = 0.866_025_403_784_438_6;
 
+/// [`ElementShape::sub_arc`]: the largest change of radius along a sub-arc, relative
+/// to R·|φ| (its length), that is taken for rounding of its end point and planned as
+/// a circle; the speed it leaves out is at most this share (the spiral's radial drift
+/// |ΔR|/(R·|φ|), `spiral_weights`). Rounding of a touch point computed on the circle
+/// is a few ulps of its coordinates: 1e-13 mm at 300 mm, 4e-13 of a quarter circle of
+/// 0.25 mm.
+pub const SUB_ARC_SNAP_REL: f64 = 1e-12;
+
 /// Geometry of one path element, machine coordinates (mm).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Geom {
@@ -170,6 +178,23 @@ impl ElementShape {
     /// A programmed arc or helix. The end tangent comes from the programmed end point
     /// (the sweep ends at its angle), so no trigonometry is needed.
     pub fn arc(p: &Primitive) -> ElementShape {
+        Self::arc_snapped(p, false)
+    }
+
+    /// A planar sub-arc that fillets cut from a circle (`build::sub_arc_by_angles`):
+    /// [`ElementShape::arc`], except that an end radius off the start's by no more
+    /// than rounding (|ΔR| ≤ `SUB_ARC_SNAP_REL`·R·|φ|, the end point being the
+    /// fillet's touch point computed on the circle) is taken as the start's: a
+    /// circle's weights and tangents, not [`spiral_weights`]' (about 400 → 270
+    /// instructions a sub-arc). The spiral's radial drift |ΔR|/(R·|φ|) it leaves out
+    /// is then at most `SUB_ARC_SNAP_REL` of the speed.
+    pub fn sub_arc(p: &Primitive) -> ElementShape {
+        Self::arc_snapped(p, true)
+    }
+
+    /// [`ElementShape::arc`]; with `snap` [`ElementShape::sub_arc`].
+    #[inline(always)]
+    fn arc_snapped(p: &Primitive, snap: bool) -> ElementShape {
         let Primitive::Arc {
             start,
             center,
@@ -194,7 +219,10 @@ impl ElementShape {
         ts[b] = sweep * (start[a] - center[a]);
         ts[n] = normal_travel;
         let (ea, eb) = (end[a] - center[a], end[b] - center[b]);
-        let re = (ea * ea + eb * eb).sqrt();
+        let mut re = (ea * ea + eb * eb).sqrt();
+        if snap && normal_travel == 0.0 && (re - radius).abs() <= SUB_ARC_SNAP_REL * rs.abs() {
+            re = radius;
+        }
         let (cos_e, sin_e) = if re > 1e-12 * radius.max(1.0) {
             (ea / re, eb / re)
         } else {
@@ -297,12 +325,16 @@ impl ElementShape {
         cos_s: f64,
         sin_s: f64,
     ) -> ElementShape {
-        let wa = [0, 1, 2].map(|i| (e1[i] * e1[i] + e2[i] * e2[i]).sqrt().min(1.0));
+        let mut wa = [0.0; 3];
+        for (i, w) in wa.iter_mut().enumerate() {
+            *w = (e1[i] * e1[i] + e2[i] * e2[i]).sqrt().min(1.0);
+        }
         Self::blend_with(e1, e2, radius, sweep, cos_s, sin_s, wa)
     }
 
     /// The shape of a blend arc from its sweep's cosine and sine and its
     /// acceleration weights √(e1_i² + e2_i²).
+    #[inline(always)]
     fn blend_with(
         e1: Vec3,
         e2: Vec3,
@@ -317,13 +349,12 @@ impl ElementShape {
         // |t_i| reaches its amplitude √(e1_i² + e2_i²) only where the radial component
         // r_i = e1_i cos φ + e2_i sin φ changes sign (dt_i/dφ = −r_i); a sweep shorter
         // than π passes at most one such point, so the signs at the ends tell
-        let wv = [0, 1, 2].map(|i| {
+        let mut wv = wa;
+        for (i, w) in wv.iter_mut().enumerate() {
             if sweep < std::f64::consts::PI && e1[i] * end_radial[i] > 0.0 {
-                e2[i].abs().max(end_tangent[i].abs()).min(wa[i])
-            } else {
-                wa[i]
+                *w = e2[i].abs().max(end_tangent[i].abs()).min(wa[i]);
             }
-        });
+        }
         ElementShape {
             len: radius * sweep,
             start_tangent: e2,
@@ -379,6 +410,7 @@ pub struct ElementLimits {
 }
 
 /// Limits of an element of shape `g` given per-axis velocity and acceleration limits.
+#[inline]
 pub fn element_limits(g: &ElementShape, vmax: [f64; 3], amax: [f64; 3]) -> ElementLimits {
     let (wv, wa) = (g.vel_weight, g.acc_weight);
     // an axis's limit over its weight (the division skipped for the common weight 1,
@@ -569,6 +601,44 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// `ElementShape::sub_arc` plans a sub-arc whose end radius is off by rounding
+    /// (|ΔR| ≤ `SUB_ARC_SNAP_REL`·R·|φ|) as its circle (acceleration weights 1 in the
+    /// plane, unit tangents), and one off by more as `arc` does (a spiral: weights
+    /// above 1). Fails if the snap is dropped (first case) or taken too far (second).
+    #[test]
+    fn sub_arc_takes_a_rounded_end_radius_as_the_circle() {
+        let (c, radius, a0, sweep) = (Vec3::new(300.0, 2.0, -1.0), 0.25, 0.3f64, 1.2f64);
+        let at = |r: f64, th: f64| c + Vec3::new(r * th.cos(), r * th.sin(), 0.0);
+        let arc_to = |end_radius: f64| Primitive::Arc {
+            start: at(radius, a0),
+            center: c,
+            plane: Plane::XY,
+            radius,
+            start_angle: a0,
+            sweep,
+            normal_travel: 0.0,
+            end: at(end_radius, a0 + sweep),
+        };
+        // rounding: 40 ulps of the coordinates (1e-14 mm at 300 mm), under 3e-13
+        let rounded = arc_to(radius + 1e-14);
+        let spiral = ElementShape::arc(&rounded);
+        assert!(spiral.acc_weight[0] > 1.0, "{:?}", spiral.acc_weight);
+        let snapped = ElementShape::sub_arc(&rounded);
+        assert_eq!(snapped.acc_weight, [1.0, 1.0, 0.0]);
+        assert!((snapped.end_tangent.norm() - 1.0).abs() < 1e-15);
+        assert!((snapped.end_tangent - spiral.end_tangent).norm() < 1e-12);
+        for i in 0..3 {
+            assert!((snapped.vel_weight[i] - spiral.vel_weight[i]).abs() < 1e-12);
+        }
+        // a programmed change of radius (CAM rounding of 1e-9 mm) stays a spiral
+        let cam = arc_to(radius + 1e-9);
+        let (a, b) = (ElementShape::arc(&cam), ElementShape::sub_arc(&cam));
+        assert!(a.acc_weight[0] > 1.0);
+        assert_eq!(a.acc_weight, b.acc_weight);
+        assert_eq!(a.vel_weight, b.vel_weight);
+        assert_eq!(a.end_tangent, b.end_tangent);
     }
 
     /// `blend_trig` (the fillets' shape from the construction's cos and sin) is

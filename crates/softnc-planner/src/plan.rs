@@ -625,7 +625,10 @@ impl ForwardTime {
 /// the same end speed from a stop (0) and from no limit (∞) after the last element
 /// held, that end speed is the whole path's.
 pub(crate) struct DurationPass {
-    held: std::collections::VecDeque<Segment>,
+    /// The elements not yet timed, in order. A `Vec`, not a deque: the common case
+    /// times all of them at once ([`DurationPass::push`]), and only
+    /// [`DurationPass::settle`] leaves some behind (moved to the front, rarely).
+    held: Vec<Segment>,
     /// Scratch for the end speeds of the held elements.
     vend: Vec<f64>,
     fwd: ForwardTime,
@@ -637,11 +640,14 @@ pub(crate) struct DurationPass {
 
 /// Held elements before [`DurationPass`] first looks for a saturated point.
 const DURATION_SCAN_MIN: usize = 256;
+/// Longest run of elements [`DurationPass::push_slice`] times where they lie; below
+/// `DURATION_SCAN_MIN`, the fewest held elements at which `push` scans.
+const DURATION_RUN_MAX: usize = 128;
 
 impl DurationPass {
     pub(crate) fn new(lim: &Limits) -> DurationPass {
         DurationPass {
-            held: std::collections::VecDeque::new(),
+            held: Vec::new(),
             vend: Vec::new(),
             fwd: ForwardTime::new(lim),
             v_top: 0.0,
@@ -660,7 +666,7 @@ impl DurationPass {
         // end limit of the element before it, whose end speed is then that limit
         // whatever comes after: the held elements are timed at once (the same
         // figures as `settle` would find later, without holding and scanning them)
-        if let Some(last) = self.held.back() {
+        if let Some(last) = self.held.last() {
             let own = last.v_end_hard.min(cap(last));
             if starts_at_least(s, own) {
                 let k = self.held.len() - 1;
@@ -672,9 +678,72 @@ impl DurationPass {
                 }
             }
         }
-        self.held.push_back(*s);
+        self.held.push(*s);
         if self.held.len() >= self.scan_at {
             self.settle();
+        }
+    }
+
+    /// [`DurationPass::push`] of each of `segs` in order, the same figures bit for
+    /// bit, without copying each element into the held ones: once `push` leaves one
+    /// element held, the held elements are a run `segs[j..=k]` where they lie, timed
+    /// (as [`DurationPass::time_upto`] times them) when the next element's start from
+    /// a stop reaches the run's last end limit. A run of `DURATION_RUN_MAX` (below any
+    /// `scan_at`, so that `push` would not have scanned it either) and the run left at
+    /// the end of `segs` are copied into the held elements, as `push` holds them.
+    pub(crate) fn push_slice(&mut self, segs: &[Segment]) {
+        let mut i = 0;
+        while i < segs.len() {
+            self.push(&segs[i]);
+            i += 1;
+            if self.held.len() == 1 {
+                break; // it is `segs[i - 1]`
+            }
+        }
+        if i == segs.len() {
+            return;
+        }
+        self.held.clear();
+        let (mut j, mut k) = (i - 1, i - 1);
+        while k + 1 < segs.len() {
+            let (last, s) = (&segs[k], &segs[k + 1]);
+            if s.vel_cap.is_finite() {
+                self.v_top = self.v_top.max(s.vel_cap);
+            }
+            self.a_min = self.a_min.min(s.acc);
+            let own = last.v_end_hard.min(cap(last));
+            if starts_at_least(s, own) {
+                if j == k {
+                    self.fwd.step(last, own);
+                } else {
+                    self.time_run(&segs[j..=k], own);
+                }
+                j = k + 1;
+            }
+            k += 1;
+            if k + 1 - j >= DURATION_RUN_MAX {
+                break;
+            }
+        }
+        self.held.extend_from_slice(&segs[j..=k]);
+        for s in &segs[k + 1..] {
+            self.push(s);
+        }
+    }
+
+    /// Time the elements `run`, the last one's end speed being `vend_last`: the
+    /// arithmetic of [`DurationPass::time_upto`] on elements not held.
+    fn time_run(&mut self, run: &[Segment], vend_last: f64) {
+        let k = run.len() - 1;
+        self.vend.clear();
+        self.vend.resize(k + 1, 0.0);
+        self.vend[k] = vend_last;
+        let mut next_start = start_speed(&run[k], vend_last);
+        for j in (0..k).rev() {
+            (self.vend[j], next_start) = backward_step(&run[j], next_start);
+        }
+        for (j, s) in run.iter().enumerate() {
+            self.fwd.step(s, self.vend[j]);
         }
     }
 
@@ -843,7 +912,10 @@ mod tests {
             let n = 1 + case * 37;
             let segs: Vec<Segment> = (0..n)
                 .map(|k| {
-                    let short = (k / 50) % 2 == 1; // runs of tiny elements
+                    // runs of tiny elements, some longer than `push_slice` times
+                    // where they lie and than `push` holds before it scans
+                    let run = if case % 3 == 0 { 300 } else { 50 };
+                    let short = (k / run) % 2 == 1;
                     let len = if short { 1e-4 * next() } else { 5.0 * next() };
                     let acc = 50.0 + 2000.0 * next();
                     let cap = if next() < 0.1 {
@@ -863,15 +935,30 @@ mod tests {
             for s in &segs {
                 pass.push(s);
             }
-            let (t, v_top, a_min) = pass.finish();
+            // and in slices of all lengths (`push_slice`, as the reader of
+            // `check_program_parallel` times the planner's batches)
+            let mut sliced = DurationPass::new(&lim);
+            let mut rest = &segs[..];
+            let widths = [1, 3, 200, 7, 1000, 2];
+            let mut w = case;
+            while !rest.is_empty() {
+                w += 1;
+                let width = widths[w % widths.len()];
+                let (batch, after) = rest.split_at(width.min(rest.len()));
+                sliced.push_slice(batch);
+                rest = after;
+            }
             let (t_whole, v_whole, a_whole) = planned_duration(&segs, &lim);
-            assert_eq!(
-                t.to_bits(),
-                t_whole.to_bits(),
-                "case {case}: {t} vs {t_whole}"
-            );
-            assert_eq!(v_top.to_bits(), v_whole.to_bits(), "case {case}");
-            assert_eq!(a_min.to_bits(), a_whole.to_bits(), "case {case}");
+            for (how, pass) in [("push", pass), ("push_slice", sliced)] {
+                let (t, v_top, a_min) = pass.finish();
+                assert_eq!(
+                    t.to_bits(),
+                    t_whole.to_bits(),
+                    "case {case} {how}: {t} vs {t_whole}"
+                );
+                assert_eq!(v_top.to_bits(), v_whole.to_bits(), "case {case} {how}");
+                assert_eq!(a_min.to_bits(), a_whole.to_bits(), "case {case} {how}");
+            }
         }
     }
 

@@ -153,6 +153,30 @@ impl Figures {
         self.path_length_mm = s.s0 + s.len;
         out(s, g);
     }
+
+    /// [`Figures::take`] of the settled elements `segs` (geometry `geoms`) in order:
+    /// the same figures, the limits handed over in one copy.
+    fn take_slices(
+        &mut self,
+        segs: &[Segment],
+        geoms: &[Geom],
+        out: &mut impl FnMut(&Segment, &Geom),
+    ) {
+        let (Some(last), Some(first_geom)) = (segs.last(), geoms.first()) else {
+            return;
+        };
+        match &mut self.handoff {
+            Some(v) => v.extend_from_slice(segs),
+            None => self.duration.push_slice(segs),
+        }
+        self.elements += segs.len();
+        self.start_mm
+            .get_or_insert_with(|| first_geom.point_at(0.0));
+        self.path_length_mm = last.s0 + last.len;
+        for (s, g) in segs.iter().zip(geoms) {
+            out(s, g);
+        }
+    }
 }
 
 impl Settled {
@@ -162,6 +186,23 @@ impl Settled {
         match &mut self.dilator {
             Some(d) => d.push(s, g, &mut |s, g| fin.take(s, g, out)),
             None => fin.take(s, g, out),
+        }
+    }
+
+    /// [`Settled::take`] of the elements `segs` (geometry `geoms`) in order.
+    fn take_slices(
+        &mut self,
+        segs: &[Segment],
+        geoms: &[Geom],
+        out: &mut impl FnMut(&Segment, &Geom),
+    ) {
+        match &mut self.dilator {
+            Some(_) => {
+                for (s, g) in segs.iter().zip(geoms) {
+                    self.take(s, g, out);
+                }
+            }
+            None => self.fin.take_slices(segs, geoms, out),
         }
     }
 
@@ -231,8 +272,8 @@ impl<'a> StreamPlanner<'a> {
         &mut self,
         index: usize,
         m: &Motion,
-        prim: Option<Primitive>,
-        prep: Option<ArcPrep>,
+        prim: &Option<Primitive>,
+        prep: Option<&ArcPrep>,
         out: &mut impl FnMut(&Segment, &Geom),
     ) {
         self.builder.push_prepared(index, m, prim, prep);
@@ -243,7 +284,9 @@ impl<'a> StreamPlanner<'a> {
     fn drain(&mut self, out: &mut impl FnMut(&Segment, &Geom)) {
         let settled = &mut self.settled;
         self.builder
-            .drain_settled(DRAIN_BATCH, &mut |s, g| settled.take(s, g, out));
+            .drain_settled_slices(DRAIN_BATCH, &mut |segs, geoms| {
+                settled.take_slices(segs, geoms, out)
+            });
     }
 
     fn finish(
@@ -367,7 +410,13 @@ pub fn check_program_parallel(
                 if refused.is_none() {
                     for (k, (m, prim)) in motions.iter().zip(&prims).enumerate() {
                         if reader_checks {
-                            planner.push_prepared(index, m, *prim, preps[k], &mut |_, _| {});
+                            planner.push_prepared(
+                                index,
+                                m,
+                                prim,
+                                preps[k].as_ref(),
+                                &mut |_, _| {},
+                            );
                             index += 1;
                         } else if let Err(e) = planner.push_primitive(m, *prim, &mut |_, _| {}) {
                             refused = Some(e);
@@ -403,9 +452,7 @@ pub fn check_program_parallel(
         let mut checker = reader_checks.then(|| Checker::new(profile, options, file));
         let mut duration = DurationPass::new(&Limits::from_profile(profile));
         let mut time = |mut batch: Vec<Segment>| {
-            for s in &batch {
-                duration.push(s);
-            }
+            duration.push_slice(&batch);
             batch.clear();
             let _ = timed_tx.send(batch); // the planner may be done
         };
