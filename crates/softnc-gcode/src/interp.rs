@@ -8,6 +8,7 @@
 //! that the canonical output rounds exactly as `rs274` prints it. Motions carry them
 //! converted to mm.
 
+mod fast;
 mod modal;
 pub(crate) mod ngc;
 mod offsets;
@@ -1913,6 +1914,20 @@ pub fn read_with(
     chunk: usize,
     sink: &mut dyn FnMut(&mut Vec<Motion>),
 ) -> Result<(Program, Params), GcodeError> {
+    read_lines(text, file, profile, options, chunk, sink, true)
+}
+
+/// [`read_with`]; `fast`: common motion lines take the short way of [`fast`]
+/// (`false`, for tests: every line the general way).
+fn read_lines(
+    text: &str,
+    file: &str,
+    profile: &MachineProfile,
+    options: &ReadOptions,
+    chunk: usize,
+    sink: &mut dyn FnMut(&mut Vec<Motion>),
+    fast: bool,
+) -> Result<(Program, Params), GcodeError> {
     let mut it = Interp::new(file, profile);
     it.user_inch = options.parameters_in_inches;
     it.optional_stop = options.optional_stop;
@@ -1952,6 +1967,7 @@ pub fn read_with(
     it.motions.reserve((text.len() / 16).min(chunk.max(1)));
     let mut line = Line::default();
     let mut block = Block::default();
+    let mut words = fast::Words::default();
     let mut norm = Norm::default();
     let mut sets: Vec<Setting> = Vec::new();
     // normalized lines by (source, byte offset), once the program has jumped
@@ -2128,6 +2144,18 @@ pub fn read_with(
                     .skip_line(raw, &mut norm, &mut line, &pc)
                     .map_err(|x| err_in(src_name, line_no, raw, x))?;
             } else {
+                if fast
+                    && kept_here.is_none()
+                    && fast::words(raw.as_bytes(), &mut words)
+                    && it.fast_motion(&words, line_no as u32)
+                {
+                    // the common motion line, read and run the short way (`fast`)
+                    if it.motions.len() >= chunk {
+                        sink(&mut it.motions);
+                        it.motions.clear();
+                    }
+                    continue;
+                }
                 // each word goes into the block as it is read: words before a lexing
                 // error are read (and may fail) first, as in LinuxCNC
                 block.clear();

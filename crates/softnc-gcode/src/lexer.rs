@@ -403,7 +403,7 @@ const POW10: [f64; 23] = [
 /// space) neither a digit, a point nor a sign. The value and the offset after the
 /// white space, or None (the general readers decide) for anything else.
 #[inline(always)]
-fn plain_number(b: &[u8], mut i: usize) -> Option<(f64, usize)> {
+pub(crate) fn plain_number(b: &[u8], mut i: usize) -> Option<(f64, usize)> {
     let n = b.len();
     let neg = match b.get(i) {
         Some(b'-') => {
