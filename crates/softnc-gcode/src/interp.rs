@@ -2038,6 +2038,28 @@ fn read_lines(
         };
         // the lines of this file, up to a jump
         let (jump, after) = loop {
+            if fast && it.ctl.skipping.is_none() {
+                // common motion lines, read and run the short way (`fast`) up to
+                // the first other line, which is read below
+                let (pos, read) = it.fast_lines(
+                    src_text.as_bytes(),
+                    split.pos,
+                    next_line_no,
+                    limit.saturating_sub(executed),
+                    chunk,
+                    &mut words,
+                );
+                if read > 0 {
+                    split.pos = pos;
+                    next_line_no += read as usize;
+                    n_lines = next_line_no - 1;
+                    executed += read;
+                    if it.motions.len() >= chunk {
+                        sink(&mut it.motions);
+                        it.motions.clear();
+                    }
+                }
+            }
             // a kept line (once the program has jumped): its end is known, and its
             // normalized text at hand
             let kept_here = if norm_cache.is_empty() {
@@ -2144,18 +2166,6 @@ fn read_lines(
                     .skip_line(raw, &mut norm, &mut line, &pc)
                     .map_err(|x| err_in(src_name, line_no, raw, x))?;
             } else {
-                if fast
-                    && kept_here.is_none()
-                    && fast::words(raw.as_bytes(), &mut words)
-                    && it.fast_motion(&words, line_no as u32)
-                {
-                    // the common motion line, read and run the short way (`fast`)
-                    if it.motions.len() >= chunk {
-                        sink(&mut it.motions);
-                        it.motions.clear();
-                    }
-                    continue;
-                }
                 // each word goes into the block as it is read: words before a lexing
                 // error are read (and may fail) first, as in LinuxCNC
                 block.clear();

@@ -19,10 +19,11 @@
 
 use super::{
     arc_data_ijk, arc_data_r, sc, Interp, CENTER_ARC_RADIUS_TOLERANCE_INCH,
-    CENTER_ARC_RADIUS_TOLERANCE_MM, G_0, G_2, G_3, RADIUS_TOLERANCE_INCH, RADIUS_TOLERANCE_MM,
+    CENTER_ARC_RADIUS_TOLERANCE_MM, G_0, G_2, G_3, LINELEN, RADIUS_TOLERANCE_INCH,
+    RADIUS_TOLERANCE_MM,
 };
 use crate::canon::{Motion, MotionKind};
-use crate::lexer::plain_number;
+use crate::lexer::{plain_number, POW10};
 use softnc_core::Vec3;
 
 /// Index of each value letter in [`Words::v`] and its bit in [`Words::set`]: the
@@ -83,53 +84,162 @@ fn blank(c: u8) -> bool {
     matches!(c, b' ' | b'\t' | b'\r')
 }
 
-/// The words of `b` (one line without its newline) into `w` (written over), if the
-/// line has the common shape (see the module's documentation); `false` otherwise.
-/// Where it says yes, the general lexer and `Interp::sort_word` read the same
-/// codes and values from the line without an error.
+/// The eight bytes of `t` from `i` as a little-endian word (the first byte lowest),
+/// zeros beyond the end of `t`.
 #[inline(always)]
-pub(super) fn words(b: &[u8], w: &mut Words) -> bool {
+fn load8(t: &[u8], i: usize) -> u64 {
+    match t.get(i..i + 8) {
+        Some(bytes) => u64::from_le_bytes(bytes.try_into().unwrap_or([0; 8])),
+        None => {
+            let mut bytes = [0u8; 8];
+            let rest = t.get(i..).unwrap_or(&[]);
+            bytes[..rest.len()].copy_from_slice(rest);
+            u64::from_le_bytes(bytes)
+        }
+    }
+}
+
+/// Every byte 0x30 (`'0'`): a word of ASCII digits XOR this holds their values.
+const ZEROS: u64 = 0x3030_3030_3030_3030;
+/// Added to bytes of 0 to 9, leaves them below 0x80; 10 and above reach it.
+const DIGIT_LIMIT: u64 = 0x7676_7676_7676_7676;
+/// The high bit of every byte.
+const HIGHS: u64 = 0x8080_8080_8080_8080;
+/// The point, XOR [`ZEROS`].
+const POINT: u64 = (b'.' ^ b'0') as u64;
+
+/// The number of up to 8 decimal digits held one per byte in `v` (values 0 to 9,
+/// the most significant in the lowest byte), in three multiplications (as
+/// `fast_float`'s `parse_eight_digits_unrolled`).
+#[inline(always)]
+fn eight_digits(v: u64) -> u64 {
+    const MASK: u64 = 0x0000_00ff_0000_00ff;
+    const MUL1: u64 = 100 + (1_000_000 << 32);
+    const MUL2: u64 = 1 + (10_000 << 32);
+    let v = v.wrapping_mul(10).wrapping_add(v >> 8);
+    ((v & MASK)
+        .wrapping_mul(MUL1)
+        .wrapping_add(((v >> 16) & MASK).wrapping_mul(MUL2)))
+        >> 32
+}
+
+/// The value after a word's letter at `t[start..]` and the offset after it, as
+/// [`plain_number`] reads it on its line (`t` goes on after the line: its newline,
+/// the next lines), where the line goes on with white space, a letter or nothing. An optional sign, then digits with at most one point within eight
+/// bytes are read eight bytes at a time: which are digits, where the point is, and
+/// the digits' value in one step ([`eight_digits`]); then the same integer
+/// mantissa and the same correctly rounded division as `plain_number`. Longer
+/// numbers (a ninth byte of digits) go to `plain_number`. `None` where it reads no number (the general
+/// reader decides); a number followed by a digit, point or sign after white space
+/// (`X1 2`, `X1.2.3`, `X1-2`) is left to the caller, whose next word must start
+/// with a letter.
+#[inline(always)]
+fn number(t: &[u8], start: usize) -> Option<(f64, usize)> {
+    let mut i = start;
+    let neg = match t.get(i) {
+        Some(b'-') => {
+            i += 1;
+            true
+        }
+        Some(b'+') => {
+            i += 1;
+            false
+        }
+        _ => false,
+    };
+    let x = load8(t, i) ^ ZEROS;
+    // the high bit of each byte that is not a digit (a carry out of a byte only
+    // comes from one that is not, and only reaches bytes above it)
+    let not_digit = (x.wrapping_add(DIGIT_LIMIT) | x) & HIGHS;
+    let int = not_digit.trailing_zeros() / 8; // digits before the first other byte
+                                              // a ninth byte that goes on with the number: the general reading
+    let goes_on = |point: bool| {
+        t.get(i + 8)
+            .is_some_and(|&c| c.is_ascii_digit() || (point && c == b'.'))
+    };
+    // the digits, the number of them after the point, of them all, and of bytes
+    let (digits, frac, count, len) = if int < 8 && (x >> (8 * int)) & 0xff == POINT {
+        // the digits after the point, moved down over it
+        let after = not_digit & (u64::MAX << (8 * int) << 8);
+        let end = after.trailing_zeros() / 8;
+        if end == 8 && goes_on(false) {
+            return long_number(t, start);
+        }
+        let low = (1u64 << (8 * int)) - 1;
+        ((x & low) | ((x >> 8) & !low), end - int - 1, end - 1, end)
+    } else {
+        if int == 8 && goes_on(true) {
+            return long_number(t, start);
+        }
+        (x, 0, int, int)
+    };
+    if count == 0 {
+        return None;
+    }
+    // the digits alone, the first one lowest: shifted up so that zeros (leading
+    // zeros of the number) fill the bytes below them
+    let mant = eight_digits(digits << (8 * (8 - count)));
+    let v = mant as i64 as f64 / POW10[frac as usize];
+    Some((if neg { -v } else { v }, i + len as usize))
+}
+
+/// [`plain_number`] from `start`, for numbers longer than eight bytes (kept out of
+/// [`number`]: rare, and its registers would cost every number). `t` may go on
+/// after the line: `plain_number` reads nothing across its newline.
+#[cold]
+#[inline(never)]
+fn long_number(t: &[u8], start: usize) -> Option<(f64, usize)> {
+    plain_number(t, start)
+}
+
+/// The words of the line of `t` that starts at `s` (up to the next newline or the
+/// end of `t`) into `w` (written over), if the line has the common shape (see the
+/// module's documentation): then the offset of its end (of the newline, or the
+/// length of `t`); `None` otherwise. Where it says yes, the general lexer and
+/// `Interp::sort_word` read the same codes and values from the line without an
+/// error.
+#[inline(always)]
+pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
     w.g = -1;
     w.set = 0;
-    let n = b.len();
-    let mut i = 0;
-    while i < n && blank(b[i]) {
+    let n = t.len();
+    let mut i = s;
+    while i < n && blank(t[i]) {
         i += 1;
     }
-    if i == n {
-        return false; // a blank line: the general reader says so
+    if i == n || t[i] == b'\n' {
+        return None; // a blank line: the general reader says so
     }
-    if b[i] | 0x20 == b'n' {
+    if t[i] | 0x20 == b'n' {
         // a line number of digits alone (LinuxCNC reads and drops it); what follows
         // must start a word, which the loop below checks
         i += 1;
         let digits = i;
-        while i < n && b[i].is_ascii_digit() {
+        while i < n && t[i].is_ascii_digit() {
             i += 1;
         }
         if i == digits {
-            return false;
+            return None;
         }
     }
     while i < n {
-        let c = b[i];
+        let c = t[i];
         if blank(c) {
             i += 1;
             continue;
         }
         let kind = LETTER[usize::from(c | 0x20)];
         if kind == 0 {
-            return false;
+            // the end of the line, or what the general reader reads
+            return (c == b'\n').then_some(i);
         }
-        let Some((value, next)) = plain_number(b, i + 1) else {
-            return false;
-        };
+        let (value, next) = number(t, i + 1)?;
         if kind == G_WORD {
             // `sort_word`: value × 10 rounded to a code; 0, 10, 20, 30 are motion
             // codes (group 1), supported, and at most one per line
             let code = value as i32;
             if f64::from(code) != value || !(0..=3).contains(&code) || w.g >= 0 {
-                return false;
+                return None;
             }
             w.g = code * 10;
         } else {
@@ -138,17 +248,55 @@ pub(super) fn words(b: &[u8], w: &mut Words) -> bool {
             // a repeated letter and a negative feed are errors: the general reader
             // gives them
             if w.set & bit != 0 || (k == F && value < 0.0) {
-                return false;
+                return None;
             }
             w.set |= bit;
             w.v[k] = value;
         }
         i = next;
     }
-    true
+    Some(n)
 }
 
 impl Interp<'_> {
+    /// Read and run the lines of `t` from `pos` the short way, one after the other,
+    /// while they take it: [`words`] reads each and [`Self::fast_motion`] runs it.
+    /// At most `max_lines` lines (the block limit left), and none once `chunk`
+    /// motions wait for the caller. The first line numbered `line_no`. The offset
+    /// of the first line not read (its start: the general reader reads it from
+    /// there, with nothing changed by it) and the number of lines read; only the
+    /// caller's count of lines and blocks are left to bring up to date. The caller
+    /// makes sure that lines are read and run at all (no label is looked for).
+    #[inline(never)]
+    pub(super) fn fast_lines(
+        &mut self,
+        t: &[u8],
+        mut pos: usize,
+        line_no: usize,
+        max_lines: u64,
+        chunk: usize,
+        w: &mut Words,
+    ) -> (usize, u64) {
+        let mut read = 0;
+        while read < max_lines && self.motions.len() < chunk {
+            let Some(e) = words(t, pos, w) else {
+                break;
+            };
+            let newline = e < t.len();
+            if e - pos + usize::from(newline) >= LINELEN - 1 {
+                break; // too long: the general reader says so
+            }
+            let no = line_no + read as usize;
+            if !self.fast_motion(w, no as u32) {
+                break;
+            }
+            self.line_no = no;
+            read += 1;
+            pos = e + usize::from(newline);
+        }
+        (pos, read)
+    }
+
     /// `check` and `execute` for a line [`words`] read, where they take the common
     /// way: the interpreter in a plain state (no inverse time, no XY rotation, no
     /// position to re-read after a tool change, no run from line waiting for its
@@ -302,7 +450,8 @@ impl Interp<'_> {
 #[cfg(test)]
 mod tests {
     use super::super::{Block, Interp, GM_MOTION, SLOTS};
-    use super::{words, Words, LETTER};
+    use super::{number, words, Words, LETTER};
+    use crate::lexer::plain_number;
     use crate::lexer::{lex_words, Line};
     use softnc_core::MachineProfile;
 
@@ -365,7 +514,7 @@ mod tests {
     /// it does not, the general reader reads the line (as before).
     fn same_as_general(it: &Interp, line: &str) -> bool {
         let mut w = Words::default();
-        let taken = words(line.as_bytes(), &mut w);
+        let taken = words(line.as_bytes(), 0, &mut w).is_some();
         if taken {
             let want = general(it, line)
                 .unwrap_or_else(|e| panic!("{line:?}: fast path taken, general reader fails: {e}"));
@@ -402,7 +551,7 @@ mod tests {
             );
         }
         let mut w = Words::default();
-        assert!(words(b"G2 X1.3 Y0.05 I0.25 J0", &mut w));
+        assert_eq!(words(b"G2 X1.3 Y0.05 I0.25 J0\nG1", 0, &mut w), Some(22));
         assert_eq!((w.g, w.set), (20, 0b1_1011));
     }
 
@@ -448,6 +597,80 @@ mod tests {
             assert!(
                 !same_as_general(&it, line),
                 "{line:?} should take the general way"
+            );
+        }
+    }
+
+    /// Numbers of every shape up to 12 characters, before a letter, white space, a
+    /// newline, a point, a sign or nothing: where the word-at-a-time reading takes
+    /// one and a letter or nothing follows it, `plain_number` reads the same bits;
+    /// numbers of up to eight bytes it always takes.
+    #[test]
+    fn numbers_read_eight_bytes_at_a_time_as_plain_number_reads_them() {
+        let mut state = 0x1234_5678_9abc_def1u64;
+        let mut next = |m: usize| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % m as u64) as usize
+        };
+        let alphabet = b"0123456789012345678901234567890123456789.";
+        for _ in 0..200_000 {
+            let mut line = b"X".to_vec();
+            line.extend_from_slice(["", "-", "+", "--"][next(4)].as_bytes());
+            let len = next(13);
+            for _ in 0..len {
+                line.push(alphabet[next(alphabet.len())]);
+            }
+            let n = line.len();
+            let after = [
+                &b" Y1"[..],
+                b"Y",
+                b"\n",
+                b"",
+                b".5",
+                b"-1",
+                b" ",
+                b"\t",
+                b"\r",
+            ];
+            line.extend_from_slice(after[next(after.len())]);
+            let line_end = if line.get(n) == Some(&b'\n') {
+                n
+            } else {
+                line.len()
+            };
+            let plain = plain_number(&line[..line_end], 1);
+            let Some((v, end)) = number(&line, 1) else {
+                let text = String::from_utf8_lossy(&line[1..n]);
+                let simple = n - 1 <= 8
+                    && text.matches('.').count() <= 1
+                    && text
+                        .trim_start_matches(['-', '+'])
+                        .chars()
+                        .any(|c| c.is_ascii_digit())
+                    && !text.starts_with("--");
+                assert!(!simple || plain.is_none(), "{text:?} not read");
+                continue;
+            };
+            let mut k = end;
+            while k < line_end && matches!(line[k], b' ' | b'\t' | b'\r') {
+                k += 1;
+            }
+            if k < line_end && !line[k].is_ascii_alphabetic() {
+                continue; // the caller leaves the line to the general reader
+            }
+            let (want, _) = plain.unwrap_or_else(|| {
+                panic!(
+                    "{:?}: read, plain_number does not",
+                    String::from_utf8_lossy(&line)
+                )
+            });
+            assert_eq!(
+                v.to_bits(),
+                want.to_bits(),
+                "{:?}",
+                String::from_utf8_lossy(&line)
             );
         }
     }
@@ -669,7 +892,7 @@ mod tests {
             let mut w = Words::default();
             for line in text.lines() {
                 total += 1;
-                fast_lines += usize::from(words(line.as_bytes(), &mut w));
+                fast_lines += usize::from(words(line.as_bytes(), 0, &mut w).is_some());
             }
         }
         eprintln!(
