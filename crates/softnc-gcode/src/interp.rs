@@ -2036,11 +2036,28 @@ fn read_lines(
             b: src_text.as_bytes(),
             pos,
         };
+        // where the short way last stopped (the line there is read the general way)
+        let mut fast_stop = usize::MAX;
         // the lines of this file, up to a jump
         let (jump, after) = loop {
-            if fast && it.ctl.skipping.is_none() {
+            // a kept line (once the program has jumped): its end is known, and its
+            // normalized text at hand
+            let kept_here = if norm_cache.is_empty() {
+                None
+            } else {
+                norm_cache.get(&line_key(cur, split.pos))
+            };
+            if fast
+                && kept_here.is_none()
+                && split.pos != fast_stop
+                && it.ctl.skipping.is_none()
+                && src_text
+                    .as_bytes()
+                    .get(split.pos)
+                    .is_some_and(|&c| fast::may_start(c))
+            {
                 // common motion lines, read and run the short way (`fast`) up to
-                // the first other line, which is read below
+                // the first other line, which is read below (and not tried again)
                 let (pos, read) = it.fast_lines(
                     src_text.as_bytes(),
                     split.pos,
@@ -2049,6 +2066,7 @@ fn read_lines(
                     chunk,
                     &mut words,
                 );
+                fast_stop = pos;
                 if read > 0 {
                     split.pos = pos;
                     next_line_no += read as usize;
@@ -2058,15 +2076,9 @@ fn read_lines(
                         sink(&mut it.motions);
                         it.motions.clear();
                     }
+                    continue;
                 }
             }
-            // a kept line (once the program has jumped): its end is known, and its
-            // normalized text at hand
-            let kept_here = if norm_cache.is_empty() {
-                None
-            } else {
-                norm_cache.get(&line_key(cur, split.pos))
-            };
             let next = match kept_here {
                 Some((_, _, (e, next, newline))) => {
                     let s = split.pos;

@@ -78,6 +78,13 @@ impl Default for Words {
     }
 }
 
+/// Whether a line starting with byte `c` may take the short way (a word's letter,
+/// `N`, or white space): a cheap test before [`Interp::fast_lines`] is called.
+#[inline(always)]
+pub(super) fn may_start(c: u8) -> bool {
+    LETTER[usize::from(c | 0x20)] != 0 || c | 0x20 == b'n' || blank(c)
+}
+
 /// Spaces, tabs and CRs, which LinuxCNC ignores between words.
 #[inline(always)]
 fn blank(c: u8) -> bool {
