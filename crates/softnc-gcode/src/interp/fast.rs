@@ -91,21 +91,6 @@ fn blank(c: u8) -> bool {
     matches!(c, b' ' | b'\t' | b'\r')
 }
 
-/// The eight bytes of `t` from `i` as a little-endian word (the first byte lowest),
-/// zeros beyond the end of `t`.
-#[inline(always)]
-fn load8(t: &[u8], i: usize) -> u64 {
-    match t.get(i..i + 8) {
-        Some(bytes) => u64::from_le_bytes(bytes.try_into().unwrap_or([0; 8])),
-        None => {
-            let mut bytes = [0u8; 8];
-            let rest = t.get(i..).unwrap_or(&[]);
-            bytes[..rest.len()].copy_from_slice(rest);
-            u64::from_le_bytes(bytes)
-        }
-    }
-}
-
 /// Every byte 0x30 (`'0'`): a word of ASCII digits XOR this holds their values.
 const ZEROS: u64 = 0x3030_3030_3030_3030;
 /// Added to bytes of 0 to 9, leaves them below 0x80; 10 and above reach it.
@@ -141,53 +126,91 @@ fn eight_digits(v: u64) -> u64 {
 /// (`X1 2`, `X1.2.3`, `X1-2`) is left to the caller, whose next word must start
 /// with a letter.
 #[inline(always)]
-fn number(t: &[u8], start: usize) -> Option<(f64, usize)> {
-    let mut i = start;
-    let neg = match t.get(i) {
-        Some(b'-') => {
-            i += 1;
-            true
-        }
-        Some(b'+') => {
-            i += 1;
-            false
-        }
-        _ => false,
+fn number(t: &[u8], start: usize) -> (f64, usize) {
+    // a sign, eight bytes and the ninth after them within `t`; else (the last
+    // bytes of the text) the same reading on a copy padded with zeros
+    let Some(head) = t.get(start..start + HEAD) else {
+        return number_near_end(t, start);
     };
-    let x = load8(t, i) ^ ZEROS;
+    let Ok(head) = <&[u8; HEAD]>::try_from(head) else {
+        return number_near_end(t, start);
+    };
+    match number_in(head) {
+        Num::Value(v, len) => (v, start + len),
+        Num::Long => long_number(t, start),
+        Num::None => (0.0, NO_NUMBER),
+    }
+}
+
+/// Bytes [`number_in`] reads: a sign, eight bytes, the ninth after them.
+const HEAD: usize = 10;
+
+/// [`number`]'s offset where it reads no number.
+const NO_NUMBER: usize = usize::MAX;
+
+/// What [`number_in`] reads.
+enum Num {
+    /// The value and the number of bytes it takes (sign included).
+    Value(f64, usize),
+    /// A number of more than eight bytes: `plain_number` reads it.
+    Long,
+    /// No number the short way reads.
+    None,
+}
+
+/// [`number`] on the first [`HEAD`] bytes after a word's letter.
+#[inline(always)]
+fn number_in(head: &[u8; HEAD]) -> Num {
+    let neg = head[0] == b'-';
+    let signed = neg || head[0] == b'+';
+    let i = usize::from(signed);
+    let mut word = [0u8; 8];
+    word.copy_from_slice(&head[i..i + 8]);
+    let x = u64::from_le_bytes(word) ^ ZEROS;
+    let ninth = if signed { head[9] } else { head[8] };
     // the high bit of each byte that is not a digit (a carry out of a byte only
     // comes from one that is not, and only reaches bytes above it)
     let not_digit = (x.wrapping_add(DIGIT_LIMIT) | x) & HIGHS;
     let int = not_digit.trailing_zeros() / 8; // digits before the first other byte
-                                              // a ninth byte that goes on with the number: the general reading
-    let goes_on = |point: bool| {
-        t.get(i + 8)
-            .is_some_and(|&c| c.is_ascii_digit() || (point && c == b'.'))
-    };
-    // the digits, the number of them after the point, of them all, and of bytes
+                                              // the digits, the number of them after the point, of them all, and of bytes
     let (digits, frac, count, len) = if int < 8 && (x >> (8 * int)) & 0xff == POINT {
         // the digits after the point, moved down over it
         let after = not_digit & (u64::MAX << (8 * int) << 8);
         let end = after.trailing_zeros() / 8;
-        if end == 8 && goes_on(false) {
-            return long_number(t, start);
+        if end == 8 && ninth.is_ascii_digit() {
+            return Num::Long; // a ninth byte goes on with the number
         }
         let low = (1u64 << (8 * int)) - 1;
         ((x & low) | ((x >> 8) & !low), end - int - 1, end - 1, end)
     } else {
-        if int == 8 && goes_on(true) {
-            return long_number(t, start);
+        if int == 8 && (ninth.is_ascii_digit() || ninth == b'.') {
+            return Num::Long;
         }
         (x, 0, int, int)
     };
     if count == 0 {
-        return None;
+        return Num::None;
     }
     // the digits alone, the first one lowest: shifted up so that zeros (leading
     // zeros of the number) fill the bytes below them
     let mant = eight_digits(digits << (8 * (8 - count)));
     let v = mant as i64 as f64 / POW10[frac as usize];
-    Some((if neg { -v } else { v }, i + len as usize))
+    Num::Value(if neg { -v } else { v }, i + len as usize)
+}
+
+/// [`number`] within the last [`HEAD`] bytes of the text: on a copy padded with
+/// zeros (which are no digits, as the end of the text is none).
+#[cold]
+#[inline(never)]
+fn number_near_end(t: &[u8], start: usize) -> (f64, usize) {
+    let mut head = [0u8; HEAD];
+    let rest = t.get(start..).unwrap_or(&[]);
+    head[..rest.len()].copy_from_slice(rest);
+    match number_in(&head) {
+        Num::Value(v, len) => (v, start + len),
+        Num::Long => long_number(t, start),
+        Num::None => (0.0, NO_NUMBER),
+    }
 }
 
 /// [`plain_number`] from `start`, for numbers longer than eight bytes (kept out of
@@ -195,8 +218,8 @@ fn number(t: &[u8], start: usize) -> Option<(f64, usize)> {
 /// after the line: `plain_number` reads nothing across its newline.
 #[cold]
 #[inline(never)]
-fn long_number(t: &[u8], start: usize) -> Option<(f64, usize)> {
-    plain_number(t, start)
+fn long_number(t: &[u8], start: usize) -> (f64, usize) {
+    plain_number(t, start).unwrap_or((0.0, NO_NUMBER))
 }
 
 /// The words of the line of `t` that starts at `s` (up to the next newline or the
@@ -240,7 +263,10 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
             // the end of the line, or what the general reader reads
             return (c == b'\n').then_some(i);
         }
-        let (value, next) = number(t, i + 1)?;
+        let (value, next) = number(t, i + 1);
+        if next == NO_NUMBER {
+            return None;
+        }
         if kind == G_WORD {
             // `sort_word`: value × 10 rounded to a code; 0, 10, 20, 30 are motion
             // codes (group 1), supported, and at most one per line
@@ -457,7 +483,7 @@ impl Interp<'_> {
 #[cfg(test)]
 mod tests {
     use super::super::{Block, Interp, GM_MOTION, SLOTS};
-    use super::{number, words, Words, LETTER};
+    use super::{number, words, Words, LETTER, NO_NUMBER};
     use crate::lexer::plain_number;
     use crate::lexer::{lex_words, Line};
     use softnc_core::MachineProfile;
@@ -634,6 +660,7 @@ mod tests {
                 &b" Y1"[..],
                 b"Y",
                 b"\n",
+                b"\nG1 X12345.678 Y1 Z2",
                 b"",
                 b".5",
                 b"-1",
@@ -648,7 +675,8 @@ mod tests {
                 line.len()
             };
             let plain = plain_number(&line[..line_end], 1);
-            let Some((v, end)) = number(&line, 1) else {
+            let (v, end) = number(&line, 1);
+            if end == NO_NUMBER {
                 let text = String::from_utf8_lossy(&line[1..n]);
                 let simple = n - 1 <= 8
                     && text.matches('.').count() <= 1
@@ -659,7 +687,7 @@ mod tests {
                     && !text.starts_with("--");
                 assert!(!simple || plain.is_none(), "{text:?} not read");
                 continue;
-            };
+            }
             let mut k = end;
             while k < line_end && matches!(line[k], b' ' | b'\t' | b'\r') {
                 k += 1;
