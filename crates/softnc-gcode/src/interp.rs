@@ -1819,13 +1819,27 @@ fn arc_data_r(
     } else {
         heading + FRAC_PI_2
     };
-    let turn2 = (half / abs_radius).asin();
-    let offset = abs_radius * turn2.cos();
+    let ratio = half / abs_radius;
+    // a half circle (the radius as long as half the chord, or taken as such
+    // above): the cosine of asin(1) computed once, the same bits
+    let offset = abs_radius
+        * if ratio == 1.0 {
+            cos_asin_one()
+        } else {
+            ratio.asin().cos()
+        };
     let (cx, cy) = (mid.0 + offset * theta.cos(), mid.1 + offset * theta.sin());
     if !(cx.is_finite() && cy.is_finite()) {
         return Err("Arc radius too small to reach end point".into());
     }
     Ok((cx, cy, if mode == G_2 { -p } else { p }))
+}
+
+/// `1f64.asin().cos()` (`arc_data_r` of a half circle), computed once by the same
+/// functions on the same value.
+fn cos_asin_one() -> f64 {
+    static COS: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
+    *COS.get_or_init(|| 1f64.asin().cos())
 }
 
 /// LinuxCNC `find_turn`: the angle swept (radians, counter-clockwise positive).
@@ -2568,6 +2582,35 @@ mod tests {
         assert!((t + 1.5 * PI).abs() < 1e-12);
         let t = find_turn((1.0, 0.0), (0.0, 0.0), 2, (0.0, 1.0));
         assert!((t - 2.5 * PI).abs() < 1e-12);
+    }
+
+    /// A half circle's centre takes the kept cosine of asin(1): the same bits as
+    /// computing it, and the same centre as the formula written out.
+    #[test]
+    fn half_circles_take_the_kept_cosine() {
+        assert_eq!(cos_asin_one().to_bits(), 1f64.asin().cos().to_bits());
+        for (mode, radius) in [(G_2, 0.25), (G_3, 0.25), (G_2, -0.25), (G_3, 2.0)] {
+            let (cur, end) = ((2.1, 0.1), (2.6, 0.1));
+            let (cx, cy, _) = arc_data_r(mode, cur, end, radius, 1, RADIUS_TOLERANCE_MM).unwrap();
+            let abs_radius = f64::abs(radius);
+            let mid = ((end.0 + cur.0) / 2.0, (end.1 + cur.1) / 2.0);
+            let mut half = (mid.0 - end.0).hypot(mid.1 - end.1);
+            if half / abs_radius > 1.0 - TINY {
+                half = abs_radius;
+            }
+            let heading = (end.1 - cur.1).atan2(end.0 - cur.0);
+            let theta = if (mode == G_2 && radius > 0.0) || (mode == G_3 && radius < 0.0) {
+                heading - FRAC_PI_2
+            } else {
+                heading + FRAC_PI_2
+            };
+            let offset = abs_radius * (half / abs_radius).asin().cos();
+            let want = (mid.0 + offset * theta.cos(), mid.1 + offset * theta.sin());
+            assert_eq!(
+                (cx.to_bits(), cy.to_bits()),
+                (want.0.to_bits(), want.1.to_bits())
+            );
+        }
     }
 
     #[test]
