@@ -22,9 +22,9 @@ use super::{
     CENTER_ARC_RADIUS_TOLERANCE_MM, G_0, G_2, G_3, LINELEN, RADIUS_TOLERANCE_INCH,
     RADIUS_TOLERANCE_MM,
 };
-use crate::canon::{Motion, MotionKind};
+use crate::canon::{Motion, MotionKind, PathMode};
 use crate::lexer::{plain_number, POW10};
-use softnc_core::Vec3;
+use softnc_core::{Plane, Vec3};
 
 /// Index of each value letter in [`Words::v`] and its bit in [`Words::set`]: the
 /// axes X Y Z at 0 1 2, the centre offsets I J K at 3 4 5 (the axis index plus
@@ -293,13 +293,19 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
 
 impl Interp<'_> {
     /// Read and run the lines of `t` from `pos` the short way, one after the other,
-    /// while they take it: [`words`] reads each and [`Self::fast_motion`] runs it.
-    /// At most `max_lines` lines (the block limit left), and none once `chunk`
-    /// motions wait for the caller. The first line numbered `line_no`. The offset
-    /// of the first line not read (its start: the general reader reads it from
-    /// there, with nothing changed by it) and the number of lines read; only the
-    /// caller's count of lines and blocks are left to bring up to date. The caller
-    /// makes sure that lines are read and run at all (no label is looked for).
+    /// while they take it: [`words`] reads each and [`run_line`] runs it. At most
+    /// `max_lines` lines (the block limit left), and none once `chunk` motions wait
+    /// for the caller. The first line numbered `line_no`. The offset of the first
+    /// line not read (its start: the general reader reads it from there, with
+    /// nothing changed by it) and the number of lines read; only the caller's count
+    /// of lines and blocks are left to bring up to date. The caller makes sure that
+    /// lines are read and run at all (no label is looked for).
+    ///
+    /// Nothing a line of the short way runs changes the interpreter's modes, so
+    /// they are read once ([`Run`]); the current point, feed rate and motion mode
+    /// are kept in locals ([`Moving`]) and the motions pushed onto the vector taken
+    /// out of `self` for the run (the compiler need not read them again from
+    /// `self` after each push), and all are put back at the end.
     #[inline(never)]
     pub(super) fn fast_lines(
         &mut self,
@@ -310,8 +316,28 @@ impl Interp<'_> {
         chunk: usize,
         w: &mut Words,
     ) -> (usize, u64) {
+        if self.inverse_time || self.sync_pending || self.rotation_deg != 0.0 || self.suppress {
+            return (pos, 0);
+        }
+        let run = Run {
+            absolute: self.absolute,
+            ijk_absolute: self.ijk_absolute,
+            inch: self.inch,
+            scale: self.scale(),
+            plane: self.plane,
+            path: self.path,
+            offset_mm: self.offset(),
+            spindle_rpm: self.spindle_rpm(),
+        };
+        let mut st = Moving {
+            pos: self.pos,
+            feed: self.feed,
+            motion: self.motion,
+            pushed: 0,
+        };
+        let mut motions = std::mem::take(&mut self.motions);
         let mut read = 0;
-        while read < max_lines && self.motions.len() < chunk {
+        while read < max_lines && motions.len() < chunk {
             let Some(e) = words(t, pos, w) else {
                 break;
             };
@@ -320,164 +346,201 @@ impl Interp<'_> {
                 break; // too long: the general reader says so
             }
             let no = line_no + read as usize;
-            if !self.fast_motion(w, no as u32) {
+            if !run_line(&run, &mut st, w, no as u32, &mut motions) {
                 break;
             }
-            self.line_no = no;
             read += 1;
             pos = e + usize::from(newline);
         }
+        self.motions = motions;
+        if st.pushed > 0 {
+            // `push`: the point moves with each motion, and the canonical point
+            self.pos = st.pos;
+            self.canon_pos = st.pos;
+            self.moves_after_start += st.pushed;
+        }
+        self.feed = st.feed;
+        self.motion = st.motion;
+        if read > 0 {
+            self.line_no = line_no + read as usize - 1;
+        }
         (pos, read)
     }
+}
 
-    /// `check` and `execute` for a line [`words`] read, where they take the common
-    /// way: the interpreter in a plain state (no inverse time, no XY rotation, no
-    /// position to re-read after a tool change, no run from line waiting for its
-    /// start) and a line they accept without an error. Then the line's feed rate,
-    /// motion mode, motion and point are as `check` and `execute` leave them, and
-    /// `true`. Otherwise nothing is changed and `false`: the general reader reads
-    /// the line (and gives its error, if any).
-    #[inline(always)]
-    pub(super) fn fast_motion(&mut self, w: &Words, line_no: u32) -> bool {
-        if self.inverse_time || self.sync_pending || self.rotation_deg != 0.0 || self.suppress {
+/// The interpreter's modes for a run of [`Interp::fast_lines`] (no line of the
+/// run changes them).
+struct Run {
+    absolute: bool,
+    ijk_absolute: bool,
+    inch: bool,
+    /// mm per program unit (`Interp::scale`).
+    scale: f64,
+    plane: Plane,
+    path: PathMode,
+    offset_mm: Vec3,
+    spindle_rpm: f64,
+}
+
+/// What the lines of a run of [`Interp::fast_lines`] change, kept in locals: the
+/// current point (program units), the feed rate, the motion mode, and how many
+/// motions were pushed.
+struct Moving {
+    pos: Vec3,
+    feed: f64,
+    motion: Option<i32>,
+    pushed: u64,
+}
+
+/// `check` and `execute` for a line [`words`] read, where they take the common way:
+/// the interpreter in a plain state (no inverse time, no XY rotation, no position
+/// to re-read after a tool change, no run from line waiting for its start: the
+/// caller checks) and a line they accept without an error. Then the line's feed
+/// rate, motion mode, motion (pushed onto `motions`) and point are as `check` and
+/// `execute` leave them, and `true`. Otherwise nothing is changed and `false`: the
+/// general reader reads the line (and gives its error, if any).
+#[inline(always)]
+fn run_line(
+    run: &Run,
+    st: &mut Moving,
+    w: &Words,
+    line_no: u32,
+    motions: &mut Vec<Motion>,
+) -> bool {
+    let has = |k: usize| w.set & (1 << k) != 0;
+    let axis = w.set & AXIS_BITS != 0;
+    let ijk = w.set & IJK_BITS != 0;
+    // `check`: the motion of the block (LinuxCNC's `motion_to_be`)
+    let motion = if w.g >= 0 {
+        w.g
+    } else if axis {
+        match st.motion {
+            Some(m) => m,
+            None => return false, // axis words without a motion: an error
+        }
+    } else if ijk && matches!(st.motion, Some(G_2 | G_3)) {
+        st.motion.unwrap_or(G_2)
+    } else {
+        -1
+    };
+    let arc = motion == G_2 || motion == G_3;
+    if (ijk || has(R)) && !arc {
+        return false; // I, J, K or R without an arc: an error
+    }
+    // `execute`'s short way: the feed rate, then the motion
+    let feed = if has(F) { w.v[F] } else { st.feed };
+    if motion < 0 {
+        st.feed = feed;
+        return true;
+    }
+    if motion != G_0 && feed == 0.0 {
+        return false; // zero feed rate: an error
+    }
+    // `find_ends`
+    let pos = st.pos;
+    let mut end = pos;
+    for a in 0..3 {
+        if has(X + a) {
+            end[a] = if run.absolute {
+                w.v[X + a]
+            } else {
+                pos[a] + w.v[X + a]
+            };
+        }
+    }
+    let s = run.scale;
+    let (kind, center) = if !arc {
+        let kind = if motion == G_0 {
+            MotionKind::Traverse { end: sc(end, s) }
+        } else {
+            MotionKind::Feed {
+                end: sc(end, s),
+                feed_mm_per_min: feed * s,
+            }
+        };
+        (kind, Vec3::ZERO)
+    } else {
+        // `arc`, with its checks in its order (each failing one an error)
+        if !has(R) && !ijk || has(R) && ijk {
             return false;
         }
-        let has = |k: usize| w.set & (1 << k) != 0;
-        let axis = w.set & AXIS_BITS != 0;
-        let ijk = w.set & IJK_BITS != 0;
-        // `check`: the motion of the block (LinuxCNC's `motion_to_be`)
-        let motion = if w.g >= 0 {
-            w.g
-        } else if axis {
-            match self.motion {
-                Some(m) => m,
-                None => return false, // axis words without a motion: an error
-            }
-        } else if ijk && matches!(self.motion, Some(G_2 | G_3)) {
-            self.motion.unwrap_or(G_2)
-        } else {
-            -1
-        };
-        let arc = motion == G_2 || motion == G_3;
-        if (ijk || has(R)) && !arc {
-            return false; // I, J, K or R without an arc: an error
-        }
-        // `execute`'s short way: the feed rate, then the motion
-        let feed = if has(F) { w.v[F] } else { self.feed };
-        if motion < 0 {
-            self.feed = feed;
-            return true;
-        }
-        if motion != G_0 && feed == 0.0 {
-            return false; // zero feed rate: an error
-        }
-        // `find_ends`
-        let mut end = self.pos;
-        for a in 0..3 {
-            if has(X + a) {
-                end[a] = if self.absolute {
-                    w.v[X + a]
-                } else {
-                    self.pos[a] + w.v[X + a]
-                };
-            }
-        }
-        let s = self.scale();
-        let (kind, center) = if !arc {
-            let kind = if motion == G_0 {
-                MotionKind::Traverse { end: sc(end, s) }
-            } else {
-                MotionKind::Feed {
-                    end: sc(end, s),
-                    feed_mm_per_min: feed * s,
-                }
-            };
-            (kind, Vec3::ZERO)
-        } else {
-            // `arc`, with its checks in its order (each failing one an error)
-            if !has(R) && !ijk || has(R) && ijk {
+        let (a1, a2, an) = run.plane.axes();
+        let inch = run.inch;
+        let (c1, c2, turns) = if ijk {
+            if has(IJK + an) || (run.ijk_absolute && !(has(IJK + a1) && has(IJK + a2))) {
                 return false;
             }
-            let (a1, a2, an) = self.plane.axes();
-            let inch = self.inch;
-            let (c1, c2, turns) = if ijk {
-                if has(IJK + an) || (self.ijk_absolute && !(has(IJK + a1) && has(IJK + a2))) {
-                    return false;
-                }
-                let o = |a: usize| if has(IJK + a) { w.v[IJK + a] } else { 0.0 };
-                let (rtol, stol) = if inch {
-                    (RADIUS_TOLERANCE_INCH, CENTER_ARC_RADIUS_TOLERANCE_INCH)
-                } else {
-                    (RADIUS_TOLERANCE_MM, CENTER_ARC_RADIUS_TOLERANCE_MM)
-                };
-                let names = [b'X', b'Y', b'Z'];
-                match arc_data_ijk(
-                    motion,
-                    (self.pos[a1], self.pos[a2]),
-                    (end[a1], end[a2]),
-                    self.ijk_absolute,
-                    (o(a1), o(a2)),
-                    1,
-                    rtol,
-                    stol,
-                    [names[a1] as char, names[a2] as char],
-                ) {
-                    Ok(c) => c,
-                    Err(_) => return false,
-                }
+            let o = |a: usize| if has(IJK + a) { w.v[IJK + a] } else { 0.0 };
+            let (rtol, stol) = if inch {
+                (RADIUS_TOLERANCE_INCH, CENTER_ARC_RADIUS_TOLERANCE_INCH)
             } else {
-                if !has(X + a1) && !has(X + a2) {
-                    return false;
-                }
-                let tol = if inch {
-                    RADIUS_TOLERANCE_INCH
-                } else {
-                    RADIUS_TOLERANCE_MM
-                };
-                match arc_data_r(
-                    motion,
-                    (self.pos[a1], self.pos[a2]),
-                    (end[a1], end[a2]),
-                    w.v[R],
-                    1,
-                    tol,
-                ) {
-                    Ok(c) => c,
-                    Err(_) => return false,
-                }
+                (RADIUS_TOLERANCE_MM, CENTER_ARC_RADIUS_TOLERANCE_MM)
             };
-            let mut center = self.pos;
-            center[a1] = c1;
-            center[a2] = c2;
-            let kind = MotionKind::Arc {
-                end: sc(end, s),
-                center: sc(center, s),
-                plane: self.plane,
-                turns,
-                feed_mm_per_min: feed * s,
+            let names = [b'X', b'Y', b'Z'];
+            match arc_data_ijk(
+                motion,
+                (pos[a1], pos[a2]),
+                (end[a1], end[a2]),
+                run.ijk_absolute,
+                (o(a1), o(a2)),
+                1,
+                rtol,
+                stol,
+                [names[a1] as char, names[a2] as char],
+            ) {
+                Ok(c) => c,
+                Err(_) => return false,
+            }
+        } else {
+            if !has(X + a1) && !has(X + a2) {
+                return false;
+            }
+            let tol = if inch {
+                RADIUS_TOLERANCE_INCH
+            } else {
+                RADIUS_TOLERANCE_MM
             };
-            (kind, center)
+            match arc_data_r(
+                motion,
+                (pos[a1], pos[a2]),
+                (end[a1], end[a2]),
+                w.v[R],
+                1,
+                tol,
+            ) {
+                Ok(c) => c,
+                Err(_) => return false,
+            }
         };
-        self.feed = feed;
-        self.motion = Some(motion);
-        // `push` (no rotation) and `keep` (no run from line waiting)
-        let m = Motion {
-            line: line_no,
-            start: sc(self.pos, s),
-            kind,
-            offset_mm: self.offset(),
-            path_mode: self.path,
-            inch: self.inch,
-            canon_end: end,
-            canon_center: center,
-            spindle_rpm: self.spindle_rpm(),
+        let mut center = pos;
+        center[a1] = c1;
+        center[a2] = c2;
+        let kind = MotionKind::Arc {
+            end: sc(end, s),
+            center: sc(center, s),
+            plane: run.plane,
+            turns,
+            feed_mm_per_min: feed * s,
         };
-        self.moves_after_start += 1;
-        self.motions.push(m);
-        self.pos = end;
-        self.canon_pos = end;
-        true
-    }
+        (kind, center)
+    };
+    st.feed = feed;
+    st.motion = Some(motion);
+    // `push` (no rotation) and `keep` (no run from line waiting)
+    motions.push(Motion {
+        line: line_no,
+        start: sc(pos, s),
+        kind,
+        offset_mm: run.offset_mm,
+        path_mode: run.path,
+        inch: run.inch,
+        canon_end: end,
+        canon_center: center,
+        spindle_rpm: run.spindle_rpm,
+    });
+    st.pushed += 1;
+    st.pos = end;
+    true
 }
 
 #[cfg(test)]
