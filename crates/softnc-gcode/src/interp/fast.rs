@@ -8,7 +8,7 @@
 //! `F` (each at most once, `F` not negative), every value a plain number as
 //! [`crate::lexer`]'s `plain_number` reads it, with spaces, tabs and CRs between
 //! them: the codes and values the general lexer and `Interp::sort_word` read from
-//! such a line. [`Interp::fast_motion`] then does what `check` and `execute` do with
+//! such a line. [`run_line`] then does what `check` and `execute` do with
 //! them, where that is the common way: a plain interpreter state and no error. For
 //! anything else — a comment, a parameter, an expression, any other letter, a value
 //! the general reader would read otherwise, a word or a motion the general reader
