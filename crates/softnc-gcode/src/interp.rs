@@ -8,6 +8,7 @@
 //! that the canonical output rounds exactly as `rs274` prints it. Motions carry them
 //! converted to mm.
 
+mod fast;
 mod modal;
 pub(crate) mod ngc;
 mod offsets;
@@ -1818,13 +1819,27 @@ fn arc_data_r(
     } else {
         heading + FRAC_PI_2
     };
-    let turn2 = (half / abs_radius).asin();
-    let offset = abs_radius * turn2.cos();
+    let ratio = half / abs_radius;
+    // a half circle (the radius as long as half the chord, or taken as such
+    // above): the cosine of asin(1) computed once, the same bits
+    let offset = abs_radius
+        * if ratio == 1.0 {
+            cos_asin_one()
+        } else {
+            ratio.asin().cos()
+        };
     let (cx, cy) = (mid.0 + offset * theta.cos(), mid.1 + offset * theta.sin());
     if !(cx.is_finite() && cy.is_finite()) {
         return Err("Arc radius too small to reach end point".into());
     }
     Ok((cx, cy, if mode == G_2 { -p } else { p }))
+}
+
+/// `1f64.asin().cos()` (`arc_data_r` of a half circle), computed once by the same
+/// functions on the same value.
+fn cos_asin_one() -> f64 {
+    static COS: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
+    *COS.get_or_init(|| 1f64.asin().cos())
 }
 
 /// LinuxCNC `find_turn`: the angle swept (radians, counter-clockwise positive).
@@ -1913,6 +1928,20 @@ pub fn read_with(
     chunk: usize,
     sink: &mut dyn FnMut(&mut Vec<Motion>),
 ) -> Result<(Program, Params), GcodeError> {
+    read_lines(text, file, profile, options, chunk, sink, true)
+}
+
+/// [`read_with`]; `fast`: common motion lines take the short way of [`fast`]
+/// (`false`, for tests: every line the general way).
+fn read_lines(
+    text: &str,
+    file: &str,
+    profile: &MachineProfile,
+    options: &ReadOptions,
+    chunk: usize,
+    sink: &mut dyn FnMut(&mut Vec<Motion>),
+    fast: bool,
+) -> Result<(Program, Params), GcodeError> {
     let mut it = Interp::new(file, profile);
     it.user_inch = options.parameters_in_inches;
     it.optional_stop = options.optional_stop;
@@ -1952,6 +1981,7 @@ pub fn read_with(
     it.motions.reserve((text.len() / 16).min(chunk.max(1)));
     let mut line = Line::default();
     let mut block = Block::default();
+    let mut words = fast::Words::default();
     let mut norm = Norm::default();
     let mut sets: Vec<Setting> = Vec::new();
     // normalized lines by (source, byte offset), once the program has jumped
@@ -2020,6 +2050,8 @@ pub fn read_with(
             b: src_text.as_bytes(),
             pos,
         };
+        // where the short way last stopped (the line there is read the general way)
+        let mut fast_stop = usize::MAX;
         // the lines of this file, up to a jump
         let (jump, after) = loop {
             // a kept line (once the program has jumped): its end is known, and its
@@ -2029,6 +2061,38 @@ pub fn read_with(
             } else {
                 norm_cache.get(&line_key(cur, split.pos))
             };
+            if fast
+                && kept_here.is_none()
+                && split.pos != fast_stop
+                && it.ctl.skipping.is_none()
+                && src_text
+                    .as_bytes()
+                    .get(split.pos)
+                    .is_some_and(|&c| fast::may_start(c))
+            {
+                // common motion lines, read and run the short way (`fast`) up to
+                // the first other line, which is read below (and not tried again)
+                let (pos, read) = it.fast_lines(
+                    src_text.as_bytes(),
+                    split.pos,
+                    next_line_no,
+                    limit.saturating_sub(executed),
+                    chunk,
+                    &mut words,
+                );
+                fast_stop = pos;
+                if read > 0 {
+                    split.pos = pos;
+                    next_line_no += read as usize;
+                    n_lines = next_line_no - 1;
+                    executed += read;
+                    if it.motions.len() >= chunk {
+                        sink(&mut it.motions);
+                        it.motions.clear();
+                    }
+                    continue;
+                }
+            }
             let next = match kept_here {
                 Some((_, _, (e, next, newline))) => {
                     let s = split.pos;
@@ -2518,6 +2582,35 @@ mod tests {
         assert!((t + 1.5 * PI).abs() < 1e-12);
         let t = find_turn((1.0, 0.0), (0.0, 0.0), 2, (0.0, 1.0));
         assert!((t - 2.5 * PI).abs() < 1e-12);
+    }
+
+    /// A half circle's centre takes the kept cosine of asin(1): the same bits as
+    /// computing it, and the same centre as the formula written out.
+    #[test]
+    fn half_circles_take_the_kept_cosine() {
+        assert_eq!(cos_asin_one().to_bits(), 1f64.asin().cos().to_bits());
+        for (mode, radius) in [(G_2, 0.25), (G_3, 0.25), (G_2, -0.25), (G_3, 2.0)] {
+            let (cur, end) = ((2.1, 0.1), (2.6, 0.1));
+            let (cx, cy, _) = arc_data_r(mode, cur, end, radius, 1, RADIUS_TOLERANCE_MM).unwrap();
+            let abs_radius = f64::abs(radius);
+            let mid = ((end.0 + cur.0) / 2.0, (end.1 + cur.1) / 2.0);
+            let mut half = (mid.0 - end.0).hypot(mid.1 - end.1);
+            if half / abs_radius > 1.0 - TINY {
+                half = abs_radius;
+            }
+            let heading = (end.1 - cur.1).atan2(end.0 - cur.0);
+            let theta = if (mode == G_2 && radius > 0.0) || (mode == G_3 && radius < 0.0) {
+                heading - FRAC_PI_2
+            } else {
+                heading + FRAC_PI_2
+            };
+            let offset = abs_radius * (half / abs_radius).asin().cos();
+            let want = (mid.0 + offset * theta.cos(), mid.1 + offset * theta.sin());
+            assert_eq!(
+                (cx.to_bits(), cy.to_bits()),
+                (want.0.to_bits(), want.1.to_bits())
+            );
+        }
     }
 
     #[test]

@@ -393,7 +393,7 @@ fn read_value(cur: &mut Cursor, word_at: usize) -> Result<f64, LexError> {
 }
 
 /// Exact powers of ten for the fast path.
-const POW10: [f64; 23] = [
+pub(crate) const POW10: [f64; 23] = [
     1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
     1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 ];
@@ -403,7 +403,7 @@ const POW10: [f64; 23] = [
 /// space) neither a digit, a point nor a sign. The value and the offset after the
 /// white space, or None (the general readers decide) for anything else.
 #[inline(always)]
-fn plain_number(b: &[u8], mut i: usize) -> Option<(f64, usize)> {
+pub(crate) fn plain_number(b: &[u8], mut i: usize) -> Option<(f64, usize)> {
     let n = b.len();
     let neg = match b.get(i) {
         Some(b'-') => {

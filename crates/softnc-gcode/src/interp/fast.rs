@@ -1,0 +1,942 @@
+//! The short way for the common block of CAM output: a motion line such as
+//! `G1 X0.8000 Y0.0500`, `G2 X1.3 Y0.05 I0.25 J0` or `X3 Y4 F600` (LinuxCNC's
+//! `read_items` for the words it holds, without the general lexer's steps for
+//! everything else).
+//!
+//! [`words`] takes a line made only of an optional `N` number (digits alone) and
+//! words of the letters `G` (motion codes 0 to 3, at most one), `X Y Z I J K R` and
+//! `F` (each at most once, `F` not negative), every value a plain number as
+//! [`crate::lexer`]'s `plain_number` reads it, with spaces, tabs and CRs between
+//! them: the codes and values the general lexer and `Interp::sort_word` read from
+//! such a line. [`Interp::fast_motion`] then does what `check` and `execute` do with
+//! them, where that is the common way: a plain interpreter state and no error. For
+//! anything else — a comment, a parameter, an expression, any other letter, a value
+//! the general reader would read otherwise, a word or a motion the general reader
+//! would refuse (a second motion code, a repeated letter, a negative or zero feed,
+//! an arc without its words or with a radius that does not fit), inverse time, an
+//! XY rotation — either says no before changing anything, and the line is read the
+//! general way, which gives the same result or the same error as before.
+
+use super::{
+    arc_data_ijk, arc_data_r, sc, Interp, CENTER_ARC_RADIUS_TOLERANCE_INCH,
+    CENTER_ARC_RADIUS_TOLERANCE_MM, G_0, G_2, G_3, LINELEN, RADIUS_TOLERANCE_INCH,
+    RADIUS_TOLERANCE_MM,
+};
+use crate::canon::{Motion, MotionKind};
+use crate::lexer::{plain_number, POW10};
+use softnc_core::Vec3;
+
+/// Index of each value letter in [`Words::v`] and its bit in [`Words::set`]: the
+/// axes X Y Z at 0 1 2, the centre offsets I J K at 3 4 5 (the axis index plus
+/// [`IJK`]), R and F.
+const X: usize = 0;
+const IJK: usize = 3;
+const R: usize = 6;
+const F: usize = 7;
+/// Number of value letters.
+const VALUES: usize = 8;
+/// [`Words::set`] bits of the axes and of the centre offsets.
+const AXIS_BITS: u32 = 0b111 << X;
+const IJK_BITS: u32 = 0b111 << IJK;
+
+/// What [`words`] does with a byte where a word starts (index: the byte with bit 5
+/// set, i.e. the lower-case letter; only letters map to letters that way): `G_WORD`
+/// for G, the letter's index in [`Words::v`] plus one for a value letter, 0 (the
+/// general reader takes the line) for anything else.
+const LETTER: [u8; 256] = {
+    let mut t = [0u8; 256];
+    t[b'g' as usize] = G_WORD;
+    let letters = *b"xyzijkrf";
+    let mut k = 0;
+    while k < letters.len() {
+        t[letters[k] as usize] = k as u8 + 1;
+        k += 1;
+    }
+    t
+};
+/// [`LETTER`]'s mark of the G word.
+const G_WORD: u8 = 0xff;
+
+/// The words of a common motion line, as [`words`] reads them.
+pub(super) struct Words {
+    /// The motion code × 10 of the line's G word (0, 10, 20, 30), or -1 without one.
+    pub(super) g: i32,
+    /// Which of [`Words::v`] the line gives (bit per index).
+    pub(super) set: u32,
+    /// The values of X Y Z I J K R F, at their indices (only those in `set` are
+    /// written).
+    pub(super) v: [f64; VALUES],
+}
+
+impl Default for Words {
+    fn default() -> Self {
+        Words {
+            g: -1,
+            set: 0,
+            v: [0.0; VALUES],
+        }
+    }
+}
+
+/// Whether a line starting with byte `c` may take the short way (a word's letter,
+/// `N`, or white space): a cheap test before [`Interp::fast_lines`] is called.
+#[inline(always)]
+pub(super) fn may_start(c: u8) -> bool {
+    LETTER[usize::from(c | 0x20)] != 0 || c | 0x20 == b'n' || blank(c)
+}
+
+/// Spaces, tabs and CRs, which LinuxCNC ignores between words.
+#[inline(always)]
+fn blank(c: u8) -> bool {
+    matches!(c, b' ' | b'\t' | b'\r')
+}
+
+/// Every byte 0x30 (`'0'`): a word of ASCII digits XOR this holds their values.
+const ZEROS: u64 = 0x3030_3030_3030_3030;
+/// Added to bytes of 0 to 9, leaves them below 0x80; 10 and above reach it.
+const DIGIT_LIMIT: u64 = 0x7676_7676_7676_7676;
+/// The high bit of every byte.
+const HIGHS: u64 = 0x8080_8080_8080_8080;
+/// The point, XOR [`ZEROS`].
+const POINT: u64 = (b'.' ^ b'0') as u64;
+
+/// The number of up to 8 decimal digits held one per byte in `v` (values 0 to 9,
+/// the most significant in the lowest byte), in three multiplications (as
+/// `fast_float`'s `parse_eight_digits_unrolled`).
+#[inline(always)]
+fn eight_digits(v: u64) -> u64 {
+    const MASK: u64 = 0x0000_00ff_0000_00ff;
+    const MUL1: u64 = 100 + (1_000_000 << 32);
+    const MUL2: u64 = 1 + (10_000 << 32);
+    let v = v.wrapping_mul(10).wrapping_add(v >> 8);
+    ((v & MASK)
+        .wrapping_mul(MUL1)
+        .wrapping_add(((v >> 16) & MASK).wrapping_mul(MUL2)))
+        >> 32
+}
+
+/// The value after a word's letter at `t[start..]` and the offset after it, as
+/// [`plain_number`] reads it on its line (`t` goes on after the line: its newline,
+/// the next lines), where the line goes on with white space, a letter or nothing. An optional sign, then digits with at most one point within eight
+/// bytes are read eight bytes at a time: which are digits, where the point is, and
+/// the digits' value in one step ([`eight_digits`]); then the same integer
+/// mantissa and the same correctly rounded division as `plain_number`. Longer
+/// numbers (a ninth byte of digits) go to `plain_number`. `None` where it reads no number (the general
+/// reader decides); a number followed by a digit, point or sign after white space
+/// (`X1 2`, `X1.2.3`, `X1-2`) is left to the caller, whose next word must start
+/// with a letter.
+#[inline(always)]
+fn number(t: &[u8], start: usize) -> (f64, usize) {
+    // a sign, eight bytes and the ninth after them within `t`; else (the last
+    // bytes of the text) the same reading on a copy padded with zeros
+    let Some(head) = t.get(start..start + HEAD) else {
+        return number_near_end(t, start);
+    };
+    let Ok(head) = <&[u8; HEAD]>::try_from(head) else {
+        return number_near_end(t, start);
+    };
+    match number_in(head) {
+        Num::Value(v, len) => (v, start + len),
+        Num::Long => long_number(t, start),
+        Num::None => (0.0, NO_NUMBER),
+    }
+}
+
+/// Bytes [`number_in`] reads: a sign, eight bytes, the ninth after them.
+const HEAD: usize = 10;
+
+/// [`number`]'s offset where it reads no number.
+const NO_NUMBER: usize = usize::MAX;
+
+/// What [`number_in`] reads.
+enum Num {
+    /// The value and the number of bytes it takes (sign included).
+    Value(f64, usize),
+    /// A number of more than eight bytes: `plain_number` reads it.
+    Long,
+    /// No number the short way reads.
+    None,
+}
+
+/// [`number`] on the first [`HEAD`] bytes after a word's letter.
+#[inline(always)]
+fn number_in(head: &[u8; HEAD]) -> Num {
+    let neg = head[0] == b'-';
+    let signed = neg || head[0] == b'+';
+    let i = usize::from(signed);
+    let mut word = [0u8; 8];
+    word.copy_from_slice(&head[i..i + 8]);
+    let x = u64::from_le_bytes(word) ^ ZEROS;
+    let ninth = if signed { head[9] } else { head[8] };
+    // the high bit of each byte that is not a digit (a carry out of a byte only
+    // comes from one that is not, and only reaches bytes above it)
+    let not_digit = (x.wrapping_add(DIGIT_LIMIT) | x) & HIGHS;
+    let int = not_digit.trailing_zeros() / 8; // digits before the first other byte
+                                              // the digits, the number of them after the point, of them all, and of bytes
+    let (digits, frac, count, len) = if int < 8 && (x >> (8 * int)) & 0xff == POINT {
+        // the digits after the point, moved down over it
+        let after = not_digit & (u64::MAX << (8 * int) << 8);
+        let end = after.trailing_zeros() / 8;
+        if end == 8 && ninth.is_ascii_digit() {
+            return Num::Long; // a ninth byte goes on with the number
+        }
+        let low = (1u64 << (8 * int)) - 1;
+        ((x & low) | ((x >> 8) & !low), end - int - 1, end - 1, end)
+    } else {
+        if int == 8 && (ninth.is_ascii_digit() || ninth == b'.') {
+            return Num::Long;
+        }
+        (x, 0, int, int)
+    };
+    if count == 0 {
+        return Num::None;
+    }
+    // the digits alone, the first one lowest: shifted up so that zeros (leading
+    // zeros of the number) fill the bytes below them
+    let mant = eight_digits(digits << (8 * (8 - count)));
+    let v = mant as i64 as f64 / POW10[frac as usize];
+    Num::Value(if neg { -v } else { v }, i + len as usize)
+}
+
+/// [`number`] within the last [`HEAD`] bytes of the text: on a copy padded with
+/// zeros (which are no digits, as the end of the text is none).
+#[cold]
+#[inline(never)]
+fn number_near_end(t: &[u8], start: usize) -> (f64, usize) {
+    let mut head = [0u8; HEAD];
+    let rest = t.get(start..).unwrap_or(&[]);
+    head[..rest.len()].copy_from_slice(rest);
+    match number_in(&head) {
+        Num::Value(v, len) => (v, start + len),
+        Num::Long => long_number(t, start),
+        Num::None => (0.0, NO_NUMBER),
+    }
+}
+
+/// [`plain_number`] from `start`, for numbers longer than eight bytes (kept out of
+/// [`number`]: rare, and its registers would cost every number). `t` may go on
+/// after the line: `plain_number` reads nothing across its newline.
+#[cold]
+#[inline(never)]
+fn long_number(t: &[u8], start: usize) -> (f64, usize) {
+    plain_number(t, start).unwrap_or((0.0, NO_NUMBER))
+}
+
+/// The words of the line of `t` that starts at `s` (up to the next newline or the
+/// end of `t`) into `w` (written over), if the line has the common shape (see the
+/// module's documentation): then the offset of its end (of the newline, or the
+/// length of `t`); `None` otherwise. Where it says yes, the general lexer and
+/// `Interp::sort_word` read the same codes and values from the line without an
+/// error.
+#[inline(always)]
+pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
+    w.g = -1;
+    w.set = 0;
+    let n = t.len();
+    let mut i = s;
+    while i < n && blank(t[i]) {
+        i += 1;
+    }
+    if i == n || t[i] == b'\n' {
+        return None; // a blank line: the general reader says so
+    }
+    if t[i] | 0x20 == b'n' {
+        // a line number of digits alone (LinuxCNC reads and drops it); what follows
+        // must start a word, which the loop below checks
+        i += 1;
+        let digits = i;
+        while i < n && t[i].is_ascii_digit() {
+            i += 1;
+        }
+        if i == digits {
+            return None;
+        }
+    }
+    while i < n {
+        let c = t[i];
+        if blank(c) {
+            i += 1;
+            continue;
+        }
+        let kind = LETTER[usize::from(c | 0x20)];
+        if kind == 0 {
+            // the end of the line, or what the general reader reads
+            return (c == b'\n').then_some(i);
+        }
+        let (value, next) = number(t, i + 1);
+        if next == NO_NUMBER {
+            return None;
+        }
+        if kind == G_WORD {
+            // `sort_word`: value × 10 rounded to a code; 0, 10, 20, 30 are motion
+            // codes (group 1), supported, and at most one per line
+            let code = value as i32;
+            if f64::from(code) != value || !(0..=3).contains(&code) || w.g >= 0 {
+                return None;
+            }
+            w.g = code * 10;
+        } else {
+            let k = usize::from(kind - 1);
+            let bit = 1 << k;
+            // a repeated letter and a negative feed are errors: the general reader
+            // gives them
+            if w.set & bit != 0 || (k == F && value < 0.0) {
+                return None;
+            }
+            w.set |= bit;
+            w.v[k] = value;
+        }
+        i = next;
+    }
+    Some(n)
+}
+
+impl Interp<'_> {
+    /// Read and run the lines of `t` from `pos` the short way, one after the other,
+    /// while they take it: [`words`] reads each and [`Self::fast_motion`] runs it.
+    /// At most `max_lines` lines (the block limit left), and none once `chunk`
+    /// motions wait for the caller. The first line numbered `line_no`. The offset
+    /// of the first line not read (its start: the general reader reads it from
+    /// there, with nothing changed by it) and the number of lines read; only the
+    /// caller's count of lines and blocks are left to bring up to date. The caller
+    /// makes sure that lines are read and run at all (no label is looked for).
+    #[inline(never)]
+    pub(super) fn fast_lines(
+        &mut self,
+        t: &[u8],
+        mut pos: usize,
+        line_no: usize,
+        max_lines: u64,
+        chunk: usize,
+        w: &mut Words,
+    ) -> (usize, u64) {
+        let mut read = 0;
+        while read < max_lines && self.motions.len() < chunk {
+            let Some(e) = words(t, pos, w) else {
+                break;
+            };
+            let newline = e < t.len();
+            if e - pos + usize::from(newline) >= LINELEN - 1 {
+                break; // too long: the general reader says so
+            }
+            let no = line_no + read as usize;
+            if !self.fast_motion(w, no as u32) {
+                break;
+            }
+            self.line_no = no;
+            read += 1;
+            pos = e + usize::from(newline);
+        }
+        (pos, read)
+    }
+
+    /// `check` and `execute` for a line [`words`] read, where they take the common
+    /// way: the interpreter in a plain state (no inverse time, no XY rotation, no
+    /// position to re-read after a tool change, no run from line waiting for its
+    /// start) and a line they accept without an error. Then the line's feed rate,
+    /// motion mode, motion and point are as `check` and `execute` leave them, and
+    /// `true`. Otherwise nothing is changed and `false`: the general reader reads
+    /// the line (and gives its error, if any).
+    #[inline(always)]
+    pub(super) fn fast_motion(&mut self, w: &Words, line_no: u32) -> bool {
+        if self.inverse_time || self.sync_pending || self.rotation_deg != 0.0 || self.suppress {
+            return false;
+        }
+        let has = |k: usize| w.set & (1 << k) != 0;
+        let axis = w.set & AXIS_BITS != 0;
+        let ijk = w.set & IJK_BITS != 0;
+        // `check`: the motion of the block (LinuxCNC's `motion_to_be`)
+        let motion = if w.g >= 0 {
+            w.g
+        } else if axis {
+            match self.motion {
+                Some(m) => m,
+                None => return false, // axis words without a motion: an error
+            }
+        } else if ijk && matches!(self.motion, Some(G_2 | G_3)) {
+            self.motion.unwrap_or(G_2)
+        } else {
+            -1
+        };
+        let arc = motion == G_2 || motion == G_3;
+        if (ijk || has(R)) && !arc {
+            return false; // I, J, K or R without an arc: an error
+        }
+        // `execute`'s short way: the feed rate, then the motion
+        let feed = if has(F) { w.v[F] } else { self.feed };
+        if motion < 0 {
+            self.feed = feed;
+            return true;
+        }
+        if motion != G_0 && feed == 0.0 {
+            return false; // zero feed rate: an error
+        }
+        // `find_ends`
+        let mut end = self.pos;
+        for a in 0..3 {
+            if has(X + a) {
+                end[a] = if self.absolute {
+                    w.v[X + a]
+                } else {
+                    self.pos[a] + w.v[X + a]
+                };
+            }
+        }
+        let s = self.scale();
+        let (kind, center) = if !arc {
+            let kind = if motion == G_0 {
+                MotionKind::Traverse { end: sc(end, s) }
+            } else {
+                MotionKind::Feed {
+                    end: sc(end, s),
+                    feed_mm_per_min: feed * s,
+                }
+            };
+            (kind, Vec3::ZERO)
+        } else {
+            // `arc`, with its checks in its order (each failing one an error)
+            if !has(R) && !ijk || has(R) && ijk {
+                return false;
+            }
+            let (a1, a2, an) = self.plane.axes();
+            let inch = self.inch;
+            let (c1, c2, turns) = if ijk {
+                if has(IJK + an) || (self.ijk_absolute && !(has(IJK + a1) && has(IJK + a2))) {
+                    return false;
+                }
+                let o = |a: usize| if has(IJK + a) { w.v[IJK + a] } else { 0.0 };
+                let (rtol, stol) = if inch {
+                    (RADIUS_TOLERANCE_INCH, CENTER_ARC_RADIUS_TOLERANCE_INCH)
+                } else {
+                    (RADIUS_TOLERANCE_MM, CENTER_ARC_RADIUS_TOLERANCE_MM)
+                };
+                let names = [b'X', b'Y', b'Z'];
+                match arc_data_ijk(
+                    motion,
+                    (self.pos[a1], self.pos[a2]),
+                    (end[a1], end[a2]),
+                    self.ijk_absolute,
+                    (o(a1), o(a2)),
+                    1,
+                    rtol,
+                    stol,
+                    [names[a1] as char, names[a2] as char],
+                ) {
+                    Ok(c) => c,
+                    Err(_) => return false,
+                }
+            } else {
+                if !has(X + a1) && !has(X + a2) {
+                    return false;
+                }
+                let tol = if inch {
+                    RADIUS_TOLERANCE_INCH
+                } else {
+                    RADIUS_TOLERANCE_MM
+                };
+                match arc_data_r(
+                    motion,
+                    (self.pos[a1], self.pos[a2]),
+                    (end[a1], end[a2]),
+                    w.v[R],
+                    1,
+                    tol,
+                ) {
+                    Ok(c) => c,
+                    Err(_) => return false,
+                }
+            };
+            let mut center = self.pos;
+            center[a1] = c1;
+            center[a2] = c2;
+            let kind = MotionKind::Arc {
+                end: sc(end, s),
+                center: sc(center, s),
+                plane: self.plane,
+                turns,
+                feed_mm_per_min: feed * s,
+            };
+            (kind, center)
+        };
+        self.feed = feed;
+        self.motion = Some(motion);
+        // `push` (no rotation) and `keep` (no run from line waiting)
+        let m = Motion {
+            line: line_no,
+            start: sc(self.pos, s),
+            kind,
+            offset_mm: self.offset(),
+            path_mode: self.path,
+            inch: self.inch,
+            canon_end: end,
+            canon_center: center,
+            spindle_rpm: self.spindle_rpm(),
+        };
+        self.moves_after_start += 1;
+        self.motions.push(m);
+        self.pos = end;
+        self.canon_pos = end;
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{Block, Interp, GM_MOTION, SLOTS};
+    use super::{number, words, Words, LETTER, NO_NUMBER};
+    use crate::lexer::plain_number;
+    use crate::lexer::{lex_words, Line};
+    use softnc_core::MachineProfile;
+
+    fn profile() -> MachineProfile {
+        MachineProfile::load(
+            &std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                .join("../../config/machines/default.ron"),
+        )
+        .unwrap()
+    }
+
+    /// The general reader's block for `line`, or its error.
+    fn general(it: &Interp, line: &str) -> Result<Block, String> {
+        let mut block = Block::default();
+        let mut l = Line::default();
+        lex_words(line, &mut l, true, |w| it.sort_word(w, &mut block))
+            .map(|()| block)
+            .map_err(|(off, k)| format!("{off}: {k:?}"))
+    }
+
+    /// The block the general reader would make of `w` (offsets aside).
+    fn as_block(w: &Words) -> Block {
+        let mut b = Block::default();
+        if w.g >= 0 {
+            b.set_g(GM_MOTION, w.g, 0);
+        }
+        for (l, &k) in LETTER.iter().enumerate() {
+            if k != 0 && k != super::G_WORD && w.set & (1 << (k - 1)) != 0 {
+                b.set_val((l as u8).to_ascii_uppercase(), w.v[usize::from(k - 1)], 0);
+            }
+        }
+        b
+    }
+
+    /// What a block holds, comparably (the values by their bits, offsets aside).
+    fn contents(b: &Block) -> Vec<(String, u64)> {
+        let mut v = Vec::new();
+        for g in 0..super::super::G_GROUPS {
+            if b.has_g(g) {
+                v.push((format!("g{g}"), b.g[g].0 as u64));
+            }
+        }
+        for m in 0..super::super::M_GROUPS {
+            if b.has_m(m) {
+                v.push((format!("m{m}"), b.m[m].0 as u64));
+            }
+        }
+        for s in 0..SLOTS {
+            if b.val_set & (1 << s) != 0 {
+                v.push((format!("v{s}"), b.val[s].0.to_bits()));
+            }
+        }
+        v.push(("p".into(), b.p_number.to_bits()));
+        v.push(("q".into(), b.q_number.to_bits()));
+        v.push(("m".into(), b.m_count as u64));
+        v
+    }
+
+    /// Where the short way takes a line, the block is the general reader's; where
+    /// it does not, the general reader reads the line (as before).
+    fn same_as_general(it: &Interp, line: &str) -> bool {
+        let mut w = Words::default();
+        let taken = words(line.as_bytes(), 0, &mut w).is_some();
+        if taken {
+            let want = general(it, line)
+                .unwrap_or_else(|e| panic!("{line:?}: fast path taken, general reader fails: {e}"));
+            assert_eq!(contents(&as_block(&w)), contents(&want), "{line:?}");
+        }
+        taken
+    }
+
+    #[test]
+    fn common_lines_take_the_short_way_as_the_general_reader_reads_them() {
+        let p = profile();
+        let it = Interp::new("t.ngc", &p);
+        for line in [
+            "G1 X0.8000 Y0.0500",
+            "G2 X1.3000 Y0.0500 I0.25 J0",
+            "G3 X2.6000 Y0.1000 R0.25",
+            "g1x1y2z3f600",
+            "  G01 X-1. Y+.5\tZ-0 F1200\r",
+            "N10 G0 X1",
+            "n5G1X1",
+            "X1 Y2",
+            "I0.5 J-0.5",
+            "G1 X123456789012345",
+            "G1 X0.00000000000001",
+            "G0",
+            "R-2",
+            "F0",
+            "G-0 X1",
+            "G1.0 X1",
+        ] {
+            assert!(
+                same_as_general(&it, line),
+                "{line:?} should take the short way"
+            );
+        }
+        let mut w = Words::default();
+        assert_eq!(words(b"G2 X1.3 Y0.05 I0.25 J0\nG1", 0, &mut w), Some(22));
+        assert_eq!((w.g, w.set), (20, 0b1_1011));
+    }
+
+    #[test]
+    fn anything_else_is_left_to_the_general_reader() {
+        let p = profile();
+        let it = Interp::new("t.ngc", &p);
+        for line in [
+            "",
+            "   \r",
+            "G1 X1 (comment)",
+            "G1 X1 ; comment",
+            "G1 X#1",
+            "G1 X[1+2]",
+            "#1 = 2",
+            "o100 sub",
+            "M3 S1000",
+            "G90 G1 X1",
+            "G1 G2 X1",
+            "G1 X1 X2",
+            "G1 X1 F-5",
+            "G1 X1 2",
+            "G1 X 1",
+            "G1 X1-2",
+            "G1 X1.2.3",
+            "G1 X1234567890123456",
+            "G1 X",
+            "G0.5 X1",
+            "G4 P1",
+            "G1 A1",
+            "N10.5 G1 X1",
+            "N G1 X1",
+            "G1 N10 X1",
+            "/G1 X1",
+            "%",
+            "G1 X1\u{b}",
+            "G1 X1\0 junk",
+            "G1 X1 $1",
+            "G1 @1 ^2",
+            "G1 X1 P2",
+            "G1 X1e3",
+        ] {
+            assert!(
+                !same_as_general(&it, line),
+                "{line:?} should take the general way"
+            );
+        }
+    }
+
+    /// Numbers of every shape up to 12 characters, before a letter, white space, a
+    /// newline, a point, a sign or nothing: where the word-at-a-time reading takes
+    /// one and a letter or nothing follows it, `plain_number` reads the same bits;
+    /// numbers of up to eight bytes it always takes.
+    #[test]
+    fn numbers_read_eight_bytes_at_a_time_as_plain_number_reads_them() {
+        let mut state = 0x1234_5678_9abc_def1u64;
+        let mut next = |m: usize| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % m as u64) as usize
+        };
+        let alphabet = b"0123456789012345678901234567890123456789.";
+        for _ in 0..200_000 {
+            let mut line = b"X".to_vec();
+            line.extend_from_slice(["", "-", "+", "--"][next(4)].as_bytes());
+            let len = next(13);
+            for _ in 0..len {
+                line.push(alphabet[next(alphabet.len())]);
+            }
+            let n = line.len();
+            let after = [
+                &b" Y1"[..],
+                b"Y",
+                b"\n",
+                b"\nG1 X12345.678 Y1 Z2",
+                b"",
+                b".5",
+                b"-1",
+                b" ",
+                b"\t",
+                b"\r",
+            ];
+            line.extend_from_slice(after[next(after.len())]);
+            let line_end = if line.get(n) == Some(&b'\n') {
+                n
+            } else {
+                line.len()
+            };
+            let plain = plain_number(&line[..line_end], 1);
+            let (v, end) = number(&line, 1);
+            if end == NO_NUMBER {
+                let text = String::from_utf8_lossy(&line[1..n]);
+                let simple = n - 1 <= 8
+                    && text.matches('.').count() <= 1
+                    && text
+                        .trim_start_matches(['-', '+'])
+                        .chars()
+                        .any(|c| c.is_ascii_digit())
+                    && !text.starts_with("--");
+                assert!(!simple || plain.is_none(), "{text:?} not read");
+                continue;
+            }
+            let mut k = end;
+            while k < line_end && matches!(line[k], b' ' | b'\t' | b'\r') {
+                k += 1;
+            }
+            if k < line_end && !line[k].is_ascii_alphabetic() {
+                continue; // the caller leaves the line to the general reader
+            }
+            let (want, _) = plain.unwrap_or_else(|| {
+                panic!(
+                    "{:?}: read, plain_number does not",
+                    String::from_utf8_lossy(&line)
+                )
+            });
+            assert_eq!(
+                v.to_bits(),
+                want.to_bits(),
+                "{:?}",
+                String::from_utf8_lossy(&line)
+            );
+        }
+    }
+
+    /// Lines of the short way's letters with numbers of every shape: where it takes
+    /// one, it reads it as the general reader does.
+    #[test]
+    fn generated_lines_read_as_the_general_reader_reads_them() {
+        let p = profile();
+        let it = Interp::new("t.ngc", &p);
+        let letters = [
+            "G", "g", "X", "y", "Z", "I", "j", "K", "R", "F", "f", "N", "M", "A",
+        ];
+        let numbers = [
+            "0",
+            "1",
+            "2",
+            "3",
+            "4",
+            "01",
+            "1.",
+            ".5",
+            "-0.25",
+            "+3",
+            "--1",
+            "1.0",
+            "2.5",
+            "0.8000",
+            "-12.3456",
+            "123456789012345",
+            "1234567890123456",
+            ".",
+            "",
+            " 1",
+        ];
+        let seps = ["", " ", "  ", "\t", "\r"];
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = |m: usize| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % m as u64) as usize
+        };
+        let mut taken = 0;
+        for _ in 0..20_000 {
+            let mut line = String::new();
+            for _ in 0..1 + next(5) {
+                line += seps[next(seps.len())];
+                line += letters[next(letters.len())];
+                line += numbers[next(numbers.len())];
+            }
+            line += seps[next(seps.len())];
+            taken += usize::from(same_as_general(&it, &line));
+        }
+        assert!(taken > 1000, "only {taken} lines took the short way");
+    }
+
+    /// A random program of motion lines among mode changes, tool changes, XY
+    /// rotations, inverse time, comments and (rarely) lines that fail: read with the
+    /// short way and read with every line the general way, the results (motions,
+    /// warnings, end state, parameters, or the error) are the same.
+    #[test]
+    fn programs_read_the_short_way_as_the_general_way() {
+        let p = profile();
+        let modes = [
+            "G17",
+            "G18",
+            "G19",
+            "G20",
+            "G21",
+            "G61",
+            "G64 P0.1",
+            "M6 T1",
+            "M6 T2",
+            "M3 S1000",
+            "M5",
+            "G10 L2 P1 R30",
+            "G10 L2 P1 R0",
+            "G10 L2 P1 X1 Y2",
+            "G43 H1",
+            "G49",
+            "G92 X1",
+            "G92.1",
+            "(a comment)",
+            "",
+            "F600",
+            "N10 G1 X1",
+            "g1 x2 y3",
+            "G90.1",
+            "G91.1",
+            "G91",
+            "G90",
+            "G4 P0.5",
+            "M0",
+            "G54",
+            "G55",
+        ];
+        let failing = [
+            "F0",
+            "G1 X1 X2",
+            "G2 X5",
+            "R1",
+            "G1 X1 F-1",
+            "I1",
+            "G2 X1 Y2 R0.1",
+            "G0 X#1",
+            "G1 K1",
+            "G2 I1 J1 K1",
+            "G3 X1 Y1 I0 J0",
+        ];
+        let values = [
+            "0", "1", "2", "-1", "0.5", "-0.5", "0.25", "1.5", "10", "-2.5", ".75", "1.", "0.0001",
+            "100", "0.8000", "-12.3456", "+3",
+        ];
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = |m: usize| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % m as u64) as usize
+        };
+        let (mut fast_lines, mut total, mut read_whole, mut motions) = (0, 0, 0, 0);
+        for _ in 0..1000 {
+            let mut text = String::from("G21 G90 G17 F1000\n");
+            // the plane's axes and centre letters, as the program selects them
+            let mut plane = (["X", "Y"], ["I", "J"]);
+            for _ in 0..next(150) + 5 {
+                let line = match next(100) {
+                    0 => failing[next(failing.len())].to_string(),
+                    1..=10 => {
+                        let m = modes[next(modes.len())];
+                        match m {
+                            "G17" => plane = (["X", "Y"], ["I", "J"]),
+                            "G18" => plane = (["Z", "X"], ["K", "I"]),
+                            "G19" => plane = (["Y", "Z"], ["J", "K"]),
+                            _ => {}
+                        }
+                        m.to_string()
+                    }
+                    11..=13 => format!(
+                        "G93\nG1 X{} F{}\nG2 {}1 {}0 F2\nG94 F1000",
+                        values[next(values.len())],
+                        ["2", "0.5", "10"][next(3)],
+                        plane.1[0],
+                        plane.1[1]
+                    ),
+                    14..=30 => {
+                        // a whole circle (ends where it starts), a helix with Z
+                        let mut l = format!(
+                            "{} {}{} {}{}",
+                            ["G2", "G3"][next(2)],
+                            plane.1[0],
+                            values[next(values.len())],
+                            plane.1[1],
+                            values[next(values.len())]
+                        );
+                        if next(3) == 0 {
+                            l += &format!(" Z{}", values[next(values.len())]);
+                        }
+                        if next(4) == 0 {
+                            l += &format!(" F{}", ["100", "2000", "0.5"][next(3)]);
+                        }
+                        if next(10) == 0 {
+                            l += " P2";
+                        }
+                        l
+                    }
+                    31..=40 => format!(
+                        "G91\n{} {}{} {}{} R{}\nG90",
+                        ["G2", "G3"][next(2)],
+                        plane.0[0],
+                        ["1", "-1", "0.5"][next(3)],
+                        plane.0[1],
+                        ["0", "1", "-0.25"][next(3)],
+                        ["1", "-1", "2", "5"][next(4)]
+                    ),
+                    _ => {
+                        let mut l = ["G0 ", "G1 ", "G01 ", "g0", "N20 G1 "][next(5)].to_string();
+                        let axes = 1 + next(7); // a non-empty set of X, Y, Z
+                        for (a, letter) in [["X", "x"], ["Y", "y"], ["Z", "z"]].iter().enumerate() {
+                            if axes & (1 << a) != 0 {
+                                l += letter[next(2)];
+                                l += values[next(values.len())];
+                                l += [" ", "", "\t", "  "][next(4)];
+                            }
+                        }
+                        if next(5) == 0 {
+                            l += &format!("F{}", ["600", "1200.5", "30"][next(3)]);
+                        }
+                        l
+                    }
+                };
+                text += &line;
+                text += "\n";
+            }
+            text += "M2\n";
+            // every fourth program run from a line (motions before it left out)
+            let options = crate::ReadOptions {
+                from_line: (next(4) == 0).then(|| next(20) as u32 + 2),
+                ..Default::default()
+            };
+            let read = |fast: bool| {
+                let mut motions = Vec::new();
+                let read = super::super::read_lines(
+                    &text,
+                    "t.ngc",
+                    &p,
+                    &options,
+                    7,
+                    &mut |chunk| motions.append(chunk),
+                    fast,
+                );
+                (read.is_ok(), motions.len(), format!("{read:?} {motions:?}"))
+            };
+            let (short, general) = (read(true), read(false));
+            assert_eq!(short, general, "{text}");
+            read_whole += usize::from(short.0);
+            motions += short.1;
+            let mut w = Words::default();
+            for line in text.lines() {
+                total += 1;
+                fast_lines += usize::from(words(line.as_bytes(), 0, &mut w).is_some());
+            }
+        }
+        eprintln!(
+            "{read_whole} programs read whole, {motions} motions, {fast_lines} of {total} lines of the short way's shape"
+        );
+        assert!(fast_lines * 2 > total, "{fast_lines} of {total} lines");
+        assert!(
+            read_whole > 100 && motions > 10_000,
+            "{read_whole} read whole, {motions} motions"
+        );
+    }
+}
