@@ -413,9 +413,12 @@ pub(crate) enum FilletsAheadWhen {
     #[cfg_attr(not(test), allow(dead_code))]
     Always,
     /// For a chunk read while at least [`AHEAD_QUEUED_CHUNKS`] chunks wait for the
-    /// planning thread: the reader then has time to spare, and the share done ahead
-    /// follows the balance of the two threads (each chunk's fillets are on the
-    /// thread that would otherwise be waiting).
+    /// planning thread (it is behind) and that thread built at least
+    /// [`AHEAD_PARALLEL_MOTIONS`] motions while the reader read the chunk before (the
+    /// two threads run at once, each on a core). Fillets worked out ahead cost the
+    /// reader more than they save the planner (their arguments twice, the hand-over),
+    /// so they pay only where the reader has a core of its own and time to spare:
+    /// the share done ahead follows both.
     PlannerBehind,
 }
 
@@ -423,14 +426,23 @@ pub(crate) enum FilletsAheadWhen {
 /// chunk's fillets ahead ([`FilletsAheadWhen::PlannerBehind`]).
 const AHEAD_QUEUED_CHUNKS: usize = 1;
 
+/// Motions the planning thread must have built while the reader read a chunk for the
+/// two to count as running at once ([`FilletsAheadWhen::PlannerBehind`]): a quarter
+/// of a chunk (on two free cores it builds about three quarters of one meanwhile; on
+/// one shared core mostly none, a time slice being longer than a chunk's reading).
+const AHEAD_PARALLEL_MOTIONS: usize = READ_CHUNK_MOTIONS / 4;
+
 impl FilletsAheadWhen {
     /// Whether the reader works the fillets of a chunk out ahead, with `queued`
-    /// chunks waiting for the planning thread.
-    fn works(self, queued: usize) -> bool {
+    /// chunks waiting for the planning thread, which built `built` motions while the
+    /// reader read the chunk before.
+    fn works(self, queued: usize, built: usize) -> bool {
         match self {
             FilletsAheadWhen::Never => false,
             FilletsAheadWhen::Always => true,
-            FilletsAheadWhen::PlannerBehind => queued >= AHEAD_QUEUED_CHUNKS,
+            FilletsAheadWhen::PlannerBehind => {
+                queued >= AHEAD_QUEUED_CHUNKS && built >= AHEAD_PARALLEL_MOTIONS
+            }
         }
     }
 }
@@ -456,6 +468,9 @@ pub(crate) fn check_program_parallel_with(
     // chunks sent to the planning thread and not yet taken by it
     let queued = AtomicUsize::new(0);
     let queued = &queued;
+    // motions the planning thread has built (with the reader checking)
+    let built = AtomicUsize::new(0);
+    let built = &built;
     let (to_planner, chunks) = sync_channel::<Chunk>(8);
     // the end parameters, and the reader's checker where it checked the motions
     let (params_tx, params_rx) = sync_channel::<Params>(1);
@@ -494,6 +509,7 @@ pub(crate) fn check_program_parallel_with(
                                 &mut |_, _| {},
                             );
                             index += 1;
+                            built.store(index, Ordering::Relaxed);
                         } else if let Err(e) = planner.push_primitive(m, *prim, &mut |_, _| {}) {
                             refused = Some(e);
                             break;
@@ -528,6 +544,7 @@ pub(crate) fn check_program_parallel_with(
             }
         });
         let mut checker = reader_checks.then(|| Checker::new(profile, options, file));
+        let mut built_seen = 0;
         let mut fillets_ahead =
             FilletsAhead::new(&Limits::from_profile(profile), options.single_block);
         let mut duration = DurationPass::new(&Limits::from_profile(profile));
@@ -568,7 +585,12 @@ pub(crate) fn check_program_parallel_with(
                         }
                     }
                     preps.extend(prims.iter().map(ArcPrep::of));
-                    let work = when.works(queued.load(Ordering::Relaxed));
+                    let built_now = built.load(Ordering::Relaxed);
+                    let work = when.works(
+                        queued.load(Ordering::Relaxed),
+                        built_now.saturating_sub(built_seen),
+                    );
+                    built_seen = built_now;
                     fillets_ahead.chunk(chunk, &prims, &preps, work, &mut aheads);
                 }
                 queued.fetch_add(1, Ordering::Relaxed);
