@@ -252,6 +252,216 @@ impl ArcPrep {
     }
 }
 
+/// A line–arc fillet worked out ahead ([`fillet::line_arc`] of the join between a
+/// motion and the one before it, on the reading thread of `check_program_parallel`,
+/// see [`FilletsAhead`]), with the arguments it was worked out from. The builder takes
+/// it ([`FilletAhead::matching`]) only where the arguments of its own `line_arc` call
+/// are the same bits, so the path is the same as without it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct FilletAhead {
+    corner: Vec3,
+    u: Vec3,
+    line_avail_mm: f64,
+    arc: ArcView,
+    arc_avail_mm: f64,
+    tol_mm: f64,
+    /// What `line_arc` gave (None: no fillet found).
+    found: Option<fillet::Fillet>,
+}
+
+impl FilletAhead {
+    /// The fillet found, if it was worked out from these arguments bit for bit
+    /// (`Some(None)`: no fillet there); None where any argument differs.
+    fn matching(
+        &self,
+        corner: Vec3,
+        u: Vec3,
+        line_avail_mm: f64,
+        arc: &ArcView,
+        arc_avail_mm: f64,
+        tol_mm: f64,
+    ) -> Option<Option<fillet::Fillet>> {
+        let same = |x: f64, y: f64| x.to_bits() == y.to_bits();
+        let same3 = |x: Vec3, y: Vec3| same(x[0], y[0]) && same(x[1], y[1]) && same(x[2], y[2]);
+        let v = &self.arc;
+        // (the view's normal and orientation follow from its axes)
+        (same3(self.corner, corner)
+            && same3(self.u, u)
+            && same(self.line_avail_mm, line_avail_mm)
+            && same(self.arc_avail_mm, arc_avail_mm)
+            && same(self.tol_mm, tol_mm)
+            && same3(v.center, arc.center)
+            && same(v.radius, arc.radius)
+            && same(v.sense, arc.sense)
+            && same(v.len, arc.len)
+            && v.axes == arc.axes)
+            .then_some(self.found)
+    }
+}
+
+/// One motion as [`FilletsAhead`] sees it: the motion, its primitive and arc data.
+type AheadMove<'m> = (&'m Motion, &'m Option<Primitive>, &'m Option<ArcPrep>);
+
+/// The reading thread's side of the fillets worked out ahead: it follows the motions as
+/// [`PathBuilder::push_unmerged`] will hold them and works out the line–arc fillets of
+/// a chunk's joins where asked ([`FilletsAhead::chunk`]). Joins whose moves it cannot
+/// foresee (G64 Q chains, dwells, pauses, single block, zero-length moves) get none; a
+/// fillet whose arguments turn out otherwise in the builder is not taken.
+#[derive(Debug)]
+pub(crate) struct FilletsAhead {
+    tolerance_mm: f64,
+    max_drift_rad: f64,
+    /// Single block: every block ends in an exact stop, no fillets.
+    single_block: bool,
+    /// The last motion of the chunk before, with its primitive and arc data.
+    last: Option<(Motion, Option<Primitive>, Option<ArcPrep>)>,
+}
+
+impl FilletsAhead {
+    /// For these limits and the single-block setting.
+    pub(crate) fn new(lim: &Limits, single_block: bool) -> FilletsAhead {
+        FilletsAhead {
+            tolerance_mm: lim.tolerance_mm,
+            max_drift_rad: lim.max_drift_rad(),
+            single_block,
+            last: None,
+        }
+    }
+
+    /// The chunk `motions` (with their primitives and arc data) follows the chunk
+    /// last given; where `work` is set, the fillet of each line–arc or arc–line join
+    /// ending at one of its motions goes to `out`, with the motion's index in the chunk.
+    pub(crate) fn chunk(
+        &mut self,
+        motions: &[Motion],
+        prims: &[Option<Primitive>],
+        preps: &[Option<ArcPrep>],
+        work: bool,
+        out: &mut Vec<(u32, FilletAhead)>,
+    ) {
+        if work && !self.single_block {
+            if let (Some((m, p, q)), Some(m1), Some(p1), Some(q1)) =
+                (&self.last, motions.first(), prims.first(), preps.first())
+            {
+                self.join((m, p, q), (m1, p1, q1), 0, out);
+            }
+            for k in 1..motions.len().min(prims.len()).min(preps.len()) {
+                self.join(
+                    (&motions[k - 1], &prims[k - 1], &preps[k - 1]),
+                    (&motions[k], &prims[k], &preps[k]),
+                    k,
+                    out,
+                );
+            }
+        }
+        if let (Some(m), Some(p), Some(q)) = (motions.last(), prims.last(), preps.last()) {
+            self.last = Some((*m, *p, *q));
+        }
+    }
+
+    /// The blend tolerance of a move (with a primitive) that the builder holds as it
+    /// comes and whether a blend may end it; None for what it takes otherwise (dwells,
+    /// pauses, G64 Q lines and arcs).
+    fn mode(&self, m: &Motion) -> Option<(bool, f64)> {
+        if !matches!(
+            m.kind,
+            MotionKind::Traverse { .. } | MotionKind::Feed { .. } | MotionKind::Arc { .. }
+        ) {
+            return None;
+        }
+        match m.path_mode {
+            PathMode::ExactStop => Some((false, self.tolerance_mm)),
+            PathMode::Blend {
+                naive_cam_mm: Some(q),
+                ..
+            } if q > 0.0 => None,
+            PathMode::Blend { tolerance_mm, .. } => match tolerance_mm {
+                Some(p) if p > 0.0 => Some((true, p)),
+                _ => Some((true, self.tolerance_mm)),
+            },
+        }
+    }
+
+    /// The fillet at the join of `a` and `b`, if a line meets an arc there, to `out`
+    /// (at index `k`).
+    fn join(
+        &self,
+        (ma, pa, qa): AheadMove,
+        (mb, pb, qb): AheadMove,
+        k: usize,
+        out: &mut Vec<(u32, FilletAhead)>,
+    ) {
+        let (Some(pa), Some(pb)) = (pa, pb) else {
+            return;
+        };
+        // (a line–line or arc–arc join: nothing to do, before any other test)
+        if matches!(pa, Primitive::Line { .. }) == matches!(pb, Primitive::Line { .. }) {
+            return;
+        }
+        let (Some((true, tol_a)), Some((_, tol_b))) = (self.mode(ma), self.mode(mb)) else {
+            return;
+        };
+        let tol = tol_a.min(tol_b);
+        let (corner, u, line_avail_mm, arc, arc_avail_mm) = match (pa, pb, qa, qb) {
+            (&Primitive::Line { start, end }, Primitive::Arc { .. }, None, Some(q)) => {
+                let Some((len_a, dir_a)) = line_len_dir(start, end) else {
+                    return;
+                };
+                if q.len_mm < 1e-9 {
+                    return;
+                }
+                let Some(view) = q.view(pb, false, self.max_drift_rad) else {
+                    return;
+                };
+                (end, dir_a, 0.5 * len_a, view, 0.5 * q.len_mm)
+            }
+            (Primitive::Arc { .. }, &Primitive::Line { start, end }, Some(q), None) => {
+                let Some((len_b, dir_b)) = line_len_dir(start, end) else {
+                    return;
+                };
+                if q.len_mm < 1e-9 {
+                    return;
+                }
+                let Some(view) = q.view(pa, true, self.max_drift_rad) else {
+                    return;
+                };
+                (start, -dir_b, 0.5 * len_b, view, 0.5 * q.len_mm)
+            }
+            _ => return,
+        };
+        // (the arguments first, the fillet written in place: a `FilletAhead` is about
+        // 300 bytes, each move of it a `memcpy`)
+        out.push((
+            k as u32,
+            FilletAhead {
+                corner,
+                u,
+                line_avail_mm,
+                arc,
+                arc_avail_mm,
+                tol_mm: tol,
+                found: None,
+            },
+        ));
+        if let Some((_, f)) = out.last_mut() {
+            f.found = fillet::line_arc(corner, u, line_avail_mm, &arc, arc_avail_mm, tol);
+        }
+    }
+}
+
+/// A line's length and unit direction as `PathBuilder::push_unmerged` computes them;
+/// None where it drops the line (shorter than 1e-9 mm).
+fn line_len_dir(start: Vec3, end: Vec3) -> Option<(f64, Vec3)> {
+    let d = end - start;
+    let len = d.norm();
+    let dir = if len > 0.0 {
+        d * (1.0 / len)
+    } else {
+        Vec3::ZERO
+    };
+    (len >= 1e-9).then_some((len, dir))
+}
+
 /// A move in machine coordinates that waits for its successor: a blend at the corner
 /// between them trims its end.
 struct Pending {
@@ -528,20 +738,23 @@ impl PathBuilder {
 
     /// [`PathBuilder::push`] with the arc data of `prim` worked out ahead
     /// ([`ArcPrep::of`] of `prim` and these limits; None for a line): the same path.
+    /// `ahead`: the fillet of its join with the motion before it, if worked out ahead
+    /// ([`FilletsAhead`]; taken only where its arguments are the builder's own).
     pub(crate) fn push_prepared(
         &mut self,
         index: usize,
         m: &Motion,
         prim: &Option<Primitive>,
         prep: Option<&ArcPrep>,
+        ahead: Option<&FilletAhead>,
     ) {
-        self.push_with(index, m, prim, prep);
+        self.push_with(index, m, prim, prep, ahead);
     }
 
     /// Add motion number `index`; `prim` is its programmed primitive in machine
     /// coordinates (None for dwells). G1 lines under G64 Q are merged first.
     pub fn push(&mut self, index: usize, m: &Motion, prim: Option<Primitive>) {
-        self.push_with(index, m, &prim, None);
+        self.push_with(index, m, &prim, None, None);
     }
 
     /// [`PathBuilder::push`] with the arc data of `prim`, if given (by reference:
@@ -552,6 +765,7 @@ impl PathBuilder {
         m: &Motion,
         prim: &Option<Primitive>,
         prep: Option<&ArcPrep>,
+        ahead: Option<&FilletAhead>,
     ) {
         let q = match m.path_mode {
             PathMode::Blend {
@@ -583,7 +797,7 @@ impl PathBuilder {
                 self.chain.q_mm = q;
                 self.chain.lines.push((index as u32, l));
             }
-            None => self.push_unmerged(index, m, prim, prep),
+            None => self.push_unmerged(index, m, prim, prep, ahead),
         }
     }
 
@@ -608,7 +822,7 @@ impl PathBuilder {
         };
         self.chain.lines.clear();
         // (a G64 Q chain flushed before a motion is another motion: not its arc data)
-        self.push_unmerged(index as usize, &last, &Some(merged), None);
+        self.push_unmerged(index as usize, &last, &Some(merged), None, None);
     }
 
     /// Add motion number `index` as it is programmed (no G64 Q merging).
@@ -618,6 +832,7 @@ impl PathBuilder {
         m: &Motion,
         prim: &Option<Primitive>,
         prep: Option<&ArcPrep>,
+        ahead: Option<&FilletAhead>,
     ) {
         let lim = &self.lim;
         let (exact, tol) = match m.path_mode {
@@ -732,7 +947,7 @@ impl PathBuilder {
         }
         match self.pending.take() {
             Some(prev) => {
-                let blend = self.blend(&prev, &next);
+                let blend = self.blend(&prev, &next, ahead);
                 if let Some(b) = blend {
                     next.start_trim = b.start_trim_next;
                     next.start_at = b.next_start_at;
@@ -784,7 +999,8 @@ impl PathBuilder {
     /// Blend at a corner: a circular arc tangent to both moves (line–line here,
     /// line–arc and arc–line in [`crate::fillet`]), and how far it trims each (G64 P
     /// tolerance, half of each move at most).
-    fn blend(&self, a: &Pending, b: &Pending) -> Option<Blend> {
+    /// `ahead`: the fillet of this join if worked out ahead ([`FilletAhead`]).
+    fn blend(&self, a: &Pending, b: &Pending, ahead: Option<&FilletAhead>) -> Option<Blend> {
         if a.exact_stop || a.dwell_s > 0.0 {
             return None;
         }
@@ -798,13 +1014,15 @@ impl PathBuilder {
         // `Blend` is a few hundred bytes)
         let lim = &self.lim;
         if lim.profile != FeedProfile::SCurve {
-            let found = self.circle_blend(a, b);
+            let found = self.circle_blend(a, b, ahead);
             if found.is_some() {
                 return found;
             }
             return self.biarc_blend(a, b);
         }
-        let found = self.circle_blend(a, b).or_else(|| self.biarc_blend(a, b));
+        let found = self
+            .circle_blend(a, b, ahead)
+            .or_else(|| self.biarc_blend(a, b));
         if let Some(found) = &found {
             // A blend so tight that the jerk limit crawls through it is slower than
             // stopping: stop at the corner instead.
@@ -831,13 +1049,14 @@ impl PathBuilder {
 
     /// A single circular blend: line–line here, line–arc, arc–line and arc–arc of
     /// one plane in [`crate::fillet`].
-    fn circle_blend(&self, a: &Pending, b: &Pending) -> Option<Blend> {
+    fn circle_blend(&self, a: &Pending, b: &Pending, ahead: Option<&FilletAhead>) -> Option<Blend> {
         // (by reference: the geometries are not copied to be matched)
         match (&a.geom, &b.geom) {
             (Geom::Line { .. }, Geom::Line { .. }) => self.blend_lines(a, b),
             (&Geom::Line { end, .. }, Geom::Arc(arc)) => {
                 let view = self.view_next(arc)?;
-                let f = fillet::line_arc(
+                let f = line_arc_or_ahead(
+                    ahead,
                     end,
                     a.dir,
                     (0.5 * a.len).min(a.len - a.start_trim),
@@ -870,7 +1089,8 @@ impl PathBuilder {
                     Some(p) => p.view(arc, true, self.max_drift_rad()),
                     None => ArcView::of(arc, true, self.max_drift_rad()),
                 }?;
-                let f = fillet::line_arc(
+                let f = line_arc_or_ahead(
+                    ahead,
                     start,
                     -b.dir,
                     0.5 * b.len,
@@ -1381,6 +1601,25 @@ struct Blend {
     prev_end_trim_rad: Option<f64>,
     /// The angle the blend takes from the start of the arc after it (rad).
     next_start_trim_rad: Option<f64>,
+}
+
+/// [`fillet::line_arc`] of these arguments: the fillet worked out ahead where it was
+/// worked out from the same bits ([`FilletAhead::matching`]), else computed here.
+fn line_arc_or_ahead(
+    ahead: Option<&FilletAhead>,
+    corner: Vec3,
+    u: Vec3,
+    line_avail_mm: f64,
+    arc: &ArcView,
+    arc_avail_mm: f64,
+    tol_mm: f64,
+) -> Option<fillet::Fillet> {
+    if let Some(found) =
+        ahead.and_then(|h| h.matching(corner, u, line_avail_mm, arc, arc_avail_mm, tol_mm))
+    {
+        return found;
+    }
+    fillet::line_arc(corner, u, line_avail_mm, arc, arc_avail_mm, tol_mm)
 }
 
 /// The stretch of a planar arc of at most one revolution between its points `from`
@@ -1905,6 +2144,94 @@ impl CapDilator {
 mod tests {
     use super::*;
     use softnc_core::Plane;
+
+    /// The default machine with arc blends, and the motions of a CAM-like program:
+    /// line–arc and arc–line joins, a G64 Q chain before an arc, a dwell, a pause, an
+    /// exact stop, a zero-length line and a tolerance change among them.
+    fn fillet_joins() -> (Limits, Vec<Motion>) {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machines");
+        let mut p = MachineProfile::load(&dir.join("default.ron")).unwrap();
+        p.planner.arc_blends = true;
+        let mut text = String::from("G21 G90 G17 G64 P0.02\nG0 X0 Y0 Z0\nG1 F1200\n");
+        let mut x = 0.0;
+        for i in 0..40 {
+            let extra = match i % 8 {
+                1 => "G4 P0.01\n",
+                3 => "M0\n",
+                5 => "G61\nG1 Y0.1\nG1 Y0\nG64 P0.01\n",
+                6 => "G1 Y0\nG64 P0.02 Q0.005\nG1 Y0.001\nG1 Y0\nG64 P0.02\n",
+                _ => "",
+            };
+            let turn = if i % 2 == 0 { "G2" } else { "G3" };
+            text.push_str(&format!(
+                "G1 X{:.4} Y0.3\n{turn} X{:.4} Y0.3 R0.4\nG1 X{:.4} Y0\n{extra}",
+                x + 1.0,
+                x + 1.6,
+                x + 2.0
+            ));
+            x += 2.0;
+        }
+        text.push_str("M2\n");
+        let program = softnc_gcode::read_program(&text, "f.ngc", &p).unwrap();
+        (Limits::from_profile(&p), program.motions)
+    }
+
+    /// The path of `motions` with their arc data and, unless `tamper` is None, the
+    /// fillets worked out ahead (in chunks of 7 motions) changed by it, and how many
+    /// were handed over.
+    fn path_with_fillets_ahead(
+        lim: &Limits,
+        motions: &[Motion],
+        tamper: Option<&dyn Fn(&mut FilletAhead)>,
+    ) -> (String, usize) {
+        let prims: Vec<_> = motions.iter().map(motion_primitive).collect();
+        let preps: Vec<_> = prims.iter().map(ArcPrep::of).collect();
+        let mut ahead = FilletsAhead::new(lim, false);
+        let mut aheads = vec![None; motions.len()];
+        let mut part = vec![];
+        for c in (0..motions.len()).step_by(7) {
+            let e = (c + 7).min(motions.len());
+            let work = tamper.is_some();
+            ahead.chunk(&motions[c..e], &prims[c..e], &preps[c..e], work, &mut part);
+            for (k, mut f) in part.drain(..) {
+                if let Some(t) = tamper {
+                    t(&mut f);
+                }
+                aheads[c + k as usize] = Some(f);
+            }
+        }
+        let mut b = PathBuilder::new(lim, motions.len());
+        for (k, m) in motions.iter().enumerate() {
+            b.push_prepared(k, m, &prims[k], preps[k].as_ref(), aheads[k].as_ref());
+        }
+        let path = b.finish();
+        let handed = aheads.iter().flatten().count();
+        (format!("{:?}{:?}", path.segs, path.geoms), handed)
+    }
+
+    /// A fillet worked out ahead (`FilletsAhead`) gives the builder's own path; the
+    /// builder takes one whose arguments are its own bits (a tampered result shows in
+    /// the path) and no other (a tolerance one ulp off: the tampered result is not
+    /// taken).
+    #[test]
+    fn fillets_ahead_are_taken_where_their_arguments_are_the_builders() {
+        let (lim, motions) = fillet_joins();
+        let (own, _) = path_with_fillets_ahead(&lim, &motions, None);
+        let (ahead, handed) = path_with_fillets_ahead(&lim, &motions, Some(&|_| {}));
+        assert!(handed >= 60, "{handed} fillets handed over");
+        assert_eq!(ahead, own, "fillets ahead: the same path");
+        let (none, _) = path_with_fillets_ahead(&lim, &motions, Some(&|f| f.found = None));
+        assert_ne!(none, own, "the fillets handed over are taken");
+        let (off, _) = path_with_fillets_ahead(
+            &lim,
+            &motions,
+            Some(&|f| {
+                f.found = None;
+                f.tol_mm = f64::from_bits(f.tol_mm.to_bits() + 1);
+            }),
+        );
+        assert_eq!(off, own, "a fillet from other arguments is not taken");
+    }
 
     /// `sub_arc_by_angles` (the fillets' angles) gives the stretch `sub_arc` (two
     /// `atan2`s of the touch points) gives: same start angle, sweep and points, for

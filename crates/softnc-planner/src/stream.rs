@@ -24,7 +24,10 @@
 //! a stop: the path brakes within its limits to what it has, never runs past it, and
 //! [`StreamInterpolator::starved`] counts the event so that the daemon can alarm.
 
-use crate::build::{motion_primitive, ArcPrep, CapDilator, Limits, PathBuilder, Segment, StopKind};
+use crate::build::{
+    motion_primitive, ArcPrep, CapDilator, FilletAhead, FilletsAhead, Limits, PathBuilder, Segment,
+    StopKind,
+};
 use crate::interp::{Core, SegmentSource, MAX_LOOKAHEAD_SEGMENTS};
 use crate::path::Geom;
 use crate::plan::{
@@ -267,16 +270,18 @@ impl<'a> StreamPlanner<'a> {
         self.drain(out);
     }
 
-    /// [`StreamPlanner::push_checked`] with the arc data of `prim` worked out ahead.
+    /// [`StreamPlanner::push_checked`] with the arc data of `prim` and the fillet at its
+    /// join with the motion before, where worked out ahead.
     fn push_prepared(
         &mut self,
         index: usize,
         m: &Motion,
         prim: &Option<Primitive>,
         prep: Option<&ArcPrep>,
+        ahead: Option<&FilletAhead>,
         out: &mut impl FnMut(&Segment, &Geom),
     ) {
-        self.builder.push_prepared(index, m, prim, prep);
+        self.builder.push_prepared(index, m, prim, prep, ahead);
         self.drain(out);
     }
 
@@ -387,9 +392,92 @@ pub fn check_program_parallel(
     profile: &MachineProfile,
     options: &PlanOptions,
 ) -> Result<(Program, CheckedProgram), ReadPlanError> {
+    check_program_parallel_with(
+        text,
+        file,
+        profile,
+        options,
+        FilletsAheadWhen::PlannerBehind,
+    )
+}
+
+/// When the reading thread of [`check_program_parallel`] (where it checks the
+/// motions, [`reader_checks`]) works out the line–arc fillets of a chunk's joins
+/// ahead ([`FilletsAhead`]) for the planning thread to take.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum FilletsAheadWhen {
+    /// Never: the planning thread works out every fillet.
+    #[cfg_attr(not(test), allow(dead_code))]
+    Never,
+    /// For every chunk.
+    #[cfg_attr(not(test), allow(dead_code))]
+    Always,
+    /// For a chunk read while at least [`AHEAD_QUEUED_CHUNKS`] chunks wait for the
+    /// planning thread (it is behind), read undisturbed (its wall time within
+    /// [`AHEAD_UNDISTURBED_READ`] of the quickest chunk's: the reader was not
+    /// descheduled) while the planning thread built at least
+    /// [`AHEAD_PARALLEL_MOTIONS`] motions (so the two ran at once, each on a core).
+    /// A fillet worked out ahead costs the reader about twice what it saves the
+    /// planner (its arguments worked out twice, the hand-over), so it pays only where
+    /// the reader has a core of its own and time to spare: the share done ahead
+    /// follows both (docs/planner.md §5, `plan10`).
+    PlannerBehind,
+}
+
+/// Chunks waiting for the planning thread from which the reader works out the next
+/// chunk's fillets ahead ([`FilletsAheadWhen::PlannerBehind`]).
+const AHEAD_QUEUED_CHUNKS: usize = 1;
+
+/// Motions the planning thread must have built while the reader read a chunk for the
+/// two to count as running at once ([`FilletsAheadWhen::PlannerBehind`]): a quarter
+/// of a chunk (on two free cores it builds about three quarters of one meanwhile).
+const AHEAD_PARALLEL_MOTIONS: usize = READ_CHUNK_MOTIONS / 4;
+
+/// Most wall time a chunk's reading may take, as a multiple of the quickest so far,
+/// for the reader to count as not descheduled meanwhile
+/// ([`FilletsAheadWhen::PlannerBehind`]): the planner's progress then happened while
+/// both ran (a descheduled reader sees the planner progress on the core it left).
+const AHEAD_UNDISTURBED_READ: f64 = 1.5;
+
+impl FilletsAheadWhen {
+    /// Whether the reader works the fillets of a chunk out ahead, with `queued`
+    /// chunks waiting for the planning thread, which built `built` motions while the
+    /// reader read this chunk, `undisturbed` (see [`AHEAD_UNDISTURBED_READ`]).
+    fn works(self, queued: usize, built: usize, undisturbed: bool) -> bool {
+        match self {
+            FilletsAheadWhen::Never => false,
+            FilletsAheadWhen::Always => true,
+            FilletsAheadWhen::PlannerBehind => {
+                queued >= AHEAD_QUEUED_CHUNKS && built >= AHEAD_PARALLEL_MOTIONS && undisturbed
+            }
+        }
+    }
+}
+
+/// [`check_program_parallel`] with the fillets worked out ahead `when`.
+pub(crate) fn check_program_parallel_with(
+    text: &str,
+    file: &str,
+    profile: &MachineProfile,
+    options: &PlanOptions,
+    when: FilletsAheadWhen,
+) -> Result<(Program, CheckedProgram), ReadPlanError> {
+    use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::mpsc::channel;
-    // the motions, their primitives and (where the reader checks) their arc data
-    type Chunk = (Vec<Motion>, Vec<Option<Primitive>>, Vec<Option<ArcPrep>>);
+    // the motions, their primitives and (where the reader checks) their arc data and
+    // the fillets worked out ahead (by index in the chunk)
+    type Chunk = (
+        Vec<Motion>,
+        Vec<Option<Primitive>>,
+        Vec<Option<ArcPrep>>,
+        Vec<(u32, FilletAhead)>,
+    );
+    // chunks sent to the planning thread and not yet taken by it
+    let queued = AtomicUsize::new(0);
+    let queued = &queued;
+    // motions the planning thread has built (with the reader checking)
+    let built = AtomicUsize::new(0);
+    let built = &built;
     let (to_planner, chunks) = sync_channel::<Chunk>(8);
     // the end parameters, and the reader's checker where it checked the motions
     let (params_tx, params_rx) = sync_channel::<Params>(1);
@@ -406,18 +494,29 @@ pub fn check_program_parallel(
             }
             let mut refused: Option<PlanError> = None;
             let mut index = 0;
-            for (mut motions, mut prims, mut preps) in chunks {
+            for (mut motions, mut prims, mut preps, mut aheads) in chunks {
+                queued.fetch_sub(1, Ordering::Relaxed);
                 if refused.is_none() {
+                    let mut next_ahead = 0;
                     for (k, (m, prim)) in motions.iter().zip(&prims).enumerate() {
                         if reader_checks {
+                            let ahead = match aheads.get(next_ahead) {
+                                Some((j, f)) if *j as usize == k => {
+                                    next_ahead += 1;
+                                    Some(f)
+                                }
+                                _ => None,
+                            };
                             planner.push_prepared(
                                 index,
                                 m,
                                 prim,
                                 preps[k].as_ref(),
+                                ahead,
                                 &mut |_, _| {},
                             );
                             index += 1;
+                            built.store(index, Ordering::Relaxed);
                         } else if let Err(e) = planner.push_primitive(m, *prim, &mut |_, _| {}) {
                             refused = Some(e);
                             break;
@@ -427,7 +526,9 @@ pub fn check_program_parallel(
                 motions.clear();
                 prims.clear();
                 preps.clear();
-                let _ = recycle.send((motions, prims, preps)); // the reader may be gone
+                aheads.clear();
+                // the reader may be gone
+                let _ = recycle.send((motions, prims, preps, aheads));
                 if let Some(v) = planner.settled.fin.handoff.as_mut() {
                     let fresh = timed_rx
                         .try_recv()
@@ -450,6 +551,11 @@ pub fn check_program_parallel(
             }
         });
         let mut checker = reader_checks.then(|| Checker::new(profile, options, file));
+        let mut built_seen = 0;
+        let mut read_from = std::time::Instant::now();
+        let mut quickest_read = std::time::Duration::MAX;
+        let mut fillets_ahead =
+            FilletsAhead::new(&Limits::from_profile(profile), options.single_block);
         let mut duration = DurationPass::new(&Limits::from_profile(profile));
         let mut time = |mut batch: Vec<Segment>| {
             duration.push_slice(&batch);
@@ -470,13 +576,15 @@ pub fn check_program_parallel(
                 if refused.is_some() {
                     return; // refused: the planner's figures are not needed
                 }
-                let (fresh, mut prims, mut preps) = recycled.try_recv().unwrap_or_else(|_| {
-                    (
-                        Vec::with_capacity(READ_CHUNK_MOTIONS),
-                        Vec::with_capacity(READ_CHUNK_MOTIONS),
-                        Vec::new(),
-                    )
-                });
+                let (fresh, mut prims, mut preps, mut aheads) =
+                    recycled.try_recv().unwrap_or_else(|_| {
+                        (
+                            Vec::with_capacity(READ_CHUNK_MOTIONS),
+                            Vec::with_capacity(READ_CHUNK_MOTIONS),
+                            Vec::new(),
+                            Vec::new(),
+                        )
+                    });
                 prims.extend(chunk.iter().map(motion_primitive));
                 if let Some(c) = checker.as_mut() {
                     for (m, prim) in chunk.iter().zip(&prims) {
@@ -486,9 +594,22 @@ pub fn check_program_parallel(
                         }
                     }
                     preps.extend(prims.iter().map(ArcPrep::of));
+                    // the chunk's reading (from the end of the last call): undisturbed
+                    // where within AHEAD_UNDISTURBED_READ of the quickest
+                    let read = read_from.elapsed();
+                    quickest_read = quickest_read.min(read);
+                    let work = when.works(
+                        queued.load(Ordering::Relaxed),
+                        built.load(Ordering::Relaxed).saturating_sub(built_seen),
+                        read.as_secs_f64() <= AHEAD_UNDISTURBED_READ * quickest_read.as_secs_f64(),
+                    );
+                    fillets_ahead.chunk(chunk, &prims, &preps, work, &mut aheads);
                 }
+                queued.fetch_add(1, Ordering::Relaxed);
                 // a planner that stopped early (it cannot) only loses the chunk
-                let _ = to_planner.send((std::mem::replace(chunk, fresh), prims, preps));
+                let _ = to_planner.send((std::mem::replace(chunk, fresh), prims, preps, aheads));
+                built_seen = built.load(Ordering::Relaxed);
+                read_from = std::time::Instant::now();
             },
         );
         drop(to_planner);
@@ -953,4 +1074,84 @@ pub fn check_and_stream<R>(
             .map(|()| r)
     })?;
     Ok((checked, r))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The adaptive rule works fillets out ahead only with the planner behind, having
+    /// progressed while the reader read undisturbed; the others as they say.
+    #[test]
+    fn fillets_ahead_only_while_both_threads_run_and_the_planner_is_behind() {
+        let w = FilletsAheadWhen::PlannerBehind;
+        let (q, b) = (AHEAD_QUEUED_CHUNKS, AHEAD_PARALLEL_MOTIONS);
+        assert!(w.works(q, b, true));
+        assert!(!w.works(q - 1, b, true), "planner not behind");
+        assert!(!w.works(q, b - 1, true), "planner hardly built meanwhile");
+        assert!(!w.works(q, b, false), "reader descheduled");
+        assert!(FilletsAheadWhen::Always.works(0, 0, false));
+        assert!(!FilletsAheadWhen::Never.works(8, READ_CHUNK_MOTIONS, true));
+    }
+
+    /// `check_program_parallel` with the fillets worked out ahead for every chunk, for
+    /// none and while the planner is behind: the figures of `check_program` bit for
+    /// bit, on line–arc and arc–line joins among G64 Q chains, dwells, pauses, exact
+    /// stops and tolerance changes, over many chunks, in both feed profiles and single
+    /// block.
+    #[test]
+    fn fillets_ahead_change_no_figure() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machines");
+        let mut text = String::from("G21 G90 G17 G64 P0.02\nG0 X0 Y0 Z0\nG1 F1200\n");
+        let mut x = 0.0;
+        for i in 0..3000 {
+            let extra = match i % 9 {
+                1 => "G4 P0.01\n",
+                3 => "M1\n",
+                5 => "G61\nG1 Y0.1\nG1 Y0\nG64 P0.01\n",
+                6 => "G1 Y0\nG64 P0.02 Q0.005\nG1 Y0.001\nG1 Y0\nG64 P0.02\n",
+                7 => "G1 Y0\n",
+                _ => "",
+            };
+            let turn = if i % 2 == 0 { "G2" } else { "G3" };
+            text.push_str(&format!(
+                "G1 X{:.4} Y0.3\n{turn} X{:.4} Y0.3 R0.4\nG1 X{:.4} Y0\n{extra}",
+                x + 1.0,
+                x + 1.6,
+                x + 2.0
+            ));
+            x += 2.0;
+            if x > 400.0 {
+                x = 0.0;
+                text.push_str("G0 X0 Y0\n");
+            }
+        }
+        text.push_str("M2\n");
+        for fp in [FeedProfile::Trapezoidal, FeedProfile::SCurve] {
+            for single_block in [false, true] {
+                let mut p = MachineProfile::load(&dir.join("default.ron")).unwrap();
+                p.planner.arc_blends = true;
+                p.planner.feed_profile = fp;
+                let opts = PlanOptions {
+                    single_block,
+                    ignore_soft_limits: true,
+                    ..Default::default()
+                };
+                let key = |r: Result<(Program, CheckedProgram), ReadPlanError>| {
+                    r.map(|(p, c)| (p.blocks, c))
+                };
+                let want = key(check_program(&text, "a.ngc", &p, &opts));
+                let elements = want.as_ref().map(|(_, c)| c.elements);
+                assert!(elements.is_ok_and(|n| n > 10_000), "{elements:?}");
+                for when in [
+                    FilletsAheadWhen::Always,
+                    FilletsAheadWhen::Never,
+                    FilletsAheadWhen::PlannerBehind,
+                ] {
+                    let got = key(check_program_parallel_with(&text, "a.ngc", &p, &opts, when));
+                    assert_eq!(got, want, "{fp:?}, single block {single_block}, {when:?}");
+                }
+            }
+        }
+    }
 }
