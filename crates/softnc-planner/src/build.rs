@@ -591,6 +591,11 @@ pub struct PathBuilder {
     max_drift_rad: f64,
     /// The axes' top speed |vmax| of `lim`, worked out once (mm/s).
     v_top_mm_per_s: f64,
+    /// Whether [`Path::orphans`] are kept: a streamed path
+    /// ([`PathBuilder::set_streamed`]) drops them with every batch it drains, so it
+    /// does not record them at all (a trimmed arc's primitive, about 120 bytes, is
+    /// copied there at every join otherwise).
+    keep_orphans: bool,
 }
 
 /// LinuxCNC's "naive CAM" merging (G64 Q, its `emccanon.cc` `see_segment` /
@@ -685,6 +690,23 @@ impl PathBuilder {
             prep_next: None,
             max_drift_rad: lim.max_drift_rad(),
             v_top_mm_per_s: Vec3::new(lim.vmax[0], lim.vmax[1], lim.vmax[2]).norm(),
+            keep_orphans: true,
+        }
+    }
+
+    /// A streamed path ([`PathBuilder::drain_settled`]): the programmed primitives of
+    /// moves without an element of their own ([`Path::orphans`]) are not recorded,
+    /// since the drained path does not keep them. Elements and limits are the same.
+    pub(crate) fn set_streamed(&mut self) {
+        self.keep_orphans = false;
+        self.path.orphans = Vec::new();
+    }
+
+    /// Record `prim`, the programmed primitive of motion `index`, among the orphans
+    /// (unless streamed).
+    fn orphan(&mut self, index: u32, prim: Primitive) {
+        if self.keep_orphans {
+            self.path.orphans.push((index, prim));
         }
     }
 
@@ -812,7 +834,9 @@ impl PathBuilder {
             return;
         };
         let merged = if n > 1 {
-            self.path.orphans.extend(self.chain.lines.iter().copied());
+            if self.keep_orphans {
+                self.path.orphans.extend(self.chain.lines.iter().copied());
+            }
             Primitive::Line {
                 start: self.chain.start,
                 end: last_line.end(),
@@ -915,7 +939,7 @@ impl PathBuilder {
             Primitive::Arc { .. } => (Geom::Arc(prim), prim.length(), Vec3::ZERO),
         };
         if len < 1e-9 {
-            self.path.orphans.push((index as u32, prim));
+            self.orphan(index as u32, prim);
             return;
         }
         if self.last_point.is_none() {
@@ -1393,7 +1417,7 @@ impl PathBuilder {
                     (p.geom, ElementShape::arc(&prim))
                 } else {
                     // the programmed arc stays exact among the orphans
-                    self.path.orphans.push((p.motion, prim));
+                    self.orphan(p.motion, prim);
                     let (from, to) = (p.start_trim, p.len - end_trim);
                     if to - from < 1e-6 {
                         // used up by the blends at both its ends
@@ -1456,7 +1480,7 @@ impl PathBuilder {
         };
         if !pushed {
             if let Some(prim) = geom.programmed() {
-                self.path.orphans.push((p.motion, prim));
+                self.orphan(p.motion, prim);
             }
         }
     }

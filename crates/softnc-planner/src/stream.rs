@@ -224,6 +224,7 @@ impl<'a> StreamPlanner<'a> {
         let lim = Limits::from_profile(profile);
         let mut builder = PathBuilder::new(&lim, DRAIN_BATCH);
         builder.set_single_block(options.single_block);
+        builder.set_streamed();
         StreamPlanner {
             checker: Checker::new(profile, options, file),
             builder,
