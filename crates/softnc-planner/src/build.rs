@@ -2,7 +2,7 @@
 //! (G64), exact stops (G61/G9), per-segment limits and junction speeds.
 
 use crate::fillet::{self, ArcView};
-use crate::path::{element_limits, ElementShape, Geom};
+use crate::path::{element_limits, max_to, min_to, ElementShape, Geom};
 use softnc_core::{AccDec, FeedProfile, MachineProfile, Primitive, Vec3};
 use softnc_gcode::{Motion, MotionKind, PathMode, Program};
 
@@ -1083,10 +1083,10 @@ impl PathBuilder {
                     ahead,
                     end,
                     a.dir,
-                    (0.5 * a.len).min(a.len - a.start_trim),
+                    min_to(0.5 * a.len, a.len - a.start_trim),
                     &view,
                     0.5 * b.len,
-                    a.tolerance_mm.min(b.tolerance_mm),
+                    min_to(a.tolerance_mm, b.tolerance_mm),
                 )?;
                 let e1 = (f.p_line - f.center) * (1.0 / f.radius);
                 Some(Blend {
@@ -1119,8 +1119,8 @@ impl PathBuilder {
                     -b.dir,
                     0.5 * b.len,
                     &view,
-                    (0.5 * a.len).min(a.len - a.start_trim),
-                    a.tolerance_mm.min(b.tolerance_mm),
+                    min_to(0.5 * a.len, a.len - a.start_trim),
+                    min_to(a.tolerance_mm, b.tolerance_mm),
                 )?;
                 let e1 = (f.p_arc - f.center) * (1.0 / f.radius);
                 // backwards the fillet runs from the line with e2' = −b.dir; forwards
@@ -1150,10 +1150,10 @@ impl PathBuilder {
                 let f = fillet::arc_arc(
                     arc_a.end(),
                     arc_a,
-                    (0.5 * a.len).min(a.len - a.start_trim),
+                    min_to(0.5 * a.len, a.len - a.start_trim),
                     &view,
                     0.5 * b.len,
-                    a.tolerance_mm.min(b.tolerance_mm),
+                    min_to(a.tolerance_mm, b.tolerance_mm),
                     self.max_drift_rad(),
                 )?;
                 let e1 = (f.p_line - f.center) * (1.0 / f.radius);
@@ -1283,10 +1283,10 @@ impl PathBuilder {
         };
         let lim = &self.lim;
         let dt = t2 - t1;
-        let v = a
-            .feed_mm_per_s
-            .min(b.feed_mm_per_s)
-            .min(self.v_top_mm_per_s);
+        let v = min_to(
+            min_to(a.feed_mm_per_s, b.feed_mm_per_s),
+            self.v_top_mm_per_s,
+        );
         lim.profile == FeedProfile::Trapezoidal
             && lim.acc_dec == AccDec::BeforeInterpolation
             && (0..3).all(|i| dt[i].abs() * v <= lim.kink_acc[i] * lim.cycle_s)
@@ -1401,7 +1401,7 @@ impl PathBuilder {
                 ..
             } => {
                 let to = prog_len - blend.map_or(0.0, |b| b.end_trim_prev);
-                let len = (to - p.start_trim).max(0.0);
+                let len = max_to(to - p.start_trim, 0.0);
                 let geom = Geom::Line {
                     start,
                     end,
@@ -1866,7 +1866,7 @@ struct AccUse {
 
 impl AccUse {
     fn of(shape: &ElementShape, acc_mm_per_s2: f64, cap: f64, feed: f64, lim: &Limits) -> AccUse {
-        let v = cap.min(feed * lim.max_feed_override);
+        let v = min_to(cap, feed * lim.max_feed_override);
         AccUse {
             weight: shape.acc_weight,
             acc_mm_per_s2,
@@ -1907,7 +1907,7 @@ fn junction_speed(
     uses: [&AccUse; 2],
     curvature_step: impl Fn() -> Vec3,
 ) -> f64 {
-    let mut v = cap_a.min(cap_b);
+    let mut v = min_to(cap_a, cap_b);
     let dt = b.start_tangent - end_tangent_a;
     if lim.acc_dec == AccDec::AfterInterpolation {
         // |Δt| = 2 sin(θ/2): reversals still stop
@@ -1930,7 +1930,7 @@ fn junction_speed(
             let di = dt[i].abs();
             if di > 1e-12 {
                 t_over_dt[i] = lim.cycle_s / di;
-                v_share = v_share.min(lim.kink_acc[i] * t_over_dt[i]);
+                v_share = min_to(v_share, lim.kink_acc[i] * t_over_dt[i]);
             }
         }
         v = v_share;

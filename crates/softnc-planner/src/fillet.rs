@@ -14,6 +14,7 @@
 //! tolerance of the programmed line or arc. An arc–line corner is the same
 //! construction on the path run backwards.
 
+use crate::path::{max_to, min_to};
 use softnc_core::{Primitive, Vec3};
 
 /// Share of the tolerance the fillet's distance from the corner may use.
@@ -179,7 +180,7 @@ fn first_trim(t1: Vec3, t2: Vec3, tol_mm: f64) -> f64 {
 /// [`first_trim`] from the cosine `c` and sine `s` of the turn.
 fn first_trim_cs(c: f64, s: f64, tol_mm: f64) -> f64 {
     let c = c.clamp(-1.0, 1.0);
-    let s = s.min(1.0);
+    let s = min_to(s, 1.0);
     let one_plus_c = 1.0 + c;
     if one_plus_c <= 0.0 {
         return 0.0; // a reversal: no fillet
@@ -206,11 +207,32 @@ pub fn line_arc(
     arc_avail: f64,
     tol_mm: f64,
 ) -> Option<Fillet> {
+    // (the view's axes are always a `Plane`'s, `ArcView::of_measured`)
+    match arc.axes {
+        (0, 1, 2) => line_arc_in::<0, 1, 2>(corner, u, line_avail, arc, arc_avail, tol_mm),
+        (2, 0, 1) => line_arc_in::<2, 0, 1>(corner, u, line_avail, arc, arc_avail, tol_mm),
+        (1, 2, 0) => line_arc_in::<1, 2, 0>(corner, u, line_avail, arc, arc_avail, tol_mm),
+        _ => None,
+    }
+}
+
+/// [`line_arc`] in the plane whose axes ([`ArcView::axes`]) are `A`, `B` and the
+/// normal `N`: the same arithmetic, with the components picked at compile time (no
+/// addresses worked out at run time, fewer vectors kept in memory to be indexed).
+#[inline(always)]
+fn line_arc_in<const A: usize, const B: usize, const N: usize>(
+    corner: Vec3,
+    u: Vec3,
+    line_avail: f64,
+    arc: &ArcView,
+    arc_avail: f64,
+    tol_mm: f64,
+) -> Option<Fillet> {
     // All of it in the arc's plane coordinates (a, b) (the line lies in that plane
     // within 1e-9; the normal coordinate is the arc's): the construction of
     // `candidate` for the one normal n ⟂ u towards the turn and the one tangency that
     // turns the right way, with every vector in two components.
-    let (ia, ib, i_n) = arc.axes;
+    let (ia, ib, i_n) = (A, B, N);
     if u[i_n].abs() > 1e-9 {
         return None; // a line out of the arc's plane
     }
@@ -231,12 +253,15 @@ pub fn line_arc(
         return None; // tangent (or reversing) join
     }
     let (na, nb) = (ma / m_norm, mb / m_norm);
-    let mut d = line_avail.min(first_trim_cs(ut, (ua * tb - ub * ta).abs(), tol_mm));
+    let mut d = min_to(
+        line_avail,
+        first_trim_cs(ut, (ua * tb - ub * ta).abs(), tol_mm),
+    );
     for _ in 0..TRIM_TRIES {
         if d <= 1e-9 {
             return None;
         }
-        if let Some(f) = line_arc_at(corner, u, d, arc, arc_avail, (na, nb), (pa, pb)) {
+        if let Some(f) = line_arc_at::<A, B, N>(corner, u, d, arc, arc_avail, (na, nb), (pa, pb)) {
             let (fa, fb) = (f.center[ia] - ca, f.center[ib] - cb);
             let (da, db) = (pa - fa, pb - fb);
             let deviation = ((da * da + db * db).sqrt() - f.radius).abs();
@@ -254,7 +279,8 @@ pub fn line_arc(
 /// (`pa`, `pb`) the corner from the centre. With w = P₁ − c, F − c = w + r·n and
 /// (F − c)·u = w·u; T − F = −σr·(F − c)/|F − c| turns the fillet forwards (q·u > 0)
 /// only for σ·(w·u) < 0, so that tangency alone is built.
-fn line_arc_at(
+#[inline(always)]
+fn line_arc_at<const A: usize, const B: usize, const N: usize>(
     corner: Vec3,
     u: Vec3,
     d: f64,
@@ -263,7 +289,7 @@ fn line_arc_at(
     (na, nb): (f64, f64),
     (pa, pb): (f64, f64),
 ) -> Option<Fillet> {
-    let (ia, ib, i_n) = arc.axes;
+    let (ia, ib, i_n) = (A, B, N);
     let (ua, ub) = (u[ia], u[ib]);
     let (ca, cb) = (arc.center[ia], arc.center[ib]);
     let big_r = arc.radius;
@@ -285,7 +311,7 @@ fn line_arc_at(
     // F − c, and T − c = R·(F − c)/|F − c|
     let (fa, fb) = (wa + na * r, wb + nb * r);
     let fc_norm = (fa * fa + fb * fb).sqrt();
-    if fc_norm < 1e-12 || (fc_norm - (big_r + sigma * r)).abs() > 1e-7 * big_r.max(1.0) {
+    if fc_norm < 1e-12 || (fc_norm - (big_r + sigma * r)).abs() > 1e-7 * max_to(big_r, 1.0) {
         return None;
     }
     let scale = big_r / fc_norm;
