@@ -178,6 +178,7 @@ fn first_trim(t1: Vec3, t2: Vec3, tol_mm: f64) -> f64 {
 }
 
 /// [`first_trim`] from the cosine `c` and sine `s` of the turn.
+#[inline(always)]
 fn first_trim_cs(c: f64, s: f64, tol_mm: f64) -> f64 {
     let c = c.clamp(-1.0, 1.0);
     let s = min_to(s, 1.0);
@@ -692,6 +693,7 @@ fn biarc_pieces(p0: Vec3, t0: Vec3, p1: Vec3, t1: Vec3) -> Option<[ArcPiece; 2]>
 /// the fillets take two angles per corner, and the system library's `atan2` (glibc,
 /// correctly rounded) cost about 150 instructions a call on the 200k-line benchmark.
 /// Non-finite arguments go to the library.
+#[inline(always)]
 fn atan2(y: f64, x: f64) -> f64 {
     use std::f64::consts::{FRAC_PI_2, PI};
     /// The low part of π (π − `PI`).
@@ -729,6 +731,7 @@ fn atan2(y: f64, x: f64) -> f64 {
 /// fdlibm's `atan(x)` for finite x ≥ 0: reduced about 0.5, 1 or 1.5 (or by 1/x) to
 /// |x| < 7/16, then an odd polynomial of degree 23 (`ATAN_POLY`) and the reference
 /// angle in two parts (`ATAN_HI`, `ATAN_LO`).
+#[inline(always)]
 fn atan_nonneg(x: f64) -> f64 {
     /// atan(0.5), atan(1), atan(1.5), atan(∞): high parts.
     const ATAN_HI: [f64; 4] = [
