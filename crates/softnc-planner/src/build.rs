@@ -1411,13 +1411,14 @@ impl PathBuilder {
                 };
                 (geom, ElementShape::line(len, p.dir))
             }
-            &Geom::Arc(prim) => {
+            // (by reference: the held move's arc is not copied out to be cut)
+            Geom::Arc(prim) => {
                 let end_trim = blend.map_or(0.0, |b| b.end_trim_prev);
                 if p.start_trim == 0.0 && end_trim == 0.0 {
-                    (p.geom, ElementShape::arc(&prim))
+                    (p.geom, ElementShape::arc(prim))
                 } else {
                     // the programmed arc stays exact among the orphans
-                    self.orphan(p.motion, prim);
+                    self.orphan(p.motion, *prim);
                     let (from, to) = (p.start_trim, p.len - end_trim);
                     if to - from < 1e-6 {
                         // used up by the blends at both its ends
@@ -1450,14 +1451,14 @@ impl PathBuilder {
                         if let (Some(s_rad), Some(e_rad)) = (start_rad, end_rad) {
                             // cut from the circle by fillets: planned as a circle
                             // where its end radius is off by rounding only
-                            let sub = sub_arc_by_angles(&prim, at_from, at_to, s_rad, e_rad);
+                            let sub = sub_arc_by_angles(prim, at_from, at_to, s_rad, e_rad);
                             (Geom::Arc(sub), ElementShape::sub_arc(&sub))
                         } else {
-                            let sub = if prim_sweep(&prim).abs() < std::f64::consts::TAU {
-                                sub_arc(&prim, at_from, at_to)
+                            let sub = if prim_sweep(prim).abs() < std::f64::consts::TAU {
+                                sub_arc(prim, at_from, at_to)
                             } else {
                                 // a helix of a turn or more, trimmed by biarcs only
-                                sub_arc_span(&prim, from, to, at_from, at_to)
+                                sub_arc_span(prim, from, to, at_from, at_to)
                             };
                             (Geom::Arc(sub), ElementShape::arc(&sub))
                         }
