@@ -1255,6 +1255,7 @@ impl PathBuilder {
 
     /// [`ArcView::of`] the move after the corner being blended (an arc, `arc`), from
     /// its start: from its [`ArcPrep`] where one came with it.
+    #[inline(always)]
     fn view_next(&self, arc: &Primitive) -> Option<ArcView> {
         match &self.prep_next {
             Some(p) => p.view(arc, false, self.max_drift_rad()),
@@ -1630,6 +1631,7 @@ struct Blend {
 
 /// [`fillet::line_arc`] of these arguments: the fillet worked out ahead where it was
 /// worked out from the same bits ([`FilletAhead::matching`]), else computed here.
+#[inline(always)]
 fn line_arc_or_ahead(
     ahead: Option<&FilletAhead>,
     corner: Vec3,
