@@ -1975,7 +1975,6 @@ fn junction_speed(
 }
 
 /// Programmed primitive of a motion in machine coordinates (None for dwells).
-#[inline]
 pub fn motion_primitive(m: &Motion) -> Option<Primitive> {
     let off = m.offset_mm;
     match m.kind {
