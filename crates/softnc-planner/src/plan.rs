@@ -638,21 +638,23 @@ impl ForwardTime {
     /// Element `s`, whose end speed the backward pass capped at `vend`.
     #[inline(always)]
     fn step(&mut self, s: &Segment, vend: f64) {
-        self.step_pre(s, vend, cap(s), 2.0 * s.acc * s.len);
+        let vend_sq_up = (vend * vend) * (1.0 + 4.0 * f64::EPSILON);
+        self.step_pre(s, vend, vend_sq_up, cap(s), 2.0 * s.acc * s.len);
     }
 
-    /// [`ForwardTime::step`] with the element's [`cap`] `c` and `two_al` =
-    /// 2·acc·len worked out already (by [`DurationPass::push_slice`], which needs
-    /// them for [`starts_at_least`] first): the same arithmetic, so the same bits.
+    /// [`ForwardTime::step`] with `vend_sq_up` = fl(vend²)·(1 + 4ε), the element's
+    /// [`cap`] `c` and `two_al` = 2·acc·len worked out already (by
+    /// [`DurationPass::push_slice`], which needs them for [`starts_at_least`]
+    /// first): the same arithmetic, so the same bits.
     #[inline(always)]
-    fn step_pre(&mut self, s: &Segment, vend: f64, c: f64, two_al: f64) {
+    fn step_pre(&mut self, s: &Segment, vend: f64, vend_sq_up: f64, c: f64, two_al: f64) {
         let v0 = self.v0;
         // v1 = min(vend, √x); where x ≥ vend² surely (x ≥ fl(vend²)·(1 + 2⁻⁵⁰) > vend²,
         // and a correctly rounded root of x ≥ y² is ≥ y), v1 is vend without the root:
         // the next element's v0 then does not wait for it. (`vend` ≥ 0, so finite is
         // below ∞.)
         let x = v0 * v0 + two_al;
-        let v1 = if finite_not_neg_inf(vend) && x >= (vend * vend) * (1.0 + 4.0 * f64::EPSILON) {
+        let v1 = if finite_not_neg_inf(vend) && x >= vend_sq_up {
             vend
         } else {
             min_num(x.sqrt(), vend)
@@ -786,10 +788,11 @@ impl DurationPass {
             let c = cap(s);
             let two_al = 2.0 * s.acc * s.len;
             let own = min_num(last.v_end_hard, last_cap);
+            let own_sq_up = (own * own) * (1.0 + 4.0 * f64::EPSILON);
             // `starts_at_least(s, own)`
-            if own <= 0.0 || (c >= own && two_al >= (own * own) * (1.0 + 4.0 * f64::EPSILON)) {
+            if own <= 0.0 || (c >= own && two_al >= own_sq_up) {
                 if j == k {
-                    fwd.step_pre(last, own, last_cap, last_two_al);
+                    fwd.step_pre(last, own, own_sq_up, last_cap, last_two_al);
                 } else {
                     time_run(&mut self.vend, &mut fwd, &segs[j..=k], own);
                 }
