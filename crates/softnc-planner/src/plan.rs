@@ -778,8 +778,8 @@ impl DurationPass {
         let (mut v_top, mut a_min, mut fwd) = (self.v_top, self.a_min, self.fwd);
         let mut last_cap = cap(&segs[k]);
         let mut last_two_al = 2.0 * segs[k].acc * segs[k].len;
-        while k + 1 < segs.len() {
-            let (last, s) = (&segs[k], &segs[k + 1]);
+        let mut last = &segs[k];
+        for s in &segs[k + 1..] {
             if finite_not_neg_inf(s.vel_cap) {
                 // (a −∞ cap would leave `v_top` as it is, as `is_finite` does)
                 v_top = max_num(v_top, s.vel_cap);
@@ -798,7 +798,7 @@ impl DurationPass {
                 }
                 j = k + 1;
             }
-            (last_cap, last_two_al) = (c, two_al);
+            (last, last_cap, last_two_al) = (s, c, two_al);
             k += 1;
             if k + 1 - j >= DURATION_RUN_MAX {
                 break;
@@ -862,7 +862,10 @@ impl DurationPass {
 
 /// Time the elements `run` on `fwd`, the last one's end speed being `vend_last`:
 /// the arithmetic of [`DurationPass::time_upto`] on elements not held (`vend`:
-/// scratch).
+/// scratch). Out of line: runs of more than one element are rare (a fillet whose
+/// start from a stop cannot reach the end limit before it).
+#[cold]
+#[inline(never)]
 fn time_run(vend: &mut Vec<f64>, fwd: &mut ForwardTime, run: &[Segment], vend_last: f64) {
     let k = run.len() - 1;
     vend.clear();
