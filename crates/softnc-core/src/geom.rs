@@ -189,6 +189,41 @@ pub fn rem_tau(x: f64) -> f64 {
     }
 }
 
+/// `y.atan2(x)`, with the cases where `y` or `x` is zero taken without the library
+/// call: C99 Annex F (F.10.1.4), which glibc follows, fixes them as ±0 (y = ±0,
+/// x > 0 or +0), ±π (y = ±0, x < 0 or −0) and ±π/2 (y ≠ 0, x = ±0), the sign y's,
+/// π and π/2 rounded to the nearest double (`consts::PI`, `consts::FRAC_PI_2`).
+/// Arcs often start or end on an axis through their centre (`I` or `J` zero), so
+/// most of [`Primitive::arc`]'s angles are these; elsewhere the library's value.
+#[inline]
+pub fn atan2_axis(y: f64, x: f64) -> f64 {
+    if y == 0.0 {
+        if !x.is_nan() {
+            return if x.is_sign_positive() {
+                y
+            } else {
+                std::f64::consts::PI.copysign(y)
+            };
+        }
+    } else if x == 0.0 && !y.is_nan() {
+        return std::f64::consts::FRAC_PI_2.copysign(y);
+    }
+    y.atan2(x)
+}
+
+/// `x.hypot(y)`, with a zero operand taken without the library call: hypot(x, ±0)
+/// is |x| and hypot(±0, y) is |y| (C99 Annex F, F.10.4.3).
+#[inline]
+pub fn hypot_axis(x: f64, y: f64) -> f64 {
+    if y == 0.0 {
+        x.abs()
+    } else if x == 0.0 {
+        y.abs()
+    } else {
+        x.hypot(y)
+    }
+}
+
 /// One geometric piece of a path, parameterised by arc length.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Primitive {
@@ -231,9 +266,10 @@ impl Primitive {
         let (a, b, n) = plane.axes();
         let mut c = center;
         c[n] = start[n];
-        let radius = (start[a] - c[a]).hypot(start[b] - c[b]);
-        let start_angle = (start[b] - c[b]).atan2(start[a] - c[a]);
-        let end_angle = (end[b] - c[b]).atan2(end[a] - c[a]);
+        let (sa, sb) = (start[a] - c[a], start[b] - c[b]);
+        let radius = hypot_axis(sa, sb);
+        let start_angle = atan2_axis(sb, sa);
+        let end_angle = atan2_axis(end[b] - c[b], end[a] - c[a]);
         let tau = std::f64::consts::TAU;
         let extra = (turns.unsigned_abs().max(1) - 1) as f64 * tau;
         let sweep = if turns >= 0 {
@@ -447,6 +483,45 @@ mod tests {
                 end: Vec3::ZERO,
             };
             assert_eq!(a.length().to_bits(), rs.hypot(0.0).to_bits());
+        }
+    }
+
+    /// The axis cases of `atan2_axis` and `hypot_axis` are the library's bits, and
+    /// so is everything else: zeros of both signs, infinities, NaN and ordinary
+    /// values in every quadrant.
+    #[test]
+    fn axis_cases_are_the_librarys() {
+        let vals = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            0.25,
+            -0.25,
+            1e-300,
+            -1e-300,
+            5e-324,
+            -5e-324,
+            3.7e12,
+            -3.7e12,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            f64::MIN_POSITIVE,
+        ];
+        for y in vals {
+            for x in vals {
+                let (a, b) = (atan2_axis(y, x), y.atan2(x));
+                assert!(
+                    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                    "atan2({y}, {x}): {a} vs {b}"
+                );
+                let (a, b) = (hypot_axis(x, y), x.hypot(y));
+                assert!(
+                    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                    "hypot({x}, {y}): {a} vs {b}"
+                );
+            }
         }
     }
 

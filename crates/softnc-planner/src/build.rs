@@ -236,12 +236,13 @@ pub(crate) struct ArcPrep {
 
 impl ArcPrep {
     /// The arc's data; None for a line (or no primitive).
+    #[inline]
     pub(crate) fn of(prim: &Option<Primitive>) -> Option<ArcPrep> {
         let p = prim.as_ref()?;
         Some(ArcPrep {
             end_radius_mm: fillet::end_radius_mm(p)?,
-            start_tangent: arc_end_tangent(p, false),
-            end_tangent: arc_end_tangent(p, true),
+            start_tangent: arc_end_tangent_inline(p, false),
+            end_tangent: arc_end_tangent_inline(p, true),
             len_mm: p.length(),
         })
     }
@@ -1805,7 +1806,21 @@ fn path_tangent(prim: &Primitive, s: f64) -> Vec3 {
 /// from the radial vector of the start or end point, without trigonometry:
 /// R·sweep·(−sin θ, cos θ) = sweep·(−r_b, r_a)·R/|r| in the plane, the normal travel
 /// along the normal.
+///
+/// The vector is put together for each plane by name (not by the indices of
+/// [`Plane::axes`]: no stores and loads through the stack), and where the start or a
+/// planar end is at the radius the scale of 1 is not multiplied in (x·1 = x).
+///
+/// Out of line for the builder's kink test (inlining it there grows the builder's
+/// loop past what its other calls are inlined in); [`ArcPrep::of`], on the reading
+/// thread, takes [`arc_end_tangent_inline`].
 fn arc_end_tangent(p: &Primitive, at_end: bool) -> Vec3 {
+    arc_end_tangent_inline(p, at_end)
+}
+
+/// [`arc_end_tangent`], inlined where it is called.
+#[inline(always)]
+fn arc_end_tangent_inline(p: &Primitive, at_end: bool) -> Vec3 {
     let Primitive::Arc {
         start,
         center,
@@ -1819,19 +1834,26 @@ fn arc_end_tangent(p: &Primitive, at_end: bool) -> Vec3 {
     else {
         return p.tangent_at(0.0);
     };
-    let (a, b, n) = plane.axes();
+    use softnc_core::geom::Plane;
     let q = if at_end { end } else { start };
-    let (ra, rb) = (q[a] - center[a], q[b] - center[b]);
-    // the start point is at the radius; the end point of a helix may not be
-    let scale = if at_end && normal_travel != 0.0 {
-        radius / ra.hypot(rb)
-    } else {
-        1.0
+    // (a, b) in the plane: the same differences as `q[a] - center[a]` and so on
+    let (ra, rb) = match plane {
+        Plane::XY => (q[0] - center[0], q[1] - center[1]),
+        Plane::XZ => (q[2] - center[2], q[0] - center[0]),
+        Plane::YZ => (q[1] - center[1], q[2] - center[2]),
     };
-    let mut t = Vec3::ZERO;
-    t[a] = -sweep * rb * scale;
-    t[b] = sweep * ra * scale;
-    t[n] = normal_travel;
+    // the start point is at the radius; the end point of a helix may not be
+    let (ta, tb) = if at_end && normal_travel != 0.0 {
+        let scale = radius / ra.hypot(rb);
+        (-sweep * rb * scale, sweep * ra * scale)
+    } else {
+        (-sweep * rb, sweep * ra)
+    };
+    let t = match plane {
+        Plane::XY => Vec3::new(ta, tb, normal_travel),
+        Plane::XZ => Vec3::new(tb, normal_travel, ta),
+        Plane::YZ => Vec3::new(normal_travel, ta, tb),
+    };
     t.unit()
 }
 

@@ -268,6 +268,8 @@ pub(crate) struct Checker<'a> {
     pub(crate) n_motions: usize,
     n_moves: usize,
     pub(crate) spindle_changes: Vec<(u32, f64)>,
+    /// The spindle speed of the last of `spindle_changes` (0 before the first).
+    spindle_rpm: f64,
 }
 
 impl<'a> Checker<'a> {
@@ -286,41 +288,65 @@ impl<'a> Checker<'a> {
             n_motions: 0,
             n_moves: 0,
             spindle_changes: Vec::new(),
+            spindle_rpm: 0.0,
         }
     }
 
     /// Check a motion whose programmed primitive in machine coordinates is `prim`
     /// (None for dwells): the soft limit it breaks, if any.
+    ///
+    /// Inline, with the common case in a few comparisons: a move inside the box of
+    /// the moves so far (which is inside the travel) neither grows the box nor can
+    /// break a soft limit, and the spindle speed rarely changes; the rest is in
+    /// [`Checker::grow_box`] and [`Checker::spindle_change`], out of line.
+    #[inline]
     pub(crate) fn check(&mut self, m: &Motion, prim: &Option<Primitive>) -> Result<(), PlanError> {
         if let Some(p) = prim {
             self.n_moves += 1;
-            self.max_feed = match m.kind {
-                MotionKind::Feed {
-                    feed_mm_per_min, ..
+            if let MotionKind::Feed {
+                feed_mm_per_min, ..
+            }
+            | MotionKind::Arc {
+                feed_mm_per_min, ..
+            } = m.kind
+            {
+                // `max_feed.max(feed)`: a NaN feed leaves it, as `f64::max` does
+                if feed_mm_per_min > self.max_feed {
+                    self.max_feed = feed_mm_per_min;
                 }
-                | MotionKind::Arc {
-                    feed_mm_per_min, ..
-                } => self.max_feed.max(feed_mm_per_min),
-                _ => self.max_feed,
-            };
+            }
             // a primitive inside the box so far neither grows it nor leaves the travel
             // (the box is inside it)
             if !within(p, self.bmin, self.bmax) {
-                let (lo, hi) = bounding_box(p);
-                if !self.options.ignore_soft_limits {
-                    self.check_travel(m, lo, hi)?;
-                }
-                self.bmin = self.bmin.min(lo);
-                self.bmax = self.bmax.max(hi);
+                self.grow_box(m, p)?;
             }
         }
-        let rpm_before = self.spindle_changes.last().map_or(0.0, |c| c.1);
-        if m.spindle_rpm != rpm_before {
-            self.spindle_changes
-                .push((self.n_motions as u32, m.spindle_rpm));
+        if m.spindle_rpm != self.spindle_rpm {
+            self.spindle_change(m.spindle_rpm);
         }
         self.n_motions += 1;
         Ok(())
+    }
+
+    /// The box grown by primitive `p` of motion `m`, which is not inside it: the soft
+    /// limit it breaks, if any.
+    #[inline(never)]
+    fn grow_box(&mut self, m: &Motion, p: &Primitive) -> Result<(), PlanError> {
+        let (lo, hi) = bounding_box(p);
+        if !self.options.ignore_soft_limits {
+            self.check_travel(m, lo, hi)?;
+        }
+        self.bmin = self.bmin.min(lo);
+        self.bmax = self.bmax.max(hi);
+        Ok(())
+    }
+
+    /// The spindle speed changes to `rpm` at the motion being checked.
+    #[cold]
+    #[inline(never)]
+    fn spindle_change(&mut self, rpm: f64) {
+        self.spindle_changes.push((self.n_motions as u32, rpm));
+        self.spindle_rpm = rpm;
     }
 
     /// The soft limit that a motion reaching from `lo` to `hi` breaks, if any.
@@ -512,7 +538,38 @@ fn planned_duration(segs: &[Segment], lim: &Limits) -> (f64, f64, f64) {
 /// The element's cap: the hard one and the feed at 100 %.
 #[inline(always)]
 fn cap(s: &Segment) -> f64 {
-    s.vel_cap.min(s.feed_mm_per_s)
+    min_num(s.vel_cap, s.feed_mm_per_s) // (the feed is never NaN)
+}
+
+/// `a.min(b)` for a `b` that is not NaN, in one comparison (`f64::min` also tests
+/// for NaN on both sides): a NaN `a` gives `b`, as `f64::min` does. Equal operands
+/// give `b`, the same value (the two could differ only as +0 and −0, and no speed,
+/// length or acceleration of the duration passes is −0). The operand that may be
+/// NaN (a root of a product with an infinite acceleration) goes first.
+#[inline(always)]
+fn min_num(a: f64, b: f64) -> f64 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// `a.max(b)` for a `b` that is not NaN, in one comparison, as [`min_num`].
+#[inline(always)]
+fn max_num(a: f64, b: f64) -> f64 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// Whether `v`, which is not −∞, is finite: `v.is_finite()` in one comparison
+/// (a NaN compares false, as `is_finite` gives).
+#[inline(always)]
+fn finite_not_neg_inf(v: f64) -> bool {
+    v < f64::INFINITY
 }
 
 /// One step of the backward pass of [`planned_duration`]: the highest end speed of
@@ -558,6 +615,7 @@ fn starts_at_least(s: &Segment, v: f64) -> bool {
 }
 
 /// The forward pass of [`planned_duration`]: time along the elements in order.
+#[derive(Clone, Copy)]
 struct ForwardTime {
     t: f64,
     v0: f64,
@@ -580,20 +638,30 @@ impl ForwardTime {
     /// Element `s`, whose end speed the backward pass capped at `vend`.
     #[inline(always)]
     fn step(&mut self, s: &Segment, vend: f64) {
+        let vend_sq_up = (vend * vend) * (1.0 + 4.0 * f64::EPSILON);
+        self.step_pre(s, vend, vend_sq_up, cap(s), 2.0 * s.acc * s.len);
+    }
+
+    /// [`ForwardTime::step`] with `vend_sq_up` = fl(vend²)·(1 + 4ε), the element's
+    /// [`cap`] `c` and `two_al` = 2·acc·len worked out already (by
+    /// [`DurationPass::push_slice`], which needs them for [`starts_at_least`]
+    /// first): the same arithmetic, so the same bits.
+    #[inline(always)]
+    fn step_pre(&mut self, s: &Segment, vend: f64, vend_sq_up: f64, c: f64, two_al: f64) {
         let v0 = self.v0;
-        let c = cap(s);
         // v1 = min(vend, √x); where x ≥ vend² surely (x ≥ fl(vend²)·(1 + 2⁻⁵⁰) > vend²,
         // and a correctly rounded root of x ≥ y² is ≥ y), v1 is vend without the root:
-        // the next element's v0 then does not wait for it
-        let x = v0 * v0 + 2.0 * s.acc * s.len;
-        let v1 = if vend.is_finite() && x >= (vend * vend) * (1.0 + 4.0 * f64::EPSILON) {
+        // the next element's v0 then does not wait for it. (`vend` ≥ 0, so finite is
+        // below ∞.)
+        let x = v0 * v0 + two_al;
+        let v1 = if finite_not_neg_inf(vend) && x >= vend_sq_up {
             vend
         } else {
-            vend.min(x.sqrt())
+            min_num(x.sqrt(), vend)
         };
         if s.len > 0.0 {
-            let vp = c.min(((v0 * v0 + v1 * v1) / 2.0 + s.acc * s.len).sqrt());
-            if vp == v0 && vp == v1 && vp > 0.0 && vp.is_finite() && s.acc > 0.0 {
+            let vp = min_num(((v0 * v0 + v1 * v1) / 2.0 + s.acc * s.len).sqrt(), c);
+            if vp == v0 && vp == v1 && vp > 0.0 && finite_not_neg_inf(vp) && s.acc > 0.0 {
                 // cruising through: the terms below are exactly 0 (x − x = 0, 0/a =
                 // 0, 0 + 0 + c = c) but for len/vp; four divisions spared
                 self.t += s.len / vp;
@@ -605,9 +673,9 @@ impl ForwardTime {
             }
             let d_acc = (vp * vp - v0 * v0) / (2.0 * s.acc);
             let d_dec = (vp * vp - v1 * v1) / (2.0 * s.acc);
-            let cruise = (s.len - d_acc - d_dec).max(0.0);
-            self.t += (vp - v0).max(0.0) / s.acc
-                + (vp - v1).max(0.0) / s.acc
+            let cruise = max_num(s.len - d_acc - d_dec, 0.0);
+            self.t += max_num(vp - v0, 0.0) / s.acc
+                + max_num(vp - v1, 0.0) / s.acc
                 + if vp > 0.0 { cruise / vp } else { 0.0 };
         }
         if s.v_end_hard == 0.0 {
@@ -705,45 +773,41 @@ impl DurationPass {
         }
         self.held.clear();
         let (mut j, mut k) = (i - 1, i - 1);
-        while k + 1 < segs.len() {
-            let (last, s) = (&segs[k], &segs[k + 1]);
-            if s.vel_cap.is_finite() {
-                self.v_top = self.v_top.max(s.vel_cap);
+        // the figures and the forward pass in locals; each element's cap and
+        // 2·acc·len worked out once, for its own test and for its step after
+        let (mut v_top, mut a_min, mut fwd) = (self.v_top, self.a_min, self.fwd);
+        let mut last_cap = cap(&segs[k]);
+        let mut last_two_al = 2.0 * segs[k].acc * segs[k].len;
+        let mut last = &segs[k];
+        for s in &segs[k + 1..] {
+            if finite_not_neg_inf(s.vel_cap) {
+                // (a −∞ cap would leave `v_top` as it is, as `is_finite` does)
+                v_top = max_num(v_top, s.vel_cap);
             }
-            self.a_min = self.a_min.min(s.acc);
-            let own = last.v_end_hard.min(cap(last));
-            if starts_at_least(s, own) {
+            a_min = min_num(a_min, s.acc);
+            let c = cap(s);
+            let two_al = 2.0 * s.acc * s.len;
+            let own = min_num(last.v_end_hard, last_cap);
+            let own_sq_up = (own * own) * (1.0 + 4.0 * f64::EPSILON);
+            // `starts_at_least(s, own)`
+            if own <= 0.0 || (c >= own && two_al >= own_sq_up) {
                 if j == k {
-                    self.fwd.step(last, own);
+                    fwd.step_pre(last, own, own_sq_up, last_cap, last_two_al);
                 } else {
-                    self.time_run(&segs[j..=k], own);
+                    time_run(&mut self.vend, &mut fwd, &segs[j..=k], own);
                 }
                 j = k + 1;
             }
+            (last, last_cap, last_two_al) = (s, c, two_al);
             k += 1;
             if k + 1 - j >= DURATION_RUN_MAX {
                 break;
             }
         }
+        (self.v_top, self.a_min, self.fwd) = (v_top, a_min, fwd);
         self.held.extend_from_slice(&segs[j..=k]);
         for s in &segs[k + 1..] {
             self.push(s);
-        }
-    }
-
-    /// Time the elements `run`, the last one's end speed being `vend_last`: the
-    /// arithmetic of [`DurationPass::time_upto`] on elements not held.
-    fn time_run(&mut self, run: &[Segment], vend_last: f64) {
-        let k = run.len() - 1;
-        self.vend.clear();
-        self.vend.resize(k + 1, 0.0);
-        self.vend[k] = vend_last;
-        let mut next_start = start_speed(&run[k], vend_last);
-        for j in (0..k).rev() {
-            (self.vend[j], next_start) = backward_step(&run[j], next_start);
-        }
-        for (j, s) in run.iter().enumerate() {
-            self.fwd.step(s, self.vend[j]);
         }
     }
 
@@ -796,27 +860,58 @@ impl DurationPass {
     }
 }
 
+/// Time the elements `run` on `fwd`, the last one's end speed being `vend_last`:
+/// the arithmetic of [`DurationPass::time_upto`] on elements not held (`vend`:
+/// scratch). Out of line: runs of more than one element are rare (a fillet whose
+/// start from a stop cannot reach the end limit before it).
+#[cold]
+#[inline(never)]
+fn time_run(vend: &mut Vec<f64>, fwd: &mut ForwardTime, run: &[Segment], vend_last: f64) {
+    let k = run.len() - 1;
+    vend.clear();
+    vend.resize(k + 1, 0.0);
+    vend[k] = vend_last;
+    let mut next_start = start_speed(&run[k], vend_last);
+    for j in (0..k).rev() {
+        (vend[j], next_start) = backward_step(&run[j], next_start);
+    }
+    for (j, s) in run.iter().enumerate() {
+        fwd.step(s, vend[j]);
+    }
+}
+
 /// Whether a primitive lies inside the box [lo, hi]: its end points and, for an arc,
 /// the square around its circle in the arc's plane (which holds the points at the
 /// cardinal angles as [`bounding_box`] computes them: c ± r·1 exactly, c + r·ε
 /// between c − r and c + r).
+#[inline(always)]
 fn within(p: &Primitive, lo: Vec3, hi: Vec3) -> bool {
-    let inside = |q: Vec3| (0..3).all(|i| q[i] >= lo[i] && q[i] <= hi[i]);
-    if !inside(p.start()) || !inside(p.end()) {
-        return false;
-    }
-    match *p {
-        Primitive::Line { .. } => true,
+    // (`&`, not `&&`: all the comparisons at once, one branch)
+    let inside = |q: &Vec3| {
+        (q[0] >= lo[0])
+            & (q[0] <= hi[0])
+            & (q[1] >= lo[1])
+            & (q[1] <= hi[1])
+            & (q[2] >= lo[2])
+            & (q[2] <= hi[2])
+    };
+    match p {
+        Primitive::Line { start, end } => inside(start) & inside(end),
         Primitive::Arc {
+            start,
+            end,
             center,
             plane,
             radius,
             ..
         } => {
             let (a, b, _) = plane.axes();
-            [a, b]
-                .iter()
-                .all(|&i| center[i] - radius >= lo[i] && center[i] + radius <= hi[i])
+            inside(start)
+                & inside(end)
+                & (center[a] - radius >= lo[a])
+                & (center[a] + radius <= hi[a])
+                & (center[b] - radius >= lo[b])
+                & (center[b] + radius <= hi[b])
         }
     }
 }
