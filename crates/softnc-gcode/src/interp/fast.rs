@@ -18,13 +18,14 @@
 //! general way, which gives the same result or the same error as before.
 
 use super::{
-    arc_data_ijk, arc_data_r, sc, Interp, CENTER_ARC_RADIUS_TOLERANCE_INCH,
+    arc_data_ijk, cos_asin_one, sc, Interp, CENTER_ARC_RADIUS_TOLERANCE_INCH,
     CENTER_ARC_RADIUS_TOLERANCE_MM, G_0, G_2, G_3, LINELEN, RADIUS_TOLERANCE_INCH,
-    RADIUS_TOLERANCE_MM,
+    RADIUS_TOLERANCE_MM, TINY,
 };
 use crate::canon::{Motion, MotionKind, PathMode};
 use crate::lexer::{plain_number, POW10};
 use softnc_core::{Plane, Vec3};
+use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Index of each value letter in [`Words::v`] and its bit in [`Words::set`]: the
 /// axes X Y Z at 0 1 2, the centre offsets I J K at 3 4 5 (the axis index plus
@@ -334,6 +335,7 @@ impl Interp<'_> {
             feed: self.feed,
             motion: self.motion,
             pushed: 0,
+            trig: Trig::default(),
         };
         let mut motions = std::mem::take(&mut self.motions);
         let mut read = 0;
@@ -390,6 +392,8 @@ struct Moving {
     feed: f64,
     motion: Option<i32>,
     pushed: u64,
+    /// The sine and cosine of the last radius-format arc's angle.
+    trig: Trig,
 }
 
 /// `check` and `execute` for a line [`words`] read, where they take the common way:
@@ -477,19 +481,18 @@ fn run_line(
                 (RADIUS_TOLERANCE_MM, CENTER_ARC_RADIUS_TOLERANCE_MM)
             };
             let names = [b'X', b'Y', b'Z'];
-            match arc_data_ijk(
+            match arc_ijk(
                 motion,
                 (pos[a1], pos[a2]),
                 (end[a1], end[a2]),
                 run.ijk_absolute,
                 (o(a1), o(a2)),
-                1,
                 rtol,
                 stol,
                 [names[a1] as char, names[a2] as char],
             ) {
-                Ok(c) => c,
-                Err(_) => return false,
+                Some(c) => c,
+                None => return false,
             }
         } else {
             if !has(X + a1) && !has(X + a2) {
@@ -500,16 +503,16 @@ fn run_line(
             } else {
                 RADIUS_TOLERANCE_MM
             };
-            match arc_data_r(
+            match arc_r(
                 motion,
                 (pos[a1], pos[a2]),
                 (end[a1], end[a2]),
                 w.v[R],
-                1,
                 tol,
+                &mut st.trig,
             ) {
-                Ok(c) => c,
-                Err(_) => return false,
+                Some(c) => c,
+                None => return false,
             }
         };
         let mut center = pos;
@@ -543,10 +546,190 @@ fn run_line(
     true
 }
 
+/// `a.hypot(b)` with the same bits, without the libm call where one side is zero:
+/// C's Annex F (F.10.4.3) gives `hypot(x, ±0)` as `fabs(x)` (and `hypot` is
+/// symmetric); test `exact_hypot_and_atan2_give_libms_bits`.
+#[inline(always)]
+fn hypot_exact(a: f64, b: f64) -> f64 {
+    if b == 0.0 {
+        a.abs()
+    } else if a == 0.0 {
+        b.abs()
+    } else {
+        a.hypot(b)
+    }
+}
+
+/// `y.atan2(x)` with the same bits, without the libm call along the axes: C's Annex
+/// F (F.10.1.4) gives `atan2(±0, x)` as ±0 for x > 0 and ±π for x < 0, and
+/// `atan2(y, ±0)` as ±π/2 for y ≠ 0 (π and π/2 rounded to the nearest double,
+/// [`PI`] and [`FRAC_PI_2`]); test `exact_hypot_and_atan2_give_libms_bits`.
+#[inline(always)]
+fn atan2_exact(y: f64, x: f64) -> f64 {
+    if y == 0.0 && x > 0.0 {
+        y
+    } else if y == 0.0 && x < 0.0 {
+        PI.copysign(y)
+    } else if x == 0.0 && y != 0.0 && !y.is_nan() {
+        FRAC_PI_2.copysign(y)
+    } else {
+        y.atan2(x)
+    }
+}
+
+/// The sine and cosine of the last angle [`arc_r`] turned to (a pure function of
+/// the angle's bits: the same bits as computing them again). Arcs of a chord along
+/// an axis turn to ±π/2, 0 or π, so most lookups of CAM output find it.
+pub(super) struct Trig {
+    /// The angle (rad) whose sine and cosine are kept.
+    theta: f64,
+    sin: f64,
+    cos: f64,
+}
+
+impl Default for Trig {
+    fn default() -> Self {
+        let theta = FRAC_PI_2;
+        Trig {
+            theta,
+            sin: theta.sin(),
+            cos: theta.cos(),
+        }
+    }
+}
+
+impl Trig {
+    /// `(theta.sin(), theta.cos())`, kept for the last `theta` (compared by bits).
+    #[inline(always)]
+    fn sin_cos(&mut self, theta: f64) -> (f64, f64) {
+        if theta.to_bits() != self.theta.to_bits() {
+            self.theta = theta;
+            self.sin = theta.sin();
+            self.cos = theta.cos();
+        }
+        (self.sin, self.cos)
+    }
+}
+
+/// Relative bound on how far `(a * a + b * b).sqrt()` may be from `a.hypot(b)`
+/// (both within a few units in the last place where nothing overflows or
+/// underflows: 1e-14 is about 45 of them), used where only a comparison of the
+/// radius matters.
+const HYPOT_SLACK: f64 = 1e-14;
+
+/// [`arc_data_ijk`] (the checks of its radii, then its centre and turns) on the
+/// short way's values (`p` = 1): the same centre, or `None` where it gives an
+/// error. The radii to the start and the end count only through the checks, so
+/// where `sqrt` of the sum of squares passes them with a margin of
+/// [`HYPOT_SLACK`] (`hypot` would too) their `hypot`s are not computed; otherwise
+/// `arc_data_ijk` itself decides. Test `arcs_the_short_way_as_arc_data`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn arc_ijk(
+    mode: i32,
+    cur: (f64, f64),
+    end: (f64, f64),
+    absolute: bool,
+    ij: (f64, f64),
+    radius_tolerance: f64,
+    spiral_tolerance: f64,
+    names: [char; 2],
+) -> Option<(f64, f64, i32)> {
+    let (cx, cy) = if absolute {
+        ij
+    } else {
+        (cur.0 + ij.0, cur.1 + ij.1)
+    };
+    let (a1, b1) = (cx - cur.0, cy - cur.1);
+    let (a2, b2) = (cx - end.0, cy - end.1);
+    let r1 = (a1 * a1 + b1 * b1).sqrt();
+    let r2 = (a2 * a2 + b2 * b2).sqrt();
+    let slack = HYPOT_SLACK * (r1 + r2);
+    // both radii surely above the zero-radius tolerance, their difference surely
+    // within the spiral tolerance (then no error: the relative test needs both);
+    // NaN or infinite radii fail these tests
+    if r1 - slack > radius_tolerance
+        && r2 - slack > radius_tolerance
+        && (r1 - r2).abs() + slack < spiral_tolerance
+    {
+        return Some((cx, cy, if mode == G_2 { -1 } else { 1 }));
+    }
+    arc_data_ijk(
+        mode,
+        cur,
+        end,
+        absolute,
+        ij,
+        1,
+        radius_tolerance,
+        spiral_tolerance,
+        names,
+    )
+    .ok()
+}
+
+/// [`arc_data_r`](super::arc_data_r) (`p` = 1) with the same bits, `None` where it gives an error:
+/// half the chord is taken as the radius without its `hypot` where `sqrt` of the
+/// sum of squares shows it within the tolerance and above `1 - TINY` of the
+/// radius with a margin of [`HYPOT_SLACK`] (then `arc_data_r` takes the radius for
+/// it too, and its bits do not count); `hypot` and `atan2` of a chord along an
+/// axis without libm ([`hypot_exact`], [`atan2_exact`]); the sine and cosine of
+/// the angle kept in `trig`. Test `arcs_the_short_way_as_arc_data`.
+#[inline(always)]
+fn arc_r(
+    mode: i32,
+    cur: (f64, f64),
+    end: (f64, f64),
+    radius: f64,
+    tolerance: f64,
+    trig: &mut Trig,
+) -> Option<(f64, f64, i32)> {
+    if end == cur {
+        return None;
+    }
+    let abs_radius = radius.abs();
+    let mid = ((end.0 + cur.0) / 2.0, (end.1 + cur.1) / 2.0);
+    let (dx, dy) = (mid.0 - end.0, mid.1 - end.1);
+    let near = (dx * dx + dy * dy).sqrt();
+    let half = if near * (1.0 + HYPOT_SLACK) - abs_radius < tolerance
+        && near * (1.0 - HYPOT_SLACK) > abs_radius * (1.0 - TINY / 2.0)
+    {
+        abs_radius
+    } else {
+        let mut half = hypot_exact(dx, dy);
+        if half - abs_radius > tolerance {
+            return None;
+        }
+        if half / abs_radius > 1.0 - TINY {
+            half = abs_radius;
+        }
+        half
+    };
+    let heading = atan2_exact(end.1 - cur.1, end.0 - cur.0);
+    let theta = if (mode == G_2 && radius > 0.0) || (mode == G_3 && radius < 0.0) {
+        heading - FRAC_PI_2
+    } else {
+        heading + FRAC_PI_2
+    };
+    let ratio = half / abs_radius;
+    let offset = abs_radius
+        * if ratio == 1.0 {
+            cos_asin_one()
+        } else {
+            ratio.asin().cos()
+        };
+    let (sin, cos) = trig.sin_cos(theta);
+    let (cx, cy) = (mid.0 + offset * cos, mid.1 + offset * sin);
+    if !(cx.is_finite() && cy.is_finite()) {
+        return None;
+    }
+    Some((cx, cy, if mode == G_2 { -1 } else { 1 }))
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::{Block, Interp, GM_MOTION, SLOTS};
-    use super::{number, words, Words, LETTER, NO_NUMBER};
+    use super::{atan2_exact, hypot_exact, number, words, Words, LETTER, NO_NUMBER};
     use crate::lexer::plain_number;
     use crate::lexer::{lex_words, Line};
     use softnc_core::MachineProfile;
@@ -1000,6 +1183,154 @@ mod tests {
         assert!(
             read_whole > 100 && motions > 10_000,
             "{read_whole} read whole, {motions} motions"
+        );
+    }
+
+    /// A random double of every kind the arcs meet: small integers and halves,
+    /// CAM-like decimals, values of any exponent, signed zeros, and neighbours
+    /// (a few units in the last place away) of each.
+    fn any_value(next: &mut impl FnMut(usize) -> usize) -> f64 {
+        let v = match next(6) {
+            0 => (next(41) as f64 - 20.0) / 4.0,
+            1 => (next(2_000_001) as f64 - 1e6) / 1e4,
+            2 => f64::from_bits(((next(1 << 30) as u64) << 34) | next(1 << 30) as u64),
+            3 => [0.0, -0.0, 0.25, -0.25, 0.5, 1e-300, 1e300][next(7)],
+            _ => (next(20_001) as f64 - 1e4) / 1e3,
+        };
+        if next(3) == 0 {
+            f64::from_bits(v.to_bits().wrapping_add(next(9) as u64).wrapping_sub(4))
+        } else {
+            v
+        }
+    }
+
+    /// `hypot_exact` and `atan2_exact` against libm's `hypot` and `atan2` (bits),
+    /// on 400,000 pairs of every kind, half of them with a zero (signed) side.
+    #[test]
+    fn exact_hypot_and_atan2_give_libms_bits() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = |m: usize| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % m as u64) as usize
+        };
+        let specials = [0.0, -0.0, f64::INFINITY, f64::NEG_INFINITY, f64::NAN];
+        for k in 0..400_000 {
+            let mut a = any_value(&mut next);
+            let mut b = any_value(&mut next);
+            match k % 4 {
+                0 => b = specials[next(2)],
+                1 => a = specials[next(2)],
+                2 if k % 100 == 2 => a = specials[next(specials.len())],
+                _ => {}
+            }
+            let same = |x: f64, y: f64| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan());
+            assert!(same(hypot_exact(a, b), a.hypot(b)), "hypot({a:e}, {b:e})");
+            assert!(same(atan2_exact(a, b), a.atan2(b)), "atan2({a:e}, {b:e})");
+        }
+    }
+
+    /// `arc_ijk` and `arc_r` against `arc_data_ijk` and `arc_data_r` (the centre's
+    /// bits, the turns, or an error) on 300,000 arcs each: chords along the axes and
+    /// not, half circles and radii at the tolerances' edges, centres off by a few
+    /// units in the last place, mm and inch tolerances, one `Trig` for them all.
+    #[test]
+    fn arcs_the_short_way_as_arc_data() {
+        use super::super::{arc_data_ijk, arc_data_r};
+        use super::{
+            arc_ijk, arc_r, Trig, CENTER_ARC_RADIUS_TOLERANCE_INCH, CENTER_ARC_RADIUS_TOLERANCE_MM,
+            G_2, G_3, RADIUS_TOLERANCE_INCH, RADIUS_TOLERANCE_MM, TINY,
+        };
+        let mut state = 0x1f83_d9ab_fb41_bd6bu64;
+        let mut next = |m: usize| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % m as u64) as usize
+        };
+        let bits = |r: Result<(f64, f64, i32), String>| {
+            r.ok().map(|(x, y, t)| (x.to_bits(), y.to_bits(), t))
+        };
+        let fast_bits =
+            |r: Option<(f64, f64, i32)>| r.map(|(x, y, t)| (x.to_bits(), y.to_bits(), t));
+        let mut trig = Trig::default();
+        let (mut ok_ijk, mut ok_r) = (0, 0);
+        for _ in 0..300_000 {
+            let mode = [G_2, G_3][next(2)];
+            let inch = next(4) == 0;
+            let (rtol, stol) = if inch {
+                (RADIUS_TOLERANCE_INCH, CENTER_ARC_RADIUS_TOLERANCE_INCH)
+            } else {
+                (RADIUS_TOLERANCE_MM, CENTER_ARC_RADIUS_TOLERANCE_MM)
+            };
+            let cur = (any_value(&mut next), any_value(&mut next));
+            // a centre offset, and an end at the same radius (or off it by a
+            // little, by about the tolerances, or anywhere)
+            let ij = (any_value(&mut next), any_value(&mut next));
+            let (cx, cy) = (cur.0 + ij.0, cur.1 + ij.1);
+            let r = ij.0.hypot(ij.1);
+            let turn = (next(3600) as f64).to_radians();
+            let dr = match next(5) {
+                0 => 0.0,
+                1 => {
+                    stol * [
+                        1.0,
+                        -1.0,
+                        100.0,
+                        -100.0,
+                        0.999_999_999_999,
+                        1.000_000_000_001,
+                    ][next(6)]
+                }
+                2 => rtol * [1.0, 0.5, 2.0][next(3)] - r,
+                3 => any_value(&mut next) * 1e-3,
+                _ => any_value(&mut next),
+            };
+            let mut end = (cx + (r + dr) * turn.cos(), cy + (r + dr) * turn.sin());
+            match next(4) {
+                0 => end.1 = cur.1, // a chord along X
+                1 => end.0 = cur.0, // along Y
+                _ => {}
+            }
+            if next(10) == 0 {
+                end = cur;
+            }
+            let absolute = next(5) == 0;
+            let ijv = if absolute { (cx, cy) } else { ij };
+            let names = ['X', 'Y'];
+            let want = bits(arc_data_ijk(
+                mode, cur, end, absolute, ijv, 1, rtol, stol, names,
+            ));
+            let got = fast_bits(arc_ijk(mode, cur, end, absolute, ijv, rtol, stol, names));
+            assert_eq!(
+                got, want,
+                "ijk {mode} {cur:?} {end:?} {absolute} {ijv:?} {inch}"
+            );
+            ok_ijk += usize::from(want.is_some());
+            // a radius of half the chord (give or take the tolerances and TINY),
+            // or any
+            let half = (end.0 - cur.0).hypot(end.1 - cur.1) / 2.0;
+            let radius = match next(6) {
+                0 => half,
+                1 => half * (1.0 - TINY * [0.25, 0.5, 0.75, 1.0, 1.5, 4.0][next(6)]),
+                2 => half - rtol * [0.5, 1.0, 1.5][next(3)],
+                3 => f64::from_bits(
+                    half.to_bits()
+                        .wrapping_add(next(65) as u64)
+                        .wrapping_sub(32),
+                ),
+                4 => half * (1.0 + any_value(&mut next).abs()),
+                _ => any_value(&mut next),
+            } * [1.0, -1.0][next(2)];
+            let want = bits(arc_data_r(mode, cur, end, radius, 1, rtol));
+            let got = fast_bits(arc_r(mode, cur, end, radius, rtol, &mut trig));
+            assert_eq!(got, want, "r {mode} {cur:?} {end:?} {radius:e}");
+            ok_r += usize::from(want.is_some());
+        }
+        assert!(
+            ok_ijk > 50_000 && ok_r > 50_000,
+            "{ok_ijk} {ok_r} arcs without error"
         );
     }
 }
