@@ -1981,7 +1981,6 @@ fn read_lines(
     it.motions.reserve((text.len() / 16).min(chunk.max(1)));
     let mut line = Line::default();
     let mut block = Block::default();
-    let mut words = fast::Words::default();
     let mut norm = Norm::default();
     let mut sets: Vec<Setting> = Vec::new();
     // normalized lines by (source, byte offset), once the program has jumped
@@ -2078,7 +2077,6 @@ fn read_lines(
                     next_line_no,
                     limit.saturating_sub(executed),
                     chunk,
-                    &mut words,
                 );
                 fast_stop = pos;
                 if read > 0 {

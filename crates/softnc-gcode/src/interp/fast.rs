@@ -223,6 +223,23 @@ fn long_number(t: &[u8], start: usize) -> (f64, usize) {
     plain_number(t, start).unwrap_or((0.0, NO_NUMBER))
 }
 
+/// The motion code (0 to 3) of a G word written as one digit (`G1 `, `G2` at the
+/// end of the text): the digit at `t[at]`, where the byte after it (if any) is
+/// neither a digit nor a point, which would go on with the number; `None`
+/// otherwise ([`number`] reads it). [`number`] reads such a digit as that whole
+/// number and ends after it, so [`words`] takes it as the same code.
+#[inline(always)]
+fn one_digit_code(t: &[u8], at: usize) -> Option<i32> {
+    let d = t.get(at)?.wrapping_sub(b'0');
+    if d > 3 {
+        return None;
+    }
+    match t.get(at + 1) {
+        Some(c) if c.is_ascii_digit() || *c == b'.' => None,
+        _ => Some(i32::from(d)),
+    }
+}
+
 /// The words of the line of `t` that starts at `s` (up to the next newline or the
 /// end of `t`) into `w` (written over), if the line has the common shape (see the
 /// module's documentation): then the offset of its end (of the newline, or the
@@ -263,6 +280,17 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
         if kind == 0 {
             // the end of the line, or what the general reader reads
             return (c == b'\n').then_some(i);
+        }
+        if kind == G_WORD {
+            if let Some(code) = one_digit_code(t, i + 1) {
+                // `G1`: what `number` and the test below make of it
+                if w.g >= 0 {
+                    return None;
+                }
+                w.g = code * 10;
+                i += 2;
+                continue;
+            }
         }
         let (value, next) = number(t, i + 1);
         if next == NO_NUMBER {
@@ -315,7 +343,6 @@ impl Interp<'_> {
         line_no: usize,
         max_lines: u64,
         chunk: usize,
-        w: &mut Words,
     ) -> (usize, u64) {
         if self.inverse_time || self.sync_pending || self.rotation_deg != 0.0 || self.suppress {
             return (pos, 0);
@@ -338,6 +365,9 @@ impl Interp<'_> {
             trig: Trig::default(),
         };
         let mut motions = std::mem::take(&mut self.motions);
+        // the words of the line being read (a local: its fields may stay in
+        // registers)
+        let w = &mut Words::default();
         let mut read = 0;
         while read < max_lines && motions.len() < chunk {
             let Some(e) = words(t, pos, w) else {
