@@ -34,8 +34,9 @@ const X: usize = 0;
 const IJK: usize = 3;
 const R: usize = 6;
 const F: usize = 7;
-/// Number of value letters.
+/// Number of value letters (a power of two: indices are masked with `VALUES - 1`).
 const VALUES: usize = 8;
+const _: () = assert!(VALUES.is_power_of_two());
 /// [`Words::set`] bits of the axes and of the centre offsets.
 const AXIS_BITS: u32 = 0b111 << X;
 const IJK_BITS: u32 = 0b111 << IJK;
@@ -195,7 +196,9 @@ fn number_in(head: &[u8; HEAD]) -> Num {
     // the digits alone, the first one lowest: shifted up so that zeros (leading
     // zeros of the number) fill the bytes below them
     let mant = eight_digits(digits << (8 * (8 - count)));
-    let v = mant as i64 as f64 / POW10[frac as usize];
+    // at most seven digits after the point (eight bytes, one the point): the mask
+    // only tells the compiler so (no bounds check)
+    let v = mant as i64 as f64 / POW10[(frac & 7) as usize];
     Num::Value(if neg { -v } else { v }, i + len as usize)
 }
 
@@ -313,7 +316,8 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
                 return None;
             }
             w.set |= bit;
-            w.v[k] = value;
+            // `k` < VALUES (a power of two): the mask only tells the compiler so
+            w.v[k & (VALUES - 1)] = value;
         }
         i = next;
     }
