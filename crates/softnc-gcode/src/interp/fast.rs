@@ -68,6 +68,9 @@ pub(super) struct Words {
     /// The values of X Y Z I J K R F, at their indices (only those in `set` are
     /// written).
     pub(super) v: [f64; VALUES],
+    /// The last number read after each letter (index as `v`), to be taken again
+    /// where the same text follows the letter ([`number_kept`]).
+    kept: [Kept; VALUES],
 }
 
 impl Default for Words {
@@ -76,6 +79,55 @@ impl Default for Words {
             g: -1,
             set: 0,
             v: [0.0; VALUES],
+            kept: [Kept::default(); VALUES],
+        }
+    }
+}
+
+/// A number [`number_in`] read from at most seven bytes: those bytes, and the byte
+/// after them being neither a digit nor a point, alone decide what it reads (see
+/// [`number_kept`]).
+#[derive(Clone, Copy)]
+struct Kept {
+    /// The first eight bytes it was read from (those outside `mask` do not count).
+    bytes: u64,
+    /// The bytes of the number.
+    mask: u64,
+    /// What it read: the value and the number of bytes.
+    value: f64,
+    len: usize,
+}
+
+impl Default for Kept {
+    /// `0` before a newline, as [`number_in`] reads it.
+    fn default() -> Self {
+        let mut head = [0u8; HEAD];
+        head[..2].copy_from_slice(b"0\n");
+        let mut kept = Kept {
+            bytes: 0,
+            mask: 0,
+            value: 0.0,
+            len: 0,
+        };
+        if let Num::Value(v, len) = number_in(&head) {
+            kept.keep(&head, v, len);
+        }
+        kept
+    }
+}
+
+impl Kept {
+    /// Keep what [`number_in`] read from `head` where the number and the byte
+    /// after it lie within its first eight bytes (`len` < 8).
+    #[inline(always)]
+    fn keep(&mut self, head: &[u8; HEAD], value: f64, len: usize) {
+        if len < 8 {
+            let mut lo = [0u8; 8];
+            lo.copy_from_slice(&head[..8]);
+            self.bytes = u64::from_le_bytes(lo);
+            self.mask = u64::MAX >> (8 * (8 - len));
+            self.value = value;
+            self.len = len;
         }
     }
 }
@@ -158,6 +210,41 @@ enum Num {
     Long,
     /// No number the short way reads.
     None,
+}
+
+/// [`number`], taking again the number `kept` holds where the same bytes follow
+/// the letter and then a byte that is neither a digit nor a point, and keeping
+/// the number read otherwise. [`number_in`] reads a number of `len` bytes (sign
+/// included) from those bytes alone: the sign, the digits and the point up to
+/// the first other byte (which ends it; any byte but a digit or a point ends it
+/// there), and the ninth byte only where that first other byte is not within the
+/// first eight; [`Kept::keep`] keeps only numbers whose next byte is within them. So the same bits as [`number`] (test
+/// `kept_numbers_read_as_number_reads_them`). CAM output repeats many values
+/// line after line (`Y`, `Z`, `I`, `J`, `R`, `F`), each read once.
+#[inline(always)]
+fn number_kept(t: &[u8], start: usize, kept: &mut Kept) -> (f64, usize) {
+    let Some(head) = t.get(start..start + HEAD) else {
+        return number_near_end(t, start);
+    };
+    let Ok(head) = <&[u8; HEAD]>::try_from(head) else {
+        return number_near_end(t, start);
+    };
+    let mut lo = [0u8; 8];
+    lo.copy_from_slice(&head[..8]);
+    let lo = u64::from_le_bytes(lo);
+    // the same bytes of the number, and after them a byte that ends it
+    let after = (lo >> (8 * (kept.len & 7))) as u8;
+    if (lo ^ kept.bytes) & kept.mask == 0 && after.wrapping_sub(b'0') > 9 && after != b'.' {
+        return (kept.value, start + kept.len);
+    }
+    match number_in(head) {
+        Num::Value(v, len) => {
+            kept.keep(head, v, len);
+            (v, start + len)
+        }
+        Num::Long => long_number(t, start),
+        Num::None => (0.0, NO_NUMBER),
+    }
 }
 
 /// [`number`] on the first [`HEAD`] bytes after a word's letter.
@@ -295,11 +382,11 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
                 continue;
             }
         }
-        let (value, next) = number(t, i + 1);
-        if next == NO_NUMBER {
-            return None;
-        }
         if kind == G_WORD {
+            let (value, next) = number(t, i + 1);
+            if next == NO_NUMBER {
+                return None;
+            }
             // `sort_word`: value × 10 rounded to a code; 0, 10, 20, 30 are motion
             // codes (group 1), supported, and at most one per line
             let code = value as i32;
@@ -307,18 +394,23 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
                 return None;
             }
             w.g = code * 10;
-        } else {
-            let k = usize::from(kind - 1);
-            let bit = 1 << k;
-            // a repeated letter and a negative feed are errors: the general reader
-            // gives them
-            if w.set & bit != 0 || (k == F && value < 0.0) {
-                return None;
-            }
-            w.set |= bit;
-            // `k` < VALUES (a power of two): the mask only tells the compiler so
-            w.v[k & (VALUES - 1)] = value;
+            i = next;
+            continue;
         }
+        // `k` < VALUES (a power of two): the mask only tells the compiler so
+        let k = usize::from(kind - 1) & (VALUES - 1);
+        let (value, next) = number_kept(t, i + 1, &mut w.kept[k]);
+        if next == NO_NUMBER {
+            return None;
+        }
+        let bit = 1 << k;
+        // a repeated letter and a negative feed are errors: the general reader
+        // gives them
+        if w.set & bit != 0 || (k == F && value < 0.0) {
+            return None;
+        }
+        w.set |= bit;
+        w.v[k] = value;
         i = next;
     }
     Some(n)
@@ -476,16 +568,17 @@ fn run_line(
     }
     // `find_ends`
     let pos = st.pos;
-    let mut end = pos;
-    for a in 0..3 {
-        if has(X + a) {
-            end[a] = if run.absolute {
-                w.v[X + a]
-            } else {
-                pos[a] + w.v[X + a]
-            };
+    // each axis by itself (scalars the compiler keeps in registers)
+    let end_on = |a: usize| {
+        if !has(X + a) {
+            pos.0[a]
+        } else if run.absolute {
+            w.v[X + a]
+        } else {
+            pos.0[a] + w.v[X + a]
         }
-    }
+    };
+    let end = Vec3([end_on(0), end_on(1), end_on(2)]);
     let s = run.scale;
     let (kind, center) = if !arc {
         let kind = if motion == G_0 {
@@ -988,6 +1081,73 @@ mod tests {
                 String::from_utf8_lossy(&line)
             );
         }
+    }
+
+    /// `number_kept` against `number` (bits and end) on 400,000 numbers read one
+    /// after the other through one `Kept`, drawn from a small set of texts so that
+    /// most repeat: the same digits before other bytes (a space, a newline, a
+    /// letter, a point, a digit, a sign, the end of the text), prefixes of each
+    /// other, signs, numbers of seven to ten bytes.
+    #[test]
+    fn kept_numbers_read_as_number_reads_them() {
+        use super::{number_kept, Kept};
+        let mut state = 0x6a09_e667_f3bc_c909u64;
+        let mut next = |m: usize| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % m as u64) as usize
+        };
+        let numbers = [
+            "0",
+            "0.25",
+            "0.2",
+            "0.250",
+            "-0.25",
+            "+0.25",
+            "1",
+            "10",
+            "0.0500",
+            "-0.0500",
+            "0.05",
+            "1234567",
+            "1234.567",
+            "12345678",
+            "1.234567",
+            "123456789",
+            ".5",
+            "5.",
+            "-",
+            ".",
+            "",
+        ];
+        let after = [
+            "", " ", "\n", "\nG1 X1", " Y0.05", "Y", "5", "0", ".", ".5", "-1", "\t", "\r\n",
+            "  J0", "00000000",
+        ];
+        let mut kept = Kept::default();
+        let (mut hits, mut reads) = (0, 0);
+        for _ in 0..400_000 {
+            let text = format!(
+                "X{}{}",
+                numbers[next(numbers.len())],
+                after[next(after.len())]
+            );
+            let t = text.as_bytes();
+            let before = (kept.bytes, kept.mask, kept.len);
+            let (v, end) = number_kept(t, 1, &mut kept);
+            let (want, want_end) = number(t, 1);
+            assert_eq!(end, want_end, "{text:?}");
+            if end != NO_NUMBER {
+                assert_eq!(v.to_bits(), want.to_bits(), "{text:?}");
+                reads += 1;
+                hits += usize::from(before == (kept.bytes, kept.mask, kept.len));
+            }
+        }
+        assert!(
+            hits > 10_000 && reads > 100_000,
+            "{hits} of {reads} numbers kept"
+        );
     }
 
     /// Lines of the short way's letters with numbers of every shape: where it takes
