@@ -59,6 +59,26 @@ const LETTER: [u8; 256] = {
 /// [`LETTER`]'s mark of the G word.
 const G_WORD: u8 = 0xff;
 
+/// What [`words`] does with a byte between words, by the byte itself: [`LETTER`]'s
+/// entry for a letter of either case, [`BLANK`] for the bytes [`blank`] skips, 0
+/// for anything else (one lookup for both tests).
+const BYTE_KIND: [u8; 256] = {
+    let mut t = [0u8; 256];
+    let mut c: usize = 0;
+    while c < 256 {
+        if (c as u8).is_ascii_alphabetic() {
+            t[c] = LETTER[c | 0x20];
+        }
+        c += 1;
+    }
+    t[b' ' as usize] = BLANK;
+    t[b'\t' as usize] = BLANK;
+    t[b'\r' as usize] = BLANK;
+    t
+};
+/// [`BYTE_KIND`]'s mark of a blank byte.
+const BLANK: u8 = 0xfe;
+
 /// The words of a common motion line, as [`words`] reads them.
 pub(super) struct Words {
     /// The motion code × 10 of the line's G word (0, 10, 20, 30), or -1 without one.
@@ -362,11 +382,11 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
     }
     while i < n {
         let c = t[i];
-        if blank(c) {
+        let kind = BYTE_KIND[usize::from(c)];
+        if kind == BLANK {
             i += 1;
             continue;
         }
-        let kind = LETTER[usize::from(c | 0x20)];
         if kind == 0 {
             // the end of the line, or what the general reader reads
             return (c == b'\n').then_some(i);
@@ -1080,6 +1100,21 @@ mod tests {
                 "{:?}",
                 String::from_utf8_lossy(&line)
             );
+        }
+    }
+
+    /// `BYTE_KIND` (one lookup by the byte) gives what `blank` and `LETTER` (by the
+    /// byte with bit 5 set) give, for every byte.
+    #[test]
+    fn byte_kinds_are_blanks_and_letters() {
+        use super::{blank, BLANK, BYTE_KIND};
+        for c in 0..=255u8 {
+            let want = if blank(c) {
+                BLANK
+            } else {
+                LETTER[usize::from(c | 0x20)]
+            };
+            assert_eq!(BYTE_KIND[usize::from(c)], want, "byte {c:#x}");
         }
     }
 
