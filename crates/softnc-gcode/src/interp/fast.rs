@@ -600,7 +600,22 @@ fn run_line(
     };
     let end = Vec3([end_on(0), end_on(1), end_on(2)]);
     let s = run.scale;
-    let (kind, center) = if !arc {
+    // `push` (no rotation) and `keep` (no run from line waiting), written out in
+    // each branch below (the motion built in place)
+    let mut push = |kind: MotionKind, center: Vec3| {
+        motions.push(Motion {
+            line: line_no,
+            start: sc(pos, s),
+            kind,
+            offset_mm: run.offset_mm,
+            path_mode: run.path,
+            inch: run.inch,
+            canon_end: end,
+            canon_center: center,
+            spindle_rpm: run.spindle_rpm,
+        });
+    };
+    if !arc {
         let kind = if motion == G_0 {
             MotionKind::Traverse { end: sc(end, s) }
         } else {
@@ -609,7 +624,7 @@ fn run_line(
                 feed_mm_per_min: feed * s,
             }
         };
-        (kind, Vec3::ZERO)
+        push(kind, Vec3::ZERO);
     } else {
         // `arc`, with its checks in its order (each failing one an error)
         if !has(R) && !ijk || has(R) && ijk {
@@ -672,22 +687,10 @@ fn run_line(
             turns,
             feed_mm_per_min: feed * s,
         };
-        (kind, center)
-    };
+        push(kind, center);
+    }
     st.feed = feed;
     st.motion = Some(motion);
-    // `push` (no rotation) and `keep` (no run from line waiting)
-    motions.push(Motion {
-        line: line_no,
-        start: sc(pos, s),
-        kind,
-        offset_mm: run.offset_mm,
-        path_mode: run.path,
-        inch: run.inch,
-        canon_end: end,
-        canon_center: center,
-        spindle_rpm: run.spindle_rpm,
-    });
     st.pushed += 1;
     st.pos = end;
     true
