@@ -1981,7 +1981,6 @@ fn read_lines(
     it.motions.reserve((text.len() / 16).min(chunk.max(1)));
     let mut line = Line::default();
     let mut block = Block::default();
-    let mut words = fast::Words::default();
     let mut norm = Norm::default();
     let mut sets: Vec<Setting> = Vec::new();
     // normalized lines by (source, byte offset), once the program has jumped
@@ -2078,7 +2077,6 @@ fn read_lines(
                     next_line_no,
                     limit.saturating_sub(executed),
                     chunk,
-                    &mut words,
                 );
                 fast_stop = pos;
                 if read > 0 {
@@ -2389,11 +2387,15 @@ fn read_lines(
     Err(err(n_lines.max(1), "", (0, ErrorKind::Invalid(msg.into()))))
 }
 
+/// Bytes [`has_nul_or_paren`] tests in one step (four 16-byte vector compares
+/// per byte sought, one test of their union).
+const HIT_BLOCK: usize = 64;
+
 /// Whether `b` holds a NUL byte or a `(`: one pass, in blocks of fixed length that
 /// the compiler turns into vector compares.
 fn has_nul_or_paren(b: &[u8]) -> bool {
     let is_hit = |c: u8| c == 0 || c == b'(';
-    let mut blocks = b.chunks_exact(32);
+    let mut blocks = b.chunks_exact(HIT_BLOCK);
     blocks.by_ref().any(|block| {
         block
             .iter()
@@ -2498,6 +2500,24 @@ fn finish(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `has_nul_or_paren` finds a NUL or a `(` at every offset of texts of every
+    /// length around its block (in a block, in the rest after the last), and says
+    /// no to texts without either.
+    #[test]
+    fn nul_or_paren_found_at_every_offset() {
+        for len in 0..3 * HIT_BLOCK + 3 {
+            let clean = vec![b'G'; len];
+            assert!(!has_nul_or_paren(&clean), "{len}");
+            for at in 0..len {
+                for hit in [0u8, b'('] {
+                    let mut t = clean.clone();
+                    t[at] = hit;
+                    assert!(has_nul_or_paren(&t), "{len} {at} {hit}");
+                }
+            }
+        }
+    }
 
     /// A block is empty only without any word: `check` and `execute` skip such
     /// a block, so a G code, an M code or a lettered value alone must not count

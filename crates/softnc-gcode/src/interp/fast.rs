@@ -18,13 +18,14 @@
 //! general way, which gives the same result or the same error as before.
 
 use super::{
-    arc_data_ijk, arc_data_r, sc, Interp, CENTER_ARC_RADIUS_TOLERANCE_INCH,
+    arc_data_ijk, cos_asin_one, sc, Interp, CENTER_ARC_RADIUS_TOLERANCE_INCH,
     CENTER_ARC_RADIUS_TOLERANCE_MM, G_0, G_2, G_3, LINELEN, RADIUS_TOLERANCE_INCH,
-    RADIUS_TOLERANCE_MM,
+    RADIUS_TOLERANCE_MM, TINY,
 };
 use crate::canon::{Motion, MotionKind, PathMode};
 use crate::lexer::{plain_number, POW10};
 use softnc_core::{Plane, Vec3};
+use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Index of each value letter in [`Words::v`] and its bit in [`Words::set`]: the
 /// axes X Y Z at 0 1 2, the centre offsets I J K at 3 4 5 (the axis index plus
@@ -33,8 +34,9 @@ const X: usize = 0;
 const IJK: usize = 3;
 const R: usize = 6;
 const F: usize = 7;
-/// Number of value letters.
+/// Number of value letters (a power of two: indices are masked with `VALUES - 1`).
 const VALUES: usize = 8;
+const _: () = assert!(VALUES.is_power_of_two());
 /// [`Words::set`] bits of the axes and of the centre offsets.
 const AXIS_BITS: u32 = 0b111 << X;
 const IJK_BITS: u32 = 0b111 << IJK;
@@ -57,6 +59,26 @@ const LETTER: [u8; 256] = {
 /// [`LETTER`]'s mark of the G word.
 const G_WORD: u8 = 0xff;
 
+/// What [`words`] does with a byte between words, by the byte itself: [`LETTER`]'s
+/// entry for a letter of either case, [`BLANK`] for the bytes [`blank`] skips, 0
+/// for anything else (one lookup for both tests).
+const BYTE_KIND: [u8; 256] = {
+    let mut t = [0u8; 256];
+    let mut c: usize = 0;
+    while c < 256 {
+        if (c as u8).is_ascii_alphabetic() {
+            t[c] = LETTER[c | 0x20];
+        }
+        c += 1;
+    }
+    t[b' ' as usize] = BLANK;
+    t[b'\t' as usize] = BLANK;
+    t[b'\r' as usize] = BLANK;
+    t
+};
+/// [`BYTE_KIND`]'s mark of a blank byte.
+const BLANK: u8 = 0xfe;
+
 /// The words of a common motion line, as [`words`] reads them.
 pub(super) struct Words {
     /// The motion code × 10 of the line's G word (0, 10, 20, 30), or -1 without one.
@@ -66,6 +88,9 @@ pub(super) struct Words {
     /// The values of X Y Z I J K R F, at their indices (only those in `set` are
     /// written).
     pub(super) v: [f64; VALUES],
+    /// The last number read after each letter (index as `v`), to be taken again
+    /// where the same text follows the letter ([`number_kept`]).
+    kept: [Kept; VALUES],
 }
 
 impl Default for Words {
@@ -74,6 +99,55 @@ impl Default for Words {
             g: -1,
             set: 0,
             v: [0.0; VALUES],
+            kept: [Kept::default(); VALUES],
+        }
+    }
+}
+
+/// A number [`number_in`] read from at most seven bytes: those bytes, and the byte
+/// after them being neither a digit nor a point, alone decide what it reads (see
+/// [`number_kept`]).
+#[derive(Clone, Copy)]
+struct Kept {
+    /// The first eight bytes it was read from (those outside `mask` do not count).
+    bytes: u64,
+    /// The bytes of the number.
+    mask: u64,
+    /// What it read: the value and the number of bytes.
+    value: f64,
+    len: usize,
+}
+
+impl Default for Kept {
+    /// `0` before a newline, as [`number_in`] reads it.
+    fn default() -> Self {
+        let mut head = [0u8; HEAD];
+        head[..2].copy_from_slice(b"0\n");
+        let mut kept = Kept {
+            bytes: 0,
+            mask: 0,
+            value: 0.0,
+            len: 0,
+        };
+        if let Num::Value(v, len) = number_in(&head) {
+            kept.keep(&head, v, len);
+        }
+        kept
+    }
+}
+
+impl Kept {
+    /// Keep what [`number_in`] read from `head` where the number and the byte
+    /// after it lie within its first eight bytes (`len` < 8).
+    #[inline(always)]
+    fn keep(&mut self, head: &[u8; HEAD], value: f64, len: usize) {
+        if len < 8 {
+            let mut lo = [0u8; 8];
+            lo.copy_from_slice(&head[..8]);
+            self.bytes = u64::from_le_bytes(lo);
+            self.mask = u64::MAX >> (8 * (8 - len));
+            self.value = value;
+            self.len = len;
         }
     }
 }
@@ -158,6 +232,41 @@ enum Num {
     None,
 }
 
+/// [`number`], taking again the number `kept` holds where the same bytes follow
+/// the letter and then a byte that is neither a digit nor a point, and keeping
+/// the number read otherwise. [`number_in`] reads a number of `len` bytes (sign
+/// included) from those bytes alone: the sign, the digits and the point up to
+/// the first other byte (which ends it; any byte but a digit or a point ends it
+/// there), and the ninth byte only where that first other byte is not within the
+/// first eight; [`Kept::keep`] keeps only numbers whose next byte is within them. So the same bits as [`number`] (test
+/// `kept_numbers_read_as_number_reads_them`). CAM output repeats many values
+/// line after line (`Y`, `Z`, `I`, `J`, `R`, `F`), each read once.
+#[inline(always)]
+fn number_kept(t: &[u8], start: usize, kept: &mut Kept) -> (f64, usize) {
+    let Some(head) = t.get(start..start + HEAD) else {
+        return number_near_end(t, start);
+    };
+    let Ok(head) = <&[u8; HEAD]>::try_from(head) else {
+        return number_near_end(t, start);
+    };
+    let mut lo = [0u8; 8];
+    lo.copy_from_slice(&head[..8]);
+    let lo = u64::from_le_bytes(lo);
+    // the same bytes of the number, and after them a byte that ends it
+    let after = (lo >> (8 * (kept.len & 7))) as u8;
+    if (lo ^ kept.bytes) & kept.mask == 0 && after.wrapping_sub(b'0') > 9 && after != b'.' {
+        return (kept.value, start + kept.len);
+    }
+    match number_in(head) {
+        Num::Value(v, len) => {
+            kept.keep(head, v, len);
+            (v, start + len)
+        }
+        Num::Long => long_number(t, start),
+        Num::None => (0.0, NO_NUMBER),
+    }
+}
+
 /// [`number`] on the first [`HEAD`] bytes after a word's letter.
 #[inline(always)]
 fn number_in(head: &[u8; HEAD]) -> Num {
@@ -194,7 +303,9 @@ fn number_in(head: &[u8; HEAD]) -> Num {
     // the digits alone, the first one lowest: shifted up so that zeros (leading
     // zeros of the number) fill the bytes below them
     let mant = eight_digits(digits << (8 * (8 - count)));
-    let v = mant as i64 as f64 / POW10[frac as usize];
+    // at most seven digits after the point (eight bytes, one the point): the mask
+    // only tells the compiler so (no bounds check)
+    let v = mant as i64 as f64 / POW10[(frac & 7) as usize];
     Num::Value(if neg { -v } else { v }, i + len as usize)
 }
 
@@ -220,6 +331,23 @@ fn number_near_end(t: &[u8], start: usize) -> (f64, usize) {
 #[inline(never)]
 fn long_number(t: &[u8], start: usize) -> (f64, usize) {
     plain_number(t, start).unwrap_or((0.0, NO_NUMBER))
+}
+
+/// The motion code (0 to 3) of a G word written as one digit (`G1 `, `G2` at the
+/// end of the text): the digit at `t[at]`, where the byte after it (if any) is
+/// neither a digit nor a point, which would go on with the number; `None`
+/// otherwise ([`number`] reads it). [`number`] reads such a digit as that whole
+/// number and ends after it, so [`words`] takes it as the same code.
+#[inline(always)]
+fn one_digit_code(t: &[u8], at: usize) -> Option<i32> {
+    let d = t.get(at)?.wrapping_sub(b'0');
+    if d > 3 {
+        return None;
+    }
+    match t.get(at + 1) {
+        Some(c) if c.is_ascii_digit() || *c == b'.' => None,
+        _ => Some(i32::from(d)),
+    }
 }
 
 /// The words of the line of `t` that starts at `s` (up to the next newline or the
@@ -254,20 +382,31 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
     }
     while i < n {
         let c = t[i];
-        if blank(c) {
+        let kind = BYTE_KIND[usize::from(c)];
+        if kind == BLANK {
             i += 1;
             continue;
         }
-        let kind = LETTER[usize::from(c | 0x20)];
         if kind == 0 {
             // the end of the line, or what the general reader reads
             return (c == b'\n').then_some(i);
         }
-        let (value, next) = number(t, i + 1);
-        if next == NO_NUMBER {
-            return None;
+        if kind == G_WORD {
+            if let Some(code) = one_digit_code(t, i + 1) {
+                // `G1`: what `number` and the test below make of it
+                if w.g >= 0 {
+                    return None;
+                }
+                w.g = code * 10;
+                i += 2;
+                continue;
+            }
         }
         if kind == G_WORD {
+            let (value, next) = number(t, i + 1);
+            if next == NO_NUMBER {
+                return None;
+            }
             // `sort_word`: value × 10 rounded to a code; 0, 10, 20, 30 are motion
             // codes (group 1), supported, and at most one per line
             let code = value as i32;
@@ -275,17 +414,23 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
                 return None;
             }
             w.g = code * 10;
-        } else {
-            let k = usize::from(kind - 1);
-            let bit = 1 << k;
-            // a repeated letter and a negative feed are errors: the general reader
-            // gives them
-            if w.set & bit != 0 || (k == F && value < 0.0) {
-                return None;
-            }
-            w.set |= bit;
-            w.v[k] = value;
+            i = next;
+            continue;
         }
+        // `k` < VALUES (a power of two): the mask only tells the compiler so
+        let k = usize::from(kind - 1) & (VALUES - 1);
+        let (value, next) = number_kept(t, i + 1, &mut w.kept[k]);
+        if next == NO_NUMBER {
+            return None;
+        }
+        let bit = 1 << k;
+        // a repeated letter and a negative feed are errors: the general reader
+        // gives them
+        if w.set & bit != 0 || (k == F && value < 0.0) {
+            return None;
+        }
+        w.set |= bit;
+        w.v[k] = value;
         i = next;
     }
     Some(n)
@@ -314,7 +459,6 @@ impl Interp<'_> {
         line_no: usize,
         max_lines: u64,
         chunk: usize,
-        w: &mut Words,
     ) -> (usize, u64) {
         if self.inverse_time || self.sync_pending || self.rotation_deg != 0.0 || self.suppress {
             return (pos, 0);
@@ -334,8 +478,12 @@ impl Interp<'_> {
             feed: self.feed,
             motion: self.motion,
             pushed: 0,
+            trig: Trig::default(),
         };
         let mut motions = std::mem::take(&mut self.motions);
+        // the words of the line being read (a local: its fields may stay in
+        // registers)
+        let w = &mut Words::default();
         let mut read = 0;
         while read < max_lines && motions.len() < chunk {
             let Some(e) = words(t, pos, w) else {
@@ -390,6 +538,8 @@ struct Moving {
     feed: f64,
     motion: Option<i32>,
     pushed: u64,
+    /// The sine and cosine of the last radius-format arc's angle.
+    trig: Trig,
 }
 
 /// `check` and `execute` for a line [`words`] read, where they take the common way:
@@ -438,18 +588,34 @@ fn run_line(
     }
     // `find_ends`
     let pos = st.pos;
-    let mut end = pos;
-    for a in 0..3 {
-        if has(X + a) {
-            end[a] = if run.absolute {
-                w.v[X + a]
-            } else {
-                pos[a] + w.v[X + a]
-            };
+    // each axis by itself (scalars the compiler keeps in registers)
+    let end_on = |a: usize| {
+        if !has(X + a) {
+            pos.0[a]
+        } else if run.absolute {
+            w.v[X + a]
+        } else {
+            pos.0[a] + w.v[X + a]
         }
-    }
+    };
+    let end = Vec3([end_on(0), end_on(1), end_on(2)]);
     let s = run.scale;
-    let (kind, center) = if !arc {
+    // `push` (no rotation) and `keep` (no run from line waiting), written out in
+    // each branch below (the motion built in place)
+    let mut push = |kind: MotionKind, center: Vec3| {
+        motions.push(Motion {
+            line: line_no,
+            start: sc(pos, s),
+            kind,
+            offset_mm: run.offset_mm,
+            path_mode: run.path,
+            inch: run.inch,
+            canon_end: end,
+            canon_center: center,
+            spindle_rpm: run.spindle_rpm,
+        });
+    };
+    if !arc {
         let kind = if motion == G_0 {
             MotionKind::Traverse { end: sc(end, s) }
         } else {
@@ -458,7 +624,7 @@ fn run_line(
                 feed_mm_per_min: feed * s,
             }
         };
-        (kind, Vec3::ZERO)
+        push(kind, Vec3::ZERO);
     } else {
         // `arc`, with its checks in its order (each failing one an error)
         if !has(R) && !ijk || has(R) && ijk {
@@ -477,19 +643,18 @@ fn run_line(
                 (RADIUS_TOLERANCE_MM, CENTER_ARC_RADIUS_TOLERANCE_MM)
             };
             let names = [b'X', b'Y', b'Z'];
-            match arc_data_ijk(
+            match arc_ijk(
                 motion,
                 (pos[a1], pos[a2]),
                 (end[a1], end[a2]),
                 run.ijk_absolute,
                 (o(a1), o(a2)),
-                1,
                 rtol,
                 stol,
                 [names[a1] as char, names[a2] as char],
             ) {
-                Ok(c) => c,
-                Err(_) => return false,
+                Some(c) => c,
+                None => return false,
             }
         } else {
             if !has(X + a1) && !has(X + a2) {
@@ -500,16 +665,16 @@ fn run_line(
             } else {
                 RADIUS_TOLERANCE_MM
             };
-            match arc_data_r(
+            match arc_r(
                 motion,
                 (pos[a1], pos[a2]),
                 (end[a1], end[a2]),
                 w.v[R],
-                1,
                 tol,
+                &mut st.trig,
             ) {
-                Ok(c) => c,
-                Err(_) => return false,
+                Some(c) => c,
+                None => return false,
             }
         };
         let mut center = pos;
@@ -522,31 +687,199 @@ fn run_line(
             turns,
             feed_mm_per_min: feed * s,
         };
-        (kind, center)
-    };
+        push(kind, center);
+    }
     st.feed = feed;
     st.motion = Some(motion);
-    // `push` (no rotation) and `keep` (no run from line waiting)
-    motions.push(Motion {
-        line: line_no,
-        start: sc(pos, s),
-        kind,
-        offset_mm: run.offset_mm,
-        path_mode: run.path,
-        inch: run.inch,
-        canon_end: end,
-        canon_center: center,
-        spindle_rpm: run.spindle_rpm,
-    });
     st.pushed += 1;
     st.pos = end;
     true
 }
 
+/// `a.hypot(b)` with the same bits, without the libm call where one side is zero:
+/// C's Annex F (F.10.4.3) gives `hypot(x, ±0)` as `fabs(x)` (and `hypot` is
+/// symmetric); test `exact_hypot_and_atan2_give_libms_bits`.
+#[inline(always)]
+fn hypot_exact(a: f64, b: f64) -> f64 {
+    if b == 0.0 {
+        a.abs()
+    } else if a == 0.0 {
+        b.abs()
+    } else {
+        a.hypot(b)
+    }
+}
+
+/// `y.atan2(x)` with the same bits, without the libm call along the axes: C's Annex
+/// F (F.10.1.4) gives `atan2(±0, x)` as ±0 for x > 0 and ±π for x < 0, and
+/// `atan2(y, ±0)` as ±π/2 for y ≠ 0 (π and π/2 rounded to the nearest double,
+/// [`PI`] and [`FRAC_PI_2`]); test `exact_hypot_and_atan2_give_libms_bits`.
+#[inline(always)]
+fn atan2_exact(y: f64, x: f64) -> f64 {
+    if y == 0.0 && x > 0.0 {
+        y
+    } else if y == 0.0 && x < 0.0 {
+        PI.copysign(y)
+    } else if x == 0.0 && y != 0.0 && !y.is_nan() {
+        FRAC_PI_2.copysign(y)
+    } else {
+        y.atan2(x)
+    }
+}
+
+/// The sine and cosine of the last angle [`arc_r`] turned to (a pure function of
+/// the angle's bits: the same bits as computing them again). Arcs of a chord along
+/// an axis turn to ±π/2, 0 or π, so most lookups of CAM output find it.
+pub(super) struct Trig {
+    /// The angle (rad) whose sine and cosine are kept.
+    theta: f64,
+    sin: f64,
+    cos: f64,
+}
+
+impl Default for Trig {
+    fn default() -> Self {
+        let theta = FRAC_PI_2;
+        Trig {
+            theta,
+            sin: theta.sin(),
+            cos: theta.cos(),
+        }
+    }
+}
+
+impl Trig {
+    /// `(theta.sin(), theta.cos())`, kept for the last `theta` (compared by bits).
+    #[inline(always)]
+    fn sin_cos(&mut self, theta: f64) -> (f64, f64) {
+        if theta.to_bits() != self.theta.to_bits() {
+            self.theta = theta;
+            self.sin = theta.sin();
+            self.cos = theta.cos();
+        }
+        (self.sin, self.cos)
+    }
+}
+
+/// Relative bound on how far `(a * a + b * b).sqrt()` may be from `a.hypot(b)`
+/// (both within a few units in the last place where nothing overflows or
+/// underflows: 1e-14 is about 45 of them), used where only a comparison of the
+/// radius matters.
+const HYPOT_SLACK: f64 = 1e-14;
+
+/// [`arc_data_ijk`] (the checks of its radii, then its centre and turns) on the
+/// short way's values (`p` = 1): the same centre, or `None` where it gives an
+/// error. The radii to the start and the end count only through the checks, so
+/// where `sqrt` of the sum of squares passes them with a margin of
+/// [`HYPOT_SLACK`] (`hypot` would too) their `hypot`s are not computed; otherwise
+/// `arc_data_ijk` itself decides. Test `arcs_the_short_way_as_arc_data`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn arc_ijk(
+    mode: i32,
+    cur: (f64, f64),
+    end: (f64, f64),
+    absolute: bool,
+    ij: (f64, f64),
+    radius_tolerance: f64,
+    spiral_tolerance: f64,
+    names: [char; 2],
+) -> Option<(f64, f64, i32)> {
+    let (cx, cy) = if absolute {
+        ij
+    } else {
+        (cur.0 + ij.0, cur.1 + ij.1)
+    };
+    let (a1, b1) = (cx - cur.0, cy - cur.1);
+    let (a2, b2) = (cx - end.0, cy - end.1);
+    let r1 = (a1 * a1 + b1 * b1).sqrt();
+    let r2 = (a2 * a2 + b2 * b2).sqrt();
+    let slack = HYPOT_SLACK * (r1 + r2);
+    // both radii surely above the zero-radius tolerance, their difference surely
+    // within the spiral tolerance (then no error: the relative test needs both);
+    // NaN or infinite radii fail these tests
+    if r1 - slack > radius_tolerance
+        && r2 - slack > radius_tolerance
+        && (r1 - r2).abs() + slack < spiral_tolerance
+    {
+        return Some((cx, cy, if mode == G_2 { -1 } else { 1 }));
+    }
+    arc_data_ijk(
+        mode,
+        cur,
+        end,
+        absolute,
+        ij,
+        1,
+        radius_tolerance,
+        spiral_tolerance,
+        names,
+    )
+    .ok()
+}
+
+/// [`arc_data_r`](super::arc_data_r) (`p` = 1) with the same bits, `None` where it gives an error:
+/// half the chord is taken as the radius without its `hypot` where `sqrt` of the
+/// sum of squares shows it within the tolerance and above `1 - TINY` of the
+/// radius with a margin of [`HYPOT_SLACK`] (then `arc_data_r` takes the radius for
+/// it too, and its bits do not count); `hypot` and `atan2` of a chord along an
+/// axis without libm ([`hypot_exact`], [`atan2_exact`]); the sine and cosine of
+/// the angle kept in `trig`. Test `arcs_the_short_way_as_arc_data`.
+#[inline(always)]
+fn arc_r(
+    mode: i32,
+    cur: (f64, f64),
+    end: (f64, f64),
+    radius: f64,
+    tolerance: f64,
+    trig: &mut Trig,
+) -> Option<(f64, f64, i32)> {
+    if end == cur {
+        return None;
+    }
+    let abs_radius = radius.abs();
+    let mid = ((end.0 + cur.0) / 2.0, (end.1 + cur.1) / 2.0);
+    let (dx, dy) = (mid.0 - end.0, mid.1 - end.1);
+    let near = (dx * dx + dy * dy).sqrt();
+    let half = if near * (1.0 + HYPOT_SLACK) - abs_radius < tolerance
+        && near * (1.0 - HYPOT_SLACK) > abs_radius * (1.0 - TINY / 2.0)
+    {
+        abs_radius
+    } else {
+        let mut half = hypot_exact(dx, dy);
+        if half - abs_radius > tolerance {
+            return None;
+        }
+        if half / abs_radius > 1.0 - TINY {
+            half = abs_radius;
+        }
+        half
+    };
+    let heading = atan2_exact(end.1 - cur.1, end.0 - cur.0);
+    let theta = if (mode == G_2 && radius > 0.0) || (mode == G_3 && radius < 0.0) {
+        heading - FRAC_PI_2
+    } else {
+        heading + FRAC_PI_2
+    };
+    let ratio = half / abs_radius;
+    let offset = abs_radius
+        * if ratio == 1.0 {
+            cos_asin_one()
+        } else {
+            ratio.asin().cos()
+        };
+    let (sin, cos) = trig.sin_cos(theta);
+    let (cx, cy) = (mid.0 + offset * cos, mid.1 + offset * sin);
+    if !(cx.is_finite() && cy.is_finite()) {
+        return None;
+    }
+    Some((cx, cy, if mode == G_2 { -1 } else { 1 }))
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::{Block, Interp, GM_MOTION, SLOTS};
-    use super::{number, words, Words, LETTER, NO_NUMBER};
+    use super::{atan2_exact, hypot_exact, number, words, Words, LETTER, NO_NUMBER};
     use crate::lexer::plain_number;
     use crate::lexer::{lex_words, Line};
     use softnc_core::MachineProfile;
@@ -771,6 +1104,88 @@ mod tests {
                 String::from_utf8_lossy(&line)
             );
         }
+    }
+
+    /// `BYTE_KIND` (one lookup by the byte) gives what `blank` and `LETTER` (by the
+    /// byte with bit 5 set) give, for every byte.
+    #[test]
+    fn byte_kinds_are_blanks_and_letters() {
+        use super::{blank, BLANK, BYTE_KIND};
+        for c in 0..=255u8 {
+            let want = if blank(c) {
+                BLANK
+            } else {
+                LETTER[usize::from(c | 0x20)]
+            };
+            assert_eq!(BYTE_KIND[usize::from(c)], want, "byte {c:#x}");
+        }
+    }
+
+    /// `number_kept` against `number` (bits and end) on 400,000 numbers read one
+    /// after the other through one `Kept`, drawn from a small set of texts so that
+    /// most repeat: the same digits before other bytes (a space, a newline, a
+    /// letter, a point, a digit, a sign, the end of the text), prefixes of each
+    /// other, signs, numbers of seven to ten bytes.
+    #[test]
+    fn kept_numbers_read_as_number_reads_them() {
+        use super::{number_kept, Kept};
+        let mut state = 0x6a09_e667_f3bc_c909u64;
+        let mut next = |m: usize| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % m as u64) as usize
+        };
+        let numbers = [
+            "0",
+            "0.25",
+            "0.2",
+            "0.250",
+            "-0.25",
+            "+0.25",
+            "1",
+            "10",
+            "0.0500",
+            "-0.0500",
+            "0.05",
+            "1234567",
+            "1234.567",
+            "12345678",
+            "1.234567",
+            "123456789",
+            ".5",
+            "5.",
+            "-",
+            ".",
+            "",
+        ];
+        let after = [
+            "", " ", "\n", "\nG1 X1", " Y0.05", "Y", "5", "0", ".", ".5", "-1", "\t", "\r\n",
+            "  J0", "00000000",
+        ];
+        let mut kept = Kept::default();
+        let (mut hits, mut reads) = (0, 0);
+        for _ in 0..400_000 {
+            let text = format!(
+                "X{}{}",
+                numbers[next(numbers.len())],
+                after[next(after.len())]
+            );
+            let t = text.as_bytes();
+            let before = (kept.bytes, kept.mask, kept.len);
+            let (v, end) = number_kept(t, 1, &mut kept);
+            let (want, want_end) = number(t, 1);
+            assert_eq!(end, want_end, "{text:?}");
+            if end != NO_NUMBER {
+                assert_eq!(v.to_bits(), want.to_bits(), "{text:?}");
+                reads += 1;
+                hits += usize::from(before == (kept.bytes, kept.mask, kept.len));
+            }
+        }
+        assert!(
+            hits > 10_000 && reads > 100_000,
+            "{hits} of {reads} numbers kept"
+        );
     }
 
     /// Lines of the short way's letters with numbers of every shape: where it takes
@@ -1000,6 +1415,154 @@ mod tests {
         assert!(
             read_whole > 100 && motions > 10_000,
             "{read_whole} read whole, {motions} motions"
+        );
+    }
+
+    /// A random double of every kind the arcs meet: small integers and halves,
+    /// CAM-like decimals, values of any exponent, signed zeros, and neighbours
+    /// (a few units in the last place away) of each.
+    fn any_value(next: &mut impl FnMut(usize) -> usize) -> f64 {
+        let v = match next(6) {
+            0 => (next(41) as f64 - 20.0) / 4.0,
+            1 => (next(2_000_001) as f64 - 1e6) / 1e4,
+            2 => f64::from_bits(((next(1 << 30) as u64) << 34) | next(1 << 30) as u64),
+            3 => [0.0, -0.0, 0.25, -0.25, 0.5, 1e-300, 1e300][next(7)],
+            _ => (next(20_001) as f64 - 1e4) / 1e3,
+        };
+        if next(3) == 0 {
+            f64::from_bits(v.to_bits().wrapping_add(next(9) as u64).wrapping_sub(4))
+        } else {
+            v
+        }
+    }
+
+    /// `hypot_exact` and `atan2_exact` against libm's `hypot` and `atan2` (bits),
+    /// on 400,000 pairs of every kind, half of them with a zero (signed) side.
+    #[test]
+    fn exact_hypot_and_atan2_give_libms_bits() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = |m: usize| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % m as u64) as usize
+        };
+        let specials = [0.0, -0.0, f64::INFINITY, f64::NEG_INFINITY, f64::NAN];
+        for k in 0..400_000 {
+            let mut a = any_value(&mut next);
+            let mut b = any_value(&mut next);
+            match k % 4 {
+                0 => b = specials[next(2)],
+                1 => a = specials[next(2)],
+                2 if k % 100 == 2 => a = specials[next(specials.len())],
+                _ => {}
+            }
+            let same = |x: f64, y: f64| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan());
+            assert!(same(hypot_exact(a, b), a.hypot(b)), "hypot({a:e}, {b:e})");
+            assert!(same(atan2_exact(a, b), a.atan2(b)), "atan2({a:e}, {b:e})");
+        }
+    }
+
+    /// `arc_ijk` and `arc_r` against `arc_data_ijk` and `arc_data_r` (the centre's
+    /// bits, the turns, or an error) on 300,000 arcs each: chords along the axes and
+    /// not, half circles and radii at the tolerances' edges, centres off by a few
+    /// units in the last place, mm and inch tolerances, one `Trig` for them all.
+    #[test]
+    fn arcs_the_short_way_as_arc_data() {
+        use super::super::{arc_data_ijk, arc_data_r};
+        use super::{
+            arc_ijk, arc_r, Trig, CENTER_ARC_RADIUS_TOLERANCE_INCH, CENTER_ARC_RADIUS_TOLERANCE_MM,
+            G_2, G_3, RADIUS_TOLERANCE_INCH, RADIUS_TOLERANCE_MM, TINY,
+        };
+        let mut state = 0x1f83_d9ab_fb41_bd6bu64;
+        let mut next = |m: usize| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % m as u64) as usize
+        };
+        let bits = |r: Result<(f64, f64, i32), String>| {
+            r.ok().map(|(x, y, t)| (x.to_bits(), y.to_bits(), t))
+        };
+        let fast_bits =
+            |r: Option<(f64, f64, i32)>| r.map(|(x, y, t)| (x.to_bits(), y.to_bits(), t));
+        let mut trig = Trig::default();
+        let (mut ok_ijk, mut ok_r) = (0, 0);
+        for _ in 0..300_000 {
+            let mode = [G_2, G_3][next(2)];
+            let inch = next(4) == 0;
+            let (rtol, stol) = if inch {
+                (RADIUS_TOLERANCE_INCH, CENTER_ARC_RADIUS_TOLERANCE_INCH)
+            } else {
+                (RADIUS_TOLERANCE_MM, CENTER_ARC_RADIUS_TOLERANCE_MM)
+            };
+            let cur = (any_value(&mut next), any_value(&mut next));
+            // a centre offset, and an end at the same radius (or off it by a
+            // little, by about the tolerances, or anywhere)
+            let ij = (any_value(&mut next), any_value(&mut next));
+            let (cx, cy) = (cur.0 + ij.0, cur.1 + ij.1);
+            let r = ij.0.hypot(ij.1);
+            let turn = (next(3600) as f64).to_radians();
+            let dr = match next(5) {
+                0 => 0.0,
+                1 => {
+                    stol * [
+                        1.0,
+                        -1.0,
+                        100.0,
+                        -100.0,
+                        0.999_999_999_999,
+                        1.000_000_000_001,
+                    ][next(6)]
+                }
+                2 => rtol * [1.0, 0.5, 2.0][next(3)] - r,
+                3 => any_value(&mut next) * 1e-3,
+                _ => any_value(&mut next),
+            };
+            let mut end = (cx + (r + dr) * turn.cos(), cy + (r + dr) * turn.sin());
+            match next(4) {
+                0 => end.1 = cur.1, // a chord along X
+                1 => end.0 = cur.0, // along Y
+                _ => {}
+            }
+            if next(10) == 0 {
+                end = cur;
+            }
+            let absolute = next(5) == 0;
+            let ijv = if absolute { (cx, cy) } else { ij };
+            let names = ['X', 'Y'];
+            let want = bits(arc_data_ijk(
+                mode, cur, end, absolute, ijv, 1, rtol, stol, names,
+            ));
+            let got = fast_bits(arc_ijk(mode, cur, end, absolute, ijv, rtol, stol, names));
+            assert_eq!(
+                got, want,
+                "ijk {mode} {cur:?} {end:?} {absolute} {ijv:?} {inch}"
+            );
+            ok_ijk += usize::from(want.is_some());
+            // a radius of half the chord (give or take the tolerances and TINY),
+            // or any
+            let half = (end.0 - cur.0).hypot(end.1 - cur.1) / 2.0;
+            let radius = match next(6) {
+                0 => half,
+                1 => half * (1.0 - TINY * [0.25, 0.5, 0.75, 1.0, 1.5, 4.0][next(6)]),
+                2 => half - rtol * [0.5, 1.0, 1.5][next(3)],
+                3 => f64::from_bits(
+                    half.to_bits()
+                        .wrapping_add(next(65) as u64)
+                        .wrapping_sub(32),
+                ),
+                4 => half * (1.0 + any_value(&mut next).abs()),
+                _ => any_value(&mut next),
+            } * [1.0, -1.0][next(2)];
+            let want = bits(arc_data_r(mode, cur, end, radius, 1, rtol));
+            let got = fast_bits(arc_r(mode, cur, end, radius, rtol, &mut trig));
+            assert_eq!(got, want, "r {mode} {cur:?} {end:?} {radius:e}");
+            ok_r += usize::from(want.is_some());
+        }
+        assert!(
+            ok_ijk > 50_000 && ok_r > 50_000,
+            "{ok_ijk} {ok_r} arcs without error"
         );
     }
 }
