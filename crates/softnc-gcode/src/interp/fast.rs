@@ -24,8 +24,9 @@ use super::{
 };
 use crate::canon::{Motion, MotionKind, PathMode};
 use crate::lexer::{plain_number, POW10};
+use softnc_core::geom::{atan2_axis, hypot_axis};
 use softnc_core::{Plane, Vec3};
-use std::f64::consts::{FRAC_PI_2, PI};
+use std::f64::consts::FRAC_PI_2;
 
 /// Index of each value letter in [`Words::v`] and its bit in [`Words::set`]: the
 /// axes X Y Z at 0 1 2, the centre offsets I J K at 3 4 5 (the axis index plus
@@ -696,37 +697,6 @@ fn run_line(
     true
 }
 
-/// `a.hypot(b)` with the same bits, without the libm call where one side is zero:
-/// C's Annex F (F.10.4.3) gives `hypot(x, ±0)` as `fabs(x)` (and `hypot` is
-/// symmetric); test `exact_hypot_and_atan2_give_libms_bits`.
-#[inline(always)]
-fn hypot_exact(a: f64, b: f64) -> f64 {
-    if b == 0.0 {
-        a.abs()
-    } else if a == 0.0 {
-        b.abs()
-    } else {
-        a.hypot(b)
-    }
-}
-
-/// `y.atan2(x)` with the same bits, without the libm call along the axes: C's Annex
-/// F (F.10.1.4) gives `atan2(±0, x)` as ±0 for x > 0 and ±π for x < 0, and
-/// `atan2(y, ±0)` as ±π/2 for y ≠ 0 (π and π/2 rounded to the nearest double,
-/// [`PI`] and [`FRAC_PI_2`]); test `exact_hypot_and_atan2_give_libms_bits`.
-#[inline(always)]
-fn atan2_exact(y: f64, x: f64) -> f64 {
-    if y == 0.0 && x > 0.0 {
-        y
-    } else if y == 0.0 && x < 0.0 {
-        PI.copysign(y)
-    } else if x == 0.0 && y != 0.0 && !y.is_nan() {
-        FRAC_PI_2.copysign(y)
-    } else {
-        y.atan2(x)
-    }
-}
-
 /// The sine and cosine of the last angle [`arc_r`] turned to (a pure function of
 /// the angle's bits: the same bits as computing them again). Arcs of a chord along
 /// an axis turn to ±π/2, 0 or π, so most lookups of CAM output find it.
@@ -823,7 +793,7 @@ fn arc_ijk(
 /// sum of squares shows it within the tolerance and above `1 - TINY` of the
 /// radius with a margin of [`HYPOT_SLACK`] (then `arc_data_r` takes the radius for
 /// it too, and its bits do not count); `hypot` and `atan2` of a chord along an
-/// axis without libm ([`hypot_exact`], [`atan2_exact`]); the sine and cosine of
+/// axis without libm ([`hypot_axis`], [`atan2_axis`]); the sine and cosine of
 /// the angle kept in `trig`. Test `arcs_the_short_way_as_arc_data`.
 #[inline(always)]
 fn arc_r(
@@ -846,7 +816,7 @@ fn arc_r(
     {
         abs_radius
     } else {
-        let mut half = hypot_exact(dx, dy);
+        let mut half = hypot_axis(dx, dy);
         if half - abs_radius > tolerance {
             return None;
         }
@@ -855,7 +825,7 @@ fn arc_r(
         }
         half
     };
-    let heading = atan2_exact(end.1 - cur.1, end.0 - cur.0);
+    let heading = atan2_axis(end.1 - cur.1, end.0 - cur.0);
     let theta = if (mode == G_2 && radius > 0.0) || (mode == G_3 && radius < 0.0) {
         heading - FRAC_PI_2
     } else {
@@ -879,7 +849,7 @@ fn arc_r(
 #[cfg(test)]
 mod tests {
     use super::super::{Block, Interp, GM_MOTION, SLOTS};
-    use super::{atan2_exact, hypot_exact, number, words, Words, LETTER, NO_NUMBER};
+    use super::{atan2_axis, hypot_axis, number, words, Words, LETTER, NO_NUMBER};
     use crate::lexer::plain_number;
     use crate::lexer::{lex_words, Line};
     use softnc_core::MachineProfile;
@@ -1436,7 +1406,7 @@ mod tests {
         }
     }
 
-    /// `hypot_exact` and `atan2_exact` against libm's `hypot` and `atan2` (bits),
+    /// `hypot_axis` and `atan2_axis` against libm's `hypot` and `atan2` (bits),
     /// on 400,000 pairs of every kind, half of them with a zero (signed) side.
     #[test]
     fn exact_hypot_and_atan2_give_libms_bits() {
@@ -1458,8 +1428,8 @@ mod tests {
                 _ => {}
             }
             let same = |x: f64, y: f64| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan());
-            assert!(same(hypot_exact(a, b), a.hypot(b)), "hypot({a:e}, {b:e})");
-            assert!(same(atan2_exact(a, b), a.atan2(b)), "atan2({a:e}, {b:e})");
+            assert!(same(hypot_axis(a, b), a.hypot(b)), "hypot({a:e}, {b:e})");
+            assert!(same(atan2_axis(a, b), a.atan2(b)), "atan2({a:e}, {b:e})");
         }
     }
 
