@@ -25,6 +25,16 @@ const DEVIATION_SHARE: f64 = 0.9;
 pub(crate) const MAX_RADIUS_MISMATCH_MM: f64 = 1e-4;
 /// Halvings of the line's trim tried before giving up on a blend.
 const TRIM_TRIES: usize = 16;
+/// Largest distance between where a fillet ends as its element runs it (centre F,
+/// radius r, from P₁ along e1 = (P₁ − F)/r and the line's direction u through the
+/// sweep: `Geom::Blend`) and the point T where it meets the arc (mm); as
+/// `BIARC_CLOSURE_MM` for the biarcs. At a nearly tangent join whose arc turns back
+/// onto the line's direction the fillet is nearly straight and its radius enormous
+/// (a line into a 0.05 mm arc 3.5e-5 rad off tangent: r = 5e7 mm): the rounding of
+/// its normal (≈ 1e-12 rad off ⟂ u) times r moved its end 1.65e-4 mm past T, a step
+/// in position the S-curve sampled as 3.2× the jerk limit. A fillet that does not
+/// close is no blend: a shorter trim (smaller r) is tried.
+pub(crate) const FILLET_CLOSURE_MM: f64 = 1e-7;
 
 /// The arc as seen from the corner: the circle, and the direction of travel away from
 /// the corner (`sense` · N × radial).
@@ -356,6 +366,9 @@ fn line_arc_at<const A: usize, const B: usize, const N: usize>(
     p_arc[ia] = ca + tca;
     p_arc[ib] = cb + tcb;
     p_arc[i_n] = arc.center[i_n];
+    if !closes(center, r, p1, u, (cos_sweep, sin_sweep), p_arc) {
+        return None;
+    }
     Some(Fillet {
         line_trim: d,
         arc_trim,
@@ -481,6 +494,9 @@ fn candidate(
             if !(arc_trim > 1e-9 && arc_trim <= arc_avail) {
                 continue;
             }
+            if !closes(f, r, p1, u, (cos_sweep, sin_sweep), t) {
+                continue;
+            }
             best = Some(Fillet {
                 line_trim: d,
                 arc_trim,
@@ -496,6 +512,16 @@ fn candidate(
         }
     }
     best
+}
+
+/// Whether the fillet of centre `center` and radius `r` that leaves `p1` along `u`
+/// ends, turned through the sweep of cosine and sine `cos_sin` as its element runs
+/// it (`Geom::Blend`: centre + e1·r·cos φ + e2·r·sin φ, e1 = (P₁ − F)/r, e2 = u),
+/// within `FILLET_CLOSURE_MM` of `t`, where it meets the arc.
+fn closes(center: Vec3, r: f64, p1: Vec3, u: Vec3, cos_sin: (f64, f64), t: Vec3) -> bool {
+    let e1 = (p1 - center) * (1.0 / r);
+    let end = center + e1 * (r * cos_sin.0) + u * (r * cos_sin.1);
+    (end - t).norm() <= FILLET_CLOSURE_MM
 }
 
 /// How far the fillet passes from the programmed corner: |C − F| − r, the distance
