@@ -33,7 +33,9 @@ const TRIM_TRIES: usize = 16;
 /// (a line into a 0.05 mm arc 3.5e-5 rad off tangent: r = 5e7 mm): the rounding of
 /// its normal (≈ 1e-12 rad off ⟂ u) times r moved its end 1.65e-4 mm past T, a step
 /// in position the S-curve sampled as 3.2× the jerk limit. A fillet that does not
-/// close is no blend: a shorter trim (smaller r) is tried.
+/// close is no blend: a shorter trim (smaller r) is tried. (Line–arc joins only: the
+/// arc–arc fillets take their normal as the first arc's radial, ⟂ its tangent to
+/// rounding, and a scan of nearly tangent long-arc → tiny-arc joins left no gap.)
 pub(crate) const FILLET_CLOSURE_MM: f64 = 1e-7;
 
 /// The arc as seen from the corner: the circle, and the direction of travel away from
@@ -492,9 +494,6 @@ fn candidate(
             let arc_trim_rad = arc.angle_to(corner, t);
             let arc_trim = arc_trim_rad * arc.radius;
             if !(arc_trim > 1e-9 && arc_trim <= arc_avail) {
-                continue;
-            }
-            if !closes(f, r, p1, u, (cos_sweep, sin_sweep), t) {
                 continue;
             }
             best = Some(Fillet {
