@@ -25,6 +25,19 @@ const DEVIATION_SHARE: f64 = 0.9;
 pub(crate) const MAX_RADIUS_MISMATCH_MM: f64 = 1e-4;
 /// Halvings of the line's trim tried before giving up on a blend.
 const TRIM_TRIES: usize = 16;
+/// Largest distance between where a fillet ends as its element runs it (centre F,
+/// radius r, from P₁ along e1 = (P₁ − F)/r and the line's direction u through the
+/// sweep: `Geom::Blend`) and the point T where it meets the arc (mm); as
+/// `BIARC_CLOSURE_MM` for the biarcs. At a nearly tangent join whose arc turns back
+/// onto the line's direction the fillet is nearly straight and its radius enormous
+/// (a line into a 0.05 mm arc 3.5e-5 rad off tangent: r = 5e7 mm): the rounding of
+/// its normal (≈ 1e-12 rad off ⟂ u) times r moved its end 1.65e-4 mm past T, a step
+/// in position the S-curve sampled as 3.2× the jerk limit. A fillet that does not
+/// close is built again on the exact perpendicular of u, and if that does not close
+/// either it is no blend: a shorter trim (smaller r) is tried. (Line–arc joins only: the
+/// arc–arc fillets take their normal as the first arc's radial, ⟂ its tangent to
+/// rounding, and a scan of nearly tangent long-arc → tiny-arc joins left no gap.)
+pub(crate) const FILLET_CLOSURE_MM: f64 = 1e-7;
 
 /// The arc as seen from the corner: the circle, and the direction of travel away from
 /// the corner (`sense` · N × radial).
@@ -254,6 +267,12 @@ fn line_arc_in<const A: usize, const B: usize, const N: usize>(
         return None; // tangent (or reversing) join
     }
     let (na, nb) = (ma / m_norm, mb / m_norm);
+    // the same normal as the in-plane perpendicular of u, ⟂ u to rounding (m loses
+    // digits to cancellation where t ≈ u): taken where the fillet built on n does not
+    // close (`closes`), so that every fillet that did keeps its bits
+    let (sa, sb) = (-ub, ua);
+    let s_scale = (na * sa + nb * sb).signum() / (sa * sa + sb * sb).sqrt();
+    let exact_n = (sa * s_scale, sb * s_scale);
     let mut d = min_to(
         line_avail,
         first_trim_cs(ut, (ua * tb - ub * ta).abs(), tol_mm),
@@ -262,7 +281,13 @@ fn line_arc_in<const A: usize, const B: usize, const N: usize>(
         if d <= 1e-9 {
             return None;
         }
-        if let Some(f) = line_arc_at::<A, B, N>(corner, u, d, arc, arc_avail, (na, nb), (pa, pb)) {
+        let at = |n: (f64, f64)| {
+            line_arc_at::<A, B, N>(corner, u, d, arc, arc_avail, n, (pa, pb))
+                .filter(|f| closes(f, u))
+        };
+        if let Some(f) = line_arc_at::<A, B, N>(corner, u, d, arc, arc_avail, (na, nb), (pa, pb))
+            .and_then(|f| if closes(&f, u) { Some(f) } else { at(exact_n) })
+        {
             let (fa, fb) = (f.center[ia] - ca, f.center[ib] - cb);
             let (da, db) = (pa - fa, pb - fb);
             let deviation = ((da * da + db * db).sqrt() - f.radius).abs();
@@ -496,6 +521,22 @@ fn candidate(
         }
     }
     best
+}
+
+/// Whether fillet `f`, leaving the line along `u`, ends as its element runs it
+/// (`Geom::Blend`: F + e1·r·cos φ + e2·r·sin φ) within `FILLET_CLOSURE_MM` of where
+/// it should, either way the builder lays it (`PathBuilder::circle_blend`): line →
+/// arc from P₁ with e1 = (P₁ − F)/r, e2 = u to T; arc → line (the construction on the
+/// path run backwards) from T with e1 = (T − F)/r, e2 = −(u·cos φ − (P₁ − F)/r·sin φ)
+/// to P₁.
+fn closes(f: &Fillet, u: Vec3) -> bool {
+    let (r, c, s) = (f.radius, f.cos_sweep, f.sin_sweep);
+    let e1 = (f.p_line - f.center) * (1.0 / r);
+    let end = f.center + e1 * (r * c) + u * (r * s);
+    let e1_back = (f.p_arc - f.center) * (1.0 / r);
+    let e2_back = -(u * c - e1 * s);
+    let start = f.center + e1_back * (r * c) + e2_back * (r * s);
+    (end - f.p_arc).norm() <= FILLET_CLOSURE_MM && (start - f.p_line).norm() <= FILLET_CLOSURE_MM
 }
 
 /// How far the fillet passes from the programmed corner: |C − F| − r, the distance

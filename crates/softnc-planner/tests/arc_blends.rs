@@ -283,3 +283,127 @@ fn arc_arc_corners_of_one_plane_are_blended_within_limits_and_tolerance() {
         }
     }
 }
+
+/// The proptest's arc radius (mm): a 0.1 rad arc 5 µm long.
+const TINY_ARC_RADIUS_MM: f64 = 0.05;
+/// A larger radius of the same family (mm). Before the fix a scan of the family
+/// (radii 0.01–5 mm, sweeps 0.1–1 rad, kinks 1e-6–1e-3 rad, G64 P0.001–0.05) found
+/// 710 of 6,144 joins failing under the S-curve, at 5 mm fillets ending up to 5e-3 mm
+/// off the arc (jerk up to 104×, acceleration 1.7× the limits); none after.
+const SHORT_ARC_RADIUS_MM: f64 = 5.0;
+
+/// A point of `plane` from its in-plane coordinates.
+fn in_plane(plane: Plane, x: f64, y: f64) -> Vec3 {
+    let (a, bb, _) = plane.axes();
+    let mut v = Vec3::ZERO;
+    v[a] = x;
+    v[bb] = y;
+    v
+}
+
+/// A long line (`LONG_LINE_MM`) and a short arc of radius `radius_mm` and
+/// `ARC_SWEEP_RAD` (5 µm long at 0.05 mm, the proptest's) joined `kink_rad` off
+/// tangent, the kink turning against the arc (sense `s` = ±1), so that the arc turns
+/// back onto the line's direction at once: the fillet there is nearly straight, of
+/// radius ≈ 5e7 mm in the proptest's case. Line first (`line_first`) or
+/// the arc first and the line after it, in `plane`, G64 P0.001.
+fn line_and_tiny_arc(
+    plane: Plane,
+    s: f64,
+    kink_rad: f64,
+    radius_mm: f64,
+    line_first: bool,
+) -> Builder {
+    /// The line (mm) and the direction it runs in (rad): the proptest's case.
+    const LONG_LINE_MM: f64 = 16.18306963938766;
+    const LINE_ANGLE_RAD: f64 = 4.452478054257627;
+    const ARC_SWEEP_RAD: f64 = 0.1;
+    let mut b = Builder::new(Vec3::ZERO);
+    b.mode = PathMode::Blend {
+        tolerance_mm: Some(0.001),
+        naive_cam_mm: None,
+    };
+    let turns = if s > 0.0 { 1 } else { -1 };
+    let r = radius_mm;
+    if line_first {
+        let (cth, sth) = (LINE_ANGLE_RAD.cos(), LINE_ANGLE_RAD.sin());
+        let (px, py) = (LONG_LINE_MM * cth, LONG_LINE_MM * sth);
+        let p = in_plane(plane, px, py);
+        b.line(p[0], p[1], p[2], 6000.0);
+        // the arc's start tangent: the line's turned by −s·kink
+        let tau = LINE_ANGLE_RAD - s * kink_rad;
+        let (cx, cy) = (px - s * r * tau.sin(), py + s * r * tau.cos());
+        let alpha = (py - cy).atan2(px - cx) + s * ARC_SWEEP_RAD;
+        let end = in_plane(plane, cx + r * alpha.cos(), cy + r * alpha.sin());
+        b.arc(end, in_plane(plane, cx, cy), plane, turns, 3000.0);
+    } else {
+        // the arc from the origin, its centre at radius angle LINE_ANGLE_RAD behind
+        let (cx, cy) = (-r * LINE_ANGLE_RAD.cos(), -r * LINE_ANGLE_RAD.sin());
+        let alpha = LINE_ANGLE_RAD + s * ARC_SWEEP_RAD;
+        let (ex, ey) = (cx + r * alpha.cos(), cy + r * alpha.sin());
+        b.arc(
+            in_plane(plane, ex, ey),
+            in_plane(plane, cx, cy),
+            plane,
+            turns,
+            3000.0,
+        );
+        // the line leaves along the arc's end tangent turned by −s·kink
+        let tau = alpha + s * std::f64::consts::FRAC_PI_2 - s * kink_rad;
+        let e = in_plane(
+            plane,
+            ex + LONG_LINE_MM * tau.cos(),
+            ey + LONG_LINE_MM * tau.sin(),
+        );
+        b.line(e[0], e[1], e[2], 6000.0);
+    }
+    b
+}
+
+/// The proptest's case (`arc_blends.proptest-regressions`) and its family: a long line
+/// into a tiny arc (and a tiny arc into a long line) nearly tangent, the arc turning
+/// back onto the line's direction, in every plane, both senses, both profiles. The
+/// line–arc fillet there had a radius of 5e7 mm and, from its normal's rounding, ended
+/// 1.65e-4 mm past the arc's touch point: a step in the path that the S-curve sampled
+/// as 3.19× the jerk limit. Now a fillet must close on the arc
+/// (`fillet::FILLET_CLOSURE_MM`): the path is continuous and within every limit.
+#[test]
+fn nearly_tangent_tiny_arcs_after_long_lines_keep_the_path_continuous_and_the_jerk_limit() {
+    /// Largest gap between consecutive elements of the built path (mm).
+    const MAX_GAP_MM: f64 = 1e-7;
+    for fp in [FeedProfile::Trapezoidal, FeedProfile::SCurve] {
+        let p = arc_profile(fp);
+        let lim = softnc_planner::build::Limits::from_profile(&p);
+        for plane in [Plane::XY, Plane::XZ, Plane::YZ] {
+            for s in [1.0, -1.0] {
+                for (kink_rad, radius_mm) in [3.484644217537703e-5, 1e-5, 1e-4]
+                    .into_iter()
+                    .flat_map(|k| [(k, TINY_ARC_RADIUS_MM), (k, SHORT_ARC_RADIUS_MM)])
+                {
+                    for line_first in [true, false] {
+                        let what = format!(
+                            "{fp:?} {plane:?} s {s} kink {kink_rad} R {radius_mm} line first {line_first}"
+                        );
+                        let b = line_and_tiny_arc(plane, s, kink_rad, radius_mm, line_first);
+                        let path = softnc_planner::build::build_path(&b.program(), &lim);
+                        for k in 1..path.segs.len() {
+                            let end = path.geoms[k - 1].point_at(path.segs[k - 1].len);
+                            let gap = (path.geoms[k].point_at(0.0) - end).norm();
+                            assert!(gap <= MAX_GAP_MM, "{what}: gap {gap} mm before element {k}");
+                        }
+                        let plan = plan_of(&b, &p);
+                        let smp = run(&plan);
+                        let r = limit_ratios(&smp, &p);
+                        assert!(r[0] <= 1.0 + 1e-9 && r[1] <= 1.0 + 1e-9, "{what}: {r:?}");
+                        if fp == FeedProfile::SCurve {
+                            assert!(r[2] <= 1.0 + 1e-9, "{what}: jerk {r:?}");
+                        }
+                        assert!((smp.last().unwrap().pos_mm - b.pos).norm() < 1e-9, "{what}");
+                        let dev = deviation_from_program(&smp, &b);
+                        assert!(dev <= 0.001 + 1e-6, "{what}: deviation {dev}");
+                    }
+                }
+            }
+        }
+    }
+}
