@@ -529,14 +529,21 @@ fn candidate(
 /// arc from P₁ with e1 = (P₁ − F)/r, e2 = u to T; arc → line (the construction on the
 /// path run backwards) from T with e1 = (T − F)/r, e2 = −(u·cos φ − (P₁ − F)/r·sin φ)
 /// to P₁.
+/// The distances are compared squared (no roots: about a fifth of a fillet's cost
+/// otherwise); they differ from `norm() <= FILLET_CLOSURE_MM` only within rounding
+/// of the bound itself.
+#[inline(always)]
 fn closes(f: &Fillet, u: Vec3) -> bool {
     let (r, c, s) = (f.radius, f.cos_sweep, f.sin_sweep);
-    let e1 = (f.p_line - f.center) * (1.0 / r);
+    let inv_r = 1.0 / r;
+    let e1 = (f.p_line - f.center) * inv_r;
     let end = f.center + e1 * (r * c) + u * (r * s);
-    let e1_back = (f.p_arc - f.center) * (1.0 / r);
+    let e1_back = (f.p_arc - f.center) * inv_r;
     let e2_back = -(u * c - e1 * s);
     let start = f.center + e1_back * (r * c) + e2_back * (r * s);
-    (end - f.p_arc).norm() <= FILLET_CLOSURE_MM && (start - f.p_line).norm() <= FILLET_CLOSURE_MM
+    let (gap_end, gap_start) = (end - f.p_arc, start - f.p_line);
+    let bound_sq = FILLET_CLOSURE_MM * FILLET_CLOSURE_MM;
+    gap_end.dot(gap_end) <= bound_sq && gap_start.dot(gap_start) <= bound_sq
 }
 
 /// How far the fillet passes from the programmed corner: |C − F| − r, the distance
