@@ -432,7 +432,22 @@ const AHEAD_QUEUED_CHUNKS: usize = 1;
 /// Motions the planning thread must have built while the reader read a chunk for the
 /// two to count as running at once ([`FilletsAheadWhen::PlannerBehind`]): a quarter
 /// of a chunk (on two free cores it builds about three quarters of one meanwhile).
-const AHEAD_PARALLEL_MOTIONS: usize = READ_CHUNK_MOTIONS / 4;
+const AHEAD_PARALLEL_MOTIONS: usize = PARALLEL_CHUNK_MOTIONS / 4;
+
+/// Motions per chunk the reading thread of [`check_program_parallel`] hands to the
+/// planning thread: half of [`READ_CHUNK_MOTIONS`], so that the chunks in flight
+/// (motions, primitives, arc data, fillets: about 330 kB at this size) stay in the
+/// caches both cores share. On the 200k-line benchmark program with arc blends
+/// (docs/planner.md §5, "lead, 2026-11-27") 512 motions and
+/// [`PARALLEL_QUEUE_CHUNKS`] chunks queued take 0.95× the wall and cpu time of 1,024
+/// and 8 (medians of 51 interleaved whole-process pairs, twice), peak memory 13.7
+/// against 19 MiB, page faults 1,950 against 2,600–3,700; 256 measured no better.
+const PARALLEL_CHUNK_MOTIONS: usize = READ_CHUNK_MOTIONS / 2;
+
+/// Chunks that may wait for the planning thread in [`check_program_parallel`] before
+/// the reader waits: two keep it busy (the reader is the quicker of the two with arc
+/// blends, and a chunk takes it about 1 ms); more only touch more memory.
+const PARALLEL_QUEUE_CHUNKS: usize = 2;
 
 /// Most wall time a chunk's reading may take, as a multiple of the quickest so far,
 /// for the reader to count as not descheduled meanwhile
@@ -479,7 +494,7 @@ pub(crate) fn check_program_parallel_with(
     // motions the planning thread has built (with the reader checking)
     let built = AtomicUsize::new(0);
     let built = &built;
-    let (to_planner, chunks) = sync_channel::<Chunk>(8);
+    let (to_planner, chunks) = sync_channel::<Chunk>(PARALLEL_QUEUE_CHUNKS);
     // the end parameters, and the reader's checker where it checked the motions
     let (params_tx, params_rx) = sync_channel::<Params>(1);
     let (recycle, recycled) = channel::<Chunk>();
@@ -569,7 +584,7 @@ pub(crate) fn check_program_parallel_with(
             file,
             profile,
             &options.read_options(),
-            READ_CHUNK_MOTIONS,
+            PARALLEL_CHUNK_MOTIONS,
             &mut |chunk: &mut Vec<Motion>| {
                 while let Ok(batch) = timing_rx.try_recv() {
                     time(batch);
@@ -580,8 +595,8 @@ pub(crate) fn check_program_parallel_with(
                 let (fresh, mut prims, mut preps, mut aheads) =
                     recycled.try_recv().unwrap_or_else(|_| {
                         (
-                            Vec::with_capacity(READ_CHUNK_MOTIONS),
-                            Vec::with_capacity(READ_CHUNK_MOTIONS),
+                            Vec::with_capacity(PARALLEL_CHUNK_MOTIONS),
+                            Vec::with_capacity(PARALLEL_CHUNK_MOTIONS),
                             Vec::new(),
                             Vec::new(),
                         )
