@@ -854,6 +854,18 @@ mod tests {
     use crate::lexer::{lex_words, Line};
     use softnc_core::MachineProfile;
 
+    /// A xorshift64 stream from `seed`: `next(m)` draws an index below `m` (the
+    /// tests' deterministic random inputs).
+    fn xorshift(seed: u64) -> impl FnMut(usize) -> usize {
+        let mut state = seed;
+        move |m: usize| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % m as u64) as usize
+        }
+    }
+
     fn profile() -> MachineProfile {
         MachineProfile::load(
             &std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -1006,13 +1018,7 @@ mod tests {
     /// numbers of up to eight bytes it always takes.
     #[test]
     fn numbers_read_eight_bytes_at_a_time_as_plain_number_reads_them() {
-        let mut state = 0x1234_5678_9abc_def1u64;
-        let mut next = |m: usize| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state % m as u64) as usize
-        };
+        let mut next = xorshift(0x1234_5678_9abc_def1u64);
         let alphabet = b"0123456789012345678901234567890123456789.";
         for _ in 0..200_000 {
             let mut line = b"X".to_vec();
@@ -1099,13 +1105,7 @@ mod tests {
     #[test]
     fn kept_numbers_read_as_number_reads_them() {
         use super::{number_kept, Kept};
-        let mut state = 0x6a09_e667_f3bc_c909u64;
-        let mut next = |m: usize| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state % m as u64) as usize
-        };
+        let mut next = xorshift(0x6a09_e667_f3bc_c909u64);
         let numbers = [
             "0",
             "0.25",
@@ -1190,13 +1190,7 @@ mod tests {
             " 1",
         ];
         let seps = ["", " ", "  ", "\t", "\r"];
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = |m: usize| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state % m as u64) as usize
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1du64);
         let mut taken = 0;
         for _ in 0..20_000 {
             let mut line = String::new();
@@ -1268,13 +1262,7 @@ mod tests {
             "0", "1", "2", "-1", "0.5", "-0.5", "0.25", "1.5", "10", "-2.5", ".75", "1.", "0.0001",
             "100", "0.8000", "-12.3456", "+3",
         ];
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = |m: usize| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state % m as u64) as usize
-        };
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15u64);
         let (mut fast_lines, mut total, mut read_whole, mut motions) = (0, 0, 0, 0);
         for _ in 0..1000 {
             let mut text = String::from("G21 G90 G17 F1000\n");
@@ -1410,13 +1398,7 @@ mod tests {
     /// on 400,000 pairs of every kind, half of them with a zero (signed) side.
     #[test]
     fn exact_hypot_and_atan2_give_libms_bits() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = |m: usize| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state % m as u64) as usize
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1du64);
         let specials = [0.0, -0.0, f64::INFINITY, f64::NEG_INFINITY, f64::NAN];
         for k in 0..400_000 {
             let mut a = any_value(&mut next);
@@ -1444,13 +1426,7 @@ mod tests {
             arc_ijk, arc_r, Trig, CENTER_ARC_RADIUS_TOLERANCE_INCH, CENTER_ARC_RADIUS_TOLERANCE_MM,
             G_2, G_3, RADIUS_TOLERANCE_INCH, RADIUS_TOLERANCE_MM, TINY,
         };
-        let mut state = 0x1f83_d9ab_fb41_bd6bu64;
-        let mut next = |m: usize| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state % m as u64) as usize
-        };
+        let mut next = xorshift(0x1f83_d9ab_fb41_bd6bu64);
         let bits = |r: Result<(f64, f64, i32), String>| {
             r.ok().map(|(x, y, t)| (x.to_bits(), y.to_bits(), t))
         };
