@@ -438,7 +438,8 @@ const AHEAD_PARALLEL_MOTIONS: usize = PARALLEL_CHUNK_MOTIONS / 4;
 /// planning thread: half of [`READ_CHUNK_MOTIONS`], so that the chunks in flight
 /// (motions, primitives, arc data, fillets: about 330 kB at this size) stay in the
 /// caches both cores share. On the 200k-line benchmark program with arc blends
-/// (docs/planner.md §5, "lead, 2026-11-27") 512 motions and
+/// (docs/planner.md §5, "After `plan11`, `plan12`, `speed8`, `jerk1` and the lead's
+/// chunk size") 512 motions and
 /// [`PARALLEL_QUEUE_CHUNKS`] chunks queued take 0.95× the wall and cpu time of 1,024
 /// and 8 (medians of 51 interleaved whole-process pairs, twice), peak memory 13.7
 /// against 19 MiB, page faults 1,950 against 2,600–3,700; 256 measured no better.
@@ -446,7 +447,7 @@ const PARALLEL_CHUNK_MOTIONS: usize = READ_CHUNK_MOTIONS / 2;
 
 /// Chunks that may wait for the planning thread in [`check_program_parallel`] before
 /// the reader waits: two keep it busy (the reader is the quicker of the two with arc
-/// blends, and a chunk takes it about 1 ms); more only touch more memory.
+/// blends, and a chunk takes it about 0.1 ms); more only touch more memory.
 const PARALLEL_QUEUE_CHUNKS: usize = 2;
 
 /// Most wall time a chunk's reading may take, as a multiple of the quickest so far,
