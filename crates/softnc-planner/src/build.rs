@@ -2201,26 +2201,7 @@ mod tests {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machines");
         let mut p = MachineProfile::load(&dir.join("default.ron")).unwrap();
         p.planner.arc_blends = true;
-        let mut text = String::from("G21 G90 G17 G64 P0.02\nG0 X0 Y0 Z0\nG1 F1200\n");
-        let mut x = 0.0;
-        for i in 0..40 {
-            let extra = match i % 8 {
-                1 => "G4 P0.01\n",
-                3 => "M0\n",
-                5 => "G61\nG1 Y0.1\nG1 Y0\nG64 P0.01\n",
-                6 => "G1 Y0\nG64 P0.02 Q0.005\nG1 Y0.001\nG1 Y0\nG64 P0.02\n",
-                _ => "",
-            };
-            let turn = if i % 2 == 0 { "G2" } else { "G3" };
-            text.push_str(&format!(
-                "G1 X{:.4} Y0.3\n{turn} X{:.4} Y0.3 R0.4\nG1 X{:.4} Y0\n{extra}",
-                x + 1.0,
-                x + 1.6,
-                x + 2.0
-            ));
-            x += 2.0;
-        }
-        text.push_str("M2\n");
+        let text = crate::test_programs::fillet_joins_program(40, "M0", false, None);
         let program = softnc_gcode::read_program(&text, "f.ngc", &p).unwrap();
         (Limits::from_profile(&p), program.motions)
     }

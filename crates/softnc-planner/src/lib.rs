@@ -21,6 +21,8 @@ pub mod manual;
 pub mod path;
 pub mod plan;
 pub mod stream;
+#[cfg(test)]
+mod test_programs;
 
 pub use build::StopKind;
 pub use interp::{Interpolator, Sample};

@@ -1119,31 +1119,7 @@ mod tests {
     #[test]
     fn fillets_ahead_change_no_figure() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machines");
-        let mut text = String::from("G21 G90 G17 G64 P0.02\nG0 X0 Y0 Z0\nG1 F1200\n");
-        let mut x = 0.0;
-        for i in 0..3000 {
-            let extra = match i % 9 {
-                1 => "G4 P0.01\n",
-                3 => "M1\n",
-                5 => "G61\nG1 Y0.1\nG1 Y0\nG64 P0.01\n",
-                6 => "G1 Y0\nG64 P0.02 Q0.005\nG1 Y0.001\nG1 Y0\nG64 P0.02\n",
-                7 => "G1 Y0\n",
-                _ => "",
-            };
-            let turn = if i % 2 == 0 { "G2" } else { "G3" };
-            text.push_str(&format!(
-                "G1 X{:.4} Y0.3\n{turn} X{:.4} Y0.3 R0.4\nG1 X{:.4} Y0\n{extra}",
-                x + 1.0,
-                x + 1.6,
-                x + 2.0
-            ));
-            x += 2.0;
-            if x > 400.0 {
-                x = 0.0;
-                text.push_str("G0 X0 Y0\n");
-            }
-        }
-        text.push_str("M2\n");
+        let text = crate::test_programs::fillet_joins_program(3000, "M1", true, Some(400.0));
         for fp in [FeedProfile::Trapezoidal, FeedProfile::SCurve] {
             for single_block in [false, true] {
                 let mut p = MachineProfile::load(&dir.join("default.ron")).unwrap();
