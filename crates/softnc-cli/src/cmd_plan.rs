@@ -60,7 +60,8 @@ pub fn read_file(
     machine: &MachineProfile,
     options: &softnc_gcode::ReadOptions,
 ) -> Result<Result<Program, String>> {
-    let bytes = std::fs::read(file).with_context(|| format!("cannot read {}", file.display()))?;
+    let bytes = crate::program_file::read(file)
+        .with_context(|| format!("cannot read {}", file.display()))?;
     let text = String::from_utf8_lossy(&bytes);
     let name = file.display().to_string();
     Ok(
@@ -85,7 +86,7 @@ fn read_file_with(args: &PlanArgs, machine: &MachineProfile) -> Result<Result<Pr
         params,
         ..Default::default()
     };
-    let bytes = std::fs::read(&args.file)
+    let bytes = crate::program_file::read(&args.file)
         .with_context(|| format!("cannot read {}", args.file.display()))?;
     let text = String::from_utf8_lossy(&bytes);
     let name = args.file.display().to_string();
@@ -152,7 +153,7 @@ fn summary(
     machine: &MachineProfile,
     options: &softnc_planner::PlanOptions,
 ) -> Result<ExitCode> {
-    let bytes = std::fs::read(&args.file)
+    let bytes = crate::program_file::read(&args.file)
         .with_context(|| format!("cannot read {}", args.file.display()))?;
     // the same text; valid UTF-8 (nearly every program) is checked several times
     // faster than the lossy scan goes

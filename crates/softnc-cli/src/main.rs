@@ -8,6 +8,7 @@ mod cmd_plan;
 mod cmd_reproduce;
 mod cmd_sim;
 mod cmd_watch;
+mod program_file;
 mod watch_keys;
 
 use anyhow::Result;
