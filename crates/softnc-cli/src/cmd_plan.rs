@@ -4,7 +4,7 @@ use anyhow::{Context, Result};
 use softnc_core::MachineProfile;
 use softnc_gcode::{MotionKind, Program};
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 /// Arguments of `softnc plan`.
@@ -56,7 +56,7 @@ pub fn load_machine(path: Option<&PathBuf>) -> Result<MachineProfile> {
 /// Read a program file and interpret it with `options` (the operator's switches).
 /// `Err(Ok(msg))` is a refusal (exit 2).
 pub fn read_file(
-    file: &PathBuf,
+    file: &Path,
     machine: &MachineProfile,
     options: &softnc_gcode::ReadOptions,
 ) -> Result<Result<Program, String>> {

@@ -26,8 +26,9 @@ const MAP_MIN_BYTES: u64 = 256 * 1024;
 
 /// The bytes of a program file, mapped or read.
 pub enum ProgramBytes {
-    /// A regular file of at least [`MAP_MIN_BYTES`], mapped private and read-only.
-    Mapped(MemoryMapping),
+    /// A regular file of at least [`MAP_MIN_BYTES`], mapped private and read-only
+    /// (boxed: the mapping's record is about 300 bytes).
+    Mapped(Box<MemoryMapping>),
     /// Anything else (small files, pipes, `/dev/stdin`, files that cannot be mapped).
     Read(Vec<u8>),
 }
@@ -58,7 +59,7 @@ pub fn read(path: &Path) -> std::io::Result<ProgramBytes> {
                     .size(len)
                     .create();
                 if let Ok(m) = mapped {
-                    return Ok(ProgramBytes::Mapped(m));
+                    return Ok(ProgramBytes::Mapped(Box::new(m)));
                 }
             }
         }
