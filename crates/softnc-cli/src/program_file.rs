@@ -1,5 +1,5 @@
-//! A G-code program's bytes for `softnc plan`: a regular file is mapped read-only
-//! (iceoryx2's safe `mmap` wrapper), anything else is read.
+//! A G-code program's bytes for `softnc plan` and `softnc sim`: a regular file is
+//! mapped read-only (iceoryx2's safe `mmap` wrapper), anything else is read.
 //!
 //! Why: the summary's two threads (`check_program_parallel`) start only once the
 //! text is there, so reading it is a serial prefix of the whole process. Read with
@@ -10,8 +10,8 @@
 //!
 //! The cost, as for ripgrep's `--mmap`: a file cut shorter by another process while
 //! it is read ends the process with SIGBUS (a file replaced by a rename, as editors
-//! and CAM posts save, is not affected: the mapping keeps the old one). `softnc plan`
-//! is a short-lived command; the daemon reads its jobs with `read(2)`.
+//! and CAM posts save, is not affected: the mapping keeps the old one). Both commands
+//! are short-lived; the daemon reads its jobs with `read(2)`.
 
 use iceoryx2_bb_posix::file_descriptor::FileDescriptor;
 use iceoryx2_bb_posix::memory_mapping::{
