@@ -211,6 +211,40 @@ pub fn atan2_axis(y: f64, x: f64) -> f64 {
     y.atan2(x)
 }
 
+/// Largest |y|/|x| at which [`atan2_near_axis`] takes `atan2(y, x)` without the
+/// library call: 2⁻⁵³.
+const NEAR_AXIS_RATIO: f64 = 1.0 / 9_007_199_254_740_992.0;
+
+/// [`atan2_axis`], with two more cases near the first axis taken without the
+/// library call, where |y| ≤ 2⁻⁵³·|x| (x finite, y ≠ 0):
+/// - x < 0: ±π rounded (`consts::PI` with y's sign). The angle is ±(π − δ) with
+///   0 < δ ≤ 2⁻⁵³; `PI` is π − 1.22e-16 and its neighbours lie 4.44e-16 apart, so the
+///   angle is within 0.28 of a unit in the last place of `PI` and at least 0.72 from
+///   any other double: any `atan2` within half a unit gives `PI`. glibc's
+///   (`e_atan2.c`, case iv, u < 1/16, or the exponents 57 apart) returns `opi`.
+/// - x > 0 and y/x a normal double exactly (the residual y − q·x, one fused
+///   multiply–add, is zero): q. The angle is q·(1 − q²/3 + …), within 2⁻¹⁰⁶ of q
+///   relatively, inside q's rounding interval; glibc's (case i, u < 1/16: the
+///   division's correction `du` is 0, the series term far below half a unit, or the
+///   exponents 57 apart: `ay / ax`) returns it.
+///
+/// Arcs programmed with R often start and end a rounding error off the axis
+/// through their centre (the centre sits off the chord's midpoint by
+/// R·cos(asin(1)) ≈ 6e-17·R). Test `near_axis_cases_are_the_librarys`.
+#[inline]
+pub fn atan2_near_axis(y: f64, x: f64) -> f64 {
+    if y != 0.0 && x.is_finite() && y.abs() <= x.abs() * NEAR_AXIS_RATIO {
+        if x < 0.0 {
+            return std::f64::consts::PI.copysign(y);
+        }
+        let q = y / x;
+        if q.abs() >= f64::MIN_POSITIVE && (-q).mul_add(x, y) == 0.0 {
+            return q;
+        }
+    }
+    atan2_axis(y, x)
+}
+
 /// `x.hypot(y)`, with a zero operand taken without the library call: hypot(x, ±0)
 /// is |x| and hypot(±0, y) is |y| (C99 Annex F, F.10.4.3).
 #[inline]
@@ -268,8 +302,8 @@ impl Primitive {
         c[n] = start[n];
         let (sa, sb) = (start[a] - c[a], start[b] - c[b]);
         let radius = hypot_axis(sa, sb);
-        let start_angle = atan2_axis(sb, sa);
-        let end_angle = atan2_axis(end[b] - c[b], end[a] - c[a]);
+        let start_angle = atan2_near_axis(sb, sa);
+        let end_angle = atan2_near_axis(end[b] - c[b], end[a] - c[a]);
         let tau = std::f64::consts::TAU;
         let extra = (turns.unsigned_abs().max(1) - 1) as f64 * tau;
         let sweep = if turns >= 0 {
@@ -483,6 +517,85 @@ mod tests {
                 end: Vec3::ZERO,
             };
             assert_eq!(a.length().to_bits(), rs.hypot(0.0).to_bits());
+        }
+    }
+
+    /// `atan2_near_axis` gives the library's bits: near the first axis on both
+    /// sides (ratios 2⁻⁶⁰ to 2⁻⁵⁰, across the 2⁻⁵³ bound), with x a power of two
+    /// (exact quotients) and not, at magnitudes from 1e-300 to 1e300, and the
+    /// special values.
+    #[test]
+    fn near_axis_cases_are_the_librarys() {
+        let same = |y: f64, x: f64| {
+            let (got, want) = (atan2_near_axis(y, x), y.atan2(x));
+            assert!(
+                got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+                "atan2({y:e}, {x:e}): {got:e} against {want:e}"
+            );
+        };
+        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let (mut taken, mut exact) = (0, 0);
+        for _ in 0..200_000 {
+            let bits = next();
+            let mag = 2f64.powi((bits % 1200) as i32 - 600);
+            let frac = 1.0 + ((bits >> 11) as f64) / (1u64 << 53) as f64;
+            let x = if bits & (1 << 10) == 0 {
+                mag
+            } else {
+                mag * frac
+            };
+            let x = if bits & (1 << 9) == 0 { x } else { -x };
+            let r = next();
+            let ratio =
+                2f64.powi(-50 - (r % 11) as i32) * (1.0 + ((r >> 11) as f64) / (1u64 << 53) as f64);
+            let y = x.abs() * ratio * if r & (1 << 8) == 0 { 1.0 } else { -1.0 };
+            // (y a neighbour of the product too: quotients exact or not)
+            let y = if r & (1 << 7) == 0 {
+                y
+            } else {
+                f64::from_bits(y.to_bits() + 1)
+            };
+            same(y, x);
+            if y.abs() <= x.abs() * NEAR_AXIS_RATIO {
+                taken += 1;
+                if x > 0.0 && (-(y / x)).mul_add(x, y) == 0.0 {
+                    exact += 1;
+                }
+            }
+        }
+        assert!(taken > 50_000, "{taken} near the axis");
+        assert!(exact > 10_000, "{exact} exact quotients");
+        // the benchmark's R arcs: 2.1 → 2.6 about (2.35, 0.1 + 1 ulp)
+        for (y, x) in [
+            (-1.3877787807814457e-17, -0.25),
+            (-1.3877787807814457e-17, 0.25),
+        ] {
+            same(y, x);
+            assert!(y.abs() <= x.abs() * NEAR_AXIS_RATIO);
+        }
+        let special = [
+            0.0,
+            -0.0,
+            1e-300,
+            -1e-300,
+            1.0,
+            -1.0,
+            f64::MIN_POSITIVE,
+            5e-324,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        for &y in &special {
+            for &x in &special {
+                same(y, x);
+            }
         }
     }
 

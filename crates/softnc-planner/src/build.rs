@@ -255,24 +255,100 @@ impl ArcPrep {
 
 /// A line–arc fillet worked out ahead ([`fillet::line_arc`] of the join between a
 /// motion and the one before it, on the reading thread of `check_program_parallel`,
-/// see [`FilletsAhead`]), with the arguments it was worked out from. The builder takes
-/// it ([`FilletAhead::matching`]) only where the arguments of its own `line_arc` call
-/// are the same bits, so the path is the same as without it.
+/// see [`FilletsAhead`]), keyed by the arguments of that call the builder may hold
+/// otherwise. The builder takes it ([`FilletAhead::matching`]) only where those are
+/// the same bits, so the path is the same as without it.
+///
+/// The key is what the builder's state can change: both shares (the move before the
+/// corner gives at most what the blend at its start left of it,
+/// `min_to(0.5·len, len − start_trim)`, where the reader can only take half), the
+/// tolerance, and the corner. The direction and the arc's view are functions of the
+/// two motions' primitives and arc data alone, worked out by the same code on both
+/// threads (`line_len_dir` is `push_unmerged`'s arithmetic, [`ArcPrep::view`] the
+/// builder's `view_next`), and the joins are the builder's (the same motions held as
+/// [`PathBuilder::push_unmerged`] holds them, the corner their common point); debug
+/// builds keep them too and assert that a fillet taken was worked out from the
+/// builder's own bits. About 130 bytes, where the whole arguments and
+/// [`fillet::Fillet`] took 320: the records cross from one core to the other.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct FilletAhead {
     corner: Vec3,
-    u: Vec3,
     line_avail_mm: f64,
-    arc: ArcView,
     arc_avail_mm: f64,
     tol_mm: f64,
     /// What `line_arc` gave (None: no fillet found).
-    found: Option<fillet::Fillet>,
+    found: Option<FilletFound>,
+    /// The direction and the arc's view it was worked out with (debug builds).
+    #[cfg(debug_assertions)]
+    rest: (Vec3, ArcView),
+}
+
+/// A [`fillet::Fillet`] without what the builder's own arguments give back bit for
+/// bit ([`FilletFound::fillet`]): the point on the line (`corner − u·line_trim`, as
+/// `line_arc_at` computes it), the components of the centre and of the point on the
+/// arc along the plane's normal (the line point's and the arc centre's there), and
+/// the arc trim (`arc_trim_rad·R`). Debug builds assert each fillet handed over
+/// comes back so; `fillets_ahead_are_taken_where_their_arguments_are_the_builders`
+/// compares the paths.
+#[derive(Debug, Clone, Copy)]
+struct FilletFound {
+    line_trim: f64,
+    arc_trim_rad: f64,
+    /// The centre's components along the plane's first two axes.
+    center_ab: (f64, f64),
+    radius: f64,
+    /// The point on the arc's components along the plane's first two axes.
+    p_arc_ab: (f64, f64),
+    sweep: f64,
+    cos_sweep: f64,
+    sin_sweep: f64,
+}
+
+impl FilletFound {
+    /// `f` (`line_arc` of `corner`, `u` and `arc`) in short.
+    #[inline(always)]
+    fn of(f: &fillet::Fillet, arc: &ArcView) -> FilletFound {
+        let (a, b, _) = arc.axes;
+        FilletFound {
+            line_trim: f.line_trim,
+            arc_trim_rad: f.arc_trim_rad,
+            center_ab: (f.center[a], f.center[b]),
+            radius: f.radius,
+            p_arc_ab: (f.p_arc[a], f.p_arc[b]),
+            sweep: f.sweep,
+            cos_sweep: f.cos_sweep,
+            sin_sweep: f.sin_sweep,
+        }
+    }
+
+    /// The whole fillet, given the arguments it was worked out from.
+    #[inline(always)]
+    fn fillet(&self, corner: Vec3, u: Vec3, arc: &ArcView) -> fillet::Fillet {
+        let (a, b, _) = arc.axes;
+        let p_line = corner - u * self.line_trim;
+        let mut center = p_line;
+        (center[a], center[b]) = self.center_ab;
+        let mut p_arc = arc.center;
+        (p_arc[a], p_arc[b]) = self.p_arc_ab;
+        fillet::Fillet {
+            line_trim: self.line_trim,
+            arc_trim: self.arc_trim_rad * arc.radius,
+            arc_trim_rad: self.arc_trim_rad,
+            center,
+            radius: self.radius,
+            p_line,
+            p_arc,
+            sweep: self.sweep,
+            cos_sweep: self.cos_sweep,
+            sin_sweep: self.sin_sweep,
+        }
+    }
 }
 
 impl FilletAhead {
     /// The fillet found, if it was worked out from these arguments bit for bit
-    /// (`Some(None)`: no fillet there); None where any argument differs.
+    /// (`Some(None)`: no fillet there); None where any argument of the key differs.
+    #[inline(always)]
     fn matching(
         &self,
         corner: Vec3,
@@ -283,20 +359,32 @@ impl FilletAhead {
         tol_mm: f64,
     ) -> Option<Option<fillet::Fillet>> {
         let same = |x: f64, y: f64| x.to_bits() == y.to_bits();
-        let same3 = |x: Vec3, y: Vec3| same(x[0], y[0]) && same(x[1], y[1]) && same(x[2], y[2]);
-        let v = &self.arc;
-        // (the view's normal and orientation follow from its axes)
-        (same3(self.corner, corner)
-            && same3(self.u, u)
-            && same(self.line_avail_mm, line_avail_mm)
-            && same(self.arc_avail_mm, arc_avail_mm)
-            && same(self.tol_mm, tol_mm)
-            && same3(v.center, arc.center)
-            && same(v.radius, arc.radius)
-            && same(v.sense, arc.sense)
-            && same(v.len, arc.len)
-            && v.axes == arc.axes)
-            .then_some(self.found)
+        let key = same(self.line_avail_mm, line_avail_mm)
+            & same(self.arc_avail_mm, arc_avail_mm)
+            & same(self.tol_mm, tol_mm)
+            & same(self.corner[0], corner[0])
+            & same(self.corner[1], corner[1])
+            & same(self.corner[2], corner[2]);
+        if !key {
+            return None;
+        }
+        #[cfg(debug_assertions)]
+        {
+            let same3 = |x: Vec3, y: Vec3| same(x[0], y[0]) && same(x[1], y[1]) && same(x[2], y[2]);
+            let (w, v) = &self.rest;
+            assert!(
+                same3(*w, u)
+                    && same3(v.center, arc.center)
+                    && same(v.radius, arc.radius)
+                    && same3(v.normal, arc.normal)
+                    && same(v.sense, arc.sense)
+                    && same(v.len, arc.len)
+                    && v.axes == arc.axes
+                    && same(v.orient, arc.orient),
+                "a fillet ahead keyed as the builder's own from other arguments"
+            );
+        }
+        Some(self.found.map(|f| f.fillet(corner, u, arc)))
     }
 }
 
@@ -430,23 +518,27 @@ impl FilletsAhead {
             }
             _ => return,
         };
-        // (the arguments first, the fillet written in place: a `FilletAhead` is about
-        // 300 bytes, each move of it a `memcpy`)
+        let found = fillet::line_arc(corner, u, line_avail_mm, &arc, arc_avail_mm, tol).map(|f| {
+            let short = FilletFound::of(&f, &arc);
+            debug_assert_eq!(
+                format!("{f:?}"),
+                format!("{:?}", short.fillet(corner, u, &arc)),
+                "a fillet in short gives it back"
+            );
+            short
+        });
         out.push((
             k as u32,
             FilletAhead {
                 corner,
-                u,
                 line_avail_mm,
-                arc,
                 arc_avail_mm,
                 tol_mm: tol,
-                found: None,
+                found,
+                #[cfg(debug_assertions)]
+                rest: (u, arc),
             },
         ));
-        if let Some((_, f)) = out.last_mut() {
-            f.found = fillet::line_arc(corner, u, line_avail_mm, &arc, arc_avail_mm, tol);
-        }
     }
 }
 
