@@ -175,6 +175,20 @@ const HIGHS: u64 = 0x8080_8080_8080_8080;
 /// The point, XOR [`ZEROS`].
 const POINT: u64 = (b'.' ^ b'0') as u64;
 
+/// The bytes that go on with a number after its digits (the digits and the
+/// point), by the byte: [`number_kept`]'s test of the byte after a kept number
+/// in one lookup.
+const GOES_ON: [bool; 256] = {
+    let mut t = [false; 256];
+    let mut c = b'0';
+    while c <= b'9' {
+        t[c as usize] = true;
+        c += 1;
+    }
+    t[b'.' as usize] = true;
+    t
+};
+
 /// The number of up to 8 decimal digits held one per byte in `v` (values 0 to 9,
 /// the most significant in the lowest byte), in three multiplications (as
 /// `fast_float`'s `parse_eight_digits_unrolled`).
@@ -255,7 +269,7 @@ fn number_kept(t: &[u8], start: usize, kept: &mut Kept) -> (f64, usize) {
     let lo = u64::from_le_bytes(lo);
     // the same bytes of the number, and after them a byte that ends it
     let after = (lo >> (8 * (kept.len & 7))) as u8;
-    if (lo ^ kept.bytes) & kept.mask == 0 && after.wrapping_sub(b'0') > 9 && after != b'.' {
+    if (lo ^ kept.bytes) & kept.mask == 0 && !GOES_ON[usize::from(after)] {
         return (kept.value, start + kept.len);
     }
     match number_in(head) {
@@ -346,7 +360,7 @@ fn one_digit_code(t: &[u8], at: usize) -> Option<i32> {
         return None;
     }
     match t.get(at + 1) {
-        Some(c) if c.is_ascii_digit() || *c == b'.' => None,
+        Some(&c) if GOES_ON[usize::from(c)] => None,
         _ => Some(i32::from(d)),
     }
 }
@@ -363,34 +377,52 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
     w.set = 0;
     let n = t.len();
     let mut i = s;
-    while i < n && blank(t[i]) {
-        i += 1;
-    }
-    if i == n || t[i] == b'\n' {
-        return None; // a blank line: the general reader says so
-    }
-    if t[i] | 0x20 == b'n' {
-        // a line number of digits alone (LinuxCNC reads and drops it); what follows
-        // must start a word, which the loop below checks
-        i += 1;
-        let digits = i;
-        while i < n && t[i].is_ascii_digit() {
+    // a line that starts with a word's letter (the common case) goes straight to
+    // the words; blanks, a blank line and a line number first
+    if matches!(BYTE_KIND[usize::from(*t.get(i)?)], 0 | BLANK) {
+        while i < n && blank(t[i]) {
             i += 1;
         }
-        if i == digits {
-            return None;
+        if i == n || t[i] == b'\n' {
+            return None; // a blank line: the general reader says so
+        }
+        if t[i] | 0x20 == b'n' {
+            // a line number of digits alone (LinuxCNC reads and drops it); what
+            // follows must start a word, which the loop below checks
+            i += 1;
+            let digits = i;
+            while i < n && t[i].is_ascii_digit() {
+                i += 1;
+            }
+            if i == digits {
+                return None;
+            }
         }
     }
     while i < n {
         let c = t[i];
         let kind = BYTE_KIND[usize::from(c)];
-        if kind == BLANK {
-            i += 1;
+        // the kinds by how often they come: a value letter, G, a blank, the end
+        if kind.wrapping_sub(1) < VALUES as u8 {
+            // `k` < VALUES (a power of two): the mask only tells the compiler so
+            let k = usize::from(kind - 1) & (VALUES - 1);
+            let (value, next) = number_kept(t, i + 1, &mut w.kept[k]);
+            if next == NO_NUMBER {
+                return None;
+            }
+            let bit = 1 << k;
+            // a repeated letter and a negative feed are errors: the general reader
+            // gives them
+            if w.set & bit != 0 || (k == F && value < 0.0) {
+                return None;
+            }
+            w.set |= bit;
+            w.v[k] = value;
+            i = next;
+            if t.get(i) == Some(&b' ') {
+                i += 1; // the common blank before the next word
+            }
             continue;
-        }
-        if kind == 0 {
-            // the end of the line, or what the general reader reads
-            return (c == b'\n').then_some(i);
         }
         if kind == G_WORD {
             if let Some(code) = one_digit_code(t, i + 1) {
@@ -400,10 +432,11 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
                 }
                 w.g = code * 10;
                 i += 2;
+                if t.get(i) == Some(&b' ') {
+                    i += 1; // the common blank before the next word
+                }
                 continue;
             }
-        }
-        if kind == G_WORD {
             let (value, next) = number(t, i + 1);
             if next == NO_NUMBER {
                 return None;
@@ -418,21 +451,12 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
             i = next;
             continue;
         }
-        // `k` < VALUES (a power of two): the mask only tells the compiler so
-        let k = usize::from(kind - 1) & (VALUES - 1);
-        let (value, next) = number_kept(t, i + 1, &mut w.kept[k]);
-        if next == NO_NUMBER {
-            return None;
+        if kind == BLANK {
+            i += 1;
+            continue;
         }
-        let bit = 1 << k;
-        // a repeated letter and a negative feed are errors: the general reader
-        // gives them
-        if w.set & bit != 0 || (k == F && value < 0.0) {
-            return None;
-        }
-        w.set |= bit;
-        w.v[k] = value;
-        i = next;
+        // the end of the line, or what the general reader reads
+        return (c == b'\n').then_some(i);
     }
     Some(n)
 }
@@ -705,6 +729,8 @@ pub(super) struct Trig {
     theta: f64,
     sin: f64,
     cos: f64,
+    /// [`cos_asin_one`], read once (not through its `OnceLock` per arc).
+    cos_asin_one: f64,
 }
 
 impl Default for Trig {
@@ -714,6 +740,7 @@ impl Default for Trig {
             theta,
             sin: theta.sin(),
             cos: theta.cos(),
+            cos_asin_one: cos_asin_one(),
         }
     }
 }
@@ -811,10 +838,13 @@ fn arc_r(
     let mid = ((end.0 + cur.0) / 2.0, (end.1 + cur.1) / 2.0);
     let (dx, dy) = (mid.0 - end.0, mid.1 - end.1);
     let near = (dx * dx + dy * dy).sqrt();
-    let half = if near * (1.0 + HYPOT_SLACK) - abs_radius < tolerance
+    // `half / abs_radius`, which is 1 where half the chord is taken as the
+    // radius and that is neither 0 nor infinite (x / x)
+    let ratio = if near * (1.0 + HYPOT_SLACK) - abs_radius < tolerance
         && near * (1.0 - HYPOT_SLACK) > abs_radius * (1.0 - TINY / 2.0)
+        && abs_radius != 0.0
     {
-        abs_radius
+        1.0
     } else {
         let mut half = hypot_axis(dx, dy);
         if half - abs_radius > tolerance {
@@ -823,7 +853,7 @@ fn arc_r(
         if half / abs_radius > 1.0 - TINY {
             half = abs_radius;
         }
-        half
+        half / abs_radius
     };
     let heading = atan2_axis(end.1 - cur.1, end.0 - cur.0);
     let theta = if (mode == G_2 && radius > 0.0) || (mode == G_3 && radius < 0.0) {
@@ -831,10 +861,9 @@ fn arc_r(
     } else {
         heading + FRAC_PI_2
     };
-    let ratio = half / abs_radius;
     let offset = abs_radius
         * if ratio == 1.0 {
-            cos_asin_one()
+            trig.cos_asin_one
         } else {
             ratio.asin().cos()
         };
@@ -1094,6 +1123,16 @@ mod tests {
                 LETTER[usize::from(c | 0x20)]
             };
             assert_eq!(BYTE_KIND[usize::from(c)], want, "byte {c:#x}");
+        }
+    }
+
+    /// `GOES_ON` holds the test it replaces (a digit or a point) for every byte.
+    #[test]
+    fn bytes_going_on_with_a_number_are_digits_and_the_point() {
+        use super::GOES_ON;
+        for c in 0..=255u8 {
+            let want = c.wrapping_sub(b'0') <= 9 || c == b'.';
+            assert_eq!(GOES_ON[usize::from(c)], want, "byte {c:#x}");
         }
     }
 
@@ -1510,5 +1549,39 @@ mod tests {
             ok_ijk > 50_000 && ok_r > 50_000,
             "{ok_ijk} {ok_r} arcs without error"
         );
+    }
+
+    /// `arc_r` against `arc_data_r` where the chord is shorter than the radius
+    /// tolerance and the radius is zero, subnormal or about half the chord: the
+    /// short way's ratio of 1 (taken without dividing) must not hide the 0 / 0 of
+    /// a zero radius.
+    #[test]
+    fn arcs_of_tiny_chords_and_zero_radii_as_arc_data_r() {
+        use super::super::arc_data_r;
+        use super::{arc_r, Trig, G_2, G_3, RADIUS_TOLERANCE_INCH, RADIUS_TOLERANCE_MM};
+        let mut next = xorshift(0x5be0_cd19_137e_2179u64);
+        let mut trig = Trig::default();
+        let mut zero_radius = 0;
+        for _ in 0..100_000 {
+            let mode = [G_2, G_3][next(2)];
+            let tol = [RADIUS_TOLERANCE_MM, RADIUS_TOLERANCE_INCH][next(2)];
+            let cur = (any_value(&mut next), any_value(&mut next));
+            let d = tol * [0.0, 1e-300, 1e-9, 0.1, 0.5, 1.0, 1.9, 2.0, 2.1][next(9)];
+            let end = match next(3) {
+                0 => (cur.0 + d, cur.1),
+                1 => (cur.0, cur.1 - d),
+                _ => (cur.0 + d, cur.1 + d),
+            };
+            let half = (end.0 - cur.0).hypot(end.1 - cur.1) / 2.0;
+            let radius = [0.0, -0.0, 5e-324, half, half * 0.5, -half][next(6)];
+            zero_radius += usize::from(radius == 0.0);
+            let want = arc_data_r(mode, cur, end, radius, 1, tol)
+                .ok()
+                .map(|(x, y, t)| (x.to_bits(), y.to_bits(), t));
+            let got = arc_r(mode, cur, end, radius, tol, &mut trig)
+                .map(|(x, y, t)| (x.to_bits(), y.to_bits(), t));
+            assert_eq!(got, want, "{mode} {cur:?} {end:?} {radius:e}");
+        }
+        assert!(zero_radius > 20_000, "{zero_radius} zero radii");
     }
 }
