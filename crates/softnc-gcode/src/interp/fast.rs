@@ -475,12 +475,14 @@ impl Interp<'_> {
     /// they are read once ([`Run`]); the current point, feed rate and motion mode
     /// are kept in locals ([`Moving`]) and the motions pushed onto the vector taken
     /// out of `self` for the run (the compiler need not read them again from
-    /// `self` after each push), and all are put back at the end.
+    /// `self` after each push), and all are put back at the end. The lines are
+    /// read in [`lines`], one copy of the loop per plane (the plane is one of the
+    /// modes), so that an arc's axes are constants.
     #[inline(never)]
     pub(super) fn fast_lines(
         &mut self,
         t: &[u8],
-        mut pos: usize,
+        pos: usize,
         line_no: usize,
         max_lines: u64,
         chunk: usize,
@@ -506,25 +508,22 @@ impl Interp<'_> {
             trig: Trig::default(),
         };
         let mut motions = std::mem::take(&mut self.motions);
-        // the words of the line being read (a local: its fields may stay in
-        // registers)
-        let w = &mut Words::default();
-        let mut read = 0;
-        while read < max_lines && motions.len() < chunk {
-            let Some(e) = words(t, pos, w) else {
-                break;
-            };
-            let newline = e < t.len();
-            if e - pos + usize::from(newline) >= LINELEN - 1 {
-                break; // too long: the general reader says so
-            }
-            let no = line_no + read as usize;
-            if !run_line(&run, &mut st, w, no as u32, &mut motions) {
-                break;
-            }
-            read += 1;
-            pos = e + usize::from(newline);
-        }
+        // one loop per plane: its axes are constants there
+        let lines = match run.plane {
+            Plane::XY => lines::<XY>,
+            Plane::XZ => lines::<XZ>,
+            Plane::YZ => lines::<YZ>,
+        };
+        let (pos, read) = lines(
+            t,
+            pos,
+            line_no,
+            max_lines,
+            chunk,
+            &run,
+            &mut st,
+            &mut motions,
+        );
         self.motions = motions;
         if st.pushed > 0 {
             // `push`: the point moves with each motion, and the canonical point
@@ -539,6 +538,53 @@ impl Interp<'_> {
         }
         (pos, read)
     }
+}
+
+/// [`lines`]' plane parameter: the index of a plane in [`PLANES`].
+const XY: usize = 0;
+const XZ: usize = 1;
+const YZ: usize = 2;
+/// The planes by [`lines`]' plane parameter.
+const PLANES: [Plane; 3] = [Plane::XY, Plane::XZ, Plane::YZ];
+
+/// The loop of [`Interp::fast_lines`] in the plane `PLANES[P]` (the run's
+/// plane, which no line of it changes): [`words`] reads each line and
+/// [`run_line`] runs it, from `pos`, the first line numbered `line_no`, at most
+/// `max_lines` lines and none once `chunk` motions wait. The offset of the first
+/// line not read and the number of lines read. With the plane a constant, an
+/// arc's axes are constants (no point copied to memory to be indexed).
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn lines<const P: usize>(
+    t: &[u8],
+    mut pos: usize,
+    line_no: usize,
+    max_lines: u64,
+    chunk: usize,
+    run: &Run,
+    st: &mut Moving,
+    motions: &mut Vec<Motion>,
+) -> (usize, u64) {
+    // the words of the line being read (a local: its fields may stay in
+    // registers)
+    let w = &mut Words::default();
+    let mut read = 0;
+    while read < max_lines && motions.len() < chunk {
+        let Some(e) = words(t, pos, w) else {
+            break;
+        };
+        let newline = e < t.len();
+        if e - pos + usize::from(newline) >= LINELEN - 1 {
+            break; // too long: the general reader says so
+        }
+        let no = line_no + read as usize;
+        if !run_line::<P>(run, st, w, no as u32, motions) {
+            break;
+        }
+        read += 1;
+        pos = e + usize::from(newline);
+    }
+    (pos, read)
 }
 
 /// The interpreter's modes for a run of [`Interp::fast_lines`] (no line of the
@@ -575,7 +621,7 @@ struct Moving {
 /// `execute` leave them, and `true`. Otherwise nothing is changed and `false`: the
 /// general reader reads the line (and gives its error, if any).
 #[inline(always)]
-fn run_line(
+fn run_line<const P: usize>(
     run: &Run,
     st: &mut Moving,
     w: &Words,
@@ -655,7 +701,8 @@ fn run_line(
         if !has(R) && !ijk || has(R) && ijk {
             return false;
         }
-        let (a1, a2, an) = run.plane.axes();
+        let plane = PLANES[P];
+        let (a1, a2, an) = plane.axes();
         let inch = run.inch;
         let (c1, c2, turns) = if ijk {
             if has(IJK + an) || (run.ijk_absolute && !(has(IJK + a1) && has(IJK + a2))) {
@@ -708,7 +755,7 @@ fn run_line(
         let kind = MotionKind::Arc {
             end: sc(end, s),
             center: sc(center, s),
-            plane: run.plane,
+            plane,
             turns,
             feed_mm_per_min: feed * s,
         };
