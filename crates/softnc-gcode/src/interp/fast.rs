@@ -19,7 +19,7 @@
 
 use super::{
     arc_data_ijk, cos_asin_one, sc, Interp, CENTER_ARC_RADIUS_TOLERANCE_INCH,
-    CENTER_ARC_RADIUS_TOLERANCE_MM, G_0, G_2, G_3, LINELEN, RADIUS_TOLERANCE_INCH,
+    CENTER_ARC_RADIUS_TOLERANCE_MM, G_0, G_2, G_3, LINELEN, MM_PER_INCH, RADIUS_TOLERANCE_INCH,
     RADIUS_TOLERANCE_MM, TINY,
 };
 use crate::canon::{Motion, MotionKind, PathMode};
@@ -419,8 +419,11 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
             w.set |= bit;
             w.v[k] = value;
             i = next;
-            if t.get(i) == Some(&b' ') {
-                i += 1; // the common blank before the next word
+            // the common blank before the next word, or the end of the line
+            match t.get(i) {
+                Some(b' ') => i += 1,
+                Some(b'\n') => return Some(i),
+                _ => {}
             }
             continue;
         }
@@ -508,11 +511,12 @@ impl Interp<'_> {
             trig: Trig::default(),
         };
         let mut motions = std::mem::take(&mut self.motions);
-        // one loop per plane: its axes are constants there
+        // one loop per plane, distance mode and unit: the axes, the distance
+        // mode and the scale are constants there
         let lines = match run.plane {
-            Plane::XY => lines::<XY>,
-            Plane::XZ => lines::<XZ>,
-            Plane::YZ => lines::<YZ>,
+            Plane::XY => lines_of::<XY>(run.absolute, run.inch),
+            Plane::XZ => lines_of::<XZ>(run.absolute, run.inch),
+            Plane::YZ => lines_of::<YZ>(run.absolute, run.inch),
         };
         let (pos, read) = lines(
             t,
@@ -547,15 +551,33 @@ const YZ: usize = 2;
 /// The planes by [`lines`]' plane parameter.
 const PLANES: [Plane; 3] = [Plane::XY, Plane::XZ, Plane::YZ];
 
-/// The loop of [`Interp::fast_lines`] in the plane `PLANES[P]` (the run's
-/// plane, which no line of it changes): [`words`] reads each line and
-/// [`run_line`] runs it, from `pos`, the first line numbered `line_no`, at most
-/// `max_lines` lines and none once `chunk` motions wait. The offset of the first
-/// line not read and the number of lines read. With the plane a constant, an
-/// arc's axes are constants (no point copied to memory to be indexed).
+/// [`lines`] as a function pointer.
+type Lines =
+    fn(&[u8], usize, usize, u64, usize, &Run, &mut Moving, &mut Vec<Motion>) -> (usize, u64);
+
+/// [`lines`] in the plane `PLANES[P]` for a run's distance mode (`absolute`:
+/// G90) and unit (`inch`: G20).
+fn lines_of<const P: usize>(absolute: bool, inch: bool) -> Lines {
+    match (absolute, inch) {
+        (false, false) => lines::<P, false, false>,
+        (false, true) => lines::<P, false, true>,
+        (true, false) => lines::<P, true, false>,
+        (true, true) => lines::<P, true, true>,
+    }
+}
+
+/// The loop of [`Interp::fast_lines`] in the plane `PLANES[P]`, absolute
+/// distances (G90) where `ABSOLUTE`, inches (G20) where `INCH` (the run's modes,
+/// which no line of it changes; `run` holds the same): [`words`] reads each line
+/// and [`run_line`] runs it, from `pos`, the first line numbered `line_no`, at
+/// most `max_lines` lines and none once `chunk` motions wait. The offset of the
+/// first line not read and the number of lines read. With these modes constants,
+/// an arc's axes are constants (no point copied to memory to be indexed), and
+/// so are the distance mode's test and the scale (mm: × 1, which the compiler
+/// drops).
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
-fn lines<const P: usize>(
+fn lines<const P: usize, const ABSOLUTE: bool, const INCH: bool>(
     t: &[u8],
     mut pos: usize,
     line_no: usize,
@@ -578,7 +600,7 @@ fn lines<const P: usize>(
             break; // too long: the general reader says so
         }
         let no = line_no + read as usize;
-        if !run_line::<P>(run, st, w, no as u32, motions) {
+        if !run_line::<P, ABSOLUTE, INCH>(run, st, w, no as u32, motions) {
             break;
         }
         read += 1;
@@ -621,7 +643,7 @@ struct Moving {
 /// `execute` leave them, and `true`. Otherwise nothing is changed and `false`: the
 /// general reader reads the line (and gives its error, if any).
 #[inline(always)]
-fn run_line<const P: usize>(
+fn run_line<const P: usize, const ABSOLUTE: bool, const INCH: bool>(
     run: &Run,
     st: &mut Moving,
     w: &Words,
@@ -663,14 +685,18 @@ fn run_line<const P: usize>(
     let end_on = |a: usize| {
         if !has(X + a) {
             pos.0[a]
-        } else if run.absolute {
+        } else if ABSOLUTE {
             w.v[X + a]
         } else {
             pos.0[a] + w.v[X + a]
         }
     };
     let end = Vec3([end_on(0), end_on(1), end_on(2)]);
-    let s = run.scale;
+    // `Interp::scale` of the run's unit (`run.scale`), a constant
+    let s = if INCH { MM_PER_INCH } else { 1.0 };
+    debug_assert!(
+        s.to_bits() == run.scale.to_bits() && (ABSOLUTE, INCH) == (run.absolute, run.inch)
+    );
     // `push` (no rotation) and `keep` (no run from line waiting), written out in
     // each branch below (the motion built in place)
     let mut push = |kind: MotionKind, center: Vec3| {
@@ -680,7 +706,7 @@ fn run_line<const P: usize>(
             kind,
             offset_mm: run.offset_mm,
             path_mode: run.path,
-            inch: run.inch,
+            inch: INCH,
             canon_end: end,
             canon_center: center,
             spindle_rpm: run.spindle_rpm,
@@ -703,7 +729,7 @@ fn run_line<const P: usize>(
         }
         let plane = PLANES[P];
         let (a1, a2, an) = plane.axes();
-        let inch = run.inch;
+        let inch = INCH;
         let (c1, c2, turns) = if ijk {
             if has(IJK + an) || (run.ijk_absolute && !(has(IJK + a1) && has(IJK + a2))) {
                 return false;
