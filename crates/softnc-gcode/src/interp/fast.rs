@@ -377,9 +377,18 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
     w.set = 0;
     let n = t.len();
     let mut i = s;
-    // a line that starts with a word's letter (the common case) goes straight to
-    // the words; blanks, a blank line and a line number first
-    if matches!(BYTE_KIND[usize::from(*t.get(i)?)], 0 | BLANK) {
+    // a line that starts with a motion code of one digit and a space (`G1 `, the
+    // most common start: what the loop below reads from it, in one test), or
+    // with a word's letter (the common case) goes straight to the words; blanks,
+    // a blank line and a line number first
+    if let Some(&[letter, digit, b' ']) = t.get(s..s + 3) {
+        let code = digit.wrapping_sub(b'0');
+        if letter | 0x20 == b'g' && code <= 3 {
+            w.g = i32::from(code) * 10;
+            i += 3;
+        }
+    }
+    if i == s && matches!(BYTE_KIND[usize::from(*t.get(i)?)], 0 | BLANK) {
         while i < n && blank(t[i]) {
             i += 1;
         }
@@ -1197,6 +1206,43 @@ mod tests {
             };
             assert_eq!(BYTE_KIND[usize::from(c)], want, "byte {c:#x}");
         }
+    }
+
+    /// Every line start of three bytes around the short way's shortcuts (`G1 ` in
+    /// one test, a line starting with a word's letter, blanks and `N` first) with
+    /// what may follow, in a text that goes on after the line's newline: where
+    /// [`words`] takes the line, it ends at its newline and the general reader
+    /// reads the same words from it.
+    #[test]
+    fn line_starts_read_as_the_general_reader_reads_them() {
+        let p = profile();
+        let it = Interp::new("t.ngc", &p);
+        let (mut taken, mut g_starts) = (0, 0);
+        for c0 in "Gg XNn\t".chars() {
+            for c1 in "0123456789.-+ \nX".chars() {
+                for c2 in " \n\t0.5X\r".chars() {
+                    for rest in ["", "X1", "X1 Y2", "1 X2", " Y.5\n", "G2"] {
+                        let text = format!("{c0}{c1}{c2}{rest}\nG1 X1\n");
+                        let mut w = Words::default();
+                        let Some(e) = words(text.as_bytes(), 0, &mut w) else {
+                            continue;
+                        };
+                        assert_eq!(Some(e), text.find('\n'), "{text:?}");
+                        let line = &text[..e];
+                        let want = general(&it, line).unwrap_or_else(|err| {
+                            panic!("{line:?}: fast path taken, general reader fails: {err}")
+                        });
+                        assert_eq!(contents(&as_block(&w)), contents(&want), "{line:?}");
+                        taken += 1;
+                        g_starts += usize::from(c0 == 'G' && c2 == ' ' && c1.is_ascii_digit());
+                    }
+                }
+            }
+        }
+        assert!(
+            taken > 300 && g_starts >= 16,
+            "{taken} lines, {g_starts} G starts"
+        );
     }
 
     /// `GOES_ON` holds the test it replaces (a digit or a point) for every byte.
