@@ -381,7 +381,7 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
     // most common start: what the loop below reads from it, in one test), or
     // with a word's letter (the common case) goes straight to the words; blanks,
     // a blank line and a line number first
-    if let Some(&[letter, digit, b' ']) = t.get(s..s + 3) {
+    if let Some(&[letter, digit, b' ', ..]) = t.get(s..) {
         let code = digit.wrapping_sub(b'0');
         if letter | 0x20 == b'g' && code <= 3 {
             w.g = i32::from(code) * 10;
