@@ -19,7 +19,7 @@
 
 use super::{
     arc_data_ijk, cos_asin_one, sc, Interp, CENTER_ARC_RADIUS_TOLERANCE_INCH,
-    CENTER_ARC_RADIUS_TOLERANCE_MM, G_0, G_2, G_3, LINELEN, RADIUS_TOLERANCE_INCH,
+    CENTER_ARC_RADIUS_TOLERANCE_MM, G_0, G_2, G_3, LINELEN, MM_PER_INCH, RADIUS_TOLERANCE_INCH,
     RADIUS_TOLERANCE_MM, TINY,
 };
 use crate::canon::{Motion, MotionKind, PathMode};
@@ -175,6 +175,20 @@ const HIGHS: u64 = 0x8080_8080_8080_8080;
 /// The point, XOR [`ZEROS`].
 const POINT: u64 = (b'.' ^ b'0') as u64;
 
+/// The bytes that go on with a number after its digits (the digits and the
+/// point), by the byte: [`number_kept`]'s test of the byte after a kept number
+/// in one lookup.
+const GOES_ON: [bool; 256] = {
+    let mut t = [false; 256];
+    let mut c = b'0';
+    while c <= b'9' {
+        t[c as usize] = true;
+        c += 1;
+    }
+    t[b'.' as usize] = true;
+    t
+};
+
 /// The number of up to 8 decimal digits held one per byte in `v` (values 0 to 9,
 /// the most significant in the lowest byte), in three multiplications (as
 /// `fast_float`'s `parse_eight_digits_unrolled`).
@@ -255,7 +269,7 @@ fn number_kept(t: &[u8], start: usize, kept: &mut Kept) -> (f64, usize) {
     let lo = u64::from_le_bytes(lo);
     // the same bytes of the number, and after them a byte that ends it
     let after = (lo >> (8 * (kept.len & 7))) as u8;
-    if (lo ^ kept.bytes) & kept.mask == 0 && after.wrapping_sub(b'0') > 9 && after != b'.' {
+    if (lo ^ kept.bytes) & kept.mask == 0 && !GOES_ON[usize::from(after)] {
         return (kept.value, start + kept.len);
     }
     match number_in(head) {
@@ -346,7 +360,7 @@ fn one_digit_code(t: &[u8], at: usize) -> Option<i32> {
         return None;
     }
     match t.get(at + 1) {
-        Some(c) if c.is_ascii_digit() || *c == b'.' => None,
+        Some(&c) if GOES_ON[usize::from(c)] => None,
         _ => Some(i32::from(d)),
     }
 }
@@ -363,34 +377,64 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
     w.set = 0;
     let n = t.len();
     let mut i = s;
-    while i < n && blank(t[i]) {
-        i += 1;
+    // a line that starts with a motion code of one digit and a space (`G1 `, the
+    // most common start: what the loop below reads from it, in one test), or
+    // with a word's letter (the common case) goes straight to the words; blanks,
+    // a blank line and a line number first
+    if let Some(&[letter, digit, b' ', ..]) = t.get(s..) {
+        let code = digit.wrapping_sub(b'0');
+        if letter | 0x20 == b'g' && code <= 3 {
+            w.g = i32::from(code) * 10;
+            i += 3;
+        }
     }
-    if i == n || t[i] == b'\n' {
-        return None; // a blank line: the general reader says so
-    }
-    if t[i] | 0x20 == b'n' {
-        // a line number of digits alone (LinuxCNC reads and drops it); what follows
-        // must start a word, which the loop below checks
-        i += 1;
-        let digits = i;
-        while i < n && t[i].is_ascii_digit() {
+    if i == s && matches!(BYTE_KIND[usize::from(*t.get(i)?)], 0 | BLANK) {
+        while i < n && blank(t[i]) {
             i += 1;
         }
-        if i == digits {
-            return None;
+        if i == n || t[i] == b'\n' {
+            return None; // a blank line: the general reader says so
+        }
+        if t[i] | 0x20 == b'n' {
+            // a line number of digits alone (LinuxCNC reads and drops it); what
+            // follows must start a word, which the loop below checks
+            i += 1;
+            let digits = i;
+            while i < n && t[i].is_ascii_digit() {
+                i += 1;
+            }
+            if i == digits {
+                return None;
+            }
         }
     }
     while i < n {
         let c = t[i];
         let kind = BYTE_KIND[usize::from(c)];
-        if kind == BLANK {
-            i += 1;
+        // the kinds by how often they come: a value letter, G, a blank, the end
+        if kind.wrapping_sub(1) < VALUES as u8 {
+            // `k` < VALUES (a power of two): the mask only tells the compiler so
+            let k = usize::from(kind - 1) & (VALUES - 1);
+            let (value, next) = number_kept(t, i + 1, &mut w.kept[k]);
+            if next == NO_NUMBER {
+                return None;
+            }
+            let bit = 1 << k;
+            // a repeated letter and a negative feed are errors: the general reader
+            // gives them
+            if w.set & bit != 0 || (k == F && value < 0.0) {
+                return None;
+            }
+            w.set |= bit;
+            w.v[k] = value;
+            i = next;
+            // the common blank before the next word, or the end of the line
+            match t.get(i) {
+                Some(b' ') => i += 1,
+                Some(b'\n') => return Some(i),
+                _ => {}
+            }
             continue;
-        }
-        if kind == 0 {
-            // the end of the line, or what the general reader reads
-            return (c == b'\n').then_some(i);
         }
         if kind == G_WORD {
             if let Some(code) = one_digit_code(t, i + 1) {
@@ -400,10 +444,11 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
                 }
                 w.g = code * 10;
                 i += 2;
+                if t.get(i) == Some(&b' ') {
+                    i += 1; // the common blank before the next word
+                }
                 continue;
             }
-        }
-        if kind == G_WORD {
             let (value, next) = number(t, i + 1);
             if next == NO_NUMBER {
                 return None;
@@ -418,21 +463,12 @@ pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
             i = next;
             continue;
         }
-        // `k` < VALUES (a power of two): the mask only tells the compiler so
-        let k = usize::from(kind - 1) & (VALUES - 1);
-        let (value, next) = number_kept(t, i + 1, &mut w.kept[k]);
-        if next == NO_NUMBER {
-            return None;
+        if kind == BLANK {
+            i += 1;
+            continue;
         }
-        let bit = 1 << k;
-        // a repeated letter and a negative feed are errors: the general reader
-        // gives them
-        if w.set & bit != 0 || (k == F && value < 0.0) {
-            return None;
-        }
-        w.set |= bit;
-        w.v[k] = value;
-        i = next;
+        // the end of the line, or what the general reader reads
+        return (c == b'\n').then_some(i);
     }
     Some(n)
 }
@@ -451,12 +487,14 @@ impl Interp<'_> {
     /// they are read once ([`Run`]); the current point, feed rate and motion mode
     /// are kept in locals ([`Moving`]) and the motions pushed onto the vector taken
     /// out of `self` for the run (the compiler need not read them again from
-    /// `self` after each push), and all are put back at the end.
+    /// `self` after each push), and all are put back at the end. The lines are
+    /// read in [`lines`], one copy of the loop per plane (the plane is one of the
+    /// modes), so that an arc's axes are constants.
     #[inline(never)]
     pub(super) fn fast_lines(
         &mut self,
         t: &[u8],
-        mut pos: usize,
+        pos: usize,
         line_no: usize,
         max_lines: u64,
         chunk: usize,
@@ -482,25 +520,23 @@ impl Interp<'_> {
             trig: Trig::default(),
         };
         let mut motions = std::mem::take(&mut self.motions);
-        // the words of the line being read (a local: its fields may stay in
-        // registers)
-        let w = &mut Words::default();
-        let mut read = 0;
-        while read < max_lines && motions.len() < chunk {
-            let Some(e) = words(t, pos, w) else {
-                break;
-            };
-            let newline = e < t.len();
-            if e - pos + usize::from(newline) >= LINELEN - 1 {
-                break; // too long: the general reader says so
-            }
-            let no = line_no + read as usize;
-            if !run_line(&run, &mut st, w, no as u32, &mut motions) {
-                break;
-            }
-            read += 1;
-            pos = e + usize::from(newline);
-        }
+        // one loop per plane, distance mode and unit: the axes, the distance
+        // mode and the scale are constants there
+        let lines = match run.plane {
+            Plane::XY => lines_of::<XY>(run.absolute, run.inch),
+            Plane::XZ => lines_of::<XZ>(run.absolute, run.inch),
+            Plane::YZ => lines_of::<YZ>(run.absolute, run.inch),
+        };
+        let (pos, read) = lines(
+            t,
+            pos,
+            line_no,
+            max_lines,
+            chunk,
+            &run,
+            &mut st,
+            &mut motions,
+        );
         self.motions = motions;
         if st.pushed > 0 {
             // `push`: the point moves with each motion, and the canonical point
@@ -515,6 +551,71 @@ impl Interp<'_> {
         }
         (pos, read)
     }
+}
+
+/// [`lines`]' plane parameter: the index of a plane in [`PLANES`].
+const XY: usize = 0;
+const XZ: usize = 1;
+const YZ: usize = 2;
+/// The planes by [`lines`]' plane parameter.
+const PLANES: [Plane; 3] = [Plane::XY, Plane::XZ, Plane::YZ];
+
+/// [`lines`] as a function pointer.
+type Lines =
+    fn(&[u8], usize, usize, u64, usize, &Run, &mut Moving, &mut Vec<Motion>) -> (usize, u64);
+
+/// [`lines`] in the plane `PLANES[P]` for a run's distance mode (`absolute`:
+/// G90) and unit (`inch`: G20).
+fn lines_of<const P: usize>(absolute: bool, inch: bool) -> Lines {
+    match (absolute, inch) {
+        (false, false) => lines::<P, false, false>,
+        (false, true) => lines::<P, false, true>,
+        (true, false) => lines::<P, true, false>,
+        (true, true) => lines::<P, true, true>,
+    }
+}
+
+/// The loop of [`Interp::fast_lines`] in the plane `PLANES[P]`, absolute
+/// distances (G90) where `ABSOLUTE`, inches (G20) where `INCH` (the run's modes,
+/// which no line of it changes; `run` holds the same): [`words`] reads each line
+/// and [`run_line`] runs it, from `pos`, the first line numbered `line_no`, at
+/// most `max_lines` lines and none once `chunk` motions wait. The offset of the
+/// first line not read and the number of lines read. With these modes constants,
+/// an arc's axes are constants (no point copied to memory to be indexed), and
+/// so are the distance mode's test and the scale (mm: × 1, which the compiler
+/// drops).
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn lines<const P: usize, const ABSOLUTE: bool, const INCH: bool>(
+    t: &[u8],
+    mut pos: usize,
+    line_no: usize,
+    max_lines: u64,
+    chunk: usize,
+    run: &Run,
+    st: &mut Moving,
+    motions: &mut Vec<Motion>,
+) -> (usize, u64) {
+    // the words of the line being read (a local: its fields may stay in
+    // registers)
+    let w = &mut Words::default();
+    let mut read = 0;
+    while read < max_lines && motions.len() < chunk {
+        let Some(e) = words(t, pos, w) else {
+            break;
+        };
+        let newline = e < t.len();
+        if e - pos + usize::from(newline) >= LINELEN - 1 {
+            break; // too long: the general reader says so
+        }
+        let no = line_no + read as usize;
+        if !run_line::<P, ABSOLUTE, INCH>(run, st, w, no as u32, motions) {
+            break;
+        }
+        read += 1;
+        pos = e + usize::from(newline);
+    }
+    (pos, read)
 }
 
 /// The interpreter's modes for a run of [`Interp::fast_lines`] (no line of the
@@ -551,7 +652,7 @@ struct Moving {
 /// `execute` leave them, and `true`. Otherwise nothing is changed and `false`: the
 /// general reader reads the line (and gives its error, if any).
 #[inline(always)]
-fn run_line(
+fn run_line<const P: usize, const ABSOLUTE: bool, const INCH: bool>(
     run: &Run,
     st: &mut Moving,
     w: &Words,
@@ -593,14 +694,18 @@ fn run_line(
     let end_on = |a: usize| {
         if !has(X + a) {
             pos.0[a]
-        } else if run.absolute {
+        } else if ABSOLUTE {
             w.v[X + a]
         } else {
             pos.0[a] + w.v[X + a]
         }
     };
     let end = Vec3([end_on(0), end_on(1), end_on(2)]);
-    let s = run.scale;
+    // `Interp::scale` of the run's unit (`run.scale`), a constant
+    let s = if INCH { MM_PER_INCH } else { 1.0 };
+    debug_assert!(
+        s.to_bits() == run.scale.to_bits() && (ABSOLUTE, INCH) == (run.absolute, run.inch)
+    );
     // `push` (no rotation) and `keep` (no run from line waiting), written out in
     // each branch below (the motion built in place)
     let mut push = |kind: MotionKind, center: Vec3| {
@@ -610,7 +715,7 @@ fn run_line(
             kind,
             offset_mm: run.offset_mm,
             path_mode: run.path,
-            inch: run.inch,
+            inch: INCH,
             canon_end: end,
             canon_center: center,
             spindle_rpm: run.spindle_rpm,
@@ -631,8 +736,9 @@ fn run_line(
         if !has(R) && !ijk || has(R) && ijk {
             return false;
         }
-        let (a1, a2, an) = run.plane.axes();
-        let inch = run.inch;
+        let plane = PLANES[P];
+        let (a1, a2, an) = plane.axes();
+        let inch = INCH;
         let (c1, c2, turns) = if ijk {
             if has(IJK + an) || (run.ijk_absolute && !(has(IJK + a1) && has(IJK + a2))) {
                 return false;
@@ -684,7 +790,7 @@ fn run_line(
         let kind = MotionKind::Arc {
             end: sc(end, s),
             center: sc(center, s),
-            plane: run.plane,
+            plane,
             turns,
             feed_mm_per_min: feed * s,
         };
@@ -705,6 +811,8 @@ pub(super) struct Trig {
     theta: f64,
     sin: f64,
     cos: f64,
+    /// [`cos_asin_one`], read once (not through its `OnceLock` per arc).
+    cos_asin_one: f64,
 }
 
 impl Default for Trig {
@@ -714,6 +822,7 @@ impl Default for Trig {
             theta,
             sin: theta.sin(),
             cos: theta.cos(),
+            cos_asin_one: cos_asin_one(),
         }
     }
 }
@@ -811,10 +920,13 @@ fn arc_r(
     let mid = ((end.0 + cur.0) / 2.0, (end.1 + cur.1) / 2.0);
     let (dx, dy) = (mid.0 - end.0, mid.1 - end.1);
     let near = (dx * dx + dy * dy).sqrt();
-    let half = if near * (1.0 + HYPOT_SLACK) - abs_radius < tolerance
+    // `half / abs_radius`, which is 1 where half the chord is taken as the
+    // radius and that is neither 0 nor infinite (x / x)
+    let ratio = if near * (1.0 + HYPOT_SLACK) - abs_radius < tolerance
         && near * (1.0 - HYPOT_SLACK) > abs_radius * (1.0 - TINY / 2.0)
+        && abs_radius != 0.0
     {
-        abs_radius
+        1.0
     } else {
         let mut half = hypot_axis(dx, dy);
         if half - abs_radius > tolerance {
@@ -823,7 +935,7 @@ fn arc_r(
         if half / abs_radius > 1.0 - TINY {
             half = abs_radius;
         }
-        half
+        half / abs_radius
     };
     let heading = atan2_axis(end.1 - cur.1, end.0 - cur.0);
     let theta = if (mode == G_2 && radius > 0.0) || (mode == G_3 && radius < 0.0) {
@@ -831,10 +943,9 @@ fn arc_r(
     } else {
         heading + FRAC_PI_2
     };
-    let ratio = half / abs_radius;
     let offset = abs_radius
         * if ratio == 1.0 {
-            cos_asin_one()
+            trig.cos_asin_one
         } else {
             ratio.asin().cos()
         };
@@ -1094,6 +1205,53 @@ mod tests {
                 LETTER[usize::from(c | 0x20)]
             };
             assert_eq!(BYTE_KIND[usize::from(c)], want, "byte {c:#x}");
+        }
+    }
+
+    /// Every line start of three bytes around the short way's shortcuts (`G1 ` in
+    /// one test, a line starting with a word's letter, blanks and `N` first) with
+    /// what may follow, in a text that goes on after the line's newline: where
+    /// [`words`] takes the line, it ends at its newline and the general reader
+    /// reads the same words from it.
+    #[test]
+    fn line_starts_read_as_the_general_reader_reads_them() {
+        let p = profile();
+        let it = Interp::new("t.ngc", &p);
+        let (mut taken, mut g_starts) = (0, 0);
+        for c0 in "Gg XNn\t".chars() {
+            for c1 in "0123456789.-+ \nX".chars() {
+                for c2 in " \n\t0.5X\r".chars() {
+                    for rest in ["", "X1", "X1 Y2", "1 X2", " Y.5\n", "G2"] {
+                        let text = format!("{c0}{c1}{c2}{rest}\nG1 X1\n");
+                        let mut w = Words::default();
+                        let Some(e) = words(text.as_bytes(), 0, &mut w) else {
+                            continue;
+                        };
+                        assert_eq!(Some(e), text.find('\n'), "{text:?}");
+                        let line = &text[..e];
+                        let want = general(&it, line).unwrap_or_else(|err| {
+                            panic!("{line:?}: fast path taken, general reader fails: {err}")
+                        });
+                        assert_eq!(contents(&as_block(&w)), contents(&want), "{line:?}");
+                        taken += 1;
+                        g_starts += usize::from(c0 == 'G' && c2 == ' ' && c1.is_ascii_digit());
+                    }
+                }
+            }
+        }
+        assert!(
+            taken > 300 && g_starts >= 16,
+            "{taken} lines, {g_starts} G starts"
+        );
+    }
+
+    /// `GOES_ON` holds the test it replaces (a digit or a point) for every byte.
+    #[test]
+    fn bytes_going_on_with_a_number_are_digits_and_the_point() {
+        use super::GOES_ON;
+        for c in 0..=255u8 {
+            let want = c.wrapping_sub(b'0') <= 9 || c == b'.';
+            assert_eq!(GOES_ON[usize::from(c)], want, "byte {c:#x}");
         }
     }
 
@@ -1510,5 +1668,39 @@ mod tests {
             ok_ijk > 50_000 && ok_r > 50_000,
             "{ok_ijk} {ok_r} arcs without error"
         );
+    }
+
+    /// `arc_r` against `arc_data_r` where the chord is shorter than the radius
+    /// tolerance and the radius is zero, subnormal or about half the chord: the
+    /// short way's ratio of 1 (taken without dividing) must not hide the 0 / 0 of
+    /// a zero radius.
+    #[test]
+    fn arcs_of_tiny_chords_and_zero_radii_as_arc_data_r() {
+        use super::super::arc_data_r;
+        use super::{arc_r, Trig, G_2, G_3, RADIUS_TOLERANCE_INCH, RADIUS_TOLERANCE_MM};
+        let mut next = xorshift(0x5be0_cd19_137e_2179u64);
+        let mut trig = Trig::default();
+        let mut zero_radius = 0;
+        for _ in 0..100_000 {
+            let mode = [G_2, G_3][next(2)];
+            let tol = [RADIUS_TOLERANCE_MM, RADIUS_TOLERANCE_INCH][next(2)];
+            let cur = (any_value(&mut next), any_value(&mut next));
+            let d = tol * [0.0, 1e-300, 1e-9, 0.1, 0.5, 1.0, 1.9, 2.0, 2.1][next(9)];
+            let end = match next(3) {
+                0 => (cur.0 + d, cur.1),
+                1 => (cur.0, cur.1 - d),
+                _ => (cur.0 + d, cur.1 + d),
+            };
+            let half = (end.0 - cur.0).hypot(end.1 - cur.1) / 2.0;
+            let radius = [0.0, -0.0, 5e-324, half, half * 0.5, -half][next(6)];
+            zero_radius += usize::from(radius == 0.0);
+            let want = arc_data_r(mode, cur, end, radius, 1, tol)
+                .ok()
+                .map(|(x, y, t)| (x.to_bits(), y.to_bits(), t));
+            let got = arc_r(mode, cur, end, radius, tol, &mut trig)
+                .map(|(x, y, t)| (x.to_bits(), y.to_bits(), t));
+            assert_eq!(got, want, "{mode} {cur:?} {end:?} {radius:e}");
+        }
+        assert!(zero_radius > 20_000, "{zero_radius} zero radii");
     }
 }
