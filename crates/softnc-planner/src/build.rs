@@ -584,10 +584,13 @@ pub struct PathBuilder {
     /// Elements already handed on by [`PathBuilder::drain_settled`] (a streamed
     /// path keeps only the last one, whose end speed the next may still change).
     base: usize,
-    /// The arc data of the pending move, if given.
-    prep_prev: Option<ArcPrep>,
-    /// The arc data of the move after it while their corner is blended, if given.
-    prep_next: Option<ArcPrep>,
+    /// The arc data of the pending move ([`PathBuilder::prep_prev`]) and of the move
+    /// after it while their corner is blended ([`PathBuilder::prep_next`]), if given:
+    /// two slots whose roles swap once the move after becomes the pending one (the
+    /// record, about 80 bytes, is written once instead of copied from slot to slot).
+    preps: [Option<ArcPrep>; 2],
+    /// The slot of `preps` that is [`PathBuilder::prep_next`] (0 or 1).
+    prep_next_slot: usize,
     /// [`Limits::max_drift_rad`] of `lim`, worked out once (rad).
     max_drift_rad: f64,
     /// The axes' top speed |vmax| of `lim`, worked out once (mm/s).
@@ -687,8 +690,8 @@ impl PathBuilder {
             single_block: false,
             pending_stop_at_start: (StopKind::None, 0),
             base: 0,
-            prep_prev: None,
-            prep_next: None,
+            preps: [None, None],
+            prep_next_slot: 0,
             max_drift_rad: lim.max_drift_rad(),
             v_top_mm_per_s: Vec3::new(lim.vmax[0], lim.vmax[1], lim.vmax[2]).norm(),
             keep_orphans: true,
@@ -967,9 +970,7 @@ impl PathBuilder {
             start_at: None,
             start_trim_rad: None,
         };
-        if prep.is_some() || self.prep_prev.is_some() {
-            self.prep_next = prep.copied();
-        }
+        self.preps[self.prep_next_slot & 1] = prep.copied();
         match self.pending.take() {
             Some(prev) => {
                 let blend = self.blend(&prev, &next, ahead);
@@ -984,9 +985,9 @@ impl PathBuilder {
             None => self.start_dwell(),
         }
         self.pending = Some(next);
-        if self.prep_next.is_some() || self.prep_prev.is_some() {
-            self.prep_prev = self.prep_next.take();
-        }
+        // the move after is now the pending one: its slot becomes `prep_prev`, the
+        // other is written before it is read again (`prep_next` of the next move)
+        self.prep_next_slot ^= 1;
     }
 
     /// The dwell (and pause) before the first move, as an element of its own.
@@ -1079,16 +1080,20 @@ impl PathBuilder {
         match (&a.geom, &b.geom) {
             (Geom::Line { .. }, Geom::Line { .. }) => self.blend_lines(a, b),
             (&Geom::Line { end, .. }, Geom::Arc(arc)) => {
-                let view = self.view_next(arc)?;
+                // (the view and the fillet by reference into their `Option`s: not
+                // copied out, about 100 and 140 bytes)
+                let view = self.view_next(arc);
+                let view = view.as_ref()?;
                 let f = line_arc_or_ahead(
                     ahead,
                     end,
                     a.dir,
                     min_to(0.5 * a.len, a.len - a.start_trim),
-                    &view,
+                    view,
                     0.5 * b.len,
                     min_to(a.tolerance_mm, b.tolerance_mm),
-                )?;
+                );
+                let f = f.as_ref()?;
                 let e1 = (f.p_line - f.center) * (1.0 / f.radius);
                 Some(Blend {
                     geom2: None,
@@ -1110,19 +1115,21 @@ impl PathBuilder {
             }
             (Geom::Arc(arc), &Geom::Line { start, .. }) => {
                 // the line–arc construction on the path run backwards
-                let view = match &self.prep_prev {
+                let view = match self.prep_prev() {
                     Some(p) => p.view(arc, true, self.max_drift_rad()),
                     None => ArcView::of(arc, true, self.max_drift_rad()),
-                }?;
+                };
+                let view = view.as_ref()?;
                 let f = line_arc_or_ahead(
                     ahead,
                     start,
                     -b.dir,
                     0.5 * b.len,
-                    &view,
+                    view,
                     min_to(0.5 * a.len, a.len - a.start_trim),
                     min_to(a.tolerance_mm, b.tolerance_mm),
-                )?;
+                );
+                let f = f.as_ref()?;
                 let e1 = (f.p_arc - f.center) * (1.0 / f.radius);
                 // backwards the fillet runs from the line with e2' = −b.dir; forwards
                 // it starts at the arc point with the opposite of its end tangent there
@@ -1254,11 +1261,24 @@ impl PathBuilder {
         self.max_drift_rad
     }
 
+    /// The arc data of the pending move, if given.
+    #[inline(always)]
+    fn prep_prev(&self) -> &Option<ArcPrep> {
+        &self.preps[(self.prep_next_slot ^ 1) & 1]
+    }
+
+    /// The arc data of the move after the pending one while their corner is
+    /// blended, if given.
+    #[inline(always)]
+    fn prep_next(&self) -> &Option<ArcPrep> {
+        &self.preps[self.prep_next_slot & 1]
+    }
+
     /// [`ArcView::of`] the move after the corner being blended (an arc, `arc`), from
     /// its start: from its [`ArcPrep`] where one came with it.
     #[inline(always)]
     fn view_next(&self, arc: &Primitive) -> Option<ArcView> {
-        match &self.prep_next {
+        match self.prep_next() {
             Some(p) => p.view(arc, false, self.max_drift_rad()),
             None => ArcView::of(arc, false, self.max_drift_rad()),
         }
@@ -1269,7 +1289,7 @@ impl PathBuilder {
     fn kink_at_speed(&self, a: &Pending, b: &Pending) -> bool {
         let t1 = match &a.geom {
             Geom::Line { .. } => a.dir,
-            Geom::Arc(p) => match &self.prep_prev {
+            Geom::Arc(p) => match self.prep_prev() {
                 Some(q) => q.end_tangent,
                 None => arc_end_tangent(p, true),
             },
@@ -1277,7 +1297,7 @@ impl PathBuilder {
         };
         let t2 = match &b.geom {
             Geom::Line { .. } => b.dir,
-            Geom::Arc(p) => match &self.prep_next {
+            Geom::Arc(p) => match self.prep_next() {
                 Some(q) => q.start_tangent,
                 None => arc_end_tangent(p, false),
             },
@@ -1395,7 +1415,10 @@ impl PathBuilder {
     /// Push the elements of a move whose successor is known (`last`: it has none).
     fn emit(&mut self, p: &Pending, blend: Option<&Blend>, last: bool) {
         let stop = p.exact_stop || p.dwell_s > 0.0 || p.stop != StopKind::None || last;
-        let (geom, shape) = match &p.geom {
+        // (the element's geometry by reference: the held move's own where it runs
+        // uncut, else built once in `cut`, not moved through a tuple)
+        let cut: Geom;
+        let (geom, shape): (&Geom, ElementShape) = match &p.geom {
             &Geom::Line {
                 start,
                 end,
@@ -1404,20 +1427,20 @@ impl PathBuilder {
             } => {
                 let to = prog_len - blend.map_or(0.0, |b| b.end_trim_prev);
                 let len = max_to(to - p.start_trim, 0.0);
-                let geom = Geom::Line {
+                cut = Geom::Line {
                     start,
                     end,
                     from: p.start_trim,
                     to,
                     prog_len,
                 };
-                (geom, ElementShape::line(len, p.dir))
+                (&cut, ElementShape::line(len, p.dir))
             }
             // (by reference: the held move's arc is not copied out to be cut)
             Geom::Arc(prim) => {
                 let end_trim = blend.map_or(0.0, |b| b.end_trim_prev);
                 if p.start_trim == 0.0 && end_trim == 0.0 {
-                    (p.geom, ElementShape::arc(prim))
+                    (&p.geom, ElementShape::arc(prim))
                 } else {
                     // the programmed arc stays exact among the orphans
                     self.orphan(p.motion, *prim);
@@ -1426,14 +1449,14 @@ impl PathBuilder {
                         // used up by the blends at both its ends
                         let at = prim.point_at(from);
                         let dir = Vec3::ZERO;
-                        let geom = Geom::Line {
+                        cut = Geom::Line {
                             start: at,
                             end: at,
                             from: 0.0,
                             to: 0.0,
                             prog_len: 0.0,
                         };
-                        (geom, ElementShape::line(0.0, dir))
+                        (&cut, ElementShape::line(0.0, dir))
                     } else {
                         let at_from = p.start_at.unwrap_or_else(|| prim.point_at(from));
                         let at_to = blend
@@ -1453,8 +1476,9 @@ impl PathBuilder {
                         if let (Some(s_rad), Some(e_rad)) = (start_rad, end_rad) {
                             // cut from the circle by fillets: planned as a circle
                             // where its end radius is off by rounding only
-                            let sub = sub_arc_by_angles(prim, at_from, at_to, s_rad, e_rad);
-                            (Geom::Arc(sub), ElementShape::sub_arc(&sub))
+                            cut = Geom::Arc(sub_arc_by_angles(prim, at_from, at_to, s_rad, e_rad));
+                            let Geom::Arc(sub) = &cut else { unreachable!() };
+                            (&cut, ElementShape::sub_arc(sub))
                         } else {
                             let sub = if prim_sweep(prim).abs() < std::f64::consts::TAU {
                                 sub_arc(prim, at_from, at_to)
@@ -1462,7 +1486,8 @@ impl PathBuilder {
                                 // a helix of a turn or more, trimmed by biarcs only
                                 sub_arc_span(prim, from, to, at_from, at_to)
                             };
-                            (Geom::Arc(sub), ElementShape::arc(&sub))
+                            cut = Geom::Arc(sub);
+                            (&cut, ElementShape::arc(&sub))
                         }
                     }
                 }
@@ -1471,7 +1496,7 @@ impl PathBuilder {
         };
         let pushed = match blend {
             Some(b) => {
-                let pushed = self.push_element(p, &geom, &shape, 0.0, false);
+                let pushed = self.push_element(p, geom, &shape, 0.0, false);
                 // the blend's arcs, by reference (no copies of the geometry)
                 self.push_blend_piece(p, &b.geom, b.sweep_cos_sin);
                 if let Some(g2) = &b.geom2 {
@@ -1479,7 +1504,7 @@ impl PathBuilder {
                 }
                 pushed
             }
-            None => self.push_element(p, &geom, &shape, p.dwell_s, stop),
+            None => self.push_element(p, geom, &shape, p.dwell_s, stop),
         };
         if !pushed {
             if let Some(prim) = geom.programmed() {
