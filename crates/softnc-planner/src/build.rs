@@ -1075,6 +1075,11 @@ impl PathBuilder {
 
     /// A single circular blend: line–line here, line–arc, arc–line and arc–arc of
     /// one plane in [`crate::fillet`].
+    ///
+    /// Inline (into [`PathBuilder::push_unmerged`], its one hot caller): the call,
+    /// its frame and the `Option<Blend>` handed back cost about 13 instructions a
+    /// join (planning thread −2.6 M on the 200k-line program).
+    #[inline(always)]
     fn circle_blend(&self, a: &Pending, b: &Pending, ahead: Option<&FilletAhead>) -> Option<Blend> {
         // (by reference: the geometries are not copied to be matched)
         match (&a.geom, &b.geom) {
@@ -1536,6 +1541,12 @@ impl PathBuilder {
 
     /// Push one element with its limits and settle the junction speed with the one
     /// before it. False if it was too short to keep.
+    ///
+    /// Inline (into [`PathBuilder::emit`] and [`PathBuilder::push_blend_piece`]):
+    /// the geometry and shape are then read where their callers built them
+    /// (planning thread −2.0 M on the 200k-line program, with `circle_blend`
+    /// inline; alone, in `plan12`, −2.3 M but +1.2 M on the reading thread).
+    #[inline(always)]
     fn push_element(
         &mut self,
         m: &Pending,
