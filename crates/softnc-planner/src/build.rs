@@ -735,15 +735,26 @@ impl PathBuilder {
     /// [`PathBuilder::drain_settled`] handing the settled elements over all at once:
     /// their limits and their geometry, in order, as two slices of one length (the
     /// stream's figures copy a batch's limits in one go).
+    ///
+    /// The test whether enough wait is inline in the caller (it runs after every
+    /// motion and passes about once in `batch` elements); the hand-over is not
+    /// (planning thread −3.4 M on the 200k-line program).
+    #[inline(always)]
     pub(crate) fn drain_settled_slices(
         &mut self,
         batch: usize,
         out: &mut impl FnMut(&[Segment], &[Geom]),
     ) {
-        let n = self.path.segs.len();
-        if n <= batch.max(1) {
-            return;
+        if self.path.segs.len() > batch.max(1) {
+            self.hand_over_settled(out);
         }
+    }
+
+    /// [`PathBuilder::drain_settled_slices`] once more than one element waits: all
+    /// but the last to `out`, then dropped.
+    #[inline(never)]
+    fn hand_over_settled(&mut self, out: &mut impl FnMut(&[Segment], &[Geom])) {
+        let n = self.path.segs.len();
         out(&self.path.segs[..n - 1], &self.path.geoms[..n - 1]);
         self.path.segs.drain(..n - 1);
         self.path.geoms.drain(..n - 1);
@@ -785,6 +796,10 @@ impl PathBuilder {
 
     /// [`PathBuilder::push`] with the arc data of `prim`, if given (by reference:
     /// the motion's records are copied once, into the held move).
+    ///
+    /// Inline (into [`PathBuilder::push_prepared`] and [`PathBuilder::push`]): one call
+    /// less a motion (planning thread −0.4 M on the 200k-line program).
+    #[inline(always)]
     fn push_with(
         &mut self,
         index: usize,
