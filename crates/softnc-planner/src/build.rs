@@ -248,6 +248,7 @@ impl ArcPrep {
     }
 
     /// [`ArcView::of`] the arc `p` whose data this is.
+    #[inline(always)]
     fn view(&self, p: &Primitive, at_end: bool, max_drift_rad: f64) -> Option<ArcView> {
         ArcView::of_measured(p, at_end, max_drift_rad, self.end_radius_mm, self.len_mm)
     }

@@ -76,6 +76,7 @@ impl ArcView {
     /// [`ArcView::of`] given the arc's end radius in its plane `re` (|end − c|,
     /// computed as `of` does) and its length `len` (`Primitive::length`): no square
     /// root, the same view.
+    #[inline(always)]
     pub fn of_measured(
         p: &Primitive,
         at_end: bool,
