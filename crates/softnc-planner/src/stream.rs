@@ -450,6 +450,41 @@ const PARALLEL_CHUNK_MOTIONS: usize = READ_CHUNK_MOTIONS / 2;
 /// blends, and a chunk takes it about 0.1 ms); more only touch more memory.
 const PARALLEL_QUEUE_CHUNKS: usize = 2;
 
+/// Longest the two threads of [`check_program_parallel`] look for each other's
+/// progress (a chunk to take, room to send one) before they block on the channel.
+/// A thread that blocks sleeps on its core and is woken by the other through the
+/// kernel: on the benchmark program's 390 chunks that was about 500 sleeps a run,
+/// and where they happened the whole process took 40–55 ms, where runs with a few
+/// dozen took 20–29 ms (`/usr/bin/time`, voluntary context switches, 20 runs). A
+/// chunk takes the planning thread about 0.1 ms, so a wait is seldom longer than
+/// this; a thread that waits longer (a machine with other work on the cores) sleeps.
+const HANDOFF_SPIN: std::time::Duration = std::time::Duration::from_micros(500);
+
+/// Looks between two readings of the clock while [`spin_until`] waits.
+const SPIN_LOOKS: usize = 64;
+
+/// Wait until `ready()` or for [`HANDOFF_SPIN`]: looking, with the processor's
+/// spin-wait hint between looks and the processor yielded to other threads between
+/// rounds (a thread sharing the core, the other of the two among them, runs then).
+fn spin_until(ready: impl Fn() -> bool) {
+    if ready() {
+        return;
+    }
+    let deadline = std::time::Instant::now() + HANDOFF_SPIN;
+    loop {
+        for _ in 0..SPIN_LOOKS {
+            std::hint::spin_loop();
+            if ready() {
+                return;
+            }
+        }
+        if std::time::Instant::now() >= deadline {
+            return;
+        }
+        std::thread::yield_now();
+    }
+}
+
 /// Most wall time a chunk's reading may take, as a multiple of the quickest so far,
 /// for the reader to count as not descheduled meanwhile
 /// ([`FilletsAheadWhen::PlannerBehind`]): the planner's progress then happened while
@@ -479,7 +514,7 @@ pub(crate) fn check_program_parallel_with(
     options: &PlanOptions,
     when: FilletsAheadWhen,
 ) -> Result<(Program, CheckedProgram), ReadPlanError> {
-    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
     use std::sync::mpsc::channel;
     // the motions, their primitives and (where the reader checks) their arc data and
     // the fillets worked out ahead (by index in the chunk)
@@ -495,6 +530,9 @@ pub(crate) fn check_program_parallel_with(
     // motions the planning thread has built (with the reader checking)
     let built = AtomicUsize::new(0);
     let built = &built;
+    // the reader has sent its last chunk
+    let read_done = AtomicBool::new(false);
+    let read_done = &read_done;
     let (to_planner, chunks) = sync_channel::<Chunk>(PARALLEL_QUEUE_CHUNKS);
     // the end parameters, and the reader's checker where it checked the motions
     let (params_tx, params_rx) = sync_channel::<Params>(1);
@@ -511,7 +549,14 @@ pub(crate) fn check_program_parallel_with(
             }
             let mut refused: Option<PlanError> = None;
             let mut index = 0;
-            for (mut motions, mut prims, mut preps, mut aheads) in chunks {
+            loop {
+                // (the reader sends a chunk about every 0.1 ms: a look beats a sleep)
+                spin_until(|| {
+                    queued.load(Ordering::Relaxed) > 0 || read_done.load(Ordering::Relaxed)
+                });
+                let Ok((mut motions, mut prims, mut preps, mut aheads)) = chunks.recv() else {
+                    break;
+                };
                 queued.fetch_sub(1, Ordering::Relaxed);
                 if refused.is_none() {
                     let mut next_ahead = 0;
@@ -622,7 +667,11 @@ pub(crate) fn check_program_parallel_with(
                     );
                     fillets_ahead.chunk(chunk, &prims, &preps, work, &mut aheads);
                 }
-                queued.fetch_add(1, Ordering::Relaxed);
+                // (the planner takes a chunk about every 0.1 ms: a look beats a sleep)
+                let in_flight = queued.fetch_add(1, Ordering::Relaxed) + 1;
+                if in_flight > PARALLEL_QUEUE_CHUNKS {
+                    spin_until(|| queued.load(Ordering::Relaxed) <= PARALLEL_QUEUE_CHUNKS);
+                }
                 // a planner that stopped early (it cannot) only loses the chunk
                 let _ = to_planner.send((std::mem::replace(chunk, fresh), prims, preps, aheads));
                 built_seen = built.load(Ordering::Relaxed);
@@ -630,6 +679,7 @@ pub(crate) fn check_program_parallel_with(
             },
         );
         drop(to_planner);
+        read_done.store(true, Ordering::Relaxed);
         let read = read.map(|(program, params)| {
             let _ = params_tx.send(params.clone()); // a planner that refused is gone
             (program, params)
