@@ -456,32 +456,76 @@ const PARALLEL_QUEUE_CHUNKS: usize = 2;
 /// kernel: on the benchmark program's 390 chunks that was about 500 sleeps a run,
 /// and where they happened the whole process took 40–55 ms, where runs with a few
 /// dozen took 20–29 ms (`/usr/bin/time`, voluntary context switches, 20 runs). A
-/// chunk takes the planning thread about 0.1 ms, so a wait is seldom longer than
-/// this; a thread that waits longer (a machine with other work on the cores) sleeps.
-const HANDOFF_SPIN: std::time::Duration = std::time::Duration::from_micros(500);
+/// chunk takes the planning thread about 0.1 ms, so on two free cores a wait is
+/// seldom longer than this; a thread that waits longer (a machine with other work on
+/// the cores) sleeps, and [`HandoffWait`] stops looking for a while. 0.5 ms measured
+/// the same on a quiet machine, 2 ms too.
+const HANDOFF_SPIN: std::time::Duration = std::time::Duration::from_micros(200);
 
 /// Looks between two readings of the clock while [`spin_until`] waits.
 const SPIN_LOOKS: usize = 64;
 
+/// Waits a thread of [`check_program_parallel`] blocks at once after a look that
+/// ran out ([`HandoffWait`]); doubled at each further one, up to
+/// [`SPIN_SKIP_MAX_WAITS`].
+const SPIN_SKIP_FIRST_WAITS: u32 = 8;
+
+/// Most waits blocked at once between two looks ([`HandoffWait`]).
+const SPIN_SKIP_MAX_WAITS: u32 = 1024;
+
 /// Wait until `ready()` or for [`HANDOFF_SPIN`]: looking, with the processor's
-/// spin-wait hint between looks and the processor yielded to other threads between
-/// rounds (a thread sharing the core, the other of the two among them, runs then).
-fn spin_until(ready: impl Fn() -> bool) {
+/// spin-wait hint between looks. False where the time ran out. (Yielding the
+/// processor between rounds, tried first, handed it to a busy process for whole time
+/// slices: with both cores loaded, single runs took 0.17–0.29 s where blocking took
+/// 0.05–0.09 s.)
+fn spin_until(ready: impl Fn() -> bool) -> bool {
     if ready() {
-        return;
+        return true;
     }
     let deadline = std::time::Instant::now() + HANDOFF_SPIN;
     loop {
         for _ in 0..SPIN_LOOKS {
             std::hint::spin_loop();
             if ready() {
-                return;
+                return true;
             }
         }
         if std::time::Instant::now() >= deadline {
+            return false;
+        }
+    }
+}
+
+/// One thread's waits for the other in [`check_program_parallel`]: a look
+/// ([`spin_until`]) while looks pay, else straight to the channel's sleep. On two
+/// free cores a look nearly always finds the other's progress; on a machine with
+/// other work the two threads share cores, a look runs out, and sleeping is the
+/// better wait (with both cores busy, 0.05–0.09 s a run as when the threads always
+/// slept, 10 runs twice):
+/// after a look that ran out the next [`SPIN_SKIP_FIRST_WAITS`] waits sleep at once,
+/// twice as many after each further one, until a look finds progress again.
+#[derive(Debug, Default)]
+struct HandoffWait {
+    /// Waits still to sleep at once.
+    skip: u32,
+    /// Waits to sleep at once after the next look that runs out.
+    next_skip: u32,
+}
+
+impl HandoffWait {
+    /// Look for `ready()` where looks pay (the caller then blocks on its channel,
+    /// which returns at once if it is ready).
+    fn wait(&mut self, ready: impl Fn() -> bool) {
+        if self.skip > 0 {
+            self.skip -= 1;
             return;
         }
-        std::thread::yield_now();
+        if spin_until(ready) {
+            self.next_skip = 0;
+        } else {
+            self.next_skip = (self.next_skip * 2).clamp(SPIN_SKIP_FIRST_WAITS, SPIN_SKIP_MAX_WAITS);
+            self.skip = self.next_skip;
+        }
     }
 }
 
@@ -549,9 +593,10 @@ pub(crate) fn check_program_parallel_with(
             }
             let mut refused: Option<PlanError> = None;
             let mut index = 0;
+            let mut waits = HandoffWait::default();
             loop {
                 // (the reader sends a chunk about every 0.1 ms: a look beats a sleep)
-                spin_until(|| {
+                waits.wait(|| {
                     queued.load(Ordering::Relaxed) > 0 || read_done.load(Ordering::Relaxed)
                 });
                 let Ok((mut motions, mut prims, mut preps, mut aheads)) = chunks.recv() else {
@@ -614,6 +659,7 @@ pub(crate) fn check_program_parallel_with(
         });
         let mut checker = reader_checks.then(|| Checker::new(profile, options, file));
         let mut built_seen = 0;
+        let mut waits = HandoffWait::default();
         let mut read_from = std::time::Instant::now();
         let mut quickest_read = std::time::Duration::MAX;
         let mut fillets_ahead =
@@ -670,7 +716,7 @@ pub(crate) fn check_program_parallel_with(
                 // (the planner takes a chunk about every 0.1 ms: a look beats a sleep)
                 let in_flight = queued.fetch_add(1, Ordering::Relaxed) + 1;
                 if in_flight > PARALLEL_QUEUE_CHUNKS {
-                    spin_until(|| queued.load(Ordering::Relaxed) <= PARALLEL_QUEUE_CHUNKS);
+                    waits.wait(|| queued.load(Ordering::Relaxed) <= PARALLEL_QUEUE_CHUNKS);
                 }
                 // a planner that stopped early (it cannot) only loses the chunk
                 let _ = to_planner.send((std::mem::replace(chunk, fresh), prims, preps, aheads));
