@@ -501,9 +501,9 @@ fn spin_until(ready: impl Fn() -> bool) -> bool {
 /// free cores a look nearly always finds the other's progress; on a machine with
 /// other work the two threads share cores, a look runs out, and sleeping is the
 /// better wait (with both cores busy, 0.05–0.09 s a run as when the threads always
-/// slept, 10 runs twice):
-/// after a look that ran out the next [`SPIN_SKIP_FIRST_WAITS`] waits sleep at once,
-/// twice as many after each further one, until a look finds progress again.
+/// slept, 10 runs twice). So after a look that ran out the next
+/// [`SPIN_SKIP_FIRST_WAITS`] waits sleep at once, twice as many after each further
+/// one, until a look finds progress again.
 #[derive(Debug, Default)]
 struct HandoffWait {
     /// Waits still to sleep at once.
@@ -1212,6 +1212,48 @@ mod tests {
     /// bit, on line–arc and arc–line joins among G64 Q chains, dwells, pauses, exact
     /// stops and tolerance changes, over many chunks, in both feed profiles and single
     /// block.
+    #[test]
+    fn handoff_waits_stop_looking_after_looks_that_run_out() {
+        let mut w = HandoffWait::default();
+        // a look that finds progress: the next wait looks again
+        w.wait(|| true);
+        assert_eq!((w.skip, w.next_skip), (0, 0));
+        // a look that runs out: the next 8 waits sleep at once (no look: `ready` is
+        // not asked), then a look, and after it runs out 16
+        w.wait(|| false);
+        assert_eq!(w.skip, SPIN_SKIP_FIRST_WAITS);
+        for _ in 0..SPIN_SKIP_FIRST_WAITS {
+            w.wait(|| panic!("looked while skipping"));
+        }
+        assert_eq!(w.skip, 0);
+        w.wait(|| false);
+        assert_eq!(w.skip, 2 * SPIN_SKIP_FIRST_WAITS);
+        // the skips stop doubling at the most
+        for _ in 0..20 {
+            while w.skip > 0 {
+                w.wait(|| panic!("looked while skipping"));
+            }
+            w.wait(|| false);
+        }
+        assert_eq!(w.skip, SPIN_SKIP_MAX_WAITS);
+        // a look that finds progress starts over at the first skip
+        while w.skip > 0 {
+            w.wait(|| panic!("looked while skipping"));
+        }
+        w.wait(|| true);
+        assert_eq!(w.next_skip, 0);
+        w.wait(|| false);
+        assert_eq!(w.skip, SPIN_SKIP_FIRST_WAITS);
+    }
+
+    #[test]
+    fn a_look_ends_at_progress_or_after_its_time() {
+        assert!(spin_until(|| true));
+        let start = std::time::Instant::now();
+        assert!(!spin_until(|| false));
+        assert!(start.elapsed() >= HANDOFF_SPIN);
+    }
+
     #[test]
     fn fillets_ahead_change_no_figure() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machines");
