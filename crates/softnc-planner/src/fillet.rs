@@ -268,14 +268,6 @@ fn line_arc_in<const A: usize, const B: usize, const N: usize>(
         return None; // tangent (or reversing) join
     }
     let (na, nb) = (ma / m_norm, mb / m_norm);
-    // the same normal as the in-plane perpendicular of u, ⟂ u to rounding (m loses
-    // digits to cancellation where t ≈ u): taken where the fillet built on n does not
-    // close (`closes`), so that every fillet that did keeps its bits
-    let exact_n = || {
-        let (sa, sb) = (-ub, ua);
-        let s_scale = (na * sa + nb * sb).signum() / (sa * sa + sb * sb).sqrt();
-        (sa * s_scale, sb * s_scale)
-    };
     let mut d = min_to(
         line_avail,
         first_trim_cs(ut, (ua * tb - ub * ta).abs(), tol_mm),
@@ -284,32 +276,120 @@ fn line_arc_in<const A: usize, const B: usize, const N: usize>(
         if d <= 1e-9 {
             return None;
         }
-        let at = |n: (f64, f64)| {
-            line_arc_at::<A, B, N>(corner, u, d, arc, arc_avail, n, (pa, pb))
-                .map(|(f, _)| f)
-                .filter(|f| closes(f, u))
-        };
-        if let Some(f) = line_arc_at::<A, B, N>(corner, u, d, arc, arc_avail, (na, nb), (pa, pb))
-            .and_then(|(f, surely)| {
-                // (a fillet whose bound proves it closes is not measured, in tests too)
-                debug_assert!(!surely || closes(&f, u), "closure bound wrong: {f:?}");
-                if surely || closes(&f, u) {
-                    Some(f)
-                } else {
-                    at(exact_n())
+        if let Some(c) = line_arc_at::<A, B, N>(corner, u, d, arc, arc_avail, (na, nb), (pa, pb)) {
+            // (a fillet whose bound proves it closes is not measured, in tests too)
+            debug_assert!(
+                !c.surely || closes(&c.fillet::<A, B, N>(arc), u),
+                "closure bound wrong: {c:?}"
+            );
+            if c.surely {
+                // (the deviation from the candidate's numbers, as from the fillet's)
+                let (fa, fb) = (c.center_ab.0 - ca, c.center_ab.1 - cb);
+                let (da, db) = (pa - fa, pb - fb);
+                let deviation = ((da * da + db * db).sqrt() - c.radius).abs();
+                if deviation <= DEVIATION_SHARE * tol_mm {
+                    return Some(c.fillet::<A, B, N>(arc));
                 }
-            })
-        {
-            let (fa, fb) = (f.center[ia] - ca, f.center[ib] - cb);
-            let (da, db) = (pa - fa, pb - fb);
-            let deviation = ((da * da + db * db).sqrt() - f.radius).abs();
-            if deviation <= DEVIATION_SHARE * tol_mm {
-                return Some(f);
+            } else if let Some(f) =
+                line_arc_unsure::<A, B, N>(&c, corner, u, arc, arc_avail, (na, nb), (pa, pb))
+            {
+                let (fa, fb) = (f.center[ia] - ca, f.center[ib] - cb);
+                let (da, db) = (pa - fa, pb - fb);
+                let deviation = ((da * da + db * db).sqrt() - f.radius).abs();
+                if deviation <= DEVIATION_SHARE * tol_mm {
+                    return Some(f);
+                }
             }
         }
         d *= 0.7;
     }
     None
+}
+
+/// A candidate `c` of [`line_arc_in`] whose bound did not prove it closes: its
+/// fillet where that does close ([`closes`]), else the fillet of the same trim built
+/// on the in-plane perpendicular of u, exact to rounding (m loses digits to
+/// cancellation where t ≈ u), where that one closes. Out of line and cold: the
+/// fillets of CAM programs are proven to close by their bound (a fillet that did
+/// close keeps its bits).
+#[cold]
+#[inline(never)]
+fn line_arc_unsure<const A: usize, const B: usize, const N: usize>(
+    c: &Candidate,
+    corner: Vec3,
+    u: Vec3,
+    arc: &ArcView,
+    arc_avail: f64,
+    (na, nb): (f64, f64),
+    p: (f64, f64),
+) -> Option<Fillet> {
+    let f = c.fillet::<A, B, N>(arc);
+    if closes(&f, u) {
+        return Some(f);
+    }
+    let (ua, ub) = (u[A], u[B]);
+    let (sa, sb) = (-ub, ua);
+    let s_scale = (na * sa + nb * sb).signum() / (sa * sa + sb * sb).sqrt();
+    let n = (sa * s_scale, sb * s_scale);
+    line_arc_at::<A, B, N>(corner, u, c.line_trim, arc, arc_avail, n, p)
+        .map(|c| c.fillet::<A, B, N>(arc))
+        .filter(|f| closes(f, u))
+}
+
+/// A fillet found by [`line_arc_at`], in the numbers it was built from: the
+/// [`Fillet`] ([`Candidate::fillet`]) is written once, where it is kept (not moved
+/// through the stack with each test: about 130 bytes).
+#[derive(Debug, Clone, Copy)]
+struct Candidate {
+    /// [`Fillet::line_trim`].
+    line_trim: f64,
+    /// [`Fillet::arc_trim`].
+    arc_trim: f64,
+    /// [`Fillet::arc_trim_rad`].
+    arc_trim_rad: f64,
+    /// [`Fillet::center`] along the plane's axes a and b (its normal component is
+    /// `p_line`'s).
+    center_ab: (f64, f64),
+    /// [`Fillet::radius`].
+    radius: f64,
+    /// [`Fillet::p_line`].
+    p_line: Vec3,
+    /// [`Fillet::p_arc`] along a and b (its normal component is the arc centre's).
+    p_arc_ab: (f64, f64),
+    /// [`Fillet::sweep`].
+    sweep: f64,
+    /// [`Fillet::cos_sweep`].
+    cos_sweep: f64,
+    /// [`Fillet::sin_sweep`].
+    sin_sweep: f64,
+    /// Whether [`closure_bound_mm`] proves that it closes.
+    surely: bool,
+}
+
+impl Candidate {
+    /// The fillet, for an arc in the plane of axes `A`, `B` and normal `N`.
+    #[inline(always)]
+    fn fillet<const A: usize, const B: usize, const N: usize>(&self, arc: &ArcView) -> Fillet {
+        let mut center = self.p_line;
+        center[A] = self.center_ab.0;
+        center[B] = self.center_ab.1;
+        let mut p_arc = arc.center;
+        p_arc[A] = self.p_arc_ab.0;
+        p_arc[B] = self.p_arc_ab.1;
+        p_arc[N] = arc.center[N];
+        Fillet {
+            line_trim: self.line_trim,
+            arc_trim: self.arc_trim,
+            arc_trim_rad: self.arc_trim_rad,
+            center,
+            radius: self.radius,
+            p_line: self.p_line,
+            p_arc,
+            sweep: self.sweep,
+            cos_sweep: self.cos_sweep,
+            sin_sweep: self.sin_sweep,
+        }
+    }
 }
 
 /// The line–arc fillet leaving the line `d` before the corner (`candidate` in the
@@ -326,7 +406,7 @@ fn line_arc_at<const A: usize, const B: usize, const N: usize>(
     arc_avail: f64,
     (na, nb): (f64, f64),
     (pa, pb): (f64, f64),
-) -> Option<(Fillet, bool)> {
+) -> Option<Candidate> {
     let (ia, ib, i_n) = (A, B, N);
     let (ua, ub) = (u[ia], u[ib]);
     let (ca, cb) = (arc.center[ia], arc.center[ib]);
@@ -387,13 +467,6 @@ fn line_arc_at<const A: usize, const B: usize, const N: usize>(
     if !(arc_trim > 1e-9 && arc_trim <= arc_avail) {
         return None;
     }
-    let mut center = p1;
-    center[ia] = ca + fa;
-    center[ib] = cb + fb;
-    let mut p_arc = arc.center;
-    p_arc[ia] = ca + tca;
-    p_arc[ib] = cb + tcb;
-    p_arc[i_n] = arc.center[i_n];
     let surely = closure_bound_mm(
         radial_mismatch_mm,
         r,
@@ -402,19 +475,19 @@ fn line_arc_at<const A: usize, const B: usize, const N: usize>(
         (p1[i_n] - arc.center[i_n]).abs(),
         ca.abs() + cb.abs() + wa.abs() + wb.abs() + big_r,
     ) <= CLOSURE_SURE_SHARE * FILLET_CLOSURE_MM;
-    let fillet = Fillet {
+    Some(Candidate {
         line_trim: d,
         arc_trim,
         arc_trim_rad,
-        center,
+        center_ab: (ca + fa, cb + fb),
         radius: r,
         p_line: p1,
-        p_arc,
+        p_arc_ab: (ca + tca, cb + tcb),
         sweep,
         cos_sweep,
         sin_sweep,
-    };
-    Some((fillet, surely))
+        surely,
+    })
 }
 
 /// Share of [`FILLET_CLOSURE_MM`] below which [`closure_bound_mm`] proves a
@@ -797,7 +870,7 @@ fn atan2(y: f64, x: f64) -> f64 {
     /// The low part of π (π − `PI`).
     const PI_LO: f64 = 1.2246467991473532e-16;
     if !(x.is_finite() && y.is_finite()) {
-        return y.atan2(x);
+        return atan2_not_finite(y, x);
     }
     if y == 0.0 {
         return if x.is_sign_negative() {
@@ -824,6 +897,15 @@ fn atan2(y: f64, x: f64) -> f64 {
         (true, false) => PI - (z - PI_LO),
         (true, true) => (z - PI_LO) - PI,
     }
+}
+
+/// The system library's `atan2(y, x)`, for [`atan2`]'s non-finite arguments: out of
+/// line and cold, so that the registers the call clobbers are not saved on the way
+/// to every inline `atan2`.
+#[cold]
+#[inline(never)]
+fn atan2_not_finite(y: f64, x: f64) -> f64 {
+    y.atan2(x)
 }
 
 /// fdlibm's `atan(x)` for finite x ≥ 0: reduced about 0.5, 1 or 1.5 (or by 1/x) to
