@@ -47,6 +47,29 @@ fn independent(js: &[Join], f: LineArc) -> f64 {
     acc
 }
 
+/// Two joins at a time through `fillet::line_arc_2` (`_f` unused: a `Loop`).
+fn pairs(js: &[Join], _f: LineArc) -> f64 {
+    fn join(j: &Join) -> fillet::LineArcJoin<'_> {
+        fillet::LineArcJoin {
+            corner: j.corner,
+            u: j.u,
+            line_avail_mm: j.line_avail_mm,
+            arc: &j.arc,
+            arc_avail_mm: j.arc_avail_mm,
+            tol_mm: j.tol_mm,
+        }
+    }
+    let mut acc = 0.0;
+    let mut out = [None, None];
+    for w in js.chunks_exact(2) {
+        fillet::line_arc_2([join(&w[0]), join(&w[1])], &mut out);
+        for x in out.iter().flatten() {
+            acc += x.radius;
+        }
+    }
+    acc
+}
+
 fn chained(js: &[Join], f: LineArc) -> f64 {
     let mut acc = 0.0;
     let mut dep = 0.0;
@@ -81,7 +104,8 @@ fn workload_joins() -> Vec<Join> {
 /// (ns): on a machine others load, the least is the figure to compare.
 fn interleaved(rounds: usize) {
     let js = workload_joins();
-    let cases: [(&str, Loop, LineArc); 4] = [
+    let cases: [(&str, Loop, LineArc); 5] = [
+        ("new_pairs", pairs, fillet::line_arc),
         ("new_independent", independent, fillet::line_arc),
         ("557_independent", independent, line_arc_557::line_arc),
         ("new_chained", chained, fillet::line_arc),
@@ -118,6 +142,9 @@ fn benches(c: &mut Criterion) {
     });
     g.bench_function("557_independent", |b| {
         b.iter(|| independent(black_box(&js), line_arc_557::line_arc))
+    });
+    g.bench_function("new_pairs", |b| {
+        b.iter(|| pairs(black_box(&js), fillet::line_arc))
     });
     g.bench_function("new_chained", |b| {
         b.iter(|| chained(black_box(&js), fillet::line_arc))

@@ -262,6 +262,33 @@ fn bits(f: &Fillet) -> [u64; 16] {
     .map(f64::to_bits)
 }
 
+/// `fillet::line_arc_2` of `a` and `b` against the old `line_arc` of each; panics
+/// where they differ. How many fillets were found.
+fn same_2(a: &Args, b: &Args) -> usize {
+    fn join(a: &Args) -> fillet::LineArcJoin<'_> {
+        fillet::LineArcJoin {
+            corner: a.corner,
+            u: a.u,
+            line_avail_mm: a.line_avail,
+            arc: &a.arc,
+            arc_avail_mm: a.arc_avail,
+            tol_mm: a.tol,
+        }
+    }
+    let mut new = [None, None];
+    fillet::line_arc_2([join(a), join(b)], &mut new);
+    let mut found = 0;
+    for (got, x) in new.iter().zip([a, b]) {
+        let old = line_arc_557::line_arc(x.corner, x.u, x.line_avail, &x.arc, x.arc_avail, x.tol);
+        match (got, &old) {
+            (None, None) => {}
+            (Some(n), Some(o)) if bits(n) == bits(o) => found += 1,
+            _ => panic!("line_arc_2 of {x:?} (with {a:?}, {b:?}):\n new {got:?}\n 557 {old:?}"),
+        }
+    }
+    found
+}
+
 /// Both versions of `line_arc` on `a`; panics where they differ. Whether a fillet
 /// was found.
 fn same(a: &Args) -> bool {
@@ -292,6 +319,25 @@ fn the_workloads_joins_give_the_same_bits() {
     assert!(joins.len() > 190_000, "{} joins", joins.len());
     let step = if cfg!(debug_assertions) { 37 } else { 1 };
     let mut found = 0;
+    let args = |j: &fillet_joins::Join| Args {
+        corner: j.corner,
+        u: j.u,
+        line_avail: j.line_avail_mm,
+        arc: j.arc,
+        arc_avail: j.arc_avail_mm,
+        tol: j.tol_mm,
+    };
+    // two at a time, as the reader works fillets out ahead
+    let mut found_2 = 0;
+    for w in joins.chunks(2).step_by(step) {
+        if let [a, b] = w {
+            found_2 += same_2(&args(a), &args(b));
+        }
+    }
+    assert!(
+        found_2 > joins.len() / step / 2,
+        "{found_2} fillets two at a time"
+    );
     for j in joins.iter().step_by(step) {
         for (tol, line_share, arc_share) in [
             (j.tol_mm, 1.0, 1.0),
@@ -320,13 +366,25 @@ fn the_workloads_joins_give_the_same_bits() {
 fn random_and_adversarial_arguments_give_the_same_bits() {
     reset_cover();
     let mut rng = Rng(0x5eed_f111_e714);
-    let (mut found, mut found_mutated) = (0, 0);
-    for _ in 0..CASES {
+    let (mut found, mut found_mutated, mut found_2) = (0, 0, 0);
+    let mut last = corner_case(&mut rng);
+    for i in 0..CASES {
         let a = corner_case(&mut rng);
         found += usize::from(same(&a));
-        found_mutated += usize::from(same(&mutated(&mut rng, a)));
-        same(&raw_case(&mut rng));
+        let m = mutated(&mut rng, a);
+        found_mutated += usize::from(same(&m));
+        let raw = raw_case(&mut rng);
+        same(&raw);
+        // two at a time: corners with corners (often in one plane), with mutated
+        // ones, with raw bits
+        found_2 += match i % 4 {
+            0 | 1 => same_2(&last, &a),
+            2 => same_2(&a, &m),
+            _ => same_2(&raw, &a),
+        };
+        last = a;
     }
+    assert!(found_2 > CASES / 4, "{found_2} fillets two at a time");
     // (most corners have a fillet; the extreme values leave a few)
     assert!(found > CASES / 4, "{found} of {CASES} corners blended");
     assert!(
