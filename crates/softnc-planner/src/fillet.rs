@@ -194,9 +194,14 @@ fn first_trim(t1: Vec3, t2: Vec3, tol_mm: f64) -> f64 {
 /// [`first_trim`] from the cosine `c` and sine `s` of the turn.
 #[inline(always)]
 fn first_trim_cs(c: f64, s: f64, tol_mm: f64) -> f64 {
-    let c = c.clamp(-1.0, 1.0);
+    // (the clamp only where it changes c: off the chain of roots and divisions that
+    // every fillet waits on)
+    let one_plus_c = if (-1.0..=1.0).contains(&c) {
+        1.0 + c
+    } else {
+        first_trim_clamped(c)
+    };
     let s = min_to(s, 1.0);
-    let one_plus_c = 1.0 + c;
     if one_plus_c <= 0.0 {
         return 0.0; // a reversal: no fillet
     }
@@ -208,6 +213,14 @@ fn first_trim_cs(c: f64, s: f64, tol_mm: f64) -> f64 {
     }
     let tan_half = s / one_plus_c;
     DEVIATION_SHARE * tol_mm / sec_minus_one * tan_half
+}
+
+/// 1 + c for a turn cosine `c` beyond [−1, 1] (or NaN): clamped first, as
+/// [`first_trim_cs`] takes it.
+#[cold]
+#[inline(never)]
+fn first_trim_clamped(c: f64) -> f64 {
+    1.0 + c.clamp(-1.0, 1.0)
 }
 
 /// The fillet at corner `corner` between a line arriving along unit `u` (of which

@@ -10,7 +10,7 @@ use softnc_core::Vec3;
 use softnc_planner::fillet::{ArcView, Fillet};
 
 /// How many places call `cover!`.
-pub const COVER_POINTS: usize = 23;
+pub const COVER_POINTS: usize = 24;
 
 const DEVIATION_SHARE: f64 = 0.9;
 const TRIM_TRIES: usize = 16;
@@ -37,6 +37,9 @@ fn max_to(acc: f64, x: f64) -> f64 {
 
 #[inline(always)]
 fn first_trim_cs(c: f64, s: f64, tol_mm: f64) -> f64 {
+    if !(-1.0..=1.0).contains(&c) {
+        cover!(23); // a clamped (or NaN) turn cosine
+    }
     let c = c.clamp(-1.0, 1.0);
     let s = min_to(s, 1.0);
     let one_plus_c = 1.0 + c;
