@@ -1029,8 +1029,10 @@ impl PathBuilder {
                 feed_mm_per_min, ..
             } => (true, feed_mm_per_min / 60.0),
         };
-        let &Some(prim) = prim else { return };
-        let (geom, len, dir) = match prim {
+        // (the primitive read where the motion holds it and written once, into the
+        // held move's record: not copied to the stack first)
+        let Some(src) = prim.as_ref() else { return };
+        let (len, dir) = match *src {
             Primitive::Line { start, end } => {
                 let d = end - start;
                 let len = d.norm();
@@ -1039,45 +1041,45 @@ impl PathBuilder {
                 } else {
                     Vec3::ZERO
                 };
-                let geom = Geom::Line {
-                    start,
-                    end,
-                    from: 0.0,
-                    to: len,
-                    prog_len: len,
-                };
-                (geom, len, dir)
+                (len, dir)
             }
-            Primitive::Arc { .. } => (Geom::Arc(prim), prim.length(), Vec3::ZERO),
+            Primitive::Arc { .. } => (src.length(), Vec3::ZERO),
         };
         if len < 1e-9 {
-            self.orphan(index as u32, prim);
+            self.orphan(index as u32, *src);
             return;
         }
         if self.last_point.is_none() {
-            self.last_point = Some(prim.start());
+            self.last_point = Some(src.start());
         }
         let mut next = self
             .spare
             .take()
             .unwrap_or_else(|| Box::new(Pending::placeholder()));
-        *next = Pending {
-            geom,
-            len,
-            dir,
-            motion: index as u32,
-            feed_move,
-            feed_mm_per_s: feed,
-            exact_stop: exact,
-            tolerance_mm: tol,
-            dwell_s: 0.0,
-            line: m.line,
-            stop: StopKind::None,
-            block_end: false,
-            start_trim: 0.0,
-            start_at: None,
-            start_trim_rad: None,
+        next.geom = match *src {
+            Primitive::Line { start, end } => Geom::Line {
+                start,
+                end,
+                from: 0.0,
+                to: len,
+                prog_len: len,
+            },
+            Primitive::Arc { .. } => Geom::Arc(*src),
         };
+        next.len = len;
+        next.dir = dir;
+        next.motion = index as u32;
+        next.feed_move = feed_move;
+        next.feed_mm_per_s = feed;
+        next.exact_stop = exact;
+        next.tolerance_mm = tol;
+        next.dwell_s = 0.0;
+        next.line = m.line;
+        next.stop = StopKind::None;
+        next.block_end = false;
+        next.start_trim = 0.0;
+        next.start_at = None;
+        next.start_trim_rad = None;
         self.preps[self.prep_next_slot & 1] = prep.copied();
         match self.pending.take() {
             Some(prev) => {
