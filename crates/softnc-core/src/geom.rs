@@ -301,6 +301,7 @@ impl Primitive {
     /// constants the points stay in registers, where indexing them by a variable
     /// axis put them on the stack (the same operations in the same order, so the
     /// same bits; test `arc_per_plane_is_the_variable_axes_arc`).
+    #[inline]
     pub fn arc(start: Vec3, end: Vec3, center: Vec3, plane: Plane, turns: i32) -> Primitive {
         match plane {
             Plane::XY => Self::arc_in::<0, 1, 2>(start, end, center, plane, turns),

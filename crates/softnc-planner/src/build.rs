@@ -2151,6 +2151,11 @@ fn junction_speed(
 }
 
 /// Programmed primitive of a motion in machine coordinates (None for dwells).
+///
+/// Inlined into its callers: returned through the stack, the reader's loop copied
+/// each 112-byte result to the vector with 16-byte loads of what it had just stored
+/// in 8-byte pieces, which the processor cannot forward (a stall at each of them).
+#[inline(always)]
 pub fn motion_primitive(m: &Motion) -> Option<Primitive> {
     let off = m.offset_mm;
     match m.kind {
