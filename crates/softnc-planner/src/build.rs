@@ -519,8 +519,12 @@ impl FilletsAhead {
             }
             _ => return,
         };
-        let found = fillet::line_arc(corner, u, line_avail_mm, &arc, arc_avail_mm, tol).map(|f| {
-            let short = FilletFound::of(&f, &arc);
+        // (the fillet read where `line_arc` wrote it: moved into the closure, it was
+        // copied with 16-byte loads of what `line_arc` had just stored in 8-byte
+        // pieces, which the processor cannot forward, a stall at each)
+        let fillet = fillet::line_arc(corner, u, line_avail_mm, &arc, arc_avail_mm, tol);
+        let found = fillet.as_ref().map(|f| {
+            let short = FilletFound::of(f, &arc);
             debug_assert_eq!(
                 format!("{f:?}"),
                 format!("{:?}", short.fillet(corner, u, &arc)),
@@ -2202,6 +2206,11 @@ fn junction_speed(
 }
 
 /// Programmed primitive of a motion in machine coordinates (None for dwells).
+///
+/// Inlined into its callers: returned through the stack, the reader's loop copied
+/// each 112-byte result to the vector with 16-byte loads of what it had just stored
+/// in 8-byte pieces, which the processor cannot forward (a stall at each of them).
+#[inline(always)]
 pub fn motion_primitive(m: &Motion) -> Option<Primitive> {
     let off = m.offset_mm;
     match m.kind {
