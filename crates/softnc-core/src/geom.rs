@@ -296,8 +296,32 @@ impl Primitive {
     /// `turns` as in LinuxCNC (signed, G3 > 0, |turns| = 1 for up to one revolution).
     /// The end radius may differ from the start radius; the arc takes the start radius
     /// (the interpreter has already checked the mismatch against its tolerance).
+    ///
+    /// One copy of the arithmetic per plane ([`Primitive::arc_in`]): with the axes
+    /// constants the points stay in registers, where indexing them by a variable
+    /// axis put them on the stack (the same operations in the same order, so the
+    /// same bits; test `arc_per_plane_is_the_variable_axes_arc`).
+    #[inline]
     pub fn arc(start: Vec3, end: Vec3, center: Vec3, plane: Plane, turns: i32) -> Primitive {
-        let (a, b, n) = plane.axes();
+        match plane {
+            Plane::XY => Self::arc_in::<0, 1, 2>(start, end, center, plane, turns),
+            Plane::XZ => Self::arc_in::<2, 0, 1>(start, end, center, plane, turns),
+            Plane::YZ => Self::arc_in::<1, 2, 0>(start, end, center, plane, turns),
+        }
+    }
+
+    /// [`Primitive::arc`] in the plane whose axes ([`Plane::axes`]) are `A`, `B`
+    /// (in the plane) and `N` (its normal).
+    #[inline(always)]
+    fn arc_in<const A: usize, const B: usize, const N: usize>(
+        start: Vec3,
+        end: Vec3,
+        center: Vec3,
+        plane: Plane,
+        turns: i32,
+    ) -> Primitive {
+        debug_assert_eq!(plane.axes(), (A, B, N));
+        let (a, b, n) = (A, B, N);
         let mut c = center;
         c[n] = start[n];
         let (sa, sb) = (start[a] - c[a], start[b] - c[b]);
@@ -501,6 +525,107 @@ impl Primitive {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`Primitive::arc`] as it was before its copies per plane: the axes indexed
+    /// by the variables [`Plane::axes`] gives.
+    fn arc_variable_axes(
+        start: Vec3,
+        end: Vec3,
+        center: Vec3,
+        plane: Plane,
+        turns: i32,
+    ) -> Primitive {
+        let (a, b, n) = plane.axes();
+        let mut c = center;
+        c[n] = start[n];
+        let (sa, sb) = (start[a] - c[a], start[b] - c[b]);
+        let radius = hypot_axis(sa, sb);
+        let start_angle = atan2_near_axis(sb, sa);
+        let end_angle = atan2_near_axis(end[b] - c[b], end[a] - c[a]);
+        let tau = std::f64::consts::TAU;
+        let extra = (turns.unsigned_abs().max(1) - 1) as f64 * tau;
+        let sweep = if turns >= 0 {
+            let mut d = rem_tau(end_angle - start_angle);
+            if d <= 1e-12 {
+                d = tau;
+            }
+            d + extra
+        } else {
+            let mut d = rem_tau(start_angle - end_angle);
+            if d <= 1e-12 {
+                d = tau;
+            }
+            -(d + extra)
+        };
+        Primitive::Arc {
+            start,
+            center: c,
+            plane,
+            radius,
+            start_angle,
+            sweep,
+            normal_travel: end[n] - start[n],
+            end,
+        }
+    }
+
+    /// The bits of every number of an arc, and its plane.
+    fn arc_bits(p: &Primitive) -> (Vec<u64>, Plane) {
+        let Primitive::Arc {
+            start,
+            center,
+            plane,
+            radius,
+            start_angle,
+            sweep,
+            normal_travel,
+            end,
+        } = *p
+        else {
+            panic!("not an arc: {p:?}");
+        };
+        let mut bits: Vec<u64> = [start, center, end]
+            .iter()
+            .flat_map(|v| v.0.map(f64::to_bits))
+            .collect();
+        bits.extend([radius, start_angle, sweep, normal_travel].map(f64::to_bits));
+        (bits, plane)
+    }
+
+    #[test]
+    fn arc_per_plane_is_the_variable_axes_arc() {
+        // pseudo-random points (a fixed linear congruential sequence), values on and
+        // off the axes through the centre, zeros of both signs, whole turns
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            let k = state >> 33;
+            match k % 8 {
+                0 => 0.0,
+                1 => -0.0,
+                2 => 0.25,
+                3 => -((k % 97) as f64) * 0.125,
+                _ => (k as f64 / (1u64 << 31) as f64 - 0.5) * 40.0,
+            }
+        };
+        for i in 0..30_000 {
+            let mut v = || Vec3::new(next(), next(), next());
+            let (start, end, center) = (v(), v(), v());
+            let plane = [Plane::XY, Plane::XZ, Plane::YZ][i % 3];
+            let turns = [1, -1, 2, -3, 0][i % 5];
+            let (got, want) = (
+                Primitive::arc(start, end, center, plane, turns),
+                arc_variable_axes(start, end, center, plane, turns),
+            );
+            assert_eq!(
+                arc_bits(&got),
+                arc_bits(&want),
+                "{start:?} {end:?} {center:?} {plane:?}"
+            );
+        }
+    }
 
     #[test]
     fn planar_arc_length_is_what_hypot_gives() {

@@ -3,7 +3,7 @@
 
 use crate::fillet::{self, ArcView};
 use crate::path::{element_limits, max_to, min_to, ElementShape, Geom};
-use softnc_core::{AccDec, FeedProfile, MachineProfile, Primitive, Vec3};
+use softnc_core::{AccDec, FeedProfile, MachineProfile, Plane, Primitive, Vec3};
 use softnc_gcode::{Motion, MotionKind, PathMode, Program};
 
 /// Share of an axis's acceleration that a small tangent discontinuity between two
@@ -519,8 +519,12 @@ impl FilletsAhead {
             }
             _ => return,
         };
-        let found = fillet::line_arc(corner, u, line_avail_mm, &arc, arc_avail_mm, tol).map(|f| {
-            let short = FilletFound::of(&f, &arc);
+        // (the fillet read where `line_arc` wrote it: moved into the closure, it was
+        // copied with 16-byte loads of what `line_arc` had just stored in 8-byte
+        // pieces, which the processor cannot forward, a stall at each)
+        let fillet = fillet::line_arc(corner, u, line_avail_mm, &arc, arc_avail_mm, tol);
+        let found = fillet.as_ref().map(|f| {
+            let short = FilletFound::of(f, &arc);
             debug_assert_eq!(
                 format!("{f:?}"),
                 format!("{:?}", short.fillet(corner, u, &arc)),
@@ -1029,8 +1033,10 @@ impl PathBuilder {
                 feed_mm_per_min, ..
             } => (true, feed_mm_per_min / 60.0),
         };
-        let &Some(prim) = prim else { return };
-        let (geom, len, dir) = match prim {
+        // (the primitive read where the motion holds it and written once, into the
+        // held move's record: not copied to the stack first)
+        let Some(src) = prim.as_ref() else { return };
+        let (len, dir) = match *src {
             Primitive::Line { start, end } => {
                 let d = end - start;
                 let len = d.norm();
@@ -1039,45 +1045,45 @@ impl PathBuilder {
                 } else {
                     Vec3::ZERO
                 };
-                let geom = Geom::Line {
-                    start,
-                    end,
-                    from: 0.0,
-                    to: len,
-                    prog_len: len,
-                };
-                (geom, len, dir)
+                (len, dir)
             }
-            Primitive::Arc { .. } => (Geom::Arc(prim), prim.length(), Vec3::ZERO),
+            Primitive::Arc { .. } => (src.length(), Vec3::ZERO),
         };
         if len < 1e-9 {
-            self.orphan(index as u32, prim);
+            self.orphan(index as u32, *src);
             return;
         }
         if self.last_point.is_none() {
-            self.last_point = Some(prim.start());
+            self.last_point = Some(src.start());
         }
         let mut next = self
             .spare
             .take()
             .unwrap_or_else(|| Box::new(Pending::placeholder()));
-        *next = Pending {
-            geom,
-            len,
-            dir,
-            motion: index as u32,
-            feed_move,
-            feed_mm_per_s: feed,
-            exact_stop: exact,
-            tolerance_mm: tol,
-            dwell_s: 0.0,
-            line: m.line,
-            stop: StopKind::None,
-            block_end: false,
-            start_trim: 0.0,
-            start_at: None,
-            start_trim_rad: None,
+        next.geom = match *src {
+            Primitive::Line { start, end } => Geom::Line {
+                start,
+                end,
+                from: 0.0,
+                to: len,
+                prog_len: len,
+            },
+            Primitive::Arc { .. } => Geom::Arc(*src),
         };
+        next.len = len;
+        next.dir = dir;
+        next.motion = index as u32;
+        next.feed_move = feed_move;
+        next.feed_mm_per_s = feed;
+        next.exact_stop = exact;
+        next.tolerance_mm = tol;
+        next.dwell_s = 0.0;
+        next.line = m.line;
+        next.stop = StopKind::None;
+        next.block_end = false;
+        next.start_trim = 0.0;
+        next.start_at = None;
+        next.start_trim_rad = None;
         self.preps[self.prep_next_slot & 1] = prep.copied();
         match self.pending.take() {
             Some(prev) => {
@@ -1160,11 +1166,10 @@ impl PathBuilder {
         if let Some(found) = &found {
             // A blend so tight that the jerk limit crawls through it is slower than
             // stopping: stop at the corner instead.
-            let radius = |g: Option<Geom>| match g {
-                Some(Geom::Blend { radius, .. }) => radius,
-                _ => f64::INFINITY,
-            };
-            let tightest = radius(Some(found.geom)).min(radius(found.geom2));
+            let tightest = found
+                .arc
+                .radius
+                .min(found.arc2.map_or(f64::INFINITY, |a| a.radius));
             let through = scurve_curve_cap(1.0 / tightest, lim);
             let vmin = lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min);
             let around = a.feed_mm_per_s.min(b.feed_mm_per_s).min(vmin);
@@ -1209,8 +1214,8 @@ impl PathBuilder {
                 let f = f.as_ref()?;
                 let e1 = (f.p_line - f.center) * (1.0 / f.radius);
                 Some(Blend {
-                    geom2: None,
-                    geom: Geom::Blend {
+                    arc2: None,
+                    arc: BlendArc {
                         center: f.center,
                         e1,
                         e2: a.dir,
@@ -1249,8 +1254,8 @@ impl PathBuilder {
                 let e1_back = (f.p_line - f.center) * (1.0 / f.radius);
                 let t_back = -b.dir * f.cos_sweep - e1_back * f.sin_sweep;
                 Some(Blend {
-                    geom2: None,
-                    geom: Geom::Blend {
+                    arc2: None,
+                    arc: BlendArc {
                         center: f.center,
                         e1,
                         e2: -t_back,
@@ -1279,8 +1284,8 @@ impl PathBuilder {
                 )?;
                 let e1 = (f.p_line - f.center) * (1.0 / f.radius);
                 Some(Blend {
-                    geom2: None,
-                    geom: Geom::Blend {
+                    arc2: None,
+                    arc: BlendArc {
                         center: f.center,
                         e1,
                         e2: arc_a.tangent_at(a.len - f.line_trim),
@@ -1346,7 +1351,7 @@ impl PathBuilder {
             after_avail,
             a.tolerance_mm.min(b.tolerance_mm),
         )?;
-        let piece = |p: &fillet::ArcPiece| Geom::Blend {
+        let piece = |p: &fillet::ArcPiece| BlendArc {
             center: p.center,
             e1: p.e1,
             e2: p.e2,
@@ -1355,8 +1360,8 @@ impl PathBuilder {
         };
         let on_arc = |g: &Geom, at: Vec3| matches!(g, Geom::Arc(_)).then_some(at);
         Some(Blend {
-            geom: piece(&f.arcs[0]),
-            geom2: Some(piece(&f.arcs[1])),
+            arc: piece(&f.arcs[0]),
+            arc2: Some(piece(&f.arcs[1])),
             sweep_cos_sin: None,
             end_trim_prev: f.trim_before,
             start_trim_next: f.trim_after,
@@ -1505,16 +1510,15 @@ impl PathBuilder {
         };
         let p1 = a1 - u1 * d;
         let center = p1 + nrm * r;
-        let blend = Geom::Blend {
-            center,
-            e1: -nrm,
-            e2: u1,
-            radius: r,
-            sweep: theta,
-        };
         Some(Blend {
-            geom: blend,
-            geom2: None,
+            arc: BlendArc {
+                center,
+                e1: -nrm,
+                e2: u1,
+                radius: r,
+                sweep: theta,
+            },
+            arc2: None,
             sweep_cos_sin: None,
             end_trim_prev: d,
             start_trim_next: d,
@@ -1526,12 +1530,14 @@ impl PathBuilder {
     }
 
     /// Push the elements of a move whose successor is known (`last`: it has none).
+    ///
+    /// Each element's geometry is pushed onto `path.geoms` where it is built (from
+    /// the held move's fields or the sub-arc's), not built in a local and copied
+    /// there by [`PathBuilder::push_element`]: that local, an enum with a one-byte
+    /// tag, was copied through the stack at odd offsets (see [`BlendArc`]).
     fn emit(&mut self, p: &Pending, blend: Option<&Blend>, last: bool) {
         let stop = p.exact_stop || p.dwell_s > 0.0 || p.stop != StopKind::None || last;
-        // (the element's geometry by reference: the held move's own where it runs
-        // uncut, else built once in `cut`, not moved through a tuple)
-        let cut: Geom;
-        let (geom, shape): (&Geom, ElementShape) = match &p.geom {
+        let shape: ElementShape = match &p.geom {
             &Geom::Line {
                 start,
                 end,
@@ -1540,20 +1546,21 @@ impl PathBuilder {
             } => {
                 let to = prog_len - blend.map_or(0.0, |b| b.end_trim_prev);
                 let len = max_to(to - p.start_trim, 0.0);
-                cut = Geom::Line {
+                self.path.geoms.push(Geom::Line {
                     start,
                     end,
                     from: p.start_trim,
                     to,
                     prog_len,
-                };
-                (&cut, ElementShape::line(len, p.dir))
+                });
+                ElementShape::line(len, p.dir)
             }
             // (by reference: the held move's arc is not copied out to be cut)
             Geom::Arc(prim) => {
                 let end_trim = blend.map_or(0.0, |b| b.end_trim_prev);
                 if p.start_trim == 0.0 && end_trim == 0.0 {
-                    (&p.geom, ElementShape::arc(prim))
+                    self.path.geoms.push(p.geom);
+                    ElementShape::arc(prim)
                 } else {
                     // the programmed arc stays exact among the orphans
                     self.orphan(p.motion, *prim);
@@ -1562,14 +1569,14 @@ impl PathBuilder {
                         // used up by the blends at both its ends
                         let at = prim.point_at(from);
                         let dir = Vec3::ZERO;
-                        cut = Geom::Line {
+                        self.path.geoms.push(Geom::Line {
                             start: at,
                             end: at,
                             from: 0.0,
                             to: 0.0,
                             prog_len: 0.0,
-                        };
-                        (&cut, ElementShape::line(0.0, dir))
+                        });
+                        ElementShape::line(0.0, dir)
                     } else {
                         let at_from = p.start_at.unwrap_or_else(|| prim.point_at(from));
                         let at_to = blend
@@ -1589,9 +1596,16 @@ impl PathBuilder {
                         if let (Some(s_rad), Some(e_rad)) = (start_rad, end_rad) {
                             // cut from the circle by fillets: planned as a circle
                             // where its end radius is off by rounding only
-                            cut = Geom::Arc(sub_arc_by_angles(prim, at_from, at_to, s_rad, e_rad));
-                            let Geom::Arc(sub) = &cut else { unreachable!() };
-                            (&cut, ElementShape::sub_arc(sub))
+                            // (`sub_arc_by_angles` on the path: the held arc copied
+                            // there and cut in place)
+                            self.path.geoms.push(p.geom);
+                            match self.path.geoms.last_mut() {
+                                Some(Geom::Arc(sub)) => {
+                                    cut_by_angles(sub, at_from, at_to, s_rad, e_rad);
+                                    ElementShape::sub_arc(sub)
+                                }
+                                _ => unreachable!("the held move is an arc"),
+                            }
                         } else {
                             let sub = if prim_sweep(prim).abs() < std::f64::consts::TAU {
                                 sub_arc(prim, at_from, at_to)
@@ -1599,75 +1613,71 @@ impl PathBuilder {
                                 // a helix of a turn or more, trimmed by biarcs only
                                 sub_arc_span(prim, from, to, at_from, at_to)
                             };
-                            cut = Geom::Arc(sub);
-                            (&cut, ElementShape::arc(&sub))
+                            self.path.geoms.push(Geom::Arc(sub));
+                            ElementShape::arc(&sub)
                         }
                     }
                 }
             }
             Geom::Blend { .. } => unreachable!("moves are lines or arcs"),
         };
-        let pushed = match blend {
+        match blend {
             Some(b) => {
-                let pushed = self.push_element(p, geom, &shape, 0.0, false);
-                // the blend's arcs, by reference (no copies of the geometry)
-                self.push_blend_piece(p, &b.geom, b.sweep_cos_sin);
-                if let Some(g2) = &b.geom2 {
-                    self.push_blend_piece(p, g2, None);
+                self.push_element(p, &shape, 0.0, false, false);
+                // the blend's arcs, by reference
+                self.push_blend_piece(p, &b.arc, b.sweep_cos_sin);
+                if let Some(a2) = &b.arc2 {
+                    self.push_blend_piece(p, a2, None);
                 }
-                pushed
             }
-            None => self.push_element(p, geom, &shape, p.dwell_s, stop),
-        };
-        if !pushed {
-            if let Some(prim) = geom.programmed() {
-                self.orphan(p.motion, prim);
-            }
+            None => self.push_element(p, &shape, p.dwell_s, stop, false),
         }
     }
 
-    /// Push a blend arc `g` of move `p`'s corner (its sweep's cosine and sine where
+    /// Push a blend arc `arc` of move `p`'s corner (its sweep's cosine and sine where
     /// the construction gave them).
-    fn push_blend_piece(&mut self, p: &Pending, g: &Geom, trig: Option<(f64, f64)>) {
-        if let Geom::Blend {
+    fn push_blend_piece(&mut self, p: &Pending, arc: &BlendArc, trig: Option<(f64, f64)>) {
+        let &BlendArc {
             e1,
             e2,
             radius,
             sweep,
             ..
-        } = *g
-        {
-            let shape = match trig {
-                Some((cos_s, sin_s)) => {
-                    ElementShape::blend_trig(e1, e2, radius, sweep, cos_s, sin_s)
-                }
-                None => ElementShape::blend(e1, e2, radius, sweep),
-            };
-            self.push_element(p, g, &shape, 0.0, false);
-        }
+        } = arc;
+        let shape = match trig {
+            Some((cos_s, sin_s)) => ElementShape::blend_trig(e1, e2, radius, sweep, cos_s, sin_s),
+            None => ElementShape::blend(e1, e2, radius, sweep),
+        };
+        self.path.geoms.push(arc.geom());
+        self.push_element(p, &shape, 0.0, false, true);
     }
 
-    /// Push one element with its limits and settle the junction speed with the one
-    /// before it. False if it was too short to keep.
+    /// Push one element with its limits (its geometry is the last of `path.geoms`,
+    /// pushed by the caller) and settle the junction speed with the one before it.
+    /// One too short to keep is taken off `path.geoms` again, and its programmed
+    /// primitive (not a blend's) goes to the orphans.
     ///
     /// Inline (into [`PathBuilder::emit`] and [`PathBuilder::push_blend_piece`]):
-    /// the geometry and shape are then read where their callers built them
-    /// (planning thread −2.0 M on the 200k-line program, with `circle_blend`
-    /// inline; alone, in `plan12`, −2.3 M but +1.2 M on the reading thread).
+    /// the shape is then read where its callers built it (planning thread −2.0 M on
+    /// the 200k-line program, with `circle_blend` inline; alone, in `plan12`, −2.3 M
+    /// but +1.2 M on the reading thread).
     #[inline(always)]
     fn push_element(
         &mut self,
         m: &Pending,
-        geom: &Geom,
         shape: &ElementShape,
         dwell: f64,
         stop: bool,
-    ) -> bool {
+        is_blend: bool,
+    ) {
         let lim = &self.lim;
         let len = shape.len;
-        let is_blend = matches!(geom, Geom::Blend { .. });
         if len < 1e-9 && !stop && dwell == 0.0 {
-            return false; // a line used up entirely by the blends at both its ends
+            // a line used up entirely by the blends at both its ends
+            if let Some(prim) = self.path.geoms.pop().and_then(|g| g.programmed()) {
+                self.orphan(m.motion, prim);
+            }
+            return;
         }
         let el = element_limits(shape, lim.vmax, lim.amax);
         let mut vel_cap = el.vel_mm_per_s;
@@ -1683,7 +1693,7 @@ impl PathBuilder {
         if self.base + n > self.path.lead_in && n > 0 {
             let a = &mut self.path.segs[n - 1];
             if a.v_end_hard != 0.0 {
-                let prev_geom = &self.path.geoms[n - 1];
+                let (prev_geom, geom) = (&self.path.geoms[n - 1], &self.path.geoms[n]);
                 let uses = [&self.prev_acc_use, &acc_use];
                 a.v_end_hard = junction_speed(
                     lim,
@@ -1712,11 +1722,9 @@ impl PathBuilder {
             stop: if stop { m.stop } else { StopKind::None },
             block_end: m.block_end && !is_blend,
         });
-        self.path.geoms.push(*geom);
         self.s0 += len;
         self.prev_end_tangent = shape.end_tangent;
         self.prev_acc_use = acc_use;
-        true
     }
 
     /// The path: the last move ends in a stop.
@@ -1753,10 +1761,10 @@ impl PathBuilder {
 /// A blend found at a corner: its geometry and how much it takes from each move.
 #[derive(Debug, Clone, Copy)]
 struct Blend {
-    geom: Geom,
-    /// The second arc of a biarc blend ([`fillet::biarc`]), run after `geom`.
-    geom2: Option<Geom>,
-    /// cos and sin of `geom`'s sweep where the construction gave them (fillets):
+    arc: BlendArc,
+    /// The second arc of a biarc blend ([`fillet::biarc`]), run after `arc`.
+    arc2: Option<BlendArc>,
+    /// cos and sin of `arc`'s sweep where the construction gave them (fillets):
     /// its shape then needs no trigonometry.
     sweep_cos_sin: Option<(f64, f64)>,
     /// Arc length taken from the end of the move before the corner (mm).
@@ -1772,6 +1780,36 @@ struct Blend {
     prev_end_trim_rad: Option<f64>,
     /// The angle the blend takes from the start of the arc after it (rad).
     next_start_trim_rad: Option<f64>,
+}
+
+/// A blend arc of a [`Blend`]: the fields of [`Geom::Blend`] without the enum's tag.
+/// A `Geom` holds its tag in its first byte and an arc's plane in its second
+/// (`Primitive`'s layout), so LLVM copied the bytes after the tag of every `Geom`
+/// built on the stack in 16-byte moves at odd offsets, whose loads waited on the
+/// narrower stores just before them (stores that cannot be forwarded): the hottest
+/// samples of `emit` and `push_unmerged`. The `Geom` is now built only where it is
+/// pushed ([`BlendArc::geom`]).
+#[derive(Debug, Clone, Copy)]
+struct BlendArc {
+    center: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    radius: f64,
+    sweep: f64,
+}
+
+impl BlendArc {
+    /// The path element's geometry.
+    #[inline(always)]
+    fn geom(&self) -> Geom {
+        Geom::Blend {
+            center: self.center,
+            e1: self.e1,
+            e2: self.e2,
+            radius: self.radius,
+            sweep: self.sweep,
+        }
+    }
 }
 
 /// [`fillet::line_arc`] of these arguments: the fillet worked out ahead where it was
@@ -1817,7 +1855,9 @@ fn sub_arc(prim: &Primitive, from: Vec3, to: Vec3) -> Primitive {
 /// `atan2`s of the points. Its radius is the programmed start radius, which `from`
 /// lies on (the fillet's touch point, or the arc's start); `to` lies on the circle
 /// through the arc's end, so a rounded end radius still runs as a spiral between the
-/// two.
+/// two. (The builder cuts the arc in place, [`cut_by_angles`]; this is the same
+/// cut on a copy, for the tests.)
+#[cfg(test)]
 fn sub_arc_by_angles(
     prim: &Primitive,
     from: Vec3,
@@ -1825,30 +1865,46 @@ fn sub_arc_by_angles(
     start_rad: f64,
     end_rad: f64,
 ) -> Primitive {
+    let mut sub = *prim;
+    cut_by_angles(&mut sub, from, to, start_rad, end_rad);
+    sub
+}
+
+/// [`sub_arc_by_angles`] in place: the arc `arc` becomes its stretch (the builder
+/// copies the held arc onto the path and cuts it there: an arc put together on the
+/// stack, its plane a byte beside seven of padding, was copied from there in
+/// 16-byte loads that waited on narrower stores just before them).
+#[inline(always)]
+fn cut_by_angles(arc: &mut Primitive, from: Vec3, to: Vec3, start_rad: f64, end_rad: f64) {
     let Primitive::Arc {
+        start,
         center,
         plane,
-        radius,
         start_angle,
         sweep,
+        normal_travel,
+        end,
         ..
-    } = *prim
+    } = arc
     else {
-        return *prim;
+        return;
     };
     let sign = sweep.signum();
-    let mut c = center;
-    c[plane.axes().2] = from[plane.axes().2];
-    Primitive::Arc {
-        start: from,
-        center: c,
-        plane,
-        radius,
-        start_angle: start_angle + sign * start_rad,
-        sweep: sweep - sign * (start_rad + end_rad),
-        normal_travel: 0.0,
-        end: to,
-    }
+    // the centre with the start's component along the normal (`plane.axes().2`),
+    // put together by name: an index worked out at run time took the vector through
+    // the stack, and its 16-byte reload waited on the component's store
+    let [cx, cy, cz] = center.0;
+    let [fx, fy, fz] = from.0;
+    *center = match plane {
+        Plane::XY => Vec3::new(cx, cy, fz),
+        Plane::XZ => Vec3::new(cx, fy, cz),
+        Plane::YZ => Vec3::new(fx, cy, cz),
+    };
+    *start = from;
+    *start_angle += sign * start_rad;
+    *sweep -= sign * (start_rad + end_rad);
+    *normal_travel = 0.0;
+    *end = to;
 }
 
 /// The signed sweep of an arc (0 for a line).
@@ -1978,7 +2034,6 @@ fn arc_end_tangent_inline(p: &Primitive, at_end: bool) -> Vec3 {
     else {
         return p.tangent_at(0.0);
     };
-    use softnc_core::geom::Plane;
     let q = if at_end { end } else { start };
     // (a, b) in the plane: the same differences as `q[a] - center[a]` and so on
     let (ra, rb) = match plane {
@@ -2151,6 +2206,11 @@ fn junction_speed(
 }
 
 /// Programmed primitive of a motion in machine coordinates (None for dwells).
+///
+/// Inlined into its callers: returned through the stack, the reader's loop copied
+/// each 112-byte result to the vector with 16-byte loads of what it had just stored
+/// in 8-byte pieces, which the processor cannot forward (a stall at each of them).
+#[inline(always)]
 pub fn motion_primitive(m: &Motion) -> Option<Primitive> {
     let off = m.offset_mm;
     match m.kind {
@@ -2454,6 +2514,22 @@ mod tests {
                         unreachable!()
                     };
                     assert!((ws - gs).abs() < 1e-12, "{plane:?} {turns}: {ws} vs {gs}");
+                    // the centre (its normal component the start's, put together by
+                    // plane in `cut_by_angles`), the plane and the end points: the
+                    // same bits as `sub_arc`'s (the radius is the programmed one, not
+                    // `from`'s distance)
+                    let parts = |p: Primitive| match p {
+                        Primitive::Arc {
+                            start,
+                            center,
+                            plane,
+                            normal_travel,
+                            end,
+                            ..
+                        } => (start, center, plane, normal_travel, end),
+                        _ => unreachable!(),
+                    };
+                    assert_eq!(parts(want), parts(got), "{plane:?} {turns}");
                     assert!((want.length() - got.length()).abs() < 1e-12);
                     for k in 0..=10 {
                         let s = want.length() * k as f64 / 10.0;
