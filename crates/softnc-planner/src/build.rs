@@ -430,18 +430,33 @@ impl FilletsAhead {
         out: &mut Vec<(u32, FilletAhead)>,
     ) {
         if work && !self.single_block {
+            // a join waiting for the next one, to be worked out with it in pairs
+            // (`fillet::line_arc_2`: the two chains of roots and divisions overlap)
+            let mut held = None;
             if let (Some((m, p, q)), Some(m1), Some(p1), Some(q1)) =
                 (&self.last, motions.first(), prims.first(), preps.first())
             {
-                self.join((m, p, q), (m1, p1, q1), 0, out);
+                self.join((m, p, q), (m1, p1, q1), 0, &mut held, out);
             }
             for k in 1..motions.len().min(prims.len()).min(preps.len()) {
                 self.join(
                     (&motions[k - 1], &prims[k - 1], &preps[k - 1]),
                     (&motions[k], &prims[k], &preps[k]),
                     k,
+                    &mut held,
                     out,
                 );
+            }
+            if let Some((k, a)) = held {
+                let f = fillet::line_arc(
+                    a.corner,
+                    a.u,
+                    a.line_avail_mm,
+                    &a.arc,
+                    a.arc_avail_mm,
+                    a.tol_mm,
+                );
+                a.record(k, f.as_ref(), out);
             }
         }
         if let (Some(m), Some(p), Some(q)) = (motions.last(), prims.last(), preps.last()) {
@@ -472,76 +487,122 @@ impl FilletsAhead {
         }
     }
 
-    /// The fillet at the join of `a` and `b`, if a line meets an arc there, to `out`
-    /// (at index `k`).
+    /// The join of `a` and `b` (at index `k`), if a line meets an arc there: held
+    /// until the next such join, then the fillets of both to `out`, in order.
     fn join(
         &self,
-        (ma, pa, qa): AheadMove,
-        (mb, pb, qb): AheadMove,
+        a: AheadMove,
+        b: AheadMove,
         k: usize,
+        held: &mut Option<(u32, AheadJoin)>,
         out: &mut Vec<(u32, FilletAhead)>,
     ) {
-        let (Some(pa), Some(pb)) = (pa, pb) else {
+        let Some(next) = self.join_args(a, b) else {
             return;
+        };
+        match held.take() {
+            None => *held = Some((k as u32, next)),
+            Some((k0, first)) => {
+                let mut f = [None, None];
+                fillet::line_arc_2([first.line_arc_join(), next.line_arc_join()], &mut f);
+                first.record(k0, f[0].as_ref(), out);
+                next.record(k as u32, f[1].as_ref(), out);
+            }
+        }
+    }
+
+    /// The arguments of `fillet::line_arc` at the join of `a` and `b`, if a line
+    /// meets an arc there and the builder will blend it.
+    fn join_args(&self, (ma, pa, qa): AheadMove, (mb, pb, qb): AheadMove) -> Option<AheadJoin> {
+        let (Some(pa), Some(pb)) = (pa, pb) else {
+            return None;
         };
         // (a line–line or arc–arc join: nothing to do, before any other test)
         if matches!(pa, Primitive::Line { .. }) == matches!(pb, Primitive::Line { .. }) {
-            return;
+            return None;
         }
         let (Some((true, tol_a)), Some((_, tol_b))) = (self.mode(ma), self.mode(mb)) else {
-            return;
+            return None;
         };
-        let tol = tol_a.min(tol_b);
+        let tol_mm = tol_a.min(tol_b);
         let (corner, u, line_avail_mm, arc, arc_avail_mm) = match (pa, pb, qa, qb) {
             (&Primitive::Line { start, end }, Primitive::Arc { .. }, None, Some(q)) => {
-                let Some((len_a, dir_a)) = line_len_dir(start, end) else {
-                    return;
-                };
+                let (len_a, dir_a) = line_len_dir(start, end)?;
                 if q.len_mm < 1e-9 {
-                    return;
+                    return None;
                 }
-                let Some(view) = q.view(pb, false, self.max_drift_rad) else {
-                    return;
-                };
+                let view = q.view(pb, false, self.max_drift_rad)?;
                 (end, dir_a, 0.5 * len_a, view, 0.5 * q.len_mm)
             }
             (Primitive::Arc { .. }, &Primitive::Line { start, end }, Some(q), None) => {
-                let Some((len_b, dir_b)) = line_len_dir(start, end) else {
-                    return;
-                };
+                let (len_b, dir_b) = line_len_dir(start, end)?;
                 if q.len_mm < 1e-9 {
-                    return;
+                    return None;
                 }
-                let Some(view) = q.view(pa, true, self.max_drift_rad) else {
-                    return;
-                };
+                let view = q.view(pa, true, self.max_drift_rad)?;
                 (start, -dir_b, 0.5 * len_b, view, 0.5 * q.len_mm)
             }
-            _ => return,
+            _ => return None,
         };
-        // (the fillet read where `line_arc` wrote it: moved into the closure, it was
-        // copied with 16-byte loads of what `line_arc` had just stored in 8-byte
-        // pieces, which the processor cannot forward, a stall at each)
-        let fillet = fillet::line_arc(corner, u, line_avail_mm, &arc, arc_avail_mm, tol);
-        let found = fillet.as_ref().map(|f| {
-            let short = FilletFound::of(f, &arc);
+        Some(AheadJoin {
+            corner,
+            u,
+            line_avail_mm,
+            arc,
+            arc_avail_mm,
+            tol_mm,
+        })
+    }
+}
+
+/// The arguments of `fillet::line_arc` at a join [`FilletsAhead`] works out.
+struct AheadJoin {
+    corner: Vec3,
+    u: Vec3,
+    line_avail_mm: f64,
+    arc: ArcView,
+    arc_avail_mm: f64,
+    tol_mm: f64,
+}
+
+impl AheadJoin {
+    /// As `fillet::line_arc_2` takes them.
+    #[inline(always)]
+    fn line_arc_join(&self) -> fillet::LineArcJoin<'_> {
+        fillet::LineArcJoin {
+            corner: self.corner,
+            u: self.u,
+            line_avail_mm: self.line_avail_mm,
+            arc: &self.arc,
+            arc_avail_mm: self.arc_avail_mm,
+            tol_mm: self.tol_mm,
+        }
+    }
+
+    /// The record of this join (at index `k`), `fillet` its `line_arc`, to `out`.
+    #[inline(always)]
+    fn record(&self, k: u32, fillet: Option<&fillet::Fillet>, out: &mut Vec<(u32, FilletAhead)>) {
+        // (the fillet read where it was written: moved, it was copied with 16-byte
+        // loads of what had just been stored in 8-byte pieces, a stall at each)
+        let found = fillet.map(|f| {
+            let short = FilletFound::of(f, &self.arc);
             debug_assert_eq!(
                 format!("{f:?}"),
-                format!("{:?}", short.fillet(corner, u, &arc)),
+                format!("{:?}", short.fillet(self.corner, self.u, &self.arc)),
                 "a fillet in short gives it back"
             );
             short
         });
         out.push((
-            k as u32,
+            k,
             FilletAhead {
-                corner,
-                line_avail_mm,
-                arc_avail_mm,
-                tol_mm: tol,
+                corner: self.corner,
+                line_avail_mm: self.line_avail_mm,
+                arc_avail_mm: self.arc_avail_mm,
+                tol_mm: self.tol_mm,
                 found,
                 #[cfg(debug_assertions)]
-                rest: (u, arc),
+                rest: (self.u, self.arc),
             },
         ));
     }

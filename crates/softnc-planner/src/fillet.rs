@@ -349,7 +349,6 @@ pub struct LineArcJoin<'a> {
 /// worked out ahead (`FilletsAhead`): on the 200k-line workload's joins about 60 ns
 /// a join against 83 ns for calls one after the other (`benches/fillet.rs`).
 pub fn line_arc_2(joins: [LineArcJoin<'_>; 2], out: &mut [Option<Fillet>; 2]) {
-    #[cfg(target_arch = "x86_64")]
     if joins[0].arc.axes == joins[1].arc.axes {
         match joins[0].arc.axes {
             (0, 1, 2) => return line_arc_2_in::<0, 1, 2>(&joins, out),
@@ -378,7 +377,6 @@ fn line_arc_one(j: &LineArcJoin) -> Option<Fillet> {
 /// [`line_arc_2`] for two joins in the plane of axes `A`, `B` and normal `N`: lane
 /// `i` computes [`line_arc_in`]'s first trim of `joins[i]`, with each of its tests
 /// kept as a mask (`ok`) where it returns or branches (a NaN fails every one).
-#[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn line_arc_2_in<const A: usize, const B: usize, const N: usize>(
     joins: &[LineArcJoin<'_>; 2],
@@ -1097,16 +1095,9 @@ fn atan2(y: f64, x: f64) -> f64 {
 /// [`lanes::F2::atan2`] (the test of the two-lane `atan2` against the scalar one).
 #[cfg(test)]
 fn atan2_2(y: (f64, f64), x: (f64, f64)) -> (f64, f64) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        lanes::F2::new(y.0, y.1)
-            .atan2(lanes::F2::new(x.0, x.1))
-            .lanes()
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        (atan2(y.0, x.0), atan2(y.1, x.1))
-    }
+    lanes::F2::new(y.0, y.1)
+        .atan2(lanes::F2::new(x.0, x.1))
+        .lanes()
 }
 
 /// The rows of [`lanes::F2::atan2`]'s reduction, by how many of 7/16, 11/16, 19/16
@@ -1116,7 +1107,6 @@ fn atan2_2(y: (f64, f64), x: (f64, f64)) -> (f64, f64) {
 /// x finite and positive); then atan's high and low parts at the reference point
 /// (zero for the row without reduction: 0 − ((x·s − 0) − x) = x − x·s exactly, the
 /// negation being exact).
-#[cfg(target_arch = "x86_64")]
 const ATAN_ROWS: [[f64; 4]; 5] = [
     [1.0, 0.0, 0.0, 0.0],
     [2.0, 1.0, ATAN_HI[0], ATAN_LO[0]],
@@ -1125,76 +1115,88 @@ const ATAN_ROWS: [[f64; 4]; 5] = [
     [0.0, 1.0, ATAN_HI[3], ATAN_LO[3]],
 ];
 
-/// Two doubles side by side in one SSE2 register, one per lane, and the arithmetic
-/// [`line_arc_2`] needs on them. Each packed operation rounds each lane exactly as the
-/// scalar instruction does (IEEE 754 add, subtract, multiply, divide and square
-/// root, correctly rounded; a sign flip and an absolute value on the sign bit), so a
-/// computation written once for `F2` gives in each lane the bits the same
-/// computation on `f64` gives.
-#[cfg(target_arch = "x86_64")]
+/// Two doubles side by side, one per lane, and the arithmetic [`line_arc_2`] needs
+/// on them: plain `f64` operations lane by lane, so each lane gives the bits the same
+/// computation on `f64` gives (IEEE 754 add, subtract, multiply, divide and square
+/// root, correctly rounded; a sign flip and an absolute value on the sign bit). The
+/// two lanes' instructions come interleaved, so the processor overlaps the two chains
+/// of roots and divisions (where the compiler does not pair them into two-double
+/// registers itself). Safe code: no intrinsics (`unsafe` is kept for IPC).
 mod lanes {
-    use std::arch::x86_64::*;
     use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Sub};
 
     /// Two doubles (lane 0, lane 1).
     #[derive(Clone, Copy)]
-    pub(super) struct F2(__m128d);
+    pub(super) struct F2([f64; 2]);
 
-    /// A comparison's outcome in each lane (all ones where it holds).
+    /// A comparison's outcome in each lane.
     #[derive(Clone, Copy)]
-    pub(super) struct M2(__m128d);
+    pub(super) struct M2([bool; 2]);
 
-    // SAFETY (every `unsafe` block below): SSE2, which these intrinsics need, is part
-    // of every x86_64 target.
+    /// `f` of each lane.
+    #[inline(always)]
+    fn each(a: F2, f: impl Fn(f64) -> f64) -> F2 {
+        F2([f(a.0[0]), f(a.0[1])])
+    }
+
+    /// `f` of each pair of lanes.
+    #[inline(always)]
+    fn both(a: F2, b: F2, f: impl Fn(f64, f64) -> f64) -> F2 {
+        F2([f(a.0[0], b.0[0]), f(a.0[1], b.0[1])])
+    }
+
+    /// `f` of each pair of lanes, a comparison.
+    #[inline(always)]
+    fn test(a: F2, b: F2, f: impl Fn(f64, f64) -> bool) -> M2 {
+        M2([f(a.0[0], b.0[0]), f(a.0[1], b.0[1])])
+    }
 
     impl F2 {
         #[inline(always)]
         pub(super) fn new(lane0: f64, lane1: f64) -> F2 {
-            unsafe { F2(_mm_set_pd(lane1, lane0)) }
+            F2([lane0, lane1])
         }
         #[inline(always)]
         pub(super) fn splat(x: f64) -> F2 {
-            unsafe { F2(_mm_set1_pd(x)) }
+            F2([x, x])
         }
         /// (lane 0, lane 1).
         #[inline(always)]
         pub(super) fn lanes(self) -> (f64, f64) {
-            unsafe {
-                (
-                    _mm_cvtsd_f64(self.0),
-                    _mm_cvtsd_f64(_mm_unpackhi_pd(self.0, self.0)),
-                )
-            }
+            (self.0[0], self.0[1])
         }
         #[inline(always)]
         pub(super) fn sqrt(self) -> F2 {
-            unsafe { F2(_mm_sqrt_pd(self.0)) }
+            each(self, f64::sqrt)
         }
         /// `f64::abs` (the sign bit cleared).
         #[inline(always)]
         pub(super) fn abs(self) -> F2 {
-            unsafe { F2(_mm_andnot_pd(_mm_set1_pd(-0.0), self.0)) }
+            each(self, f64::abs)
         }
         #[inline(always)]
         pub(super) fn lt(self, o: F2) -> M2 {
-            unsafe { M2(_mm_cmplt_pd(self.0, o.0)) }
+            test(self, o, |a, b| a < b)
         }
         #[inline(always)]
         pub(super) fn le(self, o: F2) -> M2 {
-            unsafe { M2(_mm_cmple_pd(self.0, o.0)) }
+            test(self, o, |a, b| a <= b)
         }
         #[inline(always)]
         pub(super) fn gt(self, o: F2) -> M2 {
-            unsafe { M2(_mm_cmpgt_pd(self.0, o.0)) }
+            test(self, o, |a, b| a > b)
         }
         #[inline(always)]
         pub(super) fn ge(self, o: F2) -> M2 {
-            unsafe { M2(_mm_cmpge_pd(self.0, o.0)) }
+            test(self, o, |a, b| a >= b)
         }
         /// `if m { a } else { b }`, lane by lane.
         #[inline(always)]
         pub(super) fn select(m: M2, a: F2, b: F2) -> F2 {
-            unsafe { F2(_mm_or_pd(_mm_and_pd(m.0, a.0), _mm_andnot_pd(m.0, b.0))) }
+            F2([
+                if m.0[0] { a.0[0] } else { b.0[0] },
+                if m.0[1] { a.0[1] } else { b.0[1] },
+            ])
         }
 
         /// [`super::atan2`]`(self, x)` lane by lane: the operations of
@@ -1214,6 +1216,8 @@ mod lanes {
             const PI_LO: f64 = 1.2246467991473532e-16;
             /// Below this ratio (2⁻²⁸) `atan_nonneg` gives the ratio itself.
             const TINY: f64 = 3.725290298461914e-09;
+            /// fdlibm's reduction bounds (7/16, 11/16, 19/16, 39/16).
+            const BOUNDS: [f64; 4] = [0.4375, 0.6875, 1.1875, 2.4375];
             let y = self;
             let (ay, ax) = (y.abs(), x.abs());
             let (inf, zero, two_60) = (F2::splat(f64::INFINITY), F2::splat(0.0), F2::splat(TWO_60));
@@ -1226,48 +1230,32 @@ mod lanes {
             if main.bits() != 0b11 {
                 return apart(y, x);
             }
-            // SAFETY: as above; the two loads read whole rows of `ATAN_ROWS` (a row
-            // index is a count of four comparisons, at most 4)
-            unsafe {
-                // each lane's row: how many of the bounds its ratio reaches (a
-                // comparison that holds is −1 as an integer)
-                let reached = |b: f64| _mm_castpd_si128(r.ge(F2::splat(b)).0);
-                let count = _mm_add_epi64(
-                    _mm_add_epi64(reached(0.4375), reached(0.6875)),
-                    _mm_add_epi64(reached(1.1875), reached(2.4375)),
-                );
-                let row0 = &ATAN_ROWS[(_mm_cvtsi128_si64(count) as usize).wrapping_neg()];
-                let row1 = &ATAN_ROWS
-                    [(_mm_cvtsi128_si64(_mm_unpackhi_epi64(count, count)) as usize).wrapping_neg()];
-                let (ab0, ab1) = (_mm_loadu_pd(row0.as_ptr()), _mm_loadu_pd(row1.as_ptr()));
-                let (a, b) = (F2(_mm_unpacklo_pd(ab0, ab1)), F2(_mm_unpackhi_pd(ab0, ab1)));
-                let (hl0, hl1) = (
-                    _mm_loadu_pd(row0[2..].as_ptr()),
-                    _mm_loadu_pd(row1[2..].as_ptr()),
-                );
-                let (hi, lo) = (F2(_mm_unpacklo_pd(hl0, hl1)), F2(_mm_unpackhi_pd(hl0, hl1)));
-                let t = (r * a - b) / (a + r * b);
-                // atan_nonneg's polynomial, its operations in its order
-                let c = |i: usize| F2::splat(ATAN_POLY[i]);
-                let z = t * t;
-                let w = z * z;
-                let mut s1 = c(8) + w * c(10);
-                for i in [6, 4, 2, 0] {
-                    s1 = c(i) + w * s1;
-                }
-                let s1 = z * s1;
-                let mut s2 = c(7) + w * c(9);
-                for i in [5, 3, 1] {
-                    s2 = c(i) + w * s2;
-                }
-                let s2 = w * s2;
-                let at = hi - ((t * (s1 + s2) - lo) - t);
-                // the quadrant: π − (z − π_lo) behind a negative x, then y's sign
-                // ((z − π_lo) − π is the negation of π − (z − π_lo), exactly)
-                let turned = F2::splat(PI) - (at - F2::splat(PI_LO));
-                let v = F2::select(x.lt(zero), turned, at);
-                F2(_mm_or_pd(v.0, _mm_and_pd(y.0, _mm_set1_pd(-0.0))))
+            // each lane's row: how many of the bounds its ratio reaches
+            let row = |v: f64| &ATAN_ROWS[BOUNDS.iter().filter(|&&b| v >= b).count()];
+            let (row0, row1) = (row(r.0[0]), row(r.0[1]));
+            let (a, b) = (F2([row0[0], row1[0]]), F2([row0[1], row1[1]]));
+            let (hi, lo) = (F2([row0[2], row1[2]]), F2([row0[3], row1[3]]));
+            let t = (r * a - b) / (a + r * b);
+            // atan_nonneg's polynomial, its operations in its order
+            let c = |i: usize| F2::splat(ATAN_POLY[i]);
+            let z = t * t;
+            let w = z * z;
+            let mut s1 = c(8) + w * c(10);
+            for i in [6, 4, 2, 0] {
+                s1 = c(i) + w * s1;
             }
+            let s1 = z * s1;
+            let mut s2 = c(7) + w * c(9);
+            for i in [5, 3, 1] {
+                s2 = c(i) + w * s2;
+            }
+            let s2 = w * s2;
+            let at = hi - ((t * (s1 + s2) - lo) - t);
+            // the quadrant: π − (z − π_lo) behind a negative x, then y's sign
+            // ((z − π_lo) − π is the negation of π − (z − π_lo), exactly)
+            let turned = F2::splat(PI) - (at - F2::splat(PI_LO));
+            let v = F2::select(x.lt(zero), turned, at);
+            both(v, y, |v, y| v.copysign(y))
         }
     }
 
@@ -1284,7 +1272,7 @@ mod lanes {
         /// Lane 0 in bit 0, lane 1 in bit 1.
         #[inline(always)]
         pub(super) fn bits(self) -> i32 {
-            unsafe { _mm_movemask_pd(self.0) }
+            i32::from(self.0[0]) | (i32::from(self.0[1]) << 1)
         }
     }
 
@@ -1292,7 +1280,7 @@ mod lanes {
         type Output = M2;
         #[inline(always)]
         fn bitand(self, o: M2) -> M2 {
-            unsafe { M2(_mm_and_pd(self.0, o.0)) }
+            M2([self.0[0] & o.0[0], self.0[1] & o.0[1]])
         }
     }
 
@@ -1300,7 +1288,7 @@ mod lanes {
         type Output = M2;
         #[inline(always)]
         fn bitor(self, o: M2) -> M2 {
-            unsafe { M2(_mm_or_pd(self.0, o.0)) }
+            M2([self.0[0] | o.0[0], self.0[1] | o.0[1]])
         }
     }
 
@@ -1308,7 +1296,7 @@ mod lanes {
         type Output = F2;
         #[inline(always)]
         fn add(self, o: F2) -> F2 {
-            unsafe { F2(_mm_add_pd(self.0, o.0)) }
+            both(self, o, |a, b| a + b)
         }
     }
 
@@ -1316,7 +1304,7 @@ mod lanes {
         type Output = F2;
         #[inline(always)]
         fn sub(self, o: F2) -> F2 {
-            unsafe { F2(_mm_sub_pd(self.0, o.0)) }
+            both(self, o, |a, b| a - b)
         }
     }
 
@@ -1324,7 +1312,7 @@ mod lanes {
         type Output = F2;
         #[inline(always)]
         fn mul(self, o: F2) -> F2 {
-            unsafe { F2(_mm_mul_pd(self.0, o.0)) }
+            both(self, o, |a, b| a * b)
         }
     }
 
@@ -1332,7 +1320,7 @@ mod lanes {
         type Output = F2;
         #[inline(always)]
         fn div(self, o: F2) -> F2 {
-            unsafe { F2(_mm_div_pd(self.0, o.0)) }
+            both(self, o, |a, b| a / b)
         }
     }
 
@@ -1341,7 +1329,7 @@ mod lanes {
         /// The sign bit flipped, as `-x` on an `f64`.
         #[inline(always)]
         fn neg(self) -> F2 {
-            unsafe { F2(_mm_xor_pd(self.0, _mm_set1_pd(-0.0))) }
+            each(self, |a| -a)
         }
     }
 }
