@@ -430,33 +430,41 @@ impl FilletsAhead {
         out: &mut Vec<(u32, FilletAhead)>,
     ) {
         if work && !self.single_block {
-            // a join waiting for the next one, to be worked out with it in pairs
-            // (`fillet::line_arc_2`: the two chains of roots and divisions overlap)
-            let mut held = None;
+            // the joins' arguments in two slots, written in place; two at a time
+            // through line_arc_2 (the same bits as two line_arc calls)
+            let mut slots = [AheadArgs::EMPTY; 2];
+            let mut n = 0;
+            let mut found = [None, None];
             if let (Some((m, p, q)), Some(m1), Some(p1), Some(q1)) =
                 (&self.last, motions.first(), prims.first(), preps.first())
             {
-                self.join((m, p, q), (m1, p1, q1), 0, &mut held, out);
+                n += usize::from(self.join((m, p, q), (m1, p1, q1), 0, &mut slots[n]));
             }
             for k in 1..motions.len().min(prims.len()).min(preps.len()) {
-                self.join(
+                n += usize::from(self.join(
                     (&motions[k - 1], &prims[k - 1], &preps[k - 1]),
                     (&motions[k], &prims[k], &preps[k]),
                     k,
-                    &mut held,
-                    out,
-                );
+                    &mut slots[n],
+                ));
+                if n == 2 {
+                    fillet::line_arc_2([slots[0].join(), slots[1].join()], &mut found);
+                    slots[0].push(&found[0], out);
+                    slots[1].push(&found[1], out);
+                    n = 0;
+                }
             }
-            if let Some((k, a)) = held {
-                let f = fillet::line_arc(
-                    a.corner,
-                    a.u,
-                    a.line_avail_mm,
-                    &a.arc,
-                    a.arc_avail_mm,
-                    a.tol_mm,
+            if n == 1 {
+                let j = slots[0].join();
+                found[0] = fillet::line_arc(
+                    j.corner,
+                    j.u,
+                    j.line_avail_mm,
+                    j.arc,
+                    j.arc_avail_mm,
+                    j.tol_mm,
                 );
-                a.record(k, f.as_ref(), out);
+                slots[0].push(&found[0], out);
             }
         }
         if let (Some(m), Some(p), Some(q)) = (motions.last(), prims.last(), preps.last()) {
@@ -487,76 +495,70 @@ impl FilletsAhead {
         }
     }
 
-    /// The join of `a` and `b` (at index `k`), if a line meets an arc there: held
-    /// until the next such join, then the fillets of both to `out`, in order.
+    /// The arguments of the fillet at the join of `a` and `b` (at index `k`) to
+    /// `slot`, if a line meets an arc there and the builder will blend it: true then.
     fn join(
         &self,
-        a: AheadMove,
-        b: AheadMove,
+        (ma, pa, qa): AheadMove,
+        (mb, pb, qb): AheadMove,
         k: usize,
-        held: &mut Option<(u32, AheadJoin)>,
-        out: &mut Vec<(u32, FilletAhead)>,
-    ) {
-        let Some(next) = self.join_args(a, b) else {
-            return;
-        };
-        match held.take() {
-            None => *held = Some((k as u32, next)),
-            Some((k0, first)) => {
-                let mut f = [None, None];
-                fillet::line_arc_2([first.line_arc_join(), next.line_arc_join()], &mut f);
-                first.record(k0, f[0].as_ref(), out);
-                next.record(k as u32, f[1].as_ref(), out);
-            }
-        }
-    }
-
-    /// The arguments of `fillet::line_arc` at the join of `a` and `b`, if a line
-    /// meets an arc there and the builder will blend it.
-    fn join_args(&self, (ma, pa, qa): AheadMove, (mb, pb, qb): AheadMove) -> Option<AheadJoin> {
+        slot: &mut AheadArgs,
+    ) -> bool {
         let (Some(pa), Some(pb)) = (pa, pb) else {
-            return None;
+            return false;
         };
         // (a line–line or arc–arc join: nothing to do, before any other test)
         if matches!(pa, Primitive::Line { .. }) == matches!(pb, Primitive::Line { .. }) {
-            return None;
+            return false;
         }
         let (Some((true, tol_a)), Some((_, tol_b))) = (self.mode(ma), self.mode(mb)) else {
-            return None;
+            return false;
         };
         let tol_mm = tol_a.min(tol_b);
         let (corner, u, line_avail_mm, arc, arc_avail_mm) = match (pa, pb, qa, qb) {
             (&Primitive::Line { start, end }, Primitive::Arc { .. }, None, Some(q)) => {
-                let (len_a, dir_a) = line_len_dir(start, end)?;
+                let Some((len_a, dir_a)) = line_len_dir(start, end) else {
+                    return false;
+                };
                 if q.len_mm < 1e-9 {
-                    return None;
+                    return false;
                 }
-                let view = q.view(pb, false, self.max_drift_rad)?;
+                let Some(view) = q.view(pb, false, self.max_drift_rad) else {
+                    return false;
+                };
                 (end, dir_a, 0.5 * len_a, view, 0.5 * q.len_mm)
             }
             (Primitive::Arc { .. }, &Primitive::Line { start, end }, Some(q), None) => {
-                let (len_b, dir_b) = line_len_dir(start, end)?;
+                let Some((len_b, dir_b)) = line_len_dir(start, end) else {
+                    return false;
+                };
                 if q.len_mm < 1e-9 {
-                    return None;
+                    return false;
                 }
-                let view = q.view(pa, true, self.max_drift_rad)?;
+                let Some(view) = q.view(pa, true, self.max_drift_rad) else {
+                    return false;
+                };
                 (start, -dir_b, 0.5 * len_b, view, 0.5 * q.len_mm)
             }
-            _ => return None,
+            _ => return false,
         };
-        Some(AheadJoin {
+        *slot = AheadArgs {
+            k,
             corner,
             u,
             line_avail_mm,
             arc,
             arc_avail_mm,
             tol_mm,
-        })
+        };
+        true
     }
 }
 
-/// The arguments of `fillet::line_arc` at a join [`FilletsAhead`] works out.
-struct AheadJoin {
+/// The arguments of a fillet worked out ahead, kept until a second one comes to go
+/// through [`fillet::line_arc_2`] with it.
+struct AheadArgs {
+    k: usize,
     corner: Vec3,
     u: Vec3,
     line_avail_mm: f64,
@@ -565,10 +567,28 @@ struct AheadJoin {
     tol_mm: f64,
 }
 
-impl AheadJoin {
-    /// As `fillet::line_arc_2` takes them.
-    #[inline(always)]
-    fn line_arc_join(&self) -> fillet::LineArcJoin<'_> {
+impl AheadArgs {
+    /// An empty slot.
+    const EMPTY: AheadArgs = AheadArgs {
+        k: 0,
+        corner: Vec3::ZERO,
+        u: Vec3::ZERO,
+        line_avail_mm: 0.0,
+        arc: ArcView {
+            center: Vec3::ZERO,
+            radius: 0.0,
+            normal: Vec3::ZERO,
+            sense: 0.0,
+            len: 0.0,
+            axes: (0, 1, 2),
+            orient: 0.0,
+        },
+        arc_avail_mm: 0.0,
+        tol_mm: 0.0,
+    };
+
+    /// As [`fillet::line_arc_2`] takes them.
+    fn join(&self) -> fillet::LineArcJoin<'_> {
         fillet::LineArcJoin {
             corner: self.corner,
             u: self.u,
@@ -579,30 +599,28 @@ impl AheadJoin {
         }
     }
 
-    /// The record of this join (at index `k`), `fillet` its `line_arc`, to `out`.
-    #[inline(always)]
-    fn record(&self, k: u32, fillet: Option<&fillet::Fillet>, out: &mut Vec<(u32, FilletAhead)>) {
-        // (the fillet read where it was written: moved, it was copied with 16-byte
-        // loads of what had just been stored in 8-byte pieces, a stall at each)
-        let found = fillet.map(|f| {
-            let short = FilletFound::of(f, &self.arc);
+    /// Its record, with the fillet `f` found for it (read where it was written).
+    fn push(&self, f: &Option<fillet::Fillet>, out: &mut Vec<(u32, FilletAhead)>) {
+        let (corner, u, arc) = (self.corner, self.u, &self.arc);
+        let found = f.as_ref().map(|f| {
+            let short = FilletFound::of(f, arc);
             debug_assert_eq!(
                 format!("{f:?}"),
-                format!("{:?}", short.fillet(self.corner, self.u, &self.arc)),
+                format!("{:?}", short.fillet(corner, u, arc)),
                 "a fillet in short gives it back"
             );
             short
         });
         out.push((
-            k,
+            self.k as u32,
             FilletAhead {
-                corner: self.corner,
+                corner,
                 line_avail_mm: self.line_avail_mm,
                 arc_avail_mm: self.arc_avail_mm,
                 tol_mm: self.tol_mm,
                 found,
                 #[cfg(debug_assertions)]
-                rest: (self.u, self.arc),
+                rest: (u, *arc),
             },
         ));
     }

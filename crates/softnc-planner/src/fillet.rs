@@ -1129,9 +1129,16 @@ mod lanes {
     #[derive(Clone, Copy)]
     pub(super) struct F2([f64; 2]);
 
-    /// A comparison's outcome in each lane.
+    /// A comparison's outcome in each lane: all ones where it holds, else zero (as
+    /// the processor's packed comparisons give it, so that the compiler can use them).
     #[derive(Clone, Copy)]
-    pub(super) struct M2([bool; 2]);
+    pub(super) struct M2([u64; 2]);
+
+    /// All ones where `holds`.
+    #[inline(always)]
+    fn mask(holds: bool) -> u64 {
+        u64::from(holds).wrapping_neg()
+    }
 
     /// `f` of each lane.
     #[inline(always)]
@@ -1148,7 +1155,7 @@ mod lanes {
     /// `f` of each pair of lanes, a comparison.
     #[inline(always)]
     fn test(a: F2, b: F2, f: impl Fn(f64, f64) -> bool) -> M2 {
-        M2([f(a.0[0], b.0[0]), f(a.0[1], b.0[1])])
+        M2([mask(f(a.0[0], b.0[0])), mask(f(a.0[1], b.0[1]))])
     }
 
     impl F2 {
@@ -1193,10 +1200,9 @@ mod lanes {
         /// `if m { a } else { b }`, lane by lane.
         #[inline(always)]
         pub(super) fn select(m: M2, a: F2, b: F2) -> F2 {
-            F2([
-                if m.0[0] { a.0[0] } else { b.0[0] },
-                if m.0[1] { a.0[1] } else { b.0[1] },
-            ])
+            let pick =
+                |m: u64, a: f64, b: f64| f64::from_bits((m & a.to_bits()) | (!m & b.to_bits()));
+            F2([pick(m.0[0], a.0[0], b.0[0]), pick(m.0[1], a.0[1], b.0[1])])
         }
 
         /// [`super::atan2`]`(self, x)` lane by lane: the operations of
@@ -1272,7 +1278,7 @@ mod lanes {
         /// Lane 0 in bit 0, lane 1 in bit 1.
         #[inline(always)]
         pub(super) fn bits(self) -> i32 {
-            i32::from(self.0[0]) | (i32::from(self.0[1]) << 1)
+            (self.0[0] & 1) as i32 | (((self.0[1] & 1) as i32) << 1)
         }
     }
 
