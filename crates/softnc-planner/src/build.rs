@@ -455,15 +455,7 @@ impl FilletsAhead {
                 }
             }
             if n == 1 {
-                let j = slots[0].join();
-                found[0] = fillet::line_arc(
-                    j.corner,
-                    j.u,
-                    j.line_avail_mm,
-                    j.arc,
-                    j.arc_avail_mm,
-                    j.tol_mm,
-                );
+                found[0] = fillet::line_arc_one(&slots[0].join());
                 slots[0].push(&found[0], out);
             }
         }

@@ -363,7 +363,7 @@ pub fn line_arc_2(joins: [LineArcJoin<'_>; 2], out: &mut [Option<Fillet>; 2]) {
 
 /// [`line_arc`] of `j`.
 #[inline(always)]
-fn line_arc_one(j: &LineArcJoin) -> Option<Fillet> {
+pub(crate) fn line_arc_one(j: &LineArcJoin) -> Option<Fillet> {
     line_arc(
         j.corner,
         j.u,
