@@ -285,6 +285,12 @@ fn line_arc_in<const A: usize, const B: usize, const N: usize>(
         line_avail,
         first_trim_cs(ut, (ua * tb - ub * ta).abs(), tol_mm),
     );
+    // whether a fillet of centre (`fa_mm`, `fb_mm`) in the plane and radius `r_mm`
+    // keeps within its share of the tolerance of the corner
+    let deviates_within = |(fa_mm, fb_mm): (f64, f64), r_mm: f64| {
+        let (da, db) = (pa - (fa_mm - ca), pb - (fb_mm - cb));
+        ((da * da + db * db).sqrt() - r_mm).abs() <= DEVIATION_SHARE * tol_mm
+    };
     for _ in 0..TRIM_TRIES {
         if d <= 1e-9 {
             return None;
@@ -297,19 +303,13 @@ fn line_arc_in<const A: usize, const B: usize, const N: usize>(
             );
             if c.surely {
                 // (the deviation from the candidate's numbers, as from the fillet's)
-                let (fa, fb) = (c.center_ab.0 - ca, c.center_ab.1 - cb);
-                let (da, db) = (pa - fa, pb - fb);
-                let deviation = ((da * da + db * db).sqrt() - c.radius).abs();
-                if deviation <= DEVIATION_SHARE * tol_mm {
+                if deviates_within(c.center_ab, c.radius) {
                     return Some(c.fillet::<A, B, N>(arc));
                 }
             } else if let Some(f) =
                 line_arc_unsure::<A, B, N>(&c, corner, u, arc, arc_avail, (na, nb), (pa, pb))
             {
-                let (fa, fb) = (f.center[ia] - ca, f.center[ib] - cb);
-                let (da, db) = (pa - fa, pb - fb);
-                let deviation = ((da * da + db * db).sqrt() - f.radius).abs();
-                if deviation <= DEVIATION_SHARE * tol_mm {
+                if deviates_within((f.center[ia], f.center[ib]), f.radius) {
                     return Some(f);
                 }
             }
