@@ -5,7 +5,7 @@
 //!
 //! Construction, for a line that runs into the corner C along u and an arc (centre c,
 //! radius R) that leaves C: the fillet touches the line at P₁ = C − d·u, so its centre
-//! is F = P₁ + r·n (n ⊥ u, towards the turn). Tangency to the circle,
+//! is F = P₁ + r·n (n = u turned a quarter towards the turn). Tangency to the circle,
 //! |F − c| = R + σr (σ = +1 outside, −1 inside), is linear in r:
 //! r = (R² − |w|²) / (2(w·n − σR)), w = P₁ − c. The fillet meets the circle at
 //! T = c + R·(F − c)/|F − c|. A candidate is kept only if it is a real blend: r > 0, it
@@ -165,14 +165,6 @@ pub struct Fillet {
     pub sin_sweep: f64,
 }
 
-/// The first trim tried: what a line–line blend within 0.9·`tol_mm` would take at
-/// a corner turning from `t1` to `t2` (the curvature of the arc changes it by a
-/// factor near one; the tries halve it from there).
-///
-/// With c = cos θ = t1·t2 and s = sin θ = |t1 × t2| (no trigonometry): tan(θ/2) =
-/// s/(1 + c), cos(θ/2) = √((1 + c)/2) and sec(θ/2) − 1 = (1 − cos(θ/2))/cos(θ/2)
-/// with 1 − cos(θ/2) = (s²/(2(1 + c)))/(1 + cos(θ/2)), which keeps its precision at
-/// small turns.
 /// An arc's end radius |end − c| in its plane (`Plane::radius_at` without `hypot`:
 /// the squares cannot overflow for coordinates a machine reaches); None for a line.
 pub(crate) fn end_radius_mm(p: &Primitive) -> Option<f64> {
@@ -187,11 +179,18 @@ pub(crate) fn end_radius_mm(p: &Primitive) -> Option<f64> {
     Some((ea * ea + eb * eb).sqrt())
 }
 
+/// The first trim tried: what a line–line blend within 0.9·`tol_mm` would take at
+/// a corner turning from `t1` to `t2` (the curvature of the arc changes it by a
+/// factor near one; the tries shorten it from there).
 fn first_trim(t1: Vec3, t2: Vec3, tol_mm: f64) -> f64 {
     first_trim_cs(t1.dot(t2), t1.cross(t2).norm(), tol_mm)
 }
 
-/// [`first_trim`] from the cosine `c` and sine `s` of the turn.
+/// [`first_trim`] from the cosine `c` and sine `s` of the turn θ: the blend of a
+/// line–line corner that passes 0.9·`tol_mm` from it trims δ·tan(θ/2)/(sec(θ/2) − 1),
+/// and with cos(θ/2) = √((1 + c)/2) and 1 − cos(θ/2) = s²/(2(1 + c)(1 + cos(θ/2)))
+/// that is 2·δ·cos(θ/2)·(1 + cos(θ/2))/s: one root and one division, and no loss of
+/// precision at small turns (no difference of nearly equal numbers).
 #[inline(always)]
 fn first_trim_cs(c: f64, s: f64, tol_mm: f64) -> f64 {
     // (the clamp only where it changes c: off the chain of roots and divisions that
@@ -205,14 +204,11 @@ fn first_trim_cs(c: f64, s: f64, tol_mm: f64) -> f64 {
     if one_plus_c <= 0.0 {
         return 0.0; // a reversal: no fillet
     }
-    let cos_half = (0.5 * one_plus_c).sqrt();
-    let one_minus_cos_half = s * s / (2.0 * one_plus_c) / (1.0 + cos_half);
-    let sec_minus_one = one_minus_cos_half / cos_half;
-    if sec_minus_one <= 0.0 {
-        return f64::INFINITY;
+    if s <= 0.0 {
+        return f64::INFINITY; // no turn: any trim keeps within the tolerance
     }
-    let tan_half = s / one_plus_c;
-    DEVIATION_SHARE * tol_mm / sec_minus_one * tan_half
+    let cos_half = (0.5 * one_plus_c).sqrt();
+    2.0 * DEVIATION_SHARE * tol_mm * cos_half * (1.0 + cos_half) / s
 }
 
 /// 1 + c for a turn cosine `c` beyond [−1, 1] (or NaN): clamped first, as
@@ -226,7 +222,8 @@ fn first_trim_clamped(c: f64) -> f64 {
 /// The fillet at corner `corner` between a line arriving along unit `u` (of which
 /// `line_avail` mm before the corner may be given) and an arc leaving it (`arc`, of
 /// which `arc_avail` mm may be given), within `tol_mm` of the program: the largest
-/// found trying the line's trim from `line_avail` down by halves.
+/// found trying the line's trim from the first trim ([`first_trim_cs`], at most
+/// `line_avail`) down by factors of 0.7.
 pub fn line_arc(
     corner: Vec3,
     u: Vec3,
@@ -247,6 +244,14 @@ pub fn line_arc(
 /// [`line_arc`] in the plane whose axes ([`ArcView::axes`]) are `A`, `B` and the
 /// normal `N`: the same arithmetic, with the components picked at compile time (no
 /// addresses worked out at run time, fewer vectors kept in memory to be indexed).
+///
+/// All of it in the arc's plane coordinates (a, b) (the line lies in that plane
+/// within 1e-9; the normal coordinate is the arc's). With p = C − c the corner from
+/// the centre and k = sense·orient/|p|, the arc's unit tangent at C is
+/// t = k·(−p_b, p_a), so the turn's cosine is u·t = k·(u_b·p_a − u_a·p_b) and its
+/// sine (u × t)·N = k·(u·p): one root and one division. The fillet's centre lies
+/// along n, u turned a quarter towards the turn: (−u_b, u_a) or (u_b, −u_a), exactly
+/// ⟂ u (n·u is x − x = 0) and of u's length, with no root or division.
 #[inline(always)]
 fn line_arc_in<const A: usize, const B: usize, const N: usize>(
     corner: Vec3,
@@ -256,67 +261,58 @@ fn line_arc_in<const A: usize, const B: usize, const N: usize>(
     arc_avail: f64,
     tol_mm: f64,
 ) -> Option<Fillet> {
-    // All of it in the arc's plane coordinates (a, b) (the line lies in that plane
-    // within 1e-9; the normal coordinate is the arc's): the construction of
-    // `candidate` for the one normal n ⟂ u towards the turn and the one tangency that
-    // turns the right way, with every vector in two components.
-    let (ia, ib, i_n) = (A, B, N);
-    if u[i_n].abs() > 1e-9 {
+    if u[N].abs() > 1e-9 {
         return None; // a line out of the arc's plane
     }
-    let (ua, ub) = (u[ia], u[ib]);
-    let (ca, cb) = (arc.center[ia], arc.center[ib]);
-    // the corner from the centre, and the arc's tangent there, sense·N × (C − c)/|C − c|
-    let (pa, pb) = (corner[ia] - ca, corner[ib] - cb);
+    let (ua, ub) = (u[A], u[B]);
+    let (pa, pb) = (corner[A] - arc.center[A], corner[B] - arc.center[B]);
     let p_norm = (pa * pa + pb * pb).sqrt();
     if p_norm.is_nan() || p_norm <= 0.0 {
         return None;
     }
     let k = arc.sense * arc.orient / p_norm;
-    let (ta, tb) = (-pb * k, pa * k);
-    let ut = ua * ta + ub * tb;
-    let (ma, mb) = (ta - ua * ut, tb - ub * ut);
-    let m_norm = (ma * ma + mb * mb).sqrt();
-    if m_norm < 1e-9 {
+    let cos_turn = (ub * pa - ua * pb) * k;
+    let sin_turn = (ua * pa + ub * pb) * k;
+    let turns = sin_turn.abs() >= 1e-9; // (false for NaN too)
+    if !turns {
         return None; // tangent (or reversing) join
     }
-    let (na, nb) = (ma / m_norm, mb / m_norm);
-    let mut d = min_to(
-        line_avail,
-        first_trim_cs(ut, (ua * tb - ub * ta).abs(), tol_mm),
-    );
-    // whether a fillet of centre (`fa_mm`, `fb_mm`) in the plane and radius `r_mm`
-    // keeps within its share of the tolerance of the corner
-    let deviates_within = |(fa_mm, fb_mm): (f64, f64), r_mm: f64| {
-        let (da, db) = (pa - (fa_mm - ca), pb - (fb_mm - cb));
-        ((da * da + db * db).sqrt() - r_mm).abs() <= DEVIATION_SHARE * tol_mm
-    };
+    let n = if sin_turn > 0.0 { (-ub, ua) } else { (ub, -ua) };
+    let mut d = min_to(line_avail, first_trim_cs(cos_turn, sin_turn.abs(), tol_mm));
     for _ in 0..TRIM_TRIES {
         if d <= 1e-9 {
             return None;
         }
-        if let Some(c) = line_arc_at::<A, B, N>(corner, u, d, arc, arc_avail, (na, nb), (pa, pb)) {
+        if let Some(c) = line_arc_at::<A, B, N>(corner, u, d, arc, arc_avail, tol_mm, n, (pa, pb)) {
             // (a fillet whose bound proves it closes is not measured, in tests too)
             debug_assert!(
                 !c.surely || closes(&c.fillet::<A, B, N>(arc), u),
                 "closure bound wrong: {c:?}"
             );
             if c.surely {
-                // (the deviation from the candidate's numbers, as from the fillet's)
-                if deviates_within(c.center_ab, c.radius) {
-                    return Some(c.fillet::<A, B, N>(arc));
-                }
-            } else if let Some(f) =
-                line_arc_unsure::<A, B, N>(&c, corner, u, arc, arc_avail, (na, nb), (pa, pb))
-            {
-                if deviates_within((f.center[ia], f.center[ib]), f.radius) {
-                    return Some(f);
-                }
+                return Some(c.fillet::<A, B, N>(arc));
+            }
+            if let Some(f) = fillet_if_closes::<A, B, N>(&c, arc, u) {
+                return Some(f);
             }
         }
         d *= 0.7;
     }
     None
+}
+
+/// The fillet of a candidate whose bound did not prove it closes, where it does
+/// close ([`closes`]). Out of line and cold: the fillets of CAM programs are proven
+/// to close by their bound.
+#[cold]
+#[inline(never)]
+fn fillet_if_closes<const A: usize, const B: usize, const N: usize>(
+    c: &Candidate,
+    arc: &ArcView,
+    u: Vec3,
+) -> Option<Fillet> {
+    let f = c.fillet::<A, B, N>(arc);
+    closes(&f, u).then_some(f)
 }
 
 /// The arguments of one [`line_arc`] call, for [`line_arc_2`].
@@ -395,29 +391,24 @@ fn line_arc_2_in<const A: usize, const B: usize, const N: usize>(
     let (pa, pb) = (corner_a - ca, corner_b - cb);
     let p_norm = (pa * pa + pb * pb).sqrt();
     ok = ok & p_norm.gt(k(0.0));
-    let (sense, orient) = (both(&|j| j.arc.sense), both(&|j| j.arc.orient));
-    let kt = sense * orient / p_norm;
-    let (ta, tb) = (-pb * kt, pa * kt);
-    let ut = ua * ta + ub * tb;
-    let (ma, mb) = (ta - ua * ut, tb - ub * ut);
-    let m_norm = (ma * ma + mb * mb).sqrt();
-    ok = ok & m_norm.ge(k(1e-9));
-    let (na, nb) = (ma / m_norm, mb / m_norm);
+    let so = both(&|j| j.arc.sense) * both(&|j| j.arc.orient);
+    let kt = so / p_norm;
+    let cos_turn = (ub * pa - ua * pb) * kt;
+    let sin_turn = (ua * pa + ub * pb) * kt;
+    ok = ok & sin_turn.abs().ge(k(1e-9));
+    let left = sin_turn.gt(k(0.0));
+    let (na, nb) = (F2::select(left, -ub, ub), F2::select(left, ua, -ua));
     // first_trim_cs: the cosine within [−1, 1] (its clamp does nothing), no
-    // reversal, a real turn
-    let c = ut;
+    // reversal (the sine is positive: the test above)
+    let c = cos_turn;
     ok = ok & c.ge(k(-1.0)) & c.le(k(1.0));
-    let s = (ua * tb - ub * ta).abs();
+    let s = sin_turn.abs();
     let s = F2::select(k(1.0).lt(s), k(1.0), s);
     let one_plus_c = k(1.0) + c;
     ok = ok & one_plus_c.gt(k(0.0));
     let cos_half = (k(0.5) * one_plus_c).sqrt();
-    let one_minus_cos_half = s * s / (k(2.0) * one_plus_c) / (k(1.0) + cos_half);
-    let sec_minus_one = one_minus_cos_half / cos_half;
-    ok = ok & sec_minus_one.gt(k(0.0));
-    let tan_half = s / one_plus_c;
     let tol = both(&|j| j.tol_mm);
-    let first = k(DEVIATION_SHARE) * tol / sec_minus_one * tan_half;
+    let first = k(2.0 * DEVIATION_SHARE) * tol * cos_half * (k(1.0) + cos_half) / s;
     let line_avail = both(&|j| j.line_avail_mm);
     let d = F2::select(first.lt(line_avail), first, line_avail);
     ok = ok & d.gt(k(1e-9));
@@ -437,36 +428,33 @@ fn line_arc_2_in<const A: usize, const B: usize, const N: usize>(
     let radial_mismatch_mm = (fc_norm - (big_r + sigma * r)).abs();
     let r_or_1 = F2::select(k(1.0).gt(big_r), k(1.0), big_r);
     ok = ok & fc_norm.ge(k(1e-12)) & radial_mismatch_mm.le(k(1e-7) * r_or_1);
-    let scale = big_r / fc_norm;
-    let (tca, tcb) = (fa * scale, fb * scale);
-    let (qa, qb) = (tca - fa, tcb - fb);
-    let (q1, q2) = (-(qa * na + qb * nb), qa * ua + qb * ub);
+    let (da, db) = (pa - fa, pb - fb);
+    let deviation = ((da * da + db * db).sqrt() - r).abs();
+    ok = ok & deviation.le(k(DEVIATION_SHARE) * tol);
+    let q1 = sigma * (fa * na + fb * nb);
+    let q2 = -sigma * (fa * ua + fb * ub);
     ok = ok & q2.gt(k(0.0));
-    let qn = (q1 * q1 + q2 * q2).sqrt();
-    let (cos_sweep, sin_sweep) = (q1 / qn, q2 / qn);
-    let ka = sense * orient / big_r;
-    let (ata, atb) = (-tcb * ka, tca * ka);
-    let along = (ua * cos_sweep + na * sin_sweep) * ata + (ub * cos_sweep + nb * sin_sweep) * atb;
+    let inv_f = k(1.0) / fc_norm;
+    let (cos_sweep, sin_sweep) = (q1 * inv_f, q2 * inv_f);
+    let along = ((ua * cos_sweep + na * sin_sweep) * -fb + (ub * cos_sweep + nb * sin_sweep) * fa)
+        * (so * inv_f);
     ok = ok & along.ge(k(1.0 - 1e-9));
     let sweep = q2.atan2(q1);
     ok = ok & sweep.gt(k(1e-9)) & sweep.lt(k(PI - 1e-6));
-    let cross = (pa * tcb - pb * tca) * orient * sense;
-    let ang = cross.atan2(pa * tca + pb * tcb);
+    let ang = ((pa * fb - pb * fa) * so).atan2(pa * fa + pb * fb);
     let arc_trim_rad = F2::select(ang.lt(k(0.0)), ang + k(TAU), ang);
     let arc_trim = arc_trim_rad * big_r;
     ok = ok & arc_trim.gt(k(1e-9)) & arc_trim.le(both(&|j| j.arc_avail_mm));
     let (center_a, center_b) = (ca + fa, cb + fb);
-    let (p_arc_a, p_arc_b) = (ca + tca, cb + tcb);
+    let scale = big_r * inv_f;
+    let (p_arc_a, p_arc_b) = (ca + fa * scale, cb + fb * scale);
     let center_n = both(&|j| j.arc.center[N]);
-    // closure_bound_mm, then the deviation as line_arc_in measures it
+    // closure_bound_mm
     let bound = radial_mismatch_mm
-        + r * (k(4.0) * (na * ua + nb * ub).abs() + u_n.abs())
+        + r * u_n.abs()
         + (p1n - center_n).abs()
         + k(100.0 * f64::EPSILON) * (ca.abs() + cb.abs() + wa.abs() + wb.abs() + big_r + r);
     ok = ok & bound.le(k(CLOSURE_SURE_SHARE * FILLET_CLOSURE_MM));
-    let (da, db) = (pa - (center_a - ca), pb - (center_b - cb));
-    let deviation = ((da * da + db * db).sqrt() - r).abs();
-    ok = ok & deviation.le(k(DEVIATION_SHARE) * tol);
     let bits = ok.bits();
     let lane = |i: usize, x: F2| if i == 0 { x.lanes().0 } else { x.lanes().1 };
     let fillet = |i: usize, j: &LineArcJoin, out: &mut Option<Fillet>| {
@@ -496,36 +484,6 @@ fn line_arc_2_in<const A: usize, const B: usize, const N: usize>(
     let [out0, out1] = out;
     fillet(0, j0, out0);
     fillet(1, j1, out1);
-}
-
-/// A candidate `c` of [`line_arc_in`] whose bound did not prove it closes: its
-/// fillet where that does close ([`closes`]), else the fillet of the same trim built
-/// on the in-plane perpendicular of u, exact to rounding (m loses digits to
-/// cancellation where t ≈ u), where that one closes. Out of line and cold: the
-/// fillets of CAM programs are proven to close by their bound (a fillet that did
-/// close keeps its bits).
-#[cold]
-#[inline(never)]
-fn line_arc_unsure<const A: usize, const B: usize, const N: usize>(
-    c: &Candidate,
-    corner: Vec3,
-    u: Vec3,
-    arc: &ArcView,
-    arc_avail: f64,
-    (na, nb): (f64, f64),
-    p: (f64, f64),
-) -> Option<Fillet> {
-    let f = c.fillet::<A, B, N>(arc);
-    if closes(&f, u) {
-        return Some(f);
-    }
-    let (ua, ub) = (u[A], u[B]);
-    let (sa, sb) = (-ub, ua);
-    let s_scale = (na * sa + nb * sb).signum() / (sa * sa + sb * sb).sqrt();
-    let n = (sa * s_scale, sb * s_scale);
-    line_arc_at::<A, B, N>(corner, u, c.line_trim, arc, arc_avail, n, p)
-        .map(|c| c.fillet::<A, B, N>(arc))
-        .filter(|f| closes(f, u))
 }
 
 /// A fillet found by [`line_arc_at`], in the numbers it was built from: the
@@ -584,27 +542,31 @@ impl Candidate {
     }
 }
 
-/// The line–arc fillet leaving the line `d` before the corner (`candidate` in the
-/// arc's plane coordinates): n = (`na`, `nb`) the unit normal of u towards the turn,
-/// (`pa`, `pb`) the corner from the centre. With w = P₁ − c, F − c = w + r·n and
-/// (F − c)·u = w·u; T − F = −σr·(F − c)/|F − c| turns the fillet forwards (q·u > 0)
-/// only for σ·(w·u) < 0, so that tangency alone is built.
+/// The line–arc fillet leaving the line `d` before the corner ([`line_arc_in`] in
+/// the arc's plane coordinates), if it is a real blend within `tol_mm`: n = (`na`,
+/// `nb`) the unit normal of u towards the turn, (`pa`, `pb`) the corner from the
+/// centre. With w = P₁ − c, F − c = w + r·n. T − F = −σr·(F − c)/|F − c| (to the
+/// radial mismatch) turns the fillet forwards (q·u > 0) only for σ·(w·u) < 0, so
+/// that tangency alone is built; against e1 = (P₁ − F)/r = −n and e2 = u its
+/// direction is σ·((F − c)·n, −(F − c)·u)/|F − c|, which gives the sweep's cosine and
+/// sine with one division and its angle (`atan2`, free of scale) without one.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)] // (the join's arguments, and what line_arc_in worked out)
 fn line_arc_at<const A: usize, const B: usize, const N: usize>(
     corner: Vec3,
     u: Vec3,
     d: f64,
     arc: &ArcView,
     arc_avail: f64,
+    tol_mm: f64,
     (na, nb): (f64, f64),
     (pa, pb): (f64, f64),
 ) -> Option<Candidate> {
-    let (ia, ib, i_n) = (A, B, N);
-    let (ua, ub) = (u[ia], u[ib]);
-    let (ca, cb) = (arc.center[ia], arc.center[ib]);
+    let (ua, ub) = (u[A], u[B]);
+    let (ca, cb) = (arc.center[A], arc.center[B]);
     let big_r = arc.radius;
     let p1 = corner - u * d;
-    let (wa, wb) = (p1[ia] - ca, p1[ib] - cb);
+    let (wa, wb) = (p1[A] - ca, p1[B] - cb);
     let wu = wa * ua + wb * ub;
     let sigma = if wu < 0.0 {
         1.0
@@ -625,21 +587,24 @@ fn line_arc_at<const A: usize, const B: usize, const N: usize>(
     if fc_norm < 1e-12 || radial_mismatch_mm > 1e-7 * max_to(big_r, 1.0) {
         return None;
     }
-    let scale = big_r / fc_norm;
-    let (tca, tcb) = (fa * scale, fb * scale);
-    // q = T − F against e1 = (P₁ − F)/r = −n and e2 = u
-    let (qa, qb) = (tca - fa, tcb - fb);
-    let (q1, q2) = (-(qa * na + qb * nb), qa * ua + qb * ub);
+    // how far the fillet passes from the corner, |C − F| − r, within its share
+    let (da, db) = (pa - fa, pb - fb);
+    let within = ((da * da + db * db).sqrt() - r).abs() <= DEVIATION_SHARE * tol_mm;
+    if !within {
+        return None; // (a NaN tolerance too)
+    }
+    let q1 = sigma * (fa * na + fb * nb);
+    let q2 = -sigma * (fa * ua + fb * ub);
     if q2 <= 0.0 {
         return None;
     }
-    let qn = (q1 * q1 + q2 * q2).sqrt();
-    let (cos_sweep, sin_sweep) = (q1 / qn, q2 / qn);
+    let inv_f = 1.0 / fc_norm;
+    let (cos_sweep, sin_sweep) = (q1 * inv_f, q2 * inv_f);
     // the fillet's end tangent u·cos φ + n·sin φ against the arc's at T,
-    // sense·N × (T − c)/R
-    let k = arc.sense * arc.orient / big_r;
-    let (ata, atb) = (-tcb * k, tca * k);
-    let along = (ua * cos_sweep + na * sin_sweep) * ata + (ub * cos_sweep + nb * sin_sweep) * atb;
+    // sense·N × (T − c)/R = sense·orient·(−(F − c)_b, (F − c)_a)/|F − c|
+    let so = arc.sense * arc.orient;
+    let along = ((ua * cos_sweep + na * sin_sweep) * -fb + (ub * cos_sweep + nb * sin_sweep) * fa)
+        * (so * inv_f);
     if along < 1.0 - 1e-9 {
         return None;
     }
@@ -648,8 +613,7 @@ fn line_arc_at<const A: usize, const B: usize, const N: usize>(
         return None;
     }
     // the arc's angle from C to T in its direction of travel, in [0, 2π)
-    let cross = (pa * tcb - pb * tca) * arc.orient * arc.sense;
-    let ang = atan2(cross, pa * tca + pb * tcb);
+    let ang = atan2((pa * fb - pb * fa) * so, pa * fa + pb * fb);
     let arc_trim_rad = if ang < 0.0 {
         ang + std::f64::consts::TAU
     } else {
@@ -659,12 +623,12 @@ fn line_arc_at<const A: usize, const B: usize, const N: usize>(
     if !(arc_trim > 1e-9 && arc_trim <= arc_avail) {
         return None;
     }
+    let scale = big_r * inv_f;
     let surely = closure_bound_mm(
         radial_mismatch_mm,
         r,
-        (na * ua + nb * ub).abs(),
-        u[i_n].abs(),
-        (p1[i_n] - arc.center[i_n]).abs(),
+        u[N].abs(),
+        (p1[N] - arc.center[N]).abs(),
         ca.abs() + cb.abs() + wa.abs() + wb.abs() + big_r,
     ) <= CLOSURE_SURE_SHARE * FILLET_CLOSURE_MM;
     Some(Candidate {
@@ -674,7 +638,7 @@ fn line_arc_at<const A: usize, const B: usize, const N: usize>(
         center_ab: (ca + fa, cb + fb),
         radius: r,
         p_line: p1,
-        p_arc_ab: (ca + tca, cb + tcb),
+        p_arc_ab: (ca + fa * scale, cb + fb * scale),
         sweep,
         cos_sweep,
         sin_sweep,
@@ -690,22 +654,20 @@ const CLOSURE_SURE_SHARE: f64 = 0.25;
 /// An upper bound (mm) on how far a line–arc fillet built by `line_arc_at` ends from
 /// where it should, either way it is laid ([`closes`]), from what its construction
 /// leaves: the radial mismatch |‖F − c‖ − (R ± r)| it accepted (the fillet's end is
-/// the point at r from F towards T, T at ‖T − F‖ = r ± that from F), 4·r·|n·u| for a
-/// normal n off ⟂ u by |n·u| (the sweep's cosine and sine taken against the skewed
-/// pair −n, u: about 3·r·|n·u|), r·|u_N| and |P₁_N − c_N| off the arc's plane, and
-/// 100 ε of the coordinates', the radii's and the fillet's own magnitudes for the
-/// rounding of the few tens of operations between.
+/// the point at r from F towards T, T at ‖T − F‖ = r ± that from F), r·|u_N| and
+/// |P₁_N − c_N| off the arc's plane, and 100 ε of the coordinates', the radii's and
+/// the fillet's own magnitudes for the rounding of the few tens of operations
+/// between (n is exactly ⟂ u: no term for a skewed pair −n, u).
 #[inline(always)]
 fn closure_bound_mm(
     radial_mismatch_mm: f64,
     r_mm: f64,
-    n_dot_u: f64,
     u_normal: f64,
     p1_off_plane_mm: f64,
     magnitudes_mm: f64,
 ) -> f64 {
     radial_mismatch_mm
-        + r_mm * (4.0 * n_dot_u + u_normal)
+        + r_mm * u_normal
         + p1_off_plane_mm
         + 100.0 * f64::EPSILON * (magnitudes_mm + r_mm)
 }
