@@ -1894,8 +1894,51 @@ pub fn read_chunked(
 struct Source<'t> {
     name: String,
     text: Cow<'t, str>,
-    /// Whether it may hold a NUL byte or a `(` at all.
-    maybe: bool,
+    /// The window of the text checked last for NUL bytes and `(`
+    /// ([`Source::may_hold_nul_or_paren`]).
+    clean: std::cell::Cell<CleanWindow>,
+}
+
+/// Bytes of a program text from `from` to `to` checked for NUL bytes and `(`
+/// ([`has_nul_or_paren`]); `clean` where it holds neither.
+#[derive(Debug, Clone, Copy, Default)]
+struct CleanWindow {
+    from: usize,
+    to: usize,
+    clean: bool,
+}
+
+/// Bytes [`Source::may_hold_nul_or_paren`] checks at once from the line asked
+/// about: about 2,500 lines of CAM output, a few microseconds.
+const CLEAN_WINDOW_BYTES: usize = 1 << 16;
+
+impl<'t> Source<'t> {
+    /// A program text, nothing of it checked yet.
+    fn new(name: String, text: Cow<'t, str>) -> Source<'t> {
+        Source {
+            name,
+            text,
+            clean: Default::default(),
+        }
+    }
+
+    /// Whether the line at bytes `s..e` may hold a NUL byte or a `(` (`lex_words`'
+    /// `maybe`: where it cannot, the lexer spares two searches of the line). The text
+    /// is checked a window at a time where the general reader first asks (the lines
+    /// the short way reads, `fast`, need no check): a program read the short way is
+    /// not scanned whole before its first line is read, and a line of a window with
+    /// a `(` anywhere in it is searched as every line was when the whole text had one.
+    fn may_hold_nul_or_paren(&self, s: usize, e: usize) -> bool {
+        let w = self.clean.get();
+        if w.from <= s && e <= w.to {
+            return !w.clean;
+        }
+        let b = self.text.as_bytes();
+        let to = e.max(s.saturating_add(CLEAN_WINDOW_BYTES)).min(b.len());
+        let clean = !has_nul_or_paren(&b[s..to]);
+        self.clean.set(CleanWindow { from: s, to, clean });
+        !clean
+    }
 }
 
 /// Look for `NAME.ngc` on the search path, then beside the main program.
@@ -1987,11 +2030,7 @@ fn read_lines(
     let mut norm_cache: LineCache = Default::default();
     let mut jumped = false;
     let bytes = text.as_bytes();
-    let mut sources = vec![Source {
-        name: file.to_string(),
-        text: Cow::Borrowed(text),
-        maybe: has_nul_or_paren(bytes),
-    }];
+    let mut sources = vec![Source::new(file.to_string(), Cow::Borrowed(text))];
     let err_in =
         |name: &str, line_no: usize, raw: &str, (off, kind): (u32, ErrorKind)| GcodeError {
             file: name.to_string(),
@@ -2043,7 +2082,6 @@ fn read_lines(
     'files: loop {
         let src = &sources[cur];
         let src_text: &str = &src.text;
-        let maybe = src.maybe;
         let src_name: &str = &src.name;
         let mut split = LineSplit {
             b: src_text.as_bytes(),
@@ -2218,6 +2256,7 @@ fn read_lines(
                         .read_norm(n, &mut block, &mut line, &mut sets)
                         .map_err(|x| err_in(src_name, line_no, raw, x))?;
                 } else {
+                    let maybe = src.may_hold_nul_or_paren(s, e);
                     let lexed = lex_words(raw, &mut line, maybe, |w| it.sort_word(w, &mut block));
                     match lexed {
                         Ok(()) => {}
@@ -2353,12 +2392,7 @@ fn read_lines(
                     pos = 0;
                     next_line_no = 1;
                 } else if let Some((path, body)) = find_sub_file(&name, &main_dir_file, options) {
-                    let maybe = has_nul_or_paren(body.as_bytes());
-                    sources.push(Source {
-                        name: path,
-                        text: Cow::Owned(body),
-                        maybe,
-                    });
+                    sources.push(Source::new(path, Cow::Owned(body)));
                     cur = sources.len() - 1;
                     pos = 0;
                     next_line_no = 1;
@@ -2516,6 +2550,71 @@ mod tests {
                     assert!(has_nul_or_paren(&t), "{len} {at} {hit}");
                 }
             }
+        }
+    }
+
+    /// Comments and NUL bytes far into a long program (past the first windows
+    /// `Source::may_hold_nul_or_paren` checks) are read as where the whole text was
+    /// scanned first: the comment's words and what follows a NUL are not read, the
+    /// general way and the short way alike, and a window with neither is lexed
+    /// without searching its lines.
+    #[test]
+    fn comments_and_nul_bytes_past_the_first_window_are_read() {
+        let profile = MachineProfile::load(
+            &std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                .join("../../config/machines/default.ron"),
+        )
+        .unwrap();
+        let mut text = String::from("G21 G90 F100\n");
+        let (comment_at, nul_at, lines) = (12_000, 17_000, 20_000);
+        for i in 1..=lines {
+            text.push_str(&match i {
+                _ if i == comment_at => "G1 X1.5 (X9 Y9 a comment)\n".to_string(),
+                _ if i == nul_at => "G1 X2.5\0X9 Y9\n".to_string(),
+                _ => format!("G1 X{}.25 Y{}\n", i % 7, i % 3),
+            });
+        }
+        text.push_str("M2\n");
+        assert!(
+            comment_at * 11 > 2 * CLEAN_WINDOW_BYTES && text.len() > 3 * CLEAN_WINDOW_BYTES,
+            "{}",
+            text.len()
+        );
+        for fast in [false, true] {
+            let mut motions = Vec::new();
+            read_lines(
+                &text,
+                "long.ngc",
+                &profile,
+                &ReadOptions::default(),
+                1024,
+                &mut |chunk: &mut Vec<Motion>| motions.append(chunk),
+                fast,
+            )
+            .unwrap();
+            let end_at = |line: usize| {
+                let m = motions
+                    .iter()
+                    .find(|m| m.line as usize == line + 1)
+                    .unwrap();
+                (m.canon_end[0], m.canon_end[1])
+            };
+            assert_eq!(motions.len(), lines, "fast {fast}");
+            // (Y modal: the line before's)
+            let y_before = |line: usize| ((line - 1) % 3) as f64;
+            assert_eq!(
+                end_at(comment_at),
+                (1.5, y_before(comment_at)),
+                "fast {fast}"
+            );
+            assert_eq!(end_at(nul_at), (2.5, y_before(nul_at)), "fast {fast}");
+            assert_eq!(
+                end_at(comment_at + 1),
+                (
+                    ((comment_at + 1) % 7) as f64 + 0.25,
+                    ((comment_at + 1) % 3) as f64
+                )
+            );
         }
     }
 
