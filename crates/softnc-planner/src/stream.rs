@@ -414,14 +414,13 @@ pub(crate) enum FilletsAheadWhen {
     #[cfg_attr(not(test), allow(dead_code))]
     Always,
     /// For a chunk read while at least [`AHEAD_QUEUED_CHUNKS`] chunks wait for the
-    /// planning thread (it is behind), read undisturbed (its wall time within
-    /// [`AHEAD_UNDISTURBED_READ`] of the quickest chunk's: the reader was not
-    /// descheduled) while the planning thread built at least
-    /// [`AHEAD_PARALLEL_MOTIONS`] motions (so the two ran at once, each on a core).
-    /// A fillet worked out ahead costs the reader about twice what it saves the
-    /// planner (its arguments worked out twice, the hand-over), so it pays only where
-    /// the reader has a core of its own and time to spare: the share done ahead
-    /// follows both (docs/planner.md §5, `plan10`).
+    /// planning thread (it is behind) and the planning thread built at least
+    /// [`AHEAD_PARALLEL_MOTIONS`] motions (so the two ran at once). On the processor
+    /// a fillet worked out ahead costs the reader about what it saves the planner
+    /// (docs/planner.md §5, "Where the time goes on the processor"), so the share done
+    /// ahead follows the planner's backlog. (A third test, that the reader read the
+    /// chunk undisturbed, made the rule stick at no fillet ahead once the machine had
+    /// other work: runs then took the planner's whole share, 36–50 ms.)
     PlannerBehind,
 }
 
@@ -529,22 +528,16 @@ impl HandoffWait {
     }
 }
 
-/// Most wall time a chunk's reading may take, as a multiple of the quickest so far,
-/// for the reader to count as not descheduled meanwhile
-/// ([`FilletsAheadWhen::PlannerBehind`]): the planner's progress then happened while
-/// both ran (a descheduled reader sees the planner progress on the core it left).
-const AHEAD_UNDISTURBED_READ: f64 = 1.5;
-
 impl FilletsAheadWhen {
     /// Whether the reader works the fillets of a chunk out ahead, with `queued`
     /// chunks waiting for the planning thread, which built `built` motions while the
-    /// reader read this chunk, `undisturbed` (see [`AHEAD_UNDISTURBED_READ`]).
-    fn works(self, queued: usize, built: usize, undisturbed: bool) -> bool {
+    /// reader read this chunk.
+    fn works(self, queued: usize, built: usize) -> bool {
         match self {
             FilletsAheadWhen::Never => false,
             FilletsAheadWhen::Always => true,
             FilletsAheadWhen::PlannerBehind => {
-                queued >= AHEAD_QUEUED_CHUNKS && built >= AHEAD_PARALLEL_MOTIONS && undisturbed
+                queued >= AHEAD_QUEUED_CHUNKS && built >= AHEAD_PARALLEL_MOTIONS
             }
         }
     }
@@ -660,8 +653,6 @@ pub(crate) fn check_program_parallel_with(
         let mut checker = reader_checks.then(|| Checker::new(profile, options, file));
         let mut built_seen = 0;
         let mut waits = HandoffWait::default();
-        let mut read_from = std::time::Instant::now();
-        let mut quickest_read = std::time::Duration::MAX;
         let mut fillets_ahead =
             FilletsAhead::new(&Limits::from_profile(profile), options.single_block);
         let mut duration = DurationPass::new(&Limits::from_profile(profile));
@@ -702,14 +693,9 @@ pub(crate) fn check_program_parallel_with(
                         }
                     }
                     preps.extend(prims.iter().map(ArcPrep::of));
-                    // the chunk's reading (from the end of the last call): undisturbed
-                    // where within AHEAD_UNDISTURBED_READ of the quickest
-                    let read = read_from.elapsed();
-                    quickest_read = quickest_read.min(read);
                     let work = when.works(
                         queued.load(Ordering::Relaxed),
                         built.load(Ordering::Relaxed).saturating_sub(built_seen),
-                        read.as_secs_f64() <= AHEAD_UNDISTURBED_READ * quickest_read.as_secs_f64(),
                     );
                     fillets_ahead.chunk(chunk, &prims, &preps, work, &mut aheads);
                 }
@@ -721,7 +707,6 @@ pub(crate) fn check_program_parallel_with(
                 // a planner that stopped early (it cannot) only loses the chunk
                 let _ = to_planner.send((std::mem::replace(chunk, fresh), prims, preps, aheads));
                 built_seen = built.load(Ordering::Relaxed);
-                read_from = std::time::Instant::now();
             },
         );
         drop(to_planner);
@@ -1194,17 +1179,16 @@ mod tests {
     use super::*;
 
     /// The adaptive rule works fillets out ahead only with the planner behind, having
-    /// progressed while the reader read undisturbed; the others as they say.
+    /// progressed while the reader read the chunk; the others as they say.
     #[test]
     fn fillets_ahead_only_while_both_threads_run_and_the_planner_is_behind() {
         let w = FilletsAheadWhen::PlannerBehind;
         let (q, b) = (AHEAD_QUEUED_CHUNKS, AHEAD_PARALLEL_MOTIONS);
-        assert!(w.works(q, b, true));
-        assert!(!w.works(q - 1, b, true), "planner not behind");
-        assert!(!w.works(q, b - 1, true), "planner hardly built meanwhile");
-        assert!(!w.works(q, b, false), "reader descheduled");
-        assert!(FilletsAheadWhen::Always.works(0, 0, false));
-        assert!(!FilletsAheadWhen::Never.works(8, READ_CHUNK_MOTIONS, true));
+        assert!(w.works(q, b));
+        assert!(!w.works(q - 1, b), "planner not behind");
+        assert!(!w.works(q, b - 1), "planner hardly built meanwhile");
+        assert!(FilletsAheadWhen::Always.works(0, 0));
+        assert!(!FilletsAheadWhen::Never.works(8, READ_CHUNK_MOTIONS));
     }
 
     /// `check_program_parallel` with the fillets worked out ahead for every chunk, for
