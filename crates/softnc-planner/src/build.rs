@@ -1107,42 +1107,50 @@ impl PathBuilder {
         // (the primitive read where the motion holds it and written once, into the
         // held move's record: not copied to the stack first)
         let Some(src) = prim.as_ref() else { return };
-        let (len, dir) = match *src {
+        // the held move's record, its geometry and direction written in place in
+        // each arm (not assembled on the stack and copied in: about 15 instructions a
+        // motion); an arc's length is its `ArcPrep`'s where one came with it
+        // (`Primitive::length` of the same arc, the same bits)
+        let mut next = self
+            .spare
+            .take()
+            .unwrap_or_else(|| Box::new(Pending::placeholder()));
+        let len = match *src {
             Primitive::Line { start, end } => {
                 let d = end - start;
                 let len = d.norm();
-                let dir = if len > 0.0 {
+                next.dir = if len > 0.0 {
                     d * (1.0 / len)
                 } else {
                     Vec3::ZERO
                 };
-                (len, dir)
+                next.geom = Geom::Line {
+                    start,
+                    end,
+                    from: 0.0,
+                    to: len,
+                    prog_len: len,
+                };
+                len
             }
-            Primitive::Arc { .. } => (src.length(), Vec3::ZERO),
+            Primitive::Arc { .. } => {
+                next.dir = Vec3::ZERO;
+                next.geom = Geom::Arc(*src);
+                match prep {
+                    Some(q) => q.len_mm,
+                    None => src.length(),
+                }
+            }
         };
         if len < 1e-9 {
+            self.spare = Some(next);
             self.orphan(index as u32, *src);
             return;
         }
         if self.last_point.is_none() {
             self.last_point = Some(src.start());
         }
-        let mut next = self
-            .spare
-            .take()
-            .unwrap_or_else(|| Box::new(Pending::placeholder()));
-        next.geom = match *src {
-            Primitive::Line { start, end } => Geom::Line {
-                start,
-                end,
-                from: 0.0,
-                to: len,
-                prog_len: len,
-            },
-            Primitive::Arc { .. } => Geom::Arc(*src),
-        };
         next.len = len;
-        next.dir = dir;
         next.motion = index as u32;
         next.feed_move = feed_move;
         next.feed_mm_per_s = feed;
