@@ -1163,7 +1163,12 @@ impl PathBuilder {
         next.start_trim = 0.0;
         next.start_at = None;
         next.start_trim_rad = None;
-        self.preps[self.prep_next_slot & 1] = prep.copied();
+        // (written into the slot where it lies, not through a copy on the stack)
+        let slot = &mut self.preps[self.prep_next_slot & 1];
+        match prep {
+            Some(q) => *slot = Some(*q),
+            None => *slot = None,
+        }
         match self.pending.take() {
             Some(prev) => {
                 let blend = self.blend(&prev, &next, ahead);
