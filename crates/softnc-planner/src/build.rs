@@ -1621,7 +1621,11 @@ impl PathBuilder {
     /// tag, was copied through the stack at odd offsets (see [`BlendArc`]).
     fn emit(&mut self, p: &Pending, blend: Option<&Blend>, last: bool) {
         let stop = p.exact_stop || p.dwell_s > 0.0 || p.stop != StopKind::None || last;
-        let shape: ElementShape = match &p.geom {
+        // (the two common elements, a trimmed line and a sub-arc cut by fillets,
+        // each push their shape where they build it, `push_shaped`: merged into
+        // one local, the shape went through the stack, where `ElementShape::arc`,
+        // out of line, returns it; the rarer ones through `push_shaped_cold`)
+        match &p.geom {
             &Geom::Line {
                 start,
                 end,
@@ -1637,14 +1641,16 @@ impl PathBuilder {
                     to,
                     prog_len,
                 });
-                ElementShape::line(len, p.dir)
+                let shape = ElementShape::line(len, p.dir);
+                self.push_shaped(p, &shape, blend, stop);
             }
             // (by reference: the held move's arc is not copied out to be cut)
             Geom::Arc(prim) => {
                 let end_trim = blend.map_or(0.0, |b| b.end_trim_prev);
                 if p.start_trim == 0.0 && end_trim == 0.0 {
                     self.path.geoms.push(p.geom);
-                    ElementShape::arc(prim)
+                    let shape = ElementShape::arc(prim);
+                    self.push_shaped_cold(p, &shape, blend, stop);
                 } else {
                     // the programmed arc stays exact among the orphans
                     self.orphan(p.motion, *prim);
@@ -1660,7 +1666,8 @@ impl PathBuilder {
                             to: 0.0,
                             prog_len: 0.0,
                         });
-                        ElementShape::line(0.0, dir)
+                        let shape = ElementShape::line(0.0, dir);
+                        self.push_shaped_cold(p, &shape, blend, stop);
                     } else {
                         let at_from = p.start_at.unwrap_or_else(|| prim.point_at(from));
                         let at_to = blend
@@ -1683,13 +1690,14 @@ impl PathBuilder {
                             // (`sub_arc_by_angles` on the path: the held arc copied
                             // there and cut in place)
                             self.path.geoms.push(p.geom);
-                            match self.path.geoms.last_mut() {
+                            let shape = match self.path.geoms.last_mut() {
                                 Some(Geom::Arc(sub)) => {
                                     cut_by_angles(sub, at_from, at_to, s_rad, e_rad);
                                     ElementShape::sub_arc(sub)
                                 }
                                 _ => unreachable!("the held move is an arc"),
-                            }
+                            };
+                            self.push_shaped(p, &shape, blend, stop);
                         } else {
                             let sub = if prim_sweep(prim).abs() < std::f64::consts::TAU {
                                 sub_arc(prim, at_from, at_to)
@@ -1698,24 +1706,49 @@ impl PathBuilder {
                                 sub_arc_span(prim, from, to, at_from, at_to)
                             };
                             self.path.geoms.push(Geom::Arc(sub));
-                            ElementShape::arc(&sub)
+                            let shape = ElementShape::arc(&sub);
+                            self.push_shaped_cold(p, &shape, blend, stop);
                         }
                     }
                 }
             }
             Geom::Blend { .. } => unreachable!("moves are lines or arcs"),
-        };
+        }
+    }
+
+    /// The element of move `p` whose geometry [`PathBuilder::emit`] has just pushed,
+    /// of shape `shape`, then the blend after it (if any).
+    #[inline(always)]
+    fn push_shaped(
+        &mut self,
+        p: &Pending,
+        shape: &ElementShape,
+        blend: Option<&Blend>,
+        stop: bool,
+    ) {
         match blend {
             Some(b) => {
-                self.push_element(p, &shape, 0.0, false, false);
+                self.push_element(p, shape, 0.0, false, false);
                 // the blend's arcs, by reference
                 self.push_blend_piece(p, &b.arc, b.sweep_cos_sin);
                 if let Some(a2) = &b.arc2 {
                     self.push_blend_piece(p, a2, None);
                 }
             }
-            None => self.push_element(p, &shape, p.dwell_s, stop, false),
+            None => self.push_element(p, shape, p.dwell_s, stop, false),
         }
+    }
+
+    /// [`PathBuilder::push_shaped`] out of line, for the rarer elements.
+    #[inline(never)]
+    fn push_shaped_cold(
+        &mut self,
+        p: &Pending,
+        shape: &ElementShape,
+        blend: Option<&Blend>,
+        stop: bool,
+    ) {
+        self.push_shaped(p, shape, blend, stop);
     }
 
     /// Push a blend arc `arc` of move `p`'s corner (its sweep's cosine and sine where
@@ -1728,12 +1761,20 @@ impl PathBuilder {
             sweep,
             ..
         } = arc;
-        let shape = match trig {
-            Some((cos_s, sin_s)) => ElementShape::blend_trig(e1, e2, radius, sweep, cos_s, sin_s),
-            None => ElementShape::blend(e1, e2, radius, sweep),
-        };
-        self.path.geoms.push(arc.geom());
-        self.push_element(p, &shape, 0.0, false, true);
+        // (each arm pushes its own shape: merged into one local, the shape went
+        // through the stack, where `ElementShape::blend`, out of line, returns it)
+        match trig {
+            Some((cos_s, sin_s)) => {
+                let shape = ElementShape::blend_trig(e1, e2, radius, sweep, cos_s, sin_s);
+                self.path.geoms.push(arc.geom());
+                self.push_element(p, &shape, 0.0, false, true);
+            }
+            None => {
+                let shape = ElementShape::blend(e1, e2, radius, sweep);
+                self.path.geoms.push(arc.geom());
+                self.push_element(p, &shape, 0.0, false, true);
+            }
+        }
     }
 
     /// Push one element with its limits (its geometry is the last of `path.geoms`,
