@@ -1818,7 +1818,9 @@ impl PathBuilder {
         if self.base + n > self.path.lead_in && n > 0 {
             let a = &mut self.path.segs[n - 1];
             if a.v_end_hard != 0.0 {
-                let (prev_geom, geom) = (&self.path.geoms[n - 1], &self.path.geoms[n]);
+                // (the geometries indexed only where the curvature step is asked
+                // for, S-curve: not two bounds checks an element)
+                let geoms = &self.path.geoms;
                 let uses = [&self.prev_acc_use, &acc_use];
                 a.v_end_hard = junction_speed(
                     lim,
@@ -1827,7 +1829,7 @@ impl PathBuilder {
                     self.prev_end_tangent,
                     shape,
                     uses,
-                    || geom.curvature_vec(false) - prev_geom.curvature_vec(true),
+                    || geoms[n].curvature_vec(false) - geoms[n - 1].curvature_vec(true),
                 );
             }
         }
