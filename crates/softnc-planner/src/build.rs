@@ -983,6 +983,27 @@ impl PathBuilder {
             } if q > 0.0 && !self.single_block => q,
             _ => 0.0,
         };
+        // no G64 Q line and no chain held: straight to the builder (what the rest
+        // does then), without the frame the chain's handling sets up (about 14
+        // instructions a motion)
+        if q <= 0.0 && self.chain.last.is_none() {
+            return self.push_unmerged(index, m, prim, prep, ahead);
+        }
+        self.push_chained(index, m, prim, prep, ahead, q);
+    }
+
+    /// [`PathBuilder::push_with`] where a G64 Q line comes or a chain is held: `q`
+    /// the motion's Q (0 where none).
+    #[inline(never)]
+    fn push_chained(
+        &mut self,
+        index: usize,
+        m: &Motion,
+        prim: &Option<Primitive>,
+        prep: Option<&ArcPrep>,
+        ahead: Option<&FilletAhead>,
+        q: f64,
+    ) {
         let line = match (&m.kind, prim) {
             (MotionKind::Feed { .. }, &Some(l @ Primitive::Line { start, end }))
                 if q > 0.0 && (end - start).norm() >= 1e-9 =>
