@@ -1750,10 +1750,16 @@ impl PathBuilder {
         match blend {
             Some(b) => {
                 self.push_element(p, shape, 0.0, false, false);
-                // the blend's arcs, by reference
-                self.push_blend_piece(p, &b.arc, b.sweep_cos_sin);
-                if let Some(a2) = &b.arc2 {
-                    self.push_blend_piece(p, a2, None);
+                // the blend's arcs, by reference; a fillet's (one arc, its sweep's
+                // cosine and sine given) pushed here, not through a call
+                match (&b.arc2, b.sweep_cos_sin) {
+                    (None, Some(trig)) => self.push_blend_trig(p, &b.arc, trig),
+                    _ => {
+                        self.push_blend_piece(p, &b.arc, b.sweep_cos_sin);
+                        if let Some(a2) = &b.arc2 {
+                            self.push_blend_piece(p, a2, None);
+                        }
+                    }
                 }
             }
             None => self.push_element(p, shape, p.dwell_s, stop, false),
@@ -1785,17 +1791,29 @@ impl PathBuilder {
         // (each arm pushes its own shape: merged into one local, the shape went
         // through the stack, where `ElementShape::blend`, out of line, returns it)
         match trig {
-            Some((cos_s, sin_s)) => {
-                let shape = ElementShape::blend_trig(e1, e2, radius, sweep, cos_s, sin_s);
-                self.path.geoms.push(arc.geom());
-                self.push_element(p, &shape, 0.0, false, true);
-            }
+            Some(trig) => self.push_blend_trig(p, arc, trig),
             None => {
                 let shape = ElementShape::blend(e1, e2, radius, sweep);
                 self.path.geoms.push(arc.geom());
                 self.push_element(p, &shape, 0.0, false, true);
             }
         }
+    }
+
+    /// [`PathBuilder::push_blend_piece`] of an arc whose sweep's cosine and sine the
+    /// construction gave (`trig`).
+    #[inline(always)]
+    fn push_blend_trig(&mut self, p: &Pending, arc: &BlendArc, (cos_s, sin_s): (f64, f64)) {
+        let &BlendArc {
+            e1,
+            e2,
+            radius,
+            sweep,
+            ..
+        } = arc;
+        let shape = ElementShape::blend_trig(e1, e2, radius, sweep, cos_s, sin_s);
+        self.path.geoms.push(arc.geom());
+        self.push_element(p, &shape, 0.0, false, true);
     }
 
     /// Push one element with its limits (its geometry is the last of `path.geoms`,
