@@ -1158,7 +1158,14 @@ impl PathBuilder {
                 next.dir = Vec3::ZERO;
                 next.geom = Geom::Arc(*src);
                 match prep {
-                    Some(q) => q.len_mm,
+                    Some(q) => {
+                        debug_assert_eq!(
+                            q.len_mm.to_bits(),
+                            src.length().to_bits(),
+                            "the arc data of another arc"
+                        );
+                        q.len_mm
+                    }
                     None => src.length(),
                 }
             }
