@@ -983,6 +983,27 @@ impl PathBuilder {
             } if q > 0.0 && !self.single_block => q,
             _ => 0.0,
         };
+        // no G64 Q line and no chain held: straight to the builder (what the rest
+        // does then), without the frame the chain's handling sets up (about 14
+        // instructions a motion)
+        if q <= 0.0 && self.chain.last.is_none() {
+            return self.push_unmerged(index, m, prim, prep, ahead);
+        }
+        self.push_chained(index, m, prim, prep, ahead, q);
+    }
+
+    /// [`PathBuilder::push_with`] where a G64 Q line comes or a chain is held: `q`
+    /// the motion's Q (0 where none).
+    #[inline(never)]
+    fn push_chained(
+        &mut self,
+        index: usize,
+        m: &Motion,
+        prim: &Option<Primitive>,
+        prep: Option<&ArcPrep>,
+        ahead: Option<&FilletAhead>,
+        q: f64,
+    ) {
         let line = match (&m.kind, prim) {
             (MotionKind::Feed { .. }, &Some(l @ Primitive::Line { start, end }))
                 if q > 0.0 && (end - start).norm() >= 1e-9 =>
@@ -1107,42 +1128,57 @@ impl PathBuilder {
         // (the primitive read where the motion holds it and written once, into the
         // held move's record: not copied to the stack first)
         let Some(src) = prim.as_ref() else { return };
-        let (len, dir) = match *src {
+        // the held move's record, its geometry and direction written in place in
+        // each arm (not assembled on the stack and copied in: about 15 instructions a
+        // motion); an arc's length is its `ArcPrep`'s where one came with it
+        // (`Primitive::length` of the same arc, the same bits)
+        let mut next = self
+            .spare
+            .take()
+            .unwrap_or_else(|| Box::new(Pending::placeholder()));
+        let len = match *src {
             Primitive::Line { start, end } => {
                 let d = end - start;
                 let len = d.norm();
-                let dir = if len > 0.0 {
+                next.dir = if len > 0.0 {
                     d * (1.0 / len)
                 } else {
                     Vec3::ZERO
                 };
-                (len, dir)
+                next.geom = Geom::Line {
+                    start,
+                    end,
+                    from: 0.0,
+                    to: len,
+                    prog_len: len,
+                };
+                len
             }
-            Primitive::Arc { .. } => (src.length(), Vec3::ZERO),
+            Primitive::Arc { .. } => {
+                next.dir = Vec3::ZERO;
+                next.geom = Geom::Arc(*src);
+                match prep {
+                    Some(q) => {
+                        debug_assert_eq!(
+                            q.len_mm.to_bits(),
+                            src.length().to_bits(),
+                            "the arc data of another arc"
+                        );
+                        q.len_mm
+                    }
+                    None => src.length(),
+                }
+            }
         };
         if len < 1e-9 {
+            self.spare = Some(next);
             self.orphan(index as u32, *src);
             return;
         }
         if self.last_point.is_none() {
             self.last_point = Some(src.start());
         }
-        let mut next = self
-            .spare
-            .take()
-            .unwrap_or_else(|| Box::new(Pending::placeholder()));
-        next.geom = match *src {
-            Primitive::Line { start, end } => Geom::Line {
-                start,
-                end,
-                from: 0.0,
-                to: len,
-                prog_len: len,
-            },
-            Primitive::Arc { .. } => Geom::Arc(*src),
-        };
         next.len = len;
-        next.dir = dir;
         next.motion = index as u32;
         next.feed_move = feed_move;
         next.feed_mm_per_s = feed;
@@ -1155,7 +1191,12 @@ impl PathBuilder {
         next.start_trim = 0.0;
         next.start_at = None;
         next.start_trim_rad = None;
-        self.preps[self.prep_next_slot & 1] = prep.copied();
+        // (written into the slot where it lies, not through a copy on the stack)
+        let slot = &mut self.preps[self.prep_next_slot & 1];
+        match prep {
+            Some(q) => *slot = Some(*q),
+            None => *slot = None,
+        }
         match self.pending.take() {
             Some(prev) => {
                 let blend = self.blend(&prev, &next, ahead);
@@ -1608,7 +1649,11 @@ impl PathBuilder {
     /// tag, was copied through the stack at odd offsets (see [`BlendArc`]).
     fn emit(&mut self, p: &Pending, blend: Option<&Blend>, last: bool) {
         let stop = p.exact_stop || p.dwell_s > 0.0 || p.stop != StopKind::None || last;
-        let shape: ElementShape = match &p.geom {
+        // (the two common elements, a trimmed line and a sub-arc cut by fillets,
+        // each push their shape where they build it, `push_shaped`: merged into
+        // one local, the shape went through the stack, where `ElementShape::arc`,
+        // out of line, returns it; the rarer ones through `push_shaped_cold`)
+        match &p.geom {
             &Geom::Line {
                 start,
                 end,
@@ -1624,14 +1669,16 @@ impl PathBuilder {
                     to,
                     prog_len,
                 });
-                ElementShape::line(len, p.dir)
+                let shape = ElementShape::line(len, p.dir);
+                self.push_shaped(p, &shape, blend, stop);
             }
             // (by reference: the held move's arc is not copied out to be cut)
             Geom::Arc(prim) => {
                 let end_trim = blend.map_or(0.0, |b| b.end_trim_prev);
                 if p.start_trim == 0.0 && end_trim == 0.0 {
                     self.path.geoms.push(p.geom);
-                    ElementShape::arc(prim)
+                    let shape = ElementShape::arc(prim);
+                    self.push_shaped_cold(p, &shape, blend, stop);
                 } else {
                     // the programmed arc stays exact among the orphans
                     self.orphan(p.motion, *prim);
@@ -1647,7 +1694,8 @@ impl PathBuilder {
                             to: 0.0,
                             prog_len: 0.0,
                         });
-                        ElementShape::line(0.0, dir)
+                        let shape = ElementShape::line(0.0, dir);
+                        self.push_shaped_cold(p, &shape, blend, stop);
                     } else {
                         let at_from = p.start_at.unwrap_or_else(|| prim.point_at(from));
                         let at_to = blend
@@ -1670,13 +1718,14 @@ impl PathBuilder {
                             // (`sub_arc_by_angles` on the path: the held arc copied
                             // there and cut in place)
                             self.path.geoms.push(p.geom);
-                            match self.path.geoms.last_mut() {
+                            let shape = match self.path.geoms.last_mut() {
                                 Some(Geom::Arc(sub)) => {
                                     cut_by_angles(sub, at_from, at_to, s_rad, e_rad);
                                     ElementShape::sub_arc(sub)
                                 }
                                 _ => unreachable!("the held move is an arc"),
-                            }
+                            };
+                            self.push_shaped(p, &shape, blend, stop);
                         } else {
                             let sub = if prim_sweep(prim).abs() < std::f64::consts::TAU {
                                 sub_arc(prim, at_from, at_to)
@@ -1685,24 +1734,55 @@ impl PathBuilder {
                                 sub_arc_span(prim, from, to, at_from, at_to)
                             };
                             self.path.geoms.push(Geom::Arc(sub));
-                            ElementShape::arc(&sub)
+                            let shape = ElementShape::arc(&sub);
+                            self.push_shaped_cold(p, &shape, blend, stop);
                         }
                     }
                 }
             }
             Geom::Blend { .. } => unreachable!("moves are lines or arcs"),
-        };
+        }
+    }
+
+    /// The element of move `p` whose geometry [`PathBuilder::emit`] has just pushed,
+    /// of shape `shape`, then the blend after it (if any).
+    #[inline(always)]
+    fn push_shaped(
+        &mut self,
+        p: &Pending,
+        shape: &ElementShape,
+        blend: Option<&Blend>,
+        stop: bool,
+    ) {
         match blend {
             Some(b) => {
-                self.push_element(p, &shape, 0.0, false, false);
-                // the blend's arcs, by reference
-                self.push_blend_piece(p, &b.arc, b.sweep_cos_sin);
-                if let Some(a2) = &b.arc2 {
-                    self.push_blend_piece(p, a2, None);
+                self.push_element(p, shape, 0.0, false, false);
+                // the blend's arcs, by reference; a fillet's (one arc, its sweep's
+                // cosine and sine given) pushed here, not through a call
+                match (&b.arc2, b.sweep_cos_sin) {
+                    (None, Some(trig)) => self.push_blend_trig(p, &b.arc, trig),
+                    _ => {
+                        self.push_blend_piece(p, &b.arc, b.sweep_cos_sin);
+                        if let Some(a2) = &b.arc2 {
+                            self.push_blend_piece(p, a2, None);
+                        }
+                    }
                 }
             }
-            None => self.push_element(p, &shape, p.dwell_s, stop, false),
+            None => self.push_element(p, shape, p.dwell_s, stop, false),
         }
+    }
+
+    /// [`PathBuilder::push_shaped`] out of line, for the rarer elements.
+    #[inline(never)]
+    fn push_shaped_cold(
+        &mut self,
+        p: &Pending,
+        shape: &ElementShape,
+        blend: Option<&Blend>,
+        stop: bool,
+    ) {
+        self.push_shaped(p, shape, blend, stop);
     }
 
     /// Push a blend arc `arc` of move `p`'s corner (its sweep's cosine and sine where
@@ -1715,10 +1795,30 @@ impl PathBuilder {
             sweep,
             ..
         } = arc;
-        let shape = match trig {
-            Some((cos_s, sin_s)) => ElementShape::blend_trig(e1, e2, radius, sweep, cos_s, sin_s),
-            None => ElementShape::blend(e1, e2, radius, sweep),
-        };
+        // (each arm pushes its own shape: merged into one local, the shape went
+        // through the stack, where `ElementShape::blend`, out of line, returns it)
+        match trig {
+            Some(trig) => self.push_blend_trig(p, arc, trig),
+            None => {
+                let shape = ElementShape::blend(e1, e2, radius, sweep);
+                self.path.geoms.push(arc.geom());
+                self.push_element(p, &shape, 0.0, false, true);
+            }
+        }
+    }
+
+    /// [`PathBuilder::push_blend_piece`] of an arc whose sweep's cosine and sine the
+    /// construction gave (`trig`).
+    #[inline(always)]
+    fn push_blend_trig(&mut self, p: &Pending, arc: &BlendArc, (cos_s, sin_s): (f64, f64)) {
+        let &BlendArc {
+            e1,
+            e2,
+            radius,
+            sweep,
+            ..
+        } = arc;
+        let shape = ElementShape::blend_trig(e1, e2, radius, sweep, cos_s, sin_s);
         self.path.geoms.push(arc.geom());
         self.push_element(p, &shape, 0.0, false, true);
     }
@@ -1764,7 +1864,9 @@ impl PathBuilder {
         if self.base + n > self.path.lead_in && n > 0 {
             let a = &mut self.path.segs[n - 1];
             if a.v_end_hard != 0.0 {
-                let (prev_geom, geom) = (&self.path.geoms[n - 1], &self.path.geoms[n]);
+                // (the geometries indexed only where the curvature step is asked
+                // for, S-curve: not two bounds checks an element)
+                let geoms = &self.path.geoms;
                 let uses = [&self.prev_acc_use, &acc_use];
                 a.v_end_hard = junction_speed(
                     lim,
@@ -1773,7 +1875,7 @@ impl PathBuilder {
                     self.prev_end_tangent,
                     shape,
                     uses,
-                    || geom.curvature_vec(false) - prev_geom.curvature_vec(true),
+                    || geoms[n].curvature_vec(false) - geoms[n - 1].curvature_vec(true),
                 );
             }
         }
