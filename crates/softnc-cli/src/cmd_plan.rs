@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 /// Arguments of `softnc plan`.
-#[derive(clap::Args)]
+#[derive(clap::Args, Debug)]
 pub struct PlanArgs {
     /// The G-code program.
     file: PathBuf,
