@@ -107,6 +107,9 @@ fn main() -> ExitCode {
         .nth(1)
         .is_some_and(|a| a == PLAN_SUBCOMMAND)
     {
+        if let Some(args) = cmd_plan::PlanArgs::plain(std::env::args_os().skip(2)) {
+            return exit_code(cmd_plan::run(args));
+        }
         // (the daemon configuration is for operator commands: `plan` ignores it)
         let PlanCli {
             command: PlanCommand::Plan(args),
@@ -208,6 +211,63 @@ mod tests {
                 PlanCommand::Plan(args) => args,
             });
             assert_eq!(plan_only, whole, "{argv:?}");
+        }
+    }
+
+    #[test]
+    fn plain_plan_arguments_are_what_clap_makes_of_them() {
+        use std::ffi::OsString;
+        use std::os::unix::ffi::OsStringExt;
+        let odd_name = OsString::from_vec(b"odd\xff.ngc".to_vec());
+        // (command lines after `softnc plan`; true where they are plain)
+        let cases: Vec<(Vec<OsString>, bool)> = [
+            (&["a.ngc", "--json"][..], true),
+            (&["--json", "a.ngc"], true),
+            (&["a.ngc"], true),
+            (&["a.ngc", "--machine", "m.ron", "--json"], true),
+            (&["--machine=m.ron", "a.ngc"], true),
+            (&["a.ngc", "--ignore-soft-limits", "--json"], true),
+            (&["a b.ngc", "--json"], true),
+            (&["help", "--json"], true),
+            (&["a.ngc", "--machine", "-m.ron"], false),
+            (&["a.ngc", "--machine"], false),
+            (&["a.ngc", "--machine="], false),
+            (
+                &["a.ngc", "--machine", "m.ron", "--machine", "n.ron"],
+                false,
+            ),
+            (&["a.ngc", "--json", "--json"], false),
+            (&["a.ngc", "--json", "--canon"], false),
+            (&["a.ngc", "--canon"], false),
+            (&["a.ngc", "--params", "p.var"], false),
+            (&["a.ngc", "--subroutine-path", "d"], false),
+            (&["a.ngc", "--config", "c.ron"], false),
+            (&["a.ngc", "b.ngc"], false),
+            (&["a.ngc", "--jsn"], false),
+            (&["a.ngc", "-h"], false),
+            (&["--", "a.ngc"], false),
+            (&["-", "--json"], false),
+            (&["", "--json"], false),
+            (&["--json"], false),
+            (&[], false),
+        ]
+        .iter()
+        .map(|(a, plain)| (a.iter().map(OsString::from).collect(), *plain))
+        .chain([(vec![odd_name, OsString::from("--json")], true)])
+        .collect();
+        for (rest, plain) in cases {
+            let quick = cmd_plan::PlanArgs::plain(rest.clone());
+            assert_eq!(quick.is_some(), plain, "{rest:?}");
+            if let Some(quick) = quick {
+                let argv = ["softnc", "plan"]
+                    .map(OsString::from)
+                    .into_iter()
+                    .chain(rest.clone());
+                let Command::Plan(args) = Cli::try_parse_from(argv).unwrap().command else {
+                    panic!("{rest:?} parsed as another command");
+                };
+                assert_eq!(format!("{quick:?}"), format!("{args:?}"), "{rest:?}");
+            }
         }
     }
 }
