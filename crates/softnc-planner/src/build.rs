@@ -930,6 +930,30 @@ impl PathBuilder {
         self.base += n - 1;
     }
 
+    /// [`PathBuilder::drain_settled_slices`] handing the settled elements over in
+    /// their own vector: `out` gets them (all but the last element) and may take the
+    /// vector whole, leaving an empty one in its place (`std::mem::swap`), so that
+    /// they are not copied; whatever it leaves is dropped, and the last element
+    /// stays.
+    pub(crate) fn drain_settled_vec(
+        &mut self,
+        batch: usize,
+        out: &mut impl FnMut(&mut Vec<Segment>, &[Geom]),
+    ) {
+        let n = self.path.segs.len();
+        if n > batch.max(1) {
+            let Some(last) = self.path.segs.pop() else {
+                return;
+            };
+            out(&mut self.path.segs, &self.path.geoms[..n - 1]);
+            self.path.segs.clear();
+            self.path.segs.push(last);
+            self.path.geoms.drain(..n - 1);
+            self.path.orphans.clear();
+            self.base += n - 1;
+        }
+    }
+
     /// The end of a streamed path: the rest of its elements to `out` (limits as
     /// [`PathBuilder::finish`] leaves them before the S-curve spreading of caps,
     /// which [`CapDilator`] does on the stream).

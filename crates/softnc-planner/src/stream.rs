@@ -123,6 +123,10 @@ struct StreamPlanner<'a> {
     checker: Checker<'a>,
     builder: PathBuilder,
     settled: Settled,
+    /// Elements the builder gathers before handing the settled ones on
+    /// ([`DRAIN_BATCH`]; where they go to another thread a chunk's at once,
+    /// [`StreamPlanner::drain_all`]).
+    drain_batch: usize,
 }
 
 /// The settling stages after the builder: the S-curve spreading of caps, then the
@@ -157,6 +161,30 @@ impl Figures {
         out(s, g);
     }
 
+    /// [`Figures::take_slices`] of the settled elements in `segs`, whose vector it
+    /// takes where it hands them over into an empty one (the builder's vector, not
+    /// a copy: docs/planner.md §5, fifteenth round).
+    fn take_vec(
+        &mut self,
+        segs: &mut Vec<Segment>,
+        geoms: &[Geom],
+        out: &mut impl FnMut(&Segment, &Geom),
+    ) {
+        match &mut self.handoff {
+            Some(v) if v.is_empty() && !segs.is_empty() => {
+                std::mem::swap(v, segs);
+                let (first, last) = (geoms[0].point_at(0.0), v[v.len() - 1]);
+                self.elements += v.len();
+                self.start_mm.get_or_insert(first);
+                self.path_length_mm = last.s0 + last.len;
+                for (s, g) in v.iter().zip(geoms) {
+                    out(s, g);
+                }
+            }
+            _ => self.take_slices(segs, geoms, out),
+        }
+    }
+
     /// [`Figures::take`] of the settled elements `segs` (geometry `geoms`) in order:
     /// the same figures, the limits handed over in one copy.
     fn take_slices(
@@ -189,6 +217,20 @@ impl Settled {
         match &mut self.dilator {
             Some(d) => d.push(s, g, &mut |s, g| fin.take(s, g, out)),
             None => fin.take(s, g, out),
+        }
+    }
+
+    /// [`Settled::take_slices`] of the elements in `segs`, whose vector the figures
+    /// may take ([`Figures::take_vec`]).
+    fn take_vec(
+        &mut self,
+        segs: &mut Vec<Segment>,
+        geoms: &[Geom],
+        out: &mut impl FnMut(&Segment, &Geom),
+    ) {
+        match &mut self.dilator {
+            Some(_) => self.take_slices(segs, geoms, out),
+            None => self.fin.take_vec(segs, geoms, out),
         }
     }
 
@@ -238,6 +280,7 @@ impl<'a> StreamPlanner<'a> {
                     path_length_mm: 0.0,
                 },
             },
+            drain_batch: DRAIN_BATCH,
         }
     }
 
@@ -286,13 +329,21 @@ impl<'a> StreamPlanner<'a> {
         self.drain(out);
     }
 
-    /// Hand the settled elements on.
+    /// Hand the settled elements on, once [`StreamPlanner::drain_batch`] gathered.
     fn drain(&mut self, out: &mut impl FnMut(&Segment, &Geom)) {
+        self.drain_over(self.drain_batch, out);
+    }
+
+    /// Hand every settled element on.
+    fn drain_all(&mut self, out: &mut impl FnMut(&Segment, &Geom)) {
+        self.drain_over(0, out);
+    }
+
+    /// Hand the settled elements on where more than `batch` gathered.
+    fn drain_over(&mut self, batch: usize, out: &mut impl FnMut(&Segment, &Geom)) {
         let settled = &mut self.settled;
         self.builder
-            .drain_settled_slices(DRAIN_BATCH, &mut |segs, geoms| {
-                settled.take_slices(segs, geoms, out)
-            });
+            .drain_settled_vec(batch, &mut |segs, geoms| settled.take_vec(segs, geoms, out));
     }
 
     fn finish(
@@ -305,6 +356,7 @@ impl<'a> StreamPlanner<'a> {
             checker,
             builder,
             settled,
+            ..
         } = self;
         Self::finish_with(checker, builder, settled, profile, end_params, out)
     }
@@ -582,7 +634,10 @@ pub(crate) fn check_program_parallel_with(
         let planner = scope.spawn(move || {
             let mut planner = StreamPlanner::new(profile, options, file);
             if reader_checks {
+                // (the settled elements of a chunk go over at its end, in the
+                // builder's own vector: `Figures::take_vec`)
                 planner.settled.fin.handoff = Some(Vec::new());
+                planner.drain_batch = usize::MAX;
             }
             let mut refused: Option<PlanError> = None;
             let mut index = 0;
@@ -622,6 +677,9 @@ pub(crate) fn check_program_parallel_with(
                             break;
                         }
                     }
+                }
+                if reader_checks {
+                    planner.drain_all(&mut |_, _| {});
                 }
                 motions.clear();
                 prims.clear();
