@@ -338,14 +338,20 @@ fn cover_counts() -> Vec<u64> {
 }
 
 /// The workload's joins with their tolerance, and with other tolerances and shares.
-#[test]
-fn the_workloads_joins_give_the_same_bits() {
+/// The 200,000-line workload's line–arc joins (with its tolerance, `G64 P0.01`), and
+/// the step through them a build takes (a debug build every 37th).
+fn workload_joins() -> (Vec<fillet_joins::Join>, usize) {
     let p = workload::default_profile();
     let text = workload::big_program(200_000);
     let program = softnc_gcode::read_program(&text, "big.ngc", &p).unwrap();
     let joins = fillet_joins::joins(&program, 0.01);
     assert!(joins.len() > 190_000, "{} joins", joins.len());
-    let step = if cfg!(debug_assertions) { 37 } else { 1 };
+    (joins, if cfg!(debug_assertions) { 37 } else { 1 })
+}
+
+#[test]
+fn the_workloads_joins_give_the_same_bits() {
+    let (joins, step) = workload_joins();
     let mut found = 0;
     let args = |j: &fillet_joins::Join| Args {
         corner: j.corner,
@@ -513,11 +519,7 @@ impl Agreement {
 /// cancels).
 #[test]
 fn the_quarter_turned_normal_finds_the_fillets_found_before() {
-    let p = workload::default_profile();
-    let text = workload::big_program(200_000);
-    let program = softnc_gcode::read_program(&text, "big.ngc", &p).unwrap();
-    let joins = fillet_joins::joins(&program, 0.01);
-    let step = if cfg!(debug_assertions) { 37 } else { 1 };
+    let (joins, step) = workload_joins();
     let mut on_workload = Agreement::new(1e-15);
     for j in joins.iter().step_by(step) {
         for (tol, line_share, arc_share) in
