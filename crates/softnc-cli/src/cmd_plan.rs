@@ -199,21 +199,26 @@ fn summary(
 ) -> Result<ExitCode> {
     let bytes = crate::program_file::read(&args.file)
         .with_context(|| format!("cannot read {}", args.file.display()))?;
-    // the same text; valid UTF-8 (nearly every program) is checked several times
-    // faster than the lossy scan goes
-    let text = match std::str::from_utf8(&bytes) {
-        Ok(s) => std::borrow::Cow::Borrowed(s),
-        Err(_) => String::from_utf8_lossy(&bytes),
-    };
     let name = args.file.display().to_string();
-    let (program, checked) =
-        match softnc_planner::check_program_parallel(&text, &name, machine, options) {
-            Ok(p) => p,
-            Err(e) => {
-                eprintln!("{e}");
-                return Ok(ExitCode::from(crate::EXIT_REFUSED));
-            }
-        };
+    // the bytes checked as UTF-8 as the reading thread reads them, not all before
+    // the threads start (docs/planner.md §5, fifteenth round); a program that is
+    // not UTF-8 is read again made UTF-8 (lossy), as before
+    let read = match softnc_planner::check_program_parallel_bytes(&bytes, &name, machine, options) {
+        Err(softnc_planner::ReadPlanError::Gcode(e))
+            if e.kind == softnc_gcode::ErrorKind::NotUtf8 =>
+        {
+            let text = String::from_utf8_lossy(&bytes);
+            softnc_planner::check_program_parallel(&text, &name, machine, options)
+        }
+        read => read,
+    };
+    let (program, checked) = match read {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("{e}");
+            return Ok(ExitCode::from(crate::EXIT_REFUSED));
+        }
+    };
     print_summary(args, &program, &checked.stats())
 }
 

@@ -22,6 +22,11 @@ pub enum ErrorKind {
     /// Anything LinuxCNC would also refuse.
     #[error("{0}")]
     Invalid(String),
+    /// A line of a program given as bytes ([`crate::read_program_chunked_params_bytes`])
+    /// is not UTF-8: the caller reads the text made UTF-8 (lossy) instead, as a
+    /// program given as text is read.
+    #[error("the program is not UTF-8")]
+    NotUtf8,
 }
 
 /// A G-code error at a source position.

@@ -21,7 +21,7 @@ use crate::params::Params;
 use crate::ReadOptions;
 use ngc::{Control, Jump, Pc, Setting};
 use softnc_core::{MachineProfile, Plane, Vec3};
-use std::borrow::Cow;
+
 use std::collections::HashMap;
 use std::f64::consts::{FRAC_PI_2, PI, SQRT_2};
 use std::hash::BuildHasherDefault;
@@ -1893,11 +1893,29 @@ pub fn read_chunked(
 /// One program text: the main one (borrowed) or a subroutine file.
 struct Source<'t> {
     name: String,
-    text: Cow<'t, str>,
+    text: SourceText<'t>,
     /// The window of the text checked last for NUL bytes and `(`
     /// ([`Source::may_hold_nul_or_paren`]).
     clean: std::cell::Cell<CleanWindow>,
+    /// Where the text is bytes: the window of it checked last as UTF-8, from its
+    /// offset ([`Source::line`]).
+    utf8: std::cell::Cell<(usize, &'t str)>,
 }
+
+/// A program's text: UTF-8 already, or bytes checked as UTF-8 where they are read
+/// (a program handed over as bytes, [`read_bytes_with`]).
+enum SourceText<'t> {
+    /// The main program's text.
+    Str(&'t str),
+    /// A subroutine file's (made UTF-8 when read, lossy).
+    Owned(String),
+    /// The main program's bytes.
+    Bytes(&'t [u8]),
+}
+
+/// Bytes [`Source::line`] checks as UTF-8 at once from the line asked about (then
+/// to the end of the line there).
+const UTF8_WINDOW_BYTES: usize = 1 << 16;
 
 /// Bytes of a program text from `from` to `to` checked for NUL bytes and `(`
 /// ([`has_nul_or_paren`]); `clean` where it holds neither.
@@ -1914,11 +1932,49 @@ const CLEAN_WINDOW_BYTES: usize = 1 << 16;
 
 impl<'t> Source<'t> {
     /// A program text, nothing of it checked yet.
-    fn new(name: String, text: Cow<'t, str>) -> Source<'t> {
+    fn new(name: String, text: SourceText<'t>) -> Source<'t> {
         Source {
             name,
             text,
             clean: Default::default(),
+            utf8: std::cell::Cell::new((0, "")),
+        }
+    }
+
+    /// The text's bytes.
+    fn bytes(&self) -> &[u8] {
+        match &self.text {
+            SourceText::Str(t) => t.as_bytes(),
+            SourceText::Owned(t) => t.as_bytes(),
+            SourceText::Bytes(b) => b,
+        }
+    }
+
+    /// The line at bytes `s..e` (`s` after a newline or at the start, `e` at a
+    /// newline or the end) as text; None where the text is bytes that are not UTF-8
+    /// there. Bytes are checked a window at a time ([`UTF8_WINDOW_BYTES`], to a line's
+    /// end) where a line is first asked for outside the window checked last, and
+    /// the lines inside it are taken from it as they are.
+    fn line(&self, s: usize, e: usize) -> Option<&str> {
+        match &self.text {
+            SourceText::Str(t) => Some(&t[s..e]),
+            SourceText::Owned(t) => Some(&t[s..e]),
+            SourceText::Bytes(b) => {
+                let (from, w) = self.utf8.get();
+                if from <= s && e <= from + w.len() {
+                    return Some(&w[s - from..e - from]);
+                }
+                let b: &'t [u8] = b;
+                let end = s.saturating_add(UTF8_WINDOW_BYTES).max(e).min(b.len());
+                // (to a newline: a line is never cut, nor a character)
+                let end = match b[end..].iter().position(|&c| c == b'\n') {
+                    Some(k) => end + k,
+                    None => b.len(),
+                };
+                let w = std::str::from_utf8(&b[s..end]).ok()?;
+                self.utf8.set((s, w));
+                Some(&w[..e - s])
+            }
         }
     }
 
@@ -1933,7 +1989,7 @@ impl<'t> Source<'t> {
         if w.from <= s && e <= w.to {
             return !w.clean;
         }
-        let b = self.text.as_bytes();
+        let b = self.bytes();
         let to = e.max(s.saturating_add(CLEAN_WINDOW_BYTES)).min(b.len());
         let clean = !has_nul_or_paren(&b[s..to]);
         self.clean.set(CleanWindow { from: s, to, clean });
@@ -1974,10 +2030,53 @@ pub fn read_with(
     read_lines(text, file, profile, options, chunk, sink, true)
 }
 
+/// [`read_with`] of a program's bytes, checked as UTF-8 where they are read: the
+/// same reading where they are UTF-8, else [`ErrorKind::NotUtf8`] at the first line
+/// that is not (see [`crate::read_program_chunked_params_bytes`]).
+pub fn read_bytes_with(
+    bytes: &[u8],
+    file: &str,
+    profile: &MachineProfile,
+    options: &ReadOptions,
+    chunk: usize,
+    sink: &mut dyn FnMut(&mut Vec<Motion>),
+) -> Result<(Program, Params), GcodeError> {
+    read_source(
+        SourceText::Bytes(bytes),
+        file,
+        profile,
+        options,
+        chunk,
+        sink,
+        true,
+    )
+}
+
 /// [`read_with`]; `fast`: common motion lines take the short way of [`fast`]
 /// (`false`, for tests: every line the general way).
 fn read_lines(
     text: &str,
+    file: &str,
+    profile: &MachineProfile,
+    options: &ReadOptions,
+    chunk: usize,
+    sink: &mut dyn FnMut(&mut Vec<Motion>),
+    fast: bool,
+) -> Result<(Program, Params), GcodeError> {
+    read_source(
+        SourceText::Str(text),
+        file,
+        profile,
+        options,
+        chunk,
+        sink,
+        fast,
+    )
+}
+
+/// [`read_lines`] of a text or of bytes checked as UTF-8 where read.
+fn read_source<'t>(
+    main_text: SourceText<'t>,
     file: &str,
     profile: &MachineProfile,
     options: &ReadOptions,
@@ -2021,7 +2120,12 @@ fn read_lines(
         it.motions.truncate(before);
     }
     it.start_machine_mm = it.machine_pos();
-    it.motions.reserve((text.len() / 16).min(chunk.max(1)));
+    let bytes: &'t [u8] = match main_text {
+        SourceText::Str(t) => t.as_bytes(),
+        SourceText::Bytes(b) => b,
+        SourceText::Owned(_) => unreachable!("a main program is borrowed"),
+    };
+    it.motions.reserve((bytes.len() / 16).min(chunk.max(1)));
     let mut line = Line::default();
     let mut block = Block::default();
     let mut norm = Norm::default();
@@ -2029,8 +2133,7 @@ fn read_lines(
     // normalized lines by (source, byte offset), once the program has jumped
     let mut norm_cache: LineCache = Default::default();
     let mut jumped = false;
-    let bytes = text.as_bytes();
-    let mut sources = vec![Source::new(file.to_string(), Cow::Borrowed(text))];
+    let mut sources = vec![Source::new(file.to_string(), main_text)];
     let err_in =
         |name: &str, line_no: usize, raw: &str, (off, kind): (u32, ErrorKind)| GcodeError {
             file: name.to_string(),
@@ -2074,19 +2177,18 @@ fn read_lines(
     } else {
         (0, 0)
     };
-    let limit = options.block_limit.unwrap_or(1_000_000 + text.len() as u64);
+    let limit = options
+        .block_limit
+        .unwrap_or(1_000_000 + bytes.len() as u64);
     let mut executed: u64 = 0;
     let mut cur = 0usize; // source index
     let mut next_line_no = first + 1;
     let mut n_lines = first;
     'files: loop {
         let src = &sources[cur];
-        let src_text: &str = &src.text;
+        let src_text: &[u8] = src.bytes();
         let src_name: &str = &src.name;
-        let mut split = LineSplit {
-            b: src_text.as_bytes(),
-            pos,
-        };
+        let mut split = LineSplit { b: src_text, pos };
         // where the short way last stopped (the line there is read the general way)
         let mut fast_stop = usize::MAX;
         // the lines of this file, up to a jump
@@ -2102,15 +2204,12 @@ fn read_lines(
                 && kept_here.is_none()
                 && split.pos != fast_stop
                 && it.ctl.skipping.is_none()
-                && src_text
-                    .as_bytes()
-                    .get(split.pos)
-                    .is_some_and(|&c| fast::may_start(c))
+                && src_text.get(split.pos).is_some_and(|&c| fast::may_start(c))
             {
                 // common motion lines, read and run the short way (`fast`) up to
                 // the first other line, which is read below (and not tried again)
                 let (pos, read) = it.fast_lines(
-                    src_text.as_bytes(),
+                    src_text,
                     split.pos,
                     next_line_no,
                     limit.saturating_sub(executed),
@@ -2118,6 +2217,13 @@ fn read_lines(
                 );
                 fast_stop = pos;
                 if read > 0 {
+                    // (the short way reads ASCII words alone; bytes given unchecked
+                    // are held to that, so that what it read is UTF-8)
+                    if matches!(src.text, SourceText::Bytes(_))
+                        && !src_text[split.pos..pos].is_ascii()
+                    {
+                        return Err(err_in(src_name, next_line_no, "", (0, ErrorKind::NotUtf8)));
+                    }
                     split.pos = pos;
                     next_line_no += read as usize;
                     n_lines = next_line_no - 1;
@@ -2169,7 +2275,9 @@ fn read_lines(
             next_line_no += 1;
             n_lines = line_no;
             executed += 1;
-            let raw = &src_text[s..e];
+            let Some(raw) = src.line(s, e) else {
+                return Err(err_in(src_name, line_no, "", (0, ErrorKind::NotUtf8)));
+            };
             if executed > limit {
                 return Err(err_in(
                     &src.name,
@@ -2392,7 +2500,7 @@ fn read_lines(
                     pos = 0;
                     next_line_no = 1;
                 } else if let Some((path, body)) = find_sub_file(&name, &main_dir_file, options) {
-                    sources.push(Source::new(path, Cow::Owned(body)));
+                    sources.push(Source::new(path, SourceText::Owned(body)));
                     cur = sources.len() - 1;
                     pos = 0;
                     next_line_no = 1;
@@ -2615,6 +2723,67 @@ mod tests {
                     ((comment_at + 1) % 3) as f64
                 )
             );
+        }
+    }
+
+    /// A program read from its bytes (`read_bytes_with`) reads as its text does where
+    /// the bytes are UTF-8, with lines of several windows, non-ASCII characters in
+    /// comments far into it and a jump back across windows (a subroutine called at
+    /// the end, defined at the start); where a line is not UTF-8, read the short way
+    /// or the general way, near the start or past the first windows, it stops with
+    /// `NotUtf8` (the caller then reads the lossy text).
+    #[test]
+    fn bytes_read_as_their_text_and_stop_where_not_utf8() {
+        let profile = MachineProfile::load(
+            &std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                .join("../../config/machines/default.ron"),
+        )
+        .unwrap();
+        let mut text =
+            String::from("o<wave> sub\nG1 X0 Y#1 F300 (café)\no<wave> endsub\nG21 G90 F100\n");
+        for i in 1..=20_000 {
+            text.push_str(&format!("G1 X{}.25 Y{}\n", i % 7, i % 3));
+            if i % 5_000 == 0 {
+                text.push_str("G1 X1 (über — ünïcödé)\n");
+            }
+        }
+        text.push_str("o<wave> call [2]\nM2\n");
+        assert!(text.len() > 3 * UTF8_WINDOW_BYTES, "{}", text.len());
+        let read = |bytes: &[u8], from_text: bool| {
+            let mut motions = Vec::new();
+            let mut sink = |chunk: &mut Vec<Motion>| motions.append(chunk);
+            let opts = ReadOptions::default();
+            let r = if from_text {
+                read_with(
+                    std::str::from_utf8(bytes).unwrap(),
+                    "b.ngc",
+                    &profile,
+                    &opts,
+                    512,
+                    &mut sink,
+                )
+            } else {
+                read_bytes_with(bytes, "b.ngc", &profile, &opts, 512, &mut sink)
+            };
+            r.map(|(p, _)| (format!("{p:?}"), format!("{motions:?}")))
+        };
+        assert_eq!(
+            read(text.as_bytes(), false).unwrap(),
+            read(text.as_bytes(), true).unwrap()
+        );
+        for (at, bad) in [
+            (300usize, &b"\xff"[..]),
+            (150_000, b"\xc3("),
+            (200_000, b"\xe2\x82"),
+        ] {
+            // a plain motion line (the short way) and a comment (the general way)
+            let line_start = text[at..].find('\n').unwrap() + at + 1;
+            for insert_at in [line_start + 3, line_start] {
+                let mut bytes = text.as_bytes().to_vec();
+                bytes.splice(insert_at..insert_at, bad.iter().copied());
+                let e = read(&bytes, false).unwrap_err();
+                assert_eq!(e.kind, ErrorKind::NotUtf8, "{at} {insert_at}: {e}");
+            }
         }
     }
 

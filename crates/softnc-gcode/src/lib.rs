@@ -138,3 +138,20 @@ pub fn read_program_chunked_params(
 ) -> Result<(Program, Params), GcodeError> {
     interp::read_with(text, file, profile, options, chunk.max(1), sink)
 }
+
+/// [`read_program_chunked_params`] of a program's bytes, checked as UTF-8 where they
+/// are read (a window at a time, not the whole text before its first line): the
+/// same reading where they are UTF-8; where a line is not, the error
+/// [`ErrorKind::NotUtf8`](crate::ErrorKind::NotUtf8), after which the caller reads
+/// `String::from_utf8_lossy` of them with [`read_program_chunked_params`] (the
+/// motions already handed to `sink` are to be dropped).
+pub fn read_program_chunked_params_bytes(
+    bytes: &[u8],
+    file: &str,
+    profile: &MachineProfile,
+    options: &ReadOptions,
+    chunk: usize,
+    sink: &mut dyn FnMut(&mut Vec<Motion>),
+) -> Result<(Program, Params), GcodeError> {
+    interp::read_bytes_with(bytes, file, profile, options, chunk.max(1), sink)
+}

@@ -31,6 +31,6 @@ pub use plan::{
     ReadPlanError,
 };
 pub use stream::{
-    check_and_stream, check_program, check_program_parallel, stream_program, CheckedProgram,
-    StreamInterpolator, StreamMode, StreamProducer,
+    check_and_stream, check_program, check_program_parallel, check_program_parallel_bytes,
+    stream_program, CheckedProgram, StreamInterpolator, StreamMode, StreamProducer,
 };

@@ -446,12 +446,40 @@ pub fn check_program_parallel(
     options: &PlanOptions,
 ) -> Result<(Program, CheckedProgram), ReadPlanError> {
     check_program_parallel_with(
-        text,
+        ProgramText::Str(text),
         file,
         profile,
         options,
         FilletsAheadWhen::PlannerBehind,
     )
+}
+
+/// [`check_program_parallel`] of a program's bytes, checked as UTF-8 where the
+/// reader reads them (`softnc_gcode::read_program_chunked_params_bytes`), not all
+/// before the two threads start: the same figures and errors where they are UTF-8;
+/// where they are not, the reader's `ErrorKind::NotUtf8`, and the caller checks
+/// `String::from_utf8_lossy` of them with [`check_program_parallel`].
+pub fn check_program_parallel_bytes(
+    bytes: &[u8],
+    file: &str,
+    profile: &MachineProfile,
+    options: &PlanOptions,
+) -> Result<(Program, CheckedProgram), ReadPlanError> {
+    check_program_parallel_with(
+        ProgramText::Bytes(bytes),
+        file,
+        profile,
+        options,
+        FilletsAheadWhen::PlannerBehind,
+    )
+}
+
+/// A program for [`check_program_parallel_with`]: its text, or its bytes checked as
+/// UTF-8 where read.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum ProgramText<'a> {
+    Str(&'a str),
+    Bytes(&'a [u8]),
 }
 
 /// When the reading thread of [`check_program_parallel`] (where it checks the
@@ -597,7 +625,7 @@ impl FilletsAheadWhen {
 
 /// [`check_program_parallel`] with the fillets worked out ahead `when`.
 pub(crate) fn check_program_parallel_with(
-    text: &str,
+    text: ProgramText<'_>,
     file: &str,
     profile: &MachineProfile,
     options: &PlanOptions,
@@ -720,53 +748,65 @@ pub(crate) fn check_program_parallel_with(
             let _ = timed_tx.send(batch); // the planner may be done
         };
         let mut refused: Option<PlanError> = None;
-        let read = softnc_gcode::read_program_chunked_params(
-            text,
-            file,
-            profile,
-            &options.read_options(),
-            PARALLEL_CHUNK_MOTIONS,
-            &mut |chunk: &mut Vec<Motion>| {
-                while let Ok(batch) = timing_rx.try_recv() {
-                    time(batch);
-                }
-                if refused.is_some() {
-                    return; // refused: the planner's figures are not needed
-                }
-                let (fresh, mut prims, mut preps, mut aheads) =
-                    recycled.try_recv().unwrap_or_else(|_| {
-                        (
-                            Vec::with_capacity(PARALLEL_CHUNK_MOTIONS),
-                            Vec::with_capacity(PARALLEL_CHUNK_MOTIONS),
-                            Vec::new(),
-                            Vec::new(),
-                        )
-                    });
-                prims.extend(chunk.iter().map(motion_primitive));
-                if let Some(c) = checker.as_mut() {
-                    for (m, prim) in chunk.iter().zip(&prims) {
-                        if let Err(e) = c.check(m, prim) {
-                            refused = Some(e);
-                            return;
-                        }
+        let mut sink = |chunk: &mut Vec<Motion>| {
+            while let Ok(batch) = timing_rx.try_recv() {
+                time(batch);
+            }
+            if refused.is_some() {
+                return; // refused: the planner's figures are not needed
+            }
+            let (fresh, mut prims, mut preps, mut aheads) =
+                recycled.try_recv().unwrap_or_else(|_| {
+                    (
+                        Vec::with_capacity(PARALLEL_CHUNK_MOTIONS),
+                        Vec::with_capacity(PARALLEL_CHUNK_MOTIONS),
+                        Vec::new(),
+                        Vec::new(),
+                    )
+                });
+            prims.extend(chunk.iter().map(motion_primitive));
+            if let Some(c) = checker.as_mut() {
+                for (m, prim) in chunk.iter().zip(&prims) {
+                    if let Err(e) = c.check(m, prim) {
+                        refused = Some(e);
+                        return;
                     }
-                    preps.extend(prims.iter().map(ArcPrep::of));
-                    let work = when.works(
-                        queued.load(Ordering::Relaxed),
-                        built.load(Ordering::Relaxed).saturating_sub(built_seen),
-                    );
-                    fillets_ahead.chunk(chunk, &prims, &preps, work, &mut aheads);
                 }
-                // (the planner takes a chunk about every 0.1 ms: a look beats a sleep)
-                let in_flight = queued.fetch_add(1, Ordering::Relaxed) + 1;
-                if in_flight > PARALLEL_QUEUE_CHUNKS {
-                    waits.wait(|| queued.load(Ordering::Relaxed) <= PARALLEL_QUEUE_CHUNKS);
-                }
-                // a planner that stopped early (it cannot) only loses the chunk
-                let _ = to_planner.send((std::mem::replace(chunk, fresh), prims, preps, aheads));
-                built_seen = built.load(Ordering::Relaxed);
-            },
-        );
+                preps.extend(prims.iter().map(ArcPrep::of));
+                let work = when.works(
+                    queued.load(Ordering::Relaxed),
+                    built.load(Ordering::Relaxed).saturating_sub(built_seen),
+                );
+                fillets_ahead.chunk(chunk, &prims, &preps, work, &mut aheads);
+            }
+            // (the planner takes a chunk about every 0.1 ms: a look beats a sleep)
+            let in_flight = queued.fetch_add(1, Ordering::Relaxed) + 1;
+            if in_flight > PARALLEL_QUEUE_CHUNKS {
+                waits.wait(|| queued.load(Ordering::Relaxed) <= PARALLEL_QUEUE_CHUNKS);
+            }
+            // a planner that stopped early (it cannot) only loses the chunk
+            let _ = to_planner.send((std::mem::replace(chunk, fresh), prims, preps, aheads));
+            built_seen = built.load(Ordering::Relaxed);
+        };
+        let read_options = options.read_options();
+        let read = match text {
+            ProgramText::Str(t) => softnc_gcode::read_program_chunked_params(
+                t,
+                file,
+                profile,
+                &read_options,
+                PARALLEL_CHUNK_MOTIONS,
+                &mut sink,
+            ),
+            ProgramText::Bytes(b) => softnc_gcode::read_program_chunked_params_bytes(
+                b,
+                file,
+                profile,
+                &read_options,
+                PARALLEL_CHUNK_MOTIONS,
+                &mut sink,
+            ),
+        };
         drop(to_planner);
         read_done.store(true, Ordering::Relaxed);
         let read = read.map(|(program, params)| {
@@ -1321,7 +1361,13 @@ mod tests {
                     FilletsAheadWhen::Never,
                     FilletsAheadWhen::PlannerBehind,
                 ] {
-                    let got = key(check_program_parallel_with(&text, "a.ngc", &p, &opts, when));
+                    let got = key(check_program_parallel_with(
+                        ProgramText::Str(&text),
+                        "a.ngc",
+                        &p,
+                        &opts,
+                        when,
+                    ));
                     assert_eq!(got, want, "{fp:?}, single block {single_block}, {when:?}");
                 }
             }
