@@ -2643,6 +2643,15 @@ fn finish(
 mod tests {
     use super::*;
 
+    /// The checkout's default machine profile.
+    fn default_profile() -> MachineProfile {
+        MachineProfile::load(
+            &std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                .join("../../config/machines/default.ron"),
+        )
+        .unwrap()
+    }
+
     /// `has_nul_or_paren` finds a NUL or a `(` at every offset of texts of every
     /// length around its block (in a block, in the rest after the last), and says
     /// no to texts without either.
@@ -2668,11 +2677,7 @@ mod tests {
     /// without searching its lines.
     #[test]
     fn comments_and_nul_bytes_past_the_first_window_are_read() {
-        let profile = MachineProfile::load(
-            &std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-                .join("../../config/machines/default.ron"),
-        )
-        .unwrap();
+        let profile = default_profile();
         let mut text = String::from("G21 G90 F100\n");
         let (comment_at, nul_at, lines) = (12_000, 17_000, 20_000);
         for i in 1..=lines {
@@ -2734,11 +2739,7 @@ mod tests {
     /// `NotUtf8` (the caller then reads the lossy text).
     #[test]
     fn bytes_read_as_their_text_and_stop_where_not_utf8() {
-        let profile = MachineProfile::load(
-            &std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-                .join("../../config/machines/default.ron"),
-        )
-        .unwrap();
+        let profile = default_profile();
         let mut text =
             String::from("o<wave> sub\nG1 X0 Y#1 F300 (café)\no<wave> endsub\nG21 G90 F100\n");
         for i in 1..=20_000 {
@@ -2792,11 +2793,7 @@ mod tests {
     /// as empty.
     #[test]
     fn a_block_with_any_word_is_not_empty() {
-        let profile = MachineProfile::load(
-            &std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-                .join("../../config/machines/default.ron"),
-        )
-        .unwrap();
+        let profile = default_profile();
         let it = Interp::new("t.ngc", &profile);
         for (letter, value) in [
             (b'G', 1.0),
