@@ -381,13 +381,19 @@ impl Primitive {
                 sweep,
                 normal_travel,
                 ..
-            } => {
-                if normal_travel == 0.0 {
-                    (radius * sweep).abs() // what hypot gives, without its cost
-                } else {
-                    (radius * sweep).hypot(normal_travel)
-                }
-            }
+            } => Self::arc_length(radius * sweep, normal_travel),
+        }
+    }
+
+    /// An arc's length from its radius times its sweep `rs` and its travel along the
+    /// plane's normal (`Primitive::length` of an arc; inline where a caller has the
+    /// two at hand).
+    #[inline(always)]
+    pub fn arc_length(rs: f64, normal_travel: f64) -> f64 {
+        if normal_travel == 0.0 {
+            rs.abs() // what hypot gives, without its cost
+        } else {
+            rs.hypot(normal_travel)
         }
     }
 

@@ -893,65 +893,46 @@ impl PathBuilder {
     /// order and dropped, together with the orphans (a streamed path does not keep
     /// the programmed primitives).
     pub(crate) fn drain_settled(&mut self, batch: usize, out: &mut impl FnMut(&Segment, &Geom)) {
-        self.drain_settled_slices(batch, &mut |segs, geoms| {
+        self.drain_settled_vec(batch, &mut |segs, geoms| {
             for (s, g) in segs.iter().zip(geoms) {
                 out(s, g);
             }
         });
     }
 
-    /// [`PathBuilder::drain_settled`] handing the settled elements over all at once:
-    /// their limits and their geometry, in order, as two slices of one length (the
-    /// stream's figures copy a batch's limits in one go).
+    /// [`PathBuilder::drain_settled`] handing the settled elements over all at once,
+    /// in their own vector: `out` gets them (all but the last element) with their
+    /// geometry and may take the vector whole, leaving an empty one in its place
+    /// (`std::mem::swap`), so that they are not copied; whatever it leaves is
+    /// dropped, and the last element stays.
     ///
     /// The test whether enough wait is inline in the caller (it runs after every
     /// motion and passes about once in `batch` elements); the hand-over is not
     /// (planning thread −3.4 M on the 200k-line program).
     #[inline(always)]
-    pub(crate) fn drain_settled_slices(
+    pub(crate) fn drain_settled_vec(
         &mut self,
         batch: usize,
-        out: &mut impl FnMut(&[Segment], &[Geom]),
+        out: &mut impl FnMut(&mut Vec<Segment>, &[Geom]),
     ) {
         if self.path.segs.len() > batch.max(1) {
             self.hand_over_settled(out);
         }
     }
 
-    /// [`PathBuilder::drain_settled_slices`] once more than one element waits: all
-    /// but the last to `out`, then dropped.
+    /// [`PathBuilder::drain_settled_vec`] once more than one element waits.
     #[inline(never)]
-    fn hand_over_settled(&mut self, out: &mut impl FnMut(&[Segment], &[Geom])) {
+    fn hand_over_settled(&mut self, out: &mut impl FnMut(&mut Vec<Segment>, &[Geom])) {
         let n = self.path.segs.len();
-        out(&self.path.segs[..n - 1], &self.path.geoms[..n - 1]);
-        self.path.segs.drain(..n - 1);
+        let Some(last) = self.path.segs.pop() else {
+            return;
+        };
+        out(&mut self.path.segs, &self.path.geoms[..n - 1]);
+        self.path.segs.clear();
+        self.path.segs.push(last);
         self.path.geoms.drain(..n - 1);
         self.path.orphans.clear();
         self.base += n - 1;
-    }
-
-    /// [`PathBuilder::drain_settled_slices`] handing the settled elements over in
-    /// their own vector: `out` gets them (all but the last element) and may take the
-    /// vector whole, leaving an empty one in its place (`std::mem::swap`), so that
-    /// they are not copied; whatever it leaves is dropped, and the last element
-    /// stays.
-    pub(crate) fn drain_settled_vec(
-        &mut self,
-        batch: usize,
-        out: &mut impl FnMut(&mut Vec<Segment>, &[Geom]),
-    ) {
-        let n = self.path.segs.len();
-        if n > batch.max(1) {
-            let Some(last) = self.path.segs.pop() else {
-                return;
-            };
-            out(&mut self.path.segs, &self.path.geoms[..n - 1]);
-            self.path.segs.clear();
-            self.path.segs.push(last);
-            self.path.geoms.drain(..n - 1);
-            self.path.orphans.clear();
-            self.base += n - 1;
-        }
     }
 
     /// The end of a streamed path: the rest of its elements to `out` (limits as

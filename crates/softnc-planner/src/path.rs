@@ -276,13 +276,9 @@ impl ElementShape {
         };
         let (a, b, n) = (A, B, N);
         let rs = radius * sweep;
-        // `Primitive::length` of the arc, written out: its call (about 15
-        // instructions a sub-arc with the call's set-up) gives the same bits
-        let len = if normal_travel == 0.0 {
-            rs.abs()
-        } else {
-            rs.hypot(normal_travel)
-        };
+        // `Primitive::length` of the arc, inline (its call, about 15 instructions a
+        // sub-arc with the call's set-up, gives the same bits)
+        let len = Primitive::arc_length(rs, normal_travel);
         // tangent = (R·sweep·(−sin θ, cos θ), h) normalised, θ the radial angle
         let mut ts = Vec3::ZERO;
         ts[a] = -sweep * (start[b] - center[b]);

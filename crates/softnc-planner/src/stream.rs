@@ -161,51 +161,30 @@ impl Figures {
         out(s, g);
     }
 
-    /// [`Figures::take_slices`] of the settled elements in `segs`, whose vector it
-    /// takes where it hands them over into an empty one (the builder's vector, not
-    /// a copy: docs/planner.md §5, fifteenth round).
+    /// [`Figures::take`] of the settled elements in `segs` (geometry `geoms`) in
+    /// order: the same figures, the limits handed over in one copy, or where the
+    /// hand-over is empty in the vector itself (swapped for the empty one: the
+    /// builder's vector, not a copy; docs/planner.md §5, fifteenth round).
     fn take_vec(
         &mut self,
         segs: &mut Vec<Segment>,
         geoms: &[Geom],
         out: &mut impl FnMut(&Segment, &Geom),
     ) {
-        match &mut self.handoff {
-            Some(v) if v.is_empty() && !segs.is_empty() => {
-                std::mem::swap(v, segs);
-                let (first, last) = (geoms[0].point_at(0.0), v[v.len() - 1]);
-                self.elements += v.len();
-                self.start_mm.get_or_insert(first);
-                self.path_length_mm = last.s0 + last.len;
-                for (s, g) in v.iter().zip(geoms) {
-                    out(s, g);
-                }
-            }
-            _ => self.take_slices(segs, geoms, out),
-        }
-    }
-
-    /// [`Figures::take`] of the settled elements `segs` (geometry `geoms`) in order:
-    /// the same figures, the limits handed over in one copy.
-    fn take_slices(
-        &mut self,
-        segs: &[Segment],
-        geoms: &[Geom],
-        out: &mut impl FnMut(&Segment, &Geom),
-    ) {
         let (Some(last), Some(first_geom)) = (segs.last(), geoms.first()) else {
             return;
         };
-        match &mut self.handoff {
-            Some(v) => v.extend_from_slice(segs),
-            None => self.duration.push_slice(segs),
-        }
         self.elements += segs.len();
         self.start_mm
             .get_or_insert_with(|| first_geom.point_at(0.0));
         self.path_length_mm = last.s0 + last.len;
-        for (s, g) in segs.iter().zip(geoms) {
+        for (s, g) in segs.iter().zip(geoms.iter()) {
             out(s, g);
+        }
+        match &mut self.handoff {
+            Some(v) if v.is_empty() => std::mem::swap(v, segs),
+            Some(v) => v.extend_from_slice(segs),
+            None => self.duration.push_slice(segs),
         }
     }
 }
@@ -220,24 +199,11 @@ impl Settled {
         }
     }
 
-    /// [`Settled::take_slices`] of the elements in `segs`, whose vector the figures
-    /// may take ([`Figures::take_vec`]).
+    /// [`Settled::take`] of the elements in `segs` (geometry `geoms`) in order,
+    /// whose vector the figures may take ([`Figures::take_vec`]).
     fn take_vec(
         &mut self,
         segs: &mut Vec<Segment>,
-        geoms: &[Geom],
-        out: &mut impl FnMut(&Segment, &Geom),
-    ) {
-        match &mut self.dilator {
-            Some(_) => self.take_slices(segs, geoms, out),
-            None => self.fin.take_vec(segs, geoms, out),
-        }
-    }
-
-    /// [`Settled::take`] of the elements `segs` (geometry `geoms`) in order.
-    fn take_slices(
-        &mut self,
-        segs: &[Segment],
         geoms: &[Geom],
         out: &mut impl FnMut(&Segment, &Geom),
     ) {
@@ -247,7 +213,7 @@ impl Settled {
                     self.take(s, g, out);
                 }
             }
-            None => self.fin.take_slices(segs, geoms, out),
+            None => self.fin.take_vec(segs, geoms, out),
         }
     }
 
