@@ -12,9 +12,10 @@ use std::time::{Duration, Instant};
 /// Arguments of `softnc demo`.
 #[derive(clap::Args)]
 pub struct DemoArgs {
-    /// The job to run.
-    #[arg(long, default_value = "examples/demo.ngc")]
-    job: PathBuf,
+    /// The job to run (default: the demo job `examples/demo.ngc`, built into
+    /// `softnc`, so that the demo runs from any folder).
+    #[arg(long)]
+    job: Option<PathBuf>,
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
@@ -32,6 +33,9 @@ pub enum Backend {
     /// Axes that follow the command exactly.
     Loopback,
 }
+
+/// The demo job, `examples/demo.ngc`, as built into `softnc`.
+const DEMO_JOB: &str = include_str!("../../../examples/demo.ngc");
 
 /// Where `softncd` is: beside this binary.
 fn softncd_path() -> Result<PathBuf> {
@@ -57,15 +61,34 @@ pub fn run(args: DemoArgs, config: &Path) -> Result<ExitCode> {
         Backend::Simulated => softnc_daemon::config::BackendKind::Simulated,
         Backend::Loopback => softnc_daemon::config::BackendKind::Loopback,
     };
-    let demo_config = loaded
-        .write_instance_copy_on(&dir, &instance, backend)
-        .with_context(|| format!("writing the demo's configuration into {}", dir.display()))?;
-    let r = run_on(args, &demo_config);
+    // a new folder of our own (not one planted in the shared temporary folder)
+    {
+        use std::os::unix::fs::DirBuilderExt;
+        std::fs::DirBuilder::new()
+            .mode(0o700)
+            .create(&dir)
+            .with_context(|| format!("creating the demo's folder {}", dir.display()))?;
+    }
+    let r = (|| {
+        let demo_config = loaded
+            .write_instance_copy_on(&dir, &instance, backend)
+            .with_context(|| format!("writing the demo's configuration into {}", dir.display()))?;
+        let job = match &args.job {
+            Some(job) => std::fs::canonicalize(job).with_context(|| job.display().to_string())?,
+            None => {
+                let job = dir.join("demo.ngc");
+                std::fs::write(&job, DEMO_JOB)
+                    .with_context(|| format!("writing {}", job.display()))?;
+                job
+            }
+        };
+        run_on(args, &demo_config, &job)
+    })();
     let _ = std::fs::remove_dir_all(&dir);
     r
 }
 
-fn run_on(args: DemoArgs, config: &Path) -> Result<ExitCode> {
+fn run_on(args: DemoArgs, config: &Path, job: &Path) -> Result<ExitCode> {
     let backend = args.backend;
     let run_dir = config.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut daemon = Command::new(softncd_path()?)
@@ -77,12 +100,12 @@ fn run_on(args: DemoArgs, config: &Path) -> Result<ExitCode> {
         .context("starting softncd")?;
     let result = (|| -> Result<(serde_json::Value, String)> {
         let op = Operator::wait_ready(config, Duration::from_secs(20))?;
+        // shut the demo's controller down whatever happens from here on
+        let _shutdown = ShutdownOnDrop(&op);
         // the controller starts with its drives off, as a machine does
         op.machine_on(Duration::from_secs(20))?;
         eprintln!("machine on");
-        let job =
-            std::fs::canonicalize(&args.job).with_context(|| format!("{}", args.job.display()))?;
-        eprintln!("softncd started; submitting {}", args.job.display());
+        eprintln!("softncd started; submitting {}", job.display());
         let r = op.request(ControlKind::StartJob, 0.0, &job.display().to_string())?;
         if r.accepted != 1 {
             bail!("job refused: {}", r.message.as_str());
@@ -91,7 +114,6 @@ fn run_on(args: DemoArgs, config: &Path) -> Result<ExitCode> {
         let outcome = wait_job(&op, r.job_id, true)?;
         let wall = t0.elapsed().as_secs_f64();
         let status = op.status()?;
-        let _ = op.request(ControlKind::Shutdown, 0.0, "");
         let mut report = serde_json::json!({
             "job": status["job"],
             "wall_time_s": wall,
@@ -102,18 +124,26 @@ fn run_on(args: DemoArgs, config: &Path) -> Result<ExitCode> {
         report["backend"] = serde_json::Value::String(format!("{backend:?}"));
         Ok((report, outcome))
     })();
-    // wait for a clean shutdown; kill only if it hangs
-    let t0 = Instant::now();
-    loop {
-        if daemon.try_wait()?.is_some() {
-            break;
+    // wait for a clean shutdown; if it hangs (or the MMI never answered), SIGTERM,
+    // which stops the children in order too; SIGKILL only as a last resort
+    let waited = |d: &mut std::process::Child, s: u64| -> Result<bool> {
+        let t0 = Instant::now();
+        while t0.elapsed() < Duration::from_secs(s) {
+            if d.try_wait()?.is_some() {
+                return Ok(true);
+            }
+            std::thread::sleep(Duration::from_millis(50));
         }
-        if t0.elapsed() > Duration::from_secs(10) {
+        Ok(false)
+    };
+    if !waited(&mut daemon, 10)? {
+        let _ = Command::new("kill")
+            .args(["-TERM", &daemon.id().to_string()])
+            .status();
+        if !waited(&mut daemon, 10)? {
             let _ = daemon.kill();
             let _ = daemon.wait();
-            break;
         }
-        std::thread::sleep(Duration::from_millis(50));
     }
     let (report, outcome) = result?;
     if args.json {
@@ -126,6 +156,15 @@ fn run_on(args: DemoArgs, config: &Path) -> Result<ExitCode> {
     } else {
         ExitCode::from(1)
     })
+}
+
+/// Asks the demo's controller to shut down when dropped (the demo ended, or failed).
+struct ShutdownOnDrop<'a>(&'a Operator);
+
+impl Drop for ShutdownOnDrop<'_> {
+    fn drop(&mut self) {
+        let _ = self.0.request(ControlKind::Shutdown, 0.0, "");
+    }
 }
 
 fn print_report(r: &serde_json::Value) {

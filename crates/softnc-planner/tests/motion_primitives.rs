@@ -7,8 +7,8 @@ use softnc_planner::build::motion_primitive;
 use softnc_planner::{plan, PlanOptions};
 use std::path::{Path, PathBuf};
 
-fn corpus() -> Vec<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/gcode");
+/// The G-code programs under `root`, sorted (none if it does not exist).
+fn programs_under(root: PathBuf) -> Vec<PathBuf> {
     let mut files = vec![];
     let mut dirs = vec![root];
     while let Some(d) = dirs.pop() {
@@ -31,13 +31,21 @@ fn corpus() -> Vec<PathBuf> {
 #[test]
 fn a_plans_primitives_are_its_motions_own() {
     let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let mut programs: Vec<PathBuf> = std::fs::read_dir(repo.join("examples"))
-        .unwrap()
-        .flatten()
-        .map(|e| e.path())
-        .filter(|p| p.extension().is_some_and(|x| x == "ngc"))
-        .collect();
-    programs.extend(corpus());
+    let mut programs = programs_under(repo.join("examples"));
+    let examples = programs.len();
+    assert!(examples >= 5, "only {examples} example programs");
+    let corpus = programs_under(repo.join("../shared/gcode"));
+    if corpus.is_empty() {
+        // written past the test harness's capture, so that a run without the corpus
+        // says what it did not test
+        use std::io::Write;
+        let _ = writeln!(
+            std::io::stderr(),
+            "SKIPPED: ../shared/gcode is not beside the repository; \
+             a_plans_primitives_are_its_motions_own ran on examples/ only"
+        );
+    }
+    programs.extend(corpus.iter().cloned());
     let profiles = ["default", "tnv40-ilc", "mill-friction"]
         .map(|n| MachineProfile::load(&repo.join(format!("config/machines/{n}.ron"))).unwrap());
     let mut compared = 0;
@@ -64,5 +72,7 @@ fn a_plans_primitives_are_its_motions_own() {
             compared += 1;
         }
     }
-    assert!(compared > 20, "only {compared} plans compared");
+    // every example plans on the default machine, most corpus programs on some
+    let want = if corpus.is_empty() { examples } else { 20 };
+    assert!(compared >= want, "only {compared} plans compared");
 }

@@ -257,7 +257,13 @@ fn errors_are_the_whole_plans_on(p: &MachineProfile) {
 fn shared_corpus_streams_as_planned() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/gcode");
     if !root.is_dir() {
-        eprintln!("no shared corpus at {}", root.display());
+        // past the test harness's capture: a run without the corpus says so
+        use std::io::Write;
+        let _ = writeln!(
+            std::io::stderr(),
+            "SKIPPED: shared_corpus_streams_as_planned: no corpus at {}",
+            root.display()
+        );
         return;
     }
     let mut files = vec![];
