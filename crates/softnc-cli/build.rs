@@ -4,9 +4,9 @@
 //!
 //! Why: every `softnc` process loaded `libgcc_s.so.1` at its start (open, map,
 //! relocate) and ran its constructor `__cpu_indicator_init`, whose `cpuid`
-//! instructions take about 14 µs each on the virtual machine of docs/planner.md §5.
+//! instructions take about 14 µs each on the virtual machine of docs/perf-log/planner-figures.md.
 //! `softnc plan` of a one-line program, 150 interleaved whole-process runs: 0.11 ms
-//! less (docs/planner.md §5, "The serial part of `softnc plan`"). The unwinder is
+//! less (docs/perf-log/planner-figures.md, "The serial part of `softnc plan`"). The unwinder is
 //! the same code (GCC's `unwind-dw2`), found through `dl_iterate_phdr` as a static
 //! program finds it; nothing of the program's own changes.
 //!

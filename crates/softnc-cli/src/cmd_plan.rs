@@ -46,7 +46,7 @@ impl PlanArgs {
     /// `--ignore-soft-limits`, each at most once, in any order; `None` for anything
     /// else, which goes to clap (with its help and errors). What clap makes of such a
     /// line (test `plain_plan_arguments_are_what_clap_makes_of_them`), without the
-    /// 0.09 ms clap takes to build its command and parse (docs/planner.md §5, "The
+    /// 0.09 ms clap takes to build its command and parse (docs/perf-log/planner-figures.md, "The
     /// serial part of `softnc plan`").
     pub fn plain(args: impl IntoIterator<Item = std::ffi::OsString>) -> Option<PlanArgs> {
         // (a value or program that looks like an option, or is empty, goes to clap)
@@ -201,7 +201,7 @@ fn summary(
         .with_context(|| format!("cannot read {}", args.file.display()))?;
     let name = args.file.display().to_string();
     // the bytes checked as UTF-8 as the reading thread reads them, not all before
-    // the threads start (docs/planner.md §5, fifteenth round); a program that is
+    // the threads start (docs/perf-log/planner-figures.md, fifteenth round); a program that is
     // not UTF-8 is read again made UTF-8 (lossy), as before
     let read = match softnc_planner::check_program_parallel_bytes(&bytes, &name, machine, options) {
         Err(softnc_planner::ReadPlanError::Gcode(e))

@@ -3,7 +3,7 @@
 //!
 //! Why: the summary's two threads (`check_program_parallel`) start only once the
 //! text is there, so reading it is a serial prefix of the whole process. Read with
-//! `read(2)`, the 5.0 MB benchmark program (docs/planner.md §5) costs a fresh 5 MB
+//! `read(2)`, the 5.0 MB benchmark program (docs/perf-log/planner-figures.md) costs a fresh 5 MB
 //! buffer's page faults and zeroing and the kernel's copy, about 2.3 ms with the
 //! UTF-8 check; mapped, the UTF-8 check touches the page cache's own pages and the
 //! two take about 0.5 ms.

@@ -81,7 +81,7 @@ pub struct PlannerConfig {
     /// biarcs (softnc-planner `fillet.rs`, `biarc.rs`) instead of stopping there.
     /// Default on: LinuxCNC's TP programs run in 0.93× LinuxCNC's total time
     /// (0.99× off) and none over 1.05× its time (13 off); planning CAM line/arc
-    /// programs costs about twice the instructions (docs/planner.md §5).
+    /// programs costs about twice the instructions (docs/perf-log/planner-figures.md).
     #[serde(default = "default_arc_blends")]
     pub arc_blends: bool,
 }

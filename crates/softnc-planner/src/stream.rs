@@ -164,7 +164,7 @@ impl Figures {
     /// [`Figures::take`] of the settled elements in `segs` (geometry `geoms`) in
     /// order: the same figures, the limits handed over in one copy, or where the
     /// hand-over is empty in the vector itself (swapped for the empty one: the
-    /// builder's vector, not a copy; docs/planner.md §5, fifteenth round).
+    /// builder's vector, not a copy; docs/perf-log/planner-figures.md, fifteenth round).
     fn take_vec(
         &mut self,
         segs: &mut Vec<Segment>,
@@ -463,7 +463,7 @@ pub(crate) enum FilletsAheadWhen {
     /// planning thread (it is behind) and the planning thread built at least
     /// [`AHEAD_PARALLEL_MOTIONS`] motions (so the two ran at once). On the processor
     /// a fillet worked out ahead costs the reader about what it saves the planner
-    /// (docs/planner.md §5, "Where the time goes on the processor"), so the share done
+    /// (docs/perf-log/planner-figures.md, "Where the time goes on the processor"), so the share done
     /// ahead follows the planner's backlog. (A third test, that the reader read the
     /// chunk undisturbed, made the rule stick at no fillet ahead once the machine had
     /// other work: runs then took the planner's whole share, 36–50 ms.)
@@ -483,7 +483,7 @@ const AHEAD_PARALLEL_MOTIONS: usize = PARALLEL_CHUNK_MOTIONS / 4;
 /// planning thread: half of [`READ_CHUNK_MOTIONS`], so that the chunks in flight
 /// (motions, primitives, arc data, fillets: about 330 kB at this size) stay in the
 /// caches both cores share. On the 200k-line benchmark program with arc blends
-/// (docs/planner.md §5, "After `plan11`, `plan12`, `speed8`, `jerk1` and the lead's
+/// (docs/perf-log/planner-figures.md, "After `plan11`, `plan12`, `speed8`, `jerk1` and the lead's
 /// chunk size") 512 motions and
 /// [`PARALLEL_QUEUE_CHUNKS`] chunks queued take 0.95× the wall and cpu time of 1,024
 /// and 8 (medians of 51 interleaved whole-process pairs, twice), peak memory 13.7
