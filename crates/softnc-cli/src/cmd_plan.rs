@@ -41,50 +41,6 @@ pub struct PlanArgs {
 }
 
 impl PlanArgs {
-    /// The arguments of a plain `softnc plan` command line (after `plan`): one
-    /// program, `--json`, `--machine PATH` (or `--machine=PATH`) and
-    /// `--ignore-soft-limits`, each at most once, in any order; `None` for anything
-    /// else, which goes to clap (with its help and errors). What clap makes of such a
-    /// line (test `plain_plan_arguments_are_what_clap_makes_of_them`), without the
-    /// 0.09 ms clap takes to build its command and parse (docs/perf-log/planner-figures.md, "The
-    /// serial part of `softnc plan`").
-    pub fn plain(args: impl IntoIterator<Item = std::ffi::OsString>) -> Option<PlanArgs> {
-        // (a value or program that looks like an option, or is empty, goes to clap)
-        fn plain_value(v: std::ffi::OsString) -> Option<PathBuf> {
-            let plain = !v.is_empty() && !v.as_encoded_bytes().starts_with(b"-");
-            plain.then(|| PathBuf::from(v))
-        }
-        let (mut file, mut machine, mut json, mut ignore_soft_limits) = (None, None, false, false);
-        let mut args = args.into_iter();
-        while let Some(arg) = args.next() {
-            let bytes = arg.as_encoded_bytes();
-            if bytes == b"--json" && !json {
-                json = true;
-            } else if bytes == b"--ignore-soft-limits" && !ignore_soft_limits {
-                ignore_soft_limits = true;
-            } else if bytes == b"--machine" && machine.is_none() {
-                machine = Some(plain_value(args.next()?)?);
-            } else if let (Some(value), None) = (bytes.strip_prefix(b"--machine="), &machine) {
-                let value = std::str::from_utf8(value).ok()?;
-                machine = Some(plain_value(value.into())?);
-            } else if file.is_none() {
-                file = Some(plain_value(arg)?);
-            } else {
-                return None;
-            }
-        }
-        Some(PlanArgs {
-            file: file?,
-            machine,
-            json,
-            canon: false,
-            ignore_soft_limits,
-            params: None,
-            save_params: false,
-            subroutine_path: Vec::new(),
-        })
-    }
-
     /// Whether reading needs more than the plain reader (parameters, search path).
     fn needs_options(&self) -> bool {
         self.params.is_some() || !self.subroutine_path.is_empty()
