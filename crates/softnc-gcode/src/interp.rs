@@ -535,6 +535,58 @@ impl<'a> Interp<'a> {
         }
     }
 
+    /// A copy of the modal state for the short way's cross-check in debug builds
+    /// ([`Interp::fast_lines`]): everything but the motions and warnings so far and
+    /// the O-word control state, which no line of the short way reads or changes
+    /// (it runs only outside a skip).
+    #[cfg(debug_assertions)]
+    fn copy_for_cross_check(&self) -> Interp<'a> {
+        Interp {
+            profile: self.profile,
+            inch: self.inch,
+            absolute: self.absolute,
+            ijk_absolute: self.ijk_absolute,
+            plane: self.plane,
+            inverse_time: self.inverse_time,
+            feed: self.feed,
+            motion: self.motion,
+            pos: self.pos,
+            canon_pos: self.canon_pos,
+            sync_pending: self.sync_pending,
+            coord: self.coord,
+            tool_length_mm: self.tool_length_mm,
+            tool_selected: self.tool_selected,
+            spindle_length_mm: self.spindle_length_mm,
+            s_rpm: self.s_rpm,
+            spindle_on: self.spindle_on,
+            path: self.path,
+            motions: Vec::new(),
+            warnings: Vec::new(),
+            file: self.file,
+            params: self.params.clone(),
+            ctl: ngc::Control::default(),
+            line_no: self.line_no,
+            origin: self.origin,
+            g92: self.g92,
+            rotation_deg: self.rotation_deg,
+            offset_mm: self.offset_mm,
+            user_inch: self.user_inch,
+            tool_offset_on: self.tool_offset_on,
+            exact_stop_code: self.exact_stop_code,
+            spindle_code: self.spindle_code,
+            tool_edits: self.tool_edits.clone(),
+            tool_loaded: self.tool_loaded,
+            mist: self.mist,
+            flood: self.flood,
+            line_named: self.line_named.clone(),
+            call_args: self.call_args.clone(),
+            optional_stop: self.optional_stop,
+            suppress: self.suppress,
+            moves_after_start: self.moves_after_start,
+            start_machine_mm: self.start_machine_mm,
+        }
+    }
+
     /// mm per program unit.
     fn scale(&self) -> f64 {
         if self.inch {

@@ -19,8 +19,8 @@
 
 use super::{
     arc_data_ijk, cos_asin_one, sc, Interp, CENTER_ARC_RADIUS_TOLERANCE_INCH,
-    CENTER_ARC_RADIUS_TOLERANCE_MM, G_0, G_2, G_3, LINELEN, MM_PER_INCH, RADIUS_TOLERANCE_INCH,
-    RADIUS_TOLERANCE_MM, TINY,
+    CENTER_ARC_RADIUS_TOLERANCE_MM, G_0, G_1, G_2, G_3, LINELEN, MM_PER_INCH,
+    RADIUS_TOLERANCE_INCH, RADIUS_TOLERANCE_MM, TINY,
 };
 use crate::canon::{Motion, MotionKind, PathMode};
 use crate::lexer::{plain_number, POW10};
@@ -499,9 +499,20 @@ impl Interp<'_> {
         max_lines: u64,
         chunk: usize,
     ) -> (usize, u64) {
-        if self.inverse_time || self.sync_pending || self.rotation_deg != 0.0 || self.suppress {
+        if !self.short_way_understands_the_modes() {
             return (pos, 0);
         }
+        // what a run changes, for the cross-check of debug builds
+        #[cfg(debug_assertions)]
+        let before = Before {
+            pos: self.pos,
+            canon_pos: self.canon_pos,
+            feed: self.feed,
+            motion: self.motion,
+            line_no: self.line_no,
+            moves_after_start: self.moves_after_start,
+            motions: self.motions.len(),
+        };
         let run = Run {
             absolute: self.absolute,
             ijk_absolute: self.ijk_absolute,
@@ -519,6 +530,8 @@ impl Interp<'_> {
             pushed: 0,
             trig: Trig::default(),
         };
+        #[cfg(debug_assertions)]
+        let start = pos;
         let mut motions = std::mem::take(&mut self.motions);
         // one loop per plane, distance mode and unit: the axes, the distance
         // mode and the scale are constants there
@@ -549,8 +562,97 @@ impl Interp<'_> {
         if read > 0 {
             self.line_no = line_no + read as usize - 1;
         }
+        #[cfg(debug_assertions)]
+        if read > 0 {
+            self.cross_check(&before, &t[start..pos], line_no);
+        }
         (pos, read)
     }
+
+    /// Whether the short way runs lines in the interpreter's present modes. An
+    /// allow-list: the motion modes it knows (none, G0, G1, G2, G3) in units per
+    /// minute (G94), no XY rotation, no position to re-read after a tool change, no
+    /// run from line waiting for its start. Any other state, and any mode added to
+    /// the language later (a canned cycle, cutter compensation, feed per
+    /// revolution, ...), goes the general way until it is added here.
+    fn short_way_understands_the_modes(&self) -> bool {
+        matches!(self.motion, None | Some(G_0 | G_1 | G_2 | G_3))
+            && !self.inverse_time
+            && !self.sync_pending
+            && self.rotation_deg == 0.0
+            && !self.suppress
+    }
+
+    /// Debug builds: the lines `text` the short way just ran, from the state
+    /// `before` them, run again by the general reader (`lex_words`, `sort_word`,
+    /// `check`, `execute`) give the same motions (to the bit), point, feed rate and
+    /// motion mode. A line the short way takes but reads differently panics here,
+    /// in every test that reads a program.
+    #[cfg(debug_assertions)]
+    fn cross_check(&self, was: &Before, text: &[u8], line_no: usize) {
+        use super::Block;
+        use crate::lexer::{lex_words, Line};
+        let mut before = self.copy_for_cross_check();
+        before.pos = was.pos;
+        before.canon_pos = was.canon_pos;
+        before.feed = was.feed;
+        before.motion = was.motion;
+        before.line_no = was.line_no;
+        before.moves_after_start = was.moves_after_start;
+        let text = std::str::from_utf8(text).expect("the short way reads ASCII");
+        let mut l = Line::default();
+        for (k, line) in text.lines().enumerate() {
+            let no = line_no + k;
+            let mut block = Block::default();
+            let read = lex_words(line, &mut l, true, |w| before.sort_word(w, &mut block))
+                .and_then(|()| before.check(&mut block))
+                .and_then(|()| before.execute(no as u32, &block).map(|_| ()));
+            before.line_no = no;
+            assert!(
+                read.is_ok(),
+                "line {no} {line:?}: the short way ran it, the general reader says {read:?}"
+            );
+        }
+        let bits = |m: &[Motion]| format!("{m:?}");
+        assert_eq!(
+            bits(&before.motions),
+            bits(&self.motions[was.motions..]),
+            "lines {line_no}.. {text:?}: the short way's motions differ from the general reader's"
+        );
+        assert_eq!(
+            (
+                before.pos,
+                before.canon_pos,
+                before.feed.to_bits(),
+                before.motion,
+                before.line_no,
+                before.moves_after_start
+            ),
+            (
+                self.pos,
+                self.canon_pos,
+                self.feed.to_bits(),
+                self.motion,
+                self.line_no,
+                self.moves_after_start
+            ),
+            "lines {line_no}.. {text:?}: the short way's state differs from the general reader's"
+        );
+    }
+}
+
+/// What a run of [`Interp::fast_lines`] changes, as it stood before the run (the
+/// cross-check of debug builds runs the lines again from there).
+#[cfg(debug_assertions)]
+struct Before {
+    pos: Vec3,
+    canon_pos: Vec3,
+    feed: f64,
+    motion: Option<i32>,
+    line_no: usize,
+    moves_after_start: u64,
+    /// Motions pushed before the run.
+    motions: usize,
 }
 
 /// [`lines`]' plane parameter: the index of a plane in [`PLANES`].
@@ -1532,6 +1634,86 @@ mod tests {
             read_whole > 100 && motions > 10_000,
             "{read_whole} read whole, {motions} motions"
         );
+    }
+
+    /// Every G code (G0 to G99.9 by tenths) and M code (M0 to M199) the general
+    /// reader accepts, alone or with words, in a program of lines of the short
+    /// way's shape after it (bare axis words, arcs by centre, motions), and random
+    /// pairs of them: each program reads the same with the short way as without it.
+    /// The codes are found, not listed: a mode the language gains later (a canned
+    /// cycle, cutter compensation, feed per revolution) is tried here as it lands,
+    /// and the short way must step aside for it or read the lines as the general
+    /// reader does.
+    #[test]
+    fn every_modal_code_then_short_lines_reads_as_the_general_way() {
+        let p = profile();
+        // bare axis words in the mode the code left, then motions: lines and a
+        // rapid, or also two half circles by centre in XY (the second with the
+        // mode's bare words)
+        let tails = [
+            "X3 Y3\nX4 Z-2\nG1 X5 Y3\nX6\nG0 X1\nZ3\n",
+            "X3 Y3\nX4 Z-2\nG1 X5 Y3\nG2 X6 Y3 I0.5 J0\nX7 I0.5 J0\nG1 Y6\nX8\nG0 X1\nZ3\n",
+        ];
+        let read = |text: &str, fast: bool| {
+            let mut motions = Vec::new();
+            let read = super::super::read_lines(
+                text,
+                "t.ngc",
+                &p,
+                &Default::default(),
+                7,
+                &mut |chunk| motions.append(chunk),
+                fast,
+            );
+            (read.is_ok(), format!("{read:?} {motions:?}"))
+        };
+        // whether the program of `code` then each tail reads the same both ways
+        // (an error included: the same error after the same motions), and whether
+        // one of them reads whole
+        let same = |code: &str| {
+            let mut whole = false;
+            for tail in tails {
+                let text = format!("G21 G90 G17 F600\nG0 X1 Y1 Z1\n{code}\n{tail}M2\n");
+                let (short, general) = (read(&text, true), read(&text, false));
+                assert_eq!(short, general, "{text}");
+                whole |= short.0;
+            }
+            whole
+        };
+        let g = (0..1000).map(|k| {
+            if k % 10 == 0 {
+                format!("G{}", k / 10)
+            } else {
+                format!("G{}.{}", k / 10, k % 10)
+            }
+        });
+        let m = (0..200).map(|k| format!("M{k}"));
+        let mut accepted = Vec::new();
+        for code in g.chain(m) {
+            for line in [
+                code.clone(),
+                format!("{code} X2 Y2 Z-1 R2 F300"),
+                format!("{code} X2 Y2 Z-1 R2 P1 Q0.5 L1 F300"),
+                format!("{code} P1"),
+            ] {
+                if same(&line) {
+                    accepted.push(line);
+                }
+            }
+        }
+        // the core's modes (planes, units, distance modes, feed modes, path
+        // control, offsets, spindle, coolant, ...) are among them
+        assert!(
+            accepted.len() > 50,
+            "only {} codes read: {accepted:?}",
+            accepted.len()
+        );
+        let mut next = xorshift(0x2545_f491_4f6c_dd1d);
+        for _ in 0..3000 {
+            let a = &accepted[next(accepted.len())];
+            let b = &accepted[next(accepted.len())];
+            same(&format!("{a}\n{b}"));
+        }
     }
 
     /// A random double of every kind the arcs meet: small integers and halves,
