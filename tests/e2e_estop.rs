@@ -6,6 +6,7 @@
 //! - a reset after an E-stop or a fault leaves the drives off: `on` is needed;
 //! - after any sequence of crashes (kill -9 of each process), resets and `on`,
 //!   `status` says what is so and a reset recovers.
+#[allow(unused_imports)] // the shared harness re-exports what other test files use
 mod support;
 use support::*;
 
