@@ -5,7 +5,10 @@
 //! error) → mode → position command → controller stack and servo backend → status.
 //! Motion starts only when the ring holds `window` future samples. If the ring runs
 //! dry mid-job (the interpolator died or stalled), the axes decelerate along the path
-//! still in the ring and the machine is faulted with an alarm.
+//! still in the ring and the machine is faulted with an alarm; so too when the MMI
+//! has been silent past `mmi_silence_stop_s` (a jog or a homing decelerates). An
+//! E-stop comes from the MMI or straight from an operator client (the `estop`
+//! service); a reset clears it or a fault and leaves the drives off.
 //!
 //! Nothing on the cycle reads a file or allocates: a job's programmed path, its fresh
 //! engine, its trace file and its PDC designs, and the redesigns a spindle override
