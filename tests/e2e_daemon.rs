@@ -422,11 +422,13 @@ fn killing_the_interpolator_stops_along_the_path_and_a_reset_recovers() {
     // a second client cannot start a job on a faulted machine
     let again = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
     assert_eq!(again.accepted, 0, "{}", again.message.as_str());
-    // reset; the supervisor has restarted the interpolator: a new job runs
+    // reset (the drives stay off), on; the supervisor has restarted the
+    // interpolator: a new job runs
     op.request(ControlKind::Reset, 0.0, "").unwrap();
-    d.wait_status(&op, Duration::from_secs(10), "idle + interp alive", |s| {
-        s["state"] == "Idle" && s["processes"]["interp"] == "alive"
+    d.wait_status(&op, Duration::from_secs(10), "off + interp alive", |s| {
+        s["state"] == "Off" && s["processes"]["interp"] == "alive"
     });
+    op.machine_on(Duration::from_secs(10)).unwrap();
     let r2 = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
     assert_eq!(r2.accepted, 1, "{}", r2.message.as_str());
     let s = d.wait_job(&op, r2.job_id, Duration::from_secs(60));
@@ -477,9 +479,10 @@ fn killing_the_position_process_faults_and_reset_restarts_it() {
     assert_eq!(s["state"], "Faulted", "{s}");
     assert_eq!(d.job_record(killed_job)["outcome"], "aborted");
     op.request(ControlKind::Reset, 0.0, "").unwrap();
-    d.wait_status(&op, Duration::from_secs(15), "position back", |s| {
-        s["processes"]["position"] == "alive"
+    d.wait_status(&op, Duration::from_secs(15), "position back, off", |s| {
+        s["processes"]["position"] == "alive" && s["state"] == "Off"
     });
+    op.machine_on(Duration::from_secs(10)).unwrap();
     let job = short_job(&d.dir);
     let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
     assert_eq!(r.accepted, 1, "{}", r.message.as_str());
@@ -778,9 +781,8 @@ fn commands_say_what_the_machine_does_in_every_state() {
         .unwrap();
     assert_eq!(r.accepted, 0, "{}", r.message.as_str());
     assert_eq!(req(ControlKind::Reset).accepted, 1);
-    let s = d.wait_status(&op, Duration::from_secs(5), "idle", |s| {
-        s["state"] == "Idle"
-    });
+    // the latch cleared, the drives off: `on` switches them on
+    let s = d.wait_status(&op, Duration::from_secs(5), "off", |s| s["state"] == "Off");
     assert!(s["alarms"].as_array().unwrap().is_empty(), "cleared: {s}");
     let rec = d.job_record(job2);
     assert!(
@@ -939,9 +941,10 @@ fn a_stopped_interpolator_is_noticed_killed_and_restarted_and_reset_recovers() {
         "the stopped interpolator was killed"
     );
     op.request(ControlKind::Reset, 0.0, "").unwrap();
-    d.wait_status(&op, Duration::from_secs(10), "idle + a new interp", |s| {
-        s["state"] == "Idle" && s["processes"]["interp"] == "alive"
+    d.wait_status(&op, Duration::from_secs(10), "off + a new interp", |s| {
+        s["state"] == "Off" && s["processes"]["interp"] == "alive"
     });
+    op.machine_on(Duration::from_secs(10)).unwrap();
     let r = op
         .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
         .unwrap();
@@ -970,9 +973,10 @@ fn a_stopped_position_process_is_noticed_killed_and_restarted_and_reset_recovers
     d.wait_status(
         &op,
         Duration::from_secs(15),
-        "idle + a new position process",
-        |s| s["state"] == "Idle" && s["processes"]["position"] == "alive",
+        "off + a new position process",
+        |s| s["state"] == "Off" && s["processes"]["position"] == "alive",
     );
+    op.machine_on(Duration::from_secs(10)).unwrap();
     let r = op
         .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
         .unwrap();
@@ -984,7 +988,7 @@ fn a_stopped_position_process_is_noticed_killed_and_restarted_and_reset_recovers
 }
 
 #[test]
-fn a_stopped_mmi_is_killed_and_restarted_while_the_job_runs_on() {
+fn a_stopped_mmi_stops_the_job_along_its_path_and_is_killed_and_restarted() {
     let mut d = Daemon::start_edited(
         "sigstopmmi",
         "Realtime",
@@ -994,12 +998,15 @@ fn a_stopped_mmi_is_killed_and_restarted_while_the_job_runs_on() {
     let job = start_moving(&d, &op);
     sigstop_until_the_watchdog_acts(&d, &op, "softnc-mmi");
     drop(op);
-    let op = d.operator();
+    // silent past `mmi_silence_stop_s` (1 s) before the watchdog (1.5 s): the
+    // position process stopped the job along its path; the new MMI serves
+    let op = d.operator_off();
     let s = d.wait_job(&op, job, Duration::from_secs(60));
-    assert_eq!(
+    assert_ne!(
         s["job"]["outcome"], "completed",
-        "motion went on without the MMI: {s}"
+        "motion stopped without the MMI: {s}"
     );
+    assert_eq!(s["state"], "Faulted", "{s}");
     drop(op);
     d.shutdown_leaving_nothing("sigstopmmi");
 }
@@ -1067,11 +1074,10 @@ fn a_job_is_checked_off_the_loop_status_and_estop_answer_meanwhile() {
         "{s}"
     );
     assert!(op.jobs().unwrap().is_empty(), "no job record");
-    // reset; the same program checked again runs
+    // reset (the drives stay off), on; the same program checked again runs
     op.request(ControlKind::Reset, 0.0, "").unwrap();
-    d.wait_status(&op, Duration::from_secs(10), "idle", |s| {
-        s["state"] == "Idle"
-    });
+    d.wait_status(&op, Duration::from_secs(10), "off", |s| s["state"] == "Off");
+    op.machine_on(Duration::from_secs(10)).unwrap();
     let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
     assert_eq!(r.accepted, 1, "{}", r.message.as_str());
     let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));

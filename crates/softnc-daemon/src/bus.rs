@@ -6,7 +6,8 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use softnc_ipc::{
-    Alarm, CommandSample, ControlCommand, Heartbeat, LoopStats, PositionStatus, ServiceNames,
+    Alarm, CommandSample, ControlCommand, EStopRequest, Heartbeat, LoopStats, PositionStatus,
+    ServiceNames,
 };
 
 /// Publish-subscribe port types over the shared-memory service.
@@ -69,22 +70,17 @@ impl Bus {
         name: &str,
         buffer: usize,
         history: usize,
-    ) -> Result<iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, T, ()>>
-    {
-        self.node
-            .service_builder(
-                &name
-                    .try_into()
-                    .with_context(|| format!("service name {name}"))?,
-            )
-            .publish_subscribe::<T>()
-            .subscriber_max_buffer_size(buffer)
-            .history_size(history)
-            .max_publishers(8)
-            .max_subscribers(8)
-            .max_nodes(16)
-            .open_or_create()
-            .with_context(|| format!("opening service {name}"))
+    ) -> Result<PubSubService<T>> {
+        pubsub_service(&self.node, name, buffer, history)
+    }
+
+    /// Subscriber on the E-stop service (operator clients → position).
+    pub fn estop_subscriber(&self) -> Result<Sub<EStopRequest>> {
+        estop_service(&self.node, &self.names)?
+            .subscriber_builder()
+            .buffer_size(SMALL_BUFFER)
+            .create()
+            .with_context(|| format!("subscriber on {}", self.names.estop()))
     }
 
     pubsub!(
@@ -135,6 +131,56 @@ impl Bus {
         SMALL_BUFFER,
         1
     );
+}
+
+/// A publish-subscribe service's port factory.
+pub type PubSubService<T> =
+    iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, T, ()>;
+
+/// Open (or create) publish-subscribe service `name` on `node` the way every
+/// process does (the same limits, or opening it fails).
+pub fn pubsub_service<T: std::fmt::Debug + ZeroCopySend + Copy + 'static>(
+    node: &Node<ipc::Service>,
+    name: &str,
+    buffer: usize,
+    history: usize,
+) -> Result<PubSubService<T>> {
+    pubsub_service_for(node, name, buffer, history, 8)
+}
+
+fn pubsub_service_for<T: std::fmt::Debug + ZeroCopySend + Copy + 'static>(
+    node: &Node<ipc::Service>,
+    name: &str,
+    buffer: usize,
+    history: usize,
+    max_publishers: usize,
+) -> Result<PubSubService<T>> {
+    node.service_builder(
+        &name
+            .try_into()
+            .with_context(|| format!("service name {name}"))?,
+    )
+    .publish_subscribe::<T>()
+    .subscriber_max_buffer_size(buffer)
+    .history_size(history)
+    .max_publishers(max_publishers)
+    .max_subscribers(8)
+    .max_nodes(max_publishers + 8)
+    .open_or_create()
+    .with_context(|| format!("opening service {name}"))
+}
+
+/// Operator clients that may hold an E-stop publisher at once.
+pub const MAX_ESTOP_CLIENTS: usize = 16;
+
+/// The instance's E-stop service: any operator client publishes on it (its
+/// publisher lives while it waits for the stop to show), the position process
+/// reads it every cycle.
+pub fn estop_service(
+    node: &Node<ipc::Service>,
+    names: &ServiceNames,
+) -> Result<PubSubService<EStopRequest>> {
+    pubsub_service_for(node, &names.estop(), SMALL_BUFFER, 0, MAX_ESTOP_CLIENTS)
 }
 
 /// Remove the shared-memory resources of dead nodes (after a `kill -9`).

@@ -1,11 +1,19 @@
 //! The operator client: talks to `softnc-mmi` over iceoryx2 request-response.
 //! Used by the `softnc` binary and by the end-to-end tests.
+//!
+//! The E-stop takes two paths: straight to the position process on the
+//! instance's `estop` service, and to the MMI as every other
+//! request. It stops the machine even when the MMI does not answer (hung, stopped);
+//! the client then confirms it from the position process's own status.
 
 use crate::config::DaemonConfig;
 use anyhow::{bail, Context, Result};
 use iceoryx2::port::client::Client;
 use iceoryx2::prelude::*;
-use softnc_ipc::{ControlKind, FixedStr, OperatorReply, OperatorRequest, ServiceNames};
+use softnc_ipc::{
+    ControlKind, EStopRequest, FixedStr, MachineState, OperatorReply, OperatorRequest,
+    PositionStatus, ServiceNames,
+};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -18,6 +26,10 @@ const JOB_CHECK_TIMEOUT: Duration = Duration::from_secs(300);
 pub struct Operator {
     node: Node<ipc::Service>,
     client: Client<ipc::Service, OperatorRequest, (), OperatorReply, ()>,
+    names: ServiceNames,
+    /// How long a process may be silent before it counts as lost (s): an E-stop
+    /// confirmed by the position process waits this long for the MMI's reply.
+    heartbeat_timeout_s: f64,
 }
 
 impl Operator {
@@ -39,7 +51,12 @@ impl Operator {
             .open_or_create()
             .context("operator service")?;
         let client = svc.client_builder().create().context("operator client")?;
-        Ok(Operator { node, client })
+        Ok(Operator {
+            node,
+            client,
+            names,
+            heartbeat_timeout_s: loaded.config.heartbeat_timeout_s,
+        })
     }
 
     /// Send one request and wait for the reply.
@@ -75,6 +92,9 @@ impl Operator {
     ) -> Result<OperatorReply> {
         let path = FixedStr::try_new(path)
             .map_err(|e| anyhow::anyhow!("path of {e}: refused, nothing sent"))?;
+        if kind == ControlKind::EStop {
+            return self.estop();
+        }
         let pending = self.client.send_copy(OperatorRequest {
             kind: kind.wire(),
             axis,
@@ -96,6 +116,96 @@ impl Operator {
             }
             let _ = self.node.wait(Duration::from_millis(2));
         }
+    }
+
+    /// The E-stop on both paths: published straight to the position process
+    /// first, then asked of the MMI. The MMI's reply is the answer;
+    /// without one, the position process's status showing the E-stop latched is
+    /// (the MMI learns it from that status when it answers again). An error only
+    /// if neither confirms it within the reply timeout.
+    pub fn estop(&self) -> Result<OperatorReply> {
+        let direct = self.estop_direct();
+        if let Err(e) = &direct {
+            tracing::warn!("E-stop past the MMI not sent: {e:#}");
+        }
+        let pending = self.client.send_copy(OperatorRequest {
+            kind: ControlKind::EStop.wire(),
+            axis: u32::MAX,
+            value: 0.0,
+            flags: 0,
+            path: FixedStr::empty(),
+        });
+        let t0 = Instant::now();
+        let mut confirmed_at: Option<Instant> = None;
+        loop {
+            if let Ok(p) = &pending {
+                if let Some(r) = p.receive()? {
+                    return Ok(*r);
+                }
+            }
+            if let Ok((_, status)) = &direct {
+                if confirmed_at.is_none() {
+                    while let Some(s) = status.receive()? {
+                        if MachineState::from_wire(s.state) == Some(MachineState::EStopped) {
+                            confirmed_at = Some(Instant::now());
+                        }
+                    }
+                }
+            }
+            let mmi_waited = confirmed_at.is_some_and(|t| {
+                t.elapsed().as_secs_f64() > self.heartbeat_timeout_s || pending.is_err()
+            });
+            if mmi_waited {
+                return Ok(OperatorReply {
+                    accepted: 1,
+                    job_id: 0,
+                    message: FixedStr::truncated(&format!(
+                        "emergency stop (EStopped): taken by the position process directly; the MMI did not answer within {:.1} s",
+                        t0.elapsed().as_secs_f64()
+                    )),
+                });
+            }
+            if t0.elapsed() > REPLY_TIMEOUT {
+                let direct = match &direct {
+                    Ok(_) => "sent to the position process directly, not confirmed".to_string(),
+                    Err(e) => format!("not sent to the position process directly ({e:#})"),
+                };
+                bail!(
+                    "E-stop {direct}, and no reply from softnc-mmi within {REPLY_TIMEOUT:?}: is softncd running?"
+                );
+            }
+            let _ = self.node.wait(Duration::from_millis(1));
+        }
+    }
+
+    /// Publish the E-stop on the `estop` service; the publisher is kept (with a
+    /// subscriber to the position status that confirms it) while the caller waits.
+    #[allow(clippy::type_complexity)]
+    fn estop_direct(
+        &self,
+    ) -> Result<(
+        iceoryx2::port::publisher::Publisher<ipc::Service, EStopRequest, ()>,
+        crate::bus::Sub<PositionStatus>,
+    )> {
+        let status = crate::bus::pubsub_service::<PositionStatus>(
+            &self.node,
+            &self.names.status(),
+            crate::bus::SMALL_BUFFER,
+            1,
+        )?
+        .subscriber_builder()
+        .buffer_size(crate::bus::SMALL_BUFFER)
+        .create()
+        .context("position status subscriber")?;
+        let publisher = crate::bus::estop_service(&self.node, &self.names)?
+            .publisher_builder()
+            .create()
+            .context("E-stop publisher")?;
+        publisher.send_copy(EStopRequest {
+            sender_pid: std::process::id(),
+            sent_unix_ns: softnc_rt::unix_ns(),
+        })?;
+        Ok((publisher, status))
     }
 
     /// Switch the machine on if it is off (the daemon starts off) and wait until it

@@ -84,6 +84,15 @@ pub struct DaemonConfig {
     /// the dead-man of a client that went away.
     #[serde(default = "default_jog_deadman_s")]
     pub jog_deadman_s: f64,
+    /// The position process stops what moves — a job along its path, a jog or a
+    /// homing decelerating — when it has heard nothing from the MMI (heartbeat or
+    /// command) for this long (s): a hung MMI can take no E-stop, no hold, no abort.
+    #[serde(default = "default_mmi_silence_stop_s")]
+    pub mmi_silence_stop_s: f64,
+}
+
+fn default_mmi_silence_stop_s() -> f64 {
+    1.0
 }
 
 fn default_jog_deadman_s() -> f64 {
@@ -302,6 +311,14 @@ impl DaemonConfig {
         }
         if !(config.jog_deadman_s > 0.0 && config.jog_deadman_s.is_finite()) {
             return Err(bad("jog_deadman_s", "must be a finite number > 0"));
+        }
+        if !(config.mmi_silence_stop_s >= 2.0 * config.heartbeat_period_s
+            && config.mmi_silence_stop_s.is_finite())
+        {
+            return Err(bad(
+                "mmi_silence_stop_s",
+                "must be finite and at least two heartbeat periods (heartbeat_period_s)",
+            ));
         }
         if !(config.following_error_limit_mm > 0.0 && config.following_error_limit_mm.is_finite()) {
             return Err(bad(

@@ -346,6 +346,8 @@ impl InterpTask {
             process: ProcessId::Interp.wire(),
             job_id: self.job_id,
             time_index: 0,
+            pid: std::process::id(),
+            raised_unix_ns: softnc_rt::unix_ns(),
             message,
         }))
     }

@@ -5,7 +5,10 @@
 //! error) → mode → position command → controller stack and servo backend → status.
 //! Motion starts only when the ring holds `window` future samples. If the ring runs
 //! dry mid-job (the interpolator died or stalled), the axes decelerate along the path
-//! still in the ring and the machine is faulted with an alarm.
+//! still in the ring and the machine is faulted with an alarm; so too when the MMI
+//! has been silent past `mmi_silence_stop_s` (a jog or a homing decelerates). An
+//! E-stop comes from the MMI or straight from an operator client (the `estop`
+//! service); a reset clears it or a fault and leaves the drives off.
 //!
 //! Nothing on the cycle reads a file or allocates: a job's programmed path, its fresh
 //! engine, its trace file and its PDC designs, and the redesigns a spindle override
@@ -21,8 +24,8 @@ use crate::prep::{JobPrep, Prep, PrepRequest, Prepared, Retired};
 use anyhow::Result;
 use softnc_core::{Axes, CommandRing, Primitive, RingSample, Vec3, COMMAND_RING_CAPACITY};
 use softnc_ipc::{
-    Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, FixedStr, Heartbeat,
-    LoopStats as LoopStatsMsg, MachineState, PositionStatus, ProcessId, MAX_AXES,
+    Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, EStopRequest, FixedStr,
+    Heartbeat, LoopStats as LoopStatsMsg, MachineState, PositionStatus, ProcessId, MAX_AXES,
 };
 use softnc_rt::{LoopStats, PeriodicClock};
 use softnc_servo::spindle::SpindleDesigns;
@@ -125,6 +128,14 @@ pub struct PositionTask<B: ServoBackend> {
     window: usize,
     commands: Sub<CommandSample>,
     control: Sub<ControlCommand>,
+    /// E-stops straight from operator clients (past the MMI).
+    estop: Sub<EStopRequest>,
+    /// Heartbeats: the MMI's tell this process it is there.
+    heartbeats: Sub<Heartbeat>,
+    /// When the MMI was last heard (a heartbeat or a command).
+    mmi_heard: Instant,
+    /// The MMI's silence has stopped the motion (reported once, until heard again).
+    mmi_silent: bool,
     /// Status, heartbeats, loop stats and alarms leave through the outbox thread.
     outbox: Outbox<PositionMsg>,
     state: MachineState,
@@ -213,9 +224,6 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             crate::machine_store::MachineStore::new(&cfg.data_dir),
             cfg.subroutine_path.clone(),
         )?;
-        // a controller starts with its drives off; restarted under a running one
-        // (the process was lost), it comes back as the machine was: on
-        let restarted = std::env::var_os(crate::cli::RESTARTED_ENV).is_some();
         // absolute encoders (no homing section): homed from the start
         let homed = if cfg.machine.homed_at_start() {
             ALL_HOMED
@@ -232,6 +240,10 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         Ok(PositionTask {
             commands: bus.command_subscriber()?,
             control: bus.control_subscriber()?,
+            estop: bus.estop_subscriber()?,
+            heartbeats: bus.heartbeat_subscriber()?,
+            mmi_heard: Instant::now(),
+            mmi_silent: false,
             outbox: Outbox::start(
                 softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance),
                 "position-out",
@@ -252,11 +264,10 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             trace: None,
             ring: CommandRing::new(),
             window,
-            state: if restarted {
-                MachineState::Idle
-            } else {
-                MachineState::Off
-            },
+            // drives off: a controller starts off, and a position process restarted
+            // (on the reset after it was lost) comes back off too — a reset never
+            // switches the drives on, the operator's `on` does
+            state: MachineState::Off,
             switches: crate::interp::Switches::default(),
             from_line: None,
             phase: JobPhase::NoJob,
@@ -312,6 +323,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             job_id: self.phase.job_id(),
             time_index: self.current.map_or(0, |c| c.time_index),
             message,
+            pid: std::process::id(),
+            raised_unix_ns: softnc_rt::unix_ns(),
         }))?;
         Ok(())
     }
@@ -412,22 +425,91 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         }
     }
 
-    /// Control commands from the MMI.
+    /// The emergency stop (from the MMI, or straight from a client: `from_pid`):
+    /// everything stops where it is; reported once per E-stop.
+    fn emergency_stop(&mut self, from_pid: Option<u32>) -> Result<()> {
+        self.manual.stop();
+        self.manual.hold(self.last_cmd);
+        if self.state == MachineState::EStopped {
+            return Ok(());
+        }
+        self.state = MachineState::EStopped;
+        match from_pid {
+            Some(pid) => self.alarm(
+                AlarmCode::EStop,
+                u32::MAX,
+                format_args!("emergency stop (from operator client pid {pid}, past the MMI)"),
+            ),
+            None => self.alarm(AlarmCode::EStop, u32::MAX, format_args!("emergency stop")),
+        }
+    }
+
+    /// The MMI heard from (heartbeats); what moves stops when it has been silent
+    /// past `mmi_silence_stop_s`: a job along its path, a jog or a homing
+    /// decelerating (a hung MMI can take no hold, abort or E-stop).
+    fn watch_mmi(&mut self) -> Result<()> {
+        while let Some(h) = self.heartbeats.receive()? {
+            if h.process == ProcessId::Mmi.wire() {
+                self.mmi_heard = Instant::now();
+                self.mmi_silent = false;
+            }
+        }
+        let silent_s = self.mmi_heard.elapsed().as_secs_f64();
+        if self.mmi_silent || silent_s <= self.cfg.config.mmi_silence_stop_s {
+            return Ok(());
+        }
+        let job_moving = matches!(self.state, MachineState::Running | MachineState::Held)
+            && self.phase.dry().is_none();
+        let manual = matches!(self.state, MachineState::Homing | MachineState::Jogging);
+        if !job_moving && !manual {
+            return Ok(());
+        }
+        self.mmi_silent = true;
+        let bound_s = self.cfg.config.mmi_silence_stop_s;
+        if job_moving {
+            // stopped along the path left in the ring, then faulted there
+            self.feed_held = true;
+            self.begin_dry_stop();
+            // (not `ProcessLost`: the MMI reads that as this process lost)
+            self.alarm(
+                AlarmCode::Other,
+                u32::MAX,
+                format_args!(
+                    "the MMI has been silent for {silent_s:.1} s (bound {bound_s} s): the job stops along its path"
+                ),
+            )
+        } else {
+            self.manual.stop();
+            // (not `ProcessLost`: the MMI reads that as this process lost)
+            self.alarm(
+                AlarmCode::Other,
+                u32::MAX,
+                format_args!(
+                    "the MMI has been silent for {silent_s:.1} s (bound {bound_s} s): jog or homing stopped"
+                ),
+            )
+        }
+    }
+
+    /// Control commands from the MMI, E-stops straight from clients.
     fn pull_control(&mut self) -> Result<()> {
+        while let Some(e) = self.estop.receive()? {
+            let pid = e.sender_pid;
+            self.emergency_stop(Some(pid))?;
+        }
         while let Some(c) = self.control.receive()? {
             if c.sender == ProcessId::Mmi.wire() {
                 self.mmi_control_seq = c.seq;
+                self.mmi_heard = Instant::now();
             }
             match ControlKind::from_wire(c.kind) {
-                Some(ControlKind::EStop) => {
-                    self.manual.stop();
-                    self.manual.hold(self.last_cmd);
-                    self.state = MachineState::EStopped;
-                    self.alarm(AlarmCode::EStop, u32::MAX, format_args!("emergency stop"))?;
-                }
+                Some(ControlKind::EStop) => self.emergency_stop(None)?,
                 Some(ControlKind::Reset) => {
                     if matches!(self.state, MachineState::EStopped | MachineState::Faulted) {
-                        self.state = MachineState::Idle;
+                        // the latch cleared, the machine off: switching the drives
+                        // on is the operator's `on` (as LinuxCNC)
+                        self.engine.backend_mut().disable();
+                        self.state = MachineState::Off;
                         self.ring.reset();
                         self.flags.clear();
                         self.phase = JobPhase::NoJob;
@@ -793,6 +875,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         // 1. inputs (control first: a job's StartJob comes before its samples)
         self.pull_commands()?;
         self.take_prepared()?;
+        self.watch_mmi()?;
         // 2. mode and position command
         let mut cmd = self.last_cmd;
         let mut feed_move = false;

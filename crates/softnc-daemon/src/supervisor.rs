@@ -146,8 +146,9 @@ impl Supervisor {
         Ok(())
     }
 
-    /// An alarm about process `about` (a `ProcessLost` names the process lost).
-    fn alarm(&mut self, code: AlarmCode, about: ProcessId, msg: &str) {
+    /// An alarm about process `about` (a `ProcessLost` names the process lost and
+    /// its pid `pid`).
+    fn alarm(&mut self, code: AlarmCode, about: ProcessId, pid: u32, msg: &str) {
         tracing::warn!("{msg}");
         let _ = self.alarms.send_copy(Alarm {
             code: code.wire(),
@@ -156,6 +157,8 @@ impl Supervisor {
             job_id: 0,
             time_index: 0,
             message: FixedStr::truncated(msg),
+            pid,
+            raised_unix_ns: softnc_rt::unix_ns(),
         });
     }
 
@@ -238,6 +241,7 @@ impl Supervisor {
         for i in 0..self.procs.len() {
             let p = &mut self.procs[i];
             let mut died: Option<String> = None;
+            let pid = p.child.as_ref().map_or(0, |c| c.id());
             if let Some(c) = p.child.as_mut() {
                 if let Some(status) = c.try_wait().ok().flatten() {
                     died = Some(status.to_string());
@@ -256,7 +260,7 @@ impl Supervisor {
             }
             if let Some(how) = died {
                 self.procs[i].child = None;
-                self.on_death(i, &how);
+                self.on_death(i, pid, &how);
             }
             let p = &self.procs[i];
             if p.child.is_none() && !p.given_up && p.restart_at.is_some_and(|t| Instant::now() >= t)
@@ -267,7 +271,7 @@ impl Supervisor {
         Ok(())
     }
 
-    fn on_death(&mut self, i: usize, how: &str) {
+    fn on_death(&mut self, i: usize, pid: u32, how: &str) {
         let (name, id) = (self.procs[i].name, self.procs[i].id);
         let n = clean_dead_nodes();
         tracing::info!("removed stale resources of {n} dead node(s)");
@@ -276,6 +280,7 @@ impl Supervisor {
             self.alarm(
                 AlarmCode::ProcessLost,
                 id,
+                pid,
                 &format!("{name} exited ({how}); machine faulted, reset required"),
             );
             return;
@@ -298,6 +303,7 @@ impl Supervisor {
             self.alarm(
                 AlarmCode::ProcessLost,
                 id,
+                pid,
                 &format!(
                     "{name} exited ({how}) after {n} restarts within {:.0} s: not restarted; machine faulted, reset to try again",
                     sv.restart_window_s
@@ -312,6 +318,7 @@ impl Supervisor {
         self.alarm(
             AlarmCode::ProcessLost,
             id,
+            pid,
             &format!("{name} exited ({how}); restarting it in {delay_s:.1} s"),
         );
     }

@@ -17,7 +17,7 @@ pub mod payload;
 pub use fixed_str::{FixedStr, TooLong};
 pub use names::ServiceNames;
 pub use payload::{
-    Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, Heartbeat, LoopStats,
-    MachineState, OperatorReply, OperatorRequest, PositionStatus, ProcessId, JOB_ADAPTIVE_FORCE,
-    MAX_AXES,
+    Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, EStopRequest, Heartbeat,
+    LoopStats, MachineState, OperatorReply, OperatorRequest, PositionStatus, ProcessId,
+    JOB_ADAPTIVE_FORCE, MAX_AXES,
 };

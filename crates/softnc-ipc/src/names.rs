@@ -30,6 +30,11 @@ impl ServiceNames {
     pub fn control(&self) -> String {
         self.name("control")
     }
+    /// Emergency stops straight from operator clients to the position process,
+    /// past the MMI (publish-subscribe).
+    pub fn estop(&self) -> String {
+        self.name("estop")
+    }
     /// Heartbeats of every process (publish-subscribe).
     pub fn heartbeat(&self) -> String {
         self.name("heartbeat")

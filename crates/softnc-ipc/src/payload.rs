@@ -336,6 +336,29 @@ pub struct Alarm {
     pub time_index: u64,
     /// Plain-language text.
     pub message: FixedStr<256>,
+    /// For a `ProcessLost`, the pid of the process lost (0: unknown), so that a
+    /// late or replayed alarm never marks its successor lost; otherwise the
+    /// raiser's pid.
+    pub pid: u32,
+    /// When it was raised (ns since the Unix epoch): an alarm replayed to a
+    /// restarted MMI that the operator had already acknowledged by a reset is not
+    /// shown again.
+    pub raised_unix_ns: u64,
+}
+
+/// An emergency stop straight from an operator client to the position process
+/// (the interpolator learns it from the position status), on the instance's
+/// `estop` service: it stops the machine
+/// even when the MMI does not answer. The service carries nothing else, so a
+/// publisher on it can only stop the machine, never move it.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("softnc::EStopRequest")]
+pub struct EStopRequest {
+    /// The sending client's pid (for the alarm).
+    pub sender_pid: u32,
+    /// When it was sent (ns since the Unix epoch).
+    pub sent_unix_ns: u64,
 }
 
 /// Operator client → MMI (request-response).

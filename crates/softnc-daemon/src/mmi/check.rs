@@ -171,6 +171,8 @@ impl MmiTask {
                     process: ProcessId::Mmi.wire(),
                     job_id: 0,
                     time_index: 0,
+                    pid: std::process::id(),
+                    raised_unix_ns: softnc_rt::unix_ns(),
                     message: FixedStr::truncated(&msg),
                 })?;
                 Self::reply(false, 0, &msg)

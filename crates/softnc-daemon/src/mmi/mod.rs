@@ -99,6 +99,10 @@ pub struct MmiTask {
     /// (`mmi_control_seq`), so that a status read right after the reply does not
     /// show the state before it.
     asked: Option<(MachineState, u64, Instant)>,
+    /// Alarms raised up to this time (ns since the Unix epoch) were acknowledged by
+    /// a reset: replayed to a restarted MMI, they are not shown again. Kept in
+    /// `<data_dir>/alarms-acknowledged` across MMI restarts.
+    alarms_acknowledged_unix_ns: u64,
     stop: StopWatch,
     _bus: Bus,
 }
@@ -107,6 +111,9 @@ type OperatorRequestIn =
     iceoryx2::active_request::ActiveRequest<ipc::Service, OperatorRequest, (), OperatorReply, ()>;
 
 const ALARM_HISTORY: usize = 50;
+
+/// The file in the data directory that keeps when the alarms were last acknowledged.
+const ALARMS_ACKNOWLEDGED: &str = "alarms-acknowledged";
 
 impl MmiTask {
     /// Open the services and the job history.
@@ -128,6 +135,15 @@ impl MmiTask {
         if std::env::var_os(crate::cli::RESTARTED_ENV).is_none() {
             store.clear_modal();
         }
+        let restarted = std::env::var_os(crate::cli::RESTARTED_ENV).is_some();
+        let alarms_acknowledged_unix_ns = if restarted {
+            std::fs::read_to_string(cfg.data_dir.join(ALARMS_ACKNOWLEDGED))
+                .ok()
+                .and_then(|t| t.trim().parse().ok())
+                .unwrap_or(0)
+        } else {
+            0
+        };
         let modal = store.load_modal().unwrap_or_else(|e| {
             tracing::error!("{e}");
             None
@@ -176,6 +192,7 @@ impl MmiTask {
             switches: Switches::default(),
             jog_lease: None,
             asked: None,
+            alarms_acknowledged_unix_ns,
             abort_asked: None,
             intent: None,
             stop: StopWatch::manual(),
@@ -391,6 +408,10 @@ impl MmiTask {
             }
         }
         while let Some(a) = self.alarms_sub.receive()? {
+            if a.raised_unix_ns != 0 && a.raised_unix_ns <= self.alarms_acknowledged_unix_ns {
+                // replayed to this (restarted) MMI, acknowledged by a reset before
+                continue;
+            }
             if a.code == AlarmCode::Note.wire() {
                 // a remark for the job's record, not an alarm
                 let (job_id, text) = (a.job_id, a.message.as_str().to_string());
@@ -403,11 +424,17 @@ impl MmiTask {
             if a.code == AlarmCode::ProcessLost.wire() && a.process != ProcessId::Supervisor.wire()
             {
                 // the process named is gone: not alive until its successor says so
+                // (an alarm about an instance before the one heard now is stale:
+                // its successor stays alive)
+                let mut current = true;
                 if let Some(p) = self.peers.get_mut(a.process as usize) {
-                    p.lost_pid = Some(p.pid);
-                    p.last_seen = None;
+                    current = a.pid == 0 || p.pid == 0 || p.pid == a.pid;
+                    if current {
+                        p.lost_pid = Some(if a.pid != 0 { a.pid } else { p.pid });
+                        p.last_seen = None;
+                    }
                 }
-                if a.process == ProcessId::Position.wire() {
+                if current && a.process == ProcessId::Position.wire() {
                     // the servo loop died under the job: it ended there (faulted)
                     let alarm = format!("ProcessLost: {}", a.message.as_str());
                     if let Some(j) = self.running_job() {
@@ -452,15 +479,21 @@ impl MmiTask {
         }
         while let Some(req) = self.server.receive()? {
             let r = *req;
+            // a client that gave up waiting (this process was stopped) is gone: its
+            // reply goes nowhere, which is no reason to stop serving
             match self.handle(&r)? {
                 Some(reply) => {
-                    req.send_copy(reply)?;
+                    if let Err(e) = req.send_copy(reply) {
+                        tracing::warn!("reply not delivered: {e:?}");
+                    }
                 }
                 // a job taken in off the loop: answered when its check ends
                 None => match self.checking.as_mut() {
                     Some(c) => c.request = Some(req),
                     None => {
-                        req.send_copy(Self::reply(false, 0, "job not started"))?;
+                        if let Err(e) = req.send_copy(Self::reply(false, 0, "job not started")) {
+                            tracing::warn!("reply not delivered: {e:?}");
+                        }
                     }
                 },
             }
@@ -525,6 +558,8 @@ impl MmiTask {
                     process: ProcessId::Mmi.wire(),
                     job_id: 0,
                     time_index: 0,
+                    pid: std::process::id(),
+                    raised_unix_ns: softnc_rt::unix_ns(),
                     message: FixedStr::truncated(&format!("parameters not saved: {e}")),
                 })?;
             }
@@ -728,8 +763,10 @@ impl MmiTask {
                         }
                         ControlKind::Reset => {
                             // acknowledged: the machine's list is cleared, the jobs'
-                            // records keep theirs
+                            // records keep theirs; a restarted MMI does not show
+                            // them again
                             self.alarms.clear();
+                            self.acknowledge_alarms();
                         }
                         ControlKind::EStop => {
                             if let Some(c) = self.checking.as_mut() {
@@ -747,7 +784,11 @@ impl MmiTask {
                         ControlKind::Abort => format!("job {job_id} stopping along its path"),
                         ControlKind::EStop => "emergency stop".to_string(),
                         _ if state == MachineState::Idle => "alarms cleared".to_string(),
-                        _ => "reset: alarms cleared".to_string(),
+                        _ if state == MachineState::Off => "alarms cleared".to_string(),
+                        _ if self.peer_status(ProcessId::Position) != "alive" => {
+                            "reset: alarms cleared; the position process is started again, the machine comes back off (`on` to switch the drives on)".to_string()
+                        }
+                        _ => "reset: alarms cleared, the machine is off (`on` to switch the drives on)".to_string(),
                     };
                     Self::reply(true, job_id, &format!("{what} ({next:?})"))
                 }
@@ -764,6 +805,16 @@ impl MmiTask {
             ControlKind::Status => Self::reply(true, 0, &self.status_json().to_string()),
             ControlKind::Jobs => Self::reply(true, 0, &self.jobs_page(r.value)),
         }))
+    }
+
+    /// A reset acknowledged the alarms raised until now: kept for a restarted MMI.
+    fn acknowledge_alarms(&mut self) {
+        self.alarms_acknowledged_unix_ns = softnc_rt::unix_ns();
+        let path = self.cfg.data_dir.join(ALARMS_ACKNOWLEDGED);
+        let text = self.alarms_acknowledged_unix_ns.to_string();
+        if let Err(e) = softnc_core::store::write_atomic(&path, text.as_bytes()) {
+            tracing::warn!("{}: {e}", path.display());
+        }
     }
 
     /// "alive" (a heartbeat within the timeout), "lost" (silent, or reported lost and
@@ -882,7 +933,8 @@ pub fn transition(kind: ControlKind, state: MachineState) -> Result<MachineState
         (K::Abort, Running | Held | Paused | Mdi) => Ok(Stopping),
         (K::Abort, Homing | Jogging) => Ok(Idle),
         (K::Abort, Stopping) => Err("already stopping"),
-        (K::Reset, Faulted | EStopped) => Ok(Idle),
+        // the latch cleared, the drives left off: `on` switches them on (LinuxCNC)
+        (K::Reset, Faulted | EStopped) => Ok(Off),
         (K::Reset, Idle) => Ok(Idle),
         (K::Reset, Off) => Ok(Off),
         (K::Reset, Running | Held | Stopping | Paused | Mdi | Homing | Jogging) => {
@@ -916,10 +968,7 @@ mod tests {
                 [None, Some(Stopping), Some(Stopping), None, None, None],
             ),
             (EStop, [Some(EStopped); 6]),
-            (
-                Reset,
-                [Some(Idle), None, None, None, Some(Idle), Some(Idle)],
-            ),
+            (Reset, [Some(Idle), None, None, None, Some(Off), Some(Off)]),
         ];
         for (kind, row) in table {
             for (state, want) in states.iter().zip(row) {
@@ -929,6 +978,17 @@ mod tests {
         }
         // a refusal says why
         assert!(transition(Reset, Running).unwrap_err().contains("abort"));
+        // a reset never switches the drives on: after it, `on` is needed, and only
+        // then does anything move
+        for latched in [Faulted, EStopped] {
+            let after = transition(Reset, latched).unwrap();
+            assert_eq!(after, Off, "reset in {latched:?}");
+            assert_eq!(transition(MachineOn, after), Ok(Idle));
+            for moving in [Home, Jog, JogStep] {
+                assert!(transition(moving, after).is_err(), "{moving:?} after reset");
+            }
+        }
+        assert_eq!(transition(Reset, Off), Ok(Off));
         assert!(transition(Resume, Running)
             .unwrap_err()
             .contains("nothing is held"));

@@ -1,0 +1,429 @@
+//! The E-stop and the machine state after stops and crashes (issue 34, items 4, 5
+//! and 7), end to end through softncd, its three processes and the client:
+//! - the E-stop reaches the position process with the MMI stopped (SIGSTOP);
+//! - a job stops along its path when the MMI is silent past `mmi_silence_stop_s`,
+//!   and when the interpolator is stopped (the ring runs dry);
+//! - a reset after an E-stop or a fault leaves the drives off: `on` is needed;
+//! - after any sequence of crashes (kill -9 of each process), resets and `on`,
+//!   `status` says what is so and a reset recovers.
+#[allow(unused_imports)] // the shared harness re-exports what other test files use
+mod support;
+use support::*;
+
+/// A job of about 16 s: four laps of a 40 mm square at 2400 mm/min.
+fn long_job(dir: &Path) -> PathBuf {
+    let p = dir.join("long.ngc");
+    let mut text = String::from("G21 G90 G17 G64 P0.01\nG0 X0 Y0 Z5\nG1 Z-1 F600\n");
+    for _ in 0..4 {
+        text.push_str("G1 X40 F2400\nG1 Y40\nG1 X0\nG1 Y0\n");
+    }
+    text.push_str("G0 Z5\nM2\n");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn signal(pid: u32, sig: &str) {
+    assert!(Command::new("kill")
+        .args([sig, &pid.to_string()])
+        .status()
+        .unwrap()
+        .success());
+}
+
+/// Start the long job and wait until it moves; its id and the status then.
+fn start_long_job(d: &Daemon, op: &Operator) -> (u64, serde_json::Value) {
+    let job = long_job(&d.dir);
+    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let s = d.wait_status(op, Duration::from_secs(20), "motion", |s| {
+        s["job"]["cycles"].as_u64().unwrap_or(0) > 800
+    });
+    (r.job_id, s)
+}
+
+#[test]
+fn estop_from_the_client_stops_the_job_while_the_mmi_is_stopped() {
+    // the MMI's silence alone must not be what stops the job here
+    let dir = fresh_dir("estopmmi");
+    let d = Daemon::start_in(
+        dir,
+        "estopmmi",
+        "Realtime",
+        false,
+        "default.ron",
+        &[("mmi_silence_stop_s: 1.0", "mmi_silence_stop_s: 30.0")],
+    );
+    let op = d.operator();
+    let (job, before) = start_long_job(&d, &op);
+    let path_before = before["job"]["path_mm"].as_f64().unwrap();
+    let mmi = d.pid_of("softnc-mmi").unwrap();
+    signal(mmi, "-STOP");
+    let t0 = Instant::now();
+    let r = op.request(ControlKind::EStop, 0.0, "");
+    let took = t0.elapsed();
+    // the MMI stays stopped a while: the job would run on (16 s long) without the E-stop
+    std::thread::sleep(Duration::from_millis(1500));
+    signal(mmi, "-CONT");
+    let r = r.expect("the E-stop is confirmed with the MMI stopped");
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    assert!(took < Duration::from_secs(3), "E-stop took {took:?}");
+    let s = d.wait_status(&op, Duration::from_secs(10), "E-stopped", |s| {
+        s["state"] == "EStopped" && s["job"]["job_id"] == job && s["job"]["outcome"] != "running"
+    });
+    assert_eq!(s["job"]["outcome"], "aborted", "{s}");
+    assert!(
+        s["alarms"].to_string().contains("past the MMI"),
+        "the position process says where the E-stop came from: {s}"
+    );
+    // it stopped at once, not when the MMI came back 1.5 s later (40 mm/s)
+    let path_after = s["job"]["path_mm"].as_f64().unwrap();
+    assert!(
+        path_after - path_before < 25.0,
+        "the job went on {} mm after the E-stop was asked",
+        path_after - path_before
+    );
+    // and it stays where it stopped
+    let at = machine_mm(&s);
+    std::thread::sleep(Duration::from_millis(500));
+    let s = op.status().unwrap();
+    assert_eq!(machine_mm(&s), at, "{s}");
+    assert_eq!(s["state"], "EStopped", "{s}");
+    // the MMI, back, serves as before: reset (the drives stay off), on, a job runs
+    assert_eq!(op.request(ControlKind::Reset, 0.0, "").unwrap().accepted, 1);
+    d.wait_status(&op, Duration::from_secs(10), "off after reset", |s| {
+        s["state"] == "Off"
+    });
+    op.machine_on(Duration::from_secs(10)).unwrap();
+    let r = op
+        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
+        .unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+}
+
+#[test]
+fn a_job_stops_along_its_path_when_the_mmi_is_silent_past_the_bound() {
+    let d = Daemon::start("mmisilent", "Realtime", true);
+    let op = d.operator();
+    let (job, _) = start_long_job(&d, &op);
+    let mmi = d.pid_of("softnc-mmi").unwrap();
+    signal(mmi, "-STOP");
+    // past the bound (1 s), well within the supervisor's watchdog (10 s)
+    std::thread::sleep(Duration::from_millis(2500));
+    signal(mmi, "-CONT");
+    let s = d.wait_status(&op, Duration::from_secs(10), "faulted", |s| {
+        s["state"] == "Faulted" && s["job"]["outcome"] != "running"
+    });
+    assert_eq!(s["job"]["job_id"], job, "{s}");
+    assert_eq!(s["job"]["outcome"], "aborted", "{s}");
+    assert!(
+        s["alarms"].to_string().contains("MMI has been silent"),
+        "{}",
+        s["alarms"]
+    );
+    assert!(
+        s["job"]["path_mm"].as_f64().unwrap() < s["job"]["planned_path_mm"].as_f64().unwrap(),
+        "{s}"
+    );
+    assert_stops_along_the_path(&d.dir.join(format!("data/trace-job{job}.csv")));
+    assert_eq!(
+        d.pid_of("softnc-mmi"),
+        Some(mmi),
+        "the MMI was not restarted"
+    );
+}
+
+#[test]
+fn a_stopped_interpolator_runs_the_ring_dry_and_the_job_stops_along_its_path() {
+    let d = Daemon::start("interpstop", "Realtime", true);
+    let op = d.operator();
+    let (job, _) = start_long_job(&d, &op);
+    let interp = d.pid_of("softnc-interp").unwrap();
+    signal(interp, "-STOP");
+    let s = d.wait_status(&op, Duration::from_secs(10), "faulted", |s| {
+        s["state"] == "Faulted" && s["job"]["outcome"] != "running"
+    });
+    assert!(s["alarms"].to_string().contains("RingDry"), "{s}");
+    assert_eq!(s["job"]["outcome"], "aborted", "{s}");
+    assert_stops_along_the_path(&d.dir.join(format!("data/trace-job{job}.csv")));
+    signal(interp, "-CONT");
+    // reset: off, not on
+    assert_eq!(op.request(ControlKind::Reset, 0.0, "").unwrap().accepted, 1);
+    d.wait_status(&op, Duration::from_secs(10), "off after reset", |s| {
+        s["state"] == "Off"
+    });
+}
+
+/// Run MDI `block` to its end; its outcome.
+fn mdi(d: &Daemon, op: &Operator, block: &str) -> String {
+    let r = op.request(ControlKind::Mdi, 0.0, block).unwrap();
+    assert_eq!(r.accepted, 1, "MDI {block}: {}", r.message.as_str());
+    let s = d.wait_job(op, r.job_id, Duration::from_secs(30));
+    s["job"]["outcome"].as_str().unwrap_or("?").to_string()
+}
+
+/// The state stays `want` for a while (a heartbeat timeout and more).
+fn stays(d: &Daemon, op: &Operator, want: &str) -> serde_json::Value {
+    let s = d.wait_status(op, Duration::from_secs(15), want, |s| s["state"] == want);
+    std::thread::sleep(Duration::from_millis(700));
+    let s2 = op.status().unwrap();
+    assert_eq!(s2["state"], want, "{want} did not stay: {s2} (was {s})");
+    s2
+}
+
+#[test]
+fn reset_after_an_estop_or_a_fault_leaves_the_drives_off_until_on() {
+    let d = Daemon::start("resetoff", "Realtime", false);
+    let op = d.operator();
+    assert_eq!(mdi(&d, &op, "G0 X5"), "completed");
+    // E-stop, reset: off
+    let (ok, msg) = ask(&op, ControlKind::EStop, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    stays(&d, &op, "EStopped");
+    let (ok, msg) = ask(&op, ControlKind::Reset, u32::MAX, 0.0, "");
+    assert!(ok && msg.contains("Off"), "{msg}");
+    stays(&d, &op, "Off");
+    // nothing moves until `on`
+    let r = op.request(ControlKind::Mdi, 0.0, "G0 X10").unwrap();
+    assert_eq!(r.accepted, 0, "MDI after reset: {}", r.message.as_str());
+    assert!(r.message.as_str().contains("off"), "{}", r.message.as_str());
+    let (ok, msg) = ask(&op, ControlKind::JogStep, 0, 1.0, "");
+    assert!(!ok, "jog after reset: {msg}");
+    let (ok, msg) = ask(&op, ControlKind::MachineOn, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    stays(&d, &op, "Idle");
+    assert_eq!(mdi(&d, &op, "G0 X10"), "completed");
+    // off, E-stop, reset: still off (the E-stop does not remember "on")
+    let (ok, msg) = ask(&op, ControlKind::MachineOff, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    stays(&d, &op, "Off");
+    assert!(ask(&op, ControlKind::EStop, u32::MAX, 0.0, "").0);
+    stays(&d, &op, "EStopped");
+    assert!(ask(&op, ControlKind::Reset, u32::MAX, 0.0, "").0);
+    stays(&d, &op, "Off");
+    // a fault (the position process lost mid-job): the reset restarts it, off
+    op.machine_on(Duration::from_secs(10)).unwrap();
+    let _job = start_moving(&d, &op);
+    d.kill9("softnc-position");
+    stays(&d, &op, "Faulted");
+    let (ok, msg) = ask(&op, ControlKind::Reset, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    let s = stays(&d, &op, "Off");
+    assert_eq!(s["processes"]["position"], "alive", "{s}");
+    let (ok, msg) = ask(&op, ControlKind::MachineOn, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    stays(&d, &op, "Idle");
+    assert_eq!(mdi(&d, &op, "G0 X7"), "completed");
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Step {
+    Kill(&'static str),
+    Reset,
+    On,
+    Mdi,
+}
+
+/// What the machine should be after the steps so far.
+#[derive(Debug, Default)]
+struct Model {
+    faulted: bool,
+    on: bool,
+    /// Processes killed since the last reset (their "exited" alarms may show).
+    killed_since_reset: Vec<&'static str>,
+}
+
+impl Model {
+    fn state(&self) -> &'static str {
+        match (self.faulted, self.on) {
+            (true, _) => "Faulted",
+            (false, true) => "Idle",
+            (false, false) => "Off",
+        }
+    }
+}
+
+/// The status agrees with what runs (once the supervisor has settled): every
+/// process that runs is alive, the position process reported lost exactly when it
+/// is not running, the state the model's, and no alarm of a crash before the last
+/// reset.
+fn agrees(d: &Daemon, s: &serde_json::Value, m: &Model) -> Result<(), String> {
+    let position_runs = d.pid_of("softnc-position").is_some();
+    let position_alive = s["processes"]["position"] == "alive";
+    if position_runs != position_alive {
+        return Err(format!(
+            "position runs: {position_runs}, status: {}",
+            s["processes"]["position"]
+        ));
+    }
+    if position_runs == m.faulted {
+        return Err(format!("position runs: {position_runs}, model {m:?}"));
+    }
+    if d.pid_of("softnc-interp").is_none() || s["processes"]["interp"] != "alive" {
+        return Err(format!("interp: {}", s["processes"]["interp"]));
+    }
+    if s["state"] != m.state() {
+        return Err(format!("state {} (model: {})", s["state"], m.state()));
+    }
+    let alarms = s["alarms"].to_string();
+    for name in ["softnc-position", "softnc-interp", "softnc-mmi"] {
+        if alarms.contains(&format!("{name} exited")) && !m.killed_since_reset.contains(&name) {
+            return Err(format!(
+                "an alarm of {name} from before the reset: {alarms}"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Wait until the status agrees with the model, then check that it still does a
+/// heartbeat timeout later (nothing replayed or stale turns it over).
+fn settle(d: &Daemon, op: &Operator, m: &Model, what: &str) {
+    let t0 = Instant::now();
+    loop {
+        let verdict = op
+            .status()
+            .map_err(|e| e.to_string())
+            .and_then(|s| agrees(d, &s, m).map_err(|e| format!("{e}\nstatus: {s}")));
+        match verdict {
+            Ok(()) => break,
+            Err(e) if t0.elapsed() > Duration::from_secs(15) => {
+                panic!("after {what}: the status does not say what is so: {e}")
+            }
+            Err(_) => std::thread::sleep(Duration::from_millis(50)),
+        }
+    }
+    std::thread::sleep(Duration::from_millis(800));
+    let s = op.status().unwrap();
+    if let Err(e) = agrees(d, &s, m) {
+        panic!("after {what}, settled, then: {e}\nstatus: {s}");
+    }
+}
+
+/// The crash sequences: the issue's own (position, reset, MMI, interp, reset),
+/// then every order of the three kills with a reset at a seeded place among them
+/// and the machine on or off before; each ends reset, on, a short MDI move.
+fn crash_sequences() -> Vec<Vec<Step>> {
+    use Step::*;
+    let mut seqs = vec![vec![
+        Kill("softnc-position"),
+        Reset,
+        Kill("softnc-mmi"),
+        Kill("softnc-interp"),
+        Reset,
+        On,
+        Mdi,
+    ]];
+    let mut seed: u64 = 0x5eed_0034;
+    let mut next = |n: u64| {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 33) % n
+    };
+    let names = ["softnc-position", "softnc-mmi", "softnc-interp"];
+    for order in [
+        [0, 1, 2],
+        [0, 2, 1],
+        [1, 0, 2],
+        [1, 2, 0],
+        [2, 0, 1],
+        [2, 1, 0],
+    ] {
+        let mut seq = Vec::new();
+        if next(2) == 0 {
+            seq.push(On);
+        }
+        let reset_at = next(4) as usize;
+        for (k, &i) in order.iter().enumerate() {
+            if k == reset_at {
+                seq.push(Reset);
+            }
+            seq.push(Kill(names[i]));
+        }
+        seq.extend([Reset, On, Mdi]);
+        seqs.push(seq);
+    }
+    seqs
+}
+
+/// A client of the (restarted) MMI, once it answers (whatever the other
+/// processes do).
+fn connect_mmi(d: &Daemon) -> Operator {
+    let t0 = Instant::now();
+    loop {
+        if let Ok(op) = Operator::connect(&d.config) {
+            if op.status().is_ok() {
+                return op;
+            }
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(15),
+            "the MMI does not answer"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn after_any_crash_sequence_status_says_what_is_so_and_reset_recovers() {
+    // restarts seconds apart are not a crash loop here
+    let d = Daemon::start_edited(
+        "crashes",
+        "Realtime",
+        &[("restart_window_s: 60.0", "restart_window_s: 1.0")],
+    );
+    let mut op = d.operator_off();
+    let mut m = Model::default();
+    settle(&d, &op, &m, "start");
+    let t0 = Instant::now();
+    for (n, seq) in crash_sequences().into_iter().enumerate() {
+        for (k, step) in seq.iter().enumerate() {
+            let what = format!("sequence {n} {seq:?}, step {k} ({step:?})");
+            match *step {
+                Step::Kill(name) => {
+                    d.kill9(name);
+                    if name == "softnc-position" {
+                        m.faulted = true;
+                    }
+                    m.killed_since_reset.push(name);
+                    if name == "softnc-mmi" {
+                        // a new MMI: a new client connection
+                        op = connect_mmi(&d);
+                    }
+                }
+                Step::Reset => {
+                    let (ok, msg) = ask(&op, ControlKind::Reset, u32::MAX, 0.0, "");
+                    assert!(ok, "{what}: reset refused: {msg}");
+                    if m.faulted {
+                        assert!(msg.contains("Off"), "{what}: {msg}");
+                        m.faulted = false;
+                        m.on = false;
+                    }
+                    m.killed_since_reset.clear();
+                }
+                Step::On => {
+                    let (ok, msg) = ask(&op, ControlKind::MachineOn, u32::MAX, 0.0, "");
+                    let can = !m.faulted && !m.on;
+                    assert_eq!(ok, can, "{what}: on: {msg}");
+                    m.on |= can;
+                }
+                Step::Mdi => {
+                    let s = op.status().unwrap();
+                    let x = machine_mm(&s)[0];
+                    let to = if x < 10.0 { x + 5.0 } else { x - 5.0 };
+                    assert_eq!(
+                        mdi(&d, &op, &format!("G90 G0 X{to:.3}")),
+                        "completed",
+                        "{what}"
+                    );
+                    let s = op.status().unwrap();
+                    assert!((machine_mm(&s)[0] - to).abs() < 1e-3, "{what}: {s}");
+                }
+            }
+            settle(&d, &op, &m, &what);
+        }
+    }
+    eprintln!("crash sequences: {:.1} s", t0.elapsed().as_secs_f64());
+}
