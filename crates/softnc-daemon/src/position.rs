@@ -211,7 +211,6 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             make_engine,
             trace,
             crate::machine_store::MachineStore::new(&cfg.data_dir),
-            cfg.subroutine_path.clone(),
         )?;
         // a controller starts with its drives off; restarted under a running one
         // (the process was lost), it comes back as the machine was: on

@@ -112,6 +112,20 @@ pub struct SubroutineFiles {
 /// The modal preamble ([`ReadOptions::preamble`]): only modal words.
 pub mod preamble {
     pub use crate::interp::check_preamble_line as check_line;
+
+    /// Whether every line of `text` (a preamble read from `file`) holds only modal
+    /// words; the first that does not, by file, line and column.
+    pub fn check(text: &str, file: &str) -> Result<(), crate::GcodeError> {
+        for (i, l) in text.lines().enumerate() {
+            check_line(l).map_err(|(off, kind)| crate::GcodeError {
+                file: file.to_string(),
+                line: i as u32 + 1,
+                column: crate::lexer::column(l, off),
+                kind,
+            })?;
+        }
+        Ok(())
+    }
 }
 
 /// [`read_program`] with [`ReadOptions`]; also returns the parameters as the
