@@ -52,7 +52,10 @@ fn a_fifo_subroutine_a_link_to_dev_zero_and_a_kernel_file_are_refused_and_later_
     assert!(made, "mkfifo");
     // a FIFO called as a subroutine: refused at once, never opened for a writer
     let (ok, msg) = submit_within(&d, &abs(&caller), Duration::from_secs(20));
-    assert!(!ok && msg.contains("fifo.ngc") && msg.contains("a FIFO"), "{msg}");
+    assert!(
+        !ok && msg.contains("fifo.ngc") && msg.contains("a FIFO"),
+        "{msg}"
+    );
     a_later_job_runs(&d, &op);
     // a subroutine that is a link to /dev/zero: refused unread (no memory eaten)
     let zero = program(&shop, "zero-caller.ngc", "G21 G90\no<zero> call\nM2\n");
@@ -102,12 +105,22 @@ fn a_check_over_its_time_is_abandoned_the_job_refused_and_later_jobs_run() {
     let (ok, msg) = submit_within(&d, &abs(&short_job(&d.dir)), Duration::from_secs(10));
     assert!(!ok && msg.contains("abandoned checks still run"), "{msg}");
     // once it has ended jobs are taken again; nothing of the abandoned one started
-    d.wait_status(&op, Duration::from_secs(120), "the abandoned check's end", |s| {
-        s["abandoned_checks"] == 0
-    });
-    assert!(op.jobs().unwrap().is_empty(), "no record of the abandoned job");
+    d.wait_status(
+        &op,
+        Duration::from_secs(120),
+        "the abandoned check's end",
+        |s| s["abandoned_checks"] == 0,
+    );
+    assert!(
+        op.jobs().unwrap().is_empty(),
+        "no record of the abandoned job"
+    );
     let s = op.status().unwrap();
-    assert_eq!(s["axes"]["cmd_mm"], serde_json::json!([0.0, 0.0, 0.0]), "{s}");
+    assert_eq!(
+        s["axes"]["cmd_mm"],
+        serde_json::json!([0.0, 0.0, 0.0]),
+        "{s}"
+    );
     a_later_job_runs(&d, &op);
     // nothing of the abandoned job kept in the data directory
     use sha2::Digest;
@@ -134,7 +147,11 @@ fn a_parameter_file_cut_short_is_refused_by_name_and_parameter_and_kept() {
     let r = op.request(ControlKind::Offsets, 0.0, "").unwrap();
     let offsets: serde_json::Value = serde_json::from_str(r.message.as_str()).unwrap();
     let g56 = &offsets["systems"][2];
-    assert_eq!(g56["origin_mm"], serde_json::json!([11.0, 22.0, -33.0]), "{g56}");
+    assert_eq!(
+        g56["origin_mm"],
+        serde_json::json!([11.0, 22.0, -33.0]),
+        "{g56}"
+    );
     drop(op);
     drop(d);
     // cut to 50 lines: G56's X is the last one left
@@ -160,13 +177,19 @@ fn a_parameter_file_cut_short_is_refused_by_name_and_parameter_and_kept() {
     assert!(r.message.as_str().contains("required parameter missing"));
     let (ok, msg) = submit_within(&d, &abs(&short_job(&d.dir)), Duration::from_secs(10));
     assert!(!ok && msg.contains("required parameter missing"), "{msg}");
-    let r = op
-        .request_axis(ControlKind::TouchOff, 0, 0.0, "")
-        .unwrap();
+    let r = op.request_axis(ControlKind::TouchOff, 0, 0.0, "").unwrap();
     assert_eq!(r.accepted, 0, "{}", r.message.as_str());
-    assert_eq!(std::fs::read_to_string(&var).unwrap(), cut, "the file was replaced");
+    assert_eq!(
+        std::fs::read_to_string(&var).unwrap(),
+        cut,
+        "the file was replaced"
+    );
     let s = op.status().unwrap();
-    assert_eq!(s["axes"]["cmd_mm"], serde_json::json!([0.0, 0.0, 0.0]), "{s}");
+    assert_eq!(
+        s["axes"]["cmd_mm"],
+        serde_json::json!([0.0, 0.0, 0.0]),
+        "{s}"
+    );
 }
 
 #[test]
@@ -190,7 +213,11 @@ fn the_modal_state_holds_only_modal_words_and_the_run_uses_the_checked_one() {
     assert_eq!(s["job"]["outcome"], "completed", "{s}");
     let planned = s["job"]["planned_path_mm"].as_f64().unwrap();
     assert!((planned - 4.0).abs() < 1e-9, "{s}");
-    assert_eq!(s["axes"]["cmd_mm"], serde_json::json!([4.0, 0.0, 0.0]), "{s}");
+    assert_eq!(
+        s["axes"]["cmd_mm"],
+        serde_json::json!([4.0, 0.0, 0.0]),
+        "{s}"
+    );
     // an MMI restarted reads the file: refused by file, line and column, nothing moves
     let lines = good.lines().count() + 1;
     std::fs::write(&modal, format!("{good}G0 X50 Y50\n")).unwrap();
@@ -206,8 +233,15 @@ fn the_modal_state_holds_only_modal_words_and_the_run_uses_the_checked_one() {
     let r = op.request(ControlKind::Mdi, 0.0, "G0 X1").unwrap();
     assert_eq!(r.accepted, 0, "{}", r.message.as_str());
     let s = op.status().unwrap();
-    assert!(s["modal_error"].as_str().is_some_and(|e| e.contains(&want)), "{s}");
-    assert_eq!(s["axes"]["cmd_mm"], serde_json::json!([4.0, 0.0, 0.0]), "{s}");
+    assert!(
+        s["modal_error"].as_str().is_some_and(|e| e.contains(&want)),
+        "{s}"
+    );
+    assert_eq!(
+        s["axes"]["cmd_mm"],
+        serde_json::json!([4.0, 0.0, 0.0]),
+        "{s}"
+    );
     // fixed: taken again
     std::fs::write(&modal, &good).unwrap();
     let (ok, msg) = submit_within(&d, &abs(&job), Duration::from_secs(20));
@@ -219,7 +253,11 @@ fn a_subroutine_beside_the_program_runs_as_it_was_checked() {
     let d = Daemon::start("besides", "Lockstep", false);
     let op = d.operator();
     let shop = d.dir.join("shop");
-    let sub = program(&shop, "side.ngc", "o<side> sub\nG1 X3 F600\no<side> endsub\n");
+    let sub = program(
+        &shop,
+        "side.ngc",
+        "o<side> sub\nG1 X3 F600\no<side> endsub\n",
+    );
     let main = program(&shop, "main.ngc", "G21 G90\no<side> call\nG1 Y2 F600\nM2\n");
     let (ok, msg) = submit_within(&d, &abs(&main), Duration::from_secs(20));
     assert!(ok, "{msg}");
@@ -228,7 +266,11 @@ fn a_subroutine_beside_the_program_runs_as_it_was_checked() {
     let id = op.jobs().unwrap()[0]["job_id"].as_u64().unwrap();
     let s = d.wait_job(&op, id, Duration::from_secs(60));
     assert_eq!(s["job"]["outcome"], "completed", "{s}");
-    assert_eq!(s["axes"]["cmd_mm"], serde_json::json!([3.0, 2.0, 0.0]), "{s}");
+    assert_eq!(
+        s["axes"]["cmd_mm"],
+        serde_json::json!([3.0, 2.0, 0.0]),
+        "{s}"
+    );
     assert!(s["job"]["alarms"].as_array().unwrap().is_empty(), "{s}");
     // the subroutine file's copy is kept beside the program's
     let copies = std::fs::read_dir(d.dir.join("data/programs"))
@@ -325,7 +367,11 @@ fn job_history_on_a_read_only_disk_is_an_alarm_and_is_written_once_writable() {
         alarms.contains("job history") && alarms.contains("not saved"),
         "{s}"
     );
-    assert_ne!(d.job_record(id)["outcome"], "completed", "written on a read-only disk?");
+    assert_ne!(
+        d.job_record(id)["outcome"],
+        "completed",
+        "written on a read-only disk?"
+    );
     // writable again: written, the alarm's cause gone, jobs taken again
     ro.writable();
     let s = d.wait_status(&op, Duration::from_secs(10), "the history written", |s| {

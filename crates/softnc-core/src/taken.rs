@@ -218,7 +218,11 @@ mod tests {
         std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
         let e = read_regular(&zero, 1 << 20).unwrap_err();
         assert!(e.to_string().contains("character device"), "{e}");
-        for kernel in ["/proc/kmsg", "/proc/self/status", "/sys/kernel/uevent_seqnum"] {
+        for kernel in [
+            "/proc/kmsg",
+            "/proc/self/status",
+            "/sys/kernel/uevent_seqnum",
+        ] {
             if Path::new(kernel).exists() {
                 let e = read_regular(Path::new(kernel), 1 << 20).unwrap_err();
                 assert!(

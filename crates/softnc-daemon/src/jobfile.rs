@@ -114,7 +114,11 @@ pub fn write_private(path: &Path, bytes: &[u8], mode: u32) -> std::io::Result<()
 
 /// Keep `bytes` (hash `sha256`) as an immutable copy in `programs`: its path, and
 /// whether this call made it (a copy already there from an earlier job is shared).
-pub fn keep_copy(programs: &Path, bytes: &[u8], sha256: &str) -> Result<(PathBuf, bool), IntakeError> {
+pub fn keep_copy(
+    programs: &Path,
+    bytes: &[u8],
+    sha256: &str,
+) -> Result<(PathBuf, bool), IntakeError> {
     let copy = copy_path(programs, sha256);
     let store = |source| IntakeError::Store {
         path: copy.display().to_string(),
@@ -250,7 +254,10 @@ mod tests {
         std::fs::write(&p, "G1 X1 F100\nM2\n").unwrap();
         let j = intake(p.to_str().unwrap(), 1 << 20).unwrap();
         assert_eq!(j.bytes, b"G1 X1 F100\nM2\n");
-        assert!(!d.join("programs").exists(), "nothing kept before the check");
+        assert!(
+            !d.join("programs").exists(),
+            "nothing kept before the check"
+        );
         let (copy, made) = keep_copy(&d.join("programs"), &j.bytes, &j.sha256).unwrap();
         assert!(made);
         // rewritten after the check: the copy still holds what was checked
@@ -299,7 +306,12 @@ mod tests {
     fn a_checked_setup_round_trips_and_refuses_a_changed_copy() {
         let d = dir("setup");
         let programs = d.join("programs");
-        let (copy, _) = keep_copy(&programs, b"o<s> sub\no<s> endsub\n", &sha256_hex(b"o<s> sub\no<s> endsub\n")).unwrap();
+        let (copy, _) = keep_copy(
+            &programs,
+            b"o<s> sub\no<s> endsub\n",
+            &sha256_hex(b"o<s> sub\no<s> endsub\n"),
+        )
+        .unwrap();
         let setup = CheckedSetup {
             job_id: 7,
             program: copy.clone(),

@@ -187,8 +187,13 @@ impl MachineStore {
             .map_err(|e| e.to_string())?;
         let params = match &checked.params {
             Some(text) => Some(
-                Params::from_var_text(text, &crate::jobfile::setup_path(&self.programs_dir(), job_id).display().to_string())
-                    .map_err(|e| e.to_string())?,
+                Params::from_var_text(
+                    text,
+                    &crate::jobfile::setup_path(&self.programs_dir(), job_id)
+                        .display()
+                        .to_string(),
+                )
+                .map_err(|e| e.to_string())?,
             ),
             None => None,
         };
@@ -401,6 +406,13 @@ mod tests {
         std::fs::write(store.params_path(), "5221\tnot-a-number\n").unwrap();
         let e = store.load_params().unwrap_err();
         assert!(e.contains(PARAMS_FILE), "{e}");
+        // cut short: as LinuxCNC, a required parameter missing, by number
+        let whole = p.to_var_text();
+        let cut: String = whole.lines().take(50).map(|l| format!("{l}\n")).collect();
+        std::fs::write(store.params_path(), &cut).unwrap();
+        let e = store.load_params().unwrap_err();
+        assert!(e.contains("required parameter missing: #5262"), "{e}");
+        assert_eq!(std::fs::read_to_string(store.params_path()).unwrap(), cut);
         // tools: the profile's until edited, then the edited table
         let prof = profile();
         assert_eq!(store.load_tools(&prof).unwrap(), prof.tools);

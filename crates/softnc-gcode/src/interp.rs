@@ -2509,7 +2509,14 @@ fn read_source<'t>(
                 if line.percent {
                     if percent_flag && cur == 0 {
                         run_from_reached(&it, options, file)?;
-                        return Ok(finish(it, file, executed as usize + first, chunk, sink, taken));
+                        return Ok(finish(
+                            it,
+                            file,
+                            executed as usize + first,
+                            chunk,
+                            sink,
+                            taken,
+                        ));
                     }
                     let off = raw.find('%').unwrap_or(0) as u32;
                     return Err(err_in(
@@ -2566,7 +2573,14 @@ fn read_source<'t>(
                         it.flood = false;
                         it.motion = Some(G_1);
                         run_from_reached(&it, options, file)?;
-                        return Ok(finish(it, file, executed as usize + first, chunk, sink, taken));
+                        return Ok(finish(
+                            it,
+                            file,
+                            executed as usize + first,
+                            chunk,
+                            sink,
+                            taken,
+                        ));
                     }
                     if it.motions.len() >= chunk {
                         sink(&mut it.motions);
@@ -2615,7 +2629,12 @@ fn read_source<'t>(
                 } else {
                     let found = find_sub_file(&name, &main_dir_file, options, taken_bytes)
                         .map_err(|why| {
-                            err_in(&sources[cur].name, n_lines, "", (0, ErrorKind::Invalid(why)))
+                            err_in(
+                                &sources[cur].name,
+                                n_lines,
+                                "",
+                                (0, ErrorKind::Invalid(why)),
+                            )
                         })?;
                     if let Some(f) = found {
                         taken_bytes += f.bytes.len() as u64;

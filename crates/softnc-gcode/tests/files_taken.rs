@@ -105,7 +105,11 @@ fn subroutine_files_over_the_limit_are_refused() {
 fn with_a_snapshot_the_checked_files_run_and_the_folders_are_not_read() {
     let d = dir("snapshot");
     // the file on disk now holds another motion: the snapshot's runs
-    std::fs::write(d.join("sub.ngc"), "o<sub> sub\nG1 X90 F600\no<sub> endsub\n").unwrap();
+    std::fs::write(
+        d.join("sub.ngc"),
+        "o<sub> sub\nG1 X90 F600\no<sub> endsub\n",
+    )
+    .unwrap();
     let checked = SubroutineFile {
         name: "sub".into(),
         path: d.join("sub.ngc").display().to_string(),
@@ -122,13 +126,12 @@ fn with_a_snapshot_the_checked_files_run_and_the_folders_are_not_read() {
     let end = p.motions.last().unwrap().canon_end;
     assert_eq!(end.0[0], 3.0, "{:?}", p.motions);
     // a subroutine the check did not take in is not read, though on disk
-    std::fs::write(d.join("other.ngc"), "o<other> sub\nG1 X5 F600\no<other> endsub\n").unwrap();
-    let e = read_bounded(
-        "G21\no<other> call\nM2\n",
-        &d.join("main.ngc"),
-        options,
+    std::fs::write(
+        d.join("other.ngc"),
+        "o<other> sub\nG1 X5 F600\no<other> endsub\n",
     )
-    .unwrap_err();
+    .unwrap();
+    let e = read_bounded("G21\no<other> call\nM2\n", &d.join("main.ngc"), options).unwrap_err();
     assert!(e.contains("'other'"), "{e}");
     let _ = std::fs::remove_dir_all(&d);
 }
@@ -149,13 +152,20 @@ fn with_preamble(preamble: &str) -> Result<softnc_gcode::Program, String> {
 fn a_preamble_holds_only_modal_words() {
     // what the reader writes as a program's end state is taken
     let modes = "G20 G91 G18 G61.1 G55 G94 G99 F20 S1200 M4 M8\nM7\nG0 X1 Z-1\nG1 X2 F30\n%\n";
-    let left = read_program_with(&format!("%\n{modes}"), "m.ngc", &profile(), &Default::default())
-        .unwrap()
-        .0
-        .end_modal;
+    let left = read_program_with(
+        &format!("%\n{modes}"),
+        "m.ngc",
+        &profile(),
+        &Default::default(),
+    )
+    .unwrap()
+    .0
+    .end_modal;
     with_preamble(&left).unwrap_or_else(|e| panic!("{left}: {e}"));
-    with_preamble("G21\nT1 M6\nF600 S0 G17 G40 G43.1 Z32.5 G90 G94 G54 G64 P0.01 Q0.01\nG1\nM3\nM8\n")
-        .unwrap();
+    with_preamble(
+        "G21\nT1 M6\nF600 S0 G17 G40 G43.1 Z32.5 G90 G94 G54 G64 P0.01 Q0.01\nG1\nM3\nM8\n",
+    )
+    .unwrap();
     // anything else is refused, by file, line and column, and nothing is read
     for (pre, line, col, what) in [
         ("G21\nG0 X50\n", 2, 4, "X50 is an axis word"),

@@ -73,7 +73,10 @@ pub(super) struct Checking {
 pub(super) fn remove_copies(created: &[PathBuf]) {
     for c in created {
         if let Err(e) = std::fs::remove_file(c) {
-            tracing::warn!("{}: cannot remove the copy of a job not started: {e}", c.display());
+            tracing::warn!(
+                "{}: cannot remove the copy of a job not started: {e}",
+                c.display()
+            );
         }
     }
 }
@@ -224,7 +227,10 @@ impl MmiTask {
 
     /// Abandoned checks whose threads still run.
     pub(super) fn abandoned_running(&self) -> usize {
-        self.abandoned.iter().filter(|(_, t)| !t.is_finished()).count()
+        self.abandoned
+            .iter()
+            .filter(|(_, t)| !t.is_finished())
+            .count()
     }
 
     /// The end of a job's check: start it (its record, the interpolator told) or

@@ -543,7 +543,8 @@ impl MmiTask {
     /// The modal state a completed MDI command or job left becomes the machine's
     /// (kept in memory; a file that cannot be written is tried again).
     fn save_modal(&mut self, modal: String) {
-        let unchanged = self.modal.as_deref() == Some(modal.as_str()) && self.unsaved.modal().is_none();
+        let unchanged =
+            self.modal.as_deref() == Some(modal.as_str()) && self.unsaved.modal().is_none();
         self.modal = Some(modal);
         if !unchanged {
             let _ = self.write_modal();
