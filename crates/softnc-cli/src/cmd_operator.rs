@@ -629,6 +629,50 @@ pub fn status_text(s: &serde_json::Value) -> String {
 }
 
 /// Follow a job until it ends; returns its outcome. Shows a progress bar on a terminal.
+/// What an operator waiting for the job in `status` is told when it ends other
+/// than completed: how it ended and why (its record's alarms, else the machine's
+/// alarms about it). `None` for a completed job.
+pub fn job_end_message(status: &serde_json::Value) -> Option<String> {
+    let job = &status["job"];
+    let outcome = job["outcome"].as_str().unwrap_or("ended");
+    if outcome == "completed" {
+        return None;
+    }
+    let id = job["job_id"].as_u64().unwrap_or(0);
+    let texts = |v: &serde_json::Value| -> Vec<String> {
+        v.as_array()
+            .map(|a| {
+                a.iter()
+                    .filter_map(|x| x.as_str().map(String::from))
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let mut why = texts(&job["alarms"]);
+    if why.is_empty() {
+        why = status["alarms"]
+            .as_array()
+            .map(|a| {
+                a.iter()
+                    .filter(|x| x["job_id"].as_u64() == Some(id))
+                    .filter_map(|x| {
+                        Some(format!(
+                            "{}: {}",
+                            x["code"].as_str()?,
+                            x["message"].as_str()?
+                        ))
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+    }
+    Some(if why.is_empty() {
+        format!("job {id} {outcome}")
+    } else {
+        format!("job {id} {outcome}: {}", why.join("; "))
+    })
+}
+
 pub fn wait_job(op: &Operator, job_id: u64, bar: bool) -> Result<String> {
     use std::io::IsTerminal;
     let pb = if bar && std::io::stderr().is_terminal() {
@@ -664,9 +708,40 @@ pub fn wait_job(op: &Operator, job_id: u64, bar: bool) -> Result<String> {
                 if let Some(pb) = &pb {
                     pb.finish_and_clear();
                 }
+                if let Some(why) = job_end_message(&s) {
+                    eprintln!("{why}");
+                }
                 return Ok(outcome);
             }
         }
         std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+#[cfg(test)]
+mod job_end_tests {
+    use super::job_end_message;
+
+    #[test]
+    fn a_job_that_did_not_complete_says_how_it_ended_and_why() {
+        let refused = serde_json::json!({"job": {"job_id": 4, "outcome": "refused",
+            "alarms": ["JobRefused: /shop/a.ngc:2:1: Subroutine 'Oside' not found"]},
+            "alarms": []});
+        assert_eq!(
+            job_end_message(&refused).unwrap(),
+            "job 4 refused: JobRefused: /shop/a.ngc:2:1: Subroutine 'Oside' not found"
+        );
+        // the record has none yet: the machine's alarms about the job
+        let aborted = serde_json::json!({"job": {"job_id": 5, "outcome": "aborted", "alarms": []},
+            "alarms": [{"code": "FollowingError", "job_id": 5, "message": "X 2.1 mm"},
+                       {"code": "Other", "job_id": 0, "message": "unrelated"}]});
+        assert_eq!(
+            job_end_message(&aborted).unwrap(),
+            "job 5 aborted: FollowingError: X 2.1 mm"
+        );
+        let bare = serde_json::json!({"job": {"job_id": 6, "outcome": "aborted"}});
+        assert_eq!(job_end_message(&bare).unwrap(), "job 6 aborted");
+        let done = serde_json::json!({"job": {"job_id": 7, "outcome": "completed"}});
+        assert_eq!(job_end_message(&done), None);
     }
 }

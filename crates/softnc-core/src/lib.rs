@@ -9,6 +9,7 @@
 //! - [`force`]: the adaptive cutting-force control section (paper 003).
 //! - [`ring`]: the lookahead ring of command samples.
 //! - [`store`]: atomic file writes (job history, learning stores).
+//! - [`taken`]: files a controller runs, taken in safely (regular, bounded, read once).
 //!
 //! ```
 //! let profile = softnc_core::config::MachineProfile::from_ron_str(
@@ -30,6 +31,7 @@ pub mod geom;
 pub mod ring;
 pub mod servo;
 pub mod store;
+pub mod taken;
 
 pub use axes::{Axes, Axis, ALL_AXES};
 pub use config::{

@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 /// How long a request waits for the MMI's reply.
 const REPLY_TIMEOUT: Duration = Duration::from_secs(5);
 /// A job is answered once it is read and checked (a long program takes a while).
-const JOB_CHECK_TIMEOUT: Duration = Duration::from_secs(300);
+pub const JOB_CHECK_TIMEOUT: Duration = Duration::from_secs(300);
 
 /// A connection to one controller instance's MMI.
 pub struct Operator {

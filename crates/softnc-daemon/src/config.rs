@@ -89,10 +89,27 @@ pub struct DaemonConfig {
     /// command) for this long (s): a hung MMI can take no E-stop, no hold, no abort.
     #[serde(default = "default_mmi_silence_stop_s")]
     pub mmi_silence_stop_s: f64,
+    /// A job's check (read, plan, soft limits) that takes longer than this is
+    /// abandoned: the job is refused and later submits are taken (s). Its thread
+    /// cannot be stopped; it ends on its own, and its result is dropped.
+    #[serde(default = "default_check_timeout_s")]
+    pub check_timeout_s: f64,
+    /// New jobs, MDI and touch-offs are refused while this many abandoned checks
+    /// still run (each holds a thread and its memory).
+    #[serde(default = "default_max_abandoned_checks")]
+    pub max_abandoned_checks: u32,
 }
 
 fn default_mmi_silence_stop_s() -> f64 {
     1.0
+}
+
+fn default_check_timeout_s() -> f64 {
+    60.0
+}
+
+fn default_max_abandoned_checks() -> u32 {
+    2
 }
 
 fn default_jog_deadman_s() -> f64 {
@@ -308,6 +325,20 @@ impl DaemonConfig {
         }
         if !(config.job_record_period_s > 0.0 && config.job_record_period_s.is_finite()) {
             return Err(bad("job_record_period_s", "must be a finite number > 0"));
+        }
+        if !(config.check_timeout_s > 0.0
+            && config.check_timeout_s < crate::client::JOB_CHECK_TIMEOUT.as_secs_f64())
+        {
+            return Err(bad(
+                "check_timeout_s",
+                &format!(
+                    "must be > 0 and below the {} s a client waits for a job's check",
+                    crate::client::JOB_CHECK_TIMEOUT.as_secs()
+                ),
+            ));
+        }
+        if config.max_abandoned_checks == 0 {
+            return Err(bad("max_abandoned_checks", "must be at least 1"));
         }
         if !(config.jog_deadman_s > 0.0 && config.jog_deadman_s.is_finite()) {
             return Err(bad("jog_deadman_s", "must be a finite number > 0"));

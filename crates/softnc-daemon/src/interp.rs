@@ -456,16 +456,18 @@ impl InterpTask {
     ) -> Result<Option<PlannedJob>> {
         self.job_id = job_id;
         // the machine's offsets and tools, as the MMI checked the job with them
+        // with what the MMI checked it with: its preamble, parameters and
+        // subroutine files
         let setup = self.store.job_setup(
             &self.cfg.machine,
             self.machine_mm,
             self.switches,
             from_line,
-            &self.cfg.subroutine_path,
+            job_id,
         );
         let checked = setup
             .and_then(|(machine, setup)| check_job(path, &machine, &setup).map(|c| (machine, c)));
-        let (machine, (text, options, checked, _)) = match checked {
+        let (machine, (text, options, checked, _, _)) = match checked {
             Ok(p) => p,
             Err(msg) => {
                 self.alarm(AlarmCode::JobRefused, &msg)?;
@@ -872,6 +874,11 @@ pub struct JobSetup {
     pub subroutine_path: Vec<std::path::PathBuf>,
     /// The modal state the last MDI command or job left (G-code run first).
     pub preamble: Option<String>,
+    /// The file the preamble came from (for its errors).
+    pub preamble_file: Option<String>,
+    /// How subroutine files are taken in: bounded from the folders (the check), or
+    /// the files the check took in (the run).
+    pub subroutines: softnc_gcode::SubroutineFiles,
 }
 
 impl JobSetup {
@@ -896,6 +903,8 @@ impl JobSetup {
             wait_at_program_stops: true,
             subroutine_path: self.subroutine_path.clone(),
             preamble: self.preamble.clone(),
+            preamble_file: self.preamble_file.clone(),
+            subroutines: self.subroutines.clone(),
             ..Default::default()
         }
     }
@@ -915,12 +924,24 @@ pub fn check_bytes(
     let options = setup.plan_options();
     let (program, checked) =
         check_program(&text, path, machine, &options).map_err(|e| e.to_string())?;
-    Ok((text, options, checked, program.end_modal))
+    Ok((
+        text,
+        options,
+        checked,
+        program.end_modal,
+        program.subroutine_files,
+    ))
 }
 
-/// A program checked: its text, the options it is planned with, the plan's figures
-/// and the modal state it leaves (G-code).
-pub type Checked = (Arc<str>, PlanOptions, CheckedProgram, String);
+/// A program checked: its text, the options it is planned with, the plan's figures,
+/// the modal state it leaves (G-code) and the subroutine files it took in.
+pub type Checked = (
+    Arc<str>,
+    PlanOptions,
+    CheckedProgram,
+    String,
+    Vec<softnc_gcode::SubroutineFile>,
+);
 
 /// Read a program (the MMI's copy) and check it as `setup` says ([`check_bytes`]);
 /// its text is the learning store's key.

@@ -19,6 +19,8 @@ pub const PARAMS_FILE: &str = "softnc.var";
 pub const TOOLS_FILE: &str = "tools.ron";
 /// The modal state the last MDI command or job left, as G-code, in `data_dir`.
 pub const MODAL_FILE: &str = "modal.ngc";
+/// The jobs' program copies and checked setups, in `data_dir`.
+pub const PROGRAMS_DIR: &str = "programs";
 
 /// Parameter numbers (LinuxCNC 2.9's numbered parameters).
 mod param {
@@ -92,9 +94,17 @@ impl MachineStore {
 
     /// The modal state the last completed MDI command or job left (`None`: the
     /// interpreter's defaults).
+    /// A file holding anything but modal words (a motion, an axis word, an O-word,
+    /// a parameter, …) is refused by file, line and column.
     pub fn load_modal(&self) -> Result<Option<String>, String> {
-        match std::fs::read_to_string(self.modal_path()) {
-            Ok(t) => Ok(Some(t)),
+        let path = self.modal_path();
+        match std::fs::read_to_string(&path) {
+            Ok(t) => {
+                softnc_gcode::preamble::check(&t, &path.display().to_string()).map_err(|e| {
+                    format!("{e} (the machine's modal state; fix it or remove it to start from the interpreter's defaults)")
+                })?;
+                Ok(Some(t))
+            }
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
             Err(e) => Err(format!("{}: {e}", self.modal_path().display())),
         }
@@ -113,18 +123,26 @@ impl MachineStore {
     }
 
     /// The parameters as last saved; `None` before the first save (the reader then
-    /// starts from the profile's work offsets). An unreadable file is an error that
-    /// names it and the line: nothing runs on offsets that may be wrong.
+    /// starts from the profile's work offsets). A file that cannot be used is an
+    /// error that names it and the line or the parameter: unreadable, a bad line,
+    /// or — as LinuxCNC's `restore_parameters` refuses it, "required parameter
+    /// missing" — a file without one of the parameters LinuxCNC always writes
+    /// (G28/G30 positions, G92, the active system, G54 … G59.3: a file cut short).
+    /// Nothing runs on offsets that may be wrong; the file is left as it is.
     pub fn load_params(&self) -> Result<Option<Params>, String> {
         let path = self.params_path();
         if !path.exists() {
             return Ok(None);
         }
-        Params::load(&path).map(Some).map_err(|e| {
-            format!(
-                "{e} (the machine's parameter file; fix it or move it aside to start from the profile's offsets)"
-            )
-        })
+        let fix = "(the machine's parameter file; fix it or move it aside to start from the profile's offsets)";
+        let params = Params::load(&path).map_err(|e| format!("{e} {fix}"))?;
+        if let Some(missing) = params.missing_required() {
+            return Err(format!(
+                "{}: required parameter missing: #{missing} {fix}",
+                path.display()
+            ));
+        }
+        Ok(Some(params))
     }
 
     /// Save `params`: the persistent ones, atomically.
@@ -151,27 +169,54 @@ impl MachineStore {
             .map_err(|e| format!("{}: {e}", self.tools_path().display()))
     }
 
-    /// How the next job is read, from what the MMI saved: `profile` with the machine's
-    /// tool table, and the setup (its parameters and modal state) from `start_mm` with
-    /// the switches, the line to run from and the subroutine folders given. What the
-    /// interpolator and the position process's preparation both read a job with.
+    /// How job `job_id` is read, as the MMI checked it: `profile` with the machine's
+    /// tool table, and the setup from `start_mm` with the switches and the line to
+    /// run from given, and the job's checked setup
+    /// ([`crate::jobfile::CheckedSetup`]: the modal preamble, the parameters and the
+    /// subroutine files the check took in). What the interpolator and the position
+    /// process's preparation both read a job with.
     pub fn job_setup(
         &self,
         profile: &MachineProfile,
         start_mm: [f64; 3],
         switches: crate::interp::Switches,
         from_line: Option<u32>,
-        subroutine_path: &[PathBuf],
+        job_id: u64,
     ) -> Result<(MachineProfile, crate::interp::JobSetup), String> {
+        let checked = crate::jobfile::CheckedSetup::load(&self.programs_dir(), job_id)
+            .map_err(|e| e.to_string())?;
+        let params = match &checked.params {
+            Some(text) => Some(
+                Params::from_var_text(
+                    text,
+                    &crate::jobfile::setup_path(&self.programs_dir(), job_id)
+                        .display()
+                        .to_string(),
+                )
+                .map_err(|e| e.to_string())?,
+            ),
+            None => None,
+        };
+        let files = checked.subroutine_files().map_err(|e| e.to_string())?;
         let setup = crate::interp::JobSetup {
             start_mm,
-            params: self.load_params()?,
+            params,
             switches,
             from_line,
-            subroutine_path: subroutine_path.to_vec(),
-            preamble: self.load_modal()?,
+            subroutine_path: Vec::new(),
+            preamble: checked.preamble,
+            preamble_file: checked.preamble_file,
+            subroutines: softnc_gcode::SubroutineFiles {
+                max_bytes: None,
+                snapshot: Some(std::sync::Arc::new(files)),
+            },
         };
         Ok((self.profile(profile)?, setup))
+    }
+
+    /// The folder of program copies and checked setups.
+    pub fn programs_dir(&self) -> PathBuf {
+        self.dir.join(PROGRAMS_DIR)
     }
 
     /// `profile` with the machine's tool table: what programs are read with.
@@ -361,6 +406,13 @@ mod tests {
         std::fs::write(store.params_path(), "5221\tnot-a-number\n").unwrap();
         let e = store.load_params().unwrap_err();
         assert!(e.contains(PARAMS_FILE), "{e}");
+        // cut short: as LinuxCNC, a required parameter missing, by number
+        let whole = p.to_var_text();
+        let cut: String = whole.lines().take(50).map(|l| format!("{l}\n")).collect();
+        std::fs::write(store.params_path(), &cut).unwrap();
+        let e = store.load_params().unwrap_err();
+        assert!(e.contains("required parameter missing: #5262"), "{e}");
+        assert_eq!(std::fs::read_to_string(store.params_path()).unwrap(), cut);
         // tools: the profile's until edited, then the edited table
         let prof = profile();
         assert_eq!(store.load_tools(&prof).unwrap(), prof.tools);

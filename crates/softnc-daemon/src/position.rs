@@ -222,7 +222,6 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             make_engine,
             trace,
             crate::machine_store::MachineStore::new(&cfg.data_dir),
-            cfg.subroutine_path.clone(),
         )?;
         // absolute encoders (no homing section): homed from the start
         let homed = if cfg.machine.homed_at_start() {

@@ -139,7 +139,6 @@ impl<B: ServoBackend + Send + 'static> Prep<B> {
         make_engine: EngineFactory<B>,
         trace: Option<TraceTo>,
         store: crate::machine_store::MachineStore,
-        subroutine_path: Vec<std::path::PathBuf>,
     ) -> std::io::Result<Self> {
         let requests = Arc::new(ArrayQueue::new(PREP_QUEUE_CAPACITY));
         let results = Arc::new(ArrayQueue::new(PREP_QUEUE_CAPACITY));
@@ -148,7 +147,6 @@ impl<B: ServoBackend + Send + 'static> Prep<B> {
         let mut worker = Worker {
             machine,
             store,
-            subroutine_path,
             make_engine,
             trace,
             requests: requests.clone(),
@@ -224,8 +222,6 @@ struct Worker<B: ServoBackend> {
     machine: MachineProfile,
     /// The machine's parameter file and tool table.
     store: crate::machine_store::MachineStore,
-    /// Folders searched for subroutine files.
-    subroutine_path: Vec<std::path::PathBuf>,
     make_engine: EngineFactory<B>,
     trace: Option<TraceTo>,
     requests: Arc<ArrayQueue<PrepRequest>>,
@@ -293,13 +289,9 @@ impl<B: ServoBackend> Worker<B> {
                 tracing::info!("job {job_id}: preparing the position process");
                 // the job read as the interpolator reads it: the machine's offsets
                 // and tools
-                let setup = self.store.job_setup(
-                    &self.machine,
-                    start_mm,
-                    switches,
-                    from_line,
-                    &self.subroutine_path,
-                );
+                let setup =
+                    self.store
+                        .job_setup(&self.machine, start_mm, switches, from_line, job_id);
                 let (machine, setup) = match setup {
                     Ok(s) => s,
                     Err(e) => {
@@ -377,7 +369,7 @@ fn job_primitives(
     machine: &MachineProfile,
     setup: &crate::interp::JobSetup,
 ) -> Result<(JobMotions, SpindleChanges), String> {
-    let (text, options, checked, _) = crate::interp::check_job(path, machine, setup)?;
+    let (text, options, checked, _, _) = crate::interp::check_job(path, machine, setup)?;
     let mut primitives = Vec::with_capacity(checked.motions());
     let mut lines = Vec::with_capacity(checked.motions());
     softnc_gcode::read_program_chunked_with(

@@ -165,4 +165,7 @@ pub struct Program {
     /// The modal state the program left, as G-code that sets it
     /// ([`crate::ReadOptions::preamble`] of the next MDI command or job).
     pub end_modal: String,
+    /// The subroutine files the reading took in, in the order first called
+    /// ([`crate::SubroutineFiles`]).
+    pub subroutine_files: Vec<crate::SubroutineFile>,
 }

@@ -2049,25 +2049,126 @@ impl<'t> Source<'t> {
     }
 }
 
-/// Look for `NAME.ngc` on the search path, then beside the main program.
-fn find_sub_file(name: &str, main_file: &str, options: &ReadOptions) -> Option<(String, String)> {
+/// Look for `NAME.ngc`: among a checked job's files when the options hold them
+/// ([`crate::SubroutineFiles::snapshot`]), else on the search path, then beside the
+/// main program; taken in as a job is (a regular file of an ordinary file system,
+/// read once, at most what is left of [`crate::SubroutineFiles::max_bytes`] after
+/// the `taken_bytes` already read). `Ok(None)`: not found; `Err`: found and refused.
+fn find_sub_file(
+    name: &str,
+    main_file: &str,
+    options: &ReadOptions,
+    taken_bytes: u64,
+) -> Result<Option<crate::SubroutineFile>, String> {
+    if let Some(files) = &options.subroutines.snapshot {
+        return Ok(files.iter().find(|f| f.name == name).cloned());
+    }
     let file_name = format!("{name}.ngc");
     let beside = std::path::Path::new(main_file)
         .parent()
         .map(|p| p.to_path_buf())
         .unwrap_or_default();
-    options
+    let left = options
+        .subroutines
+        .max_bytes
+        .map_or(u64::MAX, |max| max.saturating_sub(taken_bytes));
+    for dir in options
         .subroutine_path
         .iter()
         .chain(std::iter::once(&beside))
-        .map(|d| d.join(&file_name))
-        .find_map(|p| {
-            let bytes = std::fs::read(&p).ok()?;
-            Some((
-                p.display().to_string(),
-                String::from_utf8_lossy(&bytes).into_owned(),
-            ))
-        })
+    {
+        let p = dir.join(&file_name);
+        match softnc_core::taken::read_regular(&p, left) {
+            Ok(bytes) => {
+                return Ok(Some(crate::SubroutineFile {
+                    name: name.to_string(),
+                    path: p.display().to_string(),
+                    bytes: bytes.into(),
+                }))
+            }
+            Err(e) if e.is_not_found() => continue,
+            Err(e @ softnc_core::taken::TakeError::TooLarge { .. }) => {
+                let max = options.subroutines.max_bytes.unwrap_or(u64::MAX);
+                return Err(format!(
+                    "subroutine file {e} (subroutine files: at most {max} bytes together)"
+                ));
+            }
+            Err(e) => return Err(format!("subroutine file {e}")),
+        }
+    }
+    Ok(None)
+}
+
+/// Whether `text`, one line of a modal preamble ([`ReadOptions::preamble`]), holds
+/// only modal words: the modes of the G groups (motion mode without axis words,
+/// plane, distance modes, feed mode, units, G40, G43.1 with its Z or G49, the
+/// coordinate system, path control with G64's P and Q, return mode, spindle speed
+/// mode, lathe diameter mode), F, S, T with M6, M3/M4/M5, M7/M8/M9 — what
+/// [`Program::end_modal`] writes and LinuxCNC's modal state restores. No motion, no
+/// axis word, no O-word, parameter, expression or comment. `Err`: the byte offset
+/// of what is not allowed, and why.
+pub fn check_preamble_line(text: &str) -> Result<(), (u32, ErrorKind)> {
+    let why = |off: u32, what: String| {
+        Err((
+            off,
+            ErrorKind::Invalid(format!(
+                "{what}: the machine's modal state may hold only modal words (G modes, F, S, T M6, M3/M4/M5, M7/M8/M9)"
+            )),
+        ))
+    };
+    let mut line = Line::default();
+    if let Err((off, kind)) = crate::lexer::lex_line(text, &mut line) {
+        if off == SLOW {
+            let at = text.find(['#', '[', 'o', 'O']).unwrap_or(0) as u32;
+            return why(at, "an O-word, a parameter or an expression".into());
+        }
+        return Err((off, kind));
+    }
+    if line.block_delete || line.python {
+        return why(0, "a block delete or an embedded statement".into());
+    }
+    if line.comment.is_some() {
+        return why(line.comment_offset, "a comment".into());
+    }
+    let has = |c: i32| {
+        line.words
+            .iter()
+            .any(|w| w.letter == b'G' && (w.value * 10.0).round() as i32 == c)
+    };
+    for w in &line.words {
+        let ok = match w.letter {
+            b'G' => {
+                // the modes of LinuxCNC's modal groups: not group 0 (G4, G10, G28, G53,
+                // G92, …), cutter compensation only off (G40), the tool length offset
+                // as G43.1 with its value or G49 (G43 would read a tool table entry),
+                // nothing of group 16 (G92.x: parameters the machine keeps)
+                let code = (w.value * 10.0).round() as i32;
+                match g_group(code) {
+                    Some(0 | 16) | None => false,
+                    Some(7) => code == 400,
+                    Some(8) => code == 431 || code == 490,
+                    Some(_) => true,
+                }
+            }
+            b'M' => [3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0].contains(&w.value),
+            b'F' | b'S' | b'T' => true,
+            b'P' | b'Q' => has(640),
+            b'Z' => has(431),
+            _ => false,
+        };
+        if !ok {
+            let word = format!("{}{}", w.letter as char, w.value);
+            let what = match w.letter {
+                b'X' | b'Y' | b'Z' | b'A' | b'B' | b'C' | b'U' | b'V' | b'W' => {
+                    format!("{word} is an axis word")
+                }
+                b'G' | b'M' => format!("{word} is not a modal word"),
+                _ => format!("{word} is not a modal word here"),
+            };
+            return why(w.offset, what);
+        }
+    }
+    Ok(())
 }
 
 /// [`read_chunked`] with options; also returns the parameters as left.
@@ -2159,15 +2260,24 @@ fn read_source<'t>(
     }
     if let Some(pre) = &options.preamble {
         // the machine's modal state, left by the last MDI or job: it sets modes and
-        // moves nothing (its motion-mode line makes no motion of the program's)
+        // moves nothing (only modal words; its motion-mode line makes no motion of the
+        // program's)
+        let pre_file = options
+            .preamble_file
+            .as_deref()
+            .unwrap_or("<the machine's modal state>");
+        let pre_err = |i: usize, l: &str, (off, kind): (u32, ErrorKind)| GcodeError {
+            file: pre_file.into(),
+            line: i as u32 + 1,
+            column: column(l, off),
+            kind,
+        };
+        for (i, l) in pre.lines().enumerate() {
+            check_preamble_line(l).map_err(|e| pre_err(i, l, e))?;
+        }
         let before = it.motions.len();
         for (i, l) in pre.lines().enumerate() {
-            it.run_preamble(l).map_err(|(off, kind)| GcodeError {
-                file: "<the machine's modal state>".into(),
-                line: i as u32 + 1,
-                column: column(l, off),
-                kind,
-            })?;
+            it.run_preamble(l).map_err(|e| pre_err(i, l, e))?;
         }
         it.motions.truncate(before);
     }
@@ -2186,6 +2296,9 @@ fn read_source<'t>(
     let mut norm_cache: LineCache = Default::default();
     let mut jumped = false;
     let mut sources = vec![Source::new(file.to_string(), main_text)];
+    // the subroutine files taken in, and their bytes together
+    let mut taken: Vec<crate::SubroutineFile> = Vec::new();
+    let mut taken_bytes = 0u64;
     let err_in =
         |name: &str, line_no: usize, raw: &str, (off, kind): (u32, ErrorKind)| GcodeError {
             file: name.to_string(),
@@ -2448,7 +2561,14 @@ fn read_source<'t>(
                 if line.percent {
                     if percent_flag && cur == 0 {
                         run_from_reached(&it, options, file)?;
-                        return Ok(finish(it, file, executed as usize + first, chunk, sink));
+                        return Ok(finish(
+                            it,
+                            file,
+                            executed as usize + first,
+                            chunk,
+                            sink,
+                            taken,
+                        ));
                     }
                     let off = raw.find('%').unwrap_or(0) as u32;
                     return Err(err_in(
@@ -2505,7 +2625,14 @@ fn read_source<'t>(
                         it.flood = false;
                         it.motion = Some(G_1);
                         run_from_reached(&it, options, file)?;
-                        return Ok(finish(it, file, executed as usize + first, chunk, sink));
+                        return Ok(finish(
+                            it,
+                            file,
+                            executed as usize + first,
+                            chunk,
+                            sink,
+                            taken,
+                        ));
                     }
                     if it.motions.len() >= chunk {
                         sink(&mut it.motions);
@@ -2551,23 +2678,42 @@ fn read_source<'t>(
                     cur = k;
                     pos = 0;
                     next_line_no = 1;
-                } else if let Some((path, body)) = find_sub_file(&name, &main_dir_file, options) {
-                    sources.push(Source::new(path, SourceText::Owned(body)));
-                    cur = sources.len() - 1;
-                    pos = 0;
-                    next_line_no = 1;
-                } else if cur != 0 {
-                    return Err(err_in(
-                        &sources[cur].name,
-                        n_lines,
-                        "",
-                        (
-                            0,
-                            ErrorKind::Invalid(format!(
-                                "Subroutine 'O{name}' not found -- not in offset table and no file '{name}.ngc' found"
-                            )),
-                        ),
-                    ));
+                } else {
+                    let found = find_sub_file(&name, &main_dir_file, options, taken_bytes)
+                        .map_err(|why| {
+                            err_in(
+                                &sources[cur].name,
+                                n_lines,
+                                "",
+                                (0, ErrorKind::Invalid(why)),
+                            )
+                        })?;
+                    if let Some(f) = found {
+                        taken_bytes += f.bytes.len() as u64;
+                        let body = String::from_utf8_lossy(&f.bytes).into_owned();
+                        sources.push(Source::new(f.path.clone(), SourceText::Owned(body)));
+                        taken.push(f);
+                        cur = sources.len() - 1;
+                        pos = 0;
+                        next_line_no = 1;
+                    } else if cur != 0 {
+                        let checked = if options.subroutines.snapshot.is_some() {
+                            " among the files the job was checked with"
+                        } else {
+                            ""
+                        };
+                        return Err(err_in(
+                            &sources[cur].name,
+                            n_lines,
+                            "",
+                            (
+                                0,
+                                ErrorKind::Invalid(format!(
+                                    "Subroutine 'O{name}' not found -- not in offset table and no file '{name}.ngc' found{checked}"
+                                )),
+                            ),
+                        ));
+                    }
                 }
                 // else: look for its definition further on in the main program
             }
@@ -2671,6 +2817,7 @@ fn finish(
     blocks: usize,
     chunk: usize,
     sink: &mut dyn FnMut(&mut Vec<Motion>),
+    subroutine_files: Vec<crate::SubroutineFile>,
 ) -> (Program, Params) {
     if chunk != usize::MAX {
         if !it.motions.is_empty() {
@@ -2686,6 +2833,7 @@ fn finish(
             motions: it.motions,
             warnings: it.warnings,
             end_modal,
+            subroutine_files,
         },
         it.params,
     )

@@ -52,8 +52,14 @@ pub struct ReadOptions {
     pub start_mm: Option<softnc_core::Vec3>,
     /// G-code run before the program, without line numbers of its own: the modal
     /// state the machine's last MDI command or job left ([`Program::end_modal`]), as
-    /// LinuxCNC's interpreter keeps it from one to the next.
+    /// LinuxCNC's interpreter keeps it from one to the next. It may hold only modal
+    /// words ([`preamble::check_line`]): anything else refuses the program.
     pub preamble: Option<String>,
+    /// The file the preamble was read from, for its errors (`None`: "the machine's
+    /// modal state").
+    pub preamble_file: Option<String>,
+    /// How subroutine files are found and read ([`SubroutineFiles`]).
+    pub subroutines: SubroutineFiles,
     /// The optional-stop switch: M1 stops the program (a
     /// [`MotionKind::Pause`] with `optional: true`) only while it is on; off
     /// (default), M1 does nothing, as LinuxCNC with its switch off.
@@ -75,6 +81,51 @@ pub struct ReadOptions {
     /// lies in a subroutine definition, when no block at or after line N runs, or
     /// when no motion follows it.
     pub from_line: Option<u32>,
+}
+
+/// A subroutine file a reading took in: found on the search path or beside the
+/// program, read once ([`Program::subroutine_files`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SubroutineFile {
+    /// The subroutine's name as called (`o<name> call`: `name`, lower case).
+    pub name: String,
+    /// Where it was found (its errors name this path).
+    pub path: String,
+    /// Its bytes as read.
+    pub bytes: std::sync::Arc<[u8]>,
+}
+
+/// How subroutine files (`o<name> call` of a subroutine the program does not
+/// define) are taken in: as a job is (a regular file of an ordinary file system, of
+/// bounded size, read once: [`softnc_core::taken`]), or from the files a check took
+/// in, so that what was checked is what runs.
+#[derive(Debug, Clone, Default)]
+pub struct SubroutineFiles {
+    /// Most bytes of one subroutine file, and of all those a reading takes in
+    /// together; `None`: no limit.
+    pub max_bytes: Option<u64>,
+    /// Only these files (a checked job's), matched by name; the folders are not
+    /// searched and a subroutine not among them is not found.
+    pub snapshot: Option<std::sync::Arc<Vec<SubroutineFile>>>,
+}
+
+/// The modal preamble ([`ReadOptions::preamble`]): only modal words.
+pub mod preamble {
+    pub use crate::interp::check_preamble_line as check_line;
+
+    /// Whether every line of `text` (a preamble read from `file`) holds only modal
+    /// words; the first that does not, by file, line and column.
+    pub fn check(text: &str, file: &str) -> Result<(), crate::GcodeError> {
+        for (i, l) in text.lines().enumerate() {
+            check_line(l).map_err(|(off, kind)| crate::GcodeError {
+                file: file.to_string(),
+                line: i as u32 + 1,
+                column: crate::lexer::column(l, off),
+                kind,
+            })?;
+        }
+        Ok(())
+    }
 }
 
 /// [`read_program`] with [`ReadOptions`]; also returns the parameters as the

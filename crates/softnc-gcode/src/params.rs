@@ -420,6 +420,14 @@ impl Params {
         Ok(p)
     }
 
+    /// The first parameter LinuxCNC requires in a parameter file
+    /// (`_required_parameters`, [`is_persistent`]) that the file read into these
+    /// parameters did not hold: `restore_parameters` refuses such a file ("Required
+    /// parameter missing"). `None`: all there (or not read from a file).
+    pub fn missing_required(&self) -> Option<usize> {
+        (1..NUM_PARAMS).find(|&k| is_persistent(k) && !self.from_file.contains(&k))
+    }
+
     /// Read a parameter file; a missing file gives all parameters 0 (as LinuxCNC
     /// starts without one), any other failure is an error.
     pub fn load(path: &Path) -> Result<Params, ParamFileError> {

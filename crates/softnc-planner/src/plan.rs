@@ -48,6 +48,10 @@ pub struct PlanOptions {
     /// The modal state the machine's last MDI command or job left, as G-code run
     /// before the program ([`softnc_gcode::ReadOptions::preamble`]).
     pub preamble: Option<String>,
+    /// The file the preamble was read from ([`softnc_gcode::ReadOptions::preamble_file`]).
+    pub preamble_file: Option<String>,
+    /// How subroutine files are taken in ([`softnc_gcode::ReadOptions::subroutines`]).
+    pub subroutines: softnc_gcode::SubroutineFiles,
 }
 
 impl PlanOptions {
@@ -62,6 +66,8 @@ impl PlanOptions {
             params: self.params.clone(),
             subroutine_path: self.subroutine_path.clone(),
             preamble: self.preamble.clone(),
+            preamble_file: self.preamble_file.clone(),
+            subroutines: self.subroutines.clone(),
             ..Default::default()
         }
     }

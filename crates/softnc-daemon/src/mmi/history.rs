@@ -145,6 +145,50 @@ pub(super) fn load_jobs(path: &std::path::Path) -> (Vec<JobRecord>, u64) {
     }
 }
 
+/// Files of the data directory that could not be written, and why: the MMI holds
+/// what they should hold and writes them again every `job_record_period_s` until
+/// they are written (a read-only or full disk made writable again).
+#[derive(Debug, Default)]
+pub(super) struct Unsaved {
+    /// By slot ([`Unsaved::HISTORY`], …): why the file is not written.
+    pub(super) slots: [Option<String>; 3],
+}
+
+impl Unsaved {
+    /// The job history.
+    pub(super) const HISTORY: usize = 0;
+    /// The parameter file.
+    pub(super) const PARAMS: usize = 1;
+    /// The modal state file.
+    pub(super) const MODAL: usize = 2;
+    const NAMES: [&'static str; 3] = ["job_history", "parameters", "modal_state"];
+
+    /// Some file is not written.
+    pub(super) fn any(&self) -> bool {
+        self.slots.iter().any(Option::is_some)
+    }
+
+    /// The parameter file is not written.
+    pub(super) fn params(&self) -> Option<&String> {
+        self.slots[Self::PARAMS].as_ref()
+    }
+
+    /// The modal state file is not written.
+    pub(super) fn modal(&self) -> Option<&String> {
+        self.slots[Self::MODAL].as_ref()
+    }
+
+    /// `{"job_history": why, …}` of the files not written.
+    pub(super) fn json(&self) -> serde_json::Value {
+        let map: serde_json::Map<String, serde_json::Value> = Self::NAMES
+            .iter()
+            .zip(&self.slots)
+            .filter_map(|(n, e)| e.as_ref().map(|e| (n.to_string(), e.clone().into())))
+            .collect();
+        serde_json::Value::Object(map)
+    }
+}
+
 /// The highest `"job_id": N` in a history that no longer parses.
 pub(super) fn highest_job_id(text: &str) -> u64 {
     text.match_indices("\"job_id\"")
@@ -165,15 +209,46 @@ impl MmiTask {
         self.cfg.data_dir.join("jobs.json")
     }
 
+    /// Write the job history; a failure (a read-only or full disk) is an alarm the
+    /// first time, the history is kept in memory and written again every
+    /// `job_record_period_s` until it is written.
     pub(super) fn save_jobs(&mut self) {
         self.last_save = Instant::now();
         let text = serde_json::to_vec_pretty(&self.jobs).unwrap_or_default();
-        if let Err(e) = write_atomic(&self.jobs_path(), &text) {
-            tracing::warn!(
-                "cannot write job history {}: {e}",
-                self.jobs_path().display()
-            );
+        let written = write_atomic(&self.jobs_path(), &text).map_err(|e| e.to_string());
+        let what = format!("job history {}", self.jobs_path().display());
+        if let Err(e) = self.note_saved(Unsaved::HISTORY, &what, written) {
+            tracing::warn!("{e}");
         }
+    }
+
+    /// The outcome of writing file `what` (an [`Unsaved`] slot): an alarm when it
+    /// first fails, and it is tried again; said in the log once written again.
+    pub(super) fn note_saved(
+        &mut self,
+        slot: usize,
+        what: &str,
+        written: Result<(), String>,
+    ) -> anyhow::Result<()> {
+        let period = self.cfg.config.job_record_period_s;
+        match written {
+            Ok(()) => {
+                if self.unsaved.slots[slot].take().is_some() {
+                    tracing::info!("{what}: written again");
+                }
+            }
+            Err(e) => {
+                let first = self.unsaved.slots[slot].is_none();
+                self.unsaved.slots[slot] = Some(e.clone());
+                if first {
+                    tracing::error!("{what} not saved: {e}");
+                    self.alarm(&format!(
+                        "{what} not saved: {e}; kept in memory, tried again every {period} s"
+                    ))?;
+                }
+            }
+        }
+        Ok(())
     }
 
     /// One page of the job history, newest first, from `offset` (skipped newest

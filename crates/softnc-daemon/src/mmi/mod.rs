@@ -76,6 +76,14 @@ pub struct MmiTask {
     intent: Option<MachineState>,
     /// A submitted job being read and checked off the loop; answered when done.
     checking: Option<Checking>,
+    /// Checks abandoned after `check_timeout_s` (their path and thread): new jobs
+    /// are refused while `max_abandoned_checks` of them still run.
+    abandoned: Vec<(String, std::thread::JoinHandle<()>)>,
+    /// Why the modal state file cannot be used (anything but modal words in it):
+    /// jobs, MDI and touch-off are refused until it is fixed or removed.
+    modal_error: Option<String>,
+    /// Files of the data directory that could not be written ([`history::Unsaved`]).
+    unsaved: history::Unsaved,
     /// The parameter file and the tool table.
     store: MachineStore,
     /// The machine's parameters as last saved (`None`: the profile's offsets).
@@ -144,10 +152,13 @@ impl MmiTask {
         } else {
             0
         };
-        let modal = store.load_modal().unwrap_or_else(|e| {
-            tracing::error!("{e}");
-            None
-        });
+        let (modal, modal_error) = match store.load_modal() {
+            Ok(m) => (m, None),
+            Err(e) => {
+                tracing::error!("{e}");
+                (None, Some(e))
+            }
+        };
         let (params, params_error) = match store.load_params() {
             Ok(p) => (p, None),
             Err(e) => {
@@ -155,7 +166,7 @@ impl MmiTask {
                 (None, Some(e))
             }
         };
-        Ok(MmiTask {
+        let mut task = MmiTask {
             server,
             control: bus.control_publisher()?,
             status: bus.status_subscriber()?,
@@ -184,6 +195,9 @@ impl MmiTask {
             last_hb: Instant::now() - Duration::from_secs(1),
             shutdown: false,
             checking: None,
+            abandoned: Vec::new(),
+            modal_error,
+            unsaved: history::Unsaved::default(),
             store,
             params,
             params_error,
@@ -197,7 +211,32 @@ impl MmiTask {
             intent: None,
             stop: StopWatch::manual(),
             _bus: bus,
-        })
+        };
+        // a file the machine cannot run with is said at once, by name
+        let unusable: Vec<String> = [&task.params_error, &task.modal_error]
+            .into_iter()
+            .flatten()
+            .cloned()
+            .collect();
+        for e in unusable {
+            task.alarm(&e)?;
+        }
+        Ok(task)
+    }
+
+    /// Raise an alarm of the MMI's own (`Other`).
+    fn alarm(&mut self, msg: &str) -> Result<()> {
+        self.alarms_pub.send_copy(Alarm {
+            code: AlarmCode::Other.wire(),
+            axis: u32::MAX,
+            process: ProcessId::Mmi.wire(),
+            job_id: 0,
+            time_index: 0,
+            pid: std::process::id(),
+            raised_unix_ns: softnc_rt::unix_ns(),
+            message: FixedStr::truncated(msg),
+        })?;
+        Ok(())
     }
 
     /// Stop when `stop` asks (SIGTERM/SIGINT, the supervisor's death).
@@ -469,14 +508,18 @@ impl MmiTask {
                 *slot = Some(*l);
             }
         }
-        // the running job's record is written as it progresses (once a second)
+        // the running job's record is written as it progresses (once a second); a
+        // file that could not be written is tried again as often
         let running = self.jobs.iter().any(|j| j.outcome == "running");
-        if changed
-            || (running
-                && self.last_save.elapsed().as_secs_f64() >= self.cfg.config.job_record_period_s)
-        {
+        let due = self.last_save.elapsed().as_secs_f64() >= self.cfg.config.job_record_period_s;
+        if changed || (running && due) || (self.unsaved.any() && due) {
             self.save_jobs();
         }
+        if due && self.unsaved.any() {
+            self.retry_unsaved()?;
+        }
+        // abandoned checks that have ended
+        self.abandoned.retain(|(_, t)| !t.is_finished());
         while let Some(req) = self.server.receive()? {
             let r = *req;
             // a client that gave up waiting (this process was stopped) is gone: its
@@ -532,37 +575,66 @@ impl MmiTask {
         Ok(())
     }
 
-    /// The modal state a completed MDI command or job left becomes the machine's.
+    /// The modal state a completed MDI command or job left becomes the machine's
+    /// (kept in memory; a file that cannot be written is tried again).
     fn save_modal(&mut self, modal: String) {
-        if let Err(e) = self.store.save_modal(&modal) {
-            tracing::warn!("modal state not kept: {e}");
-        }
+        let unchanged =
+            self.modal.as_deref() == Some(modal.as_str()) && self.unsaved.modal().is_none();
         self.modal = Some(modal);
+        if !unchanged {
+            let _ = self.write_modal();
+        }
     }
 
+    /// Write the modal state to its file: an alarm the first time it fails.
+    fn write_modal(&mut self) -> Result<()> {
+        let Some(modal) = self.modal.clone() else {
+            return Ok(());
+        };
+        let written = self.store.save_modal(&modal);
+        let what = format!("modal state {}", self.store.modal_path().display());
+        self.note_saved(history::Unsaved::MODAL, &what, written)
+    }
+
+    /// A completed job's parameters become the machine's: kept in memory as the
+    /// file will give them back, and written (unless unchanged). While the file is
+    /// not written jobs are refused (a restart would lose the offsets); it is tried
+    /// again until written.
     fn save_params(&mut self, params: &softnc_gcode::Params) -> Result<()> {
-        let saved = self
-            .store
-            .save_params(params)
-            .and_then(|()| self.store.load_params());
-        match saved {
-            Ok(p) => {
-                self.params = p;
-                self.params_error = None;
-            }
+        // as the file gives them back (LinuxCNC's six decimals)
+        let kept = match softnc_gcode::Params::from_var_text(&params.to_var_text(), "parameters") {
+            Ok(p) => p,
             Err(e) => {
-                self.params_error = Some(e.clone());
-                self.alarms_pub.send_copy(Alarm {
-                    code: AlarmCode::Other.wire(),
-                    axis: u32::MAX,
-                    process: ProcessId::Mmi.wire(),
-                    job_id: 0,
-                    time_index: 0,
-                    pid: std::process::id(),
-                    raised_unix_ns: softnc_rt::unix_ns(),
-                    message: FixedStr::truncated(&format!("parameters not saved: {e}")),
-                })?;
+                self.alarm(&format!("parameters not kept: {e}"))?;
+                return Ok(());
             }
+        };
+        let unchanged = self.params.as_ref() == Some(&kept) && self.unsaved.params().is_none();
+        self.params = Some(kept);
+        if !unchanged {
+            self.write_params()?;
+        }
+        Ok(())
+    }
+
+    /// Write the machine's parameters to their file: an alarm the first time it
+    /// fails.
+    fn write_params(&mut self) -> Result<()> {
+        let Some(params) = self.params.clone() else {
+            return Ok(());
+        };
+        let written = self.store.save_params(&params);
+        let what = format!("parameters {}", self.store.params_path().display());
+        self.note_saved(history::Unsaved::PARAMS, &what, written)
+    }
+
+    /// Files that could not be written, tried again.
+    fn retry_unsaved(&mut self) -> Result<()> {
+        if self.unsaved.params().is_some() {
+            self.write_params()?;
+        }
+        if self.unsaved.modal().is_some() {
+            self.write_modal()?;
         }
         Ok(())
     }
@@ -868,6 +940,10 @@ impl MmiTask {
                 "flood": self.modal.as_deref().is_some_and(|m| m.lines().any(|l| l.trim() == "M8")),
             },
             "params_error": self.params_error,
+            "modal_error": self.modal_error,
+            // files of the data directory not written (retried), by what they hold
+            "unsaved": self.unsaved.json(),
+            "abandoned_checks": self.abandoned_running(),
             "switches": {"single_block": self.switches.single_block,
                 "optional_stop": self.switches.optional_stop,
                 "block_delete": self.switches.block_delete},
@@ -889,6 +965,7 @@ impl MmiTask {
                 "progress": j.progress(),
                 "accuracy": j.accuracy,
                 "notes": j.notes,
+                "alarms": j.alarms,
             })),
             "axes": s.map(|s| serde_json::json!({
                 "cmd_mm": &s.cmd_mm[..3], "actual_mm": &s.actual_mm[..3],

@@ -79,7 +79,17 @@ impl MmiTask {
     }
 
     /// Why a job, MDI or touch-off cannot be taken in now, if it cannot.
-    pub(super) fn refuse_program(&self, state: MachineState, what: &str) -> Option<String> {
+    pub(super) fn refuse_program(&mut self, state: MachineState, what: &str) -> Option<String> {
+        if self.modal_error.is_some() {
+            // fixed or removed since: used again
+            match self.store.load_modal() {
+                Ok(m) => {
+                    self.modal = m;
+                    self.modal_error = None;
+                }
+                Err(e) => self.modal_error = Some(e),
+            }
+        }
         if self.shutdown {
             return Some(format!("shutting down; {what} not started"));
         }
@@ -91,6 +101,16 @@ impl MmiTask {
         }
         if let Some(e) = &self.params_error {
             return Some(format!("{e}; {what} not started"));
+        }
+        if let Some(e) = &self.modal_error {
+            return Some(format!("{e}; {what} not started"));
+        }
+        if let Some(e) = self.unsaved.params() {
+            return Some(format!(
+                "the machine's parameters are not saved ({}: {e}); {what} not started until they are (tried again every {} s)",
+                self.store.params_path().display(),
+                self.cfg.config.job_record_period_s
+            ));
         }
         let homed = self.homed();
         if homed.iter().any(|h| !h) {
@@ -114,6 +134,20 @@ impl MmiTask {
         }
         if let Some(c) = &self.checking {
             return Some(format!("{} is being checked; {what} not started", c.path));
+        }
+        let abandoned = self.abandoned_running();
+        if abandoned >= self.cfg.config.max_abandoned_checks as usize {
+            let paths: Vec<&str> = self
+                .abandoned
+                .iter()
+                .filter(|(_, t)| !t.is_finished())
+                .map(|(p, _)| p.as_str())
+                .collect();
+            return Some(format!(
+                "{abandoned} abandoned checks still run ({}; over check_timeout_s), at most {} (max_abandoned_checks): wait until they end; {what} not started",
+                paths.join(", "),
+                self.cfg.config.max_abandoned_checks
+            ));
         }
         None
     }

@@ -83,6 +83,7 @@ impl Builder {
             motions: self.motions.clone(),
             warnings: vec![],
             end_modal: String::new(),
+            subroutine_files: vec![],
         }
     }
 }
