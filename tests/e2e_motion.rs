@@ -1,0 +1,176 @@
+//! End-to-end tests of motion's edge cases through softncd, its three processes and
+//! the operator client: what moves nothing holds every axis, a dwell takes its
+//! time, a stalled loop is a fault, homing after an E-stop, loop-timing alarms.
+mod support;
+use support::*;
+
+/// Rows (cmd x y z, actual x y z) of job `job_id`'s trace, once its file is
+/// complete (the trace thread closes it); empty if the job wrote none.
+fn trace_rows(d: &Daemon, job_id: u64) -> Vec<[f64; 6]> {
+    let path = d.dir.join(format!("data/trace-job{job_id}.csv"));
+    let t0 = Instant::now();
+    let mut last_len = usize::MAX;
+    loop {
+        // written by its own thread: done once it stops growing
+        let len = std::fs::metadata(&path).map_or(0, |m| m.len() as usize);
+        if (len > 0 && len == last_len) || t0.elapsed() > Duration::from_secs(5) {
+            break;
+        }
+        last_len = len;
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    std::fs::read_to_string(&path)
+        .unwrap_or_default()
+        .lines()
+        .skip(1)
+        .filter_map(|l| {
+            let f: Vec<f64> = l
+                .split(',')
+                .skip(1)
+                .take(6)
+                .filter_map(|v| v.parse().ok())
+                .collect();
+            (f.len() == 6).then(|| [f[0], f[1], f[2], f[3], f[4], f[5]])
+        })
+        .collect()
+}
+
+/// How far a held axis may be measured from its command: the simulated machine's
+/// servo holds within tens of µm between jobs (the failures this guards against
+/// are steps of millimetres).
+const ACTUAL_TOL_MM: f64 = 0.1;
+
+/// The measured position in the status.
+fn actual_mm(s: &serde_json::Value) -> [f64; 3] {
+    [0, 1, 2].map(|i| s["axes"]["actual_mm"][i].as_f64().unwrap())
+}
+
+/// Run `text` as MDI (or, with `as_job`, as a job file); wait until it has ended and
+/// the machine is idle. `None`: refused (with its message).
+fn run_block(d: &Daemon, op: &Operator, text: &str, as_job: bool) -> Result<u64, String> {
+    let r = if as_job {
+        let job = d.dir.join("zero.ngc");
+        std::fs::write(&job, text).unwrap();
+        op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap()
+    } else {
+        op.request(ControlKind::Mdi, 0.0, text).unwrap()
+    };
+    if r.accepted != 1 {
+        return Err(r.message.as_str().to_string());
+    }
+    let s = d.wait_job(op, r.job_id, Duration::from_secs(30));
+    assert_eq!(s["job"]["outcome"], "completed", "{text:?}: {s}");
+    d.wait_status(op, Duration::from_secs(10), "idle", |s| {
+        s["state"] == "Idle"
+    });
+    Ok(r.job_id)
+}
+
+/// Every shape of a block or job that moves nothing leaves every axis where it
+/// stands: commanded exactly there, measured within the in-position band, in the
+/// status and in every traced cycle; no alarm; and a real move after them lands
+/// where it should.
+fn zero_motion_holds_every_axis(tag: &str, edits: &[(&str, &str)]) {
+    let d = Daemon::start_in(fresh_dir(tag), tag, "Lockstep", true, "default.ron", edits);
+    let op = d.operator();
+    run_block(&d, &op, "G90 G0 X5 Y5 Z0", false).unwrap();
+    let p = machine_mm(&op.status().unwrap());
+    assert!(p[0] > 1.0 && p[1] > 1.0, "the first move went to {p:?}");
+    // (the reader refuses an arc to its own start with R, and one of zero radius,
+    // as LinuxCNC does: a full circle is not a zero-length arc)
+    let refused_arcs = [
+        "F300 G2 X5 Y5 R3",
+        "F300 G2 X5 Y5 I0 J0",
+        "F300 G3 I0 J0 Z0",
+    ];
+    let blocks = [
+        "G0 X5",
+        "G0 X5 Y5 Z0",
+        "G1 X5 Y5 F300",
+        "G91 G0 X0 Y0 Z0",
+        "G1 Z0 F300",
+        "G90",
+        "G4 P0.3",
+        "M3 S1000",
+        "M5",
+        "M8",
+        "M9",
+        "G92 X1",
+        "G92.1",
+        "G10 L2 P2 X1 Y2",
+        "G0 X5 Y5 Z0\nG1 X5 F300\nG4 P0.2\nG0 Y5",
+    ];
+    let jobs = [
+        "G21 G90\nG0 X5 Y5 Z0\nG1 X5 Y5 Z0 F300\nM2\n",
+        "G21 G90\nG4 P0.2\nM2\n",
+        "G21 G90\nM3 S800\nM8\nM9\nM5\nM2\n",
+        "G21 G90\nG92 X3\nG92.1\nG10 L2 P3 X1\nM2\n",
+        "%\nG0 X5\n%\n",
+    ];
+    let mut ran = Vec::new();
+    let check = |what: &str, ran: &mut Vec<u64>, result: Result<u64, String>| {
+        if let Ok(id) = result {
+            ran.push(id);
+        }
+        let s = op.status().unwrap();
+        assert_eq!(s["state"], "Idle", "after {what:?}: {s}");
+        let (cmd, act) = (machine_mm(&s), actual_mm(&s));
+        for axis in 0..3 {
+            assert!(
+                (cmd[axis] - p[axis]).abs() < 1e-9 && (act[axis] - p[axis]).abs() < ACTUAL_TOL_MM,
+                "after {what:?} the machine is commanded at {cmd:?}, measured at {act:?}; it stood at {p:?}"
+            );
+        }
+        let alarms = s["alarms"].as_array().unwrap();
+        assert!(
+            alarms.iter().all(|a| a["code"] == "JobRefused"),
+            "after {what:?}: {alarms:?}"
+        );
+    };
+    for b in refused_arcs {
+        let r = run_block(&d, &op, b, false);
+        assert!(r.is_err(), "{b:?} was taken");
+        check(b, &mut ran, r);
+    }
+    for b in blocks {
+        let r = run_block(&d, &op, b, false);
+        assert!(r.is_ok(), "{b:?}: {r:?}");
+        check(b, &mut ran, r);
+    }
+    for j in jobs {
+        let r = run_block(&d, &op, j, true);
+        assert!(r.is_ok(), "{j:?}: {r:?}");
+        check(j, &mut ran, r);
+    }
+    // every cycle that ran, commanded and measured where the machine stood
+    for id in ran {
+        for row in trace_rows(&d, id) {
+            for axis in 0..3 {
+                assert!(
+                    (row[axis] - p[axis]).abs() < 1e-9
+                        && (row[3 + axis] - p[axis]).abs() < ACTUAL_TOL_MM,
+                    "job {id} commanded {:?}, measured {:?}; the machine stood at {p:?}",
+                    &row[..3],
+                    &row[3..]
+                );
+            }
+        }
+    }
+    // and the machine still moves as programmed
+    run_block(&d, &op, "G90 G0 X6 Y5 Z0", false).unwrap();
+    let at = machine_mm(&op.status().unwrap());
+    assert!(
+        (at[0] - (p[0] + 1.0)).abs() < 1e-9 && (at[1] - p[1]).abs() < 1e-9,
+        "{at:?}"
+    );
+}
+
+#[test]
+fn a_block_or_job_that_moves_nothing_holds_every_axis_on_the_simulated_machine() {
+    zero_motion_holds_every_axis("zerosim", &[]);
+}
+
+#[test]
+fn a_block_or_job_that_moves_nothing_holds_every_axis_on_the_loopback_drive() {
+    zero_motion_holds_every_axis("zeroloop", &[("backend: Simulated", "backend: Loopback")]);
+}
