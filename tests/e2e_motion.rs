@@ -174,3 +174,58 @@ fn a_block_or_job_that_moves_nothing_holds_every_axis_on_the_simulated_machine()
 fn a_block_or_job_that_moves_nothing_holds_every_axis_on_the_loopback_drive() {
     zero_motion_holds_every_axis("zeroloop", &[("backend: Simulated", "backend: Loopback")]);
 }
+
+/// Submit `text` as a job file (or MDI) and time it to its end: (seconds, the final
+/// status).
+fn timed_run(d: &Daemon, op: &Operator, text: &str, as_job: bool) -> (f64, serde_json::Value) {
+    let t0 = Instant::now();
+    let r = if as_job {
+        let job = d.dir.join("dwell.ngc");
+        std::fs::write(&job, text).unwrap();
+        op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap()
+    } else {
+        op.request(ControlKind::Mdi, 0.0, text).unwrap()
+    };
+    assert_eq!(r.accepted, 1, "{text:?}: {}", r.message.as_str());
+    let s = d.wait_job(op, r.job_id, Duration::from_secs(30));
+    (t0.elapsed().as_secs_f64(), s)
+}
+
+#[test]
+fn a_program_that_only_dwells_takes_its_dwell_holding_still() {
+    let d = Daemon::start("dwell", "Realtime", false);
+    let op = d.operator();
+    run_block(&d, &op, "G90 G0 X5 Y5 Z0", false).unwrap();
+    let p = machine_mm(&op.status().unwrap());
+    for (text, as_job, dwell_s) in [
+        ("G4 P1", false, 1.0),
+        // (with a feed: a program that ends in M2 with none leaves the modal
+        // preamble a G1 at feed 0, which the next job is refused on — the files
+        // area's modal preamble, not this test's)
+        ("G21 G90 F600\nG4 P2\nM2\n", true, 2.0),
+        // a dwell between moves still stands its time at the first move's end
+        ("G21 G90\nG1 X6 F600\nG4 P1\nG1 X5\nM2\n", true, 1.0 + 0.2),
+    ] {
+        let (took_s, s) = timed_run(&d, &op, text, as_job);
+        assert_eq!(s["job"]["outcome"], "completed", "{text:?}: {s}");
+        assert!(
+            took_s >= dwell_s * 0.95,
+            "{text:?} ended after {took_s:.3} s: its dwell was skipped"
+        );
+        let cycles = s["job"]["cycles"].as_u64().unwrap();
+        assert!(
+            cycles as f64 >= dwell_s * 1000.0 * 0.95,
+            "{text:?}: {cycles} cycles"
+        );
+        let s = d.wait_status(&op, Duration::from_secs(5), "idle", |s| {
+            s["state"] == "Idle"
+        });
+        let at = machine_mm(&s);
+        for axis in 0..3 {
+            assert!(
+                (at[axis] - p[axis]).abs() < 1e-9,
+                "{text:?}: at {at:?}, from {p:?}"
+            );
+        }
+    }
+}

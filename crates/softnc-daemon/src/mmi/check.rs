@@ -196,8 +196,9 @@ impl MmiTask {
                     CheckKind::Mdi { text } => (Some(text.clone()), None, false),
                     CheckKind::TouchOff { what } => (Some(what.clone()), None, false),
                 };
-                // nothing to move (a G10, G92, G5x block, a touch-off): done here
-                let moves = stats.moves > 0;
+                // nothing to run (a G10, G92, G5x block, M codes, a touch-off):
+                // done here; a dwell takes its time on the machine like a move
+                let moves = stats.moves > 0 || stats.duration_s > 0.0;
                 self.jobs.push(JobRecord {
                     job_id,
                     path: path.clone(),
