@@ -229,3 +229,57 @@ fn a_program_that_only_dwells_takes_its_dwell_holding_still() {
         }
     }
 }
+
+#[test]
+fn an_estop_during_homing_leaves_the_axes_unhomed_and_a_later_home_homes_them() {
+    let tag = "homeestop";
+    let dir = fresh_dir(tag);
+    let profile = quick_homing_profile(&dir.join("profile"));
+    let d = Daemon::start_in(
+        dir.clone(),
+        tag,
+        "Lockstep",
+        false,
+        profile.to_str().unwrap(),
+        &[],
+    );
+    let op = d.operator();
+    let all_homed = serde_json::json!([true, true, true]);
+    let (ok, msg) = ask(&op, ControlKind::Home, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    // under way: the first axis has left where it stood
+    let s0 = machine_mm(&op.status().unwrap());
+    d.wait_status(&op, Duration::from_secs(20), "homing moves", |s| {
+        s["state"] == "Homing" && (0..3).any(|i| (machine_mm(s)[i] - s0[i]).abs() > 1.0)
+    });
+    let (ok, msg) = ask(&op, ControlKind::EStop, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    let s = d.wait_status(&op, Duration::from_secs(5), "E-stop", |s| {
+        s["state"] == "EStopped"
+    });
+    assert_ne!(s["homed"], all_homed, "{s}");
+    let (ok, msg) = ask(&op, ControlKind::Reset, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    let s = d.wait_status(&op, Duration::from_secs(5), "reset", |s| {
+        s["state"] == "Idle" || s["state"] == "Off"
+    });
+    if s["state"] == "Off" {
+        op.machine_on(Duration::from_secs(10)).unwrap();
+    }
+    // homing again homes every axis, as it does the first time
+    let (ok, msg) = ask(&op, ControlKind::Home, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    let t0 = Instant::now();
+    let s = d.wait_status(&op, Duration::from_secs(60), "homed", |s| {
+        s["state"] == "Idle" && s["homed"] == all_homed
+            || s["state"] == "Idle" && t0.elapsed() > Duration::from_secs(2)
+    });
+    assert_eq!(
+        s["homed"], all_homed,
+        "home after the E-stop did nothing: {s}"
+    );
+    let home = machine_mm(&s);
+    for (got, want) in home.iter().zip([0.0, 0.0, 90.0]) {
+        assert!((got - want).abs() < 1e-9, "home position {home:?}");
+    }
+}
