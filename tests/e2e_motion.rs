@@ -283,3 +283,142 @@ fn an_estop_during_homing_leaves_the_axes_unhomed_and_a_later_home_homes_them() 
         assert!((got - want).abs() < 1e-9, "home position {home:?}");
     }
 }
+
+/// Send `signal` (`-STOP`, `-CONT`) to `pid`.
+fn signal(pid: u32, signal: &str) {
+    let ok = Command::new("kill")
+        .args([signal, &pid.to_string()])
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok, "kill {signal} {pid}");
+}
+
+/// Stop process `pid` for `how_long` (alive to the kernel, its loop standing).
+fn stop_for(pid: u32, how_long: Duration) {
+    signal(pid, "-STOP");
+    std::thread::sleep(how_long);
+    signal(pid, "-CONT");
+}
+
+/// The messages of the status's alarms with `code`.
+fn alarms_with(s: &serde_json::Value, code: &str) -> Vec<String> {
+    s["alarms"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|a| a["code"] == code)
+        .map(|a| a["message"].as_str().unwrap().to_string())
+        .collect()
+}
+
+/// After a fault: reset (and on, if the reset leaves the machine off), then a job
+/// runs to its end.
+fn reset_and_run_a_job(d: &Daemon, op: &Operator) {
+    let (ok, msg) = ask(op, ControlKind::Reset, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    let s = d.wait_status(op, Duration::from_secs(10), "reset", |s| {
+        s["state"] == "Idle" || s["state"] == "Off"
+    });
+    if s["state"] == "Off" {
+        op.machine_on(Duration::from_secs(10)).unwrap();
+    }
+    let r = op
+        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
+        .unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let s = d.wait_job(op, r.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+}
+
+#[test]
+fn a_stall_of_the_position_loop_mid_job_stops_the_machine_as_a_fault() {
+    let d = Daemon::start("stallpos", "Realtime", false);
+    let op = d.operator();
+    let job = start_moving(&d, &op);
+    let pid = d.pid_of("softnc-position").unwrap();
+    // 1 s: ten times the stall bound, a tenth of the supervisor's watchdog
+    stop_for(pid, Duration::from_secs(1));
+    let s = d.wait_job(&op, job, Duration::from_secs(20));
+    assert_eq!(
+        s["job"]["outcome"], "aborted",
+        "the job went on after the stall: {s}"
+    );
+    let s = d.wait_status(&op, Duration::from_secs(10), "the stall fault", |s| {
+        s["state"] == "Faulted" && !alarms_with(s, "LoopStall").is_empty()
+    });
+    let stall = alarms_with(&s, "LoopStall");
+    assert!(stall[0].contains("position loop stood"), "{stall:?}");
+    // it stays faulted (not resumed), the process the same one (not the watchdog's)
+    std::thread::sleep(Duration::from_millis(1500));
+    let s = op.status().unwrap();
+    assert_eq!(s["state"], "Faulted", "{s}");
+    assert_eq!(d.pid_of("softnc-position"), Some(pid));
+    reset_and_run_a_job(&d, &op);
+}
+
+#[test]
+fn a_stall_of_the_interpolation_loop_mid_job_is_noticed_and_the_job_stops() {
+    let d = Daemon::start("stallinterp", "Realtime", false);
+    let op = d.operator();
+    let job = start_moving(&d, &op);
+    let pid = d.pid_of("softnc-interp").unwrap();
+    stop_for(pid, Duration::from_secs(1));
+    let s = d.wait_job(&op, job, Duration::from_secs(20));
+    assert_ne!(s["job"]["outcome"], "completed", "{s}");
+    let s = d.wait_status(&op, Duration::from_secs(10), "the stall alarm", |s| {
+        alarms_with(s, "LoopStall")
+            .iter()
+            .any(|m| m.contains("interpolation loop stood"))
+    });
+    assert_ne!(s["state"], "Running", "{s}");
+    reset_and_run_a_job(&d, &op);
+}
+
+#[test]
+fn late_position_cycles_raise_one_alarm_per_period_not_one_per_cycle() {
+    let d = Daemon::start_edited(
+        "late",
+        "Realtime",
+        &[("late_alarm_period_s: 10.0", "late_alarm_period_s: 4.0")],
+    );
+    let op = d.operator();
+    d.wait_status(&op, Duration::from_secs(10), "loop figures", |s| {
+        s["loops"]["position"]["cycles"].as_u64().unwrap_or(0) > 500
+    });
+    let pid = d.pid_of("softnc-position").unwrap();
+    let late_of_position = |s: &serde_json::Value| {
+        alarms_with(s, "LoopLate")
+            .into_iter()
+            .filter(|m| m.contains("position loop ran late"))
+            .collect::<Vec<_>>()
+    };
+    // three 40 ms stops within a second: late (beyond 10 ms), no stall (100 ms)
+    let t0 = Instant::now();
+    for _ in 0..3 {
+        stop_for(pid, Duration::from_millis(40));
+        std::thread::sleep(Duration::from_millis(300));
+    }
+    let s = d.wait_status(&op, Duration::from_secs(5), "a late-cycle alarm", |s| {
+        !late_of_position(s).is_empty()
+    });
+    assert_eq!(s["state"], "Idle", "late cycles are not a fault: {s}");
+    assert!(
+        t0.elapsed() < Duration::from_secs(4),
+        "the period is over already"
+    );
+    assert_eq!(late_of_position(&s).len(), 1, "{s}");
+    // the rest in one alarm once the period is over, with their count
+    let s = d.wait_status(&op, Duration::from_secs(10), "the period's alarm", |s| {
+        late_of_position(s).len() >= 2
+    });
+    let msgs = late_of_position(&s);
+    assert_eq!(msgs.len(), 2, "one alarm per period: {msgs:?}");
+    let count: u64 = msgs[0]
+        .split("ran late: ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(0);
+    assert!(count >= 2, "{msgs:?}");
+}

@@ -84,6 +84,41 @@ pub struct DaemonConfig {
     /// the dead-man of a client that went away.
     #[serde(default = "default_jog_deadman_s")]
     pub jog_deadman_s: f64,
+    /// How the real-time loops judge their own timing (realtime clock only).
+    #[serde(default)]
+    pub loop_timing: LoopTimingConfig,
+}
+
+/// The loops' own watch over their timing (realtime clock only; a lockstep run has
+/// no clock to miss). Each loop measures the period from one wake-up to the next.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LoopTimingConfig {
+    /// A period longer than this (s) is a stall: the loop did not run (stopped,
+    /// starved of the CPU) and the axes got no new command meanwhile. The position
+    /// loop then stops the machine as a fault (jobs, jogs and homing; drives as on a
+    /// following-error fault) rather than resume where it stood; the interpolation
+    /// loop stops its job along the path. 0.1 s: a hundred cycles at 1 kHz, the
+    /// lookahead ring's default depth and the sync-manager watchdog an EtherCAT
+    /// drive trips on by default — beyond it a drive has faulted itself anyway.
+    /// Far below `supervisor.watchdog_s`, which kills a process silent that long.
+    pub stall_fault_s: f64,
+    /// A period off the nominal by more than this (s) counts as a late cycle: an
+    /// operator alarm (`LoopLate`) with the count and the worst, at most one per
+    /// `late_alarm_period_s`.
+    pub late_alarm_s: f64,
+    /// At most one late-cycle alarm per loop in this long (s).
+    pub late_alarm_period_s: f64,
+}
+
+impl Default for LoopTimingConfig {
+    fn default() -> Self {
+        LoopTimingConfig {
+            stall_fault_s: 0.1,
+            late_alarm_s: 0.01,
+            late_alarm_period_s: 10.0,
+        }
+    }
 }
 
 fn default_jog_deadman_s() -> f64 {
@@ -302,6 +337,18 @@ impl DaemonConfig {
         }
         if !(config.jog_deadman_s > 0.0 && config.jog_deadman_s.is_finite()) {
             return Err(bad("jog_deadman_s", "must be a finite number > 0"));
+        }
+        let lt = config.loop_timing;
+        if !(lt.late_alarm_s > 0.0
+            && lt.stall_fault_s > lt.late_alarm_s
+            && lt.stall_fault_s < sv.watchdog_s
+            && lt.late_alarm_period_s > 0.0
+            && lt.late_alarm_period_s.is_finite())
+        {
+            return Err(bad(
+                "loop_timing",
+                "0 < late_alarm_s < stall_fault_s < supervisor.watchdog_s, late_alarm_period_s finite > 0",
+            ));
         }
         if !(config.following_error_limit_mm > 0.0 && config.following_error_limit_mm.is_finite()) {
             return Err(bad(
