@@ -98,6 +98,9 @@ pub struct DaemonConfig {
     /// still run (each holds a thread and its memory).
     #[serde(default = "default_max_abandoned_checks")]
     pub max_abandoned_checks: u32,
+    /// How the real-time loops judge their own timing (realtime clock only).
+    #[serde(default)]
+    pub loop_timing: LoopTimingConfig,
 }
 
 fn default_mmi_silence_stop_s() -> f64 {
@@ -110,6 +113,38 @@ fn default_check_timeout_s() -> f64 {
 
 fn default_max_abandoned_checks() -> u32 {
     2
+}
+
+/// The loops' own watch over their timing (realtime clock only; a lockstep run has
+/// no clock to miss). Each loop measures the period from one wake-up to the next.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LoopTimingConfig {
+    /// A period longer than this (s) is a stall: the loop did not run (stopped,
+    /// starved of the CPU) and the axes got no new command meanwhile. The position
+    /// loop then stops the machine as a fault (jobs, jogs and homing; drives as on a
+    /// following-error fault) rather than resume where it stood; the interpolation
+    /// loop stops its job along the path. 0.1 s: a hundred cycles at 1 kHz, the
+    /// lookahead ring's default depth and the sync-manager watchdog an EtherCAT
+    /// drive trips on by default — beyond it a drive has faulted itself anyway.
+    /// Far below `supervisor.watchdog_s`, which kills a process silent that long.
+    pub stall_fault_s: f64,
+    /// A period off the nominal by more than this (s) counts as a late cycle: an
+    /// operator alarm (`LoopLate`) with the count and the worst, at most one per
+    /// `late_alarm_period_s`.
+    pub late_alarm_s: f64,
+    /// At most one late-cycle alarm per loop in this long (s).
+    pub late_alarm_period_s: f64,
+}
+
+impl Default for LoopTimingConfig {
+    fn default() -> Self {
+        LoopTimingConfig {
+            stall_fault_s: 0.1,
+            late_alarm_s: 0.01,
+            late_alarm_period_s: 10.0,
+        }
+    }
 }
 
 fn default_jog_deadman_s() -> f64 {
@@ -349,6 +384,18 @@ impl DaemonConfig {
             return Err(bad(
                 "mmi_silence_stop_s",
                 "must be finite and at least two heartbeat periods (heartbeat_period_s)",
+            ));
+        }
+        let lt = config.loop_timing;
+        if !(lt.late_alarm_s > 0.0
+            && lt.stall_fault_s > lt.late_alarm_s
+            && lt.stall_fault_s < sv.watchdog_s
+            && lt.late_alarm_period_s > 0.0
+            && lt.late_alarm_period_s.is_finite())
+        {
+            return Err(bad(
+                "loop_timing",
+                "0 < late_alarm_s < stall_fault_s < supervisor.watchdog_s, late_alarm_period_s finite > 0",
             ));
         }
         if !(config.following_error_limit_mm > 0.0 && config.following_error_limit_mm.is_finite()) {

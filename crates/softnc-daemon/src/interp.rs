@@ -26,6 +26,7 @@
 use crate::bus::{Bus, Sub};
 use crate::config::{ClockMode, Loaded};
 use crate::lifecycle::StopWatch;
+use crate::loop_watch::{LoopEvent, LoopWatch};
 use crate::outbox::{InterpMsg, Outbox, OUTBOX_CAPACITY};
 use anyhow::{Context, Result};
 use softnc_ipc::{
@@ -54,6 +55,8 @@ pub struct InterpTask {
     /// thread, in the order sent.
     outbox: Outbox<InterpMsg>,
     stats: softnc_rt::LoopStats,
+    /// The loop's watch over its own timing (stalls, late cycles; realtime only).
+    watch: LoopWatch,
     hb_counter: u64,
     last_hb: Instant,
     /// A heartbeat is due now (the state changed).
@@ -207,6 +210,10 @@ impl InterpTask {
                 cfg.config.interp_rt.helper_priority(),
             )?,
             stats: softnc_rt::LoopStats::new(),
+            watch: LoopWatch::new(
+                &cfg.config.loop_timing,
+                Duration::from_secs_f64(cfg.machine.interpolation_cycle_s),
+            ),
             cfg,
             hb_counter: 0,
             last_hb: Instant::now(),
@@ -423,6 +430,11 @@ impl InterpTask {
             } else {
                 (Instant::now(), Duration::ZERO, 0)
             };
+            if realtime {
+                if let Some(ev) = self.watch.observe(jitter, woke) {
+                    self.on_timing(&mut s, ev)?;
+                }
+            }
             let end = self.cycle(&mut s)?;
             if realtime {
                 self.stats.record(jitter, woke.elapsed(), late);
@@ -440,6 +452,40 @@ impl InterpTask {
                 } else {
                     IDLE_SLEEP
                 });
+            }
+        }
+    }
+
+    /// What the loop's watch found: after a stall the job stops along its path (the
+    /// samples it sent meanwhile are not the ones the machine needed when), with an
+    /// alarm; late cycles are reported. Allocation-free (texts in fixed buffers).
+    fn on_timing(&mut self, s: &mut Streaming<'_>, ev: LoopEvent) -> Result<()> {
+        let ms = |d: Duration| d.as_secs_f64() * 1e3;
+        let mut msg = FixedStr::<256>::empty();
+        match ev {
+            LoopEvent::Stall { period } => {
+                if !s.aborting {
+                    s.aborting = true;
+                    s.it.set_feed_override(0.0);
+                    self.state = MachineState::Stopping;
+                }
+                let _ = write!(
+                    msg,
+                    "the interpolation loop stood {:.1} ms (bound {:.1} ms): the job stops along its path",
+                    ms(period),
+                    ms(self.watch.stall_bound())
+                );
+                self.raise(AlarmCode::LoopStall, msg)
+            }
+            LoopEvent::Late { count, worst, over } => {
+                let _ = write!(
+                    msg,
+                    "the interpolation loop ran late: {count} cycle(s) off their period by more than {:.1} ms in {:.1} s (worst {:.1} ms)",
+                    ms(self.watch.late_bound()),
+                    over.as_secs_f64(),
+                    ms(worst)
+                );
+                self.raise(AlarmCode::LoopLate, msg)
             }
         }
     }

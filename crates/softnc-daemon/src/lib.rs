@@ -20,6 +20,8 @@
 //! - [`lifecycle`]: one controller per instance (a lock), stopping on SIGTERM/SIGINT
 //!   or the parent's death, systemd's readiness and watchdog.
 //! - [`cli`]: shared start-up of the binaries.
+//! - [`loop_watch`]: a real-time loop's watch over its own timing (stalls, late
+//!   cycles).
 //! - [`trace`]: per-cycle CSV traces, written off the cycle path.
 //! - [`plan_samples`]: a plan's samples for the offline simulator, their feed
 //!   override open to adaptive feed as the interpolation process opens it.
@@ -33,6 +35,7 @@ pub mod config;
 pub mod interp;
 pub mod jobfile;
 pub mod lifecycle;
+pub mod loop_watch;
 pub mod machine_store;
 pub mod manual;
 pub mod mmi;

@@ -99,11 +99,18 @@ impl Manual {
         self.homing.is_some()
     }
 
-    /// The axes stand at `pos_mm` (a job ended there, the machine came on).
+    /// The axes stand at `pos_mm` (a job ended there, the machine came on, an
+    /// E-stop cut a jog or a homing short): nothing is under way any more, so the
+    /// next jog or homing starts afresh (a homing cut short left `active` set, and
+    /// every later `home` was refused as if one still ran).
     pub fn hold(&mut self, pos_mm: [f64; AXES]) {
         for (m, p) in self.movers.iter_mut().zip(pos_mm) {
             m.reset(p);
         }
+        self.homing = None;
+        self.queue_len = 0;
+        self.queue_next = 0;
+        self.active = false;
     }
 
     /// Continuous jog of `axis` at `speed_mm_per_s` (signed; 0 stops it), to the

@@ -18,6 +18,7 @@
 use crate::bus::{Bus, Sub};
 use crate::config::{ClockMode, Loaded};
 use crate::lifecycle::StopWatch;
+use crate::loop_watch::{LoopEvent, LoopWatch};
 use crate::manual::{Manual, ManualEvent};
 use crate::outbox::{Outbox, PositionMsg, OUTBOX_CAPACITY};
 use crate::prep::{JobPrep, Prep, PrepRequest, Prepared, Retired};
@@ -179,6 +180,8 @@ pub struct PositionTask<B: ServoBackend> {
     cycles: u64,
     latency: softnc_rt::LatencyStats,
     stats: LoopStats,
+    /// The loop's watch over its own timing (stalls, late cycles; realtime only).
+    watch: LoopWatch,
     hb_counter: u64,
     last_hb: Instant,
     /// A stop was asked for (`Shutdown`, a signal, the supervisor's death): the
@@ -230,6 +233,10 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             0
         };
         let manual = Manual::new(&cfg.machine, [0.0; MAX_AXES])?;
+        let watch = LoopWatch::new(
+            &cfg.config.loop_timing,
+            Duration::from_secs_f64(cfg.machine.interpolation_cycle_s),
+        );
         // DaemonConfig::load refuses a filter wider than the window
         anyhow::ensure!(
             engine.filter_window() <= window,
@@ -289,6 +296,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             cycles: 0,
             latency: softnc_rt::LatencyStats::new(),
             stats: LoopStats::new(),
+            watch,
             hb_counter: 0,
             last_hb: Instant::now() - Duration::from_secs(1),
             shutdown: false,
@@ -359,7 +367,15 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 break;
             }
             let (woke, jitter, late) = match self.cfg.config.clock {
-                ClockMode::Realtime => clock.wait(),
+                ClockMode::Realtime => {
+                    let (woke, jitter, late) = clock.wait();
+                    // before the cycle: a loop that stood does not go on as if it
+                    // had not
+                    if let Some(ev) = self.watch.observe(jitter, woke) {
+                        self.on_timing(ev)?;
+                    }
+                    (woke, jitter, late)
+                }
                 ClockMode::Lockstep => {
                     // one cycle per available sample
                     if !self.wait_for_sample()? {
@@ -384,6 +400,67 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             self.prep.retire(Retired::Trace(t));
         }
         Ok(())
+    }
+
+    /// What the loop's watch found: a stall stops whatever moves as a fault (the
+    /// axes got no command while it stood: a drive has stood or faulted itself, and
+    /// resuming would take up a path whose timing is lost); late cycles are
+    /// reported. Allocation-free (the texts go into the alarm's fixed buffer).
+    fn on_timing(&mut self, ev: LoopEvent) -> Result<()> {
+        let ms = |d: Duration| d.as_secs_f64() * 1e3;
+        match ev {
+            LoopEvent::Stall { period } => {
+                let bound_ms = ms(self.watch.stall_bound());
+                let moving = matches!(
+                    self.state,
+                    MachineState::Running
+                        | MachineState::Held
+                        | MachineState::Homing
+                        | MachineState::Jogging
+                );
+                if !moving {
+                    return self.alarm(
+                        AlarmCode::LoopStall,
+                        u32::MAX,
+                        format_args!(
+                            "the position loop stood {:.1} ms (bound {bound_ms:.1} ms) while nothing moved",
+                            ms(period)
+                        ),
+                    );
+                }
+                if matches!(self.state, MachineState::Homing | MachineState::Jogging) {
+                    // a homing cut short leaves its axis unhomed
+                    self.manual.stop();
+                    self.manual.hold(self.last_cmd);
+                }
+                // as on a following-error fault: the drives are no longer stepped,
+                // the job is over (its trace closed off the cycle); a reset recovers
+                self.state = MachineState::Faulted;
+                if let Some(t) = self.trace.take() {
+                    self.prep.retire(Retired::Trace(t));
+                }
+                self.alarm(
+                    AlarmCode::LoopStall,
+                    u32::MAX,
+                    format_args!(
+                        "the position loop stood {:.1} ms (bound {bound_ms:.1} ms): motion stopped as a fault; reset to go on",
+                        ms(period)
+                    ),
+                )
+            }
+            LoopEvent::Late { count, worst, over } => {
+                let bound_ms = ms(self.watch.late_bound());
+                self.alarm(
+                    AlarmCode::LoopLate,
+                    u32::MAX,
+                    format_args!(
+                        "the position loop ran late: {count} cycle(s) off their period by more than {bound_ms:.1} ms in {:.1} s (worst {:.1} ms)",
+                        over.as_secs_f64(),
+                        ms(worst)
+                    ),
+                )
+            }
+        }
     }
 
     /// Lockstep: wait (briefly) for the next sample. True when a cycle should run:

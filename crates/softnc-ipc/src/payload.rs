@@ -314,6 +314,12 @@ pub enum AlarmCode {
     /// The program could not be planned again while it ran (the check passed): the
     /// job stopped along its path at the end of what was planned.
     PlanFailed = 9,
+    /// A real-time loop stalled (a period far beyond its bound): the position loop
+    /// stopped the machine as a fault, the interpolation loop its job.
+    LoopStall = 20,
+    /// A real-time loop ran late (periods off by more than the configured bound):
+    /// how many and the worst, at most one alarm per period.
+    LoopLate = 21,
     /// Anything else.
     Other = 99,
 }
@@ -497,5 +503,7 @@ wire_enum!(AlarmCode {
     Note,
     PlanStarved,
     PlanFailed,
+    LoopStall,
+    LoopLate,
     Other
 });

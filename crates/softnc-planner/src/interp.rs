@@ -149,8 +149,15 @@ impl<'a> Interpolator<'a> {
         lim: Limits,
         brake_dist_mm: f64,
         max_override: f64,
+        start_mm: Option<Vec3>,
     ) -> Self {
-        let start = geoms.first().map(|g| g.point_at(0.0)).unwrap_or_default();
+        // a path without an element holds where the machine stands (never at a
+        // default origin: that is a step of up to the whole travel)
+        let start = geoms
+            .first()
+            .map(|g| g.point_at(0.0))
+            .or(start_mm)
+            .unwrap_or_default();
         let mut core = Core::new(
             SliceSource { segs, geoms },
             lim,

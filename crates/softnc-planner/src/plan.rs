@@ -116,6 +116,9 @@ pub struct PlanStats {
 /// A planned program: the path elements with their limits, ready to interpolate.
 #[derive(Debug, Clone)]
 pub struct Plan {
+    /// Where the machine stands at the start ([`PlanOptions::start_mm`]): the
+    /// samples of a path without an element hold there.
+    start_mm: Option<Vec3>,
     /// Single block from the start ([`PlanOptions::single_block`]).
     single_block: bool,
     /// M0/M1 wait ([`PlanOptions::wait_at_program_stops`]).
@@ -374,12 +377,20 @@ impl<'a> Checker<'a> {
         Ok(())
     }
 
+    /// Where the machine stands when the program starts, if the options say
+    /// ([`PlanOptions::start_mm`]): where a path without an element (nothing moves)
+    /// holds.
+    pub(crate) fn start_mm(&self) -> Option<Vec3> {
+        self.options.start_mm.map(Vec3)
+    }
+
     /// The plan of the checked motions, whose path is `path`.
     fn finish(self, lim: Limits, path: Path) -> Plan {
         let path_length_mm = path.segs.last().map_or(0.0, |s| s.s0 + s.len);
         let (stats, brake_dist_mm) =
             self.figures(&lim, path_length_mm, planned_duration(&path.segs, &lim));
         Plan {
+            start_mm: self.start_mm(),
             single_block: self.options.single_block,
             wait_at_program_stops: self.options.wait_at_program_stops,
             path,
@@ -505,6 +516,7 @@ impl Plan {
             self.lim,
             self.brake_dist_mm,
             self.max_override,
+            self.start_mm,
         );
         it.set_single_block(self.single_block);
         it.core_mut()

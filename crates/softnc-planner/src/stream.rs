@@ -346,6 +346,9 @@ impl<'a> StreamPlanner<'a> {
         } = settled.finish(out);
         let lim = Limits::from_profile(profile);
         let (stats, brake_dist_mm) = checker.figures(&lim, path_length_mm, duration.finish());
+        // a path without an element (its moves all of zero length, or none) holds
+        // where the machine stands, not at a default origin
+        let start_mm = start_mm.or(checker.start_mm()).unwrap_or_default();
         CheckedProgram {
             stats,
             motions: checker.n_motions,
@@ -353,7 +356,7 @@ impl<'a> StreamPlanner<'a> {
             spindle_changes: checker.spindle_changes,
             brake_dist_mm,
             max_override: profile.planner.max_feed_override,
-            start_mm: start_mm.unwrap_or_default(),
+            start_mm,
             end_params,
         }
     }
@@ -1300,6 +1303,41 @@ mod tests {
         let start = std::time::Instant::now();
         assert!(!spin_until(|| false));
         assert!(start.elapsed() >= HANDOFF_SPIN);
+    }
+
+    /// A program whose moves all have zero length (or that has none) streams and
+    /// plans samples where the machine stands, never at the origin (issue 34: an
+    /// MDI `G0 X5` at X5 stepped the machine to machine zero).
+    #[test]
+    fn a_path_without_elements_holds_where_the_machine_stands() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machines");
+        let p = MachineProfile::load(&dir.join("default.ron")).unwrap();
+        let at = [5.0, 7.0, -3.0];
+        let opts = PlanOptions {
+            start_mm: Some(at),
+            ..Default::default()
+        };
+        for text in [
+            "G90 G0 X5 Y7 Z-3\nG1 X5 F300\nM2\n",
+            "G92 X1\nM2\n",
+            "M3 S100\nM2\n",
+        ] {
+            let (checked, samples) = check_and_stream(text, "z.ngc", &p, &opts, |it| {
+                it.map(|s| s.pos_mm).collect::<Vec<_>>()
+            })
+            .unwrap();
+            assert_eq!(checked.elements(), 0, "{text:?}");
+            assert!(!samples.is_empty(), "{text:?}");
+            for pos in samples {
+                assert_eq!(pos, Vec3(at), "{text:?}");
+            }
+            let (program, _) =
+                softnc_gcode::read_program_with(text, "z.ngc", &p, &opts.read_options()).unwrap();
+            let plan = crate::plan(&program, &p, &opts).unwrap();
+            for s in plan.interpolator() {
+                assert_eq!(s.pos_mm, Vec3(at), "{text:?}");
+            }
+        }
     }
 
     #[test]

@@ -359,8 +359,9 @@ impl MmiTask {
             .unwrap_or(0)
             .max(self.job_id_floor)
             + 1;
-        // nothing to move (a G10, G92, G5x block, a touch-off): done here
-        let moves = stats.moves > 0;
+        // nothing to run (a G10, G92, G5x block, M codes, a touch-off): done here;
+        // a dwell takes its time on the machine like a move
+        let moves = stats.moves > 0 || stats.duration_s > 0.0;
         if moves {
             // what the run reads the job with: what it was checked with
             setup.job_id = job_id;

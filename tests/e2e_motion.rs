@@ -1,0 +1,425 @@
+//! End-to-end tests of motion's edge cases through softncd, its three processes and
+//! the operator client: what moves nothing holds every axis, a dwell takes its
+//! time, a stalled loop is a fault, homing after an E-stop, loop-timing alarms.
+// (the harness re-exports what other test files use)
+#[allow(unused_imports)]
+mod support;
+use support::*;
+
+/// Rows (cmd x y z, actual x y z) of job `job_id`'s trace, once its file is
+/// complete (the trace thread closes it); empty if the job wrote none.
+fn trace_rows(d: &Daemon, job_id: u64) -> Vec<[f64; 6]> {
+    let path = d.dir.join(format!("data/trace-job{job_id}.csv"));
+    let t0 = Instant::now();
+    let mut last_len = usize::MAX;
+    loop {
+        // written by its own thread: done once it stops growing
+        let len = std::fs::metadata(&path).map_or(0, |m| m.len() as usize);
+        if (len > 0 && len == last_len) || t0.elapsed() > Duration::from_secs(5) {
+            break;
+        }
+        last_len = len;
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    std::fs::read_to_string(&path)
+        .unwrap_or_default()
+        .lines()
+        .skip(1)
+        .filter_map(|l| {
+            let f: Vec<f64> = l
+                .split(',')
+                .skip(1)
+                .take(6)
+                .filter_map(|v| v.parse().ok())
+                .collect();
+            (f.len() == 6).then(|| [f[0], f[1], f[2], f[3], f[4], f[5]])
+        })
+        .collect()
+}
+
+/// How far a held axis may be measured from its command: the simulated machine's
+/// servo holds within tens of µm between jobs (the failures this guards against
+/// are steps of millimetres).
+const ACTUAL_TOL_MM: f64 = 0.1;
+
+/// The measured position in the status.
+fn actual_mm(s: &serde_json::Value) -> [f64; 3] {
+    [0, 1, 2].map(|i| s["axes"]["actual_mm"][i].as_f64().unwrap())
+}
+
+/// Run `text` as MDI (or, with `as_job`, as a job file); wait until it has ended and
+/// the machine is idle. `None`: refused (with its message).
+fn run_block(d: &Daemon, op: &Operator, text: &str, as_job: bool) -> Result<u64, String> {
+    let r = if as_job {
+        let job = d.dir.join("zero.ngc");
+        std::fs::write(&job, text).unwrap();
+        op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap()
+    } else {
+        op.request(ControlKind::Mdi, 0.0, text).unwrap()
+    };
+    if r.accepted != 1 {
+        return Err(r.message.as_str().to_string());
+    }
+    let s = d.wait_job(op, r.job_id, Duration::from_secs(30));
+    assert_eq!(s["job"]["outcome"], "completed", "{text:?}: {s}");
+    d.wait_status(op, Duration::from_secs(10), "idle", |s| {
+        s["state"] == "Idle"
+    });
+    Ok(r.job_id)
+}
+
+/// Every shape of a block or job that moves nothing leaves every axis where it
+/// stands: commanded exactly there, measured within the in-position band, in the
+/// status and in every traced cycle; no alarm; and a real move after them lands
+/// where it should.
+fn zero_motion_holds_every_axis(tag: &str, edits: &[(&str, &str)]) {
+    let d = Daemon::start_in(fresh_dir(tag), tag, "Lockstep", true, "default.ron", edits);
+    let op = d.operator();
+    run_block(&d, &op, "G90 G0 X5 Y5 Z0", false).unwrap();
+    let p = machine_mm(&op.status().unwrap());
+    assert!(p[0] > 1.0 && p[1] > 1.0, "the first move went to {p:?}");
+    // (the reader refuses an arc to its own start with R, and one of zero radius,
+    // as LinuxCNC does: a full circle is not a zero-length arc)
+    let refused_arcs = [
+        "F300 G2 X5 Y5 R3",
+        "F300 G2 X5 Y5 I0 J0",
+        "F300 G3 I0 J0 Z0",
+    ];
+    let blocks = [
+        "G0 X5",
+        "G0 X5 Y5 Z0",
+        "G1 X5 Y5 F300",
+        "G91 G0 X0 Y0 Z0",
+        "G1 Z0 F300",
+        "G90",
+        "G4 P0.3",
+        "M3 S1000",
+        "M5",
+        "M8",
+        "M9",
+        "G92 X1",
+        "G92.1",
+        "G10 L2 P2 X1 Y2",
+        "G0 X5 Y5 Z0\nG1 X5 F300\nG4 P0.2\nG0 Y5",
+    ];
+    let jobs = [
+        "G21 G90\nG0 X5 Y5 Z0\nG1 X5 Y5 Z0 F300\nM2\n",
+        "G21 G90\nG4 P0.2\nM2\n",
+        "G21 G90\nM3 S800\nM8\nM9\nM5\nM2\n",
+        "G21 G90\nG92 X3\nG92.1\nG10 L2 P3 X1\nM2\n",
+        "%\nG0 X5\n%\n",
+    ];
+    let mut ran = Vec::new();
+    let check = |what: &str, ran: &mut Vec<u64>, result: Result<u64, String>| {
+        if let Ok(id) = result {
+            ran.push(id);
+        }
+        let s = op.status().unwrap();
+        assert_eq!(s["state"], "Idle", "after {what:?}: {s}");
+        let (cmd, act) = (machine_mm(&s), actual_mm(&s));
+        for axis in 0..3 {
+            assert!(
+                (cmd[axis] - p[axis]).abs() < 1e-9 && (act[axis] - p[axis]).abs() < ACTUAL_TOL_MM,
+                "after {what:?} the machine is commanded at {cmd:?}, measured at {act:?}; it stood at {p:?}"
+            );
+        }
+        let alarms = s["alarms"].as_array().unwrap();
+        assert!(
+            alarms.iter().all(|a| a["code"] == "JobRefused"),
+            "after {what:?}: {alarms:?}"
+        );
+    };
+    for b in refused_arcs {
+        let r = run_block(&d, &op, b, false);
+        assert!(r.is_err(), "{b:?} was taken");
+        check(b, &mut ran, r);
+    }
+    for b in blocks {
+        let r = run_block(&d, &op, b, false);
+        assert!(r.is_ok(), "{b:?}: {r:?}");
+        check(b, &mut ran, r);
+    }
+    for j in jobs {
+        let r = run_block(&d, &op, j, true);
+        assert!(r.is_ok(), "{j:?}: {r:?}");
+        check(j, &mut ran, r);
+    }
+    // every cycle that ran, commanded and measured where the machine stood
+    for id in ran {
+        for row in trace_rows(&d, id) {
+            for axis in 0..3 {
+                assert!(
+                    (row[axis] - p[axis]).abs() < 1e-9
+                        && (row[3 + axis] - p[axis]).abs() < ACTUAL_TOL_MM,
+                    "job {id} commanded {:?}, measured {:?}; the machine stood at {p:?}",
+                    &row[..3],
+                    &row[3..]
+                );
+            }
+        }
+    }
+    // and the machine still moves as programmed
+    run_block(&d, &op, "G90 G0 X6 Y5 Z0", false).unwrap();
+    let at = machine_mm(&op.status().unwrap());
+    assert!(
+        (at[0] - (p[0] + 1.0)).abs() < 1e-9 && (at[1] - p[1]).abs() < 1e-9,
+        "{at:?}"
+    );
+}
+
+#[test]
+fn a_block_or_job_that_moves_nothing_holds_every_axis_on_the_simulated_machine() {
+    zero_motion_holds_every_axis("zerosim", &[]);
+}
+
+#[test]
+fn a_block_or_job_that_moves_nothing_holds_every_axis_on_the_loopback_drive() {
+    zero_motion_holds_every_axis("zeroloop", &[("backend: Simulated", "backend: Loopback")]);
+}
+
+/// Submit `text` as a job file (or MDI) and time it to its end: (seconds, the final
+/// status).
+fn timed_run(d: &Daemon, op: &Operator, text: &str, as_job: bool) -> (f64, serde_json::Value) {
+    let t0 = Instant::now();
+    let r = if as_job {
+        let job = d.dir.join("dwell.ngc");
+        std::fs::write(&job, text).unwrap();
+        op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap()
+    } else {
+        op.request(ControlKind::Mdi, 0.0, text).unwrap()
+    };
+    assert_eq!(r.accepted, 1, "{text:?}: {}", r.message.as_str());
+    let s = d.wait_job(op, r.job_id, Duration::from_secs(30));
+    (t0.elapsed().as_secs_f64(), s)
+}
+
+#[test]
+fn a_program_that_only_dwells_takes_its_dwell_holding_still() {
+    let d = Daemon::start("dwell", "Realtime", false);
+    let op = d.operator();
+    run_block(&d, &op, "G90 G0 X5 Y5 Z0", false).unwrap();
+    let p = machine_mm(&op.status().unwrap());
+    for (text, as_job, dwell_s) in [
+        ("G4 P1", false, 1.0),
+        // (with a feed: a program that ends in M2 with none leaves the modal
+        // preamble a G1 at feed 0, which the next job is refused on — the files
+        // area's modal preamble, not this test's)
+        ("G21 G90 F600\nG4 P2\nM2\n", true, 2.0),
+        // a dwell between moves still stands its time at the first move's end
+        ("G21 G90\nG1 X6 F600\nG4 P1\nG1 X5\nM2\n", true, 1.0 + 0.2),
+    ] {
+        let (took_s, s) = timed_run(&d, &op, text, as_job);
+        assert_eq!(s["job"]["outcome"], "completed", "{text:?}: {s}");
+        assert!(
+            took_s >= dwell_s * 0.95,
+            "{text:?} ended after {took_s:.3} s: its dwell was skipped"
+        );
+        let cycles = s["job"]["cycles"].as_u64().unwrap();
+        assert!(
+            cycles as f64 >= dwell_s * 1000.0 * 0.95,
+            "{text:?}: {cycles} cycles"
+        );
+        let s = d.wait_status(&op, Duration::from_secs(5), "idle", |s| {
+            s["state"] == "Idle"
+        });
+        let at = machine_mm(&s);
+        for axis in 0..3 {
+            assert!(
+                (at[axis] - p[axis]).abs() < 1e-9,
+                "{text:?}: at {at:?}, from {p:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn an_estop_during_homing_leaves_the_axes_unhomed_and_a_later_home_homes_them() {
+    let tag = "homeestop";
+    let dir = fresh_dir(tag);
+    let profile = quick_homing_profile(&dir.join("profile"));
+    let d = Daemon::start_in(
+        dir.clone(),
+        tag,
+        "Lockstep",
+        false,
+        profile.to_str().unwrap(),
+        &[],
+    );
+    let op = d.operator();
+    let all_homed = serde_json::json!([true, true, true]);
+    let (ok, msg) = ask(&op, ControlKind::Home, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    // under way: the first axis has left where it stood
+    let s0 = machine_mm(&op.status().unwrap());
+    d.wait_status(&op, Duration::from_secs(20), "homing moves", |s| {
+        s["state"] == "Homing" && (0..3).any(|i| (machine_mm(s)[i] - s0[i]).abs() > 1.0)
+    });
+    let (ok, msg) = ask(&op, ControlKind::EStop, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    let s = d.wait_status(&op, Duration::from_secs(5), "E-stop", |s| {
+        s["state"] == "EStopped"
+    });
+    assert_ne!(s["homed"], all_homed, "{s}");
+    let (ok, msg) = ask(&op, ControlKind::Reset, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    let s = d.wait_status(&op, Duration::from_secs(5), "reset", |s| {
+        s["state"] == "Idle" || s["state"] == "Off"
+    });
+    if s["state"] == "Off" {
+        op.machine_on(Duration::from_secs(10)).unwrap();
+    }
+    // homing again homes every axis, as it does the first time
+    let (ok, msg) = ask(&op, ControlKind::Home, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    let t0 = Instant::now();
+    let s = d.wait_status(&op, Duration::from_secs(60), "homed", |s| {
+        s["state"] == "Idle" && (s["homed"] == all_homed || t0.elapsed() > Duration::from_secs(2))
+    });
+    assert_eq!(
+        s["homed"], all_homed,
+        "home after the E-stop did nothing: {s}"
+    );
+    let home = machine_mm(&s);
+    for (got, want) in home.iter().zip([0.0, 0.0, 90.0]) {
+        assert!((got - want).abs() < 1e-9, "home position {home:?}");
+    }
+}
+
+/// Send `signal` (`-STOP`, `-CONT`) to `pid`.
+fn signal(pid: u32, signal: &str) {
+    let ok = Command::new("kill")
+        .args([signal, &pid.to_string()])
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok, "kill {signal} {pid}");
+}
+
+/// Stop process `pid` for `how_long` (alive to the kernel, its loop standing).
+fn stop_for(pid: u32, how_long: Duration) {
+    signal(pid, "-STOP");
+    std::thread::sleep(how_long);
+    signal(pid, "-CONT");
+}
+
+/// The messages of the status's alarms with `code`.
+fn alarms_with(s: &serde_json::Value, code: &str) -> Vec<String> {
+    s["alarms"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|a| a["code"] == code)
+        .map(|a| a["message"].as_str().unwrap().to_string())
+        .collect()
+}
+
+/// After a fault: reset (and on, if the reset leaves the machine off), then a job
+/// runs to its end.
+fn reset_and_run_a_job(d: &Daemon, op: &Operator) {
+    let (ok, msg) = ask(op, ControlKind::Reset, u32::MAX, 0.0, "");
+    assert!(ok, "{msg}");
+    let s = d.wait_status(op, Duration::from_secs(10), "reset", |s| {
+        s["state"] == "Idle" || s["state"] == "Off"
+    });
+    if s["state"] == "Off" {
+        op.machine_on(Duration::from_secs(10)).unwrap();
+    }
+    let r = op
+        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
+        .unwrap();
+    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let s = d.wait_job(op, r.job_id, Duration::from_secs(60));
+    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+}
+
+#[test]
+fn a_stall_of_the_position_loop_mid_job_stops_the_machine_as_a_fault() {
+    let d = Daemon::start("stallpos", "Realtime", false);
+    let op = d.operator();
+    let job = start_moving(&d, &op);
+    let pid = d.pid_of("softnc-position").unwrap();
+    // 1 s: ten times the stall bound, a tenth of the supervisor's watchdog
+    stop_for(pid, Duration::from_secs(1));
+    let s = d.wait_job(&op, job, Duration::from_secs(20));
+    assert_eq!(
+        s["job"]["outcome"], "aborted",
+        "the job went on after the stall: {s}"
+    );
+    let s = d.wait_status(&op, Duration::from_secs(10), "the stall fault", |s| {
+        s["state"] == "Faulted" && !alarms_with(s, "LoopStall").is_empty()
+    });
+    let stall = alarms_with(&s, "LoopStall");
+    assert!(stall[0].contains("position loop stood"), "{stall:?}");
+    // it stays faulted (not resumed), the process the same one (not the watchdog's)
+    std::thread::sleep(Duration::from_millis(1500));
+    let s = op.status().unwrap();
+    assert_eq!(s["state"], "Faulted", "{s}");
+    assert_eq!(d.pid_of("softnc-position"), Some(pid));
+    reset_and_run_a_job(&d, &op);
+}
+
+#[test]
+fn a_stall_of_the_interpolation_loop_mid_job_is_noticed_and_the_job_stops() {
+    let d = Daemon::start("stallinterp", "Realtime", false);
+    let op = d.operator();
+    let job = start_moving(&d, &op);
+    let pid = d.pid_of("softnc-interp").unwrap();
+    stop_for(pid, Duration::from_secs(1));
+    let s = d.wait_job(&op, job, Duration::from_secs(20));
+    assert_ne!(s["job"]["outcome"], "completed", "{s}");
+    let s = d.wait_status(&op, Duration::from_secs(10), "the stall alarm", |s| {
+        alarms_with(s, "LoopStall")
+            .iter()
+            .any(|m| m.contains("interpolation loop stood"))
+    });
+    assert_ne!(s["state"], "Running", "{s}");
+    reset_and_run_a_job(&d, &op);
+}
+
+#[test]
+fn late_position_cycles_raise_one_alarm_per_period_not_one_per_cycle() {
+    let d = Daemon::start_edited(
+        "late",
+        "Realtime",
+        &[("late_alarm_period_s: 10.0", "late_alarm_period_s: 4.0")],
+    );
+    let op = d.operator();
+    d.wait_status(&op, Duration::from_secs(10), "loop figures", |s| {
+        s["loops"]["position"]["cycles"].as_u64().unwrap_or(0) > 500
+    });
+    let pid = d.pid_of("softnc-position").unwrap();
+    let late_of_position = |s: &serde_json::Value| {
+        alarms_with(s, "LoopLate")
+            .into_iter()
+            .filter(|m| m.contains("position loop ran late"))
+            .collect::<Vec<_>>()
+    };
+    // three 40 ms stops within a second: late (beyond 10 ms), no stall (100 ms)
+    let t0 = Instant::now();
+    for _ in 0..3 {
+        stop_for(pid, Duration::from_millis(40));
+        std::thread::sleep(Duration::from_millis(300));
+    }
+    let s = d.wait_status(&op, Duration::from_secs(5), "a late-cycle alarm", |s| {
+        !late_of_position(s).is_empty()
+    });
+    assert_eq!(s["state"], "Idle", "late cycles are not a fault: {s}");
+    assert!(
+        t0.elapsed() < Duration::from_secs(4),
+        "the period is over already"
+    );
+    assert_eq!(late_of_position(&s).len(), 1, "{s}");
+    // the rest in one alarm once the period is over, with their count
+    let s = d.wait_status(&op, Duration::from_secs(10), "the period's alarm", |s| {
+        late_of_position(s).len() >= 2
+    });
+    let msgs = late_of_position(&s);
+    assert_eq!(msgs.len(), 2, "one alarm per period: {msgs:?}");
+    let count: u64 = msgs[0]
+        .split("ran late: ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(0);
+    assert!(count >= 2, "{msgs:?}");
+}
