@@ -319,6 +319,18 @@ fn the_modal_state_a_program_leaves_is_where_the_next_one_starts() {
         "{}",
         ended.end_modal
     );
+    // a program that never set a feed rate leaves G1 at F0, one in inverse time
+    // G93 without an F: the next program still starts in that mode, not refused
+    for first in ["G0 X5 Y5\nM2\n", "%\nG93 G1 X1 F2\n%\n"] {
+        let (p, _) = read(first, &ReadOptions::default()).unwrap();
+        let options = ReadOptions {
+            preamble: Some(p.end_modal.clone()),
+            ..Default::default()
+        };
+        let (next, _) = read("G0 X1\nG94 G1 X2 F100\nX3\nM2\n", &options)
+            .unwrap_or_else(|e| panic!("after {first:?} ({}): {e}", p.end_modal));
+        assert_eq!(next.motions.len(), 3, "after {first:?}");
+    }
     // a bad preamble is an error that names it
     let bad = ReadOptions {
         preamble: Some("G1 G0\n".into()),

@@ -5,7 +5,7 @@
 //! speed with none, the G codes of the groups that differ, G64 with its P and Q),
 //! then the spindle M code. The motion mode is not restored (LinuxCNC does not either).
 
-use super::{Block, Interp, GM_MODAL_0, R};
+use super::{Block, Interp, GM_MODAL_0, GM_MOTION, G_80, R};
 use crate::canon::PathMode;
 use crate::error::ErrorKind;
 use crate::lexer::{lex_line, Line};
@@ -224,6 +224,15 @@ impl Interp<'_> {
         let mut block = Block::default();
         for w in line.words.iter().copied() {
             self.sort_word_slow(w, &mut block)?;
+        }
+        if block.g_set == 1 << GM_MOTION && block.m_set == 0 && block.val_set == 0 {
+            // the motion mode alone (the line `modal_gcode` writes for it): set, not
+            // run. Run, it is a motion without axis words, which G1 with no feed rate
+            // in force (a program that never set one) or G93 without its F refuses,
+            // and every later program with it; the mode is what the last one left.
+            let code = block.g[GM_MOTION].0;
+            self.motion = (code != G_80).then_some(code);
+            return Ok(());
         }
         self.check(&mut block)?;
         self.execute(0, &block)?;
