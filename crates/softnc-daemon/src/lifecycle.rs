@@ -3,20 +3,60 @@
 //! without its `softncd`), and systemd's readiness and watchdog notifications.
 //!
 //! The stop request is one atomic flag that a watcher thread of its own sets: the
-//! cyclic loops read it without a lock or a system call. Signals are caught with
-//! iceoryx2's signal handler (`iceoryx2-bb-posix`), which records the last one; the
-//! watcher polls it every [`WATCH_PERIOD`].
+//! cyclic loops read it without a lock or a system call. SIGTERM and SIGINT are
+//! caught by a handler of ours that sets a sticky flag ([`termination_requested`]):
+//! once set it stays set, whatever signal follows (systemd and `timeout` send
+//! SIGCONT right after SIGTERM; iceoryx2's own "last signal" is overwritten by it,
+//! and by iceoryx2's shared-memory calls, so it is not used). The watcher polls the
+//! flag every [`WATCH_PERIOD`].
 
 use iceoryx2_bb_posix::signal::SignalHandler;
 use std::fs::File;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU8, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
 /// How often the watcher looks for a signal and at its parent.
 pub const WATCH_PERIOD: Duration = Duration::from_millis(10);
+
+/// Set by the SIGTERM/SIGINT handler, never cleared.
+static TERMINATION: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_termination_signal(_signal: libc::c_int) {
+    // async-signal-safe: one atomic store
+    TERMINATION.store(true, Ordering::SeqCst);
+}
+
+/// Whether SIGTERM or SIGINT has arrived since [`catch_termination_signals`] (sticky:
+/// later signals, SIGCONT included, do not clear it).
+pub fn termination_requested() -> bool {
+    TERMINATION.load(Ordering::SeqCst)
+}
+
+/// Catch SIGTERM and SIGINT with a handler that sets [`termination_requested`].
+/// iceoryx2's signal handler (installed on first use, by it or by us) is set up
+/// first so that it never replaces ours later.
+pub fn catch_termination_signals() -> std::io::Result<()> {
+    let _ = SignalHandler::last_signal();
+    for sig in [libc::SIGTERM, libc::SIGINT] {
+        // SAFETY: a zeroed sigaction is valid (no flags, empty mask) before we fill
+        // it; the handler only stores to an atomic (async-signal-safe); sigaction
+        // is given valid pointers.
+        let rc = unsafe {
+            let mut action: libc::sigaction = std::mem::zeroed();
+            action.sa_sigaction = on_termination_signal as extern "C" fn(libc::c_int) as usize;
+            action.sa_flags = libc::SA_RESTART;
+            libc::sigemptyset(&mut action.sa_mask);
+            libc::sigaction(sig, &action, std::ptr::null_mut())
+        };
+        if rc != 0 {
+            return Err(std::io::Error::last_os_error());
+        }
+    }
+    Ok(())
+}
 
 /// Why a process was asked to stop.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -54,8 +94,8 @@ impl StopWatch {
     /// Catch SIGTERM and SIGINT from now on and start the watcher; `watch_parent`:
     /// also stop when the parent process dies (the children of `softncd`).
     pub fn start(watch_parent: bool) -> std::io::Result<StopWatch> {
-        // installs the handlers now, before any signal can arrive
-        let _ = SignalHandler::termination_requested();
+        // installs the handler now, before any signal can arrive
+        catch_termination_signals()?;
         let reason = Arc::new(AtomicU8::new(0));
         let parent = std::os::unix::process::parent_id();
         let r = reason.clone();
@@ -65,7 +105,7 @@ impl StopWatch {
                 // started by a real-time thread perhaps: not at its priority
                 let _ = softnc_rt::leave_realtime();
                 loop {
-                    let why = if SignalHandler::termination_requested() {
+                    let why = if termination_requested() {
                         Some(StopReason::Signal)
                     } else if watch_parent && std::os::unix::process::parent_id() != parent {
                         Some(StopReason::ParentLost)
@@ -288,6 +328,22 @@ mod tests {
         let p = InstanceLock::path_of("softnc", "../mill 1");
         let name = p.file_name().unwrap().to_string_lossy().to_string();
         assert_eq!(name, "softnc-softnc-___mill_1.lock");
+    }
+
+    #[test]
+    fn a_sigterm_is_kept_whatever_signal_follows_it() {
+        catch_termination_signals().unwrap();
+        // SAFETY: raise with valid signal numbers; SIGTERM is caught by our handler,
+        // SIGCONT to a running process does nothing but overwrite iceoryx2's record
+        unsafe {
+            libc::raise(libc::SIGTERM);
+            libc::raise(libc::SIGCONT);
+        }
+        // iceoryx2's record of the last signal no longer says termination ...
+        assert!(!SignalHandler::termination_requested());
+        // ... ours does, and keeps saying it
+        assert!(termination_requested());
+        assert!(termination_requested());
     }
 
     #[test]
