@@ -128,3 +128,138 @@ fn each_child_stops_on_sigterm_followed_at_once_by_sigcont() {
     assert_eq!(st.code(), Some(0), "softncd exits 0");
     Daemon::wait_gone(&kids, Duration::from_secs(5));
 }
+
+/// The uid and gid of the unprivileged local user the attacks run as (`nobody`).
+const NOBODY: u32 = 65534;
+
+/// The instance lock file of the test daemon `tag` in folder `dir`.
+fn lock_path(dir: &Path, tag: &str) -> PathBuf {
+    dir.join(format!("softnc-softnc-e2e{tag}{}.lock", std::process::id()))
+}
+
+/// softncd on `config` with run folder `run_dir`: (exit status, stderr) once it
+/// exits, or None if it still runs after `within` (then it is shut down).
+fn softncd_outcome(config: &Path, run_dir: &Path, within: Duration) -> Option<(i32, String)> {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_softncd"))
+        .arg("--config")
+        .arg(config)
+        .env("SOFTNC_RUN_DIR", run_dir)
+        .env("RUST_LOG", "warn")
+        .process_group(0)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    while t0.elapsed() < within {
+        if let Some(st) = child.try_wait().unwrap() {
+            let mut err = String::new();
+            use std::io::Read;
+            child
+                .stderr
+                .take()
+                .unwrap()
+                .read_to_string(&mut err)
+                .unwrap();
+            return Some((st.code().unwrap_or(-1), err));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    if let Ok(op) = Operator::connect(config) {
+        let _ = op.request(ControlKind::Shutdown, 0.0, "");
+    }
+    let t0 = Instant::now();
+    while child.try_wait().unwrap().is_none() && t0.elapsed() < Duration::from_secs(10) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    None
+}
+
+#[test]
+fn a_symlink_planted_at_the_lock_path_is_not_followed() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = fresh_dir("symlock");
+    std::fs::create_dir_all(&dir).unwrap();
+    // a file only root may read or write, and a link to it where the lock goes
+    let victim = dir.join("root-only");
+    std::fs::write(&victim, "precious\n").unwrap();
+    std::fs::set_permissions(&victim, std::fs::Permissions::from_mode(0o600)).unwrap();
+    std::os::unix::fs::symlink(&victim, lock_path(&dir, "symlock")).unwrap();
+    let mut d = Daemon::start_in(
+        dir.clone(),
+        "symlock",
+        "Lockstep",
+        false,
+        "default.ron",
+        &[],
+    );
+    let t0 = Instant::now();
+    let status = loop {
+        if let Some(st) = d.child.try_wait().unwrap() {
+            break Some(st);
+        }
+        if t0.elapsed() > Duration::from_secs(5) {
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert_eq!(
+        std::fs::read_to_string(&victim).unwrap(),
+        "precious\n",
+        "the link's target was written through the lock path"
+    );
+    assert!(
+        status.is_some_and(|s| s.code() == Some(1)),
+        "softncd must refuse a lock path that is a link: {status:?}"
+    );
+}
+
+#[test]
+fn a_run_folder_others_may_write_is_refused_with_a_clear_message() {
+    use std::os::unix::fs::PermissionsExt;
+    let mut d = Daemon::start("opendir", "Lockstep", false);
+    drop(d.operator_off());
+    let open_dir = d.dir.join("open-run");
+    std::fs::create_dir_all(&open_dir).unwrap();
+    for mode in [0o777, 0o1777, 0o775] {
+        std::fs::set_permissions(&open_dir, std::fs::Permissions::from_mode(mode)).unwrap();
+        // a second controller of another folder: the instance is held, but the
+        // folder must be refused before anything is opened in it
+        let out = softncd_outcome(&d.config, &open_dir, Duration::from_secs(5));
+        let (code, err) =
+            out.unwrap_or_else(|| panic!("softncd ran on a run folder of mode {mode:o}"));
+        assert_eq!(code, 1, "{err}");
+        assert!(
+            err.contains(&open_dir.display().to_string()) && err.contains("writable"),
+            "mode {mode:o}: the message names the folder and why: {err}"
+        );
+        assert!(
+            std::fs::read_dir(&open_dir).unwrap().next().is_none(),
+            "nothing created in the refused folder"
+        );
+    }
+    d.shutdown_leaving_nothing("opendir");
+}
+
+#[test]
+fn another_user_cannot_open_the_instance_lock() {
+    let mut d = Daemon::start("userlock", "Lockstep", false);
+    drop(d.operator_off());
+    let lock = lock_path(&d.dir, "userlock");
+    assert!(lock.is_file(), "{}", lock.display());
+    // nobody may hold (and so block) the lock: it cannot even open the file
+    let out = Command::new("sh")
+        .args(["-c", "exec 3<\"$1\" && echo opened", "sh"])
+        .arg(&lock)
+        .uid(NOBODY)
+        .gid(NOBODY)
+        .output()
+        .unwrap();
+    assert!(
+        !String::from_utf8_lossy(&out.stdout).contains("opened"),
+        "an unprivileged user opened the lock file {}",
+        lock.display()
+    );
+    d.shutdown_leaving_nothing("userlock");
+}

@@ -1,6 +1,11 @@
 //! Shared start-up of the daemon binaries: arguments (clap), logging, the
 //! configuration found, exit status.
 
+/// The file-creation mask of every controller process: nothing it creates is
+/// writable by anyone but its user, nor readable by others (data, traces, history,
+/// folders; iceoryx2 sets its own files' modes, see `crate::ipc_guard`).
+pub const PROCESS_UMASK: u32 = 0o027;
+
 /// Set by `softncd` in a child it restarts (not at its first start).
 pub const RESTARTED_ENV: &str = "SOFTNC_RESTARTED";
 
@@ -63,6 +68,8 @@ pub fn find_config(given: Option<PathBuf>) -> PathBuf {
 /// on a terminal) and load the configuration.
 pub fn start(process: &str) -> Result<Loaded, ExitCode> {
     use clap::Parser;
+    // SAFETY: umask has no preconditions; set before this process creates any file
+    unsafe { libc::umask(PROCESS_UMASK as libc::mode_t) };
     let args = DaemonArgs::parse();
     let _ = tracing_subscriber::fmt()
         .with_env_filter(

@@ -156,14 +156,100 @@ pub enum LockError {
         /// The lock file.
         path: PathBuf,
     },
+    /// The run folder is not one only this user can write.
+    #[error(transparent)]
+    Folder(#[from] PrivateDirError),
     /// The lock file cannot be opened or locked.
-    #[error("{path}: cannot lock: {source}")]
+    #[error("{path}: cannot lock: {why}")]
     Io {
         /// The lock file.
+        path: PathBuf,
+        /// Why (said in the message, not chained again after it).
+        why: std::io::Error,
+    },
+}
+
+/// A folder that lock and runtime files may not go into.
+#[derive(Debug, thiserror::Error)]
+pub enum PrivateDirError {
+    /// It cannot be read (absent, no access).
+    #[error("run folder {path}: {source}")]
+    Unreadable {
+        /// The folder.
         path: PathBuf,
         /// Why.
         source: std::io::Error,
     },
+    /// A symbolic link or not a folder at all.
+    #[error("run folder {path} is not a folder (a link or a file): refused")]
+    NotAFolder {
+        /// The path.
+        path: PathBuf,
+    },
+    /// Owned by another user.
+    #[error("run folder {path} belongs to uid {owner}, not to this user (uid {me}): refused; lock and runtime files go in a folder only softncd's user can write")]
+    ForeignOwner {
+        /// The folder.
+        path: PathBuf,
+        /// Its owner.
+        owner: u32,
+        /// Our effective uid.
+        me: u32,
+    },
+    /// Group or others may write in it.
+    #[error("run folder {path} is writable by group or others (mode {mode:o}): refused; lock and runtime files go in a folder only softncd's user can write (chmod go-w)")]
+    Writable {
+        /// The folder.
+        path: PathBuf,
+        /// Its permission bits.
+        mode: u32,
+    },
+}
+
+/// The effective user id of this process.
+pub fn effective_uid() -> u32 {
+    // SAFETY: geteuid has no preconditions and cannot fail
+    unsafe { libc::geteuid() }
+}
+
+/// Check that `dir` is a folder (not a link) of this user that neither its group nor
+/// others may write: files opened in it cannot be planted, replaced or linked by
+/// another local user.
+pub fn check_private_dir(dir: &Path) -> Result<(), PrivateDirError> {
+    use std::os::unix::fs::MetadataExt;
+    let meta = std::fs::symlink_metadata(dir).map_err(|source| PrivateDirError::Unreadable {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    if !meta.file_type().is_dir() {
+        return Err(PrivateDirError::NotAFolder {
+            path: dir.to_path_buf(),
+        });
+    }
+    let me = effective_uid();
+    if meta.uid() != me {
+        return Err(PrivateDirError::ForeignOwner {
+            path: dir.to_path_buf(),
+            owner: meta.uid(),
+            me,
+        });
+    }
+    if meta.mode() & 0o022 != 0 {
+        return Err(PrivateDirError::Writable {
+            path: dir.to_path_buf(),
+            mode: meta.mode() & 0o7777,
+        });
+    }
+    Ok(())
+}
+
+/// The folder of an instance's lock and runtime files: `$SOFTNC_RUN_DIR` when set,
+/// else the instance's data folder `data_dir` (created by its first use; not `/tmp`,
+/// where anyone can plant a file or a link).
+pub fn run_dir(data_dir: &Path) -> PathBuf {
+    std::env::var_os("SOFTNC_RUN_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| data_dir.to_path_buf())
 }
 
 /// One controller per instance: an exclusive lock on a file named after the
@@ -176,13 +262,8 @@ pub struct InstanceLock {
 }
 
 impl InstanceLock {
-    /// The lock file of an instance: in `$SOFTNC_RUN_DIR`, else `$XDG_RUNTIME_DIR`,
-    /// else the system's temporary folder.
-    pub fn path_of(service_prefix: &str, instance: &str) -> PathBuf {
-        let dir = std::env::var_os("SOFTNC_RUN_DIR")
-            .or_else(|| std::env::var_os("XDG_RUNTIME_DIR"))
-            .map(PathBuf::from)
-            .unwrap_or_else(std::env::temp_dir);
+    /// The lock file of an instance in run folder `dir` ([`run_dir`]).
+    pub fn path_of(dir: &Path, service_prefix: &str, instance: &str) -> PathBuf {
         let safe = |s: &str| {
             s.chars()
                 .map(|c| {
@@ -201,24 +282,62 @@ impl InstanceLock {
         ))
     }
 
-    /// Take the instance's lock, or say who holds it.
-    pub fn acquire(service_prefix: &str, instance: &str) -> Result<InstanceLock, LockError> {
-        let path = Self::path_of(service_prefix, instance);
+    /// Take the instance's lock in [`run_dir`]`(data_dir)`, or say who holds it; the
+    /// folder must be this user's alone ([`check_private_dir`]).
+    pub fn acquire(
+        data_dir: &Path,
+        service_prefix: &str,
+        instance: &str,
+    ) -> Result<InstanceLock, LockError> {
+        let dir = run_dir(data_dir);
+        if std::env::var_os("SOFTNC_RUN_DIR").is_none() {
+            // the data folder: made if it is not there yet (ours, from the start)
+            use std::os::unix::fs::DirBuilderExt;
+            let _ = std::fs::DirBuilder::new()
+                .recursive(true)
+                .mode(0o750)
+                .create(&dir);
+        }
+        check_private_dir(&dir)?;
+        let path = Self::path_of(&dir, service_prefix, instance);
         Self::acquire_at(&path, instance)
     }
 
     fn acquire_at(path: &Path, instance: &str) -> Result<InstanceLock, LockError> {
-        let io = |source| LockError::Io {
+        use std::os::unix::fs::{MetadataExt, OpenOptionsExt, PermissionsExt};
+        let io = |why| LockError::Io {
             path: path.to_path_buf(),
-            source,
+            why,
         };
+        // never through a link, never inherited by the children; readable by us alone
+        // (whoever can open a file can lock it)
         let mut file = std::fs::OpenOptions::new()
             .read(true)
             .write(true)
             .create(true)
             .truncate(false)
+            .mode(0o600)
+            .custom_flags(libc::O_NOFOLLOW | libc::O_CLOEXEC | libc::O_NONBLOCK)
             .open(path)
-            .map_err(io)?;
+            .map_err(|e| {
+                if e.raw_os_error() == Some(libc::ELOOP) {
+                    io(std::io::Error::other(
+                        "it is a symbolic link (refused: a lock is never opened through a link)",
+                    ))
+                } else {
+                    io(e)
+                }
+            })?;
+        let meta = file.metadata().map_err(io)?;
+        if !meta.file_type().is_file() || meta.uid() != effective_uid() {
+            return Err(io(std::io::Error::other(
+                "not a regular file of this user: refused",
+            )));
+        }
+        if meta.mode() & 0o077 != 0 {
+            file.set_permissions(std::fs::Permissions::from_mode(0o600))
+                .map_err(io)?;
+        }
         match file.try_lock() {
             Ok(()) => {}
             Err(std::fs::TryLockError::WouldBlock) => {
@@ -324,8 +443,68 @@ mod tests {
     }
 
     #[test]
+    fn a_link_at_the_lock_path_is_refused_and_its_target_left_alone() {
+        let dir = std::env::temp_dir().join(format!("softnc-locklink-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let victim = dir.join("victim");
+        std::fs::write(&victim, "keep\n").unwrap();
+        let path = dir.join("i.lock");
+        std::os::unix::fs::symlink(&victim, &path).unwrap();
+        let r = InstanceLock::acquire_at(&path, "mill9");
+        assert!(
+            matches!(&r, Err(LockError::Io { why, .. }) if why.to_string().contains("link")),
+            "{r:?}"
+        );
+        assert_eq!(std::fs::read_to_string(&victim).unwrap(), "keep\n");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_lock_file_is_readable_by_its_user_alone() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = std::env::temp_dir().join(format!("softnc-lockmode-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("i.lock");
+        // left readable by an older controller: made private again
+        std::fs::write(&path, "1\n").unwrap();
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o644)).unwrap();
+        let lock = InstanceLock::acquire_at(&path, "mill9").unwrap();
+        let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+        assert_eq!(mode & 0o777, 0o600);
+        drop(lock);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn only_a_folder_of_ours_that_others_cannot_write_is_a_run_folder() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = std::env::temp_dir().join(format!("softnc-rundir-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("ok")).unwrap();
+        std::fs::set_permissions(dir.join("ok"), std::fs::Permissions::from_mode(0o750)).unwrap();
+        assert!(check_private_dir(&dir.join("ok")).is_ok());
+        for mode in [0o777, 0o1777, 0o770, 0o757] {
+            std::fs::set_permissions(dir.join("ok"), std::fs::Permissions::from_mode(mode))
+                .unwrap();
+            let r = check_private_dir(&dir.join("ok"));
+            assert!(
+                matches!(r, Err(PrivateDirError::Writable { .. })),
+                "{mode:o}: {r:?}"
+            );
+        }
+        std::os::unix::fs::symlink(dir.join("ok"), dir.join("link")).unwrap();
+        assert!(matches!(
+            check_private_dir(&dir.join("link")),
+            Err(PrivateDirError::NotAFolder { .. })
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
     fn lock_files_are_named_after_prefix_and_instance_only_with_safe_characters() {
-        let p = InstanceLock::path_of("softnc", "../mill 1");
+        let p = InstanceLock::path_of(Path::new("/run/x"), "softnc", "../mill 1");
         let name = p.file_name().unwrap().to_string_lossy().to_string();
         assert_eq!(name, "softnc-softnc-___mill_1.lock");
     }
