@@ -32,6 +32,7 @@ impl Operator {
             .signal_handling_mode(SignalHandlingMode::Disabled)
             .create::<ipc::Service>()
             .context("creating client node")?;
+        crate::ipc_guard::seal(node.config()).context("iceoryx2 permissions")?;
         let svc = node
             .service_builder(&names.operator().as_str().try_into()?)
             .request_response::<OperatorRequest, OperatorReply>()
