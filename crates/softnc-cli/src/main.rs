@@ -103,6 +103,10 @@ enum PlanCommand {
 const PLAN_SUBCOMMAND: &str = "plan";
 
 fn main() -> ExitCode {
+    // output into a closed pipe (`softnc jobs | head`) ends the process quietly, as
+    // it does any Unix tool, instead of an error or a panic at the next print
+    // SAFETY: resetting a signal's disposition to its default, before any thread
+    unsafe { libc::signal(libc::SIGPIPE, libc::SIG_DFL) };
     if std::env::args_os()
         .nth(1)
         .is_some_and(|a| a == PLAN_SUBCOMMAND)

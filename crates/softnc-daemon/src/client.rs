@@ -17,6 +17,8 @@ const JOB_CHECK_TIMEOUT: Duration = Duration::from_secs(300);
 /// A connection to one controller instance's MMI.
 pub struct Operator {
     node: Node<ipc::Service>,
+    /// The instance, for messages.
+    instance: String,
     client: Client<ipc::Service, OperatorRequest, (), OperatorReply, ()>,
 }
 
@@ -40,7 +42,11 @@ impl Operator {
             .open_or_create()
             .context("operator service")?;
         let client = svc.client_builder().create().context("operator client")?;
-        Ok(Operator { node, client })
+        Ok(Operator {
+            node,
+            instance: loaded.config.instance.clone(),
+            client,
+        })
     }
 
     /// Send one request and wait for the reply.
@@ -87,10 +93,25 @@ impl Operator {
             ControlKind::StartJob | ControlKind::Mdi | ControlKind::TouchOff => JOB_CHECK_TIMEOUT,
             _ => REPLY_TIMEOUT,
         };
+        let no_controller = || {
+            anyhow::anyhow!(
+                "no controller running for instance {:?} (no softnc-mmi took the request): is softncd running?",
+                self.instance
+            )
+        };
+        // no MMI received it: no reply will ever come
+        if pending.number_of_server_connections() == 0 {
+            bail!(no_controller());
+        }
         let t0 = Instant::now();
         loop {
             if let Some(r) = pending.receive()? {
                 return Ok(*r);
+            }
+            // a long check goes on only while the MMI holds the request (it dropped
+            // it when it died)
+            if t0.elapsed() > REPLY_TIMEOUT && !pending.is_connected() {
+                bail!(no_controller());
             }
             if t0.elapsed() > timeout {
                 bail!("no reply from softnc-mmi within {timeout:?}: is softncd running?");
