@@ -1,6 +1,8 @@
 //! End-to-end tests of the controller as a host service: signals as systemd and
 //! `timeout` send them, the instance lock and run folder, the permissions of the
 //! shared-memory files against a second, unprivileged local user.
+// (the harness re-exports helpers other test files use)
+#[allow(unused_imports)]
 mod support;
 use support::*;
 
