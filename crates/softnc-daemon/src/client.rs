@@ -19,6 +19,14 @@ pub struct Operator {
     node: Node<ipc::Service>,
     /// The instance, for messages.
     instance: String,
+    /// The operator service (whether any MMI serves it).
+    svc: iceoryx2::service::port_factory::request_response::PortFactory<
+        ipc::Service,
+        OperatorRequest,
+        (),
+        OperatorReply,
+        (),
+    >,
     client: Client<ipc::Service, OperatorRequest, (), OperatorReply, ()>,
 }
 
@@ -45,6 +53,7 @@ impl Operator {
         Ok(Operator {
             node,
             instance: loaded.config.instance.clone(),
+            svc,
             client,
         })
     }
@@ -82,6 +91,17 @@ impl Operator {
     ) -> Result<OperatorReply> {
         let path = FixedStr::try_new(path)
             .map_err(|e| anyhow::anyhow!("path of {e}: refused, nothing sent"))?;
+        let no_controller = || {
+            anyhow::anyhow!(
+                "no controller running for instance {:?} (no softnc-mmi serves it): is softncd running?",
+                self.instance
+            )
+        };
+        let served = || self.svc.dynamic_config().number_of_servers() > 0;
+        // no MMI serves the instance: no reply will ever come
+        if !served() {
+            bail!(no_controller());
+        }
         let pending = self.client.send_copy(OperatorRequest {
             kind: kind.wire(),
             axis,
@@ -93,24 +113,13 @@ impl Operator {
             ControlKind::StartJob | ControlKind::Mdi | ControlKind::TouchOff => JOB_CHECK_TIMEOUT,
             _ => REPLY_TIMEOUT,
         };
-        let no_controller = || {
-            anyhow::anyhow!(
-                "no controller running for instance {:?} (no softnc-mmi took the request): is softncd running?",
-                self.instance
-            )
-        };
-        // no MMI received it: no reply will ever come
-        if pending.number_of_server_connections() == 0 {
-            bail!(no_controller());
-        }
         let t0 = Instant::now();
         loop {
             if let Some(r) = pending.receive()? {
                 return Ok(*r);
             }
-            // a long check goes on only while the MMI holds the request (it dropped
-            // it when it died)
-            if t0.elapsed() > REPLY_TIMEOUT && !pending.is_connected() {
+            // a long check goes on only while an MMI serves (none when it died)
+            if t0.elapsed() > REPLY_TIMEOUT && !pending.is_connected() && !served() {
                 bail!(no_controller());
             }
             if t0.elapsed() > timeout {
