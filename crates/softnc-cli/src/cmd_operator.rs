@@ -27,6 +27,7 @@ pub enum OperatorCmd {
     /// deceleration limits and ends "aborted"; the machine is idle after.
     Abort,
     /// Set the feed override (percent, 0..=255).
+    #[command(allow_negative_numbers = true)]
     Override {
         /// Percent.
         pct: f64,
@@ -35,6 +36,7 @@ pub enum OperatorCmd {
     /// profile's `spindle` range; 50..=120 by default). The PDC of every axis is
     /// redesigned for the new tooth frequency off the cycle and swapped in with the
     /// new speed.
+    #[command(allow_negative_numbers = true)]
     SpindleOverride {
         /// Percent.
         pct: f64,

@@ -35,7 +35,7 @@ use ratatui::symbols;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{
     Axis, Block, Borders, Chart, Clear, Dataset, Gauge, GraphType, List, ListItem, Paragraph, Row,
-    Table,
+    Table, Wrap,
 };
 use softnc_daemon::client::Operator;
 use softnc_ipc::ControlKind;
@@ -150,11 +150,22 @@ pub fn run(config: &Path) -> Result<ExitCode> {
 }
 
 /// A number for the screen: `-` where there is none (idle, no status yet), never NaN.
+/// In `width` columns (0: as wide as it takes): fixed-point when it fits, else
+/// scientific with the digits that fit, else `#`s — never digits cut off (a wrong
+/// value).
 fn num(v: &serde_json::Value, scale: f64, width: usize, decimals: usize) -> String {
-    match v.as_f64().filter(|x| x.is_finite()) {
-        Some(x) => format!("{:width$.decimals$}", x * scale),
-        None => format!("{:>width$}", "-"),
+    let Some(x) = v.as_f64().map(|x| x * scale).filter(|x| x.is_finite()) else {
+        return format!("{:>width$}", "-");
+    };
+    let fixed = format!("{x:width$.decimals$}");
+    if width == 0 || fixed.chars().count() <= width {
+        return fixed;
     }
+    (0..=decimals)
+        .rev()
+        .map(|p| format!("{x:>width$.p$e}"))
+        .find(|t| t.chars().count() <= width)
+        .unwrap_or_else(|| "#".repeat(width))
 }
 
 /// The keys that stop or clear the machine, first on the last line, always shown
@@ -240,6 +251,16 @@ fn draw(
     ui: &Ui,
     listing: Option<&Listing>,
 ) {
+    // the alarms' pane grows (from the middle, down to its minimum) to show every
+    // alarm whole, wrapped
+    let alarm_inner_width = (frame.area().width as usize * ALARMS_PCT as usize / 100)
+        .saturating_sub(2)
+        .max(1);
+    let alarm_rows = alarm_lines(s)
+        .iter()
+        .map(|l| wrapped_rows(l, alarm_inner_width))
+        .sum::<usize>();
+    let bottom_rows = (alarm_rows as u16 + 2).max(LOOPS_ALARMS_MIN_ROWS);
     let rows = Layout::default()
         .direction(Direction::Vertical)
         .constraints([
@@ -247,7 +268,7 @@ fn draw(
             Constraint::Length(1),
             Constraint::Length(6),
             Constraint::Min(6),
-            Constraint::Length(4),
+            Constraint::Max(bottom_rows),
             Constraint::Length(1),
             Constraint::Length(2),
         ])
@@ -537,11 +558,57 @@ fn draw_offsets(frame: &mut ratatui::Frame, s: &serde_json::Value, ui: &Ui, area
     );
 }
 
+/// The rows of the loops-and-alarms pane when no alarm needs more (borders included).
+const LOOPS_ALARMS_MIN_ROWS: u16 = 4;
+/// The alarms' share of the screen's width (the loops have the rest).
+const ALARMS_PCT: u16 = 60;
+
+/// The alarms as lines of text (`code: message`).
+fn alarm_lines(s: &serde_json::Value) -> Vec<String> {
+    s["alarms"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|a| {
+            format!(
+                "{}: {}",
+                a["code"].as_str().unwrap_or("?"),
+                a["message"].as_str().unwrap_or("")
+            )
+        })
+        .collect()
+}
+
+/// How many rows `text` takes wrapped at word boundaries into `width` columns (a
+/// word longer than a row is broken).
+fn wrapped_rows(text: &str, width: usize) -> usize {
+    let mut rows = 1;
+    let mut used = 0;
+    for word in text.split(' ') {
+        let len = word.chars().count();
+        let need = if used == 0 { len } else { used + 1 + len };
+        if need <= width {
+            used = need;
+        } else {
+            rows += (used > 0) as usize + len.saturating_sub(1) / width;
+            used = if len % width == 0 && len > 0 {
+                width
+            } else {
+                len % width
+            };
+        }
+    }
+    rows
+}
+
 /// Loop jitter and the alarms.
 fn draw_loops_and_alarms(frame: &mut ratatui::Frame, s: &serde_json::Value, area: Rect) {
     let bottom = Layout::default()
         .direction(Direction::Horizontal)
-        .constraints([Constraint::Percentage(40), Constraint::Percentage(60)])
+        .constraints([
+            Constraint::Percentage(100 - ALARMS_PCT),
+            Constraint::Percentage(ALARMS_PCT),
+        ])
         .split(area);
     let mut loops = vec![];
     for name in ["interp", "position"] {
@@ -558,20 +625,12 @@ fn draw_loops_and_alarms(frame: &mut ratatui::Frame, s: &serde_json::Value, area
         List::new(loops).block(Block::default().borders(Borders::ALL).title("loop jitter")),
         bottom[0],
     );
-    let alarms: Vec<ListItem> = s["alarms"]
-        .as_array()
-        .into_iter()
-        .flatten()
-        .map(|a| {
-            ListItem::new(format!(
-                "{}: {}",
-                a["code"].as_str().unwrap_or("?"),
-                a["message"].as_str().unwrap_or("")
-            ))
-        })
-        .collect();
+    // wrapped, not cut: an alarm's end is often what to do
+    let alarms: Vec<Line> = alarm_lines(s).into_iter().map(Line::raw).collect();
     frame.render_widget(
-        List::new(alarms).block(Block::default().borders(Borders::ALL).title("alarms")),
+        Paragraph::new(alarms)
+            .wrap(Wrap { trim: false })
+            .block(Block::default().borders(Borders::ALL).title("alarms")),
         bottom[1],
     );
 }
@@ -635,6 +694,52 @@ mod tests {
         out.lines()
             .position(|l| l.contains(needle))
             .unwrap_or_else(|| panic!("{needle:?} not on screen:\n{out}"))
+    }
+
+    #[test]
+    fn huge_values_are_shown_right_or_marked_never_wrong() {
+        let mut s = running();
+        s["machine_mm"] = serde_json::json!([1.0e15, -123456789012.5, 3.0]);
+        s["work_mm"] = serde_json::json!([-2.5e300, 1.0e15, 3.0]);
+        let out = screen(&s, 80, 24);
+        // every number on the screen reads back as its value (to its shown digits)
+        // or is an overflow marker: no digits cut off
+        for want in [1.0e15, -123456789012.5, -2.5e300] {
+            let shown = out
+                .split(|c: char| c.is_whitespace() || c == '│')
+                .filter_map(|w| w.parse::<f64>().ok())
+                .any(|v| (v - want).abs() <= want.abs() * 1e-3);
+            assert!(shown, "{want} not shown right:\n{out}");
+        }
+        assert!(!out.contains("1000000000000000.0"), "{out}");
+        // the plain fixed-point form where it fits
+        assert!(out.contains("3.000"), "{out}");
+        for (v, width) in [(1.0e15, 10), (-1.0e300, 6), (12.5, 10), (-1.0e300, 3)] {
+            let t = num(&serde_json::json!(v), 1.0, width, 3);
+            assert_eq!(t.chars().count(), width, "{v} in {width}: {t:?}");
+            match t.trim().parse::<f64>() {
+                Ok(x) => assert!((x - v).abs() <= v.abs() * 0.06, "{v} shown as {t:?}"),
+                Err(_) => assert!(t.chars().all(|c| c == '#'), "{v} shown as {t:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn a_long_alarm_is_wrapped_whole_at_80_by_24() {
+        let mut s = running();
+        let msg = "following error -5.000 mm on axis X beyond the limit of 2.000 mm: emergency stop, drives off, reset required";
+        s["alarms"] = serde_json::json!([{"code": "FollowingError", "message": msg}]);
+        let out = screen(&s, 80, 24);
+        // every word of it on the screen, in order
+        let text: String = out
+            .replace('│', " ")
+            .split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" ");
+        for word in msg.split_whitespace() {
+            assert!(text.contains(word), "{word:?} cut from the alarm:\n{out}");
+        }
+        assert!(text.contains("reset required"), "{out}");
     }
 
     #[test]

@@ -71,6 +71,10 @@ pub fn default_machine_path() -> PathBuf {
 }
 
 fn main() -> ExitCode {
+    // output into a closed pipe (`softnc jobs | head`) ends the process quietly, as
+    // it does any Unix tool, instead of an error or a panic at the next print
+    // SAFETY: resetting a signal's disposition to its default, before any thread
+    unsafe { libc::signal(libc::SIGPIPE, libc::SIG_DFL) };
     let cli = Cli::parse();
     let config = softnc_daemon::cli::find_config(cli.config.clone());
     let result: Result<ExitCode> = match cli.command {

@@ -62,6 +62,7 @@ impl Bus {
             .signal_handling_mode(SignalHandlingMode::Disabled)
             .create::<ipc::Service>()
             .with_context(|| format!("creating node {node_name}"))?;
+        crate::ipc_guard::seal(node.config()).context("iceoryx2 permissions")?;
         Ok(Bus { node, names })
     }
 

@@ -25,6 +25,16 @@ pub const JOB_CHECK_TIMEOUT: Duration = Duration::from_secs(300);
 /// A connection to one controller instance's MMI.
 pub struct Operator {
     node: Node<ipc::Service>,
+    /// The instance, for messages.
+    instance: String,
+    /// The operator service (whether any MMI serves it).
+    svc: iceoryx2::service::port_factory::request_response::PortFactory<
+        ipc::Service,
+        OperatorRequest,
+        (),
+        OperatorReply,
+        (),
+    >,
     client: Client<ipc::Service, OperatorRequest, (), OperatorReply, ()>,
     names: ServiceNames,
     /// How long a process may be silent before it counts as lost (s): an E-stop
@@ -44,6 +54,7 @@ impl Operator {
             .signal_handling_mode(SignalHandlingMode::Disabled)
             .create::<ipc::Service>()
             .context("creating client node")?;
+        crate::ipc_guard::seal(node.config()).context("iceoryx2 permissions")?;
         let svc = node
             .service_builder(&names.operator().as_str().try_into()?)
             .request_response::<OperatorRequest, OperatorReply>()
@@ -53,6 +64,8 @@ impl Operator {
         let client = svc.client_builder().create().context("operator client")?;
         Ok(Operator {
             node,
+            instance: loaded.config.instance.clone(),
+            svc,
             client,
             names,
             heartbeat_timeout_s: loaded.config.heartbeat_timeout_s,
@@ -95,6 +108,12 @@ impl Operator {
         if kind == ControlKind::EStop {
             return self.estop();
         }
+        let no_controller = || self.no_controller();
+        let served = || self.served();
+        // no MMI serves the instance: no reply will ever come
+        if !served() {
+            bail!(no_controller());
+        }
         let pending = self.client.send_copy(OperatorRequest {
             kind: kind.wire(),
             axis,
@@ -111,11 +130,28 @@ impl Operator {
             if let Some(r) = pending.receive()? {
                 return Ok(*r);
             }
+            // a long check goes on only while an MMI serves (none when it died)
+            if t0.elapsed() > REPLY_TIMEOUT && !pending.is_connected() && !served() {
+                bail!(no_controller());
+            }
             if t0.elapsed() > timeout {
                 bail!("no reply from softnc-mmi within {timeout:?}: is softncd running?");
             }
             let _ = self.node.wait(Duration::from_millis(2));
         }
+    }
+
+    /// Whether an MMI serves the instance's operator service.
+    fn served(&self) -> bool {
+        self.svc.dynamic_config().number_of_servers() > 0
+    }
+
+    /// The error of a command with no controller to take it.
+    fn no_controller(&self) -> anyhow::Error {
+        anyhow::anyhow!(
+            "no controller running for instance {:?} (no softnc-mmi serves it): is softncd running?",
+            self.instance
+        )
     }
 
     /// The E-stop on both paths: published straight to the position process
@@ -153,8 +189,18 @@ impl Operator {
                 }
             }
             let mmi_waited = confirmed_at.is_some_and(|t| {
-                t.elapsed().as_secs_f64() > self.heartbeat_timeout_s || pending.is_err()
+                t.elapsed().as_secs_f64() > self.heartbeat_timeout_s
+                    || pending.is_err()
+                    || !self.served()
             });
+            // no MMI serves and no position process confirmed within its heartbeat
+            // timeout: no controller runs (the E-stop was published all the same)
+            if confirmed_at.is_none()
+                && !self.served()
+                && t0.elapsed().as_secs_f64() > self.heartbeat_timeout_s.min(1.0)
+            {
+                bail!(self.no_controller());
+            }
             if mmi_waited {
                 return Ok(OperatorReply {
                     accepted: 1,

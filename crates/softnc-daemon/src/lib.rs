@@ -33,6 +33,7 @@ pub mod cli;
 pub mod client;
 pub mod config;
 pub mod interp;
+pub mod ipc_guard;
 pub mod jobfile;
 pub mod lifecycle;
 pub mod loop_watch;

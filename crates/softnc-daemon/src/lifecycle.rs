@@ -3,20 +3,60 @@
 //! without its `softncd`), and systemd's readiness and watchdog notifications.
 //!
 //! The stop request is one atomic flag that a watcher thread of its own sets: the
-//! cyclic loops read it without a lock or a system call. Signals are caught with
-//! iceoryx2's signal handler (`iceoryx2-bb-posix`), which records the last one; the
-//! watcher polls it every [`WATCH_PERIOD`].
+//! cyclic loops read it without a lock or a system call. SIGTERM and SIGINT are
+//! caught by a handler of ours that sets a sticky flag ([`termination_requested`]):
+//! once set it stays set, whatever signal follows (systemd and `timeout` send
+//! SIGCONT right after SIGTERM; iceoryx2's own "last signal" is overwritten by it,
+//! and by iceoryx2's shared-memory calls, so it is not used). The watcher polls the
+//! flag every [`WATCH_PERIOD`].
 
 use iceoryx2_bb_posix::signal::SignalHandler;
 use std::fs::File;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU8, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
 /// How often the watcher looks for a signal and at its parent.
 pub const WATCH_PERIOD: Duration = Duration::from_millis(10);
+
+/// Set by the SIGTERM/SIGINT handler, never cleared.
+static TERMINATION: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_termination_signal(_signal: libc::c_int) {
+    // async-signal-safe: one atomic store
+    TERMINATION.store(true, Ordering::SeqCst);
+}
+
+/// Whether SIGTERM or SIGINT has arrived since [`catch_termination_signals`] (sticky:
+/// later signals, SIGCONT included, do not clear it).
+pub fn termination_requested() -> bool {
+    TERMINATION.load(Ordering::SeqCst)
+}
+
+/// Catch SIGTERM and SIGINT with a handler that sets [`termination_requested`].
+/// iceoryx2's signal handler (installed on first use, by it or by us) is set up
+/// first so that it never replaces ours later.
+pub fn catch_termination_signals() -> std::io::Result<()> {
+    let _ = SignalHandler::last_signal();
+    for sig in [libc::SIGTERM, libc::SIGINT] {
+        // SAFETY: a zeroed sigaction is valid (no flags, empty mask) before we fill
+        // it; the handler only stores to an atomic (async-signal-safe); sigaction
+        // is given valid pointers.
+        let rc = unsafe {
+            let mut action: libc::sigaction = std::mem::zeroed();
+            action.sa_sigaction = on_termination_signal as extern "C" fn(libc::c_int) as usize;
+            action.sa_flags = libc::SA_RESTART;
+            libc::sigemptyset(&mut action.sa_mask);
+            libc::sigaction(sig, &action, std::ptr::null_mut())
+        };
+        if rc != 0 {
+            return Err(std::io::Error::last_os_error());
+        }
+    }
+    Ok(())
+}
 
 /// Why a process was asked to stop.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -54,8 +94,8 @@ impl StopWatch {
     /// Catch SIGTERM and SIGINT from now on and start the watcher; `watch_parent`:
     /// also stop when the parent process dies (the children of `softncd`).
     pub fn start(watch_parent: bool) -> std::io::Result<StopWatch> {
-        // installs the handlers now, before any signal can arrive
-        let _ = SignalHandler::termination_requested();
+        // installs the handler now, before any signal can arrive
+        catch_termination_signals()?;
         let reason = Arc::new(AtomicU8::new(0));
         let parent = std::os::unix::process::parent_id();
         let r = reason.clone();
@@ -65,7 +105,7 @@ impl StopWatch {
                 // started by a real-time thread perhaps: not at its priority
                 let _ = softnc_rt::leave_realtime();
                 loop {
-                    let why = if SignalHandler::termination_requested() {
+                    let why = if termination_requested() {
                         Some(StopReason::Signal)
                     } else if watch_parent && std::os::unix::process::parent_id() != parent {
                         Some(StopReason::ParentLost)
@@ -116,14 +156,100 @@ pub enum LockError {
         /// The lock file.
         path: PathBuf,
     },
+    /// The run folder is not one only this user can write.
+    #[error(transparent)]
+    Folder(#[from] PrivateDirError),
     /// The lock file cannot be opened or locked.
-    #[error("{path}: cannot lock: {source}")]
+    #[error("{path}: cannot lock: {why}")]
     Io {
         /// The lock file.
+        path: PathBuf,
+        /// Why (said in the message, not chained again after it).
+        why: std::io::Error,
+    },
+}
+
+/// A folder that lock and runtime files may not go into.
+#[derive(Debug, thiserror::Error)]
+pub enum PrivateDirError {
+    /// It cannot be read (absent, no access).
+    #[error("run folder {path}: {source}")]
+    Unreadable {
+        /// The folder.
         path: PathBuf,
         /// Why.
         source: std::io::Error,
     },
+    /// A symbolic link or not a folder at all.
+    #[error("run folder {path} is not a folder (a link or a file): refused")]
+    NotAFolder {
+        /// The path.
+        path: PathBuf,
+    },
+    /// Owned by another user.
+    #[error("run folder {path} belongs to uid {owner}, not to this user (uid {me}): refused; lock and runtime files go in a folder only softncd's user can write")]
+    ForeignOwner {
+        /// The folder.
+        path: PathBuf,
+        /// Its owner.
+        owner: u32,
+        /// Our effective uid.
+        me: u32,
+    },
+    /// Group or others may write in it.
+    #[error("run folder {path} is writable by group or others (mode {mode:o}): refused; lock and runtime files go in a folder only softncd's user can write (chmod go-w)")]
+    Writable {
+        /// The folder.
+        path: PathBuf,
+        /// Its permission bits.
+        mode: u32,
+    },
+}
+
+/// The effective user id of this process.
+pub fn effective_uid() -> u32 {
+    // SAFETY: geteuid has no preconditions and cannot fail
+    unsafe { libc::geteuid() }
+}
+
+/// Check that `dir` is a folder (not a link) of this user that neither its group nor
+/// others may write: files opened in it cannot be planted, replaced or linked by
+/// another local user.
+pub fn check_private_dir(dir: &Path) -> Result<(), PrivateDirError> {
+    use std::os::unix::fs::MetadataExt;
+    let meta = std::fs::symlink_metadata(dir).map_err(|source| PrivateDirError::Unreadable {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    if !meta.file_type().is_dir() {
+        return Err(PrivateDirError::NotAFolder {
+            path: dir.to_path_buf(),
+        });
+    }
+    let me = effective_uid();
+    if meta.uid() != me {
+        return Err(PrivateDirError::ForeignOwner {
+            path: dir.to_path_buf(),
+            owner: meta.uid(),
+            me,
+        });
+    }
+    if meta.mode() & 0o022 != 0 {
+        return Err(PrivateDirError::Writable {
+            path: dir.to_path_buf(),
+            mode: meta.mode() & 0o7777,
+        });
+    }
+    Ok(())
+}
+
+/// The folder of an instance's lock and runtime files: `$SOFTNC_RUN_DIR` when set,
+/// else the instance's data folder `data_dir` (created by its first use; not `/tmp`,
+/// where anyone can plant a file or a link).
+pub fn run_dir(data_dir: &Path) -> PathBuf {
+    std::env::var_os("SOFTNC_RUN_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| data_dir.to_path_buf())
 }
 
 /// One controller per instance: an exclusive lock on a file named after the
@@ -136,13 +262,8 @@ pub struct InstanceLock {
 }
 
 impl InstanceLock {
-    /// The lock file of an instance: in `$SOFTNC_RUN_DIR`, else `$XDG_RUNTIME_DIR`,
-    /// else the system's temporary folder.
-    pub fn path_of(service_prefix: &str, instance: &str) -> PathBuf {
-        let dir = std::env::var_os("SOFTNC_RUN_DIR")
-            .or_else(|| std::env::var_os("XDG_RUNTIME_DIR"))
-            .map(PathBuf::from)
-            .unwrap_or_else(std::env::temp_dir);
+    /// The lock file of an instance in run folder `dir` ([`run_dir`]).
+    pub fn path_of(dir: &Path, service_prefix: &str, instance: &str) -> PathBuf {
         let safe = |s: &str| {
             s.chars()
                 .map(|c| {
@@ -161,24 +282,62 @@ impl InstanceLock {
         ))
     }
 
-    /// Take the instance's lock, or say who holds it.
-    pub fn acquire(service_prefix: &str, instance: &str) -> Result<InstanceLock, LockError> {
-        let path = Self::path_of(service_prefix, instance);
+    /// Take the instance's lock in [`run_dir`]`(data_dir)`, or say who holds it; the
+    /// folder must be this user's alone ([`check_private_dir`]).
+    pub fn acquire(
+        data_dir: &Path,
+        service_prefix: &str,
+        instance: &str,
+    ) -> Result<InstanceLock, LockError> {
+        let dir = run_dir(data_dir);
+        if std::env::var_os("SOFTNC_RUN_DIR").is_none() {
+            // the data folder: made if it is not there yet (ours, from the start)
+            use std::os::unix::fs::DirBuilderExt;
+            let _ = std::fs::DirBuilder::new()
+                .recursive(true)
+                .mode(0o750)
+                .create(&dir);
+        }
+        check_private_dir(&dir)?;
+        let path = Self::path_of(&dir, service_prefix, instance);
         Self::acquire_at(&path, instance)
     }
 
     fn acquire_at(path: &Path, instance: &str) -> Result<InstanceLock, LockError> {
-        let io = |source| LockError::Io {
+        use std::os::unix::fs::{MetadataExt, OpenOptionsExt, PermissionsExt};
+        let io = |why| LockError::Io {
             path: path.to_path_buf(),
-            source,
+            why,
         };
+        // never through a link, never inherited by the children; readable by us alone
+        // (whoever can open a file can lock it)
         let mut file = std::fs::OpenOptions::new()
             .read(true)
             .write(true)
             .create(true)
             .truncate(false)
+            .mode(0o600)
+            .custom_flags(libc::O_NOFOLLOW | libc::O_CLOEXEC | libc::O_NONBLOCK)
             .open(path)
-            .map_err(io)?;
+            .map_err(|e| {
+                if e.raw_os_error() == Some(libc::ELOOP) {
+                    io(std::io::Error::other(
+                        "it is a symbolic link (refused: a lock is never opened through a link)",
+                    ))
+                } else {
+                    io(e)
+                }
+            })?;
+        let meta = file.metadata().map_err(io)?;
+        if !meta.file_type().is_file() || meta.uid() != effective_uid() {
+            return Err(io(std::io::Error::other(
+                "not a regular file of this user: refused",
+            )));
+        }
+        if meta.mode() & 0o077 != 0 {
+            file.set_permissions(std::fs::Permissions::from_mode(0o600))
+                .map_err(io)?;
+        }
         match file.try_lock() {
             Ok(()) => {}
             Err(std::fs::TryLockError::WouldBlock) => {
@@ -284,10 +443,86 @@ mod tests {
     }
 
     #[test]
+    fn a_link_at_the_lock_path_is_refused_and_its_target_left_alone() {
+        let dir = std::env::temp_dir().join(format!("softnc-locklink-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let victim = dir.join("victim");
+        std::fs::write(&victim, "keep\n").unwrap();
+        let path = dir.join("i.lock");
+        std::os::unix::fs::symlink(&victim, &path).unwrap();
+        let r = InstanceLock::acquire_at(&path, "mill9");
+        assert!(
+            matches!(&r, Err(LockError::Io { why, .. }) if why.to_string().contains("link")),
+            "{r:?}"
+        );
+        assert_eq!(std::fs::read_to_string(&victim).unwrap(), "keep\n");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_lock_file_is_readable_by_its_user_alone() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = std::env::temp_dir().join(format!("softnc-lockmode-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("i.lock");
+        // left readable by an older controller: made private again
+        std::fs::write(&path, "1\n").unwrap();
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o644)).unwrap();
+        let lock = InstanceLock::acquire_at(&path, "mill9").unwrap();
+        let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+        assert_eq!(mode & 0o777, 0o600);
+        drop(lock);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn only_a_folder_of_ours_that_others_cannot_write_is_a_run_folder() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = std::env::temp_dir().join(format!("softnc-rundir-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("ok")).unwrap();
+        std::fs::set_permissions(dir.join("ok"), std::fs::Permissions::from_mode(0o750)).unwrap();
+        assert!(check_private_dir(&dir.join("ok")).is_ok());
+        for mode in [0o777, 0o1777, 0o770, 0o757] {
+            std::fs::set_permissions(dir.join("ok"), std::fs::Permissions::from_mode(mode))
+                .unwrap();
+            let r = check_private_dir(&dir.join("ok"));
+            assert!(
+                matches!(r, Err(PrivateDirError::Writable { .. })),
+                "{mode:o}: {r:?}"
+            );
+        }
+        std::os::unix::fs::symlink(dir.join("ok"), dir.join("link")).unwrap();
+        assert!(matches!(
+            check_private_dir(&dir.join("link")),
+            Err(PrivateDirError::NotAFolder { .. })
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
     fn lock_files_are_named_after_prefix_and_instance_only_with_safe_characters() {
-        let p = InstanceLock::path_of("softnc", "../mill 1");
+        let p = InstanceLock::path_of(Path::new("/run/x"), "softnc", "../mill 1");
         let name = p.file_name().unwrap().to_string_lossy().to_string();
         assert_eq!(name, "softnc-softnc-___mill_1.lock");
+    }
+
+    #[test]
+    fn a_sigterm_is_kept_whatever_signal_follows_it() {
+        catch_termination_signals().unwrap();
+        // SAFETY: raise with valid signal numbers; SIGTERM is caught by our handler,
+        // SIGCONT to a running process does nothing but overwrite iceoryx2's record
+        unsafe {
+            libc::raise(libc::SIGTERM);
+            libc::raise(libc::SIGCONT);
+        }
+        // iceoryx2's record of the last signal no longer says termination ...
+        assert!(!SignalHandler::termination_requested());
+        // ... ours does, and keeps saying it
+        assert!(termination_requested());
+        assert!(termination_requested());
     }
 
     #[test]

@@ -78,7 +78,11 @@ impl Supervisor {
     /// refused before it touches anything), catch SIGTERM/SIGINT, clean stale
     /// resources of a previous run, open the services.
     pub fn new(cfg: Loaded) -> Result<Self> {
-        let lock = InstanceLock::acquire(&cfg.config.service_prefix, &cfg.config.instance)?;
+        let lock = InstanceLock::acquire(
+            &cfg.data_dir,
+            &cfg.config.service_prefix,
+            &cfg.config.instance,
+        )?;
         let stop = StopWatch::start(false).context("signal watcher")?;
         let cleaned = clean_dead_nodes();
         if cleaned > 0 {
