@@ -71,8 +71,10 @@ pub fn read(path: &Path) -> std::io::Result<ProgramBytes> {
 mod tests {
     use super::*;
 
+    /// `bytes` in a file `name` of a folder of its own (removed with [`gone`]).
     fn temp(name: &str, bytes: &[u8]) -> std::path::PathBuf {
-        let dir = std::env::temp_dir().join(format!("softnc-program-file-{}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("softnc-program-file-{}-{name}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let p = dir.join(name);
         std::fs::write(&p, bytes).unwrap();
@@ -88,6 +90,12 @@ mod tests {
         let got = read(&p).unwrap();
         assert!(matches!(got, ProgramBytes::Mapped(_)));
         assert_eq!(&*got, &text[..]);
+        gone(&p);
+    }
+
+    /// Remove the folder of a file [`temp`] made.
+    fn gone(p: &Path) {
+        let _ = std::fs::remove_dir_all(p.parent().unwrap());
     }
 
     #[test]
@@ -102,6 +110,8 @@ mod tests {
         let null = read(Path::new("/dev/null")).unwrap();
         assert!(matches!(null, ProgramBytes::Read(_)));
         assert_eq!(null.len(), 0);
+        gone(&p);
+        gone(&e);
     }
 
     #[test]

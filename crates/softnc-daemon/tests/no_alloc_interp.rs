@@ -114,6 +114,23 @@ fn run_counted_with(
     let (dir, loaded) = setup(tag);
     let job = dir.join("job.ngc");
     std::fs::write(&job, job_text).unwrap();
+    // the checked setup the MMI keeps for a job it checked (the interpolator reads
+    // the job as it was checked): the profile's offsets, no preamble, no subroutine
+    let programs = loaded
+        .data_dir
+        .join(softnc_daemon::machine_store::PROGRAMS_DIR);
+    std::fs::create_dir_all(&programs).unwrap();
+    softnc_daemon::jobfile::CheckedSetup {
+        job_id: 1,
+        program: job.clone(),
+        sha256: softnc_daemon::jobfile::sha256_hex(job_text.as_bytes()),
+        preamble: None,
+        preamble_file: None,
+        params: None,
+        subroutines: Vec::new(),
+    }
+    .save(&programs)
+    .unwrap();
     if learned {
         common::learn_job(
             &dir.join("learning"),

@@ -320,16 +320,7 @@ impl MmiTask {
 
     /// A refused job: the alarm, and the reply.
     fn refuse_job(&mut self, msg: &str) -> Result<OperatorReply> {
-        self.alarms_pub.send_copy(Alarm {
-            code: AlarmCode::JobRefused.wire(),
-            axis: u32::MAX,
-            process: ProcessId::Mmi.wire(),
-            job_id: 0,
-            time_index: 0,
-            pid: std::process::id(),
-            raised_unix_ns: softnc_rt::unix_ns(),
-            message: FixedStr::truncated(msg),
-        })?;
+        self.raise(AlarmCode::JobRefused, msg)?;
         Ok(Self::reply(false, 0, msg))
     }
 

@@ -226,8 +226,13 @@ impl MmiTask {
 
     /// Raise an alarm of the MMI's own (`Other`).
     fn alarm(&mut self, msg: &str) -> Result<()> {
+        self.raise(AlarmCode::Other, msg)
+    }
+
+    /// Raise an alarm of the MMI's own, of kind `code`.
+    fn raise(&mut self, code: AlarmCode, msg: &str) -> Result<()> {
         self.alarms_pub.send_copy(Alarm {
-            code: AlarmCode::Other.wire(),
+            code: code.wire(),
             axis: u32::MAX,
             process: ProcessId::Mmi.wire(),
             job_id: 0,
