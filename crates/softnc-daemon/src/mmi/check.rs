@@ -9,8 +9,7 @@ use crate::interp::{check_bytes, JobSetup};
 use crate::jobfile::{intake, keep_copy, sha256_hex, CheckedSetup, KeptSubroutine};
 use anyhow::Result;
 use softnc_ipc::{
-    Alarm, AlarmCode, ControlKind, FixedStr, MachineState, OperatorReply, ProcessId,
-    JOB_ADAPTIVE_FORCE,
+    AlarmCode, ControlKind, FixedStr, MachineState, OperatorReply, JOB_ADAPTIVE_FORCE,
 };
 use softnc_planner::PlanStats;
 use std::path::PathBuf;
