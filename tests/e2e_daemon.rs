@@ -618,17 +618,7 @@ fn signal_stops_in_order(tag: &str, signal: &str, to_group: bool) {
         .unwrap()
         .success();
     assert!(ok, "kill -{signal} {target}");
-    let t0 = Instant::now();
-    let status = loop {
-        if let Some(st) = d.child.try_wait().unwrap() {
-            break st;
-        }
-        assert!(
-            t0.elapsed() < Duration::from_secs(15),
-            "softncd still running 15 s after SIG{signal}"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    };
+    let status = d.wait_exit(&format!("SIG{signal}"));
     assert_eq!(status.code(), Some(0), "softncd exits 0 on SIG{signal}");
     Daemon::wait_gone(&kids, Duration::from_secs(5));
     assert_stops_along_the_path(&d.dir.join(format!("data/trace-job{job_id}.csv")));
@@ -677,12 +667,7 @@ fn killing_softncd_stops_its_children_along_the_path_and_a_new_softncd_runs_the_
     d.wait_status(&op, Duration::from_secs(10), "processes up", |s| {
         s["processes"]["interp"] == "alive" && s["processes"]["position"] == "alive"
     });
-    let r = op
-        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
-        .unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    let s = d.runs_the_short_job(&op);
     assert!(
         !s["alarms"].to_string().contains("SequenceError"),
         "no second set of processes: {s}"
@@ -710,12 +695,7 @@ fn a_second_softncd_on_the_same_instance_is_refused_and_the_first_runs_on() {
         "{err}"
     );
     // the first one's processes are untouched and run a job
-    let r = op
-        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
-        .unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    d.runs_the_short_job(&op);
 }
 
 #[test]
@@ -945,12 +925,7 @@ fn a_stopped_interpolator_is_noticed_killed_and_restarted_and_reset_recovers() {
         s["state"] == "Off" && s["processes"]["interp"] == "alive"
     });
     op.machine_on(Duration::from_secs(10)).unwrap();
-    let r = op
-        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
-        .unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    d.runs_the_short_job(&op);
 }
 
 #[test]
@@ -977,12 +952,7 @@ fn a_stopped_position_process_is_noticed_killed_and_restarted_and_reset_recovers
         |s| s["state"] == "Off" && s["processes"]["position"] == "alive",
     );
     op.machine_on(Duration::from_secs(10)).unwrap();
-    let r = op
-        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
-        .unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    d.runs_the_short_job(&op);
     drop(op);
     d.shutdown_leaving_nothing("sigstoppos");
 }
@@ -1096,15 +1066,13 @@ fn a_loopback_daemon_runs_a_job_whose_axes_follow_the_command_exactly() {
         &[("backend: Simulated", "backend: Loopback")],
     );
     let op = d.operator();
-    let r = op
-        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
-        .unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    let s = d.runs_the_short_job(&op);
     // each cycle measures where the previous one commanded, to a nanometre
-    let trace =
-        std::fs::read_to_string(d.dir.join(format!("data/trace-job{}.csv", r.job_id))).unwrap();
+    let trace = std::fs::read_to_string(
+        d.dir
+            .join(format!("data/trace-job{}.csv", s["job"]["job_id"])),
+    )
+    .unwrap();
     let rows: Vec<Vec<f64>> = trace
         .lines()
         .skip(1)

@@ -94,12 +94,7 @@ fn estop_from_the_client_stops_the_job_while_the_mmi_is_stopped() {
         s["state"] == "Off"
     });
     op.machine_on(Duration::from_secs(10)).unwrap();
-    let r = op
-        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
-        .unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    d.runs_the_short_job(&op);
 }
 
 #[test]

@@ -20,21 +20,6 @@ fn send_signals(pid: u32, signals: &[&str]) {
     }
 }
 
-/// Wait for softncd to exit after a signal; its exit status.
-fn wait_exit(d: &mut Daemon, what: &str) -> std::process::ExitStatus {
-    let t0 = Instant::now();
-    loop {
-        if let Some(st) = d.child.try_wait().unwrap() {
-            return st;
-        }
-        assert!(
-            t0.elapsed() < Duration::from_secs(15),
-            "softncd still running 15 s after {what}"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
-}
-
 #[test]
 fn sigterm_followed_at_once_by_sigcont_stops_an_idle_controller_every_time() {
     for round in 0..4 {
@@ -46,7 +31,7 @@ fn sigterm_followed_at_once_by_sigcont_stops_an_idle_controller_every_time() {
         let kids = d.children();
         assert_eq!(kids.len(), 3, "three processes: {kids:?}");
         send_signals(d.child.id(), &["TERM", "CONT"]);
-        let st = wait_exit(&mut d, &format!("SIGTERM+SIGCONT (round {round})"));
+        let st = d.wait_exit(&format!("SIGTERM+SIGCONT (round {round})"));
         assert_eq!(st.code(), Some(0), "softncd exits 0 (round {round})");
         Daemon::wait_gone(&kids, Duration::from_secs(5));
         assert_eq!(
@@ -69,7 +54,7 @@ fn sigterm_followed_at_once_by_sigcont_stops_a_running_job_along_its_path() {
         let kids = d.children();
         assert_eq!(kids.len(), 3, "three processes: {kids:?}");
         send_signals(d.child.id(), &["TERM", "CONT"]);
-        let st = wait_exit(&mut d, &format!("SIGTERM+SIGCONT mid-job (round {round})"));
+        let st = d.wait_exit(&format!("SIGTERM+SIGCONT mid-job (round {round})"));
         assert_eq!(st.code(), Some(0), "softncd exits 0 (round {round})");
         Daemon::wait_gone(&kids, Duration::from_secs(5));
         assert_stops_along_the_path(&d.dir.join(format!("data/trace-job{job_id}.csv")));
@@ -126,7 +111,7 @@ fn each_child_stops_on_sigterm_followed_at_once_by_sigcont() {
     }
     let kids = d.children();
     send_signals(d.child.id(), &["TERM", "CONT"]);
-    let st = wait_exit(&mut d, "SIGTERM+SIGCONT");
+    let st = d.wait_exit("SIGTERM+SIGCONT");
     assert_eq!(st.code(), Some(0), "softncd exits 0");
     Daemon::wait_gone(&kids, Duration::from_secs(5));
 }

@@ -21,20 +21,7 @@ fn trace_rows(d: &Daemon, job_id: u64) -> Vec<[f64; 6]> {
         last_len = len;
         std::thread::sleep(Duration::from_millis(200));
     }
-    std::fs::read_to_string(&path)
-        .unwrap_or_default()
-        .lines()
-        .skip(1)
-        .filter_map(|l| {
-            let f: Vec<f64> = l
-                .split(',')
-                .skip(1)
-                .take(6)
-                .filter_map(|v| v.parse().ok())
-                .collect();
-            (f.len() == 6).then(|| [f[0], f[1], f[2], f[3], f[4], f[5]])
-        })
-        .collect()
+    trace_columns(&std::fs::read_to_string(&path).unwrap_or_default())
 }
 
 /// How far a held axis may be measured from its command: the simulated machine's
@@ -324,12 +311,7 @@ fn reset_and_run_a_job(d: &Daemon, op: &Operator) {
     if s["state"] == "Off" {
         op.machine_on(Duration::from_secs(10)).unwrap();
     }
-    let r = op
-        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
-        .unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let s = d.wait_job(op, r.job_id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    d.runs_the_short_job(op);
 }
 
 #[test]

@@ -210,6 +210,33 @@ impl Daemon {
         })
     }
 
+    /// Wait for softncd to exit after `what` (a shutdown, a signal); its exit
+    /// status. Fails after 15 s.
+    pub fn wait_exit(&mut self, what: &str) -> std::process::ExitStatus {
+        let t0 = Instant::now();
+        loop {
+            if let Some(st) = self.child.try_wait().unwrap() {
+                return st;
+            }
+            assert!(
+                t0.elapsed() < Duration::from_secs(15),
+                "softncd still running 15 s after {what}"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// Submit [`short_job`]; it is accepted and completes. The status at its end.
+    pub fn runs_the_short_job(&self, op: &Operator) -> serde_json::Value {
+        let r = op
+            .request(ControlKind::StartJob, 0.0, &abs(&short_job(&self.dir)))
+            .unwrap();
+        assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+        let s = self.wait_job(op, r.job_id, Duration::from_secs(60));
+        assert_eq!(s["job"]["outcome"], "completed", "{s}");
+        s
+    }
+
     /// The daemon's trace of job `job_id`, once it has `len` bytes (the file is closed
     /// by its own thread) or after 10 s.
     pub fn trace_of(&self, job_id: u64, len: usize) -> Vec<u8> {
@@ -290,17 +317,7 @@ impl Daemon {
         let r = op.request(ControlKind::Shutdown, 0.0, "").unwrap();
         assert_eq!(r.accepted, 1, "{}", r.message.as_str());
         drop(op);
-        let t0 = Instant::now();
-        let status = loop {
-            if let Some(st) = self.child.try_wait().unwrap() {
-                break st;
-            }
-            assert!(
-                t0.elapsed() < Duration::from_secs(15),
-                "softncd still running 15 s after shutdown"
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        };
+        let status = self.wait_exit("shutdown");
         assert_eq!(status.code(), Some(0), "softncd exits 0 on shutdown");
         Daemon::wait_gone(&kids, Duration::from_secs(5));
         let instance = format!("e2e{tag}{}", std::process::id());
@@ -355,19 +372,7 @@ pub fn assert_stops_along_the_path(trace: &Path) {
         }
         std::thread::sleep(Duration::from_millis(50));
     };
-    let cmds: Vec<[f64; 3]> = text
-        .lines()
-        .skip(1)
-        .filter_map(|l| {
-            let f: Vec<f64> = l
-                .split(',')
-                .skip(1)
-                .take(3)
-                .filter_map(|v| v.parse().ok())
-                .collect();
-            (f.len() == 3).then(|| [f[0], f[1], f[2]])
-        })
-        .collect();
+    let cmds: Vec<[f64; 3]> = trace_columns(&text);
     assert!(
         cmds.len() > 100,
         "trace of the stopped job: {} rows",
@@ -551,4 +556,21 @@ pub fn wait_paused(d: &Daemon, op: &Operator) -> serde_json::Value {
     d.wait_status(op, Duration::from_secs(30), "a pause", |s| {
         s["state"] == "Paused"
     })
+}
+
+/// The first `N` numbers after the time of every row of a trace CSV (cmd x y z,
+/// then actual x y z, ...); rows without them are left out, the header first.
+pub fn trace_columns<const N: usize>(text: &str) -> Vec<[f64; N]> {
+    text.lines()
+        .skip(1)
+        .filter_map(|l| {
+            let f: Vec<f64> = l
+                .split(',')
+                .skip(1)
+                .take(N)
+                .filter_map(|v| v.parse().ok())
+                .collect();
+            f.try_into().ok()
+        })
+        .collect()
 }
