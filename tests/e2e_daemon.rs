@@ -93,7 +93,8 @@ fn adaptive_force_in_the_daemon_holds_the_force_where_the_depth_changes_bit_for_
     assert_eq!(rec["adaptive_force"], true, "{rec}");
 
     // the simulator, the same job: the same samples, overrides and machine
-    let profile = softnc_core::MachineProfile::load(&d.dir.join("machines/default.ron")).unwrap();
+    let profile =
+        softnc_machine::MachineProfile::load(&d.dir.join("machines/default.ron")).unwrap();
     let latency = softnc_daemon::config::DaemonConfig::load(&d.config)
         .unwrap()
         .config
@@ -305,7 +306,7 @@ fn a_feed_override_fades_the_learned_correction_out_and_notes_it() {
     let end = d.wait_status(&op, Duration::from_secs(10), "idle", |s| {
         s["state"] == "Idle"
     });
-    let profile = softnc_core::MachineProfile::load(&machine).unwrap();
+    let profile = softnc_machine::MachineProfile::load(&machine).unwrap();
     let text = std::fs::read_to_string(&job).unwrap();
     let (_, plan) =
         softnc_planner::read_and_plan(&text, "job.ngc", &profile, &Default::default()).unwrap();
@@ -1385,7 +1386,7 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     d.shutdown_leaving_nothing(tag);
     drop(d);
     // every sample of the homing and the jogs within each axis's limits
-    let machine = softnc_core::MachineProfile::load(&profile).unwrap();
+    let machine = softnc_machine::MachineProfile::load(&profile).unwrap();
     let mut rows = 0;
     for e in std::fs::read_dir(dir.join("data")).unwrap() {
         let path = e.unwrap().path();

@@ -422,7 +422,7 @@ pub fn simulator_trace(job: &Path, machine: &Path, out: &Path) {
 /// [`simulator_trace`] with the learning store `learned` applied as `softnc sim
 /// --learned --store DIR` applies it.
 pub fn simulator_trace_learned(job: &Path, machine: &Path, out: &Path, learned: Option<&Path>) {
-    let profile = softnc_core::MachineProfile::load(machine).unwrap();
+    let profile = softnc_machine::MachineProfile::load(machine).unwrap();
     let text = std::fs::read_to_string(job).unwrap();
     let program = softnc_gcode::read_program(&text, &job.display().to_string(), &profile).unwrap();
     let plan = softnc_planner::plan(&program, &profile, &Default::default()).unwrap();

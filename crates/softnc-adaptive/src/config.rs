@@ -4,8 +4,8 @@
 //!
 //! Units are in the field names; every number of the paper's machine and process
 //! lives in `config/machines/mch10-force.ron`, none in code. This crate owns the
-//! schema and its validation; the machine profile (`softnc_core::MachineProfile`)
-//! composes it as its `force` section (`softnc_core::force` re-exports it).
+//! schema and its validation; the machine profile (`softnc_machine::MachineProfile`)
+//! composes it as its `force` section (`softnc_machine::force` re-exports it).
 
 use crate::rls::RlsConfig;
 use serde::{Deserialize, Serialize};

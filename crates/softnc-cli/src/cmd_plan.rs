@@ -1,8 +1,8 @@
 //! `softnc plan FILE`: read, check and plan a program; print a summary or canonical motions.
 
 use anyhow::{Context, Result};
-use softnc_core::MachineProfile;
 use softnc_gcode::{MotionKind, Program};
+use softnc_machine::MachineProfile;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;

@@ -512,7 +512,7 @@ impl ForceLog {
 
     /// Per segment of the stock, the means over its last `settled_revolutions`
     /// whole revolutions (as `softnc reproduce 003-force` reports its cases).
-    fn summary(&self, machine: &softnc_core::MachineProfile, latency: u64) -> serde_json::Value {
+    fn summary(&self, machine: &softnc_machine::MachineProfile, latency: u64) -> serde_json::Value {
         let Some((_, case)) = machine.force.as_ref().and_then(|f| f.adaptive_case()) else {
             return serde_json::Value::Null;
         };

@@ -39,7 +39,7 @@ fn pdc_config() -> PdcConfig {
                 relative: 1.0,
             },
         ],
-        ..softnc_config::parse_ron::<PdcConfig>(
+        ..softnc_core::ron_file::parse_ron::<PdcConfig>(
             include_str!("../../../config/pdc/paper000-canceller.ron"),
             "config/pdc/paper000-canceller.ron",
         )

@@ -242,7 +242,7 @@ mod tests {
     }
 
     fn pdc_cfg() -> PdcConfig {
-        softnc_config::parse_ron::<PdcConfig>(
+        softnc_core::ron_file::parse_ron::<PdcConfig>(
             include_str!("../../../config/pdc/paper000-canceller.ron"),
             "config/pdc/paper000-canceller.ron",
         )

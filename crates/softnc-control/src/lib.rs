@@ -15,7 +15,6 @@ pub mod fuzzy;
 pub mod mbda;
 pub mod pdc;
 pub mod pid;
-pub mod ring;
 pub mod stack;
 pub mod zero_lag_fir;
 

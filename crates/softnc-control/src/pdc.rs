@@ -387,7 +387,7 @@ mod tests {
                     relative: 0.5,
                 },
             ],
-            ..softnc_config::parse_ron::<PdcConfig>(
+            ..softnc_core::ron_file::parse_ron::<PdcConfig>(
                 include_str!("../../../config/pdc/paper000-canceller.ron"),
                 "config/pdc/paper000-canceller.ron",
             )

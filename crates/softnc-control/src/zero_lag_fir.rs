@@ -5,7 +5,7 @@
 //! no lag, where a causal filter with the same coefficients lags N samples.
 
 use crate::config::CommandFilterConfig;
-use crate::ring::LookaheadRing;
+use softnc_core::ring::LookaheadRing;
 
 /// Why a filter cannot be designed.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
@@ -179,7 +179,7 @@ impl<const AXES: usize> CommandFilter<AXES> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ring::RingSample;
+    use softnc_core::ring::RingSample;
 
     #[test]
     fn unity_dc_gain_and_symmetry() {

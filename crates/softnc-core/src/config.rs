@@ -1,12 +1,16 @@
-//! Machine profiles (RON), validated. A bad field fails with its RON path and a reason.
+//! The motion part of a machine profile (RON), validated: name, interpolation cycle,
+//! axes, planner, tool table, work offsets, spindle, learning limits, homing and jog.
+//! The whole profile (this part with the servo and force sections) is composed above
+//! the algorithm crates (`softnc_machine::MachineProfile`); both read the same file
+//! through [`ProfileFile`]. A bad field fails with its RON path and a reason.
 //!
 //! Units are in the field names: `_mm`, `_mm_per_s`, `_mm_per_s2`, `_mm_per_s3`, `_s`.
 
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-use softnc_config::positive;
-pub use softnc_config::{parse_ron, read_text, ConfigError};
+use crate::ron_file::positive;
+pub use crate::ron_file::{parse_ron, read_text, ConfigError};
 
 /// One axis of the machine.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -107,10 +111,42 @@ pub struct ToolEntry {
     pub diameter_mm: f64,
 }
 
-/// A machine profile: axes, cycle, planner and tool table.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MachineProfile {
+/// The motion part of a machine profile: axes, cycle, planner, tool table, work
+/// offsets, spindle, learning limits, homing and jog. Read from a profile file with
+/// [`MotionProfile::load`] (the file's `servo` and `force` sections skipped).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MotionProfile {
+    /// Human-readable name.
+    pub name: String,
+    /// Interpolation cycle T (s).
+    pub interpolation_cycle_s: f64,
+    /// The axes, in X, Y, Z order.
+    pub axes: Vec<AxisConfig>,
+    /// Planner settings.
+    pub planner: PlannerConfig,
+    /// Tool table.
+    pub tools: Vec<ToolEntry>,
+    /// Work offsets G54..G59 (machine coordinates of each system's origin), up to six.
+    pub work_offsets_mm: Vec<[f64; 3]>,
+    /// The operator's spindle override.
+    pub spindle: SpindleConfig,
+    /// Limits of repetition-domain learning (`softnc learn`, stored corrections).
+    pub learning: LearningConfig,
+    /// Homing with switches and incremental encoders (LinuxCNC's HOME sequence).
+    /// Absent: absolute encoders — every axis counts as homed at start and no homing
+    /// motion runs.
+    pub homing: Option<HomingConfig>,
+    /// Manual (jog) motion between jobs.
+    pub jog: JogConfig,
+}
+
+/// A machine profile file as it reads: the motion part's fields with the servo
+/// section `S` and the force section `F`, each read by the layer that owns it
+/// ([`serde::de::IgnoredAny`] where a reader skips them). Strict: an unknown field
+/// is an error naming it.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, rename = "MachineProfile")]
+pub struct ProfileFile<S, F> {
     /// Human-readable name.
     pub name: String,
     /// Interpolation cycle T (s).
@@ -127,11 +163,11 @@ pub struct MachineProfile {
     pub work_offsets_mm: Vec<[f64; 3]>,
     /// The servo side: plants, controllers, measurement (simulated backend).
     #[serde(default)]
-    pub servo: crate::servo::ServoProfile,
+    pub servo: S,
     /// Adaptive cutting-force control (paper 003): process, feed motor, controller,
     /// experiments; absent on machines without it.
     #[serde(default)]
-    pub force: Option<crate::force::ForceProfile>,
+    pub force: F,
     /// The operator's spindle override.
     #[serde(default)]
     pub spindle: SpindleConfig,
@@ -146,6 +182,39 @@ pub struct MachineProfile {
     /// Manual (jog) motion between jobs.
     #[serde(default)]
     pub jog: JogConfig,
+}
+
+impl<S, F> ProfileFile<S, F> {
+    /// The motion part, the servo section and the force section.
+    pub fn split(self) -> (MotionProfile, S, F) {
+        let ProfileFile {
+            name,
+            interpolation_cycle_s,
+            axes,
+            planner,
+            tools,
+            work_offsets_mm,
+            servo,
+            force,
+            spindle,
+            learning,
+            homing,
+            jog,
+        } = self;
+        let motion = MotionProfile {
+            name,
+            interpolation_cycle_s,
+            axes,
+            planner,
+            tools,
+            work_offsets_mm,
+            spindle,
+            learning,
+            homing,
+            jog,
+        };
+        (motion, servo, force)
+    }
 }
 
 /// Homing of a machine with incremental encoders and a home switch per axis: the
@@ -260,22 +329,40 @@ impl Default for SpindleConfig {
     }
 }
 
-impl MachineProfile {
-    /// Load and validate a profile from a RON file.
+impl MotionProfile {
+    /// Load and validate the motion part of a machine profile file (RON); its
+    /// `servo` and `force` sections are skipped unread.
     pub fn load(path: &Path) -> Result<Self, ConfigError> {
         let (file, text) = read_text(path)?;
         Self::from_ron_str(&text, &file)
     }
 
-    /// Parse and validate a profile from RON text; `file` names it in errors.
+    /// [`MotionProfile::load`] of RON text; `file` names it in errors.
     pub fn from_ron_str(text: &str, file: &str) -> Result<Self, ConfigError> {
-        let profile: MachineProfile = parse_ron(text, file)?;
+        type Skipped = serde::de::IgnoredAny;
+        let (profile, _, _) = parse_ron::<ProfileFile<Skipped, Skipped>>(text, file)?.split();
         profile.validate(file)?;
         Ok(profile)
     }
 
     /// Check every value; the first bad one is reported with its RON path.
     pub fn validate(&self, file: &str) -> Result<(), ConfigError> {
+        self.validate_motion(file)?;
+        self.validate_manual(file)?;
+        self.validate_offsets(file)
+    }
+
+    /// The tool table and work offsets a program is read with.
+    pub fn tables(&self) -> MachineTables<'_> {
+        MachineTables {
+            tools: &self.tools,
+            work_offsets_mm: &self.work_offsets_mm,
+        }
+    }
+
+    /// The first checks of [`MotionProfile::validate`]: cycle, axes, planner, tools,
+    /// learning, spindle.
+    pub fn validate_motion(&self, file: &str) -> Result<(), ConfigError> {
         let bad = |path: String, reason: &str| ConfigError::Invalid {
             file: file.to_string(),
             path,
@@ -364,16 +451,16 @@ impl MachineProfile {
                 "must be between 1.0 and 2.55",
             ));
         }
-        self.validate_servo(file)?;
-        self.validate_manual(file)?;
-        if let Some(f) = &self.force {
-            f.validate(self.planner.max_feed_override)
-                .map_err(|e| ConfigError::Invalid {
-                    file: file.to_string(),
-                    path: e.path,
-                    reason: e.reason,
-                })?;
-        }
+        Ok(())
+    }
+
+    /// The last check of [`MotionProfile::validate`]: the work offsets.
+    pub fn validate_offsets(&self, file: &str) -> Result<(), ConfigError> {
+        let bad = |path: String, reason: &str| ConfigError::Invalid {
+            file: file.to_string(),
+            path,
+            reason: reason.to_string(),
+        };
         if self.work_offsets_mm.len() > 6 {
             return Err(bad(
                 "work_offsets_mm".into(),
@@ -388,37 +475,8 @@ impl MachineProfile {
         Ok(())
     }
 
-    fn validate_servo(&self, file: &str) -> Result<(), ConfigError> {
-        let bad = |path: String, reason: &str| ConfigError::Invalid {
-            file: file.to_string(),
-            path,
-            reason: reason.to_string(),
-        };
-        if self.servo.axes.len() > 3 {
-            return Err(bad("servo.axes".into(), "at most three axes"));
-        }
-        for (i, a) in self.servo.axes.iter().enumerate() {
-            let p = |f: &str| format!("servo.axes[{i}].{f}");
-            if !(a.noise_mm >= 0.0 && a.noise_mm.is_finite()) {
-                return Err(bad(p("noise_mm"), "must be finite and >= 0"));
-            }
-            a.controller.validate_at(file, &p("controller"))?;
-            if let Some(f) = &a.command_filter {
-                f.validate_at(file, &p("command_filter"), self.interpolation_cycle_s)?;
-            }
-            if let Some(m) = &a.resonance {
-                m.validate_at(file, &p("resonance"))?;
-            }
-            a.plant
-                .validate_at(file, &p("plant"), self.interpolation_cycle_s)?;
-        }
-        if let Some(c) = &self.servo.cutting {
-            c.validate_at(file, "servo.cutting", self.interpolation_cycle_s)?;
-        }
-        Ok(())
-    }
-
-    fn validate_manual(&self, file: &str) -> Result<(), ConfigError> {
+    /// The middle check of [`MotionProfile::validate`]: jog and homing.
+    pub fn validate_manual(&self, file: &str) -> Result<(), ConfigError> {
         let bad = |path: String, reason: String| ConfigError::Invalid {
             file: file.to_string(),
             path,
@@ -551,11 +609,6 @@ impl MachineProfile {
         })
     }
 
-    /// Servo settings of axis `i` (defaults when the profile has none).
-    pub fn axis_servo(&self, i: usize) -> crate::servo::AxisServo {
-        self.servo.axes.get(i).cloned().unwrap_or_default()
-    }
-
     /// Per-axis maximum velocities [x, y, z] (mm/s).
     pub fn max_vel(&self) -> [f64; 3] {
         std::array::from_fn(|i| self.axes[i].max_vel_mm_per_s)
@@ -581,6 +634,36 @@ impl MachineProfile {
     }
 }
 
+/// The machine's tables a program is read with: the tool table (G43 H, M6 T) and
+/// the work offsets (G54..G59). What the G-code reader takes of a profile.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MachineTables<'a> {
+    /// Tool table.
+    pub tools: &'a [ToolEntry],
+    /// Work offsets G54..G59, up to six.
+    pub work_offsets_mm: &'a [[f64; 3]],
+}
+
+impl MachineTables<'_> {
+    /// Tool length of tool `number`, if it is in the table.
+    pub fn tool_length_mm(&self, number: u32) -> Option<f64> {
+        self.tools
+            .iter()
+            .find(|t| t.number == number)
+            .map(|t| t.length_mm)
+    }
+    /// Work offset of coordinate system `index` (0 = G54 … 5 = G59); zero if not given.
+    pub fn work_offset_mm(&self, index: usize) -> [f64; 3] {
+        self.work_offsets_mm.get(index).copied().unwrap_or([0.0; 3])
+    }
+}
+
+impl<'a> From<&'a MotionProfile> for MachineTables<'a> {
+    fn from(p: &'a MotionProfile) -> Self {
+        p.tables()
+    }
+}
+
 fn finite(v: f64, path: &str, file: &str) -> Result<(), ConfigError> {
     if v.is_finite() {
         Ok(())
@@ -601,7 +684,7 @@ mod tests {
 
     #[test]
     fn default_profile_loads() {
-        let p = MachineProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
+        let p = MotionProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
         assert_eq!(p.axes[2].name, "Z");
         assert!(p.interpolation_cycle_s > 0.0);
     }
@@ -610,7 +693,7 @@ mod tests {
     fn bad_value_names_its_path() {
         let text = DEFAULT.replacen("max_acc_mm_per_s2: 3000.0", "max_acc_mm_per_s2: -1.0", 1);
         assert_ne!(text, DEFAULT, "fixture text changed");
-        let err = MachineProfile::from_ron_str(&text, "m.ron")
+        let err = MotionProfile::from_ron_str(&text, "m.ron")
             .unwrap_err()
             .to_string();
         assert!(err.contains("axes[0].max_acc_mm_per_s2"), "{err}");
@@ -619,7 +702,7 @@ mod tests {
 
     #[test]
     fn spindle_override_range_defaults_and_is_checked() {
-        let p = MachineProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
+        let p = MotionProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
         assert_eq!(p.spindle, SpindleConfig::default());
         let text = DEFAULT.replacen(
             "planner: (",
@@ -627,7 +710,7 @@ mod tests {
             1,
         );
         assert_ne!(text, DEFAULT, "fixture text changed");
-        let err = MachineProfile::from_ron_str(&text, "m.ron")
+        let err = MotionProfile::from_ron_str(&text, "m.ron")
             .unwrap_err()
             .to_string();
         assert!(err.contains("spindle.max_override"), "{err}");
@@ -635,7 +718,7 @@ mod tests {
             "min_override: 0.5, max_override: 0.9",
             "min_override: 0.0, max_override: 1.5",
         );
-        let err = MachineProfile::from_ron_str(&text, "m.ron")
+        let err = MotionProfile::from_ron_str(&text, "m.ron")
             .unwrap_err()
             .to_string();
         assert!(err.contains("spindle.min_override"), "{err}");
@@ -645,7 +728,7 @@ mod tests {
     fn wrong_type_and_unknown_field_name_their_path() {
         let text = DEFAULT.replacen("tolerance_mm: 0.01", "tolerance_mm: \"small\"", 1);
         assert_ne!(text, DEFAULT);
-        let err = MachineProfile::from_ron_str(&text, "m.ron")
+        let err = MotionProfile::from_ron_str(&text, "m.ron")
             .unwrap_err()
             .to_string();
         assert!(err.contains("planner.tolerance_mm"), "{err}");
@@ -654,7 +737,7 @@ mod tests {
             "tolerance_mm: 0.01, tolerence: 1.0",
             1,
         );
-        let err = MachineProfile::from_ron_str(&text, "m.ron")
+        let err = MotionProfile::from_ron_str(&text, "m.ron")
             .unwrap_err()
             .to_string();
         assert!(err.contains("tolerence"), "{err}");
@@ -663,14 +746,14 @@ mod tests {
     const INCREMENTAL: &str = include_str!("../../../config/machines/default-incremental.ron");
 
     fn invalid(text: &str) -> String {
-        MachineProfile::from_ron_str(text, "m.ron")
+        MotionProfile::from_ron_str(text, "m.ron")
             .unwrap_err()
             .to_string()
     }
 
     #[test]
     fn profiles_without_homing_count_as_homed_and_keep_default_jog() {
-        let p = MachineProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
+        let p = MotionProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
         assert!(p.homing.is_none());
         assert!(p.homed_at_start());
         assert!(p.homing_order().is_empty());
@@ -679,7 +762,7 @@ mod tests {
 
     #[test]
     fn incremental_profile_loads_with_homing_z_first() {
-        let p = MachineProfile::from_ron_str(INCREMENTAL, "default-incremental.ron").unwrap();
+        let p = MotionProfile::from_ron_str(INCREMENTAL, "default-incremental.ron").unwrap();
         assert!(!p.homed_at_start());
         assert_eq!(p.homing_order(), vec![2, 0, 1]);
         let h = p.homing.as_ref().unwrap();
@@ -690,13 +773,13 @@ mod tests {
         }
         assert_eq!(p.jog.max_speed_fraction, 0.5);
         // everything else is default.ron's
-        let d = MachineProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
-        assert_eq!((p.axes.clone(), p.servo.clone()), (d.axes, d.servo));
+        let d = MotionProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
+        assert_eq!(p.axes, d.axes);
     }
 
     #[test]
     fn jog_speed_is_clamped_to_the_axis_fraction() {
-        let p = MachineProfile::from_ron_str(INCREMENTAL, "default-incremental.ron").unwrap();
+        let p = MotionProfile::from_ron_str(INCREMENTAL, "default-incremental.ron").unwrap();
         let x = &p.axes[0];
         assert_eq!(p.jog.speed_mm_per_s(x, None), 10.0);
         assert_eq!(p.jog.speed_mm_per_s(x, Some(1e6)), 0.5 * x.max_vel_mm_per_s);
@@ -786,7 +869,7 @@ mod tests {
 
     #[test]
     fn syntax_error_has_a_position() {
-        let err = MachineProfile::from_ron_str("MachineProfile(name: \"x\",, )", "m.ron")
+        let err = MotionProfile::from_ron_str("MotionProfile(name: \"x\",, )", "m.ron")
             .unwrap_err()
             .to_string();
         assert!(err.starts_with("m.ron"), "{err}");

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 use softnc_core::config::{parse_ron, ConfigError};
-use softnc_core::MachineProfile;
+use softnc_machine::MachineProfile;
 use softnc_rt::RtOptions;
 use std::path::{Path, PathBuf};
 

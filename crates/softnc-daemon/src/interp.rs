@@ -94,7 +94,7 @@ pub enum JobEnd {
 pub struct PlannedJob {
     job_id: u64,
     /// The profile with the machine's tool table.
-    machine: softnc_core::MachineProfile,
+    machine: softnc_machine::MachineProfile,
     path: String,
     /// The program's text: all the interpolation process holds of it.
     text: Arc<str>,
@@ -963,7 +963,7 @@ impl JobSetup {
 pub fn check_bytes(
     bytes: &[u8],
     path: &str,
-    machine: &softnc_core::MachineProfile,
+    machine: &softnc_machine::MachineProfile,
     setup: &JobSetup,
 ) -> Result<Checked, String> {
     let text: Arc<str> = Arc::from(String::from_utf8_lossy(bytes));
@@ -993,7 +993,7 @@ pub type Checked = (
 /// its text is the learning store's key.
 pub fn check_job(
     path: &str,
-    machine: &softnc_core::MachineProfile,
+    machine: &softnc_machine::MachineProfile,
     setup: &JobSetup,
 ) -> Result<Checked, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("{path}: cannot read: {e}"))?;

@@ -9,8 +9,8 @@
 
 use softnc_core::config::ToolEntry;
 use softnc_core::store::write_atomic;
-use softnc_core::MachineProfile;
 use softnc_gcode::Params;
+use softnc_machine::MachineProfile;
 use std::path::{Path, PathBuf};
 
 /// The parameter file in `data_dir` (LinuxCNC's `.var` format).

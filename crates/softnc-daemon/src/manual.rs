@@ -7,7 +7,8 @@
 //! measured position): the simulated and loopback backends have none of their own;
 //! a drive's home input is read through the backend when one is attached.
 
-use softnc_core::{AxisConfig, MachineProfile};
+use softnc_core::AxisConfig;
+use softnc_machine::MachineProfile;
 use softnc_planner::manual::{
     jog_target, simulated_switch_active, AxisMover, HomingEvent, HomingSequence, JogDirection,
 };

@@ -14,8 +14,9 @@
 
 use crate::position::EngineFactory;
 use crossbeam_queue::ArrayQueue;
-use softnc_core::{MachineProfile, Primitive, MAX_AXES};
+use softnc_core::{Primitive, MAX_AXES};
 use softnc_ipc::FixedStr;
+use softnc_machine::MachineProfile;
 use softnc_servo::adaptive_feed::AdaptiveFeed;
 use softnc_servo::spindle::{SpindleDesigner, SpindleDesigns};
 use softnc_servo::{CycleEngine, ServoBackend};

@@ -34,7 +34,7 @@ mod workspace;
 pub use error::{ExperimentError, Result};
 pub use workspace::workspace_file;
 
-use softnc_core::MachineProfile;
+use softnc_machine::MachineProfile;
 use std::path::{Path, PathBuf};
 
 /// The experiments, by the names `softnc reproduce` takes.

@@ -12,8 +12,8 @@ use crate::error::{failed, Context, ExperimentError, Result};
 use crate::plot::{write_svg, Panel, Series};
 use crate::{workspace_file, Experiment, ExperimentId, Report, RunOptions};
 use plotters::style::colors::{BLUE, RED};
-use softnc_core::fuzzy::FuzzyConfig;
-use softnc_core::MachineProfile;
+use softnc_machine::fuzzy::FuzzyConfig;
+use softnc_machine::MachineProfile;
 use softnc_sim::{simulated_engine, SimOptions};
 use std::path::{Path, PathBuf};
 
@@ -131,7 +131,7 @@ pub struct TracePoint {
 /// `axis`, u = (V + τ dV/dt)/K in DAC counts: (vff per mm/s, aff per mm/s²).
 pub fn drive_feedforward(machine: &MachineProfile, axis: usize) -> (f64, f64) {
     match machine.axis_servo(axis).plant {
-        softnc_core::servo::PlantModel::DcMotor {
+        softnc_machine::servo::PlantModel::DcMotor {
             gain_mm_per_min_per_dac,
             tau_s,
             ..

@@ -15,9 +15,9 @@ use crate::p001::{machine_for, prepare, run, table, Row, Stack, CASES};
 use nalgebra::{Matrix2, Vector2};
 use softnc_control::discrete_tf::{is_schur_stable, poly_add, poly_mul};
 use softnc_control::fuzzy::{EquivalentGains, FuzzyController, SectorGrid};
-use softnc_core::fuzzy::FuzzyConfig;
-use softnc_core::servo::PlantModel;
-use softnc_core::MachineProfile;
+use softnc_machine::fuzzy::FuzzyConfig;
+use softnc_machine::servo::PlantModel;
+use softnc_machine::MachineProfile;
 
 /// Seconds per minute: the profile stores K in (mm/min) per DAC count.
 const S_PER_MIN: f64 = 60.0;

@@ -22,7 +22,7 @@
 
 use crate::error::{failed, Context, ExperimentError, Result};
 use crate::{workspace_file, Experiment, ExperimentId, Report, RunOptions};
-use softnc_core::MachineProfile;
+use softnc_machine::MachineProfile;
 use softnc_servo::CycleEngine;
 use softnc_sim::{simulate_observed, CommandSample, SimOptions};
 

@@ -9,9 +9,9 @@
 
 use crate::error::{failed, Context, Result};
 use crate::{workspace_file, Experiment, ExperimentId, Report, RunOptions};
-use softnc_core::MachineProfile;
 use softnc_learning::markov::MarkovJob;
 use softnc_learning::sim_runs::{self as learn_sim, IterationStats, PreparedJob};
+use softnc_machine::MachineProfile;
 use softnc_sim::{simulated_engine, SimOptions};
 
 /// The job.
@@ -187,7 +187,7 @@ mod tests {
         let machine = MachineProfile::load(&workspace_file(MACHINE)).unwrap();
         // the profile's friction is what makes this a friction test
         match machine.axis_servo(0).plant {
-            softnc_core::servo::PlantModel::VelocityLoop { coulomb_rad_s, .. } => {
+            softnc_machine::servo::PlantModel::VelocityLoop { coulomb_rad_s, .. } => {
                 assert!(coulomb_rad_s > 0.0)
             }
             _ => panic!("default.ron: velocity loop expected"),

@@ -30,8 +30,8 @@ use plotters::style::colors::{BLACK, BLUE, CYAN, GREEN, MAGENTA, RED};
 use softnc_adaptive::{
     Arma2, ForceCalibration, ForceEstimator, ForceLoop, RevolutionPeak, ServoGains,
 };
-use softnc_core::force::{ForceCase, ForceEvent, ForceProfile};
-use softnc_core::MachineProfile;
+use softnc_machine::force::{ForceCase, ForceEvent, ForceProfile};
+use softnc_machine::MachineProfile;
 use softnc_sim::milling::{CutProfile, MillingProcess};
 use softnc_sim::pmsm::PmsmFeedMotor;
 use softnc_sim::{simulated_engine, Rng, SimOptions};
@@ -485,7 +485,7 @@ pub fn run_case(
         let mut m = MillingProcess::new(tool, case.spindle_rpm);
         m.set_cut(k_c, s.depth_mm);
         let tau_s = match machine.axis_servo(force.feed_axis).plant {
-            softnc_core::servo::PlantModel::FirstOrderLag { tau_s, .. } => tau_s,
+            softnc_machine::servo::PlantModel::FirstOrderLag { tau_s, .. } => tau_s,
             _ => f64::NAN,
         };
         let z: Arma2 = softnc_adaptive::zoh_second_order(1.0, tau_s, m.tau_c_s(), run.t_rev_s);

@@ -9,8 +9,8 @@ use softnc_control::discrete_tf::DiscreteTf;
 use softnc_control::dob::DobConfig;
 use softnc_control::mbda::MbdaConfig;
 use softnc_control::pdc::PdcConfig;
-use softnc_core::servo::PlantModel;
-use softnc_core::MachineProfile;
+use softnc_machine::servo::PlantModel;
+use softnc_machine::MachineProfile;
 use std::path::{Path, PathBuf};
 
 /// The compensator design file (`config/pdc/*.ron`).

@@ -9,7 +9,7 @@
 //! `time rs274 -g $TMPDIR/softnc-gcode-big.ngc /dev/null < /dev/null`.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use softnc_core::MachineProfile;
+use softnc_core::MotionProfile;
 use std::fmt::Write;
 
 /// `lines` lines of G1/G2/G3 (with a few G0 retracts), mm, ending in M2.
@@ -46,7 +46,7 @@ fn big_program(lines: usize) -> String {
 }
 
 fn benches(c: &mut Criterion) {
-    let profile = MachineProfile::load(
+    let profile = MotionProfile::load(
         concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/../../config/machines/default.ron"

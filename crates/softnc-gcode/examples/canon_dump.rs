@@ -10,7 +10,7 @@ use softnc_gcode::{ErrorKind, MotionKind};
 use std::path::PathBuf;
 
 fn main() {
-    let mut profile = softnc_core::MachineProfile::load(
+    let mut profile = softnc_core::MotionProfile::load(
         &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/machines/default.ron"),
     )
     .expect("default profile");

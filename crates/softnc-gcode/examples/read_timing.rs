@@ -5,7 +5,7 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let file = args.next().expect("FILE");
     let n: usize = args.next().map_or(10, |s| s.parse().unwrap());
-    let profile = softnc_core::MachineProfile::load(
+    let profile = softnc_core::MotionProfile::load(
         concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/../../config/machines/default.ron"

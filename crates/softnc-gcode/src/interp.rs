@@ -20,7 +20,7 @@ use crate::lexer::{bad_character, column, lex_words, significant, Line, Word, SL
 use crate::params::Params;
 use crate::ReadOptions;
 use ngc::{Control, Jump, Pc, Setting};
-use softnc_core::{MachineProfile, Plane, Vec3};
+use softnc_core::{MachineTables, Plane, Vec3};
 
 use std::collections::HashMap;
 use std::f64::consts::{FRAC_PI_2, PI, SQRT_2};
@@ -391,7 +391,7 @@ impl Block {
 
 /// The interpreter's modal state.
 struct Interp<'a> {
-    profile: &'a MachineProfile,
+    tables: MachineTables<'a>,
     inch: bool,
     absolute: bool,
     ijk_absolute: bool,
@@ -488,9 +488,9 @@ fn unsup<T>(off: u32, word: String, why: &str) -> R<T> {
 }
 
 impl<'a> Interp<'a> {
-    fn new(file: &'a str, profile: &'a MachineProfile) -> Self {
+    fn new(file: &'a str, tables: MachineTables<'a>) -> Self {
         Interp {
-            profile,
+            tables,
             inch: false,
             absolute: true,
             ijk_absolute: false,
@@ -542,7 +542,7 @@ impl<'a> Interp<'a> {
     #[cfg(debug_assertions)]
     fn copy_for_cross_check(&self) -> Interp<'a> {
         Interp {
-            profile: self.profile,
+            tables: self.tables,
             inch: self.inch,
             absolute: self.absolute,
             ijk_absolute: self.ijk_absolute,
@@ -612,7 +612,7 @@ impl<'a> Interp<'a> {
             self.tool_edits
                 .get(&t)
                 .copied()
-                .or_else(|| self.profile.tool_length_mm(t))
+                .or_else(|| self.tables.tool_length_mm(t))
         }) {
             Some(l) => Ok(l),
             None => bad(
@@ -1926,8 +1926,8 @@ fn find_arc_length(start: (f64, f64, f64), c: (f64, f64), turn: i32, end: (f64, 
 }
 
 /// Read a whole program (see [`crate::read_program`]).
-pub fn read(text: &str, file: &str, profile: &MachineProfile) -> Result<Program, GcodeError> {
-    read_chunked(text, file, profile, usize::MAX, &mut |_| {})
+pub fn read(text: &str, file: &str, tables: MachineTables<'_>) -> Result<Program, GcodeError> {
+    read_chunked(text, file, tables, usize::MAX, &mut |_| {})
 }
 
 /// Read a program handing its motions to `sink` as they are read, whenever `chunk`
@@ -1935,11 +1935,11 @@ pub fn read(text: &str, file: &str, profile: &MachineProfile) -> Result<Program,
 pub fn read_chunked(
     text: &str,
     file: &str,
-    profile: &MachineProfile,
+    tables: MachineTables<'_>,
     chunk: usize,
     sink: &mut dyn FnMut(&mut Vec<Motion>),
 ) -> Result<Program, GcodeError> {
-    read_with(text, file, profile, &ReadOptions::default(), chunk, sink).map(|(p, _)| p)
+    read_with(text, file, tables, &ReadOptions::default(), chunk, sink).map(|(p, _)| p)
 }
 
 /// One program text: the main one (borrowed) or a subroutine file.
@@ -2175,12 +2175,12 @@ pub fn check_preamble_line(text: &str) -> Result<(), (u32, ErrorKind)> {
 pub fn read_with(
     text: &str,
     file: &str,
-    profile: &MachineProfile,
+    tables: MachineTables<'_>,
     options: &ReadOptions,
     chunk: usize,
     sink: &mut dyn FnMut(&mut Vec<Motion>),
 ) -> Result<(Program, Params), GcodeError> {
-    read_lines(text, file, profile, options, chunk, sink, true)
+    read_lines(text, file, tables, options, chunk, sink, true)
 }
 
 /// [`read_with`] of a program's bytes, checked as UTF-8 where they are read: the
@@ -2189,7 +2189,7 @@ pub fn read_with(
 pub fn read_bytes_with(
     bytes: &[u8],
     file: &str,
-    profile: &MachineProfile,
+    tables: MachineTables<'_>,
     options: &ReadOptions,
     chunk: usize,
     sink: &mut dyn FnMut(&mut Vec<Motion>),
@@ -2197,7 +2197,7 @@ pub fn read_bytes_with(
     read_source(
         SourceText::Bytes(bytes),
         file,
-        profile,
+        tables,
         options,
         chunk,
         sink,
@@ -2210,7 +2210,7 @@ pub fn read_bytes_with(
 fn read_lines(
     text: &str,
     file: &str,
-    profile: &MachineProfile,
+    tables: MachineTables<'_>,
     options: &ReadOptions,
     chunk: usize,
     sink: &mut dyn FnMut(&mut Vec<Motion>),
@@ -2219,7 +2219,7 @@ fn read_lines(
     read_source(
         SourceText::Str(text),
         file,
-        profile,
+        tables,
         options,
         chunk,
         sink,
@@ -2231,13 +2231,13 @@ fn read_lines(
 fn read_source<'t>(
     main_text: SourceText<'t>,
     file: &str,
-    profile: &MachineProfile,
+    tables: MachineTables<'_>,
     options: &ReadOptions,
     chunk: usize,
     sink: &mut dyn FnMut(&mut Vec<Motion>),
     fast: bool,
 ) -> Result<(Program, Params), GcodeError> {
-    let mut it = Interp::new(file, profile);
+    let mut it = Interp::new(file, tables);
     it.user_inch = options.parameters_in_inches;
     it.optional_stop = options.optional_stop;
     it.suppress = options.from_line.is_some();
@@ -2844,8 +2844,8 @@ mod tests {
     use super::*;
 
     /// The checkout's default machine profile.
-    fn default_profile() -> MachineProfile {
-        MachineProfile::load(
+    fn default_profile() -> softnc_core::MotionProfile {
+        softnc_core::MotionProfile::load(
             &std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
                 .join("../../config/machines/default.ron"),
         )
@@ -2898,7 +2898,7 @@ mod tests {
             read_lines(
                 &text,
                 "long.ngc",
-                &profile,
+                profile.tables(),
                 &ReadOptions::default(),
                 1024,
                 &mut |chunk: &mut Vec<Motion>| motions.append(chunk),
@@ -2958,13 +2958,13 @@ mod tests {
                 read_with(
                     std::str::from_utf8(bytes).unwrap(),
                     "b.ngc",
-                    &profile,
+                    profile.tables(),
                     &opts,
                     512,
                     &mut sink,
                 )
             } else {
-                read_bytes_with(bytes, "b.ngc", &profile, &opts, 512, &mut sink)
+                read_bytes_with(bytes, "b.ngc", profile.tables(), &opts, 512, &mut sink)
             };
             r.map(|(p, _)| (format!("{p:?}"), format!("{motions:?}")))
         };
@@ -2994,7 +2994,7 @@ mod tests {
     #[test]
     fn a_block_with_any_word_is_not_empty() {
         let profile = default_profile();
-        let it = Interp::new("t.ngc", &profile);
+        let it = Interp::new("t.ngc", profile.tables());
         for (letter, value) in [
             (b'G', 1.0),
             (b'M', 3.0),

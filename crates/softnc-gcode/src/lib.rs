@@ -4,7 +4,7 @@
 //! Read a program into canonical motions:
 //!
 //! ```no_run
-//! let profile = softnc_core::MachineProfile::load("config/machines/default.ron".as_ref()).unwrap();
+//! let profile = softnc_core::MotionProfile::load("config/machines/default.ron".as_ref()).unwrap();
 //! let program = softnc_gcode::read_program("G21 G90\nG1 X10 F600\nM2\n", "demo.ngc", &profile).unwrap();
 //! assert_eq!(program.motions.len(), 1);
 //! ```
@@ -23,7 +23,7 @@ pub use canon::{Motion, MotionKind, PathMode, Program};
 pub use error::{ErrorKind, GcodeError};
 pub use params::Params;
 
-use softnc_core::MachineProfile;
+use softnc_core::MachineTables;
 use std::path::PathBuf;
 
 /// How a program is read beyond the machine profile.
@@ -130,23 +130,23 @@ pub mod preamble {
 
 /// [`read_program`] with [`ReadOptions`]; also returns the parameters as the
 /// program left them.
-pub fn read_program_with(
+pub fn read_program_with<'a>(
     text: &str,
     file: &str,
-    profile: &MachineProfile,
+    tables: impl Into<MachineTables<'a>>,
     options: &ReadOptions,
 ) -> Result<(Program, Params), GcodeError> {
-    interp::read_with(text, file, profile, options, usize::MAX, &mut |_| {})
+    interp::read_with(text, file, tables.into(), options, usize::MAX, &mut |_| {})
 }
 
 /// Read a whole program: lex, parse and interpret it with the machine's tool table and
 /// work offsets. The first error stops reading.
-pub fn read_program(
+pub fn read_program<'a>(
     text: &str,
     file: &str,
-    profile: &MachineProfile,
+    tables: impl Into<MachineTables<'a>>,
 ) -> Result<Program, GcodeError> {
-    interp::read(text, file, profile)
+    interp::read(text, file, tables.into())
 }
 
 /// [`read_program`] for long programs: the motions go to `sink` as they are read, in
@@ -154,40 +154,40 @@ pub fn read_program(
 /// `sink` gets the interpreter's buffer; whatever it leaves there is dropped, and the
 /// buffer (or one it swaps in) is reused for the next chunk. On an error, the
 /// chunks handed over before it are all that `sink` gets.
-pub fn read_program_chunked(
+pub fn read_program_chunked<'a>(
     text: &str,
     file: &str,
-    profile: &MachineProfile,
+    tables: impl Into<MachineTables<'a>>,
     chunk: usize,
     sink: &mut dyn FnMut(&mut Vec<Motion>),
 ) -> Result<Program, GcodeError> {
-    interp::read_chunked(text, file, profile, chunk.max(1), sink)
+    interp::read_chunked(text, file, tables.into(), chunk.max(1), sink)
 }
 
 /// [`read_program_chunked`] with [`ReadOptions`].
-pub fn read_program_chunked_with(
+pub fn read_program_chunked_with<'a>(
     text: &str,
     file: &str,
-    profile: &MachineProfile,
+    tables: impl Into<MachineTables<'a>>,
     options: &ReadOptions,
     chunk: usize,
     sink: &mut dyn FnMut(&mut Vec<Motion>),
 ) -> Result<Program, GcodeError> {
-    interp::read_with(text, file, profile, options, chunk.max(1), sink).map(|(p, _)| p)
+    interp::read_with(text, file, tables.into(), options, chunk.max(1), sink).map(|(p, _)| p)
 }
 
 /// [`read_program_chunked_with`] that also returns the parameters as the program
 /// left them (what LinuxCNC writes back to its parameter file at the end, and a
 /// daemon keeps for the next program: G10 L2/L20, G92, G28.1/G30.1 persist).
-pub fn read_program_chunked_params(
+pub fn read_program_chunked_params<'a>(
     text: &str,
     file: &str,
-    profile: &MachineProfile,
+    tables: impl Into<MachineTables<'a>>,
     options: &ReadOptions,
     chunk: usize,
     sink: &mut dyn FnMut(&mut Vec<Motion>),
 ) -> Result<(Program, Params), GcodeError> {
-    interp::read_with(text, file, profile, options, chunk.max(1), sink)
+    interp::read_with(text, file, tables.into(), options, chunk.max(1), sink)
 }
 
 /// [`read_program_chunked_params`] of a program's bytes, checked as UTF-8 where they
@@ -196,13 +196,13 @@ pub fn read_program_chunked_params(
 /// [`ErrorKind::NotUtf8`](crate::ErrorKind::NotUtf8), after which the caller reads
 /// `String::from_utf8_lossy` of them with [`read_program_chunked_params`] (the
 /// motions already handed to `sink` are to be dropped).
-pub fn read_program_chunked_params_bytes(
+pub fn read_program_chunked_params_bytes<'a>(
     bytes: &[u8],
     file: &str,
-    profile: &MachineProfile,
+    tables: impl Into<MachineTables<'a>>,
     options: &ReadOptions,
     chunk: usize,
     sink: &mut dyn FnMut(&mut Vec<Motion>),
 ) -> Result<(Program, Params), GcodeError> {
-    interp::read_bytes_with(bytes, file, profile, options, chunk.max(1), sink)
+    interp::read_bytes_with(bytes, file, tables.into(), options, chunk.max(1), sink)
 }

@@ -4,7 +4,7 @@
 //! tier C either read identically or refused as unsupported.
 
 use serde_json::Value;
-use softnc_core::MachineProfile;
+use softnc_core::MotionProfile;
 use std::path::PathBuf;
 
 fn corpus() -> Option<PathBuf> {
@@ -100,7 +100,7 @@ fn corpus_reads_as_linuxcnc_reads_it() {
         );
         return;
     };
-    let profile = MachineProfile::load(
+    let profile = MotionProfile::load(
         &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/machines/default.ron"),
     )
     .unwrap();

@@ -18,13 +18,13 @@
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
-use softnc_core::MachineProfile;
+use softnc_core::MotionProfile;
 use softnc_gcode::{GcodeError, MotionKind, ReadOptions};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-fn profile() -> MachineProfile {
-    MachineProfile::load(
+fn profile() -> MotionProfile {
+    MotionProfile::load(
         &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/machines/default.ron"),
     )
     .unwrap()

@@ -1,12 +1,12 @@
 //! Every error kind: the message, its line and its column (1-based character of the
 //! offending word), and for refused constructs the word "unsupported" and the word.
 
-use softnc_core::MachineProfile;
+use softnc_core::MotionProfile;
 use softnc_gcode::{read_program, ErrorKind, GcodeError};
 use std::path::PathBuf;
 
-fn profile() -> MachineProfile {
-    MachineProfile::load(
+fn profile() -> MotionProfile {
+    MotionProfile::load(
         &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/machines/default.ron"),
     )
     .unwrap()

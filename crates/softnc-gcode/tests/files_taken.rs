@@ -2,14 +2,14 @@
 //! bounded, read once, or a checked job's snapshot) and the modal preamble (only
 //! modal words).
 
-use softnc_core::MachineProfile;
+use softnc_core::MotionProfile;
 use softnc_gcode::{read_program_with, ReadOptions, SubroutineFile, SubroutineFiles};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
-fn profile() -> MachineProfile {
-    MachineProfile::load(
+fn profile() -> MotionProfile {
+    MotionProfile::load(
         &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machines/default.ron"),
     )
     .unwrap()

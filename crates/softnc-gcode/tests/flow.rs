@@ -2,12 +2,12 @@
 //! block-delete switch (`read_text`), run from line (LinuxCNC task's run-from-line,
 //! with a safe approach), and parameters in and out (the persistent parameters).
 
-use softnc_core::{MachineProfile, Vec3};
+use softnc_core::{MotionProfile, Vec3};
 use softnc_gcode::{GcodeError, MotionKind, Params, PathMode, Program, ReadOptions};
 use std::path::PathBuf;
 
-fn profile() -> MachineProfile {
-    MachineProfile::load(
+fn profile() -> MotionProfile {
+    MotionProfile::load(
         &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/machines/default.ron"),
     )
     .unwrap()

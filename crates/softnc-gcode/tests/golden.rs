@@ -4,7 +4,7 @@
 //! motions to within 1e-4 mm. CI needs no `rs274`: the expected files are committed.
 
 use serde_json::Value;
-use softnc_core::{MachineProfile, Plane};
+use softnc_core::{MotionProfile, Plane};
 use softnc_gcode::{MotionKind, PathMode};
 use std::path::{Path, PathBuf};
 
@@ -13,8 +13,8 @@ fn dir() -> PathBuf {
 }
 
 /// The default machine with the work offsets of `golden.var` (inches there, mm here).
-fn profile() -> MachineProfile {
-    let mut p = MachineProfile::load(
+fn profile() -> MotionProfile {
+    let mut p = MotionProfile::load(
         &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/machines/default.ron"),
     )
     .unwrap();
@@ -46,7 +46,7 @@ fn nums(v: &Value) -> Vec<f64> {
         .collect()
 }
 
-fn check(path: &Path, profile: &MachineProfile) -> Result<usize, String> {
+fn check(path: &Path, profile: &MotionProfile) -> Result<usize, String> {
     let name = path.file_name().unwrap().to_string_lossy().to_string();
     let text = std::fs::read_to_string(path).unwrap();
     let expected: Vec<Value> =

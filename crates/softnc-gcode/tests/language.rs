@@ -2,12 +2,12 @@
 //! LinuxCNC 2.9 runs them (the expected values are what LinuxCNC's semantics give,
 //! worked out by hand from `interp_o_word.cc` / `interp_read.cc`).
 
-use softnc_core::MachineProfile;
+use softnc_core::MotionProfile;
 use softnc_gcode::{ErrorKind, MotionKind, PathMode, ReadOptions};
 use std::path::PathBuf;
 
-fn profile() -> MachineProfile {
-    MachineProfile::load(
+fn profile() -> MotionProfile {
+    MotionProfile::load(
         &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/machines/default.ron"),
     )
     .unwrap()

@@ -3,16 +3,16 @@
 //! starts follow on from the previous ends.
 
 use proptest::prelude::*;
-use softnc_core::MachineProfile;
+use softnc_core::MotionProfile;
 use softnc_gcode::lexer::{lex_line, Line};
 use softnc_gcode::{read_program, MotionKind};
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
-fn profile() -> &'static MachineProfile {
-    static P: OnceLock<MachineProfile> = OnceLock::new();
+fn profile() -> &'static MotionProfile {
+    static P: OnceLock<MotionProfile> = OnceLock::new();
     P.get_or_init(|| {
-        MachineProfile::load(
+        MotionProfile::load(
             &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/machines/default.ron"),
         )
         .unwrap()

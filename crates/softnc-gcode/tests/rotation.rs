@@ -5,12 +5,12 @@
 //! frame) and its `(DEBUG,…)` messages (`#<_abs_x>`, the machine position, and
 //! the stored parameters, in inches as `rs274` keeps them without an INI file).
 
-use softnc_core::{MachineProfile, Vec3};
+use softnc_core::{MotionProfile, Vec3};
 use softnc_gcode::{ErrorKind, MotionKind, Program, ReadOptions};
 use std::path::PathBuf;
 
-fn profile() -> MachineProfile {
-    MachineProfile::load(
+fn profile() -> MotionProfile {
+    MotionProfile::load(
         &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/machines/default.ron"),
     )
     .unwrap()

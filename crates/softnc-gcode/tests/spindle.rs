@@ -1,13 +1,13 @@
 //! Each motion carries the spindle speed it runs at: the S word in force while M3/M4
 //! turn the spindle, 0 while it stands (M5, or before any M3/M4).
 
-use softnc_core::MachineProfile;
+use softnc_core::MotionProfile;
 use softnc_gcode::read_program;
 use std::path::PathBuf;
 
-fn profile() -> MachineProfile {
+fn profile() -> MotionProfile {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/machines/default.ron");
-    MachineProfile::load(&p).unwrap()
+    MotionProfile::load(&p).unwrap()
 }
 
 #[test]

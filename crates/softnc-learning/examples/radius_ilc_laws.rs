@@ -35,9 +35,9 @@
 //! Per run the RMS / max |e| of the radius error per degree (µm, the figures of
 //! `softnc reproduce 004-ilc`) and the best RMS reduction within 5 iterations.
 
-use softnc_core::MachineProfile;
 use softnc_learning::radius_ilc::{RadiusIlc, POINTS};
 use softnc_learning::sim_runs::{find_circle, radius_stats, run_circle};
+use softnc_machine::MachineProfile;
 use softnc_sim::{simulated_engine, SimOptions};
 
 /// Errors and steps below this are measurement noise (µm): one encoder count of the

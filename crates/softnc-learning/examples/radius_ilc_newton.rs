@@ -12,9 +12,9 @@
 //!     [--feed 1000|2000] [--perturb-um D] [--band B] [--lambda L] [--iterations N]
 //! ```
 
-use softnc_core::MachineProfile;
 use softnc_learning::radius_ilc::{RadiusIlc, POINTS};
 use softnc_learning::sim_runs::{find_circle, radius_stats, run_circle};
+use softnc_machine::MachineProfile;
 use softnc_sim::{simulated_engine, SimOptions};
 
 /// Solve `m x = b` (n×n, row-major) by Gaussian elimination with partial pivoting.

@@ -19,9 +19,9 @@
 //! per-degree error in the `centred` window (the figures of `softnc reproduce 004-ilc`)
 //! and in the window learnt from, and the largest |radius error| of any single sample.
 
-use softnc_core::MachineProfile;
 use softnc_learning::radius_ilc::{Circle, RadiusIlc, POINTS};
 use softnc_learning::sim_runs::{find_circle, PreparedJob, HOLD_S};
+use softnc_machine::MachineProfile;
 use softnc_servo::SimulatedMachine;
 use softnc_sim::{simulate_observed, simulated_engine, SimOptions};
 

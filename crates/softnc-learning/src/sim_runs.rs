@@ -7,7 +7,8 @@
 use crate::markov::{identify_markov, settled_terms, Improvement, MarkovJob, AXES};
 use crate::radius_ilc::{Circle, RadiusIlc, POINTS};
 use softnc_core::Axes;
-use softnc_core::{MachineProfile, Primitive};
+use softnc_core::Primitive;
+use softnc_machine::MachineProfile;
 use softnc_servo::{CycleEngine, ServoBackend};
 use softnc_sim::{simulate, CommandSample, ErrorStats, SimBackend};
 
@@ -417,7 +418,7 @@ mod tests {
             .join("../..")
             .join(rel)
     }
-    use softnc_core::servo::CommandFilterConfig;
+    use softnc_machine::servo::CommandFilterConfig;
     use softnc_sim::{simulated_engine, SimOptions};
 
     /// With a command filter on, the measured positions stay one per job sample and

@@ -3,11 +3,11 @@
 //! measured to improve on the unlearned run is kept, on every profile in
 //! `config/machines/`; the radius law skips zero-length moves.
 
-use softnc_core::MachineProfile;
 use softnc_learning::markov::{MarkovJob, DEFAULT_GAIN};
 use softnc_learning::sim_runs::{
     correction_bound_mm, find_circle, identify, learn_markov, run_job, PreparedJob,
 };
+use softnc_machine::MachineProfile;
 use softnc_sim::{simulated_engine, SimOptions};
 use std::path::PathBuf;
 

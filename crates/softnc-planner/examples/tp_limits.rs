@@ -11,7 +11,7 @@
 //! axis, sample and source line of each; and the acceleration over 5-cycle windows),
 //! then every program whose worst ratio is above
 //! 1 + [`STRICT_SLACK`], and exits 1 if there is one.
-use softnc_core::MachineProfile;
+use softnc_core::MotionProfile;
 use softnc_planner::{plan, PlanOptions, Sample};
 
 /// A ratio above 1 + this is a violation: f64 rounding of the samples themselves
@@ -65,7 +65,7 @@ fn main() {
         std::process::exit(2);
     };
     let mut profile =
-        MachineProfile::load(std::path::Path::new(&profile_path)).expect("profile loads");
+        MotionProfile::load(std::path::Path::new(&profile_path)).expect("profile loads");
     profile.planner.arc_blends |= std::env::var("ARC_BLENDS").is_ok_and(|v| v == "1");
     if std::env::var("SCURVE").is_ok_and(|v| v == "1") {
         profile.planner.feed_profile = softnc_core::FeedProfile::SCurve;

@@ -3,7 +3,7 @@
 
 use crate::fillet::{self, ArcView};
 use crate::path::{element_limits, max_to, min_to, ElementShape, Geom};
-use softnc_core::{AccDec, FeedProfile, MachineProfile, Plane, Primitive, Vec3};
+use softnc_core::{AccDec, FeedProfile, MotionProfile, Plane, Primitive, Vec3};
 use softnc_gcode::{Motion, MotionKind, PathMode, Program};
 
 /// Share of an axis's acceleration that a small tangent discontinuity between two
@@ -176,7 +176,7 @@ pub struct Limits {
 
 impl Limits {
     /// Limits of a machine profile.
-    pub fn from_profile(p: &MachineProfile) -> Limits {
+    pub fn from_profile(p: &MotionProfile) -> Limits {
         let vmax = p.max_vel();
         let amax = p.max_acc().map(|a| a * (1.0 - KINK_SHARE));
         let kink_acc = p.max_acc().map(|a| a * KINK_SHARE);
@@ -2586,7 +2586,7 @@ mod tests {
     /// exact stop, a zero-length line and a tolerance change among them.
     fn fillet_joins() -> (Limits, Vec<Motion>) {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machines");
-        let mut p = MachineProfile::load(&dir.join("default.ron")).unwrap();
+        let mut p = MotionProfile::load(&dir.join("default.ron")).unwrap();
         p.planner.arc_blends = true;
         let text = crate::test_programs::fillet_joins_program(40, "M0", false, None);
         let program = softnc_gcode::read_program(&text, "f.ngc", &p).unwrap();

@@ -43,7 +43,7 @@
 //!   (at `home_mm`; wait for in-position if needed); [`HomingEvent::Failed`] → alarm,
 //!   the axis is at rest and stays unhomed.
 
-use softnc_core::{AxisConfig, AxisHoming, MachineProfile};
+use softnc_core::{AxisConfig, AxisHoming, MotionProfile};
 
 /// Why a manual motion could not be set up.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
@@ -455,7 +455,7 @@ impl HomingSequence {
 
     /// Homing of axis `index` of `profile` (its `homing` section), from `start_mm`.
     pub fn from_profile(
-        profile: &MachineProfile,
+        profile: &MotionProfile,
         index: usize,
         start_mm: f64,
     ) -> Result<Self, ManualError> {

@@ -3,7 +3,7 @@
 use crate::build::{motion_primitive, Limits, Path, PathBuilder, Segment};
 use crate::interp::Interpolator;
 use softnc_core::geom::rem_tau;
-use softnc_core::{FeedProfile, MachineProfile, Primitive, Vec3};
+use softnc_core::{FeedProfile, MotionProfile, Primitive, Vec3};
 use softnc_gcode::{GcodeError, Motion, MotionKind, Program};
 
 /// Options for one planning run.
@@ -136,7 +136,7 @@ pub struct Plan {
 /// Plan a program for a machine: soft limits first, then blending and limits.
 pub fn plan(
     program: &Program,
-    profile: &MachineProfile,
+    profile: &MotionProfile,
     options: &PlanOptions,
 ) -> Result<Plan, PlanError> {
     let mut p = Planner::new(profile, options, &program.file, program.motions.len());
@@ -175,7 +175,7 @@ pub const READ_CHUNK_MOTIONS: usize = 1024;
 pub fn read_and_plan(
     text: &str,
     file: &str,
-    profile: &MachineProfile,
+    profile: &MotionProfile,
     options: &PlanOptions,
 ) -> Result<(Program, Plan), ReadPlanError> {
     let mut planner = Planner::new(profile, options, file, motions_hint(text));
@@ -209,7 +209,7 @@ pub fn read_and_plan(
 pub fn read_and_plan_parallel(
     text: &str,
     file: &str,
-    profile: &MachineProfile,
+    profile: &MotionProfile,
     options: &PlanOptions,
 ) -> Result<(Program, Plan), ReadPlanError> {
     use std::sync::mpsc::{channel, sync_channel};
@@ -268,7 +268,7 @@ pub fn read_and_plan_parallel(
 /// Checks motions one at a time and gathers the plan's figures: soft limits, the
 /// bounding box, the highest feed, the spindle speed changes.
 pub(crate) struct Checker<'a> {
-    profile: &'a MachineProfile,
+    profile: &'a MotionProfile,
     options: &'a PlanOptions,
     file: &'a str,
     bmin: Vec3,
@@ -282,11 +282,7 @@ pub(crate) struct Checker<'a> {
 }
 
 impl<'a> Checker<'a> {
-    pub(crate) fn new(
-        profile: &'a MachineProfile,
-        options: &'a PlanOptions,
-        file: &'a str,
-    ) -> Self {
+    pub(crate) fn new(profile: &'a MotionProfile, options: &'a PlanOptions, file: &'a str) -> Self {
         Checker {
             profile,
             options,
@@ -445,7 +441,7 @@ struct Planner<'a> {
 
 impl<'a> Planner<'a> {
     fn new(
-        profile: &'a MachineProfile,
+        profile: &'a MotionProfile,
         options: &'a PlanOptions,
         file: &'a str,
         motions_hint: usize,
@@ -1011,7 +1007,7 @@ mod tests {
     #[test]
     fn duration_pass_matches_the_whole_path_bit_for_bit() {
         let text = include_str!("../../../config/machines/default.ron");
-        let profile = MachineProfile::from_ron_str(text, "default.ron").unwrap();
+        let profile = MotionProfile::from_ron_str(text, "default.ron").unwrap();
         let lim = Limits::from_profile(&profile);
         let mut state = 0x2545_f491_4f6c_dd1du64;
         let mut next = move || {

@@ -34,7 +34,7 @@ use crate::plan::{
     Checker, DurationPass, PlanError, PlanOptions, PlanStats, ReadPlanError, READ_CHUNK_MOTIONS,
 };
 use crate::Sample;
-use softnc_core::{FeedProfile, MachineProfile, Primitive, Vec3};
+use softnc_core::{FeedProfile, MotionProfile, Primitive, Vec3};
 use softnc_gcode::{Motion, Params, Program};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TryRecvError, TrySendError};
 use std::sync::Arc;
@@ -228,7 +228,7 @@ impl Settled {
 }
 
 impl<'a> StreamPlanner<'a> {
-    fn new(profile: &'a MachineProfile, options: &'a PlanOptions, file: &'a str) -> Self {
+    fn new(profile: &'a MotionProfile, options: &'a PlanOptions, file: &'a str) -> Self {
         let lim = Limits::from_profile(profile);
         let mut builder = PathBuilder::new(&lim, DRAIN_BATCH);
         builder.set_single_block(options.single_block);
@@ -314,7 +314,7 @@ impl<'a> StreamPlanner<'a> {
 
     fn finish(
         self,
-        profile: &MachineProfile,
+        profile: &MotionProfile,
         end_params: Params,
         out: &mut impl FnMut(&Segment, &Geom),
     ) -> CheckedProgram {
@@ -332,7 +332,7 @@ impl<'a> StreamPlanner<'a> {
         checker: Checker<'a>,
         builder: PathBuilder,
         mut settled: Settled,
-        profile: &MachineProfile,
+        profile: &MotionProfile,
         end_params: Params,
         out: &mut impl FnMut(&Segment, &Geom),
     ) -> CheckedProgram {
@@ -370,7 +370,7 @@ impl<'a> StreamPlanner<'a> {
 pub fn check_program(
     text: &str,
     file: &str,
-    profile: &MachineProfile,
+    profile: &MotionProfile,
     options: &PlanOptions,
 ) -> Result<(Program, CheckedProgram), ReadPlanError> {
     let mut planner = StreamPlanner::new(profile, options, file);
@@ -411,7 +411,7 @@ pub fn check_program(
 pub fn check_program_parallel(
     text: &str,
     file: &str,
-    profile: &MachineProfile,
+    profile: &MotionProfile,
     options: &PlanOptions,
 ) -> Result<(Program, CheckedProgram), ReadPlanError> {
     check_program_parallel_with(
@@ -431,7 +431,7 @@ pub fn check_program_parallel(
 pub fn check_program_parallel_bytes(
     bytes: &[u8],
     file: &str,
-    profile: &MachineProfile,
+    profile: &MotionProfile,
     options: &PlanOptions,
 ) -> Result<(Program, CheckedProgram), ReadPlanError> {
     check_program_parallel_with(
@@ -596,7 +596,7 @@ impl FilletsAheadWhen {
 pub(crate) fn check_program_parallel_with(
     text: ProgramText<'_>,
     file: &str,
-    profile: &MachineProfile,
+    profile: &MotionProfile,
     options: &PlanOptions,
     when: FilletsAheadWhen,
 ) -> Result<(Program, CheckedProgram), ReadPlanError> {
@@ -837,7 +837,7 @@ enum Planned<'a> {
 /// elements to build and time (a fillet per line–arc join) and is the slower of the
 /// two, so the reader takes these over; without, the reader is the slower and the
 /// planner keeps them. The figures and errors are the same either way.
-fn reader_checks(profile: &MachineProfile) -> bool {
+fn reader_checks(profile: &MotionProfile) -> bool {
     profile.planner.arc_blends
 }
 
@@ -859,7 +859,7 @@ enum Msg {
 pub struct StreamProducer {
     text: Arc<str>,
     file: String,
-    profile: MachineProfile,
+    profile: MotionProfile,
     options: PlanOptions,
     tx: SyncSender<Msg>,
 }
@@ -1149,7 +1149,7 @@ impl Iterator for StreamInterpolator {
 pub fn stream_program(
     text: Arc<str>,
     file: &str,
-    profile: &MachineProfile,
+    profile: &MotionProfile,
     options: &PlanOptions,
     checked: &CheckedProgram,
     mode: StreamMode,
@@ -1215,7 +1215,7 @@ pub fn stream_program(
 pub fn check_and_stream<R>(
     text: &str,
     file: &str,
-    profile: &MachineProfile,
+    profile: &MotionProfile,
     options: &PlanOptions,
     consume: impl FnOnce(&mut StreamInterpolator) -> R,
 ) -> Result<(CheckedProgram, R), ReadPlanError> {
@@ -1311,7 +1311,7 @@ mod tests {
     #[test]
     fn a_path_without_elements_holds_where_the_machine_stands() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machines");
-        let p = MachineProfile::load(&dir.join("default.ron")).unwrap();
+        let p = MotionProfile::load(&dir.join("default.ron")).unwrap();
         let at = [5.0, 7.0, -3.0];
         let opts = PlanOptions {
             start_mm: Some(at),
@@ -1346,7 +1346,7 @@ mod tests {
         let text = crate::test_programs::fillet_joins_program(3000, "M1", true, Some(400.0));
         for fp in [FeedProfile::Trapezoidal, FeedProfile::SCurve] {
             for single_block in [false, true] {
-                let mut p = MachineProfile::load(&dir.join("default.ron")).unwrap();
+                let mut p = MotionProfile::load(&dir.join("default.ron")).unwrap();
                 p.planner.arc_blends = true;
                 p.planner.feed_profile = fp;
                 let opts = PlanOptions {

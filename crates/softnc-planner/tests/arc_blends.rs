@@ -10,14 +10,14 @@ use softnc_gcode::{MotionKind, PathMode};
 use softnc_planner::Sample;
 
 /// The test profile with arc blends on.
-fn arc_profile(fp: FeedProfile) -> softnc_core::MachineProfile {
+fn arc_profile(fp: FeedProfile) -> softnc_core::MotionProfile {
     let mut p = profile(fp);
     p.planner.arc_blends = true;
     p
 }
 
 /// The test profile with arc blends off (the corners stop).
-fn stop_profile(fp: FeedProfile) -> softnc_core::MachineProfile {
+fn stop_profile(fp: FeedProfile) -> softnc_core::MotionProfile {
     let mut p = profile(fp);
     p.planner.arc_blends = false;
     p

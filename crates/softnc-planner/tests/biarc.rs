@@ -12,7 +12,7 @@ use softnc_gcode::PathMode;
 use softnc_planner::Sample;
 
 /// The test profile with arc blends on or off.
-fn with_arc_blends(fp: FeedProfile, on: bool) -> softnc_core::MachineProfile {
+fn with_arc_blends(fp: FeedProfile, on: bool) -> softnc_core::MotionProfile {
     let mut p = profile(fp);
     p.planner.arc_blends = on;
     p

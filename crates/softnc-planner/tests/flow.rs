@@ -5,7 +5,7 @@
 
 mod common;
 use common::{limit_ratios, profile};
-use softnc_core::{FeedProfile, MachineProfile, Vec3};
+use softnc_core::{FeedProfile, MotionProfile, Vec3};
 use softnc_planner::{
     check_and_stream, check_program, PlanOptions, Sample, StopKind, StreamInterpolator,
 };
@@ -18,7 +18,7 @@ const MAX_SAMPLES: usize = 2_000_000;
 /// Check and stream `text`, handing the interpolator to `f`.
 fn stream<R>(
     text: &str,
-    p: &MachineProfile,
+    p: &MotionProfile,
     options: &PlanOptions,
     f: impl FnOnce(&mut StreamInterpolator) -> R,
 ) -> R {
@@ -41,7 +41,7 @@ fn until_pause(it: &mut StreamInterpolator, out: &mut Vec<Sample>) -> Option<u32
     panic!("neither paused nor ended");
 }
 
-fn assert_within_limits(samples: &[Sample], p: &MachineProfile, what: &str) {
+fn assert_within_limits(samples: &[Sample], p: &MotionProfile, what: &str) {
     let r = limit_ratios(samples, p);
     let jerk_checked = p.planner.feed_profile == FeedProfile::SCurve;
     assert!(

@@ -29,11 +29,7 @@ fn kinked_arcs(big_mm: f64, r_mm: f64, chord_deg: f64, n: usize, feed_mm_per_min
 }
 
 /// Largest velocity change over `n` cycles per axis, as a ratio of the limit.
-fn window_acc_ratio(
-    s: &[softnc_planner::Sample],
-    n: usize,
-    p: &softnc_core::MachineProfile,
-) -> f64 {
+fn window_acc_ratio(s: &[softnc_planner::Sample], n: usize, p: &softnc_core::MotionProfile) -> f64 {
     let t = p.interpolation_cycle_s;
     let am = p.max_acc();
     let mut r = 0.0f64;

@@ -3,7 +3,7 @@
 //! and that stepping allocates nothing.
 
 use proptest::prelude::*;
-use softnc_core::{AxisConfig, AxisHoming, MachineProfile};
+use softnc_core::{AxisConfig, AxisHoming, MotionProfile};
 use softnc_planner::manual::{
     jog_target, simulated_switch_active, AxisMover, HomingError, HomingEvent, HomingPhase,
     HomingSequence, JogDirection, ManualError,
@@ -41,8 +41,8 @@ const REL: f64 = 1e-9;
 const DEFAULT: &str = include_str!("../../../config/machines/default.ron");
 const INCREMENTAL: &str = include_str!("../../../config/machines/default-incremental.ron");
 
-fn incremental() -> MachineProfile {
-    MachineProfile::from_ron_str(INCREMENTAL, "default-incremental.ron").unwrap()
+fn incremental() -> MotionProfile {
+    MotionProfile::from_ron_str(INCREMENTAL, "default-incremental.ron").unwrap()
 }
 
 /// Velocity and acceleration of the samples `p` (p[0] = p[1] = the start at rest)
@@ -188,7 +188,7 @@ fn retarget_behind_the_moving_axis_brakes_reverses_and_lands() {
 
 #[test]
 fn jog_targets_follow_linuxcnc() {
-    let p = MachineProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
+    let p = MotionProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
     let x = &p.axes[0];
     use JogDirection::*;
     assert_eq!(jog_target(x, 12.0, Positive, true), x.max_mm);
@@ -207,7 +207,7 @@ fn jog_targets_follow_linuxcnc() {
 
 #[test]
 fn a_continuous_jog_stops_at_the_soft_limit_without_overshoot() {
-    let p = MachineProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
+    let p = MotionProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
     let z = &p.axes[2];
     let mut m = AxisMover::for_axis(z, 0.0, DT_S).unwrap();
     m.move_to(
@@ -510,7 +510,7 @@ fn homing_with_a_stuck_switch_fails_at_rest() {
 
 #[test]
 fn homing_from_a_profile_without_homing_is_refused() {
-    let p = MachineProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
+    let p = MotionProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
     assert_eq!(
         HomingSequence::from_profile(&p, 0, 0.0).unwrap_err(),
         ManualError::NoHoming { axis: 0 }

@@ -2,7 +2,7 @@
 //! own (`build::motion_primitive`): a process that needs only the primitives (the
 //! position process's contour error) reads the motions without planning the program.
 
-use softnc_core::MachineProfile;
+use softnc_core::MotionProfile;
 use softnc_planner::build::motion_primitive;
 use softnc_planner::{plan, PlanOptions};
 use std::path::{Path, PathBuf};
@@ -47,7 +47,7 @@ fn a_plans_primitives_are_its_motions_own() {
     }
     programs.extend(corpus.iter().cloned());
     let profiles = ["default", "tnv40-ilc", "mill-friction"]
-        .map(|n| MachineProfile::load(&repo.join(format!("config/machines/{n}.ron"))).unwrap());
+        .map(|n| MotionProfile::load(&repo.join(format!("config/machines/{n}.ron"))).unwrap());
     let mut compared = 0;
     for file in &programs {
         let text = String::from_utf8_lossy(&std::fs::read(file).unwrap()).into_owned();

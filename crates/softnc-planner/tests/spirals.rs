@@ -10,7 +10,7 @@
 mod common;
 use common::*;
 use proptest::prelude::*;
-use softnc_core::{FeedProfile, MachineProfile, Plane, Vec3};
+use softnc_core::{FeedProfile, MotionProfile, Plane, Vec3};
 
 /// Largest ratio of any sample's per-axis velocity or acceleration (first and second
 /// differences) to its limit that passes: f64 rounding of the samples, no margin.
@@ -18,7 +18,7 @@ const SLACK: f64 = 1e-9;
 
 /// LinuxCNC's `axis_mm` limits (`../shared/planner/axis_mm.ron`, where bug424_long was
 /// measured): 30.48 mm/s and 508 mm/s² on every axis.
-fn axis_mm(fp: FeedProfile) -> MachineProfile {
+fn axis_mm(fp: FeedProfile) -> MotionProfile {
     let mut p = profile(fp);
     for a in &mut p.axes {
         a.max_vel_mm_per_s = 30.48;
@@ -29,7 +29,7 @@ fn axis_mm(fp: FeedProfile) -> MachineProfile {
 
 /// Plans `b` on `p`, checks every sample's velocity and acceleration (and, S-curve,
 /// jerk) on every axis and that the path ends exactly at the program's end.
-fn check(b: &Builder, p: &MachineProfile, what: &str) {
+fn check(b: &Builder, p: &MotionProfile, what: &str) {
     let plan = plan_of(b, p);
     let s = run(&plan);
     let r = limit_ratios(&s, p);

@@ -5,7 +5,7 @@
 
 mod common;
 use common::{limit_ratios, profile};
-use softnc_core::{FeedProfile, MachineProfile};
+use softnc_core::{FeedProfile, MotionProfile};
 use softnc_gcode::Program;
 use softnc_planner::{
     check_and_stream, check_program, check_program_parallel, read_and_plan, stream_program,
@@ -16,7 +16,7 @@ use std::sync::Arc;
 
 /// Check and stream `text`; compare with the whole plan. `limit`: compare only the
 /// first so many samples (None: all). Returns false if the whole plan refuses it.
-fn same_as_whole(text: &str, file: &str, p: &MachineProfile, limit: Option<usize>) -> bool {
+fn same_as_whole(text: &str, file: &str, p: &MotionProfile, limit: Option<usize>) -> bool {
     let opts = PlanOptions {
         ignore_soft_limits: true,
         ..Default::default()
@@ -201,7 +201,7 @@ fn streamed_plan_is_the_whole_plan_on_every_profile() {
     for e in std::fs::read_dir(&dir).unwrap().flatten() {
         let path = e.path();
         if path.extension().is_some_and(|x| x == "ron") {
-            profiles.push(MachineProfile::load(&path).unwrap());
+            profiles.push(MotionProfile::load(&path).unwrap());
         }
     }
     assert!(profiles.len() >= 2);
@@ -229,7 +229,7 @@ fn errors_are_the_whole_plans() {
     }
 }
 
-fn errors_are_the_whole_plans_on(p: &MachineProfile) {
+fn errors_are_the_whole_plans_on(p: &MotionProfile) {
     let p = p.clone();
     let opts = PlanOptions::default();
     let mut text = String::from("G21 G90\nG0 X-5000\n");

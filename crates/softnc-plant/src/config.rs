@@ -3,7 +3,7 @@
 //! `softnc-core`. Paper values are in the profiles under `config/machines/`.
 
 use serde::{Deserialize, Serialize};
-use softnc_config::{positive, ConfigError};
+use softnc_core::ron_file::{positive, ConfigError};
 
 /// Simulated plant of one axis.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

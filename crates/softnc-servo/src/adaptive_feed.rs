@@ -17,8 +17,8 @@ use softnc_adaptive::{
     zoh_second_order, ForceCalibration, ForceControlConfig, ForceLoop, ForceLoopConfig,
     ForceLoopControl, PlacementError,
 };
-use softnc_core::force::ForceControllerConfig;
-use softnc_core::MachineProfile;
+use softnc_machine::force::ForceControllerConfig;
+use softnc_machine::MachineProfile;
 
 /// Seconds per minute (rpm → revolution period).
 const SECONDS_PER_MINUTE: f64 = 60.0;

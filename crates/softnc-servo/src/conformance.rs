@@ -4,7 +4,7 @@
 //! ```ignore
 //! #[test]
 //! fn my_drive_conforms() {
-//!     let profile = softnc_core::MachineProfile::load("config/machines/default.ron".as_ref()).unwrap();
+//!     let profile = softnc_machine::MachineProfile::load("config/machines/default.ron".as_ref()).unwrap();
 //!     softnc_servo::conformance::run("my-drive", &profile, &|| MyDrive::open(...));
 //! }
 //! ```
@@ -15,7 +15,7 @@
 use crate::backend::{CommandMode, ServoBackend, MAX_AXES};
 use crate::engine::CycleEngine;
 use softnc_core::Axes;
-use softnc_core::MachineProfile;
+use softnc_machine::MachineProfile;
 
 /// Where the checks home the axes (mm): off zero, signs mixed.
 pub const HOME_MM: Axes<f64> = Axes([12.5, -7.25, 3.0]);

@@ -6,9 +6,10 @@ use softnc_control::compensation::{AxisCompensation, CompensationError};
 use softnc_control::discrete_tf::DiscreteTf;
 use softnc_control::zero_lag_fir::{CommandFilter, FirDesignError};
 use softnc_control::AxisController;
-use softnc_core::servo::PlantModel;
 use softnc_core::Axes;
-use softnc_core::{CommandRing, MachineProfile};
+use softnc_core::CommandRing;
+use softnc_machine::servo::PlantModel;
+use softnc_machine::MachineProfile;
 
 /// Why an axis's disturbance compensation (paper 000) could not be designed.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
@@ -111,8 +112,8 @@ impl<B: ServoBackend> CycleEngine<B> {
         for axis in 0..MAX_AXES {
             let servo = profile.axis_servo(axis);
             let cfg = &servo.compensation;
-            let wanted =
-                cfg.pdc.is_some() || cfg.outer != softnc_core::compensation::OuterCompensator::None;
+            let wanted = cfg.pdc.is_some()
+                || cfg.outer != softnc_machine::compensation::OuterCompensator::None;
             if !wanted {
                 self.controllers[axis].compensation = None;
                 continue;

@@ -1,7 +1,7 @@
 //! The loopback backend passes the same conformance suite as the simulated machine,
 //! and follows its command exactly.
 
-use softnc_core::MachineProfile;
+use softnc_machine::MachineProfile;
 use softnc_servo::{conformance, CycleEngine, LoopbackBackend, ServoBackend};
 use std::path::PathBuf;
 

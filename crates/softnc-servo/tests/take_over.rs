@@ -3,7 +3,8 @@
 //! not (the simulated machine) is replaced by the new engine's own, homed at the
 //! job's start.
 
-use softnc_core::{Axes, MachineProfile};
+use softnc_core::Axes;
+use softnc_machine::MachineProfile;
 use softnc_servo::{
     AxisStatus, BackendError, CommandMode, CycleEngine, LoopbackBackend, ServoBackend,
 };

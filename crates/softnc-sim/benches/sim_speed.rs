@@ -4,8 +4,8 @@
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use softnc_control::AxisController;
-use softnc_core::servo::ControllerConfig;
-use softnc_core::MachineProfile;
+use softnc_machine::servo::ControllerConfig;
+use softnc_machine::MachineProfile;
 use softnc_sim::{simulate, simulated_engine, CommandSample, SimOptions};
 use std::path::PathBuf;
 use std::time::Instant;

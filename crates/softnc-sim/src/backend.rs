@@ -3,7 +3,7 @@
 use crate::plant::Plant;
 use crate::workpiece::StockCut;
 use softnc_core::Axes;
-use softnc_core::MachineProfile;
+use softnc_machine::MachineProfile;
 use softnc_plant::cutting_disturbance::Cutting;
 use softnc_plant::encoder::Encoder;
 use softnc_plant::resonance::Resonance;

@@ -5,7 +5,7 @@
 //!
 //! ```
 //! use softnc_sim::{simulate, simulated_engine, CommandSample, SimOptions};
-//! let profile = softnc_core::MachineProfile::from_ron_str(
+//! let profile = softnc_machine::MachineProfile::from_ron_str(
 //!     include_str!("../../../config/machines/default.ron"), "default.ron").unwrap();
 //! let mut engine = simulated_engine(&profile, 7, SimOptions::default());
 //! // 100 ms of a 10 mm/s move along X
@@ -41,7 +41,7 @@ pub use sim::{
 };
 pub use softnc_plant::Rng;
 
-use softnc_core::MachineProfile;
+use softnc_machine::MachineProfile;
 use softnc_servo::CycleEngine;
 
 /// The simulated machine of `profile` with its controllers, seeded by `seed`.

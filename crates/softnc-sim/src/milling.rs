@@ -4,7 +4,7 @@
 //! its engagement angle. The depth and material come from the cut's segments along
 //! the feed axis.
 
-use softnc_core::force::{ForceCase, ForceProfile, MillingTool};
+use softnc_machine::force::{ForceCase, ForceProfile, MillingTool};
 use std::f64::consts::{PI, TAU};
 
 /// Seconds per minute (rpm → rev/s).

@@ -1,7 +1,7 @@
 //! One simulated axis: the profile's plant model (000, 001 or 004) with its random
 //! parameter variation drawn once from the seed.
 
-use softnc_core::servo::PlantModel;
+use softnc_machine::servo::PlantModel;
 use softnc_plant::dc_motor::DcMotor;
 use softnc_plant::first_order_lag::FirstOrderLag;
 use softnc_plant::rng::Rng;

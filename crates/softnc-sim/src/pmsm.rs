@@ -5,7 +5,7 @@
 //! electrical angle n_p·θ with θ the rotor angle from the axis position (eq 24, 27–28);
 //! the sensors of phases u and v add seeded Gaussian noise.
 
-use softnc_core::force::PmsmConfig;
+use softnc_machine::force::PmsmConfig;
 use softnc_plant::rng::Rng;
 use std::f64::consts::TAU;
 

@@ -9,7 +9,7 @@
 
 use crate::milling::{CutProfile, MillingProcess};
 use crate::pmsm::PmsmFeedMotor;
-use softnc_core::force::ForceProfile;
+use softnc_machine::force::ForceProfile;
 use softnc_plant::rng::Rng;
 use softnc_servo::PhaseCurrents;
 
@@ -105,7 +105,7 @@ impl StockCut {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use softnc_core::MachineProfile;
+    use softnc_machine::MachineProfile;
 
     fn profile() -> MachineProfile {
         MachineProfile::from_ron_str(

@@ -1,7 +1,7 @@
 //! The simulated machine of every profile passes the servo boundary's conformance
 //! suite (`softnc_servo::conformance`), the one every backend runs against itself.
 
-use softnc_core::MachineProfile;
+use softnc_machine::MachineProfile;
 use softnc_servo::conformance;
 use softnc_sim::{SimBackend, SimOptions};
 use std::path::PathBuf;

@@ -2,10 +2,10 @@
 //! removes the periodic error on the TNV-40, a redesign is swapped in between
 //! cycles, a failing design is refused.
 
-use softnc_core::compensation::{
+use softnc_machine::compensation::{
     Compensation, DobConfig, OuterCompensator, PdcConfig, UncertaintyPoint,
 };
-use softnc_core::MachineProfile;
+use softnc_machine::MachineProfile;
 use softnc_servo::CycleEngine;
 use softnc_sim::{simulated_engine, SimBackend, SimOptions};
 use std::path::PathBuf;
@@ -17,7 +17,7 @@ fn tnv40() -> MachineProfile {
 }
 
 fn pdc() -> PdcConfig {
-    softnc_config::parse_ron::<PdcConfig>(
+    softnc_core::ron_file::parse_ron::<PdcConfig>(
         include_str!("../../../config/pdc/paper000-canceller.ron"),
         "config/pdc/paper000-canceller.ron",
     )

@@ -1,6 +1,7 @@
 //! Same seed ⇒ bit-identical trace; different seeds ⇒ different traces.
 
-use softnc_core::{MachineProfile, Plane, Primitive, Vec3};
+use softnc_core::{Plane, Primitive, Vec3};
+use softnc_machine::MachineProfile;
 use softnc_sim::{simulate, simulated_engine, CommandSample, SimOptions};
 use std::f64::consts::TAU;
 use std::path::PathBuf;

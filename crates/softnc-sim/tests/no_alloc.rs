@@ -1,6 +1,6 @@
 //! The per-cycle step (controller stacks + simulated machine) allocates nothing.
 
-use softnc_core::MachineProfile;
+use softnc_machine::MachineProfile;
 use softnc_sim::{simulated_engine, SimOptions};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;

@@ -1,7 +1,8 @@
 //! Each plant model against its paper, with the tolerance stated at each assertion.
 
-use softnc_core::servo::{Friction001, PlantModel};
-use softnc_core::{MachineProfile, Plane, Primitive, Vec3};
+use softnc_core::{Plane, Primitive, Vec3};
+use softnc_machine::servo::{Friction001, PlantModel};
+use softnc_machine::MachineProfile;
 use softnc_plant::dc_motor::DcMotor;
 use softnc_plant::first_order_lag::FirstOrderLag;
 use softnc_plant::velocity_loop::VelocityLoop;

@@ -1,6 +1,6 @@
 //! The paper profiles load, and a bad servo field is reported with its RON path.
 
-use softnc_core::MachineProfile;
+use softnc_machine::MachineProfile;
 use std::path::PathBuf;
 
 fn machines() -> PathBuf {

@@ -1,6 +1,6 @@
 //! Paper 001 Sec. 4.1: K and τ vary ±5 %, friction ±8 %, drawn from the seed.
 
-use softnc_core::MachineProfile;
+use softnc_machine::MachineProfile;
 use softnc_sim::{Plant, SimBackend, SimOptions};
 use std::path::PathBuf;
 

@@ -4,7 +4,7 @@
 //! paths. The controller that runs them is `softnc_control::fuzzy::FuzzyController`.
 
 use serde::{Deserialize, Serialize};
-use softnc_config::{parse_ron, ConfigError};
+use softnc_core::ron_file::{parse_ron, ConfigError};
 
 /// Largest number of fuzzy sets a variable may have (arrays are this size).
 pub const MAX_SETS: usize = 11;
@@ -52,7 +52,7 @@ impl FuzzyConfig {
 
     /// Load and validate a RON file.
     pub fn load(path: &std::path::Path) -> Result<Self, ConfigError> {
-        let (file, text) = softnc_config::read_text(path)?;
+        let (file, text) = softnc_core::ron_file::read_text(path)?;
         Self::from_ron_str(&text, &file)
     }
 

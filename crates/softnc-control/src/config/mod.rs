@@ -11,7 +11,7 @@ pub mod compensation;
 pub mod fuzzy;
 
 use serde::{Deserialize, Serialize};
-use softnc_config::ConfigError;
+use softnc_core::ron_file::ConfigError;
 
 /// The position controller of one axis (the stack's feedback and feedforward).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -89,7 +89,7 @@ pub(super) fn check_job(
     path: &str,
     limit: u64,
     programs: &std::path::Path,
-    machine: &softnc_core::MachineProfile,
+    machine: &softnc_machine::MachineProfile,
     setup: &JobSetup,
 ) -> CheckResult {
     let job = intake(path, limit).map_err(|e| e.to_string())?;

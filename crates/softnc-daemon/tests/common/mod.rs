@@ -90,7 +90,7 @@ pub fn lockstep_config(tag: &str, machine_file: &str, learning: bool) -> (PathBu
 pub fn learn_job(store: &Path, job: &Path, machine: &Path, iterations: usize) -> Vec<f64> {
     use softnc_learning::entry::{LawState, Learned, OVERRIDE_PCT};
     use softnc_learning::sim_runs::{identify, learn_markov, PreparedJob};
-    let profile = softnc_core::MachineProfile::load(machine).unwrap();
+    let profile = softnc_machine::MachineProfile::load(machine).unwrap();
     let text = std::fs::read_to_string(job).unwrap();
     let prepared = PreparedJob::new(&text, "job.ngc", &profile).unwrap();
     let seed = profile.servo.seed;

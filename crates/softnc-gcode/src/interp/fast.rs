@@ -1065,7 +1065,7 @@ mod tests {
     use super::{atan2_axis, hypot_axis, number, words, Words, LETTER, NO_NUMBER};
     use crate::lexer::plain_number;
     use crate::lexer::{lex_words, Line};
-    use softnc_core::MachineProfile;
+    use softnc_core::MotionProfile;
 
     /// A xorshift64 stream from `seed`: `next(m)` draws an index below `m` (the
     /// tests' deterministic random inputs).
@@ -1079,8 +1079,8 @@ mod tests {
         }
     }
 
-    fn profile() -> MachineProfile {
-        MachineProfile::load(
+    fn profile() -> MotionProfile {
+        MotionProfile::load(
             &std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
                 .join("../../config/machines/default.ron"),
         )
@@ -1150,7 +1150,7 @@ mod tests {
     #[test]
     fn common_lines_take_the_short_way_as_the_general_reader_reads_them() {
         let p = profile();
-        let it = Interp::new("t.ngc", &p);
+        let it = Interp::new("t.ngc", p.tables());
         for line in [
             "G1 X0.8000 Y0.0500",
             "G2 X1.3000 Y0.0500 I0.25 J0",
@@ -1182,7 +1182,7 @@ mod tests {
     #[test]
     fn anything_else_is_left_to_the_general_reader() {
         let p = profile();
-        let it = Interp::new("t.ngc", &p);
+        let it = Interp::new("t.ngc", p.tables());
         for line in [
             "",
             "   \r",
@@ -1318,7 +1318,7 @@ mod tests {
     #[test]
     fn line_starts_read_as_the_general_reader_reads_them() {
         let p = profile();
-        let it = Interp::new("t.ngc", &p);
+        let it = Interp::new("t.ngc", p.tables());
         let (mut taken, mut g_starts) = (0, 0);
         for c0 in "Gg XNn\t".chars() {
             for c1 in "0123456789.-+ \nX".chars() {
@@ -1423,7 +1423,7 @@ mod tests {
     #[test]
     fn generated_lines_read_as_the_general_reader_reads_them() {
         let p = profile();
-        let it = Interp::new("t.ngc", &p);
+        let it = Interp::new("t.ngc", p.tables());
         let letters = [
             "G", "g", "X", "y", "Z", "I", "j", "K", "R", "F", "f", "N", "M", "A",
         ];
@@ -1608,7 +1608,7 @@ mod tests {
                 let read = super::super::read_lines(
                     &text,
                     "t.ngc",
-                    &p,
+                    p.tables(),
                     &options,
                     7,
                     &mut |chunk| motions.append(chunk),
@@ -1659,7 +1659,7 @@ mod tests {
             let read = super::super::read_lines(
                 text,
                 "t.ngc",
-                &p,
+                p.tables(),
                 &Default::default(),
                 7,
                 &mut |chunk| motions.append(chunk),

@@ -51,7 +51,7 @@ impl Interp<'_> {
     /// The machine profile's work offsets as parameters 5221 … (no parameter file).
     pub(super) fn params_from_profile(&mut self) {
         for n in 1..=9 {
-            let o = self.profile.work_offset_mm(n - 1);
+            let o = self.tables.work_offset_mm(n - 1);
             for (k, v) in o.iter().enumerate() {
                 self.params.set(base(n) + k, *v / self.user_mm());
             }

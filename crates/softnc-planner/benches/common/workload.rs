@@ -2,12 +2,12 @@
 //! machine profile they plan for.
 #![allow(dead_code)] // each user takes what it needs
 
-use softnc_core::MachineProfile;
+use softnc_core::MotionProfile;
 use std::fmt::Write;
 
 /// `config/machines/default.ron`.
-pub fn default_profile() -> MachineProfile {
-    MachineProfile::load(
+pub fn default_profile() -> MotionProfile {
+    MotionProfile::load(
         concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/../../config/machines/default.ron"

@@ -1,13 +1,13 @@
 //! Shared helpers for planner tests: programs built from motions, and the checks.
 #![allow(dead_code)]
 
-use softnc_core::{FeedProfile, MachineProfile, Plane, Primitive, Vec3};
+use softnc_core::{FeedProfile, MotionProfile, Plane, Primitive, Vec3};
 use softnc_gcode::{Motion, MotionKind, PathMode, Program};
 use softnc_planner::{plan, Plan, PlanOptions, Sample};
 
-pub fn profile(feed_profile: FeedProfile) -> MachineProfile {
+pub fn profile(feed_profile: FeedProfile) -> MotionProfile {
     let text = include_str!("../../../../config/machines/default.ron");
-    let mut p = MachineProfile::from_ron_str(text, "default.ron").unwrap();
+    let mut p = MotionProfile::from_ron_str(text, "default.ron").unwrap();
     p.planner.feed_profile = feed_profile;
     p
 }
@@ -88,7 +88,7 @@ impl Builder {
     }
 }
 
-pub fn plan_of(b: &Builder, p: &MachineProfile) -> Plan {
+pub fn plan_of(b: &Builder, p: &MotionProfile) -> Plan {
     plan(
         &b.program(),
         p,
@@ -112,7 +112,7 @@ pub fn run(plan: &Plan) -> Vec<Sample> {
 
 /// Largest ratio of |finite-difference derivative| to its limit over all axes, for
 /// velocity, acceleration and jerk.
-pub fn limit_ratios(samples: &[Sample], p: &MachineProfile) -> [f64; 3] {
+pub fn limit_ratios(samples: &[Sample], p: &MotionProfile) -> [f64; 3] {
     let t = p.interpolation_cycle_s;
     let (vm, am, jm) = (p.max_vel(), p.max_acc(), p.max_jerk());
     let mut r = [0.0f64; 3];

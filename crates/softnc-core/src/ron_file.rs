@@ -1,9 +1,8 @@
-//! Configuration files as softnc reads them: RON parsed with the path of a bad field
-//! ([`parse_ron`]), and the one error ([`ConfigError`]) every section's validation
-//! reports — the file, the RON path (`axes[1].max_acc_mm_per_s2`,
+//! RON configuration files as softnc reads them: RON parsed with the path of a bad
+//! field ([`parse_ron`]), and the one error ([`ConfigError`]) every section's
+//! validation reports — the file, the RON path (`axes[1].max_acc_mm_per_s2`,
 //! `force.controller.poles`) and what is wrong. Each algorithm crate owns its
 //! section's schema and validation; the machine profile composes them.
-#![warn(missing_docs)]
 
 /// Why a configuration (a machine profile, a daemon configuration, a section of
 /// either) could not be loaded.

@@ -2,8 +2,8 @@
 //! `softnc-control`) inside a machine profile: selected per axis, refused values
 //! named by their RON path.
 
-use softnc_core::fuzzy::*;
-use softnc_core::MachineProfile;
+use softnc_machine::fuzzy::*;
+use softnc_machine::MachineProfile;
 
 const MILL: &str = include_str!("../../../config/machines/mill-friction.ron");
 const PAPER: &str = include_str!("../../../config/fuzzy/paper001.ron");

@@ -42,7 +42,7 @@ pub struct AxisServo {
     pub noise_mm: f64,
     /// Disturbance compensation (paper 000 DOB/MBDA and PDC); none by default.
     #[serde(default)]
-    pub compensation: softnc_control::config::compensation::Compensation,
+    pub compensation: crate::compensation::Compensation,
     /// Zero-lag non-causal command filter (paper 002 eq 1–3); off when absent.
     #[serde(default)]
     pub command_filter: Option<CommandFilterConfig>,

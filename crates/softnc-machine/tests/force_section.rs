@@ -1,7 +1,8 @@
 //! The profile's `force` section (schema and validation in `softnc-adaptive`),
 //! loaded as part of a machine profile: refused values name their RON path.
 
-use softnc_core::config::{ConfigError, MachineProfile};
+use softnc_core::config::ConfigError;
+use softnc_machine::MachineProfile;
 
 const PROFILE: &str = include_str!("../../../config/machines/mch10-force.ron");
 
