@@ -11,10 +11,10 @@
 
 use crate::cmd_plan::load_machine;
 use anyhow::{Context, Result};
+use softnc_experiments::learning_runs::{self as learn_sim, IterationStats, PreparedJob};
 use softnc_learning::entry::{store_dir, Law, LawState, Learned, OVERRIDE_PCT};
 use softnc_learning::markov::{Improvement, MarkovJob};
 use softnc_learning::radius_ilc::RadiusIlc;
-use softnc_learning::sim_runs::{self as learn_sim, IterationStats, PreparedJob};
 use softnc_learning::{LearningKey, LearningStore};
 use softnc_sim::{simulated_engine, SimOptions};
 use std::io::Write;

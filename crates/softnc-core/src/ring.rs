@@ -225,6 +225,18 @@ impl<const AXES: usize, const CAP: usize> LookaheadRing<AXES, CAP> {
     }
 }
 
+/// One interpolated command sample (the planner's `Sample`, decoupled): what the
+/// offline simulator runs and a learned job's correction is added to.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CommandSample {
+    /// Command position (mm).
+    pub pos_mm: crate::Axes<f64>,
+    /// Index of the program motion being executed.
+    pub motion: u32,
+    /// True during feed moves (G1/G2/G3): the tool cuts, contour error is measured.
+    pub feed_move: bool,
+}
+
 /// Capacity of the command ring between interpolation and position control: a window
 /// of ±`MAX_COMMAND_FILTER_ORDER` (softnc-control) samples fits with room to spare.
 pub const COMMAND_RING_CAPACITY: usize = 2048;

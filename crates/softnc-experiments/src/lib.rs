@@ -14,12 +14,17 @@
 //! # Ok::<(), softnc_experiments::ExperimentError>(())
 //! ```
 //!
+//! [`learning_runs`] holds the learning runs on the simulated machine (identification,
+//! paper 002's and 004's repetitions) that `softnc learn` and the learning experiments
+//! share.
+//!
 //! To add an experiment: a module here with a unit struct implementing
 //! [`Experiment`], a variant of [`ExperimentId`], and its line in
 //! [`ExperimentId::experiment`]. Plots go through [`plot::write_svg`].
 #![warn(missing_docs)]
 
 pub mod error;
+pub mod learning_runs;
 pub mod p000;
 pub mod p001;
 pub mod p001_audit;

@@ -8,9 +8,9 @@
 //! buffer already learns fast.
 
 use crate::error::{failed, Context, Result};
+use crate::learning_runs::{self as learn_sim, IterationStats, PreparedJob};
 use crate::{workspace_file, Experiment, ExperimentId, Report, RunOptions};
 use softnc_learning::markov::MarkovJob;
-use softnc_learning::sim_runs::{self as learn_sim, IterationStats, PreparedJob};
 use softnc_machine::MachineProfile;
 use softnc_sim::{simulated_engine, SimOptions};
 

@@ -8,9 +8,9 @@
 //! inside those windows.
 
 use crate::error::{failed, Context, ExperimentError, Result};
+use crate::learning_runs::{self as learn_sim, IterationStats};
 use crate::{workspace_file, Experiment, ExperimentId, Report, RunOptions};
 use softnc_learning::radius_ilc::{self, POINTS};
-use softnc_learning::sim_runs::{self as learn_sim, IterationStats};
 use softnc_machine::servo::PlantModel;
 use softnc_machine::MachineProfile;
 use softnc_sim::{simulated_engine, SimOptions};

@@ -9,7 +9,7 @@
 use crate::markov::{Improvement, MarkovJob, AXES};
 use crate::radius_ilc::{Circle, RadiusIlc};
 use crate::store::{LearningKey, LearningStore, StoreError};
-use softnc_sim::CommandSample;
+use softnc_core::ring::CommandSample;
 use std::path::{Path, PathBuf};
 
 /// Time the final command is held after the program ends in every learning

@@ -5,8 +5,6 @@
 //! - [`radius_ilc`]: paper 004 eq 8–9 — per-degree radius learning for circles.
 //! - [`store`]: corrections persisted per job, keyed by job content, machine profile
 //!   and feed override, written atomically.
-//! - [`sim_runs`]: identification and learning repetitions on the simulated machine
-//!   (`softnc learn`, `softnc reproduce 002-learning / 004-ilc`).
 //! - [`entry`]: what an entry holds (`Learned`), where the store is, and a job's
 //!   stored Markov correction as the daemon and `softnc sim --learned` apply it.
 #![warn(missing_docs)]
@@ -14,7 +12,6 @@
 pub mod entry;
 pub mod markov;
 pub mod radius_ilc;
-pub mod sim_runs;
 pub mod store;
 
 pub use entry::{store_dir, IterationStats, JobCorrection, Law, LawState, Learned, Lookup};

@@ -119,7 +119,7 @@ pub struct MarkovJob {
     #[serde(default)]
     pub max_correction_mm: Option<[f64; AXES]>,
     /// What this correction did against the unlearned run, when it was measured to
-    /// do better (set by [`crate::sim_runs::learn_markov`]); `None`: not measured to
+    /// do better (set by `softnc_experiments::learning_runs::learn_markov`); `None`: not measured to
     /// improve anything, so not to be applied.
     #[serde(default)]
     pub improvement: Option<Improvement>,

@@ -2,22 +2,12 @@
 //! following error per axis and contour error during feed moves.
 
 use crate::metrics::ErrorStats;
-use softnc_core::Axes;
 use softnc_core::{CommandRing, Primitive, RingSample, Vec3, COMMAND_RING_CAPACITY};
 use softnc_servo::adaptive_feed::{AdaptiveFeed, OverrideSchedule, Revolution};
 use softnc_servo::{BackendError, CycleEngine, ServoBackend, TraceRow, MAX_AXES};
 use std::collections::VecDeque;
 
-/// One interpolated command sample (the planner's `Sample`, decoupled).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct CommandSample {
-    /// Command position (mm).
-    pub pos_mm: Axes<f64>,
-    /// Index of the program motion being executed.
-    pub motion: u32,
-    /// True during feed moves (G1/G2/G3): the tool cuts, contour error is measured.
-    pub feed_move: bool,
-}
+pub use softnc_core::ring::CommandSample;
 
 /// Accuracy figures of a run.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

@@ -88,8 +88,8 @@ pub fn lockstep_config(tag: &str, machine_file: &str, learning: bool) -> (PathBu
 /// What `softnc learn JOB --machine PROFILE --iterations K --store DIR` stores (the
 /// same runs and entry, default gain and all Markov terms); the RMS (µm) per run.
 pub fn learn_job(store: &Path, job: &Path, machine: &Path, iterations: usize) -> Vec<f64> {
+    use softnc_experiments::learning_runs::{identify, learn_markov, PreparedJob};
     use softnc_learning::entry::{LawState, Learned, OVERRIDE_PCT};
-    use softnc_learning::sim_runs::{identify, learn_markov, PreparedJob};
     let profile = softnc_machine::MachineProfile::load(machine).unwrap();
     let text = std::fs::read_to_string(job).unwrap();
     let prepared = PreparedJob::new(&text, "job.ngc", &profile).unwrap();

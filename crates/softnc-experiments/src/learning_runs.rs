@@ -1,18 +1,19 @@
-//! Learning runs on the simulated machine: the Markov-parameter identification run,
+//! Learning runs on the simulated machine (`softnc-learning`'s laws, `softnc-sim`'s
+//! machine): the Markov-parameter identification run,
 //! repetitions of a job under paper 002's eq 5, and repetitions of a circle under paper
 //! 004's radius ILC (eq 8–9). Used by `softnc learn` and `softnc reproduce 002-learning
-//! / 004-ilc` and the daemon's end-to-end tests; the laws are [`crate::markov`] and
-//! [`crate::radius_ilc`].
+//! / 004-ilc` and the daemon's end-to-end tests; the laws are [`softnc_learning::markov`] and
+//! [`softnc_learning::radius_ilc`].
 
-use crate::markov::{identify_markov, settled_terms, Improvement, MarkovJob, AXES};
-use crate::radius_ilc::{Circle, RadiusIlc, POINTS};
 use softnc_core::Axes;
 use softnc_core::Primitive;
+use softnc_learning::markov::{identify_markov, settled_terms, Improvement, MarkovJob, AXES};
+use softnc_learning::radius_ilc::{Circle, RadiusIlc, POINTS};
 use softnc_machine::MachineProfile;
 use softnc_servo::{CycleEngine, ServoBackend};
 use softnc_sim::{simulate, CommandSample, ErrorStats, SimBackend};
 
-pub use crate::entry::{IterationStats, HOLD_S};
+pub use softnc_learning::entry::{IterationStats, HOLD_S};
 
 /// Height of the identification pulse (mm): large against encoder resolution and
 /// noise (1e-4 of it at 0.1 µm) and against Coulomb friction, small against travel.
@@ -156,7 +157,7 @@ const UM: f64 = 1000.0;
 /// the run it commands has a larger ‖e‖₂ than the best run so far (the anchor): the
 /// correction goes back to the anchor's and the gain is halved (for the rest of the
 /// run). For an LTI loop eq 5 is a gradient step on ‖e‖₂ and a small enough gain
-/// always reduces it ([`crate::markov::MarkovLearner::default_gain`]); five halvings
+/// always reduces it ([`softnc_learning::markov::MarkovLearner::default_gain`]); five halvings
 /// in a row (s/32) that still do not mean the error left is friction and noise the
 /// identified loop does not describe, and the run stops. On the short program of
 /// `tests/never_worse.rs` mill-friction.ron needed four (s = 0.5 gave ‖e‖₂ × 5.8) (issue 15: with a fixed gain the error fed itself,

@@ -8,12 +8,12 @@
 //! docs/reproduce-004.md, "Per-degree adaptive gains (beyond the paper)".
 //!
 //! ```text
-//! cargo run --release -p softnc-learning --example radius_ilc_newton -- \
+//! cargo run --release -p softnc-experiments --example radius_ilc_newton -- \
 //!     [--feed 1000|2000] [--perturb-um D] [--band B] [--lambda L] [--iterations N]
 //! ```
 
+use softnc_experiments::learning_runs::{find_circle, radius_stats, run_circle};
 use softnc_learning::radius_ilc::{RadiusIlc, POINTS};
-use softnc_learning::sim_runs::{find_circle, radius_stats, run_circle};
 use softnc_machine::MachineProfile;
 use softnc_sim::{simulated_engine, SimOptions};
 

@@ -3,10 +3,10 @@
 //! measured to improve on the unlearned run is kept, on every profile in
 //! `config/machines/`; the radius law skips zero-length moves.
 
-use softnc_learning::markov::{MarkovJob, DEFAULT_GAIN};
-use softnc_learning::sim_runs::{
+use softnc_experiments::learning_runs::{
     correction_bound_mm, find_circle, identify, learn_markov, run_job, PreparedJob,
 };
+use softnc_learning::markov::{MarkovJob, DEFAULT_GAIN};
 use softnc_machine::MachineProfile;
 use softnc_sim::{simulated_engine, SimOptions};
 use std::path::PathBuf;
@@ -143,8 +143,8 @@ fn the_radius_law_skips_a_zero_length_feed_move() {
 /// circle worse than unlearned at its first step: the run stops there.
 #[test]
 fn a_diverging_radius_run_stops() {
+    use softnc_experiments::learning_runs::learn_radius;
     use softnc_learning::radius_ilc::RadiusIlc;
-    use softnc_learning::sim_runs::learn_radius;
     let m = machine("tnv40-ilc.ron");
     let (c, r) = find_circle(CIRCLE_40MM_1800, "C.ngc", &m).unwrap();
     let mut engine = simulated_engine(&m, 1, SimOptions::default());

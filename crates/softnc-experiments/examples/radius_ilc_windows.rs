@@ -4,7 +4,7 @@
 //! "Why 90 % is not reached within 5 iterations").
 //!
 //! ```text
-//! cargo run --release -p softnc-learning --example radius_ilc_windows -- \
+//! cargo run --release -p softnc-experiments --example radius_ilc_windows -- \
 //!     [--feed 1000|2000] [--iterations N] [--window centred|after|before|point|command] \
 //!     [--lead DEG] [--alpha A] [--trace DEG] [--machine PROFILE]
 //! ```
@@ -19,8 +19,8 @@
 //! per-degree error in the `centred` window (the figures of `softnc reproduce 004-ilc`)
 //! and in the window learnt from, and the largest |radius error| of any single sample.
 
+use softnc_experiments::learning_runs::{find_circle, PreparedJob, HOLD_S};
 use softnc_learning::radius_ilc::{Circle, RadiusIlc, POINTS};
-use softnc_learning::sim_runs::{find_circle, PreparedJob, HOLD_S};
 use softnc_machine::MachineProfile;
 use softnc_servo::SimulatedMachine;
 use softnc_sim::{simulate_observed, simulated_engine, SimOptions};

@@ -3,7 +3,7 @@
 //! 004-ilc` (docs/reproduce-004.md, "Per-degree adaptive gains (beyond the paper)").
 //!
 //! ```text
-//! cargo run --release -p softnc-learning --example radius_ilc_laws -- \
+//! cargo run --release -p softnc-experiments --example radius_ilc_laws -- \
 //!     [--law eq8|secant|sign|broyden|anderson] [--iterations N] [--machine PROFILE] \
 //!     [--revert] [--g-min G] [--g-max G] [--guard Q] [--grow F] [--gain-max K] [--rho R] \
 //!     [--rho-hi R] [--peak W] [--band B] [--init G] [--clip K] [--memory M] [--window W] [--reg R]
@@ -35,8 +35,8 @@
 //! Per run the RMS / max |e| of the radius error per degree (µm, the figures of
 //! `softnc reproduce 004-ilc`) and the best RMS reduction within 5 iterations.
 
+use softnc_experiments::learning_runs::{find_circle, radius_stats, run_circle};
 use softnc_learning::radius_ilc::{RadiusIlc, POINTS};
-use softnc_learning::sim_runs::{find_circle, radius_stats, run_circle};
 use softnc_machine::MachineProfile;
 use softnc_sim::{simulated_engine, SimOptions};
 
