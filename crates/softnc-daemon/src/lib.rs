@@ -10,6 +10,7 @@
 //!   traces and PDC designs (S words, spindle override), made off the cycle.
 //! - [`outbox`]: both loops' messages leave through a lock-free queue to a
 //!   publisher thread.
+//! - [`job_setup`]: how a job is read beyond its text (start, parameters, switches).
 //! - [`jobfile`]: a job's program taken in once (regular file, size limit) and kept
 //!   as an immutable copy named by its hash, which the other processes run.
 //! - [`machine_store`]: the parameter file (work offsets, G92, stored positions)
@@ -34,6 +35,7 @@ pub mod client;
 pub mod config;
 pub mod interp;
 pub mod ipc_guard;
+pub mod job_setup;
 pub mod jobfile;
 pub mod lifecycle;
 pub mod loop_watch;

@@ -179,10 +179,10 @@ impl MachineStore {
         &self,
         profile: &MachineProfile,
         start_mm: [f64; 3],
-        switches: crate::interp::Switches,
+        switches: crate::job_setup::Switches,
         from_line: Option<u32>,
         job_id: u64,
-    ) -> Result<(MachineProfile, crate::interp::JobSetup), String> {
+    ) -> Result<(MachineProfile, crate::job_setup::JobSetup), String> {
         let checked = crate::jobfile::CheckedSetup::load(&self.programs_dir(), job_id)
             .map_err(|e| e.to_string())?;
         let params = match &checked.params {
@@ -198,7 +198,7 @@ impl MachineStore {
             None => None,
         };
         let files = checked.subroutine_files().map_err(|e| e.to_string())?;
-        let setup = crate::interp::JobSetup {
+        let setup = crate::job_setup::JobSetup {
             start_mm,
             params,
             switches,

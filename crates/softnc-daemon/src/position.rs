@@ -102,9 +102,8 @@ impl JobPhase {
 /// Every axis homed (a machine with absolute encoders).
 const ALL_HOMED: u32 = (1 << MAX_AXES) - 1;
 
-/// Builds the engine for a job: controller stacks in front of the servo backend (on
-/// the preparation thread).
-pub type EngineFactory<B> = Box<dyn FnMut() -> CycleEngine<B> + Send>;
+/// Builds the engine for a job (defined with the preparation thread that calls it).
+pub use crate::prep::EngineFactory;
 
 /// The position-control process over a servo backend `B` (the simulated machine now).
 pub struct PositionTask<B: ServoBackend> {

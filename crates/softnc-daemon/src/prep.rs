@@ -12,7 +12,6 @@
 //! queues (push, pop and a futex wake: no allocation, no lock), swaps them in at a
 //! cycle boundary, and hands what they replace back here to be dropped.
 
-use crate::position::EngineFactory;
 use crossbeam_queue::ArrayQueue;
 use softnc_core::{Primitive, MAX_AXES};
 use softnc_ipc::FixedStr;
@@ -23,6 +22,10 @@ use softnc_servo::{CycleEngine, ServoBackend};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
+
+/// Builds the engine for a job: controller stacks in front of the servo backend (on
+/// the preparation thread).
+pub type EngineFactory<B> = Box<dyn FnMut() -> CycleEngine<B> + Send>;
 
 /// Requests and results each queue holds.
 pub const PREP_QUEUE_CAPACITY: usize = 16;

@@ -28,6 +28,7 @@ pub mod learning_runs;
 pub mod p000;
 pub mod p001;
 pub mod p001_audit;
+pub mod p001_cases;
 pub mod p002_filter;
 pub mod p002_learning;
 pub mod p003;

@@ -11,7 +11,7 @@
 //! actually operates, against the sector-bound "equivalent" gains of eq 13.
 
 use crate::error::{ExperimentError, Result};
-use crate::p001::{machine_for, prepare, run, table, Row, Stack, CASES};
+use crate::p001_cases::{machine_for, prepare, run, table, Row, Stack, CASES};
 use nalgebra::{Matrix2, Vector2};
 use softnc_control::discrete_tf::{is_schur_stable, poly_add, poly_mul};
 use softnc_control::fuzzy::{EquivalentGains, FuzzyController, SectorGrid};
