@@ -97,7 +97,7 @@ impl softnc_gcode::expr::Env for Vars {
 
 fn expressions(c: &mut Criterion) {
     use softnc_gcode::compiled::{compile, eval, Kind};
-    let mut norm = softnc_gcode::expr::Norm::default();
+    let mut norm = softnc_gcode::norm::Norm::default();
     norm.build(b"[#1 * 0.5 + SIN[#2 * 3.6] * 2]");
     let mut vars = vec![0.0; softnc_gcode::params::NUM_PARAMS];
     vars[1] = 17.0;

@@ -101,7 +101,7 @@ pub struct Code {
     pub end: usize,
 }
 
-/// A kept line compiled whole ([`crate::expr::Norm::plan`]): LinuxCNC's
+/// A kept line compiled whole ([`crate::norm::Norm::plan`]): LinuxCNC's
 /// `read_items` takes a line's items in order (`read_one_item`); the items of a
 /// line of words, parameter settings and comments are fixed by its text, so they
 /// are found once and only their values are evaluated on later passes.
@@ -123,7 +123,7 @@ pub enum Plan {
 #[derive(Debug, Clone)]
 pub struct OPlan {
     /// What it does (its keyword).
-    pub(crate) kind: crate::interp::ngc::OKind,
+    pub(crate) kind: crate::oword::OKind,
     /// Its label as read (a local label is qualified on each pass, by the
     /// subroutine it runs in).
     pub(crate) label: std::rc::Rc<str>,
@@ -792,7 +792,8 @@ fn named<E: Env + ?Sized>(code: &Code, name: usize, at: usize, env: &E) -> R<Opt
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::expr::{Norm, Reader};
+    use crate::expr::Reader;
+    use crate::norm::Norm;
     use proptest::prelude::*;
     use std::collections::HashMap;
 

@@ -15,8 +15,8 @@ mod offsets;
 
 use crate::canon::{Motion, MotionKind, PathMode, Program};
 use crate::error::{ErrorKind, GcodeError};
-use crate::expr::Norm;
 use crate::lexer::{bad_character, column, lex_words, significant, Line, Word, SLOW};
+use crate::norm::Norm;
 use crate::params::Params;
 use crate::ReadOptions;
 use ngc::{Control, Jump, Pc, Setting};

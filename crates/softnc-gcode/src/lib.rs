@@ -16,6 +16,8 @@ pub mod error;
 pub mod expr;
 pub mod interp;
 pub mod lexer;
+pub mod norm;
+mod oword;
 pub mod params;
 pub mod x87;
 

@@ -2,6 +2,7 @@
 //! step every axis's controller stack, write the commands, let the machine move.
 
 use crate::backend::{BackendError, CommandMode, ServoBackend, MAX_AXES};
+use crate::design::CompensationDesignError;
 use softnc_control::compensation::{AxisCompensation, CompensationError};
 use softnc_control::discrete_tf::DiscreteTf;
 use softnc_control::zero_lag_fir::{CommandFilter, FirDesignError};
@@ -10,16 +11,6 @@ use softnc_core::Axes;
 use softnc_core::CommandRing;
 use softnc_machine::servo::PlantModel;
 use softnc_machine::MachineProfile;
-
-/// Why an axis's disturbance compensation (paper 000) could not be designed.
-#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
-#[error("servo.axes[{axis}].compensation: {error}")]
-pub struct CompensationDesignError {
-    /// Axis index.
-    pub axis: usize,
-    /// What failed.
-    pub error: CompensationError,
-}
 
 /// Why a profile's controller stacks could not be built.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]

@@ -5,6 +5,7 @@
 //! - [`backend`]: the [`ServoBackend`] trait every drive implements (enable/disable,
 //!   commands, counts, status), its errors, and the simulation-only extension.
 //! - [`engine`]: one position cycle — encoders → controller stacks → drives.
+//! - [`design`]: the error of an axis's compensation design (engine and spindle).
 //! - [`spindle`]: S words in a running job: PDC designs per spindle speed, swapped
 //!   at the cycle.
 //! - [`trace`]: the per-cycle trace row and its CSV format.
@@ -17,6 +18,7 @@
 pub mod adaptive_feed;
 pub mod backend;
 pub mod conformance;
+pub mod design;
 pub mod engine;
 pub mod loopback;
 pub mod spindle;
@@ -25,6 +27,7 @@ pub mod trace;
 pub use backend::{
     AxisStatus, BackendError, CommandMode, PhaseCurrents, ServoBackend, SimulatedMachine, MAX_AXES,
 };
-pub use engine::{CompensationDesignError, CycleEngine, CycleRecord, EngineError};
+pub use design::CompensationDesignError;
+pub use engine::{CycleEngine, CycleRecord, EngineError};
 pub use loopback::LoopbackBackend;
 pub use trace::TraceRow;

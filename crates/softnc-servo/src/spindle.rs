@@ -16,7 +16,7 @@
 //!   cycle.
 
 use crate::backend::MAX_AXES;
-use crate::engine::CompensationDesignError;
+use crate::design::CompensationDesignError;
 use softnc_control::compensation::PdcDesigner;
 
 /// Taps of H = L·W for one tooth frequency, while not running.

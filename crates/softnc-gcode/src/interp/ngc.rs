@@ -10,8 +10,10 @@
 use super::{bad, Block, Interp, R};
 use crate::compiled::{Code, Item, Kind, OPlan, Plan};
 use crate::error::ErrorKind;
-use crate::expr::{Env, Norm, Reader};
+use crate::expr::{Env, Reader};
 use crate::lexer::{bad_character, check_comments, significant, Line, Word};
+use crate::norm::Norm;
+use crate::oword::OKind;
 use crate::params::{is_readonly, NUM_PARAMS, SUB_PARAMS};
 
 /// A parameter name or an O-word label as read: shared, so that a kept line's
@@ -21,87 +23,6 @@ pub type Name = std::rc::Rc<str>;
 
 /// LinuxCNC `INTERP_SUB_ROUTINE_LEVELS`: calls nest at most this deep.
 pub const MAX_CALL_LEVEL: usize = 10;
-
-/// What an O-line does.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum OKind {
-    /// `sub`
-    Sub,
-    /// `endsub`
-    EndSub,
-    /// `call`
-    Call,
-    /// `do`
-    Do,
-    /// `while`
-    While,
-    /// `repeat`
-    Repeat,
-    /// `if`
-    If,
-    /// `elseif`
-    ElseIf,
-    /// `else`
-    Else,
-    /// `endif`
-    EndIf,
-    /// `break`
-    Break,
-    /// `continue`
-    Continue,
-    /// `endwhile`
-    EndWhile,
-    /// `endrepeat`
-    EndRepeat,
-    /// `return`
-    Return,
-    /// A bare `O1234` (Fanuc-style subprogram start, called with M98).
-    Bare,
-    /// `M98 P… [L…]`: call a Fanuc-style subprogram (L times).
-    M98,
-    /// `M99` in a subprogram: return.
-    M99,
-}
-
-impl OKind {
-    fn name(self) -> &'static str {
-        use OKind::*;
-        match self {
-            Sub => "sub",
-            EndSub => "endsub",
-            Call => "call",
-            Do => "do",
-            While => "while",
-            Repeat => "repeat",
-            If => "if",
-            ElseIf => "elseif",
-            Else => "else",
-            EndIf => "endif",
-            Break => "break",
-            Continue => "continue",
-            EndWhile => "endwhile",
-            EndRepeat => "endrepeat",
-            Return => "return",
-            Bare => "",
-            M98 => "M98",
-            M99 => "M99",
-        }
-    }
-    /// sub, endsub, call and return name subroutines (global); the others are
-    /// labels local to the subroutine they are in.
-    fn global(self) -> bool {
-        matches!(
-            self,
-            OKind::Sub
-                | OKind::EndSub
-                | OKind::Call
-                | OKind::Return
-                | OKind::Bare
-                | OKind::M98
-                | OKind::M99
-        )
-    }
-}
 
 /// The O-word keywords and what each does, in LinuxCNC's order of comparison
 /// (`read_o`: "elseif" before "else").
