@@ -275,6 +275,7 @@ impl MachineProfile {
     }
 
     /// Check every value; the first bad one is reported with its RON path.
+    #[allow(clippy::too_many_lines)]
     pub fn validate(&self, file: &str) -> Result<(), ConfigError> {
         let bad = |path: String, reason: &str| ConfigError::Invalid {
             file: file.to_string(),
@@ -418,6 +419,7 @@ impl MachineProfile {
         Ok(())
     }
 
+    #[allow(clippy::too_many_lines)]
     fn validate_manual(&self, file: &str) -> Result<(), ConfigError> {
         let bad = |path: String, reason: String| ConfigError::Invalid {
             file: file.to_string(),
