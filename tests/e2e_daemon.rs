@@ -1161,6 +1161,7 @@ fn a_long_program_is_streamed_not_held_whole_in_the_interpolator() {
     assert_eq!(s["job"]["outcome"], "aborted", "{s}");
 }
 
+#[allow(clippy::too_many_lines)]
 #[test]
 fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     let tag = "shopday";
@@ -1465,6 +1466,7 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     let _ = std::fs::remove_dir_all(&profile_dir);
 }
 
+#[allow(clippy::too_many_lines)]
 #[test]
 fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_whole_job() {
     let d = Daemon::start("flow", "Lockstep", true);

@@ -252,6 +252,7 @@ impl ForceProfile {
     }
 
     /// Check every value; `max_override` is the planner's.
+    #[allow(clippy::too_many_lines)]
     pub fn validate(&self, max_override: f64) -> Result<(), Invalid> {
         let bad = |path: String, reason: &str| Invalid {
             path: format!("force.{path}"),

@@ -120,6 +120,7 @@ fn key_of(job: &Path, machine: &Path) -> Result<LearningKey> {
 }
 
 /// Run `softnc learn`.
+#[allow(clippy::too_many_lines)]
 pub fn run(args: LearnArgs) -> Result<ExitCode> {
     let law = Law::from(args.law);
     let store = LearningStore::new(store_dir(args.store.as_deref()));

@@ -144,6 +144,7 @@ fn robust_scale(values: impl Iterator<Item = f64>) -> f64 {
     }
 }
 
+#[allow(clippy::too_many_lines)]
 pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
     let machine = match load_machine(args.machine.as_ref()) {
         Ok(m) => m,
@@ -634,6 +635,7 @@ fn plot_point(row: &TraceRow, prim: Option<Primitive>) -> PlotPoint {
 /// time with the blending tolerance in force and the worst spots' program lines, and
 /// the three axes' following errors. Error scales come from the 99.5 % quantile: a
 /// start-up transient does not set them (it is clipped, and said so).
+#[allow(clippy::too_many_lines)]
 fn draw_plot(path: &Path, pts: &[PlotPoint], worst: &[WorstSpot], title: &str) -> Result<()> {
     let root = SVGBackend::new(path, (1400, 900)).into_drawing_area();
     root.fill(&WHITE)?;

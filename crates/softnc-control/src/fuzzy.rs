@@ -56,7 +56,6 @@ impl Partition {
 
     /// (k, μ_k(x), μ_{k+1}(x)): x lies between centres k and k+1; memberships of all
     /// other sets are zero. Outside the universe the end set holds membership 1.
-    #[inline(always)]
     fn fuzzify(&self, x: f64) -> (usize, f64, f64) {
         let last = self.n - 1;
         if x <= self.c[0] {

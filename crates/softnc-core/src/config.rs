@@ -346,6 +346,7 @@ impl MotionProfile {
     }
 
     /// Check every value; the first bad one is reported with its RON path.
+    #[allow(clippy::too_many_lines)]
     pub fn validate(&self, file: &str) -> Result<(), ConfigError> {
         self.validate_motion(file)?;
         self.validate_manual(file)?;

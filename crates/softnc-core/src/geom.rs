@@ -189,75 +189,6 @@ pub fn rem_tau(x: f64) -> f64 {
     }
 }
 
-/// `y.atan2(x)`, with the cases where `y` or `x` is zero taken without the library
-/// call: C99 Annex F (F.10.1.4), which glibc follows, fixes them as ±0 (y = ±0,
-/// x > 0 or +0), ±π (y = ±0, x < 0 or −0) and ±π/2 (y ≠ 0, x = ±0), the sign y's,
-/// π and π/2 rounded to the nearest double (`consts::PI`, `consts::FRAC_PI_2`).
-/// Arcs often start or end on an axis through their centre (`I` or `J` zero), so
-/// most of [`Primitive::arc`]'s angles are these; elsewhere the library's value.
-#[inline]
-pub fn atan2_axis(y: f64, x: f64) -> f64 {
-    if y == 0.0 {
-        if !x.is_nan() {
-            return if x.is_sign_positive() {
-                y
-            } else {
-                std::f64::consts::PI.copysign(y)
-            };
-        }
-    } else if x == 0.0 && !y.is_nan() {
-        return std::f64::consts::FRAC_PI_2.copysign(y);
-    }
-    y.atan2(x)
-}
-
-/// Largest |y|/|x| at which [`atan2_near_axis`] takes `atan2(y, x)` without the
-/// library call: 2⁻⁵³.
-const NEAR_AXIS_RATIO: f64 = 1.0 / 9_007_199_254_740_992.0;
-
-/// [`atan2_axis`], with two more cases near the first axis taken without the
-/// library call, where |y| ≤ 2⁻⁵³·|x| (x finite, y ≠ 0):
-/// - x < 0: ±π rounded (`consts::PI` with y's sign). The angle is ±(π − δ) with
-///   0 < δ ≤ 2⁻⁵³; `PI` is π − 1.22e-16 and its neighbours lie 4.44e-16 apart, so the
-///   angle is within 0.28 of a unit in the last place of `PI` and at least 0.72 from
-///   any other double: any `atan2` within half a unit gives `PI`. glibc's
-///   (`e_atan2.c`, case iv, u < 1/16, or the exponents 57 apart) returns `opi`.
-/// - x > 0 and y/x a normal double exactly (the residual y − q·x, one fused
-///   multiply–add, is zero): q. The angle is q·(1 − q²/3 + …), within 2⁻¹⁰⁶ of q
-///   relatively, inside q's rounding interval; glibc's (case i, u < 1/16: the
-///   division's correction `du` is 0, the series term far below half a unit, or the
-///   exponents 57 apart: `ay / ax`) returns it.
-///
-/// Arcs programmed with R often start and end a rounding error off the axis
-/// through their centre (the centre sits off the chord's midpoint by
-/// R·cos(asin(1)) ≈ 6e-17·R). Test `near_axis_cases_are_the_librarys`.
-#[inline]
-pub fn atan2_near_axis(y: f64, x: f64) -> f64 {
-    if y != 0.0 && x.is_finite() && y.abs() <= x.abs() * NEAR_AXIS_RATIO {
-        if x < 0.0 {
-            return std::f64::consts::PI.copysign(y);
-        }
-        let q = y / x;
-        if q.abs() >= f64::MIN_POSITIVE && (-q).mul_add(x, y) == 0.0 {
-            return q;
-        }
-    }
-    atan2_axis(y, x)
-}
-
-/// `x.hypot(y)`, with a zero operand taken without the library call: hypot(x, ±0)
-/// is |x| and hypot(±0, y) is |y| (C99 Annex F, F.10.4.3).
-#[inline]
-pub fn hypot_axis(x: f64, y: f64) -> f64 {
-    if y == 0.0 {
-        x.abs()
-    } else if x == 0.0 {
-        y.abs()
-    } else {
-        x.hypot(y)
-    }
-}
-
 /// One geometric piece of a path, parameterised by arc length.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Primitive {
@@ -312,7 +243,6 @@ impl Primitive {
 
     /// [`Primitive::arc`] in the plane whose axes ([`Plane::axes`]) are `A`, `B`
     /// (in the plane) and `N` (its normal).
-    #[inline(always)]
     fn arc_in<const A: usize, const B: usize, const N: usize>(
         start: Vec3,
         end: Vec3,
@@ -325,9 +255,9 @@ impl Primitive {
         let mut c = center;
         c[n] = start[n];
         let (sa, sb) = (start[a] - c[a], start[b] - c[b]);
-        let radius = hypot_axis(sa, sb);
-        let start_angle = atan2_near_axis(sb, sa);
-        let end_angle = atan2_near_axis(end[b] - c[b], end[a] - c[a]);
+        let radius = sa.hypot(sb);
+        let start_angle = sb.atan2(sa);
+        let end_angle = (end[b] - c[b]).atan2(end[a] - c[a]);
         let tau = std::f64::consts::TAU;
         let extra = (turns.unsigned_abs().max(1) - 1) as f64 * tau;
         let sweep = if turns >= 0 {
@@ -388,7 +318,7 @@ impl Primitive {
     /// An arc's length from its radius times its sweep `rs` and its travel along the
     /// plane's normal (`Primitive::length` of an arc; inline where a caller has the
     /// two at hand).
-    #[inline(always)]
+    #[inline]
     pub fn arc_length(rs: f64, normal_travel: f64) -> f64 {
         if normal_travel == 0.0 {
             rs.abs() // what hypot gives, without its cost
@@ -545,9 +475,9 @@ mod tests {
         let mut c = center;
         c[n] = start[n];
         let (sa, sb) = (start[a] - c[a], start[b] - c[b]);
-        let radius = hypot_axis(sa, sb);
-        let start_angle = atan2_near_axis(sb, sa);
-        let end_angle = atan2_near_axis(end[b] - c[b], end[a] - c[a]);
+        let radius = sa.hypot(sb);
+        let start_angle = sb.atan2(sa);
+        let end_angle = (end[b] - c[b]).atan2(end[a] - c[a]);
         let tau = std::f64::consts::TAU;
         let extra = (turns.unsigned_abs().max(1) - 1) as f64 * tau;
         let sweep = if turns >= 0 {
@@ -648,124 +578,6 @@ mod tests {
                 end: Vec3::ZERO,
             };
             assert_eq!(a.length().to_bits(), rs.hypot(0.0).to_bits());
-        }
-    }
-
-    /// `atan2_near_axis` gives the library's bits: near the first axis on both
-    /// sides (ratios 2⁻⁶⁰ to 2⁻⁵⁰, across the 2⁻⁵³ bound), with x a power of two
-    /// (exact quotients) and not, at magnitudes from 1e-300 to 1e300, and the
-    /// special values.
-    #[test]
-    fn near_axis_cases_are_the_librarys() {
-        let same = |y: f64, x: f64| {
-            let (got, want) = (atan2_near_axis(y, x), y.atan2(x));
-            assert!(
-                got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
-                "atan2({y:e}, {x:e}): {got:e} against {want:e}"
-            );
-        };
-        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
-        let (mut taken, mut exact) = (0, 0);
-        for _ in 0..200_000 {
-            let bits = next();
-            let mag = 2f64.powi((bits % 1200) as i32 - 600);
-            let frac = 1.0 + ((bits >> 11) as f64) / (1u64 << 53) as f64;
-            let x = if bits & (1 << 10) == 0 {
-                mag
-            } else {
-                mag * frac
-            };
-            let x = if bits & (1 << 9) == 0 { x } else { -x };
-            let r = next();
-            let ratio =
-                2f64.powi(-50 - (r % 11) as i32) * (1.0 + ((r >> 11) as f64) / (1u64 << 53) as f64);
-            let y = x.abs() * ratio * if r & (1 << 8) == 0 { 1.0 } else { -1.0 };
-            // (y a neighbour of the product too: quotients exact or not)
-            let y = if r & (1 << 7) == 0 {
-                y
-            } else {
-                f64::from_bits(y.to_bits() + 1)
-            };
-            same(y, x);
-            if y.abs() <= x.abs() * NEAR_AXIS_RATIO {
-                taken += 1;
-                if x > 0.0 && (-(y / x)).mul_add(x, y) == 0.0 {
-                    exact += 1;
-                }
-            }
-        }
-        assert!(taken > 50_000, "{taken} near the axis");
-        assert!(exact > 10_000, "{exact} exact quotients");
-        // the benchmark's R arcs: 2.1 → 2.6 about (2.35, 0.1 + 1 ulp)
-        for (y, x) in [
-            (-1.3877787807814457e-17, -0.25),
-            (-1.3877787807814457e-17, 0.25),
-        ] {
-            same(y, x);
-            assert!(y.abs() <= x.abs() * NEAR_AXIS_RATIO);
-        }
-        let special = [
-            0.0,
-            -0.0,
-            1e-300,
-            -1e-300,
-            1.0,
-            -1.0,
-            f64::MIN_POSITIVE,
-            5e-324,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NAN,
-        ];
-        for &y in &special {
-            for &x in &special {
-                same(y, x);
-            }
-        }
-    }
-
-    /// The axis cases of `atan2_axis` and `hypot_axis` are the library's bits, and
-    /// so is everything else: zeros of both signs, infinities, NaN and ordinary
-    /// values in every quadrant.
-    #[test]
-    fn axis_cases_are_the_librarys() {
-        let vals = [
-            0.0,
-            -0.0,
-            1.0,
-            -1.0,
-            0.25,
-            -0.25,
-            1e-300,
-            -1e-300,
-            5e-324,
-            -5e-324,
-            3.7e12,
-            -3.7e12,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NAN,
-            f64::MIN_POSITIVE,
-        ];
-        for y in vals {
-            for x in vals {
-                let (a, b) = (atan2_axis(y, x), y.atan2(x));
-                assert!(
-                    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
-                    "atan2({y}, {x}): {a} vs {b}"
-                );
-                let (a, b) = (hypot_axis(x, y), x.hypot(y));
-                assert!(
-                    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
-                    "hypot({x}, {y}): {a} vs {b}"
-                );
-            }
         }
     }
 

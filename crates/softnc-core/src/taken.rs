@@ -107,6 +107,7 @@ const KERNEL_FS_MAGIC: [(i64, &str); 14] = [
 
 /// Whether the opened `file` is a kernel file: on one of the kernel's pseudo file
 /// systems, or under `/proc`, `/sys` or `/dev` (where the kernel says it is).
+#[allow(unsafe_code)] // (its SAFETY lines below)
 fn kernel_file(file: &std::fs::File) -> Option<String> {
     // SAFETY: `statfs` is plain data; fstatfs fills it for an open descriptor.
     let mut st: libc::statfs = unsafe { std::mem::zeroed() };

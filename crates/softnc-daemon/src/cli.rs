@@ -84,6 +84,7 @@ pub fn find_config(given: Option<PathBuf>) -> PathBuf {
 
 /// Parse the arguments, initialise logging (`RUST_LOG`, default info; colours only
 /// on a terminal) and load the configuration.
+#[allow(unsafe_code)] // (its SAFETY lines below)
 pub fn start(process: &'static str) -> Result<Loaded, ExitCode> {
     use clap::FromArgMatches;
     // SAFETY: umask has no preconditions; set before this process creates any file

@@ -304,6 +304,7 @@ impl Loaded {
 
 impl DaemonConfig {
     /// Load, validate, and load the machine profile it names.
+    #[allow(clippy::too_many_lines)]
     pub fn load(path: &Path) -> Result<Loaded, ConfigError> {
         let (file, text) = softnc_core::config::read_text(path)?;
         let config: DaemonConfig = parse_ron(&text, &file)?;

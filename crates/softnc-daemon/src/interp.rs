@@ -621,6 +621,7 @@ impl InterpTask {
         Ok(end)
     }
 
+    #[allow(clippy::too_many_lines)]
     fn step(&mut self, s: &mut Streaming<'_>) -> Result<Option<JobEnd>> {
         let job_id = s.job_id;
         let ahead = s.ahead;

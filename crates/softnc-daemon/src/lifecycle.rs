@@ -38,6 +38,7 @@ pub fn termination_requested() -> bool {
 /// Catch SIGTERM and SIGINT with a handler that sets [`termination_requested`].
 /// iceoryx2's signal handler (installed on first use, by it or by us) is set up
 /// first so that it never replaces ours later.
+#[allow(unsafe_code)] // (its SAFETY lines below)
 pub fn catch_termination_signals() -> std::io::Result<()> {
     let _ = SignalHandler::last_signal();
     for sig in [libc::SIGTERM, libc::SIGINT] {
@@ -207,6 +208,7 @@ pub enum PrivateDirError {
 }
 
 /// The effective user id of this process.
+#[allow(unsafe_code)] // (its SAFETY lines below)
 pub fn effective_uid() -> u32 {
     // SAFETY: geteuid has no preconditions and cannot fail
     unsafe { libc::geteuid() }
@@ -509,6 +511,7 @@ mod tests {
         assert_eq!(name, "softnc-softnc-___mill_1.lock");
     }
 
+    #[allow(unsafe_code)] // (its SAFETY lines below)
     #[test]
     fn a_sigterm_is_kept_whatever_signal_follows_it() {
         catch_termination_signals().unwrap();

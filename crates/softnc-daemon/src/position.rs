@@ -567,6 +567,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     }
 
     /// Control commands from the MMI, E-stops straight from clients.
+    #[allow(clippy::too_many_lines)]
     fn pull_control(&mut self) -> Result<()> {
         while let Some(e) = self.estop.receive()? {
             let pid = e.sender_pid;
@@ -946,6 +947,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     }
 
     /// One position cycle.
+    #[allow(clippy::too_many_lines)]
     pub fn cycle(&mut self) -> Result<()> {
         // 1. inputs (control first: a job's StartJob comes before its samples)
         self.pull_commands()?;

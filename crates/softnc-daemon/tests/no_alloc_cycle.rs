@@ -136,6 +136,7 @@ fn run_counted(machine_file: &str, tag: &str, spindle_override: Option<f64>, fed
 }
 
 /// [`run_counted`]; with `adaptive`, the job is started with adaptive feed.
+#[allow(clippy::too_many_lines)]
 fn run_counted_with(
     machine_file: &str,
     tag: &str,

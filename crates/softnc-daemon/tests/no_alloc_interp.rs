@@ -104,6 +104,7 @@ fn run_counted(
 /// [`run_counted`]; with `force_override`, the job runs with adaptive feed and the
 /// position process played by the test reports a force-loop revolution with that
 /// override every [`SAMPLES_PER_REVOLUTION`] samples.
+#[allow(clippy::too_many_lines)]
 fn run_counted_with(
     tag: &str,
     job_text: &str,

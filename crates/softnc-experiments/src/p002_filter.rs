@@ -87,6 +87,7 @@ impl FilterResult {
 }
 
 /// Run the experiment on `machine` (whose X and Y carry a filter and a mode).
+#[allow(clippy::too_many_lines)]
 pub fn experiment(machine: &MachineProfile) -> Result<FilterResult> {
     let servo_x = machine.axis_servo(0);
     let (Some(filter), Some(mode)) = (servo_x.command_filter, servo_x.resonance) else {

@@ -124,6 +124,7 @@ pub struct ControlSpec {
 }
 
 /// Run one straight cut along the feed axis through the whole loop.
+#[allow(clippy::too_many_lines)]
 pub fn run_cut(
     machine: &MachineProfile,
     force: &ForceProfile,

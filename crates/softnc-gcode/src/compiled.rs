@@ -545,7 +545,7 @@ fn bad<T>(at: usize, msg: impl Into<String>) -> R<T> {
 
 /// Evaluate `code` with the parameters of `env`: the value, or the error the text
 /// reader gives for the same line and parameters.
-#[inline(always)]
+#[inline]
 pub fn eval<E: Env + ?Sized>(code: &Code, env: &E) -> R<f64> {
     // most values of a loop are one or two steps (a call argument `[#<i>]`, a
     // condition `[#<j> LT 100]`): the same steps on one value, without the stack
@@ -567,7 +567,6 @@ pub fn eval<E: Env + ?Sized>(code: &Code, env: &E) -> R<f64> {
 
 /// A step that pushes a value onto an empty stack, as [`eval_stack`] does it;
 /// `None` for a step that takes values from the stack.
-#[inline(always)]
 fn push_step<E: Env + ?Sized>(op: &Op, code: &Code, env: &E) -> Option<R<f64>> {
     Some(match *op {
         Op::Num(v) => Ok(v),
@@ -582,7 +581,6 @@ fn push_step<E: Env + ?Sized>(op: &Op, code: &Code, env: &E) -> Option<R<f64>> {
 }
 
 /// Whether [`top_step`] takes `op`.
-#[inline(always)]
 fn is_top_step(op: &Op) -> bool {
     matches!(
         op,
@@ -592,7 +590,6 @@ fn is_top_step(op: &Op) -> bool {
 
 /// A step that replaces the top of a stack of one value `v`, as [`eval_stack`]
 /// does it (only the steps [`is_top_step`] takes).
-#[inline(always)]
 fn top_step(op: &Op, v: f64) -> R<f64> {
     match *op {
         Op::BinNum(op, right, at) => bin(op, v, right, at),
@@ -606,7 +603,6 @@ fn top_step(op: &Op, v: f64) -> R<f64> {
 }
 
 /// [`eval`] of any code, on a fixed stack.
-#[inline(never)]
 fn eval_stack<E: Env + ?Sized>(code: &Code, env: &E) -> R<f64> {
     // `compile` bounds the height by STACK, a power of two: masking the index
     // keeps it in the array without a bounds check
@@ -708,7 +704,6 @@ fn eval_stack<E: Env + ?Sized>(code: &Code, env: &E) -> R<f64> {
 
 /// `read_real_value`'s end: `v`, or the error for a value that is not a number or
 /// infinite (value at `start`).
-#[inline(always)]
 fn check(v: f64, start: usize) -> R<f64> {
     if v.is_finite() {
         Ok(v)
@@ -719,7 +714,6 @@ fn check(v: f64, start: usize) -> R<f64> {
 
 /// The error of [`check`].
 #[cold]
-#[inline(never)]
 fn not_finite(v: f64, start: usize) -> R<f64> {
     let what = if v.is_nan() {
         "not a number"
@@ -730,7 +724,6 @@ fn not_finite(v: f64, start: usize) -> R<f64> {
 }
 
 /// `left op right` (`BinOp::apply`, the commonest operations written out).
-#[inline(always)]
 fn bin(op: BinOp, left: f64, right: f64, at: usize) -> R<f64> {
     Ok(match op {
         BinOp::Plus => left + right,
@@ -744,7 +737,6 @@ fn bin(op: BinOp, left: f64, right: f64, at: usize) -> R<f64> {
 /// Named parameter `code.names[name]` (`#` at `at`), or whether it exists: by
 /// slot where it is set in its scope (the same value the name gives), by name
 /// otherwise (predefined, unset, …).
-#[inline(always)]
 fn named_value<E: Env + ?Sized>(
     code: &Code,
     name: usize,
@@ -774,7 +766,6 @@ fn named_value<E: Env + ?Sized>(
 /// A named parameter read by its name (no slot yet, or unset in its slot's scope):
 /// the name's slot is remembered once it has one.
 #[cold]
-#[inline(never)]
 fn named<E: Env + ?Sized>(code: &Code, name: usize, at: usize, env: &E) -> R<Option<f64>> {
     let slot = &code.slots[name];
     let name = &code.names[name];

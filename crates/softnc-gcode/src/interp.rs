@@ -597,7 +597,6 @@ impl<'a> Interp<'a> {
     }
 
     /// Canonical frame → machine coordinates (mm).
-    #[inline(always)]
     fn offset(&self) -> Vec3 {
         self.offset_mm
     }
@@ -625,7 +624,7 @@ impl<'a> Interp<'a> {
     /// `read_items` for one word: into the block, with LinuxCNC's reading errors (the
     /// words come in the order of the line); codes and axes softnc does not implement
     /// are refused where they stand.
-    #[inline(always)]
+    #[allow(clippy::too_many_lines)]
     fn sort_word(&self, w: Word, b: &mut Block) -> R<()> {
         let Word {
             letter,
@@ -752,12 +751,12 @@ impl<'a> Interp<'a> {
 
     /// [`Self::sort_word`] kept out of line, for the full reader (the hot path
     /// inlines its own copy).
-    #[inline(never)]
     fn sort_word_slow(&self, w: Word, b: &mut Block) -> R<()> {
         self.sort_word(w, b)
     }
 
     /// `enhance_block` and `check_items`.
+    #[allow(clippy::too_many_lines)]
     fn check(&self, b: &mut Block) -> R<()> {
         if b.is_empty() {
             // nothing below applies to a block without words (every test asks for
@@ -965,7 +964,6 @@ impl<'a> Interp<'a> {
     }
 
     /// The last comment of the block (`convert_comment`).
-    #[inline(never)]
     fn comment(&mut self, raw: &str, line: &Line, line_no: u32) -> R<()> {
         let Some((s, e)) = line.comment else {
             return Ok(());
@@ -1017,6 +1015,7 @@ impl<'a> Interp<'a> {
     }
 
     /// `execute_block` for one checked block; `Ok(true)` at program end.
+    #[allow(clippy::too_many_lines)]
     fn execute(&mut self, line_no: u32, b: &Block) -> R<bool> {
         if self.sync_pending {
             // rs274 re-reads its position from the canonical interface after a tool change
@@ -1296,7 +1295,6 @@ impl<'a> Interp<'a> {
     }
 
     /// Hand a motion on, unless a run from line has not reached its start block.
-    #[inline(always)]
     fn keep(&mut self, m: Motion) {
         if !self.suppress {
             self.moves_after_start += u64::from(m.kind.end().is_some());
@@ -1397,7 +1395,6 @@ impl<'a> Interp<'a> {
     /// the current one (G91), `^` the angle in degrees from +X (G91: added to the
     /// current point's), each keeping the other coordinate where it is given none.
     #[cold]
-    #[inline(never)]
     fn polar_ends(&self, b: &Block, end: &mut Vec3) -> R<()> {
         let (x, y) = (end[0], end[1]);
         let at_origin = x == 0.0 && y == 0.0;
@@ -1454,7 +1451,6 @@ impl<'a> Interp<'a> {
     /// through the XY rotation (`interp_find.cc`: the current point is rotated
     /// out, the words replace its coordinates, the result is rotated back in).
     #[cold]
-    #[inline(never)]
     fn find_ends_g53(&self, b: &Block) -> Vec3 {
         let s = self.scale();
         let (o, g) = (self.origin, self.g92);
@@ -1473,7 +1469,6 @@ impl<'a> Interp<'a> {
     /// about the G92 origin, so that `machine = frame + offset` as LinuxCNC's
     /// `rotate_and_offset_pos` (`emccanon.cc`) maps it. Without rotation the point
     /// itself.
-    #[inline(always)]
     fn frame(&self, p: Vec3) -> Vec3 {
         if self.rotation_deg == 0.0 {
             p
@@ -1483,7 +1478,6 @@ impl<'a> Interp<'a> {
     }
 
     #[cold]
-    #[inline(never)]
     fn rotated(&self, p: Vec3) -> Vec3 {
         let g = self.g92;
         let (x, y) = rotate(p[0] + g[0], p[1] + g[1], self.rotation_deg);
@@ -1492,7 +1486,6 @@ impl<'a> Interp<'a> {
 
     /// A motion's kind with its end (and centre) in the rotated frame.
     #[cold]
-    #[inline(never)]
     fn rotate_kind(&self, kind: MotionKind, end: Vec3, center: Vec3) -> MotionKind {
         let s = self.scale();
         let e = sc(self.rotated(end), s);
@@ -1587,6 +1580,7 @@ impl<'a> Interp<'a> {
     }
 
     /// `convert_arc` and `convert_arc2` with `arc_data_ijk` / `arc_data_r`.
+    #[allow(clippy::too_many_lines)]
     fn arc(&mut self, line_no: u32, mode: i32, b: &Block) -> R<()> {
         let off = b.motion_off();
         let ijk = b.has(b'I') || b.has(b'J') || b.has(b'K');
@@ -1779,7 +1773,6 @@ fn rotate(x: f64, y: f64, deg: f64) -> (f64, f64) {
 }
 
 /// `v * s` (inlined: the hot path).
-#[inline(always)]
 fn sc(v: Vec3, s: f64) -> Vec3 {
     Vec3([v.0[0] * s, v.0[1] * s, v.0[2] * s])
 }
@@ -2228,6 +2221,7 @@ fn read_lines(
 }
 
 /// [`read_lines`] of a text or of bytes checked as UTF-8 where read.
+#[allow(clippy::too_many_lines)]
 fn read_source<'t>(
     main_text: SourceText<'t>,
     file: &str,

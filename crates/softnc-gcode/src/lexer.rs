@@ -155,7 +155,7 @@ pub fn lex_line(text: &str, out: &mut Line) -> Result<(), LexError> {
 /// listing it in `out` (whose `words` stay untouched); an error from `on_word` stops
 /// lexing and is returned. `maybe`: whether the line may contain a NUL byte or a `(`
 /// at all (the reader checks the whole file once, sparing two searches per line).
-#[inline(always)]
+#[allow(clippy::too_many_lines)]
 pub(crate) fn lex_words(
     text: &str,
     out: &mut Line,
@@ -402,7 +402,6 @@ pub(crate) const POW10: [f64; 23] = [
 /// an optional sign, 1 to 15 digits with at most one point, and then (after any white
 /// space) neither a digit, a point nor a sign. The value and the offset after the
 /// white space, or None (the general readers decide) for anything else.
-#[inline(always)]
 pub(crate) fn plain_number(b: &[u8], mut i: usize) -> Option<(f64, usize)> {
     let n = b.len();
     let neg = match b.get(i) {
@@ -545,7 +544,6 @@ pub(crate) fn plain_decimal(b: &[u8]) -> Option<f64> {
 }
 
 /// Append the decimal digits at `b[i..]` to `mant` (wrapping); the index after them.
-#[inline(always)]
 fn read_digits(b: &[u8], mut i: usize, mant: &mut u64) -> usize {
     while let Some(d) = b.get(i).map(|c| c.wrapping_sub(b'0')).filter(|&d| d < 10) {
         *mant = mant.wrapping_mul(10).wrapping_add(u64::from(d));

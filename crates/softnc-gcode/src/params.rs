@@ -119,7 +119,6 @@ impl Scope {
         self.values.get(slot as usize).copied().flatten()
     }
 
-    #[inline(always)]
     fn put(&mut self, slot: u32, value: f64) {
         let k = slot as usize;
         if self.values.len() <= k {
@@ -134,7 +133,6 @@ impl Scope {
     /// Room for slot `k` (once per slot and scope: kept out of the assignment's
     /// way).
     #[cold]
-    #[inline(never)]
     fn grow(&mut self, k: usize) {
         self.values.resize(k + 1, None);
     }

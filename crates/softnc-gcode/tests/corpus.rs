@@ -89,6 +89,7 @@ fn print_output(p: &softnc_gcode::Program) -> String {
         .join("\n")
 }
 
+#[allow(clippy::too_many_lines)]
 #[test]
 fn corpus_reads_as_linuxcnc_reads_it() {
     let Some(dir) = corpus() else {

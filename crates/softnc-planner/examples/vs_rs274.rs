@@ -19,6 +19,7 @@ use std::time::Instant;
 #[path = "../benches/common/workload.rs"]
 mod workload;
 
+#[allow(clippy::too_many_lines)]
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().collect();
     let rounds: usize = args

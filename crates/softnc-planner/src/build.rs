@@ -248,7 +248,6 @@ impl ArcPrep {
     }
 
     /// [`ArcView::of`] the arc `p` whose data this is.
-    #[inline(always)]
     fn view(&self, p: &Primitive, at_end: bool, max_drift_rad: f64) -> Option<ArcView> {
         ArcView::of_measured(p, at_end, max_drift_rad, self.end_radius_mm, self.len_mm)
     }
@@ -307,7 +306,6 @@ struct FilletFound {
 
 impl FilletFound {
     /// `f` (`line_arc` of `corner`, `u` and `arc`) in short.
-    #[inline(always)]
     fn of(f: &fillet::Fillet, arc: &ArcView) -> FilletFound {
         let (a, b, _) = arc.axes;
         FilletFound {
@@ -323,7 +321,6 @@ impl FilletFound {
     }
 
     /// The whole fillet, given the arguments it was worked out from.
-    #[inline(always)]
     fn fillet(&self, corner: Vec3, u: Vec3, arc: &ArcView) -> fillet::Fillet {
         let (a, b, _) = arc.axes;
         let p_line = corner - u * self.line_trim;
@@ -349,7 +346,6 @@ impl FilletFound {
 impl FilletAhead {
     /// The fillet found, if it was worked out from these arguments bit for bit
     /// (`Some(None)`: no fillet there); None where any argument of the key differs.
-    #[inline(always)]
     fn matching(
         &self,
         corner: Vec3,
@@ -430,33 +426,24 @@ impl FilletsAhead {
         out: &mut Vec<(u32, FilletAhead)>,
     ) {
         if work && !self.single_block {
-            // the joins' arguments in two slots, written in place; two at a time
-            // through line_arc_2 (the same bits as two line_arc calls)
-            let mut slots = [AheadArgs::EMPTY; 2];
-            let mut n = 0;
-            let mut found = [None, None];
+            // each join's arguments in one slot, written in place
+            let mut slot = AheadArgs::EMPTY;
             if let (Some((m, p, q)), Some(m1), Some(p1), Some(q1)) =
                 (&self.last, motions.first(), prims.first(), preps.first())
             {
-                n += usize::from(self.join((m, p, q), (m1, p1, q1), 0, &mut slots[n]));
+                if self.join((m, p, q), (m1, p1, q1), 0, &mut slot) {
+                    slot.push(&slot.fillet(), out);
+                }
             }
             for k in 1..motions.len().min(prims.len()).min(preps.len()) {
-                n += usize::from(self.join(
+                if self.join(
                     (&motions[k - 1], &prims[k - 1], &preps[k - 1]),
                     (&motions[k], &prims[k], &preps[k]),
                     k,
-                    &mut slots[n],
-                ));
-                if n == 2 {
-                    fillet::line_arc_2([slots[0].join(), slots[1].join()], &mut found);
-                    slots[0].push(&found[0], out);
-                    slots[1].push(&found[1], out);
-                    n = 0;
+                    &mut slot,
+                ) {
+                    slot.push(&slot.fillet(), out);
                 }
-            }
-            if n == 1 {
-                found[0] = fillet::line_arc_one(&slots[0].join());
-                slots[0].push(&found[0], out);
             }
         }
         if let (Some(m), Some(p), Some(q)) = (motions.last(), prims.last(), preps.last()) {
@@ -547,8 +534,7 @@ impl FilletsAhead {
     }
 }
 
-/// The arguments of a fillet worked out ahead, kept until a second one comes to go
-/// through [`fillet::line_arc_2`] with it.
+/// The arguments of a fillet worked out ahead.
 struct AheadArgs {
     k: usize,
     corner: Vec3,
@@ -579,16 +565,16 @@ impl AheadArgs {
         tol_mm: 0.0,
     };
 
-    /// As [`fillet::line_arc_2`] takes them.
-    fn join(&self) -> fillet::LineArcJoin<'_> {
-        fillet::LineArcJoin {
-            corner: self.corner,
-            u: self.u,
-            line_avail_mm: self.line_avail_mm,
-            arc: &self.arc,
-            arc_avail_mm: self.arc_avail_mm,
-            tol_mm: self.tol_mm,
-        }
+    /// [`fillet::line_arc`] of these arguments.
+    fn fillet(&self) -> Option<fillet::Fillet> {
+        fillet::line_arc(
+            self.corner,
+            self.u,
+            self.line_avail_mm,
+            &self.arc,
+            self.arc_avail_mm,
+            self.tol_mm,
+        )
     }
 
     /// Its record, with the fillet `f` found for it (read where it was written).
@@ -909,7 +895,6 @@ impl PathBuilder {
     /// The test whether enough wait is inline in the caller (it runs after every
     /// motion and passes about once in `batch` elements); the hand-over is not
     /// (planning thread −3.4 M on the 200k-line program).
-    #[inline(always)]
     pub(crate) fn drain_settled_vec(
         &mut self,
         batch: usize,
@@ -921,7 +906,6 @@ impl PathBuilder {
     }
 
     /// [`PathBuilder::drain_settled_vec`] once more than one element waits.
-    #[inline(never)]
     fn hand_over_settled(&mut self, out: &mut impl FnMut(&mut Vec<Segment>, &[Geom])) {
         let n = self.path.segs.len();
         let Some(last) = self.path.segs.pop() else {
@@ -972,7 +956,6 @@ impl PathBuilder {
     ///
     /// Inline (into [`PathBuilder::push_prepared`] and [`PathBuilder::push`]): one call
     /// less a motion (planning thread −0.4 M on the 200k-line program).
-    #[inline(always)]
     fn push_with(
         &mut self,
         index: usize,
@@ -999,7 +982,6 @@ impl PathBuilder {
 
     /// [`PathBuilder::push_with`] where a G64 Q line comes or a chain is held: `q`
     /// the motion's Q (0 where none).
-    #[inline(never)]
     fn push_chained(
         &mut self,
         index: usize,
@@ -1063,6 +1045,7 @@ impl PathBuilder {
     }
 
     /// Add motion number `index` as it is programmed (no G64 Q merging).
+    #[allow(clippy::too_many_lines)]
     fn push_unmerged(
         &mut self,
         index: usize,
@@ -1309,7 +1292,8 @@ impl PathBuilder {
     /// Inline (into [`PathBuilder::push_unmerged`], its one hot caller): the call,
     /// its frame and the `Option<Blend>` handed back cost about 13 instructions a
     /// join (planning thread −2.6 M on the 200k-line program).
-    #[inline(always)]
+    #[allow(clippy::too_many_lines)]
+    #[inline(always)] // kept: the whole `softnc plan` measured slower without, docs/perf-log/speed-tricks.md
     fn circle_blend(&self, a: &Pending, b: &Pending, ahead: Option<&FilletAhead>) -> Option<Blend> {
         // (by reference: the geometries are not copied to be matched)
         match (&a.geom, &b.geom) {
@@ -1497,21 +1481,18 @@ impl PathBuilder {
     }
 
     /// The arc data of the pending move, if given.
-    #[inline(always)]
     fn prep_prev(&self) -> &Option<ArcPrep> {
         &self.preps[(self.prep_next_slot ^ 1) & 1]
     }
 
     /// The arc data of the move after the pending one while their corner is
     /// blended, if given.
-    #[inline(always)]
     fn prep_next(&self) -> &Option<ArcPrep> {
         &self.preps[self.prep_next_slot & 1]
     }
 
     /// [`ArcView::of`] the move after the corner being blended (an arc, `arc`), from
     /// its start: from its [`ArcPrep`] where one came with it.
-    #[inline(always)]
     fn view_next(&self, arc: &Primitive) -> Option<ArcView> {
         match self.prep_next() {
             Some(p) => p.view(arc, false, self.max_drift_rad()),
@@ -1751,7 +1732,7 @@ impl PathBuilder {
 
     /// The element of move `p` whose geometry [`PathBuilder::emit`] has just pushed,
     /// of shape `shape`, then the blend after it (if any).
-    #[inline(always)]
+    #[inline(always)] // kept: the whole `softnc plan` measured slower without, docs/perf-log/speed-tricks.md
     fn push_shaped(
         &mut self,
         p: &Pending,
@@ -1779,7 +1760,6 @@ impl PathBuilder {
     }
 
     /// [`PathBuilder::push_shaped`] out of line, for the rarer elements.
-    #[inline(never)]
     fn push_shaped_cold(
         &mut self,
         p: &Pending,
@@ -1814,7 +1794,7 @@ impl PathBuilder {
 
     /// [`PathBuilder::push_blend_piece`] of an arc whose sweep's cosine and sine the
     /// construction gave (`trig`).
-    #[inline(always)]
+    #[inline(always)] // kept: the whole `softnc plan` measured slower without, docs/perf-log/speed-tricks.md
     fn push_blend_trig(&mut self, p: &Pending, arc: &BlendArc, (cos_s, sin_s): (f64, f64)) {
         let &BlendArc {
             e1,
@@ -1837,7 +1817,7 @@ impl PathBuilder {
     /// the shape is then read where its callers built it (planning thread −2.0 M on
     /// the 200k-line program, with `circle_blend` inline; alone, in `plan12`, −2.3 M
     /// but +1.2 M on the reading thread).
-    #[inline(always)]
+    #[inline(always)] // kept: the whole `softnc plan` measured slower without, docs/perf-log/speed-tricks.md
     fn push_element(
         &mut self,
         m: &Pending,
@@ -1978,7 +1958,6 @@ struct BlendArc {
 
 impl BlendArc {
     /// The path element's geometry.
-    #[inline(always)]
     fn geom(&self) -> Geom {
         Geom::Blend {
             center: self.center,
@@ -1992,7 +1971,6 @@ impl BlendArc {
 
 /// [`fillet::line_arc`] of these arguments: the fillet worked out ahead where it was
 /// worked out from the same bits ([`FilletAhead::matching`]), else computed here.
-#[inline(always)]
 fn line_arc_or_ahead(
     ahead: Option<&FilletAhead>,
     corner: Vec3,
@@ -2052,7 +2030,6 @@ fn sub_arc_by_angles(
 /// copies the held arc onto the path and cuts it there: an arc put together on the
 /// stack, its plane a byte beside seven of padding, was copied from there in
 /// 16-byte loads that waited on narrower stores just before them).
-#[inline(always)]
 fn cut_by_angles(arc: &mut Primitive, from: Vec3, to: Vec3, start_rad: f64, end_rad: f64) {
     let Primitive::Arc {
         start,
@@ -2197,7 +2174,6 @@ fn arc_end_tangent(p: &Primitive, at_end: bool) -> Vec3 {
 }
 
 /// [`arc_end_tangent`], inlined where it is called.
-#[inline(always)]
 fn arc_end_tangent_inline(p: &Primitive, at_end: bool) -> Vec3 {
     let Primitive::Arc {
         start,
@@ -2304,7 +2280,7 @@ impl AccUse {
 /// Inline (into [`PathBuilder::push_element`]): out of line it took its nine
 /// arguments and the curvature closure through the stack, about 29 instructions an
 /// element (planning thread −11.6 M on the 200k-line program).
-#[inline(always)]
+#[inline(always)] // kept: the whole `softnc plan` measured slower without, docs/perf-log/speed-tricks.md
 fn junction_speed(
     lim: &Limits,
     cap_a: f64,
@@ -2388,7 +2364,7 @@ fn junction_speed(
 /// Inlined into its callers: returned through the stack, the reader's loop copied
 /// each 112-byte result to the vector with 16-byte loads of what it had just stored
 /// in 8-byte pieces, which the processor cannot forward (a stall at each of them).
-#[inline(always)]
+#[inline]
 pub fn motion_primitive(m: &Motion) -> Option<Primitive> {
     let off = m.offset_mm;
     match m.kind {

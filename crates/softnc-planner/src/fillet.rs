@@ -76,7 +76,7 @@ impl ArcView {
     /// [`ArcView::of`] given the arc's end radius in its plane `re` (|end − c|,
     /// computed as `of` does) and its length `len` (`Primitive::length`): no square
     /// root, the same view.
-    #[inline(always)]
+    #[inline]
     pub fn of_measured(
         p: &Primitive,
         at_end: bool,
@@ -191,7 +191,6 @@ fn first_trim(t1: Vec3, t2: Vec3, tol_mm: f64) -> f64 {
 /// and with cos(θ/2) = √((1 + c)/2) and 1 − cos(θ/2) = s²/(2(1 + c)(1 + cos(θ/2)))
 /// that is 2·δ·cos(θ/2)·(1 + cos(θ/2))/s: one root and one division, and no loss of
 /// precision at small turns (no difference of nearly equal numbers).
-#[inline(always)]
 fn first_trim_cs(c: f64, s: f64, tol_mm: f64) -> f64 {
     // (the clamp only where it changes c: off the chain of roots and divisions that
     // every fillet waits on)
@@ -214,7 +213,6 @@ fn first_trim_cs(c: f64, s: f64, tol_mm: f64) -> f64 {
 /// 1 + c for a turn cosine `c` beyond [−1, 1] (or NaN): clamped first, as
 /// [`first_trim_cs`] takes it.
 #[cold]
-#[inline(never)]
 fn first_trim_clamped(c: f64) -> f64 {
     1.0 + c.clamp(-1.0, 1.0)
 }
@@ -252,7 +250,6 @@ pub fn line_arc(
 /// sine (u × t)·N = k·(u·p): one root and one division. The fillet's centre lies
 /// along n, u turned a quarter towards the turn: (−u_b, u_a) or (u_b, −u_a), exactly
 /// ⟂ u (n·u is x − x = 0) and of u's length, with no root or division.
-#[inline(always)]
 fn line_arc_in<const A: usize, const B: usize, const N: usize>(
     corner: Vec3,
     u: Vec3,
@@ -305,7 +302,6 @@ fn line_arc_in<const A: usize, const B: usize, const N: usize>(
 /// close ([`closes`]). Out of line and cold: the fillets of CAM programs are proven
 /// to close by their bound.
 #[cold]
-#[inline(never)]
 fn fillet_if_closes<const A: usize, const B: usize, const N: usize>(
     c: &Candidate,
     arc: &ArcView,
@@ -313,177 +309,6 @@ fn fillet_if_closes<const A: usize, const B: usize, const N: usize>(
 ) -> Option<Fillet> {
     let f = c.fillet::<A, B, N>(arc);
     closes(&f, u).then_some(f)
-}
-
-/// The arguments of one [`line_arc`] call, for [`line_arc_2`].
-#[derive(Debug, Clone, Copy)]
-pub struct LineArcJoin<'a> {
-    /// The corner.
-    pub corner: Vec3,
-    /// The line's unit direction, into the corner.
-    pub u: Vec3,
-    /// How much of the line may be given (mm).
-    pub line_avail_mm: f64,
-    /// The arc, seen from the corner.
-    pub arc: &'a ArcView,
-    /// How much of the arc may be given (mm).
-    pub arc_avail_mm: f64,
-    /// The blend tolerance (mm).
-    pub tol_mm: f64,
-}
-
-/// [`line_arc`] of two joins at once, with the same bits as two calls, the fillets
-/// written to `out` in place (about 140 bytes each). Both are worked out side by side
-/// in the two lanes of the processor's two-double registers (`lanes::F2`), the same
-/// operations in the same order as `line_arc_in` on its first trim, so that one pass
-/// of instructions serves both and the two chains of roots and divisions overlap
-/// (a call alone mostly waits on its chain). A join whose first trim does not give
-/// a fillet along that path at once (any of `line_arc_in`'s tests failing or taking a
-/// special case: a clamped turn cosine, a second trim, a closure to measure, an
-/// `atan2` off fdlibm's main path), or a pair in two different planes, is worked
-/// out by [`line_arc`] (its lane's numbers are dropped). For consecutive joins
-/// worked out ahead (`FilletsAhead`): on the 200k-line workload's joins about 60 ns
-/// a join against 83 ns for calls one after the other (`benches/fillet.rs`).
-pub fn line_arc_2(joins: [LineArcJoin<'_>; 2], out: &mut [Option<Fillet>; 2]) {
-    if joins[0].arc.axes == joins[1].arc.axes {
-        match joins[0].arc.axes {
-            (0, 1, 2) => return line_arc_2_in::<0, 1, 2>(&joins, out),
-            (2, 0, 1) => return line_arc_2_in::<2, 0, 1>(&joins, out),
-            (1, 2, 0) => return line_arc_2_in::<1, 2, 0>(&joins, out),
-            _ => {}
-        }
-    }
-    out[0] = line_arc_one(&joins[0]);
-    out[1] = line_arc_one(&joins[1]);
-}
-
-/// [`line_arc`] of `j`.
-#[inline(always)]
-pub(crate) fn line_arc_one(j: &LineArcJoin) -> Option<Fillet> {
-    line_arc(
-        j.corner,
-        j.u,
-        j.line_avail_mm,
-        j.arc,
-        j.arc_avail_mm,
-        j.tol_mm,
-    )
-}
-
-/// [`line_arc_2`] for two joins in the plane of axes `A`, `B` and normal `N`: lane
-/// `i` computes [`line_arc_in`]'s first trim of `joins[i]`, with each of its tests
-/// kept as a mask (`ok`) where it returns or branches (a NaN fails every one).
-#[inline(always)]
-fn line_arc_2_in<const A: usize, const B: usize, const N: usize>(
-    joins: &[LineArcJoin<'_>; 2],
-    out: &mut [Option<Fillet>; 2],
-) {
-    use lanes::F2;
-    use std::f64::consts::{PI, TAU};
-    let [j0, j1] = joins;
-    let both = |f: &dyn Fn(&LineArcJoin) -> f64| F2::new(f(j0), f(j1));
-    let k = F2::splat;
-    let u_n = both(&|j| j.u[N]);
-    let mut ok = u_n.abs().le(k(1e-9));
-    let (ua, ub) = (both(&|j| j.u[A]), both(&|j| j.u[B]));
-    let (ca, cb) = (both(&|j| j.arc.center[A]), both(&|j| j.arc.center[B]));
-    let (corner_a, corner_b) = (both(&|j| j.corner[A]), both(&|j| j.corner[B]));
-    let (pa, pb) = (corner_a - ca, corner_b - cb);
-    let p_norm = (pa * pa + pb * pb).sqrt();
-    ok = ok & p_norm.gt(k(0.0));
-    let so = both(&|j| j.arc.sense) * both(&|j| j.arc.orient);
-    let kt = so / p_norm;
-    let cos_turn = (ub * pa - ua * pb) * kt;
-    let sin_turn = (ua * pa + ub * pb) * kt;
-    ok = ok & sin_turn.abs().ge(k(1e-9));
-    let left = sin_turn.gt(k(0.0));
-    let (na, nb) = (F2::select(left, -ub, ub), F2::select(left, ua, -ua));
-    // first_trim_cs: the cosine within [−1, 1] (its clamp does nothing), no
-    // reversal (the sine is positive: the test above)
-    let c = cos_turn;
-    ok = ok & c.ge(k(-1.0)) & c.le(k(1.0));
-    let s = sin_turn.abs();
-    let s = F2::select(k(1.0).lt(s), k(1.0), s);
-    let one_plus_c = k(1.0) + c;
-    ok = ok & one_plus_c.gt(k(0.0));
-    let cos_half = (k(0.5) * one_plus_c).sqrt();
-    let tol = both(&|j| j.tol_mm);
-    let first = k(2.0 * DEVIATION_SHARE) * tol * cos_half * (k(1.0) + cos_half) / s;
-    let line_avail = both(&|j| j.line_avail_mm);
-    let d = F2::select(first.lt(line_avail), first, line_avail);
-    ok = ok & d.gt(k(1e-9));
-    // line_arc_at
-    let big_r = both(&|j| j.arc.radius);
-    let corner_n = both(&|j| j.corner[N]);
-    let (p1a, p1b, p1n) = (corner_a - ua * d, corner_b - ub * d, corner_n - u_n * d);
-    let (wa, wb) = (p1a - ca, p1b - cb);
-    let wu = wa * ua + wb * ub;
-    ok = ok & (wu.lt(k(0.0)) | wu.gt(k(0.0)));
-    let sigma = F2::select(wu.lt(k(0.0)), k(1.0), k(-1.0));
-    let wn = wa * na + wb * nb;
-    let r = (big_r * big_r - (wa * wa + wb * wb)) / (k(2.0) * (wn - sigma * big_r));
-    ok = ok & r.lt(k(f64::INFINITY)) & r.gt(k(1e-6));
-    let (fa, fb) = (wa + na * r, wb + nb * r);
-    let fc_norm = (fa * fa + fb * fb).sqrt();
-    let radial_mismatch_mm = (fc_norm - (big_r + sigma * r)).abs();
-    let r_or_1 = F2::select(k(1.0).gt(big_r), k(1.0), big_r);
-    ok = ok & fc_norm.ge(k(1e-12)) & radial_mismatch_mm.le(k(1e-7) * r_or_1);
-    let (da, db) = (pa - fa, pb - fb);
-    let deviation = ((da * da + db * db).sqrt() - r).abs();
-    ok = ok & deviation.le(k(DEVIATION_SHARE) * tol);
-    let q1 = sigma * (fa * na + fb * nb);
-    let q2 = -sigma * (fa * ua + fb * ub);
-    ok = ok & q2.gt(k(0.0));
-    let inv_f = k(1.0) / fc_norm;
-    let (cos_sweep, sin_sweep) = (q1 * inv_f, q2 * inv_f);
-    let along = ((ua * cos_sweep + na * sin_sweep) * -fb + (ub * cos_sweep + nb * sin_sweep) * fa)
-        * (so * inv_f);
-    ok = ok & along.ge(k(1.0 - 1e-9));
-    let sweep = q2.atan2(q1);
-    ok = ok & sweep.gt(k(1e-9)) & sweep.lt(k(PI - 1e-6));
-    let ang = ((pa * fb - pb * fa) * so).atan2(pa * fa + pb * fb);
-    let arc_trim_rad = F2::select(ang.lt(k(0.0)), ang + k(TAU), ang);
-    let arc_trim = arc_trim_rad * big_r;
-    ok = ok & arc_trim.gt(k(1e-9)) & arc_trim.le(both(&|j| j.arc_avail_mm));
-    let (center_a, center_b) = (ca + fa, cb + fb);
-    let scale = big_r * inv_f;
-    let (p_arc_a, p_arc_b) = (ca + fa * scale, cb + fb * scale);
-    let center_n = both(&|j| j.arc.center[N]);
-    // closure_bound_mm
-    let bound = radial_mismatch_mm
-        + r * u_n.abs()
-        + (p1n - center_n).abs()
-        + k(100.0 * f64::EPSILON) * (ca.abs() + cb.abs() + wa.abs() + wb.abs() + big_r + r);
-    ok = ok & bound.le(k(CLOSURE_SURE_SHARE * FILLET_CLOSURE_MM));
-    let bits = ok.bits();
-    let lane = |i: usize, x: F2| if i == 0 { x.lanes().0 } else { x.lanes().1 };
-    let fillet = |i: usize, j: &LineArcJoin, out: &mut Option<Fillet>| {
-        if bits & (1 << i) == 0 {
-            *out = line_arc_one(j);
-            return;
-        }
-        let mut p_line = j.corner;
-        (p_line[A], p_line[B], p_line[N]) = (lane(i, p1a), lane(i, p1b), lane(i, p1n));
-        let mut center = p_line;
-        (center[A], center[B]) = (lane(i, center_a), lane(i, center_b));
-        let mut p_arc = j.arc.center;
-        (p_arc[A], p_arc[B]) = (lane(i, p_arc_a), lane(i, p_arc_b));
-        *out = Some(Fillet {
-            line_trim: lane(i, d),
-            arc_trim: lane(i, arc_trim),
-            arc_trim_rad: lane(i, arc_trim_rad),
-            center,
-            radius: lane(i, r),
-            p_line,
-            p_arc,
-            sweep: lane(i, sweep),
-            cos_sweep: lane(i, cos_sweep),
-            sin_sweep: lane(i, sin_sweep),
-        });
-    };
-    let [out0, out1] = out;
-    fillet(0, j0, out0);
-    fillet(1, j1, out1);
 }
 
 /// A fillet found by [`line_arc_at`], in the numbers it was built from: the
@@ -518,7 +343,6 @@ struct Candidate {
 
 impl Candidate {
     /// The fillet, for an arc in the plane of axes `A`, `B` and normal `N`.
-    #[inline(always)]
     fn fillet<const A: usize, const B: usize, const N: usize>(&self, arc: &ArcView) -> Fillet {
         let mut center = self.p_line;
         center[A] = self.center_ab.0;
@@ -550,7 +374,6 @@ impl Candidate {
 /// that tangency alone is built; against e1 = (P₁ − F)/r = −n and e2 = u its
 /// direction is σ·((F − c)·n, −(F − c)·u)/|F − c|, which gives the sweep's cosine and
 /// sine with one division and its angle (`atan2`, free of scale) without one.
-#[inline(always)]
 #[allow(clippy::too_many_arguments)] // (the join's arguments, and what line_arc_in worked out)
 fn line_arc_at<const A: usize, const B: usize, const N: usize>(
     corner: Vec3,
@@ -608,12 +431,12 @@ fn line_arc_at<const A: usize, const B: usize, const N: usize>(
     if along < 1.0 - 1e-9 {
         return None;
     }
-    let sweep = atan2(q2, q1);
+    let sweep = libm::atan2(q2, q1);
     if !(sweep > 1e-9 && sweep < std::f64::consts::PI - 1e-6) {
         return None;
     }
     // the arc's angle from C to T in its direction of travel, in [0, 2π)
-    let ang = atan2((pa * fb - pb * fa) * so, pa * fa + pb * fb);
+    let ang = libm::atan2((pa * fb - pb * fa) * so, pa * fa + pb * fb);
     let arc_trim_rad = if ang < 0.0 {
         ang + std::f64::consts::TAU
     } else {
@@ -658,7 +481,6 @@ const CLOSURE_SURE_SHARE: f64 = 0.25;
 /// |P₁_N − c_N| off the arc's plane, and 100 ε of the coordinates', the radii's and
 /// the fillet's own magnitudes for the rounding of the few tens of operations
 /// between (n is exactly ⟂ u: no term for a skewed pair −n, u).
-#[inline(always)]
 fn closure_bound_mm(
     radial_mismatch_mm: f64,
     r_mm: f64,
@@ -809,7 +631,6 @@ fn candidate(
 /// The distances are compared squared (no roots: about a fifth of a fillet's cost
 /// otherwise); they differ from `norm() <= FILLET_CLOSURE_MM` only within rounding
 /// of the bound itself.
-#[inline(always)]
 fn closes(f: &Fillet, u: Vec3) -> bool {
     let (r, c, s) = (f.radius, f.cos_sweep, f.sin_sweep);
     let inv_r = 1.0 / r;
@@ -1011,492 +832,4 @@ fn biarc_pieces(p0: Vec3, t0: Vec3, p1: Vec3, t1: Vec3) -> Option<[ArcPiece; 2]>
             && (arc.tangent(arc.sweep) - t).norm() <= BIARC_CLOSURE_MM
     };
     (closes(&first, join, tj) && closes(&second, p1, t1)).then_some([first, second])
-}
-
-/// `atan2(y, x)` as fdlibm computes it (Sun Microsystems 1993, `e_atan2.c` and
-/// `s_atan.c`, as musl and Rust's `libm` crate keep them: error below 1 ulp), inline:
-/// the fillets take two angles per corner, and the system library's `atan2` (glibc,
-/// correctly rounded) cost about 150 instructions a call on the 200k-line benchmark.
-/// Non-finite arguments go to the library.
-#[inline(always)]
-fn atan2(y: f64, x: f64) -> f64 {
-    use std::f64::consts::{FRAC_PI_2, PI};
-    /// The low part of π (π − `PI`).
-    const PI_LO: f64 = 1.2246467991473532e-16;
-    if !(x.is_finite() && y.is_finite()) {
-        return atan2_not_finite(y, x);
-    }
-    if y == 0.0 {
-        return if x.is_sign_negative() {
-            PI.copysign(y)
-        } else {
-            y
-        };
-    }
-    if x == 0.0 {
-        return FRAC_PI_2.copysign(y);
-    }
-    let (ay, ax) = (y.abs(), x.abs());
-    // |y/x| beyond 2⁶⁰ is π/2 to the last bit; below 2⁻⁶⁰ behind a negative x, 0
-    let z = if ay > ax * 1.152_921_504_606_847e18 {
-        FRAC_PI_2 + 0.5 * PI_LO
-    } else if x < 0.0 && ay * 1.152_921_504_606_847e18 < ax {
-        0.0
-    } else {
-        atan_nonneg(ay / ax)
-    };
-    match (x < 0.0, y < 0.0) {
-        (false, false) => z,
-        (false, true) => -z,
-        (true, false) => PI - (z - PI_LO),
-        (true, true) => (z - PI_LO) - PI,
-    }
-}
-
-/// [`atan2`] of two pairs of arguments at once (`y.0`, `x.0`) and (`y.1`, `x.1`):
-/// [`lanes::F2::atan2`] (the test of the two-lane `atan2` against the scalar one).
-#[cfg(test)]
-fn atan2_2(y: (f64, f64), x: (f64, f64)) -> (f64, f64) {
-    lanes::F2::new(y.0, y.1)
-        .atan2(lanes::F2::new(x.0, x.1))
-        .lanes()
-}
-
-/// The rows of [`lanes::F2::atan2`]'s reduction, by how many of 7/16, 11/16, 19/16
-/// and 39/16 the ratio reaches: `a` and `b` of (x·a − b)/(a + x·b), which is x itself
-/// (a = 1, b = 0: x·1 − 0 and 1 + x·0 are exact), fdlibm's (2x − 1)/(2 + x),
-/// (x − 1)/(x + 1), (x − 1.5)/(1 + 1.5x) and −1/x (a = 0: x·0 − 1 = −1 and 0 + x = x,
-/// x finite and positive); then atan's high and low parts at the reference point
-/// (zero for the row without reduction: 0 − ((x·s − 0) − x) = x − x·s exactly, the
-/// negation being exact).
-const ATAN_ROWS: [[f64; 4]; 5] = [
-    [1.0, 0.0, 0.0, 0.0],
-    [2.0, 1.0, ATAN_HI[0], ATAN_LO[0]],
-    [1.0, 1.0, ATAN_HI[1], ATAN_LO[1]],
-    [1.0, 1.5, ATAN_HI[2], ATAN_LO[2]],
-    [0.0, 1.0, ATAN_HI[3], ATAN_LO[3]],
-];
-
-/// Two doubles side by side, one per lane, and the arithmetic [`line_arc_2`] needs
-/// on them: plain `f64` operations lane by lane, so each lane gives the bits the same
-/// computation on `f64` gives (IEEE 754 add, subtract, multiply, divide and square
-/// root, correctly rounded; a sign flip and an absolute value on the sign bit). The
-/// two lanes' instructions come interleaved, so the processor overlaps the two chains
-/// of roots and divisions (where the compiler does not pair them into two-double
-/// registers itself). Safe code: no intrinsics (`unsafe` is kept for IPC).
-mod lanes {
-    use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Sub};
-
-    /// Two doubles (lane 0, lane 1).
-    #[derive(Clone, Copy)]
-    pub(super) struct F2([f64; 2]);
-
-    /// A comparison's outcome in each lane: all ones where it holds, else zero (as
-    /// the processor's packed comparisons give it, so that the compiler can use them).
-    #[derive(Clone, Copy)]
-    pub(super) struct M2([u64; 2]);
-
-    /// All ones where `holds`.
-    #[inline(always)]
-    fn mask(holds: bool) -> u64 {
-        u64::from(holds).wrapping_neg()
-    }
-
-    /// `f` of each lane.
-    #[inline(always)]
-    fn each(a: F2, f: impl Fn(f64) -> f64) -> F2 {
-        F2([f(a.0[0]), f(a.0[1])])
-    }
-
-    /// `f` of each pair of lanes.
-    #[inline(always)]
-    fn both(a: F2, b: F2, f: impl Fn(f64, f64) -> f64) -> F2 {
-        F2([f(a.0[0], b.0[0]), f(a.0[1], b.0[1])])
-    }
-
-    /// `f` of each pair of lanes, a comparison.
-    #[inline(always)]
-    fn test(a: F2, b: F2, f: impl Fn(f64, f64) -> bool) -> M2 {
-        M2([mask(f(a.0[0], b.0[0])), mask(f(a.0[1], b.0[1]))])
-    }
-
-    impl F2 {
-        #[inline(always)]
-        pub(super) fn new(lane0: f64, lane1: f64) -> F2 {
-            F2([lane0, lane1])
-        }
-        #[inline(always)]
-        pub(super) fn splat(x: f64) -> F2 {
-            F2([x, x])
-        }
-        /// (lane 0, lane 1).
-        #[inline(always)]
-        pub(super) fn lanes(self) -> (f64, f64) {
-            (self.0[0], self.0[1])
-        }
-        #[inline(always)]
-        pub(super) fn sqrt(self) -> F2 {
-            each(self, f64::sqrt)
-        }
-        /// `f64::abs` (the sign bit cleared).
-        #[inline(always)]
-        pub(super) fn abs(self) -> F2 {
-            each(self, f64::abs)
-        }
-        #[inline(always)]
-        pub(super) fn lt(self, o: F2) -> M2 {
-            test(self, o, |a, b| a < b)
-        }
-        #[inline(always)]
-        pub(super) fn le(self, o: F2) -> M2 {
-            test(self, o, |a, b| a <= b)
-        }
-        #[inline(always)]
-        pub(super) fn gt(self, o: F2) -> M2 {
-            test(self, o, |a, b| a > b)
-        }
-        #[inline(always)]
-        pub(super) fn ge(self, o: F2) -> M2 {
-            test(self, o, |a, b| a >= b)
-        }
-        /// `if m { a } else { b }`, lane by lane.
-        #[inline(always)]
-        pub(super) fn select(m: M2, a: F2, b: F2) -> F2 {
-            let pick =
-                |m: u64, a: f64, b: f64| f64::from_bits((m & a.to_bits()) | (!m & b.to_bits()));
-            F2([pick(m.0[0], a.0[0], b.0[0]), pick(m.0[1], a.0[1], b.0[1])])
-        }
-
-        /// [`super::atan2`]`(self, x)` lane by lane: the operations of
-        /// [`super::atan2`] and [`super::atan_nonneg`] in their order, so the same
-        /// bits. Where `atan_nonneg` branches on the reduced argument, each lane
-        /// picks its row of [`super::ATAN_ROWS`]; the quadrant is a mask and the sign
-        /// of y. A pair that leaves fdlibm's main path in either lane (an argument
-        /// zero or not finite, |y/x| beyond 2⁶⁰ either way or below 2⁻²⁸) goes
-        /// through [`super::atan2`] one lane after the other.
-        #[inline(always)]
-        pub(super) fn atan2(self, x: F2) -> F2 {
-            use super::{ATAN_POLY, ATAN_ROWS};
-            use std::f64::consts::PI;
-            /// |y/x| beyond which fdlibm's `atan2` takes no ratio (2⁶⁰).
-            const TWO_60: f64 = 1.152_921_504_606_847e18;
-            /// The low part of π (π − `PI`), as [`super::atan2`]'s.
-            const PI_LO: f64 = 1.2246467991473532e-16;
-            /// Below this ratio (2⁻²⁸) `atan_nonneg` gives the ratio itself.
-            const TINY: f64 = 3.725290298461914e-09;
-            /// fdlibm's reduction bounds (7/16, 11/16, 19/16, 39/16).
-            const BOUNDS: [f64; 4] = [0.4375, 0.6875, 1.1875, 2.4375];
-            let y = self;
-            let (ay, ax) = (y.abs(), x.abs());
-            let (inf, zero, two_60) = (F2::splat(f64::INFINITY), F2::splat(0.0), F2::splat(TWO_60));
-            // fdlibm's main path: both finite and non-zero, not |y| > |x|·2⁶⁰, and
-            // not (x < 0 and |y|·2⁶⁰ < |x|) (NaN fails every comparison)
-            let main = ay.lt(inf) & ax.lt(inf) & ay.gt(zero) & ax.gt(zero);
-            let main = main & ay.le(ax * two_60) & (x.gt(zero) | (ay * two_60).ge(ax));
-            let r = ay / ax;
-            let main = main & r.ge(F2::splat(TINY));
-            if main.bits() != 0b11 {
-                return apart(y, x);
-            }
-            // each lane's row: how many of the bounds its ratio reaches
-            let row = |v: f64| &ATAN_ROWS[BOUNDS.iter().filter(|&&b| v >= b).count()];
-            let (row0, row1) = (row(r.0[0]), row(r.0[1]));
-            let (a, b) = (F2([row0[0], row1[0]]), F2([row0[1], row1[1]]));
-            let (hi, lo) = (F2([row0[2], row1[2]]), F2([row0[3], row1[3]]));
-            let t = (r * a - b) / (a + r * b);
-            // atan_nonneg's polynomial, its operations in its order
-            let c = |i: usize| F2::splat(ATAN_POLY[i]);
-            let z = t * t;
-            let w = z * z;
-            let mut s1 = c(8) + w * c(10);
-            for i in [6, 4, 2, 0] {
-                s1 = c(i) + w * s1;
-            }
-            let s1 = z * s1;
-            let mut s2 = c(7) + w * c(9);
-            for i in [5, 3, 1] {
-                s2 = c(i) + w * s2;
-            }
-            let s2 = w * s2;
-            let at = hi - ((t * (s1 + s2) - lo) - t);
-            // the quadrant: π − (z − π_lo) behind a negative x, then y's sign
-            // ((z − π_lo) − π is the negation of π − (z − π_lo), exactly)
-            let turned = F2::splat(PI) - (at - F2::splat(PI_LO));
-            let v = F2::select(x.lt(zero), turned, at);
-            both(v, y, |v, y| v.copysign(y))
-        }
-    }
-
-    /// [`F2::atan2`] for a pair off fdlibm's main path: one [`super::atan2`] after
-    /// the other.
-    #[cold]
-    #[inline(never)]
-    fn apart(y: F2, x: F2) -> F2 {
-        let ((y0, y1), (x0, x1)) = (y.lanes(), x.lanes());
-        F2::new(super::atan2(y0, x0), super::atan2(y1, x1))
-    }
-
-    impl M2 {
-        /// Lane 0 in bit 0, lane 1 in bit 1.
-        #[inline(always)]
-        pub(super) fn bits(self) -> i32 {
-            (self.0[0] & 1) as i32 | (((self.0[1] & 1) as i32) << 1)
-        }
-    }
-
-    impl BitAnd for M2 {
-        type Output = M2;
-        #[inline(always)]
-        fn bitand(self, o: M2) -> M2 {
-            M2([self.0[0] & o.0[0], self.0[1] & o.0[1]])
-        }
-    }
-
-    impl BitOr for M2 {
-        type Output = M2;
-        #[inline(always)]
-        fn bitor(self, o: M2) -> M2 {
-            M2([self.0[0] | o.0[0], self.0[1] | o.0[1]])
-        }
-    }
-
-    impl Add for F2 {
-        type Output = F2;
-        #[inline(always)]
-        fn add(self, o: F2) -> F2 {
-            both(self, o, |a, b| a + b)
-        }
-    }
-
-    impl Sub for F2 {
-        type Output = F2;
-        #[inline(always)]
-        fn sub(self, o: F2) -> F2 {
-            both(self, o, |a, b| a - b)
-        }
-    }
-
-    impl Mul for F2 {
-        type Output = F2;
-        #[inline(always)]
-        fn mul(self, o: F2) -> F2 {
-            both(self, o, |a, b| a * b)
-        }
-    }
-
-    impl Div for F2 {
-        type Output = F2;
-        #[inline(always)]
-        fn div(self, o: F2) -> F2 {
-            both(self, o, |a, b| a / b)
-        }
-    }
-
-    impl Neg for F2 {
-        type Output = F2;
-        /// The sign bit flipped, as `-x` on an `f64`.
-        #[inline(always)]
-        fn neg(self) -> F2 {
-            each(self, |a| -a)
-        }
-    }
-}
-
-/// The system library's `atan2(y, x)`, for [`atan2`]'s non-finite arguments: out of
-/// line and cold, so that the registers the call clobbers are not saved on the way
-/// to every inline `atan2`.
-#[cold]
-#[inline(never)]
-fn atan2_not_finite(y: f64, x: f64) -> f64 {
-    y.atan2(x)
-}
-
-/// atan(0.5), atan(1), atan(1.5), atan(∞): high parts.
-const ATAN_HI: [f64; 4] = [
-    0.4636476090008061,
-    std::f64::consts::FRAC_PI_4,
-    0.982793723247329,
-    std::f64::consts::FRAC_PI_2,
-];
-/// Their low parts.
-const ATAN_LO: [f64; 4] = [
-    2.2698777452961687e-17,
-    3.061616997868383e-17,
-    1.3903311031230998e-17,
-    6.123233995736766e-17,
-];
-/// atan(x) = x − x·(x²·(T0 + x⁴(T2 + …)) + x⁴(T1 + x⁴(T3 + …))) on |x| < 7/16.
-const ATAN_POLY: [f64; 11] = [
-    0.3333333333333293,
-    -0.19999999999876483,
-    0.14285714272503466,
-    -0.11111110405462356,
-    0.09090887133436507,
-    -0.0769187620504483,
-    0.06661073137387531,
-    -0.058335701337905735,
-    0.049768779946159324,
-    -0.036531572744216916,
-    0.016285820115365782,
-];
-
-/// fdlibm's `atan(x)` for finite x ≥ 0: reduced about 0.5, 1 or 1.5 (or by 1/x) to
-/// |x| < 7/16, then an odd polynomial of degree 23 (`ATAN_POLY`) and the reference
-/// angle in two parts (`ATAN_HI`, `ATAN_LO`).
-#[inline(always)]
-fn atan_nonneg(x: f64) -> f64 {
-    let (id, x) = if x < 0.4375 {
-        if x < 3.725290298461914e-09 {
-            return x; // below 2⁻²⁸: atan(x) = x to the last bit
-        }
-        (None, x)
-    } else if x < 0.6875 {
-        (Some(0), (2.0 * x - 1.0) / (2.0 + x))
-    } else if x < 1.1875 {
-        (Some(1), (x - 1.0) / (x + 1.0))
-    } else if x < 2.4375 {
-        (Some(2), (x - 1.5) / (1.0 + 1.5 * x))
-    } else {
-        (Some(3), -1.0 / x)
-    };
-    let t = &ATAN_POLY;
-    let z = x * x;
-    let w = z * z;
-    let s1 = z * (t[0] + w * (t[2] + w * (t[4] + w * (t[6] + w * (t[8] + w * t[10])))));
-    let s2 = w * (t[1] + w * (t[3] + w * (t[5] + w * (t[7] + w * t[9]))));
-    match id {
-        None => x - x * (s1 + s2),
-        Some(i) => ATAN_HI[i] - ((x * (s1 + s2) - ATAN_LO[i]) - x),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// `atan2_2` gives, lane by lane, the bits of `atan2` (the scalar fdlibm code,
-    /// as at 557cc9e but for its non-finite arguments going to the library out of
-    /// line): on random angles and radii in every quadrant, on ratios a few units in
-    /// the last place either side of each reduction bound, of 2⁻²⁸ and of 2⁶⁰, on
-    /// arguments of random bits and of extreme values (zero, subnormal, huge,
-    /// infinite, NaN), and on pairs that mix those in their lanes.
-    #[test]
-    fn atan2_2_is_atan2_lane_by_lane() {
-        let mut state = 0x0a7a_2b17_u64;
-        let mut next = move || {
-            // SplitMix64
-            state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-            let mut z = state;
-            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-            z ^ (z >> 31)
-        };
-        let unit = |b: u64| (b >> 11) as f64 / (1u64 << 53) as f64;
-        let mut args: Vec<(f64, f64)> = Vec::new();
-        let n = if cfg!(debug_assertions) {
-            20_000
-        } else {
-            400_000
-        };
-        for _ in 0..n {
-            let th = std::f64::consts::PI * (2.0 * unit(next()) - 1.0);
-            let r = (unit(next()) * 40.0 - 20.0).exp();
-            args.push((r * th.sin(), r * th.cos()));
-            args.push((f64::from_bits(next()), f64::from_bits(next())));
-        }
-        let bounds: [f64; 8] = [
-            0.4375,
-            0.6875,
-            1.1875,
-            2.4375,
-            3.725290298461914e-09,
-            1.152_921_504_606_847e18,
-            1.0 / 1.152_921_504_606_847e18,
-            1.0,
-        ];
-        for b in bounds {
-            for ulps in -40i64..=40 {
-                let ratio = f64::from_bits((b.to_bits() as i64 + ulps) as u64);
-                for scale in [1.0, 3.0, 1e-7, 1e9] {
-                    for (sy, sx) in [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)] {
-                        args.push((sy * ratio * scale, sx * scale));
-                        args.push((sy * scale, sx * scale / ratio));
-                    }
-                }
-            }
-        }
-        let edges = [
-            0.0,
-            -0.0,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NAN,
-            5e-324,
-            -5e-324,
-            f64::MIN_POSITIVE,
-            f64::MAX,
-            -f64::MAX,
-            1.0,
-            -1.0,
-            1e-300,
-            1e300,
-        ];
-        for &y in &edges {
-            for &x in &edges {
-                args.push((y, x));
-            }
-        }
-        let mut main_pairs = 0;
-        for (k, &(y0, x0)) in args.iter().enumerate() {
-            // each with its neighbour, the next one on, and itself
-            for &(y1, x1) in [
-                args[(k + 1) % args.len()],
-                args[(k * 7 + 3) % args.len()],
-                (y0, x0),
-            ]
-            .iter()
-            {
-                let (g0, g1) = atan2_2((y0, y1), (x0, x1));
-                let (w0, w1) = (atan2(y0, x0), atan2(y1, x1));
-                assert_eq!(
-                    (g0.to_bits(), g1.to_bits()),
-                    (w0.to_bits(), w1.to_bits()),
-                    "atan2_2(({y0:e}, {y1:e}), ({x0:e}, {x1:e})) = ({g0:e}, {g1:e}), atan2 ({w0:e}, {w1:e})"
-                );
-                main_pairs += usize::from(g0.is_finite() && g1.is_finite());
-            }
-        }
-        assert!(main_pairs > args.len());
-    }
-
-    /// The inline `atan2` agrees with the system library's within 2 ulp over every
-    /// quadrant, the axes, the reduction intervals' ends and tiny and huge ratios.
-    #[test]
-    fn atan2_is_the_library_atan2() {
-        let mut worst = 0.0f64;
-        let mut check = |y: f64, x: f64| {
-            let (got, want) = (atan2(y, x), y.atan2(x));
-            let err = (got - want).abs() / (f64::EPSILON * want.abs().max(f64::MIN_POSITIVE));
-            assert!(err <= 2.0, "atan2({y}, {x}) = {got}, library {want}");
-            worst = worst.max(err);
-        };
-        for k in 0..200_000 {
-            let th = -std::f64::consts::PI + std::f64::consts::TAU * (k as f64 + 0.37) / 200_000.0;
-            for r in [1e-3, 0.25, 1.0, 7.5, 3e4] {
-                check(r * th.sin(), r * th.cos());
-            }
-        }
-        for ratio in [
-            0.0, 1e-300, 1e-20, 3e-9, 0.4375, 0.6875, 1.1875, 2.4375, 1.0, 0.5, 1.5, 1e10, 1e20,
-            1e300,
-        ] {
-            for (sy, sx) in [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)] {
-                check(sy * ratio, sx * 1.0);
-                check(sy * 1.0, sx * ratio);
-            }
-        }
-        assert_eq!(atan2(0.0, -1.0), std::f64::consts::PI);
-        assert_eq!(atan2(1.0, 0.0), std::f64::consts::FRAC_PI_2);
-        assert!(worst > 0.0); // (not all exact: the test compares something)
-    }
 }

@@ -71,19 +71,15 @@ pub(crate) struct SliceSource<'a> {
 }
 
 impl SegmentSource for SliceSource<'_> {
-    #[inline(always)]
     fn seg(&self, k: usize) -> &Segment {
         &self.segs[k]
     }
-    #[inline(always)]
     fn geom(&self, k: usize) -> &Geom {
         &self.geoms[k]
     }
-    #[inline(always)]
     fn has(&mut self, k: usize) -> bool {
         k < self.segs.len()
     }
-    #[inline(always)]
     fn ended(&self) -> bool {
         true
     }
@@ -491,6 +487,7 @@ impl<S: SegmentSource> Core<S> {
     }
 
     /// Advance the acceleration-limited profile by `dt` seconds.
+    #[allow(clippy::too_many_lines)]
     fn advance(&mut self, mut dt: f64) {
         let mut guard = 0u32;
         self.cycle_done = false;

@@ -23,7 +23,6 @@ pub const SUB_ARC_SNAP_REL: f64 = 1e-12;
 /// `x < acc ? x : acc` unless `acc` itself is NaN. Written out it is one `minsd`;
 /// `f64::min` adds six instructions for a NaN `acc` on SSE2, about twenty times per
 /// element on the planning thread.
-#[inline(always)]
 pub(crate) fn min_to(acc: f64, x: f64) -> f64 {
     if x < acc {
         x
@@ -33,7 +32,6 @@ pub(crate) fn min_to(acc: f64, x: f64) -> f64 {
 }
 
 /// `acc.max(x)` where `acc` is never NaN: [`min_to`]'s counterpart (one `maxsd`).
-#[inline(always)]
 pub(crate) fn max_to(acc: f64, x: f64) -> f64 {
     if x > acc {
         x
@@ -223,14 +221,14 @@ impl ElementShape {
     ///
     /// Inline (into the builder's `emit`): planning thread −0.8 M on the 200k-line
     /// program.
-    #[inline(always)]
+    #[inline]
     pub fn sub_arc(p: &Primitive) -> ElementShape {
         Self::arc_snapped(p, true)
     }
 
     /// [`ElementShape::arc`]; with `snap` [`ElementShape::sub_arc`]: [`arc_in`] with
     /// the plane's axes as constants.
-    #[inline(always)]
+    #[inline(always)] // kept: the whole `softnc plan` measured slower without, docs/perf-log/speed-tricks.md
     fn arc_snapped(p: &Primitive, snap: bool) -> ElementShape {
         match p {
             Primitive::Arc {
@@ -254,7 +252,7 @@ impl ElementShape {
     /// ([`Plane::axes`]) are `A`, `B` and the normal `N`: the same arithmetic, with
     /// the components picked at compile time (no addresses worked out and no
     /// vectors kept in memory to be indexed: about a third fewer instructions).
-    #[inline(always)]
+    #[inline(always)] // kept: the whole `softnc plan` measured slower without, docs/perf-log/speed-tricks.md
     fn arc_in<const A: usize, const B: usize, const N: usize>(
         p: &Primitive,
         snap: bool,
@@ -386,7 +384,7 @@ impl ElementShape {
     ///
     /// Inline (into the builder's `push_blend_piece`): planning thread −0.4 M on
     /// the 200k-line program (with `junction_speed` and `push_element` inline).
-    #[inline(always)]
+    #[inline]
     pub fn blend_trig(
         e1: Vec3,
         e2: Vec3,
@@ -404,7 +402,7 @@ impl ElementShape {
 
     /// The shape of a blend arc from its sweep's cosine and sine and its
     /// acceleration weights √(e1_i² + e2_i²).
-    #[inline(always)]
+    #[inline(always)] // kept: the whole `softnc plan` measured slower without, docs/perf-log/speed-tricks.md
     fn blend_with(
         e1: Vec3,
         e2: Vec3,
@@ -485,7 +483,7 @@ pub struct ElementLimits {
 /// (`PathBuilder::emit`'s arms), LLVM left one of its copies (the sub-arc's) out of
 /// line, the shape handed over in memory (planning thread −2.1 M on the 200k-line
 /// program).
-#[inline(always)]
+#[inline(always)] // kept: the whole `softnc plan` measured slower without, docs/perf-log/speed-tricks.md
 pub fn element_limits(g: &ElementShape, vmax: [f64; 3], amax: [f64; 3]) -> ElementLimits {
     let (wv, wa) = (g.vel_weight, g.acc_weight);
     // an axis's limit over its weight (the division skipped for the common weight 1,

@@ -335,7 +335,6 @@ impl<'a> Checker<'a> {
 
     /// The box grown by primitive `p` of motion `m`, which is not inside it: the soft
     /// limit it breaks, if any.
-    #[inline(never)]
     fn grow_box(&mut self, m: &Motion, p: &Primitive) -> Result<(), PlanError> {
         let (lo, hi) = bounding_box(p);
         if !self.options.ignore_soft_limits {
@@ -348,7 +347,6 @@ impl<'a> Checker<'a> {
 
     /// The spindle speed changes to `rpm` at the motion being checked.
     #[cold]
-    #[inline(never)]
     fn spindle_change(&mut self, rpm: f64) {
         self.spindle_changes.push((self.n_motions as u32, rpm));
         self.spindle_rpm = rpm;
@@ -550,7 +548,6 @@ fn planned_duration(segs: &[Segment], lim: &Limits) -> (f64, f64, f64) {
 }
 
 /// The element's cap: the hard one and the feed at 100 %.
-#[inline(always)]
 fn cap(s: &Segment) -> f64 {
     min_num(s.vel_cap, s.feed_mm_per_s) // (the feed is never NaN)
 }
@@ -560,7 +557,6 @@ fn cap(s: &Segment) -> f64 {
 /// give `b`, the same value (the two could differ only as +0 and −0, and no speed,
 /// length or acceleration of the duration passes is −0). The operand that may be
 /// NaN (a root of a product with an infinite acceleration) goes first.
-#[inline(always)]
 fn min_num(a: f64, b: f64) -> f64 {
     if a < b {
         a
@@ -570,7 +566,6 @@ fn min_num(a: f64, b: f64) -> f64 {
 }
 
 /// `a.max(b)` for a `b` that is not NaN, in one comparison, as [`min_num`].
-#[inline(always)]
 fn max_num(a: f64, b: f64) -> f64 {
     if a > b {
         a
@@ -581,7 +576,6 @@ fn max_num(a: f64, b: f64) -> f64 {
 
 /// Whether `v`, which is not −∞, is finite: `v.is_finite()` in one comparison
 /// (a NaN compares false, as `is_finite` gives).
-#[inline(always)]
 fn finite_not_neg_inf(v: f64) -> bool {
     v < f64::INFINITY
 }
@@ -594,7 +588,6 @@ fn finite_not_neg_inf(v: f64) -> bool {
 /// common case) the result does not depend on `next_start`: min(min(a, n), c) is
 /// then min(a, c), the same value. Taking that branch keeps the square root out of
 /// the chain of dependent steps, so successive elements' roots overlap.
-#[inline(always)]
 fn backward_step(s: &Segment, next_start: f64) -> (f64, f64) {
     let own = s.v_end_hard.min(cap(s));
     if next_start >= own {
@@ -606,14 +599,12 @@ fn backward_step(s: &Segment, next_start: f64) -> (f64, f64) {
 
 /// [`backward_step`] where the next element's start speed binds.
 #[cold]
-#[inline(never)]
 fn backward_step_bound(s: &Segment, next_start: f64) -> (f64, f64) {
     let vend = s.v_end_hard.min(next_start).min(cap(s));
     (vend, start_speed(s, vend))
 }
 
 /// The highest start speed of element `s` that can still end at `vend`.
-#[inline(always)]
 fn start_speed(s: &Segment, vend: f64) -> f64 {
     cap(s).min((vend * vend + 2.0 * s.acc * s.len).sqrt())
 }
@@ -623,7 +614,6 @@ fn start_speed(s: &Segment, vend: f64) -> f64 {
 /// where 2·acc·len ≥ fl(v²)·(1 + 4ε) > v² the correctly rounded root is ≥ v (the
 /// bound of [`ForwardTime::step`]); false may be a false negative, never a false
 /// positive.
-#[inline(always)]
 fn starts_at_least(s: &Segment, v: f64) -> bool {
     v <= 0.0 || (cap(s) >= v && 2.0 * s.acc * s.len >= (v * v) * (1.0 + 4.0 * f64::EPSILON))
 }
@@ -650,7 +640,7 @@ impl ForwardTime {
     }
 
     /// Element `s`, whose end speed the backward pass capped at `vend`.
-    #[inline(always)]
+    #[inline(always)] // kept: the whole `softnc plan` measured slower without, docs/perf-log/speed-tricks.md
     fn step(&mut self, s: &Segment, vend: f64) {
         let vend_sq_up = (vend * vend) * (1.0 + 4.0 * f64::EPSILON);
         self.step_pre(s, vend, vend_sq_up, cap(s), 2.0 * s.acc * s.len);
@@ -660,7 +650,7 @@ impl ForwardTime {
     /// [`cap`] `c` and `two_al` = 2·acc·len worked out already (by
     /// [`DurationPass::push_slice`], which needs them for [`starts_at_least`]
     /// first): the same arithmetic, so the same bits.
-    #[inline(always)]
+    #[inline(always)] // kept: the whole `softnc plan` measured slower without, docs/perf-log/speed-tricks.md
     fn step_pre(&mut self, s: &Segment, vend: f64, vend_sq_up: f64, c: f64, two_al: f64) {
         let v0 = self.v0;
         // v1 = min(vend, √x); where x ≥ vend² surely (x ≥ fl(vend²)·(1 + 2⁻⁵⁰) > vend²,
@@ -879,7 +869,6 @@ impl DurationPass {
 /// scratch). Out of line: runs of more than one element are rare (a fillet whose
 /// start from a stop cannot reach the end limit before it).
 #[cold]
-#[inline(never)]
 fn time_run(vend: &mut Vec<f64>, fwd: &mut ForwardTime, run: &[Segment], vend_last: f64) {
     let k = run.len() - 1;
     vend.clear();
@@ -898,7 +887,6 @@ fn time_run(vend: &mut Vec<f64>, fwd: &mut ForwardTime, run: &[Segment], vend_la
 /// the square around its circle in the arc's plane (which holds the points at the
 /// cardinal angles as [`bounding_box`] computes them: c ± r·1 exactly, c + r·ε
 /// between c − r and c + r).
-#[inline(always)]
 fn within(p: &Primitive, lo: Vec3, hi: Vec3) -> bool {
     // (`&`, not `&&`: all the comparisons at once, one branch)
     let inside = |q: &Vec3| {

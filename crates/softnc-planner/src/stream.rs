@@ -593,6 +593,7 @@ impl FilletsAheadWhen {
 }
 
 /// [`check_program_parallel`] with the fillets worked out ahead `when`.
+#[allow(clippy::too_many_lines)]
 pub(crate) fn check_program_parallel_with(
     text: ProgramText<'_>,
     file: &str,

@@ -1,4 +1,4 @@
-//! `fillet::line_arc` (and `line_arc_2`, two at a time) gives the same bits as its
+//! `fillet::line_arc` gives the same bits as its
 //! plain reference (`common/line_arc_perp.rs`) for every argument tried: the 200,000-line throughput
 //! workload's joins (and them with other tolerances and shares), millions of random
 //! line–arc corners in the three planes (every turn, nearly tangent and nearly
@@ -6,19 +6,15 @@
 //! the circle, lines a little out of the plane), the same with one argument replaced
 //! by an extreme value (zero, subnormal, huge, infinite, NaN), and arguments of random
 //! bits. The reference counts where it went (`cover!`): every one of its rarer paths
-//! must have been taken, so the comparison covers them. And the construction on the
-//! normal u turned a quarter finds the fillets the one before it (`fillet::line_arc`
-//! as of 557cc9e, `common/line_arc_557.rs`, which took the normal from the arc's
-//! tangent) found, to a few units in the last place.
+//! must have been taken, so the comparison covers them.
 
 use softnc_core::Vec3;
 use softnc_planner::fillet::{self, ArcView, Fillet};
 use std::cell::RefCell;
 
 thread_local! {
-    /// How often each `cover!` point of the reference was reached (both copies count
-    /// into it: only the reference's counts are looked at).
-    static COVER: RefCell<Vec<u64>> = RefCell::new(vec![0; line_arc_perp::COVER_POINTS.max(line_arc_557::COVER_POINTS)]);
+    /// How often each `cover!` point of the reference was reached.
+    static COVER: RefCell<Vec<u64>> = RefCell::new(vec![0; line_arc_perp::COVER_POINTS]);
 }
 
 macro_rules! cover {
@@ -26,9 +22,6 @@ macro_rules! cover {
         crate::COVER.with(|c| c.borrow_mut()[$i] += 1)
     };
 }
-
-#[path = "common/line_arc_557.rs"]
-mod line_arc_557;
 
 #[path = "common/line_arc_perp.rs"]
 mod line_arc_perp;
@@ -282,38 +275,6 @@ fn valid_in_debug(a: &Args) -> bool {
             && a.arc.normal.norm() == 1.0)
 }
 
-/// `fillet::line_arc_2` of `a` and `b` against the reference `line_arc` of each;
-/// panics where they differ. How many fillets were found.
-fn same_2(a: &Args, b: &Args) -> usize {
-    if !(valid_in_debug(a) && valid_in_debug(b)) {
-        return 0;
-    }
-    fn join(a: &Args) -> fillet::LineArcJoin<'_> {
-        fillet::LineArcJoin {
-            corner: a.corner,
-            u: a.u,
-            line_avail_mm: a.line_avail,
-            arc: &a.arc,
-            arc_avail_mm: a.arc_avail,
-            tol_mm: a.tol,
-        }
-    }
-    let mut new = [None, None];
-    fillet::line_arc_2([join(a), join(b)], &mut new);
-    let mut found = 0;
-    for (got, x) in new.iter().zip([a, b]) {
-        let want = line_arc_perp::line_arc(x.corner, x.u, x.line_avail, &x.arc, x.arc_avail, x.tol);
-        match (got, &want) {
-            (None, None) => {}
-            (Some(n), Some(o)) if bits(n) == bits(o) => found += 1,
-            _ => panic!(
-                "line_arc_2 of {x:?} (with {a:?}, {b:?}):\n fast {got:?}\n reference {want:?}"
-            ),
-        }
-    }
-    found
-}
-
 /// `fillet::line_arc` and its reference on `a`; panics where they differ. Whether a
 /// fillet was found.
 fn same(a: &Args) -> bool {
@@ -353,25 +314,6 @@ fn workload_joins() -> (Vec<fillet_joins::Join>, usize) {
 fn the_workloads_joins_give_the_same_bits() {
     let (joins, step) = workload_joins();
     let mut found = 0;
-    let args = |j: &fillet_joins::Join| Args {
-        corner: j.corner,
-        u: j.u,
-        line_avail: j.line_avail_mm,
-        arc: j.arc,
-        arc_avail: j.arc_avail_mm,
-        tol: j.tol_mm,
-    };
-    // two at a time, as the reader works fillets out ahead
-    let mut found_2 = 0;
-    for w in joins.chunks(2).step_by(step) {
-        if let [a, b] = w {
-            found_2 += same_2(&args(a), &args(b));
-        }
-    }
-    assert!(
-        found_2 > joins.len() / step / 2,
-        "{found_2} fillets two at a time"
-    );
     for j in joins.iter().step_by(step) {
         for (tol, line_share, arc_share) in [
             (j.tol_mm, 1.0, 1.0),
@@ -400,25 +342,15 @@ fn the_workloads_joins_give_the_same_bits() {
 fn random_and_adversarial_arguments_give_the_same_bits() {
     reset_cover();
     let mut rng = Rng(0x5eed_f111_e714);
-    let (mut found, mut found_mutated, mut found_2) = (0, 0, 0);
-    let mut last = corner_case(&mut rng);
-    for i in 0..CASES {
+    let (mut found, mut found_mutated) = (0, 0);
+    for _ in 0..CASES {
         let a = corner_case(&mut rng);
         found += usize::from(same(&a));
         let m = mutated(&mut rng, a);
         found_mutated += usize::from(same(&m));
         let raw = raw_case(&mut rng);
         same(&raw);
-        // two at a time: corners with corners (often in one plane), with mutated
-        // ones, with raw bits
-        found_2 += match i % 4 {
-            0 | 1 => same_2(&last, &a),
-            2 => same_2(&a, &m),
-            _ => same_2(&raw, &a),
-        };
-        last = a;
     }
-    assert!(found_2 > CASES / 4, "{found_2} fillets two at a time");
     // (most corners have a fillet; the extreme values leave a few)
     assert!(found > CASES / 4, "{found} of {CASES} corners blended");
     assert!(
@@ -437,125 +369,4 @@ fn random_and_adversarial_arguments_give_the_same_bits() {
             "cover point {i} of the reference never reached: {counts:?}"
         );
     }
-}
-
-/// How far two fillets of the corner `a` differ, as a share of the corner's size
-/// M = |C| + R + r (the rounding of the coordinates moves every point by some ε·M):
-/// the trims', the radius's and the points' differences over M, the angles' (sweep,
-/// its cosine and sine, the arc trim's angle) times the smaller radius over M.
-fn fillet_difference(a: &Args, f: &Fillet, g: &Fillet) -> f64 {
-    let size = a.corner.norm() + a.arc.radius + g.radius;
-    let length = |x: f64, y: f64| (x - y).abs() / size;
-    let angle = |x: f64, y: f64| (x - y).abs() * a.arc.radius.min(g.radius) / size;
-    let at = |p: Vec3, q: Vec3| (p - q).norm() / size;
-    [
-        length(f.line_trim, g.line_trim),
-        length(f.arc_trim, g.arc_trim),
-        length(f.radius, g.radius),
-        angle(f.arc_trim_rad, g.arc_trim_rad),
-        angle(f.sweep, g.sweep),
-        angle(f.cos_sweep, g.cos_sweep),
-        angle(f.sin_sweep, g.sin_sweep),
-        at(f.center, g.center),
-        at(f.p_line, g.p_line),
-        at(f.p_arc, g.p_arc),
-    ]
-    .into_iter()
-    .fold(0.0, f64::max)
-}
-
-/// Fillets of the two constructions compared ([`Agreement::compare`]).
-#[derive(Debug)]
-struct Agreement {
-    /// Largest difference of two fillets of one corner ([`fillet_difference`]) that
-    /// counts as the same fillet.
-    agree: f64,
-    /// Corners where both found a fillet and the two agree.
-    both: usize,
-    /// Corners where one found a fillet and the other none, or the two disagree.
-    differ: usize,
-    /// The largest [`fillet_difference`] of those that agree.
-    worst: f64,
-}
-
-impl Agreement {
-    /// None compared yet, counting fillets within `agree` as the same.
-    fn new(agree: f64) -> Agreement {
-        Agreement {
-            agree,
-            both: 0,
-            differ: 0,
-            worst: 0.0,
-        }
-    }
-
-    /// Both constructions on `a`.
-    fn compare(&mut self, a: &Args) {
-        if !valid_in_debug(a) {
-            return;
-        }
-        let new = line_arc_perp::line_arc(a.corner, a.u, a.line_avail, &a.arc, a.arc_avail, a.tol);
-        let old = line_arc_557::line_arc(a.corner, a.u, a.line_avail, &a.arc, a.arc_avail, a.tol);
-        match (&new, &old) {
-            (None, None) => {}
-            (Some(n), Some(o)) if fillet_difference(a, n, o) <= self.agree => {
-                self.both += 1;
-                self.worst = self.worst.max(fillet_difference(a, n, o));
-            }
-            _ => self.differ += 1,
-        }
-    }
-}
-
-/// The construction on u turned a quarter against the one before it (557cc9e, its
-/// normal from the arc's tangent at the corner, m = t − (u·t)·u over |m|): on the
-/// workload's joins (with other tolerances and shares too) and on random corners in
-/// the three planes turning by 0.01 to π − 0.01 rad: on the workload both find the
-/// same fillets to a unit in the last place of the corner's size. Of the random
-/// corners (radii from 1 µm to 1 m, coordinates up to 1e5 mm, corners up to 1e-4 mm
-/// off the circle) all but a few find the same fillets to 1e-9 of that size: the rest
-/// where a test falls on its bound (one takes the next shorter trim) or a fillet's
-/// radius is ill-conditioned (a line that nearly touches the circle: R² − |w|²
-/// cancels).
-#[test]
-fn the_quarter_turned_normal_finds_the_fillets_found_before() {
-    let (joins, step) = workload_joins();
-    let mut on_workload = Agreement::new(1e-15);
-    for j in joins.iter().step_by(step) {
-        for (tol, line_share, arc_share) in
-            [(j.tol_mm, 1.0, 1.0), (1e-3, 1.0, 1.0), (0.1, 0.05, 0.5)]
-        {
-            on_workload.compare(&Args {
-                corner: j.corner,
-                u: j.u,
-                line_avail: j.line_avail_mm * line_share,
-                arc: j.arc,
-                arc_avail: j.arc_avail_mm * arc_share,
-                tol,
-            });
-        }
-    }
-    println!("the workload's joins: {on_workload:?}");
-    assert_eq!(on_workload.differ, 0, "{on_workload:?}");
-    assert!(on_workload.both > joins.len() / step * 2, "{on_workload:?}");
-    let mut rng = Rng(0x9a17_7e12);
-    let (mut random, mut corners) = (Agreement::new(1e-9), 0);
-    while corners < CASES / 4 {
-        let a = corner_case(&mut rng);
-        let (ia, ib, _) = a.arc.axes;
-        let (pa, pb) = (
-            a.corner[ia] - a.arc.center[ia],
-            a.corner[ib] - a.arc.center[ib],
-        );
-        let t = (-pb * a.arc.sense, pa * a.arc.sense);
-        let (ua, ub) = (a.u[ia], a.u[ib]);
-        let turn = (ua * t.1 - ub * t.0).atan2(ua * t.0 + ub * t.1).abs();
-        if (0.01..std::f64::consts::PI - 0.01).contains(&turn) {
-            random.compare(&a);
-            corners += 1;
-        }
-    }
-    println!("{corners} random corners: {random:?}");
-    assert!(random.differ * 1_000 <= corners, "{random:?} of {corners}");
-    assert!(random.both > corners / 4, "{random:?} of {corners}");
 }

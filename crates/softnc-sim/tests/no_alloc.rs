@@ -21,6 +21,7 @@ fn allocs() -> u64 {
     ALLOCS.with(|c| c.get())
 }
 
+#[allow(unsafe_code)] // a counting allocator forwarding to `System`
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         count();

@@ -59,6 +59,7 @@ impl FuzzyConfig {
     /// Check sizes, names and centres. `prefix` is this config's RON path inside an
     /// enclosing document (`""` at the root, `"axes[0].fuzzy"` inside a profile); the
     /// first bad field is reported with its full path.
+    #[allow(clippy::too_many_lines)]
     pub fn validate_at(&self, file: &str, prefix: &str) -> Result<(), ConfigError> {
         let path = |p: &str| {
             if prefix.is_empty() {

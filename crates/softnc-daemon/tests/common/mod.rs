@@ -20,6 +20,7 @@ thread_local! {
 
 // SAFETY: every call is forwarded to the system allocator unchanged; the counting
 // touches only this thread's cells.
+#[allow(unsafe_code)] // a counting allocator forwarding to `System`
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, l: Layout) -> *mut u8 {
         // `try_with`: the slot may be gone while a thread is being torn down

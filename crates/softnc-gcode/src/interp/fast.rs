@@ -24,7 +24,6 @@ use super::{
 };
 use crate::canon::{Motion, MotionKind, PathMode};
 use crate::lexer::{plain_number, POW10};
-use softnc_core::geom::{atan2_axis, hypot_axis};
 use softnc_core::{Plane, Vec3};
 use std::f64::consts::FRAC_PI_2;
 
@@ -140,7 +139,6 @@ impl Default for Kept {
 impl Kept {
     /// Keep what [`number_in`] read from `head` where the number and the byte
     /// after it lie within its first eight bytes (`len` < 8).
-    #[inline(always)]
     fn keep(&mut self, head: &[u8; HEAD], value: f64, len: usize) {
         if len < 8 {
             let mut lo = [0u8; 8];
@@ -155,13 +153,11 @@ impl Kept {
 
 /// Whether a line starting with byte `c` may take the short way (a word's letter,
 /// `N`, or white space): a cheap test before [`Interp::fast_lines`] is called.
-#[inline(always)]
 pub(super) fn may_start(c: u8) -> bool {
     LETTER[usize::from(c | 0x20)] != 0 || c | 0x20 == b'n' || blank(c)
 }
 
 /// Spaces, tabs and CRs, which LinuxCNC ignores between words.
-#[inline(always)]
 fn blank(c: u8) -> bool {
     matches!(c, b' ' | b'\t' | b'\r')
 }
@@ -192,7 +188,6 @@ const GOES_ON: [bool; 256] = {
 /// The number of up to 8 decimal digits held one per byte in `v` (values 0 to 9,
 /// the most significant in the lowest byte), in three multiplications (as
 /// `fast_float`'s `parse_eight_digits_unrolled`).
-#[inline(always)]
 fn eight_digits(v: u64) -> u64 {
     const MASK: u64 = 0x0000_00ff_0000_00ff;
     const MUL1: u64 = 100 + (1_000_000 << 32);
@@ -214,7 +209,6 @@ fn eight_digits(v: u64) -> u64 {
 /// reader decides); a number followed by a digit, point or sign after white space
 /// (`X1 2`, `X1.2.3`, `X1-2`) is left to the caller, whose next word must start
 /// with a letter.
-#[inline(always)]
 fn number(t: &[u8], start: usize) -> (f64, usize) {
     // a sign, eight bytes and the ninth after them within `t`; else (the last
     // bytes of the text) the same reading on a copy padded with zeros
@@ -256,7 +250,7 @@ enum Num {
 /// first eight; [`Kept::keep`] keeps only numbers whose next byte is within them. So the same bits as [`number`] (test
 /// `kept_numbers_read_as_number_reads_them`). CAM output repeats many values
 /// line after line (`Y`, `Z`, `I`, `J`, `R`, `F`), each read once.
-#[inline(always)]
+#[inline(always)] // kept: the whole `softnc plan` measured slower without, docs/perf-log/speed-tricks.md
 fn number_kept(t: &[u8], start: usize, kept: &mut Kept) -> (f64, usize) {
     let Some(head) = t.get(start..start + HEAD) else {
         return number_near_end(t, start);
@@ -283,7 +277,7 @@ fn number_kept(t: &[u8], start: usize, kept: &mut Kept) -> (f64, usize) {
 }
 
 /// [`number`] on the first [`HEAD`] bytes after a word's letter.
-#[inline(always)]
+#[inline(always)] // kept: the whole `softnc plan` measured slower without, docs/perf-log/speed-tricks.md
 fn number_in(head: &[u8; HEAD]) -> Num {
     let neg = head[0] == b'-';
     let signed = neg || head[0] == b'+';
@@ -327,7 +321,6 @@ fn number_in(head: &[u8; HEAD]) -> Num {
 /// [`number`] within the last [`HEAD`] bytes of the text: on a copy padded with
 /// zeros (which are no digits, as the end of the text is none).
 #[cold]
-#[inline(never)]
 fn number_near_end(t: &[u8], start: usize) -> (f64, usize) {
     let mut head = [0u8; HEAD];
     let rest = t.get(start..).unwrap_or(&[]);
@@ -343,7 +336,6 @@ fn number_near_end(t: &[u8], start: usize) -> (f64, usize) {
 /// [`number`]: rare, and its registers would cost every number). `t` may go on
 /// after the line: `plain_number` reads nothing across its newline.
 #[cold]
-#[inline(never)]
 fn long_number(t: &[u8], start: usize) -> (f64, usize) {
     plain_number(t, start).unwrap_or((0.0, NO_NUMBER))
 }
@@ -353,7 +345,6 @@ fn long_number(t: &[u8], start: usize) -> (f64, usize) {
 /// neither a digit nor a point, which would go on with the number; `None`
 /// otherwise ([`number`] reads it). [`number`] reads such a digit as that whole
 /// number and ends after it, so [`words`] takes it as the same code.
-#[inline(always)]
 fn one_digit_code(t: &[u8], at: usize) -> Option<i32> {
     let d = t.get(at)?.wrapping_sub(b'0');
     if d > 3 {
@@ -371,7 +362,7 @@ fn one_digit_code(t: &[u8], at: usize) -> Option<i32> {
 /// length of `t`); `None` otherwise. Where it says yes, the general lexer and
 /// `Interp::sort_word` read the same codes and values from the line without an
 /// error.
-#[inline(always)]
+#[inline(always)] // kept: the whole `softnc plan` measured slower without, docs/perf-log/speed-tricks.md
 pub(super) fn words(t: &[u8], s: usize, w: &mut Words) -> Option<usize> {
     w.g = -1;
     w.set = 0;
@@ -490,7 +481,6 @@ impl Interp<'_> {
     /// `self` after each push), and all are put back at the end. The lines are
     /// read in [`lines`], one copy of the loop per plane (the plane is one of the
     /// modes), so that an arc's axes are constants.
-    #[inline(never)]
     pub(super) fn fast_lines(
         &mut self,
         t: &[u8],
@@ -687,7 +677,6 @@ fn lines_of<const P: usize>(absolute: bool, inch: bool) -> Lines {
 /// so are the distance mode's test and the scale (mm: × 1, which the compiler
 /// drops).
 #[allow(clippy::too_many_arguments)]
-#[inline(never)]
 fn lines<const P: usize, const ABSOLUTE: bool, const INCH: bool>(
     t: &[u8],
     mut pos: usize,
@@ -753,7 +742,7 @@ struct Moving {
 /// rate, motion mode, motion (pushed onto `motions`) and point are as `check` and
 /// `execute` leave them, and `true`. Otherwise nothing is changed and `false`: the
 /// general reader reads the line (and gives its error, if any).
-#[inline(always)]
+#[allow(clippy::too_many_lines)]
 fn run_line<const P: usize, const ABSOLUTE: bool, const INCH: bool>(
     run: &Run,
     st: &mut Moving,
@@ -931,7 +920,6 @@ impl Default for Trig {
 
 impl Trig {
     /// `(theta.sin(), theta.cos())`, kept for the last `theta` (compared by bits).
-    #[inline(always)]
     fn sin_cos(&mut self, theta: f64) -> (f64, f64) {
         if theta.to_bits() != self.theta.to_bits() {
             self.theta = theta;
@@ -955,7 +943,6 @@ const HYPOT_SLACK: f64 = 1e-14;
 /// [`HYPOT_SLACK`] (`hypot` would too) their `hypot`s are not computed; otherwise
 /// `arc_data_ijk` itself decides. Test `arcs_the_short_way_as_arc_data`.
 #[allow(clippy::too_many_arguments)]
-#[inline(always)]
 fn arc_ijk(
     mode: i32,
     cur: (f64, f64),
@@ -1003,10 +990,8 @@ fn arc_ijk(
 /// half the chord is taken as the radius without its `hypot` where `sqrt` of the
 /// sum of squares shows it within the tolerance and above `1 - TINY` of the
 /// radius with a margin of [`HYPOT_SLACK`] (then `arc_data_r` takes the radius for
-/// it too, and its bits do not count); `hypot` and `atan2` of a chord along an
-/// axis without libm ([`hypot_axis`], [`atan2_axis`]); the sine and cosine of
-/// the angle kept in `trig`. Test `arcs_the_short_way_as_arc_data`.
-#[inline(always)]
+/// it too, and its bits do not count); the sine and cosine of the angle kept in
+/// `trig`. Test `arcs_the_short_way_as_arc_data`.
 fn arc_r(
     mode: i32,
     cur: (f64, f64),
@@ -1030,7 +1015,7 @@ fn arc_r(
     {
         1.0
     } else {
-        let mut half = hypot_axis(dx, dy);
+        let mut half = dx.hypot(dy);
         if half - abs_radius > tolerance {
             return None;
         }
@@ -1039,7 +1024,7 @@ fn arc_r(
         }
         half / abs_radius
     };
-    let heading = atan2_axis(end.1 - cur.1, end.0 - cur.0);
+    let heading = (end.1 - cur.1).atan2(end.0 - cur.0);
     let theta = if (mode == G_2 && radius > 0.0) || (mode == G_3 && radius < 0.0) {
         heading - FRAC_PI_2
     } else {
@@ -1062,7 +1047,7 @@ fn arc_r(
 #[cfg(test)]
 mod tests {
     use super::super::{Block, Interp, GM_MOTION, SLOTS};
-    use super::{atan2_axis, hypot_axis, number, words, Words, LETTER, NO_NUMBER};
+    use super::{number, words, Words, LETTER, NO_NUMBER};
     use crate::lexer::plain_number;
     use crate::lexer::{lex_words, Line};
     use softnc_core::MotionProfile;
@@ -1469,6 +1454,7 @@ mod tests {
     /// rotations, inverse time, comments and (rarely) lines that fail: read with the
     /// short way and read with every line the general way, the results (motions,
     /// warnings, end state, parameters, or the error) are the same.
+    #[allow(clippy::too_many_lines)]
     #[test]
     fn programs_read_the_short_way_as_the_general_way() {
         let p = profile();
@@ -1731,27 +1717,6 @@ mod tests {
             f64::from_bits(v.to_bits().wrapping_add(next(9) as u64).wrapping_sub(4))
         } else {
             v
-        }
-    }
-
-    /// `hypot_axis` and `atan2_axis` against libm's `hypot` and `atan2` (bits),
-    /// on 400,000 pairs of every kind, half of them with a zero (signed) side.
-    #[test]
-    fn exact_hypot_and_atan2_give_libms_bits() {
-        let mut next = xorshift(0x2545_f491_4f6c_dd1du64);
-        let specials = [0.0, -0.0, f64::INFINITY, f64::NEG_INFINITY, f64::NAN];
-        for k in 0..400_000 {
-            let mut a = any_value(&mut next);
-            let mut b = any_value(&mut next);
-            match k % 4 {
-                0 => b = specials[next(2)],
-                1 => a = specials[next(2)],
-                2 if k % 100 == 2 => a = specials[next(specials.len())],
-                _ => {}
-            }
-            let same = |x: f64, y: f64| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan());
-            assert!(same(hypot_axis(a, b), a.hypot(b)), "hypot({a:e}, {b:e})");
-            assert!(same(atan2_axis(a, b), a.atan2(b)), "atan2({a:e}, {b:e})");
         }
     }
 

@@ -288,7 +288,6 @@ impl Interp<'_> {
     /// A line while skipping: only an O-line is read (LinuxCNC's `read_items`
     /// with `skipping_o` set), and run if it is the one looked for.
     #[cold]
-    #[inline(never)]
     pub(super) fn skip_line(
         &mut self,
         raw: &str,
@@ -339,7 +338,6 @@ impl Interp<'_> {
     /// once and evaluated for a line kept to be read again ([`Norm::keep`]), read
     /// from the text otherwise (and where it does not compile). Errors as the
     /// text reader's, offsets in the normalized line.
-    #[inline(always)]
     pub(super) fn value(
         &self,
         norm: &Norm,
@@ -374,7 +372,6 @@ impl Interp<'_> {
     /// the reader's loop). `None` where the line is not such a line, or is to be
     /// read from its text (a definition skipped, a label skipped to): read it with
     /// [`Self::read_norm`].
-    #[inline(always)]
     pub(super) fn run_kept_o(&mut self, norm: &Norm, line: &mut Line, pc: &Pc) -> Option<R<Jump>> {
         if !norm.keep || self.ctl.defining_sub || self.ctl.skipping.is_some() {
             return None;
@@ -394,7 +391,6 @@ impl Interp<'_> {
 
     /// `read_items` on a normalized line (`Norm`), for a line the fast lexer
     /// hands over; `block` is empty (the caller clears it).
-    #[inline(always)]
     pub(super) fn read_norm(
         &self,
         norm: &Norm,
@@ -425,7 +421,6 @@ impl Interp<'_> {
     /// [`Self::read_o`] for a kept O-line compiled whole (not skipping, no
     /// definition being skipped): its label and keyword as read before, its values
     /// evaluated, with the same checks and errors.
-    #[inline(always)]
     fn run_o(&self, norm: &Norm, p: &OPlan) -> R<OLine> {
         let re = |(k, e): (usize, ErrorKind)| (norm.raw(k), e);
         let ctl = &self.ctl;
@@ -491,6 +486,7 @@ impl Interp<'_> {
     /// `read_items` for a line the fast lexer hands over (parameters, expressions,
     /// O-words): words go into `block` in order, assignments into `sets`, the
     /// comment into `line`. Returns the O-line, if it is one.
+    #[allow(clippy::too_many_lines)]
     pub(super) fn read_items_slow(
         &self,
         norm: &Norm,
@@ -698,7 +694,6 @@ impl Interp<'_> {
 
     /// [`Self::read_items_slow`] for a kept line compiled whole: its items in
     /// order, with the same values, side effects and errors as read from its text.
-    #[inline(never)]
     fn run_items(
         &self,
         norm: &Norm,
@@ -818,6 +813,7 @@ impl Interp<'_> {
     /// `read_o`: the O-line at `b[*i]` (an `o`). Conditions and arguments are
     /// evaluated only where LinuxCNC evaluates them (not while skipping to another
     /// label).
+    #[allow(clippy::too_many_lines)]
     pub(super) fn read_o(&self, norm: &Norm, i: &mut usize, line: &mut Line) -> R<Option<OLine>> {
         let b = &norm.b[..];
         let re = |(k, e): (usize, ErrorKind)| (norm.raw(k), e);
@@ -1087,7 +1083,7 @@ impl Interp<'_> {
     }
 
     /// `convert_control_functions`: run an O-line read at `pc`.
-    #[inline(never)]
+    #[allow(clippy::too_many_lines)]
     pub(super) fn control(&mut self, o: &OLine, pc: &Pc) -> R<Jump> {
         if self.ctl.skipping.as_ref().is_some_and(|s| *s != o.name) {
             return Ok(Jump::Next);
@@ -1372,7 +1368,6 @@ impl Interp<'_> {
     }
 
     /// Apply the assignments read on a line.
-    #[inline(never)]
     pub(super) fn commit(&mut self, sets: &mut Vec<Setting>) {
         self.line_named.get_mut().clear();
         for s in sets.iter() {
@@ -1395,7 +1390,6 @@ impl Interp<'_> {
     /// The name of `<name>` at `norm.b[i]` (the `<`) and the offset after its `>`
     /// (LinuxCNC's `read_name`). A kept line remembers it: later passes neither
     /// scan nor allocate it again.
-    #[inline(always)]
     fn name_at(&self, norm: &Norm, i: usize) -> Result<(Name, usize), crate::expr::ExprError> {
         if norm.keep {
             if let Some((_, end, n)) = norm.names.borrow().iter().find(|(s, _, _)| *s == i) {

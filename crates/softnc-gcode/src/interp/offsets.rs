@@ -124,7 +124,6 @@ impl Interp<'_> {
 
     /// G54 … G59.3 (`idx` 0 … 8), as `convert_coordinate_system`: nothing when
     /// the system is already in use.
-    #[inline(never)]
     pub(super) fn select_coord(&mut self, idx: usize) {
         if idx == self.coord {
             return;
@@ -154,7 +153,6 @@ impl Interp<'_> {
 
     /// G10, G28, G28.1, G30, G30.1, G52, G92, G92.1, G92.2, G92.3.
     #[cold]
-    #[inline(never)]
     pub(super) fn modal_0(&mut self, line_no: u32, code: i32, b: &Block) -> R<()> {
         let off = b.g_off(GM_MODAL_0);
         match code {

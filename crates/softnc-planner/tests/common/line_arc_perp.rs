@@ -1,6 +1,6 @@
 //! `fillet::line_arc` with the construction on n = u turned a quarter (`fillet16`,
-//! after ce178c5), written plainly: the reference the fast one (and `line_arc_2`'s
-//! lanes) must match bit for bit (`tests/line_arc_bits.rs`). The includer defines
+//! after ce178c5), written plainly (its angles by `libm::atan2`, as the planner's):
+//! the reference the planner's must match bit for bit (`tests/line_arc_bits.rs`). The includer defines
 //! `cover!(i)`, called where the code takes one of its rarer paths (`COVER_POINTS`
 //! of them; the test counts them).
 #![allow(dead_code, clippy::all)]
@@ -9,14 +9,13 @@ use softnc_core::Vec3;
 use softnc_planner::fillet::{ArcView, Fillet};
 
 /// How many places call `cover!`.
-pub const COVER_POINTS: usize = 22;
+pub const COVER_POINTS: usize = 11;
 
 const DEVIATION_SHARE: f64 = 0.9;
 const TRIM_TRIES: usize = 16;
 const FILLET_CLOSURE_MM: f64 = 1e-7;
 const CLOSURE_SURE_SHARE: f64 = 0.25;
 
-#[inline(always)]
 fn min_to(acc: f64, x: f64) -> f64 {
     if x < acc {
         x
@@ -25,7 +24,6 @@ fn min_to(acc: f64, x: f64) -> f64 {
     }
 }
 
-#[inline(always)]
 fn max_to(acc: f64, x: f64) -> f64 {
     if x > acc {
         x
@@ -35,16 +33,15 @@ fn max_to(acc: f64, x: f64) -> f64 {
 }
 
 /// 2·0.9·tol·cos(θ/2)·(1 + cos(θ/2))/sin θ, cos(θ/2) = √((1 + c)/2).
-#[inline(always)]
 fn first_trim_cs(c: f64, s: f64, tol_mm: f64) -> f64 {
     if !(-1.0..=1.0).contains(&c) {
-        cover!(20); // a clamped (or NaN) turn cosine
+        cover!(9); // a clamped (or NaN) turn cosine
     }
     let c = c.clamp(-1.0, 1.0);
     let s = min_to(s, 1.0);
     let one_plus_c = 1.0 + c;
     if one_plus_c <= 0.0 {
-        cover!(15);
+        cover!(6);
         return 0.0; // a reversal: no fillet
     }
     if s <= 0.0 {
@@ -55,7 +52,6 @@ fn first_trim_cs(c: f64, s: f64, tol_mm: f64) -> f64 {
 }
 
 /// The new `fillet::line_arc`.
-#[inline(never)]
 pub fn line_arc(
     corner: Vec3,
     u: Vec3,
@@ -72,7 +68,6 @@ pub fn line_arc(
     }
 }
 
-#[inline(always)]
 fn line_arc_in<const A: usize, const B: usize, const N: usize>(
     corner: Vec3,
     u: Vec3,
@@ -96,7 +91,7 @@ fn line_arc_in<const A: usize, const B: usize, const N: usize>(
     let cos_turn = (ub * pa - ua * pb) * k;
     let sin_turn = (ua * pa + ub * pb) * k;
     if !(sin_turn.abs() >= 1e-9) {
-        cover!(21);
+        cover!(10);
         return None; // tangent (or reversing) join
     }
     // u turned a quarter towards the turn
@@ -109,13 +104,13 @@ fn line_arc_in<const A: usize, const B: usize, const N: usize>(
         if let Some((f, surely, deviation)) =
             line_arc_at::<A, B, N>(corner, u, d, arc, arc_avail, (na, nb), (pa, pb))
         {
-            cover!(17);
+            cover!(8);
             if deviation <= DEVIATION_SHARE * tol_mm {
                 if surely || closes(&f, u) {
                     if !surely {
-                        cover!(16);
+                        cover!(7);
                     }
-                    cover!(13);
+                    cover!(4);
                     if try_no > 0 {
                         cover!(2);
                     }
@@ -131,7 +126,6 @@ fn line_arc_in<const A: usize, const B: usize, const N: usize>(
     None
 }
 
-#[inline(always)]
 fn line_arc_at<const A: usize, const B: usize, const N: usize>(
     corner: Vec3,
     u: Vec3,
@@ -164,7 +158,7 @@ fn line_arc_at<const A: usize, const B: usize, const N: usize>(
     let fc_norm = (fa * fa + fb * fb).sqrt();
     let radial_mismatch_mm = (fc_norm - (big_r + sigma * r)).abs();
     if fc_norm < 1e-12 || radial_mismatch_mm > 1e-7 * max_to(big_r, 1.0) {
-        cover!(14);
+        cover!(5);
         return None;
     }
     // T − F = −σ·r·(F − c)/|F − c|, against e1 = −n and e2 = u
@@ -182,11 +176,11 @@ fn line_arc_at<const A: usize, const B: usize, const N: usize>(
     if along < 1.0 - 1e-9 {
         return None;
     }
-    let sweep = atan2(q2, q1);
+    let sweep = libm::atan2(q2, q1);
     if !(sweep > 1e-9 && sweep < std::f64::consts::PI - 1e-6) {
         return None;
     }
-    let ang = atan2((pa * fb - pb * fa) * so, pa * fa + pb * fb);
+    let ang = libm::atan2((pa * fb - pb * fa) * so, pa * fa + pb * fb);
     let arc_trim_rad = if ang < 0.0 {
         ang + std::f64::consts::TAU
     } else {
@@ -226,7 +220,6 @@ fn line_arc_at<const A: usize, const B: usize, const N: usize>(
     Some((fillet, surely, deviation))
 }
 
-#[inline(always)]
 fn closes(f: &Fillet, u: Vec3) -> bool {
     let (r, c, s) = (f.radius, f.cos_sweep, f.sin_sweep);
     let inv_r = 1.0 / r;
@@ -238,106 +231,4 @@ fn closes(f: &Fillet, u: Vec3) -> bool {
     let (gap_end, gap_start) = (end - f.p_arc, start - f.p_line);
     let bound_sq = FILLET_CLOSURE_MM * FILLET_CLOSURE_MM;
     gap_end.dot(gap_end) <= bound_sq && gap_start.dot(gap_start) <= bound_sq
-}
-
-#[inline(always)]
-fn atan2(y: f64, x: f64) -> f64 {
-    use std::f64::consts::{FRAC_PI_2, PI};
-    const PI_LO: f64 = 1.2246467991473532e-16;
-    if !(x.is_finite() && y.is_finite()) {
-        cover!(4);
-        return y.atan2(x);
-    }
-    // (y = 0, x = 0 and the third quadrant are not reached from line_arc: the sweep's
-    // sine is positive, and a trim past half a turn fails the deviation test first)
-    if y == 0.0 {
-        return if x.is_sign_negative() {
-            PI.copysign(y)
-        } else {
-            y
-        };
-    }
-    if x == 0.0 {
-        return FRAC_PI_2.copysign(y);
-    }
-    let (ay, ax) = (y.abs(), x.abs());
-    let z = if ay > ax * 1.152_921_504_606_847e18 {
-        cover!(5);
-        FRAC_PI_2 + 0.5 * PI_LO
-    } else if x < 0.0 && ay * 1.152_921_504_606_847e18 < ax {
-        cover!(6);
-        0.0
-    } else {
-        atan_nonneg(ay / ax)
-    };
-    match (x < 0.0, y < 0.0) {
-        (false, false) => z,
-        (false, true) => {
-            cover!(19);
-            -z
-        }
-        (true, false) => {
-            cover!(18);
-            PI - (z - PI_LO)
-        }
-        (true, true) => (z - PI_LO) - PI,
-    }
-}
-
-#[inline(always)]
-fn atan_nonneg(x: f64) -> f64 {
-    const ATAN_HI: [f64; 4] = [
-        0.4636476090008061,
-        std::f64::consts::FRAC_PI_4,
-        0.982793723247329,
-        std::f64::consts::FRAC_PI_2,
-    ];
-    const ATAN_LO: [f64; 4] = [
-        2.2698777452961687e-17,
-        3.061616997868383e-17,
-        1.3903311031230998e-17,
-        6.123233995736766e-17,
-    ];
-    const ATAN_POLY: [f64; 11] = [
-        0.3333333333333293,
-        -0.19999999999876483,
-        0.14285714272503466,
-        -0.11111110405462356,
-        0.09090887133436507,
-        -0.0769187620504483,
-        0.06661073137387531,
-        -0.058335701337905735,
-        0.049768779946159324,
-        -0.036531572744216916,
-        0.016285820115365782,
-    ];
-    let (id, x) = if x < 0.4375 {
-        if x < 3.725290298461914e-09 {
-            cover!(7);
-            return x;
-        }
-        cover!(8);
-        (None, x)
-    } else if x < 0.6875 {
-        cover!(9);
-        (Some(0), (2.0 * x - 1.0) / (2.0 + x))
-    } else if x < 1.1875 {
-        cover!(10);
-        (Some(1), (x - 1.0) / (x + 1.0))
-    } else if x < 2.4375 {
-        cover!(11);
-        (Some(2), (x - 1.5) / (1.0 + 1.5 * x))
-    } else {
-        cover!(12);
-        (Some(3), -1.0 / x)
-    };
-    let t = &ATAN_POLY;
-    let z = x * x;
-    let w = z * z;
-    let s1 = z * (t[0] + w * (t[2] + w * (t[4] + w * (t[6] + w * (t[8] + w * t[10])))));
-    let s2 = w * (t[1] + w * (t[3] + w * (t[5] + w * (t[7] + w * t[9]))));
-    match id {
-        None => x - x * (s1 + s2),
-        Some(i) => ATAN_HI[i] - ((x * (s1 + s2) - ATAN_LO[i]) - x),
-    }
 }
