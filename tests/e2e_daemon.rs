@@ -70,6 +70,7 @@ fn assert_same_trace(got: &[u8], want: &[u8]) {
 }
 
 #[test]
+#[allow(clippy::too_many_lines)]
 fn adaptive_force_in_the_daemon_holds_the_force_where_the_depth_changes_bit_for_bit_as_the_simulator(
 ) {
     // paper 003's case I on its machine: a cut through 2, 3.5 and 5 mm of duralumin

@@ -477,6 +477,7 @@ impl MotionProfile {
     }
 
     /// The middle check of [`MotionProfile::validate`]: jog and homing.
+    #[allow(clippy::too_many_lines)]
     pub fn validate_manual(&self, file: &str) -> Result<(), ConfigError> {
         let bad = |path: String, reason: String| ConfigError::Invalid {
             file: file.to_string(),
