@@ -11,61 +11,13 @@ use softnc_core::FeedProfile;
 use softnc_planner::{
     check_program, read_and_plan, stream_program, PlanOptions, Sample, StreamMode,
 };
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::fmt::Write;
-use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
 use std::sync::Arc;
 
-struct Counting;
-static LIVE: AtomicUsize = AtomicUsize::new(0);
-static PEAK: AtomicUsize = AtomicUsize::new(0);
-thread_local! {
-    // allocations made by this thread (the consumer's, not the producer's)
-    static ALLOCS: Cell<usize> = const { Cell::new(0) };
-}
-
-#[allow(unsafe_code)] // a counting allocator forwarding to `System`
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
-        let live = LIVE.fetch_add(l.size(), Relaxed) + l.size();
-        PEAK.fetch_max(live, Relaxed);
-        // SAFETY: forwarding to the system allocator with the caller's layout.
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        LIVE.fetch_sub(l.size(), Relaxed);
-        // SAFETY: p was allocated by System.alloc with layout l.
-        unsafe { System.dealloc(p, l) }
-    }
-    unsafe fn realloc(&self, p: *mut u8, l: Layout, new_size: usize) -> *mut u8 {
-        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
-        if new_size >= l.size() {
-            let live = LIVE.fetch_add(new_size - l.size(), Relaxed) + new_size - l.size();
-            PEAK.fetch_max(live, Relaxed);
-        } else {
-            LIVE.fetch_sub(l.size() - new_size, Relaxed);
-        }
-        // SAFETY: forwarding to the system allocator with the caller's layout.
-        unsafe { System.realloc(p, l, new_size) }
-    }
-}
+use softnc_test_support::{allocations as allocs, peak_of, Counting};
 
 #[global_allocator]
 static GLOBAL: Counting = Counting;
-
-/// Peak heap above what was live before, while `f` runs (bytes).
-fn peak_of<R>(f: impl FnOnce() -> R) -> (R, usize) {
-    let base = LIVE.load(Relaxed);
-    PEAK.store(base, Relaxed);
-    let r = f();
-    (r, PEAK.load(Relaxed) - base)
-}
-
-fn allocs() -> usize {
-    ALLOCS.with(|c| c.get())
-}
 
 const MB: f64 = 1024.0 * 1024.0;
 

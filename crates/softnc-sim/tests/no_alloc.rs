@@ -2,39 +2,9 @@
 
 use softnc_machine::MachineProfile;
 use softnc_sim::{simulated_engine, SimOptions};
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::path::PathBuf;
 
-struct Counting;
-thread_local! {
-    // per thread: the test harness's own threads allocate while a test runs
-    static ALLOCS: Cell<u64> = const { Cell::new(0) };
-}
-
-fn count() {
-    // `try_with`: the slot may be gone while a thread is being torn down
-    let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
-}
-
-fn allocs() -> u64 {
-    ALLOCS.with(|c| c.get())
-}
-
-#[allow(unsafe_code)] // a counting allocator forwarding to `System`
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count();
-        System.alloc(layout)
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        System.dealloc(ptr, layout)
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count();
-        System.realloc(ptr, layout, new_size)
-    }
-}
+use softnc_test_support::{allocations as allocs, Counting};
 
 #[global_allocator]
 static GLOBAL: Counting = Counting;

@@ -3,51 +3,14 @@
 #![allow(dead_code)]
 
 use softnc_daemon::config::{DaemonConfig, Loaded};
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::path::{Path, PathBuf};
 
-/// A global allocator that counts the allocations of the threads that ask it to
-/// (per thread: the harness, the outbox thread and the other tests allocate while a
-/// test counts). Each test binary registers it: `#[global_allocator] static GLOBAL:
-/// common::Counting = common::Counting;`.
-pub struct Counting;
-
-thread_local! {
-    static COUNTING: Cell<bool> = const { Cell::new(false) };
-    static ALLOCS: Cell<usize> = const { Cell::new(0) };
-}
-
-// SAFETY: every call is forwarded to the system allocator unchanged; the counting
-// touches only this thread's cells.
-#[allow(unsafe_code)] // a counting allocator forwarding to `System`
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        // `try_with`: the slot may be gone while a thread is being torn down
-        if COUNTING.try_with(|c| c.get()).unwrap_or(false) {
-            let _ = ALLOCS.try_with(|a| a.set(a.get() + 1));
-        }
-        // SAFETY: forwarding to the system allocator with the caller's layout.
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        // SAFETY: p was allocated by System.alloc with layout l.
-        unsafe { System.dealloc(p, l) }
-    }
-}
-
-/// Run `f` with this thread's allocations counted.
-pub fn count<T>(f: impl FnOnce() -> T) -> T {
-    COUNTING.with(|c| c.set(true));
-    let r = f();
-    COUNTING.with(|c| c.set(false));
-    r
-}
-
-/// Allocations counted on this thread so far.
-pub fn allocations() -> usize {
-    ALLOCS.with(|a| a.get())
-}
+/// The counting allocator of the cycle tests (`softnc-test-support`): each test binary
+/// registers it (`#[global_allocator] static GLOBAL: common::Counting =
+/// common::Counting;`); `count(f)` counts this thread's allocations inside `f`,
+/// `allocations()` says how many so far.
+#[allow(unused_imports)] // (the binaries that count use them)
+pub use softnc_test_support::{count, counted as allocations, Counting};
 
 /// A daemon configuration of its own in a fresh folder `softnc-<tag>-<pid>`: lockstep
 /// clock, instance `<tag><pid>`, `machine_file` of `config/machines` as its
