@@ -367,39 +367,34 @@ pub struct EStopRequest {
     pub sent_unix_ns: u64,
 }
 
-/// Operator client → MMI (request-response).
+/// Operator client → MMI (request-response): one `softnc-api` request, serialised
+/// (JSON in its envelope, `softnc_api::encode_request`).
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
 #[repr(C)]
-#[type_name("softnc::OperatorRequest")]
+#[type_name("softnc::OperatorRequestJson")]
 pub struct OperatorRequest {
-    /// What to do ([`ControlKind`] as `wire()`; `StartJob` submits `path`).
-    pub kind: u32,
-    /// Axis index (`Home`, `Jog`, `JogStep`, `TouchOff`; `u32::MAX`: none or all),
-    /// tool number (`ToolSet`), line to run from (`StartJob`, 0: the start).
-    pub axis: u32,
-    /// Argument.
-    pub value: f64,
-    /// Job options for `StartJob` (bits: [`JOB_ADAPTIVE_FORCE`]); 0 otherwise.
-    pub flags: u32,
-    /// Job file.
-    pub path: FixedStr<512>,
+    /// The serialised request; one that does not fit is not sent.
+    pub message: FixedStr<{ OperatorRequest::MESSAGE_CAPACITY }>,
 }
 
-/// MMI → operator client.
+impl OperatorRequest {
+    /// Bytes a request holds.
+    pub const MESSAGE_CAPACITY: usize = 4096;
+}
+
+/// MMI → operator client: one `softnc-api` reply, serialised (JSON in its envelope,
+/// `softnc_api::encode_reply`); a reply that does not fit is replaced by one saying
+/// so, never cut.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
 #[repr(C)]
-#[type_name("softnc::OperatorReply")]
+#[type_name("softnc::OperatorReplyJson")]
 pub struct OperatorReply {
-    /// 1 accepted, 0 refused.
-    pub accepted: u32,
-    /// Job id given to a submitted job.
-    pub job_id: u64,
-    /// Why refused (`file:line:column: reason`), or the JSON asked for.
+    /// The serialised reply.
     pub message: FixedStr<{ OperatorReply::MESSAGE_CAPACITY }>,
 }
 
 impl OperatorReply {
-    /// Bytes a reply's message holds.
+    /// Bytes a reply holds.
     pub const MESSAGE_CAPACITY: usize = 8192;
 }
 

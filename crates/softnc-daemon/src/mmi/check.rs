@@ -2,15 +2,15 @@
 //! copied, checked and planned from where the machine is; started or refused when
 //! the check ends.
 
-use super::history::{Accuracy, JobRecord};
-use super::setup::mdi_error;
-use super::{MmiTask, OperatorRequestIn};
+use super::history::{Accuracy, JobRecord, Outcome};
+use super::program::{mdi_error, CheckKind};
+use super::{wire_reply, MmiTask, OperatorRequestIn};
 use crate::interp::{check_bytes, JobSetup};
 use crate::jobfile::{intake, keep_copy, sha256_hex, CheckedSetup, KeptSubroutine};
 use anyhow::Result;
-use softnc_ipc::{
-    AlarmCode, ControlKind, FixedStr, MachineState, OperatorReply, JOB_ADAPTIVE_FORCE,
-};
+use softnc_api::Reply;
+use softnc_core::MAX_AXES;
+use softnc_ipc::{AlarmCode, ControlKind, FixedStr, MachineState, JOB_ADAPTIVE_FORCE};
 use softnc_planner::PlanStats;
 use std::path::PathBuf;
 use std::time::{Instant, SystemTime};
@@ -34,21 +34,6 @@ pub(super) struct CheckOk {
 
 /// What the check of a submitted job gives, or why it is refused.
 pub(super) type CheckResult = std::result::Result<CheckOk, String>;
-
-/// What is being checked.
-#[derive(Debug, Clone, PartialEq)]
-pub(super) enum CheckKind {
-    /// A job from a file (from a line).
-    Job {
-        from_line: Option<u32>,
-        /// With adaptive feed.
-        adaptive_force: bool,
-    },
-    /// MDI block(s).
-    Mdi { text: String },
-    /// A touch-off (a G10 L20 block: no motion).
-    TouchOff { what: String },
-}
 
 /// A job being taken in (read once, planned from the machine's position) on a
 /// thread of its own: the loop goes on serving status, E-stop and heartbeats.
@@ -154,7 +139,7 @@ pub(super) fn check_job(
 
 impl MmiTask {
     /// Read and check a program off the loop ([`Checking`]); answered when done.
-    pub(super) fn begin_check(&mut self, path: String, kind: CheckKind) -> Option<OperatorReply> {
+    pub(super) fn begin_check(&mut self, path: String, kind: CheckKind) -> Option<Reply> {
         let limit = self.cfg.config.max_job_bytes;
         let programs = self.store.programs_dir();
         let machine = match self.store.profile(&self.cfg.machine) {
@@ -312,13 +297,13 @@ impl MmiTask {
         };
         if let Some(req) = request {
             // the operator may be gone (timed out): the job stands either way
-            let _ = req.send_copy(reply);
+            let _ = req.send_copy(wire_reply(&reply, kind.request_name()));
         }
         Ok(())
     }
 
     /// A refused job: the alarm, and the reply.
-    fn refuse_job(&mut self, msg: &str) -> Result<OperatorReply> {
+    fn refuse_job(&mut self, msg: &str) -> Result<Reply> {
         self.raise(AlarmCode::JobRefused, msg)?;
         Ok(Self::reply(false, 0, msg))
     }
@@ -331,7 +316,7 @@ impl MmiTask {
         ok: CheckOk,
         kind: &CheckKind,
         path: &str,
-    ) -> Result<std::result::Result<OperatorReply, String>> {
+    ) -> Result<std::result::Result<Reply, String>> {
         let CheckOk {
             job,
             copy,
@@ -376,12 +361,19 @@ impl MmiTask {
             job_id,
             path: path.to_string(),
             submitted_unix_s: submitted,
-            outcome: if moves { "running" } else { "completed" }.into(),
+            outcome: if moves {
+                Outcome::Running
+            } else {
+                Outcome::Completed
+            },
             planned_samples: stats.samples,
             cycles: 0,
             planned_path_mm: stats.path_length_mm,
             path_mm: 0.0,
-            accuracy: Accuracy::default(),
+            accuracy: Accuracy {
+                following_max_abs_um: vec![0.0; MAX_AXES],
+                ..Accuracy::default()
+            },
             notes: Vec::new(),
             alarms: Vec::new(),
             program: Some(copy.clone()),

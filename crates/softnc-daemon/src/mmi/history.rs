@@ -2,103 +2,53 @@
 //! atomically), paged to the operator newest first.
 
 use super::MmiTask;
-use serde::{Deserialize, Serialize};
+pub use softnc_api::{Accuracy, JobRecord, Outcome};
+use softnc_api::{JobsPage, Reply};
 use softnc_core::store::write_atomic;
-use softnc_core::Axes;
+use softnc_core::MAX_AXES;
 use softnc_ipc::{OperatorReply, PositionStatus};
 use std::time::{Instant, SystemTime};
 
-/// One job in the history.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct JobRecord {
-    /// Job id.
-    pub job_id: u64,
-    /// Program file.
-    pub path: String,
-    /// Submitted (seconds since the Unix epoch).
-    pub submitted_unix_s: u64,
-    /// "running", "completed", "aborted".
-    pub outcome: String,
-    /// Planned samples.
-    pub planned_samples: u64,
-    /// Cycles run.
-    pub cycles: u64,
-    /// Length of the planned path (mm).
-    #[serde(default)]
-    pub planned_path_mm: f64,
-    /// How far along the planned path the position loop is (mm).
-    #[serde(default)]
-    pub path_mm: f64,
-    /// Accuracy over the job's feed moves.
-    pub accuracy: Accuracy,
-    /// Remarks that are not alarms (a learned correction applied, faded out, …).
-    #[serde(default)]
-    pub notes: Vec<String>,
-    /// The alarms raised while it ran ("Code: message"); kept when the operator
-    /// clears the machine's alarms.
-    #[serde(default)]
-    pub alarms: Vec<String>,
-    /// The immutable copy of the program that ran (`<data_dir>/programs/<sha256>.ngc`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub program: Option<String>,
-    /// SHA-256 of the program that ran.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub sha256: Option<String>,
-    /// The block(s) of an MDI command (`None`: a job from a file).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub mdi: Option<String>,
-    /// The line a run-from-line job started at.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub from_line: Option<u32>,
-    /// The job ran with adaptive feed (paper 003's force loop on the override).
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub adaptive_force: bool,
-}
-
-impl JobRecord {
-    /// How much of the job is done (0..=1): the position along the planned path
-    /// (a completed job is done; a path of length 0, dwells only, counts cycles).
-    pub fn progress(&self) -> f64 {
-        let p = if self.outcome == "completed" {
-            1.0
-        } else if self.planned_path_mm > 0.0 {
-            self.path_mm / self.planned_path_mm
-        } else if self.planned_samples > 0 {
-            self.cycles as f64 / self.planned_samples as f64
-        } else {
-            0.0
-        };
-        p.clamp(0.0, 1.0)
-    }
-}
-
-/// Accuracy of a job, accumulated from the position status stream.
-#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
-pub struct Accuracy {
-    /// Largest |contour error| (µm).
-    pub contour_max_abs_um: f64,
-    /// RMS contour error (µm).
-    pub contour_rms_um: f64,
-    /// Largest |following error| per axis (µm).
-    pub following_max_abs_um: Axes<f64>,
-    #[serde(skip)]
-    sum_sq: f64,
-    #[serde(skip)]
+/// The RMS contour error of the running job, accumulated from the position status
+/// stream (the record keeps the result, [`Accuracy::contour_rms_um`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct ContourRms {
+    /// The job it is of.
+    job_id: u64,
+    sum_sq_um2: f64,
     n: u64,
 }
 
-impl Accuracy {
-    pub(super) fn add(&mut self, s: &PositionStatus) {
-        if s.contour_err_mm.is_finite() {
-            let e = s.contour_err_mm * 1000.0;
-            self.contour_max_abs_um = self.contour_max_abs_um.max(e.abs());
-            self.sum_sq += e * e;
-            self.n += 1;
-            self.contour_rms_um = (self.sum_sq / self.n as f64).sqrt();
-        }
-        for (i, max_um) in self.following_max_abs_um.iter_mut().enumerate() {
-            *max_um = max_um.max(s.following_err_mm[i].abs() * 1000.0);
-        }
+/// Add one position status of job `acc`'s to its accuracy.
+pub(super) fn add_accuracy(
+    acc: &mut Accuracy,
+    rms: &mut ContourRms,
+    job_id: u64,
+    s: &PositionStatus,
+) {
+    if rms.job_id != job_id {
+        *rms = ContourRms {
+            job_id,
+            ..ContourRms::default()
+        };
+    }
+    if s.contour_err_mm.is_finite() {
+        let e = s.contour_err_mm * 1000.0;
+        acc.contour_max_abs_um = acc.contour_max_abs_um.max(e.abs());
+        rms.sum_sq_um2 += e * e;
+        rms.n += 1;
+        acc.contour_rms_um = (rms.sum_sq_um2 / rms.n as f64).sqrt();
+    }
+    if acc.following_max_abs_um.len() < MAX_AXES {
+        acc.following_max_abs_um.resize(MAX_AXES, 0.0);
+    }
+    for (i, max_um) in acc
+        .following_max_abs_um
+        .iter_mut()
+        .enumerate()
+        .take(MAX_AXES)
+    {
+        *max_um = max_um.max(s.following_err_mm[i].abs() * 1000.0);
     }
 }
 
@@ -117,8 +67,8 @@ pub(super) fn load_jobs(path: &std::path::Path) -> (Vec<JobRecord>, u64) {
     match serde_json::from_slice::<Vec<JobRecord>>(&bytes) {
         Ok(mut jobs) => {
             // a job "running" when the MMI last stopped did not finish under it
-            for j in jobs.iter_mut().filter(|j| j.outcome == "running") {
-                j.outcome = "interrupted".into();
+            for j in jobs.iter_mut().filter(|j| j.outcome == Outcome::Running) {
+                j.outcome = Outcome::Interrupted;
             }
             let max = jobs.iter().map(|j| j.job_id).max().unwrap_or(0);
             (jobs, max)
@@ -161,7 +111,6 @@ impl Unsaved {
     pub(super) const PARAMS: usize = 1;
     /// The modal state file.
     pub(super) const MODAL: usize = 2;
-    const NAMES: [&'static str; 3] = ["job_history", "parameters", "modal_state"];
 
     /// Some file is not written.
     pub(super) fn any(&self) -> bool {
@@ -178,14 +127,13 @@ impl Unsaved {
         self.slots[Self::MODAL].as_ref()
     }
 
-    /// `{"job_history": why, …}` of the files not written.
-    pub(super) fn json(&self) -> serde_json::Value {
-        let map: serde_json::Map<String, serde_json::Value> = Self::NAMES
-            .iter()
-            .zip(&self.slots)
-            .filter_map(|(n, e)| e.as_ref().map(|e| (n.to_string(), e.clone().into())))
-            .collect();
-        serde_json::Value::Object(map)
+    /// The files not written, by what they hold, and why.
+    pub(super) fn to_api(&self) -> softnc_api::Unsaved {
+        softnc_api::Unsaved {
+            job_history: self.slots[Self::HISTORY].clone(),
+            parameters: self.slots[Self::PARAMS].clone(),
+            modal_state: self.slots[Self::MODAL].clone(),
+        }
     }
 }
 
@@ -252,29 +200,33 @@ impl MmiTask {
     }
 
     /// One page of the job history, newest first, from `offset` (skipped newest
-    /// records): `{"total", "offset", "jobs"}` with as many records as fit a reply.
-    pub fn jobs_page(&self, offset: f64) -> String {
-        let total = self.jobs.len();
-        let offset = if offset.is_finite() && offset > 0.0 {
-            (offset as usize).min(total)
-        } else {
-            0
+    /// records): as many records as fit a reply (at least one: a record too large
+    /// for a reply alone is answered [`Reply::TooLarge`]).
+    pub fn jobs_page(&self, offset: u64) -> Reply {
+        let total = self.jobs.len() as u64;
+        let offset = offset.min(total);
+        let page = |jobs: Vec<JobRecord>| {
+            Reply::Jobs(JobsPage {
+                total,
+                offset,
+                jobs,
+            })
         };
-        // room for the envelope; each record is added while the page still fits
-        let cap = OperatorReply::MESSAGE_CAPACITY - 64;
-        let mut body = String::from("[");
-        for j in self.jobs.iter().rev().skip(offset) {
-            let rec = serde_json::to_string(j).unwrap_or_default();
-            if body.len() + rec.len() + 2 > cap && body.len() > 1 {
+        // the page's size serialised: the empty page's, plus each record's
+        // (serialised alone as in the list) and a comma between records
+        let envelope = softnc_api::encode_reply(&page(Vec::new()), "jobs", usize::MAX).len();
+        let mut bytes = envelope;
+        let mut jobs: Vec<JobRecord> = Vec::new();
+        for j in self.jobs.iter().rev().skip(offset as usize) {
+            let len =
+                serde_json::to_string(j).map_or(0, |t| t.len()) + usize::from(!jobs.is_empty());
+            if !jobs.is_empty() && bytes + len > OperatorReply::MESSAGE_CAPACITY {
                 break;
             }
-            if body.len() > 1 {
-                body.push(',');
-            }
-            body.push_str(&rec);
+            bytes += len;
+            jobs.push(j.clone());
         }
-        body.push(']');
-        format!("{{\"total\":{total},\"offset\":{offset},\"jobs\":{body}}}")
+        page(jobs)
     }
 }
 

@@ -7,15 +7,22 @@
 //!   ([`transition`], docs/operations.md), the operator's commands, status;
 //! - `check`: a submitted job, MDI block or touch-off taken in off the loop;
 //! - `setup`: jog, touch-off, the tool table, and why a program is refused now;
+//! - `program`: what a check takes in (a job, MDI, a touch-off), shared by both;
 //! - `history`: the job records and `jobs.json`.
+//!
+//! Operator requests and replies are `softnc-api` types, serialised in the
+//! iceoryx2 payloads ([`wire_reply`]).
 
 mod check;
 mod history;
+mod program;
 mod setup;
 
-use check::{CheckKind, Checking};
-use history::load_jobs;
+use check::Checking;
+use history::{add_accuracy, load_jobs, ContourRms, Outcome};
 pub use history::{Accuracy, JobRecord};
+use program::CheckKind;
+use softnc_api::{Reply, Request};
 
 use crate::bus::{Bus, Pub, Sub};
 use crate::config::Loaded;
@@ -25,9 +32,10 @@ use crate::machine_store::{offsets_json, MachineStore, Offsets};
 use anyhow::{Context, Result};
 use iceoryx2::port::server::Server;
 use iceoryx2::prelude::*;
+use softnc_api::ProcessHealth;
 use softnc_ipc::{
     Alarm, AlarmCode, ControlCommand, ControlKind, FixedStr, Heartbeat, LoopStats, MachineState,
-    OperatorReply, OperatorRequest, PositionStatus, ProcessId, JOB_ADAPTIVE_FORCE,
+    OperatorReply, OperatorRequest, PositionStatus, ProcessId,
 };
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
@@ -60,6 +68,8 @@ pub struct MmiTask {
     loops: [Option<LoopStats>; 4],
     alarms: VecDeque<Alarm>,
     jobs: Vec<JobRecord>,
+    /// The running job's RMS contour error, accumulated.
+    contour_rms: ContourRms,
     control_seq: u64,
     /// Job ids go on above this (an unreadable history's highest).
     job_id_floor: u64,
@@ -187,6 +197,7 @@ impl MmiTask {
             loops: [None; 4],
             alarms: VecDeque::new(),
             jobs,
+            contour_rms: ContourRms::default(),
             control_seq: 0,
             job_id_floor,
             last_save: Instant::now(),
@@ -303,7 +314,8 @@ impl MmiTask {
 
     /// A job is under way: started and not ended (also before its first sample).
     fn job_active(&self) -> bool {
-        self.last.is_some_and(|s| s.job_id != 0) || self.jobs.iter().any(|j| j.outcome == "running")
+        self.last.is_some_and(|s| s.job_id != 0)
+            || self.jobs.iter().any(|j| j.outcome == Outcome::Running)
     }
 
     /// The machine state the operator sees (docs/operations.md): the position
@@ -318,7 +330,7 @@ impl MmiTask {
             .is_some_and(|t| t.elapsed().as_secs_f64() <= self.cfg.config.heartbeat_timeout_s)
             && supervisor.state == MachineState::Faulted.wire();
         // the position process's last word does not stand once it is gone
-        let position_lost = self.peer_status(ProcessId::Position) == "lost";
+        let position_lost = self.peer_status(ProcessId::Position) == ProcessHealth::Lost;
         // a command sent and not yet taken: what it asked for, not the state before
         let asked = self.asked_pending();
         match pos {
@@ -327,7 +339,11 @@ impl MmiTask {
             _ if asked.is_some() => asked.unwrap_or(pos),
             MachineState::Off | MachineState::Homing | MachineState::Jogging => pos,
             _ if self.job_active() => {
-                let running = self.jobs.iter().rev().find(|j| j.outcome == "running");
+                let running = self
+                    .jobs
+                    .iter()
+                    .rev()
+                    .find(|j| j.outcome == Outcome::Running);
                 let mdi = running.is_some_and(|j| j.mdi.is_some());
                 // the interpolator's word on this job (not a stale one on the last)
                 let peer = self.peers[ProcessId::Interp as usize];
@@ -361,7 +377,10 @@ impl MmiTask {
     }
 
     fn running_job(&mut self) -> Option<&mut JobRecord> {
-        self.jobs.iter_mut().rev().find(|j| j.outcome == "running")
+        self.jobs
+            .iter_mut()
+            .rev()
+            .find(|j| j.outcome == Outcome::Running)
     }
 
     /// Serve until a `Shutdown` request or a stop (signal, the supervisor's death),
@@ -404,14 +423,19 @@ impl MmiTask {
                 if let Some(j) = self
                     .jobs
                     .iter_mut()
-                    .find(|j| j.job_id == s.job_id && j.outcome == "interrupted")
+                    .find(|j| j.job_id == s.job_id && j.outcome == Outcome::Interrupted)
                 {
-                    j.outcome = "running".into();
+                    j.outcome = Outcome::Running;
                 }
             }
-            if let Some(job) = self.running_job() {
+            let running = self
+                .jobs
+                .iter_mut()
+                .rev()
+                .find(|j| j.outcome == Outcome::Running);
+            if let Some(job) = running {
                 if s.job_id == job.job_id {
-                    job.accuracy.add(&s);
+                    add_accuracy(&mut job.accuracy, &mut self.contour_rms, job.job_id, &s);
                     job.cycles = job.cycles.max(s.time_index + 1);
                     job.path_mm = job.path_mm.max(s.path_mm);
                 }
@@ -423,12 +447,16 @@ impl MmiTask {
                 let mut ended = false;
                 if let Some(job) = self.running_job() {
                     if matches!(now_state, MachineState::Faulted | MachineState::EStopped) {
-                        job.outcome = "aborted".into();
+                        job.outcome = Outcome::Aborted;
                         ended = true;
                     } else if now_state == MachineState::Idle && s.job_id == 0 && job.cycles > 0 {
                         // stopped along its path by an abort or a stop: not completed
                         let aborted = abort_asked == Some(job.job_id);
-                        job.outcome = if aborted { "aborted" } else { "completed" }.into();
+                        job.outcome = if aborted {
+                            Outcome::Aborted
+                        } else {
+                            Outcome::Completed
+                        };
                         ended = true;
                     }
                 }
@@ -482,7 +510,7 @@ impl MmiTask {
                     // the servo loop died under the job: it ended there (faulted)
                     let alarm = format!("ProcessLost: {}", a.message.as_str());
                     if let Some(j) = self.running_job() {
-                        j.outcome = "aborted".into();
+                        j.outcome = Outcome::Aborted;
                         if a.job_id != j.job_id {
                             j.alarms.push(alarm);
                         }
@@ -497,8 +525,8 @@ impl MmiTask {
             let code = AlarmCode::from_wire(a.code).unwrap_or(AlarmCode::Other);
             if let Some(j) = self.jobs.iter_mut().rev().find(|j| j.job_id == a.job_id) {
                 j.alarms.push(format!("{code:?}: {}", a.message.as_str()));
-                if code == AlarmCode::JobRefused && j.outcome == "running" {
-                    j.outcome = "refused".into();
+                if code == AlarmCode::JobRefused && j.outcome == Outcome::Running {
+                    j.outcome = Outcome::Refused;
                     self.intent = None;
                 }
                 changed = true;
@@ -515,7 +543,7 @@ impl MmiTask {
         }
         // the running job's record is written as it progresses (once a second); a
         // file that could not be written is tried again as often
-        let running = self.jobs.iter().any(|j| j.outcome == "running");
+        let running = self.jobs.iter().any(|j| j.outcome == Outcome::Running);
         let due = self.last_save.elapsed().as_secs_f64() >= self.cfg.config.job_record_period_s;
         if changed || (running && due) || (self.unsaved.any() && due) {
             self.save_jobs();
@@ -526,12 +554,22 @@ impl MmiTask {
         // abandoned checks that have ended
         self.abandoned.retain(|(_, t)| !t.is_finished());
         while let Some(req) = self.server.receive()? {
-            let r = *req;
+            let text = req.message.as_str().to_string();
             // a client that gave up waiting (this process was stopped) is gone: its
             // reply goes nowhere, which is no reason to stop serving
-            match self.handle(&r)? {
+            let request = match softnc_api::decode_request(&text) {
+                Ok(r) => r,
+                Err(e) => {
+                    let reply = Reply::refused(format!("{e}; nothing done"));
+                    if let Err(e) = req.send_copy(wire_reply(&reply, "unreadable")) {
+                        tracing::warn!("reply not delivered: {e:?}");
+                    }
+                    continue;
+                }
+            };
+            match self.handle(&request)? {
                 Some(reply) => {
-                    if let Err(e) = req.send_copy(reply) {
+                    if let Err(e) = req.send_copy(wire_reply(&reply, request.name())) {
                         tracing::warn!("reply not delivered: {e:?}");
                     }
                 }
@@ -539,7 +577,8 @@ impl MmiTask {
                 None => match self.checking.as_mut() {
                     Some(c) => c.request = Some(req),
                     None => {
-                        if let Err(e) = req.send_copy(Self::reply(false, 0, "job not started")) {
+                        let reply = Self::reply(false, 0, "job not started");
+                        if let Err(e) = req.send_copy(wire_reply(&reply, request.name())) {
                             tracing::warn!("reply not delivered: {e:?}");
                         }
                     }
@@ -572,7 +611,7 @@ impl MmiTask {
         let completed = self
             .jobs
             .iter()
-            .any(|j| j.job_id == job_id && j.outcome == "completed");
+            .any(|j| j.job_id == job_id && j.outcome == Outcome::Completed);
         if completed {
             self.save_params(&params)?;
             self.save_modal(modal);
@@ -644,69 +683,28 @@ impl MmiTask {
         Ok(())
     }
 
-    /// A reply; one too long for the wire is refused whole, never cut.
-    fn reply(accepted: bool, job_id: u64, msg: &str) -> OperatorReply {
-        match FixedStr::try_new(msg) {
-            Ok(message) => OperatorReply {
-                accepted: accepted as u32,
-                job_id,
-                message,
-            },
-            Err(e) => OperatorReply {
-                accepted: 0,
-                job_id,
-                message: FixedStr::truncated(&format!("reply not sent: {e}")),
-            },
+    /// An accepted reply (about job `job_id`, 0: none) or a refusal, saying `msg`.
+    fn reply(accepted: bool, job_id: u64, msg: &str) -> Reply {
+        if accepted {
+            Reply::accepted((job_id != 0).then_some(job_id), msg)
+        } else {
+            Reply::refused(msg)
         }
     }
 
     /// The reply to a request; `None` when it is answered later (a job being
     /// checked, see [`Checking`]).
-    fn handle(&mut self, r: &OperatorRequest) -> Result<Option<OperatorReply>> {
-        let Some(kind) = ControlKind::from_wire(r.kind) else {
-            return Ok(Some(Self::reply(false, 0, "unknown request")));
-        };
+    fn handle(&mut self, request: &Request) -> Result<Option<Reply>> {
         let state = self.machine_state();
-        Ok(Some(match kind {
-            ControlKind::StartJob => {
-                let path = r.path.as_str().to_string();
-                if let Some(why) = self.refuse_program(state, "job") {
-                    return Ok(Some(Self::reply(false, 0, &why)));
-                }
-                // read once (a regular file under the limit), checked, and run from
-                // its immutable copy; on a thread of its own (a long program takes a
-                // while) — the loop goes on serving status and E-stop
-                let from_line = (r.axis != 0 && r.axis != u32::MAX).then_some(r.axis);
-                // adaptive feed: asked for, or the profile's default; only on a
-                // machine whose profile has the force loop
-                let adaptive_feed = self
-                    .cfg
-                    .machine
-                    .force
-                    .as_ref()
-                    .and_then(|f| f.adaptive_feed.as_ref());
-                let adaptive_force =
-                    r.flags & JOB_ADAPTIVE_FORCE != 0 || adaptive_feed.is_some_and(|a| a.enabled);
-                if adaptive_force && adaptive_feed.is_none() {
-                    return Ok(Some(Self::reply(
-                        false,
-                        0,
-                        &format!(
-                            "adaptive force refused: the machine profile {} has no force.adaptive_feed section; nothing started",
-                            self.cfg.machine_path.display()
-                        ),
-                    )));
-                }
-                return Ok(self.begin_check(
-                    path,
-                    CheckKind::Job {
-                        from_line,
-                        adaptive_force,
-                    },
-                ));
-            }
-            ControlKind::Mdi => {
-                let text = r.path.as_str().to_string();
+        let axis_index = |a: &softnc_api::Axis| a.index() as u32;
+        Ok(Some(match request {
+            Request::SubmitJob {
+                path,
+                from_line,
+                adaptive_force,
+            } => return Ok(self.submit_job(path, *from_line, *adaptive_force, state)),
+            Request::Mdi { blocks } => {
+                let text = blocks.clone();
                 if text.trim().is_empty() {
                     return Ok(Some(Self::reply(false, 0, "MDI: no block given")));
                 }
@@ -719,66 +717,64 @@ impl MmiTask {
                 };
                 return Ok(self.begin_check(path, CheckKind::Mdi { text }));
             }
-            ControlKind::TouchOff => return self.touch_off(r, state),
-            ControlKind::Offsets => Self::reply(
-                true,
-                0,
-                &offsets_json(
+            Request::TouchOff {
+                axis,
+                value_mm,
+                coords,
+            } => {
+                return self.touch_off(
+                    axis_index(axis),
+                    *value_mm,
+                    coords.as_deref().unwrap_or(""),
+                    state,
+                )
+            }
+            Request::Offsets => {
+                let table = offsets_json(
                     self.params.as_ref(),
                     self.modal.as_deref(),
                     &self.cfg.machine,
-                )
-                .to_string(),
-            ),
-            ControlKind::Tools => match self.store.load_tools(&self.cfg.machine) {
-                Ok(t) => Self::reply(true, 0, &serde_json::to_string(&t).unwrap_or_default()),
-                Err(e) => Self::reply(false, 0, &e),
-            },
-            ControlKind::ToolSet => return self.tool_set(r),
-            ControlKind::SingleBlock | ControlKind::OptionalStop | ControlKind::BlockDelete => {
-                let on = r.value != 0.0;
-                self.switches.apply(kind, r.value);
-                self.send_control(kind, 0, if on { 1.0 } else { 0.0 }, "")?;
-                let name = match kind {
-                    ControlKind::SingleBlock => "single block",
-                    ControlKind::OptionalStop => "optional stop",
-                    _ => "block delete",
-                };
-                let when = if self.job_active() && kind != ControlKind::SingleBlock {
-                    " (from the next job)"
-                } else {
-                    ""
-                };
-                Self::reply(
-                    true,
-                    0,
-                    &format!("{name} {}{when}", if on { "on" } else { "off" }),
-                )
-            }
-            ControlKind::MachineOn | ControlKind::MachineOff | ControlKind::Home => {
-                match transition(kind, state) {
-                    Err(why) => {
-                        Self::reply(false, 0, &format!("{kind:?} refused ({state:?}): {why}"))
-                    }
-                    Ok(next) => {
-                        let axes = self.cfg.machine.axes.len().min(3) as u32;
-                        if kind == ControlKind::Home && r.axis != u32::MAX && r.axis >= axes {
-                            return Ok(Some(Self::reply(false, 0, "home: no such axis")));
-                        }
-                        self.send_control_axis(kind, 0, r.axis, 0.0, "")?;
-                        self.ask_state(next);
-                        let what = match kind {
-                            ControlKind::MachineOn => "machine on".to_string(),
-                            ControlKind::MachineOff => "machine off".to_string(),
-                            _ if r.axis == u32::MAX => "homing all axes".to_string(),
-                            _ => format!("homing {}", self.axis_name(r.axis)),
-                        };
-                        Self::reply(true, 0, &format!("{what} ({next:?})"))
-                    }
+                );
+                match serde_json::from_value(table) {
+                    Ok(t) => Reply::Offsets(t),
+                    Err(e) => Self::reply(false, 0, &format!("offsets: {e}")),
                 }
             }
-            ControlKind::Jog | ControlKind::JogStep => self.jog(kind, r, state)?,
-            ControlKind::Step => match transition(kind, state) {
+            Request::Tools => match self.store.load_tools(&self.cfg.machine) {
+                Ok(t) => Reply::Tools(
+                    t.into_iter()
+                        .map(|t| softnc_api::Tool {
+                            number: t.number,
+                            length_mm: t.length_mm,
+                            diameter_mm: t.diameter_mm,
+                        })
+                        .collect(),
+                ),
+                Err(e) => Self::reply(false, 0, &e),
+            },
+            Request::ToolSet {
+                tool,
+                length_mm,
+                diameter_mm,
+            } => return self.tool_set(*tool, *length_mm, *diameter_mm),
+            Request::SingleBlock { on } => self.switch(ControlKind::SingleBlock, *on)?,
+            Request::OptionalStop { on } => self.switch(ControlKind::OptionalStop, *on)?,
+            Request::BlockDelete { on } => self.switch(ControlKind::BlockDelete, *on)?,
+            Request::MachineOn => self.drives_or_home(ControlKind::MachineOn, u32::MAX, state)?,
+            Request::MachineOff => self.drives_or_home(ControlKind::MachineOff, u32::MAX, state)?,
+            Request::Home { axis } => self.drives_or_home(
+                ControlKind::Home,
+                axis.as_ref().map_or(u32::MAX, axis_index),
+                state,
+            )?,
+            Request::Jog {
+                axis,
+                speed_mm_per_min,
+            } => self.jog(ControlKind::Jog, axis_index(axis), *speed_mm_per_min, state)?,
+            Request::JogStep { axis, distance_mm } => {
+                self.jog(ControlKind::JogStep, axis_index(axis), *distance_mm, state)?
+            }
+            Request::Step => match transition(ControlKind::Step, state) {
                 Err(why) => Self::reply(false, 0, &format!("Step refused ({state:?}): {why}")),
                 Ok(next) => {
                     let job_id = self.running_job().map_or(0, |j| j.job_id);
@@ -790,22 +786,24 @@ impl MmiTask {
                     )
                 }
             },
-            ControlKind::FeedOverride => {
+            Request::FeedOverride { fraction } => {
+                let value = *fraction;
                 let max = self.cfg.machine.planner.max_feed_override;
-                if !(0.0..=max).contains(&r.value) {
+                if !(0.0..=max).contains(&value) {
                     return Ok(Some(Self::reply(
                         false,
                         0,
                         &format!("override must be 0..={:.0} %", max * 100.0),
                     )));
                 }
-                self.feed_override = r.value;
-                self.send_control(kind, 0, r.value, "")?;
-                Self::reply(true, 0, &format!("feed override {:.0} %", r.value * 100.0))
+                self.feed_override = value;
+                self.send_control(ControlKind::FeedOverride, 0, value, "")?;
+                Self::reply(true, 0, &format!("feed override {:.0} %", value * 100.0))
             }
-            ControlKind::SpindleOverride => {
+            Request::SpindleOverride { fraction } => {
+                let value = *fraction;
                 let range = self.cfg.machine.spindle;
-                if !(range.min_override..=range.max_override).contains(&r.value) {
+                if !(range.min_override..=range.max_override).contains(&value) {
                     return Ok(Some(Self::reply(
                         false,
                         0,
@@ -816,72 +814,165 @@ impl MmiTask {
                         ),
                     )));
                 }
-                self.send_control(kind, 0, r.value, "")?;
-                Self::reply(
-                    true,
-                    0,
-                    &format!("spindle override {:.0} %", r.value * 100.0),
-                )
+                self.send_control(ControlKind::SpindleOverride, 0, value, "")?;
+                Self::reply(true, 0, &format!("spindle override {:.0} %", value * 100.0))
             }
-            ControlKind::Hold
-            | ControlKind::Resume
-            | ControlKind::Abort
-            | ControlKind::EStop
-            | ControlKind::Reset => match transition(kind, state) {
-                Err(why) => Self::reply(false, 0, &format!("{kind:?} refused ({state:?}): {why}")),
-                Ok(next) => {
-                    let job_id = self.running_job().map_or(0, |j| j.job_id);
-                    match kind {
-                        ControlKind::Hold => self.intent = Some(MachineState::Held),
-                        ControlKind::Resume => self.intent = None,
-                        ControlKind::Abort => {
-                            self.intent = Some(MachineState::Stopping);
-                            self.abort_asked = Some(job_id);
-                        }
-                        ControlKind::Reset => {
-                            // acknowledged: the machine's list is cleared, the jobs'
-                            // records keep theirs; a restarted MMI does not show
-                            // them again
-                            self.alarms.clear();
-                            self.acknowledge_alarms();
-                        }
-                        ControlKind::EStop => {
-                            if let Some(c) = self.checking.as_mut() {
-                                c.cancelled = Some("emergency stop while it was checked");
-                            }
-                        }
-                        _ => {}
-                    }
-                    if kind != ControlKind::Reset || state != MachineState::Idle {
-                        self.send_control(kind, 0, 0.0, "")?;
-                    }
-                    let what = match kind {
-                        ControlKind::Hold => format!("job {job_id} held"),
-                        ControlKind::Resume => format!("job {job_id} resumed"),
-                        ControlKind::Abort => format!("job {job_id} stopping along its path"),
-                        ControlKind::EStop => "emergency stop".to_string(),
-                        _ if state == MachineState::Idle => "alarms cleared".to_string(),
-                        _ if state == MachineState::Off => "alarms cleared".to_string(),
-                        _ if self.peer_status(ProcessId::Position) != "alive" => {
-                            "reset: alarms cleared; the position process is started again, the machine comes back off (`on` to switch the drives on)".to_string()
-                        }
-                        _ => "reset: alarms cleared, the machine is off (`on` to switch the drives on)".to_string(),
-                    };
-                    Self::reply(true, job_id, &format!("{what} ({next:?})"))
-                }
-            },
-            ControlKind::Shutdown => {
+            Request::Hold => self.job_command(ControlKind::Hold, state)?,
+            Request::Resume => self.job_command(ControlKind::Resume, state)?,
+            Request::Abort => self.job_command(ControlKind::Abort, state)?,
+            Request::EStop => self.job_command(ControlKind::EStop, state)?,
+            Request::Reset => self.job_command(ControlKind::Reset, state)?,
+            Request::Shutdown => {
                 if let Some(c) = self.checking.as_mut() {
                     c.cancelled = Some("the controller is shutting down");
                 }
                 self.abort_asked = self.running_job().map(|j| j.job_id);
-                self.send_control(kind, 0, 0.0, "")?;
+                self.send_control(ControlKind::Shutdown, 0, 0.0, "")?;
                 self.shutdown = true;
                 Self::reply(true, 0, "shutting down")
             }
-            ControlKind::Status => Self::reply(true, 0, &self.status_json().to_string()),
-            ControlKind::Jobs => Self::reply(true, 0, &self.jobs_page(r.value)),
+            Request::Status => Reply::Status(Box::new(self.status())),
+            Request::Jobs { offset } => self.jobs_page(*offset),
         }))
+    }
+
+    /// Submit a job: read once (a regular file under the limit), checked, and run
+    /// from its immutable copy; on a thread of its own (a long program takes a
+    /// while) — the loop goes on serving status and E-stop. `None`: answered when
+    /// the check ends.
+    fn submit_job(
+        &mut self,
+        path: &str,
+        from_line: Option<u32>,
+        adaptive_asked: bool,
+        state: MachineState,
+    ) -> Option<Reply> {
+        if let Some(why) = self.refuse_program(state, "job") {
+            return Some(Self::reply(false, 0, &why));
+        }
+        let from_line = from_line.filter(|l| *l != 0 && *l != u32::MAX);
+        // adaptive feed: asked for, or the profile's default; only on a
+        // machine whose profile has the force loop
+        let adaptive_feed = self
+            .cfg
+            .machine
+            .force
+            .as_ref()
+            .and_then(|f| f.adaptive_feed.as_ref());
+        let adaptive_force = adaptive_asked || adaptive_feed.is_some_and(|a| a.enabled);
+        if adaptive_force && adaptive_feed.is_none() {
+            return Some(Self::reply(
+                false,
+                0,
+                &format!(
+                    "adaptive force refused: the machine profile {} has no force.adaptive_feed section; nothing started",
+                    self.cfg.machine_path.display()
+                ),
+            ));
+        }
+        self.begin_check(
+            path.to_string(),
+            CheckKind::Job {
+                from_line,
+                adaptive_force,
+            },
+        )
+    }
+
+    /// A program-flow switch (single block, optional stop, block delete) on or off.
+    fn switch(&mut self, kind: ControlKind, on: bool) -> Result<Reply> {
+        let value = if on { 1.0 } else { 0.0 };
+        self.switches.apply(kind, value);
+        self.send_control(kind, 0, value, "")?;
+        let name = match kind {
+            ControlKind::SingleBlock => "single block",
+            ControlKind::OptionalStop => "optional stop",
+            _ => "block delete",
+        };
+        let when = if self.job_active() && kind != ControlKind::SingleBlock {
+            " (from the next job)"
+        } else {
+            ""
+        };
+        Ok(Self::reply(
+            true,
+            0,
+            &format!("{name} {}{when}", if on { "on" } else { "off" }),
+        ))
+    }
+
+    /// Machine on, machine off, or homing `axis` (`u32::MAX`: all).
+    fn drives_or_home(
+        &mut self,
+        kind: ControlKind,
+        axis: u32,
+        state: MachineState,
+    ) -> Result<Reply> {
+        Ok(match transition(kind, state) {
+            Err(why) => Self::reply(false, 0, &format!("{kind:?} refused ({state:?}): {why}")),
+            Ok(next) => {
+                let axes = self.cfg.machine.axes.len().min(3) as u32;
+                if kind == ControlKind::Home && axis != u32::MAX && axis >= axes {
+                    return Ok(Self::reply(false, 0, "home: no such axis"));
+                }
+                self.send_control_axis(kind, 0, axis, 0.0, "")?;
+                self.ask_state(next);
+                let what = match kind {
+                    ControlKind::MachineOn => "machine on".to_string(),
+                    ControlKind::MachineOff => "machine off".to_string(),
+                    _ if axis == u32::MAX => "homing all axes".to_string(),
+                    _ => format!("homing {}", self.axis_name(axis)),
+                };
+                Self::reply(true, 0, &format!("{what} ({next:?})"))
+            }
+        })
+    }
+
+    /// Hold, resume, abort, E-stop or reset.
+    fn job_command(&mut self, kind: ControlKind, state: MachineState) -> Result<Reply> {
+        Ok(match transition(kind, state) {
+            Err(why) => Self::reply(false, 0, &format!("{kind:?} refused ({state:?}): {why}")),
+            Ok(next) => {
+                let job_id = self.running_job().map_or(0, |j| j.job_id);
+                match kind {
+                    ControlKind::Hold => self.intent = Some(MachineState::Held),
+                    ControlKind::Resume => self.intent = None,
+                    ControlKind::Abort => {
+                        self.intent = Some(MachineState::Stopping);
+                        self.abort_asked = Some(job_id);
+                    }
+                    ControlKind::Reset => {
+                        // acknowledged: the machine's list is cleared, the jobs'
+                        // records keep theirs; a restarted MMI does not show
+                        // them again
+                        self.alarms.clear();
+                        self.acknowledge_alarms();
+                    }
+                    ControlKind::EStop => {
+                        if let Some(c) = self.checking.as_mut() {
+                            c.cancelled = Some("emergency stop while it was checked");
+                        }
+                    }
+                    _ => {}
+                }
+                if kind != ControlKind::Reset || state != MachineState::Idle {
+                    self.send_control(kind, 0, 0.0, "")?;
+                }
+                let what = match kind {
+                    ControlKind::Hold => format!("job {job_id} held"),
+                    ControlKind::Resume => format!("job {job_id} resumed"),
+                    ControlKind::Abort => format!("job {job_id} stopping along its path"),
+                    ControlKind::EStop => "emergency stop".to_string(),
+                    _ if state == MachineState::Idle => "alarms cleared".to_string(),
+                    _ if state == MachineState::Off => "alarms cleared".to_string(),
+                    _ if self.peer_status(ProcessId::Position) != ProcessHealth::Alive => {
+                        "reset: alarms cleared; the position process is started again, the machine comes back off (`on` to switch the drives on)".to_string()
+                    }
+                    _ => "reset: alarms cleared, the machine is off (`on` to switch the drives on)".to_string(),
+                };
+                Self::reply(true, job_id, &format!("{what} ({next:?})"))
+            }
+        })
     }
 
     /// A reset acknowledged the alarms raised until now: kept for a restarted MMI.
@@ -894,96 +985,184 @@ impl MmiTask {
         }
     }
 
-    /// "alive" (a heartbeat within the timeout), "lost" (silent, or reported lost and
-    /// not yet back) or "unseen".
-    fn peer_status(&self, p: ProcessId) -> &'static str {
+    /// Alive (a heartbeat within the timeout), lost (silent, or reported lost and
+    /// not yet back) or unseen.
+    fn peer_status(&self, p: ProcessId) -> ProcessHealth {
         let timeout = self.cfg.config.heartbeat_timeout_s;
         match self.peers[p as usize].last_seen {
-            Some(t) if t.elapsed().as_secs_f64() <= timeout => "alive",
-            Some(_) => "lost",
-            None if self.peers[p as usize].lost_pid.is_some() => "lost",
-            None => "unseen",
+            Some(t) if t.elapsed().as_secs_f64() <= timeout => ProcessHealth::Alive,
+            Some(_) => ProcessHealth::Lost,
+            None if self.peers[p as usize].lost_pid.is_some() => ProcessHealth::Lost,
+            None => ProcessHealth::Unseen,
         }
     }
 
     /// The status the operator sees.
-    pub fn status_json(&self) -> serde_json::Value {
-        let peer = |p: ProcessId| self.peer_status(p);
+    pub fn status(&self) -> softnc_api::Status {
+        use softnc_api as api;
         let loops = |p: ProcessId| {
             self.loops[p as usize].map(|l| {
-                serde_json::json!({"cycles": l.cycles, "overruns": l.overruns,
-                    "jitter_ns": {"p50": l.jitter_ns[0], "p99": l.jitter_ns[1], "p999": l.jitter_ns[2], "max": l.jitter_ns[3]},
-                    "compute_ns": {"p50": l.compute_ns[0], "p99": l.compute_ns[1], "p999": l.compute_ns[2], "max": l.compute_ns[3]},
-                    "latency_ns": {"p50": l.latency_ns[0], "p99": l.latency_ns[1], "p999": l.latency_ns[2], "max": l.latency_ns[3]}})
+                let pct = |v: [u64; 4]| api::Percentiles {
+                    p50: v[0],
+                    p99: v[1],
+                    p999: v[2],
+                    max: v[3],
+                };
+                api::LoopTiming {
+                    cycles: l.cycles,
+                    overruns: l.overruns,
+                    jitter_ns: pct(l.jitter_ns),
+                    compute_ns: pct(l.compute_ns),
+                    latency_ns: pct(l.latency_ns),
+                }
             })
         };
         let job = self
             .jobs
             .iter()
             .rev()
-            .find(|j| j.outcome == "running")
+            .find(|j| j.outcome == Outcome::Running)
             .or(self.jobs.last());
         let s = self.last;
         let offsets = Offsets::from_params(self.params.as_ref(), &self.cfg.machine)
             .with_modal(self.modal.as_deref());
         let machine_mm = s.map(|s| [s.cmd_mm[0], s.cmd_mm[1], s.cmd_mm[2]]);
-        serde_json::json!({
-            "state": format!("{:?}", self.machine_state()),
-            "homed": self.homed(),
-            "checking": self.checking.as_ref().map(|c| c.path.as_str()),
-            "machine_mm": machine_mm,
-            "work_mm": machine_mm.map(|m| offsets.work_mm(m)),
-            "coords": offsets.coords_name(),
-            "offsets": {"g5x_mm": offsets.g5x_mm, "rotation_deg": offsets.rotation_deg,
-                "g92_mm": offsets.g92_mm, "tool_offset_mm": offsets.tool_mm},
-            "tool": offsets.tool,
+        let modal_has = |word: &str| {
+            self.modal
+                .as_deref()
+                .is_some_and(|m| m.lines().any(|l| l.trim() == word))
+        };
+        api::Status {
+            api_version: api::API_VERSION,
+            state: api_state(self.machine_state()),
+            homed: self.homed().iter().copied().collect(),
+            checking: self.checking.as_ref().map(|c| c.path.clone()),
+            machine_mm,
+            work_mm: machine_mm.map(|m| offsets.work_mm(m)),
+            coords: offsets.coords_name().to_string(),
+            offsets: api::ActiveOffsets {
+                g5x_mm: offsets.g5x_mm,
+                rotation_deg: offsets.rotation_deg,
+                g92_mm: offsets.g92_mm,
+                tool_offset_mm: offsets.tool_mm,
+            },
+            tool: offsets.tool,
             // the modal state the machine is in between programs (the last MDI
             // command's or job's end), as G-code words
-            "modal": self.modal.as_deref().map(|m| m.split_whitespace().collect::<Vec<_>>()),
-            "coolant": {
-                "mist": self.modal.as_deref().is_some_and(|m| m.lines().any(|l| l.trim() == "M7")),
-                "flood": self.modal.as_deref().is_some_and(|m| m.lines().any(|l| l.trim() == "M8")),
+            modal: self
+                .modal
+                .as_deref()
+                .map(|m| m.split_whitespace().map(String::from).collect()),
+            coolant: api::Coolant {
+                mist: modal_has("M7"),
+                flood: modal_has("M8"),
             },
-            "params_error": self.params_error,
-            "modal_error": self.modal_error,
+            params_error: self.params_error.clone(),
+            modal_error: self.modal_error.clone(),
             // files of the data directory not written (retried), by what they hold
-            "unsaved": self.unsaved.json(),
-            "abandoned_checks": self.abandoned_running(),
-            "switches": {"single_block": self.switches.single_block,
-                "optional_stop": self.switches.optional_stop,
-                "block_delete": self.switches.block_delete},
-            "program_line": s.filter(|s| s.job_id != 0 && s.line != 0).map(|s| s.line),
-            "feed_override": self.feed_override,
-            "spindle_override": s.map(|s| s.spindle_override),
-            "spindle_rpm": s.map(|s| s.spindle_rpm),
-            "adaptive_force": s.filter(|s| s.job_id != 0 && s.force_override.is_finite()).map(|s| serde_json::json!({
-                "override": s.force_override,
-                "revolutions": s.force_revolutions,
-                "force_n": s.force_n.is_finite().then_some(s.force_n),
-            })),
-            "job": job.map(|j| serde_json::json!({
-                "job_id": j.job_id, "path": j.path, "outcome": j.outcome,
-                "program": j.program, "mdi": j.mdi, "from_line": j.from_line,
-                "adaptive_force": j.adaptive_force,
-                "cycles": j.cycles, "planned_samples": j.planned_samples,
-                "path_mm": j.path_mm, "planned_path_mm": j.planned_path_mm,
-                "progress": j.progress(),
-                "accuracy": j.accuracy,
-                "notes": j.notes,
-                "alarms": j.alarms,
-            })),
-            "axes": s.map(|s| serde_json::json!({
-                "cmd_mm": &s.cmd_mm[..3], "actual_mm": &s.actual_mm[..3],
-                "following_err_um": s.following_err_mm[..3].iter().map(|e| e * 1000.0).collect::<Vec<_>>(),
-                "contour_err_um": if s.contour_err_mm.is_finite() { Some(s.contour_err_mm * 1000.0) } else { None },
-                "ring_fill": s.ring_fill,
-            })),
-            "processes": {"interp": peer(ProcessId::Interp), "position": peer(ProcessId::Position), "supervisor": peer(ProcessId::Supervisor)},
-            "loops": {"interp": loops(ProcessId::Interp), "position": loops(ProcessId::Position)},
-            "alarms": self.alarms.iter().rev().take(10).map(|a| serde_json::json!({
-                "code": format!("{:?}", AlarmCode::from_wire(a.code).unwrap_or(AlarmCode::Other)),
-                "job_id": a.job_id, "message": a.message.as_str()})).collect::<Vec<_>>(),
-        })
+            unsaved: self.unsaved.to_api(),
+            abandoned_checks: self.abandoned_running() as u64,
+            switches: api::Switches {
+                single_block: self.switches.single_block,
+                optional_stop: self.switches.optional_stop,
+                block_delete: self.switches.block_delete,
+            },
+            program_line: s.filter(|s| s.job_id != 0 && s.line != 0).map(|s| s.line),
+            feed_override: self.feed_override,
+            spindle_override: s.map(|s| s.spindle_override),
+            spindle_rpm: s.map(|s| s.spindle_rpm),
+            adaptive_force: s
+                .filter(|s| s.job_id != 0 && s.force_override.is_finite())
+                .map(|s| api::AdaptiveForce {
+                    override_fraction: s.force_override,
+                    revolutions: s.force_revolutions,
+                    force_n: s.force_n.is_finite().then_some(s.force_n),
+                }),
+            job: job.map(|j| api::JobStatus {
+                record: j.clone(),
+                progress: j.progress(),
+            }),
+            axes: s.map(|s| api::AxesStatus {
+                cmd_mm: s.cmd_mm[..3].to_vec(),
+                actual_mm: s.actual_mm[..3].to_vec(),
+                following_err_um: s.following_err_mm[..3].iter().map(|e| e * 1000.0).collect(),
+                contour_err_um: s
+                    .contour_err_mm
+                    .is_finite()
+                    .then_some(s.contour_err_mm * 1000.0),
+                ring_fill: s.ring_fill,
+            }),
+            processes: api::Processes {
+                interp: self.peer_status(ProcessId::Interp),
+                position: self.peer_status(ProcessId::Position),
+                supervisor: self.peer_status(ProcessId::Supervisor),
+            },
+            loops: api::Loops {
+                interp: loops(ProcessId::Interp),
+                position: loops(ProcessId::Position),
+            },
+            alarms: self
+                .alarms
+                .iter()
+                .rev()
+                .take(10)
+                .map(|a| api::Alarm {
+                    code: api_alarm_kind(AlarmCode::from_wire(a.code).unwrap_or(AlarmCode::Other)),
+                    job_id: a.job_id,
+                    message: a.message.as_str().to_string(),
+                })
+                .collect(),
+        }
+    }
+}
+
+/// A reply as the wire carries it (`request`: the request it answers, for a reply
+/// too large to send, which is replaced by one saying so: never cut short).
+pub(crate) fn wire_reply(reply: &Reply, request: &str) -> OperatorReply {
+    let text = softnc_api::encode_reply(reply, request, OperatorReply::MESSAGE_CAPACITY);
+    let message = FixedStr::try_new(&text).unwrap_or_else(|e| {
+        // encode_reply keeps within the capacity: not reached
+        FixedStr::truncated(&format!(
+            "{{\"reply\":\"refused\",\"body\":{{\"reason\":\"reply of {e} not sent\"}}}}"
+        ))
+    });
+    OperatorReply { message }
+}
+
+/// The operator's name of a machine state.
+fn api_state(s: MachineState) -> softnc_api::MachineState {
+    use softnc_api::MachineState as A;
+    match s {
+        MachineState::Idle => A::Idle,
+        MachineState::Running => A::Running,
+        MachineState::Held => A::Held,
+        MachineState::Faulted => A::Faulted,
+        MachineState::EStopped => A::EStopped,
+        MachineState::Stopping => A::Stopping,
+        MachineState::Off => A::Off,
+        MachineState::Homing => A::Homing,
+        MachineState::Jogging => A::Jogging,
+        MachineState::Paused => A::Paused,
+        MachineState::Mdi => A::Mdi,
+    }
+}
+
+/// The operator's kind of an alarm code.
+fn api_alarm_kind(c: AlarmCode) -> softnc_api::AlarmKind {
+    use softnc_api::AlarmKind as K;
+    match c {
+        AlarmCode::SequenceError => K::SequenceError,
+        AlarmCode::RingDry => K::RingDry,
+        AlarmCode::ProcessLost => K::ProcessLost,
+        AlarmCode::FollowingError => K::FollowingError,
+        AlarmCode::EStop => K::EStop,
+        AlarmCode::JobRefused => K::JobRefused,
+        AlarmCode::Note => K::Note,
+        AlarmCode::PlanStarved => K::PlanStarved,
+        AlarmCode::PlanFailed => K::PlanFailed,
+        AlarmCode::LoopStall => K::LoopStall,
+        AlarmCode::LoopLate => K::LoopLate,
+        AlarmCode::Other => K::Other,
     }
 }
 

@@ -2,35 +2,15 @@
 //! step), touch-off, the tool table, MDI files, and the checks that refuse a program
 //! while the machine is not ready for one.
 
-use super::check::CheckKind;
+use super::program::CheckKind;
 use super::{transition, MmiTask};
 use crate::machine_store::{coords_number, Offsets};
 use anyhow::Result;
+use softnc_api::Reply;
 use softnc_core::store::write_atomic;
 use softnc_core::{Axes, MAX_AXES};
-use softnc_ipc::{
-    Alarm, AlarmCode, ControlKind, FixedStr, MachineState, OperatorReply, OperatorRequest,
-    ProcessId,
-};
+use softnc_ipc::{Alarm, AlarmCode, ControlKind, FixedStr, MachineState, ProcessId};
 use std::time::Instant;
-
-/// An error of the MDI file `path` (`path:LINE:COL: why`, its first line the `%`
-/// that opens it) as the operator's blocks: `MDI block N, column C: why`.
-pub(super) fn mdi_error(path: &str, msg: &str) -> String {
-    let located = msg.strip_prefix(path).and_then(|rest| {
-        let mut parts = rest.strip_prefix(':')?.splitn(3, ':');
-        let line: u32 = parts.next()?.parse().ok()?;
-        let col: u32 = parts.next()?.parse().ok()?;
-        Some((line, col, parts.next()?.trim_start()))
-    });
-    match located {
-        Some((line, col, why)) if line >= 2 => {
-            format!("MDI block {}, column {col}: {why}", line - 1)
-        }
-        Some((_, _, why)) => format!("MDI: {why}"),
-        None => format!("MDI: {msg}"),
-    }
-}
 
 impl MmiTask {
     /// A continuous jog whose client stopped renewing it is stopped (the dead-man).
@@ -124,7 +104,7 @@ impl MmiTask {
             ));
         }
         for p in [ProcessId::Interp, ProcessId::Position] {
-            if self.peer_status(p) != "alive" {
+            if self.peer_status(p) != softnc_api::ProcessHealth::Alive {
                 return Some(format!(
                     "the {} process is {}; {what} not started",
                     p.name(),
@@ -170,24 +150,25 @@ impl MmiTask {
     pub(super) fn jog(
         &mut self,
         kind: ControlKind,
-        r: &OperatorRequest,
+        axis: u32,
+        value: f64,
         state: MachineState,
-    ) -> Result<OperatorReply> {
+    ) -> Result<Reply> {
         let axes = self.cfg.machine.axes.len().min(3) as u32;
-        if r.axis >= axes {
+        if axis >= axes {
             return Ok(Self::reply(false, 0, "jog: no such axis"));
         }
-        if !r.value.is_finite() {
+        if !value.is_finite() {
             return Ok(Self::reply(false, 0, "jog: the value is not a number"));
         }
-        let i = r.axis as usize;
+        let i = axis as usize;
         let a = self.cfg.machine.axes[i].clone();
         let name = a.name.clone();
         let homed = self.homed()[i];
         let pos_mm = self.last.map_or(0.0, |s| s.cmd_mm[i]);
         let deadman = self.cfg.config.jog_deadman_s;
         if kind == ControlKind::Jog {
-            let speed = r.value;
+            let speed = value;
             if speed == 0.0 {
                 if state != MachineState::Jogging {
                     return Ok(Self::reply(
@@ -197,7 +178,7 @@ impl MmiTask {
                     ));
                 }
                 self.jog_lease = None;
-                self.send_control_axis(kind, 0, r.axis, 0.0, "")?;
+                self.send_control_axis(kind, 0, axis, 0.0, "")?;
                 return Ok(Self::reply(true, 0, &format!("jog of {name} stopping")));
             }
             let max = a.max_vel_mm_per_s * 60.0;
@@ -209,7 +190,7 @@ impl MmiTask {
                 ));
             }
             if let Some(lease) = self.jog_lease.as_mut() {
-                if state == MachineState::Jogging && lease.0 == r.axis && lease.1 == speed {
+                if state == MachineState::Jogging && lease.0 == axis && lease.1 == speed {
                     lease.2 = Instant::now();
                     return Ok(Self::reply(true, 0, &format!("jog of {name} renewed")));
                 }
@@ -221,7 +202,7 @@ impl MmiTask {
                     &format!("jog refused ({state:?}): {why}"),
                 ));
             }
-            if state == MachineState::Jogging && self.jog_lease.is_none_or(|l| l.0 != r.axis) {
+            if state == MachineState::Jogging && self.jog_lease.is_none_or(|l| l.0 != axis) {
                 return Ok(Self::reply(
                     false,
                     0,
@@ -237,8 +218,8 @@ impl MmiTask {
                     &format!("jog refused: {name} is at its soft limit ({pos_mm:.4} mm)"),
                 ));
             }
-            self.jog_lease = Some((r.axis, speed, Instant::now()));
-            self.send_control_axis(kind, 0, r.axis, speed, "")?;
+            self.jog_lease = Some((axis, speed, Instant::now()));
+            self.send_control_axis(kind, 0, axis, speed, "")?;
             self.ask_state(MachineState::Jogging);
             let until = if homed {
                 "to its soft limit"
@@ -261,10 +242,10 @@ impl MmiTask {
                 &format!("jog refused ({state:?}): {why}"),
             ));
         }
-        if r.value == 0.0 {
+        if value == 0.0 {
             return Ok(Self::reply(false, 0, "jog: a step of 0 mm"));
         }
-        let target_mm = pos_mm + r.value;
+        let target_mm = pos_mm + value;
         if homed && !(a.min_mm..=a.max_mm).contains(&target_mm) {
             return Ok(Self::reply(
                 false,
@@ -275,12 +256,12 @@ impl MmiTask {
                 ),
             ));
         }
-        self.send_control_axis(kind, 0, r.axis, r.value, "")?;
+        self.send_control_axis(kind, 0, axis, value, "")?;
         self.ask_state(MachineState::Jogging);
         Ok(Self::reply(
             true,
             0,
-            &format!("jogging {name} by {} mm to {target_mm:.4} mm", r.value),
+            &format!("jogging {name} by {} mm to {target_mm:.4} mm", value),
         ))
     }
 
@@ -288,21 +269,22 @@ impl MmiTask {
     /// system, checked and run as MDI; only at rest.
     pub(super) fn touch_off(
         &mut self,
-        r: &OperatorRequest,
+        axis: u32,
+        value: f64,
+        coords: &str,
         state: MachineState,
-    ) -> Result<Option<OperatorReply>> {
+    ) -> Result<Option<Reply>> {
         let axes = self.cfg.machine.axes.len().min(3) as u32;
-        if r.axis >= axes {
+        if axis >= axes {
             return Ok(Some(Self::reply(false, 0, "touch-off: no such axis")));
         }
-        if !r.value.is_finite() {
+        if !value.is_finite() {
             return Ok(Some(Self::reply(
                 false,
                 0,
                 "touch-off: the value is not a number",
             )));
         }
-        let coords = r.path.as_str();
         let p = if coords.is_empty() {
             0 // the active system
         } else {
@@ -336,11 +318,11 @@ impl MmiTask {
         if let Some(why) = self.refuse_program(state, "touch-off") {
             return Ok(Some(Self::reply(false, 0, &why)));
         }
-        let name = self.axis_name(r.axis);
-        let block = format!("G10 L20 P{p} {name}{:.6}", r.value);
+        let name = self.axis_name(axis);
+        let block = format!("G10 L20 P{p} {name}{:.6}", value);
         let what = format!(
             "touch-off {name} = {:.4} in {}",
-            r.value,
+            value,
             if p == 0 {
                 Offsets::from_params(self.params.as_ref(), &self.cfg.machine).coords_name()
             } else {
@@ -355,7 +337,12 @@ impl MmiTask {
     }
 
     /// Set a tool's length (and diameter) in the tool table; only between jobs.
-    pub(super) fn tool_set(&mut self, r: &OperatorRequest) -> Result<Option<OperatorReply>> {
+    pub(super) fn tool_set(
+        &mut self,
+        tool: u32,
+        length_mm: f64,
+        diameter_mm: Option<f64>,
+    ) -> Result<Option<Reply>> {
         if self.job_active() || self.checking.is_some() {
             return Ok(Some(Self::reply(
                 false,
@@ -363,22 +350,14 @@ impl MmiTask {
                 "tool table: a job is running; edit it between jobs",
             )));
         }
-        let diameter = r.path.as_str().trim();
-        let diameter_mm: Option<f64> = if diameter.is_empty() {
-            None
-        } else {
-            match diameter.parse::<f64>() {
-                Ok(d) if d.is_finite() && d >= 0.0 => Some(d),
-                _ => {
-                    return Ok(Some(Self::reply(
-                        false,
-                        0,
-                        &format!("tool table: diameter {diameter:?} is not a number ≥ 0"),
-                    )))
-                }
-            }
-        };
-        if !r.value.is_finite() || r.axis == 0 || r.axis == u32::MAX {
+        if let Some(d) = diameter_mm.filter(|d| !(d.is_finite() && *d >= 0.0)) {
+            return Ok(Some(Self::reply(
+                false,
+                0,
+                &format!("tool table: diameter {d} is not a number ≥ 0"),
+            )));
+        }
+        if !length_mm.is_finite() || tool == 0 || tool == u32::MAX {
             return Ok(Some(Self::reply(
                 false,
                 0,
@@ -389,16 +368,16 @@ impl MmiTask {
             Ok(t) => t,
             Err(e) => return Ok(Some(Self::reply(false, 0, &e))),
         };
-        match tools.iter_mut().find(|t| t.number == r.axis) {
+        match tools.iter_mut().find(|t| t.number == tool) {
             Some(t) => {
-                t.length_mm = r.value;
+                t.length_mm = length_mm;
                 if let Some(d) = diameter_mm {
                     t.diameter_mm = d;
                 }
             }
             None => tools.push(softnc_core::config::ToolEntry {
-                number: r.axis,
-                length_mm: r.value,
+                number: tool,
+                length_mm,
                 diameter_mm: diameter_mm.unwrap_or(0.0),
             }),
         }
@@ -407,24 +386,9 @@ impl MmiTask {
             Ok(()) => Self::reply(
                 true,
                 0,
-                &format!("tool {}: length {:.4} mm", r.axis, r.value),
+                &format!("tool {}: length {:.4} mm", tool, length_mm),
             ),
             Err(e) => Self::reply(false, 0, &e),
         }))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn mdi_errors_name_the_operators_blocks() {
-        let p = "/d/mdi/mdi.ngc";
-        assert_eq!(
-            mdi_error(p, &format!("{p}:3:7: Failed to find sub")),
-            "MDI block 2, column 7: Failed to find sub"
-        );
-        assert_eq!(mdi_error(p, "cannot read"), "MDI: cannot read");
     }
 }
