@@ -99,7 +99,7 @@ fn adaptive_force_in_the_daemon_holds_the_force_where_the_depth_changes_bit_for_
         .iter()
         .find(|j| j.job_id == r.job_id().unwrap())
         .unwrap();
-    assert_eq!(rec.adaptive_force, true, "{rec}");
+    assert!(rec.adaptive_force, "{rec}");
 
     // the simulator, the same job: the same samples, overrides and machine
     let profile = softnc_core::MachineProfile::load(&d.dir.join("machines/default.ron")).unwrap();
@@ -490,7 +490,7 @@ fn killing_the_position_process_faults_and_reset_restarts_it() {
     });
     let _ = s;
     let s = d.wait_status(&op, Duration::from_secs(10), "alarm", |s| {
-        alarm_text(&s).contains("ProcessLost")
+        alarm_text(s).contains("ProcessLost")
     });
     assert!(alarm_text(&s).contains("softnc-position"), "{s}");
     assert_eq!(s.state, MachineState::Faulted, "{s}");
@@ -551,7 +551,7 @@ fn feed_hold_stops_motion_within_the_ring_depth_and_resume_finishes_the_job() {
         &op,
         Duration::from_secs(30),
         "past the planned cycles",
-        |s| job_of(&s).cycles > planned + 200,
+        |s| job_of(s).cycles > planned + 200,
     );
     assert_eq!(job_of(&s).outcome, Outcome::Running, "{s}");
     assert!(progress(&s) > progress(&b) && progress(&s) < 1.0, "{s}");
@@ -755,7 +755,7 @@ fn commands_say_what_the_machine_does_in_every_state() {
     let s = d.wait_job(&op, job2, Duration::from_secs(10));
     assert_eq!(job_of(&s).outcome, Outcome::Aborted, "{s}");
     let s = d.wait_status(&op, Duration::from_secs(5), "E-stop alarm", |s| {
-        alarm_text(&s).contains("EStop")
+        alarm_text(s).contains("EStop")
     });
     assert_eq!(s.state, MachineState::EStopped);
     for k in [Request::Hold, Request::Resume, Request::Abort] {
@@ -921,7 +921,7 @@ fn a_stopped_interpolator_is_noticed_killed_and_restarted_and_reset_recovers() {
     assert!(alarm_text(&s).contains("RingDry"), "{s}");
     // the watchdog kills it and softncd starts a new one
     let s = d.wait_status(&op, Duration::from_secs(10), "watchdog", |s| {
-        alarm_text(&s).contains("watchdog")
+        alarm_text(s).contains("watchdog")
     });
     assert!(alarm_text(&s).contains("softnc-interp"), "{s}");
     assert!(
@@ -947,7 +947,7 @@ fn a_stopped_position_process_is_noticed_killed_and_restarted_and_reset_recovers
     let job = start_moving(&d, &op);
     sigstop_until_the_watchdog_acts(&d, &op, "softnc-position");
     let s = d.wait_status(&op, Duration::from_secs(10), "watchdog alarm", |s| {
-        alarm_text(&s).contains("watchdog")
+        alarm_text(s).contains("watchdog")
     });
     assert!(alarm_text(&s).contains("softnc-position"), "{s}");
     assert_eq!(s.state, MachineState::Faulted, "{s}");
@@ -1227,7 +1227,7 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     let (ok, msg) = ask(&op, &jog_step(0, 10.0));
     assert!(ok, "{msg}");
     let s = d.wait_status(&op, Duration::from_secs(10), "jog step", |s| {
-        s.state == MachineState::Idle && (machine_mm(&s)[0] - 10.0).abs() < 1e-9
+        s.state == MachineState::Idle && (machine_mm(s)[0] - 10.0).abs() < 1e-9
     });
     assert_eq!(machine_mm(&s)[1], 0.0);
     // a step beyond the soft limit is refused and nothing moves
@@ -1298,14 +1298,14 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     let offsets = op.offsets().unwrap();
     let g55 = &offsets.systems[1];
     assert_eq!(g55.coords, "G55");
-    for i in 0..3 {
-        assert!((g55.origin_mm[i] - p[i]).abs() < 1e-6, "{offsets:?}");
+    for (got, want) in g55.origin_mm.iter().zip(p) {
+        assert!((got - want).abs() < 1e-6, "{offsets:?}");
     }
     // move away, then MDI `G55 G0 X0 Y0` lands on the touch-off point in X and Y
     let (ok, msg) = ask(&op, &jog_step(1, -15.0));
     assert!(ok, "{msg}");
     d.wait_status(&op, Duration::from_secs(10), "jog Y", |s| {
-        s.state == MachineState::Idle && (machine_mm(&s)[1] - (p[1] - 15.0)).abs() < 1e-9
+        s.state == MachineState::Idle && (machine_mm(s)[1] - (p[1] - 15.0)).abs() < 1e-9
     });
     let r = op.request(&mdi_request("G55 G0 X0 Y0")).unwrap();
     assert!(r.is_accepted(), "{}", r.message());
@@ -1458,9 +1458,8 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     let op = d.operator();
     let offsets = op.offsets().unwrap();
     assert_eq!(offsets.active, "G55", "{offsets:?}");
-    for i in 0..3 {
-        let got = offsets.systems[1].origin_mm[i];
-        assert!((got - p[i]).abs() < 1e-6, "{offsets:?}");
+    for (got, want) in offsets.systems[1].origin_mm.iter().zip(p) {
+        assert!((got - want).abs() < 1e-6, "{offsets:?}");
     }
     let tools = op.tools().unwrap();
     let t5 = tools

@@ -95,6 +95,21 @@ pub(super) fn load_jobs(path: &std::path::Path) -> (Vec<JobRecord>, u64) {
     }
 }
 
+/// The job history and what is written of it: one record per job, the running
+/// job's RMS contour error accumulated, the ids used, when it was last written and
+/// which files of the data directory could not be.
+pub(super) struct History {
+    pub(super) jobs: Vec<JobRecord>,
+    /// The running job's RMS contour error, accumulated.
+    pub(super) contour_rms: ContourRms,
+    /// Job ids go on above this (an unreadable history's highest).
+    pub(super) job_id_floor: u64,
+    /// When the history was last written.
+    pub(super) last_save: Instant,
+    /// Files of the data directory that could not be written ([`Unsaved`]).
+    pub(super) unsaved: Unsaved,
+}
+
 /// Files of the data directory that could not be written, and why: the MMI holds
 /// what they should hold and writes them again every `job_record_period_s` until
 /// they are written (a read-only or full disk made writable again).
@@ -161,8 +176,8 @@ impl MmiTask {
     /// first time, the history is kept in memory and written again every
     /// `job_record_period_s` until it is written.
     pub(super) fn save_jobs(&mut self) {
-        self.last_save = Instant::now();
-        let text = serde_json::to_vec_pretty(&self.jobs).unwrap_or_default();
+        self.history.last_save = Instant::now();
+        let text = serde_json::to_vec_pretty(&self.history.jobs).unwrap_or_default();
         let written = write_atomic(&self.jobs_path(), &text).map_err(|e| e.to_string());
         let what = format!("job history {}", self.jobs_path().display());
         if let Err(e) = self.note_saved(Unsaved::HISTORY, &what, written) {
@@ -181,13 +196,13 @@ impl MmiTask {
         let period = self.cfg.config.job_record_period_s;
         match written {
             Ok(()) => {
-                if self.unsaved.slots[slot].take().is_some() {
+                if self.history.unsaved.slots[slot].take().is_some() {
                     tracing::info!("{what}: written again");
                 }
             }
             Err(e) => {
-                let first = self.unsaved.slots[slot].is_none();
-                self.unsaved.slots[slot] = Some(e.clone());
+                let first = self.history.unsaved.slots[slot].is_none();
+                self.history.unsaved.slots[slot] = Some(e.clone());
                 if first {
                     tracing::error!("{what} not saved: {e}");
                     self.alarm(&format!(
@@ -198,11 +213,13 @@ impl MmiTask {
         }
         Ok(())
     }
+}
 
+impl History {
     /// One page of the job history, newest first, from `offset` (skipped newest
     /// records): as many records as fit a reply (at least one: a record too large
     /// for a reply alone is answered [`Reply::TooLarge`]).
-    pub fn jobs_page(&self, offset: u64) -> Reply {
+    pub(super) fn page(&self, offset: u64) -> Reply {
         let total = self.jobs.len() as u64;
         let offset = offset.min(total);
         let page = |jobs: Vec<JobRecord>| {
@@ -227,6 +244,19 @@ impl MmiTask {
             jobs.push(j.clone());
         }
         page(jobs)
+    }
+
+    /// The running job's record.
+    pub(super) fn running(&mut self) -> Option<&mut JobRecord> {
+        self.jobs
+            .iter_mut()
+            .rev()
+            .find(|j| j.outcome == Outcome::Running)
+    }
+
+    /// A job is running (its record says so).
+    pub(super) fn any_running(&self) -> bool {
+        self.jobs.iter().any(|j| j.outcome == Outcome::Running)
     }
 }
 

@@ -4,7 +4,7 @@
 
 use super::program::CheckKind;
 use super::{transition, MmiTask};
-use crate::machine_store::{coords_number, Offsets};
+use crate::machine_store::{coords_number, MachineStore, Offsets};
 use anyhow::Result;
 use softnc_api::Reply;
 use softnc_core::store::write_atomic;
@@ -12,23 +12,44 @@ use softnc_core::{Axes, MAX_AXES};
 use softnc_ipc::{Alarm, AlarmCode, ControlKind, FixedStr, MachineState, ProcessId};
 use std::time::Instant;
 
+/// The machine's setup between jobs as the MMI keeps it: the parameter file and
+/// the tool table, the parameters and modal state jobs start with, and why a file
+/// cannot be used.
+pub(super) struct Setup {
+    /// The parameter file and the tool table.
+    pub(super) store: MachineStore,
+    /// The machine's parameters as last saved (`None`: the profile's offsets).
+    pub(super) params: Option<softnc_gcode::Params>,
+    /// Why the parameter file cannot be used: jobs, MDI and touch-off are refused.
+    pub(super) params_error: Option<String>,
+    /// The running job's parameters and modal state at its end: kept when it
+    /// completes.
+    pub(super) pending_params: Option<(u64, softnc_gcode::Params, String)>,
+    /// The modal state (G-code) the last completed MDI command or job left: the
+    /// next one starts with it, as in LinuxCNC.
+    pub(super) modal: Option<String>,
+    /// Why the modal state file cannot be used (anything but modal words in it):
+    /// jobs, MDI and touch-off are refused until it is fixed or removed.
+    pub(super) modal_error: Option<String>,
+}
+
 impl MmiTask {
     /// A continuous jog whose client stopped renewing it is stopped (the dead-man).
     pub(super) fn watch_jog(&mut self) -> Result<()> {
-        let Some((axis, _, renewed)) = self.jog_lease else {
+        let Some((axis, _, renewed)) = self.machine.jog_lease else {
             return Ok(());
         };
         let age = renewed.elapsed().as_secs_f64();
         let jogging = self.position_state() == MachineState::Jogging;
         if !jogging && age > self.cfg.config.heartbeat_timeout_s {
             // it ended (a soft limit, an abort, a stop)
-            self.jog_lease = None;
+            self.machine.jog_lease = None;
         } else if jogging && age > self.cfg.config.jog_deadman_s {
-            self.jog_lease = None;
+            self.machine.jog_lease = None;
             self.send_control_axis(ControlKind::Jog, 0, axis, 0.0, "")?;
             let name = self.axis_name(axis);
             let deadman = self.cfg.config.jog_deadman_s;
-            self.alarms_pub.send_copy(Alarm {
+            self.ports.alarms_pub.send_copy(Alarm {
                 code: AlarmCode::Other.wire(),
                 axis,
                 process: ProcessId::Mmi.wire(),
@@ -54,20 +75,20 @@ impl MmiTask {
 
     /// Which axes are homed, as the position process reports them.
     pub fn homed(&self) -> Axes<bool> {
-        let mask = self.last.map_or(0, |s| s.homed);
+        let mask = self.machine.last.map_or(0, |s| s.homed);
         Axes::from_fn(|a| mask & (1 << a.index()) != 0)
     }
 
     /// Why a job, MDI or touch-off cannot be taken in now, if it cannot.
     pub(super) fn refuse_program(&mut self, state: MachineState, what: &str) -> Option<String> {
-        if self.modal_error.is_some() {
+        if self.setup.modal_error.is_some() {
             // fixed or removed since: used again
-            match self.store.load_modal() {
+            match self.setup.store.load_modal() {
                 Ok(m) => {
-                    self.modal = m;
-                    self.modal_error = None;
+                    self.setup.modal = m;
+                    self.setup.modal_error = None;
                 }
-                Err(e) => self.modal_error = Some(e),
+                Err(e) => self.setup.modal_error = Some(e),
             }
         }
         if self.shutdown {
@@ -79,16 +100,16 @@ impl MmiTask {
         if state != MachineState::Idle || self.job_active() {
             return Some(format!("machine is busy ({state:?}); {what} not started"));
         }
-        if let Some(e) = &self.params_error {
+        if let Some(e) = &self.setup.params_error {
             return Some(format!("{e}; {what} not started"));
         }
-        if let Some(e) = &self.modal_error {
+        if let Some(e) = &self.setup.modal_error {
             return Some(format!("{e}; {what} not started"));
         }
-        if let Some(e) = self.unsaved.params() {
+        if let Some(e) = self.history.unsaved.params() {
             return Some(format!(
                 "the machine's parameters are not saved ({}: {e}); {what} not started until they are (tried again every {} s)",
-                self.store.params_path().display(),
+                self.setup.store.params_path().display(),
                 self.cfg.config.job_record_period_s
             ));
         }
@@ -112,12 +133,13 @@ impl MmiTask {
                 ));
             }
         }
-        if let Some(c) = &self.checking {
+        if let Some(c) = &self.checks.checking {
             return Some(format!("{} is being checked; {what} not started", c.path));
         }
-        let abandoned = self.abandoned_running();
+        let abandoned = self.checks.abandoned_running();
         if abandoned >= self.cfg.config.max_abandoned_checks as usize {
             let paths: Vec<&str> = self
+                .checks
                 .abandoned
                 .iter()
                 .filter(|(_, t)| !t.is_finished())
@@ -165,7 +187,7 @@ impl MmiTask {
         let a = self.cfg.machine.axes[i].clone();
         let name = a.name.clone();
         let homed = self.homed()[i];
-        let pos_mm = self.last.map_or(0.0, |s| s.cmd_mm[i]);
+        let pos_mm = self.machine.last.map_or(0.0, |s| s.cmd_mm[i]);
         let deadman = self.cfg.config.jog_deadman_s;
         if kind == ControlKind::Jog {
             let speed = value;
@@ -177,7 +199,7 @@ impl MmiTask {
                         &format!("jog {name} 0: nothing is jogging"),
                     ));
                 }
-                self.jog_lease = None;
+                self.machine.jog_lease = None;
                 self.send_control_axis(kind, 0, axis, 0.0, "")?;
                 return Ok(Self::reply(true, 0, &format!("jog of {name} stopping")));
             }
@@ -189,7 +211,7 @@ impl MmiTask {
                     &format!("jog speed {speed} mm/min over {name}'s limit {max} mm/min"),
                 ));
             }
-            if let Some(lease) = self.jog_lease.as_mut() {
+            if let Some(lease) = self.machine.jog_lease.as_mut() {
                 if state == MachineState::Jogging && lease.0 == axis && lease.1 == speed {
                     lease.2 = Instant::now();
                     return Ok(Self::reply(true, 0, &format!("jog of {name} renewed")));
@@ -202,7 +224,8 @@ impl MmiTask {
                     &format!("jog refused ({state:?}): {why}"),
                 ));
             }
-            if state == MachineState::Jogging && self.jog_lease.is_none_or(|l| l.0 != axis) {
+            if state == MachineState::Jogging && self.machine.jog_lease.is_none_or(|l| l.0 != axis)
+            {
                 return Ok(Self::reply(
                     false,
                     0,
@@ -218,7 +241,7 @@ impl MmiTask {
                     &format!("jog refused: {name} is at its soft limit ({pos_mm:.4} mm)"),
                 ));
             }
-            self.jog_lease = Some((axis, speed, Instant::now()));
+            self.machine.jog_lease = Some((axis, speed, Instant::now()));
             self.send_control_axis(kind, 0, axis, speed, "")?;
             self.ask_state(MachineState::Jogging);
             let until = if homed {
@@ -324,7 +347,7 @@ impl MmiTask {
             "touch-off {name} = {:.4} in {}",
             value,
             if p == 0 {
-                Offsets::from_params(self.params.as_ref(), &self.cfg.machine).coords_name()
+                Offsets::from_params(self.setup.params.as_ref(), &self.cfg.machine).coords_name()
             } else {
                 crate::machine_store::coords_name(p)
             }
@@ -343,7 +366,7 @@ impl MmiTask {
         length_mm: f64,
         diameter_mm: Option<f64>,
     ) -> Result<Option<Reply>> {
-        if self.job_active() || self.checking.is_some() {
+        if self.job_active() || self.checks.checking.is_some() {
             return Ok(Some(Self::reply(
                 false,
                 0,
@@ -364,7 +387,7 @@ impl MmiTask {
                 "tool table: a tool number > 0 and a finite length are needed",
             )));
         }
-        let mut tools = match self.store.load_tools(&self.cfg.machine) {
+        let mut tools = match self.setup.store.load_tools(&self.cfg.machine) {
             Ok(t) => t,
             Err(e) => return Ok(Some(Self::reply(false, 0, &e))),
         };
@@ -382,7 +405,7 @@ impl MmiTask {
             }),
         }
         tools.sort_by_key(|t| t.number);
-        Ok(Some(match self.store.save_tools(&tools) {
+        Ok(Some(match self.setup.store.save_tools(&tools) {
             Ok(()) => Self::reply(
                 true,
                 0,
