@@ -201,7 +201,8 @@ pub struct LoopStats {
     pub latency_ns: [u64; 4],
 }
 
-/// What a control command asks.
+/// What a control command from the MMI asks the interpolation and position
+/// processes (the operator's requests are `softnc-api`'s `Request`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(u32)]
 pub enum ControlKind {
@@ -221,10 +222,6 @@ pub enum ControlKind {
     Reset = 6,
     /// Shut the process down.
     Shutdown = 7,
-    /// Operator: the machine's status as JSON.
-    Status = 8,
-    /// Operator: the job history as JSON.
-    Jobs = 9,
     /// Set the spindle override to `value` (fraction of the programmed speed).
     SpindleOverride = 10,
     /// Machine on: drives enabled, holding position.
@@ -237,15 +234,6 @@ pub enum ControlKind {
     Jog = 14,
     /// Incremental jog of `axis` by `value` mm at the profile's jog speed.
     JogStep = 15,
-    /// Operator: run the MDI block(s) in `path`.
-    Mdi = 16,
-    /// Operator: set `axis`'s work offset so the current position reads `value`
-    /// (G10 L20) in the coordinate system named in `path` ("" the active one).
-    TouchOff = 17,
-    /// Operator: the work offsets as JSON.
-    Offsets = 18,
-    /// Operator: the tool table as JSON.
-    Tools = 19,
     /// Single block on (`value` 1) or off (0).
     SingleBlock = 20,
     /// Single block: run the next block.
@@ -254,8 +242,6 @@ pub enum ControlKind {
     OptionalStop = 22,
     /// Block delete switch on (`value` 1) or off (0).
     BlockDelete = 23,
-    /// Operator: set tool `axis`'s length (`value`, mm) and diameter (`path`, mm).
-    ToolSet = 24,
 }
 
 /// MMI → interpolation and position control.
@@ -470,23 +456,16 @@ wire_enum!(ControlKind {
     EStop,
     Reset,
     Shutdown,
-    Status,
-    Jobs,
     SpindleOverride,
     MachineOn,
     MachineOff,
     Home,
     Jog,
     JogStep,
-    Mdi,
-    TouchOff,
-    Offsets,
-    Tools,
     SingleBlock,
     Step,
     OptionalStop,
-    BlockDelete,
-    ToolSet
+    BlockDelete
 });
 wire_enum!(AlarmCode {
     SequenceError,

@@ -264,6 +264,84 @@ impl History {
 mod tests {
     use super::*;
 
+    fn record(job_id: u64, path_len: usize) -> JobRecord {
+        JobRecord {
+            job_id,
+            path: format!("/shop/{}", "p".repeat(path_len)),
+            submitted_unix_s: 0,
+            outcome: Outcome::Completed,
+            planned_samples: 100,
+            cycles: 100,
+            planned_path_mm: 10.0,
+            path_mm: 10.0,
+            accuracy: Accuracy::default(),
+            notes: vec![],
+            alarms: vec![],
+            program: None,
+            sha256: None,
+            mdi: None,
+            from_line: None,
+            adaptive_force: false,
+        }
+    }
+
+    fn history(jobs: Vec<JobRecord>) -> History {
+        History {
+            jobs,
+            contour_rms: ContourRms::default(),
+            job_id_floor: 0,
+            last_save: Instant::now(),
+            unsaved: Unsaved::default(),
+        }
+    }
+
+    #[test]
+    fn a_long_history_comes_whole_in_pages_that_each_fit_a_reply() {
+        let h = history((1..=200).map(|id| record(id, 300)).collect());
+        let mut seen = Vec::new();
+        let mut pages = 0;
+        while (seen.len() as u64) < 200 {
+            let reply = h.page(seen.len() as u64);
+            let text = softnc_api::encode_reply(&reply, "jobs", usize::MAX);
+            assert!(
+                text.len() <= OperatorReply::MESSAGE_CAPACITY,
+                "{} bytes",
+                text.len()
+            );
+            let Reply::Jobs(page) = reply else {
+                panic!("not a page: {reply:?}")
+            };
+            assert_eq!((page.total, page.offset), (200, seen.len() as u64));
+            assert!(!page.jobs.is_empty());
+            seen.extend(page.jobs.iter().map(|j| j.job_id));
+            pages += 1;
+        }
+        assert!(pages > 1, "a long history takes several pages");
+        let want: Vec<u64> = (1..=200).rev().collect();
+        assert_eq!(seen, want, "newest first, each once");
+        // past the end: an empty page
+        let Reply::Jobs(end) = h.page(500) else {
+            panic!("not a page")
+        };
+        assert!(end.jobs.is_empty());
+    }
+
+    #[test]
+    fn a_record_too_large_for_a_reply_is_an_error_reply_not_cut() {
+        let h = history(vec![record(1, OperatorReply::MESSAGE_CAPACITY)]);
+        let text = softnc_api::encode_reply(&h.page(0), "jobs", OperatorReply::MESSAGE_CAPACITY);
+        assert!(text.len() <= OperatorReply::MESSAGE_CAPACITY);
+        match softnc_api::decode_reply(&text).unwrap() {
+            Reply::TooLarge {
+                request, capacity, ..
+            } => assert_eq!(
+                (request.as_str(), capacity),
+                ("jobs", OperatorReply::MESSAGE_CAPACITY as u64)
+            ),
+            other => panic!("{other:?}"),
+        }
+    }
+
     #[test]
     fn an_unreadable_history_is_kept_aside_and_job_ids_go_on() {
         let dir = std::env::temp_dir().join(format!("softnc-jobs-{}", std::process::id()));
