@@ -37,7 +37,7 @@ use ratatui::widgets::{
     Axis, Block, Borders, Chart, Clear, Dataset, Gauge, GraphType, List, ListItem, Paragraph, Row,
     Table, Wrap,
 };
-use softnc_api::{Request, Status};
+use softnc_api::{MachineState, Request, Status};
 use softnc_client::Operator;
 use std::collections::VecDeque;
 use std::path::Path;
@@ -230,14 +230,15 @@ fn header(shown: &Shown) -> String {
 }
 
 /// The style of the state on the status line.
-fn state_style(state: &str) -> Style {
+fn state_style(state: Option<MachineState>) -> Style {
+    use MachineState as M;
     match state {
-        "EStopped" | "Faulted" => Style::default()
+        Some(M::EStopped | M::Faulted) => Style::default()
             .fg(Color::White)
             .bg(Color::Red)
             .add_modifier(Modifier::BOLD),
-        "Running" | "Mdi" | "Jogging" | "Homing" => Style::default().fg(Color::Green),
-        "Held" | "Paused" | "Stopping" => Style::default().fg(Color::Yellow),
+        Some(M::Running | M::Mdi | M::Jogging | M::Homing) => Style::default().fg(Color::Green),
+        Some(M::Held | M::Paused | M::Stopping) => Style::default().fg(Color::Yellow),
         _ => Style::default(),
     }
 }
@@ -285,11 +286,10 @@ fn draw(
         ])
         .split(frame.area());
     let head = header(shown);
-    let state = state_text(shown);
     let (state_part, rest) = head.split_at(head.find("  ").unwrap_or(head.len()));
     frame.render_widget(
         Paragraph::new(Line::from(vec![
-            Span::styled(state_part.to_string(), state_style(&state)),
+            Span::styled(state_part.to_string(), state_style(s.map(|s| s.state))),
             Span::raw(rest.to_string()),
         ])),
         rows[0],
