@@ -41,15 +41,15 @@ fn lockstep_equals_simulator_on(tag: &str, machine: &str, job: impl Fn(&Path) ->
     let d = Daemon::start_on(tag, "Lockstep", true, machine);
     let op = d.operator();
     let job = job(&d.dir);
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(120));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
-    assert!(s["alarms"].as_array().unwrap().is_empty(), "{s}");
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let s = d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(120));
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
+    assert!(s.alarms.is_empty(), "{s}");
     let sim_trace = d.dir.join("sim.csv");
     simulator_trace(&job, &d.dir.join("machines/default.ron"), &sim_trace);
     let want = std::fs::read(&sim_trace).unwrap();
-    let got = d.trace_of(r.job_id, want.len());
+    let got = d.trace_of(r.job_id().unwrap(), want.len());
     assert_same_trace(&got, &want);
 }
 
@@ -80,18 +80,27 @@ fn adaptive_force_in_the_daemon_holds_the_force_where_the_depth_changes_bit_for_
     let op = d.operator();
     let job = d.dir.join("cut.ngc");
     std::fs::write(&job, "G21 G90 G17 G94\nS600 M3\nG1 X90 F200\nM5\nM2\n").unwrap();
-    let r = op.request(ControlKind::FeedOverride, 2.55, "").unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
     let r = op
-        .submit_job(&abs(&job), 0, softnc_ipc::JOB_ADAPTIVE_FORCE)
+        .request(&Request::FeedOverride { fraction: 2.55 })
         .unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(120));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
-    assert!(s["alarms"].as_array().unwrap().is_empty(), "{s}");
+    assert!(r.is_accepted(), "{}", r.message());
+    let r = op
+        .request(&Request::SubmitJob {
+            path: abs(&job),
+            from_line: None,
+            adaptive_force: true,
+        })
+        .unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let s = d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(120));
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
+    assert!(s.alarms.is_empty(), "{s}");
     let jobs = op.jobs().unwrap();
-    let rec = jobs.iter().find(|j| j["job_id"] == r.job_id).unwrap();
-    assert_eq!(rec["adaptive_force"], true, "{rec}");
+    let rec = jobs
+        .iter()
+        .find(|j| j.job_id == r.job_id().unwrap())
+        .unwrap();
+    assert!(rec.adaptive_force, "{rec}");
 
     // the simulator, the same job: the same samples, overrides and machine
     let profile =
@@ -141,7 +150,7 @@ fn adaptive_force_in_the_daemon_holds_the_force_where_the_depth_changes_bit_for_
     .unwrap();
     file.finish().unwrap();
     let want = std::fs::read(&sim_trace).unwrap();
-    let got = d.trace_of(r.job_id, want.len());
+    let got = d.trace_of(r.job_id().unwrap(), want.len());
     assert_same_trace(&got, &want);
 
     // the force: at the reference within 5 % once settled in every depth
@@ -214,19 +223,19 @@ fn a_learned_job_runs_with_its_correction_bit_for_bit_as_the_simulator_and_far_m
     let machine = d.dir.join("machines/default.ron");
     let store = d.dir.join("learning"); // the config's learning_dir
     let run = |what: &str| {
-        let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-        assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-        let s = d.wait_job(&op, r.job_id, Duration::from_secs(120));
-        assert_eq!(s["job"]["outcome"], "completed", "{what}: {s}");
-        assert!(s["alarms"].as_array().unwrap().is_empty(), "{what}: {s}");
+        let r = op.request(&submit(&abs(&job))).unwrap();
+        assert!(r.is_accepted(), "{}", r.message());
+        let s = d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(120));
+        assert_eq!(job_of(&s).outcome, Outcome::Completed, "{what}: {s}");
+        assert!(s.alarms.is_empty(), "{what}: {s}");
         d.wait_status(&op, Duration::from_secs(10), "idle", |s| {
-            s["state"] == "Idle"
+            s.state == MachineState::Idle
         });
-        (r.job_id, s)
+        (r.job_id().unwrap(), s)
     };
     // before learning: no entry, no note, the unlearned trace
     let (before_id, s) = run("unlearned");
-    assert!(s["job"]["notes"].as_array().unwrap().is_empty(), "{s}");
+    assert!(job_of(&s).notes.is_empty(), "{s}");
     let sim = d.dir.join("sim.csv");
     simulator_trace(&job, &machine, &sim);
     let want = std::fs::read(&sim).unwrap();
@@ -236,7 +245,7 @@ fn a_learned_job_runs_with_its_correction_bit_for_bit_as_the_simulator_and_far_m
 
     let learning = learn_job(&store, &job, &machine, 4);
     let (after_id, s) = run("learned");
-    let notes = s["job"]["notes"].to_string();
+    let notes = job_of(&s).notes.join("\n");
     assert!(notes.contains("learned correction applied"), "{s}");
     simulator_trace_learned(&job, &machine, &sim, Some(&store));
     let want = std::fs::read(&sim).unwrap();
@@ -269,8 +278,8 @@ fn a_learned_job_runs_with_its_correction_bit_for_bit_as_the_simulator_and_far_m
     let rms_after = trace_contour_rms_um(&after);
     eprintln!(
         "daemon contour-error RMS: {rms_before:.3} µm unlearned, {rms_after:.3} µm learned \
-         (learning runs on the simulator: {learning:.3?} µm); status accuracy {}",
-        s["job"]["accuracy"]
+         (learning runs on the simulator: {learning:.3?} µm); status accuracy {:?}",
+        job_of(&s).accuracy
     );
     assert!(
         rms_after < 0.1 * rms_before,
@@ -286,17 +295,19 @@ fn a_feed_override_fades_the_learned_correction_out_and_notes_it() {
     std::fs::copy(repo().join("examples/learning/lines-arcs.ngc"), &job).unwrap();
     let machine = d.dir.join("machines/default.ron");
     learn_job(&d.dir.join("learning"), &job, &machine, 2);
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
     d.wait_status(&op, Duration::from_secs(20), "motion", |s| {
-        s["job"]["cycles"].as_u64().unwrap_or(0) > 1000
+        s.job.as_ref().map_or(0, |j| j.record.cycles) > 1000
     });
-    let o = op.request(ControlKind::FeedOverride, 0.5, "").unwrap();
-    assert_eq!(o.accepted, 1, "{}", o.message.as_str());
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
-    assert!(s["alarms"].as_array().unwrap().is_empty(), "{s}");
-    let notes = s["job"]["notes"].to_string();
+    let o = op
+        .request(&Request::FeedOverride { fraction: 0.5 })
+        .unwrap();
+    assert!(o.is_accepted(), "{}", o.message());
+    let s = d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(60));
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
+    assert!(s.alarms.is_empty(), "{s}");
+    let notes = job_of(&s).notes.join("\n");
     assert!(notes.contains("learned correction applied"), "{notes}");
     assert!(
         notes.contains("faded out from sample") && notes.contains("feed override changed"),
@@ -305,14 +316,14 @@ fn a_feed_override_fades_the_learned_correction_out_and_notes_it() {
     // faded to nothing: the job ends on its programmed end point, not off it by the
     // last learned correction
     let end = d.wait_status(&op, Duration::from_secs(10), "idle", |s| {
-        s["state"] == "Idle"
+        s.state == MachineState::Idle
     });
     let profile = softnc_machine::MachineProfile::load(&machine).unwrap();
     let text = std::fs::read_to_string(&job).unwrap();
     let (_, plan) =
         softnc_planner::read_and_plan(&text, "job.ngc", &profile, &Default::default()).unwrap();
     let last = plan.interpolator().last().unwrap().pos_mm.0;
-    let cmd: Vec<f64> = serde_json::from_value(end["axes"]["cmd_mm"].clone()).unwrap();
+    let cmd: Vec<f64> = end.axes.as_ref().unwrap().cmd_mm.clone();
     for a in 0..3 {
         assert!(
             (cmd[a] - last[a]).abs() < 1e-9,
@@ -329,38 +340,36 @@ fn jobs_run_one_after_another() {
     let op = d.operator();
     let job = short_job(&d.dir);
     for _ in 0..3 {
-        let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-        assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-        let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
-        assert_eq!(s["job"]["outcome"], "completed", "{s}");
+        let r = op.request(&submit(&abs(&job))).unwrap();
+        assert!(r.is_accepted(), "{}", r.message());
+        let s = d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(60));
+        assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
         let s = d.wait_status(&op, Duration::from_secs(10), "idle", |s| {
-            s["state"] == "Idle"
+            s.state == MachineState::Idle
         });
         // a job ends with the axes in position (the profile's 10 µm band), and the
         // servo goes on holding them there (it was frozen, 126 µm off, before)
         let band_um = 10.0;
         let mut s = s;
         for _ in 0..3 {
-            let fe: Vec<f64> =
-                serde_json::from_value(s["axes"]["following_err_um"].clone()).unwrap();
+            let fe: Vec<f64> = s.axes.as_ref().unwrap().following_err_um.clone();
             assert!(fe.iter().all(|e| e.abs() <= band_um), "in position: {s}");
             std::thread::sleep(Duration::from_millis(100));
             s = op.status().unwrap();
         }
     }
     // the feed override is the machine's: set between jobs, the next job runs at it
-    let o = op.request(ControlKind::FeedOverride, 0.5, "").unwrap();
-    assert_eq!(o.accepted, 1, "{}", o.message.as_str());
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
-    assert_eq!(s["feed_override"], 0.5);
-    let (cycles, planned) = (
-        s["job"]["cycles"].as_f64().unwrap(),
-        s["job"]["planned_samples"].as_f64().unwrap(),
-    );
+    let o = op
+        .request(&Request::FeedOverride { fraction: 0.5 })
+        .unwrap();
+    assert!(o.is_accepted(), "{}", o.message());
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    let s = d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(60));
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
+    assert_eq!(s.feed_override, 0.5);
+    let (cycles, planned) = (job_of(&s).cycles, job_of(&s).planned_samples);
     assert!(
-        cycles > 1.6 * planned,
+        cycles as f64 > 1.6 * planned as f64,
         "at 50 % the job takes about twice its planned {planned} cycles, not {cycles}"
     );
 }
@@ -374,25 +383,29 @@ fn a_bad_job_is_refused_with_its_position_and_nothing_moves() {
     let far = d.dir.join("far.ngc");
     std::fs::write(&far, "G21 G90\nG0 X900\nM2\n").unwrap();
     for (file, want) in [(&bad, "bad.ngc:3:"), (&far, "far.ngc:2:")] {
-        let r = op.request(ControlKind::StartJob, 0.0, &abs(file)).unwrap();
-        assert_eq!(r.accepted, 0);
-        assert!(r.message.as_str().contains(want), "{}", r.message.as_str());
+        let r = op.request(&submit(&abs(file))).unwrap();
+        assert!(!r.is_accepted());
+        assert!(r.message().contains(want), "{}", r.message());
     }
     // adaptive feed on a machine without a force model: refused by name
     let good = d.dir.join("good.ngc");
     std::fs::write(&good, "G21 G90\nG1 X10 F600\nM2\n").unwrap();
     let r = op
-        .submit_job(&abs(&good), 0, softnc_ipc::JOB_ADAPTIVE_FORCE)
+        .request(&Request::SubmitJob {
+            path: abs(&good),
+            from_line: None,
+            adaptive_force: true,
+        })
         .unwrap();
-    assert_eq!(r.accepted, 0);
+    assert!(!r.is_accepted());
     assert!(
-        r.message.as_str().contains("force.adaptive_feed"),
+        r.message().contains("force.adaptive_feed"),
         "{}",
-        r.message.as_str()
+        r.message()
     );
     let s = op.status().unwrap();
-    assert_eq!(s["state"], "Idle");
-    assert!(s["job"].is_null(), "no job was started: {s}");
+    assert_eq!(s.state, MachineState::Idle);
+    assert!(s.job.is_none(), "no job was started: {s}");
 }
 
 #[test]
@@ -400,41 +413,44 @@ fn killing_the_interpolator_stops_along_the_path_and_a_reset_recovers() {
     let mut d = Daemon::start("kill", "Realtime", true);
     let op = d.operator();
     let job = short_job(&d.dir);
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-    assert_eq!(r.accepted, 1);
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted());
     // a second client cannot start another job while this one runs
     let op2 = d.operator();
-    let busy = op2.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-    assert_eq!(busy.accepted, 0, "{}", busy.message.as_str());
+    let busy = op2.request(&submit(&abs(&job))).unwrap();
+    assert!(!busy.is_accepted(), "{}", busy.message());
     d.wait_status(&op, Duration::from_secs(20), "motion", |s| {
-        s["job"]["cycles"].as_u64().unwrap_or(0) > 800
+        s.job.as_ref().map_or(0, |j| j.record.cycles) > 800
     });
     d.kill9("softnc-interp");
     let s = d.wait_status(&op, Duration::from_secs(10), "fault", |s| {
-        s["state"] == "Faulted"
+        s.state == MachineState::Faulted
     });
-    let alarms = s["alarms"].to_string();
+    let alarms = alarm_text(&s);
     assert!(
         alarms.contains("RingDry") || alarms.contains("ran dry"),
         "{alarms}"
     );
     // the axes stopped along the path: no jump anywhere, also not where the ring
     // ran dry
-    assert_stops_along_the_path(&d.dir.join(format!("data/trace-job{}.csv", r.job_id)));
+    assert_stops_along_the_path(
+        &d.dir
+            .join(format!("data/trace-job{}.csv", r.job_id().unwrap())),
+    );
     // a second client cannot start a job on a faulted machine
-    let again = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-    assert_eq!(again.accepted, 0, "{}", again.message.as_str());
+    let again = op.request(&submit(&abs(&job))).unwrap();
+    assert!(!again.is_accepted(), "{}", again.message());
     // reset (the drives stay off), on; the supervisor has restarted the
     // interpolator: a new job runs
-    op.request(ControlKind::Reset, 0.0, "").unwrap();
+    op.request(&Request::Reset).unwrap();
     d.wait_status(&op, Duration::from_secs(10), "off + interp alive", |s| {
-        s["state"] == "Off" && s["processes"]["interp"] == "alive"
+        s.state == MachineState::Off && s.processes.interp == ProcessHealth::Alive
     });
     op.machine_on(Duration::from_secs(10)).unwrap();
-    let r2 = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-    assert_eq!(r2.accepted, 1, "{}", r2.message.as_str());
-    let s = d.wait_job(&op, r2.job_id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    let r2 = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r2.is_accepted(), "{}", r2.message());
+    let s = d.wait_job(&op, r2.job_id().unwrap(), Duration::from_secs(60));
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
     drop(op);
     drop(op2);
     d.shutdown_leaving_nothing("kill");
@@ -445,17 +461,18 @@ fn killing_the_mmi_leaves_motion_running_and_the_client_reconnects() {
     let mut d = Daemon::start("mmi", "Realtime", false);
     let op = d.operator();
     let job = short_job(&d.dir);
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-    assert_eq!(r.accepted, 1);
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted());
     d.wait_status(&op, Duration::from_secs(20), "motion", |s| {
-        s["job"]["cycles"].as_u64().unwrap_or(0) > 300
+        s.job.as_ref().map_or(0, |j| j.record.cycles) > 300
     });
     d.kill9("softnc-mmi");
     std::thread::sleep(Duration::from_millis(300));
     let op2 = d.operator();
-    let s = d.wait_job(&op2, r.job_id, Duration::from_secs(60));
+    let s = d.wait_job(&op2, r.job_id().unwrap(), Duration::from_secs(60));
     assert_eq!(
-        s["job"]["outcome"], "completed",
+        job_of(&s).outcome,
+        Outcome::Completed,
         "motion continued without the MMI: {s}"
     );
     drop(op);
@@ -471,25 +488,28 @@ fn killing_the_position_process_faults_and_reset_restarts_it() {
     let killed_job = start_moving(&d, &op);
     d.kill9("softnc-position");
     let s = d.wait_status(&op, Duration::from_secs(10), "fault", |s| {
-        s["processes"]["position"] == "lost"
+        s.processes.position == ProcessHealth::Lost
     });
     let _ = s;
     let s = d.wait_status(&op, Duration::from_secs(10), "alarm", |s| {
-        s["alarms"].to_string().contains("ProcessLost")
+        alarm_text(s).contains("ProcessLost")
     });
-    assert!(s["alarms"].to_string().contains("softnc-position"), "{s}");
-    assert_eq!(s["state"], "Faulted", "{s}");
-    assert_eq!(d.job_record(killed_job)["outcome"], "aborted");
-    op.request(ControlKind::Reset, 0.0, "").unwrap();
+    assert!(alarm_text(&s).contains("softnc-position"), "{s}");
+    assert_eq!(s.state, MachineState::Faulted, "{s}");
+    assert_eq!(
+        d.job_record(killed_job).map(|j| j.outcome),
+        Some(Outcome::Aborted)
+    );
+    op.request(&Request::Reset).unwrap();
     d.wait_status(&op, Duration::from_secs(15), "position back, off", |s| {
-        s["processes"]["position"] == "alive" && s["state"] == "Off"
+        s.processes.position == ProcessHealth::Alive && s.state == MachineState::Off
     });
     op.machine_on(Duration::from_secs(10)).unwrap();
     let job = short_job(&d.dir);
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let s = d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(60));
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
     drop(op);
     d.shutdown_leaving_nothing("pos");
 }
@@ -499,55 +519,51 @@ fn feed_hold_stops_motion_within_the_ring_depth_and_resume_finishes_the_job() {
     let d = Daemon::start("hold", "Realtime", false);
     let op = d.operator();
     let job = short_job(&d.dir);
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-    assert_eq!(r.accepted, 1);
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted());
     d.wait_status(&op, Duration::from_secs(20), "motion", |s| {
-        s["job"]["cycles"].as_u64().unwrap_or(0) > 900
+        s.job.as_ref().map_or(0, |j| j.record.cycles) > 900
     });
-    op.request(ControlKind::Hold, 0.0, "").unwrap();
+    op.request(&Request::Hold).unwrap();
     // the ring holds 100 ms of samples; deceleration follows within it
     std::thread::sleep(Duration::from_millis(400));
     let a = op.status().unwrap();
     std::thread::sleep(Duration::from_millis(300));
     let b = op.status().unwrap();
-    assert_eq!(
-        a["axes"]["cmd_mm"], b["axes"]["cmd_mm"],
-        "standing still in feed hold"
-    );
-    assert_eq!(b["job"]["outcome"], "running");
+    assert_eq!(cmd_mm(&a), cmd_mm(&b), "standing still in feed hold");
+    assert_eq!(job_of(&b).outcome, Outcome::Running);
     // progress is the position along the path: it stands still in the hold
     // while the cycles go on
-    let progress = |s: &serde_json::Value| s["job"]["progress"].as_f64().unwrap();
-    assert!(
-        b["job"]["cycles"].as_u64() > a["job"]["cycles"].as_u64(),
-        "{b}"
-    );
+    let progress = |s: &Status| s.job.as_ref().unwrap().progress;
+    assert!(Some(job_of(&b).cycles) > Some(job_of(&a).cycles), "{b}");
     assert_eq!(progress(&a), progress(&b), "{a}\n{b}");
     assert!(progress(&b) > 0.05 && progress(&b) < 0.95, "{b}");
     // the line of the sample the position loop stands on: a move of the program
     // (lines 3-10), the same while held
-    let line = b["program_line"].as_u64().unwrap_or(0);
+    let line = b.program_line.unwrap_or(0);
     assert!((3..=10).contains(&line), "{b}");
-    assert_eq!(a["program_line"], b["program_line"]);
+    assert_eq!(a.program_line, b.program_line);
     // at a quarter of the feed the job runs past its planned cycles while its
     // progress stays under 100 %
-    op.request(ControlKind::FeedOverride, 0.25, "").unwrap();
-    op.request(ControlKind::Resume, 0.0, "").unwrap();
-    let planned = b["job"]["planned_samples"].as_u64().unwrap();
+    op.request(&Request::FeedOverride { fraction: 0.25 })
+        .unwrap();
+    op.request(&Request::Resume).unwrap();
+    let planned = job_of(&b).planned_samples;
     let s = d.wait_status(
         &op,
         Duration::from_secs(30),
         "past the planned cycles",
-        |s| s["job"]["cycles"].as_u64().unwrap_or(0) > planned + 200,
+        |s| job_of(s).cycles > planned + 200,
     );
-    assert_eq!(s["job"]["outcome"], "running", "{s}");
+    assert_eq!(job_of(&s).outcome, Outcome::Running, "{s}");
     assert!(progress(&s) > progress(&b) && progress(&s) < 1.0, "{s}");
-    op.request(ControlKind::FeedOverride, 1.0, "").unwrap();
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    op.request(&Request::FeedOverride { fraction: 1.0 })
+        .unwrap();
+    let s = d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(60));
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
     assert_eq!(progress(&s), 1.0, "{s}");
-    assert!(s["program_line"].is_null(), "no line outside a job: {s}");
-    assert_eq!(s["machine_mm"], s["axes"]["cmd_mm"], "{s}");
+    assert!(s.program_line.is_none(), "no line outside a job: {s}");
+    assert_eq!(machine_mm(&s).to_vec(), cmd_mm(&s), "{s}");
 }
 
 #[test]
@@ -555,13 +571,11 @@ fn a_spindle_override_redesigns_the_pdc_in_a_running_job_and_stays_for_the_next(
     let d = Daemon::start_on("spindle", "Realtime", false, "tnv40-dob-pdc.ron");
     let op = d.operator();
     // outside the profile's 50..=120 %: refused, nothing sent
-    let r = op.request(ControlKind::SpindleOverride, 1.5, "").unwrap();
-    assert_eq!(r.accepted, 0, "{}", r.message.as_str());
-    assert!(
-        r.message.as_str().contains("50..=120 %"),
-        "{}",
-        r.message.as_str()
-    );
+    let r = op
+        .request(&Request::SpindleOverride { fraction: 1.5 })
+        .unwrap();
+    assert!(!r.is_accepted(), "{}", r.message());
+    assert!(r.message().contains("50..=120 %"), "{}", r.message());
     // a 2 s cut at 1500 rpm (f_d = 50 Hz with the profile's two flutes)
     let job = d.dir.join("cut.ngc");
     std::fs::write(
@@ -569,37 +583,34 @@ fn a_spindle_override_redesigns_the_pdc_in_a_running_job_and_stays_for_the_next(
         "G21 G90 G17 G94\nG0 X0 Y0\nS1500 M3\nG1 X4 F120\nM5\nM2\n",
     )
     .unwrap();
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let first = r.job_id;
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let first = r.job_id().unwrap();
     let s = d.wait_status(&op, Duration::from_secs(20), "cutting at 1500 rpm", |s| {
-        s["job"]["cycles"].as_u64().unwrap_or(0) > 300 && s["spindle_rpm"] == 1500.0
+        s.job.as_ref().map_or(0, |j| j.record.cycles) > 300 && s.spindle_rpm == Some(1500.0)
     });
-    assert_eq!(s["spindle_override"], 1.0);
-    let r = op.request(ControlKind::SpindleOverride, 1.2, "").unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    assert_eq!(s.spindle_override, Some(1.0));
+    let r = op
+        .request(&Request::SpindleOverride { fraction: 1.2 })
+        .unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
     // designed off the cycle, swapped in with the new speed while the job runs
     let s = d.wait_status(&op, Duration::from_secs(5), "1800 rpm", |s| {
-        s["spindle_rpm"] == 1800.0
+        s.spindle_rpm == Some(1800.0)
     });
-    assert_eq!(s["job"]["outcome"], "running", "{s}");
+    assert_eq!(job_of(&s).outcome, Outcome::Running, "{s}");
     let s = d.wait_job(&op, first, Duration::from_secs(30));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
-    assert!(
-        s["alarms"].as_array().unwrap().is_empty(),
-        "no alarm: {}",
-        s["alarms"]
-    );
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
+    assert!(s.alarms.is_empty(), "no alarm: {}", alarm_text(&s));
     // the override is the machine's, not the job's: the next job starts at 1800 rpm
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
     let s = d.wait_status(&op, Duration::from_secs(20), "second job cutting", |s| {
-        s["job"]["job_id"].as_u64() == Some(r.job_id)
-            && s["job"]["cycles"].as_u64().unwrap_or(0) > 100
+        s.job(r.job_id().unwrap()).is_some() && s.job.as_ref().map_or(0, |j| j.record.cycles) > 100
     });
-    assert_eq!(s["spindle_rpm"], 1800.0, "{s}");
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(30));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    assert_eq!(s.spindle_rpm, Some(1800.0), "{s}");
+    let s = d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(30));
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
 }
 
 /// A stop by signal: the job stops along its path and is recorded as aborted,
@@ -624,8 +635,8 @@ fn signal_stops_in_order(tag: &str, signal: &str, to_group: bool) {
     assert_eq!(status.code(), Some(0), "softncd exits 0 on SIG{signal}");
     Daemon::wait_gone(&kids, Duration::from_secs(5));
     assert_stops_along_the_path(&d.dir.join(format!("data/trace-job{job_id}.csv")));
-    let rec = d.job_record(job_id);
-    assert_eq!(rec["outcome"], "aborted", "the job's record: {rec}");
+    let rec = d.job_record(job_id).expect("the job's record");
+    assert_eq!(rec.outcome, Outcome::Aborted, "the job's record: {rec}");
     assert_eq!(
         services_of(&instance),
         Vec::<String>::new(),
@@ -667,11 +678,11 @@ fn killing_softncd_stops_its_children_along_the_path_and_a_new_softncd_runs_the_
         .unwrap();
     let op = d.operator();
     d.wait_status(&op, Duration::from_secs(10), "processes up", |s| {
-        s["processes"]["interp"] == "alive" && s["processes"]["position"] == "alive"
+        s.processes.interp == ProcessHealth::Alive && s.processes.position == ProcessHealth::Alive
     });
     let s = d.runs_the_short_job(&op);
     assert!(
-        !s["alarms"].to_string().contains("SequenceError"),
+        !alarm_text(&s).contains("SequenceError"),
         "no second set of processes: {s}"
     );
     drop(op);
@@ -704,71 +715,65 @@ fn a_second_softncd_on_the_same_instance_is_refused_and_the_first_runs_on() {
 fn commands_say_what_the_machine_does_in_every_state() {
     let d = Daemon::start("states", "Realtime", false);
     let op = d.operator();
-    let req = |k: ControlKind| op.request(k, 0.0, "").unwrap();
+    let req = |k: Request| op.request(&k).unwrap();
     // idle: nothing to hold, resume or abort; a reset only clears alarms
-    for k in [ControlKind::Hold, ControlKind::Resume, ControlKind::Abort] {
-        let r = req(k);
-        assert_eq!(r.accepted, 0, "{k:?} when idle: {}", r.message.as_str());
+    for k in [Request::Hold, Request::Resume, Request::Abort] {
+        let r = req(k.clone());
+        assert!(!r.is_accepted(), "{k:?} when idle: {}", r.message());
     }
-    assert_eq!(req(ControlKind::Reset).accepted, 1);
+    assert!(req(Request::Reset).is_accepted());
     let job_id = start_moving(&d, &op);
     // running: resume refused, reset refused (the job moves), hold shows held
-    let r = req(ControlKind::Resume);
-    assert_eq!(r.accepted, 0, "{}", r.message.as_str());
-    let r = req(ControlKind::Reset);
-    assert_eq!(r.accepted, 0, "{}", r.message.as_str());
-    assert!(
-        r.message.as_str().contains("abort"),
-        "{}",
-        r.message.as_str()
-    );
+    let r = req(Request::Resume);
+    assert!(!r.is_accepted(), "{}", r.message());
+    let r = req(Request::Reset);
+    assert!(!r.is_accepted(), "{}", r.message());
+    assert!(r.message().contains("abort"), "{}", r.message());
     let s = op.status().unwrap();
-    assert_eq!(s["state"], "Running", "{s}");
+    assert_eq!(s.state, MachineState::Running, "{s}");
     assert_eq!(
-        s["job"]["outcome"], "running",
+        job_of(&s).outcome,
+        Outcome::Running,
         "a refused reset changed nothing: {s}"
     );
-    assert_eq!(req(ControlKind::Hold).accepted, 1);
+    assert!(req(Request::Hold).is_accepted());
     let s = op.status().unwrap();
-    assert_eq!(s["state"], "Held", "{s}");
-    assert_eq!(req(ControlKind::Hold).accepted, 0, "already held");
+    assert_eq!(s.state, MachineState::Held, "{s}");
+    assert!(!req(Request::Hold).is_accepted(), "already held");
     // held: abort stops the job along its path; it ends aborted, the machine idle
-    let r = req(ControlKind::Abort);
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    assert_eq!(op.status().unwrap()["state"], "Stopping");
+    let r = req(Request::Abort);
+    assert!(r.is_accepted(), "{}", r.message());
+    assert_eq!(op.status().unwrap().state, MachineState::Stopping);
     let s = d.wait_job(&op, job_id, Duration::from_secs(20));
-    assert_eq!(s["job"]["outcome"], "aborted", "{s}");
+    assert_eq!(job_of(&s).outcome, Outcome::Aborted, "{s}");
     let s = d.wait_status(&op, Duration::from_secs(5), "idle", |s| {
-        s["state"] == "Idle"
+        s.state == MachineState::Idle
     });
-    assert!(
-        s["alarms"].as_array().unwrap().is_empty(),
-        "an abort is no alarm: {s}"
-    );
+    assert!(s.alarms.is_empty(), "an abort is no alarm: {s}");
     // the machine runs the next job; an E-stop faults it, the alarm shows until a
     // reset clears it (kept in the job's record)
     let job2 = start_moving(&d, &op);
-    assert_eq!(req(ControlKind::EStop).accepted, 1);
+    assert!(req(Request::EStop).is_accepted());
     let s = d.wait_job(&op, job2, Duration::from_secs(10));
-    assert_eq!(s["job"]["outcome"], "aborted", "{s}");
+    assert_eq!(job_of(&s).outcome, Outcome::Aborted, "{s}");
     let s = d.wait_status(&op, Duration::from_secs(5), "E-stop alarm", |s| {
-        s["alarms"].to_string().contains("EStop")
+        alarm_text(s).contains("EStop")
     });
-    assert_eq!(s["state"], "EStopped");
-    for k in [ControlKind::Hold, ControlKind::Resume, ControlKind::Abort] {
-        assert_eq!(req(k).accepted, 0, "{k:?} when E-stopped");
+    assert_eq!(s.state, MachineState::EStopped);
+    for k in [Request::Hold, Request::Resume, Request::Abort] {
+        assert!(!req(k.clone()).is_accepted(), "{k:?} when E-stopped");
     }
-    let r = op
-        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
-        .unwrap();
-    assert_eq!(r.accepted, 0, "{}", r.message.as_str());
-    assert_eq!(req(ControlKind::Reset).accepted, 1);
+    let r = op.request(&submit(&abs(&short_job(&d.dir)))).unwrap();
+    assert!(!r.is_accepted(), "{}", r.message());
+    assert!(req(Request::Reset).is_accepted());
     // the latch cleared, the drives off: `on` switches them on
-    let s = d.wait_status(&op, Duration::from_secs(5), "off", |s| s["state"] == "Off");
-    assert!(s["alarms"].as_array().unwrap().is_empty(), "cleared: {s}");
-    let rec = d.job_record(job2);
+    let s = d.wait_status(&op, Duration::from_secs(5), "off", |s| {
+        s.state == MachineState::Off
+    });
+    assert!(s.alarms.is_empty(), "cleared: {s}");
+    let rec = d.job_record(job2).expect("the job's record");
     assert!(
-        rec["alarms"].to_string().contains("EStop"),
+        rec.alarms.iter().any(|a| a.contains("EStop")),
         "kept in the record: {rec}"
     );
 }
@@ -793,30 +798,35 @@ fn odd_job_files_are_refused_and_nothing_moves_and_a_rewritten_file_does_not_run
         ),
         (abs(&d.dir), "not a regular file (a directory)"),
     ] {
-        let r = op.request(ControlKind::StartJob, 0.0, &file).unwrap();
-        assert_eq!(r.accepted, 0, "{file}");
-        assert!(r.message.as_str().contains(want), "{}", r.message.as_str());
+        let r = op.request(&submit(&file)).unwrap();
+        assert!(!r.is_accepted(), "{file}");
+        assert!(r.message().contains(want), "{}", r.message());
     }
     // a path longer than the wire holds is refused by the client, not cut (a cut
     // path could name another file)
-    let long = format!("{}/{}.ngc", d.dir.display(), "x".repeat(600));
-    let e = op.request(ControlKind::StartJob, 0.0, &long).unwrap_err();
-    assert!(e.to_string().contains("more than the 512"), "{e}");
+    let long = format!("{}/{}.ngc", d.dir.display(), "x".repeat(5000));
+    let e = op.request(&submit(&long)).unwrap_err();
+    let capacity = softnc_ipc::OperatorRequest::MESSAGE_CAPACITY;
+    assert!(
+        e.to_string().contains(&format!(
+            "over the {capacity} bytes a request holds: nothing sent"
+        )),
+        "{e}"
+    );
     let s = op.status().unwrap();
-    assert_eq!(s["state"], "Idle");
-    assert!(s["job"].is_null(), "no job was started: {s}");
+    assert_eq!(s.state, MachineState::Idle);
+    assert!(s.job.is_none(), "no job was started: {s}");
     // a file rewritten after the check: the job runs what was checked
     let job = short_job(&d.dir);
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
     std::fs::write(&job, "G21 G90\nG0 X900\nM2\n").unwrap();
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
-    let about_it = s["alarms"]
-        .as_array()
-        .unwrap()
+    let s = d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(60));
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
+    let about_it = s
+        .alarms
         .iter()
-        .filter(|a| a["job_id"] == r.job_id)
+        .filter(|a| a.job_id == r.job_id().unwrap())
         .count();
     assert_eq!(about_it, 0, "{s}");
 }
@@ -829,15 +839,13 @@ fn a_long_job_history_is_listed_whole_page_by_page() {
     let op = d.operator();
     let jobs = op.jobs().unwrap();
     assert_eq!(jobs.len(), 200);
-    let ids: Vec<u64> = jobs.iter().map(|j| j["job_id"].as_u64().unwrap()).collect();
+    let ids: Vec<u64> = jobs.iter().map(|j| j.job_id).collect();
     assert_eq!(
         ids,
         (1..=200).rev().collect::<Vec<_>>(),
         "newest first, none twice"
     );
-    assert!(jobs
-        .iter()
-        .all(|j| j["path"].as_str().unwrap().len() == 300));
+    assert!(jobs.iter().all(|j| j.path.len() == 300));
 }
 
 #[test]
@@ -851,24 +859,24 @@ fn the_next_job_starts_where_the_machine_is_without_a_step() {
     std::fs::write(&b, "G21 G90 G17\nG1 X70 F600\nM2\n").unwrap();
     let mut ids = Vec::new();
     for f in [&a, &b] {
-        let r = op.request(ControlKind::StartJob, 0.0, &abs(f)).unwrap();
-        assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-        let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
-        assert_eq!(s["job"]["outcome"], "completed", "{s}");
+        let r = op.request(&submit(&abs(f))).unwrap();
+        assert!(r.is_accepted(), "{}", r.message());
+        let s = d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(60));
+        assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
         d.wait_status(&op, Duration::from_secs(10), "idle", |s| {
-            s["state"] == "Idle"
+            s.state == MachineState::Idle
         });
-        ids.push(r.job_id);
+        ids.push(r.job_id().unwrap());
     }
     let s = op.status().unwrap();
-    let cmd: Vec<f64> = serde_json::from_value(s["axes"]["cmd_mm"].clone()).unwrap();
+    let cmd: Vec<f64> = s.axes.as_ref().unwrap().cmd_mm.clone();
     assert!(
         (cmd[0] - 70.0).abs() < 1e-6 && (cmd[1] - 50.0).abs() < 1e-6 && cmd[2].abs() < 1e-6,
         "job B ends at X70 Y50 Z0: {cmd:?}"
     );
     // B's following error stays in the normal band of a 10 mm/s move (it was the
     // 50 mm back to the program's origin)
-    let fe = s["job"]["accuracy"]["following_max_abs_um"].to_string();
+    let fe = format!("{:?}", job_of(&s).accuracy.following_max_abs_um);
     let fe: Vec<f64> = serde_json::from_str(&fe).unwrap();
     assert!(
         fe.iter().all(|e| *e < 100.0),
@@ -910,21 +918,21 @@ fn a_stopped_interpolator_is_noticed_killed_and_restarted_and_reset_recovers() {
         .unwrap()
         .success());
     let s = d.wait_status(&op, Duration::from_secs(10), "fault", |s| {
-        s["state"] == "Faulted"
+        s.state == MachineState::Faulted
     });
-    assert!(s["alarms"].to_string().contains("RingDry"), "{s}");
+    assert!(alarm_text(&s).contains("RingDry"), "{s}");
     // the watchdog kills it and softncd starts a new one
     let s = d.wait_status(&op, Duration::from_secs(10), "watchdog", |s| {
-        s["alarms"].to_string().contains("watchdog")
+        alarm_text(s).contains("watchdog")
     });
-    assert!(s["alarms"].to_string().contains("softnc-interp"), "{s}");
+    assert!(alarm_text(&s).contains("softnc-interp"), "{s}");
     assert!(
         std::fs::read_to_string(format!("/proc/{pid}/stat")).map_or(true, |st| st.contains(") Z ")),
         "the stopped interpolator was killed"
     );
-    op.request(ControlKind::Reset, 0.0, "").unwrap();
+    op.request(&Request::Reset).unwrap();
     d.wait_status(&op, Duration::from_secs(10), "off + a new interp", |s| {
-        s["state"] == "Off" && s["processes"]["interp"] == "alive"
+        s.state == MachineState::Off && s.processes.interp == ProcessHealth::Alive
     });
     op.machine_on(Duration::from_secs(10)).unwrap();
     d.runs_the_short_job(&op);
@@ -941,17 +949,17 @@ fn a_stopped_position_process_is_noticed_killed_and_restarted_and_reset_recovers
     let job = start_moving(&d, &op);
     sigstop_until_the_watchdog_acts(&d, &op, "softnc-position");
     let s = d.wait_status(&op, Duration::from_secs(10), "watchdog alarm", |s| {
-        s["alarms"].to_string().contains("watchdog")
+        alarm_text(s).contains("watchdog")
     });
-    assert!(s["alarms"].to_string().contains("softnc-position"), "{s}");
-    assert_eq!(s["state"], "Faulted", "{s}");
-    assert_eq!(d.job_record(job)["outcome"], "aborted");
-    op.request(ControlKind::Reset, 0.0, "").unwrap();
+    assert!(alarm_text(&s).contains("softnc-position"), "{s}");
+    assert_eq!(s.state, MachineState::Faulted, "{s}");
+    assert_eq!(d.job_record(job).map(|j| j.outcome), Some(Outcome::Aborted));
+    op.request(&Request::Reset).unwrap();
     d.wait_status(
         &op,
         Duration::from_secs(15),
         "off + a new position process",
-        |s| s["state"] == "Off" && s["processes"]["position"] == "alive",
+        |s| s.state == MachineState::Off && s.processes.position == ProcessHealth::Alive,
     );
     op.machine_on(Duration::from_secs(10)).unwrap();
     d.runs_the_short_job(&op);
@@ -975,10 +983,11 @@ fn a_stopped_mmi_stops_the_job_along_its_path_and_is_killed_and_restarted() {
     let op = d.operator_off();
     let s = d.wait_job(&op, job, Duration::from_secs(60));
     assert_ne!(
-        s["job"]["outcome"], "completed",
+        job_of(&s).outcome,
+        Outcome::Completed,
         "motion stopped without the MMI: {s}"
     );
-    assert_eq!(s["state"], "Faulted", "{s}");
+    assert_eq!(s.state, MachineState::Faulted, "{s}");
     drop(op);
     d.shutdown_leaving_nothing("sigstopmmi");
 }
@@ -1003,58 +1012,50 @@ fn a_job_is_checked_off_the_loop_status_and_estop_answer_meanwhile() {
     let job = slow_to_check_job(&d.dir);
     let config = d.config.clone();
     let path = abs(&job);
-    let submit = std::thread::spawn(move || {
+    let submitted = std::thread::spawn(move || {
         let op = Operator::connect(&config).unwrap();
-        op.request(ControlKind::StartJob, 0.0, &path).unwrap()
+        op.request(&submit(&path)).unwrap()
     });
     // while it is checked the MMI answers at once and says so
     let s = d.wait_status(&op, Duration::from_secs(10), "checking", |s| {
-        s["checking"].is_string()
+        s.checking.is_some()
     });
-    assert_eq!(s["state"], "Idle", "{s}");
+    assert_eq!(s.state, MachineState::Idle, "{s}");
     // one job at a time: a second one is refused while the first is checked
-    let second = op
-        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
-        .unwrap();
-    assert_eq!(second.accepted, 0, "{}", second.message.as_str());
+    let second = op.request(&submit(&abs(&short_job(&d.dir)))).unwrap();
+    assert!(!second.is_accepted(), "{}", second.message());
     assert!(
-        second.message.as_str().contains("being checked"),
+        second.message().contains("being checked"),
         "{}",
-        second.message.as_str()
+        second.message()
     );
     let t0 = Instant::now();
-    let e = op.request(ControlKind::EStop, 0.0, "").unwrap();
-    assert_eq!(e.accepted, 1, "{}", e.message.as_str());
+    let e = op.request(&Request::EStop).unwrap();
+    assert!(e.is_accepted(), "{}", e.message());
     assert!(
         t0.elapsed() < Duration::from_secs(1),
         "E-stop answered in {:?} while a job was checked",
         t0.elapsed()
     );
     // the job checked under an E-stop is not started: nothing moves
-    let r = submit.join().unwrap();
-    assert_eq!(r.accepted, 0, "{}", r.message.as_str());
-    assert!(
-        r.message.as_str().contains("emergency stop"),
-        "{}",
-        r.message.as_str()
-    );
+    let r = submitted.join().unwrap();
+    assert!(!r.is_accepted(), "{}", r.message());
+    assert!(r.message().contains("emergency stop"), "{}", r.message());
     let s = op.status().unwrap();
-    assert!(s["checking"].is_null(), "{s}");
-    assert_eq!(
-        s["axes"]["cmd_mm"],
-        serde_json::json!([0.0, 0.0, 0.0]),
-        "{s}"
-    );
+    assert!(s.checking.is_none(), "{s}");
+    assert_eq!(cmd_mm(&s), [0.0, 0.0, 0.0], "{s}");
     assert!(op.jobs().unwrap().is_empty(), "no job record");
     // reset (the drives stay off), on; the same program checked again runs
-    op.request(ControlKind::Reset, 0.0, "").unwrap();
-    d.wait_status(&op, Duration::from_secs(10), "off", |s| s["state"] == "Off");
+    op.request(&Request::Reset).unwrap();
+    d.wait_status(&op, Duration::from_secs(10), "off", |s| {
+        s.state == MachineState::Off
+    });
     op.machine_on(Duration::from_secs(10)).unwrap();
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
-    assert_eq!(s["axes"]["cmd_mm"][0], 10.0, "{s}");
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let s = d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(60));
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
+    assert_eq!(cmd_mm(&s)[0], 10.0, "{s}");
 }
 
 #[test]
@@ -1072,7 +1073,7 @@ fn a_loopback_daemon_runs_a_job_whose_axes_follow_the_command_exactly() {
     // each cycle measures where the previous one commanded, to a nanometre
     let trace = std::fs::read_to_string(
         d.dir
-            .join(format!("data/trace-job{}.csv", s["job"]["job_id"])),
+            .join(format!("data/trace-job{}.csv", job_of(&s).job_id)),
     )
     .unwrap();
     let rows: Vec<Vec<f64>> = trace
@@ -1092,18 +1093,19 @@ fn a_loopback_daemon_runs_a_job_whose_axes_follow_the_command_exactly() {
         }
     }
     // far below the simulated machine's (tens of µm) on the same job
-    let rms = s["job"]["accuracy"]["contour_rms_um"].as_f64().unwrap();
+    let rms = job_of(&s).accuracy.contour_rms_um;
     assert!(rms < 1.0, "contour rms {rms} µm");
     // the next job takes the drive over where the first left it (not homed again)
     let end1 = machine_mm(&op.status().unwrap());
-    let r2 = op
-        .request(ControlKind::StartJob, 0.0, &abs(&short_job(&d.dir)))
-        .unwrap();
-    assert_eq!(r2.accepted, 1, "{}", r2.message.as_str());
-    let s = d.wait_job(&op, r2.job_id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
-    let trace2 =
-        std::fs::read_to_string(d.dir.join(format!("data/trace-job{}.csv", r2.job_id))).unwrap();
+    let r2 = op.request(&submit(&abs(&short_job(&d.dir)))).unwrap();
+    assert!(r2.is_accepted(), "{}", r2.message());
+    let s = d.wait_job(&op, r2.job_id().unwrap(), Duration::from_secs(60));
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
+    let trace2 = std::fs::read_to_string(
+        d.dir
+            .join(format!("data/trace-job{}.csv", r2.job_id().unwrap())),
+    )
+    .unwrap();
     let first: Vec<f64> = trace2
         .lines()
         .nth(1)
@@ -1138,10 +1140,10 @@ fn a_long_program_is_streamed_not_held_whole_in_the_interpolator() {
     let position = d.pid_of("softnc-position").unwrap();
     let before_kb = peak_rss_kb(interp);
     let position_before_kb = peak_rss_kb(position);
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
     d.wait_status(&op, Duration::from_secs(60), "motion", |s| {
-        s["job"]["cycles"].as_u64().unwrap_or(0) > 500
+        s.job.as_ref().map_or(0, |j| j.record.cycles) > 500
     });
     let grew_kb = peak_rss_kb(interp) - before_kb;
     let position_grew_kb = peak_rss_kb(position) - position_before_kb;
@@ -1156,10 +1158,10 @@ fn a_long_program_is_streamed_not_held_whole_in_the_interpolator() {
         position_grew_kb < 80 * 1024,
         "the position process grew by {position_grew_kb} kB"
     );
-    let a = op.request(ControlKind::Abort, 0.0, "").unwrap();
-    assert_eq!(a.accepted, 1, "{}", a.message.as_str());
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(30));
-    assert_eq!(s["job"]["outcome"], "aborted", "{s}");
+    let a = op.request(&Request::Abort).unwrap();
+    assert!(a.is_accepted(), "{}", a.message());
+    let s = d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(30));
+    assert_eq!(job_of(&s).outcome, Outcome::Aborted, "{s}");
 }
 
 #[allow(clippy::too_many_lines)]
@@ -1194,33 +1196,30 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     let job = short_job(&d.dir);
     // the daemon starts off: nothing runs
     let s = d.wait_status(&op, Duration::from_secs(10), "off", |s| {
-        !s["machine_mm"].is_null()
+        s.machine_mm.is_some()
     });
-    assert_eq!(s["state"], "Off", "{s}");
-    let (ok, msg) = ask(&op, ControlKind::StartJob, 0, 0.0, &abs(&job));
+    assert_eq!(s.state, MachineState::Off, "{s}");
+    let (ok, msg) = ask(&op, &submit(&abs(&job)));
     assert!(!ok && msg.contains("off"), "{msg}");
-    let (ok, msg) = ask(&op, ControlKind::JogStep, 0, 10.0, "");
+    let (ok, msg) = ask(&op, &jog_step(0, 10.0));
     assert!(!ok && msg.contains("off"), "{msg}");
     op.machine_on(Duration::from_secs(10)).unwrap();
     // not homed: jobs and MDI refused, state unchanged
     let s = op.status().unwrap();
-    assert_eq!(s["homed"], serde_json::json!([false, false, false]), "{s}");
-    for (kind, path) in [
-        (ControlKind::StartJob, abs(&job)),
-        (ControlKind::Mdi, "G0 X1".into()),
-    ] {
-        let (ok, msg) = ask(&op, kind, 0, 0.0, &path);
-        assert!(!ok && msg.contains("not homed"), "{kind:?}: {msg}");
+    assert_eq!(s.homed, [false, false, false], "{s}");
+    for request in [submit(&abs(&job)), mdi_request("G0 X1")] {
+        let (ok, msg) = ask(&op, &request);
+        assert!(!ok && msg.contains("not homed"), "{request:?}: {msg}");
     }
-    assert_eq!(op.status().unwrap()["state"], "Idle");
+    assert_eq!(op.status().unwrap().state, MachineState::Idle);
 
     // home all: Z, X, Y in the profile's order, each at its home position
-    let (ok, msg) = ask(&op, ControlKind::Home, u32::MAX, 0.0, "");
+    let (ok, msg) = ask(&op, &Request::Home { axis: None });
     assert!(ok, "{msg}");
     // the state the command asked for, from the reply on (not the one before it)
-    assert_eq!(op.status().unwrap()["state"], "Homing");
+    assert_eq!(op.status().unwrap().state, MachineState::Homing);
     let s = d.wait_status(&op, Duration::from_secs(60), "homed", |s| {
-        s["state"] == "Idle" && s["homed"] == serde_json::json!([true, true, true])
+        s.state == MachineState::Idle && s.homed == [true, true, true]
     });
     let home = machine_mm(&s);
     for (got, want) in home.iter().zip([0.0, 0.0, 90.0]) {
@@ -1228,54 +1227,51 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     }
 
     // jog X+ 10 mm incremental: lands exactly there
-    let (ok, msg) = ask(&op, ControlKind::JogStep, 0, 10.0, "");
+    let (ok, msg) = ask(&op, &jog_step(0, 10.0));
     assert!(ok, "{msg}");
     let s = d.wait_status(&op, Duration::from_secs(10), "jog step", |s| {
-        s["state"] == "Idle" && (s["machine_mm"][0].as_f64().unwrap() - 10.0).abs() < 1e-9
+        s.state == MachineState::Idle && (machine_mm(s)[0] - 10.0).abs() < 1e-9
     });
     assert_eq!(machine_mm(&s)[1], 0.0);
     // a step beyond the soft limit is refused and nothing moves
-    let (ok, msg) = ask(&op, ControlKind::JogStep, 0, 500.0, "");
+    let (ok, msg) = ask(&op, &jog_step(0, 500.0));
     assert!(!ok && msg.contains("soft limit"), "{msg}");
     std::thread::sleep(Duration::from_millis(200));
     let s = op.status().unwrap();
-    assert_eq!(
-        (s["state"].as_str(), machine_mm(&s)[0]),
-        (Some("Idle"), 10.0)
-    );
+    assert_eq!((s.state, machine_mm(&s)[0]), (MachineState::Idle, 10.0));
 
     // continuous jog X+ at 12 m/min (clamped to the profile's jog limit), renewed
     // by its client: stops at the soft limit, never beyond
-    let (ok, msg) = ask(&op, ControlKind::Jog, 0, 12000.0, "");
+    let (ok, msg) = ask(&op, &jog(0, 12000.0));
     assert!(ok, "{msg}");
     let t0 = Instant::now();
     let mut max_x: f64 = 0.0;
     loop {
         let s = op.status().unwrap();
         max_x = max_x.max(machine_mm(&s)[0]);
-        if s["state"] == "Idle" {
+        if s.state == MachineState::Idle {
             break;
         }
         assert!(
             t0.elapsed() < Duration::from_secs(20),
             "jog never ended: {s}"
         );
-        let (ok, _) = ask(&op, ControlKind::Jog, 0, 12000.0, "");
-        assert!(ok || op.status().unwrap()["state"] == "Idle");
+        let (ok, _) = ask(&op, &jog(0, 12000.0));
+        assert!(ok || op.status().unwrap().state == MachineState::Idle);
         std::thread::sleep(Duration::from_millis(50));
     }
     let s = op.status().unwrap();
     assert_eq!(machine_mm(&s)[0], 400.0, "stopped on the soft limit: {s}");
     assert!(max_x <= 400.0, "beyond the soft limit: {max_x}");
     // at the limit, further out is refused
-    let (ok, msg) = ask(&op, ControlKind::Jog, 0, 600.0, "");
+    let (ok, msg) = ask(&op, &jog(0, 600.0));
     assert!(!ok && msg.contains("soft limit"), "{msg}");
     // a continuous jog whose client goes away stops by itself (the dead-man)
-    let (ok, msg) = ask(&op, ControlKind::Jog, 0, -6000.0, "");
+    let (ok, msg) = ask(&op, &jog(0, -6000.0));
     assert!(ok, "{msg}");
-    assert_eq!(op.status().unwrap()["state"], "Jogging");
+    assert_eq!(op.status().unwrap().state, MachineState::Jogging);
     let s = d.wait_status(&op, Duration::from_secs(5), "dead-man stop", |s| {
-        s["state"] == "Idle"
+        s.state == MachineState::Idle
     });
     let x = machine_mm(&s)[0];
     assert!(
@@ -1283,40 +1279,43 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
         "the dead-man stopped the jog at {x}"
     );
     assert!(
-        s["alarms"].to_string().contains("did not renew"),
+        alarm_text(&s).contains("did not renew"),
         "the stop is reported: {s}"
     );
-    let (ok, _) = ask(&op, ControlKind::Reset, u32::MAX, 0.0, "");
+    let (ok, _) = ask(&op, &Request::Reset);
     assert!(ok);
 
     // touch off X0 Y0 Z0 in G55 where the machine stands; G54 stays active
     let p = machine_mm(&op.status().unwrap());
-    for axis in 0..3 {
-        let (ok, msg) = ask(&op, ControlKind::TouchOff, axis, 0.0, "G55");
+    for i in 0..3 {
+        let (ok, msg) = ask(
+            &op,
+            &Request::TouchOff {
+                axis: axis(i),
+                value_mm: 0.0,
+                coords: Some("G55".to_string()),
+            },
+        );
         assert!(ok, "{msg}");
     }
-    let offsets: serde_json::Value =
-        serde_json::from_str(ask(&op, ControlKind::Offsets, u32::MAX, 0.0, "").1.as_str()).unwrap();
-    let g55 = &offsets["systems"][1];
-    assert_eq!(g55["coords"], "G55");
-    for i in 0..3 {
-        assert!(
-            (g55["origin_mm"][i].as_f64().unwrap() - p[i]).abs() < 1e-6,
-            "{offsets}"
-        );
+    let offsets = op.offsets().unwrap();
+    let g55 = &offsets.systems[1];
+    assert_eq!(g55.coords, "G55");
+    for (got, want) in g55.origin_mm.iter().zip(p) {
+        assert!((got - want).abs() < 1e-6, "{offsets:?}");
     }
     // move away, then MDI `G55 G0 X0 Y0` lands on the touch-off point in X and Y
-    let (ok, msg) = ask(&op, ControlKind::JogStep, 1, -15.0, "");
+    let (ok, msg) = ask(&op, &jog_step(1, -15.0));
     assert!(ok, "{msg}");
     d.wait_status(&op, Duration::from_secs(10), "jog Y", |s| {
-        s["state"] == "Idle" && (s["machine_mm"][1].as_f64().unwrap() - (p[1] - 15.0)).abs() < 1e-9
+        s.state == MachineState::Idle && (machine_mm(s)[1] - (p[1] - 15.0)).abs() < 1e-9
     });
-    let r = op.request(ControlKind::Mdi, 0.0, "G55 G0 X0 Y0").unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(20));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    let r = op.request(&mdi_request("G55 G0 X0 Y0")).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let s = d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(20));
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
     let s = d.wait_status(&op, Duration::from_secs(5), "at rest", |s| {
-        s["state"] == "Idle"
+        s.state == MachineState::Idle
     });
     let at = machine_mm(&s);
     for i in 0..3 {
@@ -1326,61 +1325,80 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
         );
     }
     // the MDI's G55 stays active: work coordinates read 0 there
-    assert_eq!(s["coords"], "G55", "{s}");
-    for w in s["work_mm"].as_array().unwrap() {
-        assert!(w.as_f64().unwrap().abs() < 1e-6, "{s}");
+    assert_eq!(s.coords, "G55", "{s}");
+    for w in s.work_mm.unwrap() {
+        assert!(w.abs() < 1e-6, "{s}");
     }
     // the modal state stays from one MDI command to the next (G91 here)
-    let r = op.request(ControlKind::Mdi, 0.0, "G91").unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let r = op.request(ControlKind::Mdi, 0.0, "G0 Y-1").unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    d.wait_job(&op, r.job_id, Duration::from_secs(20));
+    let r = op.request(&mdi_request("G91")).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let r = op.request(&mdi_request("G0 Y-1")).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(20));
     let s = d.wait_status(&op, Duration::from_secs(5), "at rest", |s| {
-        s["state"] == "Idle"
+        s.state == MachineState::Idle
     });
     assert!(
         (machine_mm(&s)[1] - (p[1] - 1.0)).abs() < 1e-6,
         "incremental: {s}"
     );
-    assert!(s["modal"].to_string().contains("G91"), "{s}");
-    let r = op.request(ControlKind::Mdi, 0.0, "G90 G0 Y0").unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    d.wait_job(&op, r.job_id, Duration::from_secs(20));
+    assert!(
+        s.modal
+            .clone()
+            .unwrap_or_default()
+            .join(" ")
+            .contains("G91"),
+        "{s}"
+    );
+    let r = op.request(&mdi_request("G90 G0 Y0")).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(20));
     // MDI calls a subroutine found on the search path
-    let r = op
-        .request(ControlKind::Mdi, 0.0, "o<nudge> call [2.5]")
-        .unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    d.wait_job(&op, r.job_id, Duration::from_secs(20));
+    let r = op.request(&mdi_request("o<nudge> call [2.5]")).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(20));
     let s = d.wait_status(&op, Duration::from_secs(5), "at rest", |s| {
-        s["state"] == "Idle"
+        s.state == MachineState::Idle
     });
     assert!((machine_mm(&s)[0] - (p[0] + 2.5)).abs() < 1e-6, "{s}");
     // touch-off and MDI are refused while a job moves (a slow one, in G55; between
     // percent signs: no M2, which would make G54 active again, as in LinuxCNC)
     let slow = d.dir.join("slow.ngc");
     std::fs::write(&slow, "%\nG21 G90\nG1 X-20 F300\nG1 X0\n%\n").unwrap();
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&slow)).unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let r = op.request(&submit(&abs(&slow))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
     d.wait_status(&op, Duration::from_secs(10), "moving", |s| {
-        s["state"] == "Running"
+        s.state == MachineState::Running
     });
-    let (ok, msg) = ask(&op, ControlKind::Mdi, 0, 0.0, "G0 X1");
+    let (ok, msg) = ask(&op, &mdi_request("G0 X1"));
     assert!(!ok && msg.contains("busy"), "{msg}");
-    let (ok, msg) = ask(&op, ControlKind::TouchOff, 0, 0.0, "");
+    let (ok, msg) = ask(
+        &op,
+        &Request::TouchOff {
+            axis: axis(0),
+            value_mm: 0.0,
+            coords: None,
+        },
+    );
     assert!(!ok && msg.contains("moving"), "{msg}");
-    d.wait_job(&op, r.job_id, Duration::from_secs(60));
+    d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(60));
     // a tool table edit; the tool loaded with its length offset stays for the next
     // program
-    let (ok, msg) = ask(&op, ControlKind::ToolSet, 5, 42.5, "6");
+    let (ok, msg) = ask(
+        &op,
+        &Request::ToolSet {
+            tool: 5,
+            length_mm: 42.5,
+            diameter_mm: "6".parse().ok(),
+        },
+    );
     assert!(ok, "{msg}");
-    let r = op.request(ControlKind::Mdi, 0.0, "T5 M6 G43").unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    d.wait_job(&op, r.job_id, Duration::from_secs(20));
+    let r = op.request(&mdi_request("T5 M6 G43")).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(20));
     let s = op.status().unwrap();
-    assert_eq!(s["tool"], 5, "{s}");
-    assert_eq!(s["offsets"]["tool_offset_mm"][2], 42.5, "{s}");
+    assert_eq!(s.tool, 5, "{s}");
+    assert_eq!(s.offsets.tool_offset_mm[2], 42.5, "{s}");
 
     // a restart keeps the offsets, the active system and the tools (not the homing)
     d.keep_dir = true;
@@ -1441,29 +1459,18 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
         &subs,
     );
     let op = d.operator();
-    let offsets: serde_json::Value =
-        serde_json::from_str(ask(&op, ControlKind::Offsets, u32::MAX, 0.0, "").1.as_str()).unwrap();
-    assert_eq!(offsets["active"], "G55", "{offsets}");
-    for i in 0..3 {
-        let got = offsets["systems"][1]["origin_mm"][i].as_f64().unwrap();
-        assert!((got - p[i]).abs() < 1e-6, "{offsets}");
+    let offsets = op.offsets().unwrap();
+    assert_eq!(offsets.active, "G55", "{offsets:?}");
+    for (got, want) in offsets.systems[1].origin_mm.iter().zip(p) {
+        assert!((got - want).abs() < 1e-6, "{offsets:?}");
     }
-    let tools: serde_json::Value =
-        serde_json::from_str(ask(&op, ControlKind::Tools, u32::MAX, 0.0, "").1.as_str()).unwrap();
+    let tools = op.tools().unwrap();
     let t5 = tools
-        .as_array()
-        .unwrap()
         .iter()
-        .find(|t| t["number"] == 5)
-        .unwrap_or_else(|| panic!("tool 5 kept: {tools}"));
-    assert_eq!(
-        (t5["length_mm"].as_f64(), t5["diameter_mm"].as_f64()),
-        (Some(42.5), Some(6.0))
-    );
-    assert_eq!(
-        op.status().unwrap()["homed"],
-        serde_json::json!([false, false, false])
-    );
+        .find(|t| t.number == 5)
+        .unwrap_or_else(|| panic!("tool 5 kept: {tools:?}"));
+    assert_eq!((t5.length_mm, t5.diameter_mm), (42.5, 6.0));
+    assert_eq!(op.status().unwrap().homed, [false, false, false]);
     let _ = std::fs::remove_dir_all(&profile_dir);
 }
 
@@ -1474,25 +1481,29 @@ fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_w
     let op = d.operator();
     // the switches start as LinuxCNC's controller starts them
     assert_eq!(
-        op.status().unwrap()["switches"],
-        serde_json::json!({"single_block": false, "optional_stop": true, "block_delete": true})
+        op.status().unwrap().switches,
+        softnc_api::Switches {
+            single_block: false,
+            optional_stop: true,
+            block_delete: true
+        }
     );
     // M0 pauses where it is: the axes at rest there, for as long as it takes
     let m0 = d.dir.join("m0.ngc");
     std::fs::write(&m0, "G21 G90 G64 P0.01\nG1 X10 F1200\nM0\nG1 X20 Y5\nM2\n").unwrap();
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&m0)).unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let r = op.request(&submit(&abs(&m0))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
     let s = wait_paused(&d, &op);
     // the line of the motion the axes stand at the end of (the M0 follows it)
-    assert_eq!(s["program_line"], 2, "paused after line 2: {s}");
+    assert_eq!(s.program_line, Some(2), "paused after line 2: {s}");
     std::thread::sleep(Duration::from_millis(500));
     let s = op.status().unwrap();
-    assert_eq!(s["state"], "Paused", "{s}");
+    assert_eq!(s.state, MachineState::Paused, "{s}");
     assert!((machine_mm(&s)[0] - 10.0).abs() < 1e-9, "{s}");
-    let (ok, msg) = ask(&op, ControlKind::Resume, u32::MAX, 0.0, "");
+    let (ok, msg) = ask(&op, &Request::Resume);
     assert!(ok, "{msg}");
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(30));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    let s = d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(30));
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
     let at = machine_mm(&op.status().unwrap());
     assert!(
         (at[0] - 20.0).abs() < 1e-9 && (at[1] - 5.0).abs() < 1e-9,
@@ -1506,12 +1517,10 @@ fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_w
         "G21 G90 G64 P0.01\n/G1 Y50 F3000\nG1 X22 F3000\nG1 X20\nM2\n",
     )
     .unwrap();
-    let r = op
-        .request(ControlKind::StartJob, 0.0, &abs(&deleted))
-        .unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(30));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    let r = op.request(&submit(&abs(&deleted))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let s = d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(30));
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
     let at = machine_mm(&op.status().unwrap());
     assert!(
         (at[0] - 20.0).abs() < 1e-9 && (at[1] - 5.0).abs() < 1e-9,
@@ -1526,36 +1535,32 @@ fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_w
         "G21 G90 G64 P0.01\nG1 X30 F3000\nG1 Y15\nG1 X40\nM2\n",
     )
     .unwrap();
-    let (ok, msg) = ask(&op, ControlKind::SingleBlock, u32::MAX, 1.0, "");
+    let (ok, msg) = ask(&op, &Request::SingleBlock { on: 1.0 != 0.0 });
     assert!(ok, "{msg}");
-    let r = op
-        .request(ControlKind::StartJob, 0.0, &abs(&blocks))
-        .unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let r = op.request(&submit(&abs(&blocks))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
     // paused at the end of each block, standing there until stepped; the last
     // block runs to the program's end
     let mut stops = Vec::new();
     loop {
         let s = d.wait_status(&op, Duration::from_secs(30), "a pause or the end", |s| {
-            s["state"] == "Paused" || s["job"]["outcome"] != "running"
+            s.state == MachineState::Paused
+                || s.job.as_ref().is_some_and(|j| j.record.outcome.ended())
         });
-        if s["job"]["outcome"] != "running" {
-            assert_eq!(s["job"]["outcome"], "completed", "{s}");
+        if job_of(&s).outcome != Outcome::Running {
+            assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
             break;
         }
-        let line = s["program_line"].as_u64().unwrap();
+        let line = s.program_line.unwrap();
         let at = machine_mm(&s);
         std::thread::sleep(Duration::from_millis(200));
         let s = op.status().unwrap();
-        assert_eq!(
-            (&s["state"], machine_mm(&s)),
-            (&serde_json::json!("Paused"), at)
-        );
+        assert_eq!((s.state, machine_mm(&s)), (MachineState::Paused, at));
         stops.push((line, at));
-        let (ok, msg) = ask(&op, ControlKind::Step, u32::MAX, 0.0, "");
+        let (ok, msg) = ask(&op, &Request::Step);
         assert!(ok, "{msg}");
         d.wait_status(&op, Duration::from_secs(10), "stepped", |s| {
-            s["program_line"].as_u64() != Some(line) || s["job"]["outcome"] != "running"
+            s.program_line != Some(line) || s.job.as_ref().is_some_and(|j| j.record.outcome.ended())
         });
         assert!(stops.len() < 5, "{stops:?}");
     }
@@ -1564,17 +1569,17 @@ fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_w
         [(2, [30.0, 5.0, 0.0]), (3, [30.0, 15.0, 0.0])],
         "one block per step, each stopped exactly at its end"
     );
-    let (ok, msg) = ask(&op, ControlKind::SingleBlock, u32::MAX, 0.0, "");
+    let (ok, msg) = ask(&op, &Request::SingleBlock { on: 0.0 != 0.0 });
     assert!(ok, "{msg}");
 
     // abort while paused: stops, the job ends aborted
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&m0)).unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let r = op.request(&submit(&abs(&m0))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
     wait_paused(&d, &op);
-    let (ok, msg) = ask(&op, ControlKind::Abort, u32::MAX, 0.0, "");
+    let (ok, msg) = ask(&op, &Request::Abort);
     assert!(ok, "{msg}");
-    let s = d.wait_job(&op, r.job_id, Duration::from_secs(30));
-    assert_eq!(s["job"]["outcome"], "aborted", "{s}");
+    let s = d.wait_job(&op, r.job_id().unwrap(), Duration::from_secs(30));
+    assert_eq!(job_of(&s).outcome, Outcome::Aborted, "{s}");
 
     // run from line: the remaining samples after the safe approach are the whole
     // job's from that line (an M0 before it: the whole job is at rest there too, on
@@ -1585,28 +1590,24 @@ fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_w
         "G21 G90 G64 P0.01\nG0 X0 Y0 Z5\nG1 Z-1 F600\nG1 X20 F2400\nG2 X30 Y10 R10\nM0\nG1 Y30\nG3 X20 Y40 I-10 J0\nG1 X0\nG0 Z5\nM2\n",
     )
     .unwrap();
-    let r = op
-        .request(ControlKind::StartJob, 0.0, &abs(&whole))
-        .unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let whole_id = r.job_id;
+    let r = op.request(&submit(&abs(&whole))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let whole_id = r.job_id().unwrap();
     wait_paused(&d, &op);
-    let (ok, msg) = ask(&op, ControlKind::Resume, u32::MAX, 0.0, "");
+    let (ok, msg) = ask(&op, &Request::Resume);
     assert!(ok, "{msg}");
     d.wait_job(&op, whole_id, Duration::from_secs(60));
     // from elsewhere: the approach has something to do
-    let (ok, msg) = ask(&op, ControlKind::JogStep, 0, -25.0, "");
+    let (ok, msg) = ask(&op, &jog_step(0, -25.0));
     assert!(ok, "{msg}");
     d.wait_status(&op, Duration::from_secs(10), "jogged", |s| {
-        s["state"] == "Idle"
+        s.state == MachineState::Idle
     });
-    let r = op
-        .request_axis(ControlKind::StartJob, 7, 0.0, &abs(&whole))
-        .unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let from_id = r.job_id;
+    let r = op.request(&submit_from(&abs(&whole), 7)).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let from_id = r.job_id().unwrap();
     let s = d.wait_job(&op, from_id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
     let cmds = |job: u64| -> Vec<String> {
         // the trace is written out by its own thread: read it once it stops growing
         let mut text = Vec::new();
@@ -1669,10 +1670,8 @@ fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_w
         "G21 G90\no100 sub\nG1 X5 F600\no100 endsub\no100 call\nM2\n",
     )
     .unwrap();
-    let r = op
-        .request_axis(ControlKind::StartJob, 3, 0.0, &abs(&sub))
-        .unwrap();
-    assert_eq!(r.accepted, 0, "{}", r.message.as_str());
-    assert!(r.message.as_str().contains("sub"), "{}", r.message.as_str());
-    assert_eq!(op.status().unwrap()["state"], "Idle");
+    let r = op.request(&submit_from(&abs(&sub), 3)).unwrap();
+    assert!(!r.is_accepted(), "{}", r.message());
+    assert!(r.message().contains("sub"), "{}", r.message());
+    assert_eq!(op.status().unwrap().state, MachineState::Idle);
 }

@@ -31,14 +31,14 @@ fn signal(pid: u32, sig: &str) {
 }
 
 /// Start the long job and wait until it moves; its id and the status then.
-fn start_long_job(d: &Daemon, op: &Operator) -> (u64, serde_json::Value) {
+fn start_long_job(d: &Daemon, op: &Operator) -> (u64, Status) {
     let job = long_job(&d.dir);
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
     let s = d.wait_status(op, Duration::from_secs(20), "motion", |s| {
-        s["job"]["cycles"].as_u64().unwrap_or(0) > 800
+        s.job.as_ref().map_or(0, |j| j.record.cycles) > 800
     });
-    (r.job_id, s)
+    (r.job_id().unwrap(), s)
 }
 
 #[test]
@@ -55,28 +55,30 @@ fn estop_from_the_client_stops_the_job_while_the_mmi_is_stopped() {
     );
     let op = d.operator();
     let (job, before) = start_long_job(&d, &op);
-    let path_before = before["job"]["path_mm"].as_f64().unwrap();
+    let path_before = job_of(&before).path_mm;
     let mmi = d.pid_of("softnc-mmi").unwrap();
     signal(mmi, "-STOP");
     let t0 = Instant::now();
-    let r = op.request(ControlKind::EStop, 0.0, "");
+    let r = op.request(&Request::EStop);
     let took = t0.elapsed();
     // the MMI stays stopped a while: the job would run on (16 s long) without the E-stop
     std::thread::sleep(Duration::from_millis(1500));
     signal(mmi, "-CONT");
     let r = r.expect("the E-stop is confirmed with the MMI stopped");
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    assert!(r.is_accepted(), "{}", r.message());
     assert!(took < Duration::from_secs(3), "E-stop took {took:?}");
     let s = d.wait_status(&op, Duration::from_secs(10), "E-stopped", |s| {
-        s["state"] == "EStopped" && s["job"]["job_id"] == job && s["job"]["outcome"] != "running"
+        s.state == MachineState::EStopped
+            && s.job(job).is_some()
+            && s.job.as_ref().is_some_and(|j| j.record.outcome.ended())
     });
-    assert_eq!(s["job"]["outcome"], "aborted", "{s}");
+    assert_eq!(job_of(&s).outcome, Outcome::Aborted, "{s}");
     assert!(
-        s["alarms"].to_string().contains("past the MMI"),
+        alarm_text(&s).contains("past the MMI"),
         "the position process says where the E-stop came from: {s}"
     );
     // it stopped at once, not when the MMI came back 1.5 s later (40 mm/s)
-    let path_after = s["job"]["path_mm"].as_f64().unwrap();
+    let path_after = job_of(&s).path_mm;
     assert!(
         path_after - path_before < 25.0,
         "the job went on {} mm after the E-stop was asked",
@@ -87,11 +89,11 @@ fn estop_from_the_client_stops_the_job_while_the_mmi_is_stopped() {
     std::thread::sleep(Duration::from_millis(500));
     let s = op.status().unwrap();
     assert_eq!(machine_mm(&s), at, "{s}");
-    assert_eq!(s["state"], "EStopped", "{s}");
+    assert_eq!(s.state, MachineState::EStopped, "{s}");
     // the MMI, back, serves as before: reset (the drives stay off), on, a job runs
-    assert_eq!(op.request(ControlKind::Reset, 0.0, "").unwrap().accepted, 1);
+    assert!(op.request(&Request::Reset).unwrap().is_accepted());
     d.wait_status(&op, Duration::from_secs(10), "off after reset", |s| {
-        s["state"] == "Off"
+        s.state == MachineState::Off
     });
     op.machine_on(Duration::from_secs(10)).unwrap();
     d.runs_the_short_job(&op);
@@ -108,19 +110,16 @@ fn a_job_stops_along_its_path_when_the_mmi_is_silent_past_the_bound() {
     std::thread::sleep(Duration::from_millis(2500));
     signal(mmi, "-CONT");
     let s = d.wait_status(&op, Duration::from_secs(10), "faulted", |s| {
-        s["state"] == "Faulted" && s["job"]["outcome"] != "running"
+        s.state == MachineState::Faulted && s.job.as_ref().is_some_and(|j| j.record.outcome.ended())
     });
-    assert_eq!(s["job"]["job_id"], job, "{s}");
-    assert_eq!(s["job"]["outcome"], "aborted", "{s}");
+    assert_eq!(job_of(&s).job_id, job, "{s}");
+    assert_eq!(job_of(&s).outcome, Outcome::Aborted, "{s}");
     assert!(
-        s["alarms"].to_string().contains("MMI has been silent"),
+        alarm_text(&s).contains("MMI has been silent"),
         "{}",
-        s["alarms"]
+        alarm_text(&s)
     );
-    assert!(
-        s["job"]["path_mm"].as_f64().unwrap() < s["job"]["planned_path_mm"].as_f64().unwrap(),
-        "{s}"
-    );
+    assert!(job_of(&s).path_mm < job_of(&s).planned_path_mm, "{s}");
     assert_stops_along_the_path(&d.dir.join(format!("data/trace-job{job}.csv")));
     assert_eq!(
         d.pid_of("softnc-mmi"),
@@ -137,33 +136,35 @@ fn a_stopped_interpolator_runs_the_ring_dry_and_the_job_stops_along_its_path() {
     let interp = d.pid_of("softnc-interp").unwrap();
     signal(interp, "-STOP");
     let s = d.wait_status(&op, Duration::from_secs(10), "faulted", |s| {
-        s["state"] == "Faulted" && s["job"]["outcome"] != "running"
+        s.state == MachineState::Faulted && s.job.as_ref().is_some_and(|j| j.record.outcome.ended())
     });
-    assert!(s["alarms"].to_string().contains("RingDry"), "{s}");
-    assert_eq!(s["job"]["outcome"], "aborted", "{s}");
+    assert!(alarm_text(&s).contains("RingDry"), "{s}");
+    assert_eq!(job_of(&s).outcome, Outcome::Aborted, "{s}");
     assert_stops_along_the_path(&d.dir.join(format!("data/trace-job{job}.csv")));
     signal(interp, "-CONT");
     // reset: off, not on
-    assert_eq!(op.request(ControlKind::Reset, 0.0, "").unwrap().accepted, 1);
+    assert!(op.request(&Request::Reset).unwrap().is_accepted());
     d.wait_status(&op, Duration::from_secs(10), "off after reset", |s| {
-        s["state"] == "Off"
+        s.state == MachineState::Off
     });
 }
 
 /// Run MDI `block` to its end; its outcome.
-fn mdi(d: &Daemon, op: &Operator, block: &str) -> String {
-    let r = op.request(ControlKind::Mdi, 0.0, block).unwrap();
-    assert_eq!(r.accepted, 1, "MDI {block}: {}", r.message.as_str());
-    let s = d.wait_job(op, r.job_id, Duration::from_secs(30));
-    s["job"]["outcome"].as_str().unwrap_or("?").to_string()
+fn mdi(d: &Daemon, op: &Operator, block: &str) -> Outcome {
+    let r = op.request(&mdi_request(block)).unwrap();
+    assert!(r.is_accepted(), "MDI {block}: {}", r.message());
+    let s = d.wait_job(op, r.job_id().unwrap(), Duration::from_secs(30));
+    job_of(&s).outcome
 }
 
 /// The state stays `want` for a while (a heartbeat timeout and more).
-fn stays(d: &Daemon, op: &Operator, want: &str) -> serde_json::Value {
-    let s = d.wait_status(op, Duration::from_secs(15), want, |s| s["state"] == want);
+fn stays(d: &Daemon, op: &Operator, want: MachineState) -> Status {
+    let s = d.wait_status(op, Duration::from_secs(15), want.name(), |s| {
+        s.state == want
+    });
     std::thread::sleep(Duration::from_millis(700));
     let s2 = op.status().unwrap();
-    assert_eq!(s2["state"], want, "{want} did not stay: {s2} (was {s})");
+    assert_eq!(s2.state, want, "{want} did not stay: {s2} (was {s})");
     s2
 }
 
@@ -171,45 +172,45 @@ fn stays(d: &Daemon, op: &Operator, want: &str) -> serde_json::Value {
 fn reset_after_an_estop_or_a_fault_leaves_the_drives_off_until_on() {
     let d = Daemon::start("resetoff", "Realtime", false);
     let op = d.operator();
-    assert_eq!(mdi(&d, &op, "G0 X5"), "completed");
+    assert_eq!(mdi(&d, &op, "G0 X5"), Outcome::Completed);
     // E-stop, reset: off
-    let (ok, msg) = ask(&op, ControlKind::EStop, u32::MAX, 0.0, "");
+    let (ok, msg) = ask(&op, &Request::EStop);
     assert!(ok, "{msg}");
-    stays(&d, &op, "EStopped");
-    let (ok, msg) = ask(&op, ControlKind::Reset, u32::MAX, 0.0, "");
+    stays(&d, &op, MachineState::EStopped);
+    let (ok, msg) = ask(&op, &Request::Reset);
     assert!(ok && msg.contains("Off"), "{msg}");
-    stays(&d, &op, "Off");
+    stays(&d, &op, MachineState::Off);
     // nothing moves until `on`
-    let r = op.request(ControlKind::Mdi, 0.0, "G0 X10").unwrap();
-    assert_eq!(r.accepted, 0, "MDI after reset: {}", r.message.as_str());
-    assert!(r.message.as_str().contains("off"), "{}", r.message.as_str());
-    let (ok, msg) = ask(&op, ControlKind::JogStep, 0, 1.0, "");
+    let r = op.request(&mdi_request("G0 X10")).unwrap();
+    assert!(!r.is_accepted(), "MDI after reset: {}", r.message());
+    assert!(r.message().contains("off"), "{}", r.message());
+    let (ok, msg) = ask(&op, &jog_step(0, 1.0));
     assert!(!ok, "jog after reset: {msg}");
-    let (ok, msg) = ask(&op, ControlKind::MachineOn, u32::MAX, 0.0, "");
+    let (ok, msg) = ask(&op, &Request::MachineOn);
     assert!(ok, "{msg}");
-    stays(&d, &op, "Idle");
-    assert_eq!(mdi(&d, &op, "G0 X10"), "completed");
+    stays(&d, &op, MachineState::Idle);
+    assert_eq!(mdi(&d, &op, "G0 X10"), Outcome::Completed);
     // off, E-stop, reset: still off (the E-stop does not remember "on")
-    let (ok, msg) = ask(&op, ControlKind::MachineOff, u32::MAX, 0.0, "");
+    let (ok, msg) = ask(&op, &Request::MachineOff);
     assert!(ok, "{msg}");
-    stays(&d, &op, "Off");
-    assert!(ask(&op, ControlKind::EStop, u32::MAX, 0.0, "").0);
-    stays(&d, &op, "EStopped");
-    assert!(ask(&op, ControlKind::Reset, u32::MAX, 0.0, "").0);
-    stays(&d, &op, "Off");
+    stays(&d, &op, MachineState::Off);
+    assert!(ask(&op, &Request::EStop).0);
+    stays(&d, &op, MachineState::EStopped);
+    assert!(ask(&op, &Request::Reset).0);
+    stays(&d, &op, MachineState::Off);
     // a fault (the position process lost mid-job): the reset restarts it, off
     op.machine_on(Duration::from_secs(10)).unwrap();
     let _job = start_moving(&d, &op);
     d.kill9("softnc-position");
-    stays(&d, &op, "Faulted");
-    let (ok, msg) = ask(&op, ControlKind::Reset, u32::MAX, 0.0, "");
+    stays(&d, &op, MachineState::Faulted);
+    let (ok, msg) = ask(&op, &Request::Reset);
     assert!(ok, "{msg}");
-    let s = stays(&d, &op, "Off");
-    assert_eq!(s["processes"]["position"], "alive", "{s}");
-    let (ok, msg) = ask(&op, ControlKind::MachineOn, u32::MAX, 0.0, "");
+    let s = stays(&d, &op, MachineState::Off);
+    assert_eq!(s.processes.position, ProcessHealth::Alive, "{s}");
+    let (ok, msg) = ask(&op, &Request::MachineOn);
     assert!(ok, "{msg}");
-    stays(&d, &op, "Idle");
-    assert_eq!(mdi(&d, &op, "G0 X7"), "completed");
+    stays(&d, &op, MachineState::Idle);
+    assert_eq!(mdi(&d, &op, "G0 X7"), Outcome::Completed);
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -230,11 +231,11 @@ struct Model {
 }
 
 impl Model {
-    fn state(&self) -> &'static str {
+    fn state(&self) -> MachineState {
         match (self.faulted, self.on) {
-            (true, _) => "Faulted",
-            (false, true) => "Idle",
-            (false, false) => "Off",
+            (true, _) => MachineState::Faulted,
+            (false, true) => MachineState::Idle,
+            (false, false) => MachineState::Off,
         }
     }
 }
@@ -243,25 +244,25 @@ impl Model {
 /// process that runs is alive, the position process reported lost exactly when it
 /// is not running, the state the model's, and no alarm of a crash before the last
 /// reset.
-fn agrees(d: &Daemon, s: &serde_json::Value, m: &Model) -> Result<(), String> {
+fn agrees(d: &Daemon, s: &Status, m: &Model) -> Result<(), String> {
     let position_runs = d.pid_of("softnc-position").is_some();
-    let position_alive = s["processes"]["position"] == "alive";
+    let position_alive = s.processes.position == ProcessHealth::Alive;
     if position_runs != position_alive {
         return Err(format!(
             "position runs: {position_runs}, status: {}",
-            s["processes"]["position"]
+            s.processes.position
         ));
     }
     if position_runs == m.faulted {
         return Err(format!("position runs: {position_runs}, model {m:?}"));
     }
-    if d.pid_of("softnc-interp").is_none() || s["processes"]["interp"] != "alive" {
-        return Err(format!("interp: {}", s["processes"]["interp"]));
+    if d.pid_of("softnc-interp").is_none() || s.processes.interp != ProcessHealth::Alive {
+        return Err(format!("interp: {}", s.processes.interp));
     }
-    if s["state"] != m.state() {
-        return Err(format!("state {} (model: {})", s["state"], m.state()));
+    if s.state != m.state() {
+        return Err(format!("state {} (model: {})", s.state, m.state()));
     }
-    let alarms = s["alarms"].to_string();
+    let alarms = alarm_text(s);
     for name in ["softnc-position", "softnc-interp", "softnc-mmi"] {
         if alarms.contains(&format!("{name} exited")) && !m.killed_since_reset.contains(&name) {
             return Err(format!(
@@ -389,7 +390,7 @@ fn after_any_crash_sequence_status_says_what_is_so_and_reset_recovers() {
                     }
                 }
                 Step::Reset => {
-                    let (ok, msg) = ask(&op, ControlKind::Reset, u32::MAX, 0.0, "");
+                    let (ok, msg) = ask(&op, &Request::Reset);
                     assert!(ok, "{what}: reset refused: {msg}");
                     if m.faulted {
                         assert!(msg.contains("Off"), "{what}: {msg}");
@@ -399,7 +400,7 @@ fn after_any_crash_sequence_status_says_what_is_so_and_reset_recovers() {
                     m.killed_since_reset.clear();
                 }
                 Step::On => {
-                    let (ok, msg) = ask(&op, ControlKind::MachineOn, u32::MAX, 0.0, "");
+                    let (ok, msg) = ask(&op, &Request::MachineOn);
                     let can = !m.faulted && !m.on;
                     assert_eq!(ok, can, "{what}: on: {msg}");
                     m.on |= can;
@@ -410,7 +411,7 @@ fn after_any_crash_sequence_status_says_what_is_so_and_reset_recovers() {
                     let to = if x < 10.0 { x + 5.0 } else { x - 5.0 };
                     assert_eq!(
                         mdi(&d, &op, &format!("G90 G0 X{to:.3}")),
-                        "completed",
+                        Outcome::Completed,
                         "{what}"
                     );
                     let s = op.status().unwrap();

@@ -14,8 +14,8 @@ fn submit_within(d: &Daemon, path: &str, within: Duration) -> (bool, String) {
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
         let op = Operator::connect(&config).unwrap();
-        let r = op.request(ControlKind::StartJob, 0.0, &job).unwrap();
-        let _ = tx.send((r.accepted == 1, r.message.as_str().to_string()));
+        let r = op.request(&submit(&job)).unwrap();
+        let _ = tx.send((r.is_accepted(), r.message().to_string()));
     });
     rx.recv_timeout(within)
         .unwrap_or_else(|_| panic!("no answer to the submit of {path} within {within:?}"))
@@ -33,9 +33,9 @@ fn program(dir: &Path, name: &str, body: &str) -> PathBuf {
 fn a_later_job_runs(d: &Daemon, op: &Operator) {
     let (ok, msg) = submit_within(d, &abs(&short_job(&d.dir)), Duration::from_secs(30));
     assert!(ok, "a later job: {msg}");
-    let id = op.jobs().unwrap()[0]["job_id"].as_u64().unwrap();
+    let id = op.jobs().unwrap()[0].job_id;
     let s = d.wait_job(op, id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
 }
 
 #[test]
@@ -67,7 +67,7 @@ fn a_fifo_subroutine_a_link_to_dev_zero_and_a_kernel_file_are_refused_and_later_
     let (ok, msg) = submit_within(&d, "/proc/kmsg", Duration::from_secs(20));
     assert!(!ok && msg.contains("kernel file"), "{msg}");
     let s = op.status().unwrap();
-    assert!(s["checking"].is_null(), "{s}");
+    assert!(s.checking.is_none(), "{s}");
     a_later_job_runs(&d, &op);
 }
 
@@ -100,8 +100,8 @@ fn a_check_over_its_time_is_abandoned_the_job_refused_and_later_jobs_run() {
     assert!(t0.elapsed() < Duration::from_secs(5), "{:?}", t0.elapsed());
     // its thread still runs: at most one such, so the next submit is refused, saying why
     let s = op.status().unwrap();
-    assert!(s["checking"].is_null(), "{s}");
-    assert_eq!(s["abandoned_checks"], 1, "{s}");
+    assert!(s.checking.is_none(), "{s}");
+    assert_eq!(s.abandoned_checks, 1, "{s}");
     let (ok, msg) = submit_within(&d, &abs(&short_job(&d.dir)), Duration::from_secs(10));
     assert!(!ok && msg.contains("abandoned checks still run"), "{msg}");
     // once it has ended jobs are taken again; nothing of the abandoned one started
@@ -109,18 +109,14 @@ fn a_check_over_its_time_is_abandoned_the_job_refused_and_later_jobs_run() {
         &op,
         Duration::from_secs(120),
         "the abandoned check's end",
-        |s| s["abandoned_checks"] == 0,
+        |s| s.abandoned_checks == 0,
     );
     assert!(
         op.jobs().unwrap().is_empty(),
         "no record of the abandoned job"
     );
     let s = op.status().unwrap();
-    assert_eq!(
-        s["axes"]["cmd_mm"],
-        serde_json::json!([0.0, 0.0, 0.0]),
-        "{s}"
-    );
+    assert_eq!(s.axes.as_ref().unwrap().cmd_mm, [0.0, 0.0, 0.0], "{s}");
     a_later_job_runs(&d, &op);
     // nothing of the abandoned job kept in the data directory
     use sha2::Digest;
@@ -140,18 +136,12 @@ fn a_parameter_file_cut_short_is_refused_by_name_and_parameter_and_kept() {
     let mut d = Daemon::start_in(dir.clone(), "varcut", "Lockstep", false, "default.ron", &[]);
     d.keep_dir = true;
     let op = d.operator();
-    let r = op
-        .request(ControlKind::Mdi, 0.0, "G10 L2 P3 X11 Y22 Z-33")
-        .unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let r = op.request(ControlKind::Offsets, 0.0, "").unwrap();
-    let offsets: serde_json::Value = serde_json::from_str(r.message.as_str()).unwrap();
-    let g56 = &offsets["systems"][2];
-    assert_eq!(
-        g56["origin_mm"],
-        serde_json::json!([11.0, 22.0, -33.0]),
-        "{g56}"
-    );
+    let r = op.request(&mdi_request("G10 L2 P3 X11 Y22 Z-33")).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let offsets = op.offsets().unwrap();
+    let g56 = &offsets.systems[2];
+    assert_eq!(g56.coords, "G56");
+    assert_eq!(g56.origin_mm, [11.0, 22.0, -33.0], "{g56:?}");
     drop(op);
     drop(d);
     // cut to 50 lines: G56's X is the last one left
@@ -163,44 +153,46 @@ fn a_parameter_file_cut_short_is_refused_by_name_and_parameter_and_kept() {
     let d = Daemon::start_in(dir, "varcut", "Lockstep", false, "default.ron", &[]);
     let op = d.operator();
     let s = op.status().unwrap();
-    let e = s["params_error"].as_str().unwrap_or_default().to_string();
+    let e = s.params_error.clone().unwrap_or_default();
     assert!(
         e.contains("softnc.var") && e.contains("required parameter missing: #5262"),
         "{s}"
     );
     // said as an alarm, by name
-    let alarms = s["alarms"].to_string();
+    let alarms = alarm_text(&s);
     assert!(alarms.contains("required parameter missing"), "{s}");
     // jobs, MDI and touch-off refused; nothing moves; the file is left as it is
-    let r = op.request(ControlKind::Mdi, 0.0, "G56 G0 X0 Y0").unwrap();
-    assert_eq!(r.accepted, 0, "{}", r.message.as_str());
-    assert!(r.message.as_str().contains("required parameter missing"));
+    let r = op.request(&mdi_request("G56 G0 X0 Y0")).unwrap();
+    assert!(!r.is_accepted(), "{}", r.message());
+    assert!(r.message().contains("required parameter missing"));
     let (ok, msg) = submit_within(&d, &abs(&short_job(&d.dir)), Duration::from_secs(10));
     assert!(!ok && msg.contains("required parameter missing"), "{msg}");
-    let r = op.request_axis(ControlKind::TouchOff, 0, 0.0, "").unwrap();
-    assert_eq!(r.accepted, 0, "{}", r.message.as_str());
+    let r = op
+        .request(&Request::TouchOff {
+            axis: axis(0),
+            value_mm: 0.0,
+            coords: None,
+        })
+        .unwrap();
+    assert!(!r.is_accepted(), "{}", r.message());
     assert_eq!(
         std::fs::read_to_string(&var).unwrap(),
         cut,
         "the file was replaced"
     );
     let s = op.status().unwrap();
-    assert_eq!(
-        s["axes"]["cmd_mm"],
-        serde_json::json!([0.0, 0.0, 0.0]),
-        "{s}"
-    );
+    assert_eq!(s.axes.as_ref().unwrap().cmd_mm, [0.0, 0.0, 0.0], "{s}");
 }
 
 #[test]
 fn the_modal_state_holds_only_modal_words_and_the_run_uses_the_checked_one() {
     let d = Daemon::start("modal", "Lockstep", false);
     let op = d.operator();
-    let r = op.request(ControlKind::Mdi, 0.0, "G1 F600").unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let r = op.request(&mdi_request("G1 F600")).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
     let modal = d.dir.join("data/modal.ngc");
     d.wait_status(&op, Duration::from_secs(30), "the MDI's end", |s| {
-        s["state"] == "Idle" && s["job"]["outcome"] != "running"
+        s.state == MachineState::Idle && s.job.as_ref().is_some_and(|j| j.record.outcome.ended())
     });
     let good = std::fs::read_to_string(&modal).unwrap();
     // a motion slipped into the file: the job runs as it was checked (4 mm along X)
@@ -208,16 +200,12 @@ fn the_modal_state_holds_only_modal_words_and_the_run_uses_the_checked_one() {
     let job = program(&d.dir, "four.ngc", "G91 G1 X4\nG90\nM2\n");
     let (ok, msg) = submit_within(&d, &abs(&job), Duration::from_secs(20));
     assert!(ok, "{msg}");
-    let id = op.jobs().unwrap()[0]["job_id"].as_u64().unwrap();
+    let id = op.jobs().unwrap()[0].job_id;
     let s = d.wait_job(&op, id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
-    let planned = s["job"]["planned_path_mm"].as_f64().unwrap();
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
+    let planned = job_of(&s).planned_path_mm;
     assert!((planned - 4.0).abs() < 1e-9, "{s}");
-    assert_eq!(
-        s["axes"]["cmd_mm"],
-        serde_json::json!([4.0, 0.0, 0.0]),
-        "{s}"
-    );
+    assert_eq!(s.axes.as_ref().unwrap().cmd_mm, [4.0, 0.0, 0.0], "{s}");
     // an MMI restarted reads the file: refused by file, line and column, nothing moves
     let lines = good.lines().count() + 1;
     std::fs::write(&modal, format!("{good}G0 X50 Y50\n")).unwrap();
@@ -225,23 +213,19 @@ fn the_modal_state_holds_only_modal_words_and_the_run_uses_the_checked_one() {
     std::thread::sleep(Duration::from_millis(500));
     let op = d.operator_off();
     d.wait_status(&op, Duration::from_secs(30), "the MMI back", |s| {
-        s["state"] == "Idle"
+        s.state == MachineState::Idle
     });
     let (ok, msg) = submit_within(&d, &abs(&job), Duration::from_secs(20));
     let want = format!("{}:{lines}:4: X50 is an axis word", modal.display());
     assert!(!ok && msg.contains(&want), "{msg} (want {want})");
-    let r = op.request(ControlKind::Mdi, 0.0, "G0 X1").unwrap();
-    assert_eq!(r.accepted, 0, "{}", r.message.as_str());
+    let r = op.request(&mdi_request("G0 X1")).unwrap();
+    assert!(!r.is_accepted(), "{}", r.message());
     let s = op.status().unwrap();
     assert!(
-        s["modal_error"].as_str().is_some_and(|e| e.contains(&want)),
+        s.modal_error.as_ref().is_some_and(|e| e.contains(&want)),
         "{s}"
     );
-    assert_eq!(
-        s["axes"]["cmd_mm"],
-        serde_json::json!([4.0, 0.0, 0.0]),
-        "{s}"
-    );
+    assert_eq!(s.axes.as_ref().unwrap().cmd_mm, [4.0, 0.0, 0.0], "{s}");
     // fixed: taken again
     std::fs::write(&modal, &good).unwrap();
     let (ok, msg) = submit_within(&d, &abs(&job), Duration::from_secs(20));
@@ -263,15 +247,11 @@ fn a_subroutine_beside_the_program_runs_as_it_was_checked() {
     assert!(ok, "{msg}");
     // changed after the check: what was checked runs
     std::fs::write(&sub, "o<side> sub\nG0 X90 Y90\no<side> endsub\n").unwrap();
-    let id = op.jobs().unwrap()[0]["job_id"].as_u64().unwrap();
+    let id = op.jobs().unwrap()[0].job_id;
     let s = d.wait_job(&op, id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
-    assert_eq!(
-        s["axes"]["cmd_mm"],
-        serde_json::json!([3.0, 2.0, 0.0]),
-        "{s}"
-    );
-    assert!(s["job"]["alarms"].as_array().unwrap().is_empty(), "{s}");
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
+    assert_eq!(s.axes.as_ref().unwrap().cmd_mm, [3.0, 2.0, 0.0], "{s}");
+    assert!(job_of(&s).alarms.is_empty(), "{s}");
     // the subroutine file's copy is kept beside the program's
     let copies = std::fs::read_dir(d.dir.join("data/programs"))
         .unwrap()
@@ -296,7 +276,7 @@ fn a_refused_program_keeps_no_copy_and_copies_are_not_world_readable() {
     assert!(kept.is_empty(), "a refused program left {kept:?}");
     let (ok, msg) = submit_within(&d, &abs(&short_job(&d.dir)), Duration::from_secs(20));
     assert!(ok, "{msg}");
-    let id = op.jobs().unwrap()[0]["job_id"].as_u64().unwrap();
+    let id = op.jobs().unwrap()[0].job_id;
     d.wait_job(&op, id, Duration::from_secs(60));
     for e in std::fs::read_dir(&programs).unwrap() {
         let p = e.unwrap().path();
@@ -358,26 +338,30 @@ fn job_history_on_a_read_only_disk_is_an_alarm_and_is_written_once_writable() {
         return;
     };
     let s = d.wait_job(&op, id, Duration::from_secs(60));
-    assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
     let s = d.wait_status(&op, Duration::from_secs(10), "the history's alarm", |s| {
-        s["unsaved"]["job_history"].is_string()
+        s.unsaved.job_history.is_some()
     });
-    let alarms = s["alarms"].to_string();
+    let alarms = alarm_text(&s);
     assert!(
         alarms.contains("job history") && alarms.contains("not saved"),
         "{s}"
     );
     assert_ne!(
-        d.job_record(id)["outcome"],
-        "completed",
+        d.job_record(id).map(|j| j.outcome),
+        Some(Outcome::Completed),
         "written on a read-only disk?"
     );
     // writable again: written, the alarm's cause gone, jobs taken again
     ro.writable();
     let s = d.wait_status(&op, Duration::from_secs(10), "the history written", |s| {
-        s["unsaved"] == serde_json::json!({})
+        s.unsaved == softnc_api::Unsaved::default()
     });
-    assert_eq!(d.job_record(id)["outcome"], "completed", "{s}");
+    assert_eq!(
+        d.job_record(id).map(|j| j.outcome),
+        Some(Outcome::Completed),
+        "{s}"
+    );
     drop(ro);
     let (ok, msg) = submit_within(&d, &abs(&short_job(&d.dir)), Duration::from_secs(20));
     assert!(ok, "{msg}");

@@ -58,8 +58,8 @@ fn sigterm_followed_at_once_by_sigcont_stops_a_running_job_along_its_path() {
         assert_eq!(st.code(), Some(0), "softncd exits 0 (round {round})");
         Daemon::wait_gone(&kids, Duration::from_secs(5));
         assert_stops_along_the_path(&d.dir.join(format!("data/trace-job{job_id}.csv")));
-        let rec = d.job_record(job_id);
-        assert_eq!(rec["outcome"], "aborted", "the job's record: {rec}");
+        let rec = d.job_record(job_id).expect("the job's record");
+        assert_eq!(rec.outcome, Outcome::Aborted, "the job's record: {rec}");
         assert_eq!(
             services_of(&instance),
             Vec::<String>::new(),
@@ -85,9 +85,8 @@ fn each_child_stops_on_sigterm_followed_at_once_by_sigcont() {
             // a lost position process is a fault; reset brings it back
             let t0 = Instant::now();
             loop {
-                let reset = Operator::connect(&d.config)
-                    .and_then(|op| op.request(ControlKind::Reset, 0.0, ""));
-                if reset.is_ok_and(|r| r.accepted == 1) {
+                let reset = Operator::connect(&d.config).and_then(|op| op.request(&Request::Reset));
+                if reset.is_ok_and(|r| r.is_accepted()) {
                     break;
                 }
                 assert!(t0.elapsed() < Duration::from_secs(20), "reset refused");
@@ -105,7 +104,8 @@ fn each_child_stops_on_sigterm_followed_at_once_by_sigcont() {
         if name != "softnc-position" {
             let op = d.operator_off();
             d.wait_status(&op, Duration::from_secs(20), "every process alive", |s| {
-                s["processes"]["interp"] == "alive" && s["processes"]["position"] == "alive"
+                s.processes.interp == ProcessHealth::Alive
+                    && s.processes.position == ProcessHealth::Alive
             });
         }
     }
@@ -152,7 +152,7 @@ fn softncd_outcome(config: &Path, run_dir: &Path, within: Duration) -> Option<(i
         std::thread::sleep(Duration::from_millis(20));
     }
     if let Ok(op) = Operator::connect(config) {
-        let _ = op.request(ControlKind::Shutdown, 0.0, "");
+        let _ = op.request(&Request::Shutdown);
     }
     let t0 = Instant::now();
     while child.try_wait().unwrap().is_none() && t0.elapsed() < Duration::from_secs(10) {

@@ -81,14 +81,10 @@ fn writes_as_nobody(files: &[PathBuf], dirs: &[PathBuf]) -> Vec<String> {
 fn answers_status_and_estop(d: &Daemon) {
     let op = Operator::connect(&d.config).expect("a client connects");
     op.status().expect("status answers");
-    let r = op
-        .request(ControlKind::EStop, 0.0, "")
-        .expect("E-stop answers");
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-    let r = op
-        .request(ControlKind::Reset, 0.0, "")
-        .expect("reset answers");
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let r = op.request(&Request::EStop).expect("E-stop answers");
+    assert!(r.is_accepted(), "{}", r.message());
+    let r = op.request(&Request::Reset).expect("reset answers");
+    assert!(r.is_accepted(), "{}", r.message());
 }
 
 #[test]

@@ -30,8 +30,9 @@ fn trace_rows(d: &Daemon, job_id: u64) -> Vec<[f64; 6]> {
 const ACTUAL_TOL_MM: f64 = 0.1;
 
 /// The measured position in the status.
-fn actual_mm(s: &serde_json::Value) -> [f64; 3] {
-    [0, 1, 2].map(|i| s["axes"]["actual_mm"][i].as_f64().unwrap())
+fn actual_mm(s: &Status) -> [f64; 3] {
+    let axes = s.axes.as_ref().expect("the axes");
+    [0, 1, 2].map(|i| axes.actual_mm[i])
 }
 
 /// Run `text` as MDI (or, with `as_job`, as a job file); wait until it has ended and
@@ -40,19 +41,19 @@ fn run_block(d: &Daemon, op: &Operator, text: &str, as_job: bool) -> Result<u64,
     let r = if as_job {
         let job = d.dir.join("zero.ngc");
         std::fs::write(&job, text).unwrap();
-        op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap()
+        op.request(&submit(&abs(&job))).unwrap()
     } else {
-        op.request(ControlKind::Mdi, 0.0, text).unwrap()
+        op.request(&mdi_request(text)).unwrap()
     };
-    if r.accepted != 1 {
-        return Err(r.message.as_str().to_string());
+    if !r.is_accepted() {
+        return Err(r.message().to_string());
     }
-    let s = d.wait_job(op, r.job_id, Duration::from_secs(30));
-    assert_eq!(s["job"]["outcome"], "completed", "{text:?}: {s}");
+    let s = d.wait_job(op, id(&r), Duration::from_secs(30));
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{text:?}: {s}");
     d.wait_status(op, Duration::from_secs(10), "idle", |s| {
-        s["state"] == "Idle"
+        s.state == MachineState::Idle
     });
-    Ok(r.job_id)
+    Ok(id(&r))
 }
 
 /// Every shape of a block or job that moves nothing leaves every axis where it
@@ -102,7 +103,7 @@ fn zero_motion_holds_every_axis(tag: &str, edits: &[(&str, &str)]) {
             ran.push(id);
         }
         let s = op.status().unwrap();
-        assert_eq!(s["state"], "Idle", "after {what:?}: {s}");
+        assert_eq!(s.state, MachineState::Idle, "after {what:?}: {s}");
         let (cmd, act) = (machine_mm(&s), actual_mm(&s));
         for axis in 0..3 {
             assert!(
@@ -110,9 +111,9 @@ fn zero_motion_holds_every_axis(tag: &str, edits: &[(&str, &str)]) {
                 "after {what:?} the machine is commanded at {cmd:?}, measured at {act:?}; it stood at {p:?}"
             );
         }
-        let alarms = s["alarms"].as_array().unwrap();
+        let alarms = &s.alarms;
         assert!(
-            alarms.iter().all(|a| a["code"] == "JobRefused"),
+            alarms.iter().all(|a| a.code == AlarmKind::JobRefused),
             "after {what:?}: {alarms:?}"
         );
     };
@@ -166,17 +167,17 @@ fn a_block_or_job_that_moves_nothing_holds_every_axis_on_the_loopback_drive() {
 
 /// Submit `text` as a job file (or MDI) and time it to its end: (seconds, the final
 /// status).
-fn timed_run(d: &Daemon, op: &Operator, text: &str, as_job: bool) -> (f64, serde_json::Value) {
+fn timed_run(d: &Daemon, op: &Operator, text: &str, as_job: bool) -> (f64, Status) {
     let t0 = Instant::now();
     let r = if as_job {
         let job = d.dir.join("dwell.ngc");
         std::fs::write(&job, text).unwrap();
-        op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap()
+        op.request(&submit(&abs(&job))).unwrap()
     } else {
-        op.request(ControlKind::Mdi, 0.0, text).unwrap()
+        op.request(&mdi_request(text)).unwrap()
     };
-    assert_eq!(r.accepted, 1, "{text:?}: {}", r.message.as_str());
-    let s = d.wait_job(op, r.job_id, Duration::from_secs(30));
+    assert!(r.is_accepted(), "{text:?}: {}", r.message());
+    let s = d.wait_job(op, id(&r), Duration::from_secs(30));
     (t0.elapsed().as_secs_f64(), s)
 }
 
@@ -196,18 +197,18 @@ fn a_program_that_only_dwells_takes_its_dwell_holding_still() {
         ("G21 G90\nG1 X6 F600\nG4 P1\nG1 X5\nM2\n", true, 1.0 + 0.2),
     ] {
         let (took_s, s) = timed_run(&d, &op, text, as_job);
-        assert_eq!(s["job"]["outcome"], "completed", "{text:?}: {s}");
+        assert_eq!(job_of(&s).outcome, Outcome::Completed, "{text:?}: {s}");
         assert!(
             took_s >= dwell_s * 0.95,
             "{text:?} ended after {took_s:.3} s: its dwell was skipped"
         );
-        let cycles = s["job"]["cycles"].as_u64().unwrap();
+        let cycles = job_of(&s).cycles;
         assert!(
             cycles as f64 >= dwell_s * 1000.0 * 0.95,
             "{text:?}: {cycles} cycles"
         );
         let s = d.wait_status(&op, Duration::from_secs(5), "idle", |s| {
-            s["state"] == "Idle"
+            s.state == MachineState::Idle
         });
         let at = machine_mm(&s);
         for axis in 0..3 {
@@ -233,39 +234,37 @@ fn an_estop_during_homing_leaves_the_axes_unhomed_and_a_later_home_homes_them() 
         &[],
     );
     let op = d.operator();
-    let all_homed = serde_json::json!([true, true, true]);
-    let (ok, msg) = ask(&op, ControlKind::Home, u32::MAX, 0.0, "");
+    let all_homed = vec![true, true, true];
+    let (ok, msg) = ask(&op, &Request::Home { axis: None });
     assert!(ok, "{msg}");
     // under way: the first axis has left where it stood
     let s0 = machine_mm(&op.status().unwrap());
     d.wait_status(&op, Duration::from_secs(20), "homing moves", |s| {
-        s["state"] == "Homing" && (0..3).any(|i| (machine_mm(s)[i] - s0[i]).abs() > 1.0)
+        s.state == MachineState::Homing && (0..3).any(|i| (machine_mm(s)[i] - s0[i]).abs() > 1.0)
     });
-    let (ok, msg) = ask(&op, ControlKind::EStop, u32::MAX, 0.0, "");
+    let (ok, msg) = ask(&op, &Request::EStop);
     assert!(ok, "{msg}");
     let s = d.wait_status(&op, Duration::from_secs(5), "E-stop", |s| {
-        s["state"] == "EStopped"
+        s.state == MachineState::EStopped
     });
-    assert_ne!(s["homed"], all_homed, "{s}");
-    let (ok, msg) = ask(&op, ControlKind::Reset, u32::MAX, 0.0, "");
+    assert_ne!(s.homed, all_homed, "{s}");
+    let (ok, msg) = ask(&op, &Request::Reset);
     assert!(ok, "{msg}");
     let s = d.wait_status(&op, Duration::from_secs(5), "reset", |s| {
-        s["state"] == "Idle" || s["state"] == "Off"
+        s.state == MachineState::Idle || s.state == MachineState::Off
     });
-    if s["state"] == "Off" {
+    if s.state == MachineState::Off {
         op.machine_on(Duration::from_secs(10)).unwrap();
     }
     // homing again homes every axis, as it does the first time
-    let (ok, msg) = ask(&op, ControlKind::Home, u32::MAX, 0.0, "");
+    let (ok, msg) = ask(&op, &Request::Home { axis: None });
     assert!(ok, "{msg}");
     let t0 = Instant::now();
     let s = d.wait_status(&op, Duration::from_secs(60), "homed", |s| {
-        s["state"] == "Idle" && (s["homed"] == all_homed || t0.elapsed() > Duration::from_secs(2))
+        s.state == MachineState::Idle
+            && (s.homed == all_homed || t0.elapsed() > Duration::from_secs(2))
     });
-    assert_eq!(
-        s["homed"], all_homed,
-        "home after the E-stop did nothing: {s}"
-    );
+    assert_eq!(s.homed, all_homed, "home after the E-stop did nothing: {s}");
     let home = machine_mm(&s);
     for (got, want) in home.iter().zip([0.0, 0.0, 90.0]) {
         assert!((got - want).abs() < 1e-9, "home position {home:?}");
@@ -290,25 +289,23 @@ fn stop_for(pid: u32, how_long: Duration) {
 }
 
 /// The messages of the status's alarms with `code`.
-fn alarms_with(s: &serde_json::Value, code: &str) -> Vec<String> {
-    s["alarms"]
-        .as_array()
-        .unwrap()
+fn alarms_with(s: &Status, code: AlarmKind) -> Vec<String> {
+    s.alarms
         .iter()
-        .filter(|a| a["code"] == code)
-        .map(|a| a["message"].as_str().unwrap().to_string())
+        .filter(|a| a.code == code)
+        .map(|a| a.message.clone())
         .collect()
 }
 
 /// After a fault: reset (and on, if the reset leaves the machine off), then a job
 /// runs to its end.
 fn reset_and_run_a_job(d: &Daemon, op: &Operator) {
-    let (ok, msg) = ask(op, ControlKind::Reset, u32::MAX, 0.0, "");
+    let (ok, msg) = ask(op, &Request::Reset);
     assert!(ok, "{msg}");
     let s = d.wait_status(op, Duration::from_secs(10), "reset", |s| {
-        s["state"] == "Idle" || s["state"] == "Off"
+        s.state == MachineState::Idle || s.state == MachineState::Off
     });
-    if s["state"] == "Off" {
+    if s.state == MachineState::Off {
         op.machine_on(Duration::from_secs(10)).unwrap();
     }
     d.runs_the_short_job(op);
@@ -324,18 +321,19 @@ fn a_stall_of_the_position_loop_mid_job_stops_the_machine_as_a_fault() {
     stop_for(pid, Duration::from_secs(1));
     let s = d.wait_job(&op, job, Duration::from_secs(20));
     assert_eq!(
-        s["job"]["outcome"], "aborted",
+        job_of(&s).outcome,
+        Outcome::Aborted,
         "the job went on after the stall: {s}"
     );
     let s = d.wait_status(&op, Duration::from_secs(10), "the stall fault", |s| {
-        s["state"] == "Faulted" && !alarms_with(s, "LoopStall").is_empty()
+        s.state == MachineState::Faulted && !alarms_with(s, AlarmKind::LoopStall).is_empty()
     });
-    let stall = alarms_with(&s, "LoopStall");
+    let stall = alarms_with(&s, AlarmKind::LoopStall);
     assert!(stall[0].contains("position loop stood"), "{stall:?}");
     // it stays faulted (not resumed), the process the same one (not the watchdog's)
     std::thread::sleep(Duration::from_millis(1500));
     let s = op.status().unwrap();
-    assert_eq!(s["state"], "Faulted", "{s}");
+    assert_eq!(s.state, MachineState::Faulted, "{s}");
     assert_eq!(d.pid_of("softnc-position"), Some(pid));
     reset_and_run_a_job(&d, &op);
 }
@@ -348,13 +346,13 @@ fn a_stall_of_the_interpolation_loop_mid_job_is_noticed_and_the_job_stops() {
     let pid = d.pid_of("softnc-interp").unwrap();
     stop_for(pid, Duration::from_secs(1));
     let s = d.wait_job(&op, job, Duration::from_secs(20));
-    assert_ne!(s["job"]["outcome"], "completed", "{s}");
+    assert_ne!(job_of(&s).outcome, Outcome::Completed, "{s}");
     let s = d.wait_status(&op, Duration::from_secs(10), "the stall alarm", |s| {
-        alarms_with(s, "LoopStall")
+        alarms_with(s, AlarmKind::LoopStall)
             .iter()
             .any(|m| m.contains("interpolation loop stood"))
     });
-    assert_ne!(s["state"], "Running", "{s}");
+    assert_ne!(s.state, MachineState::Running, "{s}");
     reset_and_run_a_job(&d, &op);
 }
 
@@ -367,11 +365,11 @@ fn late_position_cycles_raise_one_alarm_per_period_not_one_per_cycle() {
     );
     let op = d.operator();
     d.wait_status(&op, Duration::from_secs(10), "loop figures", |s| {
-        s["loops"]["position"]["cycles"].as_u64().unwrap_or(0) > 500
+        s.loops.position.map_or(0, |l| l.cycles) > 500
     });
     let pid = d.pid_of("softnc-position").unwrap();
-    let late_of_position = |s: &serde_json::Value| {
-        alarms_with(s, "LoopLate")
+    let late_of_position = |s: &Status| {
+        alarms_with(s, AlarmKind::LoopLate)
             .into_iter()
             .filter(|m| m.contains("position loop ran late"))
             .collect::<Vec<_>>()
@@ -385,7 +383,11 @@ fn late_position_cycles_raise_one_alarm_per_period_not_one_per_cycle() {
     let s = d.wait_status(&op, Duration::from_secs(5), "a late-cycle alarm", |s| {
         !late_of_position(s).is_empty()
     });
-    assert_eq!(s["state"], "Idle", "late cycles are not a fault: {s}");
+    assert_eq!(
+        s.state,
+        MachineState::Idle,
+        "late cycles are not a fault: {s}"
+    );
     assert!(
         t0.elapsed() < Duration::from_secs(4),
         "the period is over already"

@@ -5,9 +5,13 @@
 
 #[path = "../../crates/softnc-daemon/tests/common/mod.rs"]
 pub mod common;
+#[allow(unused_imports)]
 pub use common::learn_job;
-pub use softnc_daemon::client::Operator;
-pub use softnc_ipc::ControlKind;
+#[allow(unused_imports)]
+pub use softnc_api::{
+    AlarmKind, Axis, JobRecord, MachineState, Outcome, ProcessHealth, Reply, Request, Status,
+};
+pub use softnc_client::Operator;
 pub use std::os::unix::process::CommandExt;
 pub use std::path::{Path, PathBuf};
 pub use std::process::{Child, Command};
@@ -185,8 +189,8 @@ impl Daemon {
         op: &Operator,
         timeout: Duration,
         what: &str,
-        pred: impl Fn(&serde_json::Value) -> bool,
-    ) -> serde_json::Value {
+        pred: impl Fn(&Status) -> bool,
+    ) -> Status {
         let t0 = Instant::now();
         loop {
             if let Ok(s) = op.status() {
@@ -204,9 +208,9 @@ impl Daemon {
         }
     }
 
-    pub fn wait_job(&self, op: &Operator, job_id: u64, timeout: Duration) -> serde_json::Value {
+    pub fn wait_job(&self, op: &Operator, job_id: u64, timeout: Duration) -> Status {
         self.wait_status(op, timeout, "job end", |s| {
-            s["job"]["job_id"].as_u64() == Some(job_id) && s["job"]["outcome"] != "running"
+            s.job(job_id).is_some_and(|j| j.record.outcome.ended())
         })
     }
 
@@ -227,13 +231,11 @@ impl Daemon {
     }
 
     /// Submit [`short_job`]; it is accepted and completes. The status at its end.
-    pub fn runs_the_short_job(&self, op: &Operator) -> serde_json::Value {
-        let r = op
-            .request(ControlKind::StartJob, 0.0, &abs(&short_job(&self.dir)))
-            .unwrap();
-        assert_eq!(r.accepted, 1, "{}", r.message.as_str());
-        let s = self.wait_job(op, r.job_id, Duration::from_secs(60));
-        assert_eq!(s["job"]["outcome"], "completed", "{s}");
+    pub fn runs_the_short_job(&self, op: &Operator) -> Status {
+        let r = op.request(&submit(&abs(&short_job(&self.dir)))).unwrap();
+        assert!(r.is_accepted(), "{}", r.message());
+        let s = self.wait_job(op, id(&r), Duration::from_secs(60));
+        assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
         s
     }
 
@@ -298,14 +300,12 @@ impl Daemon {
         }
     }
 
-    /// Job `job_id`'s record as the MMI wrote it into its history (null if none).
-    pub fn job_record(&self, job_id: u64) -> serde_json::Value {
-        let text = std::fs::read_to_string(self.dir.join("data/jobs.json")).unwrap_or_default();
-        let jobs: serde_json::Value = serde_json::from_str(&text).unwrap_or_default();
-        jobs.as_array()
-            .and_then(|a| a.iter().find(|j| j["job_id"] == job_id))
-            .cloned()
-            .unwrap_or_default()
+    /// Job `job_id`'s record as the MMI wrote it into its history (`None` if none,
+    /// or no history yet).
+    pub fn job_record(&self, job_id: u64) -> Option<JobRecord> {
+        let text = std::fs::read_to_string(self.dir.join("data/jobs.json")).ok()?;
+        let jobs: Vec<JobRecord> = serde_json::from_str(&text).ok()?;
+        jobs.into_iter().find(|j| j.job_id == job_id)
     }
 
     /// Shut the controller down as an operator does; it exits 0 and leaves no
@@ -314,8 +314,8 @@ impl Daemon {
     pub fn shutdown_leaving_nothing(&mut self, tag: &str) {
         let kids = self.children();
         let op = self.operator();
-        let r = op.request(ControlKind::Shutdown, 0.0, "").unwrap();
-        assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+        let r = op.request(&Request::Shutdown).unwrap();
+        assert!(r.is_accepted(), "{}", r.message());
         drop(op);
         let status = self.wait_exit("shutdown");
         assert_eq!(status.code(), Some(0), "softncd exits 0 on shutdown");
@@ -344,7 +344,7 @@ impl Daemon {
 impl Drop for Daemon {
     fn drop(&mut self) {
         if let Ok(op) = Operator::connect(&self.config) {
-            let _ = op.request(ControlKind::Shutdown, 0.0, "");
+            let _ = op.request(&Request::Shutdown);
         }
         let t0 = Instant::now();
         while self.child.try_wait().ok().flatten().is_none()
@@ -487,12 +487,12 @@ pub fn services_of(instance: &str) -> Vec<String> {
 /// Start the short job and wait until it moves.
 pub fn start_moving(d: &Daemon, op: &Operator) -> u64 {
     let job = short_job(&d.dir);
-    let r = op.request(ControlKind::StartJob, 0.0, &abs(&job)).unwrap();
-    assert_eq!(r.accepted, 1, "{}", r.message.as_str());
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
     d.wait_status(op, Duration::from_secs(20), "motion", |s| {
-        s["job"]["cycles"].as_u64().unwrap_or(0) > 800
+        s.job.as_ref().map_or(0, |j| j.record.cycles) > 800
     });
-    r.job_id
+    id(&r)
 }
 
 /// SIGSTOP a child mid-job (alive to the kernel, silent to everyone) and wait until
@@ -528,14 +528,92 @@ pub fn peak_rss_kb(pid: u32) -> u64 {
 }
 
 /// A request's (accepted, message).
-pub fn ask(op: &Operator, kind: ControlKind, axis: u32, value: f64, path: &str) -> (bool, String) {
-    let r = op.request_axis(kind, axis, value, path).unwrap();
-    (r.accepted == 1, r.message.as_str().to_string())
+pub fn ask(op: &Operator, request: &Request) -> (bool, String) {
+    let r = op.request(request).unwrap();
+    (r.is_accepted(), r.message())
+}
+
+/// The job an accepted reply names.
+pub fn id(r: &Reply) -> u64 {
+    r.job_id()
+        .unwrap_or_else(|| panic!("no job in the reply: {}", r.message()))
+}
+
+/// The job the status shows (the running one, else the last).
+pub fn job_of(s: &Status) -> &JobRecord {
+    &s.job
+        .as_ref()
+        .unwrap_or_else(|| panic!("no job in the status: {s}"))
+        .record
+}
+
+/// Submit the program `path` from its start.
+pub fn submit(path: &str) -> Request {
+    Request::SubmitJob {
+        path: path.to_string(),
+        from_line: None,
+        adaptive_force: false,
+    }
+}
+
+/// Submit the program `path` from line `from_line`.
+pub fn submit_from(path: &str, from_line: u32) -> Request {
+    Request::SubmitJob {
+        path: path.to_string(),
+        from_line: Some(from_line),
+        adaptive_force: false,
+    }
+}
+
+/// Run MDI block(s) `blocks`.
+pub fn mdi_request(blocks: &str) -> Request {
+    Request::Mdi {
+        blocks: blocks.to_string(),
+    }
+}
+
+/// The axis of index `i` (X = 0).
+pub fn axis(i: u32) -> Axis {
+    Axis::from_index(i as usize).unwrap()
+}
+
+/// A continuous jog of axis `i` at `speed_mm_per_min`.
+pub fn jog(i: u32, speed_mm_per_min: f64) -> Request {
+    Request::Jog {
+        axis: axis(i),
+        speed_mm_per_min,
+    }
+}
+
+/// An incremental jog of axis `i` by `distance_mm`.
+pub fn jog_step(i: u32, distance_mm: f64) -> Request {
+    Request::JogStep {
+        axis: axis(i),
+        distance_mm,
+    }
+}
+
+/// The machine's alarms as lines of text (`Code: message`), newest first.
+pub fn alarm_text(s: &Status) -> String {
+    s.alarms
+        .iter()
+        .map(|a| format!("{:?}: {}\n", a.code, a.message))
+        .collect()
+}
+
+/// The command position of the axes in the status (mm).
+pub fn cmd_mm(s: &Status) -> Vec<f64> {
+    s.axes
+        .as_ref()
+        .unwrap_or_else(|| panic!("no axes: {s}"))
+        .cmd_mm
+        .clone()
 }
 
 /// The machine position in the status.
-pub fn machine_mm(s: &serde_json::Value) -> [f64; 3] {
-    [0, 1, 2].map(|i| s["machine_mm"][i].as_f64().unwrap())
+pub fn machine_mm(s: &Status) -> [f64; 3] {
+    s.machine_mm
+        .unwrap_or_else(|| panic!("no machine position: {s}"))
 }
 
 /// `config/machines/default-incremental.ron` with homing searches 2.5 times as
@@ -552,9 +630,9 @@ pub fn quick_homing_profile(dir: &Path) -> PathBuf {
 }
 
 /// Wait until the job pauses (M0/M1, single block) at a line; returns the status.
-pub fn wait_paused(d: &Daemon, op: &Operator) -> serde_json::Value {
+pub fn wait_paused(d: &Daemon, op: &Operator) -> Status {
     d.wait_status(op, Duration::from_secs(30), "a pause", |s| {
-        s["state"] == "Paused"
+        s.state == MachineState::Paused
     })
 }
 

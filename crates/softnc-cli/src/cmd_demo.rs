@@ -4,7 +4,7 @@
 
 use crate::cmd_operator::{wait_job, Operator};
 use anyhow::{bail, Context, Result};
-use softnc_ipc::ControlKind;
+use softnc_api::{Alarm, JobStatus, Loops, Outcome, Request};
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 use std::time::{Duration, Instant};
@@ -98,7 +98,7 @@ fn run_on(args: DemoArgs, config: &Path, job: &Path) -> Result<ExitCode> {
         .env("SOFTNC_RUN_DIR", run_dir)
         .spawn()
         .context("starting softncd")?;
-    let result = (|| -> Result<(serde_json::Value, String)> {
+    let result = (|| -> Result<(DemoReport, Outcome)> {
         let op = Operator::wait_ready(config, Duration::from_secs(20))?;
         // shut the demo's controller down whatever happens from here on
         let _shutdown = ShutdownOnDrop(&op);
@@ -106,22 +106,26 @@ fn run_on(args: DemoArgs, config: &Path, job: &Path) -> Result<ExitCode> {
         op.machine_on(Duration::from_secs(20))?;
         eprintln!("machine on");
         eprintln!("softncd started; submitting {}", job.display());
-        let r = op.request(ControlKind::StartJob, 0.0, &job.display().to_string())?;
-        if r.accepted != 1 {
-            bail!("job refused: {}", r.message.as_str());
+        let r = op.request(&Request::SubmitJob {
+            path: job.display().to_string(),
+            from_line: None,
+            adaptive_force: false,
+        })?;
+        if !r.is_accepted() {
+            bail!("job refused: {}", r.message());
         }
         let t0 = Instant::now();
-        let outcome = wait_job(&op, r.job_id, true)?;
+        let outcome = wait_job(&op, r.job_id().unwrap_or(0), true)?;
         let wall = t0.elapsed().as_secs_f64();
         let status = op.status()?;
-        let mut report = serde_json::json!({
-            "job": status["job"],
-            "wall_time_s": wall,
-            "loops": status["loops"],
-            "alarms": status["alarms"],
-        });
-        report["outcome"] = serde_json::Value::String(outcome.clone());
-        report["backend"] = serde_json::Value::String(format!("{backend:?}"));
+        let report = DemoReport {
+            job: status.job,
+            wall_time_s: wall,
+            loops: status.loops,
+            alarms: status.alarms,
+            outcome,
+            backend: format!("{backend:?}"),
+        };
         Ok((report, outcome))
     })();
     // wait for a clean shutdown; if it hangs (or the MMI never answered), SIGTERM,
@@ -147,11 +151,11 @@ fn run_on(args: DemoArgs, config: &Path, job: &Path) -> Result<ExitCode> {
     }
     let (report, outcome) = result?;
     if args.json {
-        println!("{report}");
+        println!("{}", serde_json::to_string(&report)?);
     } else {
         print_report(&report);
     }
-    Ok(if outcome == "completed" {
+    Ok(if outcome == Outcome::Completed {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)
@@ -163,68 +167,67 @@ struct ShutdownOnDrop<'a>(&'a Operator);
 
 impl Drop for ShutdownOnDrop<'_> {
     fn drop(&mut self) {
-        let _ = self.0.request(ControlKind::Shutdown, 0.0, "");
+        let _ = self.0.request(&Request::Shutdown);
     }
 }
 
-fn print_report(r: &serde_json::Value) {
-    let j = &r["job"];
-    let a = &j["accuracy"];
-    println!(
-        "job {} {}: {}",
-        j["job_id"],
-        j["outcome"].as_str().unwrap_or("?"),
-        j["path"].as_str().unwrap_or("")
-    );
-    println!("  servo backend: {}", r["backend"].as_str().unwrap_or("?"));
-    println!(
-        "  cycles {} (planned {}), wall time {:.2} s",
-        j["cycles"],
-        j["planned_samples"],
-        r["wall_time_s"].as_f64().unwrap_or(0.0)
-    );
-    println!(
-        "  contour error: max |e| {:.2} µm, rms {:.2} µm",
-        a["contour_max_abs_um"].as_f64().unwrap_or(f64::NAN),
-        a["contour_rms_um"].as_f64().unwrap_or(f64::NAN)
-    );
-    if let Some(f) = a["following_max_abs_um"].as_array() {
-        let f: Vec<String> = f
+/// What the demo reports: the job's record at its end, the loops' timing and the
+/// alarms (`softnc-api` types).
+#[derive(serde::Serialize)]
+struct DemoReport {
+    job: Option<JobStatus>,
+    wall_time_s: f64,
+    loops: Loops,
+    alarms: Vec<Alarm>,
+    outcome: Outcome,
+    backend: String,
+}
+
+fn print_report(r: &DemoReport) {
+    if let Some(j) = &r.job {
+        let j = &j.record;
+        let a = &j.accuracy;
+        println!("job {} {}: {}", j.job_id, j.outcome, j.path);
+        println!("  servo backend: {}", r.backend);
+        println!(
+            "  cycles {} (planned {}), wall time {:.2} s",
+            j.cycles, j.planned_samples, r.wall_time_s
+        );
+        println!(
+            "  contour error: max |e| {:.2} µm, rms {:.2} µm",
+            a.contour_max_abs_um, a.contour_rms_um
+        );
+        let f: Vec<String> = a
+            .following_max_abs_um
             .iter()
-            .map(|v| format!("{:.1}", v.as_f64().unwrap_or(f64::NAN)))
+            .map(|v| format!("{v:.1}"))
             .collect();
         println!("  following error max |e| X/Y/Z: {} µm", f.join(" / "));
     }
-    for (name, l) in r["loops"].as_object().into_iter().flatten() {
-        if l.is_null() {
-            continue;
-        }
-        let us = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN) / 1000.0;
+    for (name, l) in [("interp", r.loops.interp), ("position", r.loops.position)] {
+        let Some(l) = l else { continue };
+        let us = |v: u64| v as f64 / 1000.0;
         println!(
             "  {name} loop: {} cycles, jitter p50/p99/p99.9/max {:.1}/{:.1}/{:.1}/{:.1} µs, compute p99 {:.1} µs, overruns {}",
-            l["cycles"],
-            us(&l["jitter_ns"]["p50"]),
-            us(&l["jitter_ns"]["p99"]),
-            us(&l["jitter_ns"]["p999"]),
-            us(&l["jitter_ns"]["max"]),
-            us(&l["compute_ns"]["p99"]),
-            l["overruns"]
+            l.cycles,
+            us(l.jitter_ns.p50),
+            us(l.jitter_ns.p99),
+            us(l.jitter_ns.p999),
+            us(l.jitter_ns.max),
+            us(l.compute_ns.p99),
+            l.overruns
         );
-        if l["latency_ns"]["p50"].as_u64().unwrap_or(0) > 0 {
+        if l.latency_ns.p50 > 0 {
             println!(
                 "    interp → position sample latency through iceoryx2 p50/p99/p99.9/max {:.1}/{:.1}/{:.1}/{:.1} µs",
-                us(&l["latency_ns"]["p50"]),
-                us(&l["latency_ns"]["p99"]),
-                us(&l["latency_ns"]["p999"]),
-                us(&l["latency_ns"]["max"])
+                us(l.latency_ns.p50),
+                us(l.latency_ns.p99),
+                us(l.latency_ns.p999),
+                us(l.latency_ns.max)
             );
         }
     }
-    for al in r["alarms"].as_array().into_iter().flatten() {
-        println!(
-            "  alarm {}: {}",
-            al["code"].as_str().unwrap_or("?"),
-            al["message"].as_str().unwrap_or("")
-        );
+    for al in &r.alarms {
+        println!("  alarm {:?}: {}", al.code, al.message);
     }
 }

@@ -1,8 +1,8 @@
 //! Operator commands: talk to `softnc-mmi` over iceoryx2 request-response.
 
 use anyhow::Result;
-pub use softnc_daemon::client::Operator;
-use softnc_ipc::ControlKind;
+use softnc_api::{Axis, JobRecord, MachineState, OffsetTable, Outcome, Reply, Request, Status};
+pub use softnc_client::Operator;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
@@ -161,12 +161,11 @@ pub enum ToolsCmd {
     },
 }
 
-/// The axis index of a letter X, Y or Z.
-fn axis_index(name: &str) -> Result<u32> {
-    match name.to_ascii_uppercase().as_str() {
-        "X" => Ok(0),
-        "Y" => Ok(1),
-        "Z" => Ok(2),
+/// The axis of a letter X, Y or Z.
+fn axis_of(name: &str) -> Result<Axis> {
+    let mut chars = name.chars();
+    match (chars.next().and_then(Axis::from_letter), chars.next()) {
+        (Some(a @ (Axis::X | Axis::Y | Axis::Z)), None) => Ok(a),
         _ => anyhow::bail!("{name:?} is not an axis (X, Y or Z)"),
     }
 }
@@ -197,10 +196,10 @@ pub enum JobCmd {
 /// Run an operator subcommand against the daemon configured in `config`.
 pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
     let op = Operator::connect(config)?;
-    let simple = |kind, value| -> Result<ExitCode> {
-        let r = op.request(kind, value, "")?;
-        println!("{}", r.message.as_str());
-        Ok(if r.accepted == 1 {
+    let simple = |request: Request| -> Result<ExitCode> {
+        let r = op.request(&request)?;
+        println!("{}", r.message());
+        Ok(if r.is_accepted() {
             ExitCode::SUCCESS
         } else {
             ExitCode::from(crate::EXIT_REFUSED)
@@ -217,20 +216,19 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
             if from_line == Some(0) {
                 anyhow::bail!("--from-line: lines are numbered from 1");
             }
-            let flags = if adaptive_force {
-                softnc_ipc::JOB_ADAPTIVE_FORCE
-            } else {
-                0
-            };
-            let r = op.submit_job(&abs.display().to_string(), from_line.unwrap_or(0), flags)?;
-            if r.accepted != 1 {
-                eprintln!("{}", r.message.as_str());
+            let r = op.request(&Request::SubmitJob {
+                path: abs.display().to_string(),
+                from_line,
+                adaptive_force,
+            })?;
+            if !r.is_accepted() {
+                eprintln!("{}", r.message());
                 return Ok(ExitCode::from(crate::EXIT_REFUSED));
             }
-            println!("{}", r.message.as_str());
+            println!("{}", r.message());
             if wait {
-                let outcome = wait_job(&op, r.job_id, true)?;
-                return Ok(if outcome == "completed" {
+                let outcome = wait_job(&op, r.job_id().unwrap_or(0), true)?;
+                return Ok(if outcome == Outcome::Completed {
                     ExitCode::SUCCESS
                 } else {
                     ExitCode::from(1)
@@ -241,51 +239,43 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
         OperatorCmd::Status { json } => {
             let s = op.status()?;
             if json {
-                println!("{s}");
+                println!("{}", serde_json::to_string(&s)?);
             } else {
                 print!("{}", status_text(&s));
             }
             Ok(ExitCode::SUCCESS)
         }
-        OperatorCmd::Hold => simple(ControlKind::Hold, 0.0),
-        OperatorCmd::Resume => simple(ControlKind::Resume, 0.0),
-        OperatorCmd::Abort => simple(ControlKind::Abort, 0.0),
-        OperatorCmd::Override { pct } => simple(ControlKind::FeedOverride, pct / 100.0),
-        OperatorCmd::SpindleOverride { pct } => simple(ControlKind::SpindleOverride, pct / 100.0),
-        OperatorCmd::Estop => simple(ControlKind::EStop, 0.0),
-        OperatorCmd::Reset => simple(ControlKind::Reset, 0.0),
-        OperatorCmd::Shutdown => simple(ControlKind::Shutdown, 0.0),
-        OperatorCmd::On => simple(ControlKind::MachineOn, 0.0),
-        OperatorCmd::Off => simple(ControlKind::MachineOff, 0.0),
-        OperatorCmd::Step => simple(ControlKind::Step, 0.0),
-        OperatorCmd::SingleBlock { switch } => {
-            simple(ControlKind::SingleBlock, (switch == OnOff::On) as u8 as f64)
-        }
-        OperatorCmd::OptionalStop { switch } => simple(
-            ControlKind::OptionalStop,
-            (switch == OnOff::On) as u8 as f64,
-        ),
-        OperatorCmd::BlockDelete { switch } => {
-            simple(ControlKind::BlockDelete, (switch == OnOff::On) as u8 as f64)
-        }
+        OperatorCmd::Hold => simple(Request::Hold),
+        OperatorCmd::Resume => simple(Request::Resume),
+        OperatorCmd::Abort => simple(Request::Abort),
+        OperatorCmd::Override { pct } => simple(Request::FeedOverride {
+            fraction: pct / 100.0,
+        }),
+        OperatorCmd::SpindleOverride { pct } => simple(Request::SpindleOverride {
+            fraction: pct / 100.0,
+        }),
+        OperatorCmd::Estop => simple(Request::EStop),
+        OperatorCmd::Reset => simple(Request::Reset),
+        OperatorCmd::Shutdown => simple(Request::Shutdown),
+        OperatorCmd::On => simple(Request::MachineOn),
+        OperatorCmd::Off => simple(Request::MachineOff),
+        OperatorCmd::Step => simple(Request::Step),
+        OperatorCmd::SingleBlock { switch } => simple(Request::SingleBlock { on: switch.on() }),
+        OperatorCmd::OptionalStop { switch } => simple(Request::OptionalStop { on: switch.on() }),
+        OperatorCmd::BlockDelete { switch } => simple(Request::BlockDelete { on: switch.on() }),
         OperatorCmd::Home { axis } => {
-            let axis = axis.as_deref().map(axis_index).transpose()?;
-            let r = op.request_axis(ControlKind::Home, axis.unwrap_or(u32::MAX), 0.0, "")?;
-            println!("{}", r.message.as_str());
-            if r.accepted != 1 {
+            let axis = axis.as_deref().map(axis_of).transpose()?;
+            let r = op.request(&Request::Home { axis })?;
+            println!("{}", r.message());
+            if !r.is_accepted() {
                 return Ok(ExitCode::from(crate::EXIT_REFUSED));
             }
-            let s = wait_while_state(&op, "Homing")?;
-            let homed = s["homed"].clone();
-            println!("{} (homed {homed})", s["state"].as_str().unwrap_or("?"));
-            let all = axis.map_or_else(
-                || {
-                    homed
-                        .as_array()
-                        .is_some_and(|h| h.iter().all(|b| b == true))
-                },
-                |i| homed[i as usize] == true,
-            );
+            let s = wait_while_state(&op, MachineState::Homing)?;
+            println!("{} (homed {:?})", s.state, s.homed);
+            let all = match axis {
+                None => s.all_homed(),
+                Some(a) => s.homed.get(a.index()).copied().unwrap_or(false),
+            };
             Ok(if all {
                 ExitCode::SUCCESS
             } else {
@@ -293,41 +283,50 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
             })
         }
         OperatorCmd::Jog { axis, speed, step } => {
-            let i = axis_index(&axis)?;
-            let (kind, value) = match (speed, step) {
+            let axis = axis_of(&axis)?;
+            let request = match (speed, step) {
                 (Some(_), Some(_)) => anyhow::bail!("jog: a speed or --step, not both"),
                 (None, None) => anyhow::bail!("jog: a speed (mm/min) or --step MM"),
-                (Some(v), None) => (ControlKind::Jog, v),
-                (None, Some(d)) => (ControlKind::JogStep, d),
+                (Some(v), None) => Request::Jog {
+                    axis,
+                    speed_mm_per_min: v,
+                },
+                (None, Some(d)) => Request::JogStep {
+                    axis,
+                    distance_mm: d,
+                },
             };
-            let r = op.request_axis(kind, i, value, "")?;
-            println!("{}", r.message.as_str());
-            if r.accepted != 1 {
+            let r = op.request(&request)?;
+            println!("{}", r.message());
+            if !r.is_accepted() {
                 return Ok(ExitCode::from(crate::EXIT_REFUSED));
             }
-            if kind == ControlKind::Jog && value == 0.0 {
+            if speed == Some(0.0) {
                 return Ok(ExitCode::SUCCESS);
             }
             // a continuous jog lives while this command renews it
-            let renew = (kind == ControlKind::Jog).then_some((i, value));
-            let s = jog_until_stopped(&op, renew)?;
+            let renew = matches!(request, Request::Jog { .. }).then_some(request);
+            let s = jog_until_stopped(&op, renew.as_ref())?;
             println!(
                 "{} at {:.4} mm",
-                s["state"].as_str().unwrap_or("?"),
-                s["machine_mm"][i as usize].as_f64().unwrap_or(f64::NAN)
+                s.state,
+                s.machine_mm.map_or(f64::NAN, |m| m[axis.index()])
             );
             Ok(ExitCode::SUCCESS)
         }
         OperatorCmd::Mdi { blocks } => {
-            let r = op.request(ControlKind::Mdi, 0.0, &blocks.join("\n"))?;
-            if r.accepted != 1 {
-                eprintln!("{}", r.message.as_str());
+            let r = op.request(&Request::Mdi {
+                blocks: blocks.join("\n"),
+            })?;
+            if !r.is_accepted() {
+                eprintln!("{}", r.message());
                 return Ok(ExitCode::from(crate::EXIT_REFUSED));
             }
-            println!("{}", r.message.as_str());
-            let outcome = wait_job(&op, r.job_id, false)?;
-            println!("MDI {}: {outcome}", r.job_id);
-            Ok(if outcome == "completed" {
+            println!("{}", r.message());
+            let job_id = r.job_id().unwrap_or(0);
+            let outcome = wait_job(&op, job_id, false)?;
+            println!("MDI {job_id}: {outcome}");
+            Ok(if outcome == Outcome::Completed {
                 ExitCode::SUCCESS
             } else {
                 ExitCode::from(1)
@@ -338,27 +337,24 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
             value,
             coords,
         } => {
-            let i = axis_index(&axis)?;
-            let r = op.request_axis(
-                ControlKind::TouchOff,
-                i,
-                value,
-                coords.as_deref().unwrap_or(""),
-            )?;
-            if r.accepted != 1 {
-                eprintln!("{}", r.message.as_str());
+            let r = op.request(&Request::TouchOff {
+                axis: axis_of(&axis)?,
+                value_mm: value,
+                coords,
+            })?;
+            if !r.is_accepted() {
+                eprintln!("{}", r.message());
                 return Ok(ExitCode::from(crate::EXIT_REFUSED));
             }
-            println!("{}", r.message.as_str());
+            println!("{}", r.message());
             Ok(ExitCode::SUCCESS)
         }
         OperatorCmd::Offsets { json } => {
-            let r = op.request(ControlKind::Offsets, 0.0, "")?;
-            let v: serde_json::Value = serde_json::from_str(r.message.as_str())?;
+            let o = op.offsets()?;
             if json {
-                println!("{v}");
+                println!("{}", serde_json::to_string(&o)?);
             } else {
-                print!("{}", offsets_text(&v));
+                print!("{}", offsets_text(&o));
             }
             Ok(ExitCode::SUCCESS)
         }
@@ -369,29 +365,31 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
                 diameter,
             }) = cmd
             {
-                let d = diameter.map(|d| d.to_string()).unwrap_or_default();
-                let r = op.request_axis(ControlKind::ToolSet, number, length, &d)?;
-                println!("{}", r.message.as_str());
-                if r.accepted != 1 {
+                let r = op.request(&Request::ToolSet {
+                    tool: number,
+                    length_mm: length,
+                    diameter_mm: diameter,
+                })?;
+                println!("{}", r.message());
+                if !r.is_accepted() {
                     return Ok(ExitCode::from(crate::EXIT_REFUSED));
                 }
             }
-            let r = op.request(ControlKind::Tools, 0.0, "")?;
-            if r.accepted != 1 {
-                eprintln!("{}", r.message.as_str());
-                return Ok(ExitCode::from(1));
-            }
-            let v: serde_json::Value = serde_json::from_str(r.message.as_str())?;
+            let tools = match op.request(&Request::Tools)? {
+                Reply::Tools(t) => t,
+                other => {
+                    eprintln!("{}", other.message());
+                    return Ok(ExitCode::from(1));
+                }
+            };
             if json {
-                println!("{v}");
+                println!("{}", serde_json::to_string(&tools)?);
             } else {
                 println!("{:>6} {:>12} {:>12}", "tool", "length mm", "diameter mm");
-                for t in v.as_array().into_iter().flatten() {
+                for t in &tools {
                     println!(
                         "{:>6} {:>12.4} {:>12.4}",
-                        t["number"],
-                        t["length_mm"].as_f64().unwrap_or(f64::NAN),
-                        t["diameter_mm"].as_f64().unwrap_or(f64::NAN)
+                        t.number, t.length_mm, t.diameter_mm
                     );
                 }
             }
@@ -400,18 +398,10 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
         OperatorCmd::Jobs { json } => {
             let jobs = op.jobs()?;
             if json {
-                println!("{}", serde_json::Value::Array(jobs));
+                println!("{}", serde_json::to_string(&jobs)?);
             } else {
                 for j in &jobs {
-                    println!(
-                        "{:>4}  {:<11} {:>9} cycles  contour max {:>8.2} µm rms {:>7.2} µm  {}",
-                        j["job_id"],
-                        j["outcome"].as_str().unwrap_or(""),
-                        j["cycles"],
-                        j["accuracy"]["contour_max_abs_um"].as_f64().unwrap_or(0.0),
-                        j["accuracy"]["contour_rms_um"].as_f64().unwrap_or(0.0),
-                        j["path"].as_str().unwrap_or("")
-                    );
+                    println!("{}", job_line(j));
                 }
             }
             Ok(ExitCode::SUCCESS)
@@ -419,37 +409,48 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
     }
 }
 
+/// One job of the history as an operator reads it.
+fn job_line(j: &JobRecord) -> String {
+    format!(
+        "{:>4}  {:<11} {:>9} cycles  contour max {:>8.2} µm rms {:>7.2} µm  {}",
+        j.job_id,
+        j.outcome.name(),
+        j.cycles,
+        j.accuracy.contour_max_abs_um,
+        j.accuracy.contour_rms_um,
+        j.path
+    )
+}
+
 /// Poll the status until its state is no longer `state` (after it has been, or a
 /// second has passed); returns the last status.
-fn wait_while_state(op: &Operator, state: &str) -> Result<serde_json::Value> {
+fn wait_while_state(op: &Operator, state: MachineState) -> Result<Status> {
     let t0 = std::time::Instant::now();
     let mut seen = false;
     loop {
         let s = op.status()?;
-        let now = s["state"].as_str().unwrap_or("");
-        seen |= now == state;
-        if now != state && (seen || t0.elapsed() > Duration::from_secs(1)) {
+        seen |= s.state == state;
+        if s.state != state && (seen || t0.elapsed() > Duration::from_secs(1)) {
             return Ok(s);
         }
         std::thread::sleep(Duration::from_millis(50));
     }
 }
 
-/// Follow a jog until the axis stops; a continuous one (`renew`: axis, speed) is
+/// Follow a jog until the axis stops; a continuous one (`renew`: its request) is
 /// renewed meanwhile — its dead-man stops it once this command is gone.
-fn jog_until_stopped(op: &Operator, renew: Option<(u32, f64)>) -> Result<serde_json::Value> {
+fn jog_until_stopped(op: &Operator, renew: Option<&Request>) -> Result<Status> {
     let t0 = std::time::Instant::now();
     let mut seen = false;
     loop {
-        if let Some((axis, speed)) = renew {
-            let r = op.request_axis(ControlKind::Jog, axis, speed, "")?;
-            if r.accepted != 1 {
+        if let Some(request) = renew {
+            if !op.request(request)?.is_accepted() {
                 // it ended (a soft limit, `jog AXIS 0`, an abort)
                 return op.status();
             }
         }
         let s = op.status()?;
-        let jogging = s["state"].as_str() == Some("Jogging");
+        let jogging = s.state == MachineState::Jogging;
         seen |= jogging;
         if !jogging && (seen || t0.elapsed() > Duration::from_secs(1)) {
             return Ok(s);
@@ -459,223 +460,176 @@ fn jog_until_stopped(op: &Operator, renew: Option<(u32, f64)>) -> Result<serde_j
 }
 
 /// The offsets as an operator reads them.
-pub fn offsets_text(v: &serde_json::Value) -> String {
+pub fn offsets_text(o: &OffsetTable) -> String {
     use std::fmt::Write;
     let mut out = String::new();
-    let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
     let _ = writeln!(
         out,
         "{:<7}{:>12}{:>12}{:>12}{:>10}",
         "", "X", "Y", "Z", "R deg"
     );
-    for sys in v["systems"].as_array().into_iter().flatten() {
-        let o = &sys["origin_mm"];
+    for sys in &o.systems {
+        let m = sys.origin_mm;
         let _ = writeln!(
             out,
             "{:<7}{:>12.4}{:>12.4}{:>12.4}{:>10.3}{}",
-            sys["coords"].as_str().unwrap_or("?"),
-            f(&o[0]),
-            f(&o[1]),
-            f(&o[2]),
-            f(&sys["rotation_deg"]),
-            if sys["active"] == true {
-                "  active"
-            } else {
-                ""
-            }
+            sys.coords,
+            m[0],
+            m[1],
+            m[2],
+            sys.rotation_deg,
+            if sys.active { "  active" } else { "" }
         );
     }
-    let g = &v["g92_mm"];
+    let g = o.g92_mm;
     let _ = writeln!(
         out,
         "{:<7}{:>12.4}{:>12.4}{:>12.4}",
-        "G92",
-        f(&g[0]),
-        f(&g[1]),
-        f(&g[2])
+        "G92", g[0], g[1], g[2]
     );
-    let t = &v["tool_offset_mm"];
+    let t = o.tool_offset_mm;
     let _ = writeln!(
         out,
         "tool {} offset {:.4} {:.4} {:.4}",
-        v["tool"],
-        f(&t[0]),
-        f(&t[1]),
-        f(&t[2])
+        o.tool, t[0], t[1], t[2]
     );
     out
 }
 
+/// A number or NaN (not reported).
+fn or_nan(v: Option<f64>) -> f64 {
+    v.unwrap_or(f64::NAN)
+}
+
 /// The status as an operator reads it (`--json` gives all of it).
-pub fn status_text(s: &serde_json::Value) -> String {
+pub fn status_text(s: &Status) -> String {
     use std::fmt::Write;
-    let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
     let mut out = String::new();
     let _ = writeln!(
         out,
         "state {}   feed override {:.0} %   spindle {:.0} rpm (override {:.0} %)",
-        s["state"].as_str().unwrap_or("?"),
-        f(&s["feed_override"]) * 100.0,
-        f(&s["spindle_rpm"]),
-        f(&s["spindle_override"]) * 100.0
+        s.state,
+        s.feed_override * 100.0,
+        or_nan(s.spindle_rpm),
+        or_nan(s.spindle_override) * 100.0
     );
-    let sw = &s["switches"];
+    let sw = s.switches;
     let on: Vec<&str> = [
-        ("single_block", "single block"),
-        ("optional_stop", "optional stop"),
-        ("block_delete", "block delete"),
+        (sw.single_block, "single block"),
+        (sw.optional_stop, "optional stop"),
+        (sw.block_delete, "block delete"),
     ]
     .into_iter()
-    .filter(|(k, _)| sw[*k] == true)
+    .filter(|(on, _)| *on)
     .map(|(_, name)| name)
     .collect();
     if !on.is_empty() {
         let _ = writeln!(out, "switches on: {}", on.join(", "));
     }
-    if let Some(modal) = s["modal"].as_array() {
-        let words: Vec<&str> = modal.iter().filter_map(|w| w.as_str()).collect();
-        let _ = writeln!(out, "modal: {}", words.join(" "));
+    if let Some(modal) = &s.modal {
+        let _ = writeln!(out, "modal: {}", modal.join(" "));
     }
-    let j = &s["job"];
-    if !j.is_null() {
+    if let Some(j) = &s.job {
         let _ = writeln!(
             out,
             "job {} {} {:.0} %   {}",
-            j["job_id"],
-            j["outcome"].as_str().unwrap_or("?"),
-            f(&j["progress"]) * 100.0,
-            j["path"].as_str().unwrap_or("")
+            j.record.job_id,
+            j.record.outcome,
+            j.progress * 100.0,
+            j.record.path
         );
-        if let Some(line) = s["program_line"].as_u64() {
+        if let Some(line) = s.program_line {
             let _ = writeln!(out, "    at program line {line}");
         }
-        if let Some(path) = s["checking"].as_str() {
+        if let Some(path) = &s.checking {
             let _ = writeln!(out, "    checking {path}");
         }
-        let af = &s["adaptive_force"];
-        if !af.is_null() {
+        if let Some(af) = &s.adaptive_force {
             let _ = writeln!(
                 out,
                 "    adaptive force: override {:.0} %, {} revolutions, last force estimate {:.0} N",
-                f(&af["override"]) * 100.0,
-                af["revolutions"],
-                f(&af["force_n"])
+                af.override_fraction * 100.0,
+                af.revolutions,
+                or_nan(af.force_n)
             );
         }
-        let a = &j["accuracy"];
+        let a = &j.record.accuracy;
         let _ = writeln!(
             out,
             "    contour error max {:.2} µm, rms {:.2} µm",
-            f(&a["contour_max_abs_um"]),
-            f(&a["contour_rms_um"])
+            a.contour_max_abs_um, a.contour_rms_um
         );
     } else {
         let _ = writeln!(out, "no job yet");
     }
-    let ax = &s["axes"];
-    if !ax.is_null() {
-        let row = |name: &str, v: &serde_json::Value, k: f64| {
-            let cells: Vec<String> = v
-                .as_array()
-                .into_iter()
-                .flatten()
-                .map(|x| format!("{:>12.4}", x.as_f64().unwrap_or(f64::NAN) * k))
-                .collect();
+    if let Some(ax) = &s.axes {
+        let row = |name: &str, v: &[f64]| {
+            let cells: Vec<String> = v.iter().map(|x| format!("{x:>12.4}")).collect();
             format!("{name:<18}{}\n", cells.join(""))
         };
-        let homed: Vec<&str> = s["homed"]
-            .as_array()
-            .into_iter()
-            .flatten()
-            .map(|h| if h == true { "homed" } else { "NOT homed" })
-            .collect();
+        let homed = |i: usize| match s.homed.get(i) {
+            Some(true) => "homed",
+            Some(false) => "NOT homed",
+            None => "",
+        };
         let _ = writeln!(
             out,
             "{:<18}{:>12}{:>12}{:>12}",
             "",
-            format!("X {}", homed.first().unwrap_or(&"")),
-            format!("Y {}", homed.get(1).unwrap_or(&"")),
-            format!("Z {}", homed.get(2).unwrap_or(&""))
+            format!("X {}", homed(0)),
+            format!("Y {}", homed(1)),
+            format!("Z {}", homed(2))
         );
         out.push_str(&row(
-            &format!("work mm ({})", s["coords"].as_str().unwrap_or("?")),
-            &s["work_mm"],
-            1.0,
+            &format!("work mm ({})", s.coords),
+            &s.work_mm.map(|w| w.to_vec()).unwrap_or_default(),
         ));
-        out.push_str(&row("command mm", &ax["cmd_mm"], 1.0));
-        out.push_str(&row("actual mm", &ax["actual_mm"], 1.0));
-        out.push_str(&row("following err µm", &ax["following_err_um"], 1.0));
+        out.push_str(&row("command mm", &ax.cmd_mm));
+        out.push_str(&row("actual mm", &ax.actual_mm));
+        out.push_str(&row("following err µm", &ax.following_err_um));
     }
-    let p = &s["processes"];
+    let p = s.processes;
     let _ = writeln!(
         out,
         "processes: interpolation {}, position {}, supervisor {}",
-        p["interp"].as_str().unwrap_or("?"),
-        p["position"].as_str().unwrap_or("?"),
-        p["supervisor"].as_str().unwrap_or("?")
+        p.interp, p.position, p.supervisor
     );
-    let alarms = s["alarms"].as_array().cloned().unwrap_or_default();
-    if alarms.is_empty() {
+    if s.alarms.is_empty() {
         let _ = writeln!(out, "no alarms");
     }
-    for a in alarms {
-        let _ = writeln!(
-            out,
-            "alarm {} (job {}): {}",
-            a["code"].as_str().unwrap_or("?"),
-            a["job_id"],
-            a["message"].as_str().unwrap_or("")
-        );
+    for a in &s.alarms {
+        let _ = writeln!(out, "alarm {:?} (job {}): {}", a.code, a.job_id, a.message);
     }
     out
 }
 
-/// Follow a job until it ends; returns its outcome. Shows a progress bar on a terminal.
 /// What an operator waiting for the job in `status` is told when it ends other
 /// than completed: how it ended and why (its record's alarms, else the machine's
-/// alarms about it). `None` for a completed job.
-pub fn job_end_message(status: &serde_json::Value) -> Option<String> {
-    let job = &status["job"];
-    let outcome = job["outcome"].as_str().unwrap_or("ended");
-    if outcome == "completed" {
+/// alarms about it). `None` for a completed job, or when no job is shown.
+pub fn job_end_message(status: &Status) -> Option<String> {
+    let job = &status.job.as_ref()?.record;
+    if job.outcome == Outcome::Completed {
         return None;
     }
-    let id = job["job_id"].as_u64().unwrap_or(0);
-    let texts = |v: &serde_json::Value| -> Vec<String> {
-        v.as_array()
-            .map(|a| {
-                a.iter()
-                    .filter_map(|x| x.as_str().map(String::from))
-                    .collect()
-            })
-            .unwrap_or_default()
-    };
-    let mut why = texts(&job["alarms"]);
+    let id = job.job_id;
+    let mut why = job.alarms.clone();
     if why.is_empty() {
-        why = status["alarms"]
-            .as_array()
-            .map(|a| {
-                a.iter()
-                    .filter(|x| x["job_id"].as_u64() == Some(id))
-                    .filter_map(|x| {
-                        Some(format!(
-                            "{}: {}",
-                            x["code"].as_str()?,
-                            x["message"].as_str()?
-                        ))
-                    })
-                    .collect()
-            })
-            .unwrap_or_default();
+        why = status
+            .alarms
+            .iter()
+            .filter(|a| a.job_id == id)
+            .map(|a| format!("{:?}: {}", a.code, a.message))
+            .collect();
     }
     Some(if why.is_empty() {
-        format!("job {id} {outcome}")
+        format!("job {id} {}", job.outcome)
     } else {
-        format!("job {id} {outcome}: {}", why.join("; "))
+        format!("job {id} {}: {}", job.outcome, why.join("; "))
     })
 }
 
-pub fn wait_job(op: &Operator, job_id: u64, bar: bool) -> Result<String> {
+/// Follow a job until it ends; returns its outcome. Shows a progress bar on a terminal.
+pub fn wait_job(op: &Operator, job_id: u64, bar: bool) -> Result<Outcome> {
     use std::io::IsTerminal;
     let pb = if bar && std::io::stderr().is_terminal() {
         let pb = indicatif::ProgressBar::new(1000);
@@ -693,9 +647,8 @@ pub fn wait_job(op: &Operator, job_id: u64, bar: bool) -> Result<String> {
     let mut last_pct = -1i64;
     loop {
         let s = op.status()?;
-        let job = &s["job"];
-        if job["job_id"].as_u64() == Some(job_id) {
-            let progress = job["progress"].as_f64().unwrap_or(0.0);
+        if let Some(job) = s.job(job_id) {
+            let progress = job.progress;
             if let Some(pb) = &pb {
                 pb.set_position((progress * 1000.0) as u64);
             } else if bar {
@@ -705,8 +658,8 @@ pub fn wait_job(op: &Operator, job_id: u64, bar: bool) -> Result<String> {
                     last_pct = pct;
                 }
             }
-            let outcome = job["outcome"].as_str().unwrap_or("").to_string();
-            if outcome != "running" {
+            let outcome = job.record.outcome;
+            if outcome.ended() {
                 if let Some(pb) = &pb {
                     pb.finish_and_clear();
                 }
@@ -723,27 +676,50 @@ pub fn wait_job(op: &Operator, job_id: u64, bar: bool) -> Result<String> {
 #[cfg(test)]
 mod job_end_tests {
     use super::job_end_message;
+    use softnc_api::Status;
+
+    /// A status read from JSON (the fields the test does not name as an idle
+    /// machine's).
+    fn status(job: serde_json::Value, alarms: serde_json::Value) -> Status {
+        let v = serde_json::json!({"state": "Idle", "coords": "G54",
+            "offsets": {"g5x_mm": [0.0, 0.0, 0.0], "rotation_deg": 0.0,
+                "g92_mm": [0.0, 0.0, 0.0], "tool_offset_mm": [0.0, 0.0, 0.0]},
+            "tool": 0, "feed_override": 1.0,
+            "processes": {"interp": "alive", "position": "alive", "supervisor": "alive"},
+            "job": job, "alarms": alarms});
+        serde_json::from_value(v).unwrap()
+    }
 
     #[test]
     fn a_job_that_did_not_complete_says_how_it_ended_and_why() {
-        let refused = serde_json::json!({"job": {"job_id": 4, "outcome": "refused",
-            "alarms": ["JobRefused: /shop/a.ngc:2:1: Subroutine 'Oside' not found"]},
-            "alarms": []});
+        let refused = status(
+            serde_json::json!({"job_id": 4, "path": "/shop/a.ngc", "outcome": "refused",
+                "alarms": ["JobRefused: /shop/a.ngc:2:1: Subroutine 'Oside' not found"]}),
+            serde_json::json!([]),
+        );
         assert_eq!(
             job_end_message(&refused).unwrap(),
             "job 4 refused: JobRefused: /shop/a.ngc:2:1: Subroutine 'Oside' not found"
         );
         // the record has none yet: the machine's alarms about the job
-        let aborted = serde_json::json!({"job": {"job_id": 5, "outcome": "aborted", "alarms": []},
-            "alarms": [{"code": "FollowingError", "job_id": 5, "message": "X 2.1 mm"},
-                       {"code": "Other", "job_id": 0, "message": "unrelated"}]});
+        let aborted = status(
+            serde_json::json!({"job_id": 5, "path": "/shop/b.ngc", "outcome": "aborted", "alarms": []}),
+            serde_json::json!([{"code": "FollowingError", "job_id": 5, "message": "X 2.1 mm"},
+                       {"code": "Other", "job_id": 0, "message": "unrelated"}]),
+        );
         assert_eq!(
             job_end_message(&aborted).unwrap(),
             "job 5 aborted: FollowingError: X 2.1 mm"
         );
-        let bare = serde_json::json!({"job": {"job_id": 6, "outcome": "aborted"}});
+        let bare = status(
+            serde_json::json!({"job_id": 6, "path": "/shop/c.ngc", "outcome": "aborted"}),
+            serde_json::json!([]),
+        );
         assert_eq!(job_end_message(&bare).unwrap(), "job 6 aborted");
-        let done = serde_json::json!({"job": {"job_id": 7, "outcome": "completed"}});
+        let done = status(
+            serde_json::json!({"job_id": 7, "path": "/shop/d.ngc", "outcome": "completed"}),
+            serde_json::json!([]),
+        );
         assert_eq!(job_end_message(&done), None);
     }
 }

@@ -22,7 +22,7 @@
 //! - `e` (or F1, which also works while typing MDI) E-stop, `x` reset;
 //! - `?` help, Esc closes it (or the offsets view), `q` or Ctrl-C quits.
 
-use crate::watch_keys::{self, Action, Listing, Mode, Ui, AXIS_NAMES, KEY_MAP};
+use crate::watch_keys::{self, Action, Listing, Mode, Ui, AXES, KEY_MAP};
 use anyhow::Result;
 use ratatui::crossterm::event::{
     self, Event, KeyboardEnhancementFlags, PopKeyboardEnhancementFlags,
@@ -37,8 +37,8 @@ use ratatui::widgets::{
     Axis, Block, Borders, Chart, Clear, Dataset, Gauge, GraphType, List, ListItem, Paragraph, Row,
     Table, Wrap,
 };
-use softnc_daemon::client::Operator;
-use softnc_ipc::ControlKind;
+use softnc_api::{MachineState, Request, Status};
+use softnc_client::Operator;
 use std::collections::VecDeque;
 use std::path::Path;
 use std::process::ExitCode;
@@ -72,13 +72,13 @@ fn report_key_releases() -> bool {
 }
 
 /// Send one request and give its reply to the UI.
-fn send(op: &Operator, ui: &mut Ui, r: &watch_keys::Request) {
-    let reply = op
-        .request_axis(r.kind, r.axis, r.value, &r.text)
-        .map(|rep| (rep.accepted == 1, rep.message.as_str().to_string()))
-        .map_err(|e| e.to_string());
+fn send(op: &Operator, ui: &mut Ui, r: &Request) {
+    let reply = op.request(r).map_err(|e| e.to_string());
     watch_keys::on_reply(ui, r, reply);
 }
+
+/// What the screen shows: the last status, or why there is none.
+pub type Shown = Result<Status, String>;
 
 /// Run the terminal UI until `q` (or Ctrl-C).
 pub fn run(config: &Path) -> Result<ExitCode> {
@@ -96,30 +96,32 @@ pub fn run(config: &Path) -> Result<ExitCode> {
     let mut tick = 0u64;
     let mut ui = Ui::default();
     let mut listing: Option<Listing> = None;
-    let mut s = serde_json::json!({"state": "connecting"});
+    let mut s: Shown = Err("connecting".to_string());
     let mut status_at: Option<Instant> = None;
     let result = (|| -> Result<()> {
         loop {
             let mut redraw = false;
             if !matches!(status_at, Some(t) if t.elapsed() < STATUS_PERIOD) {
                 status_at = Some(Instant::now());
-                s = op
-                    .status()
-                    .unwrap_or_else(|e| serde_json::json!({"state": format!("no MMI: {e}")}));
+                s = op.status().map_err(|e| format!("no MMI: {e}"));
                 tick += 1;
-                if let Some(c) = s["axes"]["contour_err_um"].as_f64() {
+                let contour = s
+                    .as_ref()
+                    .ok()
+                    .and_then(|s| s.axes.as_ref()?.contour_err_um);
+                if let Some(c) = contour {
                     if plot.len() == PLOT_POINTS {
                         plot.pop_front();
                     }
                     plot.push_back((tick as f64, c));
                 }
-                Listing::refresh(&mut listing, &s);
+                Listing::refresh(&mut listing, s.as_ref().ok());
                 redraw = true;
             }
             let mut actions = Vec::new();
             if event::poll(INPUT_POLL)? {
                 if let Event::Key(k) = event::read()? {
-                    actions = watch_keys::on_key(&mut ui, k, &s, Instant::now());
+                    actions = watch_keys::on_key(&mut ui, k, s.as_ref().ok(), Instant::now());
                     redraw = true;
                 }
             }
@@ -140,7 +142,7 @@ pub fn run(config: &Path) -> Result<ExitCode> {
     })();
     // a jog left held (an error on the way out) is stopped, not left to the dead-man
     if let Some(j) = ui.jog.take() {
-        let _ = op.request_axis(ControlKind::Jog, j.axis, 0.0, "");
+        let _ = op.request(&watch_keys::jog(j.axis, 0.0));
     }
     if enhanced {
         let _ = execute!(std::io::stdout(), PopKeyboardEnhancementFlags);
@@ -153,8 +155,8 @@ pub fn run(config: &Path) -> Result<ExitCode> {
 /// In `width` columns (0: as wide as it takes): fixed-point when it fits, else
 /// scientific with the digits that fit, else `#`s — never digits cut off (a wrong
 /// value).
-fn num(v: &serde_json::Value, scale: f64, width: usize, decimals: usize) -> String {
-    let Some(x) = v.as_f64().map(|x| x * scale).filter(|x| x.is_finite()) else {
+fn num(v: Option<f64>, scale: f64, width: usize, decimals: usize) -> String {
+    let Some(x) = v.map(|x| x * scale).filter(|x| x.is_finite()) else {
         return format!("{:>width$}", "-");
     };
     let fixed = format!("{x:width$.decimals$}");
@@ -189,45 +191,54 @@ fn jog_help(ui: &Ui) -> String {
     format!("jog ←→ X  ↑↓ Y  PgUp/PgDn Z  {how}  H home  o/O on/off")
 }
 
+/// The state shown: the machine's, or why there is no status.
+fn state_text(shown: &Shown) -> String {
+    match shown {
+        Ok(s) => s.state.to_string(),
+        Err(e) => e.clone(),
+    }
+}
+
 /// The status line: state (and the processes when one is not alive), coordinate
 /// system, tool, overrides, switches.
-fn header(s: &serde_json::Value) -> String {
-    let on = |k: &str| {
-        if s["switches"][k].as_bool() == Some(true) {
-            "on"
-        } else {
-            "off"
-        }
+fn header(shown: &Shown) -> String {
+    let mut head = state_text(shown);
+    let Ok(s) = shown else {
+        return head;
     };
-    let mut head = s["state"].as_str().unwrap_or("?").to_string();
-    for p in ["interp", "position"] {
-        if let Some(state) = s["processes"][p].as_str().filter(|st| *st != "alive") {
-            head.push_str(&format!("  {p} {state}"));
+    let on = |v: bool| if v { "on" } else { "off" };
+    for (p, health) in [
+        ("interp", s.processes.interp),
+        ("position", s.processes.position),
+    ] {
+        if health != softnc_api::ProcessHealth::Alive {
+            head.push_str(&format!("  {p} {health}"));
         }
     }
     head.push_str(&format!(
         "  {}  T{}  feed {}% spindle {}% {} rpm  SB {} OS {} BD {}",
-        s["coords"].as_str().unwrap_or("-"),
-        s["tool"].as_u64().map_or("-".into(), |t| t.to_string()),
-        num(&s["feed_override"], 100.0, 0, 0),
-        num(&s["spindle_override"], 100.0, 0, 0),
-        num(&s["spindle_rpm"], 1.0, 0, 0),
-        on("single_block"),
-        on("optional_stop"),
-        on("block_delete"),
+        s.coords,
+        s.tool,
+        num(Some(s.feed_override), 100.0, 0, 0),
+        num(s.spindle_override, 100.0, 0, 0),
+        num(s.spindle_rpm, 1.0, 0, 0),
+        on(s.switches.single_block),
+        on(s.switches.optional_stop),
+        on(s.switches.block_delete),
     ));
     head
 }
 
 /// The style of the state on the status line.
-fn state_style(state: &str) -> Style {
+fn state_style(state: Option<MachineState>) -> Style {
+    use MachineState as M;
     match state {
-        "EStopped" | "Faulted" => Style::default()
+        Some(M::EStopped | M::Faulted) => Style::default()
             .fg(Color::White)
             .bg(Color::Red)
             .add_modifier(Modifier::BOLD),
-        "Running" | "Mdi" | "Jogging" | "Homing" => Style::default().fg(Color::Green),
-        "Held" | "Paused" | "Stopping" => Style::default().fg(Color::Yellow),
+        Some(M::Running | M::Mdi | M::Jogging | M::Homing) => Style::default().fg(Color::Green),
+        Some(M::Held | M::Paused | M::Stopping) => Style::default().fg(Color::Yellow),
         _ => Style::default(),
     }
 }
@@ -246,7 +257,7 @@ fn current_line_style() -> Style {
 /// map over the middle.
 fn draw(
     frame: &mut ratatui::Frame,
-    s: &serde_json::Value,
+    shown: &Shown,
     plot: &VecDeque<(f64, f64)>,
     ui: &Ui,
     listing: Option<&Listing>,
@@ -256,6 +267,7 @@ fn draw(
     let alarm_inner_width = (frame.area().width as usize * ALARMS_PCT as usize / 100)
         .saturating_sub(2)
         .max(1);
+    let s = shown.as_ref().ok();
     let alarm_rows = alarm_lines(s)
         .iter()
         .map(|l| wrapped_rows(l, alarm_inner_width))
@@ -273,12 +285,11 @@ fn draw(
             Constraint::Length(2),
         ])
         .split(frame.area());
-    let head = header(s);
-    let state = s["state"].as_str().unwrap_or("?");
+    let head = header(shown);
     let (state_part, rest) = head.split_at(head.find("  ").unwrap_or(head.len()));
     frame.render_widget(
         Paragraph::new(Line::from(vec![
-            Span::styled(state_part.to_string(), state_style(state)),
+            Span::styled(state_part.to_string(), state_style(s.map(|s| s.state))),
             Span::raw(rest.to_string()),
         ])),
         rows[0],
@@ -296,7 +307,7 @@ fn draw(
         draw_listing(frame, s, listing, middle[1]);
     }
     draw_loops_and_alarms(frame, s, rows[4]);
-    let coords = s["coords"].as_str().unwrap_or("the active system");
+    let coords = s.map_or("the active system", |s| s.coords.as_str());
     let message = match &ui.mode {
         Mode::Mdi(text) => Line::from(vec![
             Span::styled("MDI> ", Style::default().add_modifier(Modifier::BOLD)),
@@ -349,26 +360,27 @@ fn draw(
 }
 
 /// The job's progress bar, with the job, its outcome, the line and the file.
-fn draw_job(frame: &mut ratatui::Frame, s: &serde_json::Value, area: Rect) {
-    let job = &s["job"];
-    let progress = job["progress"].as_f64().unwrap_or(0.0).clamp(0.0, 1.0);
-    let label = if job.is_null() {
-        "no job".to_string()
-    } else {
-        let line = s["program_line"]
-            .as_u64()
-            .map_or(String::new(), |l| format!(" line {l}"));
-        let what = if job["mdi"].is_string() {
-            "MDI"
-        } else {
-            job["path"].as_str().unwrap_or("")
-        };
-        format!(
-            "job {} {} {:.0} %{line}  {what}",
-            job["job_id"],
-            job["outcome"].as_str().unwrap_or("?"),
-            progress * 100.0,
-        )
+fn draw_job(frame: &mut ratatui::Frame, s: Option<&Status>, area: Rect) {
+    let job = s.and_then(|s| s.job.as_ref());
+    let progress = job.map_or(0.0, |j| j.progress).clamp(0.0, 1.0);
+    let label = match job {
+        None => "no job".to_string(),
+        Some(j) => {
+            let line = s
+                .and_then(|s| s.program_line)
+                .map_or(String::new(), |l| format!(" line {l}"));
+            let what = if j.record.mdi.is_some() {
+                "MDI"
+            } else {
+                j.record.path.as_str()
+            };
+            format!(
+                "job {} {} {:.0} %{line}  {what}",
+                j.record.job_id,
+                j.record.outcome,
+                progress * 100.0,
+            )
+        }
     };
     frame.render_widget(
         Gauge::default()
@@ -382,21 +394,32 @@ fn draw_job(frame: &mut ratatui::Frame, s: &serde_json::Value, area: Rect) {
 /// The DRO: per axis (`*` when homed) the machine position (the command), the work
 /// position (in the active system, G92 and tool offset taken off), the actual
 /// position and the following error; the active system in the title.
-fn draw_dro(frame: &mut ratatui::Frame, s: &serde_json::Value, area: Rect) {
-    let axes = &s["axes"];
-    let table_rows: Vec<Row> = (0..AXIS_NAMES.len())
+fn draw_dro(frame: &mut ratatui::Frame, s: Option<&Status>, area: Rect) {
+    let axes = s.and_then(|s| s.axes.as_ref());
+    let table_rows: Vec<Row> = (0..AXES.len())
         .map(|i| {
-            let homed = if s["homed"][i].as_bool() == Some(true) {
+            let homed = if s.is_some_and(|s| s.homed.get(i) == Some(&true)) {
                 '*'
             } else {
                 ' '
             };
+            let at = |v: Option<&[f64]>| v.and_then(|v| v.get(i).copied());
             Row::new(vec![
-                format!("{} {homed}", AXIS_NAMES[i]),
-                num(&s["machine_mm"][i], 1.0, 11, 4),
-                num(&s["work_mm"][i], 1.0, 11, 4),
-                num(&axes["actual_mm"][i], 1.0, 11, 4),
-                num(&axes["following_err_um"][i], 1.0, 11, 2),
+                format!("{} {homed}", AXES[i].name()),
+                num(
+                    at(s.and_then(|s| s.machine_mm.as_ref()).map(|m| &m[..])),
+                    1.0,
+                    11,
+                    4,
+                ),
+                num(
+                    at(s.and_then(|s| s.work_mm.as_ref()).map(|m| &m[..])),
+                    1.0,
+                    11,
+                    4,
+                ),
+                num(at(axes.map(|a| &a.actual_mm[..])), 1.0, 11, 4),
+                num(at(axes.map(|a| &a.following_err_um[..])), 1.0, 11, 2),
             ])
         })
         .collect();
@@ -419,9 +442,9 @@ fn draw_dro(frame: &mut ratatui::Frame, s: &serde_json::Value, area: Rect) {
     ]))
     .block(Block::default().borders(Borders::ALL).title(format!(
         "DRO {}  (* homed)  contour error {} µm  ring {}",
-        s["coords"].as_str().unwrap_or("-"),
-        num(&axes["contour_err_um"], 1.0, 0, 2),
-        axes["ring_fill"].as_u64().map_or("-".into(), |r| r.to_string())
+        s.map_or("-", |s| s.coords.as_str()),
+        num(axes.and_then(|a| a.contour_err_um), 1.0, 0, 2),
+        axes.map_or("-".into(), |a| a.ring_fill.to_string())
     )));
     frame.render_widget(table, area);
 }
@@ -457,12 +480,12 @@ fn draw_plot(frame: &mut ratatui::Frame, plot: &VecDeque<(f64, f64)>, area: Rect
 /// marked `>`; an MDI job lists its block(s).
 fn draw_listing(
     frame: &mut ratatui::Frame,
-    s: &serde_json::Value,
+    s: Option<&Status>,
     listing: Option<&Listing>,
     area: Rect,
 ) {
     let height = area.height.saturating_sub(2) as usize;
-    let current = s["program_line"].as_u64().map(|l| l as usize);
+    let current = s.and_then(|s| s.program_line).map(|l| l as usize);
     let (title, lines) = match listing {
         None => ("program".to_string(), vec![Line::raw("(no job)")]),
         Some(l) => {
@@ -492,44 +515,35 @@ fn draw_listing(
 }
 
 /// One entry of the offsets panel: name, `*` when active, X Y Z (mm), 37 columns.
-fn offsets_entry(name: &str, active: bool, mm: &serde_json::Value) -> String {
+fn offsets_entry(name: &str, active: bool, mm: Option<[f64; 3]>) -> String {
+    let at = |i: usize| mm.map(|m| m[i]);
     format!(
         "{name:<6}{}{}{}{}",
         if active { '*' } else { ' ' },
-        num(&mm[0], 1.0, 10, 3),
-        num(&mm[1], 1.0, 10, 3),
-        num(&mm[2], 1.0, 10, 3)
+        num(at(0), 1.0, 10, 3),
+        num(at(1), 1.0, 10, 3),
+        num(at(2), 1.0, 10, 3)
     )
 }
 
 /// The offsets: the origins of G54 … G59.3 (the `Offsets` reply, two per line, the
 /// active one marked and highlighted), G92 and the tool offset (live, from the
 /// status).
-fn draw_offsets(frame: &mut ratatui::Frame, s: &serde_json::Value, ui: &Ui, area: Rect) {
+fn draw_offsets(frame: &mut ratatui::Frame, s: Option<&Status>, ui: &Ui, area: Rect) {
     let columns = format!("{:<7}{:>10}{:>10}{:>10}", "", "X", "Y", "Z");
     let mut lines = vec![Line::raw(format!("{columns}   {columns}"))];
-    let empty = Vec::new();
-    let systems = ui
-        .offsets
-        .as_ref()
-        .and_then(|o| o["systems"].as_array())
-        .unwrap_or(&empty);
+    let systems = ui.offsets.as_ref().map_or(&[][..], |o| &o.systems[..]);
     if ui.offsets.is_none() {
         lines.push(Line::raw("(asking softnc-mmi for the offsets …)"));
     }
     for pair in systems.chunks(2) {
         let mut spans = Vec::new();
         for (k, sys) in pair.iter().enumerate() {
-            let active = sys["active"] == true;
-            let text = offsets_entry(
-                sys["coords"].as_str().unwrap_or("?"),
-                active,
-                &sys["origin_mm"],
-            );
+            let text = offsets_entry(&sys.coords, sys.active, Some(sys.origin_mm));
             if k > 0 {
                 spans.push(Span::raw("   "));
             }
-            spans.push(if active {
+            spans.push(if sys.active {
                 Span::styled(text, current_line_style())
             } else {
                 Span::raw(text)
@@ -537,20 +551,17 @@ fn draw_offsets(frame: &mut ratatui::Frame, s: &serde_json::Value, ui: &Ui, area
         }
         lines.push(Line::from(spans));
     }
-    let o = &s["offsets"];
-    let tool = format!(
-        "T{}",
-        s["tool"].as_u64().map_or("-".into(), |t| t.to_string())
-    );
+    let o = s.map(|s| s.offsets);
+    let tool = format!("T{}", s.map_or("-".into(), |s| s.tool.to_string()));
     lines.push(Line::raw(format!(
         "{}   {}",
-        offsets_entry("G92", false, &o["g92_mm"]),
-        offsets_entry(&tool, false, &o["tool_offset_mm"])
+        offsets_entry("G92", false, o.map(|o| o.g92_mm)),
+        offsets_entry(&tool, false, o.map(|o| o.tool_offset_mm))
     )));
     let title = format!(
         "offsets (v closes)  active {}  rotation {}°  t x/y/z: touch off to 0",
-        s["coords"].as_str().unwrap_or("-"),
-        num(&o["rotation_deg"], 1.0, 0, 1)
+        s.map_or("-", |s| s.coords.as_str()),
+        num(o.map(|o| o.rotation_deg), 1.0, 0, 1)
     );
     frame.render_widget(
         Paragraph::new(lines).block(Block::default().borders(Borders::ALL).title(title)),
@@ -564,18 +575,10 @@ const LOOPS_ALARMS_MIN_ROWS: u16 = 4;
 const ALARMS_PCT: u16 = 60;
 
 /// The alarms as lines of text (`code: message`).
-fn alarm_lines(s: &serde_json::Value) -> Vec<String> {
-    s["alarms"]
-        .as_array()
-        .into_iter()
-        .flatten()
-        .map(|a| {
-            format!(
-                "{}: {}",
-                a["code"].as_str().unwrap_or("?"),
-                a["message"].as_str().unwrap_or("")
-            )
-        })
+fn alarm_lines(s: Option<&Status>) -> Vec<String> {
+    s.map_or(&[][..], |s| &s.alarms[..])
+        .iter()
+        .map(|a| format!("{:?}: {}", a.code, a.message))
         .collect()
 }
 
@@ -602,7 +605,7 @@ fn wrapped_rows(text: &str, width: usize) -> usize {
 }
 
 /// Loop jitter and the alarms.
-fn draw_loops_and_alarms(frame: &mut ratatui::Frame, s: &serde_json::Value, area: Rect) {
+fn draw_loops_and_alarms(frame: &mut ratatui::Frame, s: Option<&Status>, area: Rect) {
     let bottom = Layout::default()
         .direction(Direction::Horizontal)
         .constraints([
@@ -611,13 +614,13 @@ fn draw_loops_and_alarms(frame: &mut ratatui::Frame, s: &serde_json::Value, area
         ])
         .split(area);
     let mut loops = vec![];
-    for name in ["interp", "position"] {
-        let l = &s["loops"][name];
-        if !l.is_null() {
+    let timing = s.map(|s| s.loops).unwrap_or_default();
+    for (name, l) in [("interp", timing.interp), ("position", timing.position)] {
+        if let Some(l) = l {
             loops.push(ListItem::new(format!(
                 "{name}: p99 {} max {} µs",
-                num(&l["jitter_ns"]["p99"], 1e-3, 0, 1),
-                num(&l["jitter_ns"]["max"], 1e-3, 0, 1)
+                num(Some(l.jitter_ns.p99 as f64), 1e-3, 0, 1),
+                num(Some(l.jitter_ns.max as f64), 1e-3, 0, 1)
             )));
         }
     }
@@ -651,7 +654,12 @@ mod tests {
     ) -> (String, Buffer) {
         let mut t = Terminal::new(TestBackend::new(width, height)).unwrap();
         let plot: VecDeque<(f64, f64)> = (0..50).map(|k| (k as f64, (k as f64).sin())).collect();
-        t.draw(|f| draw(f, s, &plot, ui, listing)).unwrap();
+        // a status, or (a JSON string) why there is none
+        let shown: Shown = match s.as_str() {
+            Some(why) => Err(why.to_string()),
+            None => Ok(crate::watch_keys::test_status(s.clone())),
+        };
+        t.draw(|f| draw(f, &shown, &plot, ui, listing)).unwrap();
         let buf = t.backend().buffer().clone();
         let mut out = String::new();
         for y in 0..buf.area.height {
@@ -679,7 +687,7 @@ mod tests {
             "axes": {"cmd_mm": [1.0, 2.0, 3.0], "actual_mm": [1.0, 2.0, 3.0],
                      "following_err_um": [0.5, 0.25, 0.0], "contour_err_um": 1.5, "ring_fill": 100},
             "processes": {"interp": "alive", "position": "alive"},
-            "loops": {"interp": {"jitter_ns": {"p99": 1000.0, "max": 5000.0}}},
+            "loops": {"interp": {"jitter_ns": {"p99": 1000, "max": 5000}}},
             "alarms": [{"code": "RingDry", "message": "ran dry"}],
         })
     }
@@ -715,7 +723,7 @@ mod tests {
         // the plain fixed-point form where it fits
         assert!(out.contains("3.000"), "{out}");
         for (v, width) in [(1.0e15, 10), (-1.0e300, 6), (12.5, 10), (-1.0e300, 3)] {
-            let t = num(&serde_json::json!(v), 1.0, width, 3);
+            let t = num(Some(v), 1.0, width, 3);
             assert_eq!(t.chars().count(), width, "{v} in {width}: {t:?}");
             match t.trim().parse::<f64>() {
                 Ok(x) => assert!((x - v).abs() <= v.abs() * 0.06, "{v} shown as {t:?}"),
@@ -799,7 +807,7 @@ mod tests {
         let out = screen(&idle, 80, 24);
         assert!(!out.contains("NaN"), "{out}");
         assert!(out.contains("no job"), "{out}");
-        let none = serde_json::json!({"state": "no MMI: timed out"});
+        let none = serde_json::json!("no MMI: timed out");
         assert!(!screen(&none, 80, 24).contains("NaN"));
     }
 
@@ -813,12 +821,12 @@ mod tests {
                 "block_delete": false},
             "program_line": null, "feed_override": 1.0, "spindle_override": null,
             "spindle_rpm": null, "job": null, "axes": null, "alarms": [],
-            "processes": {"interp": "alive", "position": "starting"},
+            "processes": {"interp": "alive", "position": "unseen"},
         });
         let out = screen(&off, 80, 24);
         assert!(!out.contains("NaN"), "{out}");
-        assert!(out.starts_with("Off  position starting  G54  T0"), "{out}");
-        assert!(out.contains("position starting"), "{out}");
+        assert!(out.starts_with("Off  position unseen  G54  T0"), "{out}");
+        assert!(out.contains("position unseen"), "{out}");
         let x = out.lines().nth(row_of(&out, "│X ")).unwrap();
         assert!(x.matches(" -").count() >= 4, "{x}");
         assert!(out.contains("(no job)"), "{out}");
@@ -883,7 +891,11 @@ mod tests {
             .collect();
         let ui = Ui {
             offsets_view: true,
-            offsets: Some(serde_json::json!({"active": "G55", "systems": systems})),
+            offsets: Some(
+                serde_json::from_value(serde_json::json!({"active": "G55", "systems": systems,
+                    "g92_mm": [0.0, 0.0, 0.0], "tool": 2, "tool_offset_mm": [0.0, 0.0, 0.0]}))
+                .unwrap(),
+            ),
             ..Ui::default()
         };
         let (out, buf) = render(&s, &ui, Some(&program()), 80, 24);

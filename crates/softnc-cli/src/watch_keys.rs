@@ -1,5 +1,5 @@
 //! The operator's keys in `softnc watch` (issue 19, machine operation): a pure
-//! function from a key, the UI's state and the last status JSON to the requests to
+//! function from a key, the UI's state and the last status to the requests to
 //! send ([`on_key`]), the timers of a held continuous jog and of the offsets view
 //! ([`on_tick`]) and what a reply changes ([`on_reply`]); and the program listing's
 //! cache ([`Listing`]). Nothing here talks to the daemon, so all of it is tested
@@ -9,7 +9,8 @@
 //! UI") describes it for the operator.
 
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
-use softnc_ipc::ControlKind;
+pub use softnc_api::Request;
+use softnc_api::{Axis, JobRecord, OffsetTable, Reply, Status};
 use std::time::{Duration, Instant};
 
 /// Incremental jog steps that `i` cycles through (mm).
@@ -36,15 +37,14 @@ pub const JOG_RENEW: Duration = Duration::from_millis(100);
 pub const OFFSETS_REFRESH: Duration = Duration::from_secs(1);
 /// `+` / `-` change the feed override by this much (fraction).
 pub const FEED_OVERRIDE_STEP: f64 = 0.1;
-/// The largest feed override the wire takes (fraction; `ControlKind::FeedOverride`).
+/// The largest feed override the UI asks for (fraction; the MMI refuses one over the
+/// profile's `max_feed_override`).
 pub const FEED_OVERRIDE_MAX: f64 = 2.55;
 /// `]` / `[` change the spindle override by this much (fraction); the MMI refuses what
 /// is outside the profile's spindle range.
 pub const SPINDLE_OVERRIDE_STEP: f64 = 0.1;
-/// The axis of a request that names none, or all of them (`Home`: every axis).
-pub const ALL_AXES: u32 = u32::MAX;
-/// Axis letters, by index (the status's arrays are X, Y, Z).
-pub const AXIS_NAMES: [char; 3] = ['X', 'Y', 'Z'];
+/// The axes the UI shows and jogs (the status's arrays are X, Y, Z).
+pub const AXES: [Axis; 3] = [Axis::X, Axis::Y, Axis::Z];
 
 /// Every key, for the `?` overlay (two columns, each at most 38 characters).
 pub const KEY_MAP: [(&str, &str); 11] = [
@@ -61,39 +61,17 @@ pub const KEY_MAP: [(&str, &str); 11] = [
     ("q or Ctrl-C quit", "(a jog stops at any other key)"),
 ];
 
-/// One operator request (`Operator::request_axis(kind, axis, value, text)`).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Request {
-    /// What.
-    pub kind: ControlKind,
-    /// Axis index ([`ALL_AXES`] when none or all).
-    pub axis: u32,
-    /// The value: speed (mm/min), step or touch-off value (mm), switch 1/0, override.
-    pub value: f64,
-    /// The request's text (`path` on the wire): MDI block, coordinate system.
-    pub text: String,
+/// A continuous jog of `axis` at `speed_mm_per_min` (0 stops it).
+pub fn jog(axis: Axis, speed_mm_per_min: f64) -> Request {
+    Request::Jog {
+        axis,
+        speed_mm_per_min,
+    }
 }
 
-impl Request {
-    /// A request naming no axis and no text.
-    pub fn plain(kind: ControlKind, value: f64) -> Self {
-        Request {
-            kind,
-            axis: ALL_AXES,
-            value,
-            text: String::new(),
-        }
-    }
-
-    /// A request for `axis`.
-    pub fn axis(kind: ControlKind, axis: u32, value: f64) -> Self {
-        Request {
-            kind,
-            axis,
-            value,
-            text: String::new(),
-        }
-    }
+/// An incremental jog of `axis` by `distance_mm`.
+pub fn jog_step(axis: Axis, distance_mm: f64) -> Request {
+    Request::JogStep { axis, distance_mm }
 }
 
 /// What the UI asks of its loop.
@@ -120,8 +98,8 @@ pub enum Mode {
 /// A continuous jog the UI holds (renews) while its key repeats.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HeldJog {
-    /// Axis index.
-    pub axis: u32,
+    /// The axis.
+    pub axis: Axis,
     /// Signed speed sent (mm/min).
     pub speed_mm_per_min: f64,
     /// Last press or repeat of its key.
@@ -143,8 +121,8 @@ pub struct Ui {
     pub speed_idx: usize,
     /// The offsets panel shows in place of the live plot (`v`).
     pub offsets_view: bool,
-    /// The last `Offsets` reply (JSON of `machine_store::offsets_json`).
-    pub offsets: Option<serde_json::Value>,
+    /// The last `Offsets` reply.
+    pub offsets: Option<OffsetTable>,
     /// When the offsets were last asked for.
     pub offsets_asked_at: Option<Instant>,
     /// The key overlay (`?`).
@@ -186,25 +164,21 @@ impl Ui {
 
 /// The axis and direction (+1 / −1) a jog key moves: ←/→ X−/X+, ↑/↓ Y+/Y−,
 /// PgUp/PgDn Z+/Z−.
-pub fn jog_key(code: KeyCode) -> Option<(u32, f64)> {
+pub fn jog_key(code: KeyCode) -> Option<(Axis, f64)> {
     match code {
-        KeyCode::Left => Some((0, -1.0)),
-        KeyCode::Right => Some((0, 1.0)),
-        KeyCode::Up => Some((1, 1.0)),
-        KeyCode::Down => Some((1, -1.0)),
-        KeyCode::PageUp => Some((2, 1.0)),
-        KeyCode::PageDown => Some((2, -1.0)),
+        KeyCode::Left => Some((Axis::X, -1.0)),
+        KeyCode::Right => Some((Axis::X, 1.0)),
+        KeyCode::Up => Some((Axis::Y, 1.0)),
+        KeyCode::Down => Some((Axis::Y, -1.0)),
+        KeyCode::PageUp => Some((Axis::Z, 1.0)),
+        KeyCode::PageDown => Some((Axis::Z, -1.0)),
         _ => None,
     }
 }
 
-/// A switch's new value: on (1) if the status shows it off, else off (0).
-fn toggled(s: &serde_json::Value, switch: &str) -> f64 {
-    if s["switches"][switch].as_bool() == Some(true) {
-        0.0
-    } else {
-        1.0
-    }
+/// The switches as the status shows them (all off without a status).
+fn switches(s: Option<&Status>) -> softnc_api::Switches {
+    s.map(|s| s.switches).unwrap_or_default()
 }
 
 /// An override `steps` steps of `step` from `current` (rounded to the step first, so
@@ -216,20 +190,21 @@ fn override_step(current: f64, step: f64, steps: f64, max: Option<f64>) -> f64 {
 }
 
 /// The request that stops a continuous jog of `axis`.
-fn stop_jog(axis: u32) -> Action {
-    Action::Send(Request::axis(ControlKind::Jog, axis, 0.0))
+fn stop_jog(axis: Axis) -> Action {
+    Action::Send(jog(axis, 0.0))
 }
 
 /// What a key does: the requests to send, in order (and the UI's state changed).
 /// `s` is the last status (for toggles, overrides and the active coordinate
-/// system), `now` the time of the key (for a held continuous jog).
+/// system; `None` before one came), `now` the time of the key (for a held
+/// continuous jog).
 ///
 /// - F1 is an E-stop in every mode; Ctrl-C quits in every mode.
 /// - In MDI entry only text, Backspace, Enter (send `Mdi`) and Esc (cancel) act.
 /// - After `t`, x/y/z sends a `TouchOff` of that axis to 0 in the active system.
 /// - A key other than a jog key or `,`/`.` first stops a held continuous jog.
 /// - A key release (terminals that report them) of the held jog's axis stops it.
-pub fn on_key(ui: &mut Ui, key: KeyEvent, s: &serde_json::Value, now: Instant) -> Vec<Action> {
+pub fn on_key(ui: &mut Ui, key: KeyEvent, s: Option<&Status>, now: Instant) -> Vec<Action> {
     let mut out = Vec::new();
     if key.kind == KeyEventKind::Release {
         if let (Some(j), Some((axis, _))) = (ui.jog, jog_key(key.code)) {
@@ -245,7 +220,7 @@ pub fn on_key(ui: &mut Ui, key: KeyEvent, s: &serde_json::Value, now: Instant) -
         // the E-stop stops a jog too: nothing is left to renew
         ui.jog = None;
         ui.mode = Mode::Normal;
-        out.push(Action::Send(Request::plain(ControlKind::EStop, 0.0)));
+        out.push(Action::Send(Request::EStop));
         return out;
     }
     if ctrl && key.code == KeyCode::Char('c') {
@@ -266,12 +241,7 @@ pub fn on_key(ui: &mut Ui, key: KeyEvent, s: &serde_json::Value, now: Instant) -
                     let block = text.trim().to_string();
                     ui.mode = Mode::Normal;
                     if !block.is_empty() {
-                        out.push(Action::Send(Request {
-                            kind: ControlKind::Mdi,
-                            axis: ALL_AXES,
-                            value: 0.0,
-                            text: block,
-                        }));
+                        out.push(Action::Send(Request::Mdi { blocks: block }));
                     }
                 }
                 KeyCode::Esc => ui.mode = Mode::Normal,
@@ -282,17 +252,15 @@ pub fn on_key(ui: &mut Ui, key: KeyEvent, s: &serde_json::Value, now: Instant) -
         Mode::TouchOff => {
             ui.mode = Mode::Normal;
             let axis = match key.code {
-                KeyCode::Char(c) if !ctrl => "xyz".find(c.to_ascii_lowercase()),
+                KeyCode::Char(c) if !ctrl => "xyz".find(c.to_ascii_lowercase()).map(|i| AXES[i]),
                 _ => None,
             };
             if let Some(axis) = axis {
-                // the system the operator sees; "" (the active one) without a status
-                let coords = s["coords"].as_str().unwrap_or("").to_string();
-                out.push(Action::Send(Request {
-                    kind: ControlKind::TouchOff,
-                    axis: axis as u32,
-                    value: 0.0,
-                    text: coords,
+                // the system the operator sees; the active one without a status
+                out.push(Action::Send(Request::TouchOff {
+                    axis,
+                    value_mm: 0.0,
+                    coords: s.map(|s| s.coords.clone()),
                 }));
                 return out;
             }
@@ -317,9 +285,10 @@ pub fn on_key(ui: &mut Ui, key: KeyEvent, s: &serde_json::Value, now: Instant) -
         jog_request(ui, axis, sign, now, &mut out);
         return out;
     }
-    let send = |kind: ControlKind, value: f64| Action::Send(Request::plain(kind, value));
-    let feed = s["feed_override"].as_f64().unwrap_or(1.0);
-    let spindle = s["spindle_override"].as_f64().unwrap_or(1.0);
+    let send = Action::Send;
+    let feed = s.map_or(1.0, |s| s.feed_override);
+    let spindle = s.and_then(|s| s.spindle_override).unwrap_or(1.0);
+    let sw = switches(s);
     match key.code {
         KeyCode::Char('q') => out.push(Action::Quit),
         KeyCode::Char('?') => ui.help = !ui.help,
@@ -330,34 +299,26 @@ pub fn on_key(ui: &mut Ui, key: KeyEvent, s: &serde_json::Value, now: Instant) -
                 ui.offsets_view = false;
             }
         }
-        KeyCode::Char('h') => out.push(send(ControlKind::Hold, 0.0)),
-        KeyCode::Char('r') => out.push(send(ControlKind::Resume, 0.0)),
-        KeyCode::Char('a') => out.push(send(ControlKind::Abort, 0.0)),
-        KeyCode::Char('e') => out.push(send(ControlKind::EStop, 0.0)),
-        KeyCode::Char('x') => out.push(send(ControlKind::Reset, 0.0)),
-        KeyCode::Char('+') => out.push(send(
-            ControlKind::FeedOverride,
-            override_step(feed, FEED_OVERRIDE_STEP, 1.0, Some(FEED_OVERRIDE_MAX)),
-        )),
-        KeyCode::Char('-') => out.push(send(
-            ControlKind::FeedOverride,
-            override_step(feed, FEED_OVERRIDE_STEP, -1.0, Some(FEED_OVERRIDE_MAX)),
-        )),
-        KeyCode::Char(']') => out.push(send(
-            ControlKind::SpindleOverride,
-            override_step(spindle, SPINDLE_OVERRIDE_STEP, 1.0, None),
-        )),
-        KeyCode::Char('[') => out.push(send(
-            ControlKind::SpindleOverride,
-            override_step(spindle, SPINDLE_OVERRIDE_STEP, -1.0, None),
-        )),
-        KeyCode::Char('o') => out.push(send(ControlKind::MachineOn, 0.0)),
-        KeyCode::Char('O') => out.push(send(ControlKind::MachineOff, 0.0)),
-        KeyCode::Char('H') => out.push(Action::Send(Request::axis(
-            ControlKind::Home,
-            ALL_AXES,
-            0.0,
-        ))),
+        KeyCode::Char('h') => out.push(send(Request::Hold)),
+        KeyCode::Char('r') => out.push(send(Request::Resume)),
+        KeyCode::Char('a') => out.push(send(Request::Abort)),
+        KeyCode::Char('e') => out.push(send(Request::EStop)),
+        KeyCode::Char('x') => out.push(send(Request::Reset)),
+        KeyCode::Char('+') => out.push(send(Request::FeedOverride {
+            fraction: override_step(feed, FEED_OVERRIDE_STEP, 1.0, Some(FEED_OVERRIDE_MAX)),
+        })),
+        KeyCode::Char('-') => out.push(send(Request::FeedOverride {
+            fraction: override_step(feed, FEED_OVERRIDE_STEP, -1.0, Some(FEED_OVERRIDE_MAX)),
+        })),
+        KeyCode::Char(']') => out.push(send(Request::SpindleOverride {
+            fraction: override_step(spindle, SPINDLE_OVERRIDE_STEP, 1.0, None),
+        })),
+        KeyCode::Char('[') => out.push(send(Request::SpindleOverride {
+            fraction: override_step(spindle, SPINDLE_OVERRIDE_STEP, -1.0, None),
+        })),
+        KeyCode::Char('o') => out.push(send(Request::MachineOn)),
+        KeyCode::Char('O') => out.push(send(Request::MachineOff)),
+        KeyCode::Char('H') => out.push(send(Request::Home { axis: None })),
         KeyCode::Char('i') => ui.step_idx = (ui.step_idx + 1) % JOG_STEPS_MM.len(),
         KeyCode::Char('c') => ui.continuous = !ui.continuous,
         KeyCode::Char(',') => ui.speed_idx = ui.speed_idx.saturating_sub(1),
@@ -370,15 +331,19 @@ pub fn on_key(ui: &mut Ui, key: KeyEvent, s: &serde_json::Value, now: Instant) -
             ui.offsets_view = !ui.offsets_view;
             if ui.offsets_view {
                 ui.offsets_asked_at = Some(now);
-                out.push(send(ControlKind::Offsets, 0.0));
+                out.push(send(Request::Offsets));
             }
         }
-        KeyCode::Char('s') => out.push(send(ControlKind::SingleBlock, toggled(s, "single_block"))),
-        KeyCode::Char('n') => out.push(send(ControlKind::Step, 0.0)),
-        KeyCode::Char('1') => {
-            out.push(send(ControlKind::OptionalStop, toggled(s, "optional_stop")))
-        }
-        KeyCode::Char('/') => out.push(send(ControlKind::BlockDelete, toggled(s, "block_delete"))),
+        KeyCode::Char('s') => out.push(send(Request::SingleBlock {
+            on: !sw.single_block,
+        })),
+        KeyCode::Char('n') => out.push(send(Request::Step)),
+        KeyCode::Char('1') => out.push(send(Request::OptionalStop {
+            on: !sw.optional_stop,
+        })),
+        KeyCode::Char('/') => out.push(send(Request::BlockDelete {
+            on: !sw.block_delete,
+        })),
         _ => {}
     }
     out
@@ -387,17 +352,13 @@ pub fn on_key(ui: &mut Ui, key: KeyEvent, s: &serde_json::Value, now: Instant) -
 /// A jog key: an incremental `JogStep` of the selected step, or in continuous mode a
 /// `Jog` at the selected speed, held by the key's repeats (renewed at most every
 /// [`JOG_RENEW`]); a jog of another axis is stopped first.
-fn jog_request(ui: &mut Ui, axis: u32, sign: f64, now: Instant, out: &mut Vec<Action>) {
+fn jog_request(ui: &mut Ui, axis: Axis, sign: f64, now: Instant, out: &mut Vec<Action>) {
     if !ui.continuous {
-        out.push(Action::Send(Request::axis(
-            ControlKind::JogStep,
-            axis,
-            sign * ui.step_mm(),
-        )));
+        out.push(Action::Send(jog_step(axis, sign * ui.step_mm())));
         return;
     }
     let speed = sign * ui.speed_mm_per_min();
-    let renew = Action::Send(Request::axis(ControlKind::Jog, axis, speed));
+    let renew = Action::Send(jog(axis, speed));
     match ui.jog.as_mut() {
         Some(j) if j.axis == axis && j.speed_mm_per_min == speed => {
             j.key_at = now;
@@ -433,18 +394,14 @@ pub fn on_tick(ui: &mut Ui, now: Instant) -> Vec<Action> {
             out.push(stop_jog(axis));
         } else if now.duration_since(j.sent_at) >= JOG_RENEW {
             j.sent_at = now;
-            out.push(Action::Send(Request::axis(
-                ControlKind::Jog,
-                j.axis,
-                j.speed_mm_per_min,
-            )));
+            out.push(Action::Send(jog(j.axis, j.speed_mm_per_min)));
         }
     }
     if ui.offsets_view
         && !matches!(ui.offsets_asked_at, Some(t) if now.duration_since(t) < OFFSETS_REFRESH)
     {
         ui.offsets_asked_at = Some(now);
-        out.push(Action::Send(Request::plain(ControlKind::Offsets, 0.0)));
+        out.push(Action::Send(Request::Offsets));
     }
     out
 }
@@ -452,22 +409,27 @@ pub fn on_tick(ui: &mut Ui, now: Instant) -> Vec<Action> {
 /// What a reply to `req` changes: the offsets view takes an `Offsets` reply; a
 /// refused (or failed) `Jog` is no longer held; the message line shows the reply
 /// (a refused stop of a jog that had already ended says nothing).
-pub fn on_reply(ui: &mut Ui, req: &Request, reply: Result<(bool, String), String>) {
+pub fn on_reply(ui: &mut Ui, req: &Request, reply: Result<Reply, String>) {
     let (accepted, message) = match reply {
-        Ok(r) => r,
+        Ok(Reply::Offsets(table)) if *req == Request::Offsets => {
+            ui.offsets = Some(table);
+            return;
+        }
+        Ok(r) => (r.is_accepted(), r.message()),
         Err(e) => (false, e),
     };
-    let held = |ui: &Ui| {
-        ui.jog
-            .is_some_and(|j| j.axis == req.axis && j.speed_mm_per_min == req.value)
-    };
-    match req.kind {
-        ControlKind::Offsets if accepted => match serde_json::from_str(&message) {
-            Ok(v) => ui.offsets = Some(v),
-            Err(e) => ui.note = format!("offsets: unreadable reply: {e}"),
-        },
-        ControlKind::Jog if req.value == 0.0 && !accepted => {}
-        ControlKind::Jog if !accepted && held(ui) => {
+    match req {
+        Request::Jog {
+            speed_mm_per_min, ..
+        } if *speed_mm_per_min == 0.0 && !accepted => {}
+        Request::Jog {
+            axis,
+            speed_mm_per_min,
+        } if !accepted
+            && ui
+                .jog
+                .is_some_and(|j| j.axis == *axis && j.speed_mm_per_min == *speed_mm_per_min) =>
+        {
             ui.jog = None;
             ui.note = message;
         }
@@ -507,31 +469,30 @@ impl Listing {
         }
     }
 
-    /// The listing of the status's job (`None`: no job): its MDI text, or the file at
-    /// `job.program` (a line saying why when it is unreadable or not named).
-    pub fn for_job(job: &serde_json::Value) -> Option<Self> {
-        let job_id = job["job_id"].as_u64()?;
-        if let Some(mdi) = job["mdi"].as_str() {
-            return Some(Self::from_text(job_id, true, mdi.to_string()));
+    /// The listing of a job: its MDI text, or the file at `job.program` (a line
+    /// saying why when it is unreadable or not named).
+    pub fn for_job(job: &JobRecord) -> Self {
+        let job_id = job.job_id;
+        if let Some(mdi) = &job.mdi {
+            return Self::from_text(job_id, true, mdi.to_string());
         }
-        let text = match job["program"].as_str() {
+        let text = match &job.program {
             Some(path) => match std::fs::read(path) {
                 Ok(bytes) => String::from_utf8_lossy(&bytes).into_owned(),
                 Err(e) => format!("(cannot read the program {path}: {e})"),
             },
             None => "(the job names no program copy)".to_string(),
         };
-        Some(Self::from_text(job_id, false, text))
+        Self::from_text(job_id, false, text)
     }
 
     /// Keep `cache` for the status's job: read its program when the job changes
     /// (once per job), drop it when there is no job.
-    pub fn refresh(cache: &mut Option<Listing>, s: &serde_json::Value) {
-        let job = &s["job"];
-        match job["job_id"].as_u64() {
+    pub fn refresh(cache: &mut Option<Listing>, s: Option<&Status>) {
+        match s.and_then(|s| s.job.as_ref()) {
             None => *cache = None,
-            Some(id) if cache.as_ref().is_some_and(|l| l.job_id == id) => {}
-            Some(_) => *cache = Self::for_job(job),
+            Some(j) if cache.as_ref().is_some_and(|l| l.job_id == j.record.job_id) => {}
+            Some(j) => *cache = Some(Self::for_job(&j.record)),
         }
     }
 
@@ -553,6 +514,32 @@ impl Listing {
         let last_start = self.line_count().saturating_sub(height) + 1;
         c.saturating_sub(height / 3).clamp(1, last_start.max(1))
     }
+}
+
+/// A status from JSON for the tests: `patch` laid over an idle machine's status
+/// (objects merged key by key, a job's record given the fields it must have).
+#[cfg(test)]
+pub(crate) fn test_status(patch: serde_json::Value) -> Status {
+    fn merge(base: &mut serde_json::Value, patch: serde_json::Value) {
+        match (base, patch) {
+            (serde_json::Value::Object(b), serde_json::Value::Object(p)) => {
+                for (k, v) in p {
+                    merge(b.entry(k).or_insert(serde_json::Value::Null), v);
+                }
+            }
+            (b, p) => *b = p,
+        }
+    }
+    let mut v = serde_json::json!({"state": "Idle", "coords": "G54",
+        "offsets": {"g5x_mm": [0.0, 0.0, 0.0], "rotation_deg": 0.0,
+            "g92_mm": [0.0, 0.0, 0.0], "tool_offset_mm": [0.0, 0.0, 0.0]},
+        "tool": 0, "feed_override": 1.0,
+        "processes": {"interp": "alive", "position": "alive", "supervisor": "alive"}});
+    if patch["job"].is_object() {
+        v["job"] = serde_json::json!({"job_id": 0, "path": "", "outcome": "running"});
+    }
+    merge(&mut v, patch);
+    serde_json::from_value(v).expect("a status")
 }
 
 #[cfg(test)]
@@ -578,9 +565,15 @@ mod tests {
             .collect()
     }
 
-    fn idle() -> serde_json::Value {
-        json!({"state": "Idle", "coords": "G55", "feed_override": 1.0, "spindle_override": 1.0,
-               "switches": {"single_block": false, "optional_stop": true, "block_delete": false}})
+    fn idle() -> Status {
+        test_status(
+            json!({"state": "Idle", "coords": "G55", "feed_override": 1.0, "spindle_override": 1.0,
+               "switches": {"single_block": false, "optional_stop": true, "block_delete": false}}),
+        )
+    }
+
+    fn ax(i: usize) -> Axis {
+        AXES[i]
     }
 
     #[test]
@@ -597,18 +590,18 @@ mod tests {
             (KeyCode::PageDown, 2, -0.1),
         ];
         for (code, axis, mm) in cases {
-            let r = sent(&on_key(&mut ui, key(code), &s, t));
-            assert_eq!(r, vec![Request::axis(ControlKind::JogStep, axis, mm)]);
+            let r = sent(&on_key(&mut ui, key(code), Some(&s), t));
+            assert_eq!(r, vec![jog_step(ax(axis), mm)]);
         }
         let mut steps = vec![];
         for _ in 0..4 {
-            assert!(on_key(&mut ui, ch('i'), &s, t).is_empty());
+            assert!(on_key(&mut ui, ch('i'), Some(&s), t).is_empty());
             steps.push(ui.step_mm());
         }
         assert_eq!(steps, vec![1.0, 10.0, 0.01, 0.1]);
-        on_key(&mut ui, ch('i'), &s, t);
-        let r = sent(&on_key(&mut ui, key(KeyCode::PageDown), &s, t));
-        assert_eq!(r, vec![Request::axis(ControlKind::JogStep, 2, -1.0)]);
+        on_key(&mut ui, ch('i'), Some(&s), t);
+        let r = sent(&on_key(&mut ui, key(KeyCode::PageDown), Some(&s), t));
+        assert_eq!(r, vec![jog_step(ax(2), -1.0)]);
         assert!(ui.jog.is_none(), "an incremental jog is not held");
     }
 
@@ -617,24 +610,24 @@ mod tests {
         let mut ui = Ui::default();
         let t0 = Instant::now();
         let s = idle();
-        on_key(&mut ui, ch('c'), &s, t0);
+        on_key(&mut ui, ch('c'), Some(&s), t0);
         assert!(ui.continuous);
-        on_key(&mut ui, ch('.'), &s, t0);
+        on_key(&mut ui, ch('.'), Some(&s), t0);
         assert_eq!(ui.speed_mm_per_min(), 1200.0);
         let ms = |k: u64| t0 + Duration::from_millis(k);
-        let r = sent(&on_key(&mut ui, key(KeyCode::Right), &s, ms(0)));
-        assert_eq!(r, vec![Request::axis(ControlKind::Jog, 0, 1200.0)]);
+        let r = sent(&on_key(&mut ui, key(KeyCode::Right), Some(&s), ms(0)));
+        assert_eq!(r, vec![jog(ax(0), 1200.0)]);
         // a repeat sooner than JOG_RENEW sends nothing more, one later renews
-        assert!(on_key(&mut ui, key(KeyCode::Right), &s, ms(30)).is_empty());
-        let r = sent(&on_key(&mut ui, key(KeyCode::Right), &s, ms(120)));
-        assert_eq!(r, vec![Request::axis(ControlKind::Jog, 0, 1200.0)]);
+        assert!(on_key(&mut ui, key(KeyCode::Right), Some(&s), ms(30)).is_empty());
+        let r = sent(&on_key(&mut ui, key(KeyCode::Right), Some(&s), ms(120)));
+        assert_eq!(r, vec![jog(ax(0), 1200.0)]);
         // the timer renews it while the key is held (the terminal's repeat delay) …
         let r = sent(&on_tick(&mut ui, ms(300)));
-        assert_eq!(r, vec![Request::axis(ControlKind::Jog, 0, 1200.0)]);
+        assert_eq!(r, vec![jog(ax(0), 1200.0)]);
         assert!(on_tick(&mut ui, ms(350)).is_empty());
         // … and stops it JOG_KEY_HOLD after the last repeat
         let r = sent(&on_tick(&mut ui, ms(120 + 501)));
-        assert_eq!(r, vec![Request::axis(ControlKind::Jog, 0, 0.0)]);
+        assert_eq!(r, vec![jog(ax(0), 0.0)]);
         assert!(ui.jog.is_none());
         assert!(on_tick(&mut ui, ms(2000)).is_empty());
     }
@@ -647,47 +640,29 @@ mod tests {
         };
         let t = Instant::now();
         let s = idle();
-        on_key(&mut ui, key(KeyCode::Up), &s, t);
+        on_key(&mut ui, key(KeyCode::Up), Some(&s), t);
         // another axis: the first is stopped, then the new one starts
-        let r = sent(&on_key(&mut ui, key(KeyCode::PageDown), &s, t));
-        assert_eq!(
-            r,
-            vec![
-                Request::axis(ControlKind::Jog, 1, 0.0),
-                Request::axis(ControlKind::Jog, 2, -600.0)
-            ]
-        );
+        let r = sent(&on_key(&mut ui, key(KeyCode::PageDown), Some(&s), t));
+        assert_eq!(r, vec![jog(ax(1), 0.0), jog(ax(2), -600.0)]);
         // the other direction on the same axis: sent at once
-        let r = sent(&on_key(&mut ui, key(KeyCode::PageUp), &s, t));
-        assert_eq!(r, vec![Request::axis(ControlKind::Jog, 2, 600.0)]);
+        let r = sent(&on_key(&mut ui, key(KeyCode::PageUp), Some(&s), t));
+        assert_eq!(r, vec![jog(ax(2), 600.0)]);
         // a release of its key stops it
         let mut release = key(KeyCode::PageUp);
         release.kind = KeyEventKind::Release;
-        let r = sent(&on_key(&mut ui, release, &s, t));
-        assert_eq!(r, vec![Request::axis(ControlKind::Jog, 2, 0.0)]);
+        let r = sent(&on_key(&mut ui, release, Some(&s), t));
+        assert_eq!(r, vec![jog(ax(2), 0.0)]);
         // any other key stops it before acting
-        on_key(&mut ui, key(KeyCode::Left), &s, t);
-        let r = sent(&on_key(&mut ui, ch('h'), &s, t));
-        assert_eq!(
-            r,
-            vec![
-                Request::axis(ControlKind::Jog, 0, 0.0),
-                Request::plain(ControlKind::Hold, 0.0)
-            ]
-        );
+        on_key(&mut ui, key(KeyCode::Left), Some(&s), t);
+        let r = sent(&on_key(&mut ui, ch('h'), Some(&s), t));
+        assert_eq!(r, vec![jog(ax(0), 0.0), Request::Hold]);
         // quitting stops it too
-        on_key(&mut ui, key(KeyCode::Left), &s, t);
-        let a = on_key(&mut ui, ch('q'), &s, t);
-        assert_eq!(
-            a,
-            vec![
-                Action::Send(Request::axis(ControlKind::Jog, 0, 0.0)),
-                Action::Quit
-            ]
-        );
+        on_key(&mut ui, key(KeyCode::Left), Some(&s), t);
+        let a = on_key(&mut ui, ch('q'), Some(&s), t);
+        assert_eq!(a, vec![Action::Send(jog(ax(0), 0.0)), Action::Quit]);
         // a refused jog is no longer held (nothing left to renew)
-        let r = sent(&on_key(&mut ui, key(KeyCode::Left), &s, t));
-        on_reply(&mut ui, &r[0], Ok((false, "jog refused (Off)".into())));
+        let r = sent(&on_key(&mut ui, key(KeyCode::Left), Some(&s), t));
+        on_reply(&mut ui, &r[0], Ok(Reply::refused("jog refused (Off)")));
         assert!(ui.jog.is_none());
         assert_eq!(ui.note, "jog refused (Off)");
     }
@@ -697,39 +672,36 @@ mod tests {
         let mut ui = Ui::default();
         let t = Instant::now();
         let s = idle();
-        on_key(&mut ui, ch('m'), &s, t);
+        on_key(&mut ui, ch('m'), Some(&s), t);
         assert_eq!(ui.mode, Mode::Mdi(String::new()));
         // e, x, q, h … are text here, not E-stop, reset, quit, hold
         for c in "G0 X1ehqx".chars() {
-            assert!(on_key(&mut ui, ch(c), &s, t).is_empty(), "{c} acted");
+            assert!(on_key(&mut ui, ch(c), Some(&s), t).is_empty(), "{c} acted");
         }
         for _ in 0..4 {
-            on_key(&mut ui, key(KeyCode::Backspace), &s, t);
+            on_key(&mut ui, key(KeyCode::Backspace), Some(&s), t);
         }
-        assert!(on_key(&mut ui, key(KeyCode::Left), &s, t).is_empty());
+        assert!(on_key(&mut ui, key(KeyCode::Left), Some(&s), t).is_empty());
         assert_eq!(ui.mode, Mode::Mdi("G0 X1".into()));
-        let r = sent(&on_key(&mut ui, key(KeyCode::Enter), &s, t));
+        let r = sent(&on_key(&mut ui, key(KeyCode::Enter), Some(&s), t));
         assert_eq!(
             r,
-            vec![Request {
-                kind: ControlKind::Mdi,
-                axis: ALL_AXES,
-                value: 0.0,
-                text: "G0 X1".into()
+            vec![Request::Mdi {
+                blocks: "G0 X1".into()
             }]
         );
         assert_eq!(ui.mode, Mode::Normal);
         // Esc cancels, an empty line sends nothing
-        on_key(&mut ui, ch('m'), &s, t);
-        on_key(&mut ui, ch('G'), &s, t);
-        assert!(on_key(&mut ui, key(KeyCode::Esc), &s, t).is_empty());
+        on_key(&mut ui, ch('m'), Some(&s), t);
+        on_key(&mut ui, ch('G'), Some(&s), t);
+        assert!(on_key(&mut ui, key(KeyCode::Esc), Some(&s), t).is_empty());
         assert_eq!(ui.mode, Mode::Normal);
-        on_key(&mut ui, ch('m'), &s, t);
-        assert!(on_key(&mut ui, key(KeyCode::Enter), &s, t).is_empty());
+        on_key(&mut ui, ch('m'), Some(&s), t);
+        assert!(on_key(&mut ui, key(KeyCode::Enter), Some(&s), t).is_empty());
         // F1 is an E-stop even while typing
-        on_key(&mut ui, ch('m'), &s, t);
-        let r = sent(&on_key(&mut ui, key(KeyCode::F(1)), &s, t));
-        assert_eq!(r, vec![Request::plain(ControlKind::EStop, 0.0)]);
+        on_key(&mut ui, ch('m'), Some(&s), t);
+        let r = sent(&on_key(&mut ui, key(KeyCode::F(1)), Some(&s), t));
+        assert_eq!(r, vec![Request::EStop]);
         assert_eq!(ui.mode, Mode::Normal);
     }
 
@@ -738,57 +710,35 @@ mod tests {
         let mut ui = Ui::default();
         let t = Instant::now();
         let s = idle();
-        let one = |ui: &mut Ui, c: char| sent(&on_key(ui, ch(c), &s, t));
-        assert_eq!(
-            one(&mut ui, 's'),
-            vec![Request::plain(ControlKind::SingleBlock, 1.0)]
-        );
+        let one = |ui: &mut Ui, c: char| sent(&on_key(ui, ch(c), Some(&s), t));
+        assert_eq!(one(&mut ui, 's'), vec![Request::SingleBlock { on: true }]);
         // optional stop is on in the status: `1` turns it off
-        assert_eq!(
-            one(&mut ui, '1'),
-            vec![Request::plain(ControlKind::OptionalStop, 0.0)]
-        );
-        assert_eq!(
-            one(&mut ui, '/'),
-            vec![Request::plain(ControlKind::BlockDelete, 1.0)]
-        );
-        assert_eq!(
-            one(&mut ui, 'n'),
-            vec![Request::plain(ControlKind::Step, 0.0)]
-        );
-        assert_eq!(
-            one(&mut ui, 'H'),
-            vec![Request::axis(ControlKind::Home, ALL_AXES, 0.0)]
-        );
-        assert_eq!(
-            one(&mut ui, 'o'),
-            vec![Request::plain(ControlKind::MachineOn, 0.0)]
-        );
-        assert_eq!(
-            one(&mut ui, 'O'),
-            vec![Request::plain(ControlKind::MachineOff, 0.0)]
-        );
-        assert_eq!(
-            one(&mut ui, 'e'),
-            vec![Request::plain(ControlKind::EStop, 0.0)]
-        );
-        assert_eq!(
-            one(&mut ui, 'x'),
-            vec![Request::plain(ControlKind::Reset, 0.0)]
-        );
-        let feed = one(&mut ui, '+');
-        assert_eq!(feed[0].kind, ControlKind::FeedOverride);
-        assert!((feed[0].value - 1.1).abs() < 1e-12, "{feed:?}");
-        let fast = json!({"feed_override": 2.5});
-        let r = sent(&on_key(&mut ui, ch('+'), &fast, t));
-        assert_eq!(r[0].value, FEED_OVERRIDE_MAX);
-        let slow = json!({"feed_override": 0.0});
-        let r = sent(&on_key(&mut ui, ch('-'), &slow, t));
-        assert_eq!(r[0].value, 0.0);
-        let sp = one(&mut ui, '[');
-        assert_eq!(sp[0].kind, ControlKind::SpindleOverride);
-        assert!((sp[0].value - 0.9).abs() < 1e-12);
-        assert!(on_key(&mut ui, ch('q'), &s, t).contains(&Action::Quit));
+        assert_eq!(one(&mut ui, '1'), vec![Request::OptionalStop { on: false }]);
+        assert_eq!(one(&mut ui, '/'), vec![Request::BlockDelete { on: true }]);
+        assert_eq!(one(&mut ui, 'n'), vec![Request::Step]);
+        assert_eq!(one(&mut ui, 'H'), vec![Request::Home { axis: None }]);
+        assert_eq!(one(&mut ui, 'o'), vec![Request::MachineOn]);
+        assert_eq!(one(&mut ui, 'O'), vec![Request::MachineOff]);
+        assert_eq!(one(&mut ui, 'e'), vec![Request::EStop]);
+        assert_eq!(one(&mut ui, 'x'), vec![Request::Reset]);
+        let fraction = |r: &[Request]| match r {
+            [Request::FeedOverride { fraction }] => ("feed", *fraction),
+            [Request::SpindleOverride { fraction }] => ("spindle", *fraction),
+            other => panic!("{other:?}"),
+        };
+        let (what, f) = fraction(&one(&mut ui, '+'));
+        assert_eq!(what, "feed");
+        assert!((f - 1.1).abs() < 1e-12, "{f}");
+        let fast = test_status(json!({"feed_override": 2.5}));
+        let r = sent(&on_key(&mut ui, ch('+'), Some(&fast), t));
+        assert_eq!(fraction(&r), ("feed", FEED_OVERRIDE_MAX));
+        let slow = test_status(json!({"feed_override": 0.0}));
+        let r = sent(&on_key(&mut ui, ch('-'), Some(&slow), t));
+        assert_eq!(fraction(&r), ("feed", 0.0));
+        let (what, f) = fraction(&one(&mut ui, '['));
+        assert_eq!(what, "spindle");
+        assert!((f - 0.9).abs() < 1e-12);
+        assert!(on_key(&mut ui, ch('q'), Some(&s), t).contains(&Action::Quit));
     }
 
     #[test]
@@ -796,30 +746,32 @@ mod tests {
         let mut ui = Ui::default();
         let t = Instant::now();
         let s = idle();
-        assert!(on_key(&mut ui, ch('t'), &s, t).is_empty());
+        assert!(on_key(&mut ui, ch('t'), Some(&s), t).is_empty());
         assert_eq!(ui.mode, Mode::TouchOff);
-        let r = sent(&on_key(&mut ui, ch('y'), &s, t));
+        let r = sent(&on_key(&mut ui, ch('y'), Some(&s), t));
         assert_eq!(
             r,
-            vec![Request {
-                kind: ControlKind::TouchOff,
-                axis: 1,
-                value: 0.0,
-                text: "G55".into()
+            vec![Request::TouchOff {
+                axis: Axis::Y,
+                value_mm: 0.0,
+                coords: Some("G55".into())
             }]
         );
         assert_eq!(ui.mode, Mode::Normal);
         // `x` after `t` is the X axis, not a reset
-        on_key(&mut ui, ch('t'), &s, t);
-        let r = sent(&on_key(&mut ui, ch('x'), &s, t));
-        assert_eq!((r[0].kind, r[0].axis), (ControlKind::TouchOff, 0));
+        on_key(&mut ui, ch('t'), Some(&s), t);
+        let r = sent(&on_key(&mut ui, ch('x'), Some(&s), t));
+        assert!(
+            matches!(r[0], Request::TouchOff { axis: Axis::X, .. }),
+            "{r:?}"
+        );
         // Esc cancels; another key cancels and acts (an E-stop stays an E-stop)
-        on_key(&mut ui, ch('t'), &s, t);
-        assert!(on_key(&mut ui, key(KeyCode::Esc), &s, t).is_empty());
+        on_key(&mut ui, ch('t'), Some(&s), t);
+        assert!(on_key(&mut ui, key(KeyCode::Esc), Some(&s), t).is_empty());
         assert_eq!(ui.mode, Mode::Normal);
-        on_key(&mut ui, ch('t'), &s, t);
-        let r = sent(&on_key(&mut ui, ch('e'), &s, t));
-        assert_eq!(r, vec![Request::plain(ControlKind::EStop, 0.0)]);
+        on_key(&mut ui, ch('t'), Some(&s), t);
+        let r = sent(&on_key(&mut ui, ch('e'), Some(&s), t));
+        assert_eq!(r, vec![Request::EStop]);
         assert_eq!(ui.mode, Mode::Normal);
     }
 
@@ -828,19 +780,25 @@ mod tests {
         let mut ui = Ui::default();
         let t0 = Instant::now();
         let s = idle();
-        let r = sent(&on_key(&mut ui, ch('v'), &s, t0));
-        assert_eq!(r, vec![Request::plain(ControlKind::Offsets, 0.0)]);
+        let r = sent(&on_key(&mut ui, ch('v'), Some(&s), t0));
+        assert_eq!(r, vec![Request::Offsets]);
         assert!(ui.offsets_view);
         on_reply(
             &mut ui,
             &r[0],
-            Ok((true, r#"{"active": "G55", "systems": []}"#.into())),
+            Ok(Reply::Offsets(OffsetTable {
+                active: "G55".into(),
+                systems: vec![],
+                g92_mm: [0.0; 3],
+                tool: 0,
+                tool_offset_mm: [0.0; 3],
+            })),
         );
-        assert_eq!(ui.offsets.as_ref().unwrap()["active"], "G55");
+        assert_eq!(ui.offsets.as_ref().unwrap().active, "G55");
         assert!(on_tick(&mut ui, t0 + Duration::from_millis(500)).is_empty());
         let r = sent(&on_tick(&mut ui, t0 + OFFSETS_REFRESH));
-        assert_eq!(r, vec![Request::plain(ControlKind::Offsets, 0.0)]);
-        assert!(on_key(&mut ui, ch('v'), &s, t0).is_empty());
+        assert_eq!(r, vec![Request::Offsets]);
+        assert!(on_key(&mut ui, ch('v'), Some(&s), t0).is_empty());
         assert!(!ui.offsets_view);
         assert!(on_tick(&mut ui, t0 + 10 * OFFSETS_REFRESH).is_empty());
     }
@@ -850,12 +808,12 @@ mod tests {
         let mut ui = Ui::default();
         let t = Instant::now();
         let s = idle();
-        on_key(&mut ui, ch('?'), &s, t);
+        on_key(&mut ui, ch('?'), Some(&s), t);
         assert!(ui.help);
-        assert!(on_key(&mut ui, key(KeyCode::Esc), &s, t).is_empty());
+        assert!(on_key(&mut ui, key(KeyCode::Esc), Some(&s), t).is_empty());
         assert!(!ui.help);
         let ctrl_c = KeyEvent::new(KeyCode::Char('c'), KeyModifiers::CONTROL);
-        assert_eq!(on_key(&mut ui, ctrl_c, &s, t), vec![Action::Quit]);
+        assert_eq!(on_key(&mut ui, ctrl_c, Some(&s), t), vec![Action::Quit]);
         assert!(!ui.continuous, "Ctrl-C is not `c`");
     }
 
@@ -866,9 +824,9 @@ mod tests {
         let path = dir.join("p.ngc");
         let text: String = (1..=20).map(|k| format!("N{k} G1 X{k}\r\n")).collect();
         std::fs::write(&path, &text).unwrap();
-        let s = json!({"job": {"job_id": 4, "program": path.to_str().unwrap()}});
+        let s = test_status(json!({"job": {"job_id": 4, "program": path.to_str().unwrap()}}));
         let mut cache = None;
-        Listing::refresh(&mut cache, &s);
+        Listing::refresh(&mut cache, Some(&s));
         let l = cache.clone().unwrap();
         assert_eq!(
             (l.line_count(), l.line(1), l.line(20)),
@@ -878,23 +836,23 @@ mod tests {
         assert_eq!(l.line(21), None);
         // the same job is not read again (the file may go)
         std::fs::remove_file(&path).unwrap();
-        Listing::refresh(&mut cache, &s);
+        Listing::refresh(&mut cache, Some(&s));
         assert_eq!(cache.as_ref(), Some(&l));
         // a new job is read; an MDI job lists its text
-        let mdi = json!({"job": {"job_id": 5, "mdi": "G0 X1\nG0 Y2"}});
-        Listing::refresh(&mut cache, &mdi);
+        let mdi = test_status(json!({"job": {"job_id": 5, "mdi": "G0 X1\nG0 Y2"}}));
+        Listing::refresh(&mut cache, Some(&mdi));
         let m = cache.clone().unwrap();
         assert!(m.mdi);
         assert_eq!(m.line(2), Some("G0 Y2"));
-        let gone = json!({"job": {"job_id": 6, "program": path.to_str().unwrap()}});
-        Listing::refresh(&mut cache, &gone);
+        let gone = test_status(json!({"job": {"job_id": 6, "program": path.to_str().unwrap()}}));
+        Listing::refresh(&mut cache, Some(&gone));
         assert!(cache
             .as_ref()
             .unwrap()
             .line(1)
             .unwrap()
             .contains("cannot read"));
-        Listing::refresh(&mut cache, &json!({"job": null}));
+        Listing::refresh(&mut cache, Some(&test_status(json!({"job": null}))));
         assert!(cache.is_none());
         // windows: the current line a third of the way down, within the text
         assert_eq!(l.window_start(None, 6), 1);

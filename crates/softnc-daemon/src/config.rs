@@ -365,13 +365,13 @@ impl DaemonConfig {
             return Err(bad("job_record_period_s", "must be a finite number > 0"));
         }
         if !(config.check_timeout_s > 0.0
-            && config.check_timeout_s < crate::client::JOB_CHECK_TIMEOUT.as_secs_f64())
+            && config.check_timeout_s < softnc_api::JOB_CHECK_TIMEOUT.as_secs_f64())
         {
             return Err(bad(
                 "check_timeout_s",
                 &format!(
                     "must be > 0 and below the {} s a client waits for a job's check",
-                    crate::client::JOB_CHECK_TIMEOUT.as_secs()
+                    softnc_api::JOB_CHECK_TIMEOUT.as_secs()
                 ),
             ));
         }

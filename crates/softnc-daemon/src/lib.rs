@@ -26,12 +26,13 @@
 //! - [`trace`]: per-cycle CSV traces, written off the cycle path.
 //! - [`plan_samples`]: a plan's samples for the offline simulator, their feed
 //!   override open to adaptive feed as the interpolation process opens it.
-//! - [`client`]: the operator client (request-response to the MMI).
+//!
+//! The operator client is the crate `softnc-client`; the operator contract the
+//! MMI serves is the crate `softnc-api`.
 #![warn(missing_docs)]
 
 pub mod bus;
 pub mod cli;
-pub mod client;
 pub mod config;
 pub mod interp;
 pub mod ipc_guard;

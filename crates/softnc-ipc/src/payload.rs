@@ -201,7 +201,8 @@ pub struct LoopStats {
     pub latency_ns: [u64; 4],
 }
 
-/// What a control command asks.
+/// What a control command from the MMI asks the interpolation and position
+/// processes (the operator's requests are `softnc-api`'s `Request`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(u32)]
 pub enum ControlKind {
@@ -221,10 +222,6 @@ pub enum ControlKind {
     Reset = 6,
     /// Shut the process down.
     Shutdown = 7,
-    /// Operator: the machine's status as JSON.
-    Status = 8,
-    /// Operator: the job history as JSON.
-    Jobs = 9,
     /// Set the spindle override to `value` (fraction of the programmed speed).
     SpindleOverride = 10,
     /// Machine on: drives enabled, holding position.
@@ -237,15 +234,6 @@ pub enum ControlKind {
     Jog = 14,
     /// Incremental jog of `axis` by `value` mm at the profile's jog speed.
     JogStep = 15,
-    /// Operator: run the MDI block(s) in `path`.
-    Mdi = 16,
-    /// Operator: set `axis`'s work offset so the current position reads `value`
-    /// (G10 L20) in the coordinate system named in `path` ("" the active one).
-    TouchOff = 17,
-    /// Operator: the work offsets as JSON.
-    Offsets = 18,
-    /// Operator: the tool table as JSON.
-    Tools = 19,
     /// Single block on (`value` 1) or off (0).
     SingleBlock = 20,
     /// Single block: run the next block.
@@ -254,8 +242,6 @@ pub enum ControlKind {
     OptionalStop = 22,
     /// Block delete switch on (`value` 1) or off (0).
     BlockDelete = 23,
-    /// Operator: set tool `axis`'s length (`value`, mm) and diameter (`path`, mm).
-    ToolSet = 24,
 }
 
 /// MMI → interpolation and position control.
@@ -367,39 +353,34 @@ pub struct EStopRequest {
     pub sent_unix_ns: u64,
 }
 
-/// Operator client → MMI (request-response).
+/// Operator client → MMI (request-response): one `softnc-api` request, serialised
+/// (JSON in its envelope, `softnc_api::encode_request`).
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
 #[repr(C)]
-#[type_name("softnc::OperatorRequest")]
+#[type_name("softnc::OperatorRequestJson")]
 pub struct OperatorRequest {
-    /// What to do ([`ControlKind`] as `wire()`; `StartJob` submits `path`).
-    pub kind: u32,
-    /// Axis index (`Home`, `Jog`, `JogStep`, `TouchOff`; `u32::MAX`: none or all),
-    /// tool number (`ToolSet`), line to run from (`StartJob`, 0: the start).
-    pub axis: u32,
-    /// Argument.
-    pub value: f64,
-    /// Job options for `StartJob` (bits: [`JOB_ADAPTIVE_FORCE`]); 0 otherwise.
-    pub flags: u32,
-    /// Job file.
-    pub path: FixedStr<512>,
+    /// The serialised request; one that does not fit is not sent.
+    pub message: FixedStr<{ OperatorRequest::MESSAGE_CAPACITY }>,
 }
 
-/// MMI → operator client.
+impl OperatorRequest {
+    /// Bytes a request holds.
+    pub const MESSAGE_CAPACITY: usize = 4096;
+}
+
+/// MMI → operator client: one `softnc-api` reply, serialised (JSON in its envelope,
+/// `softnc_api::encode_reply`); a reply that does not fit is replaced by one saying
+/// so, never cut.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
 #[repr(C)]
-#[type_name("softnc::OperatorReply")]
+#[type_name("softnc::OperatorReplyJson")]
 pub struct OperatorReply {
-    /// 1 accepted, 0 refused.
-    pub accepted: u32,
-    /// Job id given to a submitted job.
-    pub job_id: u64,
-    /// Why refused (`file:line:column: reason`), or the JSON asked for.
+    /// The serialised reply.
     pub message: FixedStr<{ OperatorReply::MESSAGE_CAPACITY }>,
 }
 
 impl OperatorReply {
-    /// Bytes a reply's message holds.
+    /// Bytes a reply holds.
     pub const MESSAGE_CAPACITY: usize = 8192;
 }
 
@@ -475,23 +456,16 @@ wire_enum!(ControlKind {
     EStop,
     Reset,
     Shutdown,
-    Status,
-    Jobs,
     SpindleOverride,
     MachineOn,
     MachineOff,
     Home,
     Jog,
     JogStep,
-    Mdi,
-    TouchOff,
-    Offsets,
-    Tools,
     SingleBlock,
     Step,
     OptionalStop,
-    BlockDelete,
-    ToolSet
+    BlockDelete
 });
 wire_enum!(AlarmCode {
     SequenceError,

@@ -2,15 +2,15 @@
 //! copied, checked and planned from where the machine is; started or refused when
 //! the check ends.
 
-use super::history::{Accuracy, JobRecord};
-use super::setup::mdi_error;
-use super::{MmiTask, OperatorRequestIn};
+use super::history::{Accuracy, JobRecord, Outcome};
+use super::program::{mdi_error, CheckKind};
+use super::{wire_reply, MmiTask, OperatorRequestIn};
 use crate::interp::{check_bytes, JobSetup};
 use crate::jobfile::{intake, keep_copy, sha256_hex, CheckedSetup, KeptSubroutine};
 use anyhow::Result;
-use softnc_ipc::{
-    AlarmCode, ControlKind, FixedStr, MachineState, OperatorReply, JOB_ADAPTIVE_FORCE,
-};
+use softnc_api::Reply;
+use softnc_core::MAX_AXES;
+use softnc_ipc::{AlarmCode, ControlKind, FixedStr, MachineState, JOB_ADAPTIVE_FORCE};
 use softnc_planner::PlanStats;
 use std::path::PathBuf;
 use std::time::{Instant, SystemTime};
@@ -35,19 +35,22 @@ pub(super) struct CheckOk {
 /// What the check of a submitted job gives, or why it is refused.
 pub(super) type CheckResult = std::result::Result<CheckOk, String>;
 
-/// What is being checked.
-#[derive(Debug, Clone, PartialEq)]
-pub(super) enum CheckKind {
-    /// A job from a file (from a line).
-    Job {
-        from_line: Option<u32>,
-        /// With adaptive feed.
-        adaptive_force: bool,
-    },
-    /// MDI block(s).
-    Mdi { text: String },
-    /// A touch-off (a G10 L20 block: no motion).
-    TouchOff { what: String },
+/// The job checks: the one being taken in, and those abandoned after
+/// `check_timeout_s` (their path and thread) whose threads may still run: new jobs
+/// are refused while `max_abandoned_checks` of them do.
+pub(super) struct Checks {
+    pub(super) checking: Option<Checking>,
+    pub(super) abandoned: Vec<(String, std::thread::JoinHandle<()>)>,
+}
+
+impl Checks {
+    /// Abandoned checks whose threads still run.
+    pub(super) fn abandoned_running(&self) -> usize {
+        self.abandoned
+            .iter()
+            .filter(|(_, t)| !t.is_finished())
+            .count()
+    }
 }
 
 /// A job being taken in (read once, planned from the machine's position) on a
@@ -154,10 +157,10 @@ pub(super) fn check_job(
 
 impl MmiTask {
     /// Read and check a program off the loop ([`Checking`]); answered when done.
-    pub(super) fn begin_check(&mut self, path: String, kind: CheckKind) -> Option<OperatorReply> {
+    pub(super) fn begin_check(&mut self, path: String, kind: CheckKind) -> Option<Reply> {
         let limit = self.cfg.config.max_job_bytes;
-        let programs = self.store.programs_dir();
-        let machine = match self.store.profile(&self.cfg.machine) {
+        let programs = self.setup.store.programs_dir();
+        let machine = match self.setup.store.profile(&self.cfg.machine) {
             Ok(m) => m,
             Err(e) => return Some(Self::reply(false, 0, &format!("{e}; nothing started"))),
         };
@@ -165,7 +168,7 @@ impl MmiTask {
         // will plan it: the parameters as the run reads them back from the job's
         // checked setup (LinuxCNC's text), the modal state, subroutine files under
         // the job's rules
-        let params = match self.params.as_ref().map(|p| {
+        let params = match self.setup.params.as_ref().map(|p| {
             softnc_gcode::Params::from_var_text(&p.to_var_text(), "the machine's parameters")
         }) {
             None => None,
@@ -174,17 +177,18 @@ impl MmiTask {
         };
         let setup = JobSetup {
             start_mm: self
+                .machine
                 .last
                 .map_or([0.0; 3], |s| [s.cmd_mm[0], s.cmd_mm[1], s.cmd_mm[2]]),
             params,
-            switches: self.switches,
+            switches: self.machine.switches,
             from_line: match kind {
                 CheckKind::Job { from_line, .. } => from_line,
                 _ => None,
             },
             subroutine_path: self.cfg.subroutine_path.clone(),
-            preamble: self.modal.clone(),
-            preamble_file: Some(self.store.modal_path().display().to_string()),
+            preamble: self.setup.modal.clone(),
+            preamble_file: Some(self.setup.store.modal_path().display().to_string()),
             subroutines: softnc_gcode::SubroutineFiles {
                 max_bytes: Some(limit),
                 snapshot: None,
@@ -212,7 +216,7 @@ impl MmiTask {
                 ))
             }
         };
-        self.checking = Some(Checking {
+        self.checks.checking = Some(Checking {
             path,
             kind,
             request: None,
@@ -224,18 +228,10 @@ impl MmiTask {
         None
     }
 
-    /// Abandoned checks whose threads still run.
-    pub(super) fn abandoned_running(&self) -> usize {
-        self.abandoned
-            .iter()
-            .filter(|(_, t)| !t.is_finished())
-            .count()
-    }
-
     /// The end of a job's check: start it (its record, the interpolator told) or
     /// refuse it, and answer the operator who submitted it.
     pub(super) fn poll_checking(&mut self) -> Result<()> {
-        let Some(c) = self.checking.as_mut() else {
+        let Some(c) = self.checks.checking.as_mut() else {
             return Ok(());
         };
         if self.stop.requested().is_some() && c.cancelled.is_none() {
@@ -262,7 +258,7 @@ impl MmiTask {
                 Err("the job's check ended without a result".to_string())
             }
         };
-        let Some(c) = self.checking.take() else {
+        let Some(c) = self.checks.checking.take() else {
             return Ok(());
         };
         let Checking {
@@ -277,7 +273,7 @@ impl MmiTask {
         // from here on a late result cannot be handed over (the rendezvous fails)
         drop(receiver);
         if !thread.is_finished() {
-            self.abandoned.push((path.clone(), thread));
+            self.checks.abandoned.push((path.clone(), thread));
         }
         let state = self.machine_state();
         let not_started = match (cancelled, &result) {
@@ -312,13 +308,13 @@ impl MmiTask {
         };
         if let Some(req) = request {
             // the operator may be gone (timed out): the job stands either way
-            let _ = req.send_copy(reply);
+            let _ = req.send_copy(wire_reply(&reply, kind.request_name()));
         }
         Ok(())
     }
 
     /// A refused job: the alarm, and the reply.
-    fn refuse_job(&mut self, msg: &str) -> Result<OperatorReply> {
+    fn refuse_job(&mut self, msg: &str) -> Result<Reply> {
         self.raise(AlarmCode::JobRefused, msg)?;
         Ok(Self::reply(false, 0, msg))
     }
@@ -331,7 +327,7 @@ impl MmiTask {
         ok: CheckOk,
         kind: &CheckKind,
         path: &str,
-    ) -> Result<std::result::Result<OperatorReply, String>> {
+    ) -> Result<std::result::Result<Reply, String>> {
         let CheckOk {
             job,
             copy,
@@ -342,12 +338,13 @@ impl MmiTask {
             created,
         } = ok;
         let job_id = self
+            .history
             .jobs
             .iter()
             .map(|j| j.job_id)
             .max()
             .unwrap_or(0)
-            .max(self.job_id_floor)
+            .max(self.history.job_id_floor)
             + 1;
         // nothing to run (a G10, G92, G5x block, M codes, a touch-off): done here;
         // a dwell takes its time on the machine like a move
@@ -355,7 +352,7 @@ impl MmiTask {
         if moves {
             // what the run reads the job with: what it was checked with
             setup.job_id = job_id;
-            if let Err(e) = setup.save(&self.store.programs_dir()) {
+            if let Err(e) = setup.save(&self.setup.store.programs_dir()) {
                 remove_copies(&created);
                 return Ok(Err(format!("{path}: {e}; job not started")));
             }
@@ -372,16 +369,23 @@ impl MmiTask {
             CheckKind::Mdi { text } => (Some(text.clone()), None, false),
             CheckKind::TouchOff { what } => (Some(what.clone()), None, false),
         };
-        self.jobs.push(JobRecord {
+        self.history.jobs.push(JobRecord {
             job_id,
             path: path.to_string(),
             submitted_unix_s: submitted,
-            outcome: if moves { "running" } else { "completed" }.into(),
+            outcome: if moves {
+                Outcome::Running
+            } else {
+                Outcome::Completed
+            },
             planned_samples: stats.samples,
             cycles: 0,
             planned_path_mm: stats.path_length_mm,
             path_mm: 0.0,
-            accuracy: Accuracy::default(),
+            accuracy: Accuracy {
+                following_max_abs_um: vec![0.0; MAX_AXES],
+                ..Accuracy::default()
+            },
             notes: Vec::new(),
             alarms: Vec::new(),
             program: Some(copy.clone()),
@@ -405,14 +409,14 @@ impl MmiTask {
                 &format!("{what}: done (nothing to move)"),
             )));
         }
-        self.pending_params = Some((job_id, params, modal));
+        self.setup.pending_params = Some((job_id, params, modal));
         // the feed override is the machine's, not the job's: the job starts at the
         // one in force (carried here, so a restarted interpolator knows it)
         self.send_control_flags(
             ControlKind::StartJob,
             job_id,
             from_line.unwrap_or(0),
-            self.feed_override,
+            self.machine.feed_override,
             if adaptive_force {
                 JOB_ADAPTIVE_FORCE
             } else {

@@ -2,103 +2,53 @@
 //! atomically), paged to the operator newest first.
 
 use super::MmiTask;
-use serde::{Deserialize, Serialize};
+pub use softnc_api::{Accuracy, JobRecord, Outcome};
+use softnc_api::{JobsPage, Reply};
 use softnc_core::store::write_atomic;
-use softnc_core::Axes;
+use softnc_core::MAX_AXES;
 use softnc_ipc::{OperatorReply, PositionStatus};
 use std::time::{Instant, SystemTime};
 
-/// One job in the history.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct JobRecord {
-    /// Job id.
-    pub job_id: u64,
-    /// Program file.
-    pub path: String,
-    /// Submitted (seconds since the Unix epoch).
-    pub submitted_unix_s: u64,
-    /// "running", "completed", "aborted".
-    pub outcome: String,
-    /// Planned samples.
-    pub planned_samples: u64,
-    /// Cycles run.
-    pub cycles: u64,
-    /// Length of the planned path (mm).
-    #[serde(default)]
-    pub planned_path_mm: f64,
-    /// How far along the planned path the position loop is (mm).
-    #[serde(default)]
-    pub path_mm: f64,
-    /// Accuracy over the job's feed moves.
-    pub accuracy: Accuracy,
-    /// Remarks that are not alarms (a learned correction applied, faded out, …).
-    #[serde(default)]
-    pub notes: Vec<String>,
-    /// The alarms raised while it ran ("Code: message"); kept when the operator
-    /// clears the machine's alarms.
-    #[serde(default)]
-    pub alarms: Vec<String>,
-    /// The immutable copy of the program that ran (`<data_dir>/programs/<sha256>.ngc`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub program: Option<String>,
-    /// SHA-256 of the program that ran.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub sha256: Option<String>,
-    /// The block(s) of an MDI command (`None`: a job from a file).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub mdi: Option<String>,
-    /// The line a run-from-line job started at.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub from_line: Option<u32>,
-    /// The job ran with adaptive feed (paper 003's force loop on the override).
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub adaptive_force: bool,
-}
-
-impl JobRecord {
-    /// How much of the job is done (0..=1): the position along the planned path
-    /// (a completed job is done; a path of length 0, dwells only, counts cycles).
-    pub fn progress(&self) -> f64 {
-        let p = if self.outcome == "completed" {
-            1.0
-        } else if self.planned_path_mm > 0.0 {
-            self.path_mm / self.planned_path_mm
-        } else if self.planned_samples > 0 {
-            self.cycles as f64 / self.planned_samples as f64
-        } else {
-            0.0
-        };
-        p.clamp(0.0, 1.0)
-    }
-}
-
-/// Accuracy of a job, accumulated from the position status stream.
-#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
-pub struct Accuracy {
-    /// Largest |contour error| (µm).
-    pub contour_max_abs_um: f64,
-    /// RMS contour error (µm).
-    pub contour_rms_um: f64,
-    /// Largest |following error| per axis (µm).
-    pub following_max_abs_um: Axes<f64>,
-    #[serde(skip)]
-    sum_sq: f64,
-    #[serde(skip)]
+/// The RMS contour error of the running job, accumulated from the position status
+/// stream (the record keeps the result, [`Accuracy::contour_rms_um`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct ContourRms {
+    /// The job it is of.
+    job_id: u64,
+    sum_sq_um2: f64,
     n: u64,
 }
 
-impl Accuracy {
-    pub(super) fn add(&mut self, s: &PositionStatus) {
-        if s.contour_err_mm.is_finite() {
-            let e = s.contour_err_mm * 1000.0;
-            self.contour_max_abs_um = self.contour_max_abs_um.max(e.abs());
-            self.sum_sq += e * e;
-            self.n += 1;
-            self.contour_rms_um = (self.sum_sq / self.n as f64).sqrt();
-        }
-        for (i, max_um) in self.following_max_abs_um.iter_mut().enumerate() {
-            *max_um = max_um.max(s.following_err_mm[i].abs() * 1000.0);
-        }
+/// Add one position status of job `acc`'s to its accuracy.
+pub(super) fn add_accuracy(
+    acc: &mut Accuracy,
+    rms: &mut ContourRms,
+    job_id: u64,
+    s: &PositionStatus,
+) {
+    if rms.job_id != job_id {
+        *rms = ContourRms {
+            job_id,
+            ..ContourRms::default()
+        };
+    }
+    if s.contour_err_mm.is_finite() {
+        let e = s.contour_err_mm * 1000.0;
+        acc.contour_max_abs_um = acc.contour_max_abs_um.max(e.abs());
+        rms.sum_sq_um2 += e * e;
+        rms.n += 1;
+        acc.contour_rms_um = (rms.sum_sq_um2 / rms.n as f64).sqrt();
+    }
+    if acc.following_max_abs_um.len() < MAX_AXES {
+        acc.following_max_abs_um.resize(MAX_AXES, 0.0);
+    }
+    for (i, max_um) in acc
+        .following_max_abs_um
+        .iter_mut()
+        .enumerate()
+        .take(MAX_AXES)
+    {
+        *max_um = max_um.max(s.following_err_mm[i].abs() * 1000.0);
     }
 }
 
@@ -117,8 +67,8 @@ pub(super) fn load_jobs(path: &std::path::Path) -> (Vec<JobRecord>, u64) {
     match serde_json::from_slice::<Vec<JobRecord>>(&bytes) {
         Ok(mut jobs) => {
             // a job "running" when the MMI last stopped did not finish under it
-            for j in jobs.iter_mut().filter(|j| j.outcome == "running") {
-                j.outcome = "interrupted".into();
+            for j in jobs.iter_mut().filter(|j| j.outcome == Outcome::Running) {
+                j.outcome = Outcome::Interrupted;
             }
             let max = jobs.iter().map(|j| j.job_id).max().unwrap_or(0);
             (jobs, max)
@@ -145,6 +95,21 @@ pub(super) fn load_jobs(path: &std::path::Path) -> (Vec<JobRecord>, u64) {
     }
 }
 
+/// The job history and what is written of it: one record per job, the running
+/// job's RMS contour error accumulated, the ids used, when it was last written and
+/// which files of the data directory could not be.
+pub(super) struct History {
+    pub(super) jobs: Vec<JobRecord>,
+    /// The running job's RMS contour error, accumulated.
+    pub(super) contour_rms: ContourRms,
+    /// Job ids go on above this (an unreadable history's highest).
+    pub(super) job_id_floor: u64,
+    /// When the history was last written.
+    pub(super) last_save: Instant,
+    /// Files of the data directory that could not be written ([`Unsaved`]).
+    pub(super) unsaved: Unsaved,
+}
+
 /// Files of the data directory that could not be written, and why: the MMI holds
 /// what they should hold and writes them again every `job_record_period_s` until
 /// they are written (a read-only or full disk made writable again).
@@ -161,7 +126,6 @@ impl Unsaved {
     pub(super) const PARAMS: usize = 1;
     /// The modal state file.
     pub(super) const MODAL: usize = 2;
-    const NAMES: [&'static str; 3] = ["job_history", "parameters", "modal_state"];
 
     /// Some file is not written.
     pub(super) fn any(&self) -> bool {
@@ -178,14 +142,13 @@ impl Unsaved {
         self.slots[Self::MODAL].as_ref()
     }
 
-    /// `{"job_history": why, …}` of the files not written.
-    pub(super) fn json(&self) -> serde_json::Value {
-        let map: serde_json::Map<String, serde_json::Value> = Self::NAMES
-            .iter()
-            .zip(&self.slots)
-            .filter_map(|(n, e)| e.as_ref().map(|e| (n.to_string(), e.clone().into())))
-            .collect();
-        serde_json::Value::Object(map)
+    /// The files not written, by what they hold, and why.
+    pub(super) fn to_api(&self) -> softnc_api::Unsaved {
+        softnc_api::Unsaved {
+            job_history: self.slots[Self::HISTORY].clone(),
+            parameters: self.slots[Self::PARAMS].clone(),
+            modal_state: self.slots[Self::MODAL].clone(),
+        }
     }
 }
 
@@ -213,8 +176,8 @@ impl MmiTask {
     /// first time, the history is kept in memory and written again every
     /// `job_record_period_s` until it is written.
     pub(super) fn save_jobs(&mut self) {
-        self.last_save = Instant::now();
-        let text = serde_json::to_vec_pretty(&self.jobs).unwrap_or_default();
+        self.history.last_save = Instant::now();
+        let text = serde_json::to_vec_pretty(&self.history.jobs).unwrap_or_default();
         let written = write_atomic(&self.jobs_path(), &text).map_err(|e| e.to_string());
         let what = format!("job history {}", self.jobs_path().display());
         if let Err(e) = self.note_saved(Unsaved::HISTORY, &what, written) {
@@ -233,13 +196,13 @@ impl MmiTask {
         let period = self.cfg.config.job_record_period_s;
         match written {
             Ok(()) => {
-                if self.unsaved.slots[slot].take().is_some() {
+                if self.history.unsaved.slots[slot].take().is_some() {
                     tracing::info!("{what}: written again");
                 }
             }
             Err(e) => {
-                let first = self.unsaved.slots[slot].is_none();
-                self.unsaved.slots[slot] = Some(e.clone());
+                let first = self.history.unsaved.slots[slot].is_none();
+                self.history.unsaved.slots[slot] = Some(e.clone());
                 if first {
                     tracing::error!("{what} not saved: {e}");
                     self.alarm(&format!(
@@ -250,37 +213,134 @@ impl MmiTask {
         }
         Ok(())
     }
+}
 
+impl History {
     /// One page of the job history, newest first, from `offset` (skipped newest
-    /// records): `{"total", "offset", "jobs"}` with as many records as fit a reply.
-    pub fn jobs_page(&self, offset: f64) -> String {
-        let total = self.jobs.len();
-        let offset = if offset.is_finite() && offset > 0.0 {
-            (offset as usize).min(total)
-        } else {
-            0
+    /// records): as many records as fit a reply (at least one: a record too large
+    /// for a reply alone is answered [`Reply::TooLarge`]).
+    pub(super) fn page(&self, offset: u64) -> Reply {
+        let total = self.jobs.len() as u64;
+        let offset = offset.min(total);
+        let page = |jobs: Vec<JobRecord>| {
+            Reply::Jobs(JobsPage {
+                total,
+                offset,
+                jobs,
+            })
         };
-        // room for the envelope; each record is added while the page still fits
-        let cap = OperatorReply::MESSAGE_CAPACITY - 64;
-        let mut body = String::from("[");
-        for j in self.jobs.iter().rev().skip(offset) {
-            let rec = serde_json::to_string(j).unwrap_or_default();
-            if body.len() + rec.len() + 2 > cap && body.len() > 1 {
+        // the page's size serialised: the empty page's, plus each record's
+        // (serialised alone as in the list) and a comma between records
+        let envelope = softnc_api::encode_reply(&page(Vec::new()), "jobs", usize::MAX).len();
+        let mut bytes = envelope;
+        let mut jobs: Vec<JobRecord> = Vec::new();
+        for j in self.jobs.iter().rev().skip(offset as usize) {
+            let len =
+                serde_json::to_string(j).map_or(0, |t| t.len()) + usize::from(!jobs.is_empty());
+            if !jobs.is_empty() && bytes + len > OperatorReply::MESSAGE_CAPACITY {
                 break;
             }
-            if body.len() > 1 {
-                body.push(',');
-            }
-            body.push_str(&rec);
+            bytes += len;
+            jobs.push(j.clone());
         }
-        body.push(']');
-        format!("{{\"total\":{total},\"offset\":{offset},\"jobs\":{body}}}")
+        page(jobs)
+    }
+
+    /// The running job's record.
+    pub(super) fn running(&mut self) -> Option<&mut JobRecord> {
+        self.jobs
+            .iter_mut()
+            .rev()
+            .find(|j| j.outcome == Outcome::Running)
+    }
+
+    /// A job is running (its record says so).
+    pub(super) fn any_running(&self) -> bool {
+        self.jobs.iter().any(|j| j.outcome == Outcome::Running)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn record(job_id: u64, path_len: usize) -> JobRecord {
+        JobRecord {
+            job_id,
+            path: format!("/shop/{}", "p".repeat(path_len)),
+            submitted_unix_s: 0,
+            outcome: Outcome::Completed,
+            planned_samples: 100,
+            cycles: 100,
+            planned_path_mm: 10.0,
+            path_mm: 10.0,
+            accuracy: Accuracy::default(),
+            notes: vec![],
+            alarms: vec![],
+            program: None,
+            sha256: None,
+            mdi: None,
+            from_line: None,
+            adaptive_force: false,
+        }
+    }
+
+    fn history(jobs: Vec<JobRecord>) -> History {
+        History {
+            jobs,
+            contour_rms: ContourRms::default(),
+            job_id_floor: 0,
+            last_save: Instant::now(),
+            unsaved: Unsaved::default(),
+        }
+    }
+
+    #[test]
+    fn a_long_history_comes_whole_in_pages_that_each_fit_a_reply() {
+        let h = history((1..=200).map(|id| record(id, 300)).collect());
+        let mut seen = Vec::new();
+        let mut pages = 0;
+        while (seen.len() as u64) < 200 {
+            let reply = h.page(seen.len() as u64);
+            let text = softnc_api::encode_reply(&reply, "jobs", usize::MAX);
+            assert!(
+                text.len() <= OperatorReply::MESSAGE_CAPACITY,
+                "{} bytes",
+                text.len()
+            );
+            let Reply::Jobs(page) = reply else {
+                panic!("not a page: {reply:?}")
+            };
+            assert_eq!((page.total, page.offset), (200, seen.len() as u64));
+            assert!(!page.jobs.is_empty());
+            seen.extend(page.jobs.iter().map(|j| j.job_id));
+            pages += 1;
+        }
+        assert!(pages > 1, "a long history takes several pages");
+        let want: Vec<u64> = (1..=200).rev().collect();
+        assert_eq!(seen, want, "newest first, each once");
+        // past the end: an empty page
+        let Reply::Jobs(end) = h.page(500) else {
+            panic!("not a page")
+        };
+        assert!(end.jobs.is_empty());
+    }
+
+    #[test]
+    fn a_record_too_large_for_a_reply_is_an_error_reply_not_cut() {
+        let h = history(vec![record(1, OperatorReply::MESSAGE_CAPACITY)]);
+        let text = softnc_api::encode_reply(&h.page(0), "jobs", OperatorReply::MESSAGE_CAPACITY);
+        assert!(text.len() <= OperatorReply::MESSAGE_CAPACITY);
+        match softnc_api::decode_reply(&text).unwrap() {
+            Reply::TooLarge {
+                request, capacity, ..
+            } => assert_eq!(
+                (request.as_str(), capacity),
+                ("jobs", OperatorReply::MESSAGE_CAPACITY as u64)
+            ),
+            other => panic!("{other:?}"),
+        }
+    }
 
     #[test]
     fn an_unreadable_history_is_kept_aside_and_job_ids_go_on() {

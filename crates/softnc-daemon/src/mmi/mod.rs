@@ -7,15 +7,21 @@
 //!   ([`transition`], docs/operations.md), the operator's commands, status;
 //! - `check`: a submitted job, MDI block or touch-off taken in off the loop;
 //! - `setup`: jog, touch-off, the tool table, and why a program is refused now;
+//! - `program`: what a check takes in (a job, MDI, a touch-off), shared by both;
 //! - `history`: the job records and `jobs.json`.
+//!
+//! Operator requests and replies are `softnc-api` types, serialised in the
+//! iceoryx2 payloads ([`wire_reply`]).
 
 mod check;
 mod history;
+mod program;
 mod setup;
 
-use check::{CheckKind, Checking};
-use history::load_jobs;
+use history::{add_accuracy, load_jobs, ContourRms, Outcome};
 pub use history::{Accuracy, JobRecord};
+use program::CheckKind;
+use softnc_api::{Reply, Request};
 
 use crate::bus::{Bus, Pub, Sub};
 use crate::config::Loaded;
@@ -25,9 +31,10 @@ use crate::machine_store::{offsets_json, MachineStore, Offsets};
 use anyhow::{Context, Result};
 use iceoryx2::port::server::Server;
 use iceoryx2::prelude::*;
+use softnc_api::ProcessHealth;
 use softnc_ipc::{
     Alarm, AlarmCode, ControlCommand, ControlKind, FixedStr, Heartbeat, LoopStats, MachineState,
-    OperatorReply, OperatorRequest, PositionStatus, ProcessId, JOB_ADAPTIVE_FORCE,
+    OperatorReply, OperatorRequest, PositionStatus, ProcessId,
 };
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
@@ -44,10 +51,9 @@ struct Peer {
     job_id: u64,
 }
 
-/// The MMI process.
-pub struct MmiTask {
-    cfg: Loaded,
-    server: Server<ipc::Service, OperatorRequest, (), OperatorReply, ()>,
+/// The MMI's iceoryx2 ports to the other processes, with the sequence of its
+/// control commands and its own heartbeat's.
+struct Ports {
     control: Pub<ControlCommand>,
     status: Sub<PositionStatus>,
     heartbeats: Sub<Heartbeat>,
@@ -55,47 +61,53 @@ pub struct MmiTask {
     alarms_pub: Pub<Alarm>,
     loop_stats: Sub<LoopStats>,
     heartbeat: Pub<Heartbeat>,
+    control_seq: u64,
+    hb_counter: u64,
+    last_hb: Instant,
+}
+
+impl Ports {
+    /// Send a control command to the interpolation and position processes (the
+    /// next in sequence).
+    fn send_control(
+        &mut self,
+        kind: ControlKind,
+        job_id: u64,
+        axis: u32,
+        value: f64,
+        flags: u32,
+        path: &str,
+    ) -> Result<()> {
+        self.control_seq += 1;
+        self.control.send_copy(ControlCommand {
+            seq: self.control_seq,
+            sender: ProcessId::Mmi.wire(),
+            kind: kind.wire(),
+            job_id,
+            axis,
+            value,
+            flags,
+            path: FixedStr::try_new(path)?,
+        })?;
+        Ok(())
+    }
+}
+
+/// The machine as the MMI knows it: the position process's last status, the other
+/// processes' health and loop timing, the alarms, and what the operator asked for
+/// (a hold or an abort, a state not yet acknowledged, the overrides, switches, a
+/// jog's lease).
+struct Machine {
     last: Option<PositionStatus>,
     peers: [Peer; 4],
     loops: [Option<LoopStats>; 4],
     alarms: VecDeque<Alarm>,
-    jobs: Vec<JobRecord>,
-    control_seq: u64,
-    /// Job ids go on above this (an unreadable history's highest).
-    job_id_floor: u64,
-    /// When the running job's record was last written.
-    last_save: Instant,
-    feed_override: f64,
-    hb_counter: u64,
-    last_hb: Instant,
-    shutdown: bool,
     /// The job an abort or a stop was asked for: it ends "aborted", not "completed".
     abort_asked: Option<u64>,
     /// A hold or an abort of the running job, accepted (Held, Stopping); cleared by
     /// resume and at the job's end.
     intent: Option<MachineState>,
-    /// A submitted job being read and checked off the loop; answered when done.
-    checking: Option<Checking>,
-    /// Checks abandoned after `check_timeout_s` (their path and thread): new jobs
-    /// are refused while `max_abandoned_checks` of them still run.
-    abandoned: Vec<(String, std::thread::JoinHandle<()>)>,
-    /// Why the modal state file cannot be used (anything but modal words in it):
-    /// jobs, MDI and touch-off are refused until it is fixed or removed.
-    modal_error: Option<String>,
-    /// Files of the data directory that could not be written ([`history::Unsaved`]).
-    unsaved: history::Unsaved,
-    /// The parameter file and the tool table.
-    store: MachineStore,
-    /// The machine's parameters as last saved (`None`: the profile's offsets).
-    params: Option<softnc_gcode::Params>,
-    /// Why the parameter file cannot be used: jobs, MDI and touch-off are refused.
-    params_error: Option<String>,
-    /// The running job's parameters and modal state at its end: kept when it
-    /// completes.
-    pending_params: Option<(u64, softnc_gcode::Params, String)>,
-    /// The modal state (G-code) the last completed MDI command or job left: the
-    /// next one starts with it, as in LinuxCNC.
-    modal: Option<String>,
+    feed_override: f64,
     /// The operator's program-flow switches.
     switches: Switches,
     /// A continuous jog's axis, speed and when its client last renewed it (the
@@ -111,6 +123,22 @@ pub struct MmiTask {
     /// a reset: replayed to a restarted MMI, they are not shown again. Kept in
     /// `<data_dir>/alarms-acknowledged` across MMI restarts.
     alarms_acknowledged_unix_ns: u64,
+}
+
+/// The MMI process, in owned parts: the operator endpoint, the ports to the other
+/// processes, the machine's state and alarms, the job history, the job checks and
+/// the machine's setup (parameters, modal state, tool table).
+pub struct MmiTask {
+    cfg: Loaded,
+    /// The operator endpoint (request-response): `softnc-api` requests in, replies
+    /// out.
+    endpoint: Server<ipc::Service, OperatorRequest, (), OperatorReply, ()>,
+    ports: Ports,
+    machine: Machine,
+    history: history::History,
+    checks: check::Checks,
+    setup: setup::Setup,
+    shutdown: bool,
     stop: StopWatch,
     _bus: Bus,
 }
@@ -167,53 +195,64 @@ impl MmiTask {
             }
         };
         let mut task = MmiTask {
-            server,
-            control: bus.control_publisher()?,
-            status: bus.status_subscriber()?,
-            heartbeats: bus.heartbeat_subscriber()?,
-            alarms_sub: bus.alarm_subscriber()?,
-            alarms_pub: bus.alarm_publisher()?,
-            loop_stats: bus.loop_stats_subscriber()?,
-            heartbeat: bus.heartbeat_publisher()?,
+            endpoint: server,
+            ports: Ports {
+                control: bus.control_publisher()?,
+                status: bus.status_subscriber()?,
+                heartbeats: bus.heartbeat_subscriber()?,
+                alarms_sub: bus.alarm_subscriber()?,
+                alarms_pub: bus.alarm_publisher()?,
+                loop_stats: bus.loop_stats_subscriber()?,
+                heartbeat: bus.heartbeat_publisher()?,
+                control_seq: 0,
+                hb_counter: 0,
+                last_hb: Instant::now() - Duration::from_secs(1),
+            },
             cfg,
-            last: None,
-            peers: [Peer {
-                last_seen: None,
-                state: 0,
-                pid: 0,
-                lost_pid: None,
-                job_id: 0,
-            }; 4],
-            loops: [None; 4],
-            alarms: VecDeque::new(),
-            jobs,
-            control_seq: 0,
-            job_id_floor,
-            last_save: Instant::now(),
-            feed_override: 1.0,
-            hb_counter: 0,
-            last_hb: Instant::now() - Duration::from_secs(1),
+            machine: Machine {
+                last: None,
+                peers: [Peer {
+                    last_seen: None,
+                    state: 0,
+                    pid: 0,
+                    lost_pid: None,
+                    job_id: 0,
+                }; 4],
+                loops: [None; 4],
+                alarms: VecDeque::new(),
+                abort_asked: None,
+                intent: None,
+                feed_override: 1.0,
+                switches: Switches::default(),
+                jog_lease: None,
+                asked: None,
+                alarms_acknowledged_unix_ns,
+            },
+            history: history::History {
+                jobs,
+                contour_rms: ContourRms::default(),
+                job_id_floor,
+                last_save: Instant::now(),
+                unsaved: history::Unsaved::default(),
+            },
+            checks: check::Checks {
+                checking: None,
+                abandoned: Vec::new(),
+            },
+            setup: setup::Setup {
+                store,
+                params,
+                params_error,
+                pending_params: None,
+                modal,
+                modal_error,
+            },
             shutdown: false,
-            checking: None,
-            abandoned: Vec::new(),
-            modal_error,
-            unsaved: history::Unsaved::default(),
-            store,
-            params,
-            params_error,
-            pending_params: None,
-            modal,
-            switches: Switches::default(),
-            jog_lease: None,
-            asked: None,
-            alarms_acknowledged_unix_ns,
-            abort_asked: None,
-            intent: None,
             stop: StopWatch::manual(),
             _bus: bus,
         };
         // a file the machine cannot run with is said at once, by name
-        let unusable: Vec<String> = [&task.params_error, &task.modal_error]
+        let unusable: Vec<String> = [&task.setup.params_error, &task.setup.modal_error]
             .into_iter()
             .flatten()
             .cloned()
@@ -231,7 +270,7 @@ impl MmiTask {
 
     /// Raise an alarm of the MMI's own, of kind `code`.
     fn raise(&mut self, code: AlarmCode, msg: &str) -> Result<()> {
-        self.alarms_pub.send_copy(Alarm {
+        self.ports.alarms_pub.send_copy(Alarm {
             code: code.wire(),
             axis: u32::MAX,
             process: ProcessId::Mmi.wire(),
@@ -279,31 +318,22 @@ impl MmiTask {
         flags: u32,
         path: &str,
     ) -> Result<()> {
-        self.control_seq += 1;
-        self.control.send_copy(ControlCommand {
-            seq: self.control_seq,
-            sender: ProcessId::Mmi.wire(),
-            kind: kind.wire(),
-            job_id,
-            axis,
-            value,
-            flags,
-            path: FixedStr::try_new(path)?,
-        })?;
-        Ok(())
+        self.ports
+            .send_control(kind, job_id, axis, value, flags, path)
     }
 
     /// The machine state as the position process reports it (off before it
     /// reports).
     pub fn position_state(&self) -> MachineState {
-        self.last
+        self.machine
+            .last
             .and_then(|s| MachineState::from_wire(s.state))
             .unwrap_or(MachineState::Off)
     }
 
     /// A job is under way: started and not ended (also before its first sample).
     fn job_active(&self) -> bool {
-        self.last.is_some_and(|s| s.job_id != 0) || self.jobs.iter().any(|j| j.outcome == "running")
+        self.machine.last.is_some_and(|s| s.job_id != 0) || self.history.any_running()
     }
 
     /// The machine state the operator sees (docs/operations.md): the position
@@ -312,13 +342,13 @@ impl MmiTask {
     /// supervisor has given up on a process.
     pub fn machine_state(&self) -> MachineState {
         let pos = self.position_state();
-        let supervisor = self.peers[ProcessId::Supervisor as usize];
+        let supervisor = self.machine.peers[ProcessId::Supervisor as usize];
         let supervisor_faulted = supervisor
             .last_seen
             .is_some_and(|t| t.elapsed().as_secs_f64() <= self.cfg.config.heartbeat_timeout_s)
             && supervisor.state == MachineState::Faulted.wire();
         // the position process's last word does not stand once it is gone
-        let position_lost = self.peer_status(ProcessId::Position) == "lost";
+        let position_lost = self.peer_status(ProcessId::Position) == ProcessHealth::Lost;
         // a command sent and not yet taken: what it asked for, not the state before
         let asked = self.asked_pending();
         match pos {
@@ -327,13 +357,18 @@ impl MmiTask {
             _ if asked.is_some() => asked.unwrap_or(pos),
             MachineState::Off | MachineState::Homing | MachineState::Jogging => pos,
             _ if self.job_active() => {
-                let running = self.jobs.iter().rev().find(|j| j.outcome == "running");
+                let running = self
+                    .history
+                    .jobs
+                    .iter()
+                    .rev()
+                    .find(|j| j.outcome == Outcome::Running);
                 let mdi = running.is_some_and(|j| j.mdi.is_some());
                 // the interpolator's word on this job (not a stale one on the last)
-                let peer = self.peers[ProcessId::Interp as usize];
+                let peer = self.machine.peers[ProcessId::Interp as usize];
                 let interp = MachineState::from_wire(peer.state)
                     .filter(|_| running.is_some_and(|j| j.job_id == peer.job_id));
-                match (self.intent, interp) {
+                match (self.machine.intent, interp) {
                     (Some(i), _) => i,
                     (None, Some(MachineState::Stopping)) => MachineState::Stopping,
                     (None, Some(MachineState::Paused)) => MachineState::Paused,
@@ -347,21 +382,17 @@ impl MmiTask {
 
     /// Remember the state the command just sent asks for ([`MmiTask::asked`]).
     fn ask_state(&mut self, state: MachineState) {
-        self.asked = Some((state, self.control_seq, Instant::now()));
+        self.machine.asked = Some((state, self.ports.control_seq, Instant::now()));
     }
 
     /// The state asked for by a command the position process has not yet
     /// acknowledged (at most a heartbeat timeout: a process that restarted in
     /// between never will).
     fn asked_pending(&self) -> Option<MachineState> {
-        let (state, seq, sent) = self.asked?;
-        let acknowledged = self.last.is_some_and(|s| s.mmi_control_seq >= seq);
+        let (state, seq, sent) = self.machine.asked?;
+        let acknowledged = self.machine.last.is_some_and(|s| s.mmi_control_seq >= seq);
         let waited = sent.elapsed().as_secs_f64() > self.cfg.config.heartbeat_timeout_s;
         (!acknowledged && !waited).then_some(state)
-    }
-
-    fn running_job(&mut self) -> Option<&mut JobRecord> {
-        self.jobs.iter_mut().rev().find(|j| j.outcome == "running")
     }
 
     /// Serve until a `Shutdown` request or a stop (signal, the supervisor's death),
@@ -372,11 +403,11 @@ impl MmiTask {
             self.poll()?;
             if self.stop.requested().is_some() && !self.shutdown {
                 self.shutdown = true;
-                self.abort_asked = self.running_job().map(|j| j.job_id);
+                self.machine.abort_asked = self.history.running().map(|j| j.job_id);
             }
             if self.shutdown {
                 let since = *stopping_since.get_or_insert_with(Instant::now);
-                let moving = self.last.is_some_and(|s| {
+                let moving = self.machine.last.is_some_and(|s| {
                     s.job_id != 0
                         && matches!(
                             MachineState::from_wire(s.state),
@@ -396,52 +427,68 @@ impl MmiTask {
     /// One pass over every input.
     pub fn poll(&mut self) -> Result<()> {
         let mut changed = false;
-        while let Some(s) = self.status.receive()? {
+        while let Some(s) = self.ports.status.receive()? {
             let s = *s;
             let prev_state = self.position_state();
             if s.job_id != 0 {
                 // reattached after an MMI restart: the job is still running
                 if let Some(j) = self
+                    .history
                     .jobs
                     .iter_mut()
-                    .find(|j| j.job_id == s.job_id && j.outcome == "interrupted")
+                    .find(|j| j.job_id == s.job_id && j.outcome == Outcome::Interrupted)
                 {
-                    j.outcome = "running".into();
+                    j.outcome = Outcome::Running;
                 }
             }
-            if let Some(job) = self.running_job() {
+            let running = self
+                .history
+                .jobs
+                .iter_mut()
+                .rev()
+                .find(|j| j.outcome == Outcome::Running);
+            if let Some(job) = running {
                 if s.job_id == job.job_id {
-                    job.accuracy.add(&s);
+                    add_accuracy(
+                        &mut job.accuracy,
+                        &mut self.history.contour_rms,
+                        job.job_id,
+                        &s,
+                    );
                     job.cycles = job.cycles.max(s.time_index + 1);
                     job.path_mm = job.path_mm.max(s.path_mm);
                 }
             }
-            self.last = Some(s);
+            self.machine.last = Some(s);
             let now_state = self.position_state();
             if prev_state != now_state || s.job_id == 0 {
-                let abort_asked = self.abort_asked;
+                let abort_asked = self.machine.abort_asked;
                 let mut ended = false;
-                if let Some(job) = self.running_job() {
+                if let Some(job) = self.history.running() {
                     if matches!(now_state, MachineState::Faulted | MachineState::EStopped) {
-                        job.outcome = "aborted".into();
+                        job.outcome = Outcome::Aborted;
                         ended = true;
                     } else if now_state == MachineState::Idle && s.job_id == 0 && job.cycles > 0 {
                         // stopped along its path by an abort or a stop: not completed
                         let aborted = abort_asked == Some(job.job_id);
-                        job.outcome = if aborted { "aborted" } else { "completed" }.into();
+                        job.outcome = if aborted {
+                            Outcome::Aborted
+                        } else {
+                            Outcome::Completed
+                        };
                         ended = true;
                     }
                 }
                 if ended {
                     changed = true;
-                    self.intent = None;
-                    self.abort_asked = None;
+                    self.machine.intent = None;
+                    self.machine.abort_asked = None;
                     self.keep_params_of_completed_job()?;
                 }
             }
         }
-        while let Some(h) = self.heartbeats.receive()? {
-            if let Some(p) = self.peers.get_mut(h.process as usize) {
+        while let Some(h) = self.ports.heartbeats.receive()? {
+            if let Some(p) = self.machine.peers.get_mut(h.process as usize) {
                 if p.lost_pid == Some(h.pid) {
                     continue; // sent before it died
                 }
@@ -451,15 +498,22 @@ impl MmiTask {
                 p.job_id = h.job_id;
             }
         }
-        while let Some(a) = self.alarms_sub.receive()? {
-            if a.raised_unix_ns != 0 && a.raised_unix_ns <= self.alarms_acknowledged_unix_ns {
+        while let Some(a) = self.ports.alarms_sub.receive()? {
+            if a.raised_unix_ns != 0 && a.raised_unix_ns <= self.machine.alarms_acknowledged_unix_ns
+            {
                 // replayed to this (restarted) MMI, acknowledged by a reset before
                 continue;
             }
             if a.code == AlarmCode::Note.wire() {
                 // a remark for the job's record, not an alarm
                 let (job_id, text) = (a.job_id, a.message.as_str().to_string());
-                if let Some(j) = self.jobs.iter_mut().rev().find(|j| j.job_id == job_id) {
+                if let Some(j) = self
+                    .history
+                    .jobs
+                    .iter_mut()
+                    .rev()
+                    .find(|j| j.job_id == job_id)
+                {
                     j.notes.push(text);
                     changed = true;
                 }
@@ -471,7 +525,7 @@ impl MmiTask {
                 // (an alarm about an instance before the one heard now is stale:
                 // its successor stays alive)
                 let mut current = true;
-                if let Some(p) = self.peers.get_mut(a.process as usize) {
+                if let Some(p) = self.machine.peers.get_mut(a.process as usize) {
                     current = a.pid == 0 || p.pid == 0 || p.pid == a.pid;
                     if current {
                         p.lost_pid = Some(if a.pid != 0 { a.pid } else { p.pid });
@@ -481,65 +535,83 @@ impl MmiTask {
                 if current && a.process == ProcessId::Position.wire() {
                     // the servo loop died under the job: it ended there (faulted)
                     let alarm = format!("ProcessLost: {}", a.message.as_str());
-                    if let Some(j) = self.running_job() {
-                        j.outcome = "aborted".into();
+                    if let Some(j) = self.history.running() {
+                        j.outcome = Outcome::Aborted;
                         if a.job_id != j.job_id {
                             j.alarms.push(alarm);
                         }
                         changed = true;
                     }
-                    self.intent = None;
-                    self.abort_asked = None;
+                    self.machine.intent = None;
+                    self.machine.abort_asked = None;
                 }
             }
             // kept in the record of the job it concerns; a job the interpolator
             // refused (its file changed after the check) never started
             let code = AlarmCode::from_wire(a.code).unwrap_or(AlarmCode::Other);
-            if let Some(j) = self.jobs.iter_mut().rev().find(|j| j.job_id == a.job_id) {
+            if let Some(j) = self
+                .history
+                .jobs
+                .iter_mut()
+                .rev()
+                .find(|j| j.job_id == a.job_id)
+            {
                 j.alarms.push(format!("{code:?}: {}", a.message.as_str()));
-                if code == AlarmCode::JobRefused && j.outcome == "running" {
-                    j.outcome = "refused".into();
-                    self.intent = None;
+                if code == AlarmCode::JobRefused && j.outcome == Outcome::Running {
+                    j.outcome = Outcome::Refused;
+                    self.machine.intent = None;
                 }
                 changed = true;
             }
-            if self.alarms.len() == ALARM_HISTORY {
-                self.alarms.pop_front();
+            if self.machine.alarms.len() == ALARM_HISTORY {
+                self.machine.alarms.pop_front();
             }
-            self.alarms.push_back(*a);
+            self.machine.alarms.push_back(*a);
         }
-        while let Some(l) = self.loop_stats.receive()? {
-            if let Some(slot) = self.loops.get_mut(l.process as usize) {
+        while let Some(l) = self.ports.loop_stats.receive()? {
+            if let Some(slot) = self.machine.loops.get_mut(l.process as usize) {
                 *slot = Some(*l);
             }
         }
         // the running job's record is written as it progresses (once a second); a
         // file that could not be written is tried again as often
-        let running = self.jobs.iter().any(|j| j.outcome == "running");
-        let due = self.last_save.elapsed().as_secs_f64() >= self.cfg.config.job_record_period_s;
-        if changed || (running && due) || (self.unsaved.any() && due) {
+        let running = self.history.any_running();
+        let due =
+            self.history.last_save.elapsed().as_secs_f64() >= self.cfg.config.job_record_period_s;
+        if changed || (running && due) || (self.history.unsaved.any() && due) {
             self.save_jobs();
         }
-        if due && self.unsaved.any() {
+        if due && self.history.unsaved.any() {
             self.retry_unsaved()?;
         }
         // abandoned checks that have ended
-        self.abandoned.retain(|(_, t)| !t.is_finished());
-        while let Some(req) = self.server.receive()? {
-            let r = *req;
+        self.checks.abandoned.retain(|(_, t)| !t.is_finished());
+        while let Some(req) = self.endpoint.receive()? {
+            let text = req.message.as_str().to_string();
             // a client that gave up waiting (this process was stopped) is gone: its
             // reply goes nowhere, which is no reason to stop serving
-            match self.handle(&r)? {
+            let request = match softnc_api::decode_request(&text) {
+                Ok(r) => r,
+                Err(e) => {
+                    let reply = Reply::refused(format!("{e}; nothing done"));
+                    if let Err(e) = req.send_copy(wire_reply(&reply, "unreadable")) {
+                        tracing::warn!("reply not delivered: {e:?}");
+                    }
+                    continue;
+                }
+            };
+            match self.handle(&request)? {
                 Some(reply) => {
-                    if let Err(e) = req.send_copy(reply) {
+                    if let Err(e) = req.send_copy(wire_reply(&reply, request.name())) {
                         tracing::warn!("reply not delivered: {e:?}");
                     }
                 }
                 // a job taken in off the loop: answered when its check ends
-                None => match self.checking.as_mut() {
+                None => match self.checks.checking.as_mut() {
                     Some(c) => c.request = Some(req),
                     None => {
-                        if let Err(e) = req.send_copy(Self::reply(false, 0, "job not started")) {
+                        let reply = Self::reply(false, 0, "job not started");
+                        if let Err(e) = req.send_copy(wire_reply(&reply, request.name())) {
                             tracing::warn!("reply not delivered: {e:?}");
                         }
                     }
@@ -548,16 +620,16 @@ impl MmiTask {
         }
         self.poll_checking()?;
         self.watch_jog()?;
-        if self.last_hb.elapsed().as_secs_f64() >= self.cfg.config.heartbeat_period_s {
-            self.hb_counter += 1;
-            self.heartbeat.send_copy(Heartbeat {
+        if self.ports.last_hb.elapsed().as_secs_f64() >= self.cfg.config.heartbeat_period_s {
+            self.ports.hb_counter += 1;
+            self.ports.heartbeat.send_copy(Heartbeat {
                 process: ProcessId::Mmi.wire(),
                 pid: std::process::id(),
-                counter: self.hb_counter,
+                counter: self.ports.hb_counter,
                 state: self.machine_state().wire(),
-                job_id: self.last.map_or(0, |s| s.job_id),
+                job_id: self.machine.last.map_or(0, |s| s.job_id),
             })?;
-            self.last_hb = Instant::now();
+            self.ports.last_hb = Instant::now();
         }
         Ok(())
     }
@@ -566,13 +638,14 @@ impl MmiTask {
     /// read back from the file (so that the next check and the interpolator's plan
     /// read the same values). An aborted job's are dropped.
     fn keep_params_of_completed_job(&mut self) -> Result<()> {
-        let Some((job_id, params, modal)) = self.pending_params.take() else {
+        let Some((job_id, params, modal)) = self.setup.pending_params.take() else {
             return Ok(());
         };
         let completed = self
+            .history
             .jobs
             .iter()
-            .any(|j| j.job_id == job_id && j.outcome == "completed");
+            .any(|j| j.job_id == job_id && j.outcome == Outcome::Completed);
         if completed {
             self.save_params(&params)?;
             self.save_modal(modal);
@@ -583,9 +656,9 @@ impl MmiTask {
     /// The modal state a completed MDI command or job left becomes the machine's
     /// (kept in memory; a file that cannot be written is tried again).
     fn save_modal(&mut self, modal: String) {
-        let unchanged =
-            self.modal.as_deref() == Some(modal.as_str()) && self.unsaved.modal().is_none();
-        self.modal = Some(modal);
+        let unchanged = self.setup.modal.as_deref() == Some(modal.as_str())
+            && self.history.unsaved.modal().is_none();
+        self.setup.modal = Some(modal);
         if !unchanged {
             let _ = self.write_modal();
         }
@@ -593,11 +666,11 @@ impl MmiTask {
 
     /// Write the modal state to its file: an alarm the first time it fails.
     fn write_modal(&mut self) -> Result<()> {
-        let Some(modal) = self.modal.clone() else {
+        let Some(modal) = self.setup.modal.clone() else {
             return Ok(());
         };
-        let written = self.store.save_modal(&modal);
-        let what = format!("modal state {}", self.store.modal_path().display());
+        let written = self.setup.store.save_modal(&modal);
+        let what = format!("modal state {}", self.setup.store.modal_path().display());
         self.note_saved(history::Unsaved::MODAL, &what, written)
     }
 
@@ -614,8 +687,9 @@ impl MmiTask {
                 return Ok(());
             }
         };
-        let unchanged = self.params.as_ref() == Some(&kept) && self.unsaved.params().is_none();
-        self.params = Some(kept);
+        let unchanged =
+            self.setup.params.as_ref() == Some(&kept) && self.history.unsaved.params().is_none();
+        self.setup.params = Some(kept);
         if !unchanged {
             self.write_params()?;
         }
@@ -625,88 +699,47 @@ impl MmiTask {
     /// Write the machine's parameters to their file: an alarm the first time it
     /// fails.
     fn write_params(&mut self) -> Result<()> {
-        let Some(params) = self.params.clone() else {
+        let Some(params) = self.setup.params.clone() else {
             return Ok(());
         };
-        let written = self.store.save_params(&params);
-        let what = format!("parameters {}", self.store.params_path().display());
+        let written = self.setup.store.save_params(&params);
+        let what = format!("parameters {}", self.setup.store.params_path().display());
         self.note_saved(history::Unsaved::PARAMS, &what, written)
     }
 
     /// Files that could not be written, tried again.
     fn retry_unsaved(&mut self) -> Result<()> {
-        if self.unsaved.params().is_some() {
+        if self.history.unsaved.params().is_some() {
             self.write_params()?;
         }
-        if self.unsaved.modal().is_some() {
+        if self.history.unsaved.modal().is_some() {
             self.write_modal()?;
         }
         Ok(())
     }
 
-    /// A reply; one too long for the wire is refused whole, never cut.
-    fn reply(accepted: bool, job_id: u64, msg: &str) -> OperatorReply {
-        match FixedStr::try_new(msg) {
-            Ok(message) => OperatorReply {
-                accepted: accepted as u32,
-                job_id,
-                message,
-            },
-            Err(e) => OperatorReply {
-                accepted: 0,
-                job_id,
-                message: FixedStr::truncated(&format!("reply not sent: {e}")),
-            },
+    /// An accepted reply (about job `job_id`, 0: none) or a refusal, saying `msg`.
+    fn reply(accepted: bool, job_id: u64, msg: &str) -> Reply {
+        if accepted {
+            Reply::accepted((job_id != 0).then_some(job_id), msg)
+        } else {
+            Reply::refused(msg)
         }
     }
 
     /// The reply to a request; `None` when it is answered later (a job being
     /// checked, see [`Checking`]).
-    fn handle(&mut self, r: &OperatorRequest) -> Result<Option<OperatorReply>> {
-        let Some(kind) = ControlKind::from_wire(r.kind) else {
-            return Ok(Some(Self::reply(false, 0, "unknown request")));
-        };
+    fn handle(&mut self, request: &Request) -> Result<Option<Reply>> {
         let state = self.machine_state();
-        Ok(Some(match kind {
-            ControlKind::StartJob => {
-                let path = r.path.as_str().to_string();
-                if let Some(why) = self.refuse_program(state, "job") {
-                    return Ok(Some(Self::reply(false, 0, &why)));
-                }
-                // read once (a regular file under the limit), checked, and run from
-                // its immutable copy; on a thread of its own (a long program takes a
-                // while) — the loop goes on serving status and E-stop
-                let from_line = (r.axis != 0 && r.axis != u32::MAX).then_some(r.axis);
-                // adaptive feed: asked for, or the profile's default; only on a
-                // machine whose profile has the force loop
-                let adaptive_feed = self
-                    .cfg
-                    .machine
-                    .force
-                    .as_ref()
-                    .and_then(|f| f.adaptive_feed.as_ref());
-                let adaptive_force =
-                    r.flags & JOB_ADAPTIVE_FORCE != 0 || adaptive_feed.is_some_and(|a| a.enabled);
-                if adaptive_force && adaptive_feed.is_none() {
-                    return Ok(Some(Self::reply(
-                        false,
-                        0,
-                        &format!(
-                            "adaptive force refused: the machine profile {} has no force.adaptive_feed section; nothing started",
-                            self.cfg.machine_path.display()
-                        ),
-                    )));
-                }
-                return Ok(self.begin_check(
-                    path,
-                    CheckKind::Job {
-                        from_line,
-                        adaptive_force,
-                    },
-                ));
-            }
-            ControlKind::Mdi => {
-                let text = r.path.as_str().to_string();
+        let axis_index = |a: &softnc_api::Axis| a.index() as u32;
+        Ok(Some(match request {
+            Request::SubmitJob {
+                path,
+                from_line,
+                adaptive_force,
+            } => return Ok(self.submit_job(path, *from_line, *adaptive_force, state)),
+            Request::Mdi { blocks } => {
+                let text = blocks.clone();
                 if text.trim().is_empty() {
                     return Ok(Some(Self::reply(false, 0, "MDI: no block given")));
                 }
@@ -719,69 +752,67 @@ impl MmiTask {
                 };
                 return Ok(self.begin_check(path, CheckKind::Mdi { text }));
             }
-            ControlKind::TouchOff => return self.touch_off(r, state),
-            ControlKind::Offsets => Self::reply(
-                true,
-                0,
-                &offsets_json(
-                    self.params.as_ref(),
-                    self.modal.as_deref(),
-                    &self.cfg.machine,
-                )
-                .to_string(),
-            ),
-            ControlKind::Tools => match self.store.load_tools(&self.cfg.machine) {
-                Ok(t) => Self::reply(true, 0, &serde_json::to_string(&t).unwrap_or_default()),
-                Err(e) => Self::reply(false, 0, &e),
-            },
-            ControlKind::ToolSet => return self.tool_set(r),
-            ControlKind::SingleBlock | ControlKind::OptionalStop | ControlKind::BlockDelete => {
-                let on = r.value != 0.0;
-                self.switches.apply(kind, r.value);
-                self.send_control(kind, 0, if on { 1.0 } else { 0.0 }, "")?;
-                let name = match kind {
-                    ControlKind::SingleBlock => "single block",
-                    ControlKind::OptionalStop => "optional stop",
-                    _ => "block delete",
-                };
-                let when = if self.job_active() && kind != ControlKind::SingleBlock {
-                    " (from the next job)"
-                } else {
-                    ""
-                };
-                Self::reply(
-                    true,
-                    0,
-                    &format!("{name} {}{when}", if on { "on" } else { "off" }),
+            Request::TouchOff {
+                axis,
+                value_mm,
+                coords,
+            } => {
+                return self.touch_off(
+                    axis_index(axis),
+                    *value_mm,
+                    coords.as_deref().unwrap_or(""),
+                    state,
                 )
             }
-            ControlKind::MachineOn | ControlKind::MachineOff | ControlKind::Home => {
-                match transition(kind, state) {
-                    Err(why) => {
-                        Self::reply(false, 0, &format!("{kind:?} refused ({state:?}): {why}"))
-                    }
-                    Ok(next) => {
-                        let axes = self.cfg.machine.axes.len().min(3) as u32;
-                        if kind == ControlKind::Home && r.axis != u32::MAX && r.axis >= axes {
-                            return Ok(Some(Self::reply(false, 0, "home: no such axis")));
-                        }
-                        self.send_control_axis(kind, 0, r.axis, 0.0, "")?;
-                        self.ask_state(next);
-                        let what = match kind {
-                            ControlKind::MachineOn => "machine on".to_string(),
-                            ControlKind::MachineOff => "machine off".to_string(),
-                            _ if r.axis == u32::MAX => "homing all axes".to_string(),
-                            _ => format!("homing {}", self.axis_name(r.axis)),
-                        };
-                        Self::reply(true, 0, &format!("{what} ({next:?})"))
-                    }
+            Request::Offsets => {
+                let table = offsets_json(
+                    self.setup.params.as_ref(),
+                    self.setup.modal.as_deref(),
+                    &self.cfg.machine,
+                );
+                match serde_json::from_value(table) {
+                    Ok(t) => Reply::Offsets(t),
+                    Err(e) => Self::reply(false, 0, &format!("offsets: {e}")),
                 }
             }
-            ControlKind::Jog | ControlKind::JogStep => self.jog(kind, r, state)?,
-            ControlKind::Step => match transition(kind, state) {
+            Request::Tools => match self.setup.store.load_tools(&self.cfg.machine) {
+                Ok(t) => Reply::Tools(
+                    t.into_iter()
+                        .map(|t| softnc_api::Tool {
+                            number: t.number,
+                            length_mm: t.length_mm,
+                            diameter_mm: t.diameter_mm,
+                        })
+                        .collect(),
+                ),
+                Err(e) => Self::reply(false, 0, &e),
+            },
+            Request::ToolSet {
+                tool,
+                length_mm,
+                diameter_mm,
+            } => return self.tool_set(*tool, *length_mm, *diameter_mm),
+            Request::SingleBlock { on } => self.switch(ControlKind::SingleBlock, *on)?,
+            Request::OptionalStop { on } => self.switch(ControlKind::OptionalStop, *on)?,
+            Request::BlockDelete { on } => self.switch(ControlKind::BlockDelete, *on)?,
+            Request::MachineOn => self.drives_or_home(ControlKind::MachineOn, u32::MAX, state)?,
+            Request::MachineOff => self.drives_or_home(ControlKind::MachineOff, u32::MAX, state)?,
+            Request::Home { axis } => self.drives_or_home(
+                ControlKind::Home,
+                axis.as_ref().map_or(u32::MAX, axis_index),
+                state,
+            )?,
+            Request::Jog {
+                axis,
+                speed_mm_per_min,
+            } => self.jog(ControlKind::Jog, axis_index(axis), *speed_mm_per_min, state)?,
+            Request::JogStep { axis, distance_mm } => {
+                self.jog(ControlKind::JogStep, axis_index(axis), *distance_mm, state)?
+            }
+            Request::Step => match transition(ControlKind::Step, state) {
                 Err(why) => Self::reply(false, 0, &format!("Step refused ({state:?}): {why}")),
                 Ok(next) => {
-                    let job_id = self.running_job().map_or(0, |j| j.job_id);
+                    let job_id = self.history.running().map_or(0, |j| j.job_id);
                     self.send_control(ControlKind::Step, 0, 0.0, "")?;
                     Self::reply(
                         true,
@@ -790,22 +821,24 @@ impl MmiTask {
                     )
                 }
             },
-            ControlKind::FeedOverride => {
+            Request::FeedOverride { fraction } => {
+                let value = *fraction;
                 let max = self.cfg.machine.planner.max_feed_override;
-                if !(0.0..=max).contains(&r.value) {
+                if !(0.0..=max).contains(&value) {
                     return Ok(Some(Self::reply(
                         false,
                         0,
                         &format!("override must be 0..={:.0} %", max * 100.0),
                     )));
                 }
-                self.feed_override = r.value;
-                self.send_control(kind, 0, r.value, "")?;
-                Self::reply(true, 0, &format!("feed override {:.0} %", r.value * 100.0))
+                self.machine.feed_override = value;
+                self.send_control(ControlKind::FeedOverride, 0, value, "")?;
+                Self::reply(true, 0, &format!("feed override {:.0} %", value * 100.0))
             }
-            ControlKind::SpindleOverride => {
+            Request::SpindleOverride { fraction } => {
+                let value = *fraction;
                 let range = self.cfg.machine.spindle;
-                if !(range.min_override..=range.max_override).contains(&r.value) {
+                if !(range.min_override..=range.max_override).contains(&value) {
                     return Ok(Some(Self::reply(
                         false,
                         0,
@@ -816,174 +849,359 @@ impl MmiTask {
                         ),
                     )));
                 }
-                self.send_control(kind, 0, r.value, "")?;
-                Self::reply(
-                    true,
-                    0,
-                    &format!("spindle override {:.0} %", r.value * 100.0),
-                )
+                self.send_control(ControlKind::SpindleOverride, 0, value, "")?;
+                Self::reply(true, 0, &format!("spindle override {:.0} %", value * 100.0))
             }
-            ControlKind::Hold
-            | ControlKind::Resume
-            | ControlKind::Abort
-            | ControlKind::EStop
-            | ControlKind::Reset => match transition(kind, state) {
-                Err(why) => Self::reply(false, 0, &format!("{kind:?} refused ({state:?}): {why}")),
-                Ok(next) => {
-                    let job_id = self.running_job().map_or(0, |j| j.job_id);
-                    match kind {
-                        ControlKind::Hold => self.intent = Some(MachineState::Held),
-                        ControlKind::Resume => self.intent = None,
-                        ControlKind::Abort => {
-                            self.intent = Some(MachineState::Stopping);
-                            self.abort_asked = Some(job_id);
-                        }
-                        ControlKind::Reset => {
-                            // acknowledged: the machine's list is cleared, the jobs'
-                            // records keep theirs; a restarted MMI does not show
-                            // them again
-                            self.alarms.clear();
-                            self.acknowledge_alarms();
-                        }
-                        ControlKind::EStop => {
-                            if let Some(c) = self.checking.as_mut() {
-                                c.cancelled = Some("emergency stop while it was checked");
-                            }
-                        }
-                        _ => {}
-                    }
-                    if kind != ControlKind::Reset || state != MachineState::Idle {
-                        self.send_control(kind, 0, 0.0, "")?;
-                    }
-                    let what = match kind {
-                        ControlKind::Hold => format!("job {job_id} held"),
-                        ControlKind::Resume => format!("job {job_id} resumed"),
-                        ControlKind::Abort => format!("job {job_id} stopping along its path"),
-                        ControlKind::EStop => "emergency stop".to_string(),
-                        _ if state == MachineState::Idle => "alarms cleared".to_string(),
-                        _ if state == MachineState::Off => "alarms cleared".to_string(),
-                        _ if self.peer_status(ProcessId::Position) != "alive" => {
-                            "reset: alarms cleared; the position process is started again, the machine comes back off (`on` to switch the drives on)".to_string()
-                        }
-                        _ => "reset: alarms cleared, the machine is off (`on` to switch the drives on)".to_string(),
-                    };
-                    Self::reply(true, job_id, &format!("{what} ({next:?})"))
-                }
-            },
-            ControlKind::Shutdown => {
-                if let Some(c) = self.checking.as_mut() {
+            Request::Hold => self.job_command(ControlKind::Hold, state)?,
+            Request::Resume => self.job_command(ControlKind::Resume, state)?,
+            Request::Abort => self.job_command(ControlKind::Abort, state)?,
+            Request::EStop => self.job_command(ControlKind::EStop, state)?,
+            Request::Reset => self.job_command(ControlKind::Reset, state)?,
+            Request::Shutdown => {
+                if let Some(c) = self.checks.checking.as_mut() {
                     c.cancelled = Some("the controller is shutting down");
                 }
-                self.abort_asked = self.running_job().map(|j| j.job_id);
-                self.send_control(kind, 0, 0.0, "")?;
+                self.machine.abort_asked = self.history.running().map(|j| j.job_id);
+                self.send_control(ControlKind::Shutdown, 0, 0.0, "")?;
                 self.shutdown = true;
                 Self::reply(true, 0, "shutting down")
             }
-            ControlKind::Status => Self::reply(true, 0, &self.status_json().to_string()),
-            ControlKind::Jobs => Self::reply(true, 0, &self.jobs_page(r.value)),
+            Request::Status => Reply::Status(Box::new(self.status())),
+            Request::Jobs { offset } => self.history.page(*offset),
         }))
+    }
+
+    /// Submit a job: read once (a regular file under the limit), checked, and run
+    /// from its immutable copy; on a thread of its own (a long program takes a
+    /// while) — the loop goes on serving status and E-stop. `None`: answered when
+    /// the check ends.
+    fn submit_job(
+        &mut self,
+        path: &str,
+        from_line: Option<u32>,
+        adaptive_asked: bool,
+        state: MachineState,
+    ) -> Option<Reply> {
+        if let Some(why) = self.refuse_program(state, "job") {
+            return Some(Self::reply(false, 0, &why));
+        }
+        let from_line = from_line.filter(|l| *l != 0 && *l != u32::MAX);
+        // adaptive feed: asked for, or the profile's default; only on a
+        // machine whose profile has the force loop
+        let adaptive_feed = self
+            .cfg
+            .machine
+            .force
+            .as_ref()
+            .and_then(|f| f.adaptive_feed.as_ref());
+        let adaptive_force = adaptive_asked || adaptive_feed.is_some_and(|a| a.enabled);
+        if adaptive_force && adaptive_feed.is_none() {
+            return Some(Self::reply(
+                false,
+                0,
+                &format!(
+                    "adaptive force refused: the machine profile {} has no force.adaptive_feed section; nothing started",
+                    self.cfg.machine_path.display()
+                ),
+            ));
+        }
+        self.begin_check(
+            path.to_string(),
+            CheckKind::Job {
+                from_line,
+                adaptive_force,
+            },
+        )
+    }
+
+    /// A program-flow switch (single block, optional stop, block delete) on or off.
+    fn switch(&mut self, kind: ControlKind, on: bool) -> Result<Reply> {
+        let value = if on { 1.0 } else { 0.0 };
+        self.machine.switches.apply(kind, value);
+        self.send_control(kind, 0, value, "")?;
+        let name = match kind {
+            ControlKind::SingleBlock => "single block",
+            ControlKind::OptionalStop => "optional stop",
+            _ => "block delete",
+        };
+        let when = if self.job_active() && kind != ControlKind::SingleBlock {
+            " (from the next job)"
+        } else {
+            ""
+        };
+        Ok(Self::reply(
+            true,
+            0,
+            &format!("{name} {}{when}", if on { "on" } else { "off" }),
+        ))
+    }
+
+    /// Machine on, machine off, or homing `axis` (`u32::MAX`: all).
+    fn drives_or_home(
+        &mut self,
+        kind: ControlKind,
+        axis: u32,
+        state: MachineState,
+    ) -> Result<Reply> {
+        Ok(match transition(kind, state) {
+            Err(why) => Self::reply(false, 0, &format!("{kind:?} refused ({state:?}): {why}")),
+            Ok(next) => {
+                let axes = self.cfg.machine.axes.len().min(3) as u32;
+                if kind == ControlKind::Home && axis != u32::MAX && axis >= axes {
+                    return Ok(Self::reply(false, 0, "home: no such axis"));
+                }
+                self.send_control_axis(kind, 0, axis, 0.0, "")?;
+                self.ask_state(next);
+                let what = match kind {
+                    ControlKind::MachineOn => "machine on".to_string(),
+                    ControlKind::MachineOff => "machine off".to_string(),
+                    _ if axis == u32::MAX => "homing all axes".to_string(),
+                    _ => format!("homing {}", self.axis_name(axis)),
+                };
+                Self::reply(true, 0, &format!("{what} ({next:?})"))
+            }
+        })
+    }
+
+    /// Hold, resume, abort, E-stop or reset.
+    fn job_command(&mut self, kind: ControlKind, state: MachineState) -> Result<Reply> {
+        Ok(match transition(kind, state) {
+            Err(why) => Self::reply(false, 0, &format!("{kind:?} refused ({state:?}): {why}")),
+            Ok(next) => {
+                let job_id = self.history.running().map_or(0, |j| j.job_id);
+                match kind {
+                    ControlKind::Hold => self.machine.intent = Some(MachineState::Held),
+                    ControlKind::Resume => self.machine.intent = None,
+                    ControlKind::Abort => {
+                        self.machine.intent = Some(MachineState::Stopping);
+                        self.machine.abort_asked = Some(job_id);
+                    }
+                    ControlKind::Reset => {
+                        // acknowledged: the machine's list is cleared, the jobs'
+                        // records keep theirs; a restarted MMI does not show
+                        // them again
+                        self.machine.alarms.clear();
+                        self.acknowledge_alarms();
+                    }
+                    ControlKind::EStop => {
+                        if let Some(c) = self.checks.checking.as_mut() {
+                            c.cancelled = Some("emergency stop while it was checked");
+                        }
+                    }
+                    _ => {}
+                }
+                if kind != ControlKind::Reset || state != MachineState::Idle {
+                    self.send_control(kind, 0, 0.0, "")?;
+                }
+                let what = match kind {
+                    ControlKind::Hold => format!("job {job_id} held"),
+                    ControlKind::Resume => format!("job {job_id} resumed"),
+                    ControlKind::Abort => format!("job {job_id} stopping along its path"),
+                    ControlKind::EStop => "emergency stop".to_string(),
+                    _ if state == MachineState::Idle => "alarms cleared".to_string(),
+                    _ if state == MachineState::Off => "alarms cleared".to_string(),
+                    _ if self.peer_status(ProcessId::Position) != ProcessHealth::Alive => {
+                        "reset: alarms cleared; the position process is started again, the machine comes back off (`on` to switch the drives on)".to_string()
+                    }
+                    _ => "reset: alarms cleared, the machine is off (`on` to switch the drives on)".to_string(),
+                };
+                Self::reply(true, job_id, &format!("{what} ({next:?})"))
+            }
+        })
     }
 
     /// A reset acknowledged the alarms raised until now: kept for a restarted MMI.
     fn acknowledge_alarms(&mut self) {
-        self.alarms_acknowledged_unix_ns = softnc_rt::unix_ns();
+        self.machine.alarms_acknowledged_unix_ns = softnc_rt::unix_ns();
         let path = self.cfg.data_dir.join(ALARMS_ACKNOWLEDGED);
-        let text = self.alarms_acknowledged_unix_ns.to_string();
+        let text = self.machine.alarms_acknowledged_unix_ns.to_string();
         if let Err(e) = softnc_core::store::write_atomic(&path, text.as_bytes()) {
             tracing::warn!("{}: {e}", path.display());
         }
     }
 
-    /// "alive" (a heartbeat within the timeout), "lost" (silent, or reported lost and
-    /// not yet back) or "unseen".
-    fn peer_status(&self, p: ProcessId) -> &'static str {
+    /// Alive (a heartbeat within the timeout), lost (silent, or reported lost and
+    /// not yet back) or unseen.
+    fn peer_status(&self, p: ProcessId) -> ProcessHealth {
         let timeout = self.cfg.config.heartbeat_timeout_s;
-        match self.peers[p as usize].last_seen {
-            Some(t) if t.elapsed().as_secs_f64() <= timeout => "alive",
-            Some(_) => "lost",
-            None if self.peers[p as usize].lost_pid.is_some() => "lost",
-            None => "unseen",
+        match self.machine.peers[p as usize].last_seen {
+            Some(t) if t.elapsed().as_secs_f64() <= timeout => ProcessHealth::Alive,
+            Some(_) => ProcessHealth::Lost,
+            None if self.machine.peers[p as usize].lost_pid.is_some() => ProcessHealth::Lost,
+            None => ProcessHealth::Unseen,
         }
     }
 
     /// The status the operator sees.
-    pub fn status_json(&self) -> serde_json::Value {
-        let peer = |p: ProcessId| self.peer_status(p);
+    pub fn status(&self) -> softnc_api::Status {
+        use softnc_api as api;
         let loops = |p: ProcessId| {
-            self.loops[p as usize].map(|l| {
-                serde_json::json!({"cycles": l.cycles, "overruns": l.overruns,
-                    "jitter_ns": {"p50": l.jitter_ns[0], "p99": l.jitter_ns[1], "p999": l.jitter_ns[2], "max": l.jitter_ns[3]},
-                    "compute_ns": {"p50": l.compute_ns[0], "p99": l.compute_ns[1], "p999": l.compute_ns[2], "max": l.compute_ns[3]},
-                    "latency_ns": {"p50": l.latency_ns[0], "p99": l.latency_ns[1], "p999": l.latency_ns[2], "max": l.latency_ns[3]}})
+            self.machine.loops[p as usize].map(|l| {
+                let pct = |v: [u64; 4]| api::Percentiles {
+                    p50: v[0],
+                    p99: v[1],
+                    p999: v[2],
+                    max: v[3],
+                };
+                api::LoopTiming {
+                    cycles: l.cycles,
+                    overruns: l.overruns,
+                    jitter_ns: pct(l.jitter_ns),
+                    compute_ns: pct(l.compute_ns),
+                    latency_ns: pct(l.latency_ns),
+                }
             })
         };
         let job = self
+            .history
             .jobs
             .iter()
             .rev()
-            .find(|j| j.outcome == "running")
-            .or(self.jobs.last());
-        let s = self.last;
-        let offsets = Offsets::from_params(self.params.as_ref(), &self.cfg.machine)
-            .with_modal(self.modal.as_deref());
+            .find(|j| j.outcome == Outcome::Running)
+            .or(self.history.jobs.last());
+        let s = self.machine.last;
+        let offsets = Offsets::from_params(self.setup.params.as_ref(), &self.cfg.machine)
+            .with_modal(self.setup.modal.as_deref());
         let machine_mm = s.map(|s| [s.cmd_mm[0], s.cmd_mm[1], s.cmd_mm[2]]);
-        serde_json::json!({
-            "state": format!("{:?}", self.machine_state()),
-            "homed": self.homed(),
-            "checking": self.checking.as_ref().map(|c| c.path.as_str()),
-            "machine_mm": machine_mm,
-            "work_mm": machine_mm.map(|m| offsets.work_mm(m)),
-            "coords": offsets.coords_name(),
-            "offsets": {"g5x_mm": offsets.g5x_mm, "rotation_deg": offsets.rotation_deg,
-                "g92_mm": offsets.g92_mm, "tool_offset_mm": offsets.tool_mm},
-            "tool": offsets.tool,
+        let modal_has = |word: &str| {
+            self.setup
+                .modal
+                .as_deref()
+                .is_some_and(|m| m.lines().any(|l| l.trim() == word))
+        };
+        api::Status {
+            api_version: api::API_VERSION,
+            state: api_state(self.machine_state()),
+            homed: self.homed().iter().copied().collect(),
+            checking: self.checks.checking.as_ref().map(|c| c.path.clone()),
+            machine_mm,
+            work_mm: machine_mm.map(|m| offsets.work_mm(m)),
+            coords: offsets.coords_name().to_string(),
+            offsets: api::ActiveOffsets {
+                g5x_mm: offsets.g5x_mm,
+                rotation_deg: offsets.rotation_deg,
+                g92_mm: offsets.g92_mm,
+                tool_offset_mm: offsets.tool_mm,
+            },
+            tool: offsets.tool,
             // the modal state the machine is in between programs (the last MDI
             // command's or job's end), as G-code words
-            "modal": self.modal.as_deref().map(|m| m.split_whitespace().collect::<Vec<_>>()),
-            "coolant": {
-                "mist": self.modal.as_deref().is_some_and(|m| m.lines().any(|l| l.trim() == "M7")),
-                "flood": self.modal.as_deref().is_some_and(|m| m.lines().any(|l| l.trim() == "M8")),
+            modal: self
+                .setup
+                .modal
+                .as_deref()
+                .map(|m| m.split_whitespace().map(String::from).collect()),
+            coolant: api::Coolant {
+                mist: modal_has("M7"),
+                flood: modal_has("M8"),
             },
-            "params_error": self.params_error,
-            "modal_error": self.modal_error,
+            params_error: self.setup.params_error.clone(),
+            modal_error: self.setup.modal_error.clone(),
             // files of the data directory not written (retried), by what they hold
-            "unsaved": self.unsaved.json(),
-            "abandoned_checks": self.abandoned_running(),
-            "switches": {"single_block": self.switches.single_block,
-                "optional_stop": self.switches.optional_stop,
-                "block_delete": self.switches.block_delete},
-            "program_line": s.filter(|s| s.job_id != 0 && s.line != 0).map(|s| s.line),
-            "feed_override": self.feed_override,
-            "spindle_override": s.map(|s| s.spindle_override),
-            "spindle_rpm": s.map(|s| s.spindle_rpm),
-            "adaptive_force": s.filter(|s| s.job_id != 0 && s.force_override.is_finite()).map(|s| serde_json::json!({
-                "override": s.force_override,
-                "revolutions": s.force_revolutions,
-                "force_n": s.force_n.is_finite().then_some(s.force_n),
-            })),
-            "job": job.map(|j| serde_json::json!({
-                "job_id": j.job_id, "path": j.path, "outcome": j.outcome,
-                "program": j.program, "mdi": j.mdi, "from_line": j.from_line,
-                "adaptive_force": j.adaptive_force,
-                "cycles": j.cycles, "planned_samples": j.planned_samples,
-                "path_mm": j.path_mm, "planned_path_mm": j.planned_path_mm,
-                "progress": j.progress(),
-                "accuracy": j.accuracy,
-                "notes": j.notes,
-                "alarms": j.alarms,
-            })),
-            "axes": s.map(|s| serde_json::json!({
-                "cmd_mm": &s.cmd_mm[..3], "actual_mm": &s.actual_mm[..3],
-                "following_err_um": s.following_err_mm[..3].iter().map(|e| e * 1000.0).collect::<Vec<_>>(),
-                "contour_err_um": if s.contour_err_mm.is_finite() { Some(s.contour_err_mm * 1000.0) } else { None },
-                "ring_fill": s.ring_fill,
-            })),
-            "processes": {"interp": peer(ProcessId::Interp), "position": peer(ProcessId::Position), "supervisor": peer(ProcessId::Supervisor)},
-            "loops": {"interp": loops(ProcessId::Interp), "position": loops(ProcessId::Position)},
-            "alarms": self.alarms.iter().rev().take(10).map(|a| serde_json::json!({
-                "code": format!("{:?}", AlarmCode::from_wire(a.code).unwrap_or(AlarmCode::Other)),
-                "job_id": a.job_id, "message": a.message.as_str()})).collect::<Vec<_>>(),
-        })
+            unsaved: self.history.unsaved.to_api(),
+            abandoned_checks: self.checks.abandoned_running() as u64,
+            switches: api::Switches {
+                single_block: self.machine.switches.single_block,
+                optional_stop: self.machine.switches.optional_stop,
+                block_delete: self.machine.switches.block_delete,
+            },
+            program_line: s.filter(|s| s.job_id != 0 && s.line != 0).map(|s| s.line),
+            feed_override: self.machine.feed_override,
+            spindle_override: s.map(|s| s.spindle_override),
+            spindle_rpm: s.map(|s| s.spindle_rpm),
+            adaptive_force: s
+                .filter(|s| s.job_id != 0 && s.force_override.is_finite())
+                .map(|s| api::AdaptiveForce {
+                    override_fraction: s.force_override,
+                    revolutions: s.force_revolutions,
+                    force_n: s.force_n.is_finite().then_some(s.force_n),
+                }),
+            job: job.map(|j| api::JobStatus {
+                record: j.clone(),
+                progress: j.progress(),
+            }),
+            axes: s.map(|s| api::AxesStatus {
+                cmd_mm: s.cmd_mm[..3].to_vec(),
+                actual_mm: s.actual_mm[..3].to_vec(),
+                following_err_um: s.following_err_mm[..3].iter().map(|e| e * 1000.0).collect(),
+                contour_err_um: s
+                    .contour_err_mm
+                    .is_finite()
+                    .then_some(s.contour_err_mm * 1000.0),
+                ring_fill: s.ring_fill,
+            }),
+            processes: api::Processes {
+                interp: self.peer_status(ProcessId::Interp),
+                position: self.peer_status(ProcessId::Position),
+                supervisor: self.peer_status(ProcessId::Supervisor),
+            },
+            loops: api::Loops {
+                interp: loops(ProcessId::Interp),
+                position: loops(ProcessId::Position),
+            },
+            alarms: self
+                .machine
+                .alarms
+                .iter()
+                .rev()
+                .take(10)
+                .map(|a| api::Alarm {
+                    code: api_alarm_kind(AlarmCode::from_wire(a.code).unwrap_or(AlarmCode::Other)),
+                    job_id: a.job_id,
+                    message: a.message.as_str().to_string(),
+                })
+                .collect(),
+        }
+    }
+}
+
+/// A reply as the wire carries it (`request`: the request it answers, for a reply
+/// too large to send, which is replaced by one saying so: never cut short).
+pub(crate) fn wire_reply(reply: &Reply, request: &str) -> OperatorReply {
+    let text = softnc_api::encode_reply(reply, request, OperatorReply::MESSAGE_CAPACITY);
+    let message = FixedStr::try_new(&text).unwrap_or_else(|e| {
+        // encode_reply keeps within the capacity: not reached
+        FixedStr::truncated(&format!(
+            "{{\"reply\":\"refused\",\"body\":{{\"reason\":\"reply of {e} not sent\"}}}}"
+        ))
+    });
+    OperatorReply { message }
+}
+
+/// The operator's name of a machine state.
+fn api_state(s: MachineState) -> softnc_api::MachineState {
+    use softnc_api::MachineState as A;
+    match s {
+        MachineState::Idle => A::Idle,
+        MachineState::Running => A::Running,
+        MachineState::Held => A::Held,
+        MachineState::Faulted => A::Faulted,
+        MachineState::EStopped => A::EStopped,
+        MachineState::Stopping => A::Stopping,
+        MachineState::Off => A::Off,
+        MachineState::Homing => A::Homing,
+        MachineState::Jogging => A::Jogging,
+        MachineState::Paused => A::Paused,
+        MachineState::Mdi => A::Mdi,
+    }
+}
+
+/// The operator's kind of an alarm code.
+fn api_alarm_kind(c: AlarmCode) -> softnc_api::AlarmKind {
+    use softnc_api::AlarmKind as K;
+    match c {
+        AlarmCode::SequenceError => K::SequenceError,
+        AlarmCode::RingDry => K::RingDry,
+        AlarmCode::ProcessLost => K::ProcessLost,
+        AlarmCode::FollowingError => K::FollowingError,
+        AlarmCode::EStop => K::EStop,
+        AlarmCode::JobRefused => K::JobRefused,
+        AlarmCode::Note => K::Note,
+        AlarmCode::PlanStarved => K::PlanStarved,
+        AlarmCode::PlanFailed => K::PlanFailed,
+        AlarmCode::LoopStall => K::LoopStall,
+        AlarmCode::LoopLate => K::LoopLate,
+        AlarmCode::Other => K::Other,
     }
 }
 

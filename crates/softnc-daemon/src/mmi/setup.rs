@@ -2,53 +2,54 @@
 //! step), touch-off, the tool table, MDI files, and the checks that refuse a program
 //! while the machine is not ready for one.
 
-use super::check::CheckKind;
+use super::program::CheckKind;
 use super::{transition, MmiTask};
-use crate::machine_store::{coords_number, Offsets};
+use crate::machine_store::{coords_number, MachineStore, Offsets};
 use anyhow::Result;
+use softnc_api::Reply;
 use softnc_core::store::write_atomic;
 use softnc_core::{Axes, MAX_AXES};
-use softnc_ipc::{
-    Alarm, AlarmCode, ControlKind, FixedStr, MachineState, OperatorReply, OperatorRequest,
-    ProcessId,
-};
+use softnc_ipc::{Alarm, AlarmCode, ControlKind, FixedStr, MachineState, ProcessId};
 use std::time::Instant;
 
-/// An error of the MDI file `path` (`path:LINE:COL: why`, its first line the `%`
-/// that opens it) as the operator's blocks: `MDI block N, column C: why`.
-pub(super) fn mdi_error(path: &str, msg: &str) -> String {
-    let located = msg.strip_prefix(path).and_then(|rest| {
-        let mut parts = rest.strip_prefix(':')?.splitn(3, ':');
-        let line: u32 = parts.next()?.parse().ok()?;
-        let col: u32 = parts.next()?.parse().ok()?;
-        Some((line, col, parts.next()?.trim_start()))
-    });
-    match located {
-        Some((line, col, why)) if line >= 2 => {
-            format!("MDI block {}, column {col}: {why}", line - 1)
-        }
-        Some((_, _, why)) => format!("MDI: {why}"),
-        None => format!("MDI: {msg}"),
-    }
+/// The machine's setup between jobs as the MMI keeps it: the parameter file and
+/// the tool table, the parameters and modal state jobs start with, and why a file
+/// cannot be used.
+pub(super) struct Setup {
+    /// The parameter file and the tool table.
+    pub(super) store: MachineStore,
+    /// The machine's parameters as last saved (`None`: the profile's offsets).
+    pub(super) params: Option<softnc_gcode::Params>,
+    /// Why the parameter file cannot be used: jobs, MDI and touch-off are refused.
+    pub(super) params_error: Option<String>,
+    /// The running job's parameters and modal state at its end: kept when it
+    /// completes.
+    pub(super) pending_params: Option<(u64, softnc_gcode::Params, String)>,
+    /// The modal state (G-code) the last completed MDI command or job left: the
+    /// next one starts with it, as in LinuxCNC.
+    pub(super) modal: Option<String>,
+    /// Why the modal state file cannot be used (anything but modal words in it):
+    /// jobs, MDI and touch-off are refused until it is fixed or removed.
+    pub(super) modal_error: Option<String>,
 }
 
 impl MmiTask {
     /// A continuous jog whose client stopped renewing it is stopped (the dead-man).
     pub(super) fn watch_jog(&mut self) -> Result<()> {
-        let Some((axis, _, renewed)) = self.jog_lease else {
+        let Some((axis, _, renewed)) = self.machine.jog_lease else {
             return Ok(());
         };
         let age = renewed.elapsed().as_secs_f64();
         let jogging = self.position_state() == MachineState::Jogging;
         if !jogging && age > self.cfg.config.heartbeat_timeout_s {
             // it ended (a soft limit, an abort, a stop)
-            self.jog_lease = None;
+            self.machine.jog_lease = None;
         } else if jogging && age > self.cfg.config.jog_deadman_s {
-            self.jog_lease = None;
+            self.machine.jog_lease = None;
             self.send_control_axis(ControlKind::Jog, 0, axis, 0.0, "")?;
             let name = self.axis_name(axis);
             let deadman = self.cfg.config.jog_deadman_s;
-            self.alarms_pub.send_copy(Alarm {
+            self.ports.alarms_pub.send_copy(Alarm {
                 code: AlarmCode::Other.wire(),
                 axis,
                 process: ProcessId::Mmi.wire(),
@@ -74,20 +75,20 @@ impl MmiTask {
 
     /// Which axes are homed, as the position process reports them.
     pub fn homed(&self) -> Axes<bool> {
-        let mask = self.last.map_or(0, |s| s.homed);
+        let mask = self.machine.last.map_or(0, |s| s.homed);
         Axes::from_fn(|a| mask & (1 << a.index()) != 0)
     }
 
     /// Why a job, MDI or touch-off cannot be taken in now, if it cannot.
     pub(super) fn refuse_program(&mut self, state: MachineState, what: &str) -> Option<String> {
-        if self.modal_error.is_some() {
+        if self.setup.modal_error.is_some() {
             // fixed or removed since: used again
-            match self.store.load_modal() {
+            match self.setup.store.load_modal() {
                 Ok(m) => {
-                    self.modal = m;
-                    self.modal_error = None;
+                    self.setup.modal = m;
+                    self.setup.modal_error = None;
                 }
-                Err(e) => self.modal_error = Some(e),
+                Err(e) => self.setup.modal_error = Some(e),
             }
         }
         if self.shutdown {
@@ -99,16 +100,16 @@ impl MmiTask {
         if state != MachineState::Idle || self.job_active() {
             return Some(format!("machine is busy ({state:?}); {what} not started"));
         }
-        if let Some(e) = &self.params_error {
+        if let Some(e) = &self.setup.params_error {
             return Some(format!("{e}; {what} not started"));
         }
-        if let Some(e) = &self.modal_error {
+        if let Some(e) = &self.setup.modal_error {
             return Some(format!("{e}; {what} not started"));
         }
-        if let Some(e) = self.unsaved.params() {
+        if let Some(e) = self.history.unsaved.params() {
             return Some(format!(
                 "the machine's parameters are not saved ({}: {e}); {what} not started until they are (tried again every {} s)",
-                self.store.params_path().display(),
+                self.setup.store.params_path().display(),
                 self.cfg.config.job_record_period_s
             ));
         }
@@ -124,7 +125,7 @@ impl MmiTask {
             ));
         }
         for p in [ProcessId::Interp, ProcessId::Position] {
-            if self.peer_status(p) != "alive" {
+            if self.peer_status(p) != softnc_api::ProcessHealth::Alive {
                 return Some(format!(
                     "the {} process is {}; {what} not started",
                     p.name(),
@@ -132,12 +133,13 @@ impl MmiTask {
                 ));
             }
         }
-        if let Some(c) = &self.checking {
+        if let Some(c) = &self.checks.checking {
             return Some(format!("{} is being checked; {what} not started", c.path));
         }
-        let abandoned = self.abandoned_running();
+        let abandoned = self.checks.abandoned_running();
         if abandoned >= self.cfg.config.max_abandoned_checks as usize {
             let paths: Vec<&str> = self
+                .checks
                 .abandoned
                 .iter()
                 .filter(|(_, t)| !t.is_finished())
@@ -170,24 +172,25 @@ impl MmiTask {
     pub(super) fn jog(
         &mut self,
         kind: ControlKind,
-        r: &OperatorRequest,
+        axis: u32,
+        value: f64,
         state: MachineState,
-    ) -> Result<OperatorReply> {
+    ) -> Result<Reply> {
         let axes = self.cfg.machine.axes.len().min(3) as u32;
-        if r.axis >= axes {
+        if axis >= axes {
             return Ok(Self::reply(false, 0, "jog: no such axis"));
         }
-        if !r.value.is_finite() {
+        if !value.is_finite() {
             return Ok(Self::reply(false, 0, "jog: the value is not a number"));
         }
-        let i = r.axis as usize;
+        let i = axis as usize;
         let a = self.cfg.machine.axes[i].clone();
         let name = a.name.clone();
         let homed = self.homed()[i];
-        let pos_mm = self.last.map_or(0.0, |s| s.cmd_mm[i]);
+        let pos_mm = self.machine.last.map_or(0.0, |s| s.cmd_mm[i]);
         let deadman = self.cfg.config.jog_deadman_s;
         if kind == ControlKind::Jog {
-            let speed = r.value;
+            let speed = value;
             if speed == 0.0 {
                 if state != MachineState::Jogging {
                     return Ok(Self::reply(
@@ -196,8 +199,8 @@ impl MmiTask {
                         &format!("jog {name} 0: nothing is jogging"),
                     ));
                 }
-                self.jog_lease = None;
-                self.send_control_axis(kind, 0, r.axis, 0.0, "")?;
+                self.machine.jog_lease = None;
+                self.send_control_axis(kind, 0, axis, 0.0, "")?;
                 return Ok(Self::reply(true, 0, &format!("jog of {name} stopping")));
             }
             let max = a.max_vel_mm_per_s * 60.0;
@@ -208,8 +211,8 @@ impl MmiTask {
                     &format!("jog speed {speed} mm/min over {name}'s limit {max} mm/min"),
                 ));
             }
-            if let Some(lease) = self.jog_lease.as_mut() {
-                if state == MachineState::Jogging && lease.0 == r.axis && lease.1 == speed {
+            if let Some(lease) = self.machine.jog_lease.as_mut() {
+                if state == MachineState::Jogging && lease.0 == axis && lease.1 == speed {
                     lease.2 = Instant::now();
                     return Ok(Self::reply(true, 0, &format!("jog of {name} renewed")));
                 }
@@ -221,7 +224,8 @@ impl MmiTask {
                     &format!("jog refused ({state:?}): {why}"),
                 ));
             }
-            if state == MachineState::Jogging && self.jog_lease.is_none_or(|l| l.0 != r.axis) {
+            if state == MachineState::Jogging && self.machine.jog_lease.is_none_or(|l| l.0 != axis)
+            {
                 return Ok(Self::reply(
                     false,
                     0,
@@ -237,8 +241,8 @@ impl MmiTask {
                     &format!("jog refused: {name} is at its soft limit ({pos_mm:.4} mm)"),
                 ));
             }
-            self.jog_lease = Some((r.axis, speed, Instant::now()));
-            self.send_control_axis(kind, 0, r.axis, speed, "")?;
+            self.machine.jog_lease = Some((axis, speed, Instant::now()));
+            self.send_control_axis(kind, 0, axis, speed, "")?;
             self.ask_state(MachineState::Jogging);
             let until = if homed {
                 "to its soft limit"
@@ -261,10 +265,10 @@ impl MmiTask {
                 &format!("jog refused ({state:?}): {why}"),
             ));
         }
-        if r.value == 0.0 {
+        if value == 0.0 {
             return Ok(Self::reply(false, 0, "jog: a step of 0 mm"));
         }
-        let target_mm = pos_mm + r.value;
+        let target_mm = pos_mm + value;
         if homed && !(a.min_mm..=a.max_mm).contains(&target_mm) {
             return Ok(Self::reply(
                 false,
@@ -275,12 +279,12 @@ impl MmiTask {
                 ),
             ));
         }
-        self.send_control_axis(kind, 0, r.axis, r.value, "")?;
+        self.send_control_axis(kind, 0, axis, value, "")?;
         self.ask_state(MachineState::Jogging);
         Ok(Self::reply(
             true,
             0,
-            &format!("jogging {name} by {} mm to {target_mm:.4} mm", r.value),
+            &format!("jogging {name} by {} mm to {target_mm:.4} mm", value),
         ))
     }
 
@@ -288,21 +292,22 @@ impl MmiTask {
     /// system, checked and run as MDI; only at rest.
     pub(super) fn touch_off(
         &mut self,
-        r: &OperatorRequest,
+        axis: u32,
+        value: f64,
+        coords: &str,
         state: MachineState,
-    ) -> Result<Option<OperatorReply>> {
+    ) -> Result<Option<Reply>> {
         let axes = self.cfg.machine.axes.len().min(3) as u32;
-        if r.axis >= axes {
+        if axis >= axes {
             return Ok(Some(Self::reply(false, 0, "touch-off: no such axis")));
         }
-        if !r.value.is_finite() {
+        if !value.is_finite() {
             return Ok(Some(Self::reply(
                 false,
                 0,
                 "touch-off: the value is not a number",
             )));
         }
-        let coords = r.path.as_str();
         let p = if coords.is_empty() {
             0 // the active system
         } else {
@@ -336,13 +341,13 @@ impl MmiTask {
         if let Some(why) = self.refuse_program(state, "touch-off") {
             return Ok(Some(Self::reply(false, 0, &why)));
         }
-        let name = self.axis_name(r.axis);
-        let block = format!("G10 L20 P{p} {name}{:.6}", r.value);
+        let name = self.axis_name(axis);
+        let block = format!("G10 L20 P{p} {name}{:.6}", value);
         let what = format!(
             "touch-off {name} = {:.4} in {}",
-            r.value,
+            value,
             if p == 0 {
-                Offsets::from_params(self.params.as_ref(), &self.cfg.machine).coords_name()
+                Offsets::from_params(self.setup.params.as_ref(), &self.cfg.machine).coords_name()
             } else {
                 crate::machine_store::coords_name(p)
             }
@@ -355,76 +360,58 @@ impl MmiTask {
     }
 
     /// Set a tool's length (and diameter) in the tool table; only between jobs.
-    pub(super) fn tool_set(&mut self, r: &OperatorRequest) -> Result<Option<OperatorReply>> {
-        if self.job_active() || self.checking.is_some() {
+    pub(super) fn tool_set(
+        &mut self,
+        tool: u32,
+        length_mm: f64,
+        diameter_mm: Option<f64>,
+    ) -> Result<Option<Reply>> {
+        if self.job_active() || self.checks.checking.is_some() {
             return Ok(Some(Self::reply(
                 false,
                 0,
                 "tool table: a job is running; edit it between jobs",
             )));
         }
-        let diameter = r.path.as_str().trim();
-        let diameter_mm: Option<f64> = if diameter.is_empty() {
-            None
-        } else {
-            match diameter.parse::<f64>() {
-                Ok(d) if d.is_finite() && d >= 0.0 => Some(d),
-                _ => {
-                    return Ok(Some(Self::reply(
-                        false,
-                        0,
-                        &format!("tool table: diameter {diameter:?} is not a number ≥ 0"),
-                    )))
-                }
-            }
-        };
-        if !r.value.is_finite() || r.axis == 0 || r.axis == u32::MAX {
+        if let Some(d) = diameter_mm.filter(|d| !(d.is_finite() && *d >= 0.0)) {
+            return Ok(Some(Self::reply(
+                false,
+                0,
+                &format!("tool table: diameter {d} is not a number ≥ 0"),
+            )));
+        }
+        if !length_mm.is_finite() || tool == 0 || tool == u32::MAX {
             return Ok(Some(Self::reply(
                 false,
                 0,
                 "tool table: a tool number > 0 and a finite length are needed",
             )));
         }
-        let mut tools = match self.store.load_tools(&self.cfg.machine) {
+        let mut tools = match self.setup.store.load_tools(&self.cfg.machine) {
             Ok(t) => t,
             Err(e) => return Ok(Some(Self::reply(false, 0, &e))),
         };
-        match tools.iter_mut().find(|t| t.number == r.axis) {
+        match tools.iter_mut().find(|t| t.number == tool) {
             Some(t) => {
-                t.length_mm = r.value;
+                t.length_mm = length_mm;
                 if let Some(d) = diameter_mm {
                     t.diameter_mm = d;
                 }
             }
             None => tools.push(softnc_core::config::ToolEntry {
-                number: r.axis,
-                length_mm: r.value,
+                number: tool,
+                length_mm,
                 diameter_mm: diameter_mm.unwrap_or(0.0),
             }),
         }
         tools.sort_by_key(|t| t.number);
-        Ok(Some(match self.store.save_tools(&tools) {
+        Ok(Some(match self.setup.store.save_tools(&tools) {
             Ok(()) => Self::reply(
                 true,
                 0,
-                &format!("tool {}: length {:.4} mm", r.axis, r.value),
+                &format!("tool {}: length {:.4} mm", tool, length_mm),
             ),
             Err(e) => Self::reply(false, 0, &e),
         }))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn mdi_errors_name_the_operators_blocks() {
-        let p = "/d/mdi/mdi.ngc";
-        assert_eq!(
-            mdi_error(p, &format!("{p}:3:7: Failed to find sub")),
-            "MDI block 2, column 7: Failed to find sub"
-        );
-        assert_eq!(mdi_error(p, "cannot read"), "MDI: cannot read");
     }
 }

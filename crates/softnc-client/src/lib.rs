@@ -1,26 +1,29 @@
-//! The operator client: talks to `softnc-mmi` over iceoryx2 request-response.
-//! Used by the `softnc` binary and by the end-to-end tests.
+//! The operator client: sends `softnc-api` [`Request`]s to a controller's MMI
+//! (`softnc-mmi`) over iceoryx2 request-response and reads the [`Reply`]s. The
+//! `softnc` CLI, its terminal UI and the end-to-end tests use it; they see only
+//! `softnc-api` types.
 //!
 //! The E-stop takes two paths: straight to the position process on the
 //! instance's `estop` service, and to the MMI as every other
 //! request. It stops the machine even when the MMI does not answer (hung, stopped);
 //! the client then confirms it from the position process's own status.
 
-use crate::config::DaemonConfig;
 use anyhow::{bail, Context, Result};
 use iceoryx2::port::client::Client;
 use iceoryx2::prelude::*;
+pub use softnc_api::{
+    JobRecord, MachineState, OffsetTable, Outcome, ProcessHealth, Reply, Request, Status, Tool,
+    JOB_CHECK_TIMEOUT,
+};
+use softnc_daemon::config::DaemonConfig;
 use softnc_ipc::{
-    ControlKind, EStopRequest, FixedStr, MachineState, OperatorReply, OperatorRequest,
-    PositionStatus, ServiceNames,
+    EStopRequest, FixedStr, OperatorReply, OperatorRequest, PositionStatus, ServiceNames,
 };
 use std::path::Path;
 use std::time::{Duration, Instant};
 
 /// How long a request waits for the MMI's reply.
 const REPLY_TIMEOUT: Duration = Duration::from_secs(5);
-/// A job is answered once it is read and checked (a long program takes a while).
-pub const JOB_CHECK_TIMEOUT: Duration = Duration::from_secs(300);
 
 /// A connection to one controller instance's MMI.
 pub struct Operator {
@@ -43,7 +46,7 @@ pub struct Operator {
 }
 
 impl Operator {
-    /// Connect using the instance named in `config`.
+    /// Connect using the instance named in `config` (the daemon's configuration).
     pub fn connect(config: &Path) -> Result<Self> {
         let loaded = DaemonConfig::load(config)?;
         loaded
@@ -54,7 +57,7 @@ impl Operator {
             .signal_handling_mode(SignalHandlingMode::Disabled)
             .create::<ipc::Service>()
             .context("creating client node")?;
-        crate::ipc_guard::seal(node.config()).context("iceoryx2 permissions")?;
+        softnc_daemon::ipc_guard::seal(node.config()).context("iceoryx2 permissions")?;
         let svc = node
             .service_builder(&names.operator().as_str().try_into()?)
             .request_response::<OperatorRequest, OperatorReply>()
@@ -72,73 +75,56 @@ impl Operator {
         })
     }
 
-    /// Send one request and wait for the reply.
-    pub fn request(&self, kind: ControlKind, value: f64, path: &str) -> Result<OperatorReply> {
-        self.request_axis(kind, u32::MAX, value, path)
-    }
-
-    /// [`Operator::request`] naming an axis (or a tool, or a line: see
-    /// [`OperatorRequest::axis`]).
-    pub fn request_axis(
-        &self,
-        kind: ControlKind,
-        axis: u32,
-        value: f64,
-        path: &str,
-    ) -> Result<OperatorReply> {
-        self.send_request(kind, axis, value, 0, path)
-    }
-
-    /// Submit job `path`, from line `from_line` (0: the start), with job options
-    /// `flags` (bits: [`softnc_ipc::JOB_ADAPTIVE_FORCE`]).
-    pub fn submit_job(&self, path: &str, from_line: u32, flags: u32) -> Result<OperatorReply> {
-        self.send_request(ControlKind::StartJob, from_line, 0.0, flags, path)
-    }
-
-    fn send_request(
-        &self,
-        kind: ControlKind,
-        axis: u32,
-        value: f64,
-        flags: u32,
-        path: &str,
-    ) -> Result<OperatorReply> {
-        let path = FixedStr::try_new(path)
-            .map_err(|e| anyhow::anyhow!("path of {e}: refused, nothing sent"))?;
-        if kind == ControlKind::EStop {
+    /// Send one request and wait for its reply (an E-stop also goes straight to the
+    /// position process: [`Operator::estop`]). An error when no MMI answers or the
+    /// request does not fit the wire (nothing is sent then).
+    pub fn request(&self, request: &Request) -> Result<Reply> {
+        if *request == Request::EStop {
             return self.estop();
         }
-        let no_controller = || self.no_controller();
-        let served = || self.served();
+        let message = Self::encode(request)?;
         // no MMI serves the instance: no reply will ever come
-        if !served() {
-            bail!(no_controller());
+        if !self.served() {
+            bail!(self.no_controller());
         }
-        let pending = self.client.send_copy(OperatorRequest {
-            kind: kind.wire(),
-            axis,
-            value,
-            flags,
-            path,
-        })?;
-        let timeout = match kind {
-            ControlKind::StartJob | ControlKind::Mdi | ControlKind::TouchOff => JOB_CHECK_TIMEOUT,
-            _ => REPLY_TIMEOUT,
+        let pending = self.client.send_copy(OperatorRequest { message })?;
+        let timeout = if request.answered_after_check() {
+            JOB_CHECK_TIMEOUT
+        } else {
+            REPLY_TIMEOUT
         };
         let t0 = Instant::now();
         loop {
             if let Some(r) = pending.receive()? {
-                return Ok(*r);
+                return Self::decode(&r);
             }
             // a long check goes on only while an MMI serves (none when it died)
-            if t0.elapsed() > REPLY_TIMEOUT && !pending.is_connected() && !served() {
-                bail!(no_controller());
+            if t0.elapsed() > REPLY_TIMEOUT && !pending.is_connected() && !self.served() {
+                bail!(self.no_controller());
             }
             if t0.elapsed() > timeout {
                 bail!("no reply from softnc-mmi within {timeout:?}: is softncd running?");
             }
             let _ = self.node.wait(Duration::from_millis(2));
         }
+    }
+
+    /// A request as the payload carries it.
+    fn encode(request: &Request) -> Result<FixedStr<{ OperatorRequest::MESSAGE_CAPACITY }>> {
+        let text = softnc_api::encode_request(request, OperatorRequest::MESSAGE_CAPACITY)?;
+        FixedStr::try_new(&text).map_err(|e| anyhow::anyhow!("request of {e}: nothing sent"))
+    }
+
+    /// A reply as the payload carries it.
+    fn decode(r: &OperatorReply) -> Result<Reply> {
+        let text = r.message.as_str();
+        softnc_api::decode_reply(text).with_context(|| {
+            format!(
+                "unreadable reply from softnc-mmi ({} bytes): {:?}",
+                text.len(),
+                &text[..text.floor_char_boundary_compat(120)]
+            )
+        })
     }
 
     /// Whether an MMI serves the instance's operator service.
@@ -159,30 +145,28 @@ impl Operator {
     /// without one, the position process's status showing the E-stop latched is
     /// (the MMI learns it from that status when it answers again). An error only
     /// if neither confirms it within the reply timeout.
-    pub fn estop(&self) -> Result<OperatorReply> {
+    pub fn estop(&self) -> Result<Reply> {
         let direct = self.estop_direct();
         if let Err(e) = &direct {
             tracing::warn!("E-stop past the MMI not sent: {e:#}");
         }
         let pending = self.client.send_copy(OperatorRequest {
-            kind: ControlKind::EStop.wire(),
-            axis: u32::MAX,
-            value: 0.0,
-            flags: 0,
-            path: FixedStr::empty(),
+            message: Self::encode(&Request::EStop)?,
         });
         let t0 = Instant::now();
         let mut confirmed_at: Option<Instant> = None;
         loop {
             if let Ok(p) = &pending {
                 if let Some(r) = p.receive()? {
-                    return Ok(*r);
+                    return Self::decode(&r);
                 }
             }
             if let Ok((_, status)) = &direct {
                 if confirmed_at.is_none() {
                     while let Some(s) = status.receive()? {
-                        if MachineState::from_wire(s.state) == Some(MachineState::EStopped) {
+                        if softnc_ipc::MachineState::from_wire(s.state)
+                            == Some(softnc_ipc::MachineState::EStopped)
+                        {
                             confirmed_at = Some(Instant::now());
                         }
                     }
@@ -202,14 +186,13 @@ impl Operator {
                 bail!(self.no_controller());
             }
             if mmi_waited {
-                return Ok(OperatorReply {
-                    accepted: 1,
-                    job_id: 0,
-                    message: FixedStr::truncated(&format!(
+                return Ok(Reply::accepted(
+                    None,
+                    format!(
                         "emergency stop (EStopped): taken by the position process directly; the MMI did not answer within {:.1} s",
                         t0.elapsed().as_secs_f64()
-                    )),
-                });
+                    ),
+                ));
             }
             if t0.elapsed() > REPLY_TIMEOUT {
                 let direct = match &direct {
@@ -231,19 +214,20 @@ impl Operator {
         &self,
     ) -> Result<(
         iceoryx2::port::publisher::Publisher<ipc::Service, EStopRequest, ()>,
-        crate::bus::Sub<PositionStatus>,
+        softnc_daemon::bus::Sub<PositionStatus>,
     )> {
-        let status = crate::bus::pubsub_service::<PositionStatus>(
+        use softnc_daemon::bus;
+        let status = bus::pubsub_service::<PositionStatus>(
             &self.node,
             &self.names.status(),
-            crate::bus::SMALL_BUFFER,
+            bus::SMALL_BUFFER,
             1,
         )?
         .subscriber_builder()
-        .buffer_size(crate::bus::SMALL_BUFFER)
+        .buffer_size(bus::SMALL_BUFFER)
         .create()
         .context("position status subscriber")?;
-        let publisher = crate::bus::estop_service(&self.node, &self.names)?
+        let publisher = bus::estop_service(&self.node, &self.names)?
             .publisher_builder()
             .create()
             .context("E-stop publisher")?;
@@ -261,57 +245,69 @@ impl Operator {
         let mut asked = false;
         loop {
             let s = self.status()?;
-            match s["state"].as_str() {
+            match s.state {
                 // the position process has not reported yet
-                _ if s["machine_mm"].is_null() => {}
-                Some("Off") if !asked => {
-                    let r = self.request(ControlKind::MachineOn, 0.0, "")?;
-                    if r.accepted != 1 {
-                        bail!("machine on refused: {}", r.message.as_str());
+                _ if s.machine_mm.is_none() => {}
+                MachineState::Off if !asked => {
+                    let r = self.request(&Request::MachineOn)?;
+                    if !r.is_accepted() {
+                        bail!("machine on refused: {}", r.message());
                     }
                     asked = true;
                 }
-                Some("Off") | None => {}
-                Some(_) => return Ok(()),
+                MachineState::Off => {}
+                _ => return Ok(()),
             }
             if t0.elapsed() > timeout {
-                bail!("the machine did not come on within {timeout:?}: {s}");
+                bail!(
+                    "the machine did not come on within {timeout:?}: {}",
+                    s.state
+                );
             }
             std::thread::sleep(Duration::from_millis(20));
         }
     }
 
     /// The whole job history, newest first, page by page.
-    pub fn jobs(&self) -> Result<Vec<serde_json::Value>> {
+    pub fn jobs(&self) -> Result<Vec<JobRecord>> {
         let mut all = Vec::new();
         loop {
-            let r = self.request(ControlKind::Jobs, all.len() as f64, "")?;
-            if r.accepted != 1 {
-                bail!("job history: {}", r.message.as_str());
-            }
-            let page: serde_json::Value = serde_json::from_str(r.message.as_str())
-                .context("unreadable job history page from softnc-mmi")?;
-            let jobs = page["jobs"].as_array().cloned().unwrap_or_default();
-            let total = page["total"].as_u64().unwrap_or(0) as usize;
-            let empty = jobs.is_empty();
-            all.extend(jobs);
-            if all.len() >= total || empty {
+            let page = match self.request(&Request::Jobs {
+                offset: all.len() as u64,
+            })? {
+                Reply::Jobs(page) => page,
+                other => bail!("job history: {}", other.message()),
+            };
+            let empty = page.jobs.is_empty();
+            all.extend(page.jobs);
+            if all.len() as u64 >= page.total || empty {
                 return Ok(all);
             }
         }
     }
 
-    /// The status as JSON.
-    pub fn status(&self) -> Result<serde_json::Value> {
-        let r = self.request(ControlKind::Status, 0.0, "")?;
-        let text = r.message.as_str();
-        serde_json::from_str(text).with_context(|| {
-            format!(
-                "unreadable status from softnc-mmi ({} bytes): {:?}",
-                text.len(),
-                &text[..text.len().min(120)]
-            )
-        })
+    /// The machine's status.
+    pub fn status(&self) -> Result<Status> {
+        match self.request(&Request::Status)? {
+            Reply::Status(s) => Ok(*s),
+            other => bail!("status: {}", other.message()),
+        }
+    }
+
+    /// The work offsets.
+    pub fn offsets(&self) -> Result<OffsetTable> {
+        match self.request(&Request::Offsets)? {
+            Reply::Offsets(o) => Ok(o),
+            other => bail!("offsets: {}", other.message()),
+        }
+    }
+
+    /// The tool table.
+    pub fn tools(&self) -> Result<Vec<Tool>> {
+        match self.request(&Request::Tools)? {
+            Reply::Tools(t) => Ok(t),
+            other => bail!("tool table: {}", other.message()),
+        }
     }
 
     /// Wait until the controller is up: the MMI answers and reports the
@@ -321,11 +317,15 @@ impl Operator {
         loop {
             let attempt = Operator::connect(config).and_then(|op| {
                 let s = op.status()?;
-                let up = |p: &str| s["processes"][p] == "alive";
-                if up("interp") && up("position") {
+                let p = s.processes;
+                if p.interp == ProcessHealth::Alive && p.position == ProcessHealth::Alive {
                     Ok(op)
                 } else {
-                    bail!("processes not all up yet: {}", s["processes"])
+                    bail!(
+                        "processes not all up yet: interpolation {}, position {}",
+                        p.interp,
+                        p.position
+                    )
                 }
             });
             match attempt {
@@ -336,5 +336,20 @@ impl Operator {
                 Err(_) => std::thread::sleep(Duration::from_millis(100)),
             }
         }
+    }
+}
+
+/// The byte index at or below `max` that is a char boundary (for short excerpts).
+trait FloorCharBoundary {
+    fn floor_char_boundary_compat(&self, max: usize) -> usize;
+}
+
+impl FloorCharBoundary for str {
+    fn floor_char_boundary_compat(&self, max: usize) -> usize {
+        let mut i = max.min(self.len());
+        while !self.is_char_boundary(i) {
+            i -= 1;
+        }
+        i
     }
 }
