@@ -194,6 +194,7 @@ pub enum JobCmd {
 }
 
 /// Run an operator subcommand against the daemon configured in `config`.
+#[allow(clippy::too_many_lines)]
 pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
     let op = Operator::connect(config)?;
     let simple = |request: Request| -> Result<ExitCode> {

@@ -3,14 +3,12 @@
 mod cmd_demo;
 mod cmd_design;
 mod cmd_learn;
-#[allow(clippy::too_many_lines)] // (long functions inside; rewritten on branch `api`)
 mod cmd_operator;
 mod cmd_plan;
 mod cmd_reproduce;
 mod cmd_sim;
 mod cmd_watch;
 mod program_file;
-#[allow(clippy::too_many_lines)] // (long functions inside; rewritten on branch `api`)
 mod watch_keys;
 
 use anyhow::Result;

@@ -204,6 +204,7 @@ fn stop_jog(axis: Axis) -> Action {
 /// - After `t`, x/y/z sends a `TouchOff` of that axis to 0 in the active system.
 /// - A key other than a jog key or `,`/`.` first stops a held continuous jog.
 /// - A key release (terminals that report them) of the held jog's axis stops it.
+#[allow(clippy::too_many_lines)]
 pub fn on_key(ui: &mut Ui, key: KeyEvent, s: Option<&Status>, now: Instant) -> Vec<Action> {
     let mut out = Vec::new();
     if key.kind == KeyEventKind::Release {

@@ -9,7 +9,10 @@ use std::process::Command;
 
 /// Layer by layer, bottom first: the crates of each.
 const LAYERS: &[(&str, &[&str])] = &[
-    ("bottom", &["softnc-core", "softnc-rt", "softnc-test-support"]),
+    (
+        "bottom",
+        &["softnc-core", "softnc-rt", "softnc-test-support"],
+    ),
     (
         "libraries",
         &[

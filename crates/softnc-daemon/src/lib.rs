@@ -42,8 +42,6 @@ pub mod lifecycle;
 pub mod loop_watch;
 pub mod machine_store;
 pub mod manual;
-// (long functions inside: allowed here while branch `api` rewrites mmi/)
-#[allow(clippy::too_many_lines)]
 pub mod mmi;
 pub mod outbox;
 pub mod plan_samples;

@@ -322,6 +322,7 @@ impl MmiTask {
     /// Start a job that passed its check: its checked setup kept, its record, the
     /// interpolator told (or done at once when it moves nothing). `Err`: why it is
     /// not started after all (its copies then removed).
+    #[allow(clippy::too_many_lines)]
     fn start_checked(
         &mut self,
         ok: CheckOk,

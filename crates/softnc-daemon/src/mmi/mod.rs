@@ -153,6 +153,7 @@ const ALARMS_ACKNOWLEDGED: &str = "alarms-acknowledged";
 
 impl MmiTask {
     /// Open the services and the job history.
+    #[allow(clippy::too_many_lines)]
     pub fn new(cfg: Loaded) -> Result<Self> {
         let names = softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance);
         let bus = Bus::new(names.clone(), "mmi")?;
@@ -425,6 +426,7 @@ impl MmiTask {
     }
 
     /// One pass over every input.
+    #[allow(clippy::too_many_lines)]
     pub fn poll(&mut self) -> Result<()> {
         let mut changed = false;
         while let Some(s) = self.ports.status.receive()? {
@@ -729,6 +731,7 @@ impl MmiTask {
 
     /// The reply to a request; `None` when it is answered later (a job being
     /// checked, see [`Checking`]).
+    #[allow(clippy::too_many_lines)]
     fn handle(&mut self, request: &Request) -> Result<Option<Reply>> {
         let state = self.machine_state();
         let axis_index = |a: &softnc_api::Axis| a.index() as u32;
@@ -1033,6 +1036,7 @@ impl MmiTask {
     }
 
     /// The status the operator sees.
+    #[allow(clippy::too_many_lines)]
     pub fn status(&self) -> softnc_api::Status {
         use softnc_api as api;
         let loops = |p: ProcessId| {

@@ -169,6 +169,7 @@ impl MmiTask {
     /// A continuous jog (speed in mm/min, 0 stops it; renewed by its client within
     /// `jog_deadman_s`) or an incremental one (a distance in mm), checked against the
     /// axis's limits and, once homed, its soft limits.
+    #[allow(clippy::too_many_lines)]
     pub(super) fn jog(
         &mut self,
         kind: ControlKind,
