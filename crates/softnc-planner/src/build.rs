@@ -493,6 +493,11 @@ impl FilletsAhead {
         let (Some((true, tol_a)), Some((_, tol_b))) = (self.mode(ma), self.mode(mb)) else {
             return false;
         };
+        // (no blend between a traverse and a feed move: the builder stops there)
+        let traverse = |m: &Motion| matches!(m.kind, MotionKind::Traverse { .. });
+        if traverse(ma) != traverse(mb) {
+            return false;
+        }
         let tol_mm = tol_a.min(tol_b);
         let (corner, u, line_avail_mm, arc, arc_avail_mm) = match (pa, pb, qa, qb) {
             (&Primitive::Line { start, end }, Primitive::Arc { .. }, None, Some(q)) => {
@@ -1186,7 +1191,13 @@ impl PathBuilder {
             None => *slot = None,
         }
         match self.pending.take() {
-            Some(prev) => {
+            Some(mut prev) => {
+                // a change between traverse and feed is never blended: the path stops
+                // exactly at the join (as LinuxCNC: a rapid blended into a cut can
+                // hit a clamp)
+                if prev.feed_move != next.feed_move {
+                    prev.exact_stop = true;
+                }
                 let blend = self.blend(&prev, &next, ahead);
                 if let Some(b) = blend {
                     next.start_trim = b.start_trim_next;
