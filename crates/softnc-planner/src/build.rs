@@ -83,8 +83,8 @@ fn arc_corner_speed(lim: &Limits, feed_mm_per_s: f64, radius_mm: f64) -> f64 {
 
 /// The tolerance a fillet or biarc at a corner turning from `t_in` to `t_out` needs
 /// for its speed (mm): the corner runs at most at the move before's feed and at the
-/// faster of the two moves' own speeds (`cap_in`, `cap_out`: [`line_corner_speed`],
-/// [`arc_corner_speed`]), v; a circular blend of the turn θ at that speed needs the
+/// slower of the two moves' own speeds (`cap_in`, `cap_out`: [`line_corner_speed`],
+/// [`arc_corner_speed`]; the blend meets each at a junction no faster than it), v; a circular blend of the turn θ at that speed needs the
 /// radius r = [`speed_radius_mm`] (on the slowest axis's acceleration: at least the
 /// blend's own) and deviates r·(1/cos(θ/2) − 1) from the corner; the fillets and
 /// biarcs keep within 0.9 of their tolerance, hence the 1/0.9. The program's or
@@ -97,7 +97,7 @@ fn speed_tolerance_mm(
     cap_in: f64,
     cap_out: f64,
 ) -> f64 {
-    let v = feed_in_mm_per_s.min(cap_in.max(cap_out));
+    let v = feed_in_mm_per_s.min(cap_in.min(cap_out));
     if !v.is_finite() {
         return f64::INFINITY;
     }
@@ -1680,8 +1680,8 @@ impl PathBuilder {
     /// r* = [`speed_radius_mm`] of v_b, where its centripetal cap, and with the
     /// S-curve its jerk caps, reach v_b) runs at v_b, the lower of its axes' velocity
     /// cap over its sweep and its feed (the first move's), which does not depend on r,
-    /// and the corner never needs more than the faster of its two lines (each its own
-    /// feed and axis cap, v₁ and v₂): v_b = min(v_blend, max(v₁, v₂)). A larger blend
+    /// and it meets each line at a junction no faster than that line (its own feed and
+    /// axis cap, v₁ and v₂): v_b = min(v_blend, v₁, v₂). A larger blend
     /// would only shorten the path a little while deviating more from the programmed
     /// corner: the tolerance is a cap, not a target.
     fn radius_for_speed(&self, a: &Pending, b: &Pending, e1: Vec3, e2: Vec3, theta: f64) -> f64 {
@@ -1700,7 +1700,7 @@ impl PathBuilder {
                 a_axis = a_axis.min(lim.amax[i] / shape.acc_weight[i]);
             }
         }
-        let v = v_blend.min(v1.max(v2));
+        let v = v_blend.min(v1.min(v2));
         if !v.is_finite() {
             return f64::INFINITY;
         }
