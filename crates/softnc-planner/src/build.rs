@@ -40,6 +40,73 @@ fn scurve_curve_cap(k: f64, lim: &Limits) -> f64 {
         .min(budget / (3.0 * k * lim.scurve_acc))
 }
 
+/// The smallest blend radius whose curvature caps still let it run at `v_mm_per_s`:
+/// its centripetal acceleration κv² within `ARC_NORMAL_SHARE` of `acc_mm_per_s2` (the
+/// blend's per-axis acceleration bound), and with the S-curve also its jerk terms
+/// within their share ([`scurve_curve_cap`]: κ²v³ ≤ budget, 3κ·v·a_t ≤ budget).
+/// Infinite where the speed is.
+fn speed_radius_mm(lim: &Limits, v_mm_per_s: f64, acc_mm_per_s2: f64) -> f64 {
+    let v = v_mm_per_s;
+    let mut r = v * v / (crate::path::ARC_NORMAL_SHARE * acc_mm_per_s2);
+    if lim.profile == FeedProfile::SCurve {
+        let j_min = lim.jmax.iter().cloned().fold(f64::INFINITY, f64::min);
+        let budget = SCURVE_CURVE_JERK_SHARE * j_min;
+        r = r
+            .max((v * v * v / budget).sqrt())
+            .max(3.0 * v * lim.scurve_acc / budget);
+    }
+    r
+}
+
+/// The speed a line allows next to a corner: its feed and its axis velocity cap.
+fn line_corner_speed(lim: &Limits, feed_mm_per_s: f64, dir: Vec3) -> f64 {
+    element_limits(&ElementShape::line(1.0, dir), lim.vmax, lim.amax)
+        .vel_mm_per_s
+        .min(feed_mm_per_s)
+}
+
+/// The speed an arc of radius `radius_mm` allows next to a corner: its feed, the
+/// fastest axis and its centripetal cap on the slowest axis's acceleration (an upper
+/// bound of its own caps: the blend next to it needs no more).
+fn arc_corner_speed(lim: &Limits, feed_mm_per_s: f64, radius_mm: f64) -> f64 {
+    let v_top = lim.vmax.iter().cloned().fold(0.0, f64::max);
+    let a_min = lim.amax.iter().cloned().fold(f64::INFINITY, f64::min);
+    let mut v = (crate::path::ARC_NORMAL_SHARE * a_min * radius_mm)
+        .sqrt()
+        .min(v_top)
+        .min(feed_mm_per_s);
+    if lim.profile == FeedProfile::SCurve && radius_mm > 0.0 {
+        v = v.min(scurve_curve_cap(1.0 / radius_mm, lim));
+    }
+    v
+}
+
+/// The tolerance a fillet or biarc at a corner turning from `t_in` to `t_out` needs
+/// for its speed (mm): the corner runs at most at the move before's feed and at the
+/// slower of the two moves' own speeds (`cap_in`, `cap_out`: [`line_corner_speed`],
+/// [`arc_corner_speed`]; the blend meets each at a junction no faster than it), v; a circular blend of the turn θ at that speed needs the
+/// radius r = [`speed_radius_mm`] (on the slowest axis's acceleration: at least the
+/// blend's own) and deviates r·(1/cos(θ/2) − 1) from the corner; the fillets and
+/// biarcs keep within 0.9 of their tolerance, hence the 1/0.9. The program's or
+/// profile's tolerance caps it ([`PathBuilder::blend`]).
+fn speed_tolerance_mm(
+    lim: &Limits,
+    feed_in_mm_per_s: f64,
+    t_in: Vec3,
+    t_out: Vec3,
+    cap_in: f64,
+    cap_out: f64,
+) -> f64 {
+    let v = feed_in_mm_per_s.min(cap_in.min(cap_out));
+    if !v.is_finite() {
+        return f64::INFINITY;
+    }
+    let a_min = lim.amax.iter().cloned().fold(f64::INFINITY, f64::min);
+    let r = speed_radius_mm(lim, v, a_min);
+    let half = 0.5 * t_in.dot(t_out).clamp(-1.0, 1.0).acos();
+    r * (1.0 / half.cos() - 1.0) / 0.9
+}
+
 /// S-curve: whether blending the corner between `a` and `b` at `through` (the
 /// blend's curvature cap) costs less time than stopping there (acc/dec before
 /// interpolation: an S-curve corner that is not blended is a stop). The blend's cap holds
@@ -395,6 +462,8 @@ type AheadMove<'m> = (&'m Motion, &'m Option<Primitive>, &'m Option<ArcPrep>);
 /// fillet whose arguments turn out otherwise in the builder is not taken.
 #[derive(Debug)]
 pub(crate) struct FilletsAhead {
+    /// The builder's limits (the speed a fillet needs, [`speed_tolerance_mm`]).
+    lim: Limits,
     tolerance_mm: f64,
     max_drift_rad: f64,
     /// Single block: every block ends in an exact stop, no fillets.
@@ -407,6 +476,7 @@ impl FilletsAhead {
     /// For these limits and the single-block setting.
     pub(crate) fn new(lim: &Limits, single_block: bool) -> FilletsAhead {
         FilletsAhead {
+            lim: *lim,
             tolerance_mm: lim.tolerance_mm,
             max_drift_rad: lim.max_drift_rad(),
             single_block,
@@ -493,8 +563,23 @@ impl FilletsAhead {
         let (Some((true, tol_a)), Some((_, tol_b))) = (self.mode(ma), self.mode(mb)) else {
             return false;
         };
-        let tol_mm = tol_a.min(tol_b);
-        let (corner, u, line_avail_mm, arc, arc_avail_mm) = match (pa, pb, qa, qb) {
+        // (no blend between a traverse and a feed move: the builder stops there)
+        let traverse = |m: &Motion| matches!(m.kind, MotionKind::Traverse { .. });
+        if traverse(ma) != traverse(mb) {
+            return false;
+        }
+        let feed = |m: &Motion| match m.kind {
+            MotionKind::Feed {
+                feed_mm_per_min, ..
+            }
+            | MotionKind::Arc {
+                feed_mm_per_min, ..
+            } => feed_mm_per_min / 60.0,
+            _ => f64::INFINITY,
+        };
+        let lim = &self.lim;
+        let (feed_a, feed_b) = (feed(ma), feed(mb));
+        let (corner, u, line_avail_mm, arc, arc_avail_mm, speed_tol) = match (pa, pb, qa, qb) {
             (&Primitive::Line { start, end }, Primitive::Arc { .. }, None, Some(q)) => {
                 let Some((len_a, dir_a)) = line_len_dir(start, end) else {
                     return false;
@@ -505,7 +590,15 @@ impl FilletsAhead {
                 let Some(view) = q.view(pb, false, self.max_drift_rad) else {
                     return false;
                 };
-                (end, dir_a, 0.5 * len_a, view, 0.5 * q.len_mm)
+                let speed_tol = speed_tolerance_mm(
+                    lim,
+                    feed_a,
+                    dir_a,
+                    q.start_tangent,
+                    line_corner_speed(lim, feed_a, dir_a),
+                    arc_corner_speed(lim, feed_b, arc_radius_mm(pb)),
+                );
+                (end, dir_a, 0.5 * len_a, view, 0.5 * q.len_mm, speed_tol)
             }
             (Primitive::Arc { .. }, &Primitive::Line { start, end }, Some(q), None) => {
                 let Some((len_b, dir_b)) = line_len_dir(start, end) else {
@@ -517,10 +610,19 @@ impl FilletsAhead {
                 let Some(view) = q.view(pa, true, self.max_drift_rad) else {
                     return false;
                 };
-                (start, -dir_b, 0.5 * len_b, view, 0.5 * q.len_mm)
+                let speed_tol = speed_tolerance_mm(
+                    lim,
+                    feed_a,
+                    q.end_tangent,
+                    dir_b,
+                    arc_corner_speed(lim, feed_a, arc_radius_mm(pa)),
+                    line_corner_speed(lim, feed_b, dir_b),
+                );
+                (start, -dir_b, 0.5 * len_b, view, 0.5 * q.len_mm, speed_tol)
             }
             _ => return false,
         };
+        let tol_mm = min_to(tol_a.min(tol_b), speed_tol);
         *slot = AheadArgs {
             k,
             corner,
@@ -1186,7 +1288,13 @@ impl PathBuilder {
             None => *slot = None,
         }
         match self.pending.take() {
-            Some(prev) => {
+            Some(mut prev) => {
+                // a change between traverse and feed is never blended: the path stops
+                // exactly at the join (as LinuxCNC: a rapid blended into a cut can
+                // hit a clamp)
+                if prev.feed_move != next.feed_move {
+                    prev.exact_stop = true;
+                }
                 let blend = self.blend(&prev, &next, ahead);
                 if let Some(b) = blend {
                     next.start_trim = b.start_trim_next;
@@ -1244,6 +1352,16 @@ impl PathBuilder {
         if a.exact_stop || a.dwell_s > 0.0 {
             return None;
         }
+        // the tolerance a fillet or biarc may use: the program's or profile's, capped
+        // by what the corner's speed needs (line–line blends work out their radius
+        // for speed themselves, `blend_lines`)
+        let tol_mm = match (&a.geom, &b.geom) {
+            (Geom::Line { .. }, Geom::Line { .. }) => min_to(a.tolerance_mm, b.tolerance_mm),
+            _ => min_to(
+                min_to(a.tolerance_mm, b.tolerance_mm),
+                self.speed_tolerance(a, b),
+            ),
+        };
         if !matches!((&a.geom, &b.geom), (Geom::Line { .. }, Geom::Line { .. }))
             && (!self.lim.arc_blends || self.kink_at_speed(a, b))
         {
@@ -1254,15 +1372,15 @@ impl PathBuilder {
         // `Blend` is a few hundred bytes)
         let lim = &self.lim;
         if lim.profile != FeedProfile::SCurve {
-            let found = self.circle_blend(a, b, ahead);
+            let found = self.circle_blend(a, b, ahead, tol_mm);
             if found.is_some() {
                 return found;
             }
-            return self.biarc_blend(a, b);
+            return self.biarc_blend(a, b, tol_mm);
         }
         let found = self
-            .circle_blend(a, b, ahead)
-            .or_else(|| self.biarc_blend(a, b));
+            .circle_blend(a, b, ahead, tol_mm)
+            .or_else(|| self.biarc_blend(a, b, tol_mm));
         if let Some(found) = &found {
             // A blend so tight that the jerk limit crawls through it is slower than
             // stopping: stop at the corner instead.
@@ -1294,7 +1412,13 @@ impl PathBuilder {
     /// join (planning thread −2.6 M on the 200k-line program).
     #[allow(clippy::too_many_lines)]
     #[inline(always)] // kept: the whole `softnc plan` measured slower without, docs/perf-log/speed-tricks.md
-    fn circle_blend(&self, a: &Pending, b: &Pending, ahead: Option<&FilletAhead>) -> Option<Blend> {
+    fn circle_blend(
+        &self,
+        a: &Pending,
+        b: &Pending,
+        ahead: Option<&FilletAhead>,
+        tol_mm: f64,
+    ) -> Option<Blend> {
         // (by reference: the geometries are not copied to be matched)
         match (&a.geom, &b.geom) {
             (Geom::Line { .. }, Geom::Line { .. }) => self.blend_lines(a, b),
@@ -1310,7 +1434,7 @@ impl PathBuilder {
                     min_to(0.5 * a.len, a.len - a.start_trim),
                     view,
                     0.5 * b.len,
-                    min_to(a.tolerance_mm, b.tolerance_mm),
+                    tol_mm,
                 );
                 let f = f.as_ref()?;
                 let e1 = (f.p_line - f.center) * (1.0 / f.radius);
@@ -1346,7 +1470,7 @@ impl PathBuilder {
                     0.5 * b.len,
                     view,
                     min_to(0.5 * a.len, a.len - a.start_trim),
-                    min_to(a.tolerance_mm, b.tolerance_mm),
+                    tol_mm,
                 );
                 let f = f.as_ref()?;
                 let e1 = (f.p_arc - f.center) * (1.0 / f.radius);
@@ -1380,7 +1504,7 @@ impl PathBuilder {
                     min_to(0.5 * a.len, a.len - a.start_trim),
                     &view,
                     0.5 * b.len,
-                    min_to(a.tolerance_mm, b.tolerance_mm),
+                    tol_mm,
                     self.max_drift_rad(),
                 )?;
                 let e1 = (f.p_line - f.center) * (1.0 / f.radius);
@@ -1413,7 +1537,7 @@ impl PathBuilder {
     /// single circle blends (helices, arcs of different planes, fillets not found):
     /// each move gives at most half its length (less what the blend at its start
     /// took), arcs only if they can be trimmed ([`trimmable_arc`]).
-    fn biarc_blend(&self, a: &Pending, b: &Pending) -> Option<Blend> {
+    fn biarc_blend(&self, a: &Pending, b: &Pending, tol_mm: f64) -> Option<Blend> {
         if matches!((a.geom, b.geom), (Geom::Line { .. }, Geom::Line { .. })) {
             return None;
         }
@@ -1444,14 +1568,7 @@ impl PathBuilder {
             Geom::Arc(p) => (p.point_at(d), path_tangent(&p, d)),
             _ => (corner + b.dir * d, b.dir),
         };
-        let f = fillet::biarc(
-            corner,
-            before,
-            before_avail,
-            after,
-            after_avail,
-            a.tolerance_mm.min(b.tolerance_mm),
-        )?;
+        let f = fillet::biarc(corner, before, before_avail, after, after_avail, tol_mm)?;
         let piece = |p: &fillet::ArcPiece| BlendArc {
             center: p.center,
             e1: p.e1,
@@ -1530,37 +1647,47 @@ impl PathBuilder {
             && (0..3).all(|i| dt[i].abs() * v <= lim.kink_acc[i] * lim.cycle_s)
     }
 
-    /// The blend radius at which a line–line corner is fastest, if smaller than the
-    /// largest the tolerance and the lines allow (infinite otherwise). A blend of
-    /// radius r (at least r* = v_b²/(`ARC_NORMAL_SHARE`·a), where its centripetal cap
-    /// reaches v_b) runs at v_b, the lower of its axes' velocity cap and its feed (the
-    /// first move's), which does not depend on r; it takes r·tan(θ/2) of each line,
-    /// which run at v₁ and v₂ (each its own feed and axis cap). The corner's time,
-    /// (L₁/2 − r·tan(θ/2))/v₁ + (L₂/2 − r·tan(θ/2))/v₂ + r·θ/v_b, is linear in r:
-    /// where θ/v_b > tan(θ/2)·(1/v₁ + 1/v₂) (a blend slower than its lines: through a
-    /// 90° corner of two diagonals it passes an axis direction while the lines run at
-    /// √2·V; or a slow feed move's blend eats into a traverse) the smallest blend that
-    /// keeps v_b, r*, is the fastest, and it also deviates less; otherwise the
-    /// largest. Trapezoidal profile only (the S-curve caps a blend by its curvature as
-    /// well).
+    /// [`speed_tolerance_mm`] of the corner between `a` and `b` (one of them an arc):
+    /// the tangents and arc data the kink test takes ([`ArcPrep`] where it came, the
+    /// same bits as [`FilletsAhead`] works with).
+    fn speed_tolerance(&self, a: &Pending, b: &Pending) -> f64 {
+        let lim = &self.lim;
+        let (t_in, cap_in) = match &a.geom {
+            Geom::Arc(p) => (
+                match self.prep_prev() {
+                    Some(q) => q.end_tangent,
+                    None => arc_end_tangent(p, true),
+                },
+                arc_corner_speed(lim, a.feed_mm_per_s, arc_radius_mm(p)),
+            ),
+            _ => (a.dir, line_corner_speed(lim, a.feed_mm_per_s, a.dir)),
+        };
+        let (t_out, cap_out) = match &b.geom {
+            Geom::Arc(p) => (
+                match self.prep_next() {
+                    Some(q) => q.start_tangent,
+                    None => arc_end_tangent(p, false),
+                },
+                arc_corner_speed(lim, b.feed_mm_per_s, arc_radius_mm(p)),
+            ),
+            _ => (b.dir, line_corner_speed(lim, b.feed_mm_per_s, b.dir)),
+        };
+        speed_tolerance_mm(lim, a.feed_mm_per_s, t_in, t_out, cap_in, cap_out)
+    }
+
+    /// The smallest line–line blend radius that gives the corner its speed
+    /// (infinite where no speed bounds it). A blend of radius r (at least
+    /// r* = [`speed_radius_mm`] of v_b, where its centripetal cap, and with the
+    /// S-curve its jerk caps, reach v_b) runs at v_b, the lower of its axes' velocity
+    /// cap over its sweep and its feed (the first move's), which does not depend on r,
+    /// and it meets each line at a junction no faster than that line (its own feed and
+    /// axis cap, v₁ and v₂): v_b = min(v_blend, v₁, v₂). A larger blend
+    /// would only shorten the path a little while deviating more from the programmed
+    /// corner: the tolerance is a cap, not a target.
     fn radius_for_speed(&self, a: &Pending, b: &Pending, e1: Vec3, e2: Vec3, theta: f64) -> f64 {
         let lim = &self.lim;
-        if lim.profile != FeedProfile::Trapezoidal {
-            return f64::INFINITY;
-        }
-        // one feed below every axis's limit caps the blend as much as the lines
-        // (v_b = v₁ = v₂ = F, and θ ≤ 2·tan(θ/2))
-        if a.feed_mm_per_s == b.feed_mm_per_s
-            && a.feed_mm_per_s <= lim.vmax.iter().cloned().fold(f64::INFINITY, f64::min)
-        {
-            return f64::INFINITY;
-        }
-        let line_speed = |p: &Pending| {
-            element_limits(&ElementShape::line(1.0, p.dir), lim.vmax, lim.amax)
-                .vel_mm_per_s
-                .min(p.feed_mm_per_s)
-        };
-        let (v1, v2) = (line_speed(a), line_speed(b));
+        let v1 = line_corner_speed(lim, a.feed_mm_per_s, a.dir);
+        let v2 = line_corner_speed(lim, b.feed_mm_per_s, b.dir);
         // the blend's axis velocity cap and acceleration do not depend on its radius
         let shape = ElementShape::blend(e1, e2, 1.0, theta);
         let mut v_blend = a.feed_mm_per_s;
@@ -1573,12 +1700,21 @@ impl PathBuilder {
                 a_axis = a_axis.min(lim.amax[i] / shape.acc_weight[i]);
             }
         }
-        if !(v_blend.is_finite() && v1.is_finite() && v2.is_finite())
-            || theta * v1 * v2 <= (0.5 * theta).tan() * (v1 + v2) * v_blend
-        {
+        let v = v_blend.min(v1.min(v2));
+        if !v.is_finite() {
             return f64::INFINITY;
         }
-        v_blend * v_blend / (crate::path::ARC_NORMAL_SHARE * a_axis)
+        // and at least a cycle's travel long, (v + a·T)·T: shorter elements leave
+        // their junctions only the kink share (`junction_speed`), so that a dense
+        // polyline of tiny blends crawled (a circle of 2,000 lines at 1 % of its
+        // feed); with the S-curve at least the smoothing window's travel, v·W (the
+        // window averages the tangent breaks of all elements within it: 22 % of that
+        // circle at 95 % of its feed with blends one cycle long)
+        let mut min_len_mm = (v + lim.path_acc_bound_mm_per_s2 * lim.cycle_s) * lim.cycle_s;
+        if lim.profile == FeedProfile::SCurve {
+            min_len_mm = min_len_mm.max(v * lim.scurve_window_s);
+        }
+        speed_radius_mm(lim, v, a_axis).max(min_len_mm / theta)
     }
 
     /// Blend at a line–line corner.
@@ -2208,6 +2344,14 @@ fn arc_end_tangent_inline(p: &Primitive, at_end: bool) -> Vec3 {
         Plane::YZ => Vec3::new(normal_travel, ta, tb),
     };
     t.unit()
+}
+
+/// The programmed radius of an arc (0 for a line).
+fn arc_radius_mm(p: &Primitive) -> f64 {
+    match *p {
+        Primitive::Arc { radius, .. } => radius,
+        Primitive::Line { .. } => 0.0,
+    }
 }
 
 /// Unit tangent at the end of a move held back by the builder.

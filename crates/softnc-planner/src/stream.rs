@@ -1344,7 +1344,9 @@ mod tests {
     #[test]
     fn fillets_ahead_change_no_figure() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machines");
-        let text = crate::test_programs::fillet_joins_program(3000, "M1", true, Some(400.0));
+        // (3,300 joins: more than 10,000 elements also with the smaller blends of
+        // issue 36, 9,680 elements from 3,000 joins)
+        let text = crate::test_programs::fillet_joins_program(3300, "M1", true, Some(400.0));
         for fp in [FeedProfile::Trapezoidal, FeedProfile::SCurve] {
             for single_block in [false, true] {
                 let mut p = MotionProfile::load(&dir.join("default.ron")).unwrap();

@@ -158,19 +158,19 @@ fn a_blend_slower_than_its_lines_is_only_as_large_as_its_speed_needs() {
     );
 }
 
-/// A slow feed move (10 mm/s) turning 90° into a traverse, no tolerance to speak of:
-/// the blend runs at the feed move's feed, so every millimetre of the traverse it
-/// takes is run slowly; the fastest blend is the smallest that keeps the feed,
-/// r* = F²/(0.866·A), not the largest the lines allow (50 mm, passing 20.7 mm from
-/// the corner), since θ/F > tan(θ/2)·(1/F + 1/V).
+/// A slow feed move (10 mm/s) turning 90° into a fast one (at the axes' limit; a
+/// traverse there is an exact stop since issue 36), no tolerance to speak of: the
+/// blend runs at the first move's feed, so every millimetre of the fast move it takes
+/// is run slowly; the blend is the smallest that keeps the feed, r* = F²/(0.866·A),
+/// not the largest the lines allow (50 mm, passing 20.7 mm from the corner).
 #[test]
-fn a_slow_feed_move_blends_into_a_traverse_with_the_smallest_blend_that_keeps_its_feed() {
+fn a_slow_feed_move_blends_into_a_fast_one_with_the_smallest_blend_that_keeps_its_feed() {
     let mut p = profile(FeedProfile::Trapezoidal);
     p.planner.tolerance_mm = 1000.0;
     let feed_mm_per_s = 10.0;
     let mut b = Builder::new(Vec3::ZERO);
     b.line(100.0, 0.0, 0.0, feed_mm_per_s * 60.0)
-        .rapid(100.0, 100.0, 0.0);
+        .line(100.0, 100.0, 0.0, 400.0 * 60.0);
     let plan = plan_of(&b, &p);
     let s = run(&plan);
     let r = limit_ratios(&s, &p);
@@ -190,8 +190,8 @@ fn a_slow_feed_move_blends_into_a_traverse_with_the_smallest_blend_that_keeps_it
         (closest - want).abs() <= cycle_travel,
         "passes {closest:.4} mm from the corner, r* gives {want:.4} mm"
     );
-    // and the traverse after it reaches the axis's limit
+    // and the fast move after it reaches the axis's limit
     let v = path_speeds(&s, p.interpolation_cycle_s);
     let top = v.iter().cloned().fold(0.0, f64::max);
-    assert!(top > 0.99 * p.max_vel()[1], "traverse at {top:.1} mm/s");
+    assert!(top > 0.99 * p.max_vel()[1], "fast move at {top:.1} mm/s");
 }
