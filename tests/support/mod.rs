@@ -24,6 +24,22 @@ pub fn fresh_dir(tag: &str) -> PathBuf {
     dir
 }
 
+/// The `softncd` binary: this package's own (the daemon's tests), else the one built
+/// beside `softnc` (the CLI's tests; `softnc demo` finds it there too).
+pub fn softncd_bin() -> PathBuf {
+    if let Some(p) = option_env!("CARGO_BIN_EXE_softncd") {
+        return PathBuf::from(p);
+    }
+    let cli = option_env!("CARGO_BIN_EXE_softnc").expect("a test of softnc-daemon or softnc-cli");
+    let p = Path::new(cli).with_file_name("softncd");
+    assert!(
+        p.exists(),
+        "{} is not built: `cargo build -p softnc-daemon` (scripts/test builds it)",
+        p.display()
+    );
+    p
+}
+
 pub fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
@@ -147,7 +163,7 @@ impl Daemon {
         });
         let config = dir.join("default.ron");
         std::fs::write(&config, cfg).unwrap();
-        let child = Command::new(env!("CARGO_BIN_EXE_softncd"))
+        let child = Command::new(softncd_bin())
             .arg("--config")
             .arg(&config)
             // SOFTNC_E2E_LOG=info shows the processes' logs when a test fails

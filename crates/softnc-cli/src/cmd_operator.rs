@@ -1,11 +1,12 @@
 //! Operator commands: talk to `softnc-mmi` over iceoryx2 request-response.
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use softnc_api::{Axis, JobRecord, MachineState, OffsetTable, Outcome, Reply, Request, Status};
 pub use softnc_client::Operator;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::Duration;
+use std::sync::atomic::{AtomicI32, Ordering};
+use std::time::{Duration, Instant};
 
 /// Operator subcommands.
 #[derive(clap::Subcommand)]
@@ -64,9 +65,10 @@ pub enum OperatorCmd {
         axis: Option<String>,
     },
     /// Jog: `jog AXIS SPEED_MM_PER_MIN` runs continuously (to the soft limit once
-    /// homed) while this command runs — Ctrl-C, or `jog AXIS 0` from elsewhere,
-    /// stops it (a client that goes away stops it within `jog_deadman_s`);
-    /// `jog AXIS --step MM` moves by a distance.
+    /// homed) while this command runs — Ctrl-C (SIGINT) or SIGTERM stops it at once
+    /// (the command then exits 128 + the signal: 130, 143), as does `jog AXIS 0` from
+    /// elsewhere (a client that goes away stops it within `jog_deadman_s`);
+    /// `jog AXIS --step MM` moves by a distance (a signal stops it too).
     #[command(allow_negative_numbers = true)]
     Jog {
         /// X, Y or Z.
@@ -297,6 +299,10 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
                     distance_mm: d,
                 },
             };
+            // Ctrl-C (SIGINT) or SIGTERM stops the jog at once instead of ending this
+            // command (which would leave the jog to the dead-man); caught from before
+            // the request, so that no signal falls between it and the loop below
+            let signals = (speed != Some(0.0)).then(JogSignals::catch).transpose()?;
             let r = op.request(&request)?;
             println!("{}", r.message());
             if !r.is_accepted() {
@@ -307,7 +313,11 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
             }
             // a continuous jog lives while this command renews it
             let renew = matches!(request, Request::Jog { .. }).then_some(request);
-            let s = jog_until_stopped(&op, renew.as_ref())?;
+            let s = match jog_until_stopped(&op, renew.as_ref())? {
+                JogEnd::Stopped(s) => *s,
+                JogEnd::Signal(signal) => return stop_jog_on_signal(&op, axis, signal),
+            };
+            drop(signals);
             println!(
                 "{} at {:.4} mm",
                 s.state,
@@ -426,7 +436,7 @@ fn job_line(j: &JobRecord) -> String {
 /// Poll the status until its state is no longer `state` (after it has been, or a
 /// second has passed); returns the last status.
 fn wait_while_state(op: &Operator, state: MachineState) -> Result<Status> {
-    let t0 = std::time::Instant::now();
+    let t0 = Instant::now();
     let mut seen = false;
     loop {
         let s = op.status()?;
@@ -438,26 +448,161 @@ fn wait_while_state(op: &Operator, state: MachineState) -> Result<Status> {
     }
 }
 
-/// Follow a jog until the axis stops; a continuous one (`renew`: its request) is
-/// renewed meanwhile — its dead-man stops it once this command is gone.
-fn jog_until_stopped(op: &Operator, renew: Option<&Request>) -> Result<Status> {
-    let t0 = std::time::Instant::now();
+/// How often a jog in progress looks for a caught signal.
+const JOG_SIGNAL_POLL: Duration = Duration::from_millis(5);
+
+/// How often a jog in progress is renewed and its status read.
+const JOG_RENEW_PERIOD: Duration = Duration::from_millis(100);
+
+/// How long the CLI waits for the axis to come to rest after it asked a jog to stop
+/// on a signal (the jog's deceleration; beyond it, it reports and exits anyway).
+const JOG_STOP_WAIT: Duration = Duration::from_secs(2);
+
+/// How a followed jog ended.
+enum JogEnd {
+    /// The axis stopped (a step done, a soft limit, `jog AXIS 0`, an abort).
+    Stopped(Box<Status>),
+    /// SIGINT or SIGTERM arrived (its number) while the axis was moving.
+    Signal(libc::c_int),
+}
+
+/// The signal caught by [`JogSignals`]' handler; 0 while none has come.
+static JOG_SIGNAL: AtomicI32 = AtomicI32::new(0);
+
+extern "C" fn on_jog_signal(signal: libc::c_int) {
+    // async-signal-safe: one atomic store
+    JOG_SIGNAL.store(signal, Ordering::SeqCst);
+}
+
+/// SIGINT and SIGTERM caught (they no longer end the process) while this lives;
+/// the actions before are put back when it is dropped.
+struct JogSignals {
+    previous: Vec<(libc::c_int, libc::sigaction)>,
+}
+
+impl JogSignals {
+    const SIGNALS: [libc::c_int; 2] = [libc::SIGINT, libc::SIGTERM];
+
+    /// Catch SIGINT and SIGTERM. iceoryx2's own handler (installed on its first
+    /// use) is set up before, so that it never replaces this one later.
+    #[allow(unsafe_code)] // (its SAFETY lines below)
+    fn catch() -> Result<JogSignals> {
+        let _ = iceoryx2_bb_posix::signal::SignalHandler::last_signal();
+        JOG_SIGNAL.store(0, Ordering::SeqCst);
+        let mut caught = JogSignals {
+            previous: Vec::new(),
+        };
+        for sig in Self::SIGNALS {
+            // SAFETY: zeroed sigactions are valid (no flags, empty mask) before we
+            // fill one; the handler only stores to an atomic (async-signal-safe);
+            // sigaction is given valid pointers.
+            let (rc, previous) = unsafe {
+                let mut action: libc::sigaction = std::mem::zeroed();
+                let mut previous: libc::sigaction = std::mem::zeroed();
+                action.sa_sigaction = on_jog_signal as extern "C" fn(libc::c_int) as usize;
+                action.sa_flags = libc::SA_RESTART;
+                libc::sigemptyset(&mut action.sa_mask);
+                (libc::sigaction(sig, &action, &mut previous), previous)
+            };
+            if rc != 0 {
+                // `caught` drops: the signals caught so far get their actions back
+                return Err(std::io::Error::last_os_error())
+                    .context("catching SIGINT/SIGTERM for the jog");
+            }
+            caught.previous.push((sig, previous));
+        }
+        Ok(caught)
+    }
+
+    /// The signal that has arrived since [`JogSignals::catch`], if any.
+    fn caught() -> Option<libc::c_int> {
+        match JOG_SIGNAL.load(Ordering::SeqCst) {
+            0 => None,
+            sig => Some(sig),
+        }
+    }
+}
+
+impl Drop for JogSignals {
+    #[allow(unsafe_code)] // (its SAFETY line below)
+    fn drop(&mut self) {
+        for (sig, previous) in &self.previous {
+            // SAFETY: `previous` is the action sigaction returned for `sig`.
+            unsafe { libc::sigaction(*sig, previous, std::ptr::null_mut()) };
+        }
+    }
+}
+
+/// A signal's name as an operator knows it.
+fn signal_name(signal: libc::c_int) -> String {
+    match signal {
+        libc::SIGINT => "SIGINT".into(),
+        libc::SIGTERM => "SIGTERM".into(),
+        other => format!("signal {other}"),
+    }
+}
+
+/// Follow a jog until the axis stops or SIGINT/SIGTERM arrives (looked for every
+/// [`JOG_SIGNAL_POLL`]); a continuous one (`renew`: its request) is renewed every
+/// [`JOG_RENEW_PERIOD`] meanwhile — its dead-man stops it once this command is gone.
+fn jog_until_stopped(op: &Operator, renew: Option<&Request>) -> Result<JogEnd> {
+    let t0 = Instant::now();
     let mut seen = false;
+    let mut next_renew = t0;
     loop {
-        if let Some(request) = renew {
-            if !op.request(request)?.is_accepted() {
-                // it ended (a soft limit, `jog AXIS 0`, an abort)
-                return op.status();
+        if let Some(signal) = JogSignals::caught() {
+            return Ok(JogEnd::Signal(signal));
+        }
+        if Instant::now() >= next_renew {
+            next_renew = Instant::now() + JOG_RENEW_PERIOD;
+            if let Some(request) = renew {
+                if !op.request(request)?.is_accepted() {
+                    // it ended (a soft limit, `jog AXIS 0`, an abort)
+                    return Ok(JogEnd::Stopped(Box::new(op.status()?)));
+                }
+            }
+            let s = op.status()?;
+            let jogging = s.state == MachineState::Jogging;
+            seen |= jogging;
+            if !jogging && (seen || t0.elapsed() > Duration::from_secs(1)) {
+                return Ok(JogEnd::Stopped(Box::new(s)));
             }
         }
-        let s = op.status()?;
-        let jogging = s.state == MachineState::Jogging;
-        seen |= jogging;
-        if !jogging && (seen || t0.elapsed() > Duration::from_secs(1)) {
-            return Ok(s);
-        }
-        std::thread::sleep(Duration::from_millis(100));
+        std::thread::sleep(JOG_SIGNAL_POLL);
     }
+}
+
+/// A jog interrupted by `signal`: ask it to stop (`jog AXIS 0`), wait up to
+/// [`JOG_STOP_WAIT`] for the axis to come to rest, say so on stderr; exit status
+/// 128 + the signal's number, as a shell reports a command ended by it.
+fn stop_jog_on_signal(op: &Operator, axis: Axis, signal: libc::c_int) -> Result<ExitCode> {
+    let name = signal_name(signal);
+    let stop = Request::Jog {
+        axis,
+        speed_mm_per_min: 0.0,
+    };
+    let r = op
+        .request(&stop)
+        .with_context(|| format!("{name}: the request to stop the jog failed"))?;
+    // refused: the jog had just ended by itself ("nothing is jogging")
+    eprintln!("{name}: {}", r.message());
+    let t0 = Instant::now();
+    let s = loop {
+        let s = op.status()?;
+        if s.state != MachineState::Jogging || t0.elapsed() > JOG_STOP_WAIT {
+            break s;
+        }
+        std::thread::sleep(JOG_SIGNAL_POLL);
+    };
+    eprintln!(
+        "jog of {} stopped by {name}: {} at {:.4} mm",
+        axis.name(),
+        s.state,
+        s.machine_mm.map_or(f64::NAN, |m| m[axis.index()])
+    );
+    Ok(ExitCode::from(128u8.saturating_add(
+        u8::try_from(signal).unwrap_or(u8::MAX - 128),
+    )))
 }
 
 /// The offsets as an operator reads them.
