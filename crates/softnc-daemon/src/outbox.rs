@@ -15,9 +15,9 @@
 //! cycle. If the thread ends (a message that must arrive could not be published, or
 //! a bug), the loop's next [`Outbox::send`] says so.
 
-use crate::bus::{Bus, Pub};
 use anyhow::Result;
 use crossbeam_queue::ArrayQueue;
+use softnc_ipc::bus::{Bus, Pub};
 use softnc_ipc::{
     Alarm, AlarmCode, CommandSample, Heartbeat, LoopStats, PositionStatus, ServiceNames,
 };

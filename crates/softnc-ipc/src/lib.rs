@@ -10,7 +10,9 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod bus;
 pub mod fixed_str;
+pub mod ipc_guard;
 pub mod names;
 pub mod payload;
 

@@ -1,14 +1,14 @@
 //! The iceoryx2 services of one controller instance, opened or created the same way
 //! by every process.
 
+use crate::{
+    Alarm, CommandSample, ControlCommand, EStopRequest, Heartbeat, LoopStats, PositionStatus,
+    ServiceNames,
+};
 use anyhow::{Context, Result};
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
-use softnc_ipc::{
-    Alarm, CommandSample, ControlCommand, EStopRequest, Heartbeat, LoopStats, PositionStatus,
-    ServiceNames,
-};
 
 /// Publish-subscribe port types over the shared-memory service.
 pub type Pub<T> = Publisher<ipc::Service, T, ()>;
