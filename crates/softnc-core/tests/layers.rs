@@ -105,7 +105,7 @@ fn every_crate_depends_only_on_layers_below_it() {
         for (d, kind) in deps.iter().filter(|(d, _)| layer.contains_key(d)) {
             if layer[d] >= layer[name] {
                 wrong.push(format!(
-                    "{name} ({}) depends on {d} ({})",
+                    "{name} ({}) depends on {d} ({}) as a {kind} dependency",
                     LAYERS[layer[name]].0, LAYERS[layer[d]].0
                 ));
             }
