@@ -201,7 +201,9 @@ impl<M: Outgoing> Outbox<M> {
                         ..Default::default()
                     });
                 }
-                let opened = Bus::new(names, &node).and_then(|bus| Ok((M::open(&bus)?, bus)));
+                let opened = Bus::new(names, &node)
+                    .map_err(anyhow::Error::from)
+                    .and_then(|bus| Ok((M::open(&bus)?, bus)));
                 let (ports, _bus) = match opened {
                     Ok(p) => {
                         let _ = ready_tx.send(Ok(()));
