@@ -15,11 +15,13 @@ pub use softnc_api::{
     JobRecord, MachineState, OffsetTable, Outcome, ProcessHealth, Reply, Request, Status, Tool,
     JOB_CHECK_TIMEOUT,
 };
-use softnc_daemon::config::DaemonConfig;
 use softnc_ipc::{
     EStopRequest, FixedStr, OperatorReply, OperatorRequest, PositionStatus, ServiceNames,
 };
 use std::path::Path;
+
+pub mod config;
+pub use config::ClientConfig;
 use std::time::{Duration, Instant};
 
 /// How long a request waits for the MMI's reply.
@@ -48,16 +50,16 @@ pub struct Operator {
 impl Operator {
     /// Connect using the instance named in `config` (the daemon's configuration).
     pub fn connect(config: &Path) -> Result<Self> {
-        let loaded = DaemonConfig::load(config)?;
+        let loaded = ClientConfig::load(config)?;
         loaded
             .setup_iceoryx2()
             .map_err(|e| anyhow::anyhow!("iceoryx2 configuration: {e}"))?;
-        let names = ServiceNames::new(&loaded.config.service_prefix, &loaded.config.instance);
+        let names = ServiceNames::new(&loaded.service_prefix, &loaded.instance);
         let node = NodeBuilder::new()
             .signal_handling_mode(SignalHandlingMode::Disabled)
             .create::<ipc::Service>()
             .context("creating client node")?;
-        softnc_daemon::ipc_guard::seal(node.config()).context("iceoryx2 permissions")?;
+        softnc_ipc::ipc_guard::seal(node.config()).context("iceoryx2 permissions")?;
         let svc = node
             .service_builder(&names.operator().as_str().try_into()?)
             .request_response::<OperatorRequest, OperatorReply>()
@@ -67,11 +69,11 @@ impl Operator {
         let client = svc.client_builder().create().context("operator client")?;
         Ok(Operator {
             node,
-            instance: loaded.config.instance.clone(),
+            instance: loaded.instance.clone(),
             svc,
             client,
             names,
-            heartbeat_timeout_s: loaded.config.heartbeat_timeout_s,
+            heartbeat_timeout_s: loaded.heartbeat_timeout_s,
         })
     }
 
@@ -214,9 +216,9 @@ impl Operator {
         &self,
     ) -> Result<(
         iceoryx2::port::publisher::Publisher<ipc::Service, EStopRequest, ()>,
-        softnc_daemon::bus::Sub<PositionStatus>,
+        softnc_ipc::bus::Sub<PositionStatus>,
     )> {
-        use softnc_daemon::bus;
+        use softnc_ipc::bus;
         let status = bus::pubsub_service::<PositionStatus>(
             &self.node,
             &self.names.status(),

@@ -3,7 +3,7 @@
 
 /// The file-creation mask of every controller process: nothing it creates is
 /// writable by anyone but its user, nor readable by others (data, traces, history,
-/// folders; iceoryx2 sets its own files' modes, see `crate::ipc_guard`).
+/// folders; iceoryx2 sets its own files' modes, see `softnc_ipc::ipc_guard`).
 pub const PROCESS_UMASK: u32 = 0o027;
 
 /// Set by `softncd` in a child it restarts (not at its first start).

@@ -23,12 +23,12 @@
 //! with heartbeats and notes, for the outbox thread ([`crate::outbox`]), which
 //! publishes them in order and logs the notes.
 
-use crate::bus::{Bus, Sub};
 use crate::config::{ClockMode, Loaded};
 use crate::lifecycle::StopWatch;
 use crate::loop_watch::{LoopEvent, LoopWatch};
 use crate::outbox::{InterpMsg, Outbox, OUTBOX_CAPACITY};
 use anyhow::{Context, Result};
+use softnc_ipc::bus::{Bus, Sub};
 use softnc_ipc::{
     Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, FixedStr, Heartbeat,
     MachineState, PositionStatus, ProcessId, JOB_ADAPTIVE_FORCE,

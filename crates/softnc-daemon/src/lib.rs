@@ -1,7 +1,7 @@
 //! softnc's runtime: the three cyclic processes and their supervisor.
 //!
 //! - [`config`]: `config/default.ron`, one file for all processes.
-//! - [`bus`]: the iceoryx2 node and services every process opens.
+//! - `softnc_ipc::bus`: the iceoryx2 node and services every process opens.
 //! - [`interp`]: `softnc-interp`, job → planner → command samples, paced by the
 //!   position process's consumption so the lookahead ring stays filled.
 //! - [`position`]: `softnc-position`, lookahead ring → controller stack → servo
@@ -31,11 +31,9 @@
 //! MMI serves is the crate `softnc-api`.
 #![warn(missing_docs)]
 
-pub mod bus;
 pub mod cli;
 pub mod config;
 pub mod interp;
-pub mod ipc_guard;
 pub mod job_setup;
 pub mod jobfile;
 pub mod lifecycle;

@@ -207,12 +207,7 @@ pub enum PrivateDirError {
     },
 }
 
-/// The effective user id of this process.
-#[allow(unsafe_code)] // (its SAFETY lines below)
-pub fn effective_uid() -> u32 {
-    // SAFETY: geteuid has no preconditions and cannot fail
-    unsafe { libc::geteuid() }
-}
+pub use softnc_ipc::ipc_guard::effective_uid;
 
 /// Check that `dir` is a folder (not a link) of this user that neither its group nor
 /// others may write: files opened in it cannot be planted, replaced or linked by

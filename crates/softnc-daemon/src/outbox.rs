@@ -15,9 +15,9 @@
 //! cycle. If the thread ends (a message that must arrive could not be published, or
 //! a bug), the loop's next [`Outbox::send`] says so.
 
-use crate::bus::{Bus, Pub};
 use anyhow::Result;
 use crossbeam_queue::ArrayQueue;
+use softnc_ipc::bus::{Bus, Pub};
 use softnc_ipc::{
     Alarm, AlarmCode, CommandSample, Heartbeat, LoopStats, PositionStatus, ServiceNames,
 };
@@ -201,7 +201,9 @@ impl<M: Outgoing> Outbox<M> {
                         ..Default::default()
                     });
                 }
-                let opened = Bus::new(names, &node).and_then(|bus| Ok((M::open(&bus)?, bus)));
+                let opened = Bus::new(names, &node)
+                    .map_err(anyhow::Error::from)
+                    .and_then(|bus| Ok((M::open(&bus)?, bus)));
                 let (ports, _bus) = match opened {
                     Ok(p) => {
                         let _ = ready_tx.send(Ok(()));

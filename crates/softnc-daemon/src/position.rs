@@ -15,7 +15,6 @@
 //! asks for, are made by the preparation thread ([`crate::prep`]) and swapped in at a
 //! cycle boundary; motion starts only when the job's preparation is in.
 
-use crate::bus::{Bus, Sub};
 use crate::config::{ClockMode, Loaded};
 use crate::lifecycle::StopWatch;
 use crate::loop_watch::{LoopEvent, LoopWatch};
@@ -24,6 +23,7 @@ use crate::outbox::{Outbox, PositionMsg, OUTBOX_CAPACITY};
 use crate::prep::{JobPrep, Prep, PrepRequest, Prepared, Retired};
 use anyhow::Result;
 use softnc_core::{Axes, CommandRing, Primitive, RingSample, Vec3, COMMAND_RING_CAPACITY};
+use softnc_ipc::bus::{Bus, Sub};
 use softnc_ipc::{
     Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, EStopRequest, FixedStr,
     Heartbeat, LoopStats as LoopStatsMsg, MachineState, PositionStatus, ProcessId, MAX_AXES,

@@ -20,10 +20,10 @@
 //! - systemd: `READY=1` once every child has sent a heartbeat, `WATCHDOG=1` at half
 //!   `WatchdogSec`, `STOPPING=1` ([`crate::lifecycle::Notify`]).
 
-use crate::bus::{clean_dead_nodes, Bus, Pub, Sub};
 use crate::config::Loaded;
 use crate::lifecycle::{InstanceLock, Notify, StopWatch};
 use anyhow::{Context, Result};
+use softnc_ipc::bus::{clean_dead_nodes, Bus, Pub, Sub};
 use softnc_ipc::{
     Alarm, AlarmCode, ControlCommand, ControlKind, FixedStr, Heartbeat, MachineState, ProcessId,
 };

@@ -2,8 +2,8 @@
 //! an alarm: a counting global allocator (counting only on the thread that runs the
 //! cycles) proves it.
 
-use softnc_daemon::bus::Bus;
 use softnc_daemon::position::{EngineFactory, PositionTask};
+use softnc_ipc::bus::Bus;
 use softnc_ipc::{
     CommandSample, ControlCommand, ControlKind, FixedStr, MachineState, ServiceNames,
 };

@@ -8,9 +8,9 @@
 //! The test plays the position process: it reads the command samples the
 //! interpolator's outbox thread publishes and reports them used, one per cycle.
 
-use softnc_daemon::bus::Bus;
 use softnc_daemon::config::Loaded;
 use softnc_daemon::interp::{InterpTask, JobEnd};
+use softnc_ipc::bus::Bus;
 use softnc_ipc::{
     AlarmCode, CommandSample, ControlCommand, ControlKind, FixedStr, MachineState, PositionStatus,
     ServiceNames, MAX_AXES,

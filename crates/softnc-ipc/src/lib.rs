@@ -1,5 +1,8 @@
 //! softnc's messages between processes: fixed-size `#[repr(C)]` iceoryx2 payloads
-//! (no heap, no pointers, no serialisation on the hot path) and the service names.
+//! (no heap, no pointers, no serialisation on the hot path) and the service names;
+//! the node and services every process and operator client opens the same way
+//! ([`bus`]), and the permissions of iceoryx2's files against other local users
+//! ([`ipc_guard`]).
 //!
 //! ```
 //! use softnc_ipc::{CommandSample, ServiceNames};
@@ -10,7 +13,9 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod bus;
 pub mod fixed_str;
+pub mod ipc_guard;
 pub mod names;
 pub mod payload;
 

@@ -23,7 +23,6 @@ pub use history::{Accuracy, JobRecord};
 use program::CheckKind;
 use softnc_api::{Reply, Request};
 
-use crate::bus::{Bus, Pub, Sub};
 use crate::config::Loaded;
 use crate::interp::Switches;
 use crate::lifecycle::StopWatch;
@@ -32,6 +31,7 @@ use anyhow::{Context, Result};
 use iceoryx2::port::server::Server;
 use iceoryx2::prelude::*;
 use softnc_api::ProcessHealth;
+use softnc_ipc::bus::{Bus, Pub, Sub};
 use softnc_ipc::{
     Alarm, AlarmCode, ControlCommand, ControlKind, FixedStr, Heartbeat, LoopStats, MachineState,
     OperatorReply, OperatorRequest, PositionStatus, ProcessId,

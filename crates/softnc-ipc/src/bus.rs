@@ -1,14 +1,77 @@
 //! The iceoryx2 services of one controller instance, opened or created the same way
 //! by every process.
 
-use anyhow::{Context, Result};
-use iceoryx2::port::publisher::Publisher;
-use iceoryx2::port::subscriber::Subscriber;
-use iceoryx2::prelude::*;
-use softnc_ipc::{
+use crate::ipc_guard::IpcGuardError;
+use crate::{
     Alarm, CommandSample, ControlCommand, EStopRequest, Heartbeat, LoopStats, PositionStatus,
     ServiceNames,
 };
+use iceoryx2::node::NodeCreationFailure;
+use iceoryx2::port::publisher::{Publisher, PublisherCreateError};
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::port::subscriber::SubscriberCreateError;
+use iceoryx2::prelude::*;
+use iceoryx2::service::builder::publish_subscribe::PublishSubscribeOpenOrCreateError;
+use iceoryx2::service::service_name::ServiceNameError;
+
+/// Why a node, a service or a port could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum BusError {
+    /// The node's name is not one iceoryx2 takes.
+    #[error("node name {name}")]
+    NodeName {
+        /// The name.
+        name: String,
+        /// Why.
+        source: SemanticStringError,
+    },
+    /// The node could not be created.
+    #[error("creating node {name}")]
+    Node {
+        /// The node's name.
+        name: String,
+        /// Why.
+        source: NodeCreationFailure,
+    },
+    /// iceoryx2's files could not be made safe ([`crate::ipc_guard::seal`]).
+    #[error("iceoryx2 permissions")]
+    Permissions(#[source] IpcGuardError),
+    /// The service's name is not one iceoryx2 takes.
+    #[error("service name {name}")]
+    ServiceName {
+        /// The name.
+        name: String,
+        /// Why.
+        source: ServiceNameError,
+    },
+    /// The service could not be opened or created.
+    #[error("opening service {name}")]
+    Service {
+        /// The service.
+        name: String,
+        /// Why.
+        source: PublishSubscribeOpenOrCreateError,
+    },
+    /// A publisher could not be created.
+    #[error("publisher on {service}")]
+    Publisher {
+        /// The service.
+        service: String,
+        /// Why.
+        source: PublisherCreateError,
+    },
+    /// A subscriber could not be created.
+    #[error("subscriber on {service}")]
+    Subscriber {
+        /// The service.
+        service: String,
+        /// Why.
+        source: SubscriberCreateError,
+    },
+}
+
+/// What the bus's functions return.
+pub type Result<T> = std::result::Result<T, BusError>;
 
 /// Publish-subscribe port types over the shared-memory service.
 pub type Pub<T> = Publisher<ipc::Service, T, ()>;
@@ -35,7 +98,10 @@ macro_rules! pubsub {
             let svc = self.service::<$t>(&self.names.$name(), $buf, $hist)?;
             svc.publisher_builder()
                 .create()
-                .with_context(|| format!("publisher on {}", self.names.$name()))
+                .map_err(|source| BusError::Publisher {
+                    service: self.names.$name(),
+                    source,
+                })
         }
         /// Subscriber on this service.
         pub fn $fn_sub(&self) -> Result<Sub<$t>> {
@@ -43,7 +109,10 @@ macro_rules! pubsub {
             svc.subscriber_builder()
                 .buffer_size($buf)
                 .create()
-                .with_context(|| format!("subscriber on {}", self.names.$name()))
+                .map_err(|source| BusError::Subscriber {
+                    service: self.names.$name(),
+                    source,
+                })
         }
     };
 }
@@ -57,12 +126,18 @@ impl Bus {
                 &node_name
                     .as_str()
                     .try_into()
-                    .with_context(|| format!("node name {node_name}"))?,
+                    .map_err(|source| BusError::NodeName {
+                        name: node_name.clone(),
+                        source,
+                    })?,
             )
             .signal_handling_mode(SignalHandlingMode::Disabled)
             .create::<ipc::Service>()
-            .with_context(|| format!("creating node {node_name}"))?;
-        crate::ipc_guard::seal(node.config()).context("iceoryx2 permissions")?;
+            .map_err(|source| BusError::Node {
+                name: node_name.clone(),
+                source,
+            })?;
+        crate::ipc_guard::seal(node.config()).map_err(BusError::Permissions)?;
         Ok(Bus { node, names })
     }
 
@@ -81,7 +156,10 @@ impl Bus {
             .subscriber_builder()
             .buffer_size(SMALL_BUFFER)
             .create()
-            .with_context(|| format!("subscriber on {}", self.names.estop()))
+            .map_err(|source| BusError::Subscriber {
+                service: self.names.estop(),
+                source,
+            })
     }
 
     pubsub!(
@@ -156,11 +234,10 @@ fn pubsub_service_for<T: std::fmt::Debug + ZeroCopySend + Copy + 'static>(
     history: usize,
     max_publishers: usize,
 ) -> Result<PubSubService<T>> {
-    node.service_builder(
-        &name
-            .try_into()
-            .with_context(|| format!("service name {name}"))?,
-    )
+    node.service_builder(&name.try_into().map_err(|source| BusError::ServiceName {
+        name: name.to_string(),
+        source,
+    })?)
     .publish_subscribe::<T>()
     .subscriber_max_buffer_size(buffer)
     .history_size(history)
@@ -168,7 +245,10 @@ fn pubsub_service_for<T: std::fmt::Debug + ZeroCopySend + Copy + 'static>(
     .max_subscribers(8)
     .max_nodes(max_publishers + 8)
     .open_or_create()
-    .with_context(|| format!("opening service {name}"))
+    .map_err(|source| BusError::Service {
+        name: name.to_string(),
+        source,
+    })
 }
 
 /// Operator clients that may hold an E-stop publisher at once.

@@ -67,9 +67,16 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> IpcGuardError + '_ {
     }
 }
 
+/// The effective user id of this process.
+#[allow(unsafe_code)] // (its SAFETY lines below)
+pub fn effective_uid() -> u32 {
+    // SAFETY: geteuid has no preconditions and cannot fail
+    unsafe { libc::geteuid() }
+}
+
 /// Whose files we trust: ours, and root's.
 fn trusted_owner(uid: u32) -> bool {
-    uid == crate::lifecycle::effective_uid() || uid == 0
+    uid == effective_uid() || uid == 0
 }
 
 /// Check (and make, when absent) iceoryx2's root folder; remove unsafe node-id files
@@ -100,7 +107,7 @@ pub fn prepare(config: &Config) -> Result<(), IpcGuardError> {
 /// Make our node-id file owner-only (iceoryx2 leaves it 0666). After a node is created.
 pub fn seal(config: &Config) -> Result<(), IpcGuardError> {
     use std::os::unix::fs::{OpenOptionsExt, PermissionsExt};
-    let me = crate::lifecycle::effective_uid();
+    let me = effective_uid();
     for f in node_id_files(config)? {
         let file = match std::fs::OpenOptions::new()
             .read(true)

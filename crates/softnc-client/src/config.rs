@@ -1,0 +1,130 @@
+//! What the client reads from the daemon's configuration file (`config/default.ron`):
+//! the instance's service names, its heartbeat timeout and its iceoryx2
+//! configuration. The daemon's other fields (the machine profile, the loops, …) are
+//! the daemon's and are skipped here.
+
+use serde::Deserialize;
+use softnc_core::config::{parse_ron, read_text, ConfigError};
+use std::path::{Path, PathBuf};
+
+/// The daemon configuration's fields the client uses (the file's other fields are
+/// read over).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(rename = "DaemonConfig")]
+pub struct ClientConfig {
+    /// Instance name: services live under `<service_prefix>/<instance>/`.
+    pub instance: String,
+    /// Prefix of every service name.
+    pub service_prefix: String,
+    /// A process silent for this long is lost (s).
+    pub heartbeat_timeout_s: f64,
+    /// iceoryx2 configuration; relative to the file's folder as written, absolute
+    /// after [`ClientConfig::load`].
+    pub iceoryx2_config: PathBuf,
+}
+
+impl ClientConfig {
+    /// Read the client's fields of the daemon configuration at `path`, checked as
+    /// the daemon checks them (a bad file is an error naming it and the field).
+    pub fn load(path: &Path) -> Result<Self, ConfigError> {
+        let (file, text) = read_text(path)?;
+        let mut config: ClientConfig = parse_ron(&text, &file)?;
+        if config.instance.is_empty() || config.instance.contains('/') {
+            return Err(ConfigError::invalid(
+                &file,
+                "instance",
+                "must be a non-empty name without '/'",
+            ));
+        }
+        if config.service_prefix.is_empty() {
+            return Err(ConfigError::invalid(
+                &file,
+                "service_prefix",
+                "must not be empty",
+            ));
+        }
+        if !(config.heartbeat_timeout_s > 0.0 && config.heartbeat_timeout_s.is_finite()) {
+            return Err(ConfigError::invalid(
+                &file,
+                "heartbeat_timeout_s",
+                "must be a finite number > 0",
+            ));
+        }
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        config.iceoryx2_config = dir.join(&config.iceoryx2_config);
+        if !config.iceoryx2_config.is_file() {
+            return Err(ConfigError::invalid(
+                &file,
+                "iceoryx2_config",
+                format!("{} does not exist", config.iceoryx2_config.display()),
+            ));
+        }
+        Ok(config)
+    }
+
+    /// Make the iceoryx2 configuration the process's global one (before any node is
+    /// created), its root folder checked and unsafe node-id files removed
+    /// ([`softnc_ipc::ipc_guard::prepare`]).
+    pub fn setup_iceoryx2(&self) -> Result<(), String> {
+        use iceoryx2::prelude::*;
+        let p = self.iceoryx2_config.display().to_string();
+        let fp = FilePath::new(p.as_bytes()).map_err(|e| format!("{p}: {e:?}"))?;
+        let config = iceoryx2::config::Config::setup_global_config_from_file(&fp)
+            .map_err(|e| format!("{p}: {e:?}"))?;
+        softnc_ipc::ipc_guard::prepare(config).map_err(|e| e.to_string())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn repo() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+    }
+
+    /// The shipped daemon configuration: the client's fields, the others read over.
+    #[test]
+    fn reads_the_shipped_daemon_configuration() {
+        let c = ClientConfig::load(&repo().join("config/default.ron")).unwrap();
+        assert_eq!(c.instance, "mill1");
+        assert_eq!(c.service_prefix, "softnc");
+        assert_eq!(c.heartbeat_timeout_s, 0.5);
+        assert!(c.iceoryx2_config.ends_with("iceoryx2.toml"));
+        assert!(c.iceoryx2_config.is_file());
+    }
+
+    /// A missing file and a bad field name the file.
+    #[test]
+    fn errors_name_the_file() {
+        let missing = repo().join("config/no-such-file.ron");
+        let e = ClientConfig::load(&missing).unwrap_err().to_string();
+        assert!(
+            e.contains("no-such-file.ron") && e.contains("cannot read"),
+            "{e}"
+        );
+
+        let dir = std::env::temp_dir().join(format!("softnc-client-cfg-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let text = std::fs::read_to_string(repo().join("config/default.ron")).unwrap();
+        let bad = dir.join("bad.ron");
+        std::fs::write(
+            &bad,
+            text.replace("instance: \"mill1\"", "instance: \"a/b\""),
+        )
+        .unwrap();
+        let e = ClientConfig::load(&bad).unwrap_err().to_string();
+        assert!(e.contains("bad.ron") && e.contains("instance"), "{e}");
+        std::fs::write(
+            &bad,
+            text.replace("heartbeat_timeout_s: 0.5", "heartbeat_timeout_s: \"x\""),
+        )
+        .unwrap();
+        let e = ClientConfig::load(&bad).unwrap_err().to_string();
+        assert!(
+            e.contains("bad.ron") && e.contains("heartbeat_timeout_s"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
