@@ -66,12 +66,7 @@ impl ClientConfig {
     /// created), its root folder checked and unsafe node-id files removed
     /// ([`softnc_ipc::ipc_guard::prepare`]).
     pub fn setup_iceoryx2(&self) -> Result<(), String> {
-        use iceoryx2::prelude::*;
-        let p = self.iceoryx2_config.display().to_string();
-        let fp = FilePath::new(p.as_bytes()).map_err(|e| format!("{p}: {e:?}"))?;
-        let config = iceoryx2::config::Config::setup_global_config_from_file(&fp)
-            .map_err(|e| format!("{p}: {e:?}"))?;
-        softnc_ipc::ipc_guard::prepare(config).map_err(|e| e.to_string())
+        softnc_ipc::ipc_guard::setup_global_config(&self.iceoryx2_config)
     }
 }
 

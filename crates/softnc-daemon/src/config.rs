@@ -292,13 +292,7 @@ impl Loaded {
     /// node is created), its root folder checked and unsafe node-id files removed
     /// ([`softnc_ipc::ipc_guard::prepare`]).
     pub fn setup_iceoryx2(&self) -> Result<(), String> {
-        let p = self.iceoryx2_config.display().to_string();
-        use iceoryx2::prelude::*;
-        let fp = FilePath::new(p.as_bytes()).map_err(|e| format!("{p}: {e:?}"))?;
-        let config = iceoryx2::config::Config::setup_global_config_from_file(&fp)
-            .map_err(|e| format!("{p}: {e:?}"))?;
-        // no file of ours writable by other users (softnc_ipc::ipc_guard)
-        softnc_ipc::ipc_guard::prepare(config).map_err(|e| e.to_string())
+        softnc_ipc::ipc_guard::setup_global_config(&self.iceoryx2_config)
     }
 }
 

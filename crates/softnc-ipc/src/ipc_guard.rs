@@ -79,6 +79,16 @@ fn trusted_owner(uid: u32) -> bool {
     uid == effective_uid() || uid == 0
 }
 
+/// Make the iceoryx2 configuration file at `path` the process's global one (before
+/// any node is created), then [`prepare`] it: the daemon and every operator client.
+pub fn setup_global_config(path: &Path) -> Result<(), String> {
+    use iceoryx2::prelude::*;
+    let p = path.display().to_string();
+    let fp = FilePath::new(p.as_bytes()).map_err(|e| format!("{p}: {e:?}"))?;
+    let config = Config::setup_global_config_from_file(&fp).map_err(|e| format!("{p}: {e:?}"))?;
+    prepare(config).map_err(|e| e.to_string())
+}
+
 /// Check (and make, when absent) iceoryx2's root folder; remove unsafe node-id files
 /// of our prefix. Before the process's first node.
 pub fn prepare(config: &Config) -> Result<(), IpcGuardError> {
