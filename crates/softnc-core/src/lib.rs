@@ -10,6 +10,8 @@
 //! - [`ron_file`]: RON configuration files read with the path of a bad field, and
 //!   [`ConfigError`], the error every section's validation reports.
 //! - [`ring`]: the lookahead ring of command samples and its sizing rule.
+//! - [`machine_io`]: the machine around the axes as the processes exchange it:
+//!   [`MachineOutputs`] on every command sample, [`MachineInputs`] in every status.
 //! - [`store`]: atomic file writes (job history, learning stores).
 //! - [`taken`]: files a controller runs, taken in safely (regular, bounded, read once).
 //!
@@ -23,6 +25,7 @@
 pub mod axes;
 pub mod config;
 pub mod geom;
+pub mod machine_io;
 pub mod ring;
 pub mod ron_file;
 pub mod store;
@@ -34,6 +37,7 @@ pub use config::{
     MachineTables, MotionProfile, PlannerConfig, SpindleConfig, ToolEntry,
 };
 pub use geom::{Plane, Primitive, Vec3};
+pub use machine_io::{MachineInputs, MachineOutputs, SpindleDir};
 
 /// Axes the whole stack carries, X, Y, Z: the one axis count of the profile, the
 /// servo boundary, the learning store and the messages between the processes.

@@ -1008,6 +1008,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     flags,
                     sent_unix_ns: 0,
                     path_mm,
+                    outputs: softnc_ipc::payload::OutputsWire::default(),
                 });
             }
         }
@@ -1141,6 +1142,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             force_override: f64::NAN,
             force_revolutions: 0,
             force_n: f64::NAN,
+            inputs: softnc_ipc::payload::InputsWire::default(),
         };
         if let (Some(a), true) = (&self.adaptive, self.phase.job_id() != 0) {
             status.force_override = a.override_frac();

@@ -74,6 +74,7 @@ fn status(seq: u64, job_id: u64) -> PositionStatus {
         force_override: f64::NAN,
         force_revolutions: 0,
         force_n: f64::NAN,
+        inputs: softnc_ipc::payload::InputsWire::default(),
     }
 }
 

@@ -23,6 +23,6 @@ pub use fixed_str::{FixedStr, TooLong};
 pub use names::ServiceNames;
 pub use payload::{
     Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, EStopRequest, Heartbeat,
-    LoopStats, MachineState, OperatorReply, OperatorRequest, PositionStatus, ProcessId,
-    JOB_ADAPTIVE_FORCE, MAX_AXES,
+    InputsWire, LoopStats, MachineState, OperatorReply, OperatorRequest, OutputsWire,
+    PositionStatus, ProcessId, JOB_ADAPTIVE_FORCE, MAX_AXES,
 };

@@ -2,6 +2,7 @@
 
 use crate::fixed_str::FixedStr;
 use iceoryx2::prelude::ZeroCopySend;
+use softnc_core::machine_io::{MachineInputs, MachineOutputs, SpindleDir, ANALOG_LINES};
 
 /// Axes a sample carries: the stack's one axis count.
 pub use softnc_core::MAX_AXES;
@@ -28,6 +29,8 @@ pub struct CommandSample {
     pub sent_unix_ns: u64,
     /// Distance along the planned path from the job's start (mm).
     pub path_mm: f64,
+    /// What the machine around the axes is told while this sample runs.
+    pub outputs: OutputsWire,
 }
 
 impl CommandSample {
@@ -48,6 +51,7 @@ impl CommandSample {
             flags: 0,
             sent_unix_ns: 0,
             path_mm: 0.0,
+            outputs: OutputsWire::default(),
         }
     }
     /// True if this is the job's last sample.
@@ -136,6 +140,141 @@ pub struct PositionStatus {
     /// Adaptive feed: the last revolution's estimated peak cutting force (N); NaN
     /// without it.
     pub force_n: f64,
+    /// What the machine around the axes reported this cycle.
+    pub inputs: InputsWire,
+}
+
+/// [`MachineOutputs`] on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
+#[repr(C)]
+pub struct OutputsWire {
+    /// Programmed spindle speed (rpm, ≥ 0).
+    pub spindle_rpm: f64,
+    /// Orient angle (degrees); NaN while not orienting.
+    pub spindle_orient_deg: f64,
+    /// `OutputsWire::*` bits.
+    pub flags: u32,
+    /// Spindle direction: 0 stopped, 1 clockwise, 2 counter-clockwise.
+    pub spindle_dir: u32,
+    /// Digital outputs (bit P).
+    pub digital: u64,
+    /// Analog outputs (E).
+    pub analog: [f64; ANALOG_LINES],
+}
+
+impl OutputsWire {
+    const MIST: u32 = 1;
+    const FLOOD: u32 = 2;
+    const TOOL_CHANGE: u32 = 4;
+}
+
+impl From<MachineOutputs> for OutputsWire {
+    fn from(o: MachineOutputs) -> Self {
+        let bit = |on: bool, b: u32| if on { b } else { 0 };
+        OutputsWire {
+            spindle_rpm: o.spindle_rpm,
+            spindle_orient_deg: o.spindle_orient_deg.unwrap_or(f64::NAN),
+            flags: bit(o.coolant_mist, Self::MIST)
+                | bit(o.coolant_flood, Self::FLOOD)
+                | bit(o.tool_change, Self::TOOL_CHANGE),
+            spindle_dir: match o.spindle_dir {
+                SpindleDir::Stopped => 0,
+                SpindleDir::Clockwise => 1,
+                SpindleDir::CounterClockwise => 2,
+            },
+            digital: o.digital,
+            analog: o.analog,
+        }
+    }
+}
+
+impl From<OutputsWire> for MachineOutputs {
+    fn from(w: OutputsWire) -> Self {
+        MachineOutputs {
+            spindle_dir: match w.spindle_dir {
+                1 => SpindleDir::Clockwise,
+                2 => SpindleDir::CounterClockwise,
+                _ => SpindleDir::Stopped,
+            },
+            spindle_rpm: w.spindle_rpm,
+            spindle_orient_deg: (!w.spindle_orient_deg.is_nan()).then_some(w.spindle_orient_deg),
+            coolant_mist: w.flags & OutputsWire::MIST != 0,
+            coolant_flood: w.flags & OutputsWire::FLOOD != 0,
+            tool_change: w.flags & OutputsWire::TOOL_CHANGE != 0,
+            digital: w.digital,
+            analog: w.analog,
+        }
+    }
+}
+
+/// [`MachineInputs`] on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
+#[repr(C)]
+pub struct InputsWire {
+    /// Spindle speed from its encoder (rpm, signed).
+    pub spindle_rpm: f64,
+    /// Spindle position (revolutions).
+    pub spindle_revs: f64,
+    /// Index pulses seen.
+    pub spindle_index_count: u64,
+    /// `InputsWire::*` bits.
+    pub flags: u32,
+    /// Bit a: axis a's minimum-end limit switch.
+    pub limit_min: u32,
+    /// Bit a: axis a's maximum-end limit switch.
+    pub limit_max: u32,
+    /// Bit a: axis a's home switch.
+    pub home: u32,
+    /// Digital inputs (bit P).
+    pub digital: u64,
+    /// Analog inputs (E).
+    pub analog: [f64; ANALOG_LINES],
+}
+
+impl InputsWire {
+    const AT_SPEED: u32 = 1;
+    const ESTOP_OPEN: u32 = 2;
+    const PROBE: u32 = 4;
+    const TOOL_CHANGED: u32 = 8;
+}
+
+impl From<MachineInputs> for InputsWire {
+    fn from(i: MachineInputs) -> Self {
+        let bit = |on: bool, b: u32| if on { b } else { 0 };
+        InputsWire {
+            spindle_rpm: i.spindle_rpm,
+            spindle_revs: i.spindle_revs,
+            spindle_index_count: i.spindle_index_count,
+            flags: bit(i.spindle_at_speed, Self::AT_SPEED)
+                | bit(i.estop_open, Self::ESTOP_OPEN)
+                | bit(i.probe, Self::PROBE)
+                | bit(i.tool_changed, Self::TOOL_CHANGED),
+            limit_min: i.limit_min,
+            limit_max: i.limit_max,
+            home: i.home,
+            digital: i.digital,
+            analog: i.analog,
+        }
+    }
+}
+
+impl From<InputsWire> for MachineInputs {
+    fn from(w: InputsWire) -> Self {
+        MachineInputs {
+            spindle_rpm: w.spindle_rpm,
+            spindle_revs: w.spindle_revs,
+            spindle_index_count: w.spindle_index_count,
+            spindle_at_speed: w.flags & InputsWire::AT_SPEED != 0,
+            estop_open: w.flags & InputsWire::ESTOP_OPEN != 0,
+            probe: w.flags & InputsWire::PROBE != 0,
+            tool_changed: w.flags & InputsWire::TOOL_CHANGED != 0,
+            limit_min: w.limit_min,
+            limit_max: w.limit_max,
+            home: w.home,
+            digital: w.digital,
+            analog: w.analog,
+        }
+    }
 }
 
 /// Which process.
@@ -401,14 +540,56 @@ mod tests {
     }
 
     #[test]
+    fn machine_io_round_trips_through_the_wire() {
+        let mut analog = [0.0; ANALOG_LINES];
+        analog[3] = 2.5;
+        let outputs = [
+            MachineOutputs::default(),
+            MachineOutputs {
+                spindle_dir: SpindleDir::CounterClockwise,
+                spindle_rpm: 8000.0,
+                spindle_orient_deg: Some(90.0),
+                coolant_mist: false,
+                coolant_flood: true,
+                tool_change: true,
+                digital: 1 << 63 | 2,
+                analog,
+            },
+        ];
+        for o in outputs {
+            assert_eq!(MachineOutputs::from(OutputsWire::from(o)), o);
+        }
+        let inputs = MachineInputs {
+            spindle_rpm: -120.5,
+            spindle_revs: 3.25,
+            spindle_index_count: 3,
+            spindle_at_speed: true,
+            estop_open: true,
+            probe: false,
+            tool_changed: true,
+            limit_min: 0b001,
+            limit_max: 0b100,
+            home: 0b010,
+            digital: 5,
+            analog,
+        };
+        assert_eq!(MachineInputs::from(InputsWire::from(inputs)), inputs);
+        assert_eq!(
+            MachineInputs::from(InputsWire::default()),
+            MachineInputs::default()
+        );
+    }
+
+    #[test]
     fn payloads_are_fixed_size() {
         // sizes are part of the wire format between processes built together
         assert_eq!(
             std::mem::size_of::<CommandSample>(),
-            // seq, job, time index; positions; motion + flags; sent time; path
-            8 * 3 + 8 * MAX_AXES + 8 + 8 + 8
+            // seq, job, time index; positions; motion + flags; sent time; path;
+            // outputs: speed, orient, flags + direction, digital, analog
+            8 * 3 + 8 * MAX_AXES + 8 + 8 + 8 + (8 + 8 + 8 + 8 + 8 * ANALOG_LINES)
         );
-        assert!(std::mem::size_of::<PositionStatus>() < 512);
+        assert!(std::mem::size_of::<PositionStatus>() < 640);
         assert!(std::mem::size_of::<ControlCommand>() < 1024);
     }
 }
