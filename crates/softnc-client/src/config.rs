@@ -21,6 +21,62 @@ pub struct ClientConfig {
     /// iceoryx2 configuration; relative to the file's folder as written, absolute
     /// after [`ClientConfig::load`].
     pub iceoryx2_config: PathBuf,
+    /// The operator group and its gateway socket (`None`: only the controller's own
+    /// user and root operate it).
+    #[serde(default)]
+    pub operators: Option<OperatorsConfig>,
+}
+
+/// Who operates the controller besides its own user and root: the members of a
+/// local group, through a socket `softncd` serves (iceoryx2 0.10 makes its files
+/// owner-only, so a group cannot share them).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OperatorsConfig {
+    /// The operator group (a local group name, e.g. `softnc`).
+    pub group: String,
+    /// The gateway socket: relative to the configuration file's folder as written,
+    /// absolute after loading. Its folder must let the group through (mode 0750
+    /// with the group, as systemd's `RuntimeDirectory` with `Group=`).
+    pub socket: PathBuf,
+    /// At most this many operator connections at once (each holds a thread and an
+    /// iceoryx2 client in `softncd`).
+    #[serde(default = "default_max_connections")]
+    pub max_connections: usize,
+}
+
+fn default_max_connections() -> usize {
+    8
+}
+
+impl OperatorsConfig {
+    /// Check the fields (`file`: the configuration, for the error) and make the
+    /// socket path absolute against the configuration's folder `dir`.
+    pub fn resolve(&mut self, file: &str, dir: &Path) -> Result<(), ConfigError> {
+        if self.group.is_empty() || self.group.contains([':', '/', '\n']) {
+            return Err(ConfigError::invalid(
+                file,
+                "operators.group",
+                "must be a local group name",
+            ));
+        }
+        if self.socket.as_os_str().is_empty() {
+            return Err(ConfigError::invalid(
+                file,
+                "operators.socket",
+                "must not be empty",
+            ));
+        }
+        if !(1..=64).contains(&self.max_connections) {
+            return Err(ConfigError::invalid(
+                file,
+                "operators.max_connections",
+                "must be 1 to 64",
+            ));
+        }
+        self.socket = dir.join(&self.socket);
+        Ok(())
+    }
 }
 
 impl ClientConfig {
@@ -59,7 +115,22 @@ impl ClientConfig {
                 format!("{} does not exist", config.iceoryx2_config.display()),
             ));
         }
+        if let Some(o) = config.operators.as_mut() {
+            o.resolve(&file, &dir)?;
+        }
         Ok(config)
+    }
+
+    /// The gateway socket this process must go through: when the configuration has
+    /// an operator group, its socket exists, and this user is not the socket's owner
+    /// (the controller's own user, who talks iceoryx2 directly). Root goes through
+    /// it too: the installed service keeps iceoryx2's folder in its private `/tmp`
+    /// (docs/operations.md, "Operators").
+    pub fn gateway_socket_for_this_user(&self) -> Option<PathBuf> {
+        use std::os::unix::fs::MetadataExt;
+        let socket = &self.operators.as_ref()?.socket;
+        let owner = std::fs::symlink_metadata(socket).ok()?.uid();
+        (softnc_ipc::ipc_guard::effective_uid() != owner).then(|| socket.clone())
     }
 
     /// Make the iceoryx2 configuration the process's global one (before any node is

@@ -21,14 +21,16 @@ use softnc_ipc::{
 use std::path::Path;
 
 pub mod config;
+pub mod gateway;
 pub use config::ClientConfig;
 use std::time::{Duration, Instant};
 
 /// How long a request waits for the MMI's reply.
-const REPLY_TIMEOUT: Duration = Duration::from_secs(5);
+pub(crate) const REPLY_TIMEOUT: Duration = Duration::from_secs(5);
 
-/// A connection to one controller instance's MMI.
-pub struct Operator {
+/// A connection to one controller instance's MMI over iceoryx2 (the controller's own
+/// user).
+struct IpcLink {
     node: Node<ipc::Service>,
     /// The instance, for messages.
     instance: String,
@@ -47,10 +49,9 @@ pub struct Operator {
     heartbeat_timeout_s: f64,
 }
 
-impl Operator {
-    /// Connect using the instance named in `config` (the daemon's configuration).
-    pub fn connect(config: &Path) -> Result<Self> {
-        let loaded = ClientConfig::load(config)?;
+impl IpcLink {
+    /// Connect to the instance of `loaded` over iceoryx2.
+    fn connect(loaded: &ClientConfig) -> Result<Self> {
         loaded
             .setup_iceoryx2()
             .map_err(|e| anyhow::anyhow!("iceoryx2 configuration: {e}"))?;
@@ -67,7 +68,7 @@ impl Operator {
             .open_or_create()
             .context("operator service")?;
         let client = svc.client_builder().create().context("operator client")?;
-        Ok(Operator {
+        Ok(IpcLink {
             node,
             instance: loaded.instance.clone(),
             svc,
@@ -80,7 +81,7 @@ impl Operator {
     /// Send one request and wait for its reply (an E-stop also goes straight to the
     /// position process: [`Operator::estop`]). An error when no MMI answers or the
     /// request does not fit the wire (nothing is sent then).
-    pub fn request(&self, request: &Request) -> Result<Reply> {
+    fn request(&self, request: &Request) -> Result<Reply> {
         if *request == Request::EStop {
             return self.estop();
         }
@@ -147,7 +148,7 @@ impl Operator {
     /// without one, the position process's status showing the E-stop latched is
     /// (the MMI learns it from that status when it answers again). An error only
     /// if neither confirms it within the reply timeout.
-    pub fn estop(&self) -> Result<Reply> {
+    fn estop(&self) -> Result<Reply> {
         let direct = self.estop_direct();
         if let Err(e) = &direct {
             tracing::warn!("E-stop past the MMI not sent: {e:#}");
@@ -238,6 +239,68 @@ impl Operator {
             sent_unix_ns: softnc_rt::unix_ns(),
         })?;
         Ok((publisher, status))
+    }
+}
+
+/// A connection to one controller instance's MMI: over iceoryx2 for the controller's
+/// own user, through `softncd`'s operator gateway socket for root and the members of
+/// its operator group ([`ClientConfig::operators`]; iceoryx2 0.10 gives no group
+/// access to its files).
+pub struct Operator {
+    link: Link,
+}
+
+enum Link {
+    Ipc(Box<IpcLink>),
+    Gateway(std::cell::RefCell<gateway::GatewayLink>),
+}
+
+impl Operator {
+    /// Connect using the instance named in `config` (the daemon's configuration):
+    /// through the operator gateway when the configuration has one and this user is
+    /// not the controller's own user (the socket's owner), else over iceoryx2.
+    pub fn connect(config: &Path) -> Result<Self> {
+        let loaded = ClientConfig::load(config)?;
+        if let Some(socket) = loaded.gateway_socket_for_this_user() {
+            let link = gateway::GatewayLink::connect(&socket, &loaded.instance)?;
+            return Ok(Operator {
+                link: Link::Gateway(std::cell::RefCell::new(link)),
+            });
+        }
+        Self::connect_ipc(config)
+    }
+
+    /// Connect over iceoryx2 whatever the configuration says (the gateway itself
+    /// forwards so).
+    pub fn connect_ipc(config: &Path) -> Result<Self> {
+        let loaded = ClientConfig::load(config)?;
+        Ok(Operator {
+            link: Link::Ipc(Box::new(IpcLink::connect(&loaded)?)),
+        })
+    }
+
+    /// Whether this connection goes through the operator gateway.
+    pub fn through_gateway(&self) -> bool {
+        matches!(self.link, Link::Gateway(_))
+    }
+
+    /// Send one request and wait for its reply (an E-stop also goes straight to the
+    /// position process: [`Operator::estop`]). An error when no MMI answers or the
+    /// request does not fit the wire (nothing is sent then).
+    pub fn request(&self, request: &Request) -> Result<Reply> {
+        match &self.link {
+            Link::Ipc(l) => l.request(request),
+            Link::Gateway(g) => g.borrow_mut().request(request),
+        }
+    }
+
+    /// The E-stop on both paths: published straight to the position process
+    /// first, then asked of the MMI (through the gateway: `softncd` does both). The
+    /// MMI's reply is the answer; without one, the position process's status showing
+    /// the E-stop latched is. An error only if neither confirms it within the reply
+    /// timeout.
+    pub fn estop(&self) -> Result<Reply> {
+        self.request(&Request::EStop)
     }
 
     /// Switch the machine on if it is off (the daemon starts off) and wait until it

@@ -101,6 +101,10 @@ pub struct DaemonConfig {
     /// How the real-time loops judge their own timing (realtime clock only).
     #[serde(default)]
     pub loop_timing: LoopTimingConfig,
+    /// The operator group and the gateway socket `softncd` serves it on (`None`: only
+    /// this user and root operate the controller; docs/operations.md, "Operators").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub operators: Option<softnc_client::config::OperatorsConfig>,
 }
 
 fn default_mmi_silence_stop_s() -> f64 {
@@ -281,6 +285,8 @@ impl Loaded {
         c.subroutine_path = self.subroutine_path.iter().map(|p| abs(p)).collect();
         std::fs::create_dir_all(dir.join("data"))?;
         c.data_dir = abs(&dir.join("data"));
+        // a private instance: no operator gateway (the original's socket is its own)
+        c.operators = None;
         let text = ron::ser::to_string_pretty(&c, ron::ser::PrettyConfig::default())
             .map_err(std::io::Error::other)?;
         let path = dir.join("softncd.ron");
@@ -442,6 +448,10 @@ impl DaemonConfig {
                 },
                 reason: e.to_string(),
             });
+        }
+        let mut config = config;
+        if let Some(o) = config.operators.as_mut() {
+            o.resolve(&path.display().to_string(), &dir)?;
         }
         let data_dir = dir.join(&config.data_dir);
         let learning_dir = softnc_learning::store_dir(

@@ -41,6 +41,7 @@ pub mod loop_watch;
 pub mod machine_store;
 pub mod manual;
 pub mod mmi;
+pub mod operator_gateway;
 pub mod outbox;
 pub mod plan_samples;
 pub mod position;

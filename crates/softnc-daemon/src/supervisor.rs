@@ -69,6 +69,9 @@ pub struct Supervisor {
     stop: StopWatch,
     notify: Notify,
     bus: Bus,
+    /// The operator group's socket, served while the supervisor lives (dropped
+    /// before the lock: its socket is removed first).
+    _gateway: Option<crate::operator_gateway::Gateway>,
     /// Held for the supervisor's life: one controller per instance.
     _lock: InstanceLock,
 }
@@ -76,7 +79,8 @@ pub struct Supervisor {
 impl Supervisor {
     /// Prepare: take the instance's lock (a second controller of the instance is
     /// refused before it touches anything), catch SIGTERM/SIGINT, clean stale
-    /// resources of a previous run, open the services.
+    /// resources of a previous run, open the services, serve the operator gateway
+    /// when the configuration has an operator group.
     pub fn new(cfg: Loaded) -> Result<Self> {
         let lock = InstanceLock::acquire(
             &cfg.data_dir,
@@ -90,6 +94,7 @@ impl Supervisor {
         }
         let names = softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance);
         let bus = Bus::new(names, "supervisor")?;
+        let gateway = crate::operator_gateway::Gateway::start(&cfg)?;
         let bin_dir = std::env::current_exe()
             .context("locating softncd")?
             .parent()
@@ -125,6 +130,7 @@ impl Supervisor {
             stop,
             notify: Notify::from_env(),
             bus,
+            _gateway: gateway,
             _lock: lock,
         })
     }

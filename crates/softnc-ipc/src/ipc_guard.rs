@@ -74,6 +74,51 @@ pub fn effective_uid() -> u32 {
     unsafe { libc::geteuid() }
 }
 
+/// Who is at the other end of a Unix stream socket (`SO_PEERCRED`): user, group and
+/// process ids as the kernel recorded them when it connected.
+#[allow(unsafe_code)] // (its SAFETY line below)
+pub fn peer_credentials(
+    socket: &std::os::unix::net::UnixStream,
+) -> std::io::Result<PeerCredentials> {
+    use std::os::fd::AsRawFd;
+    let mut cred = libc::ucred {
+        pid: 0,
+        uid: 0,
+        gid: 0,
+    };
+    let mut len = std::mem::size_of::<libc::ucred>() as libc::socklen_t;
+    // SAFETY: the descriptor is an open socket borrowed for the call; `cred` and
+    // `len` are valid for writes of the size passed, as SO_PEERCRED requires
+    let r = unsafe {
+        libc::getsockopt(
+            socket.as_raw_fd(),
+            libc::SOL_SOCKET,
+            libc::SO_PEERCRED,
+            (&raw mut cred).cast(),
+            &raw mut len,
+        )
+    };
+    if r != 0 {
+        return Err(std::io::Error::last_os_error());
+    }
+    Ok(PeerCredentials {
+        pid: cred.pid,
+        uid: cred.uid,
+        gid: cred.gid,
+    })
+}
+
+/// The other end of a Unix socket ([`peer_credentials`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PeerCredentials {
+    /// Process id.
+    pub pid: i32,
+    /// Effective user id.
+    pub uid: u32,
+    /// Effective group id.
+    pub gid: u32,
+}
+
 /// Whose files we trust: ours, and root's.
 fn trusted_owner(uid: u32) -> bool {
     uid == effective_uid() || uid == 0
