@@ -131,8 +131,7 @@ mod tests {
         // torque-limited: ∫ J dω / (τ_max − bω) from 0 to 0.99·ω_max, then the loop
         let w = 0.99 * 12000.0 * RAD_S_PER_RPM;
         let b = c.viscous_nm_per_rad_s;
-        let expected =
-            -c.inertia_kg_m2 / b * ((c.max_torque_nm - b * w) / c.max_torque_nm).ln();
+        let expected = -c.inertia_kg_m2 / b * ((c.max_torque_nm - b * w) / c.max_torque_nm).ln();
         assert!((0.8..1.2).contains(&t), "{t} s to 12,000 rpm");
         assert!(
             (t - expected).abs() < 0.1,
