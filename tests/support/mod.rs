@@ -470,6 +470,7 @@ pub fn simulator_trace_learned(job: &Path, machine: &Path, out: &Path, learned: 
         pos_mm: softnc_core::Axes::from_xyz(s.pos_mm.0, 0.0),
         motion: s.motion,
         feed_move: s.feed_move,
+        outputs: Default::default(),
     });
     let samples: Box<dyn Iterator<Item = softnc_sim::sim::CommandSample>> = match &correction {
         Some(c) => Box::new(c.corrected(planned)),

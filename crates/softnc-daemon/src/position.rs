@@ -1100,6 +1100,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 motion: 0,
                 record: rec,
                 contour_mm: None,
+                io: self.engine.io().trace(),
             });
         }
         if moving {
@@ -1110,6 +1111,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     motion: c.motion,
                     record: rec,
                     contour_mm: contour.is_finite().then_some(contour),
+                    io: self.engine.io().trace(),
                 });
             }
         }

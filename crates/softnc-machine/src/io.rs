@@ -67,8 +67,8 @@ pub struct InputLine {
     /// The signal is asserted when the line is low (a normally-closed contact).
     #[serde(default)]
     pub active_low: bool,
-    /// Cycles the line must read a new level before the signal takes it (0: at
-    /// once).
+    /// Debounce (cycles of delay): the signal takes a new level once the line has
+    /// read it on `debounce_cycles` + 1 cycles in a row (0: at once).
     #[serde(default)]
     pub debounce_cycles: u32,
 }
