@@ -114,6 +114,15 @@ pub trait ServoBackend {
     fn read_io(&self) -> RawInputs {
         RawInputs::default()
     }
+    /// A backend that is not [kept across jobs](Self::kept_across_jobs) takes over
+    /// from `running` what the world outside set on its lines (a simulated
+    /// machine: the E-stop chain, the inputs a test set), when the next job's
+    /// fresh one replaces it. Nothing by default.
+    fn take_external_io(&mut self, _running: &Self)
+    where
+        Self: Sized,
+    {
+    }
     /// The simulation-only inputs, when this backend is a simulated machine.
     fn simulated(&mut self) -> Option<&mut dyn SimulatedMachine> {
         None

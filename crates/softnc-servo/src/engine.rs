@@ -204,6 +204,7 @@ impl<B: ServoBackend> CycleEngine<B> {
             }
         } else {
             self.reset(start_mm);
+            self.backend.take_external_io(&running.backend);
         }
     }
 

@@ -465,6 +465,15 @@ impl ServoBackend for SimBackend {
     fn simulated(&mut self) -> Option<&mut dyn SimulatedMachine> {
         Some(self)
     }
+    /// The E-stop chain, the inputs and the probe a test set carry over to the
+    /// next job's fresh machine (its spindle starts at rest, as `softnc sim`'s).
+    fn take_external_io(&mut self, running: &Self) {
+        self.io.estop_open = running.io.estop_open;
+        self.io.probe = running.io.probe;
+        self.io.user_digital = running.io.user_digital;
+        self.io.user_analog = running.io.user_analog;
+        self.sense_io();
+    }
     fn io_lines(&self) -> IoLines {
         IoLines {
             spindle: self.io.spindle.is_some(),

@@ -176,3 +176,27 @@ fn the_estop_chain_latches_and_the_outputs_go_safe() {
     assert!(e.io().last_inputs().spindle_rpm.abs() < 30.0);
     assert!(e.io_mut().reset_estop());
 }
+
+#[test]
+fn the_next_jobs_fresh_machine_keeps_what_the_world_set_on_its_lines() {
+    let p = profile("default");
+    let mut job1 = engine(&p);
+    let sim = job1.backend_mut().simulated().unwrap();
+    sim.set_estop_open(true);
+    sim.set_digital_input(wiring::USER, true);
+    job1.exchange_io().unwrap();
+    assert!(job1.io().estop_latched());
+    let mut job2 = engine(&p);
+    job2.take_over(&mut job1, [1.0, 2.0, 3.0]);
+    assert!(job2.io().estop_latched(), "the latch is the machine's");
+    let m = job2.exchange_io().unwrap();
+    assert!(m.estop_open && job2.io().estop_input_open());
+    assert_eq!(m.digital, 1);
+    // closed on the new machine: reset clears it
+    job2.backend_mut()
+        .simulated()
+        .unwrap()
+        .set_estop_open(false);
+    job2.exchange_io().unwrap();
+    assert!(job2.io_mut().reset_estop());
+}
