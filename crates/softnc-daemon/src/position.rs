@@ -142,6 +142,8 @@ pub struct PositionTask<B: ServoBackend> {
     control: Sub<ControlCommand>,
     /// E-stops straight from operator clients (past the MMI).
     estop: Sub<EStopRequest>,
+    /// Settings on the simulated machine's panel (tests).
+    sim_panel: Sub<softnc_ipc::SimPanel>,
     /// Heartbeats: the MMI's tell this process it is there.
     heartbeats: Sub<Heartbeat>,
     /// When the MMI was last heard (a heartbeat or a command).
@@ -263,6 +265,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             commands: bus.command_subscriber()?,
             control: bus.control_subscriber()?,
             estop: bus.estop_subscriber()?,
+            sim_panel: bus.sim_panel_subscriber()?,
             heartbeats: bus.heartbeat_subscriber()?,
             mmi_heard: Instant::now(),
             mmi_silent: false,
@@ -634,6 +637,21 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         while let Some(e) = self.estop.receive()? {
             let pid = e.sender_pid;
             self.emergency_stop(StopCause::Client(pid))?;
+        }
+        while let Some(p) = self.sim_panel.receive()? {
+            let p = *p;
+            if let Some(sim) = self.engine.backend_mut().simulated() {
+                let (line, on) = (p.line as usize, p.value != 0.0);
+                match p.kind {
+                    softnc_ipc::SimPanel::ESTOP => sim.set_estop_open(on),
+                    softnc_ipc::SimPanel::DIGITAL => sim.set_digital_input(line, on),
+                    softnc_ipc::SimPanel::ANALOG => sim.set_analog_input(line, p.value),
+                    softnc_ipc::SimPanel::PROBE => {
+                        sim.set_probe((p.value >= 0.0).then_some(p.value > 0.0));
+                    }
+                    _ => {}
+                }
+            }
         }
         while let Some(c) = self.control.receive()? {
             if c.sender == ProcessId::Mmi.wire() {
