@@ -221,19 +221,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         let in_position_mm = std::array::from_fn(|i| cfg.machine.axes[i].in_position_mm);
         let in_position_timeout_cycles =
             (cfg.config.in_position_timeout_s / cfg.machine.interpolation_cycle_s).ceil() as u64;
-        // manual motion (homing, jogs) traced, when traces are on, to a file of this
-        // process's own, made here (not on the cycle); rows numbered by the cycle
-        let manual_trace = if cfg.config.trace {
-            let file = cfg
-                .data_dir
-                .join(format!("trace-manual-{}.csv", std::process::id()));
-            let _ = std::fs::create_dir_all(&cfg.data_dir);
-            crate::trace::TraceSink::start(&file, cfg.config.clock == ClockMode::Lockstep)
-                .map_err(|e| tracing::warn!("cannot trace to {}: {e}", file.display()))
-                .ok()
-        } else {
-            None
-        };
+        let manual_trace = manual_trace(&cfg);
         let trace = cfg.config.trace.then(|| crate::prep::TraceTo {
             dir: cfg.data_dir.clone(),
             lossless: cfg.config.clock == ClockMode::Lockstep,
@@ -1465,6 +1453,22 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     pub fn stats(&self) -> &LoopStats {
         &self.stats
     }
+}
+
+/// Manual motion (homing, jogs) traced, when traces are on, to a file of this
+/// process's own, made when the process starts (not on the cycle); rows numbered by
+/// the cycle.
+fn manual_trace(cfg: &Loaded) -> Option<crate::trace::TraceSink> {
+    if !cfg.config.trace {
+        return None;
+    }
+    let file = cfg
+        .data_dir
+        .join(format!("trace-manual-{}.csv", std::process::id()));
+    let _ = std::fs::create_dir_all(&cfg.data_dir);
+    crate::trace::TraceSink::start(&file, cfg.config.clock == ClockMode::Lockstep)
+        .map_err(|e| tracing::warn!("cannot trace to {}: {e}", file.display()))
+        .ok()
 }
 
 /// Why the machine is E-stopped.
