@@ -19,7 +19,8 @@
 //! every status (`PositionStatus::inputs`). An opened E-stop input stops the machine
 //! as the operator's E-stop does (latched: a reset is refused while it is open, and
 //! so is `on`); a limit switch that trips while the machine is on does the same,
-//! with an alarm naming the axis and the end.
+//! with an alarm naming the axis and the end; off it, the axis jogs only away
+//! from the switch.
 //!
 //! Nothing on the cycle reads a file or allocates: a job's programmed path, its fresh
 //! engine, its trace file and its PDC designs, and the redesigns a spindle override
@@ -748,6 +749,21 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                         self.homed = ALL_HOMED;
                     }
                 }
+                Some(ControlKind::Jog | ControlKind::JogStep)
+                    if self.toward_a_tripped_limit(c.axis, c.value) =>
+                {
+                    let i = c.axis as usize;
+                    let max = c.value > 0.0;
+                    self.alarm(
+                        AlarmCode::Other,
+                        c.axis,
+                        format_args!(
+                            "jog of {} toward its tripped {} limit switch refused: jog away from it",
+                            softnc_core::Axis::name_of(i),
+                            if max { "maximum" } else { "minimum" },
+                        ),
+                    )?;
+                }
                 Some(ControlKind::Jog)
                     if self.idle_between_jobs() || self.state == MachineState::Jogging =>
                 {
@@ -966,6 +982,15 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         }
         self.prep.retire(Retired::Job(p));
         Ok(())
+    }
+
+    /// A jog of axis `axis` in the direction of `value`'s sign would go toward a
+    /// limit switch that is tripped (LinuxCNC lets an axis off its limit switch
+    /// only away from it).
+    fn toward_a_tripped_limit(&self, axis: u32, value: f64) -> bool {
+        let m = self.engine.io().last_inputs();
+        let bit = 1u32.checked_shl(axis).unwrap_or(0);
+        (value > 0.0 && m.limit_max & bit != 0) || (value < 0.0 && m.limit_min & bit != 0)
     }
 
     /// On, no job, nothing moving by hand.

@@ -2,7 +2,7 @@
 //! config/machines/default.ron, its I/O map): a sample's outputs switch when it is
 //! the sample in use; an opened E-stop input stops the job as the E-stop does, `on`
 //! and reset are refused while it is open; a limit switch stops the machine with an
-//! alarm naming the axis and the end. A position task driven directly, as the
+//! alarm naming the axis and the end, and the axis jogs off it only away from it. A position task driven directly, as the
 //! no-allocation tests drive it (no daemon).
 
 use softnc_core::machine_io::{MachineOutputs, SpindleDir};
@@ -272,5 +272,27 @@ fn a_limit_switch_stops_the_machine_naming_axis_and_end() {
         task.cycle().unwrap();
     }
     assert_eq!(task.state(), MachineState::Idle);
+    // off the switch only away from it
+    let jog = |seq: u64, mm_per_min: f64| ControlCommand {
+        axis: 0,
+        value: mm_per_min,
+        ..control(ControlKind::Jog, seq)
+    };
+    ctl.send_copy(jog(4, 600.0)).unwrap();
+    for _ in 0..20 {
+        task.cycle().unwrap();
+    }
+    assert_eq!(task.state(), MachineState::Idle, "jogged toward the switch");
+    let texts = alarms(&alarm_sub);
+    assert!(
+        texts
+            .iter()
+            .any(|t| t.contains("jog of X toward its tripped maximum limit switch refused")),
+        "{texts:?}"
+    );
+    ctl.send_copy(jog(5, -600.0)).unwrap();
+    cycle_until(&mut task, &mut feeder, "jog away", |t| {
+        t.state() == MachineState::Jogging
+    });
     let _ = std::fs::remove_dir_all(&dir);
 }
