@@ -211,6 +211,33 @@ fn reset_after_an_estop_or_a_fault_leaves_the_drives_off_until_on() {
     assert!(ok, "{msg}");
     stays(&d, &op, MachineState::Idle);
     assert_eq!(mdi(&d, &op, "G0 X7"), Outcome::Completed);
+    // the external E-stop chain (the simulated machine's input) opened mid-job: the
+    // job stops as the E-stop stops it, named in the alarms; reset and `on` are
+    // refused while it is open; closed, reset and on, the machine runs again
+    let _job = start_moving(&d, &op);
+    d.sim_panel(softnc_ipc::SimPanel::ESTOP, 0, 1.0);
+    let s = stays(&d, &op, MachineState::EStopped);
+    assert!(
+        s.alarms
+            .iter()
+            .any(|a| a.message.contains("the E-stop input opened")),
+        "{s}"
+    );
+    let _ = ask(&op, &Request::Reset);
+    stays(&d, &op, MachineState::EStopped);
+    let (ok, msg) = ask(&op, &Request::MachineOn);
+    assert!(
+        !ok && msg.contains("the E-stop input is open"),
+        "on with the E-stop input open: {msg}"
+    );
+    d.sim_panel(softnc_ipc::SimPanel::ESTOP, 0, 0.0);
+    let (ok, msg) = ask(&op, &Request::Reset);
+    assert!(ok, "{msg}");
+    stays(&d, &op, MachineState::Off);
+    let (ok, msg) = ask(&op, &Request::MachineOn);
+    assert!(ok, "{msg}");
+    stays(&d, &op, MachineState::Idle);
+    assert_eq!(mdi(&d, &op, "G0 X9"), Outcome::Completed);
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]

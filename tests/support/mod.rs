@@ -188,6 +188,22 @@ impl Daemon {
     }
 
     /// The operator client, with the machine on (the daemon starts off).
+    /// Set a line of this daemon's simulated machine from outside (its panel:
+    /// `softnc_ipc::SimPanel`, the lines of `softnc_sim::wiring`), as a test's hand
+    /// on the E-stop chain or an input.
+    pub fn sim_panel(&self, kind: u32, line: u32, value: f64) {
+        let c = softnc_client::ClientConfig::load(&self.config).unwrap();
+        c.setup_iceoryx2().unwrap();
+        let names = softnc_ipc::ServiceNames::new(&c.service_prefix, &c.instance);
+        let bus = softnc_ipc::bus::Bus::new(names, "test-panel").unwrap();
+        let publisher = bus.sim_panel_publisher().unwrap();
+        publisher
+            .send_copy(softnc_ipc::SimPanel { kind, line, value })
+            .unwrap();
+        // (the position process takes it at its next cycle)
+        std::thread::sleep(Duration::from_millis(100));
+    }
+
     pub fn operator(&self) -> Operator {
         let op = self.operator_off();
         op.machine_on(Duration::from_secs(30)).expect("machine on");
@@ -470,6 +486,7 @@ pub fn simulator_trace_learned(job: &Path, machine: &Path, out: &Path, learned: 
         pos_mm: softnc_core::Axes::from_xyz(s.pos_mm.0, 0.0),
         motion: s.motion,
         feed_move: s.feed_move,
+        outputs: Default::default(),
     });
     let samples: Box<dyn Iterator<Item = softnc_sim::sim::CommandSample>> = match &correction {
         Some(c) => Box::new(c.corrected(planned)),

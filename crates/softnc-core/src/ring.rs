@@ -235,6 +235,10 @@ pub struct CommandSample {
     pub motion: u32,
     /// True during feed moves (G1/G2/G3): the tool cuts, contour error is measured.
     pub feed_move: bool,
+    /// What the machine around the axes is told while this sample is in use
+    /// (spindle, coolant, outputs); `MachineOutputs::default()` for a program that
+    /// says nothing of them.
+    pub outputs: crate::machine_io::MachineOutputs,
 }
 
 /// Capacity of the command ring between interpolation and position control: a window

@@ -16,6 +16,7 @@ impl Iterator for PlanSamples<'_> {
             pos_mm: softnc_core::Axes::from_xyz(s.pos_mm.0, 0.0),
             motion: s.motion,
             feed_move: s.feed_move,
+            outputs: Default::default(),
         })
     }
 }

@@ -10,6 +10,18 @@
 //! E-stop comes from the MMI or straight from an operator client (the `estop`
 //! service); a reset clears it or a fault and leaves the drives off.
 //!
+//! The machine around the axes is exchanged on every cycle, between jobs too
+//! ([`softnc_servo::io::MachineIo`] in the engine): each command sample carries
+//! its outputs, applied while it is the sample in use (a synchronised output
+//! switches at the cycle where the next motion's first sample is in use); between
+//! jobs the outputs are safe, and while the machine is off or E-stopped the safe
+//! state goes out with machine-on and amplifier-enable off. The inputs go out in
+//! every status (`PositionStatus::inputs`). An opened E-stop input stops the machine
+//! as the operator's E-stop does (latched: a reset is refused while it is open, and
+//! so is `on`); a limit switch that trips while the machine is on does the same,
+//! with an alarm naming the axis and the end; off it, the axis jogs only away
+//! from the switch.
+//!
 //! Nothing on the cycle reads a file or allocates: a job's programmed path, its fresh
 //! engine, its trace file and its PDC designs, and the redesigns a spindle override
 //! asks for, are made by the preparation thread ([`crate::prep`]) and swapped in at a
@@ -22,6 +34,7 @@ use crate::manual::{Manual, ManualEvent};
 use crate::outbox::{Outbox, PositionMsg, OUTBOX_CAPACITY};
 use crate::prep::{JobPrep, Prep, PrepRequest, Prepared, Retired};
 use anyhow::Result;
+use softnc_core::machine_io::MachineOutputs;
 use softnc_core::{Axes, CommandRing, Primitive, RingSample, Vec3, COMMAND_RING_CAPACITY};
 use softnc_ipc::bus::{Bus, Sub};
 use softnc_ipc::{
@@ -130,6 +143,8 @@ pub struct PositionTask<B: ServoBackend> {
     control: Sub<ControlCommand>,
     /// E-stops straight from operator clients (past the MMI).
     estop: Sub<EStopRequest>,
+    /// Settings on the simulated machine's panel (tests).
+    sim_panel: Sub<softnc_ipc::SimPanel>,
     /// Heartbeats: the MMI's tell this process it is there.
     heartbeats: Sub<Heartbeat>,
     /// When the MMI was last heard (a heartbeat or a command).
@@ -149,7 +164,12 @@ pub struct PositionTask<B: ServoBackend> {
     /// The running job's program line per motion.
     lines: Vec<u32>,
     current: Option<CommandSample>,
-    flags: std::collections::VecDeque<(u32, u32, f64)>,
+    /// (motion, flags, path length, outputs) of the job's samples from the one in
+    /// use on, beside the ring.
+    flags: std::collections::VecDeque<(u32, u32, f64, MachineOutputs)>,
+    /// The limit switches tripped at the last cycle (min, max): a switch stops the
+    /// machine when it trips, not again while it stays tripped.
+    limits_seen: (u32, u32),
     last_cmd: [f64; MAX_AXES],
     prev_cmd: [f64; MAX_AXES],
     /// Each axis's in-position band (the profile's).
@@ -202,19 +222,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         let in_position_mm = std::array::from_fn(|i| cfg.machine.axes[i].in_position_mm);
         let in_position_timeout_cycles =
             (cfg.config.in_position_timeout_s / cfg.machine.interpolation_cycle_s).ceil() as u64;
-        // manual motion (homing, jogs) traced, when traces are on, to a file of this
-        // process's own, made here (not on the cycle); rows numbered by the cycle
-        let manual_trace = if cfg.config.trace {
-            let file = cfg
-                .data_dir
-                .join(format!("trace-manual-{}.csv", std::process::id()));
-            let _ = std::fs::create_dir_all(&cfg.data_dir);
-            crate::trace::TraceSink::start(&file, cfg.config.clock == ClockMode::Lockstep)
-                .map_err(|e| tracing::warn!("cannot trace to {}: {e}", file.display()))
-                .ok()
-        } else {
-            None
-        };
+        let manual_trace = manual_trace(&cfg);
         let trace = cfg.config.trace.then(|| crate::prep::TraceTo {
             dir: cfg.data_dir.clone(),
             lossless: cfg.config.clock == ClockMode::Lockstep,
@@ -246,6 +254,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             commands: bus.command_subscriber()?,
             control: bus.control_subscriber()?,
             estop: bus.estop_subscriber()?,
+            sim_panel: bus.sim_panel_subscriber()?,
             heartbeats: bus.heartbeat_subscriber()?,
             mmi_heard: Instant::now(),
             mmi_silent: false,
@@ -280,6 +289,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             lines: Vec::new(),
             current: None,
             flags: std::collections::VecDeque::with_capacity(COMMAND_RING_CAPACITY),
+            limits_seen: (0, 0),
             last_cmd: [0.0; MAX_AXES],
             prev_cmd: [0.0; MAX_AXES],
             starved_since: None,
@@ -500,23 +510,67 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         }
     }
 
-    /// The emergency stop (from the MMI, or straight from a client: `from_pid`):
-    /// everything stops where it is; reported once per E-stop.
-    fn emergency_stop(&mut self, from_pid: Option<u32>) -> Result<()> {
+    /// The emergency stop (from the MMI, straight from a client, the E-stop input
+    /// or a limit switch: `cause`): everything stops where it is; reported once per
+    /// E-stop.
+    fn emergency_stop(&mut self, cause: StopCause) -> Result<()> {
         self.manual.stop();
         self.manual.hold(self.last_cmd);
         if self.state == MachineState::EStopped {
             return Ok(());
         }
         self.state = MachineState::EStopped;
-        match from_pid {
-            Some(pid) => self.alarm(
+        match cause {
+            StopCause::Client(pid) => self.alarm(
                 AlarmCode::EStop,
                 u32::MAX,
                 format_args!("emergency stop (from operator client pid {pid}, past the MMI)"),
             ),
-            None => self.alarm(AlarmCode::EStop, u32::MAX, format_args!("emergency stop")),
+            StopCause::Operator => {
+                self.alarm(AlarmCode::EStop, u32::MAX, format_args!("emergency stop"))
+            }
+            StopCause::Input => self.alarm(
+                AlarmCode::EStop,
+                u32::MAX,
+                format_args!(
+                    "emergency stop: the E-stop input opened (latched: reset once it is closed)"
+                ),
+            ),
+            StopCause::Limit { axis, max } => {
+                let at_mm = self.engine.measured_mm()[axis];
+                self.alarm(
+                    AlarmCode::EStop,
+                    axis as u32,
+                    format_args!(
+                        "emergency stop: {} {} limit switch tripped at {at_mm:.3} mm",
+                        softnc_core::Axis::name_of(axis),
+                        if max { "maximum" } else { "minimum" },
+                    ),
+                )
+            }
         }
+    }
+
+    /// The inputs read this cycle: an opened E-stop input stops the machine (from
+    /// any state but E-stopped), a limit switch tripping while the machine is on
+    /// too.
+    fn watch_inputs(&mut self) -> Result<()> {
+        let m = *self.engine.io().last_inputs();
+        if m.estop_open && self.state != MachineState::EStopped {
+            self.emergency_stop(StopCause::Input)?;
+        }
+        let (seen_min, seen_max) = self.limits_seen;
+        self.limits_seen = (m.limit_min, m.limit_max);
+        let on = !matches!(self.state, MachineState::Off | MachineState::EStopped);
+        let new_min = m.limit_min & !seen_min;
+        let new_max = m.limit_max & !seen_max;
+        if on && (new_min | new_max) != 0 {
+            let max = new_min == 0;
+            let bits = if max { new_max } else { new_min };
+            let axis = bits.trailing_zeros() as usize;
+            self.emergency_stop(StopCause::Limit { axis, max })?;
+        }
+        Ok(())
     }
 
     /// The MMI heard from (heartbeats); what moves stops when it has been silent
@@ -571,7 +625,22 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     fn pull_control(&mut self) -> Result<()> {
         while let Some(e) = self.estop.receive()? {
             let pid = e.sender_pid;
-            self.emergency_stop(Some(pid))?;
+            self.emergency_stop(StopCause::Client(pid))?;
+        }
+        while let Some(p) = self.sim_panel.receive()? {
+            let p = *p;
+            if let Some(sim) = self.engine.backend_mut().simulated() {
+                let (line, on) = (p.line as usize, p.value != 0.0);
+                match p.kind {
+                    softnc_ipc::SimPanel::ESTOP => sim.set_estop_open(on),
+                    softnc_ipc::SimPanel::DIGITAL => sim.set_digital_input(line, on),
+                    softnc_ipc::SimPanel::ANALOG => sim.set_analog_input(line, p.value),
+                    softnc_ipc::SimPanel::PROBE => {
+                        sim.set_probe((p.value >= 0.0).then_some(p.value > 0.0));
+                    }
+                    _ => {}
+                }
+            }
         }
         while let Some(c) = self.control.receive()? {
             if c.sender == ProcessId::Mmi.wire() {
@@ -579,7 +648,17 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 self.mmi_heard = Instant::now();
             }
             match ControlKind::from_wire(c.kind) {
-                Some(ControlKind::EStop) => self.emergency_stop(None)?,
+                Some(ControlKind::EStop) => self.emergency_stop(StopCause::Operator)?,
+                Some(ControlKind::Reset)
+                    if self.state == MachineState::EStopped
+                        && !self.engine.io_mut().reset_estop() =>
+                {
+                    self.alarm(
+                        AlarmCode::EStop,
+                        u32::MAX,
+                        format_args!("reset refused: the E-stop input is open"),
+                    )?;
+                }
                 Some(ControlKind::Reset) => {
                     if matches!(self.state, MachineState::EStopped | MachineState::Faulted) {
                         // the latch cleared, the machine off: switching the drives
@@ -614,6 +693,15 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                         adaptive_cap: (c.flags & softnc_ipc::JOB_ADAPTIVE_FORCE != 0)
                             .then_some(c.value),
                     });
+                }
+                Some(ControlKind::MachineOn)
+                    if self.state == MachineState::Off && self.engine.io().estop_latched() =>
+                {
+                    self.alarm(
+                        AlarmCode::EStop,
+                        u32::MAX,
+                        format_args!("machine on refused: the E-stop input is open"),
+                    )?;
                 }
                 Some(ControlKind::MachineOn) if self.state == MachineState::Off => {
                     match self.engine.backend_mut().enable() {
@@ -660,6 +748,21 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                         // absolute encoders: nothing to do
                         self.homed = ALL_HOMED;
                     }
+                }
+                Some(ControlKind::Jog | ControlKind::JogStep)
+                    if self.toward_a_tripped_limit(c.axis, c.value) =>
+                {
+                    let i = c.axis as usize;
+                    let max = c.value > 0.0;
+                    self.alarm(
+                        AlarmCode::Other,
+                        c.axis,
+                        format_args!(
+                            "jog of {} toward its tripped {} limit switch refused: jog away from it",
+                            softnc_core::Axis::name_of(i),
+                            if max { "maximum" } else { "minimum" },
+                        ),
+                    )?;
                 }
                 Some(ControlKind::Jog)
                     if self.idle_between_jobs() || self.state == MachineState::Jogging =>
@@ -736,7 +839,12 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 pos_mm: [c.pos_mm[0], c.pos_mm[1], c.pos_mm[2]],
             };
             match self.ring.push(s, c.is_end()) {
-                Ok(()) => self.flags.push_back((c.motion, c.flags, c.path_mm)),
+                Ok(()) => self.flags.push_back((
+                    c.motion,
+                    c.flags,
+                    c.path_mm,
+                    MachineOutputs::from(c.outputs),
+                )),
                 Err(e) => {
                     let job = self.phase.job_id();
                     self.alarm(
@@ -876,6 +984,15 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         Ok(())
     }
 
+    /// A jog of axis `axis` in the direction of `value`'s sign would go toward a
+    /// limit switch that is tripped (LinuxCNC lets an axis off its limit switch
+    /// only away from it).
+    fn toward_a_tripped_limit(&self, axis: u32, value: f64) -> bool {
+        let m = self.engine.io().last_inputs();
+        let bit = 1u32.checked_shl(axis).unwrap_or(0);
+        (value > 0.0 && m.limit_max & bit != 0) || (value < 0.0 && m.limit_min & bit != 0)
+    }
+
     /// On, no job, nothing moving by hand.
     fn idle_between_jobs(&self) -> bool {
         self.state == MachineState::Idle && self.phase.job_id() == 0
@@ -996,9 +1113,15 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 // stepped below by `step_ring`, which filters it (paper 002 eq 1) over
                 // the window [i−N, i+N]: exactly what `softnc sim` steps
                 cmd = p;
-                let (motion, flags, path_mm) = self.flags.front().copied().unwrap_or((0, 0, 0.0));
+                let (motion, flags, path_mm, outputs) =
+                    self.flags
+                        .front()
+                        .copied()
+                        .unwrap_or((0, 0, 0.0, MachineOutputs::safe()));
                 feed_move = flags & CommandSample::FLAG_FEED_MOVE != 0;
                 ring_motion = Some(motion);
+                // the sample in use carries the outputs (as `softnc sim` applies them)
+                self.engine.set_outputs(&outputs);
                 self.current = Some(CommandSample {
                     seq: self.ring.source_index(),
                     job_id: self.phase.job_id(),
@@ -1008,7 +1131,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     flags,
                     sent_unix_ns: 0,
                     path_mm,
-                    outputs: softnc_ipc::payload::OutputsWire::default(),
+                    outputs: outputs.into(),
                 });
             }
         }
@@ -1022,6 +1145,20 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             || matches!(self.state, MachineState::Homing | MachineState::Jogging);
         if matches!(self.state, MachineState::Homing | MachineState::Jogging) {
             cmd = self.manual_step()?;
+        }
+        // the machine around the axes: the safe state while it is off, E-stopped or
+        // faulted, and between jobs
+        let on = !matches!(
+            self.state,
+            MachineState::Off | MachineState::EStopped | MachineState::Faulted
+        );
+        self.engine.set_output_state(softnc_servo::io::OutputState {
+            machine_on: on,
+            amp_enable: on,
+            spindle_override: self.spindle_override,
+        });
+        if self.phase.job_id() == 0 {
+            self.engine.set_outputs(&MachineOutputs::safe());
         }
         let rec = if moving || holding {
             let stepped = match ring_motion {
@@ -1047,6 +1184,14 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 }
             }
         } else {
+            // the axes stand (drives off): the I/O is exchanged alone
+            if let Err(e) = self.engine.exchange_io() {
+                self.alarm(
+                    AlarmCode::Other,
+                    u32::MAX,
+                    format_args!("servo backend I/O fault: {e}"),
+                )?;
+            }
             let actual_mm = self.engine.measured_mm();
             softnc_servo::CycleRecord {
                 cmd_mm: Axes(cmd),
@@ -1063,7 +1208,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             }
         }
         let fe = rec.following_mm;
-        // 4. faults: following error
+        // 4. faults: the E-stop input and the limit switches, following error
+        self.watch_inputs()?;
         if matches!(self.state, MachineState::Running | MachineState::Held) {
             if let Some(axis) =
                 (0..MAX_AXES).find(|&i| fe[i].abs() > self.cfg.config.following_error_limit_mm)
@@ -1100,6 +1246,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 motion: 0,
                 record: rec,
                 contour_mm: None,
+                io: self.engine.io().trace(),
             });
         }
         if moving {
@@ -1110,6 +1257,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     motion: c.motion,
                     record: rec,
                     contour_mm: contour.is_finite().then_some(contour),
+                    io: self.engine.io().trace(),
                 });
             }
         }
@@ -1142,7 +1290,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             force_override: f64::NAN,
             force_revolutions: 0,
             force_n: f64::NAN,
-            inputs: softnc_ipc::payload::InputsWire::default(),
+            inputs: (*self.engine.io().last_inputs()).into(),
         };
         if let (Some(a), true) = (&self.adaptive, self.phase.job_id() != 0) {
             status.force_override = a.override_frac();
@@ -1304,6 +1452,18 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         &self.engine
     }
 
+    /// The simulated machine's own inputs (E-stop chain, user lines, probe), when
+    /// the backend is one: for tests, which open the E-stop chain or trip an input
+    /// mid-job.
+    pub fn simulated(&mut self) -> Option<&mut dyn softnc_servo::SimulatedMachine> {
+        self.engine.backend_mut().simulated()
+    }
+
+    /// The `seq` of the command sample in use (none between jobs).
+    pub fn current_seq(&self) -> Option<u64> {
+        self.current.map(|c| c.seq)
+    }
+
     /// Which axes are homed (bit i: axis i).
     pub fn homed(&self) -> u32 {
         self.homed
@@ -1318,6 +1478,35 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     pub fn stats(&self) -> &LoopStats {
         &self.stats
     }
+}
+
+/// Manual motion (homing, jogs) traced, when traces are on, to a file of this
+/// process's own, made when the process starts (not on the cycle); rows numbered by
+/// the cycle.
+fn manual_trace(cfg: &Loaded) -> Option<crate::trace::TraceSink> {
+    if !cfg.config.trace {
+        return None;
+    }
+    let file = cfg
+        .data_dir
+        .join(format!("trace-manual-{}.csv", std::process::id()));
+    let _ = std::fs::create_dir_all(&cfg.data_dir);
+    crate::trace::TraceSink::start(&file, cfg.config.clock == ClockMode::Lockstep)
+        .map_err(|e| tracing::warn!("cannot trace to {}: {e}", file.display()))
+        .ok()
+}
+
+/// Why the machine is E-stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum StopCause {
+    /// The operator's E-stop through the MMI.
+    Operator,
+    /// An operator client's E-stop past the MMI (its pid).
+    Client(u32),
+    /// The external E-stop input opened.
+    Input,
+    /// Axis `axis`'s limit switch at its maximum (`max`) or minimum end tripped.
+    Limit { axis: usize, max: bool },
 }
 
 fn dist(a: [f64; MAX_AXES], b: [f64; MAX_AXES]) -> f64 {

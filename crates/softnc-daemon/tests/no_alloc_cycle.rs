@@ -181,6 +181,19 @@ fn run_counted_with(
     let send = |k: u64| {
         let mut s = CommandSample::new(k, 7, k, [0.002 * k as f64, 0.0, 0.0]);
         s.flags |= CommandSample::FLAG_FEED_MOVE;
+        // the machine around the axes switched mid-job (spindle, coolant, M62, M67):
+        // through the I/O map to the simulated machine's lines on the counted cycles
+        if k >= 300 {
+            let mut o = softnc_core::machine_io::MachineOutputs {
+                spindle_dir: softnc_core::machine_io::SpindleDir::Clockwise,
+                spindle_rpm: 6000.0,
+                coolant_flood: true,
+                digital: 1 << 2,
+                ..Default::default()
+            };
+            o.analog[1] = 2.5;
+            s.outputs = o.into();
+        }
         if k + 1 == n {
             s.flags |= CommandSample::FLAG_END_OF_JOB;
         }

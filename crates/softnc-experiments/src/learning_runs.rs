@@ -45,6 +45,7 @@ impl PreparedJob {
                 pos_mm: Axes::from_xyz(s.pos_mm.0, 0.0),
                 motion: s.motion,
                 feed_move: s.feed_move,
+                outputs: Default::default(),
             })
             .collect();
         let cycle_s = plan.cycle_s();
@@ -54,6 +55,7 @@ impl PreparedJob {
                 pos_mm: last.pos_mm,
                 motion: last.motion,
                 feed_move: false,
+                outputs: Default::default(),
             };
             samples.extend(std::iter::repeat_n(tail, hold));
         }
@@ -97,6 +99,7 @@ pub fn run_job(
         pos_mm: Axes(command(k, s.pos_mm.0)),
         motion: s.motion,
         feed_move: s.feed_move,
+        outputs: Default::default(),
     });
     let report = simulate(
         engine,

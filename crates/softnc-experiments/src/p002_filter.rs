@@ -106,6 +106,7 @@ pub fn experiment(machine: &MachineProfile) -> Result<FilterResult> {
             pos_mm: softnc_core::Axes::from_xyz(s.pos_mm.0, 0.0),
             motion: s.motion,
             feed_move: s.feed_move,
+            outputs: Default::default(),
         })
         .collect();
     let n = filter.order;

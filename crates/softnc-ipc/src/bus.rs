@@ -4,7 +4,7 @@
 use crate::ipc_guard::IpcGuardError;
 use crate::{
     Alarm, CommandSample, ControlCommand, EStopRequest, Heartbeat, LoopStats, PositionStatus,
-    ServiceNames,
+    ServiceNames, SimPanel,
 };
 use iceoryx2::node::NodeCreationFailure;
 use iceoryx2::port::publisher::{Publisher, PublisherCreateError};
@@ -183,6 +183,14 @@ impl Bus {
         control_subscriber,
         ControlCommand,
         control,
+        SMALL_BUFFER,
+        0
+    );
+    pubsub!(
+        sim_panel_publisher,
+        sim_panel_subscriber,
+        SimPanel,
+        sim_panel,
         SMALL_BUFFER,
         0
     );

@@ -24,5 +24,5 @@ pub use names::ServiceNames;
 pub use payload::{
     Alarm, AlarmCode, CommandSample, ControlCommand, ControlKind, EStopRequest, Heartbeat,
     InputsWire, LoopStats, MachineState, OperatorReply, OperatorRequest, OutputsWire,
-    PositionStatus, ProcessId, JOB_ADAPTIVE_FORCE, MAX_AXES,
+    PositionStatus, ProcessId, SimPanel, JOB_ADAPTIVE_FORCE, MAX_AXES,
 };

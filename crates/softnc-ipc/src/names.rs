@@ -35,6 +35,11 @@ impl ServiceNames {
     pub fn estop(&self) -> String {
         self.name("estop")
     }
+    /// Settings on the simulated machine's panel, test → position
+    /// (publish-subscribe).
+    pub fn sim_panel(&self) -> String {
+        self.name("sim_panel")
+    }
     /// Heartbeats of every process (publish-subscribe).
     pub fn heartbeat(&self) -> String {
         self.name("heartbeat")

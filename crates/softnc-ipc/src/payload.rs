@@ -492,6 +492,36 @@ pub struct EStopRequest {
     pub sent_unix_ns: u64,
 }
 
+/// A setting on the simulated machine's panel (its E-stop chain, an input line,
+/// the probe), from a test to the position process on the instance's `sim_panel`
+/// service; the position process applies it through `SimulatedMachine` when its
+/// backend is a simulated machine, and ignores it otherwise. For end-to-end tests of
+/// the machine around the axes (softnc-sim's `wiring` names the lines).
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("softnc::SimPanel")]
+pub struct SimPanel {
+    /// `SimPanel::ESTOP` (value ≠ 0: the chain open), `DIGITAL` (raw input `line`
+    /// high when value ≠ 0), `ANALOG` (raw analog input `line` = value) or `PROBE`
+    /// (value < 0: left to the probe plane, 0 off, > 0 tripped).
+    pub kind: u32,
+    /// The raw line (`DIGITAL`, `ANALOG`).
+    pub line: u32,
+    /// The setting.
+    pub value: f64,
+}
+
+impl SimPanel {
+    /// Open (value ≠ 0) or close the E-stop chain.
+    pub const ESTOP: u32 = 1;
+    /// Set a raw digital input line.
+    pub const DIGITAL: u32 = 2;
+    /// Set a raw analog input line.
+    pub const ANALOG: u32 = 3;
+    /// Drive the probe.
+    pub const PROBE: u32 = 4;
+}
+
 /// Operator client → MMI (request-response): one `softnc-api` request, serialised
 /// (JSON in its envelope, `softnc_api::encode_request`).
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]

@@ -333,6 +333,7 @@ impl<I: Iterator<Item = CommandSample>> Iterator for Corrected<'_, I> {
                 self.tail_left -= 1;
                 CommandSample {
                     feed_move: false,
+                    outputs: Default::default(),
                     ..self.last?
                 }
             }

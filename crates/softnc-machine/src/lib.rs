@@ -27,6 +27,7 @@ pub use softnc_adaptive::config as force;
 pub use softnc_control::config::compensation;
 /// Paper 001's fuzzy-controller section: owned by `softnc-control`.
 pub use softnc_control::config::fuzzy;
+pub mod io;
 pub mod servo;
 
 /// A machine profile: the motion part (read through `Deref`: `profile.axes`,
@@ -134,6 +135,17 @@ impl MachineProfile {
         if let Some(c) = &self.servo.cutting {
             c.validate_at(file, "servo.cutting", self.interpolation_cycle_s)?;
         }
+        if let Some(io) = &self.servo.io {
+            let names: Vec<String> = self.axes.iter().map(|a| a.name.clone()).collect();
+            io.validate_at(file, "servo.io", &names)?;
+        }
+        if let Some(s) = &self.servo.spindle {
+            s.validate_at(file, "servo.spindle", self.interpolation_cycle_s)?;
+        }
+        if let Some(s) = &self.servo.sim_io {
+            let margin = self.homing.as_ref().map_or(0.0, |h| h.switch_margin_mm);
+            s.validate_at(file, "servo.sim_io", margin)?;
+        }
         Ok(())
     }
 
@@ -235,6 +247,83 @@ mod tests {
             .replacen("max_speed_fraction: 0.5", "max_speed_fraction: 1.5", 1);
         assert!(
             invalid(&text).contains("`servo.axes[0].noise_mm`"),
+            "{}",
+            invalid(&text)
+        );
+    }
+
+    #[test]
+    fn the_io_map_is_checked_with_its_paths() {
+        let p = MachineProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
+        let io = p.servo.io.as_ref().unwrap();
+        assert_eq!(io.inputs[0].signal, io::InputSignal::EStop);
+        assert!(p.servo.spindle.is_some() && p.servo.sim_io.is_some());
+        for (from, to, path) in [
+            (
+                "LimitMin(\"X\"), line: 17",
+                "LimitMin(\"W\"), line: 17",
+                "servo.io.inputs[1].signal",
+            ),
+            (
+                "(signal: Probe, line: 26)",
+                "(signal: Probe, line: 128)",
+                "servo.io.inputs[10].line",
+            ),
+            (
+                "(signal: Probe, line: 26)",
+                "(signal: EStop, line: 26)",
+                "servo.io.inputs[10].signal",
+            ),
+            (
+                "(signal: CoolantMist, line: 3)",
+                "(signal: CoolantMist, line: 2)",
+                "servo.io.outputs[3].line",
+            ),
+            (
+                "(signal: Output(3), line: 67)",
+                "(signal: Output(64), line: 67)",
+                "servo.io.outputs[11].signal",
+            ),
+            (
+                "analog_outputs: [(e: 0, line: 0)",
+                "analog_outputs: [(e: 8, line: 0)",
+                "servo.io.analog_outputs[0].e",
+            ),
+            (
+                "at_speed_frac: 0.02",
+                "at_speed_frac: 1.5",
+                "servo.io.at_speed_frac",
+            ),
+            (
+                "max_torque_nm: 15.0",
+                "max_torque_nm: 0.1",
+                "servo.spindle.viscous_nm_per_rad_s",
+            ),
+            (
+                "speed_loop_s: 0.05",
+                "speed_loop_s: 0.001",
+                "servo.spindle.speed_loop_s",
+            ),
+            (
+                "(signal: Home(\"X\"), line: 23)",
+                "(signal: Home(\"X\"), line: 23, debounce_cycles: 2, active_low: true, x: 1)",
+                "x",
+            ),
+        ] {
+            let text = DEFAULT.replacen(from, to, 1);
+            assert_ne!(text, DEFAULT, "fixture text changed: {from}");
+            let err = invalid(&text);
+            assert!(err.contains(path), "{path}: {err}");
+        }
+        // the limit switches beyond the home switches' margin
+        let text = INCREMENTAL.replacen(
+            "limit_switch_margin_mm: 15.0",
+            "limit_switch_margin_mm: 10.0",
+            1,
+        );
+        assert_ne!(text, INCREMENTAL, "fixture text changed");
+        assert!(
+            invalid(&text).contains("`servo.sim_io.limit_switch_margin_mm`"),
             "{}",
             invalid(&text)
         );

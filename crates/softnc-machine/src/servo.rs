@@ -8,7 +8,9 @@ use serde::{Deserialize, Serialize};
 
 pub use softnc_control::config::{CommandFilterConfig, ControllerConfig, MAX_COMMAND_FILTER_ORDER};
 /// The plant models' sections: owned by `softnc-plant`.
-pub use softnc_plant::config::{CuttingDisturbance, Friction001, PlantModel, StructuralMode};
+pub use softnc_plant::config::{
+    CuttingDisturbance, Friction001, PlantModel, SpindleModel, StructuralMode,
+};
 
 /// Servo settings of the whole machine.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
@@ -23,6 +25,18 @@ pub struct ServoProfile {
     /// Random seed of the simulated machine (parameter variation, noise).
     #[serde(default = "default_seed")]
     pub seed: u64,
+    /// The I/O map: which backend line each signal of the machine around the axes
+    /// is; absent: no signal is mapped (no E-stop input, no limit switches, the
+    /// spindle counted at speed).
+    #[serde(default)]
+    pub io: Option<crate::io::IoConfig>,
+    /// The simulated machine's spindle; absent: it has none.
+    #[serde(default)]
+    pub spindle: Option<SpindleModel>,
+    /// The simulated machine's tool changer, limit switches and probe plane;
+    /// absent: no tool changer answers, no limit switch trips, no probe plane.
+    #[serde(default)]
+    pub sim_io: Option<crate::io::SimIo>,
 }
 
 fn default_seed() -> u64 {

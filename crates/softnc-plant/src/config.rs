@@ -255,3 +255,65 @@ impl StructuralMode {
         Ok(())
     }
 }
+
+/// A simulated spindle (the `servo.spindle` section): a rotor of inertia J driven by
+/// its drive's speed loop with a torque limit, against a viscous loss, and its own
+/// encoder (counts per revolution, one index pulse per revolution). The drive
+/// accelerates at τ_max/J until it is within `speed_loop_s`·(τ_max/J) of the
+/// command, then settles on it with time constant `speed_loop_s`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpindleModel {
+    /// Rotor, tool holder and tool inertia J (kg·m²).
+    pub inertia_kg_m2: f64,
+    /// The drive's torque limit τ_max (N·m).
+    pub max_torque_nm: f64,
+    /// Viscous loss b (N·m per rad/s): the drive feeds it forward, so the spindle
+    /// reaches its command; it brakes the spindle when the drive is off.
+    pub viscous_nm_per_rad_s: f64,
+    /// Time constant of the drive's speed loop below the torque limit (s).
+    pub speed_loop_s: f64,
+    /// Highest speed the drive turns at (rpm); commands above are clipped.
+    pub max_rpm: f64,
+    /// Encoder counts per revolution (one index pulse per revolution).
+    pub encoder_counts_per_rev: u32,
+}
+
+impl SpindleModel {
+    /// Checks the spindle at RON path `prefix` of `file`.
+    pub fn validate_at(&self, file: &str, prefix: &str, cycle_s: f64) -> Result<(), ConfigError> {
+        positive(self.inertia_kg_m2, &format!("{prefix}.inertia_kg_m2"), file)?;
+        positive(self.max_torque_nm, &format!("{prefix}.max_torque_nm"), file)?;
+        positive(self.max_rpm, &format!("{prefix}.max_rpm"), file)?;
+        if !(self.viscous_nm_per_rad_s >= 0.0 && self.viscous_nm_per_rad_s.is_finite()) {
+            return Err(ConfigError::invalid(
+                file,
+                format!("{prefix}.viscous_nm_per_rad_s"),
+                "must be finite and >= 0",
+            ));
+        }
+        if !(self.speed_loop_s >= 2.0 * cycle_s && self.speed_loop_s.is_finite()) {
+            return Err(ConfigError::invalid(
+                file,
+                format!("{prefix}.speed_loop_s"),
+                "must be at least two interpolation cycles (the model steps once per cycle)",
+            ));
+        }
+        let loss_nm = self.viscous_nm_per_rad_s * self.max_rpm * std::f64::consts::TAU / 60.0;
+        if loss_nm >= self.max_torque_nm {
+            return Err(ConfigError::invalid(
+                file,
+                format!("{prefix}.viscous_nm_per_rad_s"),
+                "the loss at max_rpm takes the whole torque: the spindle could not reach it",
+            ));
+        }
+        if self.encoder_counts_per_rev == 0 {
+            return Err(ConfigError::invalid(
+                file,
+                format!("{prefix}.encoder_counts_per_rev"),
+                "must be at least 1",
+            ));
+        }
+        Ok(())
+    }
+}

@@ -25,10 +25,12 @@ pub mod first_order_lag;
 pub mod resonance;
 /// Seeded generator (xoshiro256**, SplitMix64, Box–Muller).
 pub mod rng;
+/// A spindle with inertia, a torque-limited drive and its own encoder.
+pub mod spindle;
 /// Karnopp stick–slip friction.
 pub mod stick_slip;
 /// Identified discrete velocity loops (paper 000 eq 35, 36).
 pub mod velocity_loop;
 
-pub use config::{CuttingDisturbance, Friction001, PlantModel, StructuralMode};
+pub use config::{CuttingDisturbance, Friction001, PlantModel, SpindleModel, StructuralMode};
 pub use rng::Rng;

@@ -5,6 +5,7 @@
 //! process-data exchange. An EtherCAT CiA 402 drive in cyclic synchronous position
 //! mode maps onto it directly (see docs/architecture.md, "A real drive").
 
+use crate::io::{IoLines, RawInputs, RawOutputs};
 use softnc_core::Axes;
 
 /// Axes a backend serves at most: the stack's one axis count.
@@ -94,6 +95,34 @@ pub trait ServoBackend {
     fn read_phase_currents(&self, _axis: usize) -> Option<PhaseCurrents> {
         None
     }
+    /// What this backend has of the I/O boundary ([`crate::io`]): raw lines and a
+    /// spindle. None by default: a backend without I/O has no lines.
+    fn io_lines(&self) -> IoLines {
+        IoLines::NONE
+    }
+    /// The raw outputs for the next exchange (written before [`cycle`](Self::cycle)
+    /// or [`exchange_io`](Self::exchange_io); kept until written again).
+    fn write_io(&mut self, _out: &RawOutputs) {}
+    /// Exchange the I/O alone, on a cycle that does not step the axes (drives off,
+    /// E-stop): the outputs written go out, the inputs come in, the spindle and
+    /// whatever else the backend models move one cycle. [`cycle`](Self::cycle)
+    /// exchanges the I/O with the axes.
+    fn exchange_io(&mut self) -> Result<(), BackendError> {
+        Ok(())
+    }
+    /// The raw inputs of the last exchange.
+    fn read_io(&self) -> RawInputs {
+        RawInputs::default()
+    }
+    /// A backend that is not [kept across jobs](Self::kept_across_jobs) takes over
+    /// from `running` what the world outside set on its lines (a simulated
+    /// machine: the E-stop chain, the inputs a test set), when the next job's
+    /// fresh one replaces it. Nothing by default.
+    fn take_external_io(&mut self, _running: &Self)
+    where
+        Self: Sized,
+    {
+    }
     /// The simulation-only inputs, when this backend is a simulated machine.
     fn simulated(&mut self) -> Option<&mut dyn SimulatedMachine> {
         None
@@ -129,4 +158,18 @@ pub trait SimulatedMachine {
     fn set_cutting(&mut self, cutting: bool);
     /// Axis `axis` is held by static friction.
     fn stuck(&self, axis: usize) -> bool;
+    /// Open (true) or close the external E-stop chain.
+    fn set_estop_open(&mut self, open: bool);
+    /// Set raw digital input line `line` (its level: the polarity is the map's);
+    /// lines the machine drives itself (switches, the tool changer) are
+    /// overwritten at its next cycle.
+    fn set_digital_input(&mut self, line: usize, high: bool);
+    /// Set raw analog input line `line`.
+    fn set_analog_input(&mut self, line: usize, value: f64);
+    /// Drive the probe input (`Some`), or leave it to the probe plane (`None`).
+    fn set_probe(&mut self, tripped: Option<bool>);
+    /// The raw outputs as last written (coolant, tool-change, the M62 lines, …).
+    fn raw_outputs(&self) -> RawOutputs;
+    /// The spindle's true speed (rpm, signed), 0 without a spindle.
+    fn spindle_true_rpm(&self) -> f64;
 }

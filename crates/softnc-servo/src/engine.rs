@@ -59,6 +59,12 @@ pub struct CycleEngine<B: ServoBackend> {
     controllers: [AxisController; MAX_AXES],
     modes: [CommandMode; MAX_AXES],
     mm_per_count: Axes<f64>,
+    /// The machine's named signals on the backend's lines.
+    io: crate::io::MachineIo,
+    /// The outputs of the sample in use (the program's).
+    program_outputs: softnc_core::machine_io::MachineOutputs,
+    /// Machine on, amplifiers enabled, spindle override.
+    out_state: crate::io::OutputState,
     backend: B,
 }
 
@@ -154,12 +160,16 @@ impl<B: ServoBackend> CycleEngine<B> {
         });
         let modes = std::array::from_fn(|i| backend.command_mode(i));
         let mm_per_count = std::array::from_fn(|i| backend.mm_per_count(i));
+        let io = crate::io::MachineIo::new(profile, backend.io_lines());
         let mut e = CycleEngine {
             filter: CommandFilter::default(),
             spindle: None,
             controllers,
             modes,
             mm_per_count: Axes(mm_per_count),
+            io,
+            program_outputs: softnc_core::machine_io::MachineOutputs::default(),
+            out_state: crate::io::OutputState::default(),
             backend,
         };
         e.reset(Axes::splat(0.0));
@@ -184,6 +194,9 @@ impl<B: ServoBackend> CycleEngine<B> {
     /// ([`reset`](Self::reset)). At a cycle boundary: swaps, allocates nothing.
     pub fn take_over(&mut self, running: &mut CycleEngine<B>, start_mm: impl Into<Axes<f64>>) {
         let start_mm = start_mm.into();
+        // the I/O's state (debounce, the E-stop latch) is the machine's, not the job's
+        self.io.take_state_from(&running.io);
+        self.out_state = running.out_state;
         if running.backend.kept_across_jobs() {
             std::mem::swap(&mut self.backend, &mut running.backend);
             for (c, x) in self.controllers.iter_mut().zip(start_mm) {
@@ -191,6 +204,7 @@ impl<B: ServoBackend> CycleEngine<B> {
             }
         } else {
             self.reset(start_mm);
+            self.backend.take_external_io(&running.backend);
         }
     }
 
@@ -222,18 +236,59 @@ impl<B: ServoBackend> CycleEngine<B> {
                 CommandMode::Velocity | CommandMode::Effort => u,
             };
         }
-        // 3. outputs, and the machine moves one cycle
+        // 3. outputs, and the machine moves one cycle (the I/O exchanged with it)
         if let Some(sim) = self.backend.simulated() {
             sim.set_cutting(cutting);
         }
+        let raw = self.io.outputs(&self.program_outputs, self.out_state);
+        self.backend.write_io(&raw);
         self.backend.write_commands(out);
         self.backend.cycle()?;
+        let raw = self.backend.read_io();
+        self.io.inputs(&raw);
         Ok(CycleRecord {
             cmd_mm,
             actual_mm,
             following_mm: Axes::from_fn(|a| cmd_mm[a] - actual_mm[a]),
             ctrl_out: out,
         })
+    }
+
+    /// The outputs of the sample in use from the next cycle on (the program's: the
+    /// safe state goes out instead while the machine is off or E-stopped).
+    #[inline]
+    pub fn set_outputs(&mut self, outputs: &softnc_core::machine_io::MachineOutputs) {
+        self.program_outputs = *outputs;
+    }
+
+    /// Machine on, amplifiers enabled and the spindle override from the next cycle
+    /// on.
+    #[inline]
+    pub fn set_output_state(&mut self, state: crate::io::OutputState) {
+        self.out_state = state;
+    }
+
+    /// The I/O alone, on a cycle that does not step the axes (drives off,
+    /// E-stop): the outputs written, the backend's I/O exchanged, the inputs read.
+    #[inline]
+    pub fn exchange_io(&mut self) -> Result<softnc_core::machine_io::MachineInputs, BackendError> {
+        let raw = self.io.outputs(&self.program_outputs, self.out_state);
+        self.backend.write_io(&raw);
+        self.backend.exchange_io()?;
+        let raw = self.backend.read_io();
+        Ok(self.io.inputs(&raw))
+    }
+
+    /// The machine's named signals: the inputs last read, the outputs last
+    /// written, the E-stop latch.
+    pub fn io(&self) -> &crate::io::MachineIo {
+        &self.io
+    }
+
+    /// The named signals, to reset the E-stop latch (off or on the cycle: nothing
+    /// allocates).
+    pub fn io_mut(&mut self) -> &mut crate::io::MachineIo {
+        &mut self.io
     }
 
     /// The designer of the job's PDC tables: each axis's PDC designer and the
@@ -267,13 +322,15 @@ impl<B: ServoBackend> CycleEngine<B> {
     /// `override_frac`: every axis's PDC is designed now for each speed (off the cycle
     /// path: this allocates) and [`CycleEngine::step_ring`] swaps the designs in at the
     /// cycle where a speed takes effect, and tells the backend. Without a cutting
-    /// section in the profile there is nothing to follow.
+    /// section in the profile there is nothing to follow. The I/O's spindle speed
+    /// command is the programmed speed × `override_frac` from now on either way.
     pub fn set_spindle_schedule(
         &mut self,
         profile: &MachineProfile,
         changes: &[(u32, f64)],
         override_frac: f64,
     ) -> Result<(), CompensationDesignError> {
+        self.out_state.spindle_override = override_frac;
         let Some(designer) = self.spindle_designer(profile, changes) else {
             self.spindle = None;
             return Ok(());

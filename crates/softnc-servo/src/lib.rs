@@ -8,6 +8,8 @@
 //! - [`design`]: the error of an axis's compensation design (engine and spindle).
 //! - [`spindle`]: S words in a running job: PDC designs per spindle speed, swapped
 //!   at the cycle.
+//! - [`io`]: the I/O boundary beside it (raw lines and the spindle) and the
+//!   logical map of the machine's named signals onto them ([`io::MachineIo`]).
 //! - [`trace`]: the per-cycle trace row and its CSV format.
 //! - [`loopback`]: a backend without dynamics (dry runs).
 //! - [`conformance`]: the checks every backend passes.
@@ -20,6 +22,7 @@ pub mod backend;
 pub mod conformance;
 pub mod design;
 pub mod engine;
+pub mod io;
 pub mod loopback;
 pub mod spindle;
 pub mod trace;
@@ -29,5 +32,6 @@ pub use backend::{
 };
 pub use design::CompensationDesignError;
 pub use engine::{CycleEngine, CycleRecord, EngineError};
+pub use io::{IoLines, MachineIo, RawInputs, RawOutputs};
 pub use loopback::LoopbackBackend;
 pub use trace::TraceRow;

@@ -3,8 +3,14 @@
 //! (`backend: Loopback` in the daemon's configuration; `softnc demo --backend
 //! loopback`). It passes the same [`conformance`](crate::conformance) suite as the
 //! simulated machine.
+//!
+//! Its I/O echoes its outputs to its inputs at every exchange: digital output line
+//! k is digital input line k, analog likewise, and the spindle turns at its command
+//! at once (speed feedback = the signed command; it reports no position and no
+//! index pulses).
 
 use crate::backend::{AxisStatus, BackendError, CommandMode, ServoBackend, MAX_AXES};
+use crate::io::{IoLines, RawInputs, RawOutputs, SpindleFeedback};
 use softnc_core::Axes;
 
 /// Resolution the loopback reports (mm per count): fine enough that its counts are
@@ -17,6 +23,8 @@ pub struct LoopbackBackend {
     cmd_mm: Axes<f64>,
     counts: Axes<i64>,
     status: Axes<AxisStatus>,
+    io_out: RawOutputs,
+    io_in: RawInputs,
 }
 
 impl Default for LoopbackBackend {
@@ -35,7 +43,22 @@ impl LoopbackBackend {
                 enabled: true,
                 ..AxisStatus::default()
             }),
+            io_out: RawOutputs::default(),
+            io_in: RawInputs::default(),
         }
+    }
+
+    /// The outputs come back as inputs.
+    fn echo(&mut self) {
+        self.io_in = RawInputs {
+            digital: self.io_out.digital,
+            analog: self.io_out.analog,
+            spindle: SpindleFeedback {
+                rpm: self.io_out.spindle.signed_rpm(),
+                revs: 0.0,
+                index_count: 0,
+            },
+        };
     }
 
     fn count_of(pos_mm: f64) -> i64 {
@@ -79,7 +102,21 @@ impl ServoBackend for LoopbackBackend {
     }
     fn cycle(&mut self) -> Result<(), BackendError> {
         self.counts = self.cmd_mm.map(Self::count_of);
+        self.echo();
         Ok(())
+    }
+    fn io_lines(&self) -> IoLines {
+        IoLines::ALL
+    }
+    fn write_io(&mut self, out: &RawOutputs) {
+        self.io_out = *out;
+    }
+    fn exchange_io(&mut self) -> Result<(), BackendError> {
+        self.echo();
+        Ok(())
+    }
+    fn read_io(&self) -> RawInputs {
+        self.io_in
     }
     fn read_counts(&self) -> Axes<i64> {
         self.counts

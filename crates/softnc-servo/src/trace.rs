@@ -22,11 +22,15 @@ pub struct TraceRow {
     /// Signed contour error against the active feed move's programmed path (mm);
     /// `None` outside feed moves.
     pub contour_mm: Option<f64>,
+    /// The machine around the axes this cycle: spindle commanded and actual speed,
+    /// coolant, the M62–M65 outputs.
+    pub io: crate::io::IoTrace,
 }
 
-/// Header line of a trace.
-pub const HEADER: &str =
-    "time_s,cmd_x_mm,cmd_y_mm,cmd_z_mm,act_x_mm,act_y_mm,act_z_mm,fe_x_um,fe_y_um,fe_z_um,contour_um";
+/// Header line of a trace: the contour error stays the last column. `spindle_cmd_rpm`
+/// is the speed command written (signed, × override), `spindle_rpm` the encoder's,
+/// `coolant` bit 0 mist and bit 1 flood, `dout` the M62–M65 outputs (bit P).
+pub const HEADER: &str = "time_s,cmd_x_mm,cmd_y_mm,cmd_z_mm,act_x_mm,act_y_mm,act_z_mm,fe_x_um,fe_y_um,fe_z_um,spindle_cmd_rpm,spindle_rpm,coolant,dout,contour_um";
 
 /// Append one row to `out` (no trailing allocation once `out` has grown).
 pub fn format_row(out: &mut String, row: &TraceRow) {
@@ -38,6 +42,12 @@ pub fn format_row(out: &mut String, row: &TraceRow) {
     for v in r.following_mm {
         let _ = write!(out, ",{}", v * 1000.0);
     }
+    let io = &row.io;
+    let _ = write!(
+        out,
+        ",{},{},{},{}",
+        io.spindle_cmd_rpm, io.spindle_rpm, io.coolant, io.digital_out
+    );
     match row.contour_mm {
         Some(c) => {
             let _ = write!(out, ",{}", c * 1000.0);

@@ -40,6 +40,7 @@ fn samples(n: u64) -> impl Iterator<Item = CommandSample> {
             ]),
             motion: 0,
             feed_move: true,
+            outputs: Default::default(),
         }
     })
 }

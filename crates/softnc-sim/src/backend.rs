@@ -1,4 +1,17 @@
-//! The simulated machine behind the servo boundary ([`softnc_servo::ServoBackend`]).
+//! The simulated machine behind the servo boundary ([`softnc_servo::ServoBackend`]),
+//! with every line of the I/O boundary ([`softnc_servo::io`]) wired as its cabinet
+//! ([`wiring`]): a spindle with inertia and its own encoder (the profile's
+//! `servo.spindle`), limit switches past the soft limits and home switches where the
+//! homing section puts them, a probe plane, a tool changer that answers after a
+//! delay (`servo.sim_io`), and an E-stop chain and user inputs a test sets through
+//! [`SimulatedMachine`]. The outputs (coolant, tool-change, M62 lines) are
+//! observable there too.
+//!
+//! The periodic cutting disturbance does not follow the spindle model: its tooth
+//! frequency follows the speed the job's PDC schedule sets
+//! ([`ServoBackend::set_spindle_rpm`], from the program's S words × override) at
+//! the cycle where it takes effect, exactly as before the spindle model came, so the
+//! papers' reproductions do not move.
 
 use crate::plant::Plant;
 use crate::workpiece::StockCut;
@@ -8,9 +21,49 @@ use softnc_plant::cutting_disturbance::Cutting;
 use softnc_plant::encoder::Encoder;
 use softnc_plant::resonance::Resonance;
 use softnc_plant::rng::Rng;
+use softnc_plant::spindle::Spindle;
+use softnc_servo::io::{IoLines, RawInputs, RawOutputs, SpindleFeedback};
 use softnc_servo::{
     AxisStatus, BackendError, CommandMode, PhaseCurrents, ServoBackend, SimulatedMachine, MAX_AXES,
 };
+
+/// How the simulated machine's cabinet is wired: its raw lines. The shipped
+/// profiles' I/O maps (`servo.io`) name these; every contact reads high when
+/// asserted.
+pub mod wiring {
+    /// Output: the spindle drive enabled.
+    pub const OUT_SPINDLE_ENABLE: usize = 0;
+    /// Output: spindle clockwise.
+    pub const OUT_SPINDLE_CW: usize = 1;
+    /// Output: spindle counter-clockwise.
+    pub const OUT_SPINDLE_CCW: usize = 2;
+    /// Output: mist coolant.
+    pub const OUT_MIST: usize = 3;
+    /// Output: flood coolant.
+    pub const OUT_FLOOD: usize = 4;
+    /// Output: tool-change request to the tool changer.
+    pub const OUT_TOOL_CHANGE: usize = 5;
+    /// Output: machine on.
+    pub const OUT_MACHINE_ON: usize = 6;
+    /// Output: amplifiers enabled.
+    pub const OUT_AMP_ENABLE: usize = 7;
+    /// Input: the tool changer's tool-changed (beside its request: a loopback
+    /// backend answers at once).
+    pub const IN_TOOL_CHANGED: usize = 5;
+    /// Input: the external E-stop chain is open.
+    pub const IN_ESTOP: usize = 16;
+    /// Input: minimum-end limit switch of axis `a` is line `IN_LIMIT_MIN + a`.
+    pub const IN_LIMIT_MIN: usize = 17;
+    /// Input: maximum-end limit switch of axis `a` is line `IN_LIMIT_MAX + a`.
+    pub const IN_LIMIT_MAX: usize = 20;
+    /// Input: home switch of axis `a` is line `IN_HOME + a`.
+    pub const IN_HOME: usize = 23;
+    /// Input: the probe.
+    pub const IN_PROBE: usize = 26;
+    /// User lines (M62 P / M66 P in the shipped maps): digital line `USER + P`, both
+    /// ways; analog user lines are 0 … 15.
+    pub const USER: usize = 64;
+}
 
 /// Resolution reported when encoder quantisation is switched off (mm per count): fine
 /// enough that the count is the position to floating-point precision over any travel.
@@ -65,6 +118,131 @@ pub struct SimBackend {
     counts: Axes<i64>,
     currents: Axes<f64>,
     status: Axes<AxisStatus>,
+    /// The I/O around the axes.
+    io: SimIo,
+}
+
+/// The simulated machine's I/O: its spindle, switches, tool changer and what a
+/// test sets.
+#[derive(Debug, Clone)]
+struct SimIo {
+    spindle: Option<Spindle>,
+    /// (min, max) trip points of each axis's limit switches (mm); none without
+    /// `servo.sim_io`.
+    limits_mm: Option<[(f64, f64); MAX_AXES]>,
+    /// (search velocity, trip point) of each axis's home switch.
+    home: [Option<(f64, f64)>; MAX_AXES],
+    probe_plane_z_mm: Option<f64>,
+    /// Cycles the tool changer takes; none: no tool changer.
+    tool_change_cycles: Option<u64>,
+    /// Cycles the tool-change request has been up.
+    tool_change_for: u64,
+    estop_open: bool,
+    probe: Option<bool>,
+    /// Digital input lines a test set high.
+    user_digital: u128,
+    user_analog: [f64; softnc_servo::io::RAW_ANALOG_LINES],
+    out: RawOutputs,
+    inp: RawInputs,
+}
+
+impl SimIo {
+    fn new(profile: &MachineProfile) -> Self {
+        let cycle_s = profile.interpolation_cycle_s;
+        let sim = profile.servo.sim_io;
+        SimIo {
+            spindle: profile.servo.spindle.as_ref().map(Spindle::new),
+            limits_mm: sim.map(|s| {
+                std::array::from_fn(|i| {
+                    profile
+                        .axes
+                        .get(i)
+                        .map_or((f64::NEG_INFINITY, f64::INFINITY), |a| {
+                            (
+                                a.min_mm - s.limit_switch_margin_mm,
+                                a.max_mm + s.limit_switch_margin_mm,
+                            )
+                        })
+                })
+            }),
+            home: std::array::from_fn(|i| {
+                let h = profile.homing.as_ref()?.axes.get(i)?;
+                Some((h.search_vel_mm_per_s, h.switch_mm))
+            }),
+            probe_plane_z_mm: sim.and_then(|s| s.probe_plane_z_mm),
+            tool_change_cycles: sim.map(|s| (s.tool_change_s / cycle_s).round() as u64),
+            tool_change_for: 0,
+            estop_open: false,
+            probe: None,
+            user_digital: 0,
+            user_analog: [0.0; softnc_servo::io::RAW_ANALOG_LINES],
+            out: RawOutputs::default(),
+            inp: RawInputs::default(),
+        }
+    }
+
+    /// One cycle of the spindle and the tool changer.
+    fn step(&mut self, cycle_s: f64) {
+        let cmd = self.out.spindle;
+        if let Some(s) = &mut self.spindle {
+            s.step(cmd.enable, cmd.signed_rpm(), cycle_s);
+        }
+        if self.out.digital >> wiring::OUT_TOOL_CHANGE & 1 == 1 {
+            self.tool_change_for = self.tool_change_for.saturating_add(1);
+        } else {
+            self.tool_change_for = 0;
+        }
+    }
+
+    /// The inputs, with the axes at `pos_mm`.
+    fn sense(&mut self, pos_mm: &Axes<f64>) {
+        let mut d = self.user_digital;
+        let mut set = |line: usize, on: bool| {
+            if on {
+                d |= 1u128 << line;
+            } else {
+                d &= !(1u128 << line);
+            }
+        };
+        set(wiring::IN_ESTOP, self.estop_open);
+        for (i, &x) in pos_mm.iter().enumerate() {
+            if let Some(l) = self.limits_mm {
+                set(wiring::IN_LIMIT_MIN + i, x <= l[i].0);
+                set(wiring::IN_LIMIT_MAX + i, x >= l[i].1);
+            }
+            if let Some((v, trip)) = self.home[i] {
+                set(
+                    wiring::IN_HOME + i,
+                    if v >= 0.0 { x >= trip } else { x <= trip },
+                );
+            }
+        }
+        let plane = self
+            .probe_plane_z_mm
+            .is_some_and(|z| pos_mm.get(2).is_some_and(|&p| p <= z));
+        set(wiring::IN_PROBE, self.probe.unwrap_or(plane));
+        if let Some(n) = self.tool_change_cycles {
+            set(
+                wiring::IN_TOOL_CHANGED,
+                self.tool_change_for > 0 && self.tool_change_for >= n,
+            );
+        }
+        self.inp = RawInputs {
+            digital: d,
+            analog: self.user_analog,
+            spindle: self
+                .spindle
+                .as_ref()
+                .map_or(SpindleFeedback::default(), |s| {
+                    let r = s.reading();
+                    SpindleFeedback {
+                        rpm: r.rpm,
+                        revs: r.revs,
+                        index_count: r.index_count,
+                    }
+                }),
+        };
+    }
 }
 
 impl SimBackend {
@@ -122,9 +300,16 @@ impl SimBackend {
                 enabled: true,
                 ..AxisStatus::default()
             }),
+            io: SimIo::new(profile),
         };
         b.home(Axes::splat(0.0));
+        b.sense_io();
         b
+    }
+
+    fn sense_io(&mut self) {
+        let pos = self.true_pos_mm();
+        self.io.sense(&pos);
     }
 
     /// The plant of axis `axis` (its true state, for tests and analysis).
@@ -247,6 +432,8 @@ impl ServoBackend for SimBackend {
         }
         self.cycle += 1;
         self.measure();
+        self.io.step(self.cycle_s);
+        self.sense_io();
         if let Some(s) = &mut self.stock {
             let i = s.feed_axis();
             let measured_mm = self.counts[i] as f64 * self.encoders[i].mm_per_count();
@@ -278,6 +465,32 @@ impl ServoBackend for SimBackend {
     fn simulated(&mut self) -> Option<&mut dyn SimulatedMachine> {
         Some(self)
     }
+    /// The E-stop chain, the inputs and the probe a test set carry over to the
+    /// next job's fresh machine (its spindle starts at rest, as `softnc sim`'s).
+    fn take_external_io(&mut self, running: &Self) {
+        self.io.estop_open = running.io.estop_open;
+        self.io.probe = running.io.probe;
+        self.io.user_digital = running.io.user_digital;
+        self.io.user_analog = running.io.user_analog;
+        self.sense_io();
+    }
+    fn io_lines(&self) -> IoLines {
+        IoLines {
+            spindle: self.io.spindle.is_some(),
+            ..IoLines::ALL
+        }
+    }
+    fn write_io(&mut self, out: &RawOutputs) {
+        self.io.out = *out;
+    }
+    fn exchange_io(&mut self) -> Result<(), BackendError> {
+        self.io.step(self.cycle_s);
+        self.sense_io();
+        Ok(())
+    }
+    fn read_io(&self) -> RawInputs {
+        self.io.inp
+    }
 }
 
 impl SimulatedMachine for SimBackend {
@@ -290,5 +503,35 @@ impl SimulatedMachine for SimBackend {
             Plant::DcMotor(p) => p.vel_mm_per_s() == 0.0,
             Plant::FirstOrderLag(p) => p.is_stuck(),
         }
+    }
+    fn set_estop_open(&mut self, open: bool) {
+        self.io.estop_open = open;
+        self.sense_io();
+    }
+    fn set_digital_input(&mut self, line: usize, high: bool) {
+        if line < softnc_servo::io::RAW_DIGITAL_LINES {
+            if high {
+                self.io.user_digital |= 1u128 << line;
+            } else {
+                self.io.user_digital &= !(1u128 << line);
+            }
+            self.sense_io();
+        }
+    }
+    fn set_analog_input(&mut self, line: usize, value: f64) {
+        if let Some(v) = self.io.user_analog.get_mut(line) {
+            *v = value;
+            self.sense_io();
+        }
+    }
+    fn set_probe(&mut self, tripped: Option<bool>) {
+        self.io.probe = tripped;
+        self.sense_io();
+    }
+    fn raw_outputs(&self) -> RawOutputs {
+        self.io.out
+    }
+    fn spindle_true_rpm(&self) -> f64 {
+        self.io.spindle.as_ref().map_or(0.0, Spindle::true_rpm)
     }
 }

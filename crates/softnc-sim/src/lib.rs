@@ -11,7 +11,8 @@
 //! // 100 ms of a 10 mm/s move along X
 //! let t = profile.interpolation_cycle_s;
 //! let samples = (0..100).map(|k| CommandSample {
-//!     pos_mm: softnc_core::Axes([10.0 * t * k as f64, 0.0, 0.0]), motion: 0, feed_move: false });
+//!     pos_mm: softnc_core::Axes([10.0 * t * k as f64, 0.0, 0.0]), motion: 0, feed_move: false,
+//!     outputs: Default::default() });
 //! let report = simulate(&mut engine, t, samples, |_| None, |_| {}).unwrap();
 //! assert_eq!(report.cycles, 100);
 //! ```
@@ -32,7 +33,7 @@ pub mod sim;
 /// The stock on the table and the feed motor cutting through it (paper 003).
 pub mod workpiece;
 
-pub use backend::{SimBackend, SimOptions};
+pub use backend::{wiring, SimBackend, SimOptions};
 pub use metrics::ErrorStats;
 pub use plant::Plant;
 pub use sim::{

@@ -2,6 +2,7 @@
 //! following error per axis and contour error during feed moves.
 
 use crate::metrics::ErrorStats;
+use softnc_core::machine_io::MachineOutputs;
 use softnc_core::{CommandRing, Primitive, RingSample, Vec3, COMMAND_RING_CAPACITY};
 use softnc_servo::adaptive_feed::{AdaptiveFeed, OverrideSchedule, Revolution};
 use softnc_servo::{BackendError, CycleEngine, ServoBackend, TraceRow, MAX_AXES};
@@ -25,7 +26,8 @@ pub struct SimReport {
 /// Run `samples` through `engine` (reset at the first sample's position), exactly as
 /// the position task runs them: through the command ring, whose window
 /// [i−N, i+N] the engine's command filters read (paper 002), motion only when N
-/// future samples are in, the future padded with the last sample at the end.
+/// future samples are in, the future padded with the last sample at the end. Each
+/// sample's `outputs` go to the machine's I/O while it is the one in use.
 /// `path(m)` is the programmed path of motion `m` (`None` for dwells); `observe` sees
 /// every cycle.
 pub fn simulate<B, I, P, F>(
@@ -91,8 +93,9 @@ where
     // N cycles of lead-in and run-out: the filtered command starts at rest and ends
     // at the final position
     ring.reset_padded(window);
-    // (motion, feed move) of the job's samples from the current one on
-    let mut meta: VecDeque<(u32, bool)> = VecDeque::with_capacity(COMMAND_RING_CAPACITY);
+    // (motion, feed move, outputs) of the job's samples from the current one on
+    let mut meta: VecDeque<(u32, bool, MachineOutputs)> =
+        VecDeque::with_capacity(COMMAND_RING_CAPACITY);
     let mut seq = 0u64;
     for k in 0u64.. {
         // the window, and the next cycle's sample (so `advance` never finds it dry)
@@ -107,10 +110,13 @@ where
                 last,
             )
             .expect("the simulator fills the ring in order and within its capacity");
-            meta.push_back((s.motion, s.feed_move));
+            meta.push_back((s.motion, s.feed_move, s.outputs));
             seq += 1;
         }
-        let (motion, feed_move) = *meta.front().expect("a current sample");
+        let (motion, feed_move, outputs) = *meta.front().expect("a current sample");
+        // the sample in use carries the outputs: a synchronised output switches at
+        // the cycle where the next motion's first sample is in use
+        engine.set_outputs(&outputs);
         let record = engine
             .step_ring(&ring, motion, feed_move)
             .expect("the window is in: N future samples or the end")?;
@@ -132,6 +138,7 @@ where
                 motion,
                 record,
                 contour_mm,
+                io: engine.io().trace(),
             },
             engine,
             ring.source_index(),

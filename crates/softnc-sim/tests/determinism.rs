@@ -39,6 +39,7 @@ fn trace(p: &MachineProfile, seed: u64) -> Vec<u64> {
             pos_mm: softnc_core::Axes([r * th.cos(), r * th.sin(), 0.0]),
             motion: 0,
             feed_move: true,
+            outputs: Default::default(),
         }
     });
     let mut engine = simulated_engine(p, seed, SimOptions::default());

@@ -78,6 +78,7 @@ fn ramp_following_error(profile: &MachineProfile, v_mm_per_s: f64, secs: f64) ->
         pos_mm: softnc_core::Axes([v_mm_per_s * t * k as f64, 0.0, 0.0]),
         motion: 0,
         feed_move: false,
+        outputs: Default::default(),
     });
     simulate(
         &mut engine,
@@ -259,6 +260,7 @@ fn circle_contour(p: &MachineProfile, r_mm: f64, f_mm_per_min: f64) -> Vec<(f64,
             pos_mm: softnc_core::Axes([r_mm * th.cos(), r_mm * th.sin(), 0.0]),
             motion: 0,
             feed_move: true,
+            outputs: Default::default(),
         }
     });
     let opts = SimOptions {

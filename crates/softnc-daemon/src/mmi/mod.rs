@@ -946,6 +946,20 @@ impl MmiTask {
         axis: u32,
         state: MachineState,
     ) -> Result<Reply> {
+        // the E-stop input latched open (the position process's inputs): the
+        // machine cannot be switched on until it is closed and reset (LinuxCNC's
+        // external E-stop, `iocontrol.0.emc-enable-in`)
+        let estop_input = self
+            .machine
+            .last
+            .is_some_and(|s| softnc_core::machine_io::MachineInputs::from(s.inputs).estop_open);
+        if kind == ControlKind::MachineOn && estop_input {
+            return Ok(Self::reply(
+                false,
+                0,
+                &format!("{kind:?} refused ({state:?}): the E-stop input is open"),
+            ));
+        }
         Ok(match transition(kind, state) {
             Err(why) => Self::reply(false, 0, &format!("{kind:?} refused ({state:?}): {why}")),
             Ok(next) => {
