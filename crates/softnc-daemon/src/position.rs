@@ -500,6 +500,15 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         }
     }
 
+    /// The job's trace is complete (the job ended, or stopped where it is): its
+    /// file is closed off the cycle path, so every row up to the stop is written
+    /// out now rather than when the next job's trace replaces it.
+    fn close_trace(&mut self) {
+        if let Some(t) = self.trace.take() {
+            self.prep.retire(Retired::Trace(t));
+        }
+    }
+
     /// The emergency stop (from the MMI, or straight from a client: `from_pid`):
     /// everything stops where it is; reported once per E-stop.
     fn emergency_stop(&mut self, from_pid: Option<u32>) -> Result<()> {
@@ -509,6 +518,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             return Ok(());
         }
         self.state = MachineState::EStopped;
+        self.close_trace();
         match from_pid {
             Some(pid) => self.alarm(
                 AlarmCode::EStop,
@@ -618,19 +628,12 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 Some(ControlKind::MachineOn) if self.state == MachineState::Off => {
                     match self.engine.backend_mut().enable() {
                         Ok(()) => {
-                            // holding where the axes stand: the last command if they
-                            // are still in position there
-                            let measured = self.engine.measured_mm();
-                            for ((cmd, m), band) in self
-                                .last_cmd
-                                .iter_mut()
-                                .zip(measured)
-                                .zip(self.in_position_mm)
-                            {
-                                if (m - *cmd).abs() > band {
-                                    *cmd = m;
-                                }
-                            }
+                            // holding where the axes stand: the command is taken from
+                            // the measured position and the controllers restart
+                            // there (no step into an integrator), so switching on
+                            // moves no axis (LinuxCNC's motion controller likewise
+                            // sets the command to the feedback while disabled)
+                            self.last_cmd = self.engine.hold_where_measured().0;
                             self.prev_cmd = self.last_cmd;
                             self.state = MachineState::Idle;
                         }
@@ -1047,7 +1050,11 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 }
             }
         } else {
+            // the drives are not stepped (off, E-stopped, faulted): the command
+            // follows the measured position, as LinuxCNC's motion controller's does
+            // while disabled, so neither a reset nor the next `on` steps it
             let actual_mm = self.engine.measured_mm();
+            cmd = actual_mm.0;
             softnc_servo::CycleRecord {
                 cmd_mm: Axes(cmd),
                 actual_mm,
@@ -1112,6 +1119,13 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     contour_mm: contour.is_finite().then_some(contour),
                 });
             }
+        }
+        // a job stopped where it is (an E-stop or a fault on this cycle, after its
+        // row): its trace is complete
+        if matches!(self.state, MachineState::EStopped | MachineState::Faulted)
+            && self.phase.dry().is_none()
+        {
+            self.close_trace();
         }
         let mut status = PositionStatus {
             seq: self.current.map_or(0, |c| c.seq),

@@ -175,6 +175,19 @@ impl<B: ServoBackend> CycleEngine<B> {
         }
     }
 
+    /// Take the axes over where they stand, as on enabling the drives: every
+    /// controller restarts at its axis's measured position (no integrator, filter
+    /// or feed-forward state from before; the backend is not homed: its positions
+    /// stay what they read). The measured positions, which become the command: an
+    /// enable moves no axis. Allocation-free.
+    pub fn hold_where_measured(&mut self) -> Axes<f64> {
+        let measured = self.measured_mm();
+        for (c, x) in self.controllers.iter_mut().zip(measured) {
+            c.reset(x);
+        }
+        measured
+    }
+
     /// This engine runs the next job from `start_mm`, after `running`, the engine
     /// of the machine until now: a backend [kept across
     /// jobs](ServoBackend::kept_across_jobs) moves over from `running` as it stands
