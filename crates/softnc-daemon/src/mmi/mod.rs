@@ -551,6 +551,17 @@ impl MmiTask {
             // kept in the record of the job it concerns; a job the interpolator
             // refused (its file changed after the check) never started
             let code = AlarmCode::from_wire(a.code).unwrap_or(AlarmCode::Other);
+            if a.job_id == 0 && concerns_the_running_job(code) {
+                // a process lost or restarted while a job ran: in its record (once,
+                // though a restarted MMI is told again what its predecessor was)
+                let text = format!("{code:?}: {}", a.message.as_str());
+                if let Some(j) = self.history.running() {
+                    if !j.alarms.contains(&text) {
+                        j.alarms.push(text);
+                        changed = true;
+                    }
+                }
+            }
             if let Some(j) = self
                 .history
                 .jobs
@@ -1190,6 +1201,18 @@ fn api_state(s: MachineState) -> softnc_api::MachineState {
     }
 }
 
+/// Alarms raised outside any job (job id 0) that the record of a job running then
+/// keeps: a process lost or started again, a loop's timing.
+fn concerns_the_running_job(c: AlarmCode) -> bool {
+    matches!(
+        c,
+        AlarmCode::ProcessLost
+            | AlarmCode::ProcessRestarted
+            | AlarmCode::LoopLate
+            | AlarmCode::LoopStall
+    )
+}
+
 /// The operator's kind of an alarm code.
 fn api_alarm_kind(c: AlarmCode) -> softnc_api::AlarmKind {
     use softnc_api::AlarmKind as K;
@@ -1205,6 +1228,7 @@ fn api_alarm_kind(c: AlarmCode) -> softnc_api::AlarmKind {
         AlarmCode::PlanFailed => K::PlanFailed,
         AlarmCode::LoopStall => K::LoopStall,
         AlarmCode::LoopLate => K::LoopLate,
+        AlarmCode::ProcessRestarted => K::ProcessRestarted,
         AlarmCode::Other => K::Other,
     }
 }
