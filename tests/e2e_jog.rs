@@ -1,7 +1,7 @@
 //! Issue 35 ("Jog"): `softnc jog` stops its jog at once on SIGINT (Ctrl-C) and
 //! SIGTERM, end to end: the `softnc` binary jogs an axis of a real-time `softncd`,
 //! the test signals it mid-jog, and the axis comes to rest far within the overrun the
-//! dead-man would allow (jog speed × `jog_deadman_s`); the command exits 128 + the
+//! dead-man would allow (jog speed × the profile's `jog.deadman_s`); the command exits 128 + the
 //! signal, saying so.
 //!
 //! A test of the `softnc-cli` package (where `softnc` is built with it), on the
@@ -121,7 +121,7 @@ fn jog_then_signal(
 fn softnc_jog_stops_at_once_on_sigint_and_sigterm() {
     let d = Daemon::start("jog", "Realtime", false);
     let loaded = softnc_daemon::config::DaemonConfig::load(&d.config).unwrap();
-    let deadman_s = loaded.config.jog_deadman_s;
+    let deadman_s = loaded.machine.jog.deadman_s;
     // what the dead-man alone lets the axis run (the issue's 21.8 mm at 3000 mm/min)
     let deadman_overrun_mm = JOG_MM_PER_MIN / 60.0 * deadman_s;
     // a prompt stop: the signal seen within 5 ms, one request, the deceleration

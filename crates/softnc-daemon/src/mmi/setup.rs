@@ -44,11 +44,11 @@ impl MmiTask {
         if !jogging && age > self.cfg.config.heartbeat_timeout_s {
             // it ended (a soft limit, an abort, a stop)
             self.machine.jog_lease = None;
-        } else if jogging && age > self.cfg.config.jog_deadman_s {
+        } else if jogging && age > self.cfg.machine.jog.deadman_s {
             self.machine.jog_lease = None;
             self.send_control_axis(ControlKind::Jog, 0, axis, 0.0, "")?;
             let name = self.axis_name(axis);
-            let deadman = self.cfg.config.jog_deadman_s;
+            let deadman = self.cfg.machine.jog.deadman_s;
             self.ports.alarms_pub.send_copy(Alarm {
                 code: AlarmCode::Other.wire(),
                 axis,
@@ -167,7 +167,7 @@ impl MmiTask {
     }
 
     /// A continuous jog (speed in mm/min, 0 stops it; renewed by its client within
-    /// `jog_deadman_s`) or an incremental one (a distance in mm), checked against the
+    /// `jog.deadman_s` of the profile) or an incremental one (a distance in mm), checked against the
     /// axis's limits and, once homed, its soft limits.
     #[allow(clippy::too_many_lines)]
     pub(super) fn jog(
@@ -189,7 +189,7 @@ impl MmiTask {
         let name = a.name.clone();
         let homed = self.homed()[i];
         let pos_mm = self.machine.last.map_or(0.0, |s| s.cmd_mm[i]);
-        let deadman = self.cfg.config.jog_deadman_s;
+        let deadman = self.cfg.machine.jog.deadman_s;
         if kind == ControlKind::Jog {
             let speed = value;
             if speed == 0.0 {
