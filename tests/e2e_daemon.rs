@@ -1675,3 +1675,94 @@ fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_w
     assert!(r.message().contains("sub"), "{}", r.message());
     assert_eq!(op.status().unwrap().state, MachineState::Idle);
 }
+
+/// Issue 35: the death of a process and its restart are alarms the operator sees —
+/// in `status` (what the TUI lists) and in the record of the job that ran — even
+/// the MMI's own: the restarted MMI learns of its predecessor's death.
+#[test]
+fn process_deaths_and_restarts_are_alarms_the_restarted_mmi_shows_and_the_job_keeps() {
+    let d = Daemon::start("deaths", "Realtime", false);
+    let op = d.operator();
+    // about 16 s: four laps of a 40 mm square at 2400 mm/min
+    let job = d.dir.join("laps.ngc");
+    let mut text = String::from("G21 G90 G17 G64 P0.01\nG0 X0 Y0 Z5\nG1 Z-1 F600\n");
+    for _ in 0..4 {
+        text.push_str("G1 X40 F2400\nG1 Y40\nG1 X0\nG1 Y0\n");
+    }
+    text.push_str("G0 Z5\nM2\n");
+    std::fs::write(&job, text).unwrap();
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let job = id(&r);
+    d.wait_status(&op, Duration::from_secs(20), "motion", |s| {
+        s.job.as_ref().map_or(0, |j| j.record.cycles) > 500
+    });
+    let has = |s: &Status, kind: AlarmKind, text: &str| {
+        s.alarms
+            .iter()
+            .any(|a| a.code == kind && a.message.contains(text))
+    };
+    let in_record = |s: &Status, text: &str| {
+        s.job.as_ref().is_some_and(|j| {
+            j.record.job_id == job && j.record.alarms.iter().any(|a| a.contains(text))
+        })
+    };
+    // the MMI, killed mid-job: its successor shows the death and the restart
+    let mmi = d.pid_of("softnc-mmi").unwrap();
+    d.kill9("softnc-mmi");
+    drop(op);
+    std::thread::sleep(Duration::from_millis(300));
+    let op = d.operator();
+    let s = d.wait_status(
+        &op,
+        Duration::from_secs(10),
+        "the MMI's death and restart",
+        |s| {
+            has(s, AlarmKind::ProcessLost, "softnc-mmi exited")
+                && has(s, AlarmKind::ProcessRestarted, "softnc-mmi started again")
+        },
+    );
+    assert_ne!(d.pid_of("softnc-mmi"), Some(mmi));
+    assert_eq!(s.state, MachineState::Running, "motion went on: {s}");
+    assert!(in_record(&s, "softnc-mmi exited"), "{s}");
+    assert!(in_record(&s, "softnc-mmi started again"), "{s}");
+    // the interpolator, killed mid-job: the job stops along its path; its death
+    // and its restart are alarms, its death in the record of the job it stopped
+    d.kill9("softnc-interp");
+    let s = d.wait_status(
+        &op,
+        Duration::from_secs(10),
+        "the interpolator's death and restart",
+        |s| {
+            has(s, AlarmKind::ProcessLost, "softnc-interp exited")
+                && has(
+                    s,
+                    AlarmKind::ProcessRestarted,
+                    "softnc-interp started again",
+                )
+                && s.job.as_ref().is_some_and(|j| j.record.outcome.ended())
+        },
+    );
+    assert!(in_record(&s, "softnc-interp exited"), "{s}");
+    // the kinds as `status --json` prints them
+    let json = serde_json::to_string(&s).unwrap();
+    assert!(json.contains("\"ProcessRestarted\""), "{json}");
+    // the job's record in the history keeps them too
+    let t0 = Instant::now();
+    let record = loop {
+        match d.job_record(job) {
+            Some(r) if r.alarms.iter().any(|a| a.contains("softnc-interp exited")) => break r,
+            _ if t0.elapsed() > Duration::from_secs(5) => {
+                panic!("the history's record of job {job}: {:?}", d.job_record(job))
+            }
+            _ => std::thread::sleep(Duration::from_millis(100)),
+        }
+    };
+    assert!(
+        record
+            .alarms
+            .iter()
+            .any(|a| a.contains("softnc-mmi exited")),
+        "{record:?}"
+    );
+}
