@@ -15,6 +15,7 @@
 
 mod check;
 mod history;
+pub mod oplog;
 mod program;
 mod setup;
 
@@ -606,6 +607,7 @@ impl MmiTask {
             let request = match softnc_api::decode_request(&text) {
                 Ok(r) => r,
                 Err(e) => {
+                    oplog::unreadable(&e.to_string());
                     let reply = Reply::refused(format!("{e}; nothing done"));
                     if let Err(e) = req.send_copy(wire_reply(&reply, "unreadable")) {
                         tracing::warn!("reply not delivered: {e:?}");
@@ -613,7 +615,9 @@ impl MmiTask {
                     continue;
                 }
             };
-            match self.handle(&request)? {
+            let reply = self.handle(&request)?;
+            oplog::answered(&request, reply.as_ref());
+            match reply {
                 Some(reply) => {
                     if let Err(e) = req.send_copy(wire_reply(&reply, request.name())) {
                         tracing::warn!("reply not delivered: {e:?}");

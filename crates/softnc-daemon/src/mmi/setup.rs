@@ -36,7 +36,7 @@ pub(super) struct Setup {
 impl MmiTask {
     /// A continuous jog whose client stopped renewing it is stopped (the dead-man).
     pub(super) fn watch_jog(&mut self) -> Result<()> {
-        let Some((axis, _, renewed)) = self.machine.jog_lease else {
+        let Some((axis, speed_mm_per_min, renewed)) = self.machine.jog_lease else {
             return Ok(());
         };
         let age = renewed.elapsed().as_secs_f64();
@@ -49,6 +49,7 @@ impl MmiTask {
             self.send_control_axis(ControlKind::Jog, 0, axis, 0.0, "")?;
             let name = self.axis_name(axis);
             let deadman = self.cfg.machine.jog.deadman_s;
+            super::oplog::deadman_stop(&name, speed_mm_per_min, deadman);
             self.ports.alarms_pub.send_copy(Alarm {
                 code: AlarmCode::Other.wire(),
                 axis,
