@@ -483,8 +483,7 @@ fn reset_and_on_after_an_estop_move_no_axis_and_the_trace_has_every_cycle() {
     // stopped it at (the last the job's record counts), none missing
     let record = job_of(&statuses[0]);
     assert_eq!(record.job_id, job);
-    let text =
-        std::fs::read_to_string(d.dir.join(format!("data/trace-job{job}.csv"))).unwrap();
+    let text = std::fs::read_to_string(d.dir.join(format!("data/trace-job{job}.csv"))).unwrap();
     let times: Vec<f64> = text
         .lines()
         .skip(1)
@@ -500,6 +499,11 @@ fn reset_and_on_after_an_estop_move_no_axis_and_the_trace_has_every_cycle() {
         record.cycles
     );
     for w in times.windows(2) {
-        assert_eq!(index(w[1]), index(w[0]) + 1, "a gap in the trace at {}", w[0]);
+        assert_eq!(
+            index(w[1]),
+            index(w[0]) + 1,
+            "a gap in the trace at {}",
+            w[0]
+        );
     }
 }

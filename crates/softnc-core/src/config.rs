@@ -842,13 +842,22 @@ mod tests {
         assert_ne!(text, INCREMENTAL);
         let e = invalid(&text);
         assert!(e.contains("jog.deadman_s"), "{e}");
-        assert!(e.contains("runs 40 mm") && e.contains("at most 0.195 s"), "{e}");
+        assert!(
+            e.contains("runs 40 mm") && e.contains("at most 0.195 s"),
+            "{e}"
+        );
         // within it: taken
         let ok = INCREMENTAL.replace(
             "max_speed_fraction: 0.5)",
             "max_speed_fraction: 0.5, deadman_s: 0.2, max_overrun_mm: 40.0)",
         );
-        assert_eq!(MotionProfile::from_ron_str(&ok, "m.ron").unwrap().jog.deadman_s, 0.2);
+        assert_eq!(
+            MotionProfile::from_ron_str(&ok, "m.ron")
+                .unwrap()
+                .jog
+                .deadman_s,
+            0.2
+        );
         let e = invalid(&INCREMENTAL.replace(
             "max_speed_fraction: 0.5)",
             "max_speed_fraction: 0.5, deadman_s: 0.0)",

@@ -27,11 +27,11 @@
 use crate::config::Loaded;
 use crate::lifecycle::{InstanceLock, Notify, StopWatch};
 use anyhow::{Context, Result};
+use iceoryx2::port::update_connections::UpdateConnections;
 use softnc_ipc::bus::{clean_dead_nodes, Bus, Pub, Sub};
 use softnc_ipc::{
     Alarm, AlarmCode, ControlCommand, ControlKind, FixedStr, Heartbeat, MachineState, ProcessId,
 };
-use iceoryx2::port::update_connections::UpdateConnections;
 use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::process::{Child, Command};
