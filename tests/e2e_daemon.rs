@@ -1095,6 +1095,19 @@ fn a_loopback_daemon_runs_a_job_whose_axes_follow_the_command_exactly() {
     // far below the simulated machine's (tens of µm) on the same job
     let rms = job_of(&s).accuracy.contour_rms_um;
     assert!(rms < 1.0, "contour rms {rms} µm");
+    // every commanded sample is within the program's G64 P0.01 of its path, and
+    // the axes, a cycle behind, are on the path commanded: the contour error (the
+    // actual position's distance to the programmed path near it) is within it too
+    let contour_max_um = trace
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.split(',').nth(10)?.parse::<f64>().ok())
+        .fold(0.0f64, |m, e| m.max(e.abs()));
+    eprintln!("loopback: contour error max |e| {contour_max_um} µm, rms {rms} µm");
+    assert!(
+        contour_max_um <= 10.0,
+        "contour error {contour_max_um} µm beyond the program's G64 P0.01"
+    );
     // the next job takes the drive over where the first left it (not homed again)
     let end1 = machine_mm(&op.status().unwrap());
     let r2 = op.request(&submit(&abs(&short_job(&d.dir)))).unwrap();

@@ -1088,12 +1088,16 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 )?;
             }
         }
-        // 5. status (contour error exactly as the simulator computes it)
+        // 5. status (contour error exactly as the simulator computes it: the actual
+        //    position's distance to the programmed path near the command)
         let contour = match (feed_move, self.current) {
-            (true, Some(c)) => match self.primitives.get(c.motion as usize).copied().flatten() {
-                Some(p) => p.contour_error(Vec3(rec.actual_mm.xyz())),
-                None => f64::NAN,
-            },
+            (true, Some(c)) => softnc_servo::contour::contour_error_near(
+                |m| self.primitives.get(m as usize).copied().flatten(),
+                c.motion,
+                Vec3(rec.cmd_mm.xyz()),
+                Vec3(rec.actual_mm.xyz()),
+            )
+            .unwrap_or(f64::NAN),
             _ => f64::NAN,
         };
         self.cycles += 1;
