@@ -1050,11 +1050,16 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 }
             }
         } else {
-            // the drives are not stepped (off, E-stopped, faulted): the command
+            // the drives are not stepped; off, E-stopped or faulted the command
             // follows the measured position, as LinuxCNC's motion controller's does
             // while disabled, so neither a reset nor the next `on` steps it
             let actual_mm = self.engine.measured_mm();
-            cmd = actual_mm.0;
+            if matches!(
+                self.state,
+                MachineState::Off | MachineState::EStopped | MachineState::Faulted
+            ) {
+                cmd = actual_mm.0;
+            }
             softnc_servo::CycleRecord {
                 cmd_mm: Axes(cmd),
                 actual_mm,
