@@ -57,7 +57,9 @@ where
     // on along it likewise (the axes may lead the command a little)
     let mut between_mm = 0.0;
     for k in 1..=MAX_NEIGHBOURS {
-        let Some(m) = motion.checked_add(k) else { break };
+        let Some(m) = motion.checked_add(k) else {
+            break;
+        };
         let Some(p) = path(m) else { break };
         if k > 1 && between_mm > lag_mm {
             break;
@@ -217,10 +219,18 @@ mod tests {
         assert_eq!(e, 0.0);
         let actual = Vec3::new(5.0, 0.04, 0.0);
         let e = contour_error_near(get, 5, cmd, actual).unwrap();
-        assert!((e - 0.04).abs() < 1e-12, "the first line, 10 µm away, is not near: {e}");
+        assert!(
+            (e - 0.04).abs() < 1e-12,
+            "the first line, 10 µm away, is not near: {e}"
+        );
         // after the dwell the path before it is not looked at
-        let e = contour_error_near(get, 2, Vec3::new(20.0, 0.1, 0.0), Vec3::new(19.0, 0.05, 0.0))
-            .unwrap();
+        let e = contour_error_near(
+            get,
+            2,
+            Vec3::new(20.0, 0.1, 0.0),
+            Vec3::new(19.0, 0.05, 0.0),
+        )
+        .unwrap();
         assert!((e.abs() - 1.0).abs() < 1e-12, "{e}");
     }
 }
