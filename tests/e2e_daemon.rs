@@ -1271,7 +1271,8 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
         );
         let (ok, _) = ask(&op, &jog(0, 12000.0));
         assert!(ok || op.status().unwrap().state == MachineState::Idle);
-        std::thread::sleep(Duration::from_millis(50));
+        // renewed as a client must, within the profile's dead-man
+        std::thread::sleep(softnc_api::JOG_RENEW_PERIOD);
     }
     let s = op.status().unwrap();
     assert_eq!(machine_mm(&s)[0], 400.0, "stopped on the soft limit: {s}");
