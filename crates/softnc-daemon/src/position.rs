@@ -500,6 +500,23 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         }
     }
 
+    /// The command of axes that stand where they are measured (the drives off, or
+    /// being switched on): the measured position, as LinuxCNC's motion controller
+    /// sets the command to the feedback while disabled — except on an axis within
+    /// its in-position band of the last command, which is in position there: its
+    /// command stands (an encoder count of noise does not become the command, and a
+    /// machine switched on where it was switched off commands what it did).
+    fn command_where_standing(&self) -> [f64; MAX_AXES] {
+        let measured = self.engine.measured_mm();
+        std::array::from_fn(|i| {
+            if (measured[i] - self.last_cmd[i]).abs() > self.in_position_mm[i] {
+                measured[i]
+            } else {
+                self.last_cmd[i]
+            }
+        })
+    }
+
     /// The job's trace is complete (the job ended, or stopped where it is): its
     /// file is closed off the cycle path, so every row up to the stop is written
     /// out now rather than when the next job's trace replaces it.
@@ -629,12 +646,12 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     match self.engine.backend_mut().enable() {
                         Ok(()) => {
                             // holding where the axes stand: the command is taken from
-                            // the measured position and the controllers restart
-                            // there (no step into an integrator), so switching on
-                            // moves no axis (LinuxCNC's motion controller likewise
-                            // sets the command to the feedback while disabled)
-                            self.last_cmd = self.engine.hold_where_measured().0;
+                            // the measured position (`command_where_standing`) and
+                            // the controllers restart there (no step into an
+                            // integrator), so switching on moves no axis
+                            self.last_cmd = self.command_where_standing();
                             self.prev_cmd = self.last_cmd;
+                            self.engine.restart_controllers_at(self.last_cmd);
                             self.state = MachineState::Idle;
                         }
                         Err(e) => {
@@ -1058,7 +1075,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 self.state,
                 MachineState::Off | MachineState::EStopped | MachineState::Faulted
             ) {
-                cmd = actual_mm.0;
+                cmd = self.command_where_standing();
             }
             softnc_servo::CycleRecord {
                 cmd_mm: Axes(cmd),

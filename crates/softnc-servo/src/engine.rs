@@ -175,17 +175,14 @@ impl<B: ServoBackend> CycleEngine<B> {
         }
     }
 
-    /// Take the axes over where they stand, as on enabling the drives: every
-    /// controller restarts at its axis's measured position (no integrator, filter
-    /// or feed-forward state from before; the backend is not homed: its positions
-    /// stay what they read). The measured positions, which become the command: an
-    /// enable moves no axis. Allocation-free.
-    pub fn hold_where_measured(&mut self) -> Axes<f64> {
-        let measured = self.measured_mm();
-        for (c, x) in self.controllers.iter_mut().zip(measured) {
+    /// Restart every controller at `cmd_mm`, as on enabling the drives: no
+    /// integrator, filter or feed-forward state from before (a stop, the drives
+    /// off) carries over, so the first command after it steps no integrator. The
+    /// backend is not homed: its positions stay what they read. Allocation-free.
+    pub fn restart_controllers_at(&mut self, cmd_mm: impl Into<Axes<f64>>) {
+        for (c, x) in self.controllers.iter_mut().zip(cmd_mm.into()) {
             c.reset(x);
         }
-        measured
     }
 
     /// This engine runs the next job from `start_mm`, after `running`, the engine
