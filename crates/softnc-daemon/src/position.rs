@@ -154,6 +154,10 @@ pub struct PositionTask<B: ServoBackend> {
     prev_cmd: [f64; MAX_AXES],
     /// Each axis's in-position band (the profile's).
     in_position_mm: [f64; MAX_AXES],
+    /// Each axis's measurement floor: what the reading of an axis at rest varies
+    /// by (two encoder counts and four σ of the measurement noise, the floor the
+    /// Markov identification uses).
+    measurement_floor_mm: [f64; MAX_AXES],
     /// Cycles the axes get to come into position after a job's last sample.
     in_position_timeout_cycles: u64,
     /// Lockstep: since when the ring has lacked the samples the next cycle needs
@@ -200,6 +204,10 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         let bus = Bus::new(names, "position")?;
         let window = softnc_core::ring::window_for_lookahead(cfg.config.lookahead_samples);
         let in_position_mm = std::array::from_fn(|i| cfg.machine.axes[i].in_position_mm);
+        let measurement_floor_mm = std::array::from_fn(|i| {
+            2.0 * cfg.machine.axes[i].encoder_resolution_mm
+                + 4.0 * cfg.machine.axis_servo(i).noise_mm
+        });
         let in_position_timeout_cycles =
             (cfg.config.in_position_timeout_s / cfg.machine.interpolation_cycle_s).ceil() as u64;
         // manual motion (homing, jogs) traced, when traces are on, to a file of this
@@ -284,6 +292,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             prev_cmd: [0.0; MAX_AXES],
             starved_since: None,
             in_position_mm,
+            measurement_floor_mm,
             in_position_timeout_cycles,
             last_job_id: 0,
             homed,
@@ -502,14 +511,15 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
 
     /// The command of axes that stand where they are measured (the drives off, or
     /// being switched on): the measured position, as LinuxCNC's motion controller
-    /// sets the command to the feedback while disabled — except on an axis within
-    /// its in-position band of the last command, which is in position there: its
-    /// command stands (an encoder count of noise does not become the command, and a
-    /// machine switched on where it was switched off commands what it did).
+    /// sets the command to the feedback while disabled — except on an axis whose
+    /// reading is within its measurement floor of the last command: it stands
+    /// there, and its command stands (a count of encoder noise does not become the
+    /// command, and a machine switched on where it was switched off commands what
+    /// it did).
     fn command_where_standing(&self) -> [f64; MAX_AXES] {
         let measured = self.engine.measured_mm();
         std::array::from_fn(|i| {
-            if (measured[i] - self.last_cmd[i]).abs() > self.in_position_mm[i] {
+            if (measured[i] - self.last_cmd[i]).abs() > self.measurement_floor_mm[i] {
                 measured[i]
             } else {
                 self.last_cmd[i]
