@@ -203,11 +203,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         let names = softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance);
         let bus = Bus::new(names, "position")?;
         let window = softnc_core::ring::window_for_lookahead(cfg.config.lookahead_samples);
-        let in_position_mm = std::array::from_fn(|i| cfg.machine.axes[i].in_position_mm);
-        let measurement_floor_mm = std::array::from_fn(|i| {
-            2.0 * cfg.machine.axes[i].encoder_resolution_mm
-                + 4.0 * cfg.machine.axis_servo(i).noise_mm
-        });
+        let (in_position_mm, measurement_floor_mm) = standing_bands(&cfg.machine);
         let in_position_timeout_cycles =
             (cfg.config.in_position_timeout_s / cfg.machine.interpolation_cycle_s).ceil() as u64;
         // manual motion (homing, jogs) traced, when traces are on, to a file of this
@@ -1368,6 +1364,19 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     pub fn stats(&self) -> &LoopStats {
         &self.stats
     }
+}
+
+/// Each axis's in-position band (the profile's) and measurement floor: two encoder
+/// counts and four σ of the profile's measurement noise (what the reading of an
+/// axis at rest varies by; the floor the Markov identification uses,
+/// `softnc_learning::markov::settled_terms`).
+fn standing_bands(machine: &softnc_machine::MachineProfile) -> ([f64; MAX_AXES], [f64; MAX_AXES]) {
+    (
+        std::array::from_fn(|i| machine.axes[i].in_position_mm),
+        std::array::from_fn(|i| {
+            2.0 * machine.axes[i].encoder_resolution_mm + 4.0 * machine.axis_servo(i).noise_mm
+        }),
+    )
 }
 
 fn dist(a: [f64; MAX_AXES], b: [f64; MAX_AXES]) -> f64 {
