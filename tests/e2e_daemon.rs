@@ -1095,6 +1095,19 @@ fn a_loopback_daemon_runs_a_job_whose_axes_follow_the_command_exactly() {
     // far below the simulated machine's (tens of µm) on the same job
     let rms = job_of(&s).accuracy.contour_rms_um;
     assert!(rms < 1.0, "contour rms {rms} µm");
+    // every commanded sample is within the program's G64 P0.01 of its path, and
+    // the axes, a cycle behind, are on the path commanded: the contour error (the
+    // actual position's distance to the programmed path near it) is within it too
+    let contour_max_um = trace
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.split(',').nth(10)?.parse::<f64>().ok())
+        .fold(0.0f64, |m, e| m.max(e.abs()));
+    eprintln!("loopback: contour error max |e| {contour_max_um} µm, rms {rms} µm");
+    assert!(
+        contour_max_um <= 10.0,
+        "contour error {contour_max_um} µm beyond the program's G64 P0.01"
+    );
     // the next job takes the drive over where the first left it (not homed again)
     let end1 = machine_mm(&op.status().unwrap());
     let r2 = op.request(&submit(&abs(&short_job(&d.dir)))).unwrap();
@@ -1258,7 +1271,8 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
         );
         let (ok, _) = ask(&op, &jog(0, 12000.0));
         assert!(ok || op.status().unwrap().state == MachineState::Idle);
-        std::thread::sleep(Duration::from_millis(50));
+        // renewed as a client must, within the profile's dead-man
+        std::thread::sleep(softnc_api::JOG_RENEW_PERIOD);
     }
     let s = op.status().unwrap();
     assert_eq!(machine_mm(&s)[0], 400.0, "stopped on the soft limit: {s}");
@@ -1674,4 +1688,95 @@ fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_w
     assert!(!r.is_accepted(), "{}", r.message());
     assert!(r.message().contains("sub"), "{}", r.message());
     assert_eq!(op.status().unwrap().state, MachineState::Idle);
+}
+
+/// Issue 35: the death of a process and its restart are alarms the operator sees —
+/// in `status` (what the TUI lists) and in the record of the job that ran — even
+/// the MMI's own: the restarted MMI learns of its predecessor's death.
+#[test]
+fn process_deaths_and_restarts_are_alarms_the_restarted_mmi_shows_and_the_job_keeps() {
+    let d = Daemon::start("deaths", "Realtime", false);
+    let op = d.operator();
+    // about 16 s: four laps of a 40 mm square at 2400 mm/min
+    let job = d.dir.join("laps.ngc");
+    let mut text = String::from("G21 G90 G17 G64 P0.01\nG0 X0 Y0 Z5\nG1 Z-1 F600\n");
+    for _ in 0..4 {
+        text.push_str("G1 X40 F2400\nG1 Y40\nG1 X0\nG1 Y0\n");
+    }
+    text.push_str("G0 Z5\nM2\n");
+    std::fs::write(&job, text).unwrap();
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let job = id(&r);
+    d.wait_status(&op, Duration::from_secs(20), "motion", |s| {
+        s.job.as_ref().map_or(0, |j| j.record.cycles) > 500
+    });
+    let has = |s: &Status, kind: AlarmKind, text: &str| {
+        s.alarms
+            .iter()
+            .any(|a| a.code == kind && a.message.contains(text))
+    };
+    let in_record = |s: &Status, text: &str| {
+        s.job.as_ref().is_some_and(|j| {
+            j.record.job_id == job && j.record.alarms.iter().any(|a| a.contains(text))
+        })
+    };
+    // the MMI, killed mid-job: its successor shows the death and the restart
+    let mmi = d.pid_of("softnc-mmi").unwrap();
+    d.kill9("softnc-mmi");
+    drop(op);
+    std::thread::sleep(Duration::from_millis(300));
+    let op = d.operator();
+    let s = d.wait_status(
+        &op,
+        Duration::from_secs(10),
+        "the MMI's death and restart",
+        |s| {
+            has(s, AlarmKind::ProcessLost, "softnc-mmi exited")
+                && has(s, AlarmKind::ProcessRestarted, "softnc-mmi started again")
+        },
+    );
+    assert_ne!(d.pid_of("softnc-mmi"), Some(mmi));
+    assert_eq!(s.state, MachineState::Running, "motion went on: {s}");
+    assert!(in_record(&s, "softnc-mmi exited"), "{s}");
+    assert!(in_record(&s, "softnc-mmi started again"), "{s}");
+    // the interpolator, killed mid-job: the job stops along its path; its death
+    // and its restart are alarms, its death in the record of the job it stopped
+    d.kill9("softnc-interp");
+    let s = d.wait_status(
+        &op,
+        Duration::from_secs(10),
+        "the interpolator's death and restart",
+        |s| {
+            has(s, AlarmKind::ProcessLost, "softnc-interp exited")
+                && has(
+                    s,
+                    AlarmKind::ProcessRestarted,
+                    "softnc-interp started again",
+                )
+                && s.job.as_ref().is_some_and(|j| j.record.outcome.ended())
+        },
+    );
+    assert!(in_record(&s, "softnc-interp exited"), "{s}");
+    // the kinds as `status --json` prints them
+    let json = serde_json::to_string(&s).unwrap();
+    assert!(json.contains("\"ProcessRestarted\""), "{json}");
+    // the job's record in the history keeps them too
+    let t0 = Instant::now();
+    let record = loop {
+        match d.job_record(job) {
+            Some(r) if r.alarms.iter().any(|a| a.contains("softnc-interp exited")) => break r,
+            _ if t0.elapsed() > Duration::from_secs(5) => {
+                panic!("the history's record of job {job}: {:?}", d.job_record(job))
+            }
+            _ => std::thread::sleep(Duration::from_millis(100)),
+        }
+    };
+    assert!(
+        record
+            .alarms
+            .iter()
+            .any(|a| a.contains("softnc-mmi exited")),
+        "{record:?}"
+    );
 }

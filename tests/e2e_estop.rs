@@ -5,7 +5,9 @@
 //!   and when the interpolator is stopped (the ring runs dry);
 //! - a reset after an E-stop or a fault leaves the drives off: `on` is needed;
 //! - after any sequence of crashes (kill -9 of each process), resets and `on`,
-//!   `status` says what is so and a reset recovers.
+//!   `status` says what is so and a reset recovers;
+//! - (issue 35) reset and `on` after an E-stop move no axis, and the E-stopped
+//!   job's trace has every cycle up to the stop.
 #[allow(unused_imports)] // the shared harness re-exports what other test files use
 mod support;
 use support::*;
@@ -449,4 +451,86 @@ fn after_any_crash_sequence_status_says_what_is_so_and_reset_recovers() {
         }
     }
     eprintln!("crash sequences: {:.1} s", t0.elapsed().as_secs_f64());
+}
+
+/// The axes' command and actual positions in a status (mm).
+fn cmd_and_actual(s: &Status) -> (Vec<f64>, Vec<f64>) {
+    let a = s.axes.as_ref().unwrap_or_else(|| panic!("no axes: {s}"));
+    (a.cmd_mm.clone(), a.actual_mm.clone())
+}
+
+/// Issue 35: an E-stop mid-job, then reset and `on`, moves no axis — the command
+/// does not change across the reset and the switch-on (it is taken from where the
+/// axes stand), the actual position stays put — and the E-stopped job's trace has
+/// every cycle up to the stop.
+#[test]
+fn reset_and_on_after_an_estop_move_no_axis_and_the_trace_has_every_cycle() {
+    let d = Daemon::start("resetnomove", "Realtime", true);
+    let op = d.operator();
+    let (job, _) = start_long_job(&d, &op);
+    assert!(ask(&op, &Request::EStop).0);
+    let s = stays(&d, &op, MachineState::EStopped);
+    let (cmd0, act0) = cmd_and_actual(&s);
+    // the statuses from the E-stop, through the reset and the switch-on, to a
+    // while after it: the command never changes, the axes never move
+    let mut statuses = vec![s];
+    let mut watch = |for_s: f64, statuses: &mut Vec<Status>| {
+        let t0 = Instant::now();
+        while t0.elapsed().as_secs_f64() < for_s {
+            statuses.push(op.status().unwrap());
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    };
+    watch(0.3, &mut statuses);
+    let (ok, msg) = ask(&op, &Request::Reset);
+    assert!(ok, "{msg}");
+    watch(0.5, &mut statuses);
+    let (ok, msg) = ask(&op, &Request::MachineOn);
+    assert!(ok, "{msg}");
+    watch(1.0, &mut statuses);
+    let last = statuses.last().unwrap();
+    assert_eq!(last.state, MachineState::Idle, "{last}");
+    let mut max_dcmd = 0.0f64;
+    let mut max_dact = 0.0f64;
+    for s in &statuses {
+        let (cmd, act) = cmd_and_actual(s);
+        for i in 0..3 {
+            max_dcmd = max_dcmd.max((cmd[i] - cmd0[i]).abs());
+            max_dact = max_dact.max((act[i] - act0[i]).abs());
+        }
+    }
+    eprintln!(
+        "across the reset and on ({} statuses): max |Δ command| = {max_dcmd} mm, max |Δ actual| = {max_dact} mm; command {cmd0:?}, actual {act0:?}",
+        statuses.len()
+    );
+    assert_eq!(max_dcmd, 0.0, "the command moved across the reset and on");
+    // an encoder count or two of noise, no motion
+    assert!(max_dact < 0.002, "the axes moved {max_dact} mm");
+    // the E-stopped job's trace: every cycle from its first to the one the E-stop
+    // stopped it at (the last the job's record counts), none missing
+    let record = job_of(&statuses[0]);
+    assert_eq!(record.job_id, job);
+    let text = std::fs::read_to_string(d.dir.join(format!("data/trace-job{job}.csv"))).unwrap();
+    let times: Vec<f64> = text
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.split(',').next()?.parse().ok())
+        .collect();
+    let cycle_s = 0.001;
+    let index = |t: f64| (t / cycle_s).round() as u64;
+    let last_index = index(*times.last().expect("trace rows"));
+    assert_eq!(
+        last_index + 1,
+        record.cycles,
+        "the trace ends at cycle {last_index}, the job was stopped after {} cycles",
+        record.cycles
+    );
+    for w in times.windows(2) {
+        assert_eq!(
+            index(w[1]),
+            index(w[0]) + 1,
+            "a gap in the trace at {}",
+            w[0]
+        );
+    }
 }

@@ -1,7 +1,7 @@
 //! Issue 35 ("Jog"): `softnc jog` stops its jog at once on SIGINT (Ctrl-C) and
 //! SIGTERM, end to end: the `softnc` binary jogs an axis of a real-time `softncd`,
 //! the test signals it mid-jog, and the axis comes to rest far within the overrun the
-//! dead-man would allow (jog speed × `jog_deadman_s`); the command exits 128 + the
+//! dead-man would allow (jog speed × the profile's `jog.deadman_s`); the command exits 128 + the
 //! signal, saying so.
 //!
 //! A test of the `softnc-cli` package (where `softnc` is built with it), on the
@@ -121,12 +121,17 @@ fn jog_then_signal(
 fn softnc_jog_stops_at_once_on_sigint_and_sigterm() {
     let d = Daemon::start("jog", "Realtime", false);
     let loaded = softnc_daemon::config::DaemonConfig::load(&d.config).unwrap();
-    let deadman_s = loaded.config.jog_deadman_s;
-    // what the dead-man alone lets the axis run (the issue's 21.8 mm at 3000 mm/min)
-    let deadman_overrun_mm = JOG_MM_PER_MIN / 60.0 * deadman_s;
-    // a prompt stop: the signal seen within 5 ms, one request, the deceleration
-    // (v²/2a = 0.5 mm for Z) and the status's own staleness — a fifth of it
-    let bound_mm = deadman_overrun_mm / 5.0;
+    let deadman_s = loaded.machine.jog.deadman_s;
+    // what the dead-man alone lets the axis run (the issue's 21.8 mm at 3000 mm/min
+    // with the 0.5 s dead-man before issue 35), then its deceleration v²/2a
+    let v_mm_per_s = JOG_MM_PER_MIN / 60.0;
+    let decel_mm = v_mm_per_s.powi(2) / (2.0 * loaded.machine.axes[2].max_acc_mm_per_s2);
+    let deadman_overrun_mm = v_mm_per_s * deadman_s;
+    // a prompt stop: the signal seen within 5 ms, one request and the status's own
+    // staleness — 30 ms at speed all told — and the deceleration; well short of
+    // what the dead-man would let it run
+    let bound_mm = decel_mm + v_mm_per_s * 0.03;
+    assert!(bound_mm < deadman_overrun_mm + decel_mm);
     let op = d.operator();
     // Z from 0 toward -300 (homed at start: the soft limit is 300 mm away), back up
     let down = jog_then_signal(&d, &op, -JOG_MM_PER_MIN, libc::SIGINT, "SIGINT", bound_mm);

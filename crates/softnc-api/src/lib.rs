@@ -41,5 +41,5 @@ pub use status::{
 };
 pub use wire::{
     decode_reply, decode_request, encode_reply, encode_request, ApiError, ReplyEnvelope,
-    RequestEnvelope, API_VERSION, JOB_CHECK_TIMEOUT,
+    RequestEnvelope, API_VERSION, JOB_CHECK_TIMEOUT, JOG_RENEW_PERIOD,
 };

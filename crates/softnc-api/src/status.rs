@@ -86,6 +86,9 @@ pub enum AlarmKind {
     LoopStall,
     /// A real-time loop ran late.
     LoopLate,
+    /// The supervisor started a process again after it died (a reader of an
+    /// older contract reads it as `Other`).
+    ProcessRestarted,
     /// Anything else (also a kind this reader does not know).
     #[serde(other)]
     Other,

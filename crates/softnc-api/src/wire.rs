@@ -137,3 +137,9 @@ pub fn decode_reply(text: &str) -> Result<Reply, ApiError> {
 /// `check_timeout_s` stays below it, so a check ends (passed, refused or abandoned)
 /// while its client still waits.
 pub const JOB_CHECK_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(300);
+
+/// How often an operator client renews a continuous jog it holds (`Request::Jog`
+/// again, the same axis and speed): the daemon refuses at load a machine profile
+/// whose dead-man (`jog.deadman_s`) is not longer than this, so a living client's
+/// jog is never stopped by it.
+pub const JOG_RENEW_PERIOD: std::time::Duration = std::time::Duration::from_millis(25);

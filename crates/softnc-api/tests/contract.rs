@@ -358,3 +358,18 @@ fn a_request_too_large_for_the_payload_is_not_sent() {
         other => panic!("{other:?}"),
     }
 }
+
+#[test]
+fn a_process_restarted_alarm_reads_back_and_as_other_for_older_readers() {
+    let text = serde_json::to_string(&AlarmKind::ProcessRestarted).unwrap();
+    assert_eq!(text, "\"ProcessRestarted\"");
+    assert_eq!(
+        serde_json::from_str::<AlarmKind>(&text).unwrap(),
+        AlarmKind::ProcessRestarted
+    );
+    // a kind a reader does not know (as ProcessRestarted is to one of before)
+    assert_eq!(
+        serde_json::from_str::<AlarmKind>("\"ProcessResurrected\"").unwrap(),
+        AlarmKind::Other
+    );
+}

@@ -67,7 +67,7 @@ pub enum OperatorCmd {
     /// Jog: `jog AXIS SPEED_MM_PER_MIN` runs continuously (to the soft limit once
     /// homed) while this command runs — Ctrl-C (SIGINT) or SIGTERM stops it at once
     /// (the command then exits 128 + the signal: 130, 143), as does `jog AXIS 0` from
-    /// elsewhere (a client that goes away stops it within `jog_deadman_s`);
+    /// elsewhere (a client that goes away stops it within the profile's `jog.deadman_s`);
     /// `jog AXIS --step MM` moves by a distance (a signal stops it too).
     #[command(allow_negative_numbers = true)]
     Jog {
@@ -451,8 +451,9 @@ fn wait_while_state(op: &Operator, state: MachineState) -> Result<Status> {
 /// How often a jog in progress looks for a caught signal.
 const JOG_SIGNAL_POLL: Duration = Duration::from_millis(5);
 
-/// How often a jog in progress is renewed and its status read.
-const JOG_RENEW_PERIOD: Duration = Duration::from_millis(100);
+/// How often a jog in progress is renewed and its status read: the operator
+/// contract's period, which the daemon keeps below its dead-man.
+const JOG_RENEW_PERIOD: Duration = softnc_api::JOG_RENEW_PERIOD;
 
 /// How long the CLI waits for the axis to come to rest after it asked a jog to stop
 /// on a signal (the jog's deceleration; beyond it, it reports and exits anyway).

@@ -49,8 +49,9 @@ const PLOT_POINTS: usize = 300;
 /// The status is asked for this often (and the screen drawn).
 const STATUS_PERIOD: Duration = Duration::from_millis(100);
 /// How long the loop waits for a key before it runs its timers (status, the held
-/// jog's renewal): a fraction of `watch_keys::JOG_RENEW`.
-const INPUT_POLL: Duration = Duration::from_millis(20);
+/// jog's renewal): a fifth of `watch_keys::JOG_RENEW`, so a held jog is renewed
+/// within 1.2 × `JOG_RENEW` of the last renewal.
+const INPUT_POLL: Duration = Duration::from_millis(5);
 
 /// Ask the terminal to report key repeats and releases (kitty keyboard protocol),
 /// where it can: a continuous jog then stops at the key's release. Returns whether

@@ -26,12 +26,12 @@ pub const JOG_SPEED_START: usize = 3;
 /// A continuous jog is held while its key is: pressed again by the terminal's key
 /// repeat. This long after the last press (or repeat) the UI stops it itself
 /// (`Jog` 0); where the terminal reports key releases it stops at the release. The
-/// MMI's dead-man (`jog_deadman_s`, 0.5 s) stops it if the UI goes away.
+/// MMI's dead-man (the profile's `jog.deadman_s`) stops it if the UI goes away.
 pub const JOG_KEY_HOLD: Duration = Duration::from_millis(500);
-/// A held continuous jog is renewed (the same `Jog` again) at least this often, well
-/// within the MMI's dead-man (`jog_deadman_s`, 0.5 s); key repeats faster than this
-/// send nothing more.
-pub const JOG_RENEW: Duration = Duration::from_millis(100);
+/// A held continuous jog is renewed (the same `Jog` again) at least this often:
+/// the operator contract's period, which the daemon keeps below the profile's
+/// dead-man (`jog.deadman_s`); key repeats faster than this send nothing more.
+pub const JOG_RENEW: Duration = softnc_api::JOG_RENEW_PERIOD;
 /// The offsets view asks the MMI for the offsets again this often while it is open
 /// (a touch-off or an MDI `G10` changes them).
 pub const OFFSETS_REFRESH: Duration = Duration::from_secs(1);
@@ -619,13 +619,13 @@ mod tests {
         let r = sent(&on_key(&mut ui, key(KeyCode::Right), Some(&s), ms(0)));
         assert_eq!(r, vec![jog(ax(0), 1200.0)]);
         // a repeat sooner than JOG_RENEW sends nothing more, one later renews
-        assert!(on_key(&mut ui, key(KeyCode::Right), Some(&s), ms(30)).is_empty());
+        assert!(on_key(&mut ui, key(KeyCode::Right), Some(&s), ms(10)).is_empty());
         let r = sent(&on_key(&mut ui, key(KeyCode::Right), Some(&s), ms(120)));
         assert_eq!(r, vec![jog(ax(0), 1200.0)]);
         // the timer renews it while the key is held (the terminal's repeat delay) …
         let r = sent(&on_tick(&mut ui, ms(300)));
         assert_eq!(r, vec![jog(ax(0), 1200.0)]);
-        assert!(on_tick(&mut ui, ms(350)).is_empty());
+        assert!(on_tick(&mut ui, ms(310)).is_empty());
         // … and stops it JOG_KEY_HOLD after the last repeat
         let r = sent(&on_tick(&mut ui, ms(120 + 501)));
         assert_eq!(r, vec![jog(ax(0), 0.0)]);

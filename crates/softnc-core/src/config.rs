@@ -262,7 +262,8 @@ pub struct AxisHoming {
     pub home_mm: f64,
 }
 
-/// Manual (jog) motion: the operator's jog speed.
+/// Manual (jog) motion: the operator's jog speed and the dead-man of a continuous
+/// jog.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct JogConfig {
@@ -271,14 +272,36 @@ pub struct JogConfig {
     pub default_speed_mm_per_s: f64,
     /// Largest jog speed as a fraction of each axis's `max_vel_mm_per_s`, in (0, 1].
     pub max_speed_fraction: f64,
+    /// The dead-man (s): a continuous jog its client has not renewed for this long
+    /// is stopped (a client killed, a network gone). Short enough that an axis at
+    /// its full jog speed runs at most `max_overrun_mm` in it (checked at load).
+    #[serde(default = "default_jog_deadman_s")]
+    pub deadman_s: f64,
+    /// The most an axis may run at its full jog speed (`max_speed_fraction` ×
+    /// `max_vel_mm_per_s`) between its client's last renewal and the dead-man's
+    /// stop (mm): full jog speed × `deadman_s` must not exceed it. The
+    /// deceleration after the stop (v²/2a) comes on top.
+    #[serde(default = "default_jog_max_overrun_mm")]
+    pub max_overrun_mm: f64,
+}
+
+fn default_jog_deadman_s() -> f64 {
+    0.1
+}
+
+fn default_jog_max_overrun_mm() -> f64 {
+    40.0
 }
 
 impl Default for JogConfig {
-    /// 10 mm/s (600 mm/min) by default, up to each axis's full velocity.
+    /// 10 mm/s (600 mm/min) by default, up to each axis's full velocity; a dead-man
+    /// of 0.1 s, within which an axis at its full jog speed runs at most 40 mm.
     fn default() -> Self {
         JogConfig {
             default_speed_mm_per_s: 10.0,
             max_speed_fraction: 1.0,
+            deadman_s: default_jog_deadman_s(),
+            max_overrun_mm: default_jog_max_overrun_mm(),
         }
     }
 }
@@ -494,6 +517,24 @@ impl MotionProfile {
                 "jog.max_speed_fraction".into(),
                 format!("must lie in (0, 1] (got {})", self.jog.max_speed_fraction),
             ));
+        }
+        positive(self.jog.deadman_s, "jog.deadman_s", file)?;
+        positive(self.jog.max_overrun_mm, "jog.max_overrun_mm", file)?;
+        for axis in &self.axes {
+            let full_mm_per_s = self.jog.max_speed_fraction * axis.max_vel_mm_per_s;
+            let overrun_mm = full_mm_per_s * self.jog.deadman_s;
+            if overrun_mm > self.jog.max_overrun_mm {
+                return Err(bad(
+                    "jog.deadman_s".into(),
+                    format!(
+                        "{} at its full jog speed ({full_mm_per_s} mm/s) runs {overrun_mm} mm in the dead-man's {} s, over jog.max_overrun_mm ({} mm): at most {} s",
+                        axis.name,
+                        self.jog.deadman_s,
+                        self.jog.max_overrun_mm,
+                        self.jog.max_overrun_mm / full_mm_per_s
+                    ),
+                ));
+            }
         }
         let Some(h) = &self.homing else {
             return Ok(());
@@ -787,6 +828,41 @@ mod tests {
         assert_eq!(p.jog.speed_mm_per_s(x, Some(1e6)), 0.5 * x.max_vel_mm_per_s);
         assert_eq!(p.jog.speed_mm_per_s(x, Some(-3.0)), 0.0);
         assert_eq!(p.jog.speed_mm_per_s(x, Some(f64::NAN)), 0.0);
+    }
+
+    #[test]
+    fn a_deadman_too_long_for_the_overrun_bound_is_refused_with_its_path() {
+        let p = MotionProfile::from_ron_str(DEFAULT, "default.ron").unwrap();
+        // X and Y at 400 mm/s: 40 mm in 0.1 s, the bound itself
+        assert_eq!((p.jog.deadman_s, p.jog.max_overrun_mm), (0.1, 40.0));
+        let text = INCREMENTAL.replace(
+            "max_speed_fraction: 0.5)",
+            "max_speed_fraction: 0.5, deadman_s: 0.2, max_overrun_mm: 39.0)",
+        );
+        assert_ne!(text, INCREMENTAL);
+        let e = invalid(&text);
+        assert!(e.contains("jog.deadman_s"), "{e}");
+        assert!(
+            e.contains("runs 40 mm") && e.contains("at most 0.195 s"),
+            "{e}"
+        );
+        // within it: taken
+        let ok = INCREMENTAL.replace(
+            "max_speed_fraction: 0.5)",
+            "max_speed_fraction: 0.5, deadman_s: 0.2, max_overrun_mm: 40.0)",
+        );
+        assert_eq!(
+            MotionProfile::from_ron_str(&ok, "m.ron")
+                .unwrap()
+                .jog
+                .deadman_s,
+            0.2
+        );
+        let e = invalid(&INCREMENTAL.replace(
+            "max_speed_fraction: 0.5)",
+            "max_speed_fraction: 0.5, deadman_s: 0.0)",
+        ));
+        assert!(e.contains("jog.deadman_s"), "{e}");
     }
 
     #[test]

@@ -80,10 +80,11 @@ pub struct DaemonConfig {
     /// file; after them the program's own folder.
     #[serde(default)]
     pub subroutine_path: Vec<PathBuf>,
-    /// A continuous jog stops when its client has not renewed it for this long (s):
-    /// the dead-man of a client that went away.
-    #[serde(default = "default_jog_deadman_s")]
-    pub jog_deadman_s: f64,
+    /// No longer taken: the jog's dead-man is the machine profile's
+    /// `jog.deadman_s` (bounded by its `jog.max_overrun_mm`). A file that still
+    /// sets it is refused, saying where it went.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jog_deadman_s: Option<f64>,
     /// The position process stops what moves — a job along its path, a jog or a
     /// homing decelerating — when it has heard nothing from the MMI (heartbeat or
     /// command) for this long (s): a hung MMI can take no E-stop, no hold, no abort.
@@ -149,10 +150,6 @@ impl Default for LoopTimingConfig {
             late_alarm_period_s: 10.0,
         }
     }
-}
-
-fn default_jog_deadman_s() -> f64 {
-    0.5
 }
 
 fn default_in_position_timeout_s() -> f64 {
@@ -378,8 +375,11 @@ impl DaemonConfig {
         if config.max_abandoned_checks == 0 {
             return Err(bad("max_abandoned_checks", "must be at least 1"));
         }
-        if !(config.jog_deadman_s > 0.0 && config.jog_deadman_s.is_finite()) {
-            return Err(bad("jog_deadman_s", "must be a finite number > 0"));
+        if config.jog_deadman_s.is_some() {
+            return Err(bad(
+                "jog_deadman_s",
+                "the jog's dead-man is the machine profile's jog.deadman_s now (bounded by its jog.max_overrun_mm): remove it here",
+            ));
         }
         if !(config.mmi_silence_stop_s >= 2.0 * config.heartbeat_period_s
             && config.mmi_silence_stop_s.is_finite())
@@ -410,6 +410,19 @@ impl DaemonConfig {
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let machine_path = dir.join(&config.machine);
         let machine = MachineProfile::load(&machine_path)?;
+        // a client renews a continuous jog every JOG_RENEW_PERIOD: the dead-man
+        // must be longer, or a living client's jog would stop
+        let renew_s = softnc_api::JOG_RENEW_PERIOD.as_secs_f64();
+        if machine.jog.deadman_s <= renew_s {
+            return Err(ConfigError::Invalid {
+                file: machine_path.display().to_string(),
+                path: "jog.deadman_s".into(),
+                reason: format!(
+                    "{} s is not longer than the {renew_s} s at which clients renew a jog",
+                    machine.jog.deadman_s
+                ),
+            });
+        }
         let machine_bytes = std::fs::read(&machine_path).map_err(|source| ConfigError::Io {
             file: machine_path.display().to_string(),
             source,

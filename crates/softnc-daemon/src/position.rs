@@ -174,6 +174,10 @@ pub struct PositionTask<B: ServoBackend> {
     prev_cmd: [f64; MAX_AXES],
     /// Each axis's in-position band (the profile's).
     in_position_mm: [f64; MAX_AXES],
+    /// Each axis's measurement floor: what the reading of an axis at rest varies
+    /// by (two encoder counts and four σ of the measurement noise, the floor the
+    /// Markov identification uses).
+    measurement_floor_mm: [f64; MAX_AXES],
     /// Cycles the axes get to come into position after a job's last sample.
     in_position_timeout_cycles: u64,
     /// Lockstep: since when the ring has lacked the samples the next cycle needs
@@ -219,7 +223,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         let names = softnc_ipc::ServiceNames::new(&cfg.config.service_prefix, &cfg.config.instance);
         let bus = Bus::new(names, "position")?;
         let window = softnc_core::ring::window_for_lookahead(cfg.config.lookahead_samples);
-        let in_position_mm = std::array::from_fn(|i| cfg.machine.axes[i].in_position_mm);
+        let (in_position_mm, measurement_floor_mm) = standing_bands(&cfg.machine);
         let in_position_timeout_cycles =
             (cfg.config.in_position_timeout_s / cfg.machine.interpolation_cycle_s).ceil() as u64;
         let manual_trace = manual_trace(&cfg);
@@ -294,6 +298,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             prev_cmd: [0.0; MAX_AXES],
             starved_since: None,
             in_position_mm,
+            measurement_floor_mm,
             in_position_timeout_cycles,
             last_job_id: 0,
             homed,
@@ -510,6 +515,33 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         }
     }
 
+    /// The command of axes that stand where they are measured (the drives off, or
+    /// being switched on): the measured position, as LinuxCNC's motion controller
+    /// sets the command to the feedback while disabled — except on an axis whose
+    /// reading is within its measurement floor of the last command: it stands
+    /// there, and its command stands (a count of encoder noise does not become the
+    /// command, and a machine switched on where it was switched off commands what
+    /// it did).
+    fn command_where_standing(&self) -> [f64; MAX_AXES] {
+        let measured = self.engine.measured_mm();
+        std::array::from_fn(|i| {
+            if (measured[i] - self.last_cmd[i]).abs() > self.measurement_floor_mm[i] {
+                measured[i]
+            } else {
+                self.last_cmd[i]
+            }
+        })
+    }
+
+    /// The job's trace is complete (the job ended, or stopped where it is): its
+    /// file is closed off the cycle path, so every row up to the stop is written
+    /// out now rather than when the next job's trace replaces it.
+    fn close_trace(&mut self) {
+        if let Some(t) = self.trace.take() {
+            self.prep.retire(Retired::Trace(t));
+        }
+    }
+
     /// The emergency stop (from the MMI, straight from a client, the E-stop input
     /// or a limit switch: `cause`): everything stops where it is; reported once per
     /// E-stop.
@@ -520,6 +552,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             return Ok(());
         }
         self.state = MachineState::EStopped;
+        self.close_trace();
         match cause {
             StopCause::Client(pid) => self.alarm(
                 AlarmCode::EStop,
@@ -706,20 +739,13 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 Some(ControlKind::MachineOn) if self.state == MachineState::Off => {
                     match self.engine.backend_mut().enable() {
                         Ok(()) => {
-                            // holding where the axes stand: the last command if they
-                            // are still in position there
-                            let measured = self.engine.measured_mm();
-                            for ((cmd, m), band) in self
-                                .last_cmd
-                                .iter_mut()
-                                .zip(measured)
-                                .zip(self.in_position_mm)
-                            {
-                                if (m - *cmd).abs() > band {
-                                    *cmd = m;
-                                }
-                            }
+                            // holding where the axes stand: the command is taken from
+                            // the measured position (`command_where_standing`) and
+                            // the controllers restart there (no step into an
+                            // integrator), so switching on moves no axis
+                            self.last_cmd = self.command_where_standing();
                             self.prev_cmd = self.last_cmd;
+                            self.engine.restart_controllers_at(self.last_cmd);
                             self.state = MachineState::Idle;
                         }
                         Err(e) => {
@@ -1192,7 +1218,16 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     format_args!("servo backend I/O fault: {e}"),
                 )?;
             }
+            // the drives are not stepped; off, E-stopped or faulted the command
+            // follows the measured position, as LinuxCNC's motion controller's does
+            // while disabled, so neither a reset nor the next `on` steps it
             let actual_mm = self.engine.measured_mm();
+            if matches!(
+                self.state,
+                MachineState::Off | MachineState::EStopped | MachineState::Faulted
+            ) {
+                cmd = self.command_where_standing();
+            }
             softnc_servo::CycleRecord {
                 cmd_mm: Axes(cmd),
                 actual_mm,
@@ -1227,12 +1262,16 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 )?;
             }
         }
-        // 5. status (contour error exactly as the simulator computes it)
+        // 5. status (contour error exactly as the simulator computes it: the actual
+        //    position's distance to the programmed path near the command)
         let contour = match (feed_move, self.current) {
-            (true, Some(c)) => match self.primitives.get(c.motion as usize).copied().flatten() {
-                Some(p) => p.contour_error(Vec3(rec.actual_mm.xyz())),
-                None => f64::NAN,
-            },
+            (true, Some(c)) => softnc_servo::contour::contour_error_near(
+                |m| self.primitives.get(m as usize).copied().flatten(),
+                c.motion,
+                Vec3(rec.cmd_mm.xyz()),
+                Vec3(rec.actual_mm.xyz()),
+            )
+            .unwrap_or(f64::NAN),
             _ => f64::NAN,
         };
         self.cycles += 1;
@@ -1260,6 +1299,13 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     io: self.engine.io().trace(),
                 });
             }
+        }
+        // a job stopped where it is (an E-stop or a fault on this cycle, after its
+        // row): its trace is complete
+        if matches!(self.state, MachineState::EStopped | MachineState::Faulted)
+            && self.phase.dry().is_none()
+        {
+            self.close_trace();
         }
         let mut status = PositionStatus {
             seq: self.current.map_or(0, |c| c.seq),
@@ -1507,6 +1553,19 @@ enum StopCause {
     Input,
     /// Axis `axis`'s limit switch at its maximum (`max`) or minimum end tripped.
     Limit { axis: usize, max: bool },
+}
+
+/// Each axis's in-position band (the profile's) and measurement floor: two encoder
+/// counts and four σ of the profile's measurement noise (what the reading of an
+/// axis at rest varies by; the floor the Markov identification uses,
+/// `softnc_learning::markov::settled_terms`).
+fn standing_bands(machine: &softnc_machine::MachineProfile) -> ([f64; MAX_AXES], [f64; MAX_AXES]) {
+    (
+        std::array::from_fn(|i| machine.axes[i].in_position_mm),
+        std::array::from_fn(|i| {
+            2.0 * machine.axes[i].encoder_resolution_mm + 4.0 * machine.axis_servo(i).noise_mm
+        }),
+    )
 }
 
 fn dist(a: [f64; MAX_AXES], b: [f64; MAX_AXES]) -> f64 {

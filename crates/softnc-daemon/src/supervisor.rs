@@ -8,6 +8,10 @@
 //!   process only on the operator's `reset`.
 //! - `softnc-mmi` exits: motion continues; the supervisor restarts the MMI, which
 //!   reattaches to the running job.
+//! - Every death is a `ProcessLost` alarm and every restart a `ProcessRestarted`
+//!   one; the alarm service keeps the last alarms (its history) and the supervisor
+//!   delivers them to every new subscriber as it appears, so a restarted MMI learns
+//!   of its predecessor's death and shows it (status, TUI, the running job's record).
 //! - A child silent (no heartbeat) past `supervisor.watchdog_s` — hung, or stopped
 //!   with SIGSTOP — is killed and handled as dead. Restarts back off (doubling from
 //!   `restart_delay_s`); past `restart_limit` restarts in `restart_window_s` the
@@ -23,6 +27,7 @@
 use crate::config::Loaded;
 use crate::lifecycle::{InstanceLock, Notify, StopWatch};
 use anyhow::{Context, Result};
+use iceoryx2::port::update_connections::UpdateConnections;
 use softnc_ipc::bus::{clean_dead_nodes, Bus, Pub, Sub};
 use softnc_ipc::{
     Alarm, AlarmCode, ControlCommand, ControlKind, FixedStr, Heartbeat, MachineState, ProcessId,
@@ -147,12 +152,23 @@ impl Supervisor {
         let child = cmd
             .spawn()
             .with_context(|| format!("starting {}", exe.display()))?;
+        let pid = child.id();
         let p = &mut self.procs[i];
+        let restart = p.started_once;
         p.child = Some(child);
         p.started_once = true;
         p.started = Instant::now();
         p.last_hb = None;
         p.restart_at = None;
+        if restart {
+            let (name, id) = (p.name, p.id);
+            self.alarm(
+                AlarmCode::ProcessRestarted,
+                id,
+                pid,
+                &format!("{name} started again (pid {pid}) after it was lost"),
+            );
+        }
         Ok(())
     }
 
@@ -209,6 +225,12 @@ impl Supervisor {
                 }
             }
             self.watch_children()?;
+            // a subscriber new since the last look (a restarted MMI) gets the
+            // alarms kept in the service's history — the death of the process it
+            // replaces among them — without waiting for the next alarm
+            if let Err(e) = self.alarms.update_connections() {
+                tracing::warn!("alarm service: {e:?}");
+            }
             if reset {
                 self.reset()?;
             }

@@ -204,6 +204,19 @@ fn run_counted_with(
     }
     // start: the preparation thread builds the job's engine; motion starts when it is in
     start_motion(&mut task);
+    // the programmed path the contour error is measured against (set here, as the
+    // job has no program file): the cut and a neighbour after it
+    let at = |x: f64| softnc_core::Vec3::new(x, 0.0, 0.0);
+    task.set_job_primitives(vec![
+        Some(softnc_core::Primitive::Line {
+            start: at(0.0),
+            end: at(2.0),
+        }),
+        Some(softnc_core::Primitive::Line {
+            start: at(2.0),
+            end: at(4.0),
+        }),
+    ]);
     let mut next = 200;
     let mut counted_cycles = 0;
     for i in 0..700 {

@@ -113,7 +113,11 @@ fn markov_learning_improves_or_stops_cleanly_on_every_profile() {
     let mut report = vec![];
     for name in &names {
         let m = machine(name);
-        let (job, mj, runs) = learn(&m, SHORT, 4);
+        // six repetitions: on tnv40-ilc.ron (a 33 ms lag) the unlearned run's lag
+        // along the path is no contour error (the distance to the path, issue 35),
+        // and the learnt lead overshoots the corners for the first repetitions:
+        // 19.5 µm RMS unlearned, 69.4 after the first, 17.8 after the sixth
+        let (job, mj, runs) = learn(&m, SHORT, 6);
         let imp = mj
             .improvement
             .unwrap_or_else(|| panic!("{name}: no iteration improved on the unlearned run"));

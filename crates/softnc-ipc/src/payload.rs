@@ -445,6 +445,9 @@ pub enum AlarmCode {
     /// A real-time loop ran late (periods off by more than the configured bound):
     /// how many and the worst, at most one alarm per period.
     LoopLate = 21,
+    /// The supervisor started a process again after it died (raised by the
+    /// supervisor; `process` and `pid` name the process started).
+    ProcessRestarted = 30,
     /// Anything else.
     Other = 99,
 }
@@ -690,5 +693,6 @@ wire_enum!(AlarmCode {
     PlanFailed,
     LoopStall,
     LoopLate,
+    ProcessRestarted,
     Other
 });

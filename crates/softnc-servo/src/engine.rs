@@ -185,6 +185,16 @@ impl<B: ServoBackend> CycleEngine<B> {
         }
     }
 
+    /// Restart every controller at `cmd_mm`, as on enabling the drives: no
+    /// integrator, filter or feed-forward state from before (a stop, the drives
+    /// off) carries over, so the first command after it steps no integrator. The
+    /// backend is not homed: its positions stay what they read. Allocation-free.
+    pub fn restart_controllers_at(&mut self, cmd_mm: impl Into<Axes<f64>>) {
+        for (c, x) in self.controllers.iter_mut().zip(cmd_mm.into()) {
+            c.reset(x);
+        }
+    }
+
     /// This engine runs the next job from `start_mm`, after `running`, the engine
     /// of the machine until now: a backend [kept across
     /// jobs](ServoBackend::kept_across_jobs) moves over from `running` as it stands

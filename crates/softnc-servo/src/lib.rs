@@ -20,6 +20,7 @@
 pub mod adaptive_feed;
 pub mod backend;
 pub mod conformance;
+pub mod contour;
 pub mod design;
 pub mod engine;
 pub mod io;

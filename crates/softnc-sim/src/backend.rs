@@ -386,9 +386,20 @@ impl ServoBackend for SimBackend {
         }
         self.measure();
     }
+    /// An axis switched on again after it was off stands at rest where it is: the
+    /// simulated machine is not stepped while its drives are off, so its motor's
+    /// speed (and a structural mode's motion) is what it was at the switch-off; a
+    /// real motor has coasted to rest by the time it is switched on again.
     fn enable(&mut self) -> Result<(), BackendError> {
-        for s in &mut self.status {
-            s.enabled = true;
+        for i in 0..MAX_AXES {
+            if !self.status[i].enabled {
+                let at_mm = self.plants[i].pos_mm();
+                self.plants[i].reset(at_mm);
+                if let Some(m) = &mut self.modes[i] {
+                    m.reset(at_mm);
+                }
+            }
+            self.status[i].enabled = true;
         }
         Ok(())
     }

@@ -1,5 +1,7 @@
 //! Running a job offline: command samples → controller stacks → simulated machine, with
-//! following error per axis and contour error during feed moves.
+//! following error per axis and contour error during feed moves (the actual
+//! position's distance to the programmed path near the command:
+//! [`softnc_servo::contour`]).
 
 use crate::metrics::ErrorStats;
 use softnc_core::machine_io::MachineOutputs;
@@ -120,8 +122,15 @@ where
         let record = engine
             .step_ring(&ring, motion, feed_move)
             .expect("the window is in: N future samples or the end")?;
+        // the actual position's distance to the programmed path near the command
+        // (the position process measures it with the same function)
         let contour_mm = if feed_move {
-            path(motion).map(|p| p.contour_error(Vec3(record.actual_mm.xyz())))
+            softnc_servo::contour::contour_error_near(
+                &path,
+                motion,
+                Vec3(record.cmd_mm.xyz()),
+                Vec3(record.actual_mm.xyz()),
+            )
         } else {
             None
         };

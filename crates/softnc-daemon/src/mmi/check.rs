@@ -306,6 +306,7 @@ impl MmiTask {
                 Err(msg) => self.refuse_job(&msg)?,
             },
         };
+        super::oplog::checked(kind.request_name(), &path, &reply);
         if let Some(req) = request {
             // the operator may be gone (timed out): the job stands either way
             let _ = req.send_copy(wire_reply(&reply, kind.request_name()));

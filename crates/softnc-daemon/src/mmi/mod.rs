@@ -15,6 +15,7 @@
 
 mod check;
 mod history;
+pub mod oplog;
 mod program;
 mod setup;
 
@@ -551,6 +552,17 @@ impl MmiTask {
             // kept in the record of the job it concerns; a job the interpolator
             // refused (its file changed after the check) never started
             let code = AlarmCode::from_wire(a.code).unwrap_or(AlarmCode::Other);
+            if a.job_id == 0 && concerns_the_running_job(code) {
+                // a process lost or restarted while a job ran: in its record (once,
+                // though a restarted MMI is told again what its predecessor was)
+                let text = format!("{code:?}: {}", a.message.as_str());
+                if let Some(j) = self.history.running() {
+                    if !j.alarms.contains(&text) {
+                        j.alarms.push(text);
+                        changed = true;
+                    }
+                }
+            }
             if let Some(j) = self
                 .history
                 .jobs
@@ -595,6 +607,7 @@ impl MmiTask {
             let request = match softnc_api::decode_request(&text) {
                 Ok(r) => r,
                 Err(e) => {
+                    oplog::unreadable(&e.to_string());
                     let reply = Reply::refused(format!("{e}; nothing done"));
                     if let Err(e) = req.send_copy(wire_reply(&reply, "unreadable")) {
                         tracing::warn!("reply not delivered: {e:?}");
@@ -602,7 +615,9 @@ impl MmiTask {
                     continue;
                 }
             };
-            match self.handle(&request)? {
+            let reply = self.handle(&request)?;
+            oplog::answered(&request, reply.as_ref());
+            match reply {
                 Some(reply) => {
                     if let Err(e) = req.send_copy(wire_reply(&reply, request.name())) {
                         tracing::warn!("reply not delivered: {e:?}");
@@ -1204,6 +1219,18 @@ fn api_state(s: MachineState) -> softnc_api::MachineState {
     }
 }
 
+/// Alarms raised outside any job (job id 0) that the record of a job running then
+/// keeps: a process lost or started again, a loop's timing.
+fn concerns_the_running_job(c: AlarmCode) -> bool {
+    matches!(
+        c,
+        AlarmCode::ProcessLost
+            | AlarmCode::ProcessRestarted
+            | AlarmCode::LoopLate
+            | AlarmCode::LoopStall
+    )
+}
+
 /// The operator's kind of an alarm code.
 fn api_alarm_kind(c: AlarmCode) -> softnc_api::AlarmKind {
     use softnc_api::AlarmKind as K;
@@ -1219,6 +1246,7 @@ fn api_alarm_kind(c: AlarmCode) -> softnc_api::AlarmKind {
         AlarmCode::PlanFailed => K::PlanFailed,
         AlarmCode::LoopStall => K::LoopStall,
         AlarmCode::LoopLate => K::LoopLate,
+        AlarmCode::ProcessRestarted => K::ProcessRestarted,
         AlarmCode::Other => K::Other,
     }
 }

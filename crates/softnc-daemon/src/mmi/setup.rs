@@ -36,7 +36,7 @@ pub(super) struct Setup {
 impl MmiTask {
     /// A continuous jog whose client stopped renewing it is stopped (the dead-man).
     pub(super) fn watch_jog(&mut self) -> Result<()> {
-        let Some((axis, _, renewed)) = self.machine.jog_lease else {
+        let Some((axis, speed_mm_per_min, renewed)) = self.machine.jog_lease else {
             return Ok(());
         };
         let age = renewed.elapsed().as_secs_f64();
@@ -44,11 +44,12 @@ impl MmiTask {
         if !jogging && age > self.cfg.config.heartbeat_timeout_s {
             // it ended (a soft limit, an abort, a stop)
             self.machine.jog_lease = None;
-        } else if jogging && age > self.cfg.config.jog_deadman_s {
+        } else if jogging && age > self.cfg.machine.jog.deadman_s {
             self.machine.jog_lease = None;
             self.send_control_axis(ControlKind::Jog, 0, axis, 0.0, "")?;
             let name = self.axis_name(axis);
-            let deadman = self.cfg.config.jog_deadman_s;
+            let deadman = self.cfg.machine.jog.deadman_s;
+            super::oplog::deadman_stop(&name, speed_mm_per_min, deadman);
             self.ports.alarms_pub.send_copy(Alarm {
                 code: AlarmCode::Other.wire(),
                 axis,
@@ -167,7 +168,7 @@ impl MmiTask {
     }
 
     /// A continuous jog (speed in mm/min, 0 stops it; renewed by its client within
-    /// `jog_deadman_s`) or an incremental one (a distance in mm), checked against the
+    /// `jog.deadman_s` of the profile) or an incremental one (a distance in mm), checked against the
     /// axis's limits and, once homed, its soft limits.
     #[allow(clippy::too_many_lines)]
     pub(super) fn jog(
@@ -189,7 +190,7 @@ impl MmiTask {
         let name = a.name.clone();
         let homed = self.homed()[i];
         let pos_mm = self.machine.last.map_or(0.0, |s| s.cmd_mm[i]);
-        let deadman = self.cfg.config.jog_deadman_s;
+        let deadman = self.cfg.machine.jog.deadman_s;
         if kind == ControlKind::Jog {
             let speed = value;
             if speed == 0.0 {
