@@ -136,6 +136,12 @@ pub(crate) struct Core<S> {
     single_block: bool,
     /// M0/M1 wait for [`Core::resume`] (else they rest and go on, as a sync).
     stops_wait: bool,
+    /// Machine stops wait for [`Core::release_machine_stop`] (else the path rests
+    /// there and goes on).
+    machine_stops_wait: bool,
+    /// Standing on the machine stop element `k`, waiting for
+    /// [`Core::release_machine_stop`].
+    machine_wait: bool,
 }
 
 impl<'a> Interpolator<'a> {
@@ -207,6 +213,18 @@ impl<'a> Interpolator<'a> {
         self.core.paused().map(|(kind, _)| kind)
     }
 
+    /// The machine operation the path waits at; see
+    /// [`StreamInterpolator::machine_stop`](crate::StreamInterpolator::machine_stop).
+    pub fn machine_stop(&self) -> Option<u32> {
+        self.core.machine_stop()
+    }
+
+    /// Go on from a machine stop; see
+    /// [`StreamInterpolator::release_machine_stop`](crate::StreamInterpolator::release_machine_stop).
+    pub fn release_machine_stop(&mut self) {
+        self.core.release_machine_stop()
+    }
+
     /// Single block on or off, live; see
     /// [`StreamInterpolator::set_single_block`](crate::StreamInterpolator::set_single_block).
     pub fn set_single_block(&mut self, on: bool) {
@@ -273,6 +291,29 @@ impl<S: SegmentSource> Core<S> {
             cycle_done: false,
             single_block: false,
             stops_wait: false,
+            machine_stops_wait: false,
+            machine_wait: false,
+        }
+    }
+
+    /// Whether machine stops wait for [`Core::release_machine_stop`] (see
+    /// [`PlanOptions::wait_at_machine_stops`](crate::PlanOptions::wait_at_machine_stops)).
+    pub(crate) fn set_wait_at_machine_stops(&mut self, on: bool) {
+        self.machine_stops_wait = on;
+    }
+
+    /// The motion index of the machine operation the path waits at.
+    pub(crate) fn machine_stop(&self) -> Option<u32> {
+        self.machine_wait.then(|| self.src.seg(self.k).motion)
+    }
+
+    /// Go on from the machine stop the path waits at: its dwell, then the next
+    /// element. Nothing while not waiting at one.
+    pub(crate) fn release_machine_stop(&mut self) {
+        if self.machine_wait {
+            self.machine_wait = false;
+            let seg = *self.src.seg(self.k);
+            self.rest_or_leave(&seg);
         }
     }
 
@@ -336,8 +377,9 @@ impl<S: SegmentSource> Core<S> {
             self.v = 0.0;
             return;
         }
-        if seg.stop != StopKind::None {
-            // a sync, or a stop that does not wait: on with the next cycle
+        if seg.stop != StopKind::None || seg.machine {
+            // a sync, a machine stop, or a stop that does not wait: on with the next
+            // cycle (a sample stands at the point)
             self.cycle_done = true;
         }
         self.next_element();
@@ -413,6 +455,7 @@ impl<S: SegmentSource> Core<S> {
             && self.src.seg(self.k).len <= 0.0
             && self.src.seg(self.k).dwell_s <= 0.0
             && self.src.seg(self.k).stop == StopKind::None
+            && !self.src.seg(self.k).machine
         {
             self.next_element();
         }
@@ -496,7 +539,7 @@ impl<S: SegmentSource> Core<S> {
             if guard > 1_000_000 {
                 break; // cannot happen with finite inputs; never spin forever
             }
-            if self.paused.is_some() || self.cycle_done {
+            if self.paused.is_some() || self.cycle_done || self.machine_wait {
                 break; // standing: the rest of the cycle passes
             }
             if self.waiting {
@@ -605,6 +648,18 @@ impl<S: SegmentSource> Core<S> {
 
     fn arrive(&mut self, seg: &Segment) {
         self.s = seg.len;
+        if seg.machine && self.machine_stops_wait {
+            // a machine stop: stand on it until released (its dwell after)
+            self.machine_wait = true;
+            self.v = 0.0;
+            return;
+        }
+        self.rest_or_leave(seg);
+    }
+
+    /// At the end of `seg`: stand out its dwell (and the S-curve's settling where
+    /// the path rests), then leave it.
+    fn rest_or_leave(&mut self, seg: &Segment) {
         // at rest here: a stop of the path, or a block end single block stops at
         let rests = seg.v_end_hard == 0.0 || self.waits_at(seg).is_some();
         let hold = if rests {
@@ -720,6 +775,15 @@ impl<S: SegmentSource> Core<S> {
         } else {
             let (pos, motion, feed_move) = self.point_at(s_path);
             (pos, motion, feed_move, s_path)
+        };
+        // standing at a machine stop or a pause: the samples carry the operation's
+        // (the M0/M1's) own motion, so that its line is reported at once
+        let motion = if self.machine_wait {
+            self.src.seg(self.k).motion
+        } else if self.paused.is_some() {
+            self.src.seg(self.k).pause_motion
+        } else {
+            motion
         };
         let sample = Sample {
             index: self.index,

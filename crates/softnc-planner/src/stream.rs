@@ -1116,6 +1116,20 @@ impl StreamInterpolator {
         self.core.paused().map(|(kind, _)| kind)
     }
 
+    /// The index (into the program's motions) of the machine operation the path
+    /// stands at, waiting for [`StreamInterpolator::release_machine_stop`]
+    /// ([`PlanOptions::wait_at_machine_stops`](crate::PlanOptions::wait_at_machine_stops));
+    /// the samples meanwhile carry this index. `None` while it does not wait there.
+    pub fn machine_stop(&self) -> Option<u32> {
+        self.core.machine_stop()
+    }
+
+    /// Go on from the machine stop the path waits at (its dwell, if any, then the
+    /// next element with the next cycle). Nothing while it does not wait at one.
+    pub fn release_machine_stop(&mut self) {
+        self.core.release_machine_stop()
+    }
+
     /// Single block on or off, live (the daemon's step mode). On: the path comes to
     /// rest at the first block end it can still stop at within its limits (at the
     /// feed it runs, braking as for any stop; an end too close to stop at is passed),
@@ -1170,6 +1184,8 @@ pub fn stream_program(
         line: 0,
         stop: StopKind::None,
         block_end: false,
+        machine: false,
+        pause_motion: 0,
     };
     let window = Window {
         segs: vec![blank; n],
@@ -1199,6 +1215,7 @@ pub fn stream_program(
     );
     core.set_single_block(options.single_block);
     core.set_wait_at_program_stops(options.wait_at_program_stops);
+    core.set_wait_at_machine_stops(options.wait_at_machine_stops);
     let producer = StreamProducer {
         text,
         file: file.to_string(),
