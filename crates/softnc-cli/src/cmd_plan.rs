@@ -236,7 +236,9 @@ fn machine_json(line: u32, op: &softnc_gcode::MachineOp, program: &Program) -> s
             angle_deg,
             direction,
             timeout_s,
-        } => serde_json::json!({"angle_deg": angle_deg, "direction": direction, "timeout_s": timeout_s}),
+        } => {
+            serde_json::json!({"angle_deg": angle_deg, "direction": direction, "timeout_s": timeout_s})
+        }
         Op::Coolant { mist, flood } => serde_json::json!({"mist": mist, "flood": flood}),
         Op::ToolPrepare { tool } | Op::ToolChange { tool } => serde_json::json!({"tool": tool}),
         Op::Message { index, .. } => serde_json::json!({

@@ -186,7 +186,8 @@ fn offsets_and_path_modes() {
     }
     // path modes
     let mut p = read("modes.ngc");
-    p.motions.retain(|m| !matches!(m.kind, MotionKind::Machine(_)));
+    p.motions
+        .retain(|m| !matches!(m.kind, MotionKind::Machine(_)));
     let modes: Vec<_> = p.motions.iter().map(|m| m.path_mode).collect();
     assert_eq!(modes[0], PathMode::ExactStop); // G61
     assert_eq!(modes[2], PathMode::ExactStop); // G61.1

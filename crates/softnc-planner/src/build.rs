@@ -834,7 +834,7 @@ impl Path {
             .iter()
             .zip(&self.geoms[self.lead_in + from..])
             .take_while(|(s, _)| s.motion == m)
-            .find_map(|(_, g)| g.programmed())
+            .find_map(|(s, g)| if s.machine { None } else { g.programmed() })
     }
 }
 
@@ -1219,8 +1219,7 @@ impl PathBuilder {
                     }
                     None => {
                         let (k, _, _) = self.pending_stop_at_start;
-                        self.pending_stop_at_start =
-                            (stronger(k, kind), m.line, index as u32);
+                        self.pending_stop_at_start = (stronger(k, kind), m.line, index as u32);
                         self.last_point.get_or_insert(m.start + m.offset_mm);
                     }
                 }

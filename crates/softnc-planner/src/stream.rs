@@ -1335,16 +1335,17 @@ mod tests {
             start_mm: Some(at),
             ..Default::default()
         };
-        for text in [
-            "G90 G0 X5 Y7 Z-3\nG1 X5 F300\nM2\n",
-            "G92 X1\nM2\n",
-            "M3 S100\nM2\n",
+        // (an M3 is a machine stop: one standing element)
+        for (text, elements) in [
+            ("G90 G0 X5 Y7 Z-3\nG1 X5 F300\nM2\n", 0),
+            ("G92 X1\nM2\n", 0),
+            ("M3 S100\nM2\n", 1),
         ] {
             let (checked, samples) = check_and_stream(text, "z.ngc", &p, &opts, |it| {
                 it.map(|s| s.pos_mm).collect::<Vec<_>>()
             })
             .unwrap();
-            assert_eq!(checked.elements(), 0, "{text:?}");
+            assert_eq!(checked.elements(), elements, "{text:?}");
             assert!(!samples.is_empty(), "{text:?}");
             for pos in samples {
                 assert_eq!(pos, Vec3(at), "{text:?}");

@@ -6,12 +6,12 @@
 mod common;
 use common::{limit_ratios, profile};
 use softnc_core::machine_io::{MachineInputs, SpindleDir};
+use softnc_core::MotionProfile;
 use softnc_core::{FeedProfile, Vec3};
 use softnc_gcode::Program;
 use softnc_planner::machine_sequencer::{
     Action, Feedback, MachineSequencer, MachineState, SequencerConfig, SequencerError, Waiting,
 };
-use softnc_core::MotionProfile;
 use softnc_planner::{plan, Plan, PlanOptions, Sample};
 
 const BOTH: [FeedProfile; 2] = [FeedProfile::Trapezoidal, FeedProfile::SCurve];
@@ -60,7 +60,15 @@ fn collinear_with(between: &str) -> String {
 fn a_spindle_or_coolant_change_stops_the_path_exactly_and_waits() {
     for fp in BOTH {
         let p = profile(fp);
-        for between in ["M8", "S8000 M3", "M5", "M9", "T2 M6", "(MSG, hello)", "M64 P3"] {
+        for between in [
+            "M8",
+            "S8000 M3",
+            "M5",
+            "M9",
+            "T2 M6",
+            "(MSG, hello)",
+            "M64 P3",
+        ] {
             let text = collinear_with(between);
             let (program, plan) = read_and_plan(&text, "t.ngc", &p, &options()).unwrap();
             let mut it = plan.interpolator();
@@ -85,7 +93,10 @@ fn a_spindle_or_coolant_change_stops_the_path_exactly_and_waits() {
             assert!(stood >= 20, "{fp:?} {between}: stood {stood} samples");
             assert_eq!(samples.last().unwrap().pos_mm, Vec3::new(20.0, 0.0, 0.0));
             let r = limit_ratios(&samples, &p);
-            assert!(r[0] <= 1.0 + 1e-9 && r[1] <= 1.0 + 1e-9, "{fp:?} {between}: {r:?}");
+            assert!(
+                r[0] <= 1.0 + 1e-9 && r[1] <= 1.0 + 1e-9,
+                "{fp:?} {between}: {r:?}"
+            );
         }
     }
 }
@@ -96,11 +107,15 @@ fn without_the_wait_a_machine_stop_still_comes_to_rest_exactly_and_goes_on() {
     let (_, plan) = read_and_plan(&collinear_with("M8"), "t.ngc", &p, &Default::default()).unwrap();
     let samples: Vec<Sample> = plan.interpolator().collect();
     // (the cycle it arrives in ends there: one sample stands exactly at the point)
-    assert!(samples.iter().any(|s| s.pos_mm == Vec3::new(10.0, 0.0, 0.0)));
+    assert!(samples
+        .iter()
+        .any(|s| s.pos_mm == Vec3::new(10.0, 0.0, 0.0)));
     // the same program without the M8 runs through X10
     let (_, plan) = read_and_plan(&collinear_with(""), "t.ngc", &p, &Default::default()).unwrap();
     let through: Vec<Sample> = plan.interpolator().collect();
-    assert!(!through.iter().any(|s| s.pos_mm == Vec3::new(10.0, 0.0, 0.0)));
+    assert!(!through
+        .iter()
+        .any(|s| s.pos_mm == Vec3::new(10.0, 0.0, 0.0)));
     assert!(through.len() < samples.len());
 }
 
@@ -110,13 +125,13 @@ fn a_synchronised_output_does_not_stop_and_switches_where_the_next_move_starts()
         let p = profile(fp);
         let text = collinear_with("M62 P1");
         let (program, plan) = read_and_plan(&text, "t.ngc", &p, &options()).unwrap();
-        let mut seq = MachineSequencer::new(&program, config(p.interpolation_cycle_s), MachineState::default());
+        let mut seq = MachineSequencer::new(
+            &program,
+            config(p.interpolation_cycle_s),
+            MachineState::default(),
+        );
         let mut it = plan.interpolator();
-        let second_move = program
-            .motions
-            .iter()
-            .position(|m| m.line == 4)
-            .unwrap() as u32;
+        let second_move = program.motions.iter().position(|m| m.line == 4).unwrap() as u32;
         let mut first_on = None;
         let mut speeds = Vec::new();
         let mut last: Option<Sample> = None;
@@ -220,9 +235,15 @@ fn the_acceptance_job_runs_through_the_sequencer() {
             Action::Fail(e) => panic!("{e}"),
         }
     }
-    assert!(!feed_before_speed, "a feed move ran before the spindle was at speed");
+    assert!(
+        !feed_before_speed,
+        "a feed move ran before the spindle was at speed"
+    );
     assert_eq!(spin_up, 50);
-    assert_eq!(prompts.first().map(String::as_str), Some("insert T2, then resume"));
+    assert_eq!(
+        prompts.first().map(String::as_str),
+        Some("insert T2, then resume")
+    );
     assert_eq!(paused_lines, vec![(7, 7)], "the M0 reports its own line");
     assert_eq!(messages.len(), 1);
     assert_eq!(
@@ -284,7 +305,11 @@ fn the_spindle_stop_releases_at_speed_and_fails_past_its_timeout() {
     // never at speed: the profile's 2 s, then an error naming the line
     let (cycle, action) = spindle_wait(None);
     match action {
-        Action::Fail(SequencerError::SpindleNotAtSpeed { line, rpm, waited_s }) => {
+        Action::Fail(SequencerError::SpindleNotAtSpeed {
+            line,
+            rpm,
+            waited_s,
+        }) => {
             assert_eq!((line, rpm), (3, 8000.0));
             assert!((waited_s - 2.0).abs() < 1e-9, "{waited_s}");
             assert_eq!(cycle, 1999);

@@ -190,7 +190,10 @@ impl Interp<'_> {
         let p = round_to_int(b.p_number);
         let e = b.get(b'E').map_or(-1, round_to_int);
         if (has_p && p < 0) || (has_e && e < 0) || (!has_p && !has_e) {
-            return bad(off, "Need to have either a valid P or a valid E word with M66");
+            return bad(
+                off,
+                "Need to have either a valid P or a valid E word with M66",
+            );
         }
         let timeout_s = if b.q_number > 0.0 { b.q_number } else { 0.0 };
         if has_p {
