@@ -99,6 +99,9 @@ pub(crate) struct Core<S> {
     brake_dist_mm: f64,
     override_frac: f64,
     max_override: f64,
+    /// The live rapid override (0..=1): traverses run at this fraction of their
+    /// speed limit, as LinuxCNC's `rapid_scale` (feed moves at the feed override).
+    rapid_frac: f64,
     // acceleration-limited ("raw") state
     k: usize,
     s: f64,
@@ -180,6 +183,19 @@ impl<'a> Interpolator<'a> {
     /// The live feed override in force.
     pub fn feed_override(&self) -> f64 {
         self.core.override_frac
+    }
+
+    /// Set the live rapid override (0.0 ..= 1.0): traverses run at this fraction of
+    /// their speed limit (feed moves keep the feed override), applied as the feed
+    /// override is: from the next cycle on, within the acceleration (and jerk)
+    /// limits.
+    pub fn set_rapid_override(&mut self, fraction: f64) {
+        self.core.set_rapid_override(fraction)
+    }
+
+    /// The live rapid override in force.
+    pub fn rapid_override(&self) -> f64 {
+        self.core.rapid_frac
     }
 
     /// Current path speed of the acceleration-limited profile (mm/s).
@@ -268,6 +284,7 @@ impl<S: SegmentSource> Core<S> {
             brake_dist_mm,
             override_frac: 1.0,
             max_override,
+            rapid_frac: 1.0,
             k: 0,
             s: 0.0,
             v: 0.0,
@@ -444,8 +461,37 @@ impl<S: SegmentSource> Core<S> {
         self.finished
     }
 
+    /// The element's speed under the overrides: a feed move's feed times the feed
+    /// override; a traverse's speed limit times the rapid override (LinuxCNC's
+    /// `control.c`: `rapid_scale` for `EMC_MOTION_TYPE_TRAVERSE`, `feed_scale` else),
+    /// never above the element's limit.
     fn soft_cap(&self, seg: &Segment) -> f64 {
-        seg.vel_cap.min(seg.feed_mm_per_s * self.override_frac)
+        let cap = seg.vel_cap.min(seg.feed_mm_per_s * self.override_frac);
+        if seg.feed_move || self.rapid_frac >= 1.0 {
+            cap
+        } else if self.rapid_frac > 0.0 {
+            cap.min(seg.vel_cap * self.rapid_frac)
+        } else {
+            0.0
+        }
+    }
+
+    /// Set the live rapid override (0.0 ..= 1.0; see [`Core::soft_cap`]).
+    pub(crate) fn set_rapid_override(&mut self, fraction: f64) {
+        let f = if fraction.is_finite() {
+            fraction.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        if f != self.rapid_frac {
+            self.rapid_frac = f;
+            self.envelope_dirty = true;
+        }
+    }
+
+    /// The live rapid override in force.
+    pub(crate) fn rapid_override(&self) -> f64 {
+        self.rapid_frac
     }
 
     /// Skip zero-length elements without a dwell at the current position.

@@ -1063,6 +1063,17 @@ impl StreamInterpolator {
         self.core.feed_override()
     }
 
+    /// Set the live rapid override (as
+    /// [`Interpolator::set_rapid_override`](crate::Interpolator::set_rapid_override)).
+    pub fn set_rapid_override(&mut self, fraction: f64) {
+        self.core.set_rapid_override(fraction)
+    }
+
+    /// The live rapid override in force.
+    pub fn rapid_override(&self) -> f64 {
+        self.core.rapid_override()
+    }
+
     /// Current path speed of the acceleration-limited profile (mm/s).
     pub fn path_speed_mm_per_s(&self) -> f64 {
         self.core.path_speed_mm_per_s()

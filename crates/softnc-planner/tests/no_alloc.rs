@@ -37,6 +37,9 @@ fn sample_generation_allocates_nothing() {
             if n == 500 {
                 it.set_feed_override(1.7);
             }
+            if n == 50 {
+                it.set_rapid_override(0.6);
+            }
         }
         let after = allocs();
         assert!(n > 1000);
