@@ -464,8 +464,14 @@ impl<S: SegmentSource> Core<S> {
     /// The element's speed under the overrides: a feed move's feed times the feed
     /// override; a traverse's speed limit times the rapid override (LinuxCNC's
     /// `control.c`: `rapid_scale` for `EMC_MOTION_TYPE_TRAVERSE`, `feed_scale` else),
-    /// never above the element's limit.
+    /// never above the element's limit. A feed override of 0 is softnc's feed hold
+    /// (the daemon holds so): it stops traverses too, as LinuxCNC's feed hold does
+    /// (`net_feed_scale` 0); before, a traverse's infinite feed times 0 made NaN and
+    /// the traverse ran through the hold.
     fn soft_cap(&self, seg: &Segment) -> f64 {
+        if self.override_frac == 0.0 {
+            return 0.0;
+        }
         let cap = seg.vel_cap.min(seg.feed_mm_per_s * self.override_frac);
         if seg.feed_move || self.rapid_frac >= 1.0 {
             cap

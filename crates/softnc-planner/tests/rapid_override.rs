@@ -119,3 +119,21 @@ fn a_rapid_override_change_acts_within_the_lookahead_and_leaves_feeds_alone() {
         assert!((a - 100.0).abs() < 1e-6, "{fp:?}: feed {a} mm/s");
     }
 }
+
+/// A feed hold (the feed override at 0, as the daemon holds) stops traverses too.
+#[test]
+fn a_feed_hold_stops_traverses() {
+    let p = profile(FeedProfile::Trapezoidal);
+    let held = samples_of(RAPIDS, &p, |n, it| {
+        if n == 100 {
+            it.set_feed_override(0.0);
+        }
+        if n == 3000 {
+            it.set_feed_override(1.0);
+        }
+    });
+    assert!(
+        (1500..2999).all(|k| held[k].pos_mm == held[k + 1].pos_mm),
+        "traverses ran through the hold"
+    );
+}
