@@ -1374,7 +1374,15 @@ impl<'a> Interp<'a> {
         }
         let o = self.offset();
         let mut start = from - o;
-        for &p in &points[..n] {
+        if n == 0 {
+            self.push_machine_state(line_no, start);
+        }
+        for (k, &p) in points[..n].iter().enumerate() {
+            if k + 1 == n {
+                // the spindle and the coolant as the program has them there, before
+                // the last traverse goes to the start point
+                self.push_machine_state(line_no, start);
+            }
             let end = p - o;
             let m = Motion {
                 line: line_no,

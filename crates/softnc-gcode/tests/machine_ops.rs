@@ -407,3 +407,45 @@ fn machine_calls_are_linuxcncs_in_its_interpreter_tests() {
     );
     eprintln!("{compared} programs, {calls} machine calls as LinuxCNC's");
 }
+
+/// Run from line: the operations before the start block are left out with its
+/// motions, and the spindle and coolant the modal state has there are switched on
+/// during the approach, before its last traverse.
+#[test]
+fn run_from_line_switches_the_spindle_and_coolant_on_before_the_last_approach() {
+    let text = "G21\nS5000 M4\nM8\nG1 X10 F600\nG1 X20\nG1 X30\nM2\n";
+    let options = ReadOptions {
+        from_line: Some(5),
+        ..Default::default()
+    };
+    let p = read_opts(text, &options).unwrap();
+    let kinds: Vec<String> = p
+        .motions
+        .iter()
+        .map(|m| match m.kind {
+            MotionKind::Machine(op) => op.canon_name().to_string(),
+            MotionKind::Traverse { .. } => "traverse".into(),
+            MotionKind::Feed { .. } => "feed".into(),
+            MotionKind::Sync => "sync".into(),
+            _ => "other".into(),
+        })
+        .collect();
+    assert_eq!(
+        kinds,
+        vec![
+            "START_SPINDLE_COUNTERCLOCKWISE",
+            "COOLANT",
+            "traverse",
+            "sync",
+            "feed",
+            "feed"
+        ]
+    );
+    assert_eq!(
+        ops(&p)[0].1,
+        MachineOp::SpindleOn {
+            dir: SpindleTurn::CounterClockwise,
+            rpm: 5000.0
+        }
+    );
+}

@@ -58,6 +58,39 @@ impl Interp<'_> {
         self.push_standing(line_no, MotionKind::Machine(op));
     }
 
+    /// Run from line: the spindle (M3/M4 at the S in force) and the coolant as the
+    /// modal state has them, at `start` (canonical frame, mm) on the approach; the
+    /// tool in the spindle is the operator's to check.
+    pub(super) fn push_machine_state(&mut self, line_no: u32, start: softnc_core::Vec3) {
+        let mut ops = [None, None];
+        if self.spindle_on {
+            ops[0] = Some(MachineOp::SpindleOn {
+                dir: self.spindle_turn(),
+                rpm: self.s_rpm,
+            });
+        }
+        if self.mist || self.flood {
+            ops[1] = Some(MachineOp::Coolant {
+                mist: self.mist,
+                flood: self.flood,
+            });
+        }
+        for op in ops.into_iter().flatten() {
+            let m = crate::canon::Motion {
+                line: line_no,
+                start,
+                kind: MotionKind::Machine(op),
+                offset_mm: self.offset(),
+                path_mode: crate::canon::PathMode::ExactStop,
+                inch: self.inch,
+                canon_end: self.unframe(start),
+                canon_center: softnc_core::Vec3::ZERO,
+                spindle_rpm: self.spindle_rpm(),
+            };
+            self.keep(m);
+        }
+    }
+
     /// A comment for the operator: its text into the message table, its operation
     /// at the current point.
     pub(super) fn push_message(&mut self, line_no: u32, kind: MessageKind, text: &str) {
