@@ -901,6 +901,7 @@ mod tests {
             learned: false,
             store: None,
             feed_override: 100.0,
+            rapid_override: 100.0,
             adaptive_force: false,
             lookahead: None,
             block_delete: crate::cmd_operator::OnOff::On,
