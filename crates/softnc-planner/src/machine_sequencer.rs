@@ -156,9 +156,10 @@ impl MachineState {
 pub struct Feedback {
     /// The machine's inputs.
     pub inputs: MachineInputs,
-    /// The motion index of the command sample the machine was applying when it read
-    /// `inputs` (the position status's `motion`; the sample's own offline).
-    pub applied_motion: u32,
+    /// The motion index of this job's command sample the machine was applying when
+    /// it read `inputs` (the position status's `motion` once it reports a sample of
+    /// this job; the sample's own offline); `None` before it applies any.
+    pub applied_motion: Option<u32>,
     /// The operator's resume (cycle start) came since the last step.
     pub resume: bool,
     /// The user M code the path waits at has finished (its executable exited 0).
@@ -470,7 +471,7 @@ impl MachineSequencer {
             }),
         };
         w.cycles += 1;
-        if fb.applied_motion < motion {
+        if fb.applied_motion.is_none_or(|m| m < motion) {
             return Action::Wait(Waiting::Applied);
         }
         w.applied_cycles += 1;

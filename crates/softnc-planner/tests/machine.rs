@@ -138,7 +138,7 @@ fn a_synchronised_output_does_not_stop_and_switches_where_the_next_move_starts()
         while let Some(s) = it.next() {
             assert_eq!(it.machine_stop(), None, "{fp:?}: M62 stopped the path");
             let fb = Feedback {
-                applied_motion: s.motion,
+                applied_motion: Some(s.motion),
                 ..Default::default()
             };
             let step = seq.step(s.motion, None, &fb);
@@ -195,7 +195,7 @@ fn the_acceptance_job_runs_through_the_sequencer() {
         assert!(n < MAX_SAMPLES);
         let mut fb = Feedback {
             inputs,
-            applied_motion: s.motion,
+            applied_motion: Some(s.motion),
             ..Default::default()
         };
         if let Some(line) = it.paused_at_line() {
@@ -275,7 +275,7 @@ fn spindle_wait(at_speed_after: Option<u32>) -> (u32, Action) {
         // the machine gets the command three cycles after the interpolator
         let lagging = cycle < 3;
         let fb = Feedback {
-            applied_motion: if lagging { stop - 1 } else { stop },
+            applied_motion: if lagging { Some(stop - 1) } else { Some(stop) },
             inputs: MachineInputs {
                 // at speed from the old command until it arrives (a stopped spindle
                 // commanded to stand is at speed)
@@ -324,7 +324,10 @@ fn m66_times_out_with_minus_one() {
     let p = profile(FeedProfile::Trapezoidal);
     let (program, _) = read_and_plan(text, "t.ngc", &p, &options()).unwrap();
     let mut seq = MachineSequencer::new(&program, config(0.001), MachineState::default());
-    let fb = Feedback::default();
+    let fb = Feedback {
+        applied_motion: Some(0),
+        ..Default::default()
+    };
     let mut cycles = 0;
     loop {
         cycles += 1;

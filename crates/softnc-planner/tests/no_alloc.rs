@@ -122,7 +122,7 @@ fn machine_stops_and_the_sequencer_allocate_nothing() {
         while let Some(s) = it.next() {
             n += 1;
             last = s.pos_mm;
-            fb.applied_motion = s.motion;
+            fb.applied_motion = Some(s.motion);
             fb.inputs.spindle_at_speed = n % 7 == 0;
             fb.inputs.digital = 1;
             fb.resume = n % 11 == 0;
