@@ -34,102 +34,65 @@ fn ops(p: &Program) -> Vec<(u32, MachineOp)> {
         .collect()
 }
 
+fn cw(rpm: f64) -> MachineOp {
+    MachineOp::SpindleOn {
+        dir: SpindleTurn::Clockwise,
+        rpm,
+    }
+}
+
+fn coolant(mist: bool, flood: bool) -> MachineOp {
+    MachineOp::Coolant { mist, flood }
+}
+
+fn dout(line: u8, on: bool, synchronised: bool) -> MachineOp {
+    MachineOp::DigitalOut {
+        line,
+        on,
+        synchronised,
+    }
+}
+
+fn aout(line: u8, value: f64, synchronised: bool) -> MachineOp {
+    MachineOp::AnalogOut {
+        line,
+        value,
+        synchronised,
+    }
+}
+
 #[test]
 fn the_acceptance_job_reads_in_program_order() {
     let p = read(
         "G21 G90\nS8000 M3\nM8\nG1 X10 F600\nT2 M6\n(MSG, insert tool 2)\nM0\nM62 P1\n\
          G1 X20\nM66 P0 L3 Q2\nS9000\nM64 P5\nM65 P5\nM67 E1 Q2.5\nM68 E2 Q-1\nM5 M9 M30\n",
     );
-    use MachineOp::*;
+    let wait = MachineOp::WaitInput {
+        input: softnc_gcode::WaitInput::Digital(0),
+        mode: WaitMode::High,
+        timeout_s: 2.0,
+    };
+    let msg = MachineOp::Message {
+        index: 0,
+        kind: MessageKind::Msg,
+    };
     assert_eq!(
         ops(&p),
         vec![
-            (
-                2,
-                SpindleOn {
-                    dir: SpindleTurn::Clockwise,
-                    rpm: 8000.0
-                }
-            ),
-            (
-                3,
-                Coolant {
-                    mist: false,
-                    flood: true
-                }
-            ),
-            (5, ToolPrepare { tool: 2 }),
-            (5, ToolChange { tool: 2 }),
-            (
-                6,
-                Message {
-                    index: 0,
-                    kind: MessageKind::Msg
-                }
-            ),
-            (
-                8,
-                DigitalOut {
-                    line: 1,
-                    on: true,
-                    synchronised: true
-                }
-            ),
-            (
-                10,
-                WaitInput {
-                    input: softnc_gcode::WaitInput::Digital(0),
-                    mode: WaitMode::High,
-                    timeout_s: 2.0
-                }
-            ),
-            (
-                11,
-                SpindleOn {
-                    dir: SpindleTurn::Clockwise,
-                    rpm: 9000.0
-                }
-            ),
-            (
-                12,
-                DigitalOut {
-                    line: 5,
-                    on: true,
-                    synchronised: false
-                }
-            ),
-            (
-                13,
-                DigitalOut {
-                    line: 5,
-                    on: false,
-                    synchronised: false
-                }
-            ),
-            (
-                14,
-                AnalogOut {
-                    line: 1,
-                    value: 2.5,
-                    synchronised: true
-                }
-            ),
-            (
-                15,
-                AnalogOut {
-                    line: 2,
-                    value: -1.0,
-                    synchronised: false
-                }
-            ),
-            (16, SpindleOff),
-            (
-                16,
-                Coolant {
-                    mist: false,
-                    flood: false
-                }
-            ),
+            (2, cw(8000.0)),
+            (3, coolant(false, true)),
+            (5, MachineOp::ToolPrepare { tool: 2 }),
+            (5, MachineOp::ToolChange { tool: 2 }),
+            (6, msg),
+            (8, dout(1, true, true)),
+            (10, wait),
+            (11, cw(9000.0)),
+            (12, dout(5, true, false)),
+            (13, dout(5, false, false)),
+            (14, aout(1, 2.5, true)),
+            (15, aout(2, -1.0, false)),
+            (16, MachineOp::SpindleOff),
+            (16, coolant(false, false)),
         ]
     );
     assert_eq!(p.messages, vec![" insert tool 2".to_string()]);
