@@ -1494,8 +1494,8 @@ fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_w
     let r = op.request(&submit(&abs(&m0))).unwrap();
     assert!(r.is_accepted(), "{}", r.message());
     let s = wait_paused(&d, &op);
-    // the line of the motion the axes stand at the end of (the M0 follows it)
-    assert_eq!(s.program_line, Some(2), "paused after line 2: {s}");
+    // the line of the M0 itself (issue 35: it was the line of the motion before)
+    assert_eq!(s.program_line, Some(3), "paused at the M0 of line 3: {s}");
     std::thread::sleep(Duration::from_millis(500));
     let s = op.status().unwrap();
     assert_eq!(s.state, MachineState::Paused, "{s}");
