@@ -38,12 +38,16 @@ pub struct PlanArgs {
     /// does not define (repeatable; the program's own folder is searched last).
     #[arg(long, value_name = "DIR")]
     subroutine_path: Vec<PathBuf>,
+    /// The folder of the user M codes (M100–M199): `M1nn` there must be an
+    /// executable file, else the program is refused where it uses it.
+    #[arg(long, value_name = "DIR")]
+    user_m_codes: Option<PathBuf>,
 }
 
 impl PlanArgs {
     /// Whether reading needs more than the plain reader (parameters, search path).
     fn needs_options(&self) -> bool {
-        self.params.is_some() || !self.subroutine_path.is_empty()
+        self.params.is_some() || !self.subroutine_path.is_empty() || self.user_m_codes.is_some()
     }
 }
 
@@ -84,6 +88,7 @@ fn read_file_with(args: &PlanArgs, machine: &MachineProfile) -> Result<Result<Pr
     let options = softnc_gcode::ReadOptions {
         subroutine_path: args.subroutine_path.clone(),
         params,
+        user_m_codes: args.user_m_codes.clone(),
         // the canonical reading is rs274's: M66's #5399 as its stand-alone
         // interpreter leaves it
         m66_results: if args.canon {
@@ -119,6 +124,7 @@ pub fn run(args: PlanArgs) -> Result<ExitCode> {
     };
     let options = softnc_planner::PlanOptions {
         ignore_soft_limits: args.canon || args.ignore_soft_limits,
+        user_m_codes: args.user_m_codes.clone(),
         ..Default::default()
     };
     if !args.canon && !args.needs_options() {
