@@ -372,6 +372,42 @@ fn jobs_run_one_after_another() {
         cycles as f64 > 1.6 * planned as f64,
         "at 50 % the job takes about twice its planned {planned} cycles, not {cycles}"
     );
+    // the rapid override (issue 35): a rapid-only job at 50 % takes about twice as
+    // long as at 100 % (the feed override leaves traverses alone)
+    let rapids = d.dir.join("rapids.ngc");
+    std::fs::write(
+        &rapids,
+        "G21 G90 G61\nG0 X0 Y0 Z0\nG0 X350 Y200\nG0 X-350 Y-200 Z-250\nG0 X300 Y0 Z50\nG0 X0 Y0 Z0\nM2\n",
+    )
+    .unwrap();
+    let run = |op: &softnc_client::Operator| {
+        let r = op.request(&submit(&abs(&rapids))).unwrap();
+        assert!(r.is_accepted(), "{}", r.message());
+        let s = d.wait_job(op, r.job_id().unwrap(), Duration::from_secs(60));
+        assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
+        (job_of(&s).cycles, s.rapid_override)
+    };
+    // (the first run starts where the last job left the machine: the second
+    // starts at the origin, as the third)
+    run(&op);
+    let (full, at) = run(&op);
+    assert_eq!(at, 1.0);
+    let o = op
+        .request(&Request::RapidOverride { fraction: 0.5 })
+        .unwrap();
+    assert!(o.is_accepted(), "{}", o.message());
+    let (half, at) = run(&op);
+    assert_eq!(at, 0.5);
+    let ratio = half as f64 / full as f64;
+    eprintln!("rapids: {full} cycles at 100 %, {half} at 50 % ({ratio:.3})");
+    assert!(
+        (1.8..=2.05).contains(&ratio),
+        "rapids at 50 %: {half} cycles against {full} at 100 %"
+    );
+    let o = op
+        .request(&Request::RapidOverride { fraction: 1.5 })
+        .unwrap();
+    assert!(!o.is_accepted(), "150 % accepted: {}", o.message());
 }
 
 #[test]
