@@ -59,7 +59,7 @@ pub struct SequencerConfig {
 
 /// Everything the sequencer keeps in force from one motion index on.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MachineState {
+pub struct SequencerState {
     /// What the command samples carry.
     pub outputs: MachineOutputs,
     /// The tool in the spindle (after the last M6 was done).
@@ -78,11 +78,11 @@ pub struct MachineState {
     pub feed_hold_enabled: bool,
 }
 
-impl Default for MachineState {
+impl Default for SequencerState {
     /// Outputs off, no tool, no message, override switches on (LinuxCNC starts with
     /// M48 in force).
     fn default() -> Self {
-        MachineState {
+        SequencerState {
             outputs: MachineOutputs::default(),
             tool_in_spindle: 0,
             tool_prepared: 0,
@@ -95,7 +95,7 @@ impl Default for MachineState {
     }
 }
 
-impl MachineState {
+impl SequencerState {
     /// The state after operation `op`.
     fn apply(&mut self, op: &MachineOp) {
         let o = &mut self.outputs;
@@ -253,7 +253,7 @@ pub enum Action {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Step {
     /// The state in force for the sample (its `outputs` go on the command sample).
-    pub state: MachineState,
+    pub state: SequencerState,
     /// What to do with the machine stop.
     pub action: Action,
 }
@@ -283,8 +283,8 @@ struct WaitState {
 #[derive(Debug, Clone)]
 pub struct SequencerBuilder {
     cfg: SequencerConfig,
-    state: MachineState,
-    changes: Vec<(u32, MachineState)>,
+    state: SequencerState,
+    changes: Vec<(u32, SequencerState)>,
     stops: Vec<StopEntry>,
     /// Synchronised outputs waiting for the next move.
     pending_sync: Vec<MachineOp>,
@@ -294,7 +294,7 @@ pub struct SequencerBuilder {
 
 impl SequencerBuilder {
     /// Tables from `initial` (the machine's state when the job starts).
-    pub fn new(cfg: SequencerConfig, initial: MachineState) -> Self {
+    pub fn new(cfg: SequencerConfig, initial: SequencerState) -> Self {
         SequencerBuilder {
             cfg,
             state: initial,
@@ -381,7 +381,7 @@ impl SequencerBuilder {
 pub struct MachineSequencer {
     cfg: SequencerConfig,
     /// (first motion, state in force from it on), by motion.
-    changes: Vec<(u32, MachineState)>,
+    changes: Vec<(u32, SequencerState)>,
     /// The machine stops, by motion.
     stops: Vec<StopEntry>,
     messages: Vec<String>,
@@ -393,7 +393,7 @@ pub struct MachineSequencer {
 
 impl MachineSequencer {
     /// The sequencer of a whole program read at once.
-    pub fn new(program: &Program, cfg: SequencerConfig, initial: MachineState) -> Self {
+    pub fn new(program: &Program, cfg: SequencerConfig, initial: SequencerState) -> Self {
         let mut b = SequencerBuilder::new(cfg, initial);
         for (i, m) in program.motions.iter().enumerate() {
             b.push(i as u32, m);
@@ -403,7 +403,7 @@ impl MachineSequencer {
 
     /// The state in force for a sample of motion `motion` (O(1) as the motions go
     /// forward; a binary search if one goes back).
-    pub fn state_at(&mut self, motion: u32) -> MachineState {
+    pub fn state_at(&mut self, motion: u32) -> SequencerState {
         let c = &self.changes;
         let mut k = self.change_cursor.min(c.len() - 1);
         if c[k].0 > motion {
@@ -430,7 +430,7 @@ impl MachineSequencer {
         s.get(k).filter(|e| e.motion == motion).copied()
     }
 
-    /// The text of message `index` (`MachineState::message`).
+    /// The text of message `index` (`SequencerState::message`).
     pub fn message_text(&self, index: u32) -> Option<&str> {
         self.messages.get(index as usize).map(String::as_str)
     }

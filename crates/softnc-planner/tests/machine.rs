@@ -10,7 +10,7 @@ use softnc_core::MotionProfile;
 use softnc_core::{FeedProfile, Vec3};
 use softnc_gcode::Program;
 use softnc_planner::machine_sequencer::{
-    Action, Feedback, MachineSequencer, MachineState, SequencerConfig, SequencerError, Waiting,
+    Action, Feedback, MachineSequencer, SequencerConfig, SequencerError, SequencerState, Waiting,
 };
 use softnc_planner::{plan, Plan, PlanOptions, Sample};
 
@@ -128,7 +128,7 @@ fn a_synchronised_output_does_not_stop_and_switches_where_the_next_move_starts()
         let mut seq = MachineSequencer::new(
             &program,
             config(p.interpolation_cycle_s),
-            MachineState::default(),
+            SequencerState::default(),
         );
         let mut it = plan.interpolator();
         let second_move = program.motions.iter().position(|m| m.line == 4).unwrap() as u32;
@@ -180,7 +180,7 @@ fn the_acceptance_job_runs_through_the_sequencer() {
     let p = profile(FeedProfile::Trapezoidal);
     let (program, plan) = read_and_plan(text, "t.ngc", &p, &options()).unwrap();
     let cycle_s = p.interpolation_cycle_s;
-    let mut seq = MachineSequencer::new(&program, config(cycle_s), MachineState::default());
+    let mut seq = MachineSequencer::new(&program, config(cycle_s), SequencerState::default());
     let mut it = plan.interpolator();
     let mut inputs = MachineInputs {
         spindle_at_speed: true,
@@ -264,7 +264,7 @@ fn spindle_wait(at_speed_after: Option<u32>) -> (u32, Action) {
     let text = "G21\nG1 X1 F600\nS8000 M3\nG1 X2\nM2\n";
     let p = profile(FeedProfile::Trapezoidal);
     let (program, _) = read_and_plan(text, "t.ngc", &p, &options()).unwrap();
-    let mut seq = MachineSequencer::new(&program, config(0.001), MachineState::default());
+    let mut seq = MachineSequencer::new(&program, config(0.001), SequencerState::default());
     let stop = program
         .motions
         .iter()
@@ -323,7 +323,7 @@ fn m66_times_out_with_minus_one() {
     let text = "G21\nM66 P3 L3 Q0.5\nG1 X1 F600\nM2\n";
     let p = profile(FeedProfile::Trapezoidal);
     let (program, _) = read_and_plan(text, "t.ngc", &p, &options()).unwrap();
-    let mut seq = MachineSequencer::new(&program, config(0.001), MachineState::default());
+    let mut seq = MachineSequencer::new(&program, config(0.001), SequencerState::default());
     let fb = Feedback {
         applied_motion: Some(0),
         ..Default::default()

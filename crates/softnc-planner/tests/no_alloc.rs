@@ -95,7 +95,7 @@ fn pauses_and_single_block_allocate_nothing() {
 #[test]
 fn machine_stops_and_the_sequencer_allocate_nothing() {
     use softnc_planner::machine_sequencer::{
-        Action, Feedback, MachineSequencer, MachineState, SequencerConfig,
+        Action, Feedback, MachineSequencer, SequencerConfig, SequencerState,
     };
     let text = "G21 G64\nS8000 M3\nM8\nG1 X20 F3000\nT2 M6\n(MSG, hello)\nM62 P1\n\
                 G1 X20 Y20\nM66 P0 L3 Q1\nM67 E1 Q2.5\nG1 X0 Y20\nM5 M9\nM2\n";
@@ -113,7 +113,7 @@ fn machine_stops_and_the_sequencer_allocate_nothing() {
             spindle_at_speed_timeout_s: 5.0,
             user_m_timeout_s: 5.0,
         };
-        let mut seq = MachineSequencer::new(&program, cfg, MachineState::default());
+        let mut seq = MachineSequencer::new(&program, cfg, SequencerState::default());
         let mut it = plan.interpolator();
         let mut fb = Feedback::default();
         let before = allocs();
