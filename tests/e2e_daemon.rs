@@ -372,6 +372,42 @@ fn jobs_run_one_after_another() {
         cycles as f64 > 1.6 * planned as f64,
         "at 50 % the job takes about twice its planned {planned} cycles, not {cycles}"
     );
+    // the rapid override (issue 35): a rapid-only job at 50 % takes about twice as
+    // long as at 100 % (the feed override leaves traverses alone)
+    let rapids = d.dir.join("rapids.ngc");
+    std::fs::write(
+        &rapids,
+        "G21 G90 G61\nG0 X0 Y0 Z0\nG0 X350 Y200\nG0 X-350 Y-200 Z-250\nG0 X300 Y0 Z50\nG0 X0 Y0 Z0\nM2\n",
+    )
+    .unwrap();
+    let run = |op: &softnc_client::Operator| {
+        let r = op.request(&submit(&abs(&rapids))).unwrap();
+        assert!(r.is_accepted(), "{}", r.message());
+        let s = d.wait_job(op, r.job_id().unwrap(), Duration::from_secs(60));
+        assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
+        (job_of(&s).cycles, s.rapid_override)
+    };
+    // (the first run starts where the last job left the machine: the second
+    // starts at the origin, as the third)
+    run(&op);
+    let (full, at) = run(&op);
+    assert_eq!(at, 1.0);
+    let o = op
+        .request(&Request::RapidOverride { fraction: 0.5 })
+        .unwrap();
+    assert!(o.is_accepted(), "{}", o.message());
+    let (half, at) = run(&op);
+    assert_eq!(at, 0.5);
+    let ratio = half as f64 / full as f64;
+    eprintln!("rapids: {full} cycles at 100 %, {half} at 50 % ({ratio:.3})");
+    assert!(
+        (1.8..=2.05).contains(&ratio),
+        "rapids at 50 %: {half} cycles against {full} at 100 %"
+    );
+    let o = op
+        .request(&Request::RapidOverride { fraction: 1.5 })
+        .unwrap();
+    assert!(!o.is_accepted(), "150 % accepted: {}", o.message());
 }
 
 #[test]
@@ -1508,8 +1544,8 @@ fn m0_pauses_single_block_steps_abort_stops_and_run_from_line_continues_as_the_w
     let r = op.request(&submit(&abs(&m0))).unwrap();
     assert!(r.is_accepted(), "{}", r.message());
     let s = wait_paused(&d, &op);
-    // the line of the motion the axes stand at the end of (the M0 follows it)
-    assert_eq!(s.program_line, Some(2), "paused after line 2: {s}");
+    // the line of the M0 itself (issue 35: it was the line of the motion before)
+    assert_eq!(s.program_line, Some(3), "paused at the M0 of line 3: {s}");
     std::thread::sleep(Duration::from_millis(500));
     let s = op.status().unwrap();
     assert_eq!(s.state, MachineState::Paused, "{s}");

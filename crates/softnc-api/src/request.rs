@@ -33,6 +33,12 @@ pub enum Request {
         /// Fraction of the programmed feed (1.0: 100 %).
         fraction: f64,
     },
+    /// Set the rapid override: traverses run at this fraction of their speed
+    /// (LinuxCNC's rapid override, beside the feed override).
+    RapidOverride {
+        /// Fraction of the traverse speed (0.0 ..= 1.0).
+        fraction: f64,
+    },
     /// Set the spindle override.
     SpindleOverride {
         /// Fraction of the programmed speed.
@@ -141,6 +147,7 @@ impl Request {
             Request::Abort => "abort",
             Request::FeedOverride { .. } => "feed_override",
             Request::SpindleOverride { .. } => "spindle_override",
+            Request::RapidOverride { .. } => "rapid_override",
             Request::EStop => "e_stop",
             Request::Reset => "reset",
             Request::MachineOn => "machine_on",

@@ -335,6 +335,9 @@ pub struct Status {
     /// The feed override in force (fraction).
     #[serde(deserialize_with = "f64_or_nan")]
     pub feed_override: f64,
+    /// The rapid override in force (fraction; 1.0 in statuses written before it).
+    #[serde(default = "one")]
+    pub rapid_override: f64,
     /// The spindle override in force (fraction; `None` before the position process
     /// reports).
     #[serde(default)]
@@ -381,4 +384,9 @@ impl std::fmt::Display for Status {
             Err(_) => write!(f, "{self:?}"),
         }
     }
+}
+
+/// 1.0 (a serde default).
+fn one() -> f64 {
+    1.0
 }

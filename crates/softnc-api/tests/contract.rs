@@ -39,6 +39,7 @@ fn status() -> Status {
         },
         program_line: Some(12),
         feed_override: 0.8,
+        rapid_override: 0.5,
         spindle_override: Some(1.0),
         spindle_rpm: Some(12000.0),
         adaptive_force: Some(AdaptiveForce {
@@ -118,6 +119,7 @@ fn every_request() -> Vec<Request> {
         Request::Abort,
         Request::FeedOverride { fraction: 1.25 },
         Request::SpindleOverride { fraction: 0.5 },
+        Request::RapidOverride { fraction: 0.25 },
         Request::EStop,
         Request::Reset,
         Request::MachineOn,

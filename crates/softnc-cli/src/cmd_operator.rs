@@ -42,6 +42,14 @@ pub enum OperatorCmd {
         /// Percent.
         pct: f64,
     },
+    /// Set the rapid override (percent of the traverse speed, 0..=100): traverses
+    /// run at it, feed moves keep the feed override; a change acts within the
+    /// lookahead, as the feed override does.
+    #[command(allow_negative_numbers = true)]
+    RapidOverride {
+        /// Percent.
+        pct: f64,
+    },
     /// Emergency stop.
     Estop,
     /// Reset after a fault or E-stop (refused while a job moves); clears the
@@ -255,6 +263,9 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
             fraction: pct / 100.0,
         }),
         OperatorCmd::SpindleOverride { pct } => simple(Request::SpindleOverride {
+            fraction: pct / 100.0,
+        }),
+        OperatorCmd::RapidOverride { pct } => simple(Request::RapidOverride {
             fraction: pct / 100.0,
         }),
         OperatorCmd::Estop => simple(Request::EStop),
@@ -654,9 +665,10 @@ pub fn status_text(s: &Status) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "state {}   feed override {:.0} %   spindle {:.0} rpm (override {:.0} %)",
+        "state {}   feed override {:.0} %   rapid override {:.0} %   spindle {:.0} rpm (override {:.0} %)",
         s.state,
         s.feed_override * 100.0,
+        s.rapid_override * 100.0,
         or_nan(s.spindle_rpm),
         or_nan(s.spindle_override) * 100.0
     );

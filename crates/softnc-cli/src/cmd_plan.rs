@@ -38,12 +38,16 @@ pub struct PlanArgs {
     /// does not define (repeatable; the program's own folder is searched last).
     #[arg(long, value_name = "DIR")]
     subroutine_path: Vec<PathBuf>,
+    /// The folder of the user M codes (M100–M199): `M1nn` there must be an
+    /// executable file, else the program is refused where it uses it.
+    #[arg(long, value_name = "DIR")]
+    user_m_codes: Option<PathBuf>,
 }
 
 impl PlanArgs {
     /// Whether reading needs more than the plain reader (parameters, search path).
     fn needs_options(&self) -> bool {
-        self.params.is_some() || !self.subroutine_path.is_empty()
+        self.params.is_some() || !self.subroutine_path.is_empty() || self.user_m_codes.is_some()
     }
 }
 
@@ -84,6 +88,14 @@ fn read_file_with(args: &PlanArgs, machine: &MachineProfile) -> Result<Result<Pr
     let options = softnc_gcode::ReadOptions {
         subroutine_path: args.subroutine_path.clone(),
         params,
+        user_m_codes: args.user_m_codes.clone(),
+        // the canonical reading is rs274's: M66's #5399 as its stand-alone
+        // interpreter leaves it
+        m66_results: if args.canon {
+            softnc_gcode::M66Results::StandIn
+        } else {
+            softnc_gcode::M66Results::Refuse
+        },
         ..Default::default()
     };
     let bytes = crate::program_file::read(&args.file)
@@ -112,6 +124,7 @@ pub fn run(args: PlanArgs) -> Result<ExitCode> {
     };
     let options = softnc_planner::PlanOptions {
         ignore_soft_limits: args.canon || args.ignore_soft_limits,
+        user_m_codes: args.user_m_codes.clone(),
         ..Default::default()
     };
     if !args.canon && !args.needs_options() {
@@ -219,6 +232,40 @@ fn print_summary(
     Ok(ExitCode::SUCCESS)
 }
 
+/// A machine operation as a JSON line: its canonical call and its arguments.
+fn machine_json(line: u32, op: &softnc_gcode::MachineOp, program: &Program) -> serde_json::Value {
+    use softnc_gcode::MachineOp as Op;
+    let mut v = serde_json::json!({"line": line, "kind": "machine", "canon": op.canon_name()});
+    let args = match *op {
+        Op::SpindleOn { rpm, .. } => serde_json::json!({"rpm": rpm}),
+        Op::SpindleOrient {
+            angle_deg,
+            direction,
+            timeout_s,
+        } => {
+            serde_json::json!({"angle_deg": angle_deg, "direction": direction, "timeout_s": timeout_s})
+        }
+        Op::Coolant { mist, flood } => serde_json::json!({"mist": mist, "flood": flood}),
+        Op::ToolPrepare { tool } | Op::ToolChange { tool } => serde_json::json!({"tool": tool}),
+        Op::Message { index, .. } => serde_json::json!({
+            "text": program.messages.get(index as usize)}),
+        Op::DigitalOut { line, .. } => serde_json::json!({"output": line}),
+        Op::AnalogOut { line, value, .. } => serde_json::json!({"output": line, "value": value}),
+        Op::WaitInput {
+            input,
+            mode,
+            timeout_s,
+        } => serde_json::json!({
+            "input": format!("{input:?}"), "mode": format!("{mode:?}"), "timeout_s": timeout_s}),
+        Op::UserM { code, p, q } => serde_json::json!({"code": code, "p": p, "q": q}),
+        Op::SpindleOff | Op::Overrides { .. } => serde_json::json!({}),
+    };
+    if let (Some(o), serde_json::Value::Object(a)) = (v.as_object_mut(), args) {
+        o.extend(a);
+    }
+    v
+}
+
 fn write_canon(out: &mut impl Write, program: &Program) -> Result<()> {
     for m in &program.motions {
         // positions as LinuxCNC's canonical output prints them (4 decimals, program units)
@@ -245,6 +292,8 @@ fn write_canon(out: &mut impl Write, program: &Program) -> Result<()> {
             MotionKind::Pause { optional } => serde_json::json!({
                 "line": m.line, "kind": if optional { "optional_stop" } else { "program_stop" }}),
             MotionKind::Sync => serde_json::json!({"line": m.line, "kind": "sync"}),
+            // the machine around the axes, by LinuxCNC's canonical call
+            MotionKind::Machine(op) => machine_json(m.line, &op, program),
         };
         writeln!(out, "{obj}")?;
     }

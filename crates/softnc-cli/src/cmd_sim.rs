@@ -53,6 +53,10 @@ pub struct SimArgs {
     /// loop's override.
     #[arg(long, value_name = "PCT", default_value_t = 100.0)]
     feed_override: f64,
+    /// Rapid override in percent (0..=100) in force from the start (as the
+    /// daemon's `softnc rapid-override` before a job): traverses run at it.
+    #[arg(long, value_name = "PCT", default_value_t = 100.0)]
+    rapid_override: f64,
     /// Close paper 003's force loop on the job (the profile's `force.adaptive_feed`,
     /// the simulated stock of `force.sim_workpiece`), exactly as the daemon closes it
     /// for `softnc job submit --adaptive-force`.
@@ -204,6 +208,16 @@ pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
     } else {
         None
     };
+    let rapid_override = args.rapid_override / 100.0;
+    if !(0.0..=1.0).contains(&rapid_override)
+        || (rapid_override != 1.0 && (args.learned || args.adaptive_force))
+    {
+        eprintln!(
+            "softnc: --rapid-override {} %: must be 0..=100 %, and 100 % with --learned or --adaptive-force",
+            args.rapid_override
+        );
+        return Ok(ExitCode::from(crate::EXIT_REFUSED));
+    }
     let feed_override = args.feed_override / 100.0;
     let max_override = machine.planner.max_feed_override;
     if !(0.0..=max_override).contains(&feed_override) || (learned.is_some() && feed_override != 1.0)
@@ -329,6 +343,9 @@ pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
                     if feed_override != 1.0 {
                         // from rest: the first sample already runs at it (as the daemon)
                         s.set_feed_override(feed_override);
+                    }
+                    if rapid_override != 1.0 {
+                        s.0.set_rapid_override(rapid_override);
                     }
                     Box::new(s)
                 }
@@ -884,6 +901,7 @@ mod tests {
             learned: false,
             store: None,
             feed_override: 100.0,
+            rapid_override: 100.0,
             adaptive_force: false,
             lookahead: None,
             block_delete: crate::cmd_operator::OnOff::On,

@@ -43,6 +43,8 @@ pub const FEED_OVERRIDE_MAX: f64 = 2.55;
 /// `]` / `[` change the spindle override by this much (fraction); the MMI refuses what
 /// is outside the profile's spindle range.
 pub const SPINDLE_OVERRIDE_STEP: f64 = 0.1;
+/// `}` / `{` change the rapid override by this much (fraction, within 0..=1).
+pub const RAPID_OVERRIDE_STEP: f64 = 0.1;
 /// The axes the UI shows and jogs (the status's arrays are X, Y, Z).
 pub const AXES: [Axis; 3] = [Axis::X, Axis::Y, Axis::Z];
 
@@ -55,7 +57,10 @@ pub const KEY_MAP: [(&str, &str); 11] = [
     ("t then x/y/z: touch off to 0", "v offsets view"),
     ("s single block   n next block", "1 optional stop (M1)"),
     ("/ block delete", "h hold   r resume   a abort"),
-    ("+/- feed override ±10 %", "]/[ spindle override ±10 %"),
+    (
+        "+/- feed, }/{ rapid override ±10 %",
+        "]/[ spindle override ±10 %",
+    ),
     ("F1 or e E-STOP", "x reset"),
     ("Esc closes, cancels", "? this help"),
     ("q or Ctrl-C quit", "(a jog stops at any other key)"),
@@ -289,6 +294,7 @@ pub fn on_key(ui: &mut Ui, key: KeyEvent, s: Option<&Status>, now: Instant) -> V
     let send = Action::Send;
     let feed = s.map_or(1.0, |s| s.feed_override);
     let spindle = s.and_then(|s| s.spindle_override).unwrap_or(1.0);
+    let rapid = s.map_or(1.0, |s| s.rapid_override);
     let sw = switches(s);
     match key.code {
         KeyCode::Char('q') => out.push(Action::Quit),
@@ -316,6 +322,12 @@ pub fn on_key(ui: &mut Ui, key: KeyEvent, s: Option<&Status>, now: Instant) -> V
         })),
         KeyCode::Char('[') => out.push(send(Request::SpindleOverride {
             fraction: override_step(spindle, SPINDLE_OVERRIDE_STEP, -1.0, None),
+        })),
+        KeyCode::Char('}') => out.push(send(Request::RapidOverride {
+            fraction: override_step(rapid, RAPID_OVERRIDE_STEP, 1.0, Some(1.0)),
+        })),
+        KeyCode::Char('{') => out.push(send(Request::RapidOverride {
+            fraction: override_step(rapid, RAPID_OVERRIDE_STEP, -1.0, Some(1.0)),
         })),
         KeyCode::Char('o') => out.push(send(Request::MachineOn)),
         KeyCode::Char('O') => out.push(send(Request::MachineOff)),
@@ -725,6 +737,7 @@ mod tests {
         let fraction = |r: &[Request]| match r {
             [Request::FeedOverride { fraction }] => ("feed", *fraction),
             [Request::SpindleOverride { fraction }] => ("spindle", *fraction),
+            [Request::RapidOverride { fraction }] => ("rapid", *fraction),
             other => panic!("{other:?}"),
         };
         let (what, f) = fraction(&one(&mut ui, '+'));
@@ -739,6 +752,11 @@ mod tests {
         let (what, f) = fraction(&one(&mut ui, '['));
         assert_eq!(what, "spindle");
         assert!((f - 0.9).abs() < 1e-12);
+        // the rapid override stays within 0..=100 %
+        assert_eq!(fraction(&one(&mut ui, '}')), ("rapid", 1.0));
+        let (what, f) = fraction(&one(&mut ui, '{'));
+        assert_eq!(what, "rapid");
+        assert!((f - 0.9).abs() < 1e-12, "{f}");
         assert!(on_key(&mut ui, ch('q'), Some(&s), t).contains(&Action::Quit));
     }
 

@@ -109,6 +109,7 @@ fn negative_values_are_values_and_an_out_of_range_override_is_the_controllers_to
     for args in [
         &["override", "-5"][..],
         &["spindle-override", "-5"],
+        &["rapid-override", "-5"],
         &["tools", "set", "1", "--length", "-42.5"],
         &["touch-off", "x", "-3.5"],
     ] {

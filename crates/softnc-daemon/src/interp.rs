@@ -70,6 +70,9 @@ pub struct InterpTask {
     machine_mm: [f64; 3],
     /// The operator's program-flow switches, as the MMI last set them.
     switches: Switches,
+    /// The rapid override as the MMI last set it (fraction, 0..=1): a job starts
+    /// with it, and a change acts within the lookahead.
+    rapid_override: f64,
 
     /// The machine's parameter file and tool table: a job is read with them.
     store: crate::machine_store::MachineStore,
@@ -224,6 +227,7 @@ impl InterpTask {
             job_id: 0,
             machine_mm: [0.0; 3],
             switches: Switches::default(),
+            rapid_override: 1.0,
 
             store,
             shutdown: false,
@@ -286,6 +290,9 @@ impl InterpTask {
                     Some(ControlKind::EStop) => self.state = MachineState::EStopped,
                     Some(ControlKind::Reset) => self.state = MachineState::Idle,
                     Some(k) if self.switches.apply(k, c.value) => {}
+                    Some(ControlKind::RapidOverride) if (0.0..=1.0).contains(&c.value) => {
+                        self.rapid_override = c.value;
+                    }
                     Some(ControlKind::Shutdown) => self.shutdown = true,
                     _ => {}
                 }
@@ -580,6 +587,9 @@ impl InterpTask {
             // from rest: the first sample already runs at the operator's override
             it.set_feed_override(start_override);
         }
+        if self.rapid_override != 1.0 {
+            it.set_rapid_override(self.rapid_override);
+        }
         Ok(Streaming {
             job_id: job.job_id,
             it,
@@ -670,6 +680,7 @@ impl InterpTask {
             // re-timed from the next sample on: the learned correction fades out
             let retimed = match kind {
                 Some(ControlKind::FeedOverride) => c.value != s.learned_override,
+                Some(ControlKind::RapidOverride) => c.value != self.rapid_override,
                 Some(ControlKind::Hold | ControlKind::Abort | ControlKind::Shutdown) => true,
                 _ => false,
             };
@@ -678,6 +689,7 @@ impl InterpTask {
                 l.fade_out(next_seq as usize, ahead as usize);
                 let why = match kind {
                     Some(ControlKind::FeedOverride) => "feed override changed",
+                    Some(ControlKind::RapidOverride) => "rapid override changed",
                     Some(ControlKind::Hold) => "feed hold",
                     _ => "abort",
                 };
@@ -716,6 +728,11 @@ impl InterpTask {
                 Some(ControlKind::Step) if !s.aborting && !s.held => {
                     s.it.set_single_block(true);
                     s.it.resume();
+                }
+                // traverses at the rapid override, within the lookahead
+                Some(ControlKind::RapidOverride) if (0.0..=1.0).contains(&c.value) => {
+                    self.rapid_override = c.value;
+                    s.it.set_rapid_override(c.value);
                 }
                 Some(
                     k @ (ControlKind::SingleBlock

@@ -62,7 +62,8 @@ fn main() {
                             }
                             MotionKind::Dwell { .. }
                             | MotionKind::Pause { .. }
-                            | MotionKind::Sync => return None,
+                            | MotionKind::Sync
+                            | MotionKind::Machine(_) => return None,
                         })
                     })
                     .collect();

@@ -86,6 +86,246 @@ pub enum MotionKind {
     /// synchronises with motion before it goes on (the end of run-from-line's safe
     /// approach, `ReadOptions::from_line`).
     Sync,
+    /// An operation of the machine around the axes (spindle, coolant, tool, I/O,
+    /// messages, user M codes, override switches), at the current point, in program
+    /// order. Whether the path comes to rest for it is [`MachineOp::stops_motion`].
+    Machine(MachineOp),
+}
+
+/// The spindle's direction in a [`MachineOp::SpindleOn`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SpindleTurn {
+    /// M3.
+    Clockwise,
+    /// M4.
+    CounterClockwise,
+}
+
+/// What kind of comment a [`MachineOp::Message`] comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MessageKind {
+    /// `(MSG,…)`: LinuxCNC's `MESSAGE`, shown to the operator.
+    Msg,
+    /// `(DEBUG,…)` with parameters substituted (while #5599 > 0): LinuxCNC's
+    /// `MESSAGE` too.
+    Debug,
+    /// `(PRINT,…)` with parameters substituted: LinuxCNC's interpreter prints it
+    /// on its standard error when it reads the line (no canonical call, no wait).
+    Print,
+}
+
+/// The input M66 waits for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WaitInput {
+    /// `P n`: digital input n.
+    Digital(u8),
+    /// `E n`: analog input n.
+    Analog(u8),
+}
+
+/// M66's `L` word (LinuxCNC's `WAIT_MODE_*`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WaitMode {
+    /// L0: read the input at once.
+    Immediate,
+    /// L1: wait for a rising edge.
+    Rise,
+    /// L2: wait for a falling edge.
+    Fall,
+    /// L3: wait for the input to be high.
+    High,
+    /// L4: wait for the input to be low.
+    Low,
+}
+
+/// The override switches of M48–M53.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OverrideSwitch {
+    /// M48 (both on), M49 (both off): feed and spindle override.
+    FeedAndSpindle,
+    /// M50 P: feed override.
+    Feed,
+    /// M51 P: spindle override.
+    Spindle,
+    /// M52 P: adaptive feed.
+    AdaptiveFeed,
+    /// M53 P: feed hold.
+    FeedHold,
+}
+
+/// One operation of the machine around the axes, as LinuxCNC's interpreter makes a
+/// canonical call of it (`convert_m`, `convert_comment`, `convert_speed`,
+/// `convert_tool_select`). `Copy`: a message's text is in [`Program::messages`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MachineOp {
+    /// M3/M4, or an S word while the spindle turns: turn at `rpm`
+    /// (`START_SPINDLE_CLOCKWISE` …, `SET_SPINDLE_SPEED`).
+    SpindleOn {
+        /// Direction.
+        dir: SpindleTurn,
+        /// Programmed speed (rpm).
+        rpm: f64,
+    },
+    /// M5 (`STOP_SPINDLE_TURNING`).
+    SpindleOff,
+    /// M19 (`ORIENT_SPINDLE`): stop and orient to `angle_deg` (R), turning as
+    /// `P` says (0: the shorter way, 1 clockwise, 2 counter-clockwise), within
+    /// `timeout_s` (Q; 0: LinuxCNC's default of no timeout).
+    SpindleOrient {
+        /// Angle (degrees).
+        angle_deg: f64,
+        /// P: 0, 1 or 2.
+        direction: u8,
+        /// Q (s).
+        timeout_s: f64,
+    },
+    /// M7/M8/M9: the coolant as it is after the code.
+    Coolant {
+        /// Mist (M7) on.
+        mist: bool,
+        /// Flood (M8) on.
+        flood: bool,
+    },
+    /// T: prepare tool `tool` (`SELECT_TOOL`); LinuxCNC's task does not wait for
+    /// motion for it.
+    ToolPrepare {
+        /// Tool number.
+        tool: u32,
+    },
+    /// M6: change to the prepared tool (`CHANGE_TOOL`).
+    ToolChange {
+        /// The tool that goes into the spindle.
+        tool: u32,
+    },
+    /// A comment for the operator; its text is `Program::messages[index]`.
+    Message {
+        /// Index into [`Program::messages`].
+        index: u32,
+        /// Which comment.
+        kind: MessageKind,
+    },
+    /// M62/M63 (`synchronised`: at the start of the next motion) and M64/M65
+    /// (immediate): digital output `line` on or off.
+    DigitalOut {
+        /// P: the output.
+        line: u8,
+        /// M62/M64: on; M63/M65: off.
+        on: bool,
+        /// M62/M63.
+        synchronised: bool,
+    },
+    /// M67 (synchronised) and M68 (immediate): analog output `line` to `value`.
+    AnalogOut {
+        /// E: the output.
+        line: u8,
+        /// Q: the value.
+        value: f64,
+        /// M67.
+        synchronised: bool,
+    },
+    /// M66: wait for an input; its value (or −1 on a timeout) goes to #5399.
+    WaitInput {
+        /// P or E.
+        input: WaitInput,
+        /// L.
+        mode: WaitMode,
+        /// Q (s; 0 with L0).
+        timeout_s: f64,
+    },
+    /// M100–M199: run the executable `M1nn` of the user M-code folder with P and Q.
+    UserM {
+        /// 100..=199.
+        code: u8,
+        /// P (0 when not given, as LinuxCNC passes it).
+        p: f64,
+        /// Q (0 when not given).
+        q: f64,
+    },
+    /// M48–M53: an override switch on or off.
+    Overrides {
+        /// Which switch.
+        switch: OverrideSwitch,
+        /// On or off.
+        on: bool,
+    },
+}
+
+impl MachineOp {
+    /// The name of LinuxCNC's canonical call for it (`canon.hh`), as `rs274`
+    /// prints it (`PRINT` for `(PRINT,…)`, which has none: the interpreter prints
+    /// it itself; `COOLANT` for M7/M8/M9, which make one call per coolant).
+    pub fn canon_name(&self) -> &'static str {
+        match *self {
+            MachineOp::SpindleOn {
+                dir: SpindleTurn::Clockwise,
+                ..
+            } => "START_SPINDLE_CLOCKWISE",
+            MachineOp::SpindleOn { .. } => "START_SPINDLE_COUNTERCLOCKWISE",
+            MachineOp::SpindleOff => "STOP_SPINDLE_TURNING",
+            MachineOp::SpindleOrient { .. } => "ORIENT_SPINDLE",
+            MachineOp::Coolant { .. } => "COOLANT",
+            MachineOp::ToolPrepare { .. } => "SELECT_TOOL",
+            MachineOp::ToolChange { .. } => "CHANGE_TOOL",
+            MachineOp::Message {
+                kind: MessageKind::Print,
+                ..
+            } => "PRINT",
+            MachineOp::Message { .. } => "MESSAGE",
+            MachineOp::DigitalOut {
+                on, synchronised, ..
+            } => match (synchronised, on) {
+                (true, true) => "SET_MOTION_OUTPUT_BIT",
+                (true, false) => "CLEAR_MOTION_OUTPUT_BIT",
+                (false, true) => "SET_AUX_OUTPUT_BIT",
+                (false, false) => "CLEAR_AUX_OUTPUT_BIT",
+            },
+            MachineOp::AnalogOut { synchronised, .. } => {
+                if synchronised {
+                    "SET_MOTION_OUTPUT_VALUE"
+                } else {
+                    "SET_AUX_OUTPUT_VALUE"
+                }
+            }
+            MachineOp::WaitInput { .. } => "WAIT",
+            MachineOp::UserM { .. } => "M_USER_COMMAND",
+            MachineOp::Overrides { switch, on } => match (switch, on) {
+                (OverrideSwitch::FeedAndSpindle, true) => "ENABLE_FEED_OVERRIDE",
+                (OverrideSwitch::FeedAndSpindle, false) => "DISABLE_FEED_OVERRIDE",
+                (OverrideSwitch::Feed, true) => "ENABLE_FEED_OVERRIDE",
+                (OverrideSwitch::Feed, false) => "DISABLE_FEED_OVERRIDE",
+                (OverrideSwitch::Spindle, true) => "ENABLE_SPEED_OVERRIDE",
+                (OverrideSwitch::Spindle, false) => "DISABLE_SPEED_OVERRIDE",
+                (OverrideSwitch::AdaptiveFeed, true) => "ENABLE_ADAPTIVE_FEED",
+                (OverrideSwitch::AdaptiveFeed, false) => "DISABLE_ADAPTIVE_FEED",
+                (OverrideSwitch::FeedHold, true) => "ENABLE_FEED_HOLD",
+                (OverrideSwitch::FeedHold, false) => "DISABLE_FEED_HOLD",
+            },
+        }
+    }
+
+    /// Whether the path comes to rest before this operation and waits until it is
+    /// done, as LinuxCNC's task waits for motion to finish before it issues the
+    /// command (`emcTaskCheckPreconditions` in `emctaskmain.cc`: spindle, coolant,
+    /// tool load, operator messages, system commands (user M codes), M66's
+    /// `EMC_AUX_INPUT_WAIT`, M19, immediate I/O wait for motion). Tool prepare (T)
+    /// waits only for I/O; synchronised outputs (M62, M63, M67) and the override
+    /// switches (M48–M53) go with the motion queue: they take effect at the start
+    /// of the next motion; `(PRINT,…)` is the interpreter's own output.
+    pub fn stops_motion(&self) -> bool {
+        match *self {
+            MachineOp::SpindleOn { .. }
+            | MachineOp::SpindleOff
+            | MachineOp::SpindleOrient { .. }
+            | MachineOp::Coolant { .. }
+            | MachineOp::ToolChange { .. }
+            | MachineOp::WaitInput { .. }
+            | MachineOp::UserM { .. } => true,
+            MachineOp::Message { kind, .. } => kind != MessageKind::Print,
+            MachineOp::DigitalOut { synchronised, .. }
+            | MachineOp::AnalogOut { synchronised, .. } => !synchronised,
+            MachineOp::ToolPrepare { .. } | MachineOp::Overrides { .. } => false,
+        }
+    }
 }
 
 /// One canonical motion with where it came from.
@@ -131,7 +371,10 @@ impl Motion {
         let r = |v: Vec3| Vec3(v.0.map(|x| canon_round(x, self.inch)));
         match self.kind {
             MotionKind::Arc { .. } => (Some(r(self.canon_end)), Some(r(self.canon_center))),
-            MotionKind::Dwell { .. } | MotionKind::Pause { .. } | MotionKind::Sync => (None, None),
+            MotionKind::Dwell { .. }
+            | MotionKind::Pause { .. }
+            | MotionKind::Sync
+            | MotionKind::Machine(_) => (None, None),
             _ => (Some(r(self.canon_end)), None),
         }
     }
@@ -144,7 +387,10 @@ impl MotionKind {
             MotionKind::Traverse { end }
             | MotionKind::Feed { end, .. }
             | MotionKind::Arc { end, .. } => Some(end),
-            MotionKind::Dwell { .. } | MotionKind::Pause { .. } | MotionKind::Sync => None,
+            MotionKind::Dwell { .. }
+            | MotionKind::Pause { .. }
+            | MotionKind::Sync
+            | MotionKind::Machine(_) => None,
         }
     }
 }
@@ -168,4 +414,7 @@ pub struct Program {
     /// The subroutine files the reading took in, in the order first called
     /// ([`crate::SubroutineFiles`]).
     pub subroutine_files: Vec<crate::SubroutineFile>,
+    /// The texts of the operator messages ([`MachineOp::Message`]'s `index`), in
+    /// the order read.
+    pub messages: Vec<String>,
 }

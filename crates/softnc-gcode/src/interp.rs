@@ -9,11 +9,12 @@
 //! converted to mm.
 
 mod fast;
+mod machine;
 mod modal;
 pub(crate) mod ngc;
 mod offsets;
 
-use crate::canon::{Motion, MotionKind, PathMode, Program};
+use crate::canon::{MachineOp, MessageKind, Motion, MotionKind, PathMode, Program};
 use crate::error::{ErrorKind, GcodeError};
 use crate::lexer::{bad_character, column, lex_words, significant, Line, Word, SLOW};
 use crate::norm::Norm;
@@ -195,13 +196,9 @@ fn g_unsupported(code: i32) -> Option<&'static str> {
 /// Why softnc refuses an M code LinuxCNC knows (`None`: supported).
 fn m_unsupported(code: i32) -> Option<&'static str> {
     Some(match code {
-        0..=9 | 30 | 61 | 70..=73 => return None,
-        19 => "spindle orientation (M19) is not supported",
-        48..=53 => "override switches (M48-M53) are not supported yet",
+        0..=9 | 19 | 30 | 48..=53 | 61..=68 | 70..=73 | 100..=199 => return None,
         60 => "pallet change (M60) is not supported",
-        62..=68 => "digital and analog I/O (M62-M68) are not supported",
         99 => "M99 is not supported",
-        100..=199 => "user M codes (M100-M199) are not supported",
         _ => "this M code is not supported",
     })
 }
@@ -469,6 +466,17 @@ struct Interp<'a> {
     moves_after_start: u64,
     /// Where the machine stood when reading began (machine coordinates, mm).
     start_machine_mm: Vec3,
+    /// Texts of the operator messages read ([`Program::messages`]).
+    messages: Vec<String>,
+    /// The user M-code folder ([`ReadOptions::user_m_codes`]).
+    user_m: machine::UserMCodes,
+    /// [`ReadOptions::m66_results`].
+    m66_results: crate::M66Results,
+    /// The line of the first M66 read while its result is unknown to the reading
+    /// (`M66Results::Refuse`).
+    m66_unknown_since: Option<u32>,
+    /// #5399 was read since the M66 of `m66_unknown_since`.
+    m66_read: std::cell::Cell<bool>,
 }
 
 type R<T> = Result<T, (u32, ErrorKind)>;
@@ -532,6 +540,11 @@ impl<'a> Interp<'a> {
             suppress: false,
             moves_after_start: 0,
             start_machine_mm: Vec3::ZERO,
+            messages: Vec::new(),
+            user_m: machine::UserMCodes::default(),
+            m66_results: crate::M66Results::default(),
+            m66_unknown_since: None,
+            m66_read: std::cell::Cell::new(false),
         }
     }
 
@@ -584,6 +597,11 @@ impl<'a> Interp<'a> {
             suppress: self.suppress,
             moves_after_start: self.moves_after_start,
             start_machine_mm: self.start_machine_mm,
+            messages: Vec::new(),
+            user_m: self.user_m.clone(),
+            m66_results: self.m66_results,
+            m66_unknown_since: self.m66_unknown_since,
+            m66_read: self.m66_read.clone(),
         }
     }
 
@@ -897,7 +915,11 @@ impl<'a> Interp<'a> {
                 "D word with no G41, G41.1, G42, G42.1, G71, G71.1, G71.2 or G96 to use it",
             );
         }
-        if b.has(b'E') {
+        let m5 = b.m_in(5);
+        let m7 = b.m_in(7);
+        let m9 = b.m_in(9);
+        let user_m = b.has_m(10);
+        if b.has(b'E') && !matches!(m5, Some(66..=68)) {
             return bad(
                 b.off(b'E'),
                 "E word with no G70, G76, M66, M67 or M68 to use it",
@@ -924,25 +946,36 @@ impl<'a> Interp<'a> {
                 "K word with no G2, G3, G33, G33.1, G76, or G87 to use it",
             );
         }
-        if b.has(b'L') && mode0 != Some(100) {
+        if b.has(b'L') && mode0 != Some(100) && m5 != Some(66) {
             return bad(
                 b.off(b'L'),
                 "L word with no G10, cutter compensation, canned cycle, digital/analog input, M98 or NURBS code",
             );
         }
         if b.has(b'P') {
-            if mode0 != Some(G_4) && mode0 != Some(100) && b.g_in(GM_CONTROL) != Some(640) && !arc {
+            if mode0 != Some(G_4)
+                && mode0 != Some(100)
+                && b.g_in(GM_CONTROL) != Some(640)
+                && !arc
+                && !matches!(m9, Some(50..=53))
+                && !matches!(m5, Some(62..=66))
+                && m7 != Some(19)
+                && !user_m
+            {
                 return bad(
                     b.off(b'P'),
                     "P word with no G2 G3 G4 G10 G64 G5 G5.2 G76 G82 G86 G88 G89 or M50 M51 M52 M53 M62 M63 M64 M65 M66 M98 or user M code to use it",
                 );
             }
-            if arc {
+            if arc || m7 == Some(19) {
                 let p = b.p_number;
                 if (f64::from(round_to_int(p)) - p).abs() > 0.001 {
                     return bad(b.off(b'P'), "P value not an integer with M19 G2 or G3");
                 }
-                if round_to_int(p) < 1 {
+                if m7 == Some(19) && !(0..=2).contains(&round_to_int(p)) {
+                    return bad(b.off(b'P'), "P value must be 0,1,or 2 with M19");
+                }
+                if arc && round_to_int(p) < 1 {
                     return bad(b.off(b'P'), "P value should be 1 or greater with G2 or G3");
                 }
             }
@@ -951,14 +984,28 @@ impl<'a> Interp<'a> {
             && b.g_in(GM_CONTROL) != Some(640)
             && b.m_in(6) != Some(61)
             && mode0 != Some(100)
+            && !matches!(m5, Some(66..=68))
+            && m7 != Some(19)
+            && !user_m
         {
             return bad(
                 b.off(b'Q'),
                 "Q word with no G5, G10, G64, G73, G76, G83, M19, M66, M67, M68 or user M code that uses it",
             );
         }
-        if b.has(b'R') && !arc && mode0 != Some(100) {
+        if b.has(b'R') && !arc && mode0 != Some(100) && m7 != Some(19) {
             return bad(b.off(b'R'), "R word with no g code that uses it");
+        }
+        if b.has(b'R') && m7 == Some(19) {
+            if b.g_in(GM_CONTROL) == Some(640) {
+                return bad(
+                    b.off(b'R'),
+                    "R word is ambiguous on a line with both G64 and M19 - use separate lines",
+                );
+            }
+            if !(0.0..=360.0).contains(&b.get(b'R').unwrap_or(0.0)) {
+                return bad(b.off(b'R'), "R value must be within 0..360 with M19");
+            }
         }
         Ok(())
     }
@@ -988,8 +1035,13 @@ impl<'a> Interp<'a> {
         if starts("msg,") {
             self.warnings
                 .push(format!("{}:{line_no}: message: {}", self.file, &text[4..]));
+            self.push_message(line_no, MessageKind::Msg, &text[4..]);
         }
-        for (tag, what) in [("debug,", "debug"), ("print,", "print"), ("log,", "log")] {
+        for (tag, what, kind) in [
+            ("debug,", "debug", Some(MessageKind::Debug)),
+            ("print,", "print", Some(MessageKind::Print)),
+            ("log,", "log", None),
+        ] {
             if starts(tag) {
                 if tag == "debug," && self.params.get(5599) <= 0.0 {
                     return Ok(());
@@ -999,6 +1051,9 @@ impl<'a> Interp<'a> {
                     .map_err(|k| (off, k))?;
                 self.warnings
                     .push(format!("{}:{line_no}: {what}: {expanded}", self.file));
+                if let Some(kind) = kind {
+                    self.push_message(line_no, kind, &expanded);
+                }
                 return Ok(());
             }
         }
@@ -1056,61 +1111,30 @@ impl<'a> Interp<'a> {
                 self.feed = f;
             }
         }
-        // spindle speed (RS274 order: after the feed rate, before the tool)
+        // spindle speed (RS274 order: after the feed rate, before the tool): a
+        // speed change while the spindle turns is an operation of its own
+        // (`SET_SPINDLE_SPEED`), unless an M3/M4/M5/M19 of the line says more
         if let Some(sw) = b.get(b'S') {
             self.s_rpm = sw;
+            if self.spindle_on && !b.has_m(7) {
+                let dir = self.spindle_turn();
+                self.push_machine(line_no, MachineOp::SpindleOn { dir, rpm: sw });
+            }
         }
-        // tool select
+        // tool select (`SELECT_TOOL`)
         if let Some(t) = b.get(b'T') {
             self.tool_length(t as i32, b.off(b'T'))?;
             self.tool_selected = t as u32;
+            self.push_machine(
+                line_no,
+                MachineOp::ToolPrepare {
+                    tool: self.tool_selected,
+                },
+            );
         }
-        // spindle on/off: the speed each motion runs at (for compensators tuned to
-        // the tooth frequency); M19 and M70–M73 of the group are refused earlier
-        match b.m_in(7) {
-            Some(c @ (3 | 4)) => {
-                self.spindle_on = true;
-                self.spindle_code = c;
-            }
-            Some(5) => {
-                self.spindle_on = false;
-                self.spindle_code = 5;
-            }
-            _ => {}
-        }
-        // M codes: tool change (coolant has no canonical motion)
-        match b.m_in(6) {
-            Some(6) => {
-                self.spindle_length_mm = self.tool_length(self.tool_selected as i32, 0)?;
-                self.tool_loaded = self.tool_selected;
-                self.sync_pending = true;
-            }
-            Some(61) => {
-                // sets the number of the tool in the spindle; rs274 keeps its data
-                let off = b.m_off(6);
-                let tool = round_to_int(b.q_number);
-                if tool < 0 {
-                    return bad(
-                        off,
-                        "Need non-negative Q-word to specify tool number with M61",
-                    );
-                }
-                self.tool_length(tool, off)?;
-                self.tool_loaded = tool as u32;
-                self.sync_pending = true;
-            }
-            _ => {}
-        }
-        // coolant (no canonical motion; read by #<_mist>, #<_flood>)
-        match b.m_in(8) {
-            Some(7) => self.mist = true,
-            Some(8) => self.flood = true,
-            Some(9) => {
-                self.mist = false;
-                self.flood = false;
-            }
-            _ => {}
-        }
+        // convert_m: I/O, tool change, spindle, coolant, override switches, user
+        // M codes, in its order
+        self.machine_codes(line_no, b)?;
         // M70-M73 (group 7, after the tool change in convert_m)
         match b.m_in(7) {
             Some(70) => self.save_modal(false),
@@ -1350,7 +1374,15 @@ impl<'a> Interp<'a> {
         }
         let o = self.offset();
         let mut start = from - o;
-        for &p in &points[..n] {
+        if n == 0 {
+            self.push_machine_state(line_no, start);
+        }
+        for (k, &p) in points[..n].iter().enumerate() {
+            if k + 1 == n {
+                // the spindle and the coolant as the program has them there, before
+                // the last traverse goes to the start point
+                self.push_machine_state(line_no, start);
+            }
             let end = p - o;
             let m = Motion {
                 line: line_no,
@@ -1509,7 +1541,10 @@ impl<'a> Interp<'a> {
                 turns,
                 feed_mm_per_min,
             },
-            d @ (MotionKind::Dwell { .. } | MotionKind::Pause { .. } | MotionKind::Sync) => d,
+            d @ (MotionKind::Dwell { .. }
+            | MotionKind::Pause { .. }
+            | MotionKind::Sync
+            | MotionKind::Machine(_)) => d,
         }
     }
 
@@ -2235,6 +2270,8 @@ fn read_source<'t>(
     it.user_inch = options.parameters_in_inches;
     it.optional_stop = options.optional_stop;
     it.suppress = options.from_line.is_some();
+    it.user_m.dir = options.user_m_codes.clone();
+    it.m66_results = options.m66_results;
     match &options.params {
         Some(p) => it.params = p.clone(),
         None => it.params_from_profile(),
@@ -2633,6 +2670,10 @@ fn read_source<'t>(
                         it.motions.clear();
                     }
                 }
+                if it.m66_read.get() {
+                    it.check_5399_read()
+                        .map_err(|x| err_in(src_name, line_no, raw, x))?;
+                }
             }
             if jump != Jump::Next {
                 break (jump, split.pos);
@@ -2828,6 +2869,7 @@ fn finish(
             warnings: it.warnings,
             end_modal,
             subroutine_files,
+            messages: it.messages,
         },
         it.params,
     )

@@ -21,7 +21,10 @@ mod oword;
 pub mod params;
 pub mod x87;
 
-pub use canon::{Motion, MotionKind, PathMode, Program};
+pub use canon::{
+    MachineOp, MessageKind, Motion, MotionKind, OverrideSwitch, PathMode, Program, SpindleTurn,
+    WaitInput, WaitMode,
+};
 pub use error::{ErrorKind, GcodeError};
 pub use params::Params;
 
@@ -83,6 +86,30 @@ pub struct ReadOptions {
     /// lies in a subroutine definition, when no block at or after line N runs, or
     /// when no motion follows it.
     pub from_line: Option<u32>,
+    /// The folder of the user M codes (M100–M199): `M1nn` there must be an
+    /// executable file (LinuxCNC's `USER_M_PATH`), else the program is refused
+    /// with `file:line` where it is used; `None`: every user M code is refused.
+    pub user_m_codes: Option<PathBuf>,
+    /// What a reading ahead does with M66's result in #5399 ([`M66Results`]).
+    pub m66_results: M66Results,
+}
+
+/// M66 (wait for an input) puts the input's value in #5399 when the machine gets
+/// there. LinuxCNC's interpreter stops reading ahead at an M66 and reads on once
+/// the wait is done; softnc reads the whole program before motion, so it cannot
+/// know the value. After an M66 #5399 holds the value rs274's stand-alone
+/// interpreter gives it (digital: `#5399 != 0` as 0/1; analog: unchanged), and
+/// this says whether a program may read it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum M66Results {
+    /// A read of #5399 after an M66 refuses the program (`Unsupported`, at the line
+    /// that reads it): what runs never depends on a value the plan guessed. Jobs
+    /// are read so.
+    #[default]
+    Refuse,
+    /// Read on with rs274's stand-in value, as its stand-alone interpreter does
+    /// (`softnc plan --canon`, the conformance corpus).
+    StandIn,
 }
 
 /// A subroutine file a reading took in: found on the search path or beside the

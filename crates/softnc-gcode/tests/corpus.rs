@@ -41,7 +41,10 @@ fn compare(program: &softnc_gcode::Program, canon: &[Value]) -> Option<String> {
             MotionKind::Traverse { .. } => "traverse",
             MotionKind::Feed { .. } => "feed",
             MotionKind::Arc { .. } => "arc",
-            MotionKind::Dwell { .. } | MotionKind::Pause { .. } | MotionKind::Sync => {
+            MotionKind::Dwell { .. }
+            | MotionKind::Pause { .. }
+            | MotionKind::Sync
+            | MotionKind::Machine(_) => {
                 unreachable!()
             }
         };

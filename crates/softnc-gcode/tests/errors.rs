@@ -60,7 +60,12 @@ const INVALID: &[(&str, u32, u32, &str)] = &[
         10,
         "Two m codes used from same modal group",
     ),
-    ("G21\nM3 M7 M0 M48 M6\nM2\n", 2, 10, "unsupported"),
+    (
+        "G21\nM3 M7 M0 M48 M6\nM2\n",
+        2,
+        14,
+        "Too many m codes on line",
+    ),
     // codes
     ("G12 X1\nM2\n", 1, 1, "Unknown g code used"),
     ("G9 G1 X1 F10\nM2\n", 1, 1, "Unknown g code used"),

@@ -57,7 +57,9 @@ fn close(a: Vec3, b: [f64; 3], tol: f64) -> bool {
 
 #[test]
 fn rotated_systems_read_as_rs274_reads_them() {
-    let p = read(PROGRAM).unwrap();
+    let mut p = read(PROGRAM).unwrap();
+    p.motions
+        .retain(|m| !matches!(m.kind, softnc_gcode::MotionKind::Machine(_)));
     // rs274's STRAIGHT_TRAVERSE / STRAIGHT_FEED / ARC_FEED, in order (program frame)
     let canon: [[f64; 3]; 8] = [
         [1.0, 2.0, 0.0],

@@ -363,6 +363,9 @@ pub enum ControlKind {
     Shutdown = 7,
     /// Set the spindle override to `value` (fraction of the programmed speed).
     SpindleOverride = 10,
+    /// Set the live rapid override to `value` (fraction of the traverse speed,
+    /// 0..=1).
+    RapidOverride = 16,
     /// Machine on: drives enabled, holding position.
     MachineOn = 11,
     /// Machine off: drives disabled (only when nothing moves).
@@ -671,6 +674,7 @@ wire_enum!(ControlKind {
     Reset,
     Shutdown,
     SpindleOverride,
+    RapidOverride,
     MachineOn,
     MachineOff,
     Home,

@@ -169,6 +169,16 @@ pub struct Segment {
     /// The element ends its block's last motion (the next motion comes from another
     /// line): where single block stops.
     pub block_end: bool,
+    /// A machine stop: a zero-length element at the point of a machine operation
+    /// that LinuxCNC's task waits for motion for (`MachineOp::stops_motion`);
+    /// `motion` is the operation's index. The path comes to rest before it and, where
+    /// the interpolator is told to wait at machine stops, stands on it until
+    /// released (before its dwell).
+    pub machine: bool,
+    /// The motion the samples carry while the path waits at the end of this element
+    /// for the operator (`stop`): the M0/M1's own index where one stops here, else
+    /// `motion`.
+    pub pause_motion: u32,
 }
 
 /// What the path does at the end of an element where it comes to rest.
@@ -739,6 +749,10 @@ struct Pending {
     stop: StopKind,
     /// Ends its block (set when the next motion comes from another line).
     block_end: bool,
+    /// A machine stop ([`Segment::machine`]).
+    machine: bool,
+    /// [`Segment::pause_motion`].
+    pause_motion: u32,
     /// Arc length taken from the start by the blend at the previous corner.
     start_trim: f64,
     /// Arcs: where the blend at the previous corner meets it (the sub-arc starts
@@ -771,9 +785,20 @@ impl Pending {
             line: 0,
             stop: StopKind::None,
             block_end: false,
+            machine: false,
+            pause_motion: 0,
             start_trim: 0.0,
             start_at: None,
             start_trim_rad: None,
+        }
+    }
+
+    /// The end of the held move (its programmed end).
+    fn end_point(&self) -> Vec3 {
+        match &self.geom {
+            Geom::Line { end, .. } => *end,
+            Geom::Arc(prim) => prim.end(),
+            g => g.point_at(self.len),
         }
     }
 }
@@ -809,7 +834,7 @@ impl Path {
             .iter()
             .zip(&self.geoms[self.lead_in + from..])
             .take_while(|(s, _)| s.motion == m)
-            .find_map(|(_, g)| g.programmed())
+            .find_map(|(s, g)| if s.machine { None } else { g.programmed() })
     }
 }
 
@@ -836,7 +861,7 @@ pub struct PathBuilder {
     /// ends in an exact stop that waits ([`StopKind::Block`]).
     single_block: bool,
     /// A pause or sync before the first move (an element of its own).
-    pending_stop_at_start: (StopKind, u32),
+    pending_stop_at_start: (StopKind, u32, u32),
     /// Elements already handed on by [`PathBuilder::drain_settled`] (a streamed
     /// path keeps only the last one, whose end speed the next may still change).
     base: usize,
@@ -944,7 +969,7 @@ impl PathBuilder {
             prev_acc_use: AccUse::default(),
             chain: NaiveCamChain::default(),
             single_block: false,
-            pending_stop_at_start: (StopKind::None, 0),
+            pending_stop_at_start: (StopKind::None, 0, 0),
             base: 0,
             preps: [None, None],
             prep_next_slot: 0,
@@ -1188,10 +1213,13 @@ impl PathBuilder {
                         last.exact_stop = true;
                         last.stop = stronger(last.stop, kind);
                         last.line = m.line;
+                        if kind != StopKind::Sync {
+                            last.pause_motion = index as u32;
+                        }
                     }
                     None => {
-                        let (k, _) = self.pending_stop_at_start;
-                        self.pending_stop_at_start = (stronger(k, kind), m.line);
+                        let (k, _, _) = self.pending_stop_at_start;
+                        self.pending_stop_at_start = (stronger(k, kind), m.line, index as u32);
                         self.last_point.get_or_insert(m.start + m.offset_mm);
                     }
                 }
@@ -1204,6 +1232,12 @@ impl PathBuilder {
                 } else {
                     self.pending_dwell_at_start += seconds.max(0.0);
                     self.last_point.get_or_insert(m.start + m.offset_mm);
+                }
+                return;
+            }
+            MotionKind::Machine(op) => {
+                if op.stops_motion() {
+                    self.push_machine_stop(index, m);
                 }
                 return;
             }
@@ -1278,6 +1312,8 @@ impl PathBuilder {
         next.line = m.line;
         next.stop = StopKind::None;
         next.block_end = false;
+        next.machine = false;
+        next.pause_motion = index as u32;
         next.start_trim = 0.0;
         next.start_at = None;
         next.start_trim_rad = None;
@@ -1312,9 +1348,58 @@ impl PathBuilder {
         self.prep_next_slot ^= 1;
     }
 
+    /// A machine operation the path comes to rest for: the move held before it
+    /// stops exactly at its end, and the operation becomes a zero-length element
+    /// there ([`Segment::machine`]), held as a move is, so that a dwell or pause
+    /// after it ends it and the next move is not blended into it.
+    fn push_machine_stop(&mut self, index: usize, m: &Motion) {
+        let at = match self.pending.as_deref() {
+            Some(prev) => prev.end_point(),
+            None => *self.last_point.get_or_insert(m.start + m.offset_mm),
+        };
+        let mut next = self
+            .spare
+            .take()
+            .unwrap_or_else(|| Box::new(Pending::placeholder()));
+        next.geom = Geom::Line {
+            start: at,
+            end: at,
+            from: 0.0,
+            to: 0.0,
+            prog_len: 0.0,
+        };
+        next.len = 0.0;
+        next.dir = Vec3::ZERO;
+        next.motion = index as u32;
+        next.feed_move = false;
+        next.feed_mm_per_s = f64::INFINITY;
+        next.exact_stop = true;
+        next.tolerance_mm = self.lim.tolerance_mm;
+        next.dwell_s = 0.0;
+        next.line = m.line;
+        next.stop = StopKind::None;
+        next.block_end = false;
+        next.machine = true;
+        next.pause_motion = index as u32;
+        next.start_trim = 0.0;
+        next.start_at = None;
+        next.start_trim_rad = None;
+        self.preps[self.prep_next_slot & 1] = None;
+        match self.pending.take() {
+            Some(mut prev) => {
+                prev.exact_stop = true;
+                self.emit(&prev, None, false);
+                self.spare = Some(prev);
+            }
+            None => self.start_dwell(),
+        }
+        self.pending = Some(next);
+        self.prep_next_slot ^= 1;
+    }
+
     /// The dwell (and pause) before the first move, as an element of its own.
     fn start_dwell(&mut self) {
-        let (stop, line) = self.pending_stop_at_start;
+        let (stop, line, pause_motion) = self.pending_stop_at_start;
         if self.pending_dwell_at_start > 0.0 || stop != StopKind::None {
             let p = self.last_point.unwrap_or(Vec3::ZERO);
             self.path.segs.push(Segment {
@@ -1330,6 +1415,8 @@ impl PathBuilder {
                 line,
                 stop,
                 block_end: stop != StopKind::None,
+                machine: false,
+                pause_motion,
             });
             self.path.geoms.push(Geom::Line {
                 start: p,
@@ -1340,7 +1427,7 @@ impl PathBuilder {
             });
             self.path.lead_in = 1;
             self.pending_dwell_at_start = 0.0;
-            self.pending_stop_at_start = (StopKind::None, 0);
+            self.pending_stop_at_start = (StopKind::None, 0, 0);
         }
     }
 
@@ -1971,6 +2058,26 @@ impl PathBuilder {
             }
             return;
         }
+        if m.machine {
+            // a machine stop: standing, no limits of its own
+            self.path.segs.push(Segment {
+                s0: self.s0,
+                len: 0.0,
+                motion: m.motion,
+                feed_move: false,
+                feed_mm_per_s: f64::INFINITY,
+                vel_cap: f64::INFINITY,
+                acc: 1.0,
+                v_end_hard: 0.0,
+                dwell_s: dwell,
+                line: m.line,
+                stop: m.stop,
+                block_end: m.block_end,
+                machine: true,
+                pause_motion: m.pause_motion,
+            });
+            return;
+        }
         let el = element_limits(shape, lim.vmax, lim.amax);
         let mut vel_cap = el.vel_mm_per_s;
         let mut acc = el.acc_mm_per_s2;
@@ -2015,6 +2122,8 @@ impl PathBuilder {
             // that stops is not blended)
             stop: if stop { m.stop } else { StopKind::None },
             block_end: m.block_end && !is_blend,
+            machine: m.machine,
+            pause_motion: if stop { m.pause_motion } else { m.motion },
         });
         self.s0 += len;
         self.prev_end_tangent = shape.end_tangent;
@@ -2529,7 +2638,10 @@ pub fn motion_primitive(m: &Motion) -> Option<Primitive> {
             plane,
             turns,
         )),
-        MotionKind::Dwell { .. } | MotionKind::Pause { .. } | MotionKind::Sync => None,
+        MotionKind::Dwell { .. }
+        | MotionKind::Pause { .. }
+        | MotionKind::Sync
+        | MotionKind::Machine(_) => None,
     }
 }
 

@@ -99,6 +99,9 @@ pub(crate) struct Core<S> {
     brake_dist_mm: f64,
     override_frac: f64,
     max_override: f64,
+    /// The live rapid override (0..=1): traverses run at this fraction of their
+    /// speed limit, as LinuxCNC's `rapid_scale` (feed moves at the feed override).
+    rapid_frac: f64,
     // acceleration-limited ("raw") state
     k: usize,
     s: f64,
@@ -136,6 +139,12 @@ pub(crate) struct Core<S> {
     single_block: bool,
     /// M0/M1 wait for [`Core::resume`] (else they rest and go on, as a sync).
     stops_wait: bool,
+    /// Machine stops wait for [`Core::release_machine_stop`] (else the path rests
+    /// there and goes on).
+    machine_stops_wait: bool,
+    /// Standing on the machine stop element `k`, waiting for
+    /// [`Core::release_machine_stop`].
+    machine_wait: bool,
 }
 
 impl<'a> Interpolator<'a> {
@@ -176,6 +185,19 @@ impl<'a> Interpolator<'a> {
         self.core.override_frac
     }
 
+    /// Set the live rapid override (0.0 ..= 1.0): traverses run at this fraction of
+    /// their speed limit (feed moves keep the feed override), applied as the feed
+    /// override is: from the next cycle on, within the acceleration (and jerk)
+    /// limits.
+    pub fn set_rapid_override(&mut self, fraction: f64) {
+        self.core.set_rapid_override(fraction)
+    }
+
+    /// The live rapid override in force.
+    pub fn rapid_override(&self) -> f64 {
+        self.core.rapid_frac
+    }
+
     /// Current path speed of the acceleration-limited profile (mm/s).
     pub fn path_speed_mm_per_s(&self) -> f64 {
         self.core.v
@@ -205,6 +227,18 @@ impl<'a> Interpolator<'a> {
     /// Why the path is paused.
     pub fn pause_kind(&self) -> Option<StopKind> {
         self.core.paused().map(|(kind, _)| kind)
+    }
+
+    /// The machine operation the path waits at; see
+    /// [`StreamInterpolator::machine_stop`](crate::StreamInterpolator::machine_stop).
+    pub fn machine_stop(&self) -> Option<u32> {
+        self.core.machine_stop()
+    }
+
+    /// Go on from a machine stop; see
+    /// [`StreamInterpolator::release_machine_stop`](crate::StreamInterpolator::release_machine_stop).
+    pub fn release_machine_stop(&mut self) {
+        self.core.release_machine_stop()
     }
 
     /// Single block on or off, live; see
@@ -250,6 +284,7 @@ impl<S: SegmentSource> Core<S> {
             brake_dist_mm,
             override_frac: 1.0,
             max_override,
+            rapid_frac: 1.0,
             k: 0,
             s: 0.0,
             v: 0.0,
@@ -273,6 +308,29 @@ impl<S: SegmentSource> Core<S> {
             cycle_done: false,
             single_block: false,
             stops_wait: false,
+            machine_stops_wait: false,
+            machine_wait: false,
+        }
+    }
+
+    /// Whether machine stops wait for [`Core::release_machine_stop`] (see
+    /// [`PlanOptions::wait_at_machine_stops`](crate::PlanOptions::wait_at_machine_stops)).
+    pub(crate) fn set_wait_at_machine_stops(&mut self, on: bool) {
+        self.machine_stops_wait = on;
+    }
+
+    /// The motion index of the machine operation the path waits at.
+    pub(crate) fn machine_stop(&self) -> Option<u32> {
+        self.machine_wait.then(|| self.src.seg(self.k).motion)
+    }
+
+    /// Go on from the machine stop the path waits at: its dwell, then the next
+    /// element. Nothing while not waiting at one.
+    pub(crate) fn release_machine_stop(&mut self) {
+        if self.machine_wait {
+            self.machine_wait = false;
+            let seg = *self.src.seg(self.k);
+            self.rest_or_leave(&seg);
         }
     }
 
@@ -336,8 +394,9 @@ impl<S: SegmentSource> Core<S> {
             self.v = 0.0;
             return;
         }
-        if seg.stop != StopKind::None {
-            // a sync, or a stop that does not wait: on with the next cycle
+        if seg.stop != StopKind::None || seg.machine {
+            // a sync, a machine stop, or a stop that does not wait: on with the next
+            // cycle (a sample stands at the point)
             self.cycle_done = true;
         }
         self.next_element();
@@ -402,8 +461,43 @@ impl<S: SegmentSource> Core<S> {
         self.finished
     }
 
+    /// The element's speed under the overrides: a feed move's feed times the feed
+    /// override; a traverse's speed limit times the rapid override (LinuxCNC's
+    /// `control.c`: `rapid_scale` for `EMC_MOTION_TYPE_TRAVERSE`, `feed_scale` else),
+    /// never above the element's limit. A feed override of 0 is softnc's feed hold
+    /// (the daemon holds so): it stops traverses too, as LinuxCNC's feed hold does
+    /// (`net_feed_scale` 0); before, a traverse's infinite feed times 0 made NaN and
+    /// the traverse ran through the hold.
     fn soft_cap(&self, seg: &Segment) -> f64 {
-        seg.vel_cap.min(seg.feed_mm_per_s * self.override_frac)
+        if self.override_frac == 0.0 {
+            return 0.0;
+        }
+        let cap = seg.vel_cap.min(seg.feed_mm_per_s * self.override_frac);
+        if seg.feed_move || self.rapid_frac >= 1.0 {
+            cap
+        } else if self.rapid_frac > 0.0 {
+            cap.min(seg.vel_cap * self.rapid_frac)
+        } else {
+            0.0
+        }
+    }
+
+    /// Set the live rapid override (0.0 ..= 1.0; see [`Core::soft_cap`]).
+    pub(crate) fn set_rapid_override(&mut self, fraction: f64) {
+        let f = if fraction.is_finite() {
+            fraction.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        if f != self.rapid_frac {
+            self.rapid_frac = f;
+            self.envelope_dirty = true;
+        }
+    }
+
+    /// The live rapid override in force.
+    pub(crate) fn rapid_override(&self) -> f64 {
+        self.rapid_frac
     }
 
     /// Skip zero-length elements without a dwell at the current position.
@@ -413,6 +507,7 @@ impl<S: SegmentSource> Core<S> {
             && self.src.seg(self.k).len <= 0.0
             && self.src.seg(self.k).dwell_s <= 0.0
             && self.src.seg(self.k).stop == StopKind::None
+            && !self.src.seg(self.k).machine
         {
             self.next_element();
         }
@@ -496,7 +591,7 @@ impl<S: SegmentSource> Core<S> {
             if guard > 1_000_000 {
                 break; // cannot happen with finite inputs; never spin forever
             }
-            if self.paused.is_some() || self.cycle_done {
+            if self.paused.is_some() || self.cycle_done || self.machine_wait {
                 break; // standing: the rest of the cycle passes
             }
             if self.waiting {
@@ -605,6 +700,18 @@ impl<S: SegmentSource> Core<S> {
 
     fn arrive(&mut self, seg: &Segment) {
         self.s = seg.len;
+        if seg.machine && self.machine_stops_wait {
+            // a machine stop: stand on it until released (its dwell after)
+            self.machine_wait = true;
+            self.v = 0.0;
+            return;
+        }
+        self.rest_or_leave(seg);
+    }
+
+    /// At the end of `seg`: stand out its dwell (and the S-curve's settling where
+    /// the path rests), then leave it.
+    fn rest_or_leave(&mut self, seg: &Segment) {
         // at rest here: a stop of the path, or a block end single block stops at
         let rests = seg.v_end_hard == 0.0 || self.waits_at(seg).is_some();
         let hold = if rests {
@@ -720,6 +827,15 @@ impl<S: SegmentSource> Core<S> {
         } else {
             let (pos, motion, feed_move) = self.point_at(s_path);
             (pos, motion, feed_move, s_path)
+        };
+        // standing at a machine stop or a pause: the samples carry the operation's
+        // (the M0/M1's) own motion, so that its line is reported at once
+        let motion = if self.machine_wait {
+            self.src.seg(self.k).motion
+        } else if self.paused.is_some() {
+            self.src.seg(self.k).pause_motion
+        } else {
+            motion
         };
         let sample = Sample {
             index: self.index,

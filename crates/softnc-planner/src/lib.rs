@@ -12,11 +12,14 @@
 //! - [`plan`](mod@plan): the entry point and the plan's figures.
 //! - [`stream`]: a plan streamed through a bounded window (long programs).
 //! - [`manual`]: jog and homing motion between jobs, one axis at a time.
+//! - [`machine_sequencer`]: the machine around the axes during a job (outputs per
+//!   sample, when the path leaves a machine stop).
 #![warn(missing_docs)]
 
 pub mod build;
 pub mod fillet;
 pub mod interp;
+pub mod machine_sequencer;
 pub mod manual;
 pub mod path;
 pub mod plan;

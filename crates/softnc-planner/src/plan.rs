@@ -38,6 +38,16 @@ pub struct PlanOptions {
     /// exactly the same way and goes on with the next cycle, for callers that never
     /// resume (offline simulation, figures, tests); the daemon sets it.
     pub wait_at_program_stops: bool,
+    /// Machine stops (a machine operation the path comes to rest for: spindle,
+    /// coolant, M6, messages, immediate I/O, M66, M19, user M codes) wait for
+    /// [`StreamInterpolator::release_machine_stop`](crate::StreamInterpolator::release_machine_stop),
+    /// which the machine sequencer ([`crate::machine_sequencer`]) decides. `false`
+    /// (default): the path comes to rest there the same way and goes on at once.
+    pub wait_at_machine_stops: bool,
+    /// The user M-code folder ([`softnc_gcode::ReadOptions::user_m_codes`]).
+    pub user_m_codes: Option<std::path::PathBuf>,
+    /// M66's #5399 ([`softnc_gcode::ReadOptions::m66_results`]).
+    pub m66_results: softnc_gcode::M66Results,
     /// The machine's parameters at the start (offsets, G92, active system: the
     /// parameter file, or what the last job or MDI left, LinuxCNC's persistent
     /// parameters; 5220 selects the coordinate system); `None`: the profile's work
@@ -68,6 +78,8 @@ impl PlanOptions {
             preamble: self.preamble.clone(),
             preamble_file: self.preamble_file.clone(),
             subroutines: self.subroutines.clone(),
+            user_m_codes: self.user_m_codes.clone(),
+            m66_results: self.m66_results,
             ..Default::default()
         }
     }
@@ -123,6 +135,8 @@ pub struct Plan {
     single_block: bool,
     /// M0/M1 wait ([`PlanOptions::wait_at_program_stops`]).
     wait_at_program_stops: bool,
+    /// Machine stops wait ([`PlanOptions::wait_at_machine_stops`]).
+    wait_at_machine_stops: bool,
     path: Path,
     n_motions: usize,
     /// (first motion, rpm) wherever the spindle speed changes (0 = stopped).
@@ -387,6 +401,7 @@ impl<'a> Checker<'a> {
             start_mm: self.start_mm(),
             single_block: self.options.single_block,
             wait_at_program_stops: self.options.wait_at_program_stops,
+            wait_at_machine_stops: self.options.wait_at_machine_stops,
             path,
             n_motions: self.n_motions,
             spindle_changes: self.spindle_changes,
@@ -515,6 +530,8 @@ impl Plan {
         it.set_single_block(self.single_block);
         it.core_mut()
             .set_wait_at_program_stops(self.wait_at_program_stops);
+        it.core_mut()
+            .set_wait_at_machine_stops(self.wait_at_machine_stops);
         it
     }
 }
@@ -984,6 +1001,8 @@ mod tests {
             line: 0,
             stop: crate::build::StopKind::None,
             block_end: false,
+            machine: false,
+            pause_motion: 0,
         }
     }
 

@@ -1063,6 +1063,17 @@ impl StreamInterpolator {
         self.core.feed_override()
     }
 
+    /// Set the live rapid override (as
+    /// [`Interpolator::set_rapid_override`](crate::Interpolator::set_rapid_override)).
+    pub fn set_rapid_override(&mut self, fraction: f64) {
+        self.core.set_rapid_override(fraction)
+    }
+
+    /// The live rapid override in force.
+    pub fn rapid_override(&self) -> f64 {
+        self.core.rapid_override()
+    }
+
     /// Current path speed of the acceleration-limited profile (mm/s).
     pub fn path_speed_mm_per_s(&self) -> f64 {
         self.core.path_speed_mm_per_s()
@@ -1114,6 +1125,20 @@ impl StreamInterpolator {
     /// [`StopKind::Block`]); `None` while it is not.
     pub fn pause_kind(&self) -> Option<StopKind> {
         self.core.paused().map(|(kind, _)| kind)
+    }
+
+    /// The index (into the program's motions) of the machine operation the path
+    /// stands at, waiting for [`StreamInterpolator::release_machine_stop`]
+    /// ([`PlanOptions::wait_at_machine_stops`](crate::PlanOptions::wait_at_machine_stops));
+    /// the samples meanwhile carry this index. `None` while it does not wait there.
+    pub fn machine_stop(&self) -> Option<u32> {
+        self.core.machine_stop()
+    }
+
+    /// Go on from the machine stop the path waits at (its dwell, if any, then the
+    /// next element with the next cycle). Nothing while it does not wait at one.
+    pub fn release_machine_stop(&mut self) {
+        self.core.release_machine_stop()
     }
 
     /// Single block on or off, live (the daemon's step mode). On: the path comes to
@@ -1170,6 +1195,8 @@ pub fn stream_program(
         line: 0,
         stop: StopKind::None,
         block_end: false,
+        machine: false,
+        pause_motion: 0,
     };
     let window = Window {
         segs: vec![blank; n],
@@ -1199,6 +1226,7 @@ pub fn stream_program(
     );
     core.set_single_block(options.single_block);
     core.set_wait_at_program_stops(options.wait_at_program_stops);
+    core.set_wait_at_machine_stops(options.wait_at_machine_stops);
     let producer = StreamProducer {
         text,
         file: file.to_string(),
@@ -1318,16 +1346,17 @@ mod tests {
             start_mm: Some(at),
             ..Default::default()
         };
-        for text in [
-            "G90 G0 X5 Y7 Z-3\nG1 X5 F300\nM2\n",
-            "G92 X1\nM2\n",
-            "M3 S100\nM2\n",
+        // (an M3 is a machine stop: one standing element)
+        for (text, elements) in [
+            ("G90 G0 X5 Y7 Z-3\nG1 X5 F300\nM2\n", 0),
+            ("G92 X1\nM2\n", 0),
+            ("M3 S100\nM2\n", 1),
         ] {
             let (checked, samples) = check_and_stream(text, "z.ngc", &p, &opts, |it| {
                 it.map(|s| s.pos_mm).collect::<Vec<_>>()
             })
             .unwrap();
-            assert_eq!(checked.elements(), 0, "{text:?}");
+            assert_eq!(checked.elements(), elements, "{text:?}");
             assert!(!samples.is_empty(), "{text:?}");
             for pos in samples {
                 assert_eq!(pos, Vec3(at), "{text:?}");

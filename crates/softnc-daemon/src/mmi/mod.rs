@@ -109,6 +109,8 @@ struct Machine {
     /// resume and at the job's end.
     intent: Option<MachineState>,
     feed_override: f64,
+    /// The rapid override in force (fraction, 0..=1).
+    rapid_override: f64,
     /// The operator's program-flow switches.
     switches: Switches,
     /// A continuous jog's axis, speed and when its client last renewed it (the
@@ -225,6 +227,7 @@ impl MmiTask {
                 abort_asked: None,
                 intent: None,
                 feed_override: 1.0,
+                rapid_override: 1.0,
                 switches: Switches::default(),
                 jog_lease: None,
                 asked: None,
@@ -853,6 +856,19 @@ impl MmiTask {
                 self.send_control(ControlKind::FeedOverride, 0, value, "")?;
                 Self::reply(true, 0, &format!("feed override {:.0} %", value * 100.0))
             }
+            Request::RapidOverride { fraction } => {
+                let value = *fraction;
+                if !(0.0..=1.0).contains(&value) {
+                    return Ok(Some(Self::reply(
+                        false,
+                        0,
+                        "rapid override must be 0..=100 %",
+                    )));
+                }
+                self.machine.rapid_override = value;
+                self.send_control(ControlKind::RapidOverride, 0, value, "")?;
+                Self::reply(true, 0, &format!("rapid override {:.0} %", value * 100.0))
+            }
             Request::SpindleOverride { fraction } => {
                 let value = *fraction;
                 let range = self.cfg.machine.spindle;
@@ -1140,6 +1156,7 @@ impl MmiTask {
             },
             program_line: s.filter(|s| s.job_id != 0 && s.line != 0).map(|s| s.line),
             feed_override: self.machine.feed_override,
+            rapid_override: self.machine.rapid_override,
             spindle_override: s.map(|s| s.spindle_override),
             spindle_rpm: s.map(|s| s.spindle_rpm),
             adaptive_force: s

@@ -156,6 +156,12 @@ impl Env for Interp<'_> {
             5400 => f64::from(self.tool_loaded),
             5403 => self.spindle_length_mm / if self.user_inch { 25.4 } else { 1.0 },
             5420..=5422 => self.pos[index - 5420],
+            5399 => {
+                if self.m66_unknown_since.is_some() {
+                    self.m66_read.set(true);
+                }
+                self.params.get(index)
+            }
             _ => self.params.get(index),
         }
     }

@@ -72,6 +72,11 @@ impl Builder {
         self.push(MotionKind::Pause { optional: false });
         self
     }
+    /// A machine operation here.
+    pub fn machine(&mut self, op: softnc_gcode::MachineOp) -> &mut Self {
+        self.push(MotionKind::Machine(op));
+        self
+    }
     pub fn dwell(&mut self, s: f64) -> &mut Self {
         self.push(MotionKind::Dwell { seconds: s });
         self
@@ -84,6 +89,7 @@ impl Builder {
             warnings: vec![],
             end_modal: String::new(),
             subroutine_files: vec![],
+            messages: vec![],
         }
     }
 }

@@ -1,0 +1,553 @@
+//! The machine around the axes during a job, shared by the daemon's interpolation
+//! loop and the offline simulator: what each command sample tells the spindle, the
+//! coolant and the outputs ([`MachineOutputs`]), and when the path may leave a
+//! machine stop ([`crate::StreamInterpolator::machine_stop`]), decided from what
+//! the machine reports ([`MachineInputs`]).
+//!
+//! Built before motion from the program's machine operations
+//! ([`softnc_gcode::MachineOp`]): a table of the state in force from each
+//! operation on, by motion index. Per sample, [`MachineSequencer::step`] takes the
+//! sample's motion index, the machine stop the path waits at (if any) and the
+//! latest [`Feedback`]; it allocates nothing and costs O(1) (cursors into the
+//! tables, which the samples' motion indices walk forward).
+//!
+//! The loop that owns an interpolator does, each cycle:
+//!
+//! ```ignore
+//! let sample = it.next().unwrap();
+//! let step = seq.step(sample.motion, it.machine_stop(), &feedback);
+//! command.outputs = step.state.outputs;
+//! match step.action {
+//!     Action::Release => it.release_machine_stop(),
+//!     Action::Fail(e) => { /* an alarm: abort the job */ }
+//!     Action::Wait(_) | Action::Run => {}
+//! }
+//! ```
+//!
+//! with the interpolator made with
+//! [`PlanOptions::wait_at_machine_stops`](crate::PlanOptions::wait_at_machine_stops).
+//!
+//! When each operation takes effect (LinuxCNC's task, `emctaskmain.cc`
+//! `emcTaskCheckPreconditions`): those that wait for motion
+//! ([`MachineOp::stops_motion`]) at their own machine stop, whose samples carry
+//! their motion index; the synchronised outputs (M62, M63, M67) at the first sample
+//! of the next move (traverse, feed or arc), as LinuxCNC's motion-synchronised
+//! outputs; tool prepare (T) and the override switches (M48–M53), which do not
+//! stop the path, from the samples after them.
+//!
+//! A stop is released only on inputs the machine read while it applied a sample of
+//! that stop (`Feedback::applied_motion`): inputs read before the command reached
+//! the machine say nothing about it.
+
+use softnc_core::machine_io::{MachineInputs, MachineOutputs, SpindleDir};
+use softnc_gcode::{
+    MachineOp, MotionKind, OverrideSwitch, Program, SpindleTurn, WaitInput, WaitMode,
+};
+
+/// What the sequencer needs besides the program (from the machine profile).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SequencerConfig {
+    /// The interpolation cycle T (s): the time of one [`MachineSequencer::step`].
+    pub cycle_s: f64,
+    /// Longest wait for the spindle to reach its speed after M3/M4/S (s); past it
+    /// the job fails ([`SequencerError::SpindleNotAtSpeed`]), as LinuxCNC's
+    /// `spindle.at-speed` gate does not (it waits forever) but a machine should.
+    pub spindle_at_speed_timeout_s: f64,
+    /// Longest a user M code (M100–M199) may run (s).
+    pub user_m_timeout_s: f64,
+}
+
+/// Everything the sequencer keeps in force from one motion index on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SequencerState {
+    /// What the command samples carry.
+    pub outputs: MachineOutputs,
+    /// The tool in the spindle (after the last M6 was done).
+    pub tool_in_spindle: u32,
+    /// The tool prepared (the last T).
+    pub tool_prepared: u32,
+    /// The operator message last reached (`Program::messages` index).
+    pub message: Option<u32>,
+    /// M48–M51: feed override enabled.
+    pub feed_override_enabled: bool,
+    /// M48–M51: spindle override enabled.
+    pub spindle_override_enabled: bool,
+    /// M52: adaptive feed enabled.
+    pub adaptive_feed_enabled: bool,
+    /// M53: feed hold enabled.
+    pub feed_hold_enabled: bool,
+}
+
+impl Default for SequencerState {
+    /// Outputs off, no tool, no message, override switches on (LinuxCNC starts with
+    /// M48 in force).
+    fn default() -> Self {
+        SequencerState {
+            outputs: MachineOutputs::default(),
+            tool_in_spindle: 0,
+            tool_prepared: 0,
+            message: None,
+            feed_override_enabled: true,
+            spindle_override_enabled: true,
+            adaptive_feed_enabled: false,
+            feed_hold_enabled: true,
+        }
+    }
+}
+
+impl SequencerState {
+    /// The state after operation `op`.
+    fn apply(&mut self, op: &MachineOp) {
+        let o = &mut self.outputs;
+        match *op {
+            MachineOp::SpindleOn { dir, rpm } => {
+                o.spindle_dir = match dir {
+                    SpindleTurn::Clockwise => SpindleDir::Clockwise,
+                    SpindleTurn::CounterClockwise => SpindleDir::CounterClockwise,
+                };
+                o.spindle_rpm = rpm;
+                o.spindle_orient_deg = None;
+            }
+            MachineOp::SpindleOff => {
+                o.spindle_dir = SpindleDir::Stopped;
+                o.spindle_orient_deg = None;
+            }
+            MachineOp::SpindleOrient { angle_deg, .. } => {
+                o.spindle_dir = SpindleDir::Stopped;
+                o.spindle_orient_deg = Some(angle_deg);
+            }
+            MachineOp::Coolant { mist, flood } => {
+                o.coolant_mist = mist;
+                o.coolant_flood = flood;
+            }
+            MachineOp::ToolPrepare { tool } => self.tool_prepared = tool,
+            MachineOp::ToolChange { .. } => o.tool_change = true,
+            MachineOp::Message { index, .. } => self.message = Some(index),
+            MachineOp::DigitalOut { line, on, .. } => {
+                let bit = 1u64 << line;
+                if on {
+                    o.digital |= bit;
+                } else {
+                    o.digital &= !bit;
+                }
+            }
+            MachineOp::AnalogOut { line, value, .. } => {
+                if let Some(a) = o.analog.get_mut(usize::from(line)) {
+                    *a = value;
+                }
+            }
+            MachineOp::Overrides { switch, on } => match switch {
+                OverrideSwitch::FeedAndSpindle => {
+                    self.feed_override_enabled = on;
+                    self.spindle_override_enabled = on;
+                }
+                OverrideSwitch::Feed => self.feed_override_enabled = on,
+                OverrideSwitch::Spindle => self.spindle_override_enabled = on,
+                OverrideSwitch::AdaptiveFeed => self.adaptive_feed_enabled = on,
+                OverrideSwitch::FeedHold => self.feed_hold_enabled = on,
+            },
+            MachineOp::WaitInput { .. } | MachineOp::UserM { .. } => {}
+        }
+    }
+}
+
+/// What the machine and the operator report, as the caller last heard it.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Feedback {
+    /// The machine's inputs.
+    pub inputs: MachineInputs,
+    /// The motion index of this job's command sample the machine was applying when
+    /// it read `inputs` (the position status's `motion` once it reports a sample of
+    /// this job; the sample's own offline); `None` before it applies any.
+    pub applied_motion: Option<u32>,
+    /// The operator's resume (cycle start) came since the last step.
+    pub resume: bool,
+    /// The user M code the path waits at has finished (its executable exited 0).
+    pub user_command_done: bool,
+}
+
+/// What the path waits for at a machine stop.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Waiting {
+    /// The command has not reached the machine yet.
+    Applied,
+    /// The spindle to reach its speed (M3, M4, S).
+    SpindleAtSpeed,
+    /// The tool changer's `tool-changed` or the operator's resume: "insert T{tool},
+    /// then resume".
+    ToolChange {
+        /// The tool to insert.
+        tool: u32,
+    },
+    /// M66: the input.
+    Input {
+        /// Which.
+        input: WaitInput,
+        /// How.
+        mode: WaitMode,
+    },
+    /// A user M code's executable to finish.
+    UserCommand {
+        /// 100..=199.
+        code: u8,
+        /// Its P.
+        p: f64,
+        /// Its Q.
+        q: f64,
+    },
+}
+
+impl std::fmt::Display for Waiting {
+    /// The operator's prompt: what the machine waits for.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Waiting::Applied => write!(f, "waiting for the machine"),
+            Waiting::SpindleAtSpeed => write!(f, "waiting for the spindle to reach its speed"),
+            Waiting::ToolChange { tool } => write!(f, "insert T{tool}, then resume"),
+            Waiting::Input { input, mode } => write!(f, "waiting for input {input:?} ({mode:?})"),
+            Waiting::UserCommand { code, .. } => write!(f, "running M{code}"),
+        }
+    }
+}
+
+/// Why a job cannot go on at a machine stop (the caller raises an alarm and aborts).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum SequencerError {
+    /// The spindle did not reach its speed within the profile's timeout.
+    #[error("line {line}: the spindle did not reach {rpm} rpm within {waited_s:.1} s")]
+    SpindleNotAtSpeed {
+        /// Source line of the M3/M4/S.
+        line: u32,
+        /// The speed commanded (rpm).
+        rpm: f64,
+        /// How long it waited (s).
+        waited_s: f64,
+    },
+    /// A user M code did not finish within the profile's timeout.
+    #[error("line {line}: M{code} did not finish within {waited_s:.1} s")]
+    UserCommandTimeout {
+        /// Source line.
+        line: u32,
+        /// 100..=199.
+        code: u8,
+        /// How long it waited (s).
+        waited_s: f64,
+    },
+}
+
+/// What the caller does after a [`MachineSequencer::step`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Action {
+    /// Nothing: the path runs (or stands where the sequencer has no say).
+    Run,
+    /// Keep waiting at the machine stop.
+    Wait(Waiting),
+    /// Release the machine stop
+    /// ([`crate::StreamInterpolator::release_machine_stop`]).
+    Release,
+    /// The job cannot go on.
+    Fail(SequencerError),
+}
+
+/// One step's answer: the state for the sample and what to do.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Step {
+    /// The state in force for the sample (its `outputs` go on the command sample).
+    pub state: SequencerState,
+    /// What to do with the machine stop.
+    pub action: Action,
+}
+
+/// A machine stop as the table holds it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct StopEntry {
+    motion: u32,
+    line: u32,
+    op: MachineOp,
+}
+
+/// The wait at the current machine stop.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct WaitState {
+    motion: u32,
+    /// Steps since the stop was first seen.
+    cycles: u64,
+    /// Steps since the machine applied the stop.
+    applied_cycles: u64,
+    /// M66 rise/fall: the level seen before (None: nothing seen yet).
+    last_level: Option<bool>,
+}
+
+/// Builds a [`MachineSequencer`]'s tables from the motions in order (for a
+/// program streamed in chunks, motion by motion as the check reads them).
+#[derive(Debug, Clone)]
+pub struct SequencerBuilder {
+    cfg: SequencerConfig,
+    state: SequencerState,
+    changes: Vec<(u32, SequencerState)>,
+    stops: Vec<StopEntry>,
+    /// Synchronised outputs waiting for the next move.
+    pending_sync: Vec<MachineOp>,
+    /// An M6 was the last change: the next motion ends it.
+    tool_change_done: Option<u32>,
+}
+
+impl SequencerBuilder {
+    /// Tables from `initial` (the machine's state when the job starts).
+    pub fn new(cfg: SequencerConfig, initial: SequencerState) -> Self {
+        SequencerBuilder {
+            cfg,
+            state: initial,
+            changes: vec![(0, initial)],
+            stops: Vec::new(),
+            pending_sync: Vec::new(),
+            tool_change_done: None,
+        }
+    }
+
+    fn record(&mut self, index: u32) {
+        match self.changes.last_mut() {
+            Some(last) if last.0 == index => last.1 = self.state,
+            _ => self.changes.push((index, self.state)),
+        }
+    }
+
+    /// Motion number `index` of the program.
+    pub fn push(&mut self, index: u32, m: &softnc_gcode::Motion) {
+        if let Some(tool) = self.tool_change_done.take() {
+            // the M6 is done when the path leaves it
+            self.state.outputs.tool_change = false;
+            self.state.tool_in_spindle = tool;
+            self.record(index);
+        }
+        match m.kind {
+            MotionKind::Machine(op) => {
+                let synchronised = matches!(
+                    op,
+                    MachineOp::DigitalOut {
+                        synchronised: true,
+                        ..
+                    } | MachineOp::AnalogOut {
+                        synchronised: true,
+                        ..
+                    }
+                );
+                if synchronised {
+                    self.pending_sync.push(op);
+                    return;
+                }
+                self.state.apply(&op);
+                if let MachineOp::ToolChange { tool } = op {
+                    self.tool_change_done = Some(tool);
+                }
+                self.record(index);
+                if op.stops_motion() {
+                    self.stops.push(StopEntry {
+                        motion: index,
+                        line: m.line,
+                        op,
+                    });
+                }
+            }
+            MotionKind::Traverse { .. } | MotionKind::Feed { .. } | MotionKind::Arc { .. } => {
+                if !self.pending_sync.is_empty() {
+                    for op in std::mem::take(&mut self.pending_sync) {
+                        self.state.apply(&op);
+                    }
+                    self.record(index);
+                }
+            }
+            MotionKind::Dwell { .. } | MotionKind::Pause { .. } | MotionKind::Sync => {}
+        }
+    }
+
+    /// The sequencer, with the program's message texts.
+    pub fn finish(self, messages: Vec<String>) -> MachineSequencer {
+        MachineSequencer {
+            cfg: self.cfg,
+            changes: self.changes,
+            stops: self.stops,
+            messages,
+            change_cursor: 0,
+            stop_cursor: 0,
+            wait: None,
+            input_result: None,
+        }
+    }
+}
+
+/// The machine around the axes during one job (see the module).
+#[derive(Debug, Clone)]
+pub struct MachineSequencer {
+    cfg: SequencerConfig,
+    /// (first motion, state in force from it on), by motion.
+    changes: Vec<(u32, SequencerState)>,
+    /// The machine stops, by motion.
+    stops: Vec<StopEntry>,
+    messages: Vec<String>,
+    change_cursor: usize,
+    stop_cursor: usize,
+    wait: Option<WaitState>,
+    input_result: Option<f64>,
+}
+
+impl MachineSequencer {
+    /// The sequencer of a whole program read at once.
+    pub fn new(program: &Program, cfg: SequencerConfig, initial: SequencerState) -> Self {
+        let mut b = SequencerBuilder::new(cfg, initial);
+        for (i, m) in program.motions.iter().enumerate() {
+            b.push(i as u32, m);
+        }
+        b.finish(program.messages.clone())
+    }
+
+    /// The state in force for a sample of motion `motion` (O(1) as the motions go
+    /// forward; a binary search if one goes back).
+    pub fn state_at(&mut self, motion: u32) -> SequencerState {
+        let c = &self.changes;
+        let mut k = self.change_cursor.min(c.len() - 1);
+        if c[k].0 > motion {
+            k = c.partition_point(|e| e.0 <= motion).saturating_sub(1);
+        }
+        while k + 1 < c.len() && c[k + 1].0 <= motion {
+            k += 1;
+        }
+        self.change_cursor = k;
+        c[k].1
+    }
+
+    /// The machine stop at motion `motion`, if there is one.
+    fn stop_at(&mut self, motion: u32) -> Option<StopEntry> {
+        let s = &self.stops;
+        let mut k = self.stop_cursor.min(s.len().saturating_sub(1));
+        if s.get(k).is_some_and(|e| e.motion > motion) {
+            k = s.partition_point(|e| e.motion < motion);
+        }
+        while k < s.len() && s[k].motion < motion {
+            k += 1;
+        }
+        self.stop_cursor = k;
+        s.get(k).filter(|e| e.motion == motion).copied()
+    }
+
+    /// The text of message `index` (`SequencerState::message`).
+    pub fn message_text(&self, index: u32) -> Option<&str> {
+        self.messages.get(index as usize).map(String::as_str)
+    }
+
+    /// The result of the last M66 (what LinuxCNC puts in #5399: the input's value,
+    /// or −1 where the wait timed out).
+    pub fn input_result(&self) -> Option<f64> {
+        self.input_result
+    }
+
+    /// One cycle: the state for the sample of motion `sample_motion` and, where the
+    /// path waits at the machine stop `machine_stop`
+    /// ([`crate::StreamInterpolator::machine_stop`]), whether it may go on.
+    pub fn step(&mut self, sample_motion: u32, machine_stop: Option<u32>, fb: &Feedback) -> Step {
+        let state = self.state_at(sample_motion);
+        let action = match machine_stop {
+            None => {
+                self.wait = None;
+                Action::Run
+            }
+            Some(m) => self.at_stop(m, fb),
+        };
+        Step { state, action }
+    }
+
+    fn at_stop(&mut self, motion: u32, fb: &Feedback) -> Action {
+        let Some(stop) = self.stop_at(motion) else {
+            // not an operation of this table: nothing to wait for
+            return Action::Release;
+        };
+        let w = match &mut self.wait {
+            Some(w) if w.motion == motion => w,
+            w => w.insert(WaitState {
+                motion,
+                cycles: 0,
+                applied_cycles: 0,
+                last_level: None,
+            }),
+        };
+        w.cycles += 1;
+        if fb.applied_motion.is_none_or(|m| m < motion) {
+            return Action::Wait(Waiting::Applied);
+        }
+        w.applied_cycles += 1;
+        let waited_s = w.cycles as f64 * self.cfg.cycle_s;
+        let timed_out = |limit_s: f64| limit_s > 0.0 && waited_s >= limit_s;
+        let inputs = &fb.inputs;
+        match stop.op {
+            MachineOp::SpindleOn { rpm, .. } => {
+                if inputs.spindle_at_speed {
+                    Action::Release
+                } else if timed_out(self.cfg.spindle_at_speed_timeout_s) {
+                    Action::Fail(SequencerError::SpindleNotAtSpeed {
+                        line: stop.line,
+                        rpm,
+                        waited_s,
+                    })
+                } else {
+                    Action::Wait(Waiting::SpindleAtSpeed)
+                }
+            }
+            MachineOp::ToolChange { tool } => {
+                if inputs.tool_changed || fb.resume {
+                    Action::Release
+                } else {
+                    Action::Wait(Waiting::ToolChange { tool })
+                }
+            }
+            MachineOp::WaitInput {
+                input,
+                mode,
+                timeout_s,
+            } => {
+                let (level, value) = match input {
+                    WaitInput::Digital(p) => {
+                        let on = inputs.digital >> p & 1 == 1;
+                        (on, f64::from(u8::from(on)))
+                    }
+                    WaitInput::Analog(e) => {
+                        let v = inputs.analog.get(usize::from(e)).copied().unwrap_or(0.0);
+                        (v != 0.0, v)
+                    }
+                };
+                let before = w.last_level.replace(level);
+                let met = match mode {
+                    WaitMode::Immediate => true,
+                    WaitMode::High => level,
+                    WaitMode::Low => !level,
+                    WaitMode::Rise => before == Some(false) && level,
+                    WaitMode::Fall => before == Some(true) && !level,
+                };
+                if met {
+                    self.input_result = Some(value);
+                    Action::Release
+                } else if timed_out(timeout_s) {
+                    self.input_result = Some(-1.0);
+                    Action::Release
+                } else {
+                    Action::Wait(Waiting::Input { input, mode })
+                }
+            }
+            MachineOp::UserM { code, p, q } => {
+                if fb.user_command_done {
+                    Action::Release
+                } else if timed_out(self.cfg.user_m_timeout_s) {
+                    Action::Fail(SequencerError::UserCommandTimeout {
+                        line: stop.line,
+                        code,
+                        waited_s,
+                    })
+                } else {
+                    Action::Wait(Waiting::UserCommand { code, p, q })
+                }
+            }
+            // spindle off, M19, coolant, immediate outputs, messages: done once the
+            // machine has them
+            _ => Action::Release,
+        }
+    }
+}
