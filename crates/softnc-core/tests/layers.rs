@@ -26,7 +26,10 @@ const LAYERS: &[(&str, &[&str])] = &[
         ],
     ),
     ("operator client", &["softnc-client"]),
-    ("composed", &["softnc-planner", "softnc-machine"]),
+    (
+        "composed",
+        &["softnc-planner", "softnc-machine", "softnc-ethercat-emu"],
+    ),
     ("servo boundary", &["softnc-servo"]),
     ("simulator", &["softnc-sim"]),
     ("experiments", &["softnc-experiments"]),
