@@ -31,7 +31,7 @@ const LAYERS: &[(&str, &[&str])] = &[
         &["softnc-planner", "softnc-machine", "softnc-ethercat-emu"],
     ),
     ("servo boundary", &["softnc-servo"]),
-    ("simulator", &["softnc-sim"]),
+    ("backends", &["softnc-sim", "softnc-ethercat"]),
     ("experiments", &["softnc-experiments"]),
     ("processes", &["softnc-daemon"]),
     ("command line", &["softnc-cli"]),
