@@ -297,6 +297,7 @@ fn serve(
         if faults.link_down || faults.drop > 0 {
             faults.drop = faults.drop.saturating_sub(1);
             stats.dropped += 1;
+            publish(shared, escs, stats);
             continue;
         }
         buf.clear();

@@ -58,6 +58,7 @@ pub struct EtherCatBackend {
     enabled: bool,
     stats: BusStats,
     rtt: Box<[u32; RTT_BUCKETS]>,
+    _txrx: bus::TxRxStop,
 }
 
 impl EtherCatBackend {
@@ -105,7 +106,7 @@ impl EtherCatBackend {
                 "drives must serve axes 0, 1, … without a gap".into(),
             ));
         }
-        let (md, group) = bus::bring_up(config)?;
+        let (md, group, txrx) = bus::bring_up(config)?;
         let mut expected_wkc = 0;
         for s in group.iter(md) {
             expected_wkc +=
@@ -123,6 +124,7 @@ impl EtherCatBackend {
             enabled: false,
             stats: BusStats::default(),
             rtt: Box::new([0; RTT_BUCKETS]),
+            _txrx: txrx,
         };
         // the first inputs, so that `home` and `read_counts` see the drives
         b.cycle().map_err(|e| OpenError::Bus {
@@ -230,6 +232,43 @@ impl EtherCatBackend {
             return Err(self.fault(Some(p), BusFault::DriveFault { error_code }));
         }
         Ok(())
+    }
+
+    /// After a bus fault whose cause is gone: SubDevices out of OP are asked back
+    /// into OP (AL control OP with the error acknowledged) while process data runs,
+    /// until every one is there (off the cycle path). The drives stay disabled:
+    /// `enable` resets their faults and powers them again.
+    pub fn recover(&mut self) -> Result<(), BackendError> {
+        const AL_OP_ACK: u16 = 0x0018;
+        let deadline = Instant::now() + self.response_timeout * 2;
+        for p in 0..self.group.len() {
+            let s = self
+                .group
+                .subdevice(self.md, p)
+                .map_err(|_| BackendError::Timeout)?;
+            let state = block_on(s.status(), deadline)
+                .and_then(Result::ok)
+                .map(|(st, _)| st);
+            if state != Some(SubDeviceState::Op) {
+                let _ = block_on(
+                    s.register_write(ethercrab::RegisterAddress::AlControl, AL_OP_ACK),
+                    deadline,
+                );
+            }
+        }
+        let mut last = Err(BackendError::Timeout);
+        for _ in 0..STATE_CYCLES {
+            last = self.exchange();
+            match last {
+                Ok(())
+                | Err(BackendError::Bus {
+                    reason: BusFault::DriveFault { .. },
+                    ..
+                }) => return Ok(()),
+                _ => std::thread::sleep(self.cycle),
+            }
+        }
+        last
     }
 
     /// Cycles (paced at the bus cycle) until every drive's state bits read `want`.

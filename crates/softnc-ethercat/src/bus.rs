@@ -8,6 +8,11 @@ use crate::config::{EtherCatConfig, Identity, Role};
 use crate::exec::block_on;
 use ethercrab::subdevice_group::{DcConfiguration, HasDc, Op};
 use ethercrab::{DcSync, MainDevice, MainDeviceConfig, PduStorage, SubDeviceGroup, Timeouts};
+use std::future::Future;
+use std::pin::Pin;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::task::{Context, Poll};
 use std::time::{Duration, Instant};
 
 /// SubDevices a bus may have.
@@ -100,14 +105,14 @@ pub struct Found {
     pub serial: u32,
 }
 
-/// The MainDevice, for the life of the process: ethercrab's storage and
-/// MainDevice are borrowed `'static` by its TX/RX task; ethercrab releases them
-/// only through `unsafe` `release_all`, so each open leaves them (≈ 20 KiB) and its
-/// task (which ends when the interface goes away).
+/// The MainDevice and the stop of its TX/RX thread. ethercrab's storage and
+/// MainDevice are borrowed `'static` by its TX/RX task and released only through
+/// `unsafe` `release_all`, so each open leaves them (≈ 20 KiB); the thread and its
+/// socket end when the returned [`TxRxStop`] is dropped.
 pub fn main_device(
     iface: &str,
     pdu_timeout: Duration,
-) -> Result<&'static MainDevice<'static>, OpenError> {
+) -> Result<(&'static MainDevice<'static>, TxRxStop), OpenError> {
     let storage: &'static PduStorage<MAX_FRAMES, MAX_PDU_DATA> =
         Box::leak(Box::new(PduStorage::new()));
     let (tx, rx, pdu_loop) = storage.try_split().map_err(|()| OpenError::Interface {
@@ -115,14 +120,28 @@ pub fn main_device(
         reason: "PDU storage already split".into(),
     })?;
     let name = iface.to_string();
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
     // the socket is opened on the task's thread; an error there is reported back
     let (ready_tx, ready_rx) = std::sync::mpsc::channel();
     std::thread::Builder::new()
         .name("ethercat-txrx".into())
         .spawn(move || {
-            let _ = ready_tx.send(Ok(()));
-            if let Err(e) = ethercrab::std::tx_rx_task_io_uring(&name, tx, rx) {
-                let _ = ready_tx.send(Err(e.to_string()));
+            // ethercrab's async task on async-io's reactor: a lost frame only times
+            // out its future (its io_uring task waits for every read it submitted,
+            // so one lost frame would stop it)
+            match ethercrab::std::tx_rx_task(&name, tx, rx) {
+                Ok(task) => {
+                    let _ = ready_tx.send(Ok(()));
+                    async_io::block_on(UntilStopped {
+                        task: Box::pin(task),
+                        stop: flag,
+                        tick: async_io::Timer::after(STOP_POLL),
+                    });
+                }
+                Err(e) => {
+                    let _ = ready_tx.send(Err(e.to_string()));
+                }
             }
         })
         .map_err(|e| OpenError::Interface {
@@ -147,9 +166,45 @@ pub fn main_device(
         dc_static_sync_iterations: DC_SYNC_ITERATIONS,
         ..MainDeviceConfig::default()
     };
-    Ok(Box::leak(Box::new(MainDevice::new(
-        pdu_loop, timeouts, config,
-    ))))
+    let md: &'static MainDevice<'static> =
+        Box::leak(Box::new(MainDevice::new(pdu_loop, timeouts, config)));
+    Ok((md, TxRxStop(stop)))
+}
+
+/// How often the TX/RX thread looks at its stop flag.
+const STOP_POLL: Duration = Duration::from_millis(10);
+
+/// Stops the TX/RX thread (and closes its socket) when dropped.
+#[derive(Debug)]
+pub struct TxRxStop(Arc<AtomicBool>);
+
+impl Drop for TxRxStop {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+}
+
+/// ethercrab's TX/RX task until it ends or the stop flag is set.
+struct UntilStopped<F> {
+    task: Pin<Box<F>>,
+    stop: Arc<AtomicBool>,
+    tick: async_io::Timer,
+}
+
+impl<F: Future> Future for UntilStopped<F> {
+    type Output = ();
+    fn poll(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<()> {
+        if self.task.as_mut().poll(cx).is_ready() || self.stop.load(Ordering::Relaxed) {
+            return Poll::Ready(());
+        }
+        while Pin::new(&mut self.tick).poll(cx).is_ready() {
+            if self.stop.load(Ordering::Relaxed) {
+                return Poll::Ready(());
+            }
+            self.tick.set_after(STOP_POLL);
+        }
+        Poll::Pending
+    }
 }
 
 fn bus_err(step: &'static str) -> impl Fn(ethercrab::error::Error) -> OpenError {
@@ -170,7 +225,7 @@ fn run<F: std::future::Future<Output = Result<T, ethercrab::error::Error>>, T>(
 
 /// The SubDevices on `iface`, in order, brought to PRE-OP.
 pub fn scan(iface: &str) -> Result<Vec<Found>, OpenError> {
-    let md = main_device(iface, Duration::from_millis(100))?;
+    let (md, _stop) = main_device(iface, Duration::from_millis(100))?;
     let group = run(
         "scan",
         md.init_single_group::<MAX_SUBDEVICES, MAX_PDI>(ethercrab::std::ethercat_now),
@@ -198,11 +253,11 @@ pub fn scan(iface: &str) -> Result<Vec<Found>, OpenError> {
 /// The bus brought up to OP as `config` says.
 pub fn bring_up(
     config: &EtherCatConfig,
-) -> Result<(&'static MainDevice<'static>, Group), OpenError> {
+) -> Result<(&'static MainDevice<'static>, Group, TxRxStop), OpenError> {
     let cycle_ns = config.cycle.as_nanos() as u64;
     let (period, index) = cia402::interpolation_period(cycle_ns)
         .ok_or_else(|| OpenError::Config(format!("cycle {cycle_ns} ns has no 0x60C2 form")))?;
-    let md = main_device(&config.interface, config.response_timeout)?;
+    let (md, stop) = main_device(&config.interface, config.response_timeout)?;
     let mut group = run(
         "init",
         md.init_single_group::<MAX_SUBDEVICES, MAX_PDI>(ethercrab::std::ethercat_now),
@@ -289,7 +344,7 @@ pub fn bring_up(
     for _ in 0..OP_CYCLES {
         let r = run("OP", group.tx_rx_dc(md))?;
         if r.all_op() {
-            return Ok((md, group));
+            return Ok((md, group, stop));
         }
         std::thread::sleep(config.cycle);
     }

@@ -3,7 +3,7 @@
 //! `softnc_servo::ServoBackend` (docs/architecture.md, "A real drive";
 //! docs/ethercat.md).
 //!
-//! ethercrab's TX/RX runs on a thread of its own (`tx_rx_task_io_uring`, blocking);
+//! ethercrab's TX/RX runs on a thread of its own (`tx_rx_task` under `async_io::block_on`);
 //! the cycle drives ethercrab's futures on the caller's thread with [`exec`]'s
 //! executor, bounded by the configured response timeout and allocation-free.
 

@@ -52,7 +52,8 @@ fn config(iface: &str) -> EtherCatConfig {
     EtherCatConfig {
         interface: iface.to_string(),
         cycle: Duration::from_millis(1),
-        response_timeout: Duration::from_millis(5),
+        // generous: the test machine is shared and the loop is not real-time here
+        response_timeout: Duration::from_millis(20),
         subdevices,
     }
 }
@@ -147,6 +148,22 @@ fn faults_are_detected_within_3_cycles_and_the_cycle_does_not_allocate() {
     );
     assert_eq!(allocs, 0, "the cycle allocated");
 
+    emu.command(Command::Drop(1));
+    std::thread::sleep(Duration::from_millis(20));
+    let e = fails_within_3(&mut b);
+    assert!(
+        matches!(
+            e,
+            BackendError::Bus {
+                reason: BusFault::FrameLost,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    b.recover().expect("the bus answers again");
+    b.enable().expect("enabled again");
+
     emu.command(Command::DriveFault {
         position: 1,
         code: 0x7305,
@@ -175,32 +192,31 @@ fn faults_are_detected_within_3_cycles_and_the_cycle_does_not_allocate() {
             reason: BusFault::LeftOp { al_state: 4 }
         }
     );
+    b.recover().expect("SubDevice 2 back in OP");
+    b.enable().expect("enabled again");
 
-    // a lost frame and a link down, each on a bus brought up again (after a lost
-    // frame this backend does not get its cycles answered again: docs/ethercat.md)
-    for (fault, undo) in [
-        (Command::Drop(1), None),
-        (Command::LinkDown, Some(Command::LinkUp)),
-    ] {
-        drop(b);
-        b = EtherCatBackend::open(&config(&veth.main)).expect("bus up again");
-        b.enable().expect("enable");
-        b.cycle().expect("running");
-        emu.command(fault);
-        std::thread::sleep(Duration::from_millis(20));
-        let e = fails_within_3(&mut b);
-        assert!(
-            matches!(
-                e,
-                BackendError::Bus {
-                    reason: BusFault::FrameLost,
-                    ..
-                }
-            ),
-            "{e}"
-        );
-        if let Some(u) = undo {
-            emu.command(u);
-        }
+    emu.command(Command::LinkDown);
+    std::thread::sleep(Duration::from_millis(20));
+    let e = fails_within_3(&mut b);
+    assert!(
+        matches!(
+            e,
+            BackendError::Bus {
+                reason: BusFault::FrameLost,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    emu.command(Command::LinkUp);
+    b.recover().expect("the link back");
+    b.enable().expect("enabled again");
+    for _ in 0..10 {
+        b.cycle().expect("running after every fault");
     }
+    let s = b.bus_stats();
+    println!(
+        "after the faults: frames {} lost {} wkc errors {}",
+        s.frames, s.lost_frames, s.wkc_errors
+    );
 }
