@@ -63,6 +63,8 @@ pub fn image(identity: &Identity, layout: &Layout) -> Vec<u8> {
     category(&mut bytes, CAT_STRINGS, &s);
 
     let mut g = vec![0u8; 32];
+    // the name is string 1: SOEM reads string 1, ethercrab the order string
+    g[2] = 1; // order string index
     g[3] = 1; // name string index
     g[5] = if layout.mailbox.is_some() {
         COE_DETAILS
