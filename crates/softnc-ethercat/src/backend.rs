@@ -45,25 +45,43 @@ pub struct BusStats {
     pub rtt_max_ns: u64,
 }
 
-/// CiA 402 drives on EtherCAT.
-pub struct EtherCatBackend {
+/// The bus once brought up.
+struct Bus {
     md: &'static MainDevice<'static>,
     group: Group,
+    expected_wkc: u16,
+    _txrx: bus::TxRxStop,
+}
+
+/// CiA 402 drives on EtherCAT: a handle made from the configuration, the bus
+/// brought up by the first `enable` or `disable` (as docs/architecture.md's "A
+/// real drive" asks of a drive's factory: the running drive is the one enabled).
+pub struct EtherCatBackend {
+    config: EtherCatConfig,
+    bus: Option<Bus>,
+    pending_home_mm: Option<Axes<f64>>,
+    last_open_error: Option<OpenError>,
     cycle: Duration,
     response_timeout: Duration,
     drives: [Option<Drive>; MAX_AXES],
     axes: usize,
     axis_of: [Option<u8>; bus::MAX_SUBDEVICES],
-    expected_wkc: u16,
     enabled: bool,
     stats: BusStats,
     rtt: Box<[u32; RTT_BUCKETS]>,
-    _txrx: bus::TxRxStop,
 }
 
 impl EtherCatBackend {
-    /// Brings the bus up to OP as `config` says (off the cycle path; seconds).
+    /// The handle and the bus brought up to OP as `config` says (off the cycle
+    /// path; seconds).
     pub fn open(config: &EtherCatConfig) -> Result<Self, OpenError> {
+        let mut b = Self::new(config)?;
+        b.open_bus()?;
+        Ok(b)
+    }
+
+    /// The handle, the configuration checked; the bus is not touched.
+    pub fn new(config: &EtherCatConfig) -> Result<Self, OpenError> {
         let mut drives: [Option<Drive>; MAX_AXES] = [None; MAX_AXES];
         let mut axis_of = [None; bus::MAX_SUBDEVICES];
         for (position, s) in config.subdevices.iter().enumerate() {
@@ -106,35 +124,76 @@ impl EtherCatBackend {
                 "drives must serve axes 0, 1, … without a gap".into(),
             ));
         }
-        let (md, group, txrx) = bus::bring_up(config)?;
-        let mut expected_wkc = 0;
-        for s in group.iter(md) {
-            expected_wkc +=
-                2 * u16::from(!s.outputs_raw().is_empty()) + u16::from(!s.inputs_raw().is_empty());
-        }
-        let mut b = EtherCatBackend {
-            md,
-            group,
+        Ok(EtherCatBackend {
+            config: config.clone(),
+            bus: None,
+            pending_home_mm: None,
+            last_open_error: None,
             cycle: config.cycle,
             response_timeout: config.response_timeout,
             drives,
             axes,
             axis_of,
-            expected_wkc,
             enabled: false,
             stats: BusStats::default(),
             rtt: Box::new([0; RTT_BUCKETS]),
+        })
+    }
+
+    /// Brings the bus up to OP, where it is not yet (off the cycle path).
+    pub fn open_bus(&mut self) -> Result<(), OpenError> {
+        if self.bus.is_some() {
+            return Ok(());
+        }
+        let (md, group, txrx) = bus::bring_up(&self.config)?;
+        let mut expected_wkc = 0;
+        for s in group.iter(md) {
+            expected_wkc +=
+                2 * u16::from(!s.outputs_raw().is_empty()) + u16::from(!s.inputs_raw().is_empty());
+        }
+        self.bus = Some(Bus {
+            md,
+            group,
+            expected_wkc,
             _txrx: txrx,
-        };
+        });
         // the first inputs, so that `home` and `read_counts` see the drives
-        b.cycle().map_err(|e| OpenError::Bus {
+        self.exchange().map_err(|e| OpenError::Bus {
             step: "first cycle",
             reason: e.to_string(),
         })?;
-        for d in b.drives.iter_mut().flatten() {
+        for d in self.drives.iter_mut().flatten() {
             d.target = d.inputs.position;
         }
-        Ok(b)
+        if let Some(h) = self.pending_home_mm.take() {
+            self.home(h);
+        }
+        Ok(())
+    }
+
+    /// Why the last bring-up failed (`enable` reports it only as
+    /// [`BusFault::NotOpen`]).
+    pub fn last_open_error(&self) -> Option<&OpenError> {
+        self.last_open_error.as_ref()
+    }
+
+    fn ensure_open(&mut self) -> Result<(), BackendError> {
+        match self.open_bus() {
+            Ok(()) => Ok(()),
+            Err(e) => {
+                let subdevice = match e {
+                    OpenError::IdentityMismatch { position, .. }
+                    | OpenError::Sdo { position, .. } => Some(position as u16),
+                    _ => None,
+                };
+                self.last_open_error = Some(e);
+                Err(BackendError::Bus {
+                    subdevice,
+                    axis: None,
+                    reason: BusFault::NotOpen,
+                })
+            }
+        }
     }
 
     /// Bus figures since open.
@@ -172,66 +231,72 @@ impl EtherCatBackend {
     }
 
     fn exchange(&mut self) -> Result<(), BackendError> {
+        match self.exchange_frame() {
+            Ok(()) => Ok(()),
+            Err((subdevice, reason)) => Err(self.fault(subdevice, reason)),
+        }
+    }
+
+    /// One process-data frame: outputs written, the frame exchanged (bounded),
+    /// the working counter and every SubDevice's AL state checked, inputs read.
+    fn exchange_frame(&mut self) -> Result<(), (Option<usize>, BusFault)> {
+        let Some(bus) = self.bus.as_ref() else {
+            return Err((None, BusFault::NotOpen));
+        };
+        let (md, group, expected) = (bus.md, &bus.group, bus.expected_wkc);
         for d in self.drives.iter().flatten() {
-            let s = self
-                .group
-                .subdevice(self.md, d.position)
-                .map_err(|_| BackendError::Timeout)?;
-            cia402::write_outputs(&mut s.outputs_raw_mut(), d.controlword, d.target, 0);
+            if let Ok(s) = group.subdevice(md, d.position) {
+                cia402::write_outputs(&mut s.outputs_raw_mut(), d.controlword, d.target, 0);
+            }
         }
         let t0 = Instant::now();
         // ethercrab's own PDU timeout (the response timeout) ends a lost frame and
         // frees its slot; the executor's deadline, twice that, only bounds the wait
-        let r = block_on(self.group.tx_rx_dc(self.md), t0 + 2 * self.response_timeout);
+        let r = block_on(group.tx_rx_dc(md), t0 + 2 * self.response_timeout);
         let rtt = t0.elapsed().as_nanos() as u64;
         self.stats.frames += 1;
         let Some(Ok(r)) = r else {
             self.stats.lost_frames += 1;
-            return Err(self.fault(None, BusFault::FrameLost));
+            return Err((None, BusFault::FrameLost));
         };
         self.stats.rtt_max_ns = self.stats.rtt_max_ns.max(rtt);
         let bucket = ((rtt / RTT_BUCKET_NS) as usize).min(RTT_BUCKETS - 1);
         self.rtt[bucket] += 1;
-        if let Some((p, s)) = r
+        let got = r.working_counter;
+        if got != expected {
+            self.stats.wkc_errors += 1;
+        }
+        let not_op = r
             .subdevice_states
             .iter()
             .enumerate()
-            .find(|(_, s)| **s != SubDeviceState::Op)
-        {
-            if r.working_counter != self.expected_wkc {
-                self.stats.wkc_errors += 1;
-            }
-            let al_state = match *s {
-                SubDeviceState::None => 0,
-                SubDeviceState::Init => 1,
-                SubDeviceState::PreOp => 2,
-                SubDeviceState::Bootstrap => 3,
-                SubDeviceState::SafeOp => 4,
-                SubDeviceState::Op => 8,
-                SubDeviceState::Other(x) => x,
-            };
-            return Err(self.fault(Some(p), BusFault::LeftOp { al_state }));
+            .find(|(_, s)| **s != SubDeviceState::Op);
+        if let Some((p, s)) = not_op {
+            return Err((
+                Some(p),
+                BusFault::LeftOp {
+                    al_state: al_nibble(*s),
+                },
+            ));
         }
-        if r.working_counter != self.expected_wkc {
-            self.stats.wkc_errors += 1;
-            let (got, expected) = (r.working_counter, self.expected_wkc);
-            return Err(self.fault(None, BusFault::WorkingCounter { got, expected }));
+        if got != expected {
+            return Err((None, BusFault::WorkingCounter { got, expected }));
         }
         let mut faulted = None;
         for d in self.drives.iter_mut().flatten() {
-            let s = self
-                .group
-                .subdevice(self.md, d.position)
-                .map_err(|_| BackendError::Timeout)?;
-            d.inputs = Inputs::parse(&s.inputs_raw());
+            if let Ok(s) = group.subdevice(md, d.position) {
+                d.inputs = Inputs::parse(&s.inputs_raw());
+            }
             if d.inputs.statusword & cia402::FAULT_BIT != 0 && faulted.is_none() {
-                faulted = Some((d.position, d.inputs.error_code));
+                faulted = Some((
+                    Some(d.position),
+                    BusFault::DriveFault {
+                        error_code: d.inputs.error_code,
+                    },
+                ));
             }
         }
-        if let Some((p, error_code)) = faulted {
-            return Err(self.fault(Some(p), BusFault::DriveFault { error_code }));
-        }
-        Ok(())
+        faulted.map_or(Ok(()), Err)
     }
 
     /// After a bus fault whose cause is gone: SubDevices out of OP are asked back
@@ -240,11 +305,13 @@ impl EtherCatBackend {
     /// `enable` resets their faults and powers them again.
     pub fn recover(&mut self) -> Result<(), BackendError> {
         const AL_OP_ACK: u16 = 0x0018;
+        self.ensure_open()?;
         let deadline = Instant::now() + self.response_timeout * 2;
-        for p in 0..self.group.len() {
-            let s = self
+        let bus = self.bus.as_ref().expect("opened");
+        for p in 0..bus.group.len() {
+            let s = bus
                 .group
-                .subdevice(self.md, p)
+                .subdevice(bus.md, p)
                 .map_err(|_| BackendError::Timeout)?;
             let state = block_on(s.status(), deadline)
                 .and_then(Result::ok)
@@ -309,6 +376,19 @@ impl EtherCatBackend {
     }
 }
 
+/// An AL state as the low nibble of AL status.
+fn al_nibble(s: SubDeviceState) -> u8 {
+    match s {
+        SubDeviceState::None => 0,
+        SubDeviceState::Init => 1,
+        SubDeviceState::PreOp => 2,
+        SubDeviceState::Bootstrap => 3,
+        SubDeviceState::SafeOp => 4,
+        SubDeviceState::Op => 8,
+        SubDeviceState::Other(x) => x,
+    }
+}
+
 impl ServoBackend for EtherCatBackend {
     fn axes(&self) -> usize {
         self.axes
@@ -320,6 +400,7 @@ impl ServoBackend for EtherCatBackend {
         self.drives[axis].map_or(1.0, |d| 1.0 / d.counts_per_mm)
     }
     fn enable(&mut self) -> Result<(), BackendError> {
+        self.ensure_open()?;
         if self
             .drives
             .iter()
@@ -341,6 +422,9 @@ impl ServoBackend for EtherCatBackend {
     }
     fn disable(&mut self) {
         self.enabled = false;
+        if self.ensure_open().is_err() {
+            return;
+        }
         let _ = self.step_to(cw::QUICK_STOP, 0x0040);
         for d in self.drives.iter_mut().flatten() {
             d.controlword = cw::DISABLE_VOLTAGE;
@@ -348,6 +432,11 @@ impl ServoBackend for EtherCatBackend {
         let _ = self.exchange();
     }
     fn home(&mut self, pos_mm: Axes<f64>) {
+        if self.bus.is_none() {
+            // applied when the bus is up: the axes do not move before
+            self.pending_home_mm = Some(pos_mm);
+            return;
+        }
         for (d, p) in self.drives.iter_mut().zip(pos_mm) {
             if let Some(d) = d {
                 d.offset_counts = p * d.counts_per_mm - d.direction * f64::from(d.inputs.position);

@@ -113,6 +113,12 @@ pub fn main_device(
     iface: &str,
     pdu_timeout: Duration,
 ) -> Result<(&'static MainDevice<'static>, TxRxStop), OpenError> {
+    if !std::path::Path::new("/sys/class/net").join(iface).exists() {
+        return Err(OpenError::Interface {
+            iface: iface.into(),
+            reason: "no such network interface".into(),
+        });
+    }
     let storage: &'static PduStorage<MAX_FRAMES, MAX_PDU_DATA> =
         Box::leak(Box::new(PduStorage::new()));
     let (tx, rx, pdu_loop) = storage.try_split().map_err(|()| OpenError::Interface {

@@ -86,8 +86,9 @@ fn conforms_over_the_emulator() {
     )
     .expect("default profile");
     let cfg = config(&veth.main);
+    // handles as a daemon's factory makes them: the bus comes up on enable/disable
     softnc_servo::conformance::run("ethercat", &profile, &|| {
-        EtherCatBackend::open(&cfg).expect("bus up")
+        EtherCatBackend::new(&cfg).expect("configuration")
     });
 }
 

@@ -67,6 +67,10 @@ pub enum BackendError {
 /// Why a fieldbus cycle failed ([`BackendError::Bus`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum BusFault {
+    /// The bus has not been brought up (the first `enable` or `disable` does; a
+    /// bring-up that failed leaves it down).
+    #[error("bus not brought up")]
+    NotOpen,
     /// No frame came back within the bounded wait (a lost frame; a link down looks
     /// the same from the MainDevice).
     #[error("frame lost (no answer within the cycle)")]
