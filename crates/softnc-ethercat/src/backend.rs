@@ -186,6 +186,7 @@ impl EtherCatBackend {
                     | OpenError::Sdo { position, .. } => Some(position as u16),
                     _ => None,
                 };
+                tracing::error!("EtherCAT bring-up: {e}");
                 self.last_open_error = Some(e);
                 Err(BackendError::Bus {
                     subdevice,
