@@ -251,9 +251,9 @@ impl EtherCatBackend {
             }
         }
         let t0 = Instant::now();
-        // ethercrab's own PDU timeout (the response timeout) ends a lost frame and
-        // frees its slot; the executor's deadline, twice that, only bounds the wait
-        let r = block_on(group.tx_rx_dc(md), t0 + 2 * self.response_timeout);
+        // the wait is bounded here: at the deadline the future is dropped, which
+        // gives its frame back to ethercrab (a late answer is then ignored)
+        let r = block_on(group.tx_rx_dc(md), t0 + self.response_timeout);
         let rtt = t0.elapsed().as_nanos() as u64;
         self.stats.frames += 1;
         let Some(Ok(r)) = r else {

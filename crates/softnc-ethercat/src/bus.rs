@@ -23,6 +23,8 @@ const MAX_FRAMES: usize = 16;
 const MAX_PDU_DATA: usize = PduStorage::element_size(1100);
 /// Bring-up steps (state changes, SDOs) get this long.
 const BRING_UP: Duration = Duration::from_secs(10);
+/// ethercrab's PDU timeout, at least (bring-up on a loaded machine).
+const BRING_UP_PDU: Duration = Duration::from_millis(100);
 /// DC static drift compensation frames at bring-up (ethercrab's default is 10 000).
 const DC_SYNC_ITERATIONS: u32 = 200;
 /// SYNC0 starts this long after the DC configuration.
@@ -263,7 +265,9 @@ pub fn bring_up(
     let cycle_ns = config.cycle.as_nanos() as u64;
     let (period, index) = cia402::interpolation_period(cycle_ns)
         .ok_or_else(|| OpenError::Config(format!("cycle {cycle_ns} ns has no 0x60C2 form")))?;
-    let (md, stop) = main_device(&config.interface, config.response_timeout)?;
+    // bring-up's register and EEPROM accesses get a PDU timeout of their own; the
+    // cycle bounds its wait itself (a dropped future gives its frame back)
+    let (md, stop) = main_device(&config.interface, config.response_timeout.max(BRING_UP_PDU))?;
     let mut group = run(
         "init",
         md.init_single_group::<MAX_SUBDEVICES, MAX_PDI>(ethercrab::std::ethercat_now),

@@ -53,7 +53,7 @@ fn config(iface: &str) -> EtherCatConfig {
         interface: iface.to_string(),
         cycle: Duration::from_millis(1),
         // generous: the test machine is shared and the loop is not real-time here
-        response_timeout: Duration::from_millis(20),
+        response_timeout: Duration::from_millis(100),
         subdevices,
     }
 }
