@@ -62,6 +62,7 @@ pub fn run(args: DemoArgs, config: &Path) -> Result<ExitCode> {
     let instance = format!("demo{}", std::process::id());
     // the emulated bus lives as long as the demo
     let mut bus = None;
+    let args_json = args.json;
     let backend = match args.backend {
         Backend::Simulated => softnc_daemon::config::BackendKind::Simulated,
         Backend::Loopback => softnc_daemon::config::BackendKind::Loopback,
@@ -96,7 +97,7 @@ pub fn run(args: DemoArgs, config: &Path) -> Result<ExitCode> {
     })();
     let _ = std::fs::remove_dir_all(&dir);
     if let Some((_veth, emu)) = &bus {
-        print_bus(emu);
+        print_bus(emu, args_json);
     }
     r
 }
@@ -156,26 +157,36 @@ fn emulated_bus(
     Ok((settings, veth, emu))
 }
 
-/// How long a cycle waits for the emulated SubDevices' answer (s): they are an
-/// ordinary process sharing the machine with the controller's real-time ones.
-const EMULATED_RESPONSE_TIMEOUT_S: f64 = 0.01;
+/// How long a cycle waits for the emulated SubDevices' answer (s): they are a
+/// thread of an ordinary process sharing the machine with the controller's
+/// real-time ones, and on a busy machine they wait their turn (a late answer costs
+/// the position loop an overrun; a lost one aborts the job).
+const EMULATED_RESPONSE_TIMEOUT_S: f64 = 0.05;
 
 /// The emulated drives' following-error window (counts): 5 mm at 0.1 µm.
 const EMULATED_FE_WINDOW_COUNTS: u32 = 50_000;
 
-/// The bus as the emulated SubDevices saw it.
-fn print_bus(emu: &softnc_ethercat_emu::Emulator) {
+/// The bus as the emulated SubDevices saw it (on standard error beside a JSON
+/// report).
+fn print_bus(emu: &softnc_ethercat_emu::Emulator, json: bool) {
+    let out = |line: String| {
+        if json {
+            eprintln!("{line}");
+        } else {
+            println!("{line}");
+        }
+    };
     let s = emu.stats();
-    println!(
+    out(format!(
         "  EtherCAT (emulated SubDevices): frames answered {}, dropped {}",
         s.answered, s.dropped
-    );
+    ));
     for v in emu.views() {
         if let softnc_ethercat_emu::app::AppView::Drive(d) = v.app {
-            println!(
+            out(format!(
                 "    drive {}: {} targets received, at {} counts, SYNC0 events {}",
                 v.position, d.targets_received, d.position_counts, v.sync0_events
-            );
+            ));
         }
     }
 }
