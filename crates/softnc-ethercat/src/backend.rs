@@ -402,6 +402,15 @@ impl ServoBackend for EtherCatBackend {
     }
     fn enable(&mut self) -> Result<(), BackendError> {
         self.ensure_open()?;
+        // after a bus fault whose cause is gone (a reset): SubDevices back into OP
+        match self.exchange() {
+            Ok(())
+            | Err(BackendError::Bus {
+                reason: BusFault::DriveFault { .. },
+                ..
+            }) => {}
+            Err(_) => self.recover()?,
+        }
         if self
             .drives
             .iter()

@@ -193,8 +193,8 @@ fn faults_are_detected_within_3_cycles_and_the_cycle_does_not_allocate() {
             reason: BusFault::LeftOp { al_state: 4 }
         }
     );
-    b.recover().expect("SubDevice 2 back in OP");
-    b.enable().expect("enabled again");
+    // a reset's enable brings SubDevice 2 back into OP by itself
+    b.enable().expect("SubDevice 2 back in OP, enabled again");
 
     emu.command(Command::LinkDown);
     std::thread::sleep(Duration::from_millis(20));
