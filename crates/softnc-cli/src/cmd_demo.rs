@@ -32,6 +32,9 @@ pub enum Backend {
     Simulated,
     /// Axes that follow the command exactly.
     Loopback,
+    /// Emulated CiA 402 drives and an I/O terminal on EtherCAT over a veth pair
+    /// made for the demo (root needed; docs/ethercat.md).
+    EthercatEmulated,
 }
 
 /// The demo job, `examples/demo.ngc`, as built into `softnc`.
@@ -57,9 +60,17 @@ pub fn run(args: DemoArgs, config: &Path) -> Result<ExitCode> {
     let loaded = softnc_daemon::config::DaemonConfig::load(config)?;
     let dir = std::env::temp_dir().join(format!("softnc-demo-{}", std::process::id()));
     let instance = format!("demo{}", std::process::id());
+    // the emulated bus lives as long as the demo
+    let mut bus = None;
+    let args_json = args.json;
     let backend = match args.backend {
         Backend::Simulated => softnc_daemon::config::BackendKind::Simulated,
         Backend::Loopback => softnc_daemon::config::BackendKind::Loopback,
+        Backend::EthercatEmulated => {
+            let (settings, veth, emu) = emulated_bus(loaded.machine.axes.len())?;
+            bus = Some((veth, emu));
+            softnc_daemon::config::BackendKind::EtherCat(settings)
+        }
     };
     // a new folder of our own (not one planted in the shared temporary folder)
     {
@@ -85,7 +96,99 @@ pub fn run(args: DemoArgs, config: &Path) -> Result<ExitCode> {
         run_on(args, &demo_config, &job)
     })();
     let _ = std::fs::remove_dir_all(&dir);
+    if let Some((_veth, emu)) = &bus {
+        print_bus(emu, args_json);
+    }
     r
+}
+
+/// A veth pair and the emulated segment on it: one CiA 402 drive per axis, then an
+/// I/O terminal; the daemon's `EtherCat` settings for it.
+fn emulated_bus(
+    axes: usize,
+) -> Result<(
+    softnc_ethercat::EtherCatSettings,
+    softnc_ethercat_emu::veth::VethPair,
+    softnc_ethercat_emu::Emulator,
+)> {
+    use softnc_ethercat::{ExpectedSubDevice, Identity, Role};
+    use softnc_ethercat_emu::DeviceKind;
+    if !softnc_ethercat_emu::veth::is_root() {
+        bail!("--backend ethercat-emulated needs root: it makes a veth pair and opens packet sockets on it");
+    }
+    let veth = softnc_ethercat_emu::veth::VethPair::create().map_err(anyhow::Error::msg)?;
+    let mut kinds = vec![DeviceKind::Drive; axes];
+    kinds.push(DeviceKind::Io);
+    let emu = softnc_ethercat_emu::Emulator::spawn(&veth.sub, &kinds)?;
+    let subdevices = kinds
+        .iter()
+        .enumerate()
+        .map(|(p, &k)| {
+            let id = softnc_ethercat_emu::identity(k, p);
+            ExpectedSubDevice {
+                identity: Identity {
+                    vendor_id: id.vendor_id,
+                    product_code: id.product_code,
+                    revision: id.revision,
+                },
+                role: match k {
+                    DeviceKind::Drive => Role::Drive {
+                        axis: p as u8,
+                        counts_per_mm: softnc_ethercat_emu::DRIVE_COUNTS_PER_MM,
+                        direction: 1,
+                        following_error_window_counts: EMULATED_FE_WINDOW_COUNTS,
+                    },
+                    DeviceKind::Io => Role::Io,
+                },
+            }
+        })
+        .collect();
+    eprintln!(
+        "EtherCAT: {} emulated SubDevices on {} (MainDevice on {})",
+        kinds.len(),
+        veth.sub,
+        veth.main
+    );
+    let settings = softnc_ethercat::EtherCatSettings {
+        interface: veth.main.clone(),
+        response_timeout_s: EMULATED_RESPONSE_TIMEOUT_S,
+        subdevices,
+    };
+    Ok((settings, veth, emu))
+}
+
+/// How long a cycle waits for the emulated SubDevices' answer (s): they are a
+/// thread of an ordinary process sharing the machine with the controller's
+/// real-time ones, and on a busy machine they wait their turn (a late answer costs
+/// the position loop an overrun; a lost one aborts the job).
+const EMULATED_RESPONSE_TIMEOUT_S: f64 = 0.05;
+
+/// The emulated drives' following-error window (counts): 5 mm at 0.1 µm.
+const EMULATED_FE_WINDOW_COUNTS: u32 = 50_000;
+
+/// The bus as the emulated SubDevices saw it (on standard error beside a JSON
+/// report).
+fn print_bus(emu: &softnc_ethercat_emu::Emulator, json: bool) {
+    let out = |line: String| {
+        if json {
+            eprintln!("{line}");
+        } else {
+            println!("{line}");
+        }
+    };
+    let s = emu.stats();
+    out(format!(
+        "  EtherCAT (emulated SubDevices): frames answered {}, dropped {}",
+        s.answered, s.dropped
+    ));
+    for v in emu.views() {
+        if let softnc_ethercat_emu::app::AppView::Drive(d) = v.app {
+            out(format!(
+                "    drive {}: {} targets received, at {} counts, SYNC0 events {}",
+                v.position, d.targets_received, d.position_counts, v.sync0_events
+            ));
+        }
+    }
 }
 
 fn run_on(args: DemoArgs, config: &Path, job: &Path) -> Result<ExitCode> {

@@ -2,6 +2,7 @@
 
 mod cmd_demo;
 mod cmd_design;
+mod cmd_ethercat;
 mod cmd_learn;
 mod cmd_operator;
 mod cmd_plan;
@@ -49,6 +50,8 @@ enum Command {
     /// Run a job repeatedly on the simulated machine and learn its errors away
     /// (paper 002 eq 5, paper 004 eq 8–9); `learn list|show|clear` manage the store.
     Learn(cmd_learn::LearnArgs),
+    /// EtherCAT: `scan` lists the SubDevices on a bus with their identities.
+    Ethercat(cmd_ethercat::EthercatArgs),
     #[command(flatten)]
     Operator(cmd_operator::OperatorCmd),
 }
@@ -86,6 +89,7 @@ fn main() -> ExitCode {
         Command::Design(args) => cmd_design::run(args),
         Command::Reproduce(args) => cmd_reproduce::run(args),
         Command::Learn(args) => cmd_learn::run(args),
+        Command::Ethercat(args) => cmd_ethercat::run(args),
         Command::Watch => cmd_watch::run(&config),
     };
     exit_code(result)

@@ -220,7 +220,7 @@ impl Default for SupervisorConfig {
 }
 
 /// Which servo backend (`softnc_servo::ServoBackend`) the position process drives.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub enum BackendKind {
     /// The profile's simulated machine (`softnc_sim::SimBackend`), seeded by the
     /// profile: a lockstep run equals `softnc sim` bit for bit.
@@ -229,6 +229,9 @@ pub enum BackendKind {
     /// Axes that follow the command exactly (`softnc_servo::LoopbackBackend`): dry
     /// runs without dynamics.
     Loopback,
+    /// CiA 402 drives on an EtherCAT bus (`softnc_ethercat::EtherCatBackend`,
+    /// docs/ethercat.md), at the profile's interpolation cycle.
+    EtherCat(softnc_ethercat::EtherCatSettings),
 }
 
 pub use softnc_core::ring::MAX_LOOKAHEAD_SAMPLES;
@@ -262,7 +265,7 @@ impl Loaded {
     /// controller of its own beside this one (`softnc demo`) that shares nothing with
     /// it but the machine profile and the learning store.
     pub fn write_instance_copy(&self, dir: &Path, instance: &str) -> std::io::Result<PathBuf> {
-        self.write_instance_copy_on(dir, instance, self.config.backend)
+        self.write_instance_copy_on(dir, instance, self.config.backend.clone())
     }
 
     /// [`Loaded::write_instance_copy`] on servo backend `backend`.
@@ -528,6 +531,28 @@ mod tests {
             .unwrap()
             .config;
         assert_eq!(c.backend, BackendKind::Loopback);
+        let ethercat = r#"backend: EtherCat((interface: "ecat0", subdevices: [
+            (identity: (vendor_id: 0x5f7, product_code: 0x402, revision: 0x10000),
+             role: Drive(axis: 0, counts_per_mm: 10000.0, direction: -1, following_error_window_counts: 50000)),
+            (identity: (vendor_id: 0x5f7, product_code: 0x80808, revision: 0x10000), role: Io),
+        ]))"#;
+        let c = load_edited("ethercat", &[("backend: Simulated", ethercat)])
+            .unwrap()
+            .config;
+        let BackendKind::EtherCat(s) = c.backend else {
+            panic!("not EtherCat: {:?}", c.backend)
+        };
+        assert_eq!(s.interface, "ecat0");
+        assert_eq!(
+            s.response_timeout_s,
+            softnc_ethercat::config::DEFAULT_RESPONSE_TIMEOUT_S
+        );
+        assert_eq!(s.subdevices.len(), 2);
+        assert_eq!(s.subdevices[1].role, softnc_ethercat::Role::Io);
+        assert!(matches!(
+            s.subdevices[0].role,
+            softnc_ethercat::Role::Drive { direction: -1, .. }
+        ));
     }
 
     #[test]

@@ -52,6 +52,50 @@ pub enum BackendError {
         /// Axis index.
         axis: u8,
     },
+    /// The fieldbus failed (EtherCAT): where — the SubDevice's position on the bus
+    /// and the axis it drives, where known — and why.
+    #[error("bus fault at SubDevice {subdevice:?} (axis {axis:?}): {reason}")]
+    Bus {
+        /// Position of the SubDevice on the bus (0 first), where one is to blame.
+        subdevice: Option<u16>,
+        /// The axis that SubDevice drives, where it drives one.
+        axis: Option<u8>,
+        /// What went wrong.
+        reason: BusFault,
+    },
+}
+
+/// Why a fieldbus cycle failed ([`BackendError::Bus`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum BusFault {
+    /// The bus has not been brought up (the first `enable` or `disable` does; a
+    /// bring-up that failed leaves it down).
+    #[error("bus not brought up")]
+    NotOpen,
+    /// No frame came back within the bounded wait (a lost frame; a link down looks
+    /// the same from the MainDevice).
+    #[error("frame lost (no answer within the cycle)")]
+    FrameLost,
+    /// The cycle's working counter was short of what the mapped SubDevices give.
+    #[error("working counter {got}, expected {expected}")]
+    WorkingCounter {
+        /// Counted.
+        got: u16,
+        /// Expected.
+        expected: u16,
+    },
+    /// A SubDevice is no longer in OP (its AL state, as the low nibble of AL status).
+    #[error("left OP (AL state {al_state:#x})")]
+    LeftOp {
+        /// AL state reported.
+        al_state: u8,
+    },
+    /// The drive reports a fault with this error code (CiA 402 0x603F).
+    #[error("drive fault, error code {error_code:#06x}")]
+    DriveFault {
+        /// 0x603F.
+        error_code: u16,
+    },
 }
 
 /// A servo backend: the simulated machine, a loopback, real drives. One cycle is

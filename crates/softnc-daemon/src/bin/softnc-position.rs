@@ -3,6 +3,7 @@
 use softnc_daemon::config::{BackendKind, Loaded};
 use softnc_daemon::lifecycle::StopWatch;
 use softnc_daemon::position::{EngineFactory, PositionTask};
+use softnc_ethercat::EtherCatBackend;
 use softnc_servo::{CycleEngine, LoopbackBackend, ServoBackend};
 use std::process::ExitCode;
 
@@ -17,7 +18,7 @@ fn main() -> ExitCode {
         Err(e) => return softnc_daemon::cli::finish("softnc-position", Err(e.into())),
     };
     let machine = cfg.machine.clone();
-    let r = match cfg.config.backend {
+    let r = match cfg.config.backend.clone() {
         // the simulated machine, seeded by the profile, exactly as `softnc sim` builds it
         BackendKind::Simulated => run(
             cfg,
@@ -35,6 +36,22 @@ fn main() -> ExitCode {
             stop,
             Box::new(move || CycleEngine::new(&machine, LoopbackBackend::new())),
         ),
+        // a handle per job, its bus brought up by the first one's enable (the next
+        // jobs take the running one over)
+        BackendKind::EtherCat(settings) => {
+            let bus = settings.bus_config(machine.interpolation_cycle_s);
+            match EtherCatBackend::new(&bus) {
+                Ok(_) => run(
+                    cfg,
+                    stop,
+                    Box::new(move || {
+                        let b = EtherCatBackend::new(&bus).expect("checked at start");
+                        CycleEngine::new(&machine, b)
+                    }),
+                ),
+                Err(e) => Err(anyhow::anyhow!("backend EtherCat: {e}")),
+            }
+        }
     };
     softnc_daemon::cli::finish("softnc-position", r)
 }

@@ -1,0 +1,496 @@
+//! `EtherCatBackend`: `ServoBackend` over CiA 402 drives in CSP on an EtherCAT bus
+//! (docs/architecture.md, "A real drive"; docs/ethercat.md).
+
+use crate::bus::{self, Group, OpenError};
+use crate::cia402::{self, cw, Inputs};
+use crate::config::{EtherCatConfig, Role};
+use crate::exec::block_on;
+use ethercrab::{MainDevice, SubDeviceState};
+use softnc_core::Axes;
+use softnc_servo::{AxisStatus, BackendError, BusFault, CommandMode, ServoBackend, MAX_AXES};
+use std::time::{Duration, Instant};
+
+/// Cycles a CiA 402 step of `enable`/`disable` may take.
+const STATE_CYCLES: usize = 200;
+/// Round-trip histogram: bucket width and count (10 µs × 1000 = 10 ms).
+const RTT_BUCKET_NS: u64 = 10_000;
+const RTT_BUCKETS: usize = 1000;
+
+#[derive(Debug, Clone, Copy)]
+struct Drive {
+    position: usize,
+    counts_per_mm: f64,
+    direction: f64,
+    offset_counts: f64,
+    inputs: Inputs,
+    controlword: u16,
+    target: i32,
+}
+
+/// Bus figures since open.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct BusStats {
+    /// Cycles exchanged.
+    pub frames: u64,
+    /// Frames lost (no answer within the response timeout).
+    pub lost_frames: u64,
+    /// Cycles with a wrong working counter.
+    pub wkc_errors: u64,
+    /// Send-to-receive time of the cycle's frame: median, 99th percentile, maximum
+    /// (ns; the histogram's bucket is 10 µs).
+    pub rtt_p50_ns: u64,
+    /// 99th percentile.
+    pub rtt_p99_ns: u64,
+    /// Maximum (exact).
+    pub rtt_max_ns: u64,
+}
+
+/// The bus once brought up.
+struct Bus {
+    md: &'static MainDevice<'static>,
+    group: Group,
+    expected_wkc: u16,
+    _txrx: bus::TxRxStop,
+}
+
+/// CiA 402 drives on EtherCAT: a handle made from the configuration, the bus
+/// brought up by the first `enable` or `disable` (as docs/architecture.md's "A
+/// real drive" asks of a drive's factory: the running drive is the one enabled).
+pub struct EtherCatBackend {
+    config: EtherCatConfig,
+    bus: Option<Bus>,
+    pending_home_mm: Option<Axes<f64>>,
+    last_open_error: Option<OpenError>,
+    cycle: Duration,
+    response_timeout: Duration,
+    drives: [Option<Drive>; MAX_AXES],
+    axes: usize,
+    axis_of: [Option<u8>; bus::MAX_SUBDEVICES],
+    enabled: bool,
+    stats: BusStats,
+    rtt: Box<[u32; RTT_BUCKETS]>,
+}
+
+impl EtherCatBackend {
+    /// The handle and the bus brought up to OP as `config` says (off the cycle
+    /// path; seconds).
+    pub fn open(config: &EtherCatConfig) -> Result<Self, OpenError> {
+        let mut b = Self::new(config)?;
+        b.open_bus()?;
+        Ok(b)
+    }
+
+    /// The handle, the configuration checked; the bus is not touched.
+    pub fn new(config: &EtherCatConfig) -> Result<Self, OpenError> {
+        let mut drives: [Option<Drive>; MAX_AXES] = [None; MAX_AXES];
+        let mut axis_of = [None; bus::MAX_SUBDEVICES];
+        for (position, s) in config.subdevices.iter().enumerate() {
+            if let Role::Drive {
+                axis,
+                counts_per_mm,
+                direction,
+                ..
+            } = s.role
+            {
+                let slot = drives
+                    .get_mut(usize::from(axis))
+                    .ok_or_else(|| OpenError::Config(format!("axis {axis} beyond {MAX_AXES}")))?;
+                if slot.is_some()
+                    || counts_per_mm.is_nan()
+                    || counts_per_mm <= 0.0
+                    || direction.abs() != 1
+                {
+                    return Err(OpenError::Config(format!(
+                        "SubDevice {position}: axis {axis} twice, or counts/direction"
+                    )));
+                }
+                *slot = Some(Drive {
+                    position,
+                    counts_per_mm,
+                    direction: f64::from(direction),
+                    offset_counts: 0.0,
+                    inputs: Inputs::default(),
+                    controlword: cw::DISABLE_VOLTAGE,
+                    target: 0,
+                });
+                if let Some(a) = axis_of.get_mut(position) {
+                    *a = Some(axis);
+                }
+            }
+        }
+        let axes = drives.iter().take_while(|d| d.is_some()).count();
+        if axes == 0 || drives.iter().skip(axes).any(Option::is_some) {
+            return Err(OpenError::Config(
+                "drives must serve axes 0, 1, … without a gap".into(),
+            ));
+        }
+        Ok(EtherCatBackend {
+            config: config.clone(),
+            bus: None,
+            pending_home_mm: None,
+            last_open_error: None,
+            cycle: config.cycle,
+            response_timeout: config.response_timeout,
+            drives,
+            axes,
+            axis_of,
+            enabled: false,
+            stats: BusStats::default(),
+            rtt: Box::new([0; RTT_BUCKETS]),
+        })
+    }
+
+    /// Brings the bus up to OP, where it is not yet (off the cycle path).
+    pub fn open_bus(&mut self) -> Result<(), OpenError> {
+        if self.bus.is_some() {
+            return Ok(());
+        }
+        let (md, group, txrx) = bus::bring_up(&self.config)?;
+        let mut expected_wkc = 0;
+        for s in group.iter(md) {
+            expected_wkc +=
+                2 * u16::from(!s.outputs_raw().is_empty()) + u16::from(!s.inputs_raw().is_empty());
+        }
+        self.bus = Some(Bus {
+            md,
+            group,
+            expected_wkc,
+            _txrx: txrx,
+        });
+        // the first inputs, so that `home` and `read_counts` see the drives
+        self.exchange().map_err(|e| OpenError::Bus {
+            step: "first cycle",
+            reason: e.to_string(),
+        })?;
+        for d in self.drives.iter_mut().flatten() {
+            d.target = d.inputs.position;
+        }
+        if let Some(h) = self.pending_home_mm.take() {
+            self.home(h);
+        }
+        Ok(())
+    }
+
+    /// Why the last bring-up failed (`enable` reports it only as
+    /// [`BusFault::NotOpen`]).
+    pub fn last_open_error(&self) -> Option<&OpenError> {
+        self.last_open_error.as_ref()
+    }
+
+    fn ensure_open(&mut self) -> Result<(), BackendError> {
+        match self.open_bus() {
+            Ok(()) => Ok(()),
+            Err(e) => {
+                let subdevice = match e {
+                    OpenError::IdentityMismatch { position, .. }
+                    | OpenError::Sdo { position, .. } => Some(position as u16),
+                    _ => None,
+                };
+                tracing::error!("EtherCAT bring-up: {e}");
+                self.last_open_error = Some(e);
+                Err(BackendError::Bus {
+                    subdevice,
+                    axis: None,
+                    reason: BusFault::NotOpen,
+                })
+            }
+        }
+    }
+
+    /// Bus figures since open.
+    pub fn bus_stats(&self) -> BusStats {
+        let total: u64 = self.rtt.iter().map(|&c| u64::from(c)).sum();
+        let quantile = |q: f64| {
+            let want = (q * total as f64).ceil() as u64;
+            let mut seen = 0;
+            for (k, &c) in self.rtt.iter().enumerate() {
+                seen += u64::from(c);
+                if seen >= want.max(1) {
+                    return (k as u64 + 1) * RTT_BUCKET_NS;
+                }
+            }
+            0
+        };
+        BusStats {
+            rtt_p50_ns: quantile(0.5),
+            rtt_p99_ns: quantile(0.99),
+            ..self.stats
+        }
+    }
+
+    fn fault(&mut self, subdevice: Option<usize>, reason: BusFault) -> BackendError {
+        // the E-stop path: every drive quick-stops at the next frame that gets through
+        for d in self.drives.iter_mut().flatten() {
+            d.controlword = cw::QUICK_STOP;
+        }
+        self.enabled = false;
+        BackendError::Bus {
+            subdevice: subdevice.map(|p| p as u16),
+            axis: subdevice.and_then(|p| self.axis_of.get(p).copied().flatten()),
+            reason,
+        }
+    }
+
+    fn exchange(&mut self) -> Result<(), BackendError> {
+        match self.exchange_frame() {
+            Ok(()) => Ok(()),
+            Err((subdevice, reason)) => Err(self.fault(subdevice, reason)),
+        }
+    }
+
+    /// One process-data frame: outputs written, the frame exchanged (bounded),
+    /// the working counter and every SubDevice's AL state checked, inputs read.
+    fn exchange_frame(&mut self) -> Result<(), (Option<usize>, BusFault)> {
+        let Some(bus) = self.bus.as_ref() else {
+            return Err((None, BusFault::NotOpen));
+        };
+        let (md, group, expected) = (bus.md, &bus.group, bus.expected_wkc);
+        for d in self.drives.iter().flatten() {
+            if let Ok(s) = group.subdevice(md, d.position) {
+                cia402::write_outputs(&mut s.outputs_raw_mut(), d.controlword, d.target, 0);
+            }
+        }
+        let t0 = Instant::now();
+        // the wait is bounded here: at the deadline the future is dropped, which
+        // gives its frame back to ethercrab (a late answer is then ignored)
+        let r = block_on(group.tx_rx_dc(md), t0 + self.response_timeout);
+        let rtt = t0.elapsed().as_nanos() as u64;
+        self.stats.frames += 1;
+        let Some(Ok(r)) = r else {
+            self.stats.lost_frames += 1;
+            return Err((None, BusFault::FrameLost));
+        };
+        self.stats.rtt_max_ns = self.stats.rtt_max_ns.max(rtt);
+        let bucket = ((rtt / RTT_BUCKET_NS) as usize).min(RTT_BUCKETS - 1);
+        self.rtt[bucket] += 1;
+        let got = r.working_counter;
+        if got != expected {
+            self.stats.wkc_errors += 1;
+        }
+        let not_op = r
+            .subdevice_states
+            .iter()
+            .enumerate()
+            .find(|(_, s)| **s != SubDeviceState::Op);
+        if let Some((p, s)) = not_op {
+            return Err((
+                Some(p),
+                BusFault::LeftOp {
+                    al_state: al_nibble(*s),
+                },
+            ));
+        }
+        if got != expected {
+            return Err((None, BusFault::WorkingCounter { got, expected }));
+        }
+        let mut faulted = None;
+        for d in self.drives.iter_mut().flatten() {
+            if let Ok(s) = group.subdevice(md, d.position) {
+                d.inputs = Inputs::parse(&s.inputs_raw());
+            }
+            if d.inputs.statusword & cia402::FAULT_BIT != 0 && faulted.is_none() {
+                faulted = Some((
+                    Some(d.position),
+                    BusFault::DriveFault {
+                        error_code: d.inputs.error_code,
+                    },
+                ));
+            }
+        }
+        faulted.map_or(Ok(()), Err)
+    }
+
+    /// After a bus fault whose cause is gone: SubDevices out of OP are asked back
+    /// into OP (AL control OP with the error acknowledged) while process data runs,
+    /// until every one is there (off the cycle path). The drives stay disabled:
+    /// `enable` resets their faults and powers them again.
+    pub fn recover(&mut self) -> Result<(), BackendError> {
+        const AL_OP_ACK: u16 = 0x0018;
+        self.ensure_open()?;
+        let deadline = Instant::now() + self.response_timeout * 2;
+        let bus = self.bus.as_ref().expect("opened");
+        for p in 0..bus.group.len() {
+            let s = bus
+                .group
+                .subdevice(bus.md, p)
+                .map_err(|_| BackendError::Timeout)?;
+            let state = block_on(s.status(), deadline)
+                .and_then(Result::ok)
+                .map(|(st, _)| st);
+            if state != Some(SubDeviceState::Op) {
+                let _ = block_on(
+                    s.register_write(ethercrab::RegisterAddress::AlControl, AL_OP_ACK),
+                    deadline,
+                );
+            }
+        }
+        let mut last = Err(BackendError::Timeout);
+        for _ in 0..STATE_CYCLES {
+            last = self.exchange();
+            match last {
+                Ok(())
+                | Err(BackendError::Bus {
+                    reason: BusFault::DriveFault { .. },
+                    ..
+                }) => return Ok(()),
+                _ => std::thread::sleep(self.cycle),
+            }
+        }
+        last
+    }
+
+    /// Cycles (paced at the bus cycle) until every drive's state bits read `want`.
+    fn step_to(&mut self, controlword: u16, want: u16) -> Result<(), BackendError> {
+        for d in self.drives.iter_mut().flatten() {
+            d.controlword = controlword;
+        }
+        for _ in 0..STATE_CYCLES {
+            // the target follows the actual position: no jump when enabled
+            for d in self.drives.iter_mut().flatten() {
+                d.target = d.inputs.position;
+                d.controlword = controlword;
+            }
+            match self.exchange() {
+                Ok(())
+                | Err(BackendError::Bus {
+                    reason: BusFault::DriveFault { .. },
+                    ..
+                }) if controlword == cw::FAULT_RESET => {}
+                r => r?,
+            }
+            if self
+                .drives
+                .iter()
+                .flatten()
+                .all(|d| cia402::state(d.inputs.statusword) == want)
+            {
+                return Ok(());
+            }
+            std::thread::sleep(self.cycle);
+        }
+        let axis = self
+            .drives
+            .iter()
+            .position(|d| d.is_some_and(|d| cia402::state(d.inputs.statusword) != want))
+            .unwrap_or(0);
+        Err(BackendError::NotEnabled { axis: axis as u8 })
+    }
+}
+
+/// An AL state as the low nibble of AL status.
+fn al_nibble(s: SubDeviceState) -> u8 {
+    match s {
+        SubDeviceState::None => 0,
+        SubDeviceState::Init => 1,
+        SubDeviceState::PreOp => 2,
+        SubDeviceState::Bootstrap => 3,
+        SubDeviceState::SafeOp => 4,
+        SubDeviceState::Op => 8,
+        SubDeviceState::Other(x) => x,
+    }
+}
+
+impl ServoBackend for EtherCatBackend {
+    fn axes(&self) -> usize {
+        self.axes
+    }
+    fn command_mode(&self, _axis: usize) -> CommandMode {
+        CommandMode::Position
+    }
+    fn mm_per_count(&self, axis: usize) -> f64 {
+        self.drives[axis].map_or(1.0, |d| 1.0 / d.counts_per_mm)
+    }
+    fn enable(&mut self) -> Result<(), BackendError> {
+        self.ensure_open()?;
+        // after a bus fault whose cause is gone (a reset): SubDevices back into OP
+        match self.exchange() {
+            Ok(())
+            | Err(BackendError::Bus {
+                reason: BusFault::DriveFault { .. },
+                ..
+            }) => {}
+            Err(_) => self.recover()?,
+        }
+        if self
+            .drives
+            .iter()
+            .flatten()
+            .any(|d| d.inputs.statusword & cia402::FAULT_BIT != 0)
+        {
+            // a rising edge of fault reset, then on
+            for d in self.drives.iter_mut().flatten() {
+                d.controlword = cw::DISABLE_VOLTAGE;
+            }
+            let _ = self.exchange();
+            self.step_to(cw::FAULT_RESET, 0x0040)?;
+        }
+        self.step_to(cw::SHUTDOWN, cia402::READY)?;
+        self.step_to(cw::SWITCH_ON, cia402::SWITCHED_ON)?;
+        self.step_to(cw::ENABLE, cia402::OPERATION_ENABLED)?;
+        self.enabled = true;
+        Ok(())
+    }
+    fn disable(&mut self) {
+        self.enabled = false;
+        if self.ensure_open().is_err() {
+            return;
+        }
+        let _ = self.step_to(cw::QUICK_STOP, 0x0040);
+        for d in self.drives.iter_mut().flatten() {
+            d.controlword = cw::DISABLE_VOLTAGE;
+        }
+        let _ = self.exchange();
+    }
+    fn home(&mut self, pos_mm: Axes<f64>) {
+        if self.bus.is_none() {
+            // applied when the bus is up: the axes do not move before
+            self.pending_home_mm = Some(pos_mm);
+            return;
+        }
+        for (d, p) in self.drives.iter_mut().zip(pos_mm) {
+            if let Some(d) = d {
+                d.offset_counts = p * d.counts_per_mm - d.direction * f64::from(d.inputs.position);
+            }
+        }
+    }
+    fn write_commands(&mut self, cmd: Axes<f64>) {
+        if !self.enabled {
+            return;
+        }
+        for (d, c) in self.drives.iter_mut().zip(cmd) {
+            if let (Some(d), true) = (d, c.is_finite()) {
+                d.target = ((c * d.counts_per_mm - d.offset_counts) * d.direction).round() as i32;
+            }
+        }
+    }
+    fn cycle(&mut self) -> Result<(), BackendError> {
+        self.exchange()
+    }
+    fn read_counts(&self) -> Axes<i64> {
+        let mut c = Axes::splat(0);
+        for (out, d) in c.iter_mut().zip(&self.drives) {
+            if let Some(d) = d {
+                *out =
+                    (d.direction * f64::from(d.inputs.position) + d.offset_counts).round() as i64;
+            }
+        }
+        c
+    }
+    fn read_currents(&self) -> Axes<f64> {
+        // the mapping carries no current (0x6078 is not in the PDOs)
+        Axes::splat(0.0)
+    }
+    fn read_status(&self) -> Axes<AxisStatus> {
+        let mut s = Axes::splat(AxisStatus::default());
+        for (out, d) in s.iter_mut().zip(&self.drives) {
+            if let Some(d) = d {
+                *out = AxisStatus {
+                    enabled: cia402::state(d.inputs.statusword) == cia402::OPERATION_ENABLED,
+                    fault: d.inputs.statusword & cia402::FAULT_BIT != 0,
+                    saturated: false,
+                };
+            }
+        }
+        s
+    }
+}

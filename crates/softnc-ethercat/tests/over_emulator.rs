@@ -1,0 +1,223 @@
+//! The EtherCAT backend over the emulator on a veth pair (root needed; SKIPPED
+//! otherwise): the servo conformance suite; an identity mismatch refused with
+//! both identities; each fault (lost frame, link down, drive fault, leaving OP)
+//! detected within 3 cycles naming SubDevice and axis; the cycle allocation-free,
+//! with its send-to-receive times printed.
+
+use softnc_ethercat::{
+    EtherCatBackend, EtherCatConfig, ExpectedSubDevice, Identity, OpenError, Role,
+};
+use softnc_ethercat_emu::control::Command;
+use softnc_ethercat_emu::veth::{is_root, VethPair};
+use softnc_ethercat_emu::{DeviceKind, Emulator};
+use softnc_servo::{BackendError, BusFault, ServoBackend};
+use std::time::Duration;
+
+#[global_allocator]
+static GLOBAL: softnc_test_support::Counting = softnc_test_support::Counting;
+
+const KINDS: [DeviceKind; 4] = [
+    DeviceKind::Drive,
+    DeviceKind::Drive,
+    DeviceKind::Drive,
+    DeviceKind::Io,
+];
+
+fn identity(kind: DeviceKind, position: usize) -> Identity {
+    let id = softnc_ethercat_emu::identity(kind, position);
+    Identity {
+        vendor_id: id.vendor_id,
+        product_code: id.product_code,
+        revision: id.revision,
+    }
+}
+
+fn config(iface: &str) -> EtherCatConfig {
+    let subdevices = KINDS
+        .iter()
+        .enumerate()
+        .map(|(p, &k)| ExpectedSubDevice {
+            identity: identity(k, p),
+            role: match k {
+                DeviceKind::Drive => Role::Drive {
+                    axis: p as u8,
+                    counts_per_mm: softnc_ethercat_emu::DRIVE_COUNTS_PER_MM,
+                    direction: if p == 1 { -1 } else { 1 },
+                    following_error_window_counts: 50_000,
+                },
+                DeviceKind::Io => Role::Io,
+            },
+        })
+        .collect();
+    EtherCatConfig {
+        interface: iface.to_string(),
+        cycle: Duration::from_millis(1),
+        // generous: the test machine is shared and the loop is not real-time here
+        response_timeout: Duration::from_millis(100),
+        subdevices,
+    }
+}
+
+/// One bus at a time: the tests' spinning MainDevices and emulators share 2 cores.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn bus() -> Option<(std::sync::MutexGuard<'static, ()>, VethPair, Emulator)> {
+    let guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    if !is_root() {
+        println!("SKIPPED: needs root (a veth pair and packet sockets)");
+        return None;
+    }
+    let veth = VethPair::create().expect("veth pair");
+    let emu = Emulator::spawn(&veth.sub, &KINDS).expect("emulator");
+    Some((guard, veth, emu))
+}
+
+#[test]
+fn conforms_over_the_emulator() {
+    let Some((_one, veth, _emu)) = bus() else {
+        return;
+    };
+    let profile = softnc_machine::MachineProfile::load(
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/machines/default.ron"
+        )
+        .as_ref(),
+    )
+    .expect("default profile");
+    let cfg = config(&veth.main);
+    // handles as a daemon's factory makes them: the bus comes up on enable/disable
+    softnc_servo::conformance::run("ethercat", &profile, &|| {
+        EtherCatBackend::new(&cfg).expect("configuration")
+    });
+}
+
+#[test]
+fn refuses_a_wrong_subdevice_naming_both_identities() {
+    let Some((_one, veth, _emu)) = bus() else {
+        return;
+    };
+    let mut cfg = config(&veth.main);
+    cfg.subdevices[2].identity.product_code = 0x1234;
+    match EtherCatBackend::open(&cfg) {
+        Err(e @ OpenError::IdentityMismatch { position: 2, .. }) => {
+            let text = e.to_string();
+            println!("{text}");
+            assert!(
+                text.contains("0x00000402") && text.contains("0x00001234"),
+                "{text}"
+            );
+        }
+        Err(e) => panic!("wrong refusal: {e}"),
+        Ok(_) => panic!("a wrong identity was accepted"),
+    }
+}
+
+/// Cycles until the backend fails, at most 3 after the fault; the error.
+fn fails_within_3(b: &mut EtherCatBackend) -> BackendError {
+    for k in 0..3 {
+        if let Err(e) = b.cycle() {
+            println!("detected after {} cycle(s): {e}", k + 1);
+            return e;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    panic!("fault not detected within 3 cycles");
+}
+
+#[test]
+fn faults_are_detected_within_3_cycles_and_the_cycle_does_not_allocate() {
+    let Some((_one, veth, emu)) = bus() else {
+        return;
+    };
+    let mut b = EtherCatBackend::open(&config(&veth.main)).expect("bus up");
+    b.enable().expect("enable");
+    let hold = b.read_counts().map(|c| c as f64 * 1e-4);
+    b.write_commands(hold);
+    b.cycle().expect("warm");
+    // allocation-free cycles, timed
+    let before = softnc_test_support::allocations();
+    for _ in 0..2000 {
+        b.write_commands(hold);
+        b.cycle().expect("cycle");
+    }
+    let allocs = softnc_test_support::allocations() - before;
+    let s = b.bus_stats();
+    println!(
+        "2000 cycles: {allocs} allocations; frames {} lost {} wkc errors {}; send-to-receive p50 {} µs p99 {} µs max {} µs",
+        s.frames, s.lost_frames, s.wkc_errors, s.rtt_p50_ns / 1000, s.rtt_p99_ns / 1000, s.rtt_max_ns / 1000
+    );
+    assert_eq!(allocs, 0, "the cycle allocated");
+
+    emu.command(Command::Drop(1));
+    std::thread::sleep(Duration::from_millis(20));
+    let e = fails_within_3(&mut b);
+    assert!(
+        matches!(
+            e,
+            BackendError::Bus {
+                reason: BusFault::FrameLost,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    b.recover().expect("the bus answers again");
+    b.enable().expect("enabled again");
+
+    emu.command(Command::DriveFault {
+        position: 1,
+        code: 0x7305,
+    });
+    std::thread::sleep(Duration::from_millis(20));
+    let e = fails_within_3(&mut b);
+    assert_eq!(
+        e,
+        BackendError::Bus {
+            subdevice: Some(1),
+            axis: Some(1),
+            reason: BusFault::DriveFault { error_code: 0x7305 }
+        }
+    );
+    b.enable().expect("fault reset and enable again");
+    b.cycle().expect("running again");
+
+    emu.command(Command::LeaveOp { position: 2 });
+    std::thread::sleep(Duration::from_millis(20));
+    let e = fails_within_3(&mut b);
+    assert_eq!(
+        e,
+        BackendError::Bus {
+            subdevice: Some(2),
+            axis: Some(2),
+            reason: BusFault::LeftOp { al_state: 4 }
+        }
+    );
+    // a reset's enable brings SubDevice 2 back into OP by itself
+    b.enable().expect("SubDevice 2 back in OP, enabled again");
+
+    emu.command(Command::LinkDown);
+    std::thread::sleep(Duration::from_millis(20));
+    let e = fails_within_3(&mut b);
+    assert!(
+        matches!(
+            e,
+            BackendError::Bus {
+                reason: BusFault::FrameLost,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    emu.command(Command::LinkUp);
+    b.recover().expect("the link back");
+    b.enable().expect("enabled again");
+    for _ in 0..10 {
+        b.cycle().expect("running after every fault");
+    }
+    let s = b.bus_stats();
+    println!(
+        "after the faults: frames {} lost {} wkc errors {}",
+        s.frames, s.lost_frames, s.wkc_errors
+    );
+}
