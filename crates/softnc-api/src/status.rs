@@ -82,6 +82,10 @@ pub enum AlarmKind {
     PlanStarved,
     /// The program could not be planned again while it ran.
     PlanFailed,
+    /// A machine operation of a job could not be completed (the spindle not at
+    /// speed in time): the job stopped along its path (a reader of an older
+    /// contract reads it as `Other`).
+    MachineWait,
     /// A real-time loop stalled.
     LoopStall,
     /// A real-time loop ran late.

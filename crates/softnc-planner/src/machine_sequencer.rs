@@ -166,13 +166,68 @@ pub struct Feedback {
     pub user_command_done: bool,
 }
 
+/// The machine's reports as a loop running `lag` samples ahead of the sample in use
+/// hears them: the [`Feedback`] for the sample numbered `n` is what the machine
+/// reported on the first cycle it used sample `n − lag` (the interpolation process
+/// fills the position process's ring `lookahead_samples` ahead; the offline
+/// simulator takes the same lag, so both release a stop at the same sample).
+/// Fixed capacity: recording allocates nothing.
+#[derive(Debug, Clone)]
+pub struct FeedbackHistory {
+    lag: u64,
+    /// (sample number, its motion, the inputs read), oldest first, `lag + 1` long.
+    entries: std::collections::VecDeque<(u64, u32, MachineInputs)>,
+}
+
+impl FeedbackHistory {
+    /// A history for a loop `lag` samples ahead.
+    pub fn new(lag: u64) -> Self {
+        FeedbackHistory {
+            lag,
+            entries: std::collections::VecDeque::with_capacity(lag as usize + 2),
+        }
+    }
+
+    /// The machine used sample `seq` (of motion `motion`) and read `inputs`; later
+    /// cycles of the same sample are not kept (the first is the one a loop `lag`
+    /// ahead is sure to have heard).
+    pub fn record(&mut self, seq: u64, motion: u32, inputs: MachineInputs) {
+        if self.entries.back().is_some_and(|e| e.0 >= seq) {
+            return;
+        }
+        if self.entries.len() > self.lag as usize {
+            self.entries.pop_front();
+        }
+        self.entries.push_back((seq, motion, inputs));
+    }
+
+    /// The feedback for sample `n` (`applied_motion` `None` before the machine used
+    /// sample `n − lag`); `resume` and `user_command_done` false.
+    pub fn feedback_for(&self, n: u64) -> Feedback {
+        let heard = n
+            .checked_sub(self.lag)
+            .and_then(|target| self.entries.iter().rev().find(|e| e.0 <= target));
+        match heard {
+            Some(&(_, motion, inputs)) => Feedback {
+                inputs,
+                applied_motion: Some(motion),
+                ..Feedback::default()
+            },
+            None => Feedback::default(),
+        }
+    }
+}
+
 /// What the path waits for at a machine stop.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Waiting {
     /// The command has not reached the machine yet.
     Applied,
     /// The spindle to reach its speed (M3, M4, S).
-    SpindleAtSpeed,
+    SpindleAtSpeed {
+        /// The speed commanded (rpm).
+        rpm: f64,
+    },
     /// The tool changer's `tool-changed` or the operator's resume: "insert T{tool},
     /// then resume".
     ToolChange {
@@ -202,9 +257,15 @@ impl std::fmt::Display for Waiting {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Waiting::Applied => write!(f, "waiting for the machine"),
-            Waiting::SpindleAtSpeed => write!(f, "waiting for the spindle to reach its speed"),
+            Waiting::SpindleAtSpeed { rpm } => write!(f, "waiting for the spindle at {rpm} rpm"),
             Waiting::ToolChange { tool } => write!(f, "insert T{tool}, then resume"),
-            Waiting::Input { input, mode } => write!(f, "waiting for input {input:?} ({mode:?})"),
+            Waiting::Input { input, mode } => {
+                let (letter, n) = match input {
+                    WaitInput::Digital(p) => ('P', u32::from(*p)),
+                    WaitInput::Analog(e) => ('E', u32::from(*e)),
+                };
+                write!(f, "waiting for input {letter}{n} ({mode:?})")
+            }
             Waiting::UserCommand { code, .. } => write!(f, "running M{code}"),
         }
     }
@@ -489,7 +550,7 @@ impl MachineSequencer {
                         waited_s,
                     })
                 } else {
-                    Action::Wait(Waiting::SpindleAtSpeed)
+                    Action::Wait(Waiting::SpindleAtSpeed { rpm })
                 }
             }
             MachineOp::ToolChange { tool } => {

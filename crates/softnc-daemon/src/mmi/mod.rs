@@ -1261,6 +1261,7 @@ fn api_alarm_kind(c: AlarmCode) -> softnc_api::AlarmKind {
         AlarmCode::Note => K::Note,
         AlarmCode::PlanStarved => K::PlanStarved,
         AlarmCode::PlanFailed => K::PlanFailed,
+        AlarmCode::MachineWait => K::MachineWait,
         AlarmCode::LoopStall => K::LoopStall,
         AlarmCode::LoopLate => K::LoopLate,
         AlarmCode::ProcessRestarted => K::ProcessRestarted,
