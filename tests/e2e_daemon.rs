@@ -111,7 +111,13 @@ fn adaptive_force_in_the_daemon_holds_the_force_where_the_depth_changes_bit_for_
         .lookahead_samples as u64;
     let text = std::fs::read_to_string(&job).unwrap();
     let program = softnc_gcode::read_program(&text, &job.display().to_string(), &profile).unwrap();
-    let plan = softnc_planner::plan(&program, &profile, &Default::default()).unwrap();
+    let options = softnc_planner::PlanOptions {
+        wait_at_machine_stops: true,
+        ..Default::default()
+    };
+    let plan = softnc_planner::plan(&program, &profile, &options).unwrap();
+    let (seq, heard) =
+        softnc_daemon::plan_samples::sim_machine(&program, &profile, &options, latency);
     let mut engine = softnc_sim::simulated_engine(
         &profile,
         profile.servo.seed,
@@ -129,12 +135,17 @@ fn adaptive_force_in_the_daemon_holds_the_force_where_the_depth_changes_bit_for_
     softnc_sim::simulate_adaptive(
         &mut engine,
         plan.cycle_s(),
-        softnc_daemon::plan_samples::PlanSamples(plan.interpolator()),
+        softnc_daemon::plan_samples::PlanSamples::with_machine(
+            plan.interpolator(),
+            seq,
+            heard.clone(),
+        ),
         &mut feed,
         latency,
         2.55,
         |m| plan.motion_primitive(m as usize),
-        |row, engine, rev| {
+        |row, engine, seq, rev| {
+            softnc_daemon::plan_samples::hear(&heard, seq, row, engine);
             file.row(row).unwrap();
             let b = engine.backend();
             let stock = b.stock().unwrap();

@@ -393,8 +393,13 @@ impl InterpTask {
         let machine = &job.machine;
         // the planned samples, counted on a stream of their own (only when the store
         // has an entry for the program)
+        // (the machine stops not waited at: nothing would release them)
         let count = || {
-            check_and_stream(&job.text, &job.path, machine, &job.options, |it| it.count())
+            let options = PlanOptions {
+                wait_at_machine_stops: false,
+                ..job.options.clone()
+            };
+            check_and_stream(&job.text, &job.path, machine, &options, |it| it.count())
                 .map_or(0, |(_, n)| n)
         };
         let found = softnc_learning::entry::lookup(

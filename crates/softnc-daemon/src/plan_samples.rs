@@ -55,6 +55,37 @@ pub fn as_published(
     softnc_ipc::InputsWire::from(*inputs).into()
 }
 
+/// A simulation's machine sequencer for `program` (read with `options`) and the
+/// history its samples hear the machine through, `lag` samples late (the daemon's
+/// `lookahead_samples`): pass both to [`PlanSamples::with_machine`] and record
+/// every cycle with [`hear`].
+pub fn sim_machine(
+    program: &softnc_gcode::Program,
+    profile: &softnc_machine::MachineProfile,
+    options: &softnc_planner::PlanOptions,
+    lag: u64,
+) -> (MachineSequencer, Rc<RefCell<FeedbackHistory>>) {
+    let seq = MachineSequencer::new(
+        program,
+        sequencer_config(profile),
+        initial_state(options.params.as_ref()),
+    );
+    (seq, Rc::new(RefCell::new(FeedbackHistory::new(lag))))
+}
+
+/// The simulated machine used sample `seq` on the cycle of `row`: what the
+/// position process's status of that cycle tells the interpolation process.
+pub fn hear<B: softnc_servo::ServoBackend>(
+    heard: &RefCell<FeedbackHistory>,
+    seq: u64,
+    row: &softnc_servo::TraceRow,
+    engine: &softnc_servo::CycleEngine<B>,
+) {
+    heard
+        .borrow_mut()
+        .record(seq, row.motion, as_published(engine.io().last_inputs()));
+}
+
 /// The machine side of [`PlanSamples`].
 struct Machine {
     seq: MachineSequencer,
@@ -97,7 +128,13 @@ impl<'p> PlanSamples<'p> {
         }
     }
 
-    /// Why the job stopped at a machine stop, if it did.
+    /// The interpolator (its overrides).
+    pub fn interpolator(&mut self) -> &mut Interpolator<'p> {
+        &mut self.it
+    }
+
+    /// Whether the job stopped at a machine stop that failed (the spindle not at
+    /// speed in time): the samples end there.
     pub fn failed(&self) -> bool {
         self.machine.as_ref().is_some_and(|m| m.failed)
     }
