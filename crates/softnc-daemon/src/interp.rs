@@ -971,7 +971,8 @@ impl InterpTask {
         if let Some(i) = step.state.message.filter(|&i| Some(i) != s.message_noted) {
             s.message_noted = Some(i);
             let mut msg = FixedStr::<256>::empty();
-            let _ = write!(msg, "message: {}", s.machine.message_text(i).unwrap_or(""));
+            let text = s.machine.message_text(i).unwrap_or("").trim();
+            let _ = write!(msg, "message: {text}");
             self.raise(AlarmCode::Note, msg)?;
         }
         let waiting = match step.action {

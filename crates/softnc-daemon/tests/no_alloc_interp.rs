@@ -410,8 +410,13 @@ fn a_job_with_machine_stops_allocates_nothing_on_the_cycle() {
     );
     let outputs: Vec<softnc_core::machine_io::MachineOutputs> =
         counted.samples.iter().map(|c| c.outputs.into()).collect();
-    assert!(outputs.iter().any(|o| o.coolant_flood && o.spindle_rpm == 1000.0));
-    assert!(outputs.iter().any(|o| o.digital & 2 != 0), "M62 P1 switched");
+    assert!(outputs
+        .iter()
+        .any(|o| o.coolant_flood && o.spindle_rpm == 1000.0));
+    assert!(
+        outputs.iter().any(|o| o.digital & 2 != 0),
+        "M62 P1 switched"
+    );
     let last = outputs.last().unwrap();
     assert!(!last.coolant_flood && last.digital == 0, "{last:?}");
 }
