@@ -693,7 +693,16 @@ impl InterpTask {
             self.machine_mm = [st.cmd_mm[0], st.cmd_mm[1], st.cmd_mm[2]];
             if st.job_id == job_id {
                 s.consumed = Some(s.consumed.map_or(st.seq, |c: u64| c.max(st.seq)));
-                s.heard.record(st.seq, st.motion, st.inputs.into());
+                // (a status of the job before the position process uses its first
+                // sample — it waits for the window, or a PDC's tables — says
+                // nothing about the machine under a sample)
+                let using = matches!(
+                    MachineState::from_wire(st.state),
+                    Some(MachineState::Running | MachineState::Held)
+                );
+                if using {
+                    s.heard.record(st.seq, st.motion, st.inputs.into());
+                }
                 // adaptive feed: a revolution closed at sample `seq`
                 if let Some(f) = s.force.as_mut() {
                     if st.force_revolutions > f.revolutions && st.force_override.is_finite() {

@@ -166,22 +166,26 @@ pub struct Feedback {
     pub user_command_done: bool,
 }
 
-/// The machine's reports as a loop running `lag` samples ahead of the sample in use
-/// hears them: the [`Feedback`] for the sample numbered `n` is what the machine
-/// reported on the first cycle it used sample `n − lag` (the interpolation process
-/// fills the position process's ring `lookahead_samples` ahead; the offline
-/// simulator takes the same lag, so both release a stop at the same sample).
-/// Fixed capacity: recording allocates nothing.
+/// The machine's reports as a loop running `lookahead` samples ahead of the sample
+/// in use hears them: the [`Feedback`] for the sample numbered `n` is what the
+/// machine reported on the first cycle it used sample `n − lookahead − 1`. (The
+/// interpolation process sends samples up to `lookahead` beyond the last one the
+/// position process reported using — `lookahead + 1` before it reports any — so
+/// that report is the latest it is sure to have heard; the offline simulator takes
+/// the same lag, so both release a stop at the same sample.) Fixed capacity:
+/// recording allocates nothing.
 #[derive(Debug, Clone)]
 pub struct FeedbackHistory {
+    /// `lookahead + 1`.
     lag: u64,
     /// (sample number, its motion, the inputs read), oldest first, `lag + 1` long.
     entries: std::collections::VecDeque<(u64, u32, MachineInputs)>,
 }
 
 impl FeedbackHistory {
-    /// A history for a loop `lag` samples ahead.
-    pub fn new(lag: u64) -> Self {
+    /// A history for a loop `lookahead` samples ahead.
+    pub fn new(lookahead: u64) -> Self {
+        let lag = lookahead + 1;
         FeedbackHistory {
             lag,
             entries: std::collections::VecDeque::with_capacity(lag as usize + 2),
@@ -202,7 +206,7 @@ impl FeedbackHistory {
     }
 
     /// The feedback for sample `n` (`applied_motion` `None` before the machine used
-    /// sample `n − lag`); `resume` and `user_command_done` false.
+    /// sample `n − lookahead − 1`); `resume` and `user_command_done` false.
     pub fn feedback_for(&self, n: u64) -> Feedback {
         let heard = n
             .checked_sub(self.lag)
