@@ -33,6 +33,24 @@ fn lockstep_with_s_words_and_the_pdc_equals_the_simulator_bit_for_bit() {
     });
 }
 
+#[test]
+fn lockstep_with_machine_waits_equals_the_simulator_bit_for_bit() {
+    // issue 35's acceptance job without its M0 (the simulator has no operator to
+    // resume it): the spindle's run-up on its model gates the feed, the tool change
+    // waits for the simulated changer's tool-changed (2 s), M66 for its input until
+    // its 2 s timeout, each stop released at the same sample (the machine heard
+    // `lookahead` samples late in both)
+    lockstep_equals_simulator_on("machinewait", "default.ron", |dir| {
+        let text = std::fs::read_to_string(repo().join("examples/machine/acceptance.ngc"))
+            .unwrap()
+            .replace("M0\n", "");
+        assert!(!text.contains("M0\n"));
+        let p = dir.join("machine-waits.ngc");
+        std::fs::write(&p, text).unwrap();
+        p
+    });
+}
+
 fn lockstep_equals_simulator(tag: &str, machine: &str) {
     lockstep_equals_simulator_on(tag, machine, short_job)
 }
