@@ -425,7 +425,10 @@ fn machine_trace(d: &Daemon, job_id: u64) -> Vec<[f64; 5]> {
     ];
     lines
         .map(|l| {
-            let f: Vec<f64> = l.split(',').map(|v| v.parse().unwrap_or(f64::NAN)).collect();
+            let f: Vec<f64> = l
+                .split(',')
+                .map(|v| v.parse().unwrap_or(f64::NAN))
+                .collect();
             cols.map(|c| f[c])
         })
         .collect()
@@ -489,6 +492,19 @@ fn the_machine_around_the_axes_runs_the_acceptance_job() {
         MachineState::Paused,
         "still waiting for the operator"
     );
+    // the status at the tool change: its prompt, T2 prepared, the spindle at speed
+    // on its model, flood on
+    assert_eq!(s.prompt.as_deref(), Some("insert T2, then resume"), "{s:?}");
+    assert_eq!(s.tool_prepared, Some(2));
+    assert_ne!(s.tool, 2, "not in the spindle before the change");
+    let sp = s.spindle.unwrap();
+    assert_eq!(sp.commanded_rpm, 8000.0);
+    assert!(
+        sp.at_speed && (sp.actual_rpm - 8000.0).abs() < 160.0,
+        "{sp:?}"
+    );
+    assert!(s.coolant.flood && !s.coolant.mist);
+    assert_eq!(s.message, None);
     assert!(op.request(&Request::Resume).unwrap().is_accepted());
 
     // the message, then the M0 pause
@@ -500,6 +516,12 @@ fn the_machine_around_the_axes_runs_the_acceptance_job() {
         "{:?}",
         notes(&s)
     );
+    // the status at the M0: the message, T2 in the spindle, no machine prompt
+    assert_eq!(
+        s.message.as_deref(),
+        Some("tool 2 in: check the coolant, then resume")
+    );
+    assert_eq!((s.tool, s.prompt.as_deref()), (2, None), "{s:?}");
     // M66 P0 L3 Q2's input 0 (raw line 64) high
     d.sim_panel(softnc_ipc::SimPanel::DIGITAL, 64, 1.0);
     assert!(op.request(&Request::Resume).unwrap().is_accepted());

@@ -495,6 +495,31 @@ impl MachineSequencer {
         s.get(k).filter(|e| e.motion == motion).copied()
     }
 
+    /// The state in force for a sample of motion `motion`, looked up without
+    /// moving the cursors (O(log n): for a reader of the status, not the cycle).
+    pub fn state_of(&self, motion: u32) -> SequencerState {
+        let c = &self.changes;
+        c[c.partition_point(|e| e.0 <= motion).saturating_sub(1)].1
+    }
+
+    /// What the path waits for while it stands at the machine stop of motion
+    /// `motion` once the machine has it (`None`: no stop there, or one that is done
+    /// once the machine has it): the operator's prompt.
+    pub fn waiting_at(&self, motion: u32) -> Option<Waiting> {
+        let s = &self.stops;
+        let stop = s.get(s.partition_point(|e| e.motion < motion))?;
+        if stop.motion != motion {
+            return None;
+        }
+        match stop.op {
+            MachineOp::SpindleOn { rpm, .. } => Some(Waiting::SpindleAtSpeed { rpm }),
+            MachineOp::ToolChange { tool } => Some(Waiting::ToolChange { tool }),
+            MachineOp::WaitInput { input, mode, .. } => Some(Waiting::Input { input, mode }),
+            MachineOp::UserM { code, p, q } => Some(Waiting::UserCommand { code, p, q }),
+            _ => None,
+        }
+    }
+
     /// The text of message `index` (`SequencerState::message`).
     pub fn message_text(&self, index: u32) -> Option<&str> {
         self.messages.get(index as usize).map(String::as_str)
