@@ -170,6 +170,8 @@ pub struct Streaming<'p> {
     operator_wait_seq: Option<u64>,
     /// The operator message last noted in the job's record.
     message_noted: Option<u32>,
+    /// The `(PRINT,…)` last noted.
+    printed_noted: Option<u32>,
     _job: std::marker::PhantomData<&'p mut PlannedJob>,
 }
 
@@ -665,6 +667,7 @@ impl InterpTask {
             waiting: None,
             operator_wait_seq: None,
             message_noted: None,
+            printed_noted: None,
             _job: std::marker::PhantomData,
         })
     }
@@ -976,6 +979,15 @@ impl InterpTask {
         }
         if stop.is_none() {
             s.resume_at_stop = false;
+        }
+        // (a print does not stop the path: it is reached with the next motion's first
+        // sample, before a message there)
+        if let Some(i) = step.state.printed.filter(|&i| Some(i) != s.printed_noted) {
+            s.printed_noted = Some(i);
+            let text = s.machine.message_text(i).unwrap_or("").trim();
+            let mut msg = FixedStr::<256>::empty();
+            let _ = write!(msg, "print: {text}");
+            self.raise(AlarmCode::Note, msg)?;
         }
         if let Some(i) = step.state.message.filter(|&i| Some(i) != s.message_noted) {
             s.message_noted = Some(i);

@@ -393,20 +393,19 @@ fn a_learned_job_fading_its_correction_out_allocates_nothing_on_the_cycle() {
 fn a_job_with_machine_stops_allocates_nothing_on_the_cycle() {
     // the spindle, coolant, a message, a tool change and synchronised outputs, each
     // machine stop waiting `lookahead` samples for the machine to apply it: the
-    // counted cycles pass M8, the message, M6 and M62 (formatted in place)
+    // counted cycles pass M8, the print and message, M6 and M62 (formatted in place)
     let counted = run_counted(
         "machine",
-        "G21 G90 G17\nG0 X0 Y0 Z0\nS1000 M3\nM8\nG1 X0.5 F600\n(MSG, hello)\nT2 M6\nM62 P1\nG1 X1\nM63 P1\nG1 X1.5\nM9\nM5\nG1 X2\nM2\n",
+        "G21 G90 G17\nG0 X0 Y0 Z0\nS1000 M3\nM8\nG1 X0.5 F600\n(PRINT, printed)\n(MSG, hello)\nT2 M6\nM62 P1\nG1 X1\nM63 P1\nG1 X1.5\nM9\nM5\nG1 X2\nM2\n",
         false,
         &[],
     );
     assert!(counted.sent > 0);
     assert!(counted.heartbeats >= 1, "a heartbeat while counted");
-    assert_eq!(counted.notes.len(), 1, "{:?}", counted.notes);
-    assert!(
-        counted.notes[0].starts_with("message:") && counted.notes[0].contains("hello"),
-        "{:?}",
-        counted.notes
+    assert_eq!(
+        counted.notes,
+        ["print: printed", "message: hello"],
+        "the print (for the record) and the message, in order"
     );
     let outputs: Vec<softnc_core::machine_io::MachineOutputs> =
         counted.samples.iter().map(|c| c.outputs.into()).collect();

@@ -41,7 +41,7 @@
 
 use softnc_core::machine_io::{MachineInputs, MachineOutputs, SpindleDir};
 use softnc_gcode::{
-    MachineOp, MotionKind, OverrideSwitch, Program, SpindleTurn, WaitInput, WaitMode,
+    MachineOp, MessageKind, MotionKind, OverrideSwitch, Program, SpindleTurn, WaitInput, WaitMode,
 };
 
 /// What the sequencer needs besides the program (from the machine profile).
@@ -66,8 +66,12 @@ pub struct SequencerState {
     pub tool_in_spindle: u32,
     /// The tool prepared (the last T).
     pub tool_prepared: u32,
-    /// The operator message last reached (`Program::messages` index).
+    /// The operator message last reached (`Program::messages` index): `(MSG,…)`
+    /// and `(DEBUG,…)` (LinuxCNC shows both as `MESSAGE`).
     pub message: Option<u32>,
+    /// The `(PRINT,…)` last reached (`Program::messages` index): for the log and
+    /// the job's record, not the operator's display (LinuxCNC prints it).
+    pub printed: Option<u32>,
     /// M48–M51: feed override enabled.
     pub feed_override_enabled: bool,
     /// M48–M51: spindle override enabled.
@@ -87,6 +91,7 @@ impl Default for SequencerState {
             tool_in_spindle: 0,
             tool_prepared: 0,
             message: None,
+            printed: None,
             feed_override_enabled: true,
             spindle_override_enabled: true,
             adaptive_feed_enabled: false,
@@ -122,6 +127,10 @@ impl SequencerState {
             }
             MachineOp::ToolPrepare { tool } => self.tool_prepared = tool,
             MachineOp::ToolChange { .. } => o.tool_change = true,
+            MachineOp::Message {
+                index,
+                kind: MessageKind::Print,
+            } => self.printed = Some(index),
             MachineOp::Message { index, .. } => self.message = Some(index),
             MachineOp::DigitalOut { line, on, .. } => {
                 let bit = 1u64 << line;
