@@ -1000,9 +1000,9 @@ impl InterpTask {
             Action::Wait(w) if w != Waiting::Applied => Some(w),
             _ => None,
         };
-        if waiting.is_some() && waiting != s.waiting {
+        if let Some(w) = waiting.filter(|_| waiting != s.waiting) {
             let mut msg = FixedStr::<256>::empty();
-            let _ = write!(msg, "prompt: {}", waiting.expect("some"));
+            let _ = write!(msg, "prompt: {w}");
             self.raise(AlarmCode::Note, msg)?;
         }
         s.waiting = waiting;
