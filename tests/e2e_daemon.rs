@@ -33,6 +33,24 @@ fn lockstep_with_s_words_and_the_pdc_equals_the_simulator_bit_for_bit() {
     });
 }
 
+#[test]
+fn lockstep_with_machine_waits_equals_the_simulator_bit_for_bit() {
+    // issue 35's acceptance job without its M0 (the simulator has no operator to
+    // resume it): the spindle's run-up on its model gates the feed, the tool change
+    // waits for the simulated changer's tool-changed (2 s), M66 for its input until
+    // its 2 s timeout, each stop released at the same sample (the machine heard
+    // `lookahead` samples late in both)
+    lockstep_equals_simulator_on("machinewait", "default.ron", |dir| {
+        let text = std::fs::read_to_string(repo().join("examples/machine/acceptance.ngc"))
+            .unwrap()
+            .replace("M0\n", "");
+        assert!(!text.contains("M0\n"));
+        let p = dir.join("machine-waits.ngc");
+        std::fs::write(&p, text).unwrap();
+        p
+    });
+}
+
 fn lockstep_equals_simulator(tag: &str, machine: &str) {
     lockstep_equals_simulator_on(tag, machine, short_job)
 }
@@ -111,7 +129,13 @@ fn adaptive_force_in_the_daemon_holds_the_force_where_the_depth_changes_bit_for_
         .lookahead_samples as u64;
     let text = std::fs::read_to_string(&job).unwrap();
     let program = softnc_gcode::read_program(&text, &job.display().to_string(), &profile).unwrap();
-    let plan = softnc_planner::plan(&program, &profile, &Default::default()).unwrap();
+    let options = softnc_planner::PlanOptions {
+        wait_at_machine_stops: true,
+        ..Default::default()
+    };
+    let plan = softnc_planner::plan(&program, &profile, &options).unwrap();
+    let (seq, heard) =
+        softnc_daemon::plan_samples::sim_machine(&program, &profile, &options, latency);
     let mut engine = softnc_sim::simulated_engine(
         &profile,
         profile.servo.seed,
@@ -129,12 +153,17 @@ fn adaptive_force_in_the_daemon_holds_the_force_where_the_depth_changes_bit_for_
     softnc_sim::simulate_adaptive(
         &mut engine,
         plan.cycle_s(),
-        softnc_daemon::plan_samples::PlanSamples(plan.interpolator()),
+        softnc_daemon::plan_samples::PlanSamples::with_machine(
+            plan.interpolator(),
+            seq,
+            heard.clone(),
+        ),
         &mut feed,
         latency,
         2.55,
         |m| plan.motion_primitive(m as usize),
-        |row, engine, rev| {
+        |row, engine, seq, rev| {
+            softnc_daemon::plan_samples::hear(&heard, seq, row, engine);
             file.row(row).unwrap();
             let b = engine.backend();
             let stock = b.stock().unwrap();

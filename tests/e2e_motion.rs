@@ -407,3 +407,174 @@ fn late_position_cycles_raise_one_alarm_per_period_not_one_per_cycle() {
         .unwrap_or(0);
     assert!(count >= 2, "{msgs:?}");
 }
+
+/// The trace's columns of the machine around the axes (spindle command and actual
+/// rpm, coolant bits, M62 outputs) beside cmd x, per row.
+fn machine_trace(d: &Daemon, job_id: u64) -> Vec<[f64; 5]> {
+    trace_rows(d, job_id); // (waits until the file is complete)
+    let text = std::fs::read_to_string(d.dir.join(format!("data/trace-job{job_id}.csv"))).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let cols = [
+        col("cmd_x_mm"),
+        col("spindle_cmd_rpm"),
+        col("spindle_rpm"),
+        col("coolant"),
+        col("dout"),
+    ];
+    lines
+        .map(|l| {
+            let f: Vec<f64> = l
+                .split(',')
+                .map(|v| v.parse().unwrap_or(f64::NAN))
+                .collect();
+            cols.map(|c| f[c])
+        })
+        .collect()
+}
+
+/// Issue 35's acceptance job (examples/machine/acceptance.ngc) on the simulated
+/// machine, one daemon run: the spindle runs up on its model and the feed moves
+/// start only at speed, coolant on then off, the tool change's prompt and its wait
+/// for `resume` (the simulated tool changer made too slow to answer), the message,
+/// the M0 pause, M62's output switching at the sample where the next motion starts,
+/// M66 released by its input (set by the test during the M0 pause, before the M66:
+/// a lockstep daemon runs its 2 s timeout faster than the test could answer) well
+/// before its timeout.
+#[test]
+#[allow(clippy::too_many_lines)]
+fn the_machine_around_the_axes_runs_the_acceptance_job() {
+    let tag = "machine";
+    let dir = fresh_dir(tag);
+    std::fs::create_dir_all(&dir).unwrap();
+    let profile = dir.join("slow-changer.ron");
+    let text = std::fs::read_to_string(repo().join("config/machines/default.ron")).unwrap();
+    assert!(text.contains("tool_change_s: 2.0"));
+    std::fs::write(
+        &profile,
+        text.replace("tool_change_s: 2.0", "tool_change_s: 600.0"),
+    )
+    .unwrap();
+    let d = Daemon::start_in(dir, tag, "Lockstep", true, profile.to_str().unwrap(), &[]);
+    let op = d.operator();
+    let job = d.dir.join("acceptance.ngc");
+    std::fs::copy(repo().join("examples/machine/acceptance.ngc"), &job).unwrap();
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let job_id = id(&r);
+    let notes = |s: &Status| {
+        s.job(job_id)
+            .map(|j| j.record.notes.clone())
+            .unwrap_or_default()
+    };
+    let noted = |s: &Status, what: &str| notes(s).iter().any(|n| n.contains(what));
+    let minute = Duration::from_secs(60);
+
+    // the tool change: paused with its prompt until the operator resumes
+    let s = d.wait_status(&op, minute, "the tool change", |s| {
+        s.state == MachineState::Paused && noted(s, "prompt: insert T2, then resume")
+    });
+    assert!(
+        noted(&s, "prompt: waiting for the spindle at 8000 rpm"),
+        "{:?}",
+        notes(&s)
+    );
+    assert!(
+        !noted(&s, "message:"),
+        "the message comes after the M6: {:?}",
+        notes(&s)
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let s = op.status().unwrap();
+    assert_eq!(
+        s.state,
+        MachineState::Paused,
+        "still waiting for the operator"
+    );
+    // the status at the tool change: its prompt, T2 prepared, the spindle at speed
+    // on its model, flood on
+    assert_eq!(s.prompt.as_deref(), Some("insert T2, then resume"), "{s:?}");
+    assert_eq!(s.tool_prepared, Some(2));
+    assert_ne!(s.tool, 2, "not in the spindle before the change");
+    let sp = s.spindle.unwrap();
+    assert_eq!(sp.commanded_rpm, 8000.0);
+    assert!(
+        sp.at_speed && (sp.actual_rpm - 8000.0).abs() < 160.0,
+        "{sp:?}"
+    );
+    assert!(s.coolant.flood && !s.coolant.mist);
+    assert_eq!(s.message, None);
+    assert!(op.request(&Request::Resume).unwrap().is_accepted());
+
+    // the message, then the M0 pause
+    let s = d.wait_status(&op, minute, "the M0", |s| {
+        s.state == MachineState::Paused && noted(s, "message:")
+    });
+    assert!(
+        noted(&s, "message: tool 2 in: check the coolant, then resume"),
+        "{:?}",
+        notes(&s)
+    );
+    // the status at the M0: the message, T2 in the spindle, no machine prompt
+    assert_eq!(
+        s.message.as_deref(),
+        Some("tool 2 in: check the coolant, then resume")
+    );
+    assert_eq!((s.tool, s.prompt.as_deref()), (2, None), "{s:?}");
+    // M66 P0 L3 Q2's input 0 (raw line 64) high
+    d.sim_panel(softnc_ipc::SimPanel::DIGITAL, 64, 1.0);
+    assert!(op.request(&Request::Resume).unwrap().is_accepted());
+    let s = d.wait_job(&op, job_id, minute);
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
+    assert!(s.alarms.is_empty(), "{s}");
+
+    let rows = machine_trace(&d, job_id);
+    let [x, cmd_rpm, rpm, coolant, dout] = [0, 1, 2, 3, 4];
+    let first = |from: usize, f: &dyn Fn(&[f64; 5]) -> bool| {
+        (from..rows.len()).find(|&k| f(&rows[k])).unwrap()
+    };
+    // the spindle runs up on its model (0.88 s to 12,000 rpm at full torque)
+    let on = first(0, &|r| r[cmd_rpm] == 8000.0);
+    let at_speed = first(on, &|r| (r[rpm] - 8000.0).abs() <= 160.0);
+    assert!(at_speed - on > 300, "run-up {} cycles", at_speed - on);
+    let mid = rows[(on + at_speed) / 2][rpm];
+    assert!(mid > 1000.0 && mid < 7800.0, "half-way: {mid} rpm");
+    // the feed move to X5 starts only at speed
+    let x0 = rows[on][x];
+    let moving = first(on, &|r| (r[x] - x0).abs() > 1e-4);
+    assert!(
+        moving > at_speed,
+        "X moved at cycle {moving}, at speed at {at_speed}"
+    );
+    // coolant (flood, bit 1) on after the move, off at the end
+    let flood = first(0, &|r| r[coolant] as u32 & 2 != 0);
+    assert!(
+        flood > moving && rows[flood][x] > 4.999,
+        "M8 at X {}",
+        rows[flood][x]
+    );
+    assert_eq!(rows.last().unwrap()[coolant], 0.0);
+    assert_eq!(rows.last().unwrap()[cmd_rpm], 0.0);
+    // M62 P1 switches with the first sample of the move to X10: the command stood
+    // at X5 until then, and moves from the next cycles on
+    let out = first(0, &|r| r[dout] as u64 & 2 != 0);
+    assert!(out > flood);
+    assert!(
+        (1..50).all(|k| (rows[out - k][x] - 5.0).abs() < 1e-9),
+        "at rest at X5 before the output"
+    );
+    // (its first sample: under one cycle at F1200, 20 µm)
+    assert!(
+        rows[out][x] > 5.0 && rows[out][x] < 5.02,
+        "the output's cycle is the move's first: X {}",
+        rows[out][x]
+    );
+    assert!(rows[out + 200][x] > 5.0 + 1e-4, "moving after it");
+    // M66 stood at X10 until the machine had it (the interpolator hears the
+    // machine `lookahead` samples late), released by its input long before 2 s
+    let at_10 = first(out, &|r| (r[x] - 10.0).abs() < 1e-9);
+    let leaves = first(at_10, &|r| r[x] > 10.0 + 1e-9);
+    let stood = leaves - at_10;
+    assert!(stood > 50 && stood < 1000, "stood {stood} cycles at X10");
+}

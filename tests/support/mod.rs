@@ -456,8 +456,16 @@ pub fn simulator_trace(job: &Path, machine: &Path, out: &Path) {
 pub fn simulator_trace_learned(job: &Path, machine: &Path, out: &Path, learned: Option<&Path>) {
     let profile = softnc_machine::MachineProfile::load(machine).unwrap();
     let text = std::fs::read_to_string(job).unwrap();
+    // the machine stops wait for the simulated machine, heard as late as the
+    // daemon's interpolation process hears it (its lookahead)
+    let options = softnc_planner::PlanOptions {
+        wait_at_machine_stops: true,
+        ..Default::default()
+    };
     let program = softnc_gcode::read_program(&text, &job.display().to_string(), &profile).unwrap();
-    let plan = softnc_planner::plan(&program, &profile, &Default::default()).unwrap();
+    let plan = softnc_planner::plan(&program, &profile, &options).unwrap();
+    let (seq, heard) =
+        softnc_daemon::plan_samples::sim_machine(&program, &profile, &options, daemon_lookahead());
     let mut engine = softnc_sim::simulated_engine(
         &profile,
         profile.servo.seed,
@@ -482,25 +490,35 @@ pub fn simulator_trace_learned(job: &Path, machine: &Path, out: &Path, learned: 
         }
     });
     let mut file = softnc_daemon::trace::TraceFile::create(out).unwrap();
-    let planned = plan.interpolator().map(|s| softnc_sim::sim::CommandSample {
-        pos_mm: softnc_core::Axes::from_xyz(s.pos_mm.0, 0.0),
-        motion: s.motion,
-        feed_move: s.feed_move,
-        outputs: Default::default(),
-    });
+    let planned = softnc_daemon::plan_samples::PlanSamples::with_machine(
+        plan.interpolator(),
+        seq,
+        heard.clone(),
+    );
     let samples: Box<dyn Iterator<Item = softnc_sim::sim::CommandSample>> = match &correction {
         Some(c) => Box::new(c.corrected(planned)),
         None => Box::new(planned),
     };
-    softnc_sim::simulate(
+    softnc_sim::simulate_sequenced(
         &mut engine,
         plan.cycle_s(),
         samples,
         |m| plan.motion_primitive(m as usize),
-        |row| file.row(row).unwrap(),
+        |row, engine, seq| {
+            softnc_daemon::plan_samples::hear(&heard, seq, row, engine);
+            file.row(row).unwrap();
+        },
     )
     .unwrap();
     file.finish().unwrap();
+}
+
+/// The test daemons' `lookahead_samples` (config/default.ron's).
+pub fn daemon_lookahead() -> u64 {
+    softnc_daemon::config::DaemonConfig::load(&repo().join("config/default.ron"))
+        .unwrap()
+        .config
+        .lookahead_samples as u64
 }
 
 /// The iceoryx2 services left for an instance (after its controller stopped).

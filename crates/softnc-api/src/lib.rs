@@ -37,7 +37,7 @@ pub use request::{axis_letter, Request};
 pub use softnc_core::Axis;
 pub use status::{
     ActiveOffsets, AdaptiveForce, Alarm, AlarmKind, AxesStatus, Coolant, JobStatus, LoopTiming,
-    Loops, MachineState, Percentiles, ProcessHealth, Processes, Status, Switches, Unsaved,
+    Loops, MachineState, Percentiles, ProcessHealth, Processes, Spindle, Status, Switches, Unsaved,
 };
 pub use wire::{
     decode_reply, decode_request, encode_reply, encode_request, ApiError, ReplyEnvelope,

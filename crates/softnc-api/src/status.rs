@@ -82,6 +82,10 @@ pub enum AlarmKind {
     PlanStarved,
     /// The program could not be planned again while it ran.
     PlanFailed,
+    /// A machine operation of a job could not be completed (the spindle not at
+    /// speed in time): the job stopped along its path (a reader of an older
+    /// contract reads it as `Other`).
+    MachineWait,
     /// A real-time loop stalled.
     LoopStall,
     /// A real-time loop ran late.
@@ -212,6 +216,22 @@ pub struct Coolant {
     pub mist: bool,
     /// Flood (M8).
     pub flood: bool,
+}
+
+/// The spindle as the machine runs it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Spindle {
+    /// The speed commanded by the running job (rpm, signed: negative M4; 0
+    /// stopped or between jobs), before the spindle override.
+    #[serde(default)]
+    pub commanded_rpm: f64,
+    /// The speed its encoder measures (rpm, signed; the command where the machine
+    /// has no spindle feedback).
+    #[serde(default)]
+    pub actual_rpm: f64,
+    /// Within the profile's at-speed band of the command × override.
+    #[serde(default)]
+    pub at_speed: bool,
 }
 
 /// The operator's program-flow switches.
@@ -345,6 +365,21 @@ pub struct Status {
     /// Spindle speed (rpm; 0 without a spindle model or between jobs).
     #[serde(default)]
     pub spindle_rpm: Option<f64>,
+    /// The spindle as the machine runs it: commanded and actual speed, at speed
+    /// (`None` before the position process reports).
+    #[serde(default)]
+    pub spindle: Option<Spindle>,
+    /// The tool prepared (the running job's last T; `None` between jobs).
+    #[serde(default)]
+    pub tool_prepared: Option<u32>,
+    /// The operator message (`(MSG,…)`) the running job last reached.
+    #[serde(default)]
+    pub message: Option<String>,
+    /// What the running job waits for at a machine stop ("insert T2, then
+    /// resume", "waiting for the spindle at 8000 rpm", "waiting for input P0
+    /// (High)"), while the machine stands there.
+    #[serde(default)]
+    pub prompt: Option<String>,
     /// Adaptive feed of the running job.
     #[serde(default)]
     pub adaptive_force: Option<AdaptiveForce>,

@@ -42,6 +42,14 @@ fn status() -> Status {
         rapid_override: 0.5,
         spindle_override: Some(1.0),
         spindle_rpm: Some(12000.0),
+        spindle: Some(softnc_api::Spindle {
+            commanded_rpm: 12000.0,
+            actual_rpm: 11990.0,
+            at_speed: true,
+        }),
+        tool_prepared: Some(3),
+        message: Some("check the coolant".into()),
+        prompt: None,
         adaptive_force: Some(AdaptiveForce {
             override_fraction: 0.9,
             revolutions: 40,
@@ -238,6 +246,9 @@ fn a_status_keeps_the_shape_clients_read() {
     assert_eq!(v["unsaved"]["job_history"], "read-only file system");
     assert!(v["unsaved"].get("parameters").is_none());
     assert_eq!(v["coolant"]["flood"], true);
+    assert_eq!(v["spindle"]["actual_rpm"], 11990.0);
+    assert_eq!(v["tool_prepared"], 3);
+    assert_eq!(v["message"], "check the coolant");
 }
 
 #[test]
@@ -374,4 +385,32 @@ fn a_process_restarted_alarm_reads_back_and_as_other_for_older_readers() {
         serde_json::from_str::<AlarmKind>("\"ProcessResurrected\"").unwrap(),
         AlarmKind::Other
     );
+}
+
+#[test]
+fn a_machine_wait_alarm_and_the_machine_fields_of_the_status_read_back() {
+    let text = serde_json::to_string(&AlarmKind::MachineWait).unwrap();
+    assert_eq!(text, "\"MachineWait\"");
+    assert_eq!(
+        serde_json::from_str::<AlarmKind>(&text).unwrap(),
+        AlarmKind::MachineWait
+    );
+    // a status written before the spindle, the tool prepared, the message and the
+    // prompt reads with none of them; with them, they round-trip
+    let mut v = serde_json::to_value(status()).unwrap();
+    for k in ["spindle", "tool_prepared", "message", "prompt"] {
+        v.as_object_mut().unwrap().remove(k);
+    }
+    let old: softnc_api::Status = serde_json::from_value(v).unwrap();
+    assert_eq!(
+        (old.spindle, old.tool_prepared, old.message, old.prompt),
+        (None, None, None, None)
+    );
+    let mut s = status();
+    s.prompt = Some("insert T2, then resume".into());
+    let back: softnc_api::Status =
+        serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
+    assert_eq!(back.prompt.as_deref(), Some("insert T2, then resume"));
+    assert_eq!(back.spindle, s.spindle);
+    assert_eq!((back.tool_prepared, back.message), (Some(3), s.message));
 }

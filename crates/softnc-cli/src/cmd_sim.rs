@@ -8,8 +8,8 @@ use softnc_core::{Primitive, Vec3};
 use softnc_daemon::plan_samples::PlanSamples;
 use softnc_servo::TraceRow;
 use softnc_sim::{
-    simulate, simulate_adaptive, simulated_engine, CommandSample, ErrorStats, OverridableSamples,
-    SimOptions,
+    simulate_adaptive, simulate_sequenced, simulated_engine, CommandSample, ErrorStats,
+    OverridableSamples, SimOptions,
 };
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -160,6 +160,8 @@ pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
     let options = softnc_planner::PlanOptions {
         block_delete: args.block_delete.on(),
         optional_stop: args.optional_stop.on(),
+        // the machine stops wait for the simulated machine, as in the daemon
+        wait_at_machine_stops: true,
         ..Default::default()
     };
     let program = match read_file(&args.file, &machine, &options.read_options())? {
@@ -229,6 +231,14 @@ pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
         );
         return Ok(ExitCode::from(crate::EXIT_REFUSED));
     }
+    // the daemon's lookahead: the interpolation process hears the machine that many
+    // samples late (machine stops), and adaptive feed's overrides act that late
+    let daemon_lookahead = match args.lookahead {
+        Some(n) => Ok(n),
+        None => softnc_daemon::config::DaemonConfig::load(config)
+            .map(|l| l.config.lookahead_samples as u64)
+            .map_err(|e| e.to_string()),
+    };
     let mut adaptive = if args.adaptive_force {
         let latency = match args.lookahead {
             Some(n) => n,
@@ -298,6 +308,20 @@ pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
     let (mut next_plot, mut next_progress) = (0u64, 0u64);
     let mut trace_err: Option<anyhow::Error> = None;
 
+    let lag = match daemon_lookahead {
+        Ok(n) => n,
+        // without the daemon's configuration: the least lookahead whose filter
+        // window is the engine's
+        Err(_) => softnc_core::ring::lookahead_for_window(engine.filter_window()) as u64,
+    };
+    let machine_samples = || {
+        let (seq, heard) =
+            softnc_daemon::plan_samples::sim_machine(&program, &machine, &options, lag);
+        (
+            PlanSamples::with_machine(plan.interpolator(), seq, heard.clone()),
+            heard,
+        )
+    };
     let path_of = |m: u32| plan.motion_primitive(m as usize);
     let started = Instant::now();
     let mut on_row = |row: &TraceRow| {
@@ -334,33 +358,43 @@ pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
             }
         }
     };
+    let (mut samples, heard) = machine_samples();
     let report = match adaptive.as_mut() {
         None => {
             let samples: Box<dyn Iterator<Item = CommandSample>> = match &learned {
-                Some(c) => Box::new(c.corrected(command_samples(&plan))),
+                Some(c) => Box::new(c.corrected(samples)),
                 None => {
-                    let mut s = PlanSamples(plan.interpolator());
                     if feed_override != 1.0 {
                         // from rest: the first sample already runs at it (as the daemon)
-                        s.set_feed_override(feed_override);
+                        samples.set_feed_override(feed_override);
                     }
                     if rapid_override != 1.0 {
-                        s.0.set_rapid_override(rapid_override);
+                        samples.interpolator().set_rapid_override(rapid_override);
                     }
-                    Box::new(s)
+                    Box::new(samples)
                 }
             };
-            simulate(&mut engine, cycle_s, samples, path_of, on_row)
+            simulate_sequenced(
+                &mut engine,
+                cycle_s,
+                samples,
+                path_of,
+                |row, engine, seq| {
+                    softnc_daemon::plan_samples::hear(&heard, seq, row, engine);
+                    on_row(row);
+                },
+            )
         }
         Some((feed, latency, log)) => simulate_adaptive(
             &mut engine,
             cycle_s,
-            PlanSamples(plan.interpolator()),
+            samples,
             feed,
             *latency,
             feed_override,
             path_of,
-            |row, engine, rev| {
+            |row, engine, seq, rev| {
+                softnc_daemon::plan_samples::hear(&heard, seq, row, engine);
                 on_row(row);
                 log.cycle(engine.backend(), rev);
             },
@@ -594,7 +628,19 @@ fn learned_correction(
         &read(&args.file)?,
         &read(&mpath)?,
         softnc_learning::entry::OVERRIDE_PCT,
-        || plan.interpolator().count(),
+        || {
+            // the samples with every machine stop released at once (nothing to wait
+            // for here)
+            let mut it = plan.interpolator();
+            let mut n = 0;
+            while it.next().is_some() {
+                n += 1;
+                if it.machine_stop().is_some() {
+                    it.release_machine_stop();
+                }
+            }
+            n
+        },
         plan.cycle_s(),
     )?;
     Ok(match found {
@@ -607,11 +653,6 @@ fn learned_correction(
             store.dir().display()
         )),
     })
-}
-
-/// The plan's sample stream as the simulator takes it.
-pub fn command_samples(plan: &softnc_planner::Plan) -> PlanSamples<'_> {
-    PlanSamples(plan.interpolator())
 }
 
 /// Outward unit normal of the contour-error field at `p` (its gradient), in XY.

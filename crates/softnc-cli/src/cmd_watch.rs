@@ -216,18 +216,66 @@ fn header(shown: &Shown) -> String {
             head.push_str(&format!("  {p} {health}"));
         }
     }
+    // the tool in the spindle (→ the one prepared); the spindle's actual speed /
+    // the job's command (`*`: at speed), else the speed the position process uses
+    let tool = match s.tool_prepared {
+        Some(p) if p != s.tool => format!("T{}→{p}", s.tool),
+        _ => format!("T{}", s.tool),
+    };
+    let rpm = match s.spindle {
+        Some(sp) => format!(
+            "{:.0}/{:.0}{}",
+            sp.actual_rpm,
+            sp.commanded_rpm,
+            if sp.at_speed { "*" } else { "" }
+        ),
+        None => num(s.spindle_rpm, 1.0, 0, 0),
+    };
     head.push_str(&format!(
-        "  {}  T{}  feed {}% spindle {}% {} rpm  SB {} OS {} BD {}",
+        "  {}  {tool}  feed {}% spindle {}% {rpm} rpm  SB {} OS {} BD {}",
         s.coords,
-        s.tool,
         num(Some(s.feed_override), 100.0, 0, 0),
         num(s.spindle_override, 100.0, 0, 0),
-        num(s.spindle_rpm, 1.0, 0, 0),
         on(s.switches.single_block),
         on(s.switches.optional_stop),
         on(s.switches.block_delete),
     ));
     head
+}
+
+/// The message line: the prompt of the machine stop the running job waits at
+/// (highlighted), the reply to the operator's last key, coolant and the operator
+/// message (`(MSG,…)`). (The spindle's speeds and the tools are on the status line.)
+fn machine_line(s: Option<&Status>, note: &str) -> Line<'static> {
+    let mut spans = Vec::new();
+    if let Some(p) = s.and_then(|s| s.prompt.as_ref()) {
+        spans.push(Span::styled(
+            format!("{p}  "),
+            Style::default()
+                .fg(Color::Black)
+                .bg(Color::Yellow)
+                .add_modifier(Modifier::BOLD),
+        ));
+    }
+    if !note.is_empty() {
+        spans.push(Span::raw(format!("{note}  ")));
+    }
+    if let Some(s) = s {
+        let coolant = match (s.coolant.mist, s.coolant.flood) {
+            (false, false) => "off",
+            (true, false) => "mist",
+            (false, true) => "flood",
+            (true, true) => "mist+flood",
+        };
+        spans.push(Span::raw(format!("coolant {coolant}")));
+        if let Some(m) = &s.message {
+            spans.push(Span::styled(
+                format!("  MSG {m}"),
+                Style::default().add_modifier(Modifier::BOLD),
+            ));
+        }
+    }
+    Line::from(spans)
 }
 
 /// The style of the state on the status line.
@@ -319,7 +367,10 @@ fn draw(
             format!("touch-off: x, y or z sets that axis to 0 in {coords}; Esc cancels"),
             Style::default().fg(Color::Yellow),
         ),
-        Mode::Normal => Line::raw(ui.note.clone()),
+        // the reply to the last key while there is one, else the machine around
+        // the axes
+        // a machine stop's prompt first, the reply to the last key, the machine
+        Mode::Normal => machine_line(s, &ui.note),
     };
     frame.render_widget(Paragraph::new(message), rows[5]);
     let (first, stop, rest) = match ui.mode {
@@ -703,6 +754,23 @@ mod tests {
         out.lines()
             .position(|l| l.contains(needle))
             .unwrap_or_else(|| panic!("{needle:?} not on screen:\n{out}"))
+    }
+
+    #[test]
+    fn the_machine_line_shows_spindle_coolant_tools_and_the_prompt_or_message() {
+        let mut s = running();
+        s["spindle"] = serde_json::json!({"commanded_rpm": 8000.0, "actual_rpm": 7990.4,
+                                          "at_speed": true});
+        s["coolant"] = serde_json::json!({"mist": false, "flood": true});
+        s["tool_prepared"] = serde_json::json!(3);
+        s["message"] = serde_json::json!("check the coolant");
+        let out = screen(&s, 80, 24);
+        row_of(&out, "T2→3  feed 100% spindle 100% 7990/8000* rpm");
+        row_of(&out, "coolant flood  MSG check the coolant");
+        // a prompt comes first
+        s["prompt"] = serde_json::json!("insert T3, then resume");
+        let out = screen(&s, 80, 24);
+        row_of(&out, "insert T3, then resume  coolant flood");
     }
 
     #[test]

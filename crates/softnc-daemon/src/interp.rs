@@ -34,6 +34,9 @@ use softnc_ipc::{
     MachineState, PositionStatus, ProcessId, JOB_ADAPTIVE_FORCE,
 };
 use softnc_learning::{JobCorrection, LearningStore, Lookup};
+use softnc_planner::machine_sequencer::{
+    Action, FeedbackHistory, MachineSequencer, SequencerState, Waiting,
+};
 use softnc_planner::stream::{
     check_and_stream, check_program, stream_program, CheckedProgram, StreamInterpolator, StreamMode,
 };
@@ -110,6 +113,8 @@ pub struct PlannedJob {
     learned: Option<JobCorrection>,
     /// With adaptive feed: the position process's force loop gives the override.
     adaptive: bool,
+    /// The machine around the axes for the job (built before motion).
+    sequencer: Option<MachineSequencer>,
 }
 
 impl PlannedJob {
@@ -152,6 +157,21 @@ pub struct Streaming<'p> {
     end_hold: Option<softnc_planner::Sample>,
     /// The first sample sent while the stream stands paused (M0/M1, single block).
     pause_seq: Option<u64>,
+    /// The machine around the axes: each sample's outputs, and when the path may
+    /// leave a machine stop.
+    machine: MachineSequencer,
+    /// The machine's inputs of this job's samples, heard `ahead` samples late.
+    heard: FeedbackHistory,
+    /// The operator resumed while the path waited at a machine stop.
+    resume_at_stop: bool,
+    /// What the path waits for at a machine stop (`None`: not waiting).
+    waiting: Option<Waiting>,
+    /// The sample from which the path waits for the operator at a tool change.
+    operator_wait_seq: Option<u64>,
+    /// The operator message last noted in the job's record.
+    message_noted: Option<u32>,
+    /// The `(PRINT,…)` last noted.
+    printed_noted: Option<u32>,
     _job: std::marker::PhantomData<&'p mut PlannedJob>,
 }
 
@@ -375,8 +395,13 @@ impl InterpTask {
         let machine = &job.machine;
         // the planned samples, counted on a stream of their own (only when the store
         // has an entry for the program)
+        // (the machine stops not waited at: nothing would release them)
         let count = || {
-            check_and_stream(&job.text, &job.path, machine, &job.options, |it| it.count())
+            let options = PlanOptions {
+                wait_at_machine_stops: false,
+                ..job.options.clone()
+            };
+            check_and_stream(&job.text, &job.path, machine, &options, |it| it.count())
                 .map_or(0, |(_, n)| n)
         };
         let found = softnc_learning::entry::lookup(
@@ -530,6 +555,24 @@ impl InterpTask {
                 return Ok(None);
             }
         };
+        // the machine operations' tables, before motion (a second reading of the
+        // text the check read: the same motions)
+        let sequencer = softnc_planner::stream::stream_sequencer(
+            &text,
+            path,
+            &machine,
+            &options,
+            crate::plan_samples::sequencer_config(&machine),
+            crate::plan_samples::initial_state(options.params.as_ref()),
+        );
+        let sequencer = match sequencer {
+            Ok(s) => s,
+            Err(e) => {
+                self.alarm(AlarmCode::JobRefused, &e.to_string())?;
+                self.job_id = 0;
+                return Ok(None);
+            }
+        };
         let mut job = PlannedJob {
             job_id,
             machine,
@@ -540,6 +583,7 @@ impl InterpTask {
             feed_override,
             learned: None,
             adaptive,
+            sequencer: Some(sequencer),
         };
         // a learned correction belongs to the feed override it was learned at
         let override_pct = (feed_override * 100.0).round() as u32;
@@ -611,6 +655,19 @@ impl InterpTask {
             aborting: false,
             end_hold: None,
             pause_seq: None,
+            machine: job.sequencer.take().unwrap_or_else(|| {
+                MachineSequencer::new(
+                    &softnc_gcode::Program::default(),
+                    crate::plan_samples::sequencer_config(&job.machine),
+                    SequencerState::default(),
+                )
+            }),
+            heard: FeedbackHistory::new(self.cfg.config.lookahead_samples as u64),
+            resume_at_stop: false,
+            waiting: None,
+            operator_wait_seq: None,
+            message_noted: None,
+            printed_noted: None,
             _job: std::marker::PhantomData,
         })
     }
@@ -639,6 +696,16 @@ impl InterpTask {
             self.machine_mm = [st.cmd_mm[0], st.cmd_mm[1], st.cmd_mm[2]];
             if st.job_id == job_id {
                 s.consumed = Some(s.consumed.map_or(st.seq, |c: u64| c.max(st.seq)));
+                // (a status of the job before the position process uses its first
+                // sample — it waits for the window, or a PDC's tables — says
+                // nothing about the machine under a sample)
+                let using = matches!(
+                    MachineState::from_wire(st.state),
+                    Some(MachineState::Running | MachineState::Held)
+                );
+                if using {
+                    s.heard.record(st.seq, st.motion, st.inputs.into());
+                }
                 // adaptive feed: a revolution closed at sample `seq`
                 if let Some(f) = s.force.as_mut() {
                     if st.force_revolutions > f.revolutions && st.force_override.is_finite() {
@@ -719,6 +786,10 @@ impl InterpTask {
                     s.held = false;
                     s.it.set_feed_override(s.running_override());
                     self.state = MachineState::Running;
+                }
+                // at a machine stop (a tool change): the operator's acknowledgement
+                Some(ControlKind::Resume) if !s.aborting && s.it.machine_stop().is_some() => {
+                    s.resume_at_stop = true;
                 }
                 Some(ControlKind::Resume) if !s.aborting => {
                     s.it.set_single_block(self.switches.single_block);
@@ -841,6 +912,7 @@ impl InterpTask {
                 }
             }
             let mut c = CommandSample::new(s.next_seq, job_id, sample.index, pos_mm);
+            c.outputs = self.machine_step(s, &sample)?.into();
             c.motion = sample.motion;
             c.path_mm = sample.path_mm;
             if sample.feed_move {
@@ -864,6 +936,7 @@ impl InterpTask {
         }
         let paused = s
             .pause_seq
+            .or(s.operator_wait_seq)
             .is_some_and(|p| s.consumed.is_some_and(|c| c >= p));
         let was = self.state;
         match self.state {
@@ -882,6 +955,75 @@ impl InterpTask {
             }));
         }
         Ok(None)
+    }
+}
+
+impl InterpTask {
+    /// The machine sequencer's step for `sample` (the next to send): its outputs,
+    /// the machine stop released where the machine's inputs (heard `ahead` samples
+    /// late) or the operator allow, the job stopped along its path where a machine
+    /// operation fails (a `MachineWait` alarm). Messages and prompts go to the job's
+    /// record as notes as they are reached. Allocation-free.
+    fn machine_step(
+        &mut self,
+        s: &mut Streaming<'_>,
+        sample: &softnc_planner::Sample,
+    ) -> Result<softnc_core::machine_io::MachineOutputs> {
+        let stop = s.it.machine_stop();
+        let mut fb = s.heard.feedback_for(s.next_seq);
+        fb.resume = s.resume_at_stop;
+        let step = s.machine.step(sample.motion, stop, &fb);
+        if stop.is_some() && fb.applied_motion.is_some_and(|m| Some(m) >= stop) {
+            // the resume was heard at this stop
+            s.resume_at_stop = false;
+        }
+        if stop.is_none() {
+            s.resume_at_stop = false;
+        }
+        // (a print does not stop the path: it is reached with the next motion's first
+        // sample, before a message there)
+        if let Some(i) = step.state.printed.filter(|&i| Some(i) != s.printed_noted) {
+            s.printed_noted = Some(i);
+            let text = s.machine.message_text(i).unwrap_or("").trim();
+            let mut msg = FixedStr::<256>::empty();
+            let _ = write!(msg, "print: {text}");
+            self.raise(AlarmCode::Note, msg)?;
+        }
+        if let Some(i) = step.state.message.filter(|&i| Some(i) != s.message_noted) {
+            s.message_noted = Some(i);
+            let mut msg = FixedStr::<256>::empty();
+            let text = s.machine.message_text(i).unwrap_or("").trim();
+            let _ = write!(msg, "message: {text}");
+            self.raise(AlarmCode::Note, msg)?;
+        }
+        let waiting = match step.action {
+            Action::Wait(w) if w != Waiting::Applied => Some(w),
+            _ => None,
+        };
+        if let Some(w) = waiting.filter(|_| waiting != s.waiting) {
+            let mut msg = FixedStr::<256>::empty();
+            let _ = write!(msg, "prompt: {w}");
+            self.raise(AlarmCode::Note, msg)?;
+        }
+        s.waiting = waiting;
+        match (waiting, s.operator_wait_seq) {
+            (Some(Waiting::ToolChange { .. }), None) => s.operator_wait_seq = Some(s.next_seq),
+            (Some(Waiting::ToolChange { .. }), Some(_)) => {}
+            _ => s.operator_wait_seq = None,
+        }
+        match step.action {
+            Action::Release => s.it.release_machine_stop(),
+            Action::Fail(e) if !s.aborting => {
+                s.aborting = true;
+                s.it.set_feed_override(0.0);
+                self.state = MachineState::Stopping;
+                let mut msg = FixedStr::<256>::empty();
+                let _ = write!(msg, "{e}: the job stops");
+                self.raise(AlarmCode::MachineWait, msg)?;
+            }
+            _ => {}
+        }
+        Ok(step.state.outputs)
     }
 }
 

@@ -87,6 +87,9 @@ impl JobSetup {
             from_line: self.from_line,
             // the daemon resumes a pause (`resume`, `step`)
             wait_at_program_stops: true,
+            // and the machine stops (spindle at speed, tool change, M66) are
+            // released by the machine sequencer
+            wait_at_machine_stops: true,
             subroutine_path: self.subroutine_path.clone(),
             preamble: self.preamble.clone(),
             preamble_file: self.preamble_file.clone(),

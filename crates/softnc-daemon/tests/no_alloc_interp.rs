@@ -79,6 +79,8 @@ fn status(seq: u64, job_id: u64) -> PositionStatus {
 }
 
 struct Counted {
+    /// Every command sample of the job, in order.
+    samples: Vec<CommandSample>,
     /// Cycles counted and samples the interpolator sent during them.
     cycles: usize,
     sent: u64,
@@ -188,6 +190,15 @@ fn run_counted_with(
             };
             consumed = Some(next);
             let mut st = status(next, job_id);
+            // the machine: the sample's motion, the spindle at speed, the tool
+            // changer done (the machine stops are released on what it reports)
+            st.motion = received[next as usize].motion;
+            st.inputs = softnc_core::machine_io::MachineInputs {
+                spindle_at_speed: true,
+                tool_changed: true,
+                ..Default::default()
+            }
+            .into();
             if let Some(f) = force_override {
                 st.force_override = f;
                 st.force_revolutions = next / SAMPLES_PER_REVOLUTION;
@@ -284,13 +295,15 @@ fn run_counted_with(
         let (a, b) = (received[k - 1].pos_mm, received[k].pos_mm);
         ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
     };
+    let last_counted_step_mm = step_mm((sent_before + sent - 1) as usize);
     Counted {
+        samples: received,
         cycles,
         sent,
         heartbeats: hb,
         notes,
         learned,
-        last_counted_step_mm: step_mm((sent_before + sent - 1) as usize),
+        last_counted_step_mm,
     }
 }
 
@@ -374,4 +387,35 @@ fn a_learned_job_fading_its_correction_out_allocates_nothing_on_the_cycle() {
         "{:?}",
         counted.notes
     );
+}
+
+#[test]
+fn a_job_with_machine_stops_allocates_nothing_on_the_cycle() {
+    // the spindle, coolant, a message, a tool change and synchronised outputs, each
+    // machine stop waiting `lookahead` samples for the machine to apply it: the
+    // counted cycles pass M8, the print and message, M6 and M62 (formatted in place)
+    let counted = run_counted(
+        "machine",
+        "G21 G90 G17\nG0 X0 Y0 Z0\nS1000 M3\nM8\nG1 X0.5 F600\n(PRINT, printed)\n(MSG, hello)\nT2 M6\nM62 P1\nG1 X1\nM63 P1\nG1 X1.5\nM9\nM5\nG1 X2\nM2\n",
+        false,
+        &[],
+    );
+    assert!(counted.sent > 0);
+    assert!(counted.heartbeats >= 1, "a heartbeat while counted");
+    assert_eq!(
+        counted.notes,
+        ["print: printed", "message: hello"],
+        "the print (for the record) and the message, in order"
+    );
+    let outputs: Vec<softnc_core::machine_io::MachineOutputs> =
+        counted.samples.iter().map(|c| c.outputs.into()).collect();
+    assert!(outputs
+        .iter()
+        .any(|o| o.coolant_flood && o.spindle_rpm == 1000.0));
+    assert!(
+        outputs.iter().any(|o| o.digital & 2 != 0),
+        "M62 P1 switched"
+    );
+    let last = outputs.last().unwrap();
+    assert!(!last.coolant_flood && last.digital == 0, "{last:?}");
 }

@@ -442,6 +442,10 @@ pub enum AlarmCode {
     /// The program could not be planned again while it ran (the check passed): the
     /// job stopped along its path at the end of what was planned.
     PlanFailed = 9,
+    /// A machine operation of a job could not be completed (the spindle did not
+    /// reach its speed within the profile's `at_speed_timeout_s`): the job stopped
+    /// along its path.
+    MachineWait = 10,
     /// A real-time loop stalled (a period far beyond its bound): the position loop
     /// stopped the machine as a fault, the interpolation loop its job.
     LoopStall = 20,
@@ -695,6 +699,7 @@ wire_enum!(AlarmCode {
     Note,
     PlanStarved,
     PlanFailed,
+    MachineWait,
     LoopStall,
     LoopLate,
     ProcessRestarted,

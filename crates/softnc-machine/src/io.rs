@@ -119,6 +119,10 @@ pub struct IoConfig {
     /// … or within this many rpm of it, whichever is wider (the band at low speed
     /// and at rest; `near`'s `difference`).
     pub at_speed_min_rpm: f64,
+    /// Longest a job waits for the spindle to reach its speed after M3/M4/S (s);
+    /// past it the job stops with a `MachineWait` alarm (LinuxCNC's
+    /// `spindle.at-speed` gate waits forever).
+    pub at_speed_timeout_s: f64,
 }
 
 /// The simulated machine's own I/O figures (`servo.sim_io`).
@@ -164,6 +168,12 @@ impl IoConfig {
             return Err(bad(
                 format!("{prefix}.at_speed_min_rpm"),
                 "must be finite and >= 0".into(),
+            ));
+        }
+        if !(self.at_speed_timeout_s > 0.0 && self.at_speed_timeout_s.is_finite()) {
+            return Err(bad(
+                format!("{prefix}.at_speed_timeout_s"),
+                format!("must be finite and > 0 (got {})", self.at_speed_timeout_s),
             ));
         }
         for (i, l) in self.inputs.iter().enumerate() {

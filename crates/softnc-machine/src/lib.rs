@@ -295,6 +295,11 @@ mod tests {
                 "servo.io.at_speed_frac",
             ),
             (
+                "at_speed_timeout_s: 5.0",
+                "at_speed_timeout_s: 0.0",
+                "servo.io.at_speed_timeout_s",
+            ),
+            (
                 "max_torque_nm: 15.0",
                 "max_torque_nm: 0.1",
                 "servo.spindle.viscous_nm_per_rad_s",

@@ -41,7 +41,7 @@
 
 use softnc_core::machine_io::{MachineInputs, MachineOutputs, SpindleDir};
 use softnc_gcode::{
-    MachineOp, MotionKind, OverrideSwitch, Program, SpindleTurn, WaitInput, WaitMode,
+    MachineOp, MessageKind, MotionKind, OverrideSwitch, Program, SpindleTurn, WaitInput, WaitMode,
 };
 
 /// What the sequencer needs besides the program (from the machine profile).
@@ -66,8 +66,12 @@ pub struct SequencerState {
     pub tool_in_spindle: u32,
     /// The tool prepared (the last T).
     pub tool_prepared: u32,
-    /// The operator message last reached (`Program::messages` index).
+    /// The operator message last reached (`Program::messages` index): `(MSG,…)`
+    /// and `(DEBUG,…)` (LinuxCNC shows both as `MESSAGE`).
     pub message: Option<u32>,
+    /// The `(PRINT,…)` last reached (`Program::messages` index): for the log and
+    /// the job's record, not the operator's display (LinuxCNC prints it).
+    pub printed: Option<u32>,
     /// M48–M51: feed override enabled.
     pub feed_override_enabled: bool,
     /// M48–M51: spindle override enabled.
@@ -87,6 +91,7 @@ impl Default for SequencerState {
             tool_in_spindle: 0,
             tool_prepared: 0,
             message: None,
+            printed: None,
             feed_override_enabled: true,
             spindle_override_enabled: true,
             adaptive_feed_enabled: false,
@@ -122,6 +127,10 @@ impl SequencerState {
             }
             MachineOp::ToolPrepare { tool } => self.tool_prepared = tool,
             MachineOp::ToolChange { .. } => o.tool_change = true,
+            MachineOp::Message {
+                index,
+                kind: MessageKind::Print,
+            } => self.printed = Some(index),
             MachineOp::Message { index, .. } => self.message = Some(index),
             MachineOp::DigitalOut { line, on, .. } => {
                 let bit = 1u64 << line;
@@ -166,13 +175,72 @@ pub struct Feedback {
     pub user_command_done: bool,
 }
 
+/// The machine's reports as a loop running `lookahead` samples ahead of the sample
+/// in use hears them: the [`Feedback`] for the sample numbered `n` is what the
+/// machine reported on the first cycle it used sample `n − lookahead − 1`. (The
+/// interpolation process sends samples up to `lookahead` beyond the last one the
+/// position process reported using — `lookahead + 1` before it reports any — so
+/// that report is the latest it is sure to have heard; the offline simulator takes
+/// the same lag, so both release a stop at the same sample.) Fixed capacity:
+/// recording allocates nothing.
+#[derive(Debug, Clone)]
+pub struct FeedbackHistory {
+    /// `lookahead + 1`.
+    lag: u64,
+    /// (sample number, its motion, the inputs read), oldest first, `lag + 1` long.
+    entries: std::collections::VecDeque<(u64, u32, MachineInputs)>,
+}
+
+impl FeedbackHistory {
+    /// A history for a loop `lookahead` samples ahead.
+    pub fn new(lookahead: u64) -> Self {
+        let lag = lookahead + 1;
+        FeedbackHistory {
+            lag,
+            entries: std::collections::VecDeque::with_capacity(lag as usize + 2),
+        }
+    }
+
+    /// The machine used sample `seq` (of motion `motion`) and read `inputs`; later
+    /// cycles of the same sample are not kept (the first is the one a loop `lag`
+    /// ahead is sure to have heard).
+    pub fn record(&mut self, seq: u64, motion: u32, inputs: MachineInputs) {
+        if self.entries.back().is_some_and(|e| e.0 >= seq) {
+            return;
+        }
+        if self.entries.len() > self.lag as usize {
+            self.entries.pop_front();
+        }
+        self.entries.push_back((seq, motion, inputs));
+    }
+
+    /// The feedback for sample `n` (`applied_motion` `None` before the machine used
+    /// sample `n − lookahead − 1`); `resume` and `user_command_done` false.
+    pub fn feedback_for(&self, n: u64) -> Feedback {
+        let heard = n
+            .checked_sub(self.lag)
+            .and_then(|target| self.entries.iter().rev().find(|e| e.0 <= target));
+        match heard {
+            Some(&(_, motion, inputs)) => Feedback {
+                inputs,
+                applied_motion: Some(motion),
+                ..Feedback::default()
+            },
+            None => Feedback::default(),
+        }
+    }
+}
+
 /// What the path waits for at a machine stop.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Waiting {
     /// The command has not reached the machine yet.
     Applied,
     /// The spindle to reach its speed (M3, M4, S).
-    SpindleAtSpeed,
+    SpindleAtSpeed {
+        /// The speed commanded (rpm).
+        rpm: f64,
+    },
     /// The tool changer's `tool-changed` or the operator's resume: "insert T{tool},
     /// then resume".
     ToolChange {
@@ -202,9 +270,15 @@ impl std::fmt::Display for Waiting {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Waiting::Applied => write!(f, "waiting for the machine"),
-            Waiting::SpindleAtSpeed => write!(f, "waiting for the spindle to reach its speed"),
+            Waiting::SpindleAtSpeed { rpm } => write!(f, "waiting for the spindle at {rpm} rpm"),
             Waiting::ToolChange { tool } => write!(f, "insert T{tool}, then resume"),
-            Waiting::Input { input, mode } => write!(f, "waiting for input {input:?} ({mode:?})"),
+            Waiting::Input { input, mode } => {
+                let (letter, n) = match input {
+                    WaitInput::Digital(p) => ('P', u32::from(*p)),
+                    WaitInput::Analog(e) => ('E', u32::from(*e)),
+                };
+                write!(f, "waiting for input {letter}{n} ({mode:?})")
+            }
             Waiting::UserCommand { code, .. } => write!(f, "running M{code}"),
         }
     }
@@ -430,6 +504,31 @@ impl MachineSequencer {
         s.get(k).filter(|e| e.motion == motion).copied()
     }
 
+    /// The state in force for a sample of motion `motion`, looked up without
+    /// moving the cursors (O(log n): for a reader of the status, not the cycle).
+    pub fn state_of(&self, motion: u32) -> SequencerState {
+        let c = &self.changes;
+        c[c.partition_point(|e| e.0 <= motion).saturating_sub(1)].1
+    }
+
+    /// What the path waits for while it stands at the machine stop of motion
+    /// `motion` once the machine has it (`None`: no stop there, or one that is done
+    /// once the machine has it): the operator's prompt.
+    pub fn waiting_at(&self, motion: u32) -> Option<Waiting> {
+        let s = &self.stops;
+        let stop = s.get(s.partition_point(|e| e.motion < motion))?;
+        if stop.motion != motion {
+            return None;
+        }
+        match stop.op {
+            MachineOp::SpindleOn { rpm, .. } => Some(Waiting::SpindleAtSpeed { rpm }),
+            MachineOp::ToolChange { tool } => Some(Waiting::ToolChange { tool }),
+            MachineOp::WaitInput { input, mode, .. } => Some(Waiting::Input { input, mode }),
+            MachineOp::UserM { code, p, q } => Some(Waiting::UserCommand { code, p, q }),
+            _ => None,
+        }
+    }
+
     /// The text of message `index` (`SequencerState::message`).
     pub fn message_text(&self, index: u32) -> Option<&str> {
         self.messages.get(index as usize).map(String::as_str)
@@ -489,7 +588,7 @@ impl MachineSequencer {
                         waited_s,
                     })
                 } else {
-                    Action::Wait(Waiting::SpindleAtSpeed)
+                    Action::Wait(Waiting::SpindleAtSpeed { rpm })
                 }
             }
             MachineOp::ToolChange { tool } => {

@@ -398,6 +398,35 @@ pub fn check_program(
     }
 }
 
+/// The machine sequencer of a program as [`stream_program`] streams it (read with
+/// the same options, so the motion indices are the samples'): a reading of `text`
+/// that keeps only the machine operations' tables, before motion.
+pub fn stream_sequencer(
+    text: &str,
+    file: &str,
+    profile: &MotionProfile,
+    options: &PlanOptions,
+    cfg: crate::machine_sequencer::SequencerConfig,
+    initial: crate::machine_sequencer::SequencerState,
+) -> Result<crate::machine_sequencer::MachineSequencer, ReadPlanError> {
+    let mut b = crate::machine_sequencer::SequencerBuilder::new(cfg, initial);
+    let mut index = 0u32;
+    let (program, _) = softnc_gcode::read_program_chunked_params(
+        text,
+        file,
+        profile,
+        &options.read_options(),
+        READ_CHUNK_MOTIONS,
+        &mut |chunk: &mut Vec<Motion>| {
+            for m in chunk.iter() {
+                b.push(index, m);
+                index += 1;
+            }
+        },
+    )?;
+    Ok(b.finish(program.messages))
+}
+
 /// [`check_program`] on two threads: the calling thread reads and works out each
 /// motion's programmed primitive, a second one checks and plans the motions chunk by
 /// chunk as they come (the same figures and errors). With `arc_blends`, whose fillets

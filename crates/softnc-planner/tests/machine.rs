@@ -289,7 +289,7 @@ fn spindle_wait(at_speed_after: Option<u32>) -> (u32, Action) {
         }
         match seq.step(stop, Some(stop), &fb).action {
             Action::Wait(Waiting::Applied) => assert!(lagging),
-            Action::Wait(Waiting::SpindleAtSpeed) => {}
+            Action::Wait(Waiting::SpindleAtSpeed { .. }) => {}
             a => return (cycle, a),
         }
     }

@@ -235,6 +235,7 @@ impl MachineIo {
             analog_outputs: Vec::new(),
             at_speed_frac: 0.0,
             at_speed_min_rpm: 0.0,
+            at_speed_timeout_s: 0.0,
         };
         let cfg = profile.servo.io.as_ref();
         let map = cfg.unwrap_or(&empty);
@@ -531,6 +532,7 @@ mod tests {
             analog_outputs: vec![AnalogLine { e: 3, line: 2 }],
             at_speed_frac: 0.02,
             at_speed_min_rpm: 30.0,
+            at_speed_timeout_s: 5.0,
         }
     }
 

@@ -177,8 +177,9 @@ pub trait OverridableSamples: Iterator<Item = CommandSample> {
 /// cycle that used sample `seq` acts from sample `seq + latency` on (the daemon's
 /// `lookahead_samples`: the position process reports it, the interpolator applies it
 /// to the first sample it has not sent), capped by `operator_override` (fraction),
-/// and the job starts at 100 % capped the same way. `observe` also sees each
-/// revolution the loop closed.
+/// and the job starts at 100 % capped the same way. `observe` also sees the
+/// sample number in use (as [`simulate_sequenced`]) and each revolution the loop
+/// closed.
 ///
 /// # Panics
 /// When `latency` is not beyond the samples the simulator reads ahead (the filter
@@ -198,7 +199,7 @@ where
     B: ServoBackend,
     I: OverridableSamples,
     P: Fn(u32) -> Option<Primitive>,
-    F: FnMut(&TraceRow, &CycleEngine<B>, Option<Revolution>),
+    F: FnMut(&TraceRow, &CycleEngine<B>, u64, Option<Revolution>),
 {
     assert!(
         latency > engine.filter_window() as u64 + 1,
@@ -226,6 +227,6 @@ where
         if let Some(r) = rev {
             schedule.borrow_mut().push(seq, r.override_frac);
         }
-        observe(row, engine, rev)
+        observe(row, engine, seq, rev)
     })
 }

@@ -30,6 +30,8 @@ pub(super) struct CheckOk {
     pub(super) modal: String,
     /// The copies this check made: removed when the job is not started.
     pub(super) created: Vec<PathBuf>,
+    /// The job's machine sequencer, for the status.
+    pub(super) sequencer: Option<softnc_planner::machine_sequencer::MachineSequencer>,
 }
 
 /// What the check of a submitted job gives, or why it is refused.
@@ -97,7 +99,17 @@ pub(super) fn check_job(
 ) -> CheckResult {
     let job = intake(path, limit).map_err(|e| e.to_string())?;
     // checked as it will be streamed: the plan's figures, never the whole plan
-    let (_, _, checked, modal, files) = check_bytes(&job.bytes, path, machine, setup)?;
+    let (text, options, checked, modal, files) = check_bytes(&job.bytes, path, machine, setup)?;
+    // the machine around the axes as the interpolator will run it (for the status)
+    let sequencer = softnc_planner::stream::stream_sequencer(
+        &text,
+        path,
+        machine,
+        &options,
+        crate::plan_samples::sequencer_config(machine),
+        crate::plan_samples::initial_state(options.params.as_ref()),
+    )
+    .ok();
     let params = checked.end_params().clone();
     let mut created = Vec::new();
     let mut keep = |bytes: &[u8], sha: &str| -> std::result::Result<PathBuf, String> {
@@ -152,6 +164,7 @@ pub(super) fn check_job(
         params,
         modal,
         created,
+        sequencer,
     })
 }
 
@@ -338,6 +351,7 @@ impl MmiTask {
             params,
             modal,
             created,
+            sequencer,
         } = ok;
         let job_id = self
             .history
@@ -412,6 +426,7 @@ impl MmiTask {
             )));
         }
         self.setup.pending_params = Some((job_id, params, modal));
+        self.job_machine = sequencer.map(|s| (job_id, s));
         // the feed override is the machine's, not the job's: the job starts at the
         // one in force (carried here, so a restarted interpolator knows it)
         self.send_control_flags(

@@ -141,6 +141,11 @@ pub struct MmiTask {
     history: history::History,
     checks: check::Checks,
     setup: setup::Setup,
+    /// The running job's machine sequencer (built by its check, from the same
+    /// text and setup the interpolator runs): the tool, coolant, spindle command,
+    /// message and prompt at the sample the position process uses. Not kept across
+    /// an MMI restart (those fields are then empty until the next job).
+    job_machine: Option<(u64, softnc_planner::machine_sequencer::MachineSequencer)>,
     shutdown: bool,
     stop: StopWatch,
     _bus: Bus,
@@ -199,6 +204,7 @@ impl MmiTask {
             }
         };
         let mut task = MmiTask {
+            job_machine: None,
             endpoint: server,
             ports: Ports {
                 control: bus.control_publisher()?,
@@ -1080,6 +1086,37 @@ impl MmiTask {
         }
     }
 
+    /// The running job's machine around the axes at the sample the position
+    /// process uses: the sequencer's state there, the message's text and the
+    /// prompt of the machine stop it stands at.
+    fn job_around(
+        &self,
+        s: Option<&PositionStatus>,
+    ) -> Option<(
+        softnc_planner::machine_sequencer::SequencerState,
+        Option<String>,
+        Option<String>,
+    )> {
+        let s = s?;
+        let (job_id, seq) = self.job_machine.as_ref()?;
+        let running = self
+            .history
+            .jobs
+            .iter()
+            .rev()
+            .any(|j| j.job_id == *job_id && j.outcome == Outcome::Running);
+        if !running || s.job_id != *job_id {
+            return None;
+        }
+        let st = seq.state_of(s.motion);
+        let message = st
+            .message
+            .and_then(|i| seq.message_text(i))
+            .map(|t| t.trim().to_string());
+        let prompt = seq.waiting_at(s.motion).map(|w| w.to_string());
+        Some((st, message, prompt))
+    }
+
     /// The status the operator sees.
     #[allow(clippy::too_many_lines)]
     pub fn status(&self) -> softnc_api::Status {
@@ -1118,6 +1155,7 @@ impl MmiTask {
                 .as_deref()
                 .is_some_and(|m| m.lines().any(|l| l.trim() == word))
         };
+        let around = self.job_around(s.as_ref());
         api::Status {
             api_version: api::API_VERSION,
             state: api_state(self.machine_state()),
@@ -1132,7 +1170,10 @@ impl MmiTask {
                 g92_mm: offsets.g92_mm,
                 tool_offset_mm: offsets.tool_mm,
             },
-            tool: offsets.tool,
+            // in a job: the tool in the spindle at the sample in use
+            tool: around
+                .as_ref()
+                .map_or(offsets.tool, |a| a.0.tool_in_spindle),
             // the modal state the machine is in between programs (the last MDI
             // command's or job's end), as G-code words
             modal: self
@@ -1140,9 +1181,16 @@ impl MmiTask {
                 .modal
                 .as_deref()
                 .map(|m| m.split_whitespace().map(String::from).collect()),
-            coolant: api::Coolant {
-                mist: modal_has("M7"),
-                flood: modal_has("M8"),
+            coolant: match &around {
+                // in a job: as the sample in use switches it
+                Some((st, ..)) => api::Coolant {
+                    mist: st.outputs.coolant_mist,
+                    flood: st.outputs.coolant_flood,
+                },
+                None => api::Coolant {
+                    mist: modal_has("M7"),
+                    flood: modal_has("M8"),
+                },
             },
             params_error: self.setup.params_error.clone(),
             modal_error: self.setup.modal_error.clone(),
@@ -1159,6 +1207,25 @@ impl MmiTask {
             rapid_override: self.machine.rapid_override,
             spindle_override: s.map(|s| s.spindle_override),
             spindle_rpm: s.map(|s| s.spindle_rpm),
+            spindle: s.map(|s| {
+                let inputs: softnc_core::machine_io::MachineInputs = s.inputs.into();
+                let commanded_rpm = around.as_ref().map_or(0.0, |(st, ..)| {
+                    let o = &st.outputs;
+                    match o.spindle_dir {
+                        softnc_core::machine_io::SpindleDir::Clockwise => o.spindle_rpm,
+                        softnc_core::machine_io::SpindleDir::CounterClockwise => -o.spindle_rpm,
+                        softnc_core::machine_io::SpindleDir::Stopped => 0.0,
+                    }
+                });
+                api::Spindle {
+                    commanded_rpm,
+                    actual_rpm: inputs.spindle_rpm,
+                    at_speed: inputs.spindle_at_speed,
+                }
+            }),
+            tool_prepared: around.as_ref().map(|a| a.0.tool_prepared),
+            message: around.as_ref().and_then(|a| a.1.clone()),
+            prompt: around.as_ref().and_then(|a| a.2.clone()),
             adaptive_force: s
                 .filter(|s| s.job_id != 0 && s.force_override.is_finite())
                 .map(|s| api::AdaptiveForce {
@@ -1261,6 +1328,7 @@ fn api_alarm_kind(c: AlarmCode) -> softnc_api::AlarmKind {
         AlarmCode::Note => K::Note,
         AlarmCode::PlanStarved => K::PlanStarved,
         AlarmCode::PlanFailed => K::PlanFailed,
+        AlarmCode::MachineWait => K::MachineWait,
         AlarmCode::LoopStall => K::LoopStall,
         AlarmCode::LoopLate => K::LoopLate,
         AlarmCode::ProcessRestarted => K::ProcessRestarted,
