@@ -202,6 +202,9 @@ pub struct PositionTask<B: ServoBackend> {
     /// Cycles run (the manual trace's row numbers).
     cycles: u64,
     latency: softnc_rt::LatencyStats,
+    /// When the last command sample came in (unix ns) and how long it took from
+    /// the interpolator (ns): what a ring-dry alarm tells the operator.
+    last_sample_rx: (u64, u64),
     stats: LoopStats,
     /// The loop's watch over its own timing (stalls, late cycles; realtime only).
     watch: LoopWatch,
@@ -309,6 +312,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             manual_trace,
             cycles: 0,
             latency: softnc_rt::LatencyStats::new(),
+            last_sample_rx: (0, 0),
             stats: LoopStats::new(),
             watch,
             hb_counter: 0,
@@ -849,8 +853,10 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         while let Some(c) = self.commands.receive()? {
             let c = *c;
             if c.sent_unix_ns != 0 {
-                self.latency
-                    .record_ns(softnc_rt::unix_ns().saturating_sub(c.sent_unix_ns));
+                let now = softnc_rt::unix_ns();
+                let took = now.saturating_sub(c.sent_unix_ns);
+                self.latency.record_ns(took);
+                self.last_sample_rx = (now, took);
             }
             // another job's first sample starts it when no job runs; late samples of
             // the job that just finished or was aborted are ignored
@@ -1124,11 +1130,14 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 // after the job's last sample: the command stands, the axes settle
             } else if !self.ring.ready(self.window) {
                 let (ahead, needed) = (self.ring.ahead().saturating_sub(1), self.window);
+                let (rx_ns, took_ns) = self.last_sample_rx;
+                let ago_ms = softnc_rt::unix_ns().saturating_sub(rx_ns) as f64 * 1e-6;
+                let took_ms = took_ns as f64 * 1e-6;
                 self.alarm(
                     AlarmCode::RingDry,
                     u32::MAX,
                     format_args!(
-                        "command ring ran dry ({ahead} samples ahead, {needed} needed); stopping along the path"
+                        "command ring ran dry ({ahead} samples ahead, {needed} needed; the last sample came {ago_ms:.1} ms ago, {took_ms:.1} ms after it was sent); stopping along the path"
                     ),
                 )?;
                 self.begin_dry_stop();
