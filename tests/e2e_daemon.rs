@@ -505,6 +505,12 @@ fn killing_the_interpolator_stops_along_the_path_and_a_reset_recovers() {
     // a second client cannot start a job on a faulted machine
     let again = op.request(&submit(&abs(&job))).unwrap();
     assert!(!again.is_accepted(), "{}", again.message());
+    // the operator sees the interpolator's death and its restart (a job started
+    // before the death is told is lost with the dead process: see
+    // `a_job_sent_to_a_dead_interpolator_is_aborted_when_its_death_is_told`)
+    d.wait_status(&op, Duration::from_secs(10), "interp restarted", |s| {
+        alarm_text(s).contains("softnc-interp started again")
+    });
     // reset (the drives stay off), on; the supervisor has restarted the
     // interpolator: a new job runs
     op.request(&Request::Reset).unwrap();
@@ -543,6 +549,52 @@ fn killing_the_mmi_leaves_motion_running_and_the_client_reconnects() {
     drop(op);
     drop(op2);
     d.shutdown_leaving_nothing("mmi");
+}
+
+#[test]
+fn a_job_sent_to_a_dead_interpolator_is_aborted_when_its_death_is_told() {
+    // the race a loaded machine opens: the interpolator dies, and a job is
+    // submitted before the supervisor has told anyone (here: the supervisor is
+    // stopped until the job is in); the job must not wait for ever for samples
+    // no one will send
+    let d = Daemon::start("deadinterp", "Realtime", false);
+    let op = d.operator();
+    let softncd = d.child.id().to_string();
+    let signal = |sig: &str| {
+        assert!(Command::new("kill")
+            .args([sig, &softncd])
+            .status()
+            .unwrap()
+            .success());
+    };
+    signal("-STOP");
+    d.kill9("softnc-interp");
+    let job = short_job(&d.dir);
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    signal("-CONT");
+    if r.is_accepted() {
+        let s = d.wait_job(&op, id(&r), Duration::from_secs(10));
+        let record = &s.job(id(&r)).unwrap().record;
+        assert_eq!(record.outcome, Outcome::Aborted, "{s}");
+        assert!(
+            record
+                .alarms
+                .iter()
+                .any(|a| a.contains("softnc-interp exited")),
+            "{s}"
+        );
+    }
+    // the restarted interpolator runs the next job
+    d.wait_status(&op, Duration::from_secs(10), "interp restarted", |s| {
+        alarm_text(s).contains("softnc-interp started again")
+            && s.processes.interp == ProcessHealth::Alive
+            && s.state == MachineState::Idle
+    });
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let s = d.wait_job(&op, id(&r), Duration::from_secs(60));
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
+    drop(op);
 }
 
 #[test]

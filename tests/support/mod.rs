@@ -120,11 +120,17 @@ impl Daemon {
             dir.join("iceoryx2.toml"),
         )
         .unwrap();
-        // real time: both loops at the production SCHED_FIFO priorities where the
-        // test may have them (unpinned, memory not locked), so that a loaded machine —
-        // a compiler beside the tests — does not starve them; lockstep needs none
+        // real time: both loops at the production SCHED_FIFO priorities and with
+        // their memory locked where the test may have them (unpinned), so that a
+        // loaded machine — a compiler beside the tests writing gigabytes — neither
+        // starves them nor evicts the pages they run from (a page fault read back
+        // from a busy disk stalled a loop past the ring's 25 ms of slack); lockstep
+        // needs none
         let (fifo_interp, fifo_position) = if clock == "Realtime" {
-            ("fifo_priority: Some(70)", "fifo_priority: Some(80)")
+            (
+                "fifo_priority: Some(70), lock_memory: true",
+                "fifo_priority: Some(80), lock_memory: true",
+            )
         } else {
             ("", "")
         };

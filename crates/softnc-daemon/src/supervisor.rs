@@ -48,6 +48,8 @@ struct Proc {
     started: Instant,
     /// Its last heartbeat (None: none yet).
     last_hb: Option<Instant>,
+    /// The job its last heartbeat named (0: none): the job its death concerns.
+    last_job: u64,
     /// Restarts within the configured window.
     restarts: VecDeque<Instant>,
     /// A restart waiting out its back-off.
@@ -111,6 +113,7 @@ impl Supervisor {
             child: None,
             started: Instant::now(),
             last_hb: None,
+            last_job: 0,
             restarts: VecDeque::new(),
             started_once: false,
             restart_at: None,
@@ -175,12 +178,17 @@ impl Supervisor {
     /// An alarm about process `about` (a `ProcessLost` names the process lost and
     /// its pid `pid`).
     fn alarm(&mut self, code: AlarmCode, about: ProcessId, pid: u32, msg: &str) {
+        self.job_alarm(code, about, pid, 0, msg);
+    }
+
+    /// [`Self::alarm`] about job `job_id` (the MMI keeps it in that job's record).
+    fn job_alarm(&mut self, code: AlarmCode, about: ProcessId, pid: u32, job_id: u64, msg: &str) {
         tracing::warn!("{msg}");
         let _ = self.alarms.send_copy(Alarm {
             code: code.wire(),
             axis: u32::MAX,
             process: about.wire(),
-            job_id: 0,
+            job_id,
             time_index: 0,
             message: FixedStr::truncated(msg),
             pid,
@@ -222,6 +230,7 @@ impl Supervisor {
                     p.id.wire() == h.process && p.child.as_ref().is_some_and(|c| c.id() == h.pid)
                 }) {
                     p.last_hb = Some(now);
+                    p.last_job = h.job_id;
                 }
             }
             self.watch_children()?;
@@ -304,15 +313,24 @@ impl Supervisor {
     }
 
     fn on_death(&mut self, i: usize, pid: u32, how: &str) {
-        let (name, id) = (self.procs[i].name, self.procs[i].id);
+        // told first: cleaning up after the dead process takes a while
+        self.report_death(i, pid, how);
         let n = clean_dead_nodes();
         tracing::info!("removed stale resources of {n} dead node(s)");
+    }
+
+    /// The `ProcessLost` alarm of a death (about the job the process last named in
+    /// its heartbeat), and the restart it schedules.
+    fn report_death(&mut self, i: usize, pid: u32, how: &str) {
+        let (name, id, job) = (self.procs[i].name, self.procs[i].id, self.procs[i].last_job);
+        self.procs[i].last_job = 0;
         if id == ProcessId::Position {
             self.faulted = true;
-            self.alarm(
+            self.job_alarm(
                 AlarmCode::ProcessLost,
                 id,
                 pid,
+                job,
                 &format!("{name} exited ({how}); machine faulted, reset required"),
             );
             return;
@@ -332,10 +350,11 @@ impl Supervisor {
             p.given_up = true;
             let n = p.restarts.len();
             self.faulted = true;
-            self.alarm(
+            self.job_alarm(
                 AlarmCode::ProcessLost,
                 id,
                 pid,
+                job,
                 &format!(
                     "{name} exited ({how}) after {n} restarts within {:.0} s: not restarted; machine faulted, reset to try again",
                     sv.restart_window_s
@@ -347,10 +366,11 @@ impl Supervisor {
             (sv.restart_delay_s * 2f64.powi(p.restarts.len() as i32)).min(sv.restart_delay_max_s);
         p.restarts.push_back(now);
         p.restart_at = Some(now + Duration::from_secs_f64(delay_s));
-        self.alarm(
+        self.job_alarm(
             AlarmCode::ProcessLost,
             id,
             pid,
+            job,
             &format!("{name} exited ({how}); restarting it in {delay_s:.1} s"),
         );
     }

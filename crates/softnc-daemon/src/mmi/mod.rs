@@ -544,10 +544,22 @@ impl MmiTask {
                         p.last_seen = None;
                     }
                 }
-                if current && a.process == ProcessId::Position.wire() {
-                    // the servo loop died under the job: it ended there (faulted)
+                // the servo loop died under the job: it ended there (faulted); the
+                // interpolator took the job with it (its successor knows nothing of
+                // it) — also one started after its death, before the death was told
+                if current
+                    && (a.process == ProcessId::Position.wire()
+                        || a.process == ProcessId::Interp.wire())
+                {
                     let alarm = format!("ProcessLost: {}", a.message.as_str());
-                    if let Some(j) = self.history.running() {
+                    // (a death told again to a restarted MMI is older than the job
+                    // running now: not this job's)
+                    let died_unix_s = a.raised_unix_ns / 1_000_000_000;
+                    if let Some(j) = self
+                        .history
+                        .running()
+                        .filter(|j| a.raised_unix_ns == 0 || died_unix_s >= j.submitted_unix_s)
+                    {
                         j.outcome = Outcome::Aborted;
                         if a.job_id != j.job_id {
                             j.alarms.push(alarm);
@@ -579,7 +591,11 @@ impl MmiTask {
                 .rev()
                 .find(|j| j.job_id == a.job_id)
             {
-                j.alarms.push(format!("{code:?}: {}", a.message.as_str()));
+                // (once, though a restarted MMI is told again what its predecessor was)
+                let text = format!("{code:?}: {}", a.message.as_str());
+                if !j.alarms.contains(&text) {
+                    j.alarms.push(text);
+                }
                 if code == AlarmCode::JobRefused && j.outcome == Outcome::Running {
                     j.outcome = Outcome::Refused;
                     self.machine.intent = None;
