@@ -365,7 +365,7 @@ type JobMotions = (Vec<Option<Primitive>>, Vec<u32>);
 
 /// The programmed primitive of every motion of the program at `path` (what the
 /// contour error is measured against; a plan keeps the same ones,
-/// `softnc-planner/tests/motion_primitives.rs`) and its spindle speed changes, read
+/// `softnc-planner/tests/it/motion_primitives.rs`) and its spindle speed changes, read
 /// from `start_mm` without planning the program whole: the motions are read in
 /// chunks, the spindle changes come from the streamed check.
 fn job_primitives(

@@ -1,6 +1,6 @@
 //! Dense CAM output runs at feed; live override and feed hold act smoothly.
 
-mod common;
+use super::common;
 use common::*;
 use softnc_core::{FeedProfile, Plane, Vec3};
 

@@ -2,7 +2,7 @@
 //! long lines, faster, within every axis limit, within P + Q of the programmed path,
 //! and every programmed motion's primitive is still given back exactly.
 
-mod common;
+use super::common;
 use common::*;
 use proptest::prelude::*;
 use softnc_core::{FeedProfile, Primitive, Vec3};

@@ -18,7 +18,7 @@ fn tnv40() -> MachineProfile {
 
 fn pdc() -> PdcConfig {
     softnc_core::ron_file::parse_ron::<PdcConfig>(
-        include_str!("../../../config/pdc/paper000-canceller.ron"),
+        include_str!("../../../../config/pdc/paper000-canceller.ron"),
         "config/pdc/paper000-canceller.ron",
     )
     .unwrap()

@@ -3,7 +3,7 @@
 //! line (a safe approach, then the uninterrupted plan's samples), and parameters in
 //! and out (issue 19's program flow, issue 16's persistent parameters).
 
-mod common;
+use super::common;
 use common::{limit_ratios, profile};
 use softnc_core::{FeedProfile, MotionProfile, Vec3};
 use softnc_planner::{

@@ -1,7 +1,7 @@
 //! Property tests: random programs never panic, stay within every axis limit and end
 //! exactly at their last point.
 
-mod common;
+use super::common;
 use common::*;
 use proptest::prelude::*;
 use softnc_core::{FeedProfile, Plane, Vec3};

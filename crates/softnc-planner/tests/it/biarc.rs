@@ -4,7 +4,7 @@
 //! program (distance to the helices measured, not the in-plane radial error), ends
 //! exactly, and every programmed primitive is given back.
 
-mod common;
+use super::common;
 use common::*;
 use proptest::prelude::*;
 use softnc_core::{FeedProfile, Plane, Primitive, Vec3};

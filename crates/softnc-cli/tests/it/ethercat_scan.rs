@@ -7,6 +7,7 @@ use std::process::Command;
 
 #[test]
 fn scan_lists_the_emulated_subdevices_with_their_identities() {
+    let _one = crate::one_controller_at_a_time();
     if !is_root() {
         println!("SKIPPED: needs root (a veth pair and packet sockets)");
         return;

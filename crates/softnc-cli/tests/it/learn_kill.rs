@@ -62,6 +62,7 @@ fn kill_at(trial: usize, span: Duration) -> Duration {
 
 #[test]
 fn killed_learning_run_leaves_the_old_or_a_new_entry() {
+    let _one = crate::one_controller_at_a_time();
     let root = std::env::temp_dir().join(format!("softnc-learn-kill-{}", std::process::id()));
     // the entries a clean run writes after repetition j, j = 1..=ITERATIONS (the run
     // before any learning, j = 0, improves on nothing: no entry)

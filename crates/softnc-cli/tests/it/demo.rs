@@ -30,6 +30,7 @@ fn elsewhere(tag: &str) -> PathBuf {
 
 #[test]
 fn the_demo_runs_from_any_folder_and_leaves_nothing_behind() {
+    let _one = crate::one_controller_at_a_time();
     let cwd = elsewhere("run");
     let (out, dir) = demo_in(&cwd, &["--backend", "loopback", "--json"]);
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -47,6 +48,7 @@ fn the_demo_runs_from_any_folder_and_leaves_nothing_behind() {
 
 #[test]
 fn a_demo_that_fails_says_why_and_leaves_nothing_behind() {
+    let _one = crate::one_controller_at_a_time();
     let cwd = elsewhere("fail");
     let (out, dir) = demo_in(&cwd, &["--job", "no-such-job.ngc"]);
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -58,6 +60,7 @@ fn a_demo_that_fails_says_why_and_leaves_nothing_behind() {
 
 #[test]
 fn a_refused_demo_job_stops_the_demo_controller_and_leaves_nothing_behind() {
+    let _one = crate::one_controller_at_a_time();
     let cwd = elsewhere("refused");
     std::fs::write(cwd.join("far.ngc"), "G21 G90\nG1 X100000 F600\nM2\n").unwrap();
     let (out, dir) = demo_in(&cwd, &["--job", "far.ngc"]);

@@ -11,6 +11,7 @@ const JOB: &str = "G21 G90 G17\nG1 X5 Y3 Z-1 F1200\nG1 X0 Y0 Z0\nM2\n";
 
 #[test]
 fn the_demo_job_runs_over_the_emulated_bus() {
+    let _one = crate::one_controller_at_a_time();
     if !softnc_ethercat_emu::veth::is_root() {
         println!("SKIPPED: needs root (a veth pair and packet sockets)");
         return;

@@ -2,7 +2,7 @@
 //! `planner.arc_blends`, on in these tests): the path does not stop there, stays within every axis limit and within the G64 tolerance of the program,
 //! and every programmed primitive is still given back exactly.
 
-mod common;
+use super::common;
 use common::*;
 use proptest::prelude::*;
 use softnc_core::{FeedProfile, Plane, Primitive, Vec3};

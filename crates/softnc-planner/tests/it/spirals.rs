@@ -7,7 +7,7 @@
 //! X velocity limit on the short arc of its line 6 (start radius 3.5990 mm, end
 //! 3.5995 mm, 1.6° of sweep).
 
-mod common;
+use super::common;
 use common::*;
 use proptest::prelude::*;
 use softnc_core::{FeedProfile, MotionProfile, Plane, Vec3};

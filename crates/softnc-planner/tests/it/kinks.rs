@@ -3,7 +3,7 @@
 //! the kink share, and still within every limit on the samples (second differences
 //! and velocity changes over 5-cycle windows).
 
-mod common;
+use super::common;
 use common::*;
 use softnc_core::{FeedProfile, Plane, Vec3};
 

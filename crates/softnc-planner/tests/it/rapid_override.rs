@@ -2,7 +2,7 @@
 //! feed override, as LinuxCNC's `rapid_scale` and `feed_scale`; a change acts within
 //! the lookahead as the feed override does, within every limit.
 
-mod common;
+use super::common;
 use common::{limit_ratios, profile};
 use softnc_core::{FeedProfile, MotionProfile};
 use softnc_planner::{check_and_stream, PlanOptions, Sample, StreamInterpolator};

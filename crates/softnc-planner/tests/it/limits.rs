@@ -1,7 +1,7 @@
 //! The sampled path honours every axis limit (finite differences, 1.00×), stays within
 //! tolerance of the programmed path and ends exactly at its last point.
 
-mod common;
+use super::common;
 use common::*;
 use softnc_core::{FeedProfile, Plane, Vec3};
 

@@ -3,7 +3,7 @@
 //! far (the planner skips the box test for moves inside that box, so this is where a
 //! wrong shortcut would let a move through).
 
-mod common;
+use super::common;
 use common::profile;
 use softnc_core::FeedProfile;
 use softnc_planner::{plan, read_and_plan, read_and_plan_parallel, PlanError, PlanOptions};

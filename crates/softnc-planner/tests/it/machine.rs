@@ -3,7 +3,7 @@
 //! the machine sequencer releases them; synchronised outputs do not stop it and
 //! switch at the first sample of the next move; a pause reports its own line.
 
-mod common;
+use super::common;
 use common::{limit_ratios, profile};
 use softnc_core::machine_io::{MachineInputs, SpindleDir};
 use softnc_core::MotionProfile;

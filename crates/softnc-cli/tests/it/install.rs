@@ -29,6 +29,7 @@ fn exposure(unit: &Path) -> Option<f64> {
 
 #[test]
 fn the_installed_service_runs_as_its_user_with_its_files_in_place() {
+    let _one = crate::one_controller_at_a_time();
     let dest = std::env::temp_dir().join(format!("softnc-install-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dest);
     let bin_dir = Path::new(env!("CARGO_BIN_EXE_softnc")).parent().unwrap();

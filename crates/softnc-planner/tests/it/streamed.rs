@@ -3,7 +3,7 @@
 //! bit for bit while the producer keeps up; when it does not, the path brakes within
 //! its limits to what it has and says it starved.
 
-mod common;
+use super::common;
 use common::{limit_ratios, profile};
 use softnc_core::{FeedProfile, MotionProfile};
 use softnc_gcode::Program;
@@ -174,7 +174,16 @@ fn arc_data_reach_their_arcs_on_two_threads() {
 
 #[test]
 fn streamed_plan_is_the_whole_plan() {
-    for fp in [FeedProfile::Trapezoidal, FeedProfile::SCurve] {
+    // the two feed profiles side by side (one of the longest tests of the suite)
+    std::thread::scope(|scope| {
+        for fp in [FeedProfile::Trapezoidal, FeedProfile::SCurve] {
+            scope.spawn(move || streamed_plan_is_the_whole_plan_in(fp));
+        }
+    });
+}
+
+fn streamed_plan_is_the_whole_plan_in(fp: FeedProfile) {
+    {
         let p = profile(fp);
         assert!(same_as_whole(&program(3000), "t.ngc", &p, None));
         assert!(same_as_whole(&dense_circles(30_000), "c.ngc", &p, None));
@@ -287,13 +296,28 @@ fn shared_corpus_streams_as_planned() {
         (FeedProfile::SCurve, 100_000),
     ] {
         let p = profile(fp);
-        let mut planned = 0;
-        for f in &files {
-            let text = String::from_utf8_lossy(&std::fs::read(f).unwrap()).into_owned();
-            if same_as_whole(&text, &f.display().to_string(), &p, Some(limit)) {
-                planned += 1;
-            }
-        }
+        // the files shared out over the machine's cores (the longest test of the suite)
+        let threads = std::thread::available_parallelism().map_or(2, |n| n.get());
+        let planned: usize = std::thread::scope(|scope| {
+            let workers: Vec<_> = (0..threads)
+                .map(|k| {
+                    let (files, p) = (&files, &p);
+                    scope.spawn(move || {
+                        files
+                            .iter()
+                            .skip(k)
+                            .step_by(threads)
+                            .filter(|f| {
+                                let text = String::from_utf8_lossy(&std::fs::read(f).unwrap())
+                                    .into_owned();
+                                same_as_whole(&text, &f.display().to_string(), p, Some(limit))
+                            })
+                            .count()
+                    })
+                })
+                .collect();
+            workers.into_iter().map(|w| w.join().unwrap()).sum()
+        });
         eprintln!(
             "{fp:?}: {planned} of {} corpus files planned and streamed",
             files.len()

@@ -2,7 +2,7 @@
 //! exactly at the join), and a blend no larger than the corner's speed needs, with
 //! the tolerance (`G64 P`, else the profile's) a cap, never a target.
 
-mod common;
+use super::common;
 use common::*;
 use softnc_core::{FeedProfile, MotionProfile, Vec3};
 

@@ -1,7 +1,7 @@
 //! Reading and planning in one pass (`read_and_plan`, and on two threads
 //! `read_and_plan_parallel`) gives the plan and the errors of `read_program` + `plan`.
 
-mod common;
+use super::common;
 use common::profile;
 use softnc_core::FeedProfile;
 use softnc_planner::{
