@@ -1487,6 +1487,8 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     // every sample of the homing and the jogs within each axis's limits
     let machine = softnc_machine::MachineProfile::load(&profile).unwrap();
     let mut rows = 0;
+    // the furthest each axis was commanded in its search direction (+ here)
+    let mut top_mm = [f64::NEG_INFINITY; 3];
     for e in std::fs::read_dir(dir.join("data")).unwrap() {
         let path = e.unwrap().path();
         let name = path.file_name().unwrap().to_string_lossy().to_string();
@@ -1503,6 +1505,11 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
             })
             .collect();
         rows += pts.len();
+        for (_, p) in &pts {
+            for (top, x) in top_mm.iter_mut().zip(p) {
+                *top = top.max(*x);
+            }
+        }
         let t = machine.interpolation_cycle_s;
         for w in pts.windows(3) {
             // consecutive cycles only (manual motions are traced apart, and a
@@ -1529,6 +1536,20 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
         }
     }
     assert!(rows > 10_000, "homing and jogs traced: {rows} rows");
+    // each axis's search went to its home switch (the simulated machine's input,
+    // beyond the soft limit: no jog goes there) and stopped on it, within the
+    // braking from the search speed (the homed position is asserted above)
+    let homing = machine.homing.as_ref().unwrap();
+    for ((top, h), a) in top_mm.iter().zip(&homing.axes).zip(&machine.axes) {
+        let v = h.search_vel_mm_per_s;
+        let braking_mm = v * v / (2.0 * a.max_acc_mm_per_s2);
+        assert!(
+            *top >= h.switch_mm && *top <= h.switch_mm + braking_mm + v * 0.005,
+            "{}: searched to {top} mm, switch at {} mm",
+            a.name,
+            h.switch_mm
+        );
+    }
     let d = Daemon::start_in(
         dir,
         tag,

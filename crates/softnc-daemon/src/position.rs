@@ -246,7 +246,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         } else {
             0
         };
-        let manual = Manual::new(&cfg.machine, [0.0; MAX_AXES])?;
+        let manual = Manual::new(&cfg.machine, [0.0; MAX_AXES], engine.io().home_switches())?;
         let watch = LoopWatch::new(
             &cfg.config.loop_timing,
             Duration::from_secs_f64(cfg.machine.interpolation_cycle_s),
@@ -601,7 +601,11 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         let on = !matches!(self.state, MachineState::Off | MachineState::EStopped);
         let new_min = m.limit_min & !seen_min;
         let new_max = m.limit_max & !seen_max;
-        if on && (new_min | new_max) != 0 {
+        // a limit of the axis homing aborts its homing (`Manual::step`, next
+        // cycle), as LinuxCNC's homing: a homing error, not an E-stop
+        let homing = self.manual.homing_axis().map_or(0, |i| 1u32 << i);
+        if on && (new_min | new_max) & !homing != 0 {
+            let (new_min, new_max) = (new_min & !homing, new_max & !homing);
             let max = new_min == 0;
             let bits = if max { new_max } else { new_min };
             let axis = bits.trailing_zeros() as usize;
@@ -1032,7 +1036,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
 
     /// One cycle of a jog or homing: the command, and the state when it is over.
     fn manual_step(&mut self) -> Result<[f64; MAX_AXES]> {
-        let (cmd, event) = self.manual.step(self.engine.measured_mm().0);
+        let inputs = *self.engine.io().last_inputs();
+        let (cmd, event) = self.manual.step(self.engine.measured_mm().0, &inputs);
         match event {
             Some(ManualEvent::Rereferenced {
                 axis,
