@@ -534,7 +534,7 @@ impl MmiTask {
                     .rev()
                     .find(|j| j.job_id == job_id)
                 {
-                    j.notes.push(text);
+                    history::push_note(&mut j.notes, text, history::JOB_NOTES_KEPT);
                     changed = true;
                 }
                 continue;
