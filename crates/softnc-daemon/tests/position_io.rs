@@ -224,6 +224,35 @@ fn outputs_at_the_sample_in_use_and_the_estop_input_stops_the_job() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// After a reset off a tripped limit switch: `on` is refused while the switch is
+/// tripped (LinuxCNC), until the operator overrides the limits; then it is on.
+fn on_with_the_limits_overridden<F: Fn(u64) -> CommandSample>(
+    task: &mut Task,
+    feeder: &mut Feeder<F>,
+    ctl: &softnc_ipc::bus::Pub<ControlCommand>,
+    alarm_sub: &softnc_ipc::bus::Sub<softnc_ipc::Alarm>,
+) {
+    // on is refused while the switch is tripped (LinuxCNC), until the operator
+    // overrides the limits
+    ctl.send_copy(control(ControlKind::MachineOn, 3)).unwrap();
+    for _ in 0..20 {
+        task.cycle().unwrap();
+    }
+    assert_eq!(task.state(), MachineState::Off, "on with a limit tripped");
+    let texts = alarms(alarm_sub);
+    assert!(
+        texts
+            .iter()
+            .any(|t| t.contains("machine on refused: a limit switch is tripped")),
+        "{texts:?}"
+    );
+    ctl.send_copy(control(ControlKind::OverrideLimits, 30))
+        .unwrap();
+    ctl.send_copy(control(ControlKind::MachineOn, 31)).unwrap();
+    cycle_until(task, feeder, "on", |t| t.state() == MachineState::Idle);
+    assert!(task.limits_overridden());
+}
+
 #[test]
 fn a_limit_switch_stops_the_machine_naming_axis_and_end() {
     let (dir, mut task, bus) = position_task("poslim");
@@ -266,27 +295,7 @@ fn a_limit_switch_stops_the_machine_naming_axis_and_end() {
     cycle_until(&mut task, &mut feeder, "reset", |t| {
         t.state() == MachineState::Off
     });
-    // on is refused while the switch is tripped (LinuxCNC), until the operator
-    // overrides the limits
-    ctl.send_copy(control(ControlKind::MachineOn, 3)).unwrap();
-    for _ in 0..20 {
-        task.cycle().unwrap();
-    }
-    assert_eq!(task.state(), MachineState::Off, "on with a limit tripped");
-    let texts = alarms(&alarm_sub);
-    assert!(
-        texts
-            .iter()
-            .any(|t| t.contains("machine on refused: a limit switch is tripped")),
-        "{texts:?}"
-    );
-    ctl.send_copy(control(ControlKind::OverrideLimits, 30))
-        .unwrap();
-    ctl.send_copy(control(ControlKind::MachineOn, 31)).unwrap();
-    cycle_until(&mut task, &mut feeder, "on", |t| {
-        t.state() == MachineState::Idle
-    });
-    assert!(task.limits_overridden());
+    on_with_the_limits_overridden(&mut task, &mut feeder, &ctl, &alarm_sub);
     for _ in 0..20 {
         task.cycle().unwrap();
     }
