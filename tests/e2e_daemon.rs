@@ -1282,8 +1282,12 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     let (ok, msg) = ask(&op, &jog_step(0, 10.0));
     assert!(!ok && msg.contains("off"), "{msg}");
     op.machine_on(Duration::from_secs(10)).unwrap();
+    // no limit switch tripped: nothing to override (LinuxCNC's override limits)
+    let (ok, msg) = ask(&op, &Request::OverrideLimits);
+    assert!(!ok && msg.contains("no limit switch is tripped"), "{msg}");
     // not homed: jobs and MDI refused, state unchanged
     let s = op.status().unwrap();
+    assert!(s.limits_tripped.is_empty() && !s.limits_overridden, "{s}");
     assert_eq!(s.homed, [false, false, false], "{s}");
     for request in [submit(&abs(&job)), mdi_request("G0 X1")] {
         let (ok, msg) = ask(&op, &request);
