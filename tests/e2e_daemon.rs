@@ -1334,8 +1334,12 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     let (ok, msg) = ask(&op, &jog_step(0, 10.0));
     assert!(!ok && msg.contains("off"), "{msg}");
     op.machine_on(Duration::from_secs(10)).unwrap();
+    // no limit switch tripped: nothing to override (LinuxCNC's override limits)
+    let (ok, msg) = ask(&op, &Request::OverrideLimits);
+    assert!(!ok && msg.contains("no limit switch is tripped"), "{msg}");
     // not homed: jobs and MDI refused, state unchanged
     let s = op.status().unwrap();
+    assert!(s.limits_tripped.is_empty() && !s.limits_overridden, "{s}");
     assert_eq!(s.homed, [false, false, false], "{s}");
     for request in [submit(&abs(&job)), mdi_request("G0 X1")] {
         let (ok, msg) = ask(&op, &request);
@@ -1539,6 +1543,8 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
     // every sample of the homing and the jogs within each axis's limits
     let machine = softnc_machine::MachineProfile::load(&profile).unwrap();
     let mut rows = 0;
+    // the furthest each axis was commanded in its search direction (+ here)
+    let mut top_mm = [f64::NEG_INFINITY; 3];
     for e in std::fs::read_dir(dir.join("data")).unwrap() {
         let path = e.unwrap().path();
         let name = path.file_name().unwrap().to_string_lossy().to_string();
@@ -1555,6 +1561,11 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
             })
             .collect();
         rows += pts.len();
+        for (_, p) in &pts {
+            for (top, x) in top_mm.iter_mut().zip(p) {
+                *top = top.max(*x);
+            }
+        }
         let t = machine.interpolation_cycle_s;
         for w in pts.windows(3) {
             // consecutive cycles only (manual motions are traced apart, and a
@@ -1581,6 +1592,20 @@ fn a_shop_day_home_jog_touch_off_mdi_and_restart_keeps_offsets_and_tools() {
         }
     }
     assert!(rows > 10_000, "homing and jogs traced: {rows} rows");
+    // each axis's search went to its home switch (the simulated machine's input,
+    // beyond the soft limit: no jog goes there) and stopped on it, within the
+    // braking from the search speed (the homed position is asserted above)
+    let homing = machine.homing.as_ref().unwrap();
+    for ((top, h), a) in top_mm.iter().zip(&homing.axes).zip(&machine.axes) {
+        let v = h.search_vel_mm_per_s;
+        let braking_mm = v * v / (2.0 * a.max_acc_mm_per_s2);
+        assert!(
+            *top >= h.switch_mm && *top <= h.switch_mm + braking_mm + v * 0.005,
+            "{}: searched to {top} mm, switch at {} mm",
+            a.name,
+            h.switch_mm
+        );
+    }
     let d = Daemon::start_in(
         dir,
         tag,

@@ -75,7 +75,9 @@ pub struct JobRecord {
     /// Accuracy over the job's feed moves.
     #[serde(default)]
     pub accuracy: Accuracy,
-    /// Remarks that are not alarms (a learned correction applied, faded out, …).
+    /// Remarks that are not alarms (a learned correction applied, faded out, …):
+    /// the first 200 a job makes (the MMI's `JOB_NOTES_KEPT`), then one last note
+    /// "… N more notes not kept".
     #[serde(default)]
     pub notes: Vec<String>,
     /// The alarms raised while it ran ("Code: message"); kept when the operator

@@ -52,6 +52,12 @@ pub enum Request {
     MachineOn,
     /// Machine off: drives disabled.
     MachineOff,
+    /// Override the limit switches (LinuxCNC's override limits,
+    /// `halui.joint.N.override-limits`): with a limit switch tripped, the machine
+    /// may be switched on and jogged off it (away from it only) without the
+    /// switch stopping it; the override ends by itself once every limit switch is
+    /// released. Refused while no limit switch is tripped.
+    OverrideLimits,
     /// Home one axis, or all in the profile's order.
     Home {
         /// The axis (`None`: all).
@@ -152,6 +158,7 @@ impl Request {
             Request::Reset => "reset",
             Request::MachineOn => "machine_on",
             Request::MachineOff => "machine_off",
+            Request::OverrideLimits => "override_limits",
             Request::Home { .. } => "home",
             Request::Jog { .. } => "jog",
             Request::JogStep { .. } => "jog_step",

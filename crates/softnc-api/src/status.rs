@@ -380,6 +380,14 @@ pub struct Status {
     /// (High)"), while the machine stands there.
     #[serde(default)]
     pub prompt: Option<String>,
+    /// The limit switches tripped now ("X max", "Z min"), as the position
+    /// process reads them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub limits_tripped: Vec<String>,
+    /// The operator overrides the limit switches (`override_limits`, LinuxCNC's
+    /// override limits): until every one is released.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub limits_overridden: bool,
     /// Adaptive feed of the running job.
     #[serde(default)]
     pub adaptive_force: Option<AdaptiveForce>,

@@ -50,6 +50,8 @@ fn status() -> Status {
         tool_prepared: Some(3),
         message: Some("check the coolant".into()),
         prompt: None,
+        limits_tripped: vec!["X max".into()],
+        limits_overridden: true,
         adaptive_force: Some(AdaptiveForce {
             override_fraction: 0.9,
             revolutions: 40,
@@ -132,6 +134,7 @@ fn every_request() -> Vec<Request> {
         Request::Reset,
         Request::MachineOn,
         Request::MachineOff,
+        Request::OverrideLimits,
         Request::Home { axis: None },
         Request::Home {
             axis: Some(Axis::Z),

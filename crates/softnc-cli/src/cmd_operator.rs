@@ -67,6 +67,11 @@ pub enum OperatorCmd {
     On,
     /// Machine off: drives disabled (refused while anything moves).
     Off,
+    /// Override the limit switches (LinuxCNC's override limits): with a limit
+    /// switch tripped, lets the machine be switched on (`on`) and jogged off it,
+    /// away from the switch only; ends by itself once every switch is released.
+    /// Refused while none is tripped.
+    OverrideLimits,
     /// Home one axis, or all in the profile's order; waits until done.
     Home {
         /// X, Y or Z (default: all).
@@ -273,6 +278,7 @@ pub fn run(cmd: OperatorCmd, config: &Path) -> Result<ExitCode> {
         OperatorCmd::Shutdown => simple(Request::Shutdown),
         OperatorCmd::On => simple(Request::MachineOn),
         OperatorCmd::Off => simple(Request::MachineOff),
+        OperatorCmd::OverrideLimits => simple(Request::OverrideLimits),
         OperatorCmd::Step => simple(Request::Step),
         OperatorCmd::SingleBlock { switch } => simple(Request::SingleBlock { on: switch.on() }),
         OperatorCmd::OptionalStop { switch } => simple(Request::OptionalStop { on: switch.on() }),
@@ -880,5 +886,23 @@ mod job_end_tests {
             serde_json::json!([]),
         );
         assert_eq!(job_end_message(&done), None);
+    }
+}
+
+#[cfg(test)]
+mod parse_tests {
+    use super::OperatorCmd;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(subcommand)]
+        cmd: OperatorCmd,
+    }
+
+    #[test]
+    fn override_limits_is_a_subcommand() {
+        let cli = Cli::try_parse_from(["softnc", "override-limits"]).unwrap();
+        assert!(matches!(cli.cmd, OperatorCmd::OverrideLimits));
     }
 }

@@ -19,7 +19,8 @@
 //! - `v` offsets view (G54 … G59.3, G92, tool), in place of the live plot;
 //! - `s` single block, `n` next block, `1` optional stop, `/` block delete;
 //! - `h` hold, `r` resume, `a` abort, `+`/`-` feed ±10 %, `]`/`[` spindle ±10 %;
-//! - `e` (or F1, which also works while typing MDI) E-stop, `x` reset;
+//! - `e` (or F1, which also works while typing MDI) E-stop, `x` reset, `L`
+//!   override the limit switches (to switch on and jog off a tripped one);
 //! - `?` help, Esc closes it (or the offsets view), `q` or Ctrl-C quits.
 
 use crate::watch_keys::{self, Action, Listing, Mode, Ui, AXES, KEY_MAP};

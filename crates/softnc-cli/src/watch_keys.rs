@@ -61,7 +61,7 @@ pub const KEY_MAP: [(&str, &str); 11] = [
         "+/- feed, }/{ rapid override ±10 %",
         "]/[ spindle override ±10 %",
     ),
-    ("F1 or e E-STOP", "x reset"),
+    ("F1 or e E-STOP", "x reset   L override limits"),
     ("Esc closes, cancels", "? this help"),
     ("q or Ctrl-C quit", "(a jog stops at any other key)"),
 ];
@@ -331,6 +331,7 @@ pub fn on_key(ui: &mut Ui, key: KeyEvent, s: Option<&Status>, now: Instant) -> V
         })),
         KeyCode::Char('o') => out.push(send(Request::MachineOn)),
         KeyCode::Char('O') => out.push(send(Request::MachineOff)),
+        KeyCode::Char('L') => out.push(send(Request::OverrideLimits)),
         KeyCode::Char('H') => out.push(send(Request::Home { axis: None })),
         KeyCode::Char('i') => ui.step_idx = (ui.step_idx + 1) % JOG_STEPS_MM.len(),
         KeyCode::Char('c') => ui.continuous = !ui.continuous,
@@ -734,6 +735,7 @@ mod tests {
         assert_eq!(one(&mut ui, 'O'), vec![Request::MachineOff]);
         assert_eq!(one(&mut ui, 'e'), vec![Request::EStop]);
         assert_eq!(one(&mut ui, 'x'), vec![Request::Reset]);
+        assert_eq!(one(&mut ui, 'L'), vec![Request::OverrideLimits]);
         let fraction = |r: &[Request]| match r {
             [Request::FeedOverride { fraction }] => ("feed", *fraction),
             [Request::SpindleOverride { fraction }] => ("spindle", *fraction),

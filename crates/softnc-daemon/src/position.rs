@@ -20,7 +20,9 @@
 //! as the operator's E-stop does (latched: a reset is refused while it is open, and
 //! so is `on`); a limit switch that trips while the machine is on does the same,
 //! with an alarm naming the axis and the end; off it, the axis jogs only away
-//! from the switch.
+//! from the switch. While a limit switch is tripped the machine is switched on
+//! only with the operator's override (LinuxCNC's override limits), which lasts
+//! until every switch is released and under which a switch stops nothing.
 //!
 //! Nothing on the cycle reads a file or allocates: a job's programmed path, its fresh
 //! engine, its trace file and its PDC designs, and the redesigns a spindle override
@@ -170,6 +172,11 @@ pub struct PositionTask<B: ServoBackend> {
     /// The limit switches tripped at the last cycle (min, max): a switch stops the
     /// machine when it trips, not again while it stays tripped.
     limits_seen: (u32, u32),
+    /// The operator overrides the limit switches (LinuxCNC's override limits,
+    /// its `overrideLimitMask` as one flag): the machine may be switched on with
+    /// one tripped and a switch tripping does not stop it; cleared by the first
+    /// cycle with none tripped.
+    limits_overridden: bool,
     last_cmd: [f64; MAX_AXES],
     prev_cmd: [f64; MAX_AXES],
     /// Each axis's in-position band (the profile's).
@@ -246,7 +253,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         } else {
             0
         };
-        let manual = Manual::new(&cfg.machine, [0.0; MAX_AXES])?;
+        let manual = Manual::new(&cfg.machine, [0.0; MAX_AXES], engine.io().home_switches())?;
         let watch = LoopWatch::new(
             &cfg.config.loop_timing,
             Duration::from_secs_f64(cfg.machine.interpolation_cycle_s),
@@ -297,6 +304,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             current: None,
             flags: std::collections::VecDeque::with_capacity(COMMAND_RING_CAPACITY),
             limits_seen: (0, 0),
+            limits_overridden: false,
             last_cmd: [0.0; MAX_AXES],
             prev_cmd: [0.0; MAX_AXES],
             starved_since: None,
@@ -598,10 +606,23 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         }
         let (seen_min, seen_max) = self.limits_seen;
         self.limits_seen = (m.limit_min, m.limit_max);
+        // the override ends by itself once every switch is released (LinuxCNC's
+        // motion controller clears its override mask so), and while it lasts a
+        // switch stops nothing
+        if m.limit_min | m.limit_max == 0 {
+            self.limits_overridden = false;
+        }
+        if self.limits_overridden {
+            return Ok(());
+        }
         let on = !matches!(self.state, MachineState::Off | MachineState::EStopped);
         let new_min = m.limit_min & !seen_min;
         let new_max = m.limit_max & !seen_max;
-        if on && (new_min | new_max) != 0 {
+        // a limit of the axis homing aborts its homing (`Manual::step`, next
+        // cycle), as LinuxCNC's homing: a homing error, not an E-stop
+        let homing = self.manual.homing_axis().map_or(0, |i| 1u32 << i);
+        if on && (new_min | new_max) & !homing != 0 {
+            let (new_min, new_max) = (new_min & !homing, new_max & !homing);
             let max = new_min == 0;
             let bits = if max { new_max } else { new_min };
             let axis = bits.trailing_zeros() as usize;
@@ -738,6 +759,29 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                         AlarmCode::EStop,
                         u32::MAX,
                         format_args!("machine on refused: the E-stop input is open"),
+                    )?;
+                }
+                Some(ControlKind::MachineOn)
+                    if self.state == MachineState::Off
+                        && self.limit_tripped()
+                        && !self.limits_overridden =>
+                {
+                    self.alarm(
+                        AlarmCode::Other,
+                        u32::MAX,
+                        format_args!(
+                            "machine on refused: a limit switch is tripped (override the limits to jog off it)"
+                        ),
+                    )?;
+                }
+                Some(ControlKind::OverrideLimits) if self.limit_tripped() => {
+                    self.limits_overridden = true;
+                }
+                Some(ControlKind::OverrideLimits) => {
+                    self.alarm(
+                        AlarmCode::Other,
+                        u32::MAX,
+                        format_args!("limit override refused: no limit switch is tripped"),
                     )?;
                 }
                 Some(ControlKind::MachineOn) if self.state == MachineState::Off => {
@@ -1025,6 +1069,17 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         (value > 0.0 && m.limit_max & bit != 0) || (value < 0.0 && m.limit_min & bit != 0)
     }
 
+    /// A limit switch is tripped (at the last cycle's read).
+    fn limit_tripped(&self) -> bool {
+        let m = self.engine.io().last_inputs();
+        m.limit_min | m.limit_max != 0
+    }
+
+    /// The operator overrides the limit switches (until they are all released).
+    pub fn limits_overridden(&self) -> bool {
+        self.limits_overridden
+    }
+
     /// On, no job, nothing moving by hand.
     fn idle_between_jobs(&self) -> bool {
         self.state == MachineState::Idle && self.phase.job_id() == 0
@@ -1032,7 +1087,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
 
     /// One cycle of a jog or homing: the command, and the state when it is over.
     fn manual_step(&mut self) -> Result<[f64; MAX_AXES]> {
-        let (cmd, event) = self.manual.step(self.engine.measured_mm().0);
+        let inputs = *self.engine.io().last_inputs();
+        let (cmd, event) = self.manual.step(self.engine.measured_mm().0, &inputs);
         match event {
             Some(ManualEvent::Rereferenced {
                 axis,

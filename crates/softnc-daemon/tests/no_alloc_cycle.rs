@@ -282,7 +282,9 @@ fn run_counted_with(
 }
 
 /// Homing and jogging run on the position cycle: the homing sequence (search, latch,
-/// re-referencing, final move) and the jog movers allocate nothing there either.
+/// re-referencing, final move) on the simulated machine's home switch inputs (the
+/// profile maps `Home` for every axis; the limit switches watched for an abort)
+/// and the jog movers allocate nothing there either.
 #[test]
 fn homing_and_jogging_allocate_nothing_on_the_cycle() {
     let (dir, mut task, bus) = position_task("noallocmanual", "default-incremental.ron");

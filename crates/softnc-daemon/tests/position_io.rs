@@ -2,7 +2,9 @@
 //! config/machines/default.ron, its I/O map): a sample's outputs switch when it is
 //! the sample in use; an opened E-stop input stops the job as the E-stop does, `on`
 //! and reset are refused while it is open; a limit switch stops the machine with an
-//! alarm naming the axis and the end, and the axis jogs off it only away from it. A position task driven directly, as the
+//! alarm naming the axis and the end, `on` is refused while it is tripped unless the
+//! operator overrides the limits (until the switches are released), and the axis
+//! jogs off it only away from it. A position task driven directly, as the
 //! no-allocation tests drive it (no daemon).
 
 use softnc_core::machine_io::{MachineOutputs, SpindleDir};
@@ -222,6 +224,35 @@ fn outputs_at_the_sample_in_use_and_the_estop_input_stops_the_job() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// After a reset off a tripped limit switch: `on` is refused while the switch is
+/// tripped (LinuxCNC), until the operator overrides the limits; then it is on.
+fn on_with_the_limits_overridden<F: Fn(u64) -> CommandSample>(
+    task: &mut Task,
+    feeder: &mut Feeder<F>,
+    ctl: &softnc_ipc::bus::Pub<ControlCommand>,
+    alarm_sub: &softnc_ipc::bus::Sub<softnc_ipc::Alarm>,
+) {
+    // on is refused while the switch is tripped (LinuxCNC), until the operator
+    // overrides the limits
+    ctl.send_copy(control(ControlKind::MachineOn, 3)).unwrap();
+    for _ in 0..20 {
+        task.cycle().unwrap();
+    }
+    assert_eq!(task.state(), MachineState::Off, "on with a limit tripped");
+    let texts = alarms(alarm_sub);
+    assert!(
+        texts
+            .iter()
+            .any(|t| t.contains("machine on refused: a limit switch is tripped")),
+        "{texts:?}"
+    );
+    ctl.send_copy(control(ControlKind::OverrideLimits, 30))
+        .unwrap();
+    ctl.send_copy(control(ControlKind::MachineOn, 31)).unwrap();
+    cycle_until(task, feeder, "on", |t| t.state() == MachineState::Idle);
+    assert!(task.limits_overridden());
+}
+
 #[test]
 fn a_limit_switch_stops_the_machine_naming_axis_and_end() {
     let (dir, mut task, bus) = position_task("poslim");
@@ -264,10 +295,7 @@ fn a_limit_switch_stops_the_machine_naming_axis_and_end() {
     cycle_until(&mut task, &mut feeder, "reset", |t| {
         t.state() == MachineState::Off
     });
-    ctl.send_copy(control(ControlKind::MachineOn, 3)).unwrap();
-    cycle_until(&mut task, &mut feeder, "on", |t| {
-        t.state() == MachineState::Idle
-    });
+    on_with_the_limits_overridden(&mut task, &mut feeder, &ctl, &alarm_sub);
     for _ in 0..20 {
         task.cycle().unwrap();
     }
@@ -294,5 +322,31 @@ fn a_limit_switch_stops_the_machine_naming_axis_and_end() {
     cycle_until(&mut task, &mut feeder, "jog away", |t| {
         t.state() == MachineState::Jogging
     });
+    // off the switch the override ends by itself; the jog goes on
+    cycle_until(&mut task, &mut feeder, "the switch released", |t| {
+        t.engine().io().last_inputs().limit_max == 0
+    });
+    task.cycle().unwrap();
+    assert!(
+        !task.limits_overridden(),
+        "the override outlived the switch"
+    );
+    assert_eq!(task.state(), MachineState::Jogging);
+    ctl.send_copy(jog(6, 0.0)).unwrap();
+    cycle_until(&mut task, &mut feeder, "jog stopped", |t| {
+        t.state() == MachineState::Idle
+    });
+    // no switch tripped: an override is refused
+    ctl.send_copy(control(ControlKind::OverrideLimits, 7))
+        .unwrap();
+    task.cycle().unwrap();
+    assert!(!task.limits_overridden());
+    let texts = alarms(&alarm_sub);
+    assert!(
+        texts
+            .iter()
+            .any(|t| t.contains("limit override refused: no limit switch is tripped")),
+        "{texts:?}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -384,6 +384,9 @@ pub enum ControlKind {
     OptionalStop = 22,
     /// Block delete switch on (`value` 1) or off (0).
     BlockDelete = 23,
+    /// Override the tripped limit switches until they are all released
+    /// (LinuxCNC's override limits).
+    OverrideLimits = 24,
 }
 
 /// MMI → interpolation and position control.
@@ -573,6 +576,7 @@ mod tests {
             ControlKind::StartJob,
             ControlKind::Reset,
             ControlKind::Shutdown,
+            ControlKind::OverrideLimits,
         ] {
             assert_eq!(ControlKind::from_wire(k.wire()), Some(k));
         }
@@ -687,7 +691,8 @@ wire_enum!(ControlKind {
     SingleBlock,
     Step,
     OptionalStop,
-    BlockDelete
+    BlockDelete,
+    OverrideLimits
 });
 wire_enum!(AlarmCode {
     SequenceError,

@@ -344,6 +344,17 @@ pub enum HomingError {
         /// Distance backed off.
         travel_mm: f64,
     },
+    /// A limit switch of the axis tripped while it homed: the homing was aborted
+    /// and the axis braked to rest (LinuxCNC's homing aborts with "hit limit in
+    /// home state" unless HOME_IGNORE_LIMITS, which softnc does not have).
+    #[error(
+        "its {} limit switch tripped during the homing (aborted)",
+        if *.max { "maximum" } else { "minimum" }
+    )]
+    LimitSwitch {
+        /// The maximum-end switch (else the minimum-end one).
+        max: bool,
+    },
 }
 
 /// Phase of a [`HomingSequence`] (LinuxCNC docs, "Homing Configuration").
@@ -368,6 +379,9 @@ pub enum HomingPhase {
     LatchStop,
     /// Move to `home_mm` (LinuxCNC's HOME) at `final_vel`, in corrected coordinates.
     Final,
+    /// Aborted ([`HomingSequence::abort`]): braking at the acceleration limit to
+    /// rest, then `Failed` with this error.
+    Aborting(HomingError),
     /// Homed, at rest at `home_mm`.
     Done,
     /// Failed, at rest.
@@ -553,6 +567,11 @@ impl HomingSequence {
                     event = Some(HomingEvent::Done);
                 }
             }
+            HomingPhase::Aborting(e) => {
+                if self.mover.at_rest() {
+                    event = Some(self.fail(e));
+                }
+            }
             HomingPhase::Done | HomingPhase::Failed(_) => {}
         }
         self.prev_actual_mm = actual_mm;
@@ -561,6 +580,20 @@ impl HomingSequence {
             command_mm: self.mover.step(),
             phase: self.phase,
             event,
+        }
+    }
+
+    /// Abort the homing with `e` (a limit switch tripped, LinuxCNC's HOME_ABORT):
+    /// the axis brakes at its acceleration limit, and the step on which it is at
+    /// rest reports [`HomingEvent::Failed`] with `e`. Nothing happens once the
+    /// sequence is done, failed or already aborting. Allocation-free.
+    pub fn abort(&mut self, e: HomingError) {
+        if !matches!(
+            self.phase,
+            HomingPhase::Done | HomingPhase::Failed(_) | HomingPhase::Aborting(_)
+        ) {
+            self.mover.stop();
+            self.phase = HomingPhase::Aborting(e);
         }
     }
 

@@ -572,3 +572,47 @@ proptest! {
         prop_assert!((sim.actual_mm() - sim.true_mm).abs() <= latch_travel_mm);
     }
 }
+
+/// A homing aborted mid-search (a limit switch, LinuxCNC's HOME_ABORT) brakes
+/// within the axis's limits and reports its error once, at rest; a later abort
+/// changes nothing.
+#[test]
+fn an_aborted_homing_brakes_to_rest_and_fails_with_its_error() {
+    let p = incremental();
+    let hc = p.homing.clone().unwrap();
+    let (axis, h) = (&p.axes[0], &hc.axes[0]);
+    let mut seq = HomingSequence::new(axis, h, hc.switch_margin_mm, DT_S, 0.0).unwrap();
+    let mut cmds = vec![0.0, 0.0];
+    // search for 0.5 s (at full search speed by then), then abort
+    for _ in 0..500 {
+        let c = seq.step(*cmds.last().unwrap(), false).command_mm;
+        cmds.push(c);
+    }
+    assert_eq!(seq.phase(), HomingPhase::Search);
+    let e = HomingError::LimitSwitch { max: true };
+    seq.abort(e);
+    let mut events = vec![];
+    for _ in 0..10_000 {
+        let st = seq.step(*cmds.last().unwrap(), false);
+        cmds.push(st.command_mm);
+        events.extend(st.event);
+        if matches!(st.phase, HomingPhase::Failed(_)) {
+            break;
+        }
+    }
+    assert_eq!(events, vec![HomingEvent::Failed(e)]);
+    seq.abort(HomingError::LimitSwitch { max: false });
+    assert_eq!(seq.phase(), HomingPhase::Failed(e));
+    check_limits(&cmds, axis.max_vel_mm_per_s, axis.max_acc_mm_per_s2).unwrap();
+    let n = cmds.len();
+    assert_eq!(cmds[n - 1], cmds[n - 2], "not at rest");
+    // braked from the search speed: v²/2a past where the abort came (± a cycle)
+    let v = h.search_vel_mm_per_s;
+    let braking_mm = v * v / (2.0 * axis.max_acc_mm_per_s2);
+    let braked_mm = cmds[n - 1] - cmds[501];
+    assert!(
+        (braked_mm - braking_mm).abs() <= v * DT_S + 1e-9,
+        "braked {braked_mm} mm, v²/2a = {braking_mm} mm"
+    );
+    assert!(e.to_string().contains("maximum limit switch"), "{e}");
+}

@@ -206,6 +206,8 @@ pub struct MachineIo {
     at_speed: Option<(f64, f64)>,
     /// The backend has spindle feedback.
     spindle_feedback: bool,
+    /// Bit `a`: axis `a` has a home switch on one of the backend's lines.
+    home_mapped: u32,
     /// The E-stop input was seen open and the latch not reset.
     estop_latched: bool,
     /// The E-stop input as debounced now (not latched).
@@ -239,7 +241,7 @@ impl MachineIo {
         };
         let cfg = profile.servo.io.as_ref();
         let map = cfg.unwrap_or(&empty);
-        let inputs = map
+        let inputs: Vec<InputLine> = map
             .inputs
             .iter()
             .filter(|l| (l.line as usize) < lines.digital_in)
@@ -293,8 +295,13 @@ impl MachineIo {
                 .map(|a| (a.e as usize, a.line as usize))
                 .collect()
         };
+        let home_mapped = inputs.iter().fold(0u32, |m, l: &InputLine| match l.signal {
+            In::Home(a) => m | 1 << a,
+            _ => m,
+        });
         MachineIo {
             inputs,
+            home_mapped,
             outputs,
             analog_in: analog(&map.analog_inputs, lines.analog_in),
             analog_out: analog(&map.analog_outputs, lines.analog_out),
@@ -403,6 +410,12 @@ impl MachineIo {
             self.estop_latched = false;
         }
         !self.estop_latched
+    }
+
+    /// Bit `a`: axis `a` has a home switch (a `Home` signal of the map on a line
+    /// the backend has); its state is [`MachineInputs::home`].
+    pub fn home_switches(&self) -> u32 {
+        self.home_mapped
     }
 
     /// The E-stop input is latched open (until [`MachineIo::reset_estop`]).

@@ -476,9 +476,16 @@ impl ServoBackend for SimBackend {
     fn simulated(&mut self) -> Option<&mut dyn SimulatedMachine> {
         Some(self)
     }
-    /// The E-stop chain, the inputs and the probe a test set carry over to the
-    /// next job's fresh machine (its spindle starts at rest, as `softnc sim`'s).
+    /// The next job's fresh machine takes over what outlives a job on a real
+    /// machine: the spindle as it turns (speed, angle, encoder count: a spindle
+    /// left turning keeps turning, one braking goes on braking, on the outputs
+    /// the position process writes from then on), the tool changer's request
+    /// time, and the E-stop chain, the inputs and the probe a test set. Nothing
+    /// here allocates (the spindle is plain data).
     fn take_external_io(&mut self, running: &Self) {
+        self.io.spindle.clone_from(&running.io.spindle);
+        self.io.tool_change_for = running.io.tool_change_for;
+        self.io.out = running.io.out;
         self.io.estop_open = running.io.estop_open;
         self.io.probe = running.io.probe;
         self.io.user_digital = running.io.user_digital;

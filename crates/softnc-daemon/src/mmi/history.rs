@@ -9,6 +9,38 @@ use softnc_core::MAX_AXES;
 use softnc_ipc::{OperatorReply, PositionStatus};
 use std::time::{Instant, SystemTime};
 
+/// Notes kept in one job's record (`JobRecord::notes`): a program that prints in
+/// a loop (`(PRINT,…)`, `(DEBUG,…)`) sends a note per pass, and the record is
+/// written whole at every change. Past this many, one last note says how many
+/// more came and were not kept ("… N more notes not kept").
+pub const JOB_NOTES_KEPT: usize = 200;
+
+/// The marker note after [`JOB_NOTES_KEPT`] notes.
+fn notes_not_kept(n: u64) -> String {
+    format!("… {n} more note{} not kept", if n == 1 { "" } else { "s" })
+}
+
+/// The count of a marker note made by [`notes_not_kept`].
+fn count_not_kept(note: &str) -> Option<u64> {
+    let n = note.strip_prefix("… ")?.split(' ').next()?;
+    let rest = note.strip_prefix("… ")?.strip_prefix(n)?;
+    matches!(rest, " more note not kept" | " more notes not kept")
+        .then(|| n.parse().ok())
+        .flatten()
+}
+
+/// Add `text` to a job's `notes`, keeping at most `kept` notes and then one
+/// marker that counts the notes not kept.
+pub(super) fn push_note(notes: &mut Vec<String>, text: String, kept: usize) {
+    if notes.len() < kept {
+        notes.push(text);
+        return;
+    }
+    let counted = notes.get(kept).and_then(|m| count_not_kept(m)).unwrap_or(0);
+    notes.truncate(kept);
+    notes.push(notes_not_kept(counted + 1));
+}
+
 /// The RMS contour error of the running job, accumulated from the position status
 /// stream (the record keeps the result, [`Accuracy::contour_rms_um`]).
 #[derive(Debug, Clone, Copy, Default)]
@@ -263,6 +295,36 @@ impl History {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn notes_past_the_cap_are_counted_in_one_last_note() {
+        let mut notes = Vec::new();
+        for k in 0..JOB_NOTES_KEPT {
+            push_note(&mut notes, format!("print: {k}"), JOB_NOTES_KEPT);
+        }
+        assert_eq!(notes.len(), JOB_NOTES_KEPT);
+        push_note(&mut notes, "print: x".into(), JOB_NOTES_KEPT);
+        assert_eq!(notes.len(), JOB_NOTES_KEPT + 1);
+        assert_eq!(notes[JOB_NOTES_KEPT], "… 1 more note not kept");
+        for _ in 0..1234 {
+            push_note(&mut notes, "print: y".into(), JOB_NOTES_KEPT);
+        }
+        assert_eq!(notes.len(), JOB_NOTES_KEPT + 1);
+        assert_eq!(
+            notes[JOB_NOTES_KEPT - 1],
+            format!("print: {}", JOB_NOTES_KEPT - 1)
+        );
+        assert_eq!(notes[JOB_NOTES_KEPT], "… 1235 more notes not kept");
+        // a note that only looks like the marker is kept as it is
+        let mut few = vec![];
+        push_note(&mut few, "… 3 more notes not kept".into(), 2);
+        push_note(&mut few, "b".into(), 2);
+        push_note(&mut few, "c".into(), 2);
+        assert_eq!(
+            few,
+            ["… 3 more notes not kept", "b", "… 1 more note not kept"]
+        );
+    }
 
     fn record(job_id: u64, path_len: usize) -> JobRecord {
         JobRecord {

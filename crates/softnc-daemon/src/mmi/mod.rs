@@ -111,6 +111,9 @@ struct Machine {
     feed_override: f64,
     /// The rapid override in force (fraction, 0..=1).
     rapid_override: f64,
+    /// The operator overrides the limit switches (`OverrideLimits`): cleared by
+    /// the first status with none tripped, as the position process clears its own.
+    limits_overridden: bool,
     /// The operator's program-flow switches.
     switches: Switches,
     /// A continuous jog's axis, speed and when its client last renewed it (the
@@ -234,6 +237,7 @@ impl MmiTask {
                 intent: None,
                 feed_override: 1.0,
                 rapid_override: 1.0,
+                limits_overridden: false,
                 switches: Switches::default(),
                 jog_lease: None,
                 asked: None,
@@ -472,6 +476,10 @@ impl MmiTask {
                 }
             }
             self.machine.last = Some(s);
+            let inputs = softnc_core::machine_io::MachineInputs::from(s.inputs);
+            if inputs.limit_min | inputs.limit_max == 0 {
+                self.machine.limits_overridden = false;
+            }
             let now_state = self.position_state();
             if prev_state != now_state || s.job_id == 0 {
                 let abort_asked = self.machine.abort_asked;
@@ -526,7 +534,7 @@ impl MmiTask {
                     .rev()
                     .find(|j| j.job_id == job_id)
                 {
-                    j.notes.push(text);
+                    history::push_note(&mut j.notes, text, history::JOB_NOTES_KEPT);
                     changed = true;
                 }
                 continue;
@@ -840,6 +848,7 @@ impl MmiTask {
             Request::BlockDelete { on } => self.switch(ControlKind::BlockDelete, *on)?,
             Request::MachineOn => self.drives_or_home(ControlKind::MachineOn, u32::MAX, state)?,
             Request::MachineOff => self.drives_or_home(ControlKind::MachineOff, u32::MAX, state)?,
+            Request::OverrideLimits => self.override_limits(state)?,
             Request::Home { axis } => self.drives_or_home(
                 ControlKind::Home,
                 axis.as_ref().map_or(u32::MAX, axis_index),
@@ -1011,6 +1020,22 @@ impl MmiTask {
                 false,
                 0,
                 &format!("{kind:?} refused ({state:?}): the E-stop input is open"),
+            ));
+        }
+        // a limit switch tripped: on only with the override (LinuxCNC's)
+        let tripped = self.limits_tripped();
+        if kind == ControlKind::MachineOn
+            && !tripped.is_empty()
+            && !self.machine.limits_overridden
+            && state == MachineState::Off
+        {
+            return Ok(Self::reply(
+                false,
+                0,
+                &format!(
+                    "{kind:?} refused ({state:?}): limit switch tripped ({}): override-limits first, then jog off it away from the switch",
+                    tripped.join(", ")
+                ),
             ));
         }
         Ok(match transition(kind, state) {
@@ -1240,6 +1265,8 @@ impl MmiTask {
                 }
             }),
             tool_prepared: around.as_ref().map(|a| a.0.tool_prepared),
+            limits_tripped: self.limits_tripped(),
+            limits_overridden: self.machine.limits_overridden,
             message: around.as_ref().and_then(|a| a.1.clone()),
             prompt: around.as_ref().and_then(|a| a.2.clone()),
             adaptive_force: s
@@ -1387,6 +1414,8 @@ pub fn transition(kind: ControlKind, state: MachineState) -> Result<MachineState
         (K::Reset, Running | Held | Stopping | Paused | Mdi | Homing | Jogging) => {
             Err("the axes are moving: abort (stops along the path) or E-stop first")
         }
+        // the state stays; refused without a tripped switch (`override_limits`)
+        (K::OverrideLimits, Off | Idle | Jogging | Faulted | EStopped) => Ok(state),
         (_, Off) => Err("the machine is off"),
         (_, Idle) => Err("no job is running"),
         (_, Faulted | EStopped) => Err("the machine needs a reset"),
@@ -1416,6 +1445,11 @@ mod tests {
             ),
             (EStop, [Some(EStopped); 6]),
             (Reset, [Some(Idle), None, None, None, Some(Off), Some(Off)]),
+            // the state stays (the MMI refuses it without a tripped switch)
+            (
+                OverrideLimits,
+                [Some(Idle), None, None, None, Some(Faulted), Some(EStopped)],
+            ),
         ];
         for (kind, row) in table {
             for (state, want) in states.iter().zip(row) {
@@ -1436,6 +1470,7 @@ mod tests {
             }
         }
         assert_eq!(transition(Reset, Off), Ok(Off));
+        assert_eq!(transition(OverrideLimits, Off), Ok(Off));
         assert!(transition(Resume, Running)
             .unwrap_err()
             .contains("nothing is held"));

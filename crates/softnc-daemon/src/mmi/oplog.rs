@@ -168,6 +168,13 @@ mod tests {
             );
             unreadable("expected value at line 1");
             deadman_stop("Z", -3000.0, 0.1);
+            answered(
+                &Request::OverrideLimits,
+                Some(&Reply::accepted(
+                    None,
+                    "limit switches overridden (X max) until all are released",
+                )),
+            );
         });
         let got: Vec<(tracing::Level, &str, &str)> = events
             .iter()
@@ -185,6 +192,7 @@ mod tests {
                 (L::WARN, "submit_job", "refused"),
                 (L::WARN, "unreadable", "refused"),
                 (L::WARN, "jog", "deadman_stop"),
+                (L::INFO, "override_limits", "accepted"),
             ]
         );
         assert_eq!(field(&events[0], "reason"), "machine on");

@@ -66,6 +66,55 @@ impl MmiTask {
         Ok(())
     }
 
+    /// The limit switches tripped in the position process's last status ("X
+    /// max", "Z min").
+    pub(super) fn limits_tripped(&self) -> Vec<String> {
+        let Some(s) = self.machine.last else {
+            return Vec::new();
+        };
+        let m = softnc_core::machine_io::MachineInputs::from(s.inputs);
+        let mut out = Vec::new();
+        for i in 0..self.cfg.machine.axes.len().min(32) as u32 {
+            for (bits, end) in [(m.limit_min, "min"), (m.limit_max, "max")] {
+                if bits >> i & 1 == 1 {
+                    out.push(format!("{} {end}", self.axis_name(i)));
+                }
+            }
+        }
+        out
+    }
+
+    /// Override the limit switches (LinuxCNC's override limits): refused while
+    /// none is tripped; the position process lets the machine be switched on and
+    /// jogged off (away from the switch only) until every switch is released.
+    pub(super) fn override_limits(&mut self, state: MachineState) -> Result<Reply> {
+        let tripped = self.limits_tripped();
+        if tripped.is_empty() {
+            return Ok(Self::reply(
+                false,
+                0,
+                "OverrideLimits refused: no limit switch is tripped",
+            ));
+        }
+        if let Err(why) = super::transition(ControlKind::OverrideLimits, state) {
+            return Ok(Self::reply(
+                false,
+                0,
+                &format!("OverrideLimits refused ({state:?}): {why}"),
+            ));
+        }
+        self.send_control(ControlKind::OverrideLimits, 0, 0.0, "")?;
+        self.machine.limits_overridden = true;
+        Ok(Self::reply(
+            true,
+            0,
+            &format!(
+                "limit switches overridden ({}) until all are released: switch on and jog off away from the switch",
+                tripped.join(", ")
+            ),
+        ))
+    }
+
     pub(super) fn axis_name(&self, axis: u32) -> String {
         self.cfg
             .machine

@@ -200,3 +200,53 @@ fn the_next_jobs_fresh_machine_keeps_what_the_world_set_on_its_lines() {
     job2.exchange_io().unwrap();
     assert!(job2.io_mut().reset_estop());
 }
+
+/// Each job runs on a fresh simulated machine (the daemon's `take_over`): the
+/// spindle turning at the end of one job is the spindle of the next, still
+/// turning at its speed with its angle and index count, not a spindle at rest.
+#[test]
+fn the_spindle_keeps_turning_into_the_next_jobs_fresh_machine() {
+    let p = profile("default");
+    let mut running = engine(&p);
+    let cmd = MachineOutputs {
+        spindle_dir: SpindleDir::Clockwise,
+        spindle_rpm: 6000.0,
+        ..MachineOutputs::default()
+    };
+    running.set_outputs(&cmd);
+    for _ in 0..2000 {
+        running.exchange_io().unwrap();
+    }
+    let before = *running.io().last_inputs();
+    let true_rpm = running
+        .backend_mut()
+        .simulated()
+        .unwrap()
+        .spindle_true_rpm();
+    assert!((true_rpm - 6000.0).abs() < 60.0, "{true_rpm}");
+    let mut next = engine(&p);
+    next.take_over(&mut running, Axes::splat(0.0));
+    let sim = next.backend_mut().simulated().unwrap();
+    assert_eq!(
+        sim.spindle_true_rpm(),
+        true_rpm,
+        "the spindle started at rest"
+    );
+    // the next job commands it on: it is at speed at once, its encoder goes on
+    next.set_outputs(&cmd);
+    let m = next.exchange_io().unwrap();
+    assert!(m.spindle_at_speed, "{}", m.spindle_rpm);
+    assert!(m.spindle_revs > before.spindle_revs);
+    assert!(m.spindle_index_count >= before.spindle_index_count);
+    // an M5 in it brakes the same spindle
+    next.set_outputs(&MachineOutputs::default());
+    for _ in 0..3000 {
+        next.exchange_io().unwrap();
+    }
+    let sim = next.backend_mut().simulated().unwrap();
+    assert!(
+        sim.spindle_true_rpm().abs() < 1e-6,
+        "{}",
+        sim.spindle_true_rpm()
+    );
+}
