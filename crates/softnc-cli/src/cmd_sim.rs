@@ -318,7 +318,8 @@ pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
         let (seq, heard) =
             softnc_daemon::plan_samples::sim_machine(&program, &machine, &options, lag);
         (
-            PlanSamples::with_machine(plan.interpolator(), seq, heard.clone()),
+            PlanSamples::with_machine(plan.interpolator(), seq, heard.clone())
+                .without_tool_changer(!softnc_daemon::plan_samples::has_tool_changer(&machine)),
             heard,
         )
     };

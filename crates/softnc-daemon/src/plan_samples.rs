@@ -7,7 +7,9 @@
 //! path released from a machine stop on the simulated machine's inputs heard with
 //! the daemon's lag (`lookahead_samples`, [`FeedbackHistory`]). The simulator has
 //! no operator: a tool change waits for the simulated tool changer's
-//! `tool-changed`, a program stop (M0/M1) does not wait.
+//! `tool-changed` — or, on a machine whose profile maps no `ToolChanged` input (no
+//! changer: the daemon asks its operator), is done at once, as by an operator who
+//! resumes at the prompt — and a program stop (M0/M1) does not wait.
 
 use softnc_planner::machine_sequencer::{
     Action, FeedbackHistory, MachineSequencer, SequencerConfig, SequencerState,
@@ -86,10 +88,22 @@ pub fn hear<B: softnc_servo::ServoBackend>(
         .record(seq, row.motion, as_published(engine.io().last_inputs()));
 }
 
+/// Whether the profile maps a tool changer's `tool-changed` input (without one the
+/// daemon's tool change waits for the operator's resume).
+pub fn has_tool_changer(profile: &softnc_machine::MachineProfile) -> bool {
+    profile.servo.io.as_ref().is_some_and(|io| {
+        io.inputs
+            .iter()
+            .any(|l| matches!(l.signal, softnc_machine::io::InputSignal::ToolChanged))
+    })
+}
+
 /// The machine side of [`PlanSamples`].
 struct Machine {
     seq: MachineSequencer,
     heard: Rc<RefCell<FeedbackHistory>>,
+    /// No tool changer: the simulated operator resumes at a tool change at once.
+    operator_resumes: bool,
     /// Samples given so far.
     n: u64,
     /// The job failed at a machine stop: the stream ended there.
@@ -122,10 +136,21 @@ impl<'p> PlanSamples<'p> {
             machine: Some(Machine {
                 seq,
                 heard,
+                operator_resumes: false,
                 n: 0,
                 failed: false,
             }),
         }
+    }
+
+    /// On a machine without a tool changer ([`has_tool_changer`] false) the
+    /// simulated operator resumes at every tool change at once (else the
+    /// simulation would wait for ever).
+    pub fn without_tool_changer(mut self, none: bool) -> Self {
+        if let Some(m) = self.machine.as_mut() {
+            m.operator_resumes = none;
+        }
+        self
     }
 
     /// The interpolator (its overrides).
@@ -154,7 +179,8 @@ impl Iterator for PlanSamples<'_> {
             outputs: Default::default(),
         };
         if let Some(m) = self.machine.as_mut() {
-            let fb = m.heard.borrow().feedback_for(m.n);
+            let mut fb = m.heard.borrow().feedback_for(m.n);
+            fb.resume = m.operator_resumes;
             let step = m.seq.step(s.motion, self.it.machine_stop(), &fb);
             c.outputs = step.state.outputs;
             match step.action {
