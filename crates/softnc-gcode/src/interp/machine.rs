@@ -353,20 +353,56 @@ impl Interp<'_> {
         Ok(())
     }
 
-    /// A read of #5399 where M66's result is unknown to a reading ahead: refused.
-    pub(super) fn check_5399_read(&self) -> R<()> {
+    /// A read of #5399 where M66's result is unknown to a reading ahead: refused,
+    /// at the `#5399` of line `raw` (its first; the line's start where it is
+    /// reached otherwise, e.g. `#[5000 + 399]`). LinuxCNC reads no further than
+    /// an M66 until the machine has waited (`INTERP_EXECUTE_FINISH`, the "queue
+    /// buster"), so what follows may depend on the value; softnc checks the whole
+    /// program before motion (its soft limits, its plan), which a branch on a value
+    /// known only at the machine would escape.
+    pub(super) fn check_5399_read(&self, raw: &str) -> R<()> {
         match (self.m66_read.get(), self.m66_unknown_since) {
             (true, Some(line)) => Err((
-                0,
+                where_5399(raw),
                 ErrorKind::Unsupported {
                     word: "#5399".into(),
                     why: format!(
-                        "the result of the M66 on line {line} is known only when the machine \
-                         gets there, and softnc reads the whole program before motion"
+                        "#5399 holds the result of the M66 on line {line} only once the \
+                         machine has waited there, and softnc checks the whole program \
+                         before motion: after an M66, #5399 may be shown in (DEBUG,…) and \
+                         (PRINT,…) comments (filled in when the machine gets there), not \
+                         used in an expression, an assignment, a word or an O-word"
                     ),
                 },
             )),
             _ => Ok(()),
         }
     }
+}
+
+/// The byte offset of the first `#5399` (spaces allowed after `#`) in `raw`
+/// outside comments, else 0.
+fn where_5399(raw: &str) -> u32 {
+    let b = raw.as_bytes();
+    let mut depth = 0u32;
+    for (i, &c) in b.iter().enumerate() {
+        match c {
+            b'(' => depth += 1,
+            b')' => depth = depth.saturating_sub(1),
+            b';' if depth == 0 => break,
+            b'#' if depth == 0 => {
+                let digits: Vec<u8> = b[i + 1..]
+                    .iter()
+                    .copied()
+                    .filter(|d| *d != b' ' && *d != b'\t')
+                    .take(5)
+                    .collect();
+                if digits.starts_with(b"5399") && !digits.get(4).is_some_and(u8::is_ascii_digit) {
+                    return i as u32;
+                }
+            }
+            _ => {}
+        }
+    }
+    0
 }
