@@ -75,6 +75,11 @@ pub struct SimArgs {
     /// LinuxCNC's controller) starts.
     #[arg(long, value_name = "on|off", default_value = "on")]
     optional_stop: crate::cmd_operator::OnOff,
+    /// The user M codes' folder (the daemon's `user_m_path`): a program's M100–M199
+    /// must have their executable there, as in the daemon's check. The simulator
+    /// does not run them: each is taken as done at once (and said so).
+    #[arg(long, value_name = "DIR")]
+    user_m_codes: Option<PathBuf>,
 }
 
 /// Cycles between progress-bar updates.
@@ -162,6 +167,7 @@ pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
         optional_stop: args.optional_stop.on(),
         // the machine stops wait for the simulated machine, as in the daemon
         wait_at_machine_stops: true,
+        user_m_codes: args.user_m_codes.clone(),
         ..Default::default()
     };
     let program = match read_file(&args.file, &machine, &options.read_options())? {
@@ -171,6 +177,16 @@ pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
             return Ok(ExitCode::from(crate::EXIT_REFUSED));
         }
     };
+    for m in &program.motions {
+        if let softnc_gcode::MotionKind::Machine(softnc_gcode::MachineOp::UserM { code, p, q }) =
+            m.kind
+        {
+            eprintln!(
+                "note: line {}: M{code} {p:.6} {q:.6} is not run by the simulator: taken as done at once",
+                m.line
+            );
+        }
+    }
     for w in &program.warnings {
         eprintln!("warning: {w}");
     }

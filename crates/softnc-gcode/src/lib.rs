@@ -139,7 +139,11 @@ pub fn write_param_value(
             Ok(())
         }
     }
-    let v = if v.abs() < expr::TOLERANCE_EQUAL { 0.0 } else { v };
+    let v = if v.abs() < expr::TOLERANCE_EQUAL {
+        0.0
+    } else {
+        v
+    };
     let mut n = Count(0);
     std::fmt::Write::write_fmt(&mut n, format_args!("{v:.decimals$}"))?;
     if n.0 >= 30 {

@@ -359,7 +359,8 @@ fn sequencer_and_stop(text: &str, n: usize) -> (Program, MachineSequencer, u32) 
 
 #[test]
 fn an_m66_result_is_reported_once_and_fills_the_debug_text_reached_after_it() {
-    let text = "G21\nM66 P3 L3 Q0.5\n(DEBUG, in=%d#5399)\nG1 X1 F600\nM66 E1\n(PRINT, e=%.1f#5399)\nM2\n";
+    let text =
+        "G21\nM66 P3 L3 Q0.5\n(DEBUG, in=%d#5399)\nG1 X1 F600\nM66 E1\n(PRINT, e=%.1f#5399)\nM2\n";
     let (_, mut seq, m66) = sequencer_and_stop(text, 0);
     let (_, _, debug) = sequencer_and_stop(text, 1);
     let mut inputs = MachineInputs::default();
@@ -395,7 +396,8 @@ fn an_m66_result_is_reported_once_and_fills_the_debug_text_reached_after_it() {
     assert_eq!(step.input_result.map(|r| r.value), Some(2.25));
     let step = seq.step(print, None, &fb(inputs, print));
     let mut shown = String::new();
-    seq.write_message(step.state.printed.unwrap(), &mut shown).unwrap();
+    seq.write_message(step.state.printed.unwrap(), &mut shown)
+        .unwrap();
     assert_eq!(shown, "e=2.2");
 }
 
@@ -469,7 +471,13 @@ fn a_user_m_code_releases_when_done_and_fails_on_its_exit_status_or_timeout() {
             _ => None,
         })
         .unwrap();
-    assert!(matches!(end, (5000, SequencerError::UserCommandTimeout { code: 101, .. })), "{end:?}");
+    assert!(
+        matches!(
+            end,
+            (5000, SequencerError::UserCommandTimeout { code: 101, .. })
+        ),
+        "{end:?}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -493,17 +501,25 @@ fn m19_with_q_waits_for_the_spindle_oriented_and_fails_past_q() {
         step.action,
         Action::Wait(Waiting::SpindleOriented { angle_deg: 90.0 })
     );
-    assert_eq!(seq.step(orient, Some(orient), &fb(true)).action, Action::Release);
+    assert_eq!(
+        seq.step(orient, Some(orient), &fb(true)).action,
+        Action::Release
+    );
     // never oriented: LinuxCNC's "wait for orient complete: TIMED OUT" after Q
     let mut seq = MachineSequencer::new(&program, config(0.001), SequencerState::default());
     let end = (1..10_000)
-        .find_map(|k| match seq.step(orient, Some(orient), &fb(false)).action {
-            Action::Fail(e) => Some((k, e)),
-            _ => None,
-        })
+        .find_map(
+            |k| match seq.step(orient, Some(orient), &fb(false)).action {
+                Action::Fail(e) => Some((k, e)),
+                _ => None,
+            },
+        )
         .unwrap();
     assert!(
-        matches!(end, (200, SequencerError::SpindleNotOriented { line: 2, .. })),
+        matches!(
+            end,
+            (200, SequencerError::SpindleNotOriented { line: 2, .. })
+        ),
         "{end:?}"
     );
     // without Q LinuxCNC does not wait for it: released once the machine has it

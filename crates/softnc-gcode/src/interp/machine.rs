@@ -4,7 +4,7 @@
 //! and user M codes (M100–M199), in that order, each a [`MachineOp`] at the current
 //! point ([`MotionKind::Machine`]).
 
-use super::{bad, round_to_int, unsup, Block, Interp, R};
+use super::{bad, round_to_int, Block, Interp, R};
 use crate::canon::{
     MachineOp, MessageKind, MotionKind, OverrideSwitch, SpindleTurn, WaitInput, WaitMode,
 };
@@ -142,9 +142,10 @@ impl Interp<'_> {
             self.push_machine(line_no, MachineOp::Overrides { switch, on });
         }
         if let Some(code) = b.m_in(10) {
-            // user M codes (`enqueue_M_USER_COMMAND` with P and Q, −1 where absent)
+            // user M codes (`enqueue_M_USER_COMMAND` with P and Q, −1 where absent);
+            // one without its executable is LinuxCNC's NCE_UNKNOWN_M_CODE_USED
             if let Err(why) = self.user_m.check(code) {
-                return unsup(b.m_off(10), format!("M{code}"), &why);
+                return bad(b.m_off(10), format!("Unknown M code used: M{code} ({why})"));
             }
             self.push_machine(
                 line_no,
