@@ -963,6 +963,7 @@ mod tests {
             lookahead: None,
             block_delete: crate::cmd_operator::OnOff::On,
             optional_stop: crate::cmd_operator::OnOff::On,
+            user_m_codes: None,
         }
     }
 
@@ -993,6 +994,34 @@ mod tests {
             format!("{code:?}"),
             format!("{:?}", ExitCode::from(crate::EXIT_REFUSED))
         );
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn user_m_codes_need_their_folder_and_are_taken_as_done_at_once() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = std::env::temp_dir().join(format!("softnc-sim-userm-{}", std::process::id()));
+        let mcodes = dir.join("mcodes");
+        std::fs::create_dir_all(&mcodes).unwrap();
+        // (an executable that would never end: the simulator does not run it)
+        let m = mcodes.join("M101");
+        std::fs::write(&m, "#!/bin/sh\nsleep 1000\n").unwrap();
+        std::fs::set_permissions(&m, std::fs::Permissions::from_mode(0o755)).unwrap();
+        let prog = dir.join("userm.ngc");
+        std::fs::write(&prog, "G21 G90\nG1 X5 F1200\nM101 P1 Q2\nG1 X10\nM2\n").unwrap();
+        let p = prog.to_str().unwrap();
+        let refused = run_args(args(p, "config/machines/default.ron", None, 1)).unwrap();
+        assert_eq!(
+            format!("{refused:?}"),
+            format!("{:?}", ExitCode::from(crate::EXIT_REFUSED))
+        );
+        let mut a = args(p, "config/machines/default.ron", None, 1);
+        a.user_m_codes = Some(mcodes);
+        let t = std::time::Instant::now();
+        let code = run_args(a).unwrap();
+        assert_eq!(format!("{code:?}"), format!("{:?}", ExitCode::SUCCESS));
+        assert!(t.elapsed().as_secs() < 100, "{:?}", t.elapsed());
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]

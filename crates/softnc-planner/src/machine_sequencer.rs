@@ -523,6 +523,59 @@ impl SequencerBuilder {
     }
 }
 
+/// M66's input in `inputs`: its level (an analog one: not 0) and its value
+/// (a digital one: 0/1).
+fn input_level(input: WaitInput, inputs: &MachineInputs) -> (bool, f64) {
+    match input {
+        WaitInput::Digital(p) => {
+            let on = inputs.digital >> p & 1 == 1;
+            (on, f64::from(u8::from(on)))
+        }
+        WaitInput::Analog(e) => {
+            let v = inputs.analog.get(usize::from(e)).copied().unwrap_or(0.0);
+            (v != 0.0, v)
+        }
+    }
+}
+
+/// Whether M66's wait `mode` is met at `level`, the level seen before `before`.
+fn input_met(mode: WaitMode, before: Option<bool>, level: bool) -> bool {
+    match mode {
+        WaitMode::Immediate => true,
+        WaitMode::High => level,
+        WaitMode::Low => !level,
+        WaitMode::Rise => before == Some(false) && level,
+        WaitMode::Fall => before == Some(true) && !level,
+    }
+}
+
+/// A user M code's stop: released when its executable exited 0, failed on another
+/// status or past the timeout (`timed_out`), else waiting (`waiting`).
+fn user_command(
+    fb: &Feedback,
+    timed_out: bool,
+    waiting: Waiting,
+    line: u32,
+    waited_s: f64,
+) -> Action {
+    let Waiting::UserCommand { code, .. } = waiting else {
+        return Action::Wait(waiting);
+    };
+    if fb.user_command_done {
+        Action::Release
+    } else if let Some(status) = fb.user_command_failed {
+        Action::Fail(SequencerError::UserCommandFailed { line, code, status })
+    } else if timed_out {
+        Action::Fail(SequencerError::UserCommandTimeout {
+            line,
+            code,
+            waited_s,
+        })
+    } else {
+        Action::Wait(waiting)
+    }
+}
+
 /// The machine around the axes during one job (see the module).
 #[derive(Debug, Clone)]
 pub struct MachineSequencer {
@@ -701,24 +754,8 @@ impl MachineSequencer {
                 mode,
                 timeout_s,
             } => {
-                let (level, value) = match input {
-                    WaitInput::Digital(p) => {
-                        let on = inputs.digital >> p & 1 == 1;
-                        (on, f64::from(u8::from(on)))
-                    }
-                    WaitInput::Analog(e) => {
-                        let v = inputs.analog.get(usize::from(e)).copied().unwrap_or(0.0);
-                        (v != 0.0, v)
-                    }
-                };
-                let before = w.last_level.replace(level);
-                let met = match mode {
-                    WaitMode::Immediate => true,
-                    WaitMode::High => level,
-                    WaitMode::Low => !level,
-                    WaitMode::Rise => before == Some(false) && level,
-                    WaitMode::Fall => before == Some(true) && !level,
-                };
+                let (level, value) = input_level(input, inputs);
+                let met = input_met(mode, w.last_level.replace(level), level);
                 let result = |value: f64, timed_out: bool| InputResult {
                     line: stop.line,
                     input,
@@ -735,25 +772,13 @@ impl MachineSequencer {
                     Action::Wait(Waiting::Input { input, mode })
                 }
             }
-            MachineOp::UserM { code, p, q } => {
-                if fb.user_command_done {
-                    Action::Release
-                } else if let Some(status) = fb.user_command_failed {
-                    Action::Fail(SequencerError::UserCommandFailed {
-                        line: stop.line,
-                        code,
-                        status,
-                    })
-                } else if timed_out(self.cfg.user_m_timeout_s) {
-                    Action::Fail(SequencerError::UserCommandTimeout {
-                        line: stop.line,
-                        code,
-                        waited_s,
-                    })
-                } else {
-                    Action::Wait(Waiting::UserCommand { code, p, q })
-                }
-            }
+            MachineOp::UserM { code, p, q } => user_command(
+                fb,
+                timed_out(self.cfg.user_m_timeout_s),
+                Waiting::UserCommand { code, p, q },
+                stop.line,
+                waited_s,
+            ),
             // M19 with Q (`WAIT_ORIENT_SPINDLE_COMPLETE`): until the spindle is
             // oriented, an error past Q; without Q LinuxCNC does not wait
             MachineOp::SpindleOrient {
