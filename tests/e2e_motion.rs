@@ -528,6 +528,13 @@ fn the_machine_around_the_axes_runs_the_acceptance_job() {
     let s = d.wait_job(&op, job_id, minute);
     assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
     assert!(s.alarms.is_empty(), "{s}");
+    // M66's result in #5399: noted when the wait ends, and the (DEBUG,…) after it
+    // shows the machine's value (filled in when the path reached it)
+    assert!(
+        noted(&s, "M66 P0 (line 12): 1 (#5399)") && noted(&s, "message: M66 P0 gave 1"),
+        "{:?}",
+        notes(&s)
+    );
 
     let rows = machine_trace(&d, job_id);
     let [x, cmd_rpm, rpm, coolant, dout] = [0, 1, 2, 3, 4];

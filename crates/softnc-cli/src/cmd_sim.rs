@@ -75,6 +75,11 @@ pub struct SimArgs {
     /// LinuxCNC's controller) starts.
     #[arg(long, value_name = "on|off", default_value = "on")]
     optional_stop: crate::cmd_operator::OnOff,
+    /// The user M codes' folder (the daemon's `user_m_path`): a program's M100–M199
+    /// must have their executable there, as in the daemon's check. The simulator
+    /// does not run them: each is taken as done at once (and said so).
+    #[arg(long, value_name = "DIR")]
+    user_m_codes: Option<PathBuf>,
 }
 
 /// Cycles between progress-bar updates.
@@ -162,6 +167,7 @@ pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
         optional_stop: args.optional_stop.on(),
         // the machine stops wait for the simulated machine, as in the daemon
         wait_at_machine_stops: true,
+        user_m_codes: args.user_m_codes.clone(),
         ..Default::default()
     };
     let program = match read_file(&args.file, &machine, &options.read_options())? {
@@ -171,6 +177,16 @@ pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
             return Ok(ExitCode::from(crate::EXIT_REFUSED));
         }
     };
+    for m in &program.motions {
+        if let softnc_gcode::MotionKind::Machine(softnc_gcode::MachineOp::UserM { code, p, q }) =
+            m.kind
+        {
+            eprintln!(
+                "note: line {}: M{code} {p:.6} {q:.6} is not run by the simulator: taken as done at once",
+                m.line
+            );
+        }
+    }
     for w in &program.warnings {
         eprintln!("warning: {w}");
     }
@@ -948,6 +964,7 @@ mod tests {
             lookahead: None,
             block_delete: crate::cmd_operator::OnOff::On,
             optional_stop: crate::cmd_operator::OnOff::On,
+            user_m_codes: None,
         }
     }
 
@@ -978,6 +995,34 @@ mod tests {
             format!("{code:?}"),
             format!("{:?}", ExitCode::from(crate::EXIT_REFUSED))
         );
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn user_m_codes_need_their_folder_and_are_taken_as_done_at_once() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = std::env::temp_dir().join(format!("softnc-sim-userm-{}", std::process::id()));
+        let mcodes = dir.join("mcodes");
+        std::fs::create_dir_all(&mcodes).unwrap();
+        // (an executable that would never end: the simulator does not run it)
+        let m = mcodes.join("M101");
+        std::fs::write(&m, "#!/bin/sh\nsleep 1000\n").unwrap();
+        std::fs::set_permissions(&m, std::fs::Permissions::from_mode(0o755)).unwrap();
+        let prog = dir.join("userm.ngc");
+        std::fs::write(&prog, "G21 G90\nG1 X5 F1200\nM101 P1 Q2\nG1 X10\nM2\n").unwrap();
+        let p = prog.to_str().unwrap();
+        let refused = run_args(args(p, "config/machines/default.ron", None, 1)).unwrap();
+        assert_eq!(
+            format!("{refused:?}"),
+            format!("{:?}", ExitCode::from(crate::EXIT_REFUSED))
+        );
+        let mut a = args(p, "config/machines/default.ron", None, 1);
+        a.user_m_codes = Some(mcodes);
+        let t = std::time::Instant::now();
+        let code = run_args(a).unwrap();
+        assert_eq!(format!("{code:?}"), format!("{:?}", ExitCode::SUCCESS));
+        assert!(t.elapsed().as_secs() < 100, "{:?}", t.elapsed());
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]

@@ -33,8 +33,12 @@ pub struct MachineOutputs {
     /// Programmed spindle speed (rpm, ≥ 0, before the spindle override): the S word
     /// in force.
     pub spindle_rpm: f64,
-    /// M19: orient the spindle to this angle (degrees); `None` while not orienting.
+    /// M19: orient the spindle to this angle (degrees, from its encoder's index);
+    /// `None` while not orienting.
     pub spindle_orient_deg: Option<f64>,
+    /// M19 P: the way it turns to the angle — 0 the shorter way, 1 clockwise, 2
+    /// counter-clockwise (LinuxCNC's `spindle.N.orient-mode`).
+    pub spindle_orient_dir: u8,
     /// M7: mist coolant on.
     pub coolant_mist: bool,
     /// M8: flood coolant on.
@@ -78,6 +82,9 @@ pub struct MachineInputs {
     /// band (LinuxCNC's `spindle.at-speed`); true while it is commanded to stand and
     /// stands.
     pub spindle_at_speed: bool,
+    /// The spindle stands at the angle M19 asked for, within the profile's band
+    /// (LinuxCNC's `spindle.N.is-oriented`); false while not orienting.
+    pub spindle_oriented: bool,
     /// The external E-stop chain is open (latched by the position process until
     /// reset).
     pub estop_open: bool,

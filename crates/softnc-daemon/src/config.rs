@@ -80,6 +80,20 @@ pub struct DaemonConfig {
     /// file; after them the program's own folder.
     #[serde(default)]
     pub subroutine_path: Vec<PathBuf>,
+    /// The folder of the user M codes M100–M199 (LinuxCNC's
+    /// `[RS274NGC]USER_M_PATH`): for `M1nn P… Q…` the path comes to rest and the
+    /// executable file `M1nn` there runs with P and Q as its two arguments
+    /// (`%f`, −1 for a word not given, as LinuxCNC's `user_defined_add_m_code`);
+    /// a job using one that is not there is refused at its check. Relative to
+    /// this file; a folder named here must exist. Default: `mcodes` beside the
+    /// data directory (`<data_dir>/../mcodes`), when it exists.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub user_m_path: Option<PathBuf>,
+    /// Longest a user M code may run (s): past it the executable is killed and the
+    /// job stops along its path with a `MachineWait` alarm (LinuxCNC waits for
+    /// it forever).
+    #[serde(default = "default_user_m_timeout_s")]
+    pub user_m_timeout_s: f64,
     /// No longer taken: the jog's dead-man is the machine profile's
     /// `jog.deadman_s` (bounded by its `jog.max_overrun_mm`). A file that still
     /// sets it is refused, saying where it went.
@@ -110,6 +124,10 @@ pub struct DaemonConfig {
 
 fn default_mmi_silence_stop_s() -> f64 {
     1.0
+}
+
+fn default_user_m_timeout_s() -> f64 {
+    60.0
 }
 
 fn default_check_timeout_s() -> f64 {
@@ -251,6 +269,8 @@ pub struct Loaded {
     pub learning_dir: PathBuf,
     /// Absolute subroutine folders (`subroutine_path`).
     pub subroutine_path: Vec<PathBuf>,
+    /// The user M-code folder (`user_m_path`, or its default; it may not exist).
+    pub user_m_dir: PathBuf,
     /// The machine profile file's bytes as loaded (the learning store's key).
     pub machine_bytes: Vec<u8>,
     /// The configuration file.
@@ -283,6 +303,7 @@ impl Loaded {
         c.iceoryx2_config = abs(&self.iceoryx2_config);
         c.learning_dir = Some(abs(&self.learning_dir));
         c.subroutine_path = self.subroutine_path.iter().map(|p| abs(p)).collect();
+        c.user_m_path = self.user_m_dir.is_dir().then(|| abs(&self.user_m_dir));
         std::fs::create_dir_all(dir.join("data"))?;
         c.data_dir = abs(&dir.join("data"));
         // a private instance: no operator gateway (the original's socket is its own)
@@ -474,6 +495,31 @@ impl DaemonConfig {
             config.learning_dir.as_ref().map(|d| dir.join(d)).as_deref(),
         );
         let subroutine_path = config.subroutine_path.iter().map(|p| dir.join(p)).collect();
+        let user_m_dir = match &config.user_m_path {
+            Some(p) => {
+                let d = dir.join(p);
+                if !d.is_dir() {
+                    return Err(bad(
+                        "user_m_path",
+                        &format!(
+                            "{} is not a folder (the user M codes' folder: make it, or leave \
+                             the field out for `mcodes` beside the data directory)",
+                            d.display()
+                        ),
+                    ));
+                }
+                d
+            }
+            None => data_dir
+                .parent()
+                .map_or_else(|| PathBuf::from("mcodes"), |d| d.join("mcodes")),
+        };
+        if !(config.user_m_timeout_s.is_finite() && config.user_m_timeout_s > 0.0) {
+            return Err(bad(
+                "user_m_timeout_s",
+                "must be a positive number of seconds",
+            ));
+        }
         let iceoryx2_config = dir.join(&config.iceoryx2_config);
         if !iceoryx2_config.is_file() {
             return Err(bad(
@@ -488,6 +534,7 @@ impl DaemonConfig {
             data_dir,
             learning_dir,
             subroutine_path,
+            user_m_dir,
             machine_bytes,
             path: path.to_path_buf(),
             iceoryx2_config,
@@ -572,5 +619,36 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("job_record_period_s"), "{e}");
+    }
+
+    #[test]
+    fn the_user_m_folder_defaults_beside_the_data_dir_and_a_named_one_must_exist() {
+        let l = load_edited("userm", &[]).unwrap();
+        assert_eq!(l.config.user_m_path, None);
+        assert_eq!(l.user_m_dir, l.data_dir.parent().unwrap().join("mcodes"));
+        assert_eq!(l.config.user_m_timeout_s, 60.0);
+        let e = load_edited(
+            "usermmissing",
+            &[(
+                "subroutine_path: [\"../subroutines\"],",
+                "subroutine_path: [\"../subroutines\"], user_m_path: Some(\"no-such-mcodes\"),",
+            )],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("user_m_path") && e.contains("no-such-mcodes") && e.contains("not a folder"),
+            "{e}"
+        );
+        let e = load_edited(
+            "usermtimeout",
+            &[(
+                "subroutine_path: [\"../subroutines\"],",
+                "subroutine_path: [\"../subroutines\"], user_m_timeout_s: 0.0,",
+            )],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("user_m_timeout_s"), "{e}");
     }
 }

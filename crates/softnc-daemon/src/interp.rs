@@ -82,6 +82,10 @@ pub struct InterpTask {
     shutdown: bool,
     /// SIGTERM/SIGINT or the supervisor's death: stop the job along its path, end.
     stop: StopWatch,
+    /// The user M codes' runner thread (spawns and waits off the cycle).
+    user_m: crate::user_m::UserMRunner,
+    /// The last user M-code request's ticket.
+    user_m_tickets: u64,
     _bus: Bus,
 }
 
@@ -172,6 +176,9 @@ pub struct Streaming<'p> {
     message_noted: Option<u32>,
     /// The `(PRINT,…)` last noted.
     printed_noted: Option<u32>,
+    /// The user M code started for the machine stop of this motion, its ticket,
+    /// and how it ended (`None`: still running).
+    user_m: Option<(u32, u64, Option<crate::user_m::Outcome>)>,
     _job: std::marker::PhantomData<&'p mut PlannedJob>,
 }
 
@@ -223,7 +230,12 @@ impl InterpTask {
         // notes included
         let capacity = OUTBOX_CAPACITY.max(4 * (cfg.config.lookahead_samples + 1));
         let store = crate::machine_store::MachineStore::new(&cfg.data_dir);
+        let user_m =
+            crate::user_m::UserMRunner::start(cfg.user_m_dir.clone(), cfg.config.user_m_timeout_s)
+                .context("starting the user M-code runner thread")?;
         Ok(InterpTask {
+            user_m,
+            user_m_tickets: 0,
             status: bus.status_subscriber()?,
             control: bus.control_subscriber()?,
             // lossless: command samples are never dropped, and the rest is rare
@@ -545,8 +557,11 @@ impl InterpTask {
             from_line,
             job_id,
         );
-        let checked = setup
-            .and_then(|(machine, setup)| check_job(path, &machine, &setup).map(|c| (machine, c)));
+        let user_m_dir = self.cfg.user_m_dir.clone();
+        let checked = setup.and_then(|(machine, mut setup)| {
+            setup.user_m_codes = Some(user_m_dir);
+            check_job(path, &machine, &setup).map(|c| (machine, c))
+        });
         let (machine, (text, options, checked, _, _)) = match checked {
             Ok(p) => p,
             Err(msg) => {
@@ -562,7 +577,10 @@ impl InterpTask {
             path,
             &machine,
             &options,
-            crate::plan_samples::sequencer_config(&machine),
+            softnc_planner::machine_sequencer::SequencerConfig {
+                user_m_timeout_s: self.cfg.config.user_m_timeout_s,
+                ..crate::plan_samples::sequencer_config(&machine)
+            },
             crate::plan_samples::initial_state(options.params.as_ref()),
         );
         let sequencer = match sequencer {
@@ -668,6 +686,7 @@ impl InterpTask {
             operator_wait_seq: None,
             message_noted: None,
             printed_noted: None,
+            user_m: None,
             _job: std::marker::PhantomData,
         })
     }
@@ -678,6 +697,11 @@ impl InterpTask {
     pub fn cycle(&mut self, s: &mut Streaming<'_>) -> Result<Option<JobEnd>> {
         let end = self.step(s)?;
         if let Some(end) = end {
+            // a user M code still running is killed with its job
+            if let Some((_, ticket, None)) = s.user_m {
+                self.user_m
+                    .request(crate::user_m::Request::Cancel { ticket });
+            }
             self.state = match (end, self.state) {
                 // stopped by a fault or an E-stop: that stands until a reset
                 (JobEnd::Aborted, st @ (MachineState::Faulted | MachineState::EStopped)) => st,
@@ -972,7 +996,38 @@ impl InterpTask {
         let stop = s.it.machine_stop();
         let mut fb = s.heard.feedback_for(s.next_seq);
         fb.resume = s.resume_at_stop;
+        // the user M code of this stop: how its executable ended
+        while let Some(r) = self.user_m.report() {
+            if let Some(u) = s.user_m.as_mut().filter(|u| u.1 == r.ticket) {
+                u.2 = Some(r.outcome);
+            }
+        }
+        if let Some((_, _, Some(outcome))) = s.user_m.filter(|u| Some(u.0) == stop) {
+            match outcome {
+                crate::user_m::Outcome::Exited(0) => fb.user_command_done = true,
+                o => fb.user_command_failed = Some(o.status()),
+            }
+        }
         let step = s.machine.step(sample.motion, stop, &fb);
+        if let (Action::Wait(Waiting::UserCommand { code, p, q }), Some(m)) = (step.action, stop) {
+            if s.user_m.is_none_or(|u| u.0 != m) {
+                // the path stands at it: start it (on the runner's thread)
+                self.user_m_tickets += 1;
+                let ticket = self.user_m_tickets;
+                let queued =
+                    self.user_m
+                        .request(crate::user_m::Request::Run { ticket, code, p, q });
+                let outcome = (!queued).then_some(crate::user_m::Outcome::NotStarted);
+                s.user_m = Some((m, ticket, outcome));
+            }
+        }
+        if let (Action::Fail(_), Some((m, ticket, None))) = (step.action, s.user_m) {
+            if Some(m) == stop {
+                // past its timeout: killed
+                self.user_m
+                    .request(crate::user_m::Request::Cancel { ticket });
+            }
+        }
         if stop.is_some() && fb.applied_motion.is_some_and(|m| Some(m) >= stop) {
             // the resume was heard at this stop
             s.resume_at_stop = false;
@@ -982,18 +1037,25 @@ impl InterpTask {
         }
         // (a print does not stop the path: it is reached with the next motion's first
         // sample, before a message there)
+        // an M66's result (#5399) for the operator and the job's record
+        if let Some(r) = step.input_result {
+            let mut msg = FixedStr::<256>::empty();
+            let _ = write!(msg, "{r}");
+            self.raise(AlarmCode::Note, msg)?;
+        }
+        // (texts with #5399 after an M66 are filled in with the machine's value)
         if let Some(i) = step.state.printed.filter(|&i| Some(i) != s.printed_noted) {
             s.printed_noted = Some(i);
-            let text = s.machine.message_text(i).unwrap_or("").trim();
             let mut msg = FixedStr::<256>::empty();
-            let _ = write!(msg, "print: {text}");
+            let _ = write!(msg, "print: ");
+            let _ = s.machine.write_message(i, &mut msg);
             self.raise(AlarmCode::Note, msg)?;
         }
         if let Some(i) = step.state.message.filter(|&i| Some(i) != s.message_noted) {
             s.message_noted = Some(i);
             let mut msg = FixedStr::<256>::empty();
-            let text = s.machine.message_text(i).unwrap_or("").trim();
-            let _ = write!(msg, "message: {text}");
+            let _ = write!(msg, "message: ");
+            let _ = s.machine.write_message(i, &mut msg);
             self.raise(AlarmCode::Note, msg)?;
         }
         let waiting = match step.action {

@@ -58,6 +58,9 @@ pub struct JobSetup {
     pub from_line: Option<u32>,
     /// Folders searched for subroutine files.
     pub subroutine_path: Vec<std::path::PathBuf>,
+    /// The user M codes' folder (`Loaded::user_m_dir`); `None`: every user M code
+    /// is refused.
+    pub user_m_codes: Option<std::path::PathBuf>,
     /// The modal state the last MDI command or job left (G-code run first).
     pub preamble: Option<String>,
     /// The file the preamble came from (for its errors).
@@ -91,6 +94,7 @@ impl JobSetup {
             // released by the machine sequencer
             wait_at_machine_stops: true,
             subroutine_path: self.subroutine_path.clone(),
+            user_m_codes: self.user_m_codes.clone(),
             preamble: self.preamble.clone(),
             preamble_file: self.preamble_file.clone(),
             subroutines: self.subroutines.clone(),

@@ -48,3 +48,4 @@ pub mod position;
 pub mod prep;
 pub mod supervisor;
 pub mod trace;
+pub mod user_m;

@@ -204,6 +204,7 @@ impl MachineStore {
             switches,
             from_line,
             subroutine_path: Vec::new(),
+            user_m_codes: None,
             preamble: checked.preamble,
             preamble_file: checked.preamble_file,
             subroutines: softnc_gcode::SubroutineFiles {

@@ -9,7 +9,9 @@
 //! no operator: a tool change waits for the simulated tool changer's
 //! `tool-changed` — or, on a machine whose profile maps no `ToolChanged` input (no
 //! changer: the daemon asks its operator), is done at once, as by an operator who
-//! resumes at the prompt — and a program stop (M0/M1) does not wait.
+//! resumes at the prompt — and a program stop (M0/M1) does not wait. It runs no
+//! user M code (M100–M199): each is taken as done (exit status 0) as soon as the
+//! machine has its stop.
 
 use softnc_planner::machine_sequencer::{
     Action, FeedbackHistory, MachineSequencer, SequencerConfig, SequencerState,
@@ -21,8 +23,9 @@ use std::rc::Rc;
 
 /// The sequencer's figures from the machine profile: the interpolation cycle and
 /// the spindle's at-speed timeout (`servo.io.at_speed_timeout_s`; no I/O map: no
-/// timeout, the spindle reads at speed). User M codes are refused before motion
-/// (no folder), so they have no timeout here.
+/// timeout, the spindle reads at speed). No user M-code timeout: the offline
+/// simulator takes them as done at once, and the interpolation process sets the
+/// daemon configuration's `user_m_timeout_s`.
 pub fn sequencer_config(profile: &softnc_machine::MachineProfile) -> SequencerConfig {
     SequencerConfig {
         cycle_s: profile.interpolation_cycle_s,
@@ -181,6 +184,8 @@ impl Iterator for PlanSamples<'_> {
         if let Some(m) = self.machine.as_mut() {
             let mut fb = m.heard.borrow().feedback_for(m.n);
             fb.resume = m.operator_resumes;
+            // a user M code is not run here: done as soon as the machine has it
+            fb.user_command_done = true;
             let step = m.seq.step(s.motion, self.it.machine_stop(), &fb);
             c.outputs = step.state.outputs;
             match step.action {

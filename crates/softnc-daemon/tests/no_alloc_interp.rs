@@ -143,6 +143,14 @@ fn run_counted_with(
             1,
         );
     }
+    // a user M code (M101) in the default folder, beside the data directory
+    std::fs::create_dir_all(&loaded.user_m_dir).unwrap();
+    let m101 = loaded.user_m_dir.join("M101");
+    std::fs::write(&m101, "#!/bin/sh\nexit 0\n").unwrap();
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&m101, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
     let names = ServiceNames::new(&loaded.config.service_prefix, &loaded.config.instance);
     let ahead = loaded.config.lookahead_samples as u64;
     let mut task = InterpTask::new(loaded).unwrap();
@@ -391,12 +399,15 @@ fn a_learned_job_fading_its_correction_out_allocates_nothing_on_the_cycle() {
 
 #[test]
 fn a_job_with_machine_stops_allocates_nothing_on_the_cycle() {
-    // the spindle, coolant, a message, a tool change and synchronised outputs, each
-    // machine stop waiting `lookahead` samples for the machine to apply it: the
-    // counted cycles pass M8, the print and message, M6 and M62 (formatted in place)
+    // the spindle, coolant, a message, M66 and a (DEBUG,…) showing its result, a
+    // user M code, a tool change and synchronised outputs, each machine stop
+    // waiting `lookahead` samples for the machine to apply it: the counted cycles
+    // pass the print and message, the M66 (its result noted), the debug text
+    // filled in with it and the start of M101 (its executable started by the
+    // runner thread, its end heard back) (formatted in place)
     let counted = run_counted(
         "machine",
-        "G21 G90 G17\nG0 X0 Y0 Z0\nS1000 M3\nM8\nG1 X0.5 F600\n(PRINT, printed)\n(MSG, hello)\nT2 M6\nM62 P1\nG1 X1\nM63 P1\nG1 X1.5\nM9\nM5\nG1 X2\nM2\n",
+        "G21 G90 G17\nG0 X0 Y0 Z0\nS1000 M3\nM8\nG1 X0.5 F600\n(PRINT, printed)\n(MSG, hello)\nM66 P0 L0\n(DEBUG, got %d#5399)\nM101 P1 Q2\nT2 M6\nM62 P1\nG1 X1\nM63 P1\nG1 X1.5\nM9\nM5\nG1 X2\nM2\n",
         false,
         &[],
     );
@@ -404,8 +415,15 @@ fn a_job_with_machine_stops_allocates_nothing_on_the_cycle() {
     assert!(counted.heartbeats >= 1, "a heartbeat while counted");
     assert_eq!(
         counted.notes,
-        ["print: printed", "message: hello"],
-        "the print (for the record) and the message, in order"
+        [
+            "print: printed",
+            "message: hello",
+            "M66 P0 (line 8): 0 (#5399)",
+            "message: got 0",
+            "prompt: running M101 1.000000 2.000000"
+        ],
+        "the print (for the record), the message, M66's result, the debug text, M101's \
+         prompt, in order (M101 exited 0: the job completed)"
     );
     let outputs: Vec<softnc_core::machine_io::MachineOutputs> =
         counted.samples.iter().map(|c| c.outputs.into()).collect();

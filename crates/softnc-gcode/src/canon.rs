@@ -236,9 +236,9 @@ pub enum MachineOp {
     UserM {
         /// 100..=199.
         code: u8,
-        /// P (0 when not given, as LinuxCNC passes it).
+        /// P (−1 when not given: LinuxCNC's `p_number`, passed as it stands).
         p: f64,
-        /// Q (0 when not given).
+        /// Q (−1 when not given).
         q: f64,
     },
     /// M48–M53: an override switch on or off.

@@ -1049,8 +1049,11 @@ impl<'a> Interp<'a> {
                 let expanded = self
                     .expand_comment(&text[tag.len()..])
                     .map_err(|k| (off, k))?;
+                // (an M66's result is shown as `#5399`: known at the machine only)
+                let mut shown = String::new();
+                let _ = crate::write_message(&mut shown, &expanded, None);
                 self.warnings
-                    .push(format!("{}:{line_no}: {what}: {expanded}", self.file));
+                    .push(format!("{}:{line_no}: {what}: {shown}", self.file));
                 if let Some(kind) = kind {
                     self.push_message(line_no, kind, &expanded);
                 }
@@ -2671,7 +2674,7 @@ fn read_source<'t>(
                     }
                 }
                 if it.m66_read.get() {
-                    it.check_5399_read()
+                    it.check_5399_read(raw)
                         .map_err(|x| err_in(src_name, line_no, raw, x))?;
                 }
             }

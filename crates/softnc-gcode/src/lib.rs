@@ -96,20 +96,91 @@ pub struct ReadOptions {
 
 /// M66 (wait for an input) puts the input's value in #5399 when the machine gets
 /// there. LinuxCNC's interpreter stops reading ahead at an M66 and reads on once
-/// the wait is done; softnc reads the whole program before motion, so it cannot
-/// know the value. After an M66 #5399 holds the value rs274's stand-alone
+/// the wait is done (`convert_m` sets `input_flag`, `execute_block` returns
+/// `INTERP_EXECUTE_FINISH`, and the next `Interp::read` puts
+/// `GET_EXTERNAL_DIGITAL_INPUT`/`GET_EXTERNAL_ANALOG_INPUT` in #5399: the input's
+/// value, −1 after a timeout); softnc reads the whole program before motion, so it
+/// cannot know the value. After an M66 #5399 holds the value rs274's stand-alone
 /// interpreter gives it (digital: `#5399 != 0` as 0/1; analog: unchanged), and
 /// this says whether a program may read it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum M66Results {
-    /// A read of #5399 after an M66 refuses the program (`Unsupported`, at the line
-    /// that reads it): what runs never depends on a value the plan guessed. Jobs
-    /// are read so.
+    /// A read of #5399 after an M66 refuses the program (`Unsupported`, at the
+    /// `#5399` that reads it) — in an expression, an assignment, a word, an O-word
+    /// condition: what moves never depends on a value the plan guessed — except in
+    /// a `(DEBUG,…)` or `(PRINT,…)` comment, whose text keeps the place
+    /// ([`M66_RESULT_MARK`]) for the machine sequencer to fill in with the value
+    /// the machine gave when the path reaches it ([`write_message`]). Jobs are
+    /// read so.
     #[default]
     Refuse,
     /// Read on with rs274's stand-in value, as its stand-alone interpreter does
     /// (`softnc plan --canon`, the conformance corpus).
     StandIn,
+}
+
+/// In a message text ([`Program::messages`]), the place of a `#5399` read after an
+/// M66 (with [`M66Results::Refuse`]): this character, then one ASCII digit, the
+/// decimals it is shown with (`%d`: 0, `%f`: 4, `%.Nf`: N, else 6).
+pub const M66_RESULT_MARK: char = '\u{1}';
+
+/// Writes `v` as a `(DEBUG,…)`/`(PRINT,…)` comment shows a parameter (LinuxCNC's
+/// `convert_param_comment`: `%.Nf`, 0 within `TOLERANCE_EQUAL`, `######` where
+/// the text would be 30 characters or more). Allocates nothing.
+pub fn write_param_value(
+    out: &mut impl std::fmt::Write,
+    v: f64,
+    decimals: usize,
+) -> std::fmt::Result {
+    struct Count(usize);
+    impl std::fmt::Write for Count {
+        fn write_str(&mut self, s: &str) -> std::fmt::Result {
+            self.0 += s.len();
+            Ok(())
+        }
+    }
+    let v = if v.abs() < expr::TOLERANCE_EQUAL {
+        0.0
+    } else {
+        v
+    };
+    let mut n = Count(0);
+    std::fmt::Write::write_fmt(&mut n, format_args!("{v:.decimals$}"))?;
+    if n.0 >= 30 {
+        out.write_str("######")
+    } else {
+        out.write_fmt(format_args!("{v:.decimals$}"))
+    }
+}
+
+/// Writes message text `text` with each [`M66_RESULT_MARK`] replaced by
+/// `m66_result` as the comment shows a parameter ([`write_param_value`]), or by
+/// `#5399` where no M66 has given a value (`None`). Allocates nothing.
+pub fn write_message(
+    out: &mut impl std::fmt::Write,
+    text: &str,
+    m66_result: Option<f64>,
+) -> std::fmt::Result {
+    let mut rest = text;
+    while let Some(k) = rest.find(M66_RESULT_MARK) {
+        out.write_str(&rest[..k])?;
+        let after = &rest[k + M66_RESULT_MARK.len_utf8()..];
+        let (decimals, tail) = match after.as_bytes().first() {
+            Some(d) if d.is_ascii_digit() => (usize::from(d - b'0'), &after[1..]),
+            _ => (6, after),
+        };
+        match m66_result {
+            Some(v) => write_param_value(out, v, decimals)?,
+            None => out.write_str("#5399")?,
+        }
+        rest = tail;
+    }
+    out.write_str(rest)
+}
+
+/// Whether message text `text` shows an M66 result filled in at run time.
+pub fn message_shows_m66_result(text: &str) -> bool {
+    text.contains(M66_RESULT_MARK)
 }
 
 /// A subroutine file a reading took in: found on the search path or beside the

@@ -166,6 +166,8 @@ impl OutputsWire {
     const MIST: u32 = 1;
     const FLOOD: u32 = 2;
     const TOOL_CHANGE: u32 = 4;
+    /// Bits 8–9: M19's orient direction (0 shorter way, 1 cw, 2 ccw).
+    const ORIENT_DIR_SHIFT: u32 = 8;
 }
 
 impl From<MachineOutputs> for OutputsWire {
@@ -176,7 +178,8 @@ impl From<MachineOutputs> for OutputsWire {
             spindle_orient_deg: o.spindle_orient_deg.unwrap_or(f64::NAN),
             flags: bit(o.coolant_mist, Self::MIST)
                 | bit(o.coolant_flood, Self::FLOOD)
-                | bit(o.tool_change, Self::TOOL_CHANGE),
+                | bit(o.tool_change, Self::TOOL_CHANGE)
+                | u32::from(o.spindle_orient_dir & 3) << Self::ORIENT_DIR_SHIFT,
             spindle_dir: match o.spindle_dir {
                 SpindleDir::Stopped => 0,
                 SpindleDir::Clockwise => 1,
@@ -198,6 +201,7 @@ impl From<OutputsWire> for MachineOutputs {
             },
             spindle_rpm: w.spindle_rpm,
             spindle_orient_deg: (!w.spindle_orient_deg.is_nan()).then_some(w.spindle_orient_deg),
+            spindle_orient_dir: (w.flags >> OutputsWire::ORIENT_DIR_SHIFT & 3) as u8,
             coolant_mist: w.flags & OutputsWire::MIST != 0,
             coolant_flood: w.flags & OutputsWire::FLOOD != 0,
             tool_change: w.flags & OutputsWire::TOOL_CHANGE != 0,
@@ -236,6 +240,7 @@ impl InputsWire {
     const ESTOP_OPEN: u32 = 2;
     const PROBE: u32 = 4;
     const TOOL_CHANGED: u32 = 8;
+    const ORIENTED: u32 = 16;
 }
 
 impl From<MachineInputs> for InputsWire {
@@ -248,7 +253,8 @@ impl From<MachineInputs> for InputsWire {
             flags: bit(i.spindle_at_speed, Self::AT_SPEED)
                 | bit(i.estop_open, Self::ESTOP_OPEN)
                 | bit(i.probe, Self::PROBE)
-                | bit(i.tool_changed, Self::TOOL_CHANGED),
+                | bit(i.tool_changed, Self::TOOL_CHANGED)
+                | bit(i.spindle_oriented, Self::ORIENTED),
             limit_min: i.limit_min,
             limit_max: i.limit_max,
             home: i.home,
@@ -265,6 +271,7 @@ impl From<InputsWire> for MachineInputs {
             spindle_revs: w.spindle_revs,
             spindle_index_count: w.spindle_index_count,
             spindle_at_speed: w.flags & InputsWire::AT_SPEED != 0,
+            spindle_oriented: w.flags & InputsWire::ORIENTED != 0,
             estop_open: w.flags & InputsWire::ESTOP_OPEN != 0,
             probe: w.flags & InputsWire::PROBE != 0,
             tool_changed: w.flags & InputsWire::TOOL_CHANGED != 0,
@@ -593,6 +600,7 @@ mod tests {
                 spindle_dir: SpindleDir::CounterClockwise,
                 spindle_rpm: 8000.0,
                 spindle_orient_deg: Some(90.0),
+                spindle_orient_dir: 2,
                 coolant_mist: false,
                 coolant_flood: true,
                 tool_change: true,
@@ -608,6 +616,7 @@ mod tests {
             spindle_revs: 3.25,
             spindle_index_count: 3,
             spindle_at_speed: true,
+            spindle_oriented: true,
             estop_open: true,
             probe: false,
             tool_changed: true,

@@ -117,9 +117,14 @@ impl SequencerState {
                 o.spindle_dir = SpindleDir::Stopped;
                 o.spindle_orient_deg = None;
             }
-            MachineOp::SpindleOrient { angle_deg, .. } => {
+            MachineOp::SpindleOrient {
+                angle_deg,
+                direction,
+                ..
+            } => {
                 o.spindle_dir = SpindleDir::Stopped;
                 o.spindle_orient_deg = Some(angle_deg);
+                o.spindle_orient_dir = direction;
             }
             MachineOp::Coolant { mist, flood } => {
                 o.coolant_mist = mist;
@@ -173,6 +178,9 @@ pub struct Feedback {
     pub resume: bool,
     /// The user M code the path waits at has finished (its executable exited 0).
     pub user_command_done: bool,
+    /// The user M code the path waits at has failed: its executable's exit status
+    /// (−1: it could not be started, or a signal ended it).
+    pub user_command_failed: Option<i32>,
 }
 
 /// The machine's reports as a loop running `lookahead` samples ahead of the sample
@@ -254,6 +262,12 @@ pub enum Waiting {
         /// How.
         mode: WaitMode,
     },
+    /// M19 with Q: the spindle to report itself oriented (LinuxCNC's
+    /// `spindle.N.is-oriented`, `WAIT_ORIENT_SPINDLE_COMPLETE`).
+    SpindleOriented {
+        /// The angle (degrees).
+        angle_deg: f64,
+    },
     /// A user M code's executable to finish.
     UserCommand {
         /// 100..=199.
@@ -279,7 +293,10 @@ impl std::fmt::Display for Waiting {
                 };
                 write!(f, "waiting for input {letter}{n} ({mode:?})")
             }
-            Waiting::UserCommand { code, .. } => write!(f, "running M{code}"),
+            Waiting::SpindleOriented { angle_deg } => {
+                write!(f, "waiting for the spindle to orient to {angle_deg} deg")
+            }
+            Waiting::UserCommand { code, p, q } => write!(f, "running M{code} {p:.6} {q:.6}"),
         }
     }
 }
@@ -296,6 +313,30 @@ pub enum SequencerError {
         rpm: f64,
         /// How long it waited (s).
         waited_s: f64,
+    },
+    /// M19 with Q: the spindle did not report itself oriented within Q seconds
+    /// (LinuxCNC: "wait for orient complete: TIMED OUT", an error that stops the
+    /// program).
+    #[error("line {line}: the spindle did not orient to {angle_deg} deg within {waited_s:.1} s")]
+    SpindleNotOriented {
+        /// Source line of the M19.
+        line: u32,
+        /// The angle (degrees).
+        angle_deg: f64,
+        /// How long it waited (s).
+        waited_s: f64,
+    },
+    /// A user M code's executable exited with a status other than 0 (LinuxCNC's
+    /// task: "system command … exited abnormally", an error that stops the
+    /// program).
+    #[error("line {line}: M{code} exited with status {status}")]
+    UserCommandFailed {
+        /// Source line.
+        line: u32,
+        /// 100..=199.
+        code: u8,
+        /// Its exit status (−1: not started, or ended by a signal).
+        status: i32,
     },
     /// A user M code did not finish within the profile's timeout.
     #[error("line {line}: M{code} did not finish within {waited_s:.1} s")]
@@ -330,6 +371,38 @@ pub struct Step {
     pub state: SequencerState,
     /// What to do with the machine stop.
     pub action: Action,
+    /// An M66 released on this step: its result (what #5399 holds from here on).
+    pub input_result: Option<InputResult>,
+}
+
+/// What an M66 gave: LinuxCNC's #5399 after it (`GET_EXTERNAL_DIGITAL_INPUT`:
+/// the input as 0/1, `GET_EXTERNAL_ANALOG_INPUT`: its value; −1 after a
+/// timeout, `emcStatus->task.input_timeout == 1`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InputResult {
+    /// Source line of the M66.
+    pub line: u32,
+    /// The input waited for.
+    pub input: WaitInput,
+    /// #5399.
+    pub value: f64,
+    /// The wait timed out (`value` is −1).
+    pub timed_out: bool,
+}
+
+impl std::fmt::Display for InputResult {
+    /// For the operator: `M66 P0: 1 (#5399)`, `M66 P0: timed out: -1 (#5399)`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (letter, n) = match self.input {
+            WaitInput::Digital(p) => ('P', u32::from(p)),
+            WaitInput::Analog(e) => ('E', u32::from(e)),
+        };
+        write!(f, "M66 {letter}{n} (line {}): ", self.line)?;
+        if self.timed_out {
+            write!(f, "timed out: ")?;
+        }
+        write!(f, "{} (#5399)", self.value)
+    }
 }
 
 /// A machine stop as the table holds it.
@@ -450,6 +523,59 @@ impl SequencerBuilder {
     }
 }
 
+/// M66's input in `inputs`: its level (an analog one: not 0) and its value
+/// (a digital one: 0/1).
+fn input_level(input: WaitInput, inputs: &MachineInputs) -> (bool, f64) {
+    match input {
+        WaitInput::Digital(p) => {
+            let on = inputs.digital >> p & 1 == 1;
+            (on, f64::from(u8::from(on)))
+        }
+        WaitInput::Analog(e) => {
+            let v = inputs.analog.get(usize::from(e)).copied().unwrap_or(0.0);
+            (v != 0.0, v)
+        }
+    }
+}
+
+/// Whether M66's wait `mode` is met at `level`, the level seen before `before`.
+fn input_met(mode: WaitMode, before: Option<bool>, level: bool) -> bool {
+    match mode {
+        WaitMode::Immediate => true,
+        WaitMode::High => level,
+        WaitMode::Low => !level,
+        WaitMode::Rise => before == Some(false) && level,
+        WaitMode::Fall => before == Some(true) && !level,
+    }
+}
+
+/// A user M code's stop: released when its executable exited 0, failed on another
+/// status or past the timeout (`timed_out`), else waiting (`waiting`).
+fn user_command(
+    fb: &Feedback,
+    timed_out: bool,
+    waiting: Waiting,
+    line: u32,
+    waited_s: f64,
+) -> Action {
+    let Waiting::UserCommand { code, .. } = waiting else {
+        return Action::Wait(waiting);
+    };
+    if fb.user_command_done {
+        Action::Release
+    } else if let Some(status) = fb.user_command_failed {
+        Action::Fail(SequencerError::UserCommandFailed { line, code, status })
+    } else if timed_out {
+        Action::Fail(SequencerError::UserCommandTimeout {
+            line,
+            code,
+            waited_s,
+        })
+    } else {
+        Action::Wait(waiting)
+    }
+}
+
 /// The machine around the axes during one job (see the module).
 #[derive(Debug, Clone)]
 pub struct MachineSequencer {
@@ -462,7 +588,7 @@ pub struct MachineSequencer {
     change_cursor: usize,
     stop_cursor: usize,
     wait: Option<WaitState>,
-    input_result: Option<f64>,
+    input_result: Option<InputResult>,
 }
 
 impl MachineSequencer {
@@ -525,6 +651,11 @@ impl MachineSequencer {
             MachineOp::ToolChange { tool } => Some(Waiting::ToolChange { tool }),
             MachineOp::WaitInput { input, mode, .. } => Some(Waiting::Input { input, mode }),
             MachineOp::UserM { code, p, q } => Some(Waiting::UserCommand { code, p, q }),
+            MachineOp::SpindleOrient {
+                angle_deg,
+                timeout_s,
+                ..
+            } if timeout_s > 0.0 => Some(Waiting::SpindleOriented { angle_deg }),
             _ => None,
         }
     }
@@ -534,10 +665,21 @@ impl MachineSequencer {
         self.messages.get(index as usize).map(String::as_str)
     }
 
-    /// The result of the last M66 (what LinuxCNC puts in #5399: the input's value,
-    /// or −1 where the wait timed out).
+    /// The result of the last M66 released (what LinuxCNC puts in #5399: the
+    /// input's value, or −1 where the wait timed out).
     pub fn input_result(&self) -> Option<f64> {
-        self.input_result
+        self.input_result.map(|r| r.value)
+    }
+
+    /// Writes message `index` as the operator sees it now: its text with #5399
+    /// read after an M66 filled in with the last M66's result
+    /// ([`softnc_gcode::write_message`]) — LinuxCNC reads no further than an M66
+    /// until the wait is done, so a `(DEBUG,…)`/`(PRINT,…)` after it shows the
+    /// machine's value; the path reaches the message only after the M66 was
+    /// released. Trimmed; allocates nothing.
+    pub fn write_message(&self, index: u32, out: &mut impl std::fmt::Write) -> std::fmt::Result {
+        let text = self.message_text(index).unwrap_or("").trim();
+        softnc_gcode::write_message(out, text, self.input_result())
     }
 
     /// One cycle: the state for the sample of motion `sample_motion` and, where the
@@ -545,6 +687,7 @@ impl MachineSequencer {
     /// ([`crate::StreamInterpolator::machine_stop`]), whether it may go on.
     pub fn step(&mut self, sample_motion: u32, machine_stop: Option<u32>, fb: &Feedback) -> Step {
         let state = self.state_at(sample_motion);
+        let before = self.input_result;
         let action = match machine_stop {
             None => {
                 self.wait = None;
@@ -552,7 +695,15 @@ impl MachineSequencer {
             }
             Some(m) => self.at_stop(m, fb),
         };
-        Step { state, action }
+        let input_result = match action {
+            Action::Release if self.input_result != before => self.input_result,
+            _ => None,
+        };
+        Step {
+            state,
+            action,
+            input_result,
+        }
     }
 
     fn at_stop(&mut self, motion: u32, fb: &Feedback) -> Action {
@@ -603,49 +754,52 @@ impl MachineSequencer {
                 mode,
                 timeout_s,
             } => {
-                let (level, value) = match input {
-                    WaitInput::Digital(p) => {
-                        let on = inputs.digital >> p & 1 == 1;
-                        (on, f64::from(u8::from(on)))
-                    }
-                    WaitInput::Analog(e) => {
-                        let v = inputs.analog.get(usize::from(e)).copied().unwrap_or(0.0);
-                        (v != 0.0, v)
-                    }
-                };
-                let before = w.last_level.replace(level);
-                let met = match mode {
-                    WaitMode::Immediate => true,
-                    WaitMode::High => level,
-                    WaitMode::Low => !level,
-                    WaitMode::Rise => before == Some(false) && level,
-                    WaitMode::Fall => before == Some(true) && !level,
+                let (level, value) = input_level(input, inputs);
+                let met = input_met(mode, w.last_level.replace(level), level);
+                let result = |value: f64, timed_out: bool| InputResult {
+                    line: stop.line,
+                    input,
+                    value,
+                    timed_out,
                 };
                 if met {
-                    self.input_result = Some(value);
+                    self.input_result = Some(result(value, false));
                     Action::Release
                 } else if timed_out(timeout_s) {
-                    self.input_result = Some(-1.0);
+                    self.input_result = Some(result(-1.0, true));
                     Action::Release
                 } else {
                     Action::Wait(Waiting::Input { input, mode })
                 }
             }
-            MachineOp::UserM { code, p, q } => {
-                if fb.user_command_done {
+            MachineOp::UserM { code, p, q } => user_command(
+                fb,
+                timed_out(self.cfg.user_m_timeout_s),
+                Waiting::UserCommand { code, p, q },
+                stop.line,
+                waited_s,
+            ),
+            // M19 with Q (`WAIT_ORIENT_SPINDLE_COMPLETE`): until the spindle is
+            // oriented, an error past Q; without Q LinuxCNC does not wait
+            MachineOp::SpindleOrient {
+                angle_deg,
+                timeout_s,
+                ..
+            } if timeout_s > 0.0 => {
+                if inputs.spindle_oriented {
                     Action::Release
-                } else if timed_out(self.cfg.user_m_timeout_s) {
-                    Action::Fail(SequencerError::UserCommandTimeout {
+                } else if timed_out(timeout_s) {
+                    Action::Fail(SequencerError::SpindleNotOriented {
                         line: stop.line,
-                        code,
+                        angle_deg,
                         waited_s,
                     })
                 } else {
-                    Action::Wait(Waiting::UserCommand { code, p, q })
+                    Action::Wait(Waiting::SpindleOriented { angle_deg })
                 }
             }
-            // spindle off, M19, coolant, immediate outputs, messages: done once the
-            // machine has them
+            // spindle off, M19 without Q, coolant, immediate outputs, messages: done
+            // once the machine has them
             _ => Action::Release,
         }
     }

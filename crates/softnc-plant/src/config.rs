@@ -277,6 +277,25 @@ pub struct SpindleModel {
     pub max_rpm: f64,
     /// Encoder counts per revolution (one index pulse per revolution).
     pub encoder_counts_per_rev: u32,
+    /// M19: the highest speed the drive turns at while it orients the spindle
+    /// (rpm; LinuxCNC's `orient` component's search speed).
+    #[serde(default = "default_orient_rpm")]
+    pub orient_rpm: f64,
+    /// M19: the spindle is oriented (LinuxCNC's `spindle.N.is-oriented`) while
+    /// its encoder's angle from the index is within this of the angle asked
+    /// (degrees; the `orient` component's `tolerance`).
+    #[serde(default = "default_orient_band_deg")]
+    pub orient_band_deg: f64,
+}
+
+/// LinuxCNC's `orient` examples search at about a revolution a second.
+fn default_orient_rpm() -> f64 {
+    60.0
+}
+
+/// Half a degree: a few counts of a 4096-count encoder.
+fn default_orient_band_deg() -> f64 {
+    0.5
 }
 
 impl SpindleModel {
@@ -312,6 +331,17 @@ impl SpindleModel {
                 file,
                 format!("{prefix}.encoder_counts_per_rev"),
                 "must be at least 1",
+            ));
+        }
+        positive(self.orient_rpm, &format!("{prefix}.orient_rpm"), file)?;
+        let count_deg = 360.0 / f64::from(self.encoder_counts_per_rev);
+        if !(self.orient_band_deg >= count_deg && self.orient_band_deg < 180.0) {
+            return Err(ConfigError::invalid(
+                file,
+                format!("{prefix}.orient_band_deg"),
+                format!(
+                    "must be at least one encoder count ({count_deg:.4} deg) and below 180 deg"
+                ),
             ));
         }
         Ok(())

@@ -166,6 +166,7 @@ pub fn spindle_follows_its_command<B: ServoBackend>(
                 enable,
                 reverse,
                 rpm: SPINDLE_RPM,
+                ..SpindleCommand::default()
             },
             ..RawOutputs::default()
         };

@@ -61,6 +61,13 @@ pub struct SpindleCommand {
     pub reverse: bool,
     /// Speed (rpm, ≥ 0): the programmed speed × spindle override.
     pub rpm: f64,
+    /// M19: position the spindle to this angle from its encoder's index
+    /// (degrees; LinuxCNC's `spindle.N.orient-angle` with `orient` high); `None`:
+    /// not orienting.
+    pub orient_deg: Option<f64>,
+    /// M19 P: 0 the shorter way, 1 clockwise, 2 counter-clockwise
+    /// (`spindle.N.orient-mode`).
+    pub orient_dir: u8,
 }
 
 impl SpindleCommand {
@@ -83,6 +90,8 @@ pub struct SpindleFeedback {
     pub revs: f64,
     /// Index pulses seen.
     pub index_count: u64,
+    /// The spindle stands at the orient angle asked (`spindle.N.is-oriented`).
+    pub oriented: bool,
 }
 
 /// What is written to a backend's I/O before a cycle.
@@ -216,6 +225,8 @@ pub struct MachineIo {
     last_out: MachineOutputs,
     /// The spindle's command last written (signed rpm, × override).
     commanded_rpm: f64,
+    /// The spindle's command last written orients it (M19).
+    orienting: bool,
     last_in: MachineInputs,
 }
 
@@ -311,6 +322,7 @@ impl MachineIo {
             estop_now: false,
             last_out: MachineOutputs::safe(),
             commanded_rpm: 0.0,
+            orienting: false,
             last_in: MachineInputs::default(),
         }
     }
@@ -331,7 +343,10 @@ impl MachineIo {
             enable: o.spindle_dir != SpindleDir::Stopped,
             reverse: o.spindle_dir == SpindleDir::CounterClockwise,
             rpm: o.spindle_rpm * ovr,
+            orient_deg: o.spindle_orient_deg,
+            orient_dir: o.spindle_orient_dir,
         };
+        self.orienting = spindle.orient_deg.is_some();
         self.commanded_rpm = spindle.signed_rpm();
         self.last_out = o;
         let mut raw = RawOutputs {
@@ -389,9 +404,12 @@ impl MachineIo {
             m.spindle_rpm = raw.spindle.rpm;
             m.spindle_revs = raw.spindle.revs;
             m.spindle_index_count = raw.spindle.index_count;
+            m.spindle_oriented = self.orienting && raw.spindle.oriented;
         } else {
-            // no feedback: the spindle is taken to turn as commanded (open loop)
+            // no feedback: the spindle is taken to turn as commanded (open loop),
+            // and to stand where an orient asks
             m.spindle_rpm = cmd;
+            m.spindle_oriented = self.orienting;
         }
         m.spindle_at_speed = match (self.spindle_feedback, self.at_speed) {
             (true, Some((frac, min_rpm))) => {
@@ -582,7 +600,8 @@ mod tests {
             SpindleCommand {
                 enable: true,
                 reverse: true,
-                rpm: 4000.0
+                rpm: 4000.0,
+                ..SpindleCommand::default()
             }
         );
         assert_eq!(io.commanded_rpm(), -4000.0);

@@ -57,6 +57,8 @@ impl LoopbackBackend {
                 rpm: self.io_out.spindle.signed_rpm(),
                 revs: 0.0,
                 index_count: 0,
+                // (an orient command is echoed as done)
+                oriented: self.io_out.spindle.orient_deg.is_some(),
             },
         };
     }

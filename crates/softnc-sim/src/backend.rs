@@ -185,7 +185,10 @@ impl SimIo {
     fn step(&mut self, cycle_s: f64) {
         let cmd = self.out.spindle;
         if let Some(s) = &mut self.spindle {
-            s.step(cmd.enable, cmd.signed_rpm(), cycle_s);
+            match cmd.orient_deg {
+                Some(angle) => s.step_orient(angle, cmd.orient_dir, cycle_s),
+                None => s.step(cmd.enable, cmd.signed_rpm(), cycle_s),
+            }
         }
         if self.out.digital >> wiring::OUT_TOOL_CHANGE & 1 == 1 {
             self.tool_change_for = self.tool_change_for.saturating_add(1);
@@ -239,6 +242,7 @@ impl SimIo {
                         rpm: r.rpm,
                         revs: r.revs,
                         index_count: r.index_count,
+                        oriented: r.oriented,
                     }
                 }),
         };

@@ -200,6 +200,7 @@ impl MmiTask {
                 _ => None,
             },
             subroutine_path: self.cfg.subroutine_path.clone(),
+            user_m_codes: Some(self.cfg.user_m_dir.clone()),
             preamble: self.setup.modal.clone(),
             preamble_file: Some(self.setup.store.modal_path().display().to_string()),
             subroutines: softnc_gcode::SubroutineFiles {

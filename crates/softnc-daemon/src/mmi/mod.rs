@@ -1153,9 +1153,41 @@ impl MmiTask {
         let message = st
             .message
             .and_then(|i| seq.message_text(i))
-            .map(|t| t.trim().to_string());
+            .map(|t| self.message_shown(*job_id, t.trim()));
         let prompt = seq.waiting_at(s.motion).map(|w| w.to_string());
         Some((st, message, prompt))
+    }
+
+    /// A message's text as the operator sees it: with #5399 after an M66 (known
+    /// at the machine only), the text the interpolation process filled in with
+    /// the machine's value when the path reached it (the job's last `message: `
+    /// note of that form), else `#5399` in its place.
+    fn message_shown(&self, job_id: u64, text: &str) -> String {
+        if !softnc_gcode::message_shows_m66_result(text) {
+            return text.to_string();
+        }
+        let mark = softnc_gcode::M66_RESULT_MARK;
+        let head = &text[..text.find(mark).unwrap_or(0)];
+        let tail = text
+            .rfind(mark)
+            .map_or("", |k| text.get(k + mark.len_utf8() + 1..).unwrap_or(""));
+        let noted = self
+            .history
+            .jobs
+            .iter()
+            .rev()
+            .find(|j| j.job_id == job_id)
+            .and_then(|j| {
+                j.notes.iter().rev().find_map(|n| {
+                    let t = n.strip_prefix("message: ")?;
+                    (t.starts_with(head) && t.ends_with(tail)).then(|| t.to_string())
+                })
+            });
+        noted.unwrap_or_else(|| {
+            let mut shown = String::new();
+            let _ = softnc_gcode::write_message(&mut shown, text, None);
+            shown
+        })
     }
 
     /// The status the operator sees.

@@ -4,7 +4,7 @@
 //! and user M codes (M100–M199), in that order, each a [`MachineOp`] at the current
 //! point ([`MotionKind::Machine`]).
 
-use super::{bad, round_to_int, unsup, Block, Interp, R};
+use super::{bad, round_to_int, Block, Interp, R};
 use crate::canon::{
     MachineOp, MessageKind, MotionKind, OverrideSwitch, SpindleTurn, WaitInput, WaitMode,
 };
@@ -142,9 +142,10 @@ impl Interp<'_> {
             self.push_machine(line_no, MachineOp::Overrides { switch, on });
         }
         if let Some(code) = b.m_in(10) {
-            // user M codes (`enqueue_M_USER_COMMAND` with P and Q, −1 where absent)
+            // user M codes (`enqueue_M_USER_COMMAND` with P and Q, −1 where absent);
+            // one without its executable is LinuxCNC's NCE_UNKNOWN_M_CODE_USED
             if let Err(why) = self.user_m.check(code) {
-                return unsup(b.m_off(10), format!("M{code}"), &why);
+                return bad(b.m_off(10), format!("Unknown M code used: M{code} ({why})"));
             }
             self.push_machine(
                 line_no,
@@ -353,20 +354,56 @@ impl Interp<'_> {
         Ok(())
     }
 
-    /// A read of #5399 where M66's result is unknown to a reading ahead: refused.
-    pub(super) fn check_5399_read(&self) -> R<()> {
+    /// A read of #5399 where M66's result is unknown to a reading ahead: refused,
+    /// at the `#5399` of line `raw` (its first; the line's start where it is
+    /// reached otherwise, e.g. `#[5000 + 399]`). LinuxCNC reads no further than
+    /// an M66 until the machine has waited (`INTERP_EXECUTE_FINISH`, the "queue
+    /// buster"), so what follows may depend on the value; softnc checks the whole
+    /// program before motion (its soft limits, its plan), which a branch on a value
+    /// known only at the machine would escape.
+    pub(super) fn check_5399_read(&self, raw: &str) -> R<()> {
         match (self.m66_read.get(), self.m66_unknown_since) {
             (true, Some(line)) => Err((
-                0,
+                where_5399(raw),
                 ErrorKind::Unsupported {
                     word: "#5399".into(),
                     why: format!(
-                        "the result of the M66 on line {line} is known only when the machine \
-                         gets there, and softnc reads the whole program before motion"
+                        "#5399 holds the result of the M66 on line {line} only once the \
+                         machine has waited there, and softnc checks the whole program \
+                         before motion: after an M66, #5399 may be shown in (DEBUG,…) and \
+                         (PRINT,…) comments (filled in when the machine gets there), not \
+                         used in an expression, an assignment, a word or an O-word"
                     ),
                 },
             )),
             _ => Ok(()),
         }
     }
+}
+
+/// The byte offset of the first `#5399` (spaces allowed after `#`) in `raw`
+/// outside comments, else 0.
+fn where_5399(raw: &str) -> u32 {
+    let b = raw.as_bytes();
+    let mut depth = 0u32;
+    for (i, &c) in b.iter().enumerate() {
+        match c {
+            b'(' => depth += 1,
+            b')' => depth = depth.saturating_sub(1),
+            b';' if depth == 0 => break,
+            b'#' if depth == 0 => {
+                let digits: Vec<u8> = b[i + 1..]
+                    .iter()
+                    .copied()
+                    .filter(|d| *d != b' ' && *d != b'\t')
+                    .take(5)
+                    .collect();
+                if digits.starts_with(b"5399") && !digits.get(4).is_some_and(u8::is_ascii_digit) {
+                    return i as u32;
+                }
+            }
+            _ => {}
+        }
+    }
+    0
 }

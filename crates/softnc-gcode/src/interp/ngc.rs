@@ -1561,6 +1561,16 @@ impl Interp<'_> {
                             i += 1;
                         }
                         let n: usize = text[s..i].parse().unwrap_or(usize::MAX);
+                        if n == 5399 && self.m66_unknown_since.is_some() {
+                            // M66's result: filled in when the machine gets here
+                            // (`crate::write_message`), not a read of the plan's guess
+                            let mut mark = [0u8; 4];
+                            out.extend_from_slice(
+                                crate::M66_RESULT_MARK.encode_utf8(&mut mark).as_bytes(),
+                            );
+                            out.push(b'0' + decimals.min(9) as u8);
+                            continue;
+                        }
                         (n < NUM_PARAMS).then(|| Env::numbered(self, n))
                     } else if c == b'<' {
                         i += 1;
@@ -1583,23 +1593,19 @@ impl Interp<'_> {
                         out.push(b'#');
                         continue;
                     };
-                    let shown = match value {
+                    let mut shown = String::new();
+                    match value {
                         Some(v) => {
-                            let v = if v.abs() < crate::expr::TOLERANCE_EQUAL {
-                                0.0
-                            } else {
-                                v
-                            };
-                            let s = format!("{v:.decimals$}");
-                            if s.len() >= 30 {
-                                "######".to_string()
-                            } else {
-                                s
-                            }
+                            let _ = crate::write_param_value(&mut shown, v, decimals);
                         }
-                        None => "######".to_string(),
-                    };
+                        None => shown.push_str("######"),
+                    }
                     out.extend_from_slice(shown.as_bytes());
+                }
+                // (a mark of the program's own is not one of ours)
+                1 => {
+                    out.extend_from_slice("\u{FFFD}".as_bytes());
+                    i += 1;
                 }
                 c => {
                     out.push(c);

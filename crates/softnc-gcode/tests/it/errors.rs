@@ -21,6 +21,8 @@ fn err(text: &str) -> GcodeError {
 
 /// (program, line, column, text the message contains)
 const INVALID: &[(&str, u32, u32, &str)] = &[
+    // a user M code without its executable (NCE_UNKNOWN_M_CODE_USED)
+    ("M100\nM2\n", 1, 1, "Unknown M code used: M100"),
     // modal groups and repeated words
     (
         "G0 G1 X1\nM2\n",
@@ -354,7 +356,6 @@ const UNSUPPORTED: &[(&str, u32, u32, &str)] = &[
     ("G7\nM2\n", 1, 1, "G7"),
     ("G95\nM2\n", 1, 1, "G95"),
     ("G43.1 X1\nM2\n", 1, 1, "G43.1"),
-    ("M100\nM2\n", 1, 1, "M100"),
     ("M3 $1\nM2\n", 1, 4, "$1"),
     ("(py, x = 1)\nM2\n", 1, 1, "(py,"),
     (";py,x = 1\nM2\n", 1, 1, ";py,"),

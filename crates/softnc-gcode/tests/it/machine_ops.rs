@@ -201,6 +201,65 @@ fn m66_results_are_refused_where_read_unless_the_stand_in_is_asked_for() {
     assert!(read_opts("M66 P0 L3 Q1\nG0 X1\nM2\n", &ReadOptions::default()).is_ok());
 }
 
+#[test]
+fn m66_results_in_debug_and_print_are_filled_in_at_the_machine() {
+    let text =
+        "#5399 = 7\n(DEBUG, before %d#5399)\nM66 P0 L3 Q2\n(DEBUG, got #5399 then %.2f#5399)\n\
+                (PRINT, p=%d#5399)\n(MSG, #5399 is not read in a message)\nG0 X1\nM2\n";
+    let p = read(text);
+    let shown = |i: usize, v: Option<f64>| {
+        let mut s = String::new();
+        softnc_gcode::write_message(&mut s, &p.messages[i], v).unwrap();
+        s
+    };
+    // before the M66: the value at read time
+    assert_eq!(shown(0, Some(1.0)), " before 7");
+    assert!(!softnc_gcode::message_shows_m66_result(&p.messages[0]));
+    // after it: the machine's value, with the comment's format, when reached
+    assert!(softnc_gcode::message_shows_m66_result(&p.messages[1]));
+    assert_eq!(shown(1, Some(1.0)), " got 1.000000 then 1.00");
+    assert_eq!(shown(1, Some(-1.0)), " got -1.000000 then -1.00");
+    assert_eq!(shown(1, None), " got #5399 then #5399");
+    assert_eq!(shown(2, Some(0.0)), " p=0");
+    // (MSG,…) is shown as written (LinuxCNC's convert_comment: MESSAGE, no
+    // parameters), so it reads nothing
+    assert_eq!(shown(3, Some(1.0)), " #5399 is not read in a message");
+    // the check's output says the value comes from the machine
+    assert!(
+        p.warnings
+            .iter()
+            .any(|w| w.ends_with("debug:  got #5399 then #5399")),
+        "{:?}",
+        p.warnings
+    );
+}
+
+#[test]
+fn m66_results_deciding_motion_are_refused_at_the_5399_that_reads_them() {
+    for (text, line, col) in [
+        ("M66 P0 L3 Q2\nG0 X[#5399 + 1]\nM2\n", 2, 6),
+        (
+            "M66 P0 L3 Q2\no1 if [#5399 LT 0]\nG0 X1\no1 endif\nM2\n",
+            2,
+            8,
+        ),
+        ("M66 E0\n#1 = # 5399\nM2\n", 2, 6),
+        (
+            "M66 P0 L3 Q2\no2 while [#5399 EQ 0]\nM66 P0 L3 Q2\no2 endwhile\nM2\n",
+            2,
+            11,
+        ),
+    ] {
+        let e = read_opts(text, &ReadOptions::default()).unwrap_err();
+        assert_eq!((e.line, e.column), (line, col), "{text:?}: {e}");
+        assert!(
+            e.to_string().contains("the result of the M66 on line 1")
+                && e.to_string().contains("(DEBUG,…)"),
+            "{e}"
+        );
+    }
+}
+
 #[cfg(unix)]
 #[test]
 fn user_m_codes_run_from_their_folder_and_refuse_missing_ones_before_motion() {
@@ -239,10 +298,23 @@ fn user_m_codes_run_from_their_folder_and_refuse_missing_ones_before_motion() {
             )
         ]
     );
-    for (text, line) in [("G0 X1\nM102\nM2\n", 2), ("G0 X1\nG0 X2\nM103\nM2\n", 3)] {
+    for (text, line, col) in [
+        ("G0 X1\nM102\nM2\n", 2, 1),
+        ("G0 X1\nG0 X2\nS1 M103\nM2\n", 3, 4),
+    ] {
         let e = read_opts(text, &options).unwrap_err();
-        assert_eq!((e.file.as_str(), e.line), ("t.ngc", line), "{e}");
-        assert!(matches!(e.kind, ErrorKind::Unsupported { .. }), "{e}");
+        assert_eq!(
+            (e.file.as_str(), e.line, e.column),
+            ("t.ngc", line, col),
+            "{e}"
+        );
+        // LinuxCNC's NCE_UNKNOWN_M_CODE_USED, with why
+        assert!(e.to_string().contains("Unknown M code used: M10"), "{e}");
+        assert!(
+            e.to_string().contains("is not an executable file")
+                || e.to_string().contains("cannot be read"),
+            "{e}"
+        );
     }
     // without a folder every user M code is refused
     assert!(read_opts("M101\nM2\n", &ReadOptions::default()).is_err());

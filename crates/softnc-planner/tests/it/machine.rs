@@ -340,3 +340,193 @@ fn m66_times_out_with_minus_one() {
     assert_eq!(cycles, 500);
     assert_eq!(seq.input_result(), Some(-1.0));
 }
+
+/// The sequencer of `text` and the motion index of its `n`-th machine operation.
+fn sequencer_and_stop(text: &str, n: usize) -> (Program, MachineSequencer, u32) {
+    let p = profile(FeedProfile::Trapezoidal);
+    let (program, _) = read_and_plan(text, "t.ngc", &p, &options()).unwrap();
+    let seq = MachineSequencer::new(&program, config(0.001), SequencerState::default());
+    let stop = program
+        .motions
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| matches!(m.kind, softnc_gcode::MotionKind::Machine(_)))
+        .nth(n)
+        .unwrap()
+        .0 as u32;
+    (program, seq, stop)
+}
+
+#[test]
+fn an_m66_result_is_reported_once_and_fills_the_debug_text_reached_after_it() {
+    let text =
+        "G21\nM66 P3 L3 Q0.5\n(DEBUG, in=%d#5399)\nG1 X1 F600\nM66 E1\n(PRINT, e=%.1f#5399)\nM2\n";
+    let (_, mut seq, m66) = sequencer_and_stop(text, 0);
+    let (_, _, debug) = sequencer_and_stop(text, 1);
+    let mut inputs = MachineInputs::default();
+    let fb = |inputs: MachineInputs, m: u32| Feedback {
+        applied_motion: Some(m),
+        inputs,
+        ..Default::default()
+    };
+    // P3 low: waits; high: released with 1, reported on that step only
+    assert!(matches!(
+        seq.step(m66, Some(m66), &fb(inputs, m66)).action,
+        Action::Wait(Waiting::Input { .. })
+    ));
+    inputs.digital = 1 << 3;
+    let step = seq.step(m66, Some(m66), &fb(inputs, m66));
+    assert_eq!(step.action, Action::Release);
+    let r = step.input_result.expect("the M66's result");
+    assert_eq!((r.line, r.value, r.timed_out), (2, 1.0, false));
+    assert_eq!(r.to_string(), "M66 P3 (line 2): 1 (#5399)");
+    assert_eq!(seq.input_result(), Some(1.0));
+    // the (DEBUG,…) reached after it shows the machine's value
+    let step = seq.step(debug, Some(debug), &fb(inputs, debug));
+    assert_eq!(step.input_result, None);
+    let i = step.state.message.unwrap();
+    let mut shown = String::new();
+    seq.write_message(i, &mut shown).unwrap();
+    assert_eq!(shown, "in=1");
+    // an analog M66 (immediate): its value, then the (PRINT,…) after it
+    let (_, _, m66e) = sequencer_and_stop(text, 2);
+    let (_, _, print) = sequencer_and_stop(text, 3);
+    inputs.analog[1] = 2.25;
+    let step = seq.step(m66e, Some(m66e), &fb(inputs, m66e));
+    assert_eq!(step.input_result.map(|r| r.value), Some(2.25));
+    let step = seq.step(print, None, &fb(inputs, print));
+    let mut shown = String::new();
+    seq.write_message(step.state.printed.unwrap(), &mut shown)
+        .unwrap();
+    assert_eq!(shown, "e=2.2");
+}
+
+#[test]
+fn an_m66_timeout_is_reported_as_minus_one() {
+    let (_, mut seq, m66) = sequencer_and_stop("G21\nM66 P0 L4 Q0.01\nM66 P0 L1 Q0.01\nM2\n", 1);
+    let fb = Feedback {
+        applied_motion: Some(m66),
+        inputs: MachineInputs::default(),
+        ..Default::default()
+    };
+    let r = (0..100)
+        .find_map(|_| seq.step(m66, Some(m66), &fb).input_result)
+        .unwrap();
+    assert_eq!((r.value, r.timed_out), (-1.0, true));
+    assert_eq!(r.to_string(), "M66 P0 (line 3): timed out: -1 (#5399)");
+}
+
+#[test]
+fn a_user_m_code_releases_when_done_and_fails_on_its_exit_status_or_timeout() {
+    let dir = std::env::temp_dir().join(format!("softnc-seq-m-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let exe = dir.join("M101");
+    std::fs::write(&exe, "#!/bin/sh\nexit 0\n").unwrap();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+    let p = profile(FeedProfile::Trapezoidal);
+    let opts = PlanOptions {
+        user_m_codes: Some(dir.clone()),
+        ..options()
+    };
+    let (program, _) = read_and_plan("G21\nM101 P1 Q2.5\nM2\n", "t.ngc", &p, &opts).unwrap();
+    let new = || MachineSequencer::new(&program, config(0.001), SequencerState::default());
+    let running = Feedback {
+        applied_motion: Some(0),
+        ..Default::default()
+    };
+    let mut seq = new();
+    match seq.step(0, Some(0), &running).action {
+        Action::Wait(w @ Waiting::UserCommand { code: 101, .. }) => {
+            assert_eq!(w.to_string(), "running M101 1.000000 2.500000");
+        }
+        a => panic!("{a:?}"),
+    }
+    let done = Feedback {
+        user_command_done: true,
+        ..running
+    };
+    assert_eq!(seq.step(0, Some(0), &done).action, Action::Release);
+    let failed = Feedback {
+        user_command_failed: Some(3),
+        ..running
+    };
+    let mut seq = new();
+    assert_eq!(
+        seq.step(0, Some(0), &failed).action,
+        Action::Fail(SequencerError::UserCommandFailed {
+            line: 2,
+            code: 101,
+            status: 3
+        })
+    );
+    // never done: the configured 5 s
+    let mut seq = new();
+    let end = (1..10_000)
+        .find_map(|k| match seq.step(0, Some(0), &running).action {
+            Action::Fail(e) => Some((k, e)),
+            _ => None,
+        })
+        .unwrap();
+    assert!(
+        matches!(
+            end,
+            (5000, SequencerError::UserCommandTimeout { code: 101, .. })
+        ),
+        "{end:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn m19_with_q_waits_for_the_spindle_oriented_and_fails_past_q() {
+    let text = "G21\nM19 R90 Q0.2 P1\nM19 R45\nM2\n";
+    let (program, mut seq, orient) = sequencer_and_stop(text, 0);
+    let fb = |oriented: bool| Feedback {
+        applied_motion: Some(orient),
+        inputs: MachineInputs {
+            spindle_oriented: oriented,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let step = seq.step(orient, Some(orient), &fb(false));
+    assert_eq!(step.state.outputs.spindle_orient_deg, Some(90.0));
+    assert_eq!(step.state.outputs.spindle_orient_dir, 1);
+    assert_eq!(step.state.outputs.spindle_dir, SpindleDir::Stopped);
+    assert_eq!(
+        step.action,
+        Action::Wait(Waiting::SpindleOriented { angle_deg: 90.0 })
+    );
+    assert_eq!(
+        seq.step(orient, Some(orient), &fb(true)).action,
+        Action::Release
+    );
+    // never oriented: LinuxCNC's "wait for orient complete: TIMED OUT" after Q
+    let mut seq = MachineSequencer::new(&program, config(0.001), SequencerState::default());
+    let end = (1..10_000)
+        .find_map(
+            |k| match seq.step(orient, Some(orient), &fb(false)).action {
+                Action::Fail(e) => Some((k, e)),
+                _ => None,
+            },
+        )
+        .unwrap();
+    assert!(
+        matches!(
+            end,
+            (200, SequencerError::SpindleNotOriented { line: 2, .. })
+        ),
+        "{end:?}"
+    );
+    // without Q LinuxCNC does not wait for it: released once the machine has it
+    let (_, _, no_q) = sequencer_and_stop(text, 1);
+    let applied = Feedback {
+        applied_motion: Some(no_q),
+        ..Default::default()
+    };
+    assert_eq!(seq.step(no_q, Some(no_q), &applied).action, Action::Release);
+}

@@ -250,3 +250,53 @@ fn the_spindle_keeps_turning_into_the_next_jobs_fresh_machine() {
         sim.spindle_true_rpm()
     );
 }
+
+#[test]
+fn m19_orients_the_spindle_model_from_its_index_and_reports_it_oriented() {
+    let p = profile("default");
+    let spindle = p.servo.spindle.expect("the default profile's spindle");
+    let mut e = engine(&p);
+    e.set_outputs(&MachineOutputs {
+        spindle_dir: SpindleDir::Clockwise,
+        spindle_rpm: 3000.0,
+        ..MachineOutputs::default()
+    });
+    for _ in 0..1500 {
+        assert!(!e.exchange_io().unwrap().spindle_oriented);
+    }
+    // M19 R90 (the path's outputs: the spindle stopped, orienting)
+    let count_deg = 360.0 / f64::from(spindle.encoder_counts_per_rev);
+    for (angle, dir) in [(90.0, 0u8), (300.0, 1), (45.5, 2)] {
+        e.set_outputs(&MachineOutputs {
+            spindle_orient_deg: Some(angle),
+            spindle_orient_dir: dir,
+            ..MachineOutputs::default()
+        });
+        let k = (1..=5000)
+            .find(|_| e.exchange_io().unwrap().spindle_oriented)
+            .expect("never oriented");
+        // held there
+        for _ in 0..500 {
+            assert!(e.exchange_io().unwrap().spindle_oriented);
+        }
+        let m = *e.io().last_inputs();
+        let at = m.spindle_revs.rem_euclid(1.0) * 360.0;
+        let err = (at - angle + 180.0).rem_euclid(360.0) - 180.0;
+        println!(
+            "M19 R{angle} P{dir}: oriented after {:.3} s, encoder angle {at:.3} deg, error {err:.4} deg (band {} deg), {:.2} rpm",
+            k as f64 * p.interpolation_cycle_s,
+            spindle.orient_band_deg,
+            m.spindle_rpm
+        );
+        assert!(err.abs() <= spindle.orient_band_deg, "{err} deg");
+        assert!(err.abs() <= count_deg, "{err} deg: more than a count");
+        assert!(m.spindle_rpm.abs() < 15.0, "{} rpm", m.spindle_rpm);
+    }
+    // M3 again: no longer oriented
+    e.set_outputs(&MachineOutputs {
+        spindle_dir: SpindleDir::Clockwise,
+        spindle_rpm: 600.0,
+        ..MachineOutputs::default()
+    });
+    assert!(!e.exchange_io().unwrap().spindle_oriented);
+}
