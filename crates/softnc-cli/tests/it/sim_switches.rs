@@ -79,11 +79,12 @@ fn a_tool_change_without_a_tool_changer_does_not_stop_the_simulation() {
             std::thread::sleep(std::time::Duration::from_millis(50));
         }
         let out = child.wait_with_output().unwrap();
-        assert!(out.status.success());
+        assert!(out.status.success(), "`softnc sim` failed on {text:?}");
         let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         v["cycles"].as_u64().unwrap()
     };
-    let with = run("G21 G90\nG1 X10 F600\nT2 M6\nG1 X20\nM2\n");
+    // (T0: the profile's tool table is empty; M6 T0 empties the spindle)
+    let with = run("G21 G90\nG1 X10 F600\nT0 M6\nG1 X20\nM2\n");
     let without = run("G21 G90\nG1 X10 F600\nG1 X20\nM2\n");
     // the M6 stops the path at X10 (a stop the move without it blends through)
     assert!(
