@@ -240,7 +240,53 @@ fn reset_after_an_estop_or_a_fault_leaves_the_drives_off_until_on() {
     assert!(ok, "{msg}");
     stays(&d, &op, MachineState::Idle);
     assert_eq!(mdi(&d, &op, "G0 X9"), Outcome::Completed);
+    // a limit switch hit mid-job (the X max switch's line held by the panel): the
+    // machine stops as the E-stop stops it, the switch named; reset moves no axis;
+    // `on` is refused while it is tripped; with the limits overridden the axis
+    // jogs off only away from it; released, the override ends and a block runs
+    let _job = start_moving(&d, &op);
+    d.sim_panel(softnc_ipc::SimPanel::DIGITAL, X_MAX_LIMIT_LINE, 1.0);
+    let s = stays(&d, &op, MachineState::EStopped);
+    assert!(
+        alarm_text(&s).contains("X maximum limit switch tripped"),
+        "{}",
+        alarm_text(&s)
+    );
+    let stopped = cmd_mm(&s);
+    let (ok, msg) = ask(&op, &Request::Reset);
+    assert!(ok, "{msg}");
+    let s = stays(&d, &op, MachineState::Off);
+    assert_eq!(cmd_mm(&s), stopped, "the reset moved an axis: {s}");
+    assert_eq!(s.limits_tripped, vec!["X max".to_string()], "{s}");
+    let (ok, msg) = ask(&op, &Request::MachineOn);
+    assert!(!ok && msg.contains("limit switch tripped"), "{msg}");
+    let (ok, msg) = ask(&op, &Request::OverrideLimits);
+    assert!(ok, "{msg}");
+    let (ok, msg) = ask(&op, &Request::MachineOn);
+    assert!(ok, "{msg}");
+    let s = stays(&d, &op, MachineState::Idle);
+    assert!(s.limits_overridden, "{s}");
+    let at = cmd_mm(&s);
+    // toward the switch: refused, nothing moves
+    let _ = ask(&op, &jog_step(0, 1.0));
+    let s = stays(&d, &op, MachineState::Idle);
+    assert_eq!(cmd_mm(&s), at, "jogged toward the tripped switch: {s}");
+    assert!(alarm_text(&s).contains("toward its tripped"), "{s}");
+    // away from it: the step runs
+    let (ok, msg) = ask(&op, &jog_step(0, -1.0));
+    assert!(ok, "{msg}");
+    d.wait_status(&op, Duration::from_secs(10), "jogged off", |s| {
+        s.state == MachineState::Idle && (cmd_mm(s)[0] - (at[0] - 1.0)).abs() < 1e-6
+    });
+    d.sim_panel(softnc_ipc::SimPanel::DIGITAL, X_MAX_LIMIT_LINE, 0.0);
+    d.wait_status(&op, Duration::from_secs(5), "override over", |s| {
+        !s.limits_overridden && s.limits_tripped.is_empty()
+    });
+    assert_eq!(mdi(&d, &op, "G0 X9"), Outcome::Completed);
 }
+
+/// The simulated cabinet's X max limit switch line (config/machines/default.ron).
+const X_MAX_LIMIT_LINE: u32 = 20;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Step {

@@ -204,9 +204,10 @@ pub trait SimulatedMachine {
     fn stuck(&self, axis: usize) -> bool;
     /// Open (true) or close the external E-stop chain.
     fn set_estop_open(&mut self, open: bool);
-    /// Set raw digital input line `line` (its level: the polarity is the map's);
-    /// lines the machine drives itself (switches, the tool changer) are
-    /// overwritten at its next cycle.
+    /// Set raw digital input line `line` (its level: the polarity is the map's).
+    /// Held high, a line the machine drives itself (a switch, the tool changer)
+    /// reads high whatever its own contact says (a hand on the switch); let low,
+    /// the machine's contact decides again.
     fn set_digital_input(&mut self, line: usize, high: bool);
     /// Set raw analog input line `line`.
     fn set_analog_input(&mut self, line: usize, value: f64);

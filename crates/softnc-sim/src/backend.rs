@@ -199,9 +199,12 @@ impl SimIo {
 
     /// The inputs, with the axes at `pos_mm`.
     fn sense(&mut self, pos_mm: &Axes<f64>) {
-        let mut d = self.user_digital;
+        // a line set from the panel (a hand on a switch, a wire to an input) reads
+        // high whatever the machine's own contact says
+        let user = self.user_digital;
+        let mut d = user;
         let mut set = |line: usize, on: bool| {
-            if on {
+            if on || user >> line & 1 == 1 {
                 d |= 1u128 << line;
             } else {
                 d &= !(1u128 << line);
