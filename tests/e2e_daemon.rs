@@ -559,19 +559,12 @@ fn a_job_sent_to_a_dead_interpolator_is_aborted_when_its_death_is_told() {
     // no one will send
     let d = Daemon::start("deadinterp", "Realtime", false);
     let op = d.operator();
-    let softncd = d.child.id().to_string();
-    let signal = |sig: &str| {
-        assert!(Command::new("kill")
-            .args([sig, &softncd])
-            .status()
-            .unwrap()
-            .success());
-    };
-    signal("-STOP");
+    let softncd = d.child.id();
+    signal(softncd, "-STOP");
     d.kill9("softnc-interp");
     let job = short_job(&d.dir);
     let r = op.request(&submit(&abs(&job))).unwrap();
-    signal("-CONT");
+    signal(softncd, "-CONT");
     if r.is_accepted() {
         let s = d.wait_job(&op, id(&r), Duration::from_secs(10));
         let record = &s.job(id(&r)).unwrap().record;
@@ -642,8 +635,13 @@ fn feed_hold_stops_motion_within_the_ring_depth_and_resume_finishes_the_job() {
         s.job.as_ref().map_or(0, |j| j.record.cycles) > 900
     });
     op.request(&Request::Hold).unwrap();
-    // the ring holds 100 ms of samples; deceleration follows within it
-    std::thread::sleep(Duration::from_millis(400));
+    // the ring holds `lookahead_samples` of samples (1 ms each) already sent; the
+    // deceleration follows them
+    let lookahead_ms = softnc_daemon::config::DaemonConfig::load(&d.config)
+        .unwrap()
+        .config
+        .lookahead_samples as u64;
+    std::thread::sleep(Duration::from_millis(lookahead_ms + 300));
     let a = op.status().unwrap();
     std::thread::sleep(Duration::from_millis(300));
     let b = op.status().unwrap();

@@ -24,14 +24,6 @@ fn long_job(dir: &Path) -> PathBuf {
     p
 }
 
-fn signal(pid: u32, sig: &str) {
-    assert!(Command::new("kill")
-        .args([sig, &pid.to_string()])
-        .status()
-        .unwrap()
-        .success());
-}
-
 /// Start the long job and wait until it moves; its id and the status then.
 fn start_long_job(d: &Daemon, op: &Operator) -> (u64, Status) {
     let job = long_job(&d.dir);

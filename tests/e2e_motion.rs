@@ -272,22 +272,6 @@ fn an_estop_during_homing_leaves_the_axes_unhomed_and_a_later_home_homes_them() 
 }
 
 /// Send `signal` (`-STOP`, `-CONT`) to `pid`.
-fn signal(pid: u32, signal: &str) {
-    let ok = Command::new("kill")
-        .args([signal, &pid.to_string()])
-        .status()
-        .unwrap()
-        .success();
-    assert!(ok, "kill {signal} {pid}");
-}
-
-/// Stop process `pid` for `how_long` (alive to the kernel, its loop standing).
-fn stop_for(pid: u32, how_long: Duration) {
-    signal(pid, "-STOP");
-    std::thread::sleep(how_long);
-    signal(pid, "-CONT");
-}
-
 /// The messages of the status's alarms with `code`.
 fn alarms_with(s: &Status, code: AlarmKind) -> Vec<String> {
     s.alarms
