@@ -132,9 +132,19 @@ fn zero_motion_holds_every_axis(tag: &str, edits: &[(&str, &str)]) {
         assert!(r.is_ok(), "{j:?}: {r:?}");
         check(j, &mut ran, r);
     }
-    // every cycle that ran, commanded and measured where the machine stood
+    // every cycle that ran, commanded and measured where the machine stood (a
+    // job done with nothing to move never reached the position loop: no trace)
+    let jobs = op.jobs().unwrap();
     for id in ran {
-        for row in trace_rows(&d, id) {
+        let cycles = jobs.iter().find(|j| j.job_id == id).unwrap().cycles;
+        let file = d.dir.join(format!("data/trace-job{id}.csv"));
+        if cycles == 0 {
+            assert!(!file.exists(), "job {id} ran no cycle but left a trace");
+            continue;
+        }
+        let rows = trace_rows(&d, id);
+        assert!(!rows.is_empty(), "job {id} ran {cycles} cycles: no trace");
+        for row in rows {
             for axis in 0..3 {
                 assert!(
                     (row[axis] - p[axis]).abs() < 1e-9
