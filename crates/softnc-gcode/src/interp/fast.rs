@@ -567,6 +567,7 @@ impl Interp<'_> {
     /// revolution, ...), goes the general way until it is added here.
     fn short_way_understands_the_modes(&self) -> bool {
         matches!(self.motion, None | Some(G_0 | G_1 | G_2 | G_3))
+            && !self.cycle.in_series()
             && !self.inverse_time
             && !self.sync_pending
             && self.rotation_deg == 0.0
