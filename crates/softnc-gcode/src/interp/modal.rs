@@ -41,7 +41,7 @@ fn push_g(out: &mut String, code: i32) {
 
 /// G64 with its P and Q when the state blends (`gen_settings`), values by `fmt`.
 fn push_g64(out: &mut String, m: &Modal, fmt: impl Fn(f64) -> String) {
-    if m.g[6].1 == 640 {
+    if m.g.iter().any(|&(slot, code)| slot == 11 && code == 640) {
         match (m.g64_p, m.g64_q) {
             (None, None) => out.push_str(" G64"),
             (Some(p), None) => out.push_str(&format!(" G64 P{}", fmt(p))),
