@@ -8,6 +8,7 @@
 //! that the canonical output rounds exactly as `rs274` prints it. Motions carry them
 //! converted to mm.
 
+mod cycles;
 mod fast;
 mod machine;
 mod modal;
@@ -56,6 +57,7 @@ const GM_IJK_DISTANCE: usize = 4;
 const GM_FEED_MODE: usize = 5;
 const GM_UNITS: usize = 6;
 const GM_TOOL_LENGTH: usize = 8;
+const GM_RETRACT: usize = 10;
 const GM_COORD: usize = 12;
 const GM_CONTROL: usize = 13;
 const G_GROUPS: usize = 17;
@@ -186,7 +188,10 @@ fn g_unsupported(code: i32) -> Option<&'static str> {
         330 | 331 => "spindle-synchronised motion (G33) is not supported",
         382..=385 => "probing (G38.x) is not supported",
         410 | 411 | 420 | 421 => "cutter radius compensation is not supported yet",
-        700..=760 | 810..=890 => "canned cycles are not supported yet",
+        730 | 740 | 810..=870 | 890 => return None,
+        700..=722 => "the lathe cycles G70, G71 and G72 are not supported yet",
+        760 => "the threading cycle G76 needs spindle-synchronised motion, which softnc does not have yet",
+        880 => "G88 stops for the operator to retract the spindle by hand; softnc cannot know where the program goes on from",
         950 => "feed per revolution (G95) is not supported",
         960 => "constant surface speed (G96) is not supported",
         _ => "this G code is not supported",
@@ -398,6 +403,15 @@ struct Interp<'a> {
     feed: f64,
     /// Motion mode (G code × 10); `None` for none or G80.
     motion: Option<i32>,
+    /// Canned cycles retract to the level where the series began (G98, LinuxCNC's
+    /// `OLD_Z`); else to the R plane (G99, `R_PLANE`, LinuxCNC's start).
+    retract_old_z: bool,
+    /// What canned cycles keep from one block to the next.
+    cycle: cycles::CycleState,
+    /// The feed and spindle override switches as M48–M51 and the tapping cycles
+    /// leave them (LinuxCNC's canonical `fo_enable`, `so_enable`; on at the start).
+    feed_override_on: bool,
+    speed_override_on: bool,
     /// Current point, canonical frame, program units.
     pos: Vec3,
     /// The point as the canonical interface last saw it (motion ends, unit and origin
@@ -506,6 +520,10 @@ impl<'a> Interp<'a> {
             inverse_time: false,
             feed: 0.0,
             motion: None,
+            retract_old_z: false,
+            cycle: cycles::CycleState::default(),
+            feed_override_on: true,
+            speed_override_on: true,
             pos: Vec3::ZERO,
             canon_pos: Vec3::ZERO,
             sync_pending: false,
@@ -563,6 +581,10 @@ impl<'a> Interp<'a> {
             inverse_time: self.inverse_time,
             feed: self.feed,
             motion: self.motion,
+            retract_old_z: self.retract_old_z,
+            cycle: self.cycle,
+            feed_override_on: self.feed_override_on,
+            speed_override_on: self.speed_override_on,
             pos: self.pos,
             canon_pos: self.canon_pos,
             sync_pending: self.sync_pending,
@@ -783,6 +805,12 @@ impl<'a> Interp<'a> {
         }
         let polar = b.polar();
         if polar {
+            if self.plane != Plane::XY {
+                return bad(
+                    b.polar_off(),
+                    "Cannot use polar coordinate except in G17 plane",
+                );
+            }
             for (l, msg) in [
                 (b'X', "Cannot specify both polar coordinate and X word"),
                 (b'Y', "Cannot specify both polar coordinate and Y word"),
@@ -815,6 +843,9 @@ impl<'a> Interp<'a> {
                     b.g_off(GM_MOTION),
                     "Cannot use two g codes that both use axis values",
                 );
+            }
+            if !axis && !polar && cycles::is_cycle(mode1) {
+                return bad(b.g_off(GM_MOTION), "All axes missing with motion code");
             }
             b.motion_to_be = Some(mode1);
         } else if covets {
@@ -853,6 +884,9 @@ impl<'a> Interp<'a> {
             );
         }
         let arc = matches!(motion, Some(G_2 | G_3));
+        // the canned cycles' words (check_other_codes)
+        let cycle = motion.filter(|m| cycles::is_cycle(*m)).unwrap_or(0);
+        let g87 = cycle == 870;
         // check_g_codes
         if mode0 == Some(G_4) {
             if b.p_number == -1.0 {
@@ -928,25 +962,26 @@ impl<'a> Interp<'a> {
         if b.has(b'H') && !matches!(b.g_in(GM_TOOL_LENGTH), Some(430 | 432)) {
             return bad(b.off(b'H'), "H word with no G43 or G76 to use it");
         }
-        if b.has(b'I') && !arc && mode0 != Some(100) {
+        if b.has(b'I') && !arc && !g87 && mode0 != Some(100) {
             return bad(
                 b.off(b'I'),
                 "I word with no G2, G3, G5, G5.1, G10, G33.1, G76, or G87 to use it",
             );
         }
-        if b.has(b'J') && !arc && mode0 != Some(100) {
+        if b.has(b'J') && !arc && !g87 && mode0 != Some(100) {
             return bad(
                 b.off(b'J'),
                 "J word with no G2, G3, G5, G5.1, G10, G76 or G87 to use it",
             );
         }
-        if b.has(b'K') && !arc {
+        if b.has(b'K') && !arc && !g87 {
             return bad(
                 b.off(b'K'),
                 "K word with no G2, G3, G33, G33.1, G76, or G87 to use it",
             );
         }
-        if b.has(b'L') && mode0 != Some(100) && m5 != Some(66) {
+        if b.has(b'L') && mode0 != Some(100) && m5 != Some(66) && !matches!(cycle, 730 | 810..=890)
+        {
             return bad(
                 b.off(b'L'),
                 "L word with no G10, cutter compensation, canned cycle, digital/analog input, M98 or NURBS code",
@@ -957,6 +992,7 @@ impl<'a> Interp<'a> {
                 && mode0 != Some(100)
                 && b.g_in(GM_CONTROL) != Some(640)
                 && !arc
+                && !matches!(cycle, 740 | 820 | 840 | 860 | 880 | 890)
                 && !matches!(m9, Some(50..=53))
                 && !matches!(m5, Some(62..=66))
                 && m7 != Some(19)
@@ -981,6 +1017,7 @@ impl<'a> Interp<'a> {
             }
         }
         if b.q_number != -1.0
+            && !matches!(cycle, 730 | 830)
             && b.g_in(GM_CONTROL) != Some(640)
             && b.m_in(6) != Some(61)
             && mode0 != Some(100)
@@ -993,7 +1030,7 @@ impl<'a> Interp<'a> {
                 "Q word with no G5, G10, G64, G73, G76, G83, M19, M66, M67, M68 or user M code that uses it",
             );
         }
-        if b.has(b'R') && !arc && mode0 != Some(100) && m7 != Some(19) {
+        if b.has(b'R') && !arc && cycle == 0 && mode0 != Some(100) && m7 != Some(19) {
             return bad(b.off(b'R'), "R word with no g code that uses it");
         }
         if b.has(b'R') && m7 == Some(19) {
@@ -1092,12 +1129,7 @@ impl<'a> Interp<'a> {
                     self.feed = f;
                 }
             }
-            match b.motion_to_be {
-                Some(G_80) => self.motion = None,
-                Some(m @ (G_0 | G_1)) => self.straight(line_no, m, b)?,
-                Some(m @ (G_2 | G_3)) => self.arc(line_no, m, b)?,
-                _ => {}
-            }
+            self.motion_step(line_no, b)?;
             return Ok(false);
         }
         // feed mode, feed rate
@@ -1278,6 +1310,12 @@ impl<'a> Interp<'a> {
             Some(911) => self.ijk_absolute = false,
             _ => {}
         }
+        // retract mode (`convert_retract_mode`; cutter compensation is never on)
+        match b.g_in(GM_RETRACT) {
+            Some(980) => self.retract_old_z = true,
+            Some(990) => self.retract_old_z = false,
+            _ => {}
+        }
         // G10, G28, G30, G52, G92 (convert_g's modal group 0, after the modes)
         if let Some(code) = b.g_in(GM_MODAL_0) {
             self.modal_0(line_no, code, b)?;
@@ -1287,12 +1325,7 @@ impl<'a> Interp<'a> {
             self.modal_0(line_no, code, b)?;
         }
         // motion
-        match b.motion_to_be {
-            Some(G_80) => self.motion = None,
-            Some(m @ (G_0 | G_1)) => self.straight(line_no, m, b)?,
-            Some(m @ (G_2 | G_3)) => self.arc(line_no, m, b)?,
-            _ => {}
-        }
+        self.motion_step(line_no, b)?;
         // stop codes (convert_stop, the last step of execute_block): M0 always, M1
         // while the optional-stop switch is on; M2, M30 end the program
         match b.m_in(4) {
@@ -1303,6 +1336,31 @@ impl<'a> Interp<'a> {
             _ => {}
         }
         Ok(matches!(b.m_in(4), Some(2) | Some(30)))
+    }
+
+    /// `convert_motion` for the block's motion, if it has one: a motion that is not
+    /// a canned cycle ends a series of cycles.
+    fn motion_step(&mut self, line_no: u32, b: &Block) -> R<()> {
+        let Some(m) = b.motion_to_be else {
+            return Ok(());
+        };
+        if !cycles::is_cycle(m) {
+            self.cycle.end_series();
+        }
+        match m {
+            G_80 => self.motion = None,
+            G_0 | G_1 => self.straight(line_no, m, b)?,
+            G_2 | G_3 => self.arc(line_no, m, b)?,
+            _ if cycles::is_cycle(m) => self.cycle(line_no, m, b)?,
+            _ => {
+                return unsup(
+                    b.motion_off(),
+                    fmt_code('G', m),
+                    "this motion code is not supported",
+                )
+            }
+        }
+        Ok(())
     }
 
     /// A motion that stands at the current point (dwell, pause).

@@ -567,6 +567,7 @@ impl Interp<'_> {
     /// revolution, ...), goes the general way until it is added here.
     fn short_way_understands_the_modes(&self) -> bool {
         matches!(self.motion, None | Some(G_0 | G_1 | G_2 | G_3))
+            && !self.cycle.in_series()
             && !self.inverse_time
             && !self.sync_pending
             && self.rotation_deg == 0.0
@@ -1700,6 +1701,95 @@ mod tests {
             let b = &accepted[next(accepted.len())];
             same(&format!("{a}\n{b}"));
         }
+    }
+
+    /// Every combination of the modal groups' states (plane, distance mode, unit,
+    /// canned-cycle retract, path mode, feed mode, spindle) with every motion mode —
+    /// G0 to G3, G80 and each canned cycle with its words — then lines of the short
+    /// way's shape (bare axis words, which a cycle runs as another hole, motion
+    /// codes, arcs): each program reads the same, motions, state and errors, with
+    /// the short way and without it. The short way runs G0–G3 only: in any other
+    /// motion mode, or in a series of cycles, it must leave the lines to the general
+    /// reader (and its debug cross-check would catch a line read otherwise).
+    #[test]
+    fn every_modal_state_then_short_lines_reads_as_the_general_way() {
+        let p = profile();
+        let tails = [
+            "X3 Y3\nX4 Z-2\nG1 X5 Y3\nX6\nG0 X1\nZ3\n",
+            "X3 Y3 Z-3\nY4\nG1 Y6 F500\nX8\nG81 X2 Y2 Z-1 R2 F400\nX3\nY2 R3\nG0 Z3\nX1\n",
+        ];
+        let groups: [&[&str]; 7] = [
+            &["G17", "G18", "G19"],
+            &["G90", "G91"],
+            &["G21", "G20"],
+            &["G99", "G98"],
+            &["G64", "G61", "G64 P0.1 Q0.05"],
+            &["G94 F600", "G93"],
+            &["M3 S1000", "M4 S500", "M5"],
+        ];
+        let motions = [
+            "G0 X1",
+            "G1 X1 F300",
+            "G2 X2 Y1 Z1 R2 F300",
+            "G80",
+            "G81 X1 Y1 Z-1 R5 F300",
+            "G81 X1 Y1 Z-1 R5 L3 F300",
+            "G82 X1 Y1 Z-1 R5 P0.5 F300",
+            "G83 X1 Y1 Z-1 R5 Q0.4 F300",
+            "G73 X1 Y1 Z-1 R5 Q0.4 F300",
+            "G84 X1 Y1 Z-1 R5 F300",
+            "G74 X1 Y1 Z-1 R5 F300",
+            "G85 X1 Y1 Z-1 R5 F300",
+            "G86 X1 Y1 Z-1 R5 P0.2 F300",
+            "G87 X1 Y1 Z-1 R5 I0.5 J0.5 K-0.5 F300",
+            "G89 X1 Y1 Z-1 R5 P0.2 F300",
+        ];
+        let read = |text: &str, fast: bool| {
+            let mut motions = Vec::new();
+            let read = super::super::read_lines(
+                text,
+                "t.ngc",
+                p.tables(),
+                &Default::default(),
+                7,
+                &mut |chunk| motions.append(chunk),
+                fast,
+            );
+            (read.is_ok(), motions.len(), format!("{read:?} {motions:?}"))
+        };
+        let (mut programs, mut whole, mut cycles_whole, mut moved) = (0, 0, 0, 0);
+        let total: usize = groups.iter().map(|g| g.len()).product();
+        for k in 0..total {
+            // the k-th combination of one state per group
+            let mut rest = k;
+            let mut modes = String::new();
+            for g in groups {
+                modes += g[rest % g.len()];
+                modes += "\n";
+                rest /= g.len();
+            }
+            for motion in motions {
+                for tail in tails {
+                    let text =
+                        format!("G21 G90 G17 F600\nG0 X1 Y1 Z1\n{modes}{motion}\n{tail}M2\n");
+                    let (short, general) = (read(&text, true), read(&text, false));
+                    assert_eq!(short, general, "{text}");
+                    programs += 1;
+                    whole += usize::from(short.0);
+                    moved += short.1;
+                    if short.0 && !motion.starts_with("G0") && motion.contains('R') {
+                        cycles_whole += 1;
+                    }
+                }
+            }
+        }
+        eprintln!("{programs} programs, {whole} read whole ({cycles_whole} with a cycle), {moved} motions");
+        // the states are reached: many programs read whole, cycles among them
+        assert!(whole > programs / 5, "{whole} of {programs} read whole");
+        assert!(
+            cycles_whole > 500,
+            "{cycles_whole} programs with a cycle read whole"
+        );
     }
 
     /// A random double of every kind the arcs meet: small integers and halves,

@@ -139,6 +139,15 @@ impl Interp<'_> {
                 52 => (OverrideSwitch::AdaptiveFeed, on),
                 _ => (OverrideSwitch::FeedHold, on),
             };
+            match switch {
+                OverrideSwitch::FeedAndSpindle => {
+                    self.feed_override_on = on;
+                    self.speed_override_on = on;
+                }
+                OverrideSwitch::Feed => self.feed_override_on = on,
+                OverrideSwitch::Spindle => self.speed_override_on = on,
+                _ => {}
+            }
             self.push_machine(line_no, MachineOp::Overrides { switch, on });
         }
         if let Some(code) = b.m_in(10) {

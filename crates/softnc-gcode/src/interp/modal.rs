@@ -15,8 +15,9 @@ use softnc_core::Plane;
 /// `active_m_codes` and `active_settings` softnc keeps).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Modal {
-    /// G codes × 10 in LinuxCNC's `active_g_codes` slots 3, 4, 6, 7, 8, 9, 11, 14, 16.
-    g: [(usize, i32); 9],
+    /// G codes × 10 in LinuxCNC's `active_g_codes` slots 3, 4, 6, 7, 8, 9, 10, 11,
+    /// 14, 16.
+    g: [(usize, i32); 10],
     inch: bool,
     /// G64 P (program units), if given.
     g64_p: Option<f64>,
@@ -40,7 +41,7 @@ fn push_g(out: &mut String, code: i32) {
 
 /// G64 with its P and Q when the state blends (`gen_settings`), values by `fmt`.
 fn push_g64(out: &mut String, m: &Modal, fmt: impl Fn(f64) -> String) {
-    if m.g[6].1 == 640 {
+    if m.g.iter().any(|&(slot, code)| slot == 11 && code == 640) {
         match (m.g64_p, m.g64_q) {
             (None, None) => out.push_str(" G64"),
             (Some(p), None) => out.push_str(&format!(" G64 P{}", fmt(p))),
@@ -77,6 +78,7 @@ impl Interp<'_> {
                 (7, if self.inverse_time { 930 } else { 940 }),
                 (8, coord),
                 (9, if self.tool_offset_on { 430 } else { 490 }),
+                (10, if self.retract_old_z { 980 } else { 990 }),
                 (11, control),
                 (14, if self.ijk_absolute { 901 } else { 911 }),
                 (
@@ -200,7 +202,10 @@ impl Interp<'_> {
         }
         push_g64(&mut out, &now, |v| v.to_string());
         out.push('\n');
-        if let Some(m) = self.motion {
+        // a canned cycle's mode is not carried: its R, Z, P, Q and the level its
+        // series began at are not part of this text, and a bare X Y of the next
+        // command must not drill with values it cannot know (it starts in G80)
+        if let Some(m) = self.motion.filter(|m| !super::cycles::is_cycle(*m)) {
             push_g(&mut out, m);
             out.push('\n');
         }

@@ -272,9 +272,10 @@ impl Interp<'_> {
             "_call_level" => Some(self.ctl.level() as f64),
             "_remap_level" => Some(0.0),
             "_task" => Some(0.0),
-            "_retract_r_plane" | "_retract_old_z" | "_control_mode" | "_speed_override"
-            | "_feed_override" | "_adaptive_feed" | "_feed_hold" | "_current_pocket"
-            | "_selected_pocket" => {
+            "_retract_r_plane" => b(!self.retract_old_z),
+            "_retract_old_z" => b(self.retract_old_z),
+            "_control_mode" | "_speed_override" | "_feed_override" | "_adaptive_feed"
+            | "_feed_hold" | "_current_pocket" | "_selected_pocket" => {
                 return Err(ErrorKind::Unsupported {
                     word: format!("#<{name}>"),
                     why: "this predefined parameter is not supported yet".into(),

@@ -704,6 +704,109 @@ fn random_offset_and_rotation_programs_read_as_rs274_reads_them() {
     fuzz("offsets", offsets_program, machine_points_match);
 }
 
+/// A program of canned cycles (G73, G74, G81–G87, G89; tapping in G17 only) in a
+/// random plane, unit, distance mode and retract mode, with their words often
+/// missing or out of order, `L` repeats, polar words, bare positions that repeat
+/// the cycle, G80, G0/G1 moves that end a series, path modes, feed changes,
+/// spindle changes and XY rotations.
+fn cycles_program(seed: u64) -> String {
+    let mut g = Gen(seed | 1);
+    let plane = g.pick(&["G17", "G17", "G18", "G19"]);
+    // the plane's two axes, then its drilling axis
+    let axes = match plane {
+        "G17" => ["X", "Y", "Z"],
+        "G18" => ["Z", "X", "Y"],
+        _ => ["Y", "Z", "X"],
+    };
+    let mut lines = vec![
+        format!("{} G90 G94 F200 S1000 M3", g.pick(&["G21", "G21", "G20"])),
+        format!("G0 X{} Y{} Z{}", g.number(), g.number(), g.number()),
+        plane.to_string(),
+    ];
+    let mut codes = vec!["G81", "G82", "G83", "G73", "G85", "G86", "G87", "G89"];
+    if plane == "G17" {
+        codes.extend(["G84", "G74"]);
+    }
+    for _ in 0..1 + g.below(12) {
+        let l = match g.below(20) {
+            0..=6 => {
+                let code = g.pick(&codes);
+                let mut w = vec![code.to_string()];
+                for (k, a) in axes.iter().enumerate() {
+                    if k < 2 && g.chance(80) {
+                        w.push(format!("{a}{}", g.number()));
+                    }
+                    if k == 2 && g.chance(90) {
+                        // the bottom, mostly below R
+                        w.push(format!("{a}{}", g.below(120) as f64 / 10.0 - 10.0));
+                    }
+                }
+                if g.chance(90) {
+                    w.push(format!("R{}", g.below(100) as f64 / 10.0 - 2.0));
+                }
+                if matches!(code, "G82" | "G86" | "G89" | "G84" | "G74") && g.chance(90) {
+                    w.push(format!("P{}", g.below(10) as f64 / 10.0));
+                }
+                if matches!(code, "G83" | "G73") && g.chance(90) {
+                    w.push(format!("Q{}", g.below(30) as f64 / 10.0 + 0.1));
+                }
+                if code == "G87" {
+                    for l in ["I", "J", "K"] {
+                        if g.chance(90) {
+                            w.push(format!("{l}{}", g.below(60) as f64 / 10.0 - 3.0));
+                        }
+                    }
+                }
+                if g.chance(20) {
+                    w.push(format!("L{}", g.below(5)));
+                }
+                if plane == "G17" && g.chance(10) {
+                    w.retain(|x| !x.starts_with('X') && !x.starts_with('Y'));
+                    w.push(format!("@{}", g.below(200) as f64 / 10.0 + 1.0));
+                    w.push(format!("^{}", g.below(360) as i64 - 180));
+                }
+                // the words in any order after the code
+                for k in (2..w.len()).rev() {
+                    w.swap(k, 1 + g.below(k as u64) as usize);
+                }
+                w.join(" ")
+            }
+            7..=10 => {
+                let mut w = String::new();
+                for a in ["X", "Y", "Z"] {
+                    if g.chance(50) {
+                        w += &format!("{a}{} ", g.number());
+                    }
+                }
+                if w.is_empty() {
+                    "X1".into()
+                } else {
+                    w.trim_end().to_string()
+                }
+            }
+            11 => g.pick(&["G90", "G91"]).into(),
+            12 => g.pick(&["G98", "G99"]).into(),
+            13 => "G80".into(),
+            14 => format!("G0 Z{}", g.number()),
+            15 => format!("G1 X{} Z{}", g.number(), g.number()),
+            16 => g.pick(&["G61", "G64", "G61.1", "G64 P0.1"]).into(),
+            17 => format!("F{}", 50 + g.below(450)),
+            18 => g
+                .pick(&["G10 L2 P1 R30", "G10 L2 P1 R0", "G10 L2 P1 R-45"])
+                .into(),
+            _ => g.pick(&["M5", "M3", "M4"]).into(),
+        };
+        lines.push(l);
+    }
+    lines.push("M2".into());
+    lines.join("\n") + "\n"
+}
+
+#[test]
+fn random_canned_cycle_programs_read_as_rs274_reads_them() {
+    fuzz("cycles", cycles_program, |_| Ok(()));
+}
+
 #[test]
 fn the_generator_makes_programs_that_use_the_language() {
     // the programs are not trivial: loops run, subroutines are called, values are
@@ -725,4 +828,17 @@ fn the_generator_makes_programs_that_use_the_language() {
         looped > 20 && called > 20,
         "looped {looped}, called {called}"
     );
+    // the cycle programs drill: most read whole with cycle motions in exact path
+    let mut drilled = 0;
+    for seed in 0..200u64 {
+        let text = cycles_program(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15));
+        if let Ok(p) = read(&text) {
+            drilled += usize::from(
+                p.motions
+                    .iter()
+                    .any(|m| m.path_mode == softnc_gcode::PathMode::ExactStop),
+            );
+        }
+    }
+    assert!(drilled > 40, "{drilled} of 200 cycle programs drilled");
 }

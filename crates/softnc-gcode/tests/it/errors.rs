@@ -341,7 +341,8 @@ fn long_lines_are_too_long_as_in_linuxcnc() {
 
 /// (program, line, column, the word named)
 const UNSUPPORTED: &[(&str, u32, u32, &str)] = &[
-    ("G0 X1\nG81 X1 Y1 Z-1 R1\nM2\n", 2, 1, "G81"),
+    ("G0 X1\nG88 X1 Y1 Z-1 R1 P1\nM2\n", 2, 1, "G88"),
+    ("G0 X1\nG76 P1 Z-5 I-0.1 J0.1 K0.5\nM2\n", 2, 1, "G76"),
     ("G0 X1\nM99\n", 2, 1, "M99"),
     ("#1=2\nG0 X#1 A#1\nM2\n", 2, 8, "A"),
     ("G0 X#<_feed_override>\nM2\n", 1, 5, "#<_feed_override>"),

@@ -4,6 +4,7 @@
 //! measurement) stay beside this folder as binaries of their own.
 
 mod corpus;
+mod cycles;
 mod diff_fuzz;
 mod errors;
 mod files_taken;
