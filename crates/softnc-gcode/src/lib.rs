@@ -22,7 +22,7 @@ pub mod params;
 pub mod x87;
 
 pub use canon::{
-    MachineOp, MessageKind, Motion, MotionKind, OverrideSwitch, PathMode, Program, SpindleTurn,
+    CoolantLine, MachineOp, MessageKind, Motion, MotionKind, OverrideSwitch, PathMode, Program, SpindleTurn,
     WaitInput, WaitMode,
 };
 pub use error::{ErrorKind, GcodeError};

@@ -41,7 +41,7 @@
 
 use softnc_core::machine_io::{MachineInputs, MachineOutputs, SpindleDir};
 use softnc_gcode::{
-    MachineOp, MessageKind, MotionKind, OverrideSwitch, Program, SpindleTurn, WaitInput, WaitMode,
+    CoolantLine, MachineOp, MessageKind, MotionKind, OverrideSwitch, Program, SpindleTurn, WaitInput, WaitMode,
 };
 
 /// What the sequencer needs besides the program (from the machine profile).
@@ -126,10 +126,10 @@ impl SequencerState {
                 o.spindle_orient_deg = Some(angle_deg);
                 o.spindle_orient_dir = direction;
             }
-            MachineOp::Coolant { mist, flood } => {
-                o.coolant_mist = mist;
-                o.coolant_flood = flood;
-            }
+            MachineOp::Coolant { which, on } => match which {
+                CoolantLine::Mist => o.coolant_mist = on,
+                CoolantLine::Flood => o.coolant_flood = on,
+            },
             MachineOp::ToolPrepare { tool } => self.tool_prepared = tool,
             MachineOp::ToolChange { .. } => o.tool_change = true,
             MachineOp::Message {
