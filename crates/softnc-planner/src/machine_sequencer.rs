@@ -437,6 +437,8 @@ pub struct SequencerBuilder {
     pending_sync: Vec<MachineOp>,
     /// An M6 was the last change: the next motion ends it.
     tool_change_done: Option<u32>,
+    /// Machine operations pushed.
+    operations: u32,
 }
 
 impl SequencerBuilder {
@@ -449,6 +451,7 @@ impl SequencerBuilder {
             stops: Vec::new(),
             pending_sync: Vec::new(),
             tool_change_done: None,
+            operations: 0,
         }
     }
 
@@ -469,6 +472,7 @@ impl SequencerBuilder {
         }
         match m.kind {
             MotionKind::Machine(op) => {
+                self.operations += 1;
                 let synchronised = matches!(
                     op,
                     MachineOp::DigitalOut {
@@ -512,6 +516,7 @@ impl SequencerBuilder {
     pub fn finish(self, messages: Vec<String>) -> MachineSequencer {
         MachineSequencer {
             cfg: self.cfg,
+            operations: self.operations,
             changes: self.changes,
             stops: self.stops,
             messages,
@@ -580,6 +585,8 @@ fn user_command(
 #[derive(Debug, Clone)]
 pub struct MachineSequencer {
     cfg: SequencerConfig,
+    /// The program's machine operations.
+    operations: u32,
     /// (first motion, state in force from it on), by motion.
     changes: Vec<(u32, SequencerState)>,
     /// The machine stops, by motion.
@@ -599,6 +606,13 @@ impl MachineSequencer {
             b.push(i as u32, m);
         }
         b.finish(program.messages.clone())
+    }
+
+    /// Whether the program has machine operations (spindle, coolant, tools,
+    /// messages, I/O, …; the program end's spindle stop among them): a program
+    /// without moves still runs on the machine for them.
+    pub fn has_operations(&self) -> bool {
+        self.operations > 0
     }
 
     /// The state in force for a sample of motion `motion` (O(1) as the motions go

@@ -1254,12 +1254,17 @@ impl MmiTask {
                 .modal
                 .as_deref()
                 .map(|m| m.split_whitespace().map(String::from).collect()),
-            coolant: match &around {
-                // in a job: as the sample in use switches it
-                Some((st, ..)) => api::Coolant {
-                    mist: st.outputs.coolant_mist,
-                    flood: st.outputs.coolant_flood,
-                },
+            // the outputs the position process has in force: in a job the sample in
+            // use's, between jobs the last job's or MDI command's (held), off or
+            // E-stopped the safe state; before its first status, the modal state's
+            coolant: match s {
+                Some(s) => {
+                    let o: softnc_core::machine_io::MachineOutputs = s.outputs.into();
+                    api::Coolant {
+                        mist: o.coolant_mist,
+                        flood: o.coolant_flood,
+                    }
+                }
                 None => api::Coolant {
                     mist: modal_has("M7"),
                     flood: modal_has("M8"),
@@ -1282,14 +1287,8 @@ impl MmiTask {
             spindle_rpm: s.map(|s| s.spindle_rpm),
             spindle: s.map(|s| {
                 let inputs: softnc_core::machine_io::MachineInputs = s.inputs.into();
-                let commanded_rpm = around.as_ref().map_or(0.0, |(st, ..)| {
-                    let o = &st.outputs;
-                    match o.spindle_dir {
-                        softnc_core::machine_io::SpindleDir::Clockwise => o.spindle_rpm,
-                        softnc_core::machine_io::SpindleDir::CounterClockwise => -o.spindle_rpm,
-                        softnc_core::machine_io::SpindleDir::Stopped => 0.0,
-                    }
-                });
+                let outputs: softnc_core::machine_io::MachineOutputs = s.outputs.into();
+                let commanded_rpm = outputs.spindle_signed_rpm();
                 api::Spindle {
                     commanded_rpm,
                     actual_rpm: inputs.spindle_rpm,
