@@ -492,17 +492,15 @@ fn the_machine_around_the_axes_runs_the_acceptance_job() {
         MachineState::Paused,
         "still waiting for the operator"
     );
-    // the status at the tool change: its prompt, T2 prepared, the spindle at speed
+    // the status at the tool change: its prompt, T2 prepared, the spindle stopped
+    // for the change (LinuxCNC's M6: STOP_SPINDLE_TURNING first) and running down
     // on its model, flood on
     assert_eq!(s.prompt.as_deref(), Some("insert T2, then resume"), "{s:?}");
     assert_eq!(s.tool_prepared, Some(2));
     assert_ne!(s.tool, 2, "not in the spindle before the change");
     let sp = s.spindle.unwrap();
-    assert_eq!(sp.commanded_rpm, 8000.0);
-    assert!(
-        sp.at_speed && (sp.actual_rpm - 8000.0).abs() < 160.0,
-        "{sp:?}"
-    );
+    assert_eq!(sp.commanded_rpm, 0.0, "{sp:?}");
+    assert!(sp.actual_rpm < 8000.0 - 160.0, "{sp:?}");
     assert!(s.coolant.flood && !s.coolant.mist);
     assert_eq!(s.message, None);
     assert!(op.request(&Request::Resume).unwrap().is_accepted());
@@ -531,7 +529,7 @@ fn the_machine_around_the_axes_runs_the_acceptance_job() {
     // M66's result in #5399: noted when the wait ends, and the (DEBUG,…) after it
     // shows the machine's value (filled in when the path reached it)
     assert!(
-        noted(&s, "M66 P0 (line 12): 1 (#5399)") && noted(&s, "message: M66 P0 gave 1"),
+        noted(&s, "M66 P0 (line 14): 1 (#5399)") && noted(&s, "message: M66 P0 gave 1"),
         "{:?}",
         notes(&s)
     );
@@ -563,10 +561,23 @@ fn the_machine_around_the_axes_runs_the_acceptance_job() {
     );
     assert_eq!(rows.last().unwrap()[coolant], 0.0);
     assert_eq!(rows.last().unwrap()[cmd_rpm], 0.0);
+    // the spindle stopped for the tool change and ran up again after the M0
+    let stopped = first(flood, &|r| r[cmd_rpm] == 0.0);
+    let again = first(stopped, &|r| r[cmd_rpm] == 8000.0);
+    assert!(
+        (stopped..again).all(|k| (rows[k][x] - 5.0).abs() < 1e-9),
+        "stopped and started again at X5"
+    );
     // M62 P1 switches with the first sample of the move to X10: the command stood
     // at X5 until then, and moves from the next cycles on
     let out = first(0, &|r| r[dout] as u64 & 2 != 0);
-    assert!(out > flood);
+    assert!(out > again);
+    // (the feed to X10 waited for the spindle back at speed)
+    assert!(
+        (rows[out][rpm] - 8000.0).abs() <= 160.0,
+        "at {} rpm",
+        rows[out][rpm]
+    );
     assert!(
         (1..50).all(|k| (rows[out - k][x] - 5.0).abs() < 1e-9),
         "at rest at X5 before the output"
