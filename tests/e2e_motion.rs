@@ -554,6 +554,15 @@ fn the_spindle_and_coolant_stay_on_between_jobs_until_m5_m30_abort_or_estop() {
     assert_eq!(s.state, MachineState::Idle);
     assert_eq!(s.spindle.unwrap().commanded_rpm, 0.0, "on: {s}");
     assert!(!s.coolant.mist && !s.coolant.flood, "on: {s}");
+    // and the modal state says so (LinuxCNC's interpreter takes the spindle from
+    // the machine): an S alone sets the speed, it does not start the spindle
+    let modal = s.modal.clone().unwrap_or_default();
+    assert!(
+        modal.iter().any(|w| w == "S3000") && !modal.iter().any(|w| w == "M3"),
+        "{modal:?}"
+    );
+    let s = mdi("S3500");
+    assert_eq!(s.spindle.unwrap().commanded_rpm, 0.0, "S alone: {s}");
 }
 
 /// Issue 35's acceptance job (examples/machine/acceptance.ngc) on the simulated

@@ -476,6 +476,9 @@ impl MmiTask {
                 }
             }
             self.machine.last = Some(s);
+            if s.job_id == 0 && self.history.running().is_none() {
+                self.modal_follows_the_machine(&s);
+            }
             let inputs = softnc_core::machine_io::MachineInputs::from(s.inputs);
             if inputs.limit_min | inputs.limit_max == 0 {
                 self.machine.limits_overridden = false;
@@ -701,6 +704,36 @@ impl MmiTask {
             self.save_modal(modal);
         }
         Ok(())
+    }
+
+    /// Between jobs the modal state follows what the machine has on: a spindle or
+    /// a coolant the machine stopped without a program saying so (an E-stop,
+    /// machine off, a fault, an abort, a restart) is no longer M3/M4, M7/M8 in it,
+    /// as LinuxCNC's interpreter takes the spindle's and the coolant's state from
+    /// the machine when it synchronises (`Interp::synch`: `GET_EXTERNAL_SPINDLE`,
+    /// `GET_EXTERNAL_MIST`, `GET_EXTERNAL_FLOOD`). Else an `S` alone in the next
+    /// command would start the spindle the machine stopped.
+    fn modal_follows_the_machine(&mut self, s: &PositionStatus) {
+        let Some(modal) = self.setup.modal.as_deref() else {
+            return;
+        };
+        let o: softnc_core::machine_io::MachineOutputs = s.outputs.into();
+        let stopped = o.spindle_dir == softnc_core::machine_io::SpindleDir::Stopped;
+        let off = |line: &str| match line.trim() {
+            "M3" | "M4" => stopped,
+            "M7" => !o.coolant_mist,
+            "M8" => !o.coolant_flood,
+            _ => false,
+        };
+        if !modal.lines().any(off) {
+            return;
+        }
+        let kept: String = modal
+            .lines()
+            .filter(|l| !off(l))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        self.save_modal(kept);
     }
 
     /// The modal state a completed MDI command or job left becomes the machine's
