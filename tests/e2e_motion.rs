@@ -529,7 +529,11 @@ fn the_spindle_and_coolant_stay_on_between_jobs_until_m5_m30_abort_or_estop() {
     let s = d.wait_job(&op, job_id, minute);
     assert_eq!(job_of(&s).outcome, Outcome::Aborted, "{s}");
     let s = d.wait_status(&op, minute, "idle", |s| s.state == MachineState::Idle);
-    assert_eq!(s.spindle.unwrap().commanded_rpm, 0.0, "after the abort: {s}");
+    assert_eq!(
+        s.spindle.unwrap().commanded_rpm,
+        0.0,
+        "after the abort: {s}"
+    );
     assert!(!s.coolant.mist && !s.coolant.flood, "after the abort: {s}");
     // M5 in an MDI command stops it
     let s = mdi("S2000 M3");

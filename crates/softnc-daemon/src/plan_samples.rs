@@ -13,10 +13,10 @@
 //! user M code (M100–M199): each is taken as done (exit status 0) as soon as the
 //! machine has its stop.
 
+use softnc_core::machine_io::MachineOutputs;
 use softnc_planner::machine_sequencer::{
     Action, FeedbackHistory, MachineSequencer, SequencerConfig, SequencerState,
 };
-use softnc_core::machine_io::MachineOutputs;
 use softnc_planner::Interpolator;
 use softnc_sim::{CommandSample, OverridableSamples};
 use std::cell::RefCell;
@@ -45,7 +45,10 @@ pub fn sequencer_config(profile: &softnc_machine::MachineProfile) -> SequencerCo
 /// simulator runs a job on), without a tool-change request; the tool in the
 /// spindle as parameter 5400 says. A spindle already turning is not waited for:
 /// only a job's own M3/M4/S waits for the spindle at speed.
-pub fn initial_state(params: Option<&softnc_gcode::Params>, held: MachineOutputs) -> SequencerState {
+pub fn initial_state(
+    params: Option<&softnc_gcode::Params>,
+    held: MachineOutputs,
+) -> SequencerState {
     let tool = params.map_or(0.0, |p| p.get(5400));
     SequencerState {
         outputs: held.held_for_next_job(),

@@ -41,7 +41,8 @@
 
 use softnc_core::machine_io::{MachineInputs, MachineOutputs, SpindleDir};
 use softnc_gcode::{
-    CoolantLine, MachineOp, MessageKind, MotionKind, OverrideSwitch, Program, SpindleTurn, WaitInput, WaitMode,
+    CoolantLine, MachineOp, MessageKind, MotionKind, OverrideSwitch, Program, SpindleTurn,
+    WaitInput, WaitMode,
 };
 
 /// What the sequencer needs besides the program (from the machine profile).

@@ -6,7 +6,8 @@
 
 use super::{bad, round_to_int, Block, Interp, R};
 use crate::canon::{
-    CoolantLine, MachineOp, MessageKind, MotionKind, OverrideSwitch, SpindleTurn, WaitInput, WaitMode,
+    CoolantLine, MachineOp, MessageKind, MotionKind, OverrideSwitch, SpindleTurn, WaitInput,
+    WaitMode,
 };
 use crate::ErrorKind;
 use softnc_core::machine_io::{ANALOG_LINES, DIGITAL_LINES};

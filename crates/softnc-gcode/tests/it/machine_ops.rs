@@ -4,11 +4,11 @@
 //! `expected` files of `../shared/gcode`) and its errors.
 
 use softnc_core::MotionProfile;
+use softnc_gcode::CoolantLine;
 use softnc_gcode::{
     read_program_with, ErrorKind, M66Results, MachineOp, MessageKind, MotionKind, Program,
     ReadOptions, SpindleTurn, WaitMode,
 };
-use softnc_gcode::CoolantLine;
 use std::path::PathBuf;
 
 fn profile() -> MotionProfile {
@@ -118,8 +118,8 @@ fn the_acceptance_job_reads_in_program_order() {
     assert_eq!(
         stops,
         vec![
-            true, true, false, true, true, true, false, true, true, true, true, false, true,
-            true, true, true, true
+            true, true, false, true, true, true, false, true, true, true, true, false, true, true,
+            true, true, true
         ]
     );
     // the M0 is where it was: on its own line

@@ -591,7 +591,12 @@ fn a_job_starts_from_the_held_outputs_and_its_program_end_stops_them() {
             if step.action == Action::Release {
                 it.release_machine_stop();
             }
-            rows.push((line_of(&program, &s), step.state.outputs, stop.is_some(), s.feed_move));
+            rows.push((
+                line_of(&program, &s),
+                step.state.outputs,
+                stop.is_some(),
+                s.feed_move,
+            ));
         }
         rows
     };
@@ -603,7 +608,10 @@ fn a_job_starts_from_the_held_outputs_and_its_program_end_stops_them() {
     assert_eq!(first.spindle_signed_rpm(), 5000.0);
     assert!(first.coolant_flood && first.digital == 0b100);
     let feed_rows: Vec<_> = rows.iter().filter(|r| r.0 == 1).collect();
-    assert!(feed_rows.iter().all(|r| !r.2 && r.1 == first), "no stop, nothing switched");
+    assert!(
+        feed_rows.iter().all(|r| !r.2 && r.1 == first),
+        "no stop, nothing switched"
+    );
     let last = rows.last().unwrap().1;
     assert_eq!(last.spindle_signed_rpm(), 0.0);
     assert!(!last.coolant_flood && last.digital == 0b100);
@@ -611,6 +619,9 @@ fn a_job_starts_from_the_held_outputs_and_its_program_end_stops_them() {
     // an S while it turns: a speed change, waited for before the feed
     let rows = run("S6000\nG1 X10 F3000\nM2\n");
     assert_eq!(rows[0].1.spindle_rpm, 6000.0);
-    let stood = rows.iter().rposition(|r| r.0 == 1 && r.2).expect("S6000 stands");
+    let stood = rows
+        .iter()
+        .rposition(|r| r.0 == 1 && r.2)
+        .expect("S6000 stands");
     assert!(rows[..=stood].iter().all(|r| !r.3), "no feed before it");
 }
