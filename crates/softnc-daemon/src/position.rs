@@ -21,11 +21,11 @@
 //! outputs (LinuxCNC's task abort); while the machine is off, E-stopped or
 //! faulted the safe state goes out with machine-on and amplifier-enable off. The
 //! inputs and the outputs in force go out in every status
-//! (`PositionStatus::inputs`, `PositionStatus::outputs`). An opened E-stop input stops the machine
-//! as the operator's E-stop does (latched: a reset is refused while it is open, and
-//! so is `on`); a limit switch that trips while the machine is on does the same,
-//! with an alarm naming the axis and the end; off it, the axis jogs only away
-//! from the switch. While a limit switch is tripped the machine is switched on
+//! (`PositionStatus::inputs`, `PositionStatus::outputs`). An opened E-stop input
+//! stops the machine as the operator's E-stop does (latched: a reset is refused
+//! while it is open, and so is `on`); a limit switch that trips while the machine
+//! is on does the same, with an alarm naming the axis and the end; off it, the
+//! axis jogs only away from the switch. While a limit switch is tripped the machine is switched on
 //! only with the operator's override (LinuxCNC's override limits), which lasts
 //! until every switch is released and under which a switch stops nothing.
 //!
