@@ -540,6 +540,15 @@ fn the_spindle_and_coolant_stay_on_between_jobs_until_m5_m30_abort_or_estop() {
     assert!(turning_at(&s, 2000.0), "{:?}", s.spindle);
     let s = mdi("M5");
     assert_eq!(s.spindle.unwrap().commanded_rpm, 0.0, "M5: {s}");
+    // and so does an abort while idle (LinuxCNC's), the coolant too
+    let s = mdi("S2000 M3 M8");
+    assert!(turning_at(&s, 2000.0) && s.coolant.flood, "{s}");
+    let r = op.request(&Request::Abort).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let s = d.wait_status(&op, minute, "stopped by the abort", |s| {
+        s.spindle.unwrap().commanded_rpm == 0.0 && !s.coolant.flood
+    });
+    assert_eq!(s.state, MachineState::Idle, "{s}");
 
     // S3000 M3, then an E-stop: stopped; the reset and `on` leave it stopped
     let s = mdi("S3000 M3");

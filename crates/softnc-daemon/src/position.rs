@@ -961,6 +961,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     fn start_job(&mut self, first: CommandSample) -> Result<()> {
         self.flags.clear();
         self.job_aborted = false;
+        // (a hold or an abort before it is not this job's)
+        self.feed_held = false;
         self.phase = JobPhase::Preparing { id: first.job_id };
         self.last_job_id = first.job_id;
         self.current = None;

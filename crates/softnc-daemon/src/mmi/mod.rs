@@ -1100,6 +1100,9 @@ impl MmiTask {
                 match kind {
                     ControlKind::Hold => self.machine.intent = Some(MachineState::Held),
                     ControlKind::Resume => self.machine.intent = None,
+                    // idle: nothing to stop but the spindle and the coolant (the
+                    // position process does that on every abort)
+                    ControlKind::Abort if state == MachineState::Idle => {}
                     ControlKind::Abort => {
                         self.machine.intent = Some(MachineState::Stopping);
                         self.machine.abort_asked = Some(job_id);
@@ -1124,6 +1127,9 @@ impl MmiTask {
                 let what = match kind {
                     ControlKind::Hold => format!("job {job_id} held"),
                     ControlKind::Resume => format!("job {job_id} resumed"),
+                    ControlKind::Abort if state == MachineState::Idle => {
+                        "spindle stopped, coolant off".to_string()
+                    }
                     ControlKind::Abort => format!("job {job_id} stopping along its path"),
                     ControlKind::EStop => "emergency stop".to_string(),
                     _ if state == MachineState::Idle => "alarms cleared".to_string(),
@@ -1470,6 +1476,8 @@ pub fn transition(kind: ControlKind, state: MachineState) -> Result<MachineState
         (K::Step, _) => Err("nothing is paused at a block end"),
         (K::Abort, Running | Held | Paused | Mdi) => Ok(Stopping),
         (K::Abort, Homing | Jogging) => Ok(Idle),
+        // nothing moves: the spindle and the coolant stop (LinuxCNC's task abort)
+        (K::Abort, Idle) => Ok(Idle),
         (K::Abort, Stopping) => Err("already stopping"),
         // the latch cleared, the drives left off: `on` switches them on (LinuxCNC)
         (K::Reset, Faulted | EStopped) => Ok(Off),
@@ -1505,7 +1513,7 @@ mod tests {
             (Resume, [None, None, Some(Running), None, None, None]),
             (
                 Abort,
-                [None, Some(Stopping), Some(Stopping), None, None, None],
+                [Some(Idle), Some(Stopping), Some(Stopping), None, None, None],
             ),
             (EStop, [Some(EStopped); 6]),
             (Reset, [Some(Idle), None, None, None, Some(Off), Some(Off)]),
