@@ -162,6 +162,57 @@ fn stays(d: &Daemon, op: &Operator, want: MachineState) -> Status {
     s2
 }
 
+/// Drives that do not come on (an EtherCAT bus that is not there): `on` fails with
+/// the backend's reason instead of reporting the machine on, and a job sent right
+/// behind the `on` — accepted while the switch-on was pending — never starts, never
+/// hangs: it ends aborted and nothing moves.
+#[test]
+fn drives_that_do_not_come_on_fail_on_and_a_job_sent_behind_it_never_hangs() {
+    let bus = r#"backend: EtherCat((interface: "nosuchnic0", subdevices: [
+        (identity: (vendor_id: 0x5f7, product_code: 0x402, revision: 0x10000),
+         role: Drive(axis: 0, counts_per_mm: 10000.0, direction: 1, following_error_window_counts: 50000)),
+    ]))"#;
+    let d = Daemon::start_edited("nobus", "Realtime", &[("backend: Simulated", bus)]);
+    let op = d.operator_off();
+    let err = op
+        .machine_on(Duration::from_secs(10))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("machine on: ") && err.contains("nosuchnic0"),
+        "{err}"
+    );
+    let s = op.status().unwrap();
+    assert_eq!(s.state, MachineState::Off, "{s}");
+    assert!(s.pending.is_none(), "{s}");
+    let at = machine_mm(&s);
+    // `on` and a job back to back: the job is refused (the position process
+    // answered first) or taken and dropped
+    let job = short_job(&d.dir);
+    assert!(ask(&op, &Request::MachineOn).0);
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    if r.is_accepted() {
+        let s = d.wait_job(&op, id(&r), Duration::from_secs(10));
+        assert_eq!(job_of(&s).outcome, Outcome::Aborted, "{s}");
+        assert_eq!(job_of(&s).cycles, 0, "{s}");
+    } else {
+        assert!(r.message().contains("off"), "{}", r.message());
+    }
+    let s = d.wait_status(&op, Duration::from_secs(5), "off, no job", |s| {
+        s.state == MachineState::Off && s.pending.is_none()
+    });
+    assert_eq!(machine_mm(&s), at, "nothing moved: {s}");
+    // no job left running: the next one is refused for the machine being off,
+    // not for a busy machine
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(!r.is_accepted());
+    assert!(
+        r.message().contains("the machine is off"),
+        "{}",
+        r.message()
+    );
+}
+
 #[test]
 fn reset_after_an_estop_or_a_fault_leaves_the_drives_off_until_on() {
     let d = Daemon::start("resetoff", "Realtime", false);

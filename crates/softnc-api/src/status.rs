@@ -311,6 +311,12 @@ pub struct Status {
     pub api_version: u32,
     /// The machine state.
     pub state: MachineState,
+    /// A command the position process has not yet taken (machine on or off,
+    /// homing, a jog): the state it asks for, shown in `state` meanwhile; `None`
+    /// once taken. Switching on over a bus can take a second, and can fail (an
+    /// alarm "machine on: …", the state back to off).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pending: Option<MachineState>,
     /// Which axes are homed (X, Y, Z).
     #[serde(default)]
     pub homed: Vec<bool>,

@@ -52,6 +52,7 @@ fn status() -> Status {
         prompt: None,
         limits_tripped: vec!["X max".into()],
         limits_overridden: true,
+        pending: Some(MachineState::Idle),
         adaptive_force: Some(AdaptiveForce {
             override_fraction: 0.9,
             revolutions: 40,

@@ -216,7 +216,17 @@ pub fn run(args: SimArgs, config: &Path) -> Result<ExitCode> {
         return Ok(ExitCode::from(crate::EXIT_REFUSED));
     }
     let learned = if args.learned {
-        match learned_correction(&args, &plan)? {
+        // the samples counted as the daemon counts them (and `softnc learn` plans
+        // them): the machine stops not waited at
+        let count = || {
+            let options = softnc_planner::PlanOptions {
+                wait_at_machine_stops: false,
+                ..options.clone()
+            };
+            softnc_planner::plan(&program, &machine, &options)
+                .map_or(0, |p| p.interpolator().count())
+        };
+        match learned_correction(&args, count, cycle_s)? {
             Ok(c) => Some(c),
             Err(msg) => {
                 eprintln!("softnc sim --learned: {msg}");
@@ -631,7 +641,8 @@ impl ForceLog {
 /// The stored Markov correction of the job for --learned, or why there is none.
 fn learned_correction(
     args: &SimArgs,
-    plan: &softnc_planner::Plan,
+    planned_samples: impl FnOnce() -> usize,
+    cycle_s: f64,
 ) -> Result<Result<softnc_learning::JobCorrection, String>> {
     let mpath = args
         .machine
@@ -645,20 +656,8 @@ fn learned_correction(
         &read(&args.file)?,
         &read(&mpath)?,
         softnc_learning::entry::OVERRIDE_PCT,
-        || {
-            // the samples with every machine stop released at once (nothing to wait
-            // for here)
-            let mut it = plan.interpolator();
-            let mut n = 0;
-            while it.next().is_some() {
-                n += 1;
-                if it.machine_stop().is_some() {
-                    it.release_machine_stop();
-                }
-            }
-            n
-        },
-        plan.cycle_s(),
+        planned_samples,
+        cycle_s,
     )?;
     Ok(match found {
         softnc_learning::Lookup::Markov(c) => Ok(c),

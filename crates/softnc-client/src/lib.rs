@@ -307,20 +307,35 @@ impl Operator {
     /// reports on; an error if it refuses or does not within `timeout`.
     pub fn machine_on(&self, timeout: Duration) -> Result<()> {
         let t0 = Instant::now();
-        let mut asked = false;
+        // the alarms standing before the request: a new "machine on: …" is its
+        // failure (the drives did not come on)
+        let mut before: Option<Vec<String>> = None;
         loop {
             let s = self.status()?;
             match s.state {
                 // the position process has not reported yet
                 _ if s.machine_mm.is_none() => {}
-                MachineState::Off if !asked => {
+                MachineState::Off if before.is_none() => {
+                    before = Some(s.alarms.iter().map(|a| a.message.clone()).collect());
                     let r = self.request(&Request::MachineOn)?;
                     if !r.is_accepted() {
                         bail!("machine on refused: {}", r.message());
                     }
-                    asked = true;
                 }
-                MachineState::Off => {}
+                MachineState::Off => {
+                    let failed = s.alarms.iter().find(|a| {
+                        a.message.starts_with("machine on")
+                            && !before.as_ref().is_some_and(|b| b.contains(&a.message))
+                    });
+                    if let Some(a) = failed {
+                        bail!("the machine did not come on: {}", a.message);
+                    }
+                }
+                MachineState::Faulted | MachineState::EStopped => {
+                    bail!("the machine is {:?}: reset it first", s.state)
+                }
+                // on as asked, not yet as the position process says
+                _ if s.pending.is_some() => {}
                 _ => return Ok(()),
             }
             if t0.elapsed() > timeout {

@@ -79,6 +79,9 @@ pub struct InterpTask {
     /// The rapid override as the MMI last set it (fraction, 0..=1): a job starts
     /// with it, and a change acts within the lookahead.
     rapid_override: f64,
+    /// The `seq` of the running job's `StartJob`: a position process that has taken
+    /// it (`mmi_control_seq`) and stands off dropped the job.
+    start_seq: u64,
 
     /// The machine's parameter file and tool table: a job is read with them.
     store: crate::machine_store::MachineStore,
@@ -264,6 +267,7 @@ impl InterpTask {
             machine_outputs: softnc_core::machine_io::MachineOutputs::safe(),
             switches: Switches::default(),
             rapid_override: 1.0,
+            start_seq: 0,
 
             store,
             shutdown: false,
@@ -303,6 +307,7 @@ impl InterpTask {
                         let waits = self.outbox.waits();
                         let from_line = (c.axis != 0 && c.axis != u32::MAX).then_some(c.axis);
                         let adaptive = c.flags & JOB_ADAPTIVE_FORCE != 0;
+                        self.start_seq = c.seq;
                         let end = self.run_job(
                             c.path.as_str(),
                             c.job_id,
@@ -750,6 +755,14 @@ impl InterpTask {
                 MachineState::from_wire(st.state),
                 Some(MachineState::Faulted | MachineState::EStopped)
             );
+            // the position process stands off and has taken this job's start:
+            // it dropped the job (the drives did not come on)
+            let dropped = st.job_id == 0
+                && MachineState::from_wire(st.state) == Some(MachineState::Off)
+                && st.mmi_control_seq >= self.start_seq;
+            if dropped {
+                return Ok(Some(JobEnd::Aborted));
+            }
             if stopped && (st.job_id == job_id || st.job_id == 0) {
                 self.state = MachineState::from_wire(st.state).unwrap_or(MachineState::Faulted);
                 return Ok(Some(JobEnd::Aborted));

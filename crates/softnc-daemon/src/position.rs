@@ -758,6 +758,21 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     // the job stops along its path: the feed is not the force loop's
                     self.feed_held = true;
                 }
+                Some(ControlKind::StartJob)
+                    if matches!(
+                        self.state,
+                        MachineState::Off | MachineState::EStopped | MachineState::Faulted
+                    ) =>
+                {
+                    // the drives are not on (switching them on failed, or an
+                    // E-stop came first): the job never starts, not even later
+                    let state = self.state;
+                    self.alarm(
+                        AlarmCode::Other,
+                        u32::MAX,
+                        format_args!("job {} not started: the machine is {state:?}", c.job_id),
+                    )?;
+                }
                 Some(ControlKind::StartJob) => {
                     // the programmed path, a fresh engine, the PDC designs: made off
                     // the cycle, swapped in before motion
@@ -820,7 +835,14 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                             self.state = MachineState::Idle;
                         }
                         Err(e) => {
-                            self.alarm(AlarmCode::Other, u32::MAX, format_args!("machine on: {e}"))?
+                            // (off the cycle's steady state: switching on failed)
+                            let why = self.engine.backend().enable_failure().unwrap_or_default();
+                            let sep = if why.is_empty() { "" } else { ": " };
+                            self.alarm(
+                                AlarmCode::Other,
+                                u32::MAX,
+                                format_args!("machine on: {e}{sep}{why}"),
+                            )?
                         }
                     }
                 }

@@ -391,6 +391,9 @@ fn al_nibble(s: SubDeviceState) -> u8 {
 }
 
 impl ServoBackend for EtherCatBackend {
+    fn enable_failure(&self) -> Option<String> {
+        self.last_open_error.as_ref().map(|e| e.to_string())
+    }
     fn axes(&self) -> usize {
         self.axes
     }

@@ -167,6 +167,10 @@ pub fn main_device(
     let timeouts = Timeouts {
         pdu: pdu_timeout,
         state_transition: Duration::from_secs(5),
+        // an SII EEPROM read at bring-up (off the cycle): ethercrab's 10 ms timed
+        // out against the emulated SubDevices on a loaded 2-core machine, where
+        // SOEM gives it 20 ms; a real ESC answers in a few
+        eeprom: EEPROM_TIMEOUT,
         wait_loop_delay: Duration::from_micros(200),
         ..Timeouts::default()
     };
@@ -178,6 +182,9 @@ pub fn main_device(
         Box::leak(Box::new(MainDevice::new(pdu_loop, timeouts, config)));
     Ok((md, TxRxStop(stop)))
 }
+
+/// How long an SII EEPROM read may take at bring-up.
+const EEPROM_TIMEOUT: Duration = Duration::from_millis(100);
 
 /// How often the TX/RX thread looks at its stop flag.
 const STOP_POLL: Duration = Duration::from_millis(10);

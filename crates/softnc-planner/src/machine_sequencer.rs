@@ -488,12 +488,18 @@ impl SequencerBuilder {
                     self.pending_sync.push(op);
                     return;
                 }
+                let before = self.state.outputs;
                 self.state.apply(&op);
                 if let MachineOp::ToolChange { tool } = op {
                     self.tool_change_done = Some(tool);
                 }
                 self.record(index);
-                if op.stops_motion() {
+                // a spindle stop or a coolant switch that changes nothing (the
+                // program end's spindle stop with the spindle standing) has nothing
+                // to wait for: the path does not stand there for the machine
+                let no_change = matches!(op, MachineOp::SpindleOff | MachineOp::Coolant { .. })
+                    && self.state.outputs == before;
+                if op.stops_motion() && !no_change {
                     self.stops.push(StopEntry {
                         motion: index,
                         line: m.line,

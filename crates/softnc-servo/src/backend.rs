@@ -54,7 +54,7 @@ pub enum BackendError {
     },
     /// The fieldbus failed (EtherCAT): where — the SubDevice's position on the bus
     /// and the axis it drives, where known — and why.
-    #[error("bus fault at SubDevice {subdevice:?} (axis {axis:?}): {reason}")]
+    #[error("bus fault{}: {reason}", BusPlace(*subdevice, *axis))]
     Bus {
         /// Position of the SubDevice on the bus (0 first), where one is to blame.
         subdevice: Option<u16>,
@@ -63,6 +63,22 @@ pub enum BackendError {
         /// What went wrong.
         reason: BusFault,
     },
+}
+
+/// " at SubDevice 1 (axis 1)", or what of it is known (formatted without
+/// allocating: a bus fault's alarm is written on the cycle).
+struct BusPlace(Option<u16>, Option<u8>);
+
+impl std::fmt::Display for BusPlace {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if let Some(p) = self.0 {
+            write!(f, " at SubDevice {p}")?;
+        }
+        if let Some(a) = self.1 {
+            write!(f, " (axis {a})")?;
+        }
+        Ok(())
+    }
 }
 
 /// Why a fieldbus cycle failed ([`BackendError::Bus`]).
@@ -115,6 +131,12 @@ pub trait ServoBackend {
     /// quick stop, then disable voltage). Commands written while disabled are
     /// ignored.
     fn disable(&mut self);
+    /// Why the last [`enable`](Self::enable) could not bring the drives up, in
+    /// the backend's own words (the bus's interface and the error), where it knows
+    /// more than its [`BackendError`] says.
+    fn enable_failure(&self) -> Option<String> {
+        None
+    }
     /// Declare the current actual position to be `pos_mm` (homing; the simulation
     /// places its axes there at rest).
     fn home(&mut self, pos_mm: Axes<f64>);

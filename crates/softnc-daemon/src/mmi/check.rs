@@ -450,6 +450,7 @@ impl MmiTask {
             },
             &copy,
         )?;
+        self.machine.start_sent = Some((job_id, self.ports.control_seq));
         let what = if matches!(kind, CheckKind::Job { .. }) {
             "job"
         } else {

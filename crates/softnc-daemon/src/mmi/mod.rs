@@ -125,6 +125,9 @@ struct Machine {
     /// (`mmi_control_seq`), so that a status read right after the reply does not
     /// show the state before it.
     asked: Option<(MachineState, u64, Instant)>,
+    /// The running job's `StartJob` command (job id, its `seq`): once the position
+    /// process has taken it (`mmi_control_seq`) while off, the job cannot run.
+    start_sent: Option<(u64, u64)>,
     /// Alarms raised up to this time (ns since the Unix epoch) were acknowledged by
     /// a reset: replayed to a restarted MMI, they are not shown again. Kept in
     /// `<data_dir>/alarms-acknowledged` across MMI restarts.
@@ -234,6 +237,7 @@ impl MmiTask {
                 loops: [None; 4],
                 alarms: VecDeque::new(),
                 abort_asked: None,
+                start_sent: None,
                 intent: None,
                 feed_override: 1.0,
                 rapid_override: 1.0,
@@ -484,11 +488,24 @@ impl MmiTask {
                 self.machine.limits_overridden = false;
             }
             let now_state = self.position_state();
-            if prev_state != now_state || s.job_id == 0 {
+            if prev_state != now_state || s.job_id == 0 || now_state == MachineState::Off {
                 let abort_asked = self.machine.abort_asked;
                 let mut ended = false;
                 if let Some(job) = self.history.running() {
-                    if matches!(now_state, MachineState::Faulted | MachineState::EStopped) {
+                    // the position process took the job's start while off (the
+                    // drives did not come on: its alarm says why): it never runs
+                    let taken_while_off = now_state == MachineState::Off
+                        && self
+                            .machine
+                            .start_sent
+                            .is_some_and(|(id, seq)| id == job.job_id && s.mmi_control_seq >= seq);
+                    if taken_while_off {
+                        job.alarms
+                            .push("the machine is off: the job did not start".to_string());
+                    }
+                    if taken_while_off
+                        || matches!(now_state, MachineState::Faulted | MachineState::EStopped)
+                    {
                         job.outcome = Outcome::Aborted;
                         ended = true;
                     } else if now_state == MachineState::Idle && s.job_id == 0 && job.cycles > 0 {
@@ -1337,6 +1354,7 @@ impl MmiTask {
             tool_prepared: around.as_ref().map(|a| a.0.tool_prepared),
             limits_tripped: self.limits_tripped(),
             limits_overridden: self.machine.limits_overridden,
+            pending: self.asked_pending().map(api_state),
             message: around.as_ref().and_then(|a| a.1.clone()),
             prompt: around.as_ref().and_then(|a| a.2.clone()),
             adaptive_force: s
