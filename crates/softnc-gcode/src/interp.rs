@@ -2712,7 +2712,9 @@ fn read_source<'t>(
                         it.plane = Plane::XY;
                         it.absolute = true;
                         it.inverse_time = false;
-                        it.program_end(line_no as u32);
+                        it.spindle_code = 5;
+                        it.mist = false;
+                        it.flood = false;
                         it.motion = Some(G_1);
                         run_from_reached(&it, options, file)?;
                         return Ok(finish(
@@ -3007,8 +3009,7 @@ mod tests {
                     .unwrap();
                 (m.canon_end[0], m.canon_end[1])
             };
-            // (and M2's spindle stop)
-            assert_eq!(motions.len(), lines + 1, "fast {fast}");
+            assert_eq!(motions.len(), lines, "fast {fast}");
             // (Y modal: the line before's)
             let y_before = |line: usize| ((line - 1) % 3) as f64;
             assert_eq!(
