@@ -35,11 +35,8 @@ fn the_demo_job_runs_over_the_emulated_bus() {
     assert_eq!(report["outcome"], "completed", "{report}");
     let cycles = report["job"]["cycles"].as_u64().unwrap_or(0);
     let planned = report["job"]["planned_samples"].as_u64().unwrap_or(0);
-    // every planned sample ran, and one more: the program end's spindle stop
-    // (LinuxCNC's STOP_SPINDLE_TURNING at M2) stands the path one sample, released
-    // at once with the spindle already standing (`planned_samples` counts no stop)
     assert!(
-        cycles > 0 && cycles == planned + 1,
+        cycles > 0 && cycles == planned,
         "cycles {cycles} of {planned} planned: {report}"
     );
     let drives: Vec<u64> = stderr
