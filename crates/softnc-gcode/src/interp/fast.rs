@@ -572,6 +572,7 @@ impl Interp<'_> {
             && !self.sync_pending
             && self.rotation_deg == 0.0
             && !self.suppress
+            && !self.comp.busy()
     }
 
     /// Debug builds: the lines `text` the short way just ran, from the state
