@@ -37,14 +37,42 @@
 //! the active system, canned cycles, the I/O and override M codes, reading the
 //! current position (#5420–#5428).
 //!
-//! Not followed bit for bit: LinuxCNC adds and subtracts its angles with `M_PIl`
-//! (x87 `long double`); softnc uses `f64` (π/2 rounded to 53 bits), which can move
-//! a compensated point by an ulp.
+//! LinuxCNC adds `M_PIl`, `M_PI_2l` and `2 * M_PIl` to its angles in x87 `long
+//! double` and stores the sums in `double`s: so does this ([`Ld`]), so that the
+//! compensated points have LinuxCNC's bits (a point half way between two printed
+//! decimals prints as `rs274` prints it). One step is taken to first order:
+//! `sin(beta - M_PI_2l)` of a line–arc inside corner, which C++ computes with
+//! `sinl` of the `long double` difference.
 
 use super::{bad, find_turn, sc, Block, Interp, MotionKind, G_0, G_1, G_2, G_3, R};
 use crate::canon::Motion;
+use crate::x87::Ld;
 use softnc_core::{Plane, Vec3};
-use std::f64::consts::{FRAC_PI_2, PI};
+
+/// `x + c` in `long double`, stored in a `double`.
+fn ld_add(x: f64, c: Ld) -> f64 {
+    Ld::from_f64(x).add(c).to_f64()
+}
+
+/// `x - c` in `long double`, stored in a `double`.
+fn ld_sub(x: f64, c: Ld) -> f64 {
+    Ld::from_f64(x).sub(c).to_f64()
+}
+
+/// `x > c`, `c` a `long double`.
+fn ld_gt(x: f64, c: Ld) -> bool {
+    c.lt(Ld::from_f64(x))
+}
+
+/// `x < c`, `c` a `long double`.
+fn ld_lt(x: f64, c: Ld) -> bool {
+    Ld::from_f64(x).lt(c)
+}
+
+/// `M_PI_2l` stored in a `double`.
+fn half_pi() -> f64 {
+    Ld::HALF_PI.to_f64()
+}
 
 /// LinuxCNC's `TOLERANCE_CONCAVE_CORNER` (radians).
 const SMALL: f64 = 0.05;
@@ -397,7 +425,9 @@ impl Interp<'_> {
             let (cx, cy, _) = split(self.plane, self.pos);
             self.move_endpoint_and_flush(cx, cy, off)?;
             self.dequeue_canons();
-            let stands = self.machine_pos();
+            // where the last motion handed on ended (a lathe tool's origin, off
+            // the radius centre the interpreter's point is)
+            let stands = sc(self.frame(self.comp.emitted), self.scale()) + self.offset();
             self.pos = self.comp.program;
             self.comp.exit_start_mm = Some(stands);
             self.comp.arc_not_allowed = true;
@@ -733,12 +763,12 @@ impl Interp<'_> {
                 "Length of cutter compensation entry move is not greater than the tool radius",
             );
         }
-        let alpha = (py - cy).atan2(px - cx)
-            + if side == Side::Left {
-                FRAC_PI_2
-            } else {
-                -FRAC_PI_2
-            };
+        let direction = (py - cy).atan2(px - cx);
+        let alpha = if side == Side::Left {
+            ld_add(direction, Ld::HALF_PI)
+        } else {
+            ld_sub(direction, Ld::HALF_PI)
+        };
         let end_x = px + radius * alpha.cos();
         let end_y = py + radius * alpha.sin();
         self.comp.set_endpoint(cx, cy);
@@ -783,28 +813,29 @@ impl Interp<'_> {
             let (beta, gamma);
             if side == Side::Left {
                 if theta < alpha {
-                    theta += 2.0 * PI;
+                    theta = ld_add(theta, Ld::TWO_PI);
                 }
-                beta = (theta - alpha) - FRAC_PI_2;
-                gamma = FRAC_PI_2;
+                beta = ld_sub(theta - alpha, Ld::HALF_PI);
+                gamma = half_pi();
             } else {
                 if alpha < theta {
-                    alpha += 2.0 * PI;
+                    alpha = ld_add(alpha, Ld::TWO_PI);
                 }
-                beta = (alpha - theta) - FRAC_PI_2;
-                gamma = -FRAC_PI_2;
+                beta = ld_sub(alpha - theta, Ld::HALF_PI);
+                gamma = -half_pi();
             }
             end_x = px + radius * (alpha + gamma).cos();
             end_y = py + radius * (alpha + gamma).sin();
             let mid_x = opx + radius * (alpha + gamma).cos();
             let mid_y = opy + radius * (alpha + gamma).sin();
             let front_arc = self.comp.front_arc();
-            let concave = if beta < -SMALL || beta > PI + SMALL {
+            let small = Ld::from_f64(SMALL);
+            let concave = if beta < -SMALL || ld_gt(beta, Ld::PI.add(small)) {
                 true
             } else {
                 // an "h" shape: over the round top, then beside the upright, the tool
                 // kept above and outside
-                beta > PI - SMALL
+                ld_gt(beta, Ld::PI.sub(small))
                     && front_arc.is_some_and(|(.., turn)| {
                         (side == Side::Right && turn > 0) || (side == Side::Left && turn < 0)
                     })
@@ -826,7 +857,7 @@ impl Interp<'_> {
                 match front_arc {
                     None => {
                         // line to line: the held line ends where the two meet
-                        let halfcorner = (beta + PI) / 2.0;
+                        let halfcorner = Ld::from_f64(beta).add(Ld::PI).half().to_f64();
                         if halfcorner == 0.0 {
                             return bad(
                                 off,
@@ -843,9 +874,9 @@ impl Interp<'_> {
                         let oldrad = (p_c2 - p_end2).hypot(p_c1 - p_end1);
                         let base_dir = (py - opy).atan2(px - opx);
                         let theta = if p_turn > 0 {
-                            base_dir + FRAC_PI_2
+                            ld_add(base_dir, Ld::HALF_PI)
                         } else {
-                            base_dir - FRAC_PI_2
+                            ld_sub(base_dir, Ld::HALF_PI)
                         };
                         let phi = (p_c2 - opy).atan2(p_c1 - opx);
                         let inside = tool_inside_arc(side, p_turn);
@@ -865,9 +896,9 @@ impl Interp<'_> {
                             );
                         }
                         let angle = if inside == (p_turn > 0) {
-                            -l.acos() + theta + PI
+                            ld_add(-l.acos() + theta, Ld::PI)
                         } else {
-                            l.acos() + theta + PI
+                            ld_add(l.acos() + theta, Ld::PI)
                         };
                         let mx = p_c1 + oldrad * angle.cos();
                         let my = p_c2 + oldrad * angle.sin();
@@ -1103,15 +1134,15 @@ impl Interp<'_> {
         let arc_radius = (centerx - end_x).hypot(centery - end_y);
         let mut theta = (cy - opy).atan2(cx - opx);
         theta = if side == Side::Left {
-            theta - FRAC_PI_2
+            ld_sub(theta, Ld::HALF_PI)
         } else {
-            theta + FRAC_PI_2
+            ld_add(theta, Ld::HALF_PI)
         };
         let mut delta = (centery - opy).atan2(centerx - opx);
         let alpha = if mode == G_3 {
-            delta - FRAC_PI_2
+            ld_sub(delta, Ld::HALF_PI)
         } else {
-            delta + FRAC_PI_2
+            ld_add(delta, Ld::HALF_PI)
         };
         let mut beta = if side == Side::Left {
             theta - alpha
@@ -1119,10 +1150,10 @@ impl Interp<'_> {
             alpha - theta
         };
         // beta from -90° to +270°
-        beta = if beta > 1.5 * PI {
-            beta - 2.0 * PI
-        } else if beta < -FRAC_PI_2 {
-            beta + 2.0 * PI
+        beta = if ld_gt(beta, Ld::one_and_half_pi()) {
+            ld_sub(beta, Ld::TWO_PI)
+        } else if ld_lt(beta, Ld::HALF_PI.neg()) {
+            ld_add(beta, Ld::TWO_PI)
         } else {
             beta
         };
@@ -1135,18 +1166,26 @@ impl Interp<'_> {
             }
         } else {
             gamma = (end_y - centery).atan2(end_x - centerx);
-            delta += PI;
+            delta = ld_add(delta, Ld::PI);
         }
         let new_end_x = end_x + tool_radius * gamma.cos();
         let new_end_y = end_y + tool_radius * gamma.sin();
         let inside = tool_inside_arc(side, turn);
         let sweep = find_turn((opx, opy), (centerx, centery), turn, (end_x, end_y));
-        if beta < -SMALL || beta > PI + SMALL || ((beta - PI).abs() < SMALL && !inside) {
+        let small = Ld::from_f64(SMALL);
+        let beta_ld = Ld::from_f64(beta);
+        let off_pi = beta_ld.sub(Ld::PI);
+        let near_pi = off_pi.lt(small) && small.neg().lt(off_pi);
+        if beta < -SMALL || ld_gt(beta, Ld::PI.add(small)) || (near_pi && !inside) {
             // concave (or the convex corner atop an "m" or "h" shape)
             match self.comp.front_arc() {
                 None => {
                     // line to arc
-                    let cy2 = arc_radius * (beta - FRAC_PI_2).sin();
+                    // sinl of the long double difference, to first order about
+                    // the double it rounds to
+                    let arg = beta_ld.sub(Ld::HALF_PI);
+                    let (hi, lo) = (arg.to_f64(), arg.sub(Ld::from_f64(arg.to_f64())).to_f64());
+                    let cy2 = arc_radius * (hi.sin() + hi.cos() * lo);
                     let (dist_from_center, angle_from_center);
                     if inside {
                         dist_from_center = arc_radius - tool_radius;
@@ -1173,10 +1212,11 @@ impl Interp<'_> {
                                 "Arc move in concave corner cannot be reached by the tool without gouging",
                             );
                         }
+                        let theta_pi = Ld::from_f64(theta).add(Ld::PI);
                         angle_from_center = if turn > 0 {
-                            theta + PI - l.asin()
+                            theta_pi.sub(Ld::from_f64(l.asin())).to_f64()
                         } else {
-                            theta + PI + l.asin()
+                            theta_pi.add(Ld::from_f64(l.asin())).to_f64()
                         };
                     }
                     let midx = centerx + dist_from_center * angle_from_center.cos();

@@ -162,9 +162,8 @@ impl Interp<'_> {
                 off,
                 "Cannot set reference point with cutter compensation in effect",
             ),
-            520 | 920..=923 if self.comp.on() => {
-                // convert_axis_offsets
-                let off = if code > 920 { b.g_off(16) } else { off };
+            520 | 920 if self.comp.on() => {
+                // convert_axis_offsets (G92.1, G92.2, G92.3 are allowed)
                 bad(off, "Cannot change axis offsets with cutter radius comp")
             }
             281 | 301 => {
