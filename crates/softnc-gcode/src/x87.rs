@@ -306,6 +306,7 @@ impl Ld {
     }
 
     /// The negated value.
+    #[allow(clippy::should_implement_trait)]
     pub fn neg(self) -> Ld {
         Ld {
             m: -self.m,
