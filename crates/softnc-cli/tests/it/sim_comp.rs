@@ -22,9 +22,12 @@ fn args(line: &str) -> Vec<f64> {
         .collect()
 }
 
-/// rs274's motions: kind, end (X Y Z) and for arcs the centre in the plane and the
-/// turns (the example cuts in the XY plane).
-fn rs274_moves(text: &str) -> Vec<(String, [f64; 3], Option<([f64; 2], i64)>)> {
+/// One motion of rs274's: kind, end (X Y Z) and for an arc its centre in the
+/// plane and its turns.
+type Move = (String, [f64; 3], Option<([f64; 2], i64)>);
+
+/// rs274's motions (the example cuts in the XY plane).
+fn rs274_moves(text: &str) -> Vec<Move> {
     let mut out = Vec::new();
     for line in text.lines() {
         let name = &line[..line.find('(').unwrap_or(line.len())];
