@@ -931,6 +931,14 @@ impl Interp<'_> {
         if !(self.comp.on() && self.comp.radius > 0.0) || self.plane == Plane::YZ {
             return Ok(false);
         }
+        if self.rotation_deg != 0.0 && self.plane != Plane::XY {
+            // as `Interp::arc` refuses them uncompensated
+            return super::unsup(
+                b.motion_off(),
+                super::fmt_code('G', mode),
+                "arcs in the XZ or YZ plane of a rotated coordinate system (G10 L2 R) are not supported",
+            );
+        }
         if self.comp.firstmove {
             self.arc_comp1(line_no, mode, b, end, offsets)?;
         } else {
