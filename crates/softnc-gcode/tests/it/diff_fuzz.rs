@@ -815,6 +815,7 @@ fn random_canned_cycle_programs_read_as_rs274_reads_them() {
 /// exits (G40) and second passes. Many end in one of LinuxCNC's errors (a gouge,
 /// a concave corner the tool does not fit, an arc smaller than the tool): both
 /// readers must then stop on the same line.
+#[allow(clippy::too_many_lines)]
 fn comp_program(seed: u64) -> String {
     let mut g = Gen(seed | 1);
     let g18 = g.chance(25);
