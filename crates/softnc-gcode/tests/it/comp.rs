@@ -265,3 +265,28 @@ fn compensation_state_as_linuxcnc_reports_it() {
     assert!(p.end_modal.contains("G40"), "{}", p.end_modal);
     assert!(!p.end_modal.contains("G41"), "{}", p.end_modal);
 }
+
+/// Read in chunks (as the daemon streams a job), a compensated program hands on the
+/// same motions as read whole: the held moves go out when their corner is known,
+/// whatever the chunk boundaries.
+#[test]
+fn compensated_programs_read_in_chunks_as_whole() {
+    let profile = profile();
+    for path in programs(&dir()) {
+        let text = std::fs::read_to_string(&path).unwrap();
+        let whole = read(&text).unwrap();
+        for chunk in [1, 2, 3, 7] {
+            let mut got = Vec::new();
+            softnc_gcode::read_program_chunked(&text, "t.ngc", &profile, chunk, &mut |c| {
+                got.append(c)
+            })
+            .unwrap();
+            assert_eq!(
+                got,
+                whole.motions,
+                "{} in chunks of {chunk}",
+                path.display()
+            );
+        }
+    }
+}
