@@ -33,7 +33,7 @@
 //!
 //! While compensation is on, the codes LinuxCNC refuses are refused with its
 //! messages: other planes, coordinate systems, path control, retract mode, axis
-//! offsets (G52, G92, G92.x), G28/G30 and G28.1/G30.1, G53 moves, G10 L2/L20 of
+//! offsets (G52, G92; not G92.1–G92.3), G28/G30 and G28.1/G30.1, G53 moves, G10 L2/L20 of
 //! the active system, canned cycles, the I/O and override M codes, reading the
 //! current position (#5420–#5428).
 //!
@@ -42,7 +42,8 @@
 //! compensated points have LinuxCNC's bits (a point half way between two printed
 //! decimals prints as `rs274` prints it). One step is taken to first order:
 //! `sin(beta - M_PI_2l)` of a line–arc inside corner, which C++ computes with
-//! `sinl` of the `long double` difference.
+//! `sinl` of the `long double` difference. The sweeps of `find_turn` (compared with
+//! a slack of 0.001 in / 0.0254 mm when a held arc's end moves) stay in `f64`.
 
 use super::{bad, find_turn, sc, Block, Interp, MotionKind, G_0, G_1, G_2, G_3, R};
 use crate::canon::Motion;
@@ -1047,10 +1048,7 @@ impl Interp<'_> {
         let plane = self.plane;
         let side = self.comp.side.unwrap_or(Side::Left);
         let tool_radius = self.comp.radius;
-        let (spiral_tol, _) = {
-            let (_, s) = self.arc_tolerances();
-            (s, ())
-        };
+        let (_, spiral_tol) = self.arc_tolerances();
         let (cx, cy, cz) = split(plane, self.pos);
         let (mut end_x, mut end_y, end_z) = split(plane, end);
         if (end_x - cx).hypot(end_y - cy) <= tool_radius {
