@@ -2739,6 +2739,20 @@ fn read_source<'t>(
                         ));
                     }
                     if it.ctl.skipping.is_none() && !deleted {
+                        if it.comp.busy() {
+                            // the moves held for the corner before the start block
+                            // were never cut: the path there is not the program's
+                            return Err(err(
+                                n as usize,
+                                "",
+                                (
+                                    0,
+                                    ErrorKind::Invalid(format!(
+                                        "cannot run from line {n}: cutter radius compensation is on there (or its exit move not made); start at a line where it is off (G40)"
+                                    )),
+                                ),
+                            ));
+                        }
                         it.start_run(line_no as u32);
                     }
                 }
