@@ -8,6 +8,7 @@
 //! that the canonical output rounds exactly as `rs274` prints it. Motions carry them
 //! converted to mm.
 
+mod comp;
 mod cycles;
 mod fast;
 mod machine;
@@ -56,6 +57,7 @@ const GM_DISTANCE: usize = 3;
 const GM_IJK_DISTANCE: usize = 4;
 const GM_FEED_MODE: usize = 5;
 const GM_UNITS: usize = 6;
+const GM_CUTTER_COMP: usize = 7;
 const GM_TOOL_LENGTH: usize = 8;
 const GM_RETRACT: usize = 10;
 const GM_COORD: usize = 12;
@@ -151,6 +153,10 @@ fn g_unsupported(code: i32) -> Option<&'static str> {
         | 200
         | 210
         | 400
+        | 410
+        | 411
+        | 420
+        | 421
         | 430
         | 490
         | 530
@@ -187,7 +193,6 @@ fn g_unsupported(code: i32) -> Option<&'static str> {
         171 | 181 | 191 => "the UVW planes are not supported",
         330 | 331 => "spindle-synchronised motion (G33) is not supported",
         382..=385 => "probing (G38.x) is not supported",
-        410 | 411 | 420 | 421 => "cutter radius compensation is not supported yet",
         730 | 740 | 810..=870 | 890 => return None,
         700..=722 => "the lathe cycles G70, G71 and G72 are not supported yet",
         760 => "the threading cycle G76 needs spindle-synchronised motion, which softnc does not have yet",
@@ -459,6 +464,16 @@ struct Interp<'a> {
     spindle_code: i32,
     /// Tool lengths (mm) set by G10 L1/L10/L11, over the profile's tool table.
     tool_edits: std::collections::HashMap<u32, f64>,
+    /// Tool diameters (mm) and orientations set by G10 L1/L10/L11 R and Q, over
+    /// the profile's tool table (diameter, orientation 0).
+    tool_shape_edits: std::collections::HashMap<u32, (f64, i32)>,
+    /// The diameter (mm) and orientation of the tool in the spindle (cutter
+    /// compensation without D).
+    spindle_shape: (f64, i32),
+    /// Cutter radius compensation ([`comp`]).
+    comp: comp::Comp,
+    /// #5420–#5428 was read while compensation is on (an error at the line).
+    position_read_in_comp: std::cell::Cell<bool>,
     /// Number of the tool in the spindle (M6, M61).
     tool_loaded: u32,
     /// Coolant (M7, M8; M9 turns both off), for `#<_mist>` and `#<_flood>`.
@@ -549,6 +564,10 @@ impl<'a> Interp<'a> {
             exact_stop_code: 610,
             spindle_code: 5,
             tool_edits: std::collections::HashMap::new(),
+            tool_shape_edits: std::collections::HashMap::new(),
+            spindle_shape: (0.0, 0),
+            comp: comp::Comp::default(),
+            position_read_in_comp: std::cell::Cell::new(false),
             tool_loaded: 0,
             mist: false,
             flood: false,
@@ -610,6 +629,10 @@ impl<'a> Interp<'a> {
             exact_stop_code: self.exact_stop_code,
             spindle_code: self.spindle_code,
             tool_edits: self.tool_edits.clone(),
+            tool_shape_edits: self.tool_shape_edits.clone(),
+            spindle_shape: self.spindle_shape,
+            comp: self.comp.clone(),
+            position_read_in_comp: self.position_read_in_comp.clone(),
             tool_loaded: self.tool_loaded,
             mist: self.mist,
             flood: self.flood,
@@ -659,6 +682,25 @@ impl<'a> Interp<'a> {
                 format!("Requested tool {tool} not found in the tool table"),
             ),
         }
+    }
+
+    /// A tool's diameter (mm) and orientation as `find_tool_index` finds its
+    /// entry: tool 0 is the tool in the spindle.
+    fn tool_shape(&self, tool: i32, off: u32) -> R<(f64, i32)> {
+        self.tool_length(tool, off)?;
+        if tool == 0 {
+            return Ok(self.spindle_shape);
+        }
+        let t = tool as u32;
+        Ok(self.tool_shape_edits.get(&t).copied().unwrap_or_else(|| {
+            let d = self
+                .tables
+                .tools
+                .iter()
+                .find(|e| e.number == t)
+                .map_or(0.0, |e| e.diameter_mm);
+            (d, 0)
+        }))
     }
 
     /// `read_items` for one word: into the block, with LinuxCNC's reading errors (the
@@ -943,7 +985,8 @@ impl<'a> Interp<'a> {
         if b.val_set & OTHER_CODES == 0 {
             return Ok(());
         }
-        if b.has(b'D') {
+        let comp_code = b.g_in(GM_CUTTER_COMP);
+        if b.has(b'D') && !matches!(comp_code, Some(410 | 411 | 420 | 421)) {
             return bad(
                 b.off(b'D'),
                 "D word with no G41, G41.1, G42, G42.1, G71, G71.1, G71.2 or G96 to use it",
@@ -980,7 +1023,11 @@ impl<'a> Interp<'a> {
                 "K word with no G2, G3, G33, G33.1, G76, or G87 to use it",
             );
         }
-        if b.has(b'L') && mode0 != Some(100) && m5 != Some(66) && !matches!(cycle, 730 | 810..=890)
+        if b.has(b'L')
+            && mode0 != Some(100)
+            && m5 != Some(66)
+            && !matches!(cycle, 730 | 810..=890)
+            && !matches!(comp_code, Some(410 | 411 | 420 | 421))
         {
             return bad(
                 b.off(b'L'),
@@ -1030,7 +1077,13 @@ impl<'a> Interp<'a> {
                 "Q word with no G5, G10, G64, G73, G76, G83, M19, M66, M67, M68 or user M code that uses it",
             );
         }
-        if b.has(b'R') && !arc && cycle == 0 && mode0 != Some(100) && m7 != Some(19) {
+        if b.has(b'R')
+            && !arc
+            && cycle == 0
+            && mode0 != Some(100)
+            && m7 != Some(19)
+            && !matches!(comp_code, Some(411 | 421))
+        {
             return bad(b.off(b'R'), "R word with no g code that uses it");
         }
         if b.has(b'R') && m7 == Some(19) {
@@ -1194,11 +1247,29 @@ impl<'a> Interp<'a> {
                 },
             );
         }
-        match b.g_in(GM_PLANE) {
-            Some(170) => self.plane = Plane::XY,
-            Some(180) => self.plane = Plane::XZ,
-            Some(190) => self.plane = Plane::YZ,
-            _ => {}
+        if let Some(code) = b.g_in(GM_PLANE) {
+            let plane = match code {
+                170 => Plane::XY,
+                180 => Plane::XZ,
+                _ => Plane::YZ,
+            };
+            if self.comp.on() {
+                // convert_set_plane
+                let off = b.g_off(GM_PLANE);
+                if plane != self.plane {
+                    return bad(
+                        off,
+                        "Cannot change planes with cutter radius compensation on",
+                    );
+                }
+                if plane == Plane::YZ {
+                    return bad(
+                        off,
+                        "Cutter radius compensation allowed only in XY, XZ planes",
+                    );
+                }
+            }
+            self.plane = plane;
         }
         match b.g_in(GM_UNITS) {
             Some(200) if !self.inch => {
@@ -1208,6 +1279,7 @@ impl<'a> Interp<'a> {
                 self.origin = self.origin * (1.0 / MM_PER_INCH);
                 self.g92 = self.g92 * (1.0 / MM_PER_INCH);
                 self.feed /= MM_PER_INCH;
+                self.comp.scale(1.0 / MM_PER_INCH);
             }
             Some(210) if self.inch => {
                 self.inch = false;
@@ -1216,11 +1288,19 @@ impl<'a> Interp<'a> {
                 self.origin = self.origin * MM_PER_INCH;
                 self.g92 = self.g92 * MM_PER_INCH;
                 self.feed *= MM_PER_INCH;
+                self.comp.scale(MM_PER_INCH);
             }
             _ => {}
         }
         let s = self.scale();
-        // G8 (radius mode) and G40 (compensation off) change nothing here
+        // cutter radius compensation (convert_cutter_compensation; G8, radius
+        // mode, changes nothing here)
+        match b.g_in(GM_CUTTER_COMP) {
+            Some(400) => self.comp_off(b.g_off(GM_CUTTER_COMP))?,
+            Some(code) => self.comp_on(code, b)?,
+            None => {}
+        }
+        let z_before = self.pos[2];
         match b.g_in(GM_TOOL_LENGTH) {
             Some(430) => {
                 let len = match b.get(b'H') {
@@ -1272,7 +1352,16 @@ impl<'a> Interp<'a> {
             }
             _ => {}
         }
+        if self.pos[2] != z_before && self.comp.holding() {
+            self.comp.shift_z(self.pos[2] - z_before);
+        }
         if let Some(code) = b.g_in(GM_COORD) {
+            if self.comp.on() {
+                return bad(
+                    b.g_off(GM_COORD),
+                    "Cannot change coordinate systems with cutter radius compensation on",
+                );
+            }
             let idx = match code {
                 540 => 0,
                 550 => 1,
@@ -1285,6 +1374,12 @@ impl<'a> Interp<'a> {
                 _ => 8,
             };
             self.select_coord(idx);
+        }
+        if b.has_g(GM_CONTROL) && self.comp.on() {
+            return bad(
+                b.g_off(GM_CONTROL),
+                "Cannot change control mode with cutter radius compensation on",
+            );
         }
         match b.g_in(GM_CONTROL) {
             Some(c @ (610 | 611)) => {
@@ -1310,7 +1405,13 @@ impl<'a> Interp<'a> {
             Some(911) => self.ijk_absolute = false,
             _ => {}
         }
-        // retract mode (`convert_retract_mode`; cutter compensation is never on)
+        // retract mode (`convert_retract_mode`)
+        if b.has_g(GM_RETRACT) && self.comp.on() {
+            return bad(
+                b.g_off(GM_RETRACT),
+                "Cannot change retract mode with cutter radius compensation on",
+            );
+        }
         match b.g_in(GM_RETRACT) {
             Some(980) => self.retract_old_z = true,
             Some(990) => self.retract_old_z = false,
@@ -1326,8 +1427,12 @@ impl<'a> Interp<'a> {
         }
         // motion
         self.motion_step(line_no, b)?;
-        // stop codes (convert_stop, the last step of execute_block): M0 always, M1
-        // while the optional-stop switch is on; M2, M30 end the program
+        // stop codes (convert_stop, the last step of execute_block): the moves held
+        // for cutter compensation go; M0 always, M1 while the optional-stop switch
+        // is on; M2, M30 end the program
+        if let Some(code) = b.m_in(4) {
+            self.comp_stop(matches!(code, 2 | 30), b.m_off(4))?;
+        }
         match b.m_in(4) {
             Some(0) => self.push_standing(line_no, MotionKind::Pause { optional: false }),
             Some(1) if self.optional_stop => {
@@ -1365,14 +1470,27 @@ impl<'a> Interp<'a> {
 
     /// A motion that stands at the current point (dwell, pause).
     fn push_standing(&mut self, line_no: u32, kind: MotionKind) {
+        // while moves are held for cutter compensation, what LinuxCNC queues
+        // waits behind them, and the rest happens where the last motion handed on
+        // ended
+        let at = if self.comp.holding() {
+            if comp::Comp::queues(&kind) {
+                let rpm = self.spindle_rpm();
+                self.comp.hold(line_no, kind, rpm);
+                return;
+            }
+            self.comp.emitted()
+        } else {
+            self.pos
+        };
         let m = Motion {
             line: line_no,
-            start: sc(self.frame(self.pos), self.scale()),
+            start: sc(self.frame(at), self.scale()),
             kind,
             offset_mm: self.offset(),
             path_mode: self.path,
             inch: self.inch,
-            canon_end: self.pos,
+            canon_end: at,
             canon_center: Vec3::ZERO,
             spindle_rpm: self.spindle_rpm(),
         };
@@ -1380,7 +1498,11 @@ impl<'a> Interp<'a> {
     }
 
     /// Hand a motion on, unless a run from line has not reached its start block.
-    fn keep(&mut self, m: Motion) {
+    fn keep(&mut self, mut m: Motion) {
+        if let Some(stands) = self.comp.take_exit_start(m.kind.end().is_some()) {
+            // after a compensation exit the tool stands off the interpreter's point
+            m.start = stands - m.offset_mm;
+        }
         if !self.suppress {
             self.moves_after_start += u64::from(m.kind.end().is_some());
             self.motions.push(m);
@@ -1472,9 +1594,19 @@ impl<'a> Interp<'a> {
             return Ok(self.find_ends_g53(b));
         }
         let mut end = self.pos;
+        if self.comp.on() && !self.comp.firstmove() {
+            // cutter compensation: the programmed point for the plane's axes (X in
+            // both planes, Y in XY, Z in XZ), not the tool's centre
+            let p = self.comp.program();
+            end[0] = p[0];
+            match self.plane {
+                Plane::XY => end[1] = p[1],
+                _ => end[2] = p[2],
+            }
+        }
         for (i, l) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
             if let Some(v) = b.get(l) {
-                end[i] = if self.absolute { v } else { self.pos[i] + v };
+                end[i] = if self.absolute { v } else { end[i] + v };
             }
         }
         if b.polar() {
@@ -1619,10 +1751,25 @@ impl<'a> Interp<'a> {
     }
 
     fn push(&mut self, line_no: u32, kind: MotionKind, end: Vec3, center: Vec3) {
+        self.push_from(line_no, self.pos, kind, end, center, self.spindle_rpm());
+        self.pos = end;
+        self.canon_pos = end;
+    }
+
+    /// Hand on a motion from `start` to `end` (program units, canonical frame).
+    fn push_from(
+        &mut self,
+        line_no: u32,
+        start: Vec3,
+        kind: MotionKind,
+        end: Vec3,
+        center: Vec3,
+        spindle_rpm: f64,
+    ) {
         let (start, kind) = if self.rotation_deg == 0.0 {
-            (self.pos, kind)
+            (start, kind)
         } else {
-            (self.rotated(self.pos), self.rotate_kind(kind, end, center))
+            (self.rotated(start), self.rotate_kind(kind, end, center))
         };
         let m = Motion {
             line: line_no,
@@ -1633,15 +1780,14 @@ impl<'a> Interp<'a> {
             inch: self.inch,
             canon_end: end,
             canon_center: center,
-            spindle_rpm: self.spindle_rpm(),
+            spindle_rpm,
         };
         self.keep(m);
-        self.pos = end;
-        self.canon_pos = end;
     }
 
     /// `convert_straight`.
     fn straight(&mut self, line_no: u32, mode: i32, b: &Block) -> R<()> {
+        self.comp.arc_allowed_again();
         let off = b.motion_off();
         if mode == G_1 {
             if !self.inverse_time && self.feed == 0.0 {
@@ -1654,18 +1800,21 @@ impl<'a> Interp<'a> {
         self.motion = Some(mode);
         let end = self.find_ends(b)?;
         let s = self.scale();
+        if mode == G_1 && self.inverse_time {
+            let d = end - self.pos;
+            let length = if d.0.iter().any(|c| c.abs() > 1e-7) {
+                d.norm()
+            } else {
+                0.0
+            };
+            self.feed = (length * b.get(b'F').unwrap_or(0.0)).max(0.1);
+        }
+        if self.comp_straight(line_no, mode, b, end)? {
+            return Ok(());
+        }
         let kind = if mode == G_0 {
             MotionKind::Traverse { end: sc(end, s) }
         } else {
-            if self.inverse_time {
-                let d = end - self.pos;
-                let length = if d.0.iter().any(|c| c.abs() > 1e-7) {
-                    d.norm()
-                } else {
-                    0.0
-                };
-                self.feed = (length * b.get(b'F').unwrap_or(0.0)).max(0.1);
-            }
             MotionKind::Feed {
                 end: sc(end, s),
                 feed_mm_per_min: self.feed * s,
@@ -1679,6 +1828,12 @@ impl<'a> Interp<'a> {
     #[allow(clippy::too_many_lines)]
     fn arc(&mut self, line_no: u32, mode: i32, b: &Block) -> R<()> {
         let off = b.motion_off();
+        if self.comp.arc_not_allowed() {
+            return bad(
+                off,
+                "The move just after exiting cutter compensation mode must be straight, not an arc",
+            );
+        }
         let ijk = b.has(b'I') || b.has(b'J') || b.has(b'K');
         let r_word = b.get(b'R');
         if r_word.is_none() && !ijk {
@@ -1742,6 +1897,9 @@ impl<'a> Interp<'a> {
         }
         let end = self.find_ends(b)?;
         self.motion = Some(mode);
+        if self.comp_arc(line_no, mode, b, end, (o1, o2))? {
+            return Ok(());
+        }
         let inch = self.inch;
         let turns_abs = if b.has(b'P') {
             round_to_int(b.p_number)
@@ -2581,6 +2739,20 @@ fn read_source<'t>(
                         ));
                     }
                     if it.ctl.skipping.is_none() && !deleted {
+                        if it.comp.busy() {
+                            // the moves held for the corner before the start block
+                            // were never cut: the path there is not the program's
+                            return Err(err(
+                                n as usize,
+                                "",
+                                (
+                                    0,
+                                    ErrorKind::Invalid(format!(
+                                        "cannot run from line {n}: cutter radius compensation is on there (or its exit move not made); start at a line where it is off (G40)"
+                                    )),
+                                ),
+                            ));
+                        }
                         it.start_run(line_no as u32);
                     }
                 }
@@ -2611,6 +2783,8 @@ fn read_source<'t>(
                     if !line.python {
                         if let Some(r) = it.run_kept_o(n, &mut line, &pc) {
                             let jump = r.map_err(|x| err_in(src_name, line_no, raw, x))?;
+                            it.position_read_check()
+                                .map_err(|x| err_in(src_name, line_no, raw, x))?;
                             if jump != Jump::Next {
                                 break (jump, split.pos);
                             }
@@ -2684,6 +2858,8 @@ fn read_source<'t>(
                         ),
                     ));
                 }
+                it.position_read_check()
+                    .map_err(|x| err_in(src_name, line_no, raw, x))?;
                 if !sets.is_empty() {
                     it.commit(&mut sets);
                 }
@@ -2921,6 +3097,7 @@ fn finish(
         }
         it.motions = Vec::new();
     }
+    it.comp_dropped_at_end();
     let end_modal = it.modal_gcode();
     (
         Program {

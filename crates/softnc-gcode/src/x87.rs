@@ -227,6 +227,156 @@ pub fn tan_deg(x: f64) -> f64 {
     }
 }
 
+/// An x87 `long double` value `m × 2^e`, `m` signed with at most 64 significant
+/// bits (normalized to exactly 64 unless zero): the arithmetic of LinuxCNC's
+/// cutter compensation, which adds `M_PIl`, `M_PI_2l` and `2 * M_PIl` to `double`
+/// angles and stores the sums in `double`s (`convert_straight_comp1/2`,
+/// `convert_arc_comp2`). Sums are exact, then rounded to 64 bits nearest-even as
+/// the x87 unit rounds them; [`Ld::to_f64`] rounds to 53 as a store does.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ld {
+    m: i128,
+    e: i32,
+}
+
+impl Ld {
+    /// `M_PIl`.
+    pub const PI: Ld = Ld {
+        m: PI_MANT as i128,
+        e: -62,
+    };
+    /// `M_PI_2l` (and `M_PIl / 2.`).
+    pub const HALF_PI: Ld = Ld {
+        m: PI_MANT as i128,
+        e: -63,
+    };
+    /// `2 * M_PIl`.
+    pub const TWO_PI: Ld = Ld {
+        m: PI_MANT as i128,
+        e: -61,
+    };
+
+    /// `1.5 * M_PIl` (rounded to 64 bits).
+    pub fn one_and_half_pi() -> Ld {
+        Ld::round(3 * PI_MANT as i128, -63, false)
+    }
+
+    /// A `double`, exactly.
+    pub fn from_f64(x: f64) -> Ld {
+        if x == 0.0 || !x.is_finite() {
+            return Ld { m: 0, e: 0 };
+        }
+        let (m, e) = split(x);
+        let m = i128::from(m);
+        Ld::round(if x < 0.0 { -m } else { m }, e, false)
+    }
+
+    /// `m × 2^e` rounded to 64 bits, nearest-even (`sticky`: nonzero bits below
+    /// `m`, whose lowest bit is then set: rounding to odd keeps the result right).
+    fn round(m: i128, e: i32, sticky: bool) -> Ld {
+        if m == 0 {
+            return Ld { m: 0, e: 0 };
+        }
+        let neg = m < 0;
+        let mut mag = m.unsigned_abs() | u128::from(sticky);
+        let bits = 128 - mag.leading_zeros() as i32;
+        let mut e = e;
+        if bits > 64 {
+            let shift = bits - 64;
+            let rem = mag & ((1u128 << shift) - 1);
+            let half = 1u128 << (shift - 1);
+            mag >>= shift;
+            e += shift;
+            if rem > half || (rem == half && mag & 1 == 1) {
+                mag += 1;
+                if mag >> 64 != 0 {
+                    mag >>= 1;
+                    e += 1;
+                }
+            }
+        } else {
+            mag <<= 64 - bits;
+            e -= 64 - bits;
+        }
+        let m = mag as i128;
+        Ld {
+            m: if neg { -m } else { m },
+            e,
+        }
+    }
+
+    /// The negated value.
+    #[allow(clippy::should_implement_trait)]
+    pub fn neg(self) -> Ld {
+        Ld {
+            m: -self.m,
+            e: self.e,
+        }
+    }
+
+    /// `self + o`, rounded to 64 bits.
+    #[allow(clippy::should_implement_trait)]
+    pub fn add(self, o: Ld) -> Ld {
+        if self.m == 0 {
+            return o;
+        }
+        if o.m == 0 {
+            return self;
+        }
+        let (hi, lo) = if self.e >= o.e { (self, o) } else { (o, self) };
+        // a common exponent that keeps `hi` within 124 bits; `lo` shifted down to
+        // it, the bits lost kept as a sticky lowest bit
+        let base = lo.e.max(hi.e - 60);
+        let hi_m = hi.m << (hi.e - base);
+        let k = base - lo.e;
+        let lo_m = if k == 0 {
+            lo.m
+        } else {
+            let mag = lo.m.unsigned_abs();
+            let (kept, lost) = if k >= 127 {
+                (0, true)
+            } else {
+                (mag >> k, mag & ((1u128 << k) - 1) != 0)
+            };
+            let kept = (kept | u128::from(lost)) as i128;
+            if lo.m < 0 {
+                -kept
+            } else {
+                kept
+            }
+        };
+        Ld::round(hi_m + lo_m, base, false)
+    }
+
+    /// `self - o`, rounded to 64 bits.
+    #[allow(clippy::should_implement_trait)]
+    pub fn sub(self, o: Ld) -> Ld {
+        self.add(o.neg())
+    }
+
+    /// Half the value (exact).
+    pub fn half(self) -> Ld {
+        Ld {
+            m: self.m,
+            e: self.e - 1,
+        }
+    }
+
+    /// Whether `self < o` (exactly).
+    pub fn lt(self, o: Ld) -> bool {
+        self.sub(o).m < 0
+    }
+
+    /// The `double` a store of it gives (nearest-even).
+    pub fn to_f64(self) -> f64 {
+        if self.m == 0 {
+            return 0.0;
+        }
+        // |m| < 2^64: the conversion rounds to 53 bits, nearest-even
+        ldexp(self.m as f64, self.e)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -366,5 +516,38 @@ mod tests {
             assert_eq!(sin_deg(x).to_bits(), want.0.to_bits(), "{x} again");
             assert_eq!(cos_deg(x).to_bits(), want.1.to_bits(), "{x}");
         }
+    }
+    /// [`Ld`]'s sums stored to `double` give the bits gcc's x87 `long double`
+    /// arithmetic gave for the same expressions (`tests/golden/x87_ld.txt`: random
+    /// angles, atan2 results, tiny values and values beside −π/2).
+    #[test]
+    fn long_double_sums_as_the_x87_unit() {
+        let text = include_str!("../tests/golden/x87_ld.txt");
+        let f = |h: &str| f64::from_bits(u64::from_str_radix(h, 16).unwrap());
+        let mut n = 0;
+        for line in text.lines().filter(|l| !l.starts_with('#')) {
+            let v: Vec<f64> = line.split_whitespace().map(f).collect();
+            let (x, y) = (Ld::from_f64(v[0]), Ld::from_f64(v[1]));
+            let got = [
+                x.add(Ld::HALF_PI).to_f64(),
+                x.sub(Ld::HALF_PI).to_f64(),
+                x.add(Ld::TWO_PI).to_f64(),
+                Ld::from_f64(v[0] - v[1]).sub(Ld::HALF_PI).to_f64(),
+                x.add(Ld::PI).half().to_f64(),
+                x.add(Ld::PI).sub(y).to_f64(),
+                if Ld::one_and_half_pi().lt(x) {
+                    x.sub(Ld::TWO_PI).to_f64()
+                } else if x.lt(Ld::HALF_PI.neg()) {
+                    x.add(Ld::TWO_PI).to_f64()
+                } else {
+                    v[0]
+                },
+            ];
+            for (k, g) in got.iter().enumerate() {
+                assert_eq!(g.to_bits(), v[k + 2].to_bits(), "{line}: expression {k}");
+            }
+            n += 1;
+        }
+        assert!(n >= 400, "{n}");
     }
 }

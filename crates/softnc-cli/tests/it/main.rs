@@ -11,6 +11,7 @@ mod learn_kill;
 mod learn_store;
 mod operator_cli;
 mod plan_params;
+mod sim_comp;
 mod sim_cycles;
 mod sim_switches;
 

@@ -116,6 +116,9 @@ impl Interp<'_> {
         if self.inverse_time {
             return bad(off, "Cannot use inverse time feed with canned cycles");
         }
+        if self.comp.on() {
+            return bad(off, "Cannot use canned cycles with cutter compensation on");
+        }
         let same = self.motion == Some(motion);
         let r_word = match b.get(b'R') {
             Some(r) => r,

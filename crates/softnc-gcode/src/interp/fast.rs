@@ -572,6 +572,7 @@ impl Interp<'_> {
             && !self.sync_pending
             && self.rotation_deg == 0.0
             && !self.suppress
+            && !self.comp.busy()
     }
 
     /// Debug builds: the lines `text` the short way just ran, from the state
@@ -1704,21 +1705,25 @@ mod tests {
     }
 
     /// Every combination of the modal groups' states (plane, distance mode, unit,
-    /// canned-cycle retract, path mode, feed mode, spindle) with every motion mode —
+    /// canned-cycle retract, path mode, feed mode, spindle, cutter compensation)
+    /// with every motion mode —
     /// G0 to G3, G80 and each canned cycle with its words — then lines of the short
     /// way's shape (bare axis words, which a cycle runs as another hole, motion
     /// codes, arcs): each program reads the same, motions, state and errors, with
     /// the short way and without it. The short way runs G0–G3 only: in any other
     /// motion mode, or in a series of cycles, it must leave the lines to the general
-    /// reader (and its debug cross-check would catch a line read otherwise).
+    /// reader (and its debug cross-check would catch a line read otherwise); while
+    /// cutter compensation is on, and until the move after its exit, it leaves
+    /// every line to the general reader.
     #[test]
     fn every_modal_state_then_short_lines_reads_as_the_general_way() {
         let p = profile();
         let tails = [
             "X3 Y3\nX4 Z-2\nG1 X5 Y3\nX6\nG0 X1\nZ3\n",
             "X3 Y3 Z-3\nY4\nG1 Y6 F500\nX8\nG81 X2 Y2 Z-1 R2 F400\nX3\nY2 R3\nG0 Z3\nX1\n",
+            "X3 Y3\nX8 Y2\nG40 G1 X5 Y3\nX6\nG2 X7 Y3 I0.5 J0\nG1 X9\nG0 X1\nZ3\n",
         ];
-        let groups: [&[&str]; 7] = [
+        let groups: [&[&str]; 8] = [
             &["G17", "G18", "G19"],
             &["G90", "G91"],
             &["G21", "G20"],
@@ -1726,10 +1731,13 @@ mod tests {
             &["G64", "G61", "G64 P0.1 Q0.05"],
             &["G94 F600", "G93"],
             &["M3 S1000", "M4 S500", "M5"],
+            // last: with compensation on, the groups before it could not change
+            &["G40", "G41 D1", "G42.1 D2"],
         ];
         let motions = [
             "G0 X1",
             "G1 X1 F300",
+            "G1 X6 Y-2 F300",
             "G2 X2 Y1 Z1 R2 F300",
             "G80",
             "G81 X1 Y1 Z-1 R5 F300",
@@ -1758,6 +1766,8 @@ mod tests {
             (read.is_ok(), motions.len(), format!("{read:?} {motions:?}"))
         };
         let (mut programs, mut whole, mut cycles_whole, mut moved) = (0, 0, 0, 0);
+        // the programs of the states and motions before compensation was added
+        let (mut before, mut before_whole, mut comp_whole) = (0, 0, 0);
         let total: usize = groups.iter().map(|g| g.len()).product();
         for k in 0..total {
             // the k-th combination of one state per group
@@ -1780,15 +1790,30 @@ mod tests {
                     if short.0 && !motion.starts_with("G0") && motion.contains('R') {
                         cycles_whole += 1;
                     }
+                    if short.0 && modes.contains("G4") && !modes.contains("G40") {
+                        comp_whole += 1;
+                    }
+                    if modes.contains("G40") && !tail.contains("G40") && motion != "G1 X6 Y-2 F300"
+                    {
+                        before += 1;
+                        before_whole += usize::from(short.0);
+                    }
                 }
             }
         }
-        eprintln!("{programs} programs, {whole} read whole ({cycles_whole} with a cycle), {moved} motions");
+        eprintln!("{programs} programs, {whole} read whole ({cycles_whole} with a cycle, {comp_whole} with compensation), {moved} motions");
         // the states are reached: many programs read whole, cycles among them
-        assert!(whole > programs / 5, "{whole} of {programs} read whole");
+        assert!(
+            before_whole > before / 5,
+            "{before_whole} of {before} read whole ({whole} of {programs} in all)"
+        );
         assert!(
             cycles_whole > 500,
             "{cycles_whole} programs with a cycle read whole"
+        );
+        assert!(
+            comp_whole > 400,
+            "{comp_whole} programs with compensation read whole"
         );
     }
 

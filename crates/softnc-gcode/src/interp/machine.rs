@@ -139,6 +139,16 @@ impl Interp<'_> {
                 52 => (OverrideSwitch::AdaptiveFeed, on),
                 _ => (OverrideSwitch::FeedHold, on),
             };
+            if self.comp.on() {
+                return bad(
+                    b.m_off(9),
+                    if on {
+                        "Cannot enable overrides with cutter radius compensation on"
+                    } else {
+                        "Cannot disable overrides with cutter radius compensation on"
+                    },
+                );
+            }
             match switch {
                 OverrideSwitch::FeedAndSpindle => {
                     self.feed_override_on = on;
@@ -182,13 +192,36 @@ impl Interp<'_> {
             }
         };
         let e = b.get(b'E').map(round_to_int);
+        if self.comp.on() && code != 66 {
+            return bad(
+                off,
+                match code {
+                    62 => "Cannot set motion output with cutter radius compensation on",
+                    63 => "Cannot set motion digital output with cutter radius compensation on",
+                    64 | 65 => {
+                        "Cannot set auxiliary digital output with cutter radius compensation on"
+                    }
+                    67 => "Cannot set motion analog output with cutter radius compensation on",
+                    _ => "Cannot set auxiliary analog output with cutter radius compensation on",
+                },
+            );
+        }
         let op = match code {
             62..=65 => MachineOp::DigitalOut {
                 line: digital_line("Digital output")?,
                 on: code == 62 || code == 64,
                 synchronised: code <= 63,
             },
-            66 => self.wait_input(b, off)?,
+            66 => {
+                let op = self.wait_input(b, off)?;
+                if self.comp.on() {
+                    return bad(
+                        off,
+                        "Cannot wait for digital input with cutter radius compensation on",
+                    );
+                }
+                op
+            }
             _ => {
                 let Some(e) = e.filter(|e| *e >= 0) else {
                     return bad(off, format!("Invalid analog index with M{code}"));
@@ -287,6 +320,7 @@ impl Interp<'_> {
         match b.m_in(6) {
             Some(6) => {
                 self.spindle_length_mm = self.tool_length(self.tool_selected as i32, 0)?;
+                self.spindle_shape = self.tool_shape(self.tool_selected as i32, 0)?;
                 self.tool_loaded = self.tool_selected;
                 self.sync_pending = true;
                 self.push_machine(

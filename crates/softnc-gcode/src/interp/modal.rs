@@ -73,7 +73,7 @@ impl Interp<'_> {
         Modal {
             g: [
                 (3, plane),
-                (4, 400),
+                (4, self.comp.code()),
                 (6, if self.absolute { 900 } else { 910 }),
                 (7, if self.inverse_time { 930 } else { 940 }),
                 (8, coord),
@@ -191,6 +191,12 @@ impl Interp<'_> {
         for &(slot, code) in &now.g {
             // G92.x comes from the parameters the machine keeps
             if slot == 16 || slot == 11 && code == 640 {
+                continue;
+            }
+            if slot == 4 {
+                // cutter compensation is never carried (LinuxCNC's gen_restore_cmd
+                // forces G40)
+                push_g(&mut out, 400);
                 continue;
             }
             if slot == 9 && code == 430 {

@@ -155,6 +155,15 @@ impl Env for Interp<'_> {
         match index {
             5400 => f64::from(self.tool_loaded),
             5403 => self.spindle_length_mm / if self.user_inch { 25.4 } else { 1.0 },
+            5420..=5428 if self.comp.on() => {
+                // LinuxCNC refuses the read (`read_parameter`): the line fails
+                self.position_read_in_comp.set(true);
+                if index <= 5422 {
+                    self.pos[index - 5420]
+                } else {
+                    self.params.get(index)
+                }
+            }
             5420..=5422 => self.pos[index - 5420],
             5399 => {
                 if self.m66_unknown_since.is_some() {
@@ -221,7 +230,7 @@ impl Interp<'_> {
                 softnc_core::Plane::XZ => 180.0,
                 softnc_core::Plane::YZ => 190.0,
             }),
-            "_ccomp" => Some(400.0),
+            "_ccomp" => Some(f64::from(self.comp.code())),
             "_metric" => b(!self.inch),
             "_imperial" => b(self.inch),
             "_absolute" => b(self.absolute),

@@ -158,6 +158,14 @@ impl Interp<'_> {
         match code {
             100 => self.g10(b, off),
             280 | 300 => self.home(line_no, code, b),
+            281 | 301 if self.comp.on() => bad(
+                off,
+                "Cannot set reference point with cutter compensation in effect",
+            ),
+            520 | 920 if self.comp.on() => {
+                // convert_axis_offsets (G92.1, G92.2, G92.3 are allowed)
+                bad(off, "Cannot change axis offsets with cutter radius comp")
+            }
             281 | 301 => {
                 // convert_savehome
                 let first = if code == 281 { 5161 } else { 5181 };
@@ -238,6 +246,12 @@ impl Interp<'_> {
         let mut p = (b.p_number + 0.0001) as usize;
         if p == 0 {
             p = self.coord + 1;
+        }
+        if self.comp.on() && p == self.coord + 1 {
+            return bad(
+                off,
+                "Cannot change the active coordinate system with cutter radius compensation on",
+            );
         }
         let c = self.current_in_system(p);
         let r = match b.get(b'R') {
@@ -330,6 +344,26 @@ impl Interp<'_> {
                 return bad(off, "Invalid tool orientation");
             }
         }
+        let number = if tool == 0 {
+            self.tool_loaded
+        } else {
+            tool as u32
+        };
+        if b.has(b'R') || b.q_number != -1.0 {
+            // the diameter (R: the radius, program units) and the orientation (Q)
+            let (mut diameter_mm, mut orientation) = self.tool_shape(tool, off)?;
+            if let Some(r) = b.get(b'R') {
+                diameter_mm = r * self.scale() * 2.0;
+            }
+            if b.q_number != -1.0 {
+                orientation = b.q_number.round() as i32;
+            }
+            self.tool_shape_edits
+                .insert(number, (diameter_mm, orientation));
+            if number == self.tool_loaded {
+                self.spindle_shape = (diameter_mm, orientation);
+            }
+        }
         if let Some(z) = b.get(b'Z') {
             let s = self.scale();
             let len_mm = if l == 1 {
@@ -345,11 +379,6 @@ impl Interp<'_> {
                 }
                 (tz - z) * s
             };
-            let number = if tool == 0 {
-                self.tool_loaded
-            } else {
-                tool as u32
-            };
             self.tool_edits.insert(number, len_mm);
             if number == self.tool_loaded {
                 self.spindle_length_mm = len_mm;
@@ -362,6 +391,12 @@ impl Interp<'_> {
     /// it is where the tool is), then to the stored position.
     fn home(&mut self, line_no: u32, code: i32, b: &Block) -> R<()> {
         let waypoint = self.find_ends(b)?;
+        if self.comp.on() {
+            return bad(
+                b.g_off(super::GM_MODAL_0),
+                "Cannot use g28 or g30 with cutter radius comp",
+            );
+        }
         let s = self.scale();
         self.push(
             line_no,

@@ -807,6 +807,224 @@ fn random_canned_cycle_programs_read_as_rs274_reads_them() {
     fuzz("cycles", cycles_program, |_| Ok(()));
 }
 
+/// A program of cutter radius compensation: profiles of random lines, arcs (R and
+/// centre format, either direction) and rapids in G17 or G18, mm or inch, with the
+/// tool table's diameter (G41/G42 with or without D, after a tool change) or one
+/// given (G41.1/G42.1, negative ones too), moves along the normal axis alone,
+/// incremental stretches, feed changes, dwells and coolant held behind the moves,
+/// exits (G40) and second passes. Many end in one of LinuxCNC's errors (a gouge,
+/// a concave corner the tool does not fit, an arc smaller than the tool): both
+/// readers must then stop on the same line.
+#[allow(clippy::too_many_lines)]
+fn comp_program(seed: u64) -> String {
+    let mut g = Gen(seed | 1);
+    let g18 = g.chance(25);
+    // the plane's first and second axis, its normal, and the centre words of each
+    let (a, b, n, ia, ib) = if g18 {
+        ("Z", "X", "Y", "K", "I")
+    } else {
+        ("X", "Y", "Z", "I", "J")
+    };
+    let inch = g.chance(15);
+    let scale = if inch { 0.1 } else { 1.0 };
+    let num = |g: &mut Gen, span: f64| -> f64 {
+        ((g.below(2001) as f64 / 1000.0 - 1.0) * span * scale * 100.0).round() / 100.0
+    };
+    let mut lines = vec![
+        format!(
+            "{} G90 G94 {} F300 S1000 M3",
+            if inch { "G20" } else { "G21" },
+            if g18 { "G18" } else { "G17" }
+        ),
+        "T1 M6".to_string(),
+    ];
+    let (mut pa, mut pb) = (num(&mut g, 30.0), num(&mut g, 30.0));
+    lines.push(format!("G0 {a}{pa} {b}{pb} {n}1"));
+    lines.push(format!("G1 {n}-1"));
+    for _pass in 0..1 + g.below(2) {
+        let on = match g.below(8) {
+            0 => "G41".to_string(),
+            1 => "G42 D1".to_string(),
+            2 => "G41 D2".to_string(),
+            3 => "G42 D3".to_string(),
+            4 => format!("G41.1 D{}", (1 + g.below(40)) as f64 / 10.0 * scale),
+            5 => format!("G42.1 D{}", (1 + g.below(40)) as f64 / 10.0 * scale),
+            6 => format!("G41.1 D-{}", (1 + g.below(30)) as f64 / 10.0 * scale),
+            _ => "G41 D1".to_string(),
+        };
+        lines.push(on);
+        let mut absolute = true;
+        for _ in 0..2 + g.below(10) {
+            let (ea, eb) = (num(&mut g, 30.0), num(&mut g, 30.0));
+            let (wa, wb) = if absolute {
+                (ea, eb)
+            } else {
+                (ea - pa, eb - pb)
+            };
+            let fmt = |v: f64| {
+                format!("{v:.4}")
+                    .trim_end_matches('0')
+                    .trim_end_matches('.')
+                    .to_string()
+            };
+            let l = match g.below(20) {
+                0..=7 => format!("G1 {a}{} {b}{}", fmt(wa), fmt(wb)),
+                8..=10 => {
+                    // R format: at least half the chord, either sign
+                    let chord = (ea - pa).hypot(eb - pb);
+                    if chord < 1e-3 {
+                        continue;
+                    }
+                    let r = chord / 2.0 * (1.0 + g.below(300) as f64 / 100.0);
+                    let r = if g.chance(30) { -r } else { r };
+                    format!(
+                        "{} {a}{} {b}{} R{}",
+                        g.pick(&["G2", "G3"]),
+                        fmt(wa),
+                        fmt(wb),
+                        fmt(r)
+                    )
+                }
+                11..=13 => {
+                    // centre format: a centre, the end on its circle
+                    let (ca, cb) = (num(&mut g, 15.0), num(&mut g, 15.0));
+                    let r = ca.hypot(cb);
+                    if r < 1e-3 {
+                        continue;
+                    }
+                    let t = g.below(628) as f64 / 100.0;
+                    let (xa, xb) = (pa + ca + r * t.cos(), pb + cb + r * t.sin());
+                    let (xa, xb) = (
+                        (xa * 10_000.0).round() / 10_000.0,
+                        (xb * 10_000.0).round() / 10_000.0,
+                    );
+                    let (wa, wb) = if absolute {
+                        (xa, xb)
+                    } else {
+                        (xa - pa, xb - pb)
+                    };
+                    let line = format!(
+                        "{} {a}{} {b}{} {ia}{} {ib}{}",
+                        g.pick(&["G2", "G3"]),
+                        fmt(wa),
+                        fmt(wb),
+                        fmt(ca),
+                        fmt(cb)
+                    );
+                    lines.push(line);
+                    pa = xa;
+                    pb = xb;
+                    continue;
+                }
+                14 => format!("G0 {a}{} {b}{}", fmt(wa), fmt(wb)),
+                15 => {
+                    lines.push(format!("G1 {n}{}", fmt(num(&mut g, 2.0))));
+                    continue;
+                }
+                16 => {
+                    absolute = !absolute;
+                    lines.push(if absolute { "G90" } else { "G91" }.into());
+                    continue;
+                }
+                17 => {
+                    lines.push(g.pick(&["G4 P0.1", "M8", "M9", "F500", "S2000"]).into());
+                    continue;
+                }
+                _ => format!("{a}{} {b}{}", fmt(wa), fmt(wb)),
+            };
+            lines.push(l);
+            pa = ea;
+            pb = eb;
+        }
+        if !absolute {
+            lines.push("G90".into());
+        }
+        let (xa, xb) = (num(&mut g, 40.0), num(&mut g, 40.0));
+        lines.push(format!("G40 G1 {a}{xa} {b}{xb}"));
+        pa = xa;
+        pb = xb;
+    }
+    lines.push("M2".into());
+    lines.join("\n") + "\n"
+}
+
+/// The arcs of a compensated program as rs274 prints them (end, centre, turns),
+/// against softnc's, where rs274 is installed and both read the program whole.
+fn comp_arcs_match(text: &str) -> Result<(), String> {
+    if !rs274_available() {
+        return Ok(());
+    }
+    let Ok(p) = read(text) else { return Ok(()) };
+    let dir =
+        std::env::temp_dir().join(format!("softnc-diff-fuzz-comp-arcs-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let ngc = dir.join("fuzz.ngc");
+    let var = dir.join("empty.var");
+    let out = dir.join("out.txt");
+    std::fs::write(&ngc, text).unwrap();
+    std::fs::write(&var, "").unwrap();
+    let r = Command::new("rs274")
+        .arg("-v")
+        .arg(&var)
+        .arg("-g")
+        .arg(&ngc)
+        .arg(&out)
+        .current_dir(&dir)
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    let printed = std::fs::read_to_string(&out).unwrap_or_default();
+    std::fs::remove_dir_all(&dir).ok();
+    if !r.status.success() {
+        return Ok(());
+    }
+    let mut theirs = Vec::new();
+    for l in printed.lines() {
+        if l.split_whitespace()
+            .nth(2)
+            .is_some_and(|c| c.starts_with("ARC_FEED("))
+        {
+            let args = &l[l.find('(').unwrap() + 1..l.rfind(')').unwrap()];
+            let v: Vec<f64> = args
+                .split(',')
+                .take(6)
+                .map(|x| x.trim().parse().unwrap())
+                .collect();
+            theirs.push(v);
+        }
+    }
+    let ours: Vec<Vec<f64>> = p
+        .motions
+        .iter()
+        .filter_map(|m| match m.kind {
+            MotionKind::Arc { plane, turns, .. } => {
+                let (e, c) = (m.canon_end, m.canon_center);
+                let (a, b, n) = plane.axes();
+                Some(vec![e[a], e[b], c[a], c[b], f64::from(turns), e[n]])
+            }
+            _ => None,
+        })
+        .collect();
+    if ours.len() != theirs.len() {
+        return Err(format!("{} arcs, rs274 {}", ours.len(), theirs.len()));
+    }
+    for (k, (x, y)) in ours.iter().zip(&theirs).enumerate() {
+        // (program units: one printed unit, a tie either way)
+        if x.iter()
+            .zip(y)
+            .any(|(a, b)| (a - b).abs() > 1.5e-4 + 1e-12 * b.abs())
+        {
+            return Err(format!("arc {k}: {x:?}, rs274 {y:?}"));
+        }
+    }
+    Ok(())
+}
+
+#[test]
+fn random_compensated_programs_read_as_rs274_reads_them() {
+    fuzz("comp", comp_program, comp_arcs_match);
+}
+
 #[test]
 fn the_generator_makes_programs_that_use_the_language() {
     // the programs are not trivial: loops run, subroutines are called, values are
@@ -841,4 +1059,29 @@ fn the_generator_makes_programs_that_use_the_language() {
         }
     }
     assert!(drilled > 40, "{drilled} of 200 cycle programs drilled");
+    // the compensated programs cut: many read whole with arcs (corners and the
+    // program's), others stop on one of LinuxCNC's compensation errors
+    let (mut whole, mut stopped) = (0, 0);
+    for seed in 0..200u64 {
+        let text = comp_program(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15));
+        match read(&text) {
+            Ok(p) => {
+                whole += usize::from(
+                    p.motions
+                        .iter()
+                        .any(|m| matches!(m.kind, MotionKind::Arc { .. })),
+                )
+            }
+            Err(e) => {
+                stopped += usize::from(!matches!(
+                    e.kind,
+                    softnc_gcode::ErrorKind::Unsupported { .. }
+                ))
+            }
+        }
+    }
+    assert!(
+        whole > 40 && stopped > 20,
+        "{whole} read whole with arcs, {stopped} stopped, of 200"
+    );
 }

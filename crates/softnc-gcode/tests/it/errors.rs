@@ -348,7 +348,6 @@ const UNSUPPORTED: &[(&str, u32, u32, &str)] = &[
     ("G0 X#<_feed_override>\nM2\n", 1, 5, "#<_feed_override>"),
     ("G0 A10\nM2\n", 1, 4, "A"),
     ("G0 X1 W2\nM2\n", 1, 7, "W"),
-    ("G41 D1\nM2\n", 1, 1, "G41"),
     ("G10 L1 P1 X0\nM2\n", 1, 1, "G10 L1"),
     ("G10 L2 P1 R45\nF9\nG19 G2 Y2 Z0 J1 K0\nM2\n", 3, 5, "G2"),
     ("G33 X1 K1\nM2\n", 1, 1, "G33"),

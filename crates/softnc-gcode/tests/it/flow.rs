@@ -230,6 +230,20 @@ fn run_from_line_refusals_name_the_line() {
     // an error before line N is still the program's error
     let e = read("G0 X1 X2\nG0 X3\nM2\n", &options(2)).unwrap_err();
     assert_eq!(e.line, 1);
+    // inside a compensated stretch (or before its exit move) the moves held for
+    // the corner before the start were never cut: refused; after it, it runs
+    let comp = "G21 F300\nG0 X-10 Y-10\nG41 D1\nG1 X0 Y0\nG1 X20\nG1 Y20\nG40 G1 X30\nG1 Y30\nM2\n";
+    for n in [5, 6, 7] {
+        let e = read(comp, &options(n)).unwrap_err();
+        assert!(
+            e.to_string().starts_with(&format!(
+                "t.ngc:{n}:1: cannot run from line {n}: cutter radius compensation is on"
+            )),
+            "{e}"
+        );
+    }
+    let (p, _) = read(comp, &options(8)).unwrap();
+    assert_eq!(p.motions.last().unwrap().canon_end.0[..2], [30.0, 30.0]);
 }
 
 #[test]

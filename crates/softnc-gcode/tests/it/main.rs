@@ -3,6 +3,7 @@
 //! Tests that need a process of their own (a counting global allocator, a memory
 //! measurement) stay beside this folder as binaries of their own.
 
+mod comp;
 mod corpus;
 mod cycles;
 mod diff_fuzz;
