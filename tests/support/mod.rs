@@ -365,7 +365,7 @@ impl Daemon {
     /// resources included).
     pub fn shutdown_leaving_nothing(&mut self, tag: &str) {
         let kids = self.children();
-        let op = self.operator();
+        let op = self.operator_off();
         let r = op.request(&Request::Shutdown).unwrap();
         assert!(r.is_accepted(), "{}", r.message());
         drop(op);
