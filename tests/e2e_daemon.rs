@@ -831,11 +831,19 @@ fn commands_say_what_the_machine_does_in_every_state() {
     let d = Daemon::start("states", "Realtime", false);
     let op = d.operator();
     let req = |k: Request| op.request(&k).unwrap();
-    // idle: nothing to hold, resume or abort; a reset only clears alarms
-    for k in [Request::Hold, Request::Resume, Request::Abort] {
+    // idle: nothing to hold or resume; an abort stops only the spindle and the
+    // coolant (LinuxCNC's); a reset only clears alarms
+    for k in [Request::Hold, Request::Resume] {
         let r = req(k.clone());
         assert!(!r.is_accepted(), "{k:?} when idle: {}", r.message());
     }
+    let r = req(Request::Abort);
+    assert!(
+        r.is_accepted() && r.message().contains("spindle stopped, coolant off"),
+        "{}",
+        r.message()
+    );
+    assert_eq!(op.status().unwrap().state, MachineState::Idle);
     assert!(req(Request::Reset).is_accepted());
     let job_id = start_moving(&d, &op);
     // running: resume refused, reset refused (the job moves), hold shows held

@@ -208,8 +208,9 @@ pub struct ActiveOffsets {
     pub tool_offset_mm: [f64; 3],
 }
 
-/// Coolant as the machine's modal state between programs says it (M7 mist, M8
-/// flood).
+/// Coolant as the machine has it on (M7 mist, M8 flood): in a job as the sample
+/// in use switches it, between jobs as the last job or MDI command left it (held
+/// until an M9, a program end, an abort, machine off or an E-stop).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Coolant {
     /// Mist (M7).
@@ -221,8 +222,10 @@ pub struct Coolant {
 /// The spindle as the machine runs it.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Spindle {
-    /// The speed commanded by the running job (rpm, signed: negative M4; 0
-    /// stopped or between jobs), before the spindle override.
+    /// The speed commanded (rpm, signed: negative M4; 0 stopped), before the
+    /// spindle override: in a job the sample in use's, between jobs what the
+    /// last job or MDI command left turning (held until an M5, a program end, an
+    /// abort, machine off or an E-stop).
     #[serde(default)]
     pub commanded_rpm: f64,
     /// The speed its encoder measures (rpm, signed; the command where the machine

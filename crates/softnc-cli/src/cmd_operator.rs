@@ -25,7 +25,9 @@ pub enum OperatorCmd {
     /// Resume after a feed hold.
     Resume,
     /// Cycle stop: the running (or held) job stops along its path within the
-    /// deceleration limits and ends "aborted"; the machine is idle after.
+    /// deceleration limits and ends "aborted"; the machine is idle after. The
+    /// spindle and the coolant stop (idle too, as LinuxCNC's abort); the M62–M68
+    /// outputs stay.
     Abort,
     /// Set the feed override (percent, 0..=255).
     #[command(allow_negative_numbers = true)]

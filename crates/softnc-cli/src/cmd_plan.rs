@@ -245,7 +245,12 @@ fn machine_json(line: u32, op: &softnc_gcode::MachineOp, program: &Program) -> s
         } => {
             serde_json::json!({"angle_deg": angle_deg, "direction": direction, "timeout_s": timeout_s})
         }
-        Op::Coolant { mist, flood } => serde_json::json!({"mist": mist, "flood": flood}),
+        Op::Coolant { which, on } => serde_json::json!({
+            "coolant": match which {
+                softnc_gcode::CoolantLine::Mist => "mist",
+                softnc_gcode::CoolantLine::Flood => "flood",
+            },
+            "on": on}),
         Op::ToolPrepare { tool } | Op::ToolChange { tool } => serde_json::json!({"tool": tool}),
         Op::Message { index, .. } => serde_json::json!({
             "text": program.messages.get(index as usize)}),

@@ -67,6 +67,32 @@ impl MachineOutputs {
     pub fn safe() -> Self {
         Self::default()
     }
+
+    /// The outputs after an abort, as LinuxCNC's task abort leaves them
+    /// (`emcSpindleAbort` and `emcIoAbort` in `emctaskmain.cc`, `taskclass.cc`):
+    /// the spindle stopped (no orient), coolant off, no tool change asked; the
+    /// digital (M62–M65) and analog (M67/M68) outputs as they were — they may
+    /// hold a clamp or a door, which an abort must not let go.
+    pub fn after_abort(self) -> Self {
+        MachineOutputs {
+            spindle_dir: SpindleDir::Stopped,
+            spindle_orient_deg: None,
+            coolant_mist: false,
+            coolant_flood: false,
+            tool_change: false,
+            ..self
+        }
+    }
+
+    /// The outputs a new job (or MDI command) starts from when the machine holds
+    /// `self` from the last one: the same, without a tool-change request (a job
+    /// asks for its own).
+    pub fn held_for_next_job(self) -> Self {
+        MachineOutputs {
+            tool_change: false,
+            ..self
+        }
+    }
 }
 
 /// What the machine around the axes reports while one cycle runs.
@@ -121,5 +147,34 @@ mod tests {
         o.spindle_dir = SpindleDir::CounterClockwise;
         assert_eq!(o.spindle_signed_rpm(), -8000.0);
         assert_eq!(MachineOutputs::safe().spindle_signed_rpm(), 0.0);
+    }
+
+    #[test]
+    fn an_abort_stops_the_spindle_and_coolant_and_keeps_the_outputs() {
+        let mut analog = [0.0; ANALOG_LINES];
+        analog[2] = 4.5;
+        let running = MachineOutputs {
+            spindle_dir: SpindleDir::CounterClockwise,
+            spindle_rpm: 5000.0,
+            coolant_mist: true,
+            coolant_flood: true,
+            tool_change: true,
+            digital: 0b1010,
+            analog,
+            ..MachineOutputs::default()
+        };
+        let a = running.after_abort();
+        assert_eq!(a.spindle_signed_rpm(), 0.0);
+        assert!(!a.coolant_mist && !a.coolant_flood && !a.tool_change);
+        assert_eq!((a.digital, a.analog), (0b1010, analog));
+        let oriented = MachineOutputs {
+            spindle_orient_deg: Some(90.0),
+            ..MachineOutputs::default()
+        };
+        assert_eq!(oriented.after_abort().spindle_orient_deg, None);
+        // the next job starts from them, without the tool change
+        let held = running.held_for_next_job();
+        assert!(!held.tool_change && held.coolant_flood);
+        assert_eq!(held.spindle_signed_rpm(), -5000.0);
     }
 }

@@ -71,6 +71,9 @@ pub struct InterpTask {
     /// Where the machine is, from the position process's status: a job is planned
     /// from there.
     machine_mm: [f64; 3],
+    /// The outputs the machine holds (spindle, coolant, M62–M68), from the
+    /// position process's status: a job's machine sequencer starts from them.
+    machine_outputs: softnc_core::machine_io::MachineOutputs,
     /// The operator's program-flow switches, as the MMI last set them.
     switches: Switches,
     /// The rapid override as the MMI last set it (fraction, 0..=1): a job starts
@@ -261,6 +264,7 @@ impl InterpTask {
             state: MachineState::Idle,
             job_id: 0,
             machine_mm: [0.0; 3],
+            machine_outputs: softnc_core::machine_io::MachineOutputs::safe(),
             switches: Switches::default(),
             rapid_override: 1.0,
             start_seq: 0,
@@ -287,6 +291,7 @@ impl InterpTask {
             }
             while let Some(st) = self.status.receive()? {
                 self.machine_mm = [st.cmd_mm[0], st.cmd_mm[1], st.cmd_mm[2]];
+                self.machine_outputs = st.outputs.into();
             }
             while let Some(c) = self.control.receive()? {
                 let c = *c;
@@ -586,7 +591,9 @@ impl InterpTask {
                 user_m_timeout_s: self.cfg.config.user_m_timeout_s,
                 ..crate::plan_samples::sequencer_config(&machine)
             },
-            crate::plan_samples::initial_state(options.params.as_ref()),
+            // the outputs the last job or MDI command left on (held by the position
+            // process): a spindle turning goes on turning, not waited for again
+            crate::plan_samples::initial_state(options.params.as_ref(), self.machine_outputs),
         );
         let sequencer = match sequencer {
             Ok(s) => s,
@@ -723,6 +730,7 @@ impl InterpTask {
         let ahead = s.ahead;
         while let Some(st) = self.status.receive()? {
             self.machine_mm = [st.cmd_mm[0], st.cmd_mm[1], st.cmd_mm[2]];
+            self.machine_outputs = st.outputs.into();
             if st.job_id == job_id {
                 s.consumed = Some(s.consumed.map_or(st.seq, |c: u64| c.max(st.seq)));
                 // (a status of the job before the position process uses its first

@@ -13,6 +13,7 @@
 //! user M code (M100–M199): each is taken as done (exit status 0) as soon as the
 //! machine has its stop.
 
+use softnc_core::machine_io::MachineOutputs;
 use softnc_planner::machine_sequencer::{
     Action, FeedbackHistory, MachineSequencer, SequencerConfig, SequencerState,
 };
@@ -38,11 +39,19 @@ pub fn sequencer_config(profile: &softnc_machine::MachineProfile) -> SequencerCo
     }
 }
 
-/// The machine state a job starts from: nothing on, the tool in the spindle as
-/// parameter 5400 says.
-pub fn initial_state(params: Option<&softnc_gcode::Params>) -> SequencerState {
+/// The machine state a job starts from: the outputs the machine holds (`held`:
+/// the last job's or MDI command's, as the position process reports them —
+/// [`MachineOutputs::safe`] on a cold machine, which is what the offline
+/// simulator runs a job on), without a tool-change request; the tool in the
+/// spindle as parameter 5400 says. A spindle already turning is not waited for:
+/// only a job's own M3/M4/S waits for the spindle at speed.
+pub fn initial_state(
+    params: Option<&softnc_gcode::Params>,
+    held: MachineOutputs,
+) -> SequencerState {
     let tool = params.map_or(0.0, |p| p.get(5400));
     SequencerState {
+        outputs: held.held_for_next_job(),
         tool_in_spindle: if tool.is_finite() && tool > 0.0 {
             tool as u32
         } else {
@@ -60,10 +69,10 @@ pub fn as_published(
     softnc_ipc::InputsWire::from(*inputs).into()
 }
 
-/// A simulation's machine sequencer for `program` (read with `options`) and the
-/// history its samples hear the machine through, `lag` samples late (the daemon's
-/// `lookahead_samples`): pass both to [`PlanSamples::with_machine`] and record
-/// every cycle with [`hear`].
+/// A simulation's machine sequencer for `program` (read with `options`) on a cold
+/// machine (outputs safe) and the history its samples hear the machine through,
+/// `lag` samples late (the daemon's `lookahead_samples`): pass both to
+/// [`PlanSamples::with_machine`] and record every cycle with [`hear`].
 pub fn sim_machine(
     program: &softnc_gcode::Program,
     profile: &softnc_machine::MachineProfile,
@@ -73,7 +82,7 @@ pub fn sim_machine(
     let seq = MachineSequencer::new(
         program,
         sequencer_config(profile),
-        initial_state(options.params.as_ref()),
+        initial_state(options.params.as_ref(), MachineOutputs::safe()),
     );
     (seq, Rc::new(RefCell::new(FeedbackHistory::new(lag))))
 }

@@ -14,13 +14,18 @@
 //! ([`softnc_servo::io::MachineIo`] in the engine): each command sample carries
 //! its outputs, applied while it is the sample in use (a synchronised output
 //! switches at the cycle where the next motion's first sample is in use); between
-//! jobs the outputs are safe, and while the machine is off or E-stopped the safe
-//! state goes out with machine-on and amplifier-enable off. The inputs go out in
-//! every status (`PositionStatus::inputs`). An opened E-stop input stops the machine
-//! as the operator's E-stop does (latched: a reset is refused while it is open, and
-//! so is `on`); a limit switch that trips while the machine is on does the same,
-//! with an alarm naming the axis and the end; off it, the axis jogs only away
-//! from the switch. While a limit switch is tripped the machine is switched on
+//! jobs the last job's or MDI command's outputs are held (a spindle started by
+//! `S5000 M3` keeps turning, coolant stays on, M62–M68 outputs stay as set, as in
+//! LinuxCNC; a program's M2/M30 stops the spindle and the coolant itself); an
+//! abort stops the spindle and the coolant and keeps the digital and analog
+//! outputs (LinuxCNC's task abort); while the machine is off, E-stopped or
+//! faulted the safe state goes out with machine-on and amplifier-enable off. The
+//! inputs and the outputs in force go out in every status
+//! (`PositionStatus::inputs`, `PositionStatus::outputs`). An opened E-stop input
+//! stops the machine as the operator's E-stop does (latched: a reset is refused
+//! while it is open, and so is `on`); a limit switch that trips while the machine
+//! is on does the same, with an alarm naming the axis and the end; off it, the
+//! axis jogs only away from the switch. While a limit switch is tripped the machine is switched on
 //! only with the operator's override (LinuxCNC's override limits), which lasts
 //! until every switch is released and under which a switch stops nothing.
 //!
@@ -169,6 +174,16 @@ pub struct PositionTask<B: ServoBackend> {
     /// (motion, flags, path length, outputs) of the job's samples from the one in
     /// use on, beside the ring.
     flags: std::collections::VecDeque<(u32, u32, f64, MachineOutputs)>,
+    /// The outputs of the machine around the axes in force (spindle, coolant,
+    /// M62–M68): the sample in use's during a job; between jobs the last job's or
+    /// MDI command's, held as LinuxCNC holds them (its program end, M2/M30, stops
+    /// the spindle and the coolant); after an abort without the spindle and the
+    /// coolant ([`MachineOutputs::after_abort`]); the safe state while the machine
+    /// is off, E-stopped or faulted.
+    outputs: MachineOutputs,
+    /// The running job was aborted: its samples' spindle and coolant are not
+    /// applied any more (until the next job).
+    job_aborted: bool,
     /// The limit switches tripped at the last cycle (min, max): a switch stops the
     /// machine when it trips, not again while it stays tripped.
     limits_seen: (u32, u32),
@@ -303,6 +318,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             lines: Vec::new(),
             current: None,
             flags: std::collections::VecDeque::with_capacity(COMMAND_RING_CAPACITY),
+            outputs: MachineOutputs::safe(),
+            job_aborted: false,
             limits_seen: (0, 0),
             limits_overridden: false,
             last_cmd: [0.0; MAX_AXES],
@@ -705,6 +722,12 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 self.mmi_control_seq = c.seq;
                 self.mmi_heard = Instant::now();
             }
+            if ControlKind::from_wire(c.kind) == Some(ControlKind::Abort) {
+                // LinuxCNC's task abort: the spindle and the coolant stop, now and
+                // for the rest of the job; the digital and analog outputs stay
+                self.outputs = self.outputs.after_abort();
+                self.job_aborted = self.phase.job_id() != 0;
+            }
             match ControlKind::from_wire(c.kind) {
                 Some(ControlKind::EStop) => self.emergency_stop(StopCause::Operator)?,
                 Some(ControlKind::Reset)
@@ -959,6 +982,9 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
 
     fn start_job(&mut self, first: CommandSample) -> Result<()> {
         self.flags.clear();
+        self.job_aborted = false;
+        // (a hold or an abort before it is not this job's)
+        self.feed_held = false;
         self.phase = JobPhase::Preparing { id: first.job_id };
         self.last_job_id = first.job_id;
         self.current = None;
@@ -1234,7 +1260,12 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                 feed_move = flags & CommandSample::FLAG_FEED_MOVE != 0;
                 ring_motion = Some(motion);
                 // the sample in use carries the outputs (as `softnc sim` applies them)
-                self.engine.set_outputs(&outputs);
+                let outputs = if self.job_aborted {
+                    outputs.after_abort()
+                } else {
+                    outputs
+                };
+                self.outputs = outputs;
                 self.current = Some(CommandSample {
                     seq: self.ring.source_index(),
                     job_id: self.phase.job_id(),
@@ -1260,19 +1291,21 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             cmd = self.manual_step()?;
         }
         // the machine around the axes: the safe state while it is off, E-stopped or
-        // faulted, and between jobs
+        // faulted; else the sample in use's outputs, or between jobs the last ones
+        // held
         let on = !matches!(
             self.state,
             MachineState::Off | MachineState::EStopped | MachineState::Faulted
         );
+        if !on {
+            self.outputs = MachineOutputs::safe();
+        }
+        self.engine.set_outputs(&self.outputs);
         self.engine.set_output_state(softnc_servo::io::OutputState {
             machine_on: on,
             amp_enable: on,
             spindle_override: self.spindle_override,
         });
-        if self.phase.job_id() == 0 {
-            self.engine.set_outputs(&MachineOutputs::safe());
-        }
         let rec = if moving || holding {
             let stepped = match ring_motion {
                 Some(motion) => self.engine.step_ring(&self.ring, motion, feed_move),
@@ -1394,6 +1427,13 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
         {
             self.close_trace();
         }
+        if matches!(
+            self.state,
+            MachineState::Off | MachineState::EStopped | MachineState::Faulted
+        ) {
+            // (stopped on this cycle: the engine writes them from the next)
+            self.outputs = MachineOutputs::safe();
+        }
         let mut status = PositionStatus {
             seq: self.current.map_or(0, |c| c.seq),
             job_id: self.phase.job_id(),
@@ -1424,6 +1464,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
             force_revolutions: 0,
             force_n: f64::NAN,
             inputs: (*self.engine.io().last_inputs()).into(),
+            outputs: self.outputs.into(),
         };
         if let (Some(a), true) = (&self.adaptive, self.phase.job_id() != 0) {
             status.force_override = a.override_frac();

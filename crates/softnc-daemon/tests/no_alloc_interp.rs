@@ -75,6 +75,7 @@ fn status(seq: u64, job_id: u64) -> PositionStatus {
         force_revolutions: 0,
         force_n: f64::NAN,
         inputs: softnc_ipc::payload::InputsWire::default(),
+        outputs: softnc_core::MachineOutputs::safe().into(),
     }
 }
 

@@ -350,3 +350,75 @@ fn a_limit_switch_stops_the_machine_naming_axis_and_end() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Between jobs the position process holds what the last job left on (as
+/// LinuxCNC): the spindle turning, flood on, M62 P1 on, also cycles later and in
+/// its status; an abort then stops the spindle and the coolant and keeps the
+/// digital output (LinuxCNC's task abort); an E-stop puts everything in the safe
+/// state, and neither the reset nor `on` turns anything on again.
+#[test]
+fn outputs_are_held_between_jobs_until_an_abort_or_an_estop() {
+    let (dir, mut task, bus) = position_task("posheld");
+    let ctl = bus.control_publisher().unwrap();
+    let status = bus.status_subscriber().unwrap();
+    ctl.send_copy(control(ControlKind::MachineOn, 1)).unwrap();
+    let n = 600u64;
+    let mut feeder = Feeder::new(&bus, n, |k| sample(k, n, 0.0, 0.001, 0));
+    cycle_until(&mut task, &mut feeder, "motion", |t| {
+        t.state() == MachineState::Running
+    });
+    cycle_until(&mut task, &mut feeder, "the job's end", |t| {
+        t.state() == MachineState::Idle && t.current_seq().is_none()
+    });
+    for _ in 0..500 {
+        task.cycle().unwrap();
+    }
+    let raw = task.simulated().unwrap().raw_outputs();
+    assert!(raw.spindle.enable && raw.spindle.rpm == 6000.0, "{raw:?}");
+    assert_eq!(raw.digital >> softnc_sim::wiring::OUT_FLOOD & 1, 1);
+    assert_eq!(raw.digital >> (softnc_sim::wiring::USER + 1) & 1, 1);
+    // (the status says so, for the MMI and the next job's sequencer)
+    let mut last = None;
+    let t0 = Instant::now();
+    while t0.elapsed() < Duration::from_millis(300) {
+        task.cycle().unwrap();
+        while let Some(s) = status.receive().unwrap() {
+            last = Some(*s);
+        }
+    }
+    let o: MachineOutputs = last.expect("a status").outputs.into();
+    assert_eq!(o.spindle_signed_rpm(), 6000.0);
+    assert!(o.coolant_flood && o.digital == 2, "{o:?}");
+    // an abort: spindle and coolant off, the digital output kept
+    ctl.send_copy(control(ControlKind::Abort, 2)).unwrap();
+    for _ in 0..5 {
+        task.cycle().unwrap();
+    }
+    let raw = task.simulated().unwrap().raw_outputs();
+    assert!(!raw.spindle.enable, "{raw:?}");
+    assert_eq!(raw.digital >> softnc_sim::wiring::OUT_FLOOD & 1, 0);
+    assert_eq!(raw.digital >> (softnc_sim::wiring::USER + 1) & 1, 1);
+    // an E-stop: the safe state, and it stays after the reset and `on`
+    ctl.send_copy(control(ControlKind::EStop, 3)).unwrap();
+    task.cycle().unwrap();
+    assert_eq!(task.state(), MachineState::EStopped);
+    task.cycle().unwrap();
+    let raw = task.simulated().unwrap().raw_outputs();
+    assert_eq!(raw.digital >> (softnc_sim::wiring::USER + 1) & 1, 0);
+    ctl.send_copy(control(ControlKind::Reset, 4)).unwrap();
+    cycle_until(&mut task, &mut feeder, "reset", |t| {
+        t.state() == MachineState::Off
+    });
+    ctl.send_copy(control(ControlKind::MachineOn, 5)).unwrap();
+    cycle_until(&mut task, &mut feeder, "on", |t| {
+        t.state() == MachineState::Idle
+    });
+    for _ in 0..100 {
+        task.cycle().unwrap();
+    }
+    let raw = task.simulated().unwrap().raw_outputs();
+    assert!(!raw.spindle.enable, "{raw:?}");
+    assert_eq!(raw.digital >> (softnc_sim::wiring::USER + 1) & 1, 0);
+    assert_eq!(raw.digital >> softnc_sim::wiring::OUT_MACHINE_ON & 1, 1);
+    let _ = std::fs::remove_dir_all(&dir);
+}

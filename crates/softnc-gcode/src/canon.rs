@@ -101,6 +101,15 @@ pub enum SpindleTurn {
     CounterClockwise,
 }
 
+/// The coolant a [`MachineOp::Coolant`] switches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CoolantLine {
+    /// Mist (M7).
+    Mist,
+    /// Flood (M8).
+    Flood,
+}
+
 /// What kind of comment a [`MachineOp::Message`] comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum MessageKind {
@@ -166,7 +175,9 @@ pub enum MachineOp {
         /// Programmed speed (rpm).
         rpm: f64,
     },
-    /// M5 (`STOP_SPINDLE_TURNING`).
+    /// M5, M6 (LinuxCNC stops the spindle before a tool change unless its
+    /// `TOOL_CHANGE_WITH_SPINDLE_ON`), and the program end (M2/M30):
+    /// `STOP_SPINDLE_TURNING`.
     SpindleOff,
     /// M19 (`ORIENT_SPINDLE`): stop and orient to `angle_deg` (R), turning as
     /// `P` says (0: the shorter way, 1 clockwise, 2 counter-clockwise), within
@@ -179,12 +190,15 @@ pub enum MachineOp {
         /// Q (s).
         timeout_s: f64,
     },
-    /// M7/M8/M9: the coolant as it is after the code.
+    /// One coolant switched on or off, one of LinuxCNC's `MIST_ON`, `MIST_OFF`,
+    /// `FLOOD_ON`, `FLOOD_OFF`: M7 (mist on), M8 (flood on), M9 (mist off, then
+    /// flood off: two operations, as LinuxCNC's `convert_m` makes two calls), and
+    /// the program end (M2/M30: each coolant that is on, off, as `convert_stop`).
     Coolant {
-        /// Mist (M7) on.
-        mist: bool,
-        /// Flood (M8) on.
-        flood: bool,
+        /// Which coolant.
+        which: CoolantLine,
+        /// On or off.
+        on: bool,
     },
     /// T: prepare tool `tool` (`SELECT_TOOL`); LinuxCNC's task does not wait for
     /// motion for it.
@@ -253,7 +267,7 @@ pub enum MachineOp {
 impl MachineOp {
     /// The name of LinuxCNC's canonical call for it (`canon.hh`), as `rs274`
     /// prints it (`PRINT` for `(PRINT,…)`, which has none: the interpreter prints
-    /// it itself; `COOLANT` for M7/M8/M9, which make one call per coolant).
+    /// it itself).
     pub fn canon_name(&self) -> &'static str {
         match *self {
             MachineOp::SpindleOn {
@@ -263,7 +277,12 @@ impl MachineOp {
             MachineOp::SpindleOn { .. } => "START_SPINDLE_COUNTERCLOCKWISE",
             MachineOp::SpindleOff => "STOP_SPINDLE_TURNING",
             MachineOp::SpindleOrient { .. } => "ORIENT_SPINDLE",
-            MachineOp::Coolant { .. } => "COOLANT",
+            MachineOp::Coolant { which, on } => match (which, on) {
+                (CoolantLine::Mist, true) => "MIST_ON",
+                (CoolantLine::Mist, false) => "MIST_OFF",
+                (CoolantLine::Flood, true) => "FLOOD_ON",
+                (CoolantLine::Flood, false) => "FLOOD_OFF",
+            },
             MachineOp::ToolPrepare { .. } => "SELECT_TOOL",
             MachineOp::ToolChange { .. } => "CHANGE_TOOL",
             MachineOp::Message {

@@ -2888,9 +2888,7 @@ fn read_source<'t>(
                         it.plane = Plane::XY;
                         it.absolute = true;
                         it.inverse_time = false;
-                        it.spindle_code = 5;
-                        it.mist = false;
-                        it.flood = false;
+                        it.program_end(line_no as u32);
                         it.motion = Some(G_1);
                         run_from_reached(&it, options, file)?;
                         return Ok(finish(
@@ -3186,7 +3184,8 @@ mod tests {
                     .unwrap();
                 (m.canon_end[0], m.canon_end[1])
             };
-            assert_eq!(motions.len(), lines, "fast {fast}");
+            // (and M2's spindle stop)
+            assert_eq!(motions.len(), lines + 1, "fast {fast}");
             // (Y modal: the line before's)
             let y_before = |line: usize| ((line - 1) % 3) as f64;
             assert_eq!(

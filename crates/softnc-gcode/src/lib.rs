@@ -22,8 +22,8 @@ pub mod params;
 pub mod x87;
 
 pub use canon::{
-    MachineOp, MessageKind, Motion, MotionKind, OverrideSwitch, PathMode, Program, SpindleTurn,
-    WaitInput, WaitMode,
+    CoolantLine, MachineOp, MessageKind, Motion, MotionKind, OverrideSwitch, PathMode, Program,
+    SpindleTurn, WaitInput, WaitMode,
 };
 pub use error::{ErrorKind, GcodeError};
 pub use params::Params;

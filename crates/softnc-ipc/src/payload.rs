@@ -142,6 +142,11 @@ pub struct PositionStatus {
     pub force_n: f64,
     /// What the machine around the axes reported this cycle.
     pub inputs: InputsWire,
+    /// What the machine around the axes was told this cycle (the program's
+    /// outputs, before the I/O map): the sample in use's during a job; between
+    /// jobs the last job's or MDI command's, held; the safe state while the
+    /// machine is off, E-stopped or faulted.
+    pub outputs: OutputsWire,
 }
 
 /// [`MachineOutputs`] on the wire.

@@ -41,7 +41,8 @@
 
 use softnc_core::machine_io::{MachineInputs, MachineOutputs, SpindleDir};
 use softnc_gcode::{
-    MachineOp, MessageKind, MotionKind, OverrideSwitch, Program, SpindleTurn, WaitInput, WaitMode,
+    CoolantLine, MachineOp, MessageKind, MotionKind, OverrideSwitch, Program, SpindleTurn,
+    WaitInput, WaitMode,
 };
 
 /// What the sequencer needs besides the program (from the machine profile).
@@ -126,10 +127,10 @@ impl SequencerState {
                 o.spindle_orient_deg = Some(angle_deg);
                 o.spindle_orient_dir = direction;
             }
-            MachineOp::Coolant { mist, flood } => {
-                o.coolant_mist = mist;
-                o.coolant_flood = flood;
-            }
+            MachineOp::Coolant { which, on } => match which {
+                CoolantLine::Mist => o.coolant_mist = on,
+                CoolantLine::Flood => o.coolant_flood = on,
+            },
             MachineOp::ToolPrepare { tool } => self.tool_prepared = tool,
             MachineOp::ToolChange { .. } => o.tool_change = true,
             MachineOp::Message {
@@ -437,6 +438,8 @@ pub struct SequencerBuilder {
     pending_sync: Vec<MachineOp>,
     /// An M6 was the last change: the next motion ends it.
     tool_change_done: Option<u32>,
+    /// Machine operations pushed.
+    operations: u32,
 }
 
 impl SequencerBuilder {
@@ -449,6 +452,7 @@ impl SequencerBuilder {
             stops: Vec::new(),
             pending_sync: Vec::new(),
             tool_change_done: None,
+            operations: 0,
         }
     }
 
@@ -469,6 +473,7 @@ impl SequencerBuilder {
         }
         match m.kind {
             MotionKind::Machine(op) => {
+                self.operations += 1;
                 let synchronised = matches!(
                     op,
                     MachineOp::DigitalOut {
@@ -518,6 +523,7 @@ impl SequencerBuilder {
     pub fn finish(self, messages: Vec<String>) -> MachineSequencer {
         MachineSequencer {
             cfg: self.cfg,
+            operations: self.operations,
             changes: self.changes,
             stops: self.stops,
             messages,
@@ -586,6 +592,8 @@ fn user_command(
 #[derive(Debug, Clone)]
 pub struct MachineSequencer {
     cfg: SequencerConfig,
+    /// The program's machine operations.
+    operations: u32,
     /// (first motion, state in force from it on), by motion.
     changes: Vec<(u32, SequencerState)>,
     /// The machine stops, by motion.
@@ -605,6 +613,13 @@ impl MachineSequencer {
             b.push(i as u32, m);
         }
         b.finish(program.messages.clone())
+    }
+
+    /// Whether the program has machine operations (spindle, coolant, tools,
+    /// messages, I/O, …; the program end's spindle stop among them): a program
+    /// without moves still runs on the machine for them.
+    pub fn has_operations(&self) -> bool {
+        self.operations > 0
     }
 
     /// The state in force for a sample of motion `motion` (O(1) as the motions go

@@ -207,6 +207,8 @@ impl<B: ServoBackend> CycleEngine<B> {
         // the I/O's state (debounce, the E-stop latch) is the machine's, not the job's
         self.io.take_state_from(&running.io);
         self.out_state = running.out_state;
+        // and so are the outputs held between jobs (the spindle turning, coolant)
+        self.program_outputs = running.program_outputs;
         if running.backend.kept_across_jobs() {
             std::mem::swap(&mut self.backend, &mut running.backend);
             for (c, x) in self.controllers.iter_mut().zip(start_mm) {

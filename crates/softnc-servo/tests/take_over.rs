@@ -121,3 +121,33 @@ fn a_backend_not_kept_is_the_new_engines_own_homed_at_the_start() {
     );
     assert_eq!(job2.measured_mm()[0], 4.0);
 }
+
+/// The outputs held between jobs (a spindle turning, flood on, a digital output)
+/// are the machine's: the next job's engine writes them from its first cycle on,
+/// on a drive handed on and on a fresh machine alike (no spindle stop at a job's
+/// start).
+#[test]
+fn the_outputs_held_between_jobs_go_over_to_the_next_jobs_engine() {
+    use softnc_core::machine_io::{MachineOutputs, SpindleDir};
+    let held = MachineOutputs {
+        spindle_dir: SpindleDir::Clockwise,
+        spindle_rpm: 5000.0,
+        coolant_flood: true,
+        digital: 0b100,
+        ..MachineOutputs::default()
+    };
+    for kept in [true, false] {
+        let p = profile();
+        let mut job1 = CycleEngine::new(&p, Counted::new(1, kept));
+        job1.backend_mut().enable().unwrap();
+        job1.reset([0.0; 3]);
+        job1.set_outputs(&held);
+        job1.step([0.0; 3], false).unwrap();
+        assert_eq!(*job1.io().last_outputs(), held);
+        let mut job2 = CycleEngine::new(&p, Counted::new(2, kept));
+        job2.backend_mut().enable().unwrap();
+        job2.take_over(&mut job1, [0.0; 3]);
+        job2.step([0.0; 3], false).unwrap();
+        assert_eq!(*job2.io().last_outputs(), held, "kept {kept}");
+    }
+}

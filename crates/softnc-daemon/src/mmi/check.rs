@@ -107,7 +107,12 @@ pub(super) fn check_job(
         machine,
         &options,
         crate::plan_samples::sequencer_config(machine),
-        crate::plan_samples::initial_state(options.params.as_ref()),
+        // (the status shows the outputs the position process reports; this
+        // sequencer gives the tools, the messages and the prompts)
+        crate::plan_samples::initial_state(
+            options.params.as_ref(),
+            softnc_core::machine_io::MachineOutputs::safe(),
+        ),
     )
     .ok();
     let params = checked.end_params().clone();
@@ -363,9 +368,12 @@ impl MmiTask {
             .unwrap_or(0)
             .max(self.history.job_id_floor)
             + 1;
-        // nothing to run (a G10, G92, G5x block, M codes, a touch-off): done here;
-        // a dwell takes its time on the machine like a move
-        let moves = stats.moves > 0 || stats.duration_s > 0.0;
+        // nothing to run (a G10, G92, G5x block, a touch-off): done here; a dwell
+        // takes its time on the machine like a move, and machine operations (M3,
+        // M8, M62, T, a message, a program end's spindle stop, …) are done there
+        let moves = stats.moves > 0
+            || stats.duration_s > 0.0
+            || sequencer.as_ref().is_some_and(|s| s.has_operations());
         if moves {
             // what the run reads the job with: what it was checked with
             setup.job_id = job_id;

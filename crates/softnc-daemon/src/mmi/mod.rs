@@ -480,6 +480,9 @@ impl MmiTask {
                 }
             }
             self.machine.last = Some(s);
+            if s.job_id == 0 && self.history.running().is_none() {
+                self.modal_follows_the_machine(&s);
+            }
             let inputs = softnc_core::machine_io::MachineInputs::from(s.inputs);
             if inputs.limit_min | inputs.limit_max == 0 {
                 self.machine.limits_overridden = false;
@@ -718,6 +721,36 @@ impl MmiTask {
             self.save_modal(modal);
         }
         Ok(())
+    }
+
+    /// Between jobs the modal state follows what the machine has on: a spindle or
+    /// a coolant the machine stopped without a program saying so (an E-stop,
+    /// machine off, a fault, an abort, a restart) is no longer M3/M4, M7/M8 in it,
+    /// as LinuxCNC's interpreter takes the spindle's and the coolant's state from
+    /// the machine when it synchronises (`Interp::synch`: `GET_EXTERNAL_SPINDLE`,
+    /// `GET_EXTERNAL_MIST`, `GET_EXTERNAL_FLOOD`). Else an `S` alone in the next
+    /// command would start the spindle the machine stopped.
+    fn modal_follows_the_machine(&mut self, s: &PositionStatus) {
+        let Some(modal) = self.setup.modal.as_deref() else {
+            return;
+        };
+        let o: softnc_core::machine_io::MachineOutputs = s.outputs.into();
+        let stopped = o.spindle_dir == softnc_core::machine_io::SpindleDir::Stopped;
+        let off = |line: &str| match line.trim() {
+            "M3" | "M4" => stopped,
+            "M7" => !o.coolant_mist,
+            "M8" => !o.coolant_flood,
+            _ => false,
+        };
+        if !modal.lines().any(off) {
+            return;
+        }
+        let kept: String = modal
+            .lines()
+            .filter(|l| !off(l))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        self.save_modal(kept);
     }
 
     /// The modal state a completed MDI command or job left becomes the machine's
@@ -1084,6 +1117,9 @@ impl MmiTask {
                 match kind {
                     ControlKind::Hold => self.machine.intent = Some(MachineState::Held),
                     ControlKind::Resume => self.machine.intent = None,
+                    // idle: nothing to stop but the spindle and the coolant (the
+                    // position process does that on every abort)
+                    ControlKind::Abort if state == MachineState::Idle => {}
                     ControlKind::Abort => {
                         self.machine.intent = Some(MachineState::Stopping);
                         self.machine.abort_asked = Some(job_id);
@@ -1108,6 +1144,9 @@ impl MmiTask {
                 let what = match kind {
                     ControlKind::Hold => format!("job {job_id} held"),
                     ControlKind::Resume => format!("job {job_id} resumed"),
+                    ControlKind::Abort if state == MachineState::Idle => {
+                        "spindle stopped, coolant off".to_string()
+                    }
                     ControlKind::Abort => format!("job {job_id} stopping along its path"),
                     ControlKind::EStop => "emergency stop".to_string(),
                     _ if state == MachineState::Idle => "alarms cleared".to_string(),
@@ -1271,12 +1310,17 @@ impl MmiTask {
                 .modal
                 .as_deref()
                 .map(|m| m.split_whitespace().map(String::from).collect()),
-            coolant: match &around {
-                // in a job: as the sample in use switches it
-                Some((st, ..)) => api::Coolant {
-                    mist: st.outputs.coolant_mist,
-                    flood: st.outputs.coolant_flood,
-                },
+            // the outputs the position process has in force: in a job the sample in
+            // use's, between jobs the last job's or MDI command's (held), off or
+            // E-stopped the safe state; before its first status, the modal state's
+            coolant: match s {
+                Some(s) => {
+                    let o: softnc_core::machine_io::MachineOutputs = s.outputs.into();
+                    api::Coolant {
+                        mist: o.coolant_mist,
+                        flood: o.coolant_flood,
+                    }
+                }
                 None => api::Coolant {
                     mist: modal_has("M7"),
                     flood: modal_has("M8"),
@@ -1299,14 +1343,8 @@ impl MmiTask {
             spindle_rpm: s.map(|s| s.spindle_rpm),
             spindle: s.map(|s| {
                 let inputs: softnc_core::machine_io::MachineInputs = s.inputs.into();
-                let commanded_rpm = around.as_ref().map_or(0.0, |(st, ..)| {
-                    let o = &st.outputs;
-                    match o.spindle_dir {
-                        softnc_core::machine_io::SpindleDir::Clockwise => o.spindle_rpm,
-                        softnc_core::machine_io::SpindleDir::CounterClockwise => -o.spindle_rpm,
-                        softnc_core::machine_io::SpindleDir::Stopped => 0.0,
-                    }
-                });
+                let outputs: softnc_core::machine_io::MachineOutputs = s.outputs.into();
+                let commanded_rpm = outputs.spindle_signed_rpm();
                 api::Spindle {
                     commanded_rpm,
                     actual_rpm: inputs.spindle_rpm,
@@ -1456,6 +1494,8 @@ pub fn transition(kind: ControlKind, state: MachineState) -> Result<MachineState
         (K::Step, _) => Err("nothing is paused at a block end"),
         (K::Abort, Running | Held | Paused | Mdi) => Ok(Stopping),
         (K::Abort, Homing | Jogging) => Ok(Idle),
+        // nothing moves: the spindle and the coolant stop (LinuxCNC's task abort)
+        (K::Abort, Idle) => Ok(Idle),
         (K::Abort, Stopping) => Err("already stopping"),
         // the latch cleared, the drives left off: `on` switches them on (LinuxCNC)
         (K::Reset, Faulted | EStopped) => Ok(Off),
@@ -1491,7 +1531,7 @@ mod tests {
             (Resume, [None, None, Some(Running), None, None, None]),
             (
                 Abort,
-                [None, Some(Stopping), Some(Stopping), None, None, None],
+                [Some(Idle), Some(Stopping), Some(Stopping), None, None, None],
             ),
             (EStop, [Some(EStopped); 6]),
             (Reset, [Some(Idle), None, None, None, Some(Off), Some(Off)]),

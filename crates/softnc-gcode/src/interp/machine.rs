@@ -6,7 +6,8 @@
 
 use super::{bad, round_to_int, Block, Interp, R};
 use crate::canon::{
-    MachineOp, MessageKind, MotionKind, OverrideSwitch, SpindleTurn, WaitInput, WaitMode,
+    CoolantLine, MachineOp, MessageKind, MotionKind, OverrideSwitch, SpindleTurn, WaitInput,
+    WaitMode,
 };
 use crate::ErrorKind;
 use softnc_core::machine_io::{ANALOG_LINES, DIGITAL_LINES};
@@ -62,17 +63,23 @@ impl Interp<'_> {
     /// modal state has them, at `start` (canonical frame, mm) on the approach; the
     /// tool in the spindle is the operator's to check.
     pub(super) fn push_machine_state(&mut self, line_no: u32, start: softnc_core::Vec3) {
-        let mut ops = [None, None];
+        let mut ops = [None, None, None];
         if self.spindle_on {
             ops[0] = Some(MachineOp::SpindleOn {
                 dir: self.spindle_turn(),
                 rpm: self.s_rpm,
             });
         }
-        if self.mist || self.flood {
+        if self.mist {
             ops[1] = Some(MachineOp::Coolant {
-                mist: self.mist,
-                flood: self.flood,
+                which: CoolantLine::Mist,
+                on: true,
+            });
+        }
+        if self.flood {
+            ops[2] = Some(MachineOp::Coolant {
+                which: CoolantLine::Flood,
+                on: true,
             });
         }
         for op in ops.into_iter().flatten() {
@@ -88,6 +95,47 @@ impl Interp<'_> {
                 spindle_rpm: self.spindle_rpm(),
             };
             self.keep(m);
+        }
+    }
+
+    /// The program end (M2, M30; LinuxCNC's `convert_stop`, steps 7 and 9): the
+    /// spindle stops ([`Self::spindle_stop`]), then each coolant that is on goes
+    /// off (`MIST_OFF`, `FLOOD_OFF`), and the modal state says M5, no M7/M8.
+    pub(super) fn program_end(&mut self, line_no: u32) {
+        self.spindle_stop(line_no);
+        if self.mist {
+            self.mist = false;
+            self.push_machine(
+                line_no,
+                MachineOp::Coolant {
+                    which: CoolantLine::Mist,
+                    on: false,
+                },
+            );
+        }
+        if self.flood {
+            self.flood = false;
+            self.push_machine(
+                line_no,
+                MachineOp::Coolant {
+                    which: CoolantLine::Flood,
+                    on: false,
+                },
+            );
+        }
+    }
+
+    /// LinuxCNC's implicit `STOP_SPINDLE_TURNING` (at M6 and at the program end):
+    /// the modal state says M5, and the stop is emitted only when the spindle turns.
+    /// LinuxCNC emits it whether the spindle turns or not; here every machine
+    /// operation is a stop of the path, and a stop that changes nothing would make
+    /// every program (most never turn a spindle) stand one sample more at its end.
+    fn spindle_stop(&mut self, line_no: u32) {
+        let turning = self.spindle_on;
+        self.spindle_on = false;
+        self.spindle_code = 5;
+        if turning {
+            self.push_machine(line_no, MachineOp::SpindleOff);
         }
     }
 
@@ -116,17 +164,25 @@ impl Interp<'_> {
         }
         self.tool_change_codes(line_no, b)?;
         self.spindle_codes(line_no, b)?;
-        // coolant (read by #<_mist>, #<_flood>)
-        let coolant = match b.m_in(8) {
-            Some(7) => Some((true, self.flood)),
-            Some(8) => Some((self.mist, true)),
-            Some(9) => Some((false, false)),
-            _ => None,
-        };
-        if let Some((mist, flood)) = coolant {
-            self.mist = mist;
-            self.flood = flood;
-            self.push_machine(line_no, MachineOp::Coolant { mist, flood });
+        // coolant (read by #<_mist>, #<_flood>): M7 `MIST_ON`, M8 `FLOOD_ON`, M9
+        // `MIST_OFF` then `FLOOD_OFF`, whatever was on
+        let coolant = |which, on| MachineOp::Coolant { which, on };
+        match b.m_in(8) {
+            Some(7) => {
+                self.mist = true;
+                self.push_machine(line_no, coolant(CoolantLine::Mist, true));
+            }
+            Some(8) => {
+                self.flood = true;
+                self.push_machine(line_no, coolant(CoolantLine::Flood, true));
+            }
+            Some(9) => {
+                self.mist = false;
+                self.flood = false;
+                self.push_machine(line_no, coolant(CoolantLine::Mist, false));
+                self.push_machine(line_no, coolant(CoolantLine::Flood, false));
+            }
+            _ => {}
         }
         if let Some(code) = b.m_in(9) {
             // M50–M53 without P (p_number −1) switch on, as LinuxCNC's `p_number != 0`
@@ -321,6 +377,11 @@ impl Interp<'_> {
             Some(6) => {
                 self.spindle_length_mm = self.tool_length(self.tool_selected as i32, 0)?;
                 self.spindle_shape = self.tool_shape(self.tool_selected as i32, 0)?;
+                // `convert_tool_change`: the spindle stops before the change (LinuxCNC's
+                // default, without `TOOL_CHANGE_WITH_SPINDLE_ON`); a spindle that is not
+                // turning is not stopped again (a stop that changes nothing would still
+                // be a stop of the path)
+                self.spindle_stop(line_no);
                 self.tool_loaded = self.tool_selected;
                 self.sync_pending = true;
                 self.push_machine(

@@ -238,6 +238,15 @@ fn read(text: &str) -> softnc_gcode::Program {
     softnc_gcode::read_program(text, "t.ngc", &profile()).unwrap()
 }
 
+/// The program with its machine operations left out (the program end's spindle
+/// stop among them: `machine_ops.rs` checks those): its moves, dwells and stops.
+fn moves(text: &str) -> softnc_gcode::Program {
+    let mut p = read(text);
+    p.motions
+        .retain(|m| !matches!(m.kind, MotionKind::Machine(_)));
+    p
+}
+
 #[test]
 fn g92_g52_and_their_parameters() {
     // G92 X1 at X3: the point is now X1, the offset 2 (5211), restored by G92.3
@@ -275,7 +284,7 @@ fn g92_g52_and_their_parameters() {
 #[test]
 fn g10_l2_l20_set_work_offsets() {
     // G10 L2 P1 sets G54 (active): the same program point moves with it
-    let p = read("G10 L2 P1 X5\nG0 X1\nG10 L2 P2 Y7\nG55 G0 X1\n#1=#5242\nG0 X#1\nM2\n");
+    let p = moves("G10 L2 P1 X5\nG0 X1\nG10 L2 P2 Y7\nG55 G0 X1\n#1=#5242\nG0 X#1\nM2\n");
     let offs: Vec<[f64; 3]> = p.motions.iter().map(|m| m.offset_mm.0).collect();
     assert_eq!(
         offs,
@@ -283,7 +292,7 @@ fn g10_l2_l20_set_work_offsets() {
     );
     assert_eq!(p.motions[2].kind.end().unwrap().0[0], 7.0);
     // L20: the current point becomes the value given
-    let p = read("G0 X4\nG10 L20 P0 X1\nG0 Y0\nM2\n");
+    let p = moves("G0 X4\nG10 L20 P0 X1\nG0 Y0\nM2\n");
     assert_eq!(p.motions[1].start.0[0], 1.0);
     assert_eq!(p.motions[1].offset_mm.0[0], 3.0);
     assert!(matches!(
@@ -298,7 +307,7 @@ fn g10_l2_l20_set_work_offsets() {
 
 #[test]
 fn g28_g30_go_through_the_waypoint_to_the_stored_position() {
-    let p = read("G0 X5 Y5 Z5\nG28.1\nG0 X0 Y0 Z0\nG28 Z1\nG30\nM2\n");
+    let p = moves("G0 X5 Y5 Z5\nG28.1\nG0 X0 Y0 Z0\nG28 Z1\nG30\nM2\n");
     let ends: Vec<[f64; 3]> = p.motions.iter().map(|m| m.kind.end().unwrap().0).collect();
     assert_eq!(
         ends,
@@ -449,7 +458,7 @@ mod fuzz {
 fn m70_m73_save_and_restore_the_modal_state() {
     // M70 saves G21 G90 F100 at X0; G20 G91 F5 change it (F before G20 on a line:
     // 5 mm/min, as LinuxCNC); M72 brings them back
-    let p = read("G21 G90 F100\nM70\nG20 G91 F5\nG1 X1\nM72\nG1 X2\nM2\n");
+    let p = moves("G21 G90 F100\nM70\nG20 G91 F5\nG1 X1\nM72\nG1 X2\nM2\n");
     let m: Vec<(f64, f64, bool)> = p
         .motions
         .iter()
@@ -463,7 +472,7 @@ fn m70_m73_save_and_restore_the_modal_state() {
         .collect();
     assert_eq!(m, vec![(25.4, 5.0, true), (2.0, 100.0, false)]);
     // M73 in a subroutine restores on return
-    let p = read("G90 F100\no1 sub\nM73\nG91 F7\nG1 X1\no1 endsub\no1 call\nG1 X5\nM2\n");
+    let p = moves("G90 F100\no1 sub\nM73\nG91 F7\nG1 X1\no1 endsub\no1 call\nG1 X5\nM2\n");
     let ends: Vec<f64> = p
         .motions
         .iter()
@@ -487,7 +496,7 @@ fn m70_m72_restore_g64_p_and_q() {
     // X1 (0.5, 0.3); after M72 X2 (0.02, 0.01); X3 after G61 and M72 (0.04, 0.04:
     // LinuxCNC takes P for a missing Q, softnc merges only with a Q); X4 after
     // G64 P1 and M72 (0, 0.07)
-    let p = read(
+    let p = moves(
         "G21 F100\nG64 P0.02 Q0.01\nM70\nG64 P0.5 Q0.3\nG1 X1\nM72\nG1 X2\n\
          G64 P0.04\nM70\nG61\nM72\nG1 X3\nG64 Q0.07\nM70\nG64 P1\nM72\nG1 X4\nM2\n",
     );
@@ -506,7 +515,7 @@ fn m70_m72_restore_g64_p_and_q() {
         ]
     );
     // in inches, P and Q come back in the program's unit
-    let p = read("G20\nF1\nG64 P0.001 Q0.002\nM70\nG64 P0.5\nG21\nM72\nG1 X1\nM2\n");
+    let p = moves("G20\nF1\nG64 P0.001 Q0.002\nM70\nG64 P0.5\nG21\nM72\nG1 X1\nM2\n");
     match p.motions[0].path_mode {
         PathMode::Blend {
             tolerance_mm: Some(t),
@@ -556,7 +565,7 @@ fn skipped_lines_are_still_lines() {
 
 #[test]
 fn g43_1_sets_and_g43_2_adds_a_tool_length() {
-    let p = read("G0 Z10\nG43.1 Z5\nG0 Z0\nG43.2 Z1\nG0 Z0\nG49\nG0 Z0\nM2\n");
+    let p = moves("G0 Z10\nG43.1 Z5\nG0 Z0\nG43.2 Z1\nG0 Z0\nG49\nG0 Z0\nM2\n");
     let z: Vec<(f64, f64)> = p
         .motions
         .iter()

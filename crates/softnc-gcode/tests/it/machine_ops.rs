@@ -4,6 +4,7 @@
 //! `expected` files of `../shared/gcode`) and its errors.
 
 use softnc_core::MotionProfile;
+use softnc_gcode::CoolantLine;
 use softnc_gcode::{
     read_program_with, ErrorKind, M66Results, MachineOp, MessageKind, MotionKind, Program,
     ReadOptions, SpindleTurn, WaitMode,
@@ -41,8 +42,18 @@ fn cw(rpm: f64) -> MachineOp {
     }
 }
 
-fn coolant(mist: bool, flood: bool) -> MachineOp {
-    MachineOp::Coolant { mist, flood }
+fn mist(on: bool) -> MachineOp {
+    MachineOp::Coolant {
+        which: CoolantLine::Mist,
+        on,
+    }
+}
+
+fn flood(on: bool) -> MachineOp {
+    MachineOp::Coolant {
+        which: CoolantLine::Flood,
+        on,
+    }
 }
 
 fn dout(line: u8, on: bool, synchronised: bool) -> MachineOp {
@@ -65,7 +76,7 @@ fn aout(line: u8, value: f64, synchronised: bool) -> MachineOp {
 fn the_acceptance_job_reads_in_program_order() {
     let p = read(
         "G21 G90\nS8000 M3\nM8\nG1 X10 F600\nT2 M6\n(MSG, insert tool 2)\nM0\nM62 P1\n\
-         G1 X20\nM66 P0 L3 Q2\nS9000\nM64 P5\nM65 P5\nM67 E1 Q2.5\nM68 E2 Q-1\nM5 M9 M30\n",
+         G1 X20\nM66 P0 L3 Q2\nS9000 M3\nM64 P5\nM65 P5\nM67 E1 Q2.5\nM68 E2 Q-1\nM5 M9 M30\n",
     );
     let wait = MachineOp::WaitInput {
         input: softnc_gcode::WaitInput::Digital(0),
@@ -80,8 +91,10 @@ fn the_acceptance_job_reads_in_program_order() {
         ops(&p),
         vec![
             (2, cw(8000.0)),
-            (3, coolant(false, true)),
+            (3, flood(true)),
             (5, MachineOp::ToolPrepare { tool: 2 }),
+            // LinuxCNC stops the spindle for the change
+            (5, MachineOp::SpindleOff),
             (5, MachineOp::ToolChange { tool: 2 }),
             (6, msg),
             (8, dout(1, true, true)),
@@ -92,7 +105,11 @@ fn the_acceptance_job_reads_in_program_order() {
             (14, aout(1, 2.5, true)),
             (15, aout(2, -1.0, false)),
             (16, MachineOp::SpindleOff),
-            (16, coolant(false, false)),
+            // M9: mist off, then flood off
+            (16, mist(false)),
+            (16, flood(false)),
+            // M30: the spindle stops again (coolant already off)
+            (16, MachineOp::SpindleOff),
         ]
     );
     assert_eq!(p.messages, vec![" insert tool 2".to_string()]);
@@ -100,7 +117,10 @@ fn the_acceptance_job_reads_in_program_order() {
     let stops: Vec<bool> = ops(&p).iter().map(|(_, o)| o.stops_motion()).collect();
     assert_eq!(
         stops,
-        vec![true, true, false, true, true, false, true, true, true, true, false, true, true, true]
+        vec![
+            true, true, false, true, true, true, false, true, true, true, true, false, true, true,
+            true, true, true
+        ]
     );
     // the M0 is where it was: on its own line
     assert!(p
@@ -125,7 +145,9 @@ fn debug_and_print_substitute_parameters_and_m19_and_switches_read() {
             "ORIENT_SPINDLE",
             "ENABLE_FEED_OVERRIDE",
             "DISABLE_FEED_OVERRIDE",
-            "ENABLE_FEED_HOLD"
+            "ENABLE_FEED_HOLD",
+            // M2
+            "STOP_SPINDLE_TURNING"
         ]
     );
     assert_eq!(
@@ -138,7 +160,7 @@ fn debug_and_print_substitute_parameters_and_m19_and_switches_read() {
     );
     // (DEBUG,) is silent while #5599 is 0, as LinuxCNC's
     let p = read("#5599 = 0\n(DEBUG, hidden)\nM2\n");
-    assert!(p.messages.is_empty() && ops(&p).is_empty());
+    assert!(p.messages.is_empty() && ops(&p) == vec![(3, MachineOp::SpindleOff)]);
 }
 
 #[test]
@@ -295,7 +317,8 @@ fn user_m_codes_run_from_their_folder_and_refuse_missing_ones_before_motion() {
                     p: -1.0,
                     q: -1.0
                 }
-            )
+            ),
+            (4, MachineOp::SpindleOff)
         ]
     );
     for (text, line, col) in [
@@ -327,13 +350,18 @@ fn corpus() -> Option<PathBuf> {
 }
 
 /// The canonical calls LinuxCNC's `expected` output shows for the operations
-/// softnc emits one for as LinuxCNC does (spindle starts, messages, tool select and
-/// change, I/O), in order. `STOP_SPINDLE_TURNING` and the coolant's are left out:
-/// LinuxCNC also makes them at the program end.
+/// softnc emits one for as LinuxCNC does (spindle starts and stops — M5, before a
+/// tool change, at the program end —, coolant on and off — M7, M8, M9, at the
+/// program end —, messages, tool select and change, I/O), in order.
 fn expected_calls(text: &str) -> Vec<String> {
-    const NAMES: [&str; 11] = [
+    const NAMES: [&str; 16] = [
         "START_SPINDLE_CLOCKWISE(",
         "START_SPINDLE_COUNTERCLOCKWISE(",
+        "STOP_SPINDLE_TURNING(",
+        "MIST_ON(",
+        "MIST_OFF(",
+        "FLOOD_ON(",
+        "FLOOD_OFF(",
         "MESSAGE(",
         "SELECT_TOOL(",
         "CHANGE_TOOL(",
@@ -367,6 +395,8 @@ fn our_calls(p: &Program) -> Vec<String> {
             } => Some(format!("MESSAGE(\"{}\")", p.messages[index as usize])),
             MachineOp::ToolPrepare { tool } => Some(format!("SELECT_TOOL({tool})")),
             MachineOp::SpindleOn { .. }
+            | MachineOp::SpindleOff
+            | MachineOp::Coolant { .. }
             | MachineOp::ToolChange { .. }
             | MachineOp::DigitalOut { .. }
             | MachineOp::AnalogOut { .. } => Some(op.canon_name().to_string()),
@@ -376,8 +406,9 @@ fn our_calls(p: &Program) -> Vec<String> {
 }
 
 /// Every interpreter test LinuxCNC accepts and softnc reads (without options
-/// softnc has no flag for) makes the same spindle, message, tool and I/O calls in
-/// the same order as LinuxCNC's `expected` output.
+/// softnc has no flag for) makes the same spindle, coolant, message, tool and I/O
+/// calls in the same order as LinuxCNC's `expected` output, the program end's
+/// included.
 #[test]
 fn machine_calls_are_linuxcncs_in_its_interpreter_tests() {
     let Some(root) = corpus() else {
@@ -435,9 +466,9 @@ fn machine_calls_are_linuxcncs_in_its_interpreter_tests() {
         compared += 1;
         calls += want.len();
     }
-    // (17 programs, 36 calls when this was written)
+    // (17 programs, 53 calls when this was written)
     assert!(
-        compared >= 17 && calls >= 36,
+        compared >= 17 && calls >= 53,
         "{compared} programs, {calls} calls"
     );
     eprintln!("{compared} programs, {calls} machine calls as LinuxCNC's");
@@ -469,11 +500,14 @@ fn run_from_line_switches_the_spindle_and_coolant_on_before_the_last_approach() 
         kinds,
         vec![
             "START_SPINDLE_COUNTERCLOCKWISE",
-            "COOLANT",
+            "FLOOD_ON",
             "traverse",
             "sync",
             "feed",
-            "feed"
+            "feed",
+            // M2
+            "STOP_SPINDLE_TURNING",
+            "FLOOD_OFF"
         ]
     );
     assert_eq!(

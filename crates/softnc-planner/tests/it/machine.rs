@@ -77,6 +77,13 @@ fn a_spindle_or_coolant_change_stops_the_path_exactly_and_waits() {
             for _ in 0..MAX_SAMPLES {
                 let Some(s) = it.next() else { break };
                 if let Some(m) = it.machine_stop() {
+                    if line_of(&program, &s) == 5 {
+                        // M2's spindle stop (and coolant off), at the path's end
+                        assert_eq!(s.pos_mm, Vec3::new(20.0, 0.0, 0.0), "{fp:?} {between}");
+                        it.release_machine_stop();
+                        samples.push(s);
+                        continue;
+                    }
                     // standing exactly at the end of the first move, carrying the
                     // operation's own motion (and so its line)
                     assert_eq!(s.pos_mm, Vec3::new(10.0, 0.0, 0.0), "{fp:?} {between}");
@@ -136,7 +143,13 @@ fn a_synchronised_output_does_not_stop_and_switches_where_the_next_move_starts()
         let mut speeds = Vec::new();
         let mut last: Option<Sample> = None;
         while let Some(s) = it.next() {
-            assert_eq!(it.machine_stop(), None, "{fp:?}: M62 stopped the path");
+            if it.machine_stop().is_some() {
+                // only M2's spindle stop, at the path's end
+                assert_eq!(line_of(&program, &s), 5, "{fp:?}: M62 stopped the path");
+                assert_eq!(s.pos_mm, Vec3::new(20.0, 0.0, 0.0), "{fp:?}");
+                it.release_machine_stop();
+                continue;
+            }
             let fb = Feedback {
                 applied_motion: Some(s.motion),
                 ..Default::default()
@@ -148,7 +161,10 @@ fn a_synchronised_output_does_not_stop_and_switches_where_the_next_move_starts()
             }
             assert_eq!(on, s.motion >= second_move, "{fp:?}: at {s:?}");
             if let Some(l) = last {
-                speeds.push((s.pos_mm - l.pos_mm).norm());
+                // (until the path's end, where M2 stands)
+                if l.pos_mm != Vec3::new(20.0, 0.0, 0.0) {
+                    speeds.push((s.pos_mm - l.pos_mm).norm());
+                }
             }
             last = Some(s);
         }
@@ -529,4 +545,83 @@ fn m19_with_q_waits_for_the_spindle_oriented_and_fails_past_q() {
         ..Default::default()
     };
     assert_eq!(seq.step(no_q, Some(no_q), &applied).action, Action::Release);
+}
+
+/// A job after `S5000 M3 M8` in an earlier MDI command: its sequencer starts from
+/// the outputs the machine holds and the modal state (preamble) says M3 S5000. Its
+/// feed moves run at once with the spindle turning (no wait: the spindle is not
+/// started again), its own S word while the spindle turns is a speed change that
+/// waits for the spindle at speed, and its M2 stops the spindle and the coolant.
+#[test]
+fn a_job_starts_from_the_held_outputs_and_its_program_end_stops_them() {
+    let p = profile(FeedProfile::Trapezoidal);
+    let held = softnc_core::MachineOutputs {
+        spindle_dir: SpindleDir::Clockwise,
+        spindle_rpm: 5000.0,
+        coolant_flood: true,
+        digital: 0b100,
+        ..Default::default()
+    };
+    let start = SequencerState {
+        outputs: held.held_for_next_job(),
+        ..SequencerState::default()
+    };
+    let opts = PlanOptions {
+        preamble: Some("G21\nF0 S5000\nG1\nM3\nM8\n".into()),
+        ..options()
+    };
+    let run = |text: &str| {
+        let (program, plan) = read_and_plan(text, "t.ngc", &p, &opts).unwrap();
+        let mut seq = MachineSequencer::new(&program, config(p.interpolation_cycle_s), start);
+        let mut it = plan.interpolator();
+        // (motion, line, outputs, a machine stop) of every sample
+        let mut rows = Vec::new();
+        while let Some(s) = it.next() {
+            assert!(rows.len() < MAX_SAMPLES);
+            let stop = it.machine_stop();
+            let fb = Feedback {
+                applied_motion: Some(s.motion),
+                inputs: MachineInputs {
+                    spindle_at_speed: true,
+                    ..Default::default()
+                },
+                ..Default::default()
+            };
+            let step = seq.step(s.motion, stop, &fb);
+            if step.action == Action::Release {
+                it.release_machine_stop();
+            }
+            rows.push((
+                line_of(&program, &s),
+                step.state.outputs,
+                stop.is_some(),
+                s.feed_move,
+            ));
+        }
+        rows
+    };
+    // a feed alone: the spindle and the coolant on from its first sample, no stop
+    // before the feed; M2's stop last, the spindle and the coolant off there, the
+    // digital output as it was
+    let rows = run("G1 X10 F3000\nM2\n");
+    let first = rows[0].1;
+    assert_eq!(first.spindle_signed_rpm(), 5000.0);
+    assert!(first.coolant_flood && first.digital == 0b100);
+    let feed_rows: Vec<_> = rows.iter().filter(|r| r.0 == 1).collect();
+    assert!(
+        feed_rows.iter().all(|r| !r.2 && r.1 == first),
+        "no stop, nothing switched"
+    );
+    let last = rows.last().unwrap().1;
+    assert_eq!(last.spindle_signed_rpm(), 0.0);
+    assert!(!last.coolant_flood && last.digital == 0b100);
+    assert!(rows.iter().any(|r| r.0 == 2 && r.2), "M2 stands");
+    // an S while it turns: a speed change, waited for before the feed
+    let rows = run("S6000\nG1 X10 F3000\nM2\n");
+    assert_eq!(rows[0].1.spindle_rpm, 6000.0);
+    let stood = rows
+        .iter()
+        .rposition(|r| r.0 == 1 && r.2)
+        .expect("S6000 stands");
+    assert!(rows[..=stood].iter().all(|r| !r.3), "no feed before it");
 }
