@@ -86,6 +86,10 @@ pub enum AlarmKind {
     /// speed in time): the job stopped along its path (a reader of an older
     /// contract reads it as `Other`).
     MachineWait,
+    /// Switching the machine on failed (the drives did not come on) or was
+    /// refused (a limit switch tripped): it stays off (a reader of an older
+    /// contract reads it as `Other`).
+    MachineOn,
     /// A real-time loop stalled.
     LoopStall,
     /// A real-time loop ran late.

@@ -12,8 +12,8 @@ use anyhow::{bail, Context, Result};
 use iceoryx2::port::client::Client;
 use iceoryx2::prelude::*;
 pub use softnc_api::{
-    JobRecord, MachineState, OffsetTable, Outcome, ProcessHealth, Reply, Request, Status, Tool,
-    JOB_CHECK_TIMEOUT,
+    Alarm, AlarmKind, JobRecord, MachineState, OffsetTable, Outcome, ProcessHealth, Reply, Request,
+    Status, Tool, JOB_CHECK_TIMEOUT,
 };
 use softnc_ipc::{
     EStopRequest, FixedStr, OperatorReply, OperatorRequest, PositionStatus, ServiceNames,
@@ -307,16 +307,17 @@ impl Operator {
     /// reports on; an error if it refuses or does not within `timeout`.
     pub fn machine_on(&self, timeout: Duration) -> Result<()> {
         let t0 = Instant::now();
-        // the alarms standing before the request: a new "machine on: …" is its
-        // failure (the drives did not come on)
-        let mut before: Option<Vec<String>> = None;
+        // the alarms standing before the request: a new one of kind `MachineOn`
+        // (the drives did not come on, a limit switch is tripped) or `EStop` (the
+        // E-stop input is open) is its failure
+        let mut before: Option<Vec<Alarm>> = None;
         loop {
             let s = self.status()?;
             match s.state {
                 // the position process has not reported yet
                 _ if s.machine_mm.is_none() => {}
                 MachineState::Off if before.is_none() => {
-                    before = Some(s.alarms.iter().map(|a| a.message.clone()).collect());
+                    before = Some(s.alarms.clone());
                     let r = self.request(&Request::MachineOn)?;
                     if !r.is_accepted() {
                         bail!("machine on refused: {}", r.message());
@@ -324,8 +325,8 @@ impl Operator {
                 }
                 MachineState::Off => {
                     let failed = s.alarms.iter().find(|a| {
-                        a.message.starts_with("machine on")
-                            && !before.as_ref().is_some_and(|b| b.contains(&a.message))
+                        matches!(a.code, AlarmKind::MachineOn | AlarmKind::EStop)
+                            && !before.as_ref().is_some_and(|b| b.contains(a))
                     });
                     if let Some(a) = failed {
                         bail!("the machine did not come on: {}", a.message);

@@ -805,7 +805,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                         && !self.limits_overridden =>
                 {
                     self.alarm(
-                        AlarmCode::Other,
+                        AlarmCode::MachineOn,
                         u32::MAX,
                         format_args!(
                             "machine on refused: a limit switch is tripped (override the limits to jog off it)"
@@ -839,7 +839,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                             let why = self.engine.backend().enable_failure().unwrap_or_default();
                             let sep = if why.is_empty() { "" } else { ": " };
                             self.alarm(
-                                AlarmCode::Other,
+                                AlarmCode::MachineOn,
                                 u32::MAX,
                                 format_args!("machine on: {e}{sep}{why}"),
                             )?

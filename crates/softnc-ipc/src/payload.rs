@@ -461,6 +461,9 @@ pub enum AlarmCode {
     /// reach its speed within the profile's `at_speed_timeout_s`): the job stopped
     /// along its path.
     MachineWait = 10,
+    /// Switching the machine on failed (the drives did not come on) or was refused
+    /// (a limit switch tripped): the machine stays off.
+    MachineOn = 11,
     /// A real-time loop stalled (a period far beyond its bound): the position loop
     /// stopped the machine as a fault, the interpolation loop its job.
     LoopStall = 20,
@@ -719,6 +722,7 @@ wire_enum!(AlarmCode {
     PlanStarved,
     PlanFailed,
     MachineWait,
+    MachineOn,
     LoopStall,
     LoopLate,
     ProcessRestarted,

@@ -1375,11 +1375,12 @@ mod tests {
             start_mm: Some(at),
             ..Default::default()
         };
-        // (an M3 is a machine stop: one standing element)
+        // (an M3 is a machine stop: one standing element; M2 stops the spindle
+        // it started: a second)
         for (text, elements) in [
             ("G90 G0 X5 Y7 Z-3\nG1 X5 F300\nM2\n", 0),
             ("G92 X1\nM2\n", 0),
-            ("M3 S100\nM2\n", 1),
+            ("M3 S100\nM2\n", 2),
         ] {
             let (checked, samples) = check_and_stream(text, "z.ngc", &p, &opts, |it| {
                 it.map(|s| s.pos_mm).collect::<Vec<_>>()

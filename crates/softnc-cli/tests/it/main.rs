@@ -15,6 +15,31 @@ mod sim_comp;
 mod sim_cycles;
 mod sim_switches;
 
+/// The repository's root.
+pub fn repo() -> std::path::PathBuf {
+    std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// `softnc sim FILE --json` on the default machine with `extra` arguments: its
+/// report (the test fails with softnc's stderr if it does not succeed).
+pub fn sim_json(file: &std::path::Path, extra: &[&str]) -> serde_json::Value {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_softnc"))
+        .arg("sim")
+        .arg(file)
+        .arg("--json")
+        .args(extra)
+        .arg("--machine")
+        .arg(repo().join("config/machines/default.ron"))
+        .output()
+        .expect("softnc runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
 /// The tests that start a controller, a bus emulator or a learning run take turns
 /// (as when each file was its own binary, run one after another): a loaded machine
 /// makes real-time jobs late.

@@ -9,9 +9,7 @@
 use std::path::PathBuf;
 use std::process::Command;
 
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use crate::repo;
 
 /// The numbers between the parentheses of a canonical call.
 fn args(line: &str) -> Vec<f64> {
@@ -97,20 +95,7 @@ fn softnc_plans_and_simulates_the_compensation_example_as_rs274_reads_it() {
     let arcs = want.iter().filter(|m| m.0 == "arc").count();
     assert!(arcs > 9, "{arcs} arcs");
     // the simulated machine runs it to the end, about as long as planned
-    let out = Command::new(env!("CARGO_BIN_EXE_softnc"))
-        .arg("sim")
-        .arg(&example)
-        .arg("--json")
-        .arg("--machine")
-        .arg(repo().join("config/machines/default.ron"))
-        .output()
-        .expect("softnc runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = crate::sim_json(&example, &[]);
     let sim_s = v["sim_time_s"].as_f64().unwrap();
     assert!((40.0..120.0).contains(&sim_s), "{v}");
 }

@@ -3,30 +3,14 @@
 //! traverses and feeds), and `softnc sim` runs it on the simulated machine with its
 //! dwells (six G82 holes of P0.5: three seconds of the run).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use crate::{repo, sim_json};
 
 /// `softnc sim FILE --json` on the default machine: the run's cycles (1 kHz).
 fn sim_cycles(file: &Path) -> u64 {
-    let out = Command::new(env!("CARGO_BIN_EXE_softnc"))
-        .arg("sim")
-        .arg(file)
-        .arg("--json")
-        .arg("--machine")
-        .arg(repo().join("config/machines/default.ron"))
-        .output()
-        .expect("softnc runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    v["cycles"].as_u64().unwrap()
+    sim_json(file, &[])["cycles"].as_u64().unwrap()
 }
 
 #[test]

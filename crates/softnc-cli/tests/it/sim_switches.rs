@@ -5,23 +5,8 @@ use std::path::PathBuf;
 use std::process::Command;
 
 /// `softnc sim FILE --json` with `extra` arguments: the run's cycles.
-fn cycles(file: &PathBuf, extra: &[&str]) -> u64 {
-    let out = Command::new(env!("CARGO_BIN_EXE_softnc"))
-        .arg("sim")
-        .arg(file)
-        .arg("--json")
-        .args(extra)
-        .arg("--machine")
-        .arg(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/machines/default.ron"))
-        .output()
-        .expect("softnc runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    v["cycles"].as_u64().unwrap()
+fn cycles(file: &std::path::Path, extra: &[&str]) -> u64 {
+    crate::sim_json(file, extra)["cycles"].as_u64().unwrap()
 }
 
 #[test]

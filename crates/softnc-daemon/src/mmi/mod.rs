@@ -1460,6 +1460,7 @@ fn api_alarm_kind(c: AlarmCode) -> softnc_api::AlarmKind {
         AlarmCode::PlanStarved => K::PlanStarved,
         AlarmCode::PlanFailed => K::PlanFailed,
         AlarmCode::MachineWait => K::MachineWait,
+        AlarmCode::MachineOn => K::MachineOn,
         AlarmCode::LoopStall => K::LoopStall,
         AlarmCode::LoopLate => K::LoopLate,
         AlarmCode::ProcessRestarted => K::ProcessRestarted,

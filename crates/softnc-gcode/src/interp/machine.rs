@@ -99,10 +99,10 @@ impl Interp<'_> {
     }
 
     /// The program end (M2, M30; LinuxCNC's `convert_stop`, steps 7 and 9): the
-    /// spindle stops ([`Self::spindle_stop`]), then each coolant that is on goes
+    /// spindle stops ([`Self::implicit_spindle_stop`]), then each coolant that is on goes
     /// off (`MIST_OFF`, `FLOOD_OFF`), and the modal state says M5, no M7/M8.
     pub(super) fn program_end(&mut self, line_no: u32) {
-        self.spindle_stop(line_no);
+        self.implicit_spindle_stop(line_no);
         if self.mist {
             self.mist = false;
             self.push_machine(
@@ -130,7 +130,7 @@ impl Interp<'_> {
     /// LinuxCNC emits it whether the spindle turns or not; here every machine
     /// operation is a stop of the path, and a stop that changes nothing would make
     /// every program (most never turn a spindle) stand one sample more at its end.
-    fn spindle_stop(&mut self, line_no: u32) {
+    fn implicit_spindle_stop(&mut self, line_no: u32) {
         let turning = self.spindle_on;
         self.spindle_on = false;
         self.spindle_code = 5;
@@ -381,7 +381,7 @@ impl Interp<'_> {
                 // default, without `TOOL_CHANGE_WITH_SPINDLE_ON`); a spindle that is not
                 // turning is not stopped again (a stop that changes nothing would still
                 // be a stop of the path)
-                self.spindle_stop(line_no);
+                self.implicit_spindle_stop(line_no);
                 self.tool_loaded = self.tool_selected;
                 self.sync_pending = true;
                 self.push_machine(

@@ -55,8 +55,10 @@ pub fn expected(rs274: &str) -> Vec<String> {
     let mut out: Vec<String> = Vec::new();
     let lines: Vec<&str> = rs274.lines().collect();
     let mut spindle_on = false;
-    let mut in_change = false;
     for (k, line) in lines.iter().enumerate() {
+        if crate::rs274_calls::is_implicit_stop_softnc_leaves_out(&lines, k, spindle_on) {
+            continue;
+        }
         let name = &line[..line.find('(').unwrap_or(line.len())];
         let ev = match name {
             "STRAIGHT_TRAVERSE" | "STRAIGHT_FEED" => {
@@ -80,10 +82,6 @@ pub fn expected(rs274: &str) -> Vec<String> {
                 "SPINDLE_ON".into()
             }
             "STOP_SPINDLE_TURNING" => {
-                if in_change {
-                    // the tool change's own stop (softnc's change implies it)
-                    continue;
-                }
                 spindle_on = false;
                 "SPINDLE_OFF".into()
             }
@@ -94,23 +92,12 @@ pub fn expected(rs274: &str) -> Vec<String> {
                 "COOLANT".into()
             }
             "SELECT_TOOL" => line.to_string(),
-            "START_CHANGE" => {
-                in_change = true;
-                continue;
-            }
-            "CHANGE_TOOL" => {
-                in_change = false;
-                line.to_string()
-            }
+            "CHANGE_TOOL" => line.to_string(),
             "MESSAGE" => "MESSAGE".into(),
             "PROGRAM_STOP" => name.to_string(),
             _ => continue,
         };
         out.push(ev);
-    }
-    // rs274 ends a program with M2's spindle stop; softnc's M2 makes no call
-    if out.last().map(String::as_str) == Some("SPINDLE_OFF") {
-        out.pop();
     }
     out.into_iter()
         .map(|l| l.replace("-0.0000", "0.0000"))
@@ -144,6 +131,10 @@ pub fn ours(p: &Program) -> Vec<String> {
             MotionKind::Machine(op) => match op {
                 MachineOp::SpindleOn { .. } => "SPINDLE_ON".into(),
                 MachineOp::SpindleOff => "SPINDLE_OFF".into(),
+                // (M9's two calls as one, as `expected` takes them)
+                MachineOp::Coolant { .. } if out.last().map(String::as_str) == Some("COOLANT") => {
+                    continue
+                }
                 MachineOp::Coolant { .. } => "COOLANT".into(),
                 MachineOp::ToolPrepare { tool } => format!("SELECT_TOOL({tool})"),
                 MachineOp::ToolChange { tool } => format!("CHANGE_TOOL({tool})"),

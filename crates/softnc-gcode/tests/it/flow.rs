@@ -55,13 +55,7 @@ fn m0_pauses_after_its_line_and_m1_only_with_the_switch() {
     let (p, _) = read(text, &ReadOptions::default()).unwrap();
     assert_eq!(
         kinds(&p),
-        vec![
-            (1, "traverse"),
-            (2, "feed"),
-            (2, "M0"),
-            (4, "traverse"),
-            (5, "machine")
-        ]
+        vec![(1, "traverse"), (2, "feed"), (2, "M0"), (4, "traverse")]
     );
     // the pause stands where the line's motion ended, and prints nothing as a move
     let pause = &p.motions[2];
@@ -80,8 +74,7 @@ fn m0_pauses_after_its_line_and_m1_only_with_the_switch() {
             (2, "feed"),
             (2, "M0"),
             (3, "M1"),
-            (4, "traverse"),
-            (5, "machine")
+            (4, "traverse")
         ]
     );
 }
@@ -132,8 +125,7 @@ fn run_from_line_recovers_the_state_and_approaches_z_first() {
             (6, "traverse"),
             (6, "sync"),
             (6, "feed"),
-            (7, "feed"),
-            (8, "machine")
+            (7, "feed")
         ]
     );
     // G54 X100 from line 2 is in force: the start point is machine (110, 10, -1)
@@ -352,8 +344,8 @@ fn the_modal_state_a_program_leaves_is_where_the_next_one_starts() {
         };
         let (next, _) = read("G0 X1\nG94 G1 X2 F100\nX3\nM2\n", &options)
             .unwrap_or_else(|e| panic!("after {first:?} ({}): {e}", p.end_modal));
-        // (three moves and M2's spindle stop)
-        assert_eq!(next.motions.len(), 4, "after {first:?}");
+        // (three moves; no spindle stop at M2: the spindle never turned)
+        assert_eq!(next.motions.len(), 3, "after {first:?}");
     }
     // a bad preamble is an error that names it
     let bad = ReadOptions {

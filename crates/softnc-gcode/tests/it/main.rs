@@ -15,4 +15,5 @@ mod language;
 mod machine_ops;
 mod props;
 mod rotation;
+mod rs274_calls;
 mod spindle;

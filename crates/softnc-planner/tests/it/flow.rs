@@ -190,8 +190,6 @@ fn single_block_from_the_start_stops_at_every_programmed_block_end() {
             (2, Vec3::new(10.0, 0.0, 0.0)),
             (3, Vec3::new(10.0, 10.0, 0.0)),
             (4, Vec3::new(0.0, 10.0, 5.0)),
-            // before M2's block (its spindle stop)
-            (5, Vec3::new(0.0, 10.0, 0.0)),
         ];
         assert_eq!(stops.len(), want.len(), "{fp:?}: {stops:?}");
         for ((line, at), (wl, wat)) in stops.iter().zip(want) {
@@ -308,9 +306,8 @@ fn run_from_line_gives_the_uninterrupted_samples_after_its_approach() {
         ..Default::default()
     };
     let (_, checked) = check_program(RESTART, "t.ngc", &p, &restart).unwrap();
-    // the approach (Z up, X and Y; no Z down), the sync, then lines 5 to 8 and
-    // M2's spindle stop
-    assert_eq!(checked.motions(), 2 + 1 + 4 + 1);
+    // the approach (Z up, X and Y; no Z down), the sync, then lines 5 to 8
+    assert_eq!(checked.motions(), 2 + 1 + 4);
     let resumed: Vec<Sample> = stream(RESTART, &p, &restart, |it| it.take(MAX_SAMPLES).collect());
     // the approach: Z first, then X and Y at the start's Z
     let approach: Vec<Vec3> = resumed
