@@ -29,7 +29,7 @@ pub mod spindle;
 pub mod trace;
 
 pub use backend::{
-    AxisStatus, BackendError, BusFault, CommandMode, PhaseCurrents, ServoBackend, SimulatedMachine,
+    AxisStatus, BackendError, BusFault, BusStats, CommandMode, PhaseCurrents, ServoBackend, SimulatedMachine,
     MAX_AXES,
 };
 pub use design::CompensationDesignError;
