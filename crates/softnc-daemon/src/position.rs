@@ -1601,6 +1601,16 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     let l = self.latency.percentiles();
                     [l.p50_ns, l.p99_ns, l.p999_ns, l.max_ns]
                 },
+                bus: self.engine.backend().bus_stats().map_or([0; 6], |b| {
+                    [
+                        b.frames,
+                        b.lost_frames,
+                        b.wkc_errors,
+                        b.rtt_p50_ns,
+                        b.rtt_p99_ns,
+                        b.rtt_max_ns,
+                    ]
+                }),
             }))?;
             self.last_hb = Instant::now();
         }

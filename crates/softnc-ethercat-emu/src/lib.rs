@@ -265,7 +265,9 @@ fn publish(shared: &Mutex<Shared>, escs: &[Esc], stats: FrameStats) {
     let mut s = shared.lock().expect("emulator state");
     let frame = stats.answered + stats.dropped;
     let Shared {
-        views: old, received, ..
+        views: old,
+        received,
+        ..
     } = &mut *s;
     received.resize_with(views.len(), Vec::new);
     for ((new, old), log) in views.iter().zip(old.iter()).zip(received.iter_mut()) {

@@ -12,6 +12,8 @@ use std::time::{Duration, Instant};
 
 /// Cycles a CiA 402 step of `enable`/`disable` may take.
 const STATE_CYCLES: usize = 200;
+/// Frames lost in a row after which a faulted bus is left silent until a reset.
+const FAULTED_LOST_IN_ROW: u32 = 2;
 /// Round-trip histogram: bucket width and count (10 µs × 1000 = 10 ms).
 const RTT_BUCKET_NS: u64 = 10_000;
 const RTT_BUCKETS: usize = 1000;
@@ -54,8 +56,8 @@ pub struct EtherCatBackend {
     enabled: bool,
     /// A bus fault was reported and not yet recovered from (`recover`, `enable`).
     faulted: bool,
-    /// The last frame came back (a lost one ends the frames of a faulted bus).
-    answered: bool,
+    /// Frames lost in a row (two end the frames of a faulted bus).
+    lost_in_row: u32,
     stats: BusStats,
     rtt: Box<[u32; RTT_BUCKETS]>,
 }
@@ -125,7 +127,7 @@ impl EtherCatBackend {
             axis_of,
             enabled: false,
             faulted: false,
-            answered: true,
+            lost_in_row: 0,
             stats: BusStats::default(),
             rtt: Box::new([0; RTT_BUCKETS]),
         })
@@ -248,7 +250,10 @@ impl EtherCatBackend {
         let r = block_on(group.tx_rx_dc(md), t0 + self.response_timeout);
         let rtt = t0.elapsed().as_nanos() as u64;
         self.stats.frames += 1;
-        self.answered = matches!(r, Some(Ok(_)));
+        self.lost_in_row = match r {
+            Some(Ok(_)) => 0,
+            _ => self.lost_in_row.saturating_add(1),
+        };
         let Some(Ok(r)) = r else {
             self.stats.lost_frames += 1;
             return Err((None, BusFault::FrameLost));
@@ -481,9 +486,10 @@ impl ServoBackend for EtherCatBackend {
             return Ok(());
         }
         if self.faulted {
-            // the fault has been reported once: frames go on as long as they come
-            // back (a lost one ends them until a reset: no cycle waits on a dead link)
-            if self.answered {
+            // the fault has been reported once: frames go on (the quick stop) while
+            // they come back; two lost in a row end them until a reset (a dead link:
+            // no cycle waits on it again)
+            if self.lost_in_row < FAULTED_LOST_IN_ROW {
                 let _ = self.exchange();
             }
             return Ok(());
