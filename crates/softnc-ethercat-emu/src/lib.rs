@@ -170,6 +170,18 @@ impl Emulator {
     /// Opens `iface` and answers frames on a thread of its own with a segment of
     /// `kinds`.
     pub fn spawn(iface: &str, kinds: &[DeviceKind]) -> Result<Self, EmuError> {
+        Self::spawn_at(iface, kinds, None)
+    }
+
+    /// [`spawn`](Self::spawn), the answering thread at SCHED_FIFO `fifo_priority`
+    /// where the process may (the emulated ESCs stand in for hardware, which
+    /// answers within microseconds whatever else the host runs); at ordinary
+    /// priority, with a warning on standard error, where it may not.
+    pub fn spawn_at(
+        iface: &str,
+        kinds: &[DeviceKind],
+        fifo_priority: Option<u8>,
+    ) -> Result<Self, EmuError> {
         let interface = pnet_datalink::interfaces()
             .into_iter()
             .find(|i| i.name == iface)
@@ -194,7 +206,12 @@ impl Emulator {
         let (sh, st) = (shared.clone(), stop.clone());
         let thread = std::thread::Builder::new()
             .name("ethercat-emu".into())
-            .spawn(move || serve(tx, rx, &mut escs, &cmd_rx, &sh, &st))
+            .spawn(move || {
+                if let Some(p) = fifo_priority {
+                    set_fifo(p);
+                }
+                serve(tx, rx, &mut escs, &cmd_rx, &sh, &st);
+            })
             .map_err(socket_err)?;
         Ok(Emulator {
             commands,
@@ -242,6 +259,24 @@ impl Drop for Emulator {
         if let Some(t) = self.thread.take() {
             let _ = t.join();
         }
+    }
+}
+
+/// The calling thread at SCHED_FIFO `priority`, or a warning.
+fn set_fifo(priority: u8) {
+    use thread_priority::{
+        set_thread_priority_and_policy, thread_native_id, RealtimeThreadSchedulePolicy,
+        ScheduleParams, ThreadPriority, ThreadSchedulePolicy,
+    };
+    let r = set_thread_priority_and_policy(
+        thread_native_id(),
+        ThreadPriority::from_posix(ScheduleParams {
+            sched_priority: i32::from(priority),
+        }),
+        ThreadSchedulePolicy::Realtime(RealtimeThreadSchedulePolicy::Fifo),
+    );
+    if let Err(e) = r {
+        eprintln!("ethercat-emu: SCHED_FIFO {priority} refused ({e:?}); ordinary priority");
     }
 }
 
