@@ -12,6 +12,8 @@ use std::time::{Duration, Instant};
 
 /// Cycles a CiA 402 step of `enable`/`disable` may take.
 const STATE_CYCLES: usize = 200;
+/// Frames lost in a row after which `recover` gives up (the cause still there).
+const RECOVER_LOST_IN_ROW: u32 = 3;
 /// Frames lost in a row after which a faulted bus is left silent until a reset.
 const FAULTED_LOST_IN_ROW: u32 = 2;
 /// Round-trip histogram: bucket width and count (10 µs × 1000 = 10 ms).
@@ -335,6 +337,8 @@ impl EtherCatBackend {
                     self.faulted = false;
                     return Ok(());
                 }
+                // a link still down: said after a few frames, not after STATE_CYCLES
+                _ if self.lost_in_row >= RECOVER_LOST_IN_ROW => return last,
                 _ => std::thread::sleep(self.cycle),
             }
         }
