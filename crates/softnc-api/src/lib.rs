@@ -36,8 +36,9 @@ pub use reply::{OffsetTable, Reply, Tool, WorkSystem};
 pub use request::{axis_letter, Request};
 pub use softnc_core::Axis;
 pub use status::{
-    ActiveOffsets, AdaptiveForce, Alarm, AlarmKind, AxesStatus, Coolant, JobStatus, LoopTiming,
-    Loops, MachineState, Percentiles, ProcessHealth, Processes, Spindle, Status, Switches, Unsaved,
+    ActiveOffsets, AdaptiveForce, Alarm, AlarmKind, AxesStatus, BusFigures, Coolant, JobStatus,
+    LoopTiming, Loops, MachineState, Percentiles, ProcessHealth, Processes, Spindle, Status,
+    Switches, Unsaved,
 };
 pub use wire::{
     decode_reply, decode_request, encode_reply, encode_request, ApiError, ReplyEnvelope,

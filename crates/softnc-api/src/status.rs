@@ -186,6 +186,21 @@ pub struct LoopTiming {
     pub latency_ns: Percentiles,
 }
 
+/// The fieldbus of the position loop (EtherCAT), as its MainDevice counts it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct BusFigures {
+    /// Cycle frames exchanged since the bus came up.
+    pub frames: u64,
+    /// Frames lost (no answer within the response timeout).
+    pub lost_frames: u64,
+    /// Cycles with a wrong working counter.
+    pub wkc_errors: u64,
+    /// The cycle frame's send-to-receive time (ns; p50 and p99 from a 10 µs
+    /// histogram, max exact; `p999` not measured, 0).
+    pub send_to_receive_ns: Percentiles,
+}
+
 /// The real-time loops' timing (`None`: not reported yet).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Loops {
@@ -193,6 +208,10 @@ pub struct Loops {
     pub interp: Option<LoopTiming>,
     /// The position loop.
     pub position: Option<LoopTiming>,
+    /// The position loop's fieldbus, on a backend with one (`None`: none, or not
+    /// reported yet; absent in statuses written before it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bus: Option<BusFigures>,
 }
 
 /// The offsets in effect.

@@ -77,6 +77,7 @@ fn status() -> Status {
         loops: Loops {
             interp: Some(LoopTiming::default()),
             position: None,
+            bus: None,
         },
         alarms: vec![Alarm {
             code: AlarmKind::FollowingError,

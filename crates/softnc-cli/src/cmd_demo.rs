@@ -119,7 +119,11 @@ fn emulated_bus(
     let veth = softnc_ethercat_emu::veth::VethPair::create().map_err(anyhow::Error::msg)?;
     let mut kinds = vec![DeviceKind::Drive; axes];
     kinds.push(DeviceKind::Io);
-    let emu = softnc_ethercat_emu::Emulator::spawn(&veth.sub, &kinds)?;
+    // the emulated ESCs answer at a real-time priority between the daemon's two
+    // loops (interpolation 70, position 80), as hardware answers whatever the
+    // host's other work
+    let emu =
+        softnc_ethercat_emu::Emulator::spawn_at(&veth.sub, &kinds, Some(EMULATED_FIFO_PRIORITY))?;
     let subdevices = kinds
         .iter()
         .enumerate()
@@ -162,6 +166,9 @@ fn emulated_bus(
 /// real-time ones, and on a busy machine they wait their turn (a late answer costs
 /// the position loop an overrun; a lost one aborts the job).
 const EMULATED_RESPONSE_TIMEOUT_S: f64 = 0.05;
+
+/// The emulated SubDevices' SCHED_FIFO priority.
+const EMULATED_FIFO_PRIORITY: u8 = 75;
 
 /// The emulated drives' following-error window (counts): 5 mm at 0.1 µm.
 const EMULATED_FE_WINDOW_COUNTS: u32 = 50_000;
@@ -218,7 +225,9 @@ fn run_on(args: DemoArgs, config: &Path, job: &Path) -> Result<ExitCode> {
             bail!("job refused: {}", r.message());
         }
         let t0 = Instant::now();
-        let outcome = wait_job(&op, r.job_id().unwrap_or(0), true)?;
+        let job_id = r.job_id().unwrap_or(0);
+        answer_tool_changes(&op, job_id)?;
+        let outcome = wait_job(&op, job_id, true)?;
         let wall = t0.elapsed().as_secs_f64();
         let status = op.status()?;
         let report = DemoReport {
@@ -263,6 +272,56 @@ fn run_on(args: DemoArgs, config: &Path, job: &Path) -> Result<ExitCode> {
     } else {
         ExitCode::from(1)
     })
+}
+
+/// How long a tool change's prompt stands before the demo answers it.
+const TOOL_CHANGE_PATIENCE: Duration = Duration::from_millis(500);
+
+/// Until job `job_id` ends: a tool change the job asks the operator for (a
+/// machine whose I/O has no tool changer: an EtherCAT bus without the changer's
+/// lines) is done at once, as the operator at the machine does — said on standard
+/// error; the job's progress every 10 %.
+fn answer_tool_changes(op: &Operator, job_id: u64) -> Result<()> {
+    let mut answered = None;
+    let mut asked: Option<Instant> = None;
+    let mut last_pct = -1i64;
+    loop {
+        let s = op.status()?;
+        let Some(job) = s.job(job_id) else {
+            // not in the status yet
+            std::thread::sleep(Duration::from_millis(100));
+            continue;
+        };
+        if job.record.outcome.ended() {
+            return Ok(());
+        }
+        let pct = (job.progress * 100.0) as i64;
+        if pct / 10 != last_pct / 10 {
+            eprintln!("job {job_id}: {pct} %");
+            last_pct = pct;
+        }
+        match s.prompt.as_deref() {
+            // a tool change the machine does itself (a changer on its lines) asks
+            // for a moment only: the operator is asked once it stands
+            Some(p) if p.starts_with("insert T") && answered.is_none() => {
+                let since = *asked.get_or_insert_with(Instant::now);
+                if since.elapsed() >= TOOL_CHANGE_PATIENCE {
+                    eprintln!("demo: the job asks \"{p}\": resumed, as the operator at a machine without a tool changer");
+                    let r = op.request(&Request::Resume)?;
+                    if !r.is_accepted() {
+                        eprintln!("demo: resume refused: {}", r.message());
+                    }
+                    answered = Some(());
+                }
+            }
+            Some(_) => {}
+            None => {
+                answered = None;
+                asked = None;
+            }
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
 }
 
 /// Asks the demo's controller to shut down when dropped (the demo ended, or failed).
@@ -329,6 +388,19 @@ fn print_report(r: &DemoReport) {
                 us(l.latency_ns.max)
             );
         }
+    }
+    if let Some(b) = r.loops.bus {
+        let us = |v: u64| v as f64 / 1000.0;
+        let s = b.send_to_receive_ns;
+        println!(
+            "  EtherCAT (MainDevice): frames {}, lost {}, working-counter errors {}, send-to-receive p50/p99/max {:.0}/{:.0}/{:.1} µs",
+            b.frames,
+            b.lost_frames,
+            b.wkc_errors,
+            us(s.p50),
+            us(s.p99),
+            us(s.max)
+        );
     }
     for al in &r.alarms {
         println!("  alarm {:?}: {}", al.code, al.message);

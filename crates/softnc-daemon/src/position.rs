@@ -577,6 +577,9 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
     fn emergency_stop(&mut self, cause: StopCause) -> Result<()> {
         self.manual.stop();
         self.manual.hold(self.last_cmd);
+        // every drive stops by itself now (a fieldbus's quick stop at the next
+        // exchange; the axes are not stepped from here on)
+        self.engine.backend_mut().estop();
         if self.state == MachineState::EStopped {
             return Ok(());
         }
@@ -598,6 +601,24 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     "emergency stop: the E-stop input opened (latched: reset once it is closed)"
                 ),
             ),
+            StopCause::Backend(e) => {
+                let axis = match e {
+                    softnc_servo::BackendError::Bus { axis: Some(a), .. }
+                    | softnc_servo::BackendError::DriveFault { axis: a }
+                    | softnc_servo::BackendError::NotEnabled { axis: a } => u32::from(a),
+                    _ => u32::MAX,
+                };
+                let name = softnc_core::Axis::name_of(axis as usize);
+                let named = if axis == u32::MAX { "" } else { name };
+                self.alarm(
+                    AlarmCode::EStop,
+                    axis,
+                    format_args!(
+                        "emergency stop: servo backend {e}{}{named}; every drive stopped",
+                        if named.is_empty() { "" } else { ", axis " },
+                    ),
+                )
+            }
             StopCause::Limit { axis, max } => {
                 let at_mm = self.engine.measured_mm()[axis];
                 self.alarm(
@@ -741,7 +762,22 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     )?;
                 }
                 Some(ControlKind::Reset) => {
-                    if matches!(self.state, MachineState::EStopped | MachineState::Faulted) {
+                    // (off the cycle's steady state: a reset) the backend made whole
+                    // first (a fieldbus's SubDevices back in OP); a cause still
+                    // there refuses the reset
+                    let recovered = match self.state {
+                        MachineState::EStopped | MachineState::Faulted => {
+                            self.engine.backend_mut().recover()
+                        }
+                        _ => Ok(()),
+                    };
+                    if let Err(e) = recovered {
+                        self.alarm(
+                            AlarmCode::EStop,
+                            u32::MAX,
+                            format_args!("reset refused: the servo backend is still faulted: {e}"),
+                        )?;
+                    } else if matches!(self.state, MachineState::EStopped | MachineState::Faulted) {
                         // the latch cleared, the machine off: switching the drives
                         // on is the operator's `on` (as LinuxCNC)
                         self.engine.backend_mut().disable();
@@ -1317,12 +1353,8 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     r
                 }
                 Err(e) => {
-                    self.state = MachineState::EStopped;
-                    self.alarm(
-                        AlarmCode::Other,
-                        u32::MAX,
-                        format_args!("servo backend fault: {e}"),
-                    )?;
+                    // the E-stop path: every drive stopped, the job's trace closed
+                    self.emergency_stop(StopCause::Backend(e))?;
                     softnc_servo::CycleRecord {
                         cmd_mm: Axes(cmd),
                         ..Default::default()
@@ -1610,6 +1642,16 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     let l = self.latency.percentiles();
                     [l.p50_ns, l.p99_ns, l.p999_ns, l.max_ns]
                 },
+                bus: self.engine.backend().bus_stats().map_or([0; 6], |b| {
+                    [
+                        b.frames,
+                        b.lost_frames,
+                        b.wkc_errors,
+                        b.rtt_p50_ns,
+                        b.rtt_p99_ns,
+                        b.rtt_max_ns,
+                    ]
+                }),
             }))?;
             self.last_hb = Instant::now();
         }
@@ -1681,6 +1723,8 @@ enum StopCause {
     Input,
     /// Axis `axis`'s limit switch at its maximum (`max`) or minimum end tripped.
     Limit { axis: usize, max: bool },
+    /// The servo backend's cycle failed (a fieldbus fault, a drive's fault).
+    Backend(softnc_servo::BackendError),
 }
 
 /// Each axis's in-position band (the profile's) and measurement floor: two encoder

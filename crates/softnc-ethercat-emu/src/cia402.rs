@@ -101,6 +101,8 @@ pub struct DriveView {
     pub position_counts: i32,
     /// Target position as last received (counts).
     pub target_counts: i32,
+    /// Controlword as last received.
+    pub controlword: u16,
     /// Modes of operation display.
     pub mode: i8,
     /// Error code 0x603F.
@@ -473,6 +475,7 @@ impl Application for Drive {
             statusword: self.od.u16(obj::STATUSWORD, 0),
             position_counts: self.position_counts(),
             target_counts: self.od.i32(obj::TARGET_POSITION, 0),
+            controlword: self.od.u16(obj::CONTROLWORD, 0),
             mode: self.od.i8(obj::MODES_DISPLAY, 0),
             error_code: self.od.u16(obj::ERROR_CODE, 0),
             period_s: self.period_s(),

@@ -134,10 +134,28 @@ pub struct FrameStats {
     pub dropped: u64,
 }
 
+/// One process-data frame as a drive received it in OP.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Received {
+    /// The frame's number (frames seen by the segment, answered or dropped, 1 first).
+    pub frame: u64,
+    /// Controlword.
+    pub controlword: u16,
+    /// Target position (counts).
+    pub target_counts: i32,
+}
+
+/// Frames a drive's log of received targets keeps (ten minutes at 1 kHz).
+const RECEIVED_CAP: usize = 600_000;
+
 #[derive(Default)]
 struct Shared {
     views: Vec<SubDeviceView>,
     stats: FrameStats,
+    /// Per position: what each drive received, in order (capped).
+    received: Vec<Vec<Received>>,
+    /// The commands applied, each with the number of frames seen before it.
+    applied: Vec<(u64, Command)>,
 }
 
 /// The running emulator; stopped when dropped.
@@ -152,6 +170,18 @@ impl Emulator {
     /// Opens `iface` and answers frames on a thread of its own with a segment of
     /// `kinds`.
     pub fn spawn(iface: &str, kinds: &[DeviceKind]) -> Result<Self, EmuError> {
+        Self::spawn_at(iface, kinds, None)
+    }
+
+    /// [`spawn`](Self::spawn), the answering thread at SCHED_FIFO `fifo_priority`
+    /// where the process may (the emulated ESCs stand in for hardware, which
+    /// answers within microseconds whatever else the host runs); at ordinary
+    /// priority, with a warning on standard error, where it may not.
+    pub fn spawn_at(
+        iface: &str,
+        kinds: &[DeviceKind],
+        fifo_priority: Option<u8>,
+    ) -> Result<Self, EmuError> {
         let interface = pnet_datalink::interfaces()
             .into_iter()
             .find(|i| i.name == iface)
@@ -176,7 +206,12 @@ impl Emulator {
         let (sh, st) = (shared.clone(), stop.clone());
         let thread = std::thread::Builder::new()
             .name("ethercat-emu".into())
-            .spawn(move || serve(tx, rx, &mut escs, &cmd_rx, &sh, &st))
+            .spawn(move || {
+                if let Some(p) = fifo_priority {
+                    set_fifo(p);
+                }
+                serve(tx, rx, &mut escs, &cmd_rx, &sh, &st);
+            })
             .map_err(socket_err)?;
         Ok(Emulator {
             commands,
@@ -200,6 +235,22 @@ impl Emulator {
     pub fn stats(&self) -> FrameStats {
         self.shared.lock().expect("emulator state").stats
     }
+
+    /// What the drive at `position` received in OP since the last call (controlword
+    /// and target of each process-data frame, with the frame's number).
+    pub fn take_received(&self, position: usize) -> Vec<Received> {
+        let mut s = self.shared.lock().expect("emulator state");
+        s.received
+            .get_mut(position)
+            .map(std::mem::take)
+            .unwrap_or_default()
+    }
+
+    /// The commands applied so far, each with the number of frames the segment had
+    /// seen (answered or dropped) before it took effect.
+    pub fn applied(&self) -> Vec<(u64, Command)> {
+        self.shared.lock().expect("emulator state").applied.clone()
+    }
 }
 
 impl Drop for Emulator {
@@ -211,8 +262,26 @@ impl Drop for Emulator {
     }
 }
 
+/// The calling thread at SCHED_FIFO `priority`, or a warning.
+fn set_fifo(priority: u8) {
+    use thread_priority::{
+        set_thread_priority_and_policy, thread_native_id, RealtimeThreadSchedulePolicy,
+        ScheduleParams, ThreadPriority, ThreadSchedulePolicy,
+    };
+    let r = set_thread_priority_and_policy(
+        thread_native_id(),
+        ThreadPriority::from_posix(ScheduleParams {
+            sched_priority: i32::from(priority),
+        }),
+        ThreadSchedulePolicy::Realtime(RealtimeThreadSchedulePolicy::Fifo),
+    );
+    if let Err(e) = r {
+        eprintln!("ethercat-emu: SCHED_FIFO {priority} refused ({e:?}); ordinary priority");
+    }
+}
+
 fn publish(shared: &Mutex<Shared>, escs: &[Esc], stats: FrameStats) {
-    let views = escs
+    let views: Vec<SubDeviceView> = escs
         .iter()
         .enumerate()
         .map(|(position, e)| {
@@ -229,6 +298,24 @@ fn publish(shared: &Mutex<Shared>, escs: &[Esc], stats: FrameStats) {
         })
         .collect();
     let mut s = shared.lock().expect("emulator state");
+    let frame = stats.answered + stats.dropped;
+    let Shared {
+        views: old,
+        received,
+        ..
+    } = &mut *s;
+    received.resize_with(views.len(), Vec::new);
+    for ((new, old), log) in views.iter().zip(old.iter()).zip(received.iter_mut()) {
+        if let (AppView::Drive(n), AppView::Drive(o)) = (new.app, old.app) {
+            if n.targets_received > o.targets_received && log.len() < RECEIVED_CAP {
+                log.push(Received {
+                    frame,
+                    controlword: n.controlword,
+                    target_counts: n.target_counts,
+                });
+            }
+        }
+    }
     s.views = views;
     s.stats = stats;
 }
@@ -282,6 +369,11 @@ fn serve(
         let mut changed = false;
         while let Ok(c) = commands.try_recv() {
             apply(c, escs, &mut faults);
+            shared
+                .lock()
+                .expect("emulator state")
+                .applied
+                .push((stats.answered + stats.dropped, c));
             changed = true;
         }
         if changed {

@@ -12,6 +12,10 @@ use std::time::{Duration, Instant};
 
 /// Cycles a CiA 402 step of `enable`/`disable` may take.
 const STATE_CYCLES: usize = 200;
+/// Frames lost in a row after which `recover` gives up (the cause still there).
+const RECOVER_LOST_IN_ROW: u32 = 3;
+/// Frames lost in a row after which a faulted bus is left silent until a reset.
+const FAULTED_LOST_IN_ROW: u32 = 2;
 /// Round-trip histogram: bucket width and count (10 µs × 1000 = 10 ms).
 const RTT_BUCKET_NS: u64 = 10_000;
 const RTT_BUCKETS: usize = 1000;
@@ -27,23 +31,8 @@ struct Drive {
     target: i32,
 }
 
-/// Bus figures since open.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct BusStats {
-    /// Cycles exchanged.
-    pub frames: u64,
-    /// Frames lost (no answer within the response timeout).
-    pub lost_frames: u64,
-    /// Cycles with a wrong working counter.
-    pub wkc_errors: u64,
-    /// Send-to-receive time of the cycle's frame: median, 99th percentile, maximum
-    /// (ns; the histogram's bucket is 10 µs).
-    pub rtt_p50_ns: u64,
-    /// 99th percentile.
-    pub rtt_p99_ns: u64,
-    /// Maximum (exact).
-    pub rtt_max_ns: u64,
-}
+/// Bus figures since open (the servo boundary's, [`softnc_servo::BusStats`]).
+pub use softnc_servo::BusStats;
 
 /// The bus once brought up.
 struct Bus {
@@ -67,6 +56,10 @@ pub struct EtherCatBackend {
     axes: usize,
     axis_of: [Option<u8>; bus::MAX_SUBDEVICES],
     enabled: bool,
+    /// A bus fault was reported and not yet recovered from (`recover`, `enable`).
+    faulted: bool,
+    /// Frames lost in a row (two end the frames of a faulted bus).
+    lost_in_row: u32,
     stats: BusStats,
     rtt: Box<[u32; RTT_BUCKETS]>,
 }
@@ -135,6 +128,8 @@ impl EtherCatBackend {
             axes,
             axis_of,
             enabled: false,
+            faulted: false,
+            lost_in_row: 0,
             stats: BusStats::default(),
             rtt: Box::new([0; RTT_BUCKETS]),
         })
@@ -224,6 +219,7 @@ impl EtherCatBackend {
             d.controlword = cw::QUICK_STOP;
         }
         self.enabled = false;
+        self.faulted = true;
         BackendError::Bus {
             subdevice: subdevice.map(|p| p as u16),
             axis: subdevice.and_then(|p| self.axis_of.get(p).copied().flatten()),
@@ -256,6 +252,10 @@ impl EtherCatBackend {
         let r = block_on(group.tx_rx_dc(md), t0 + self.response_timeout);
         let rtt = t0.elapsed().as_nanos() as u64;
         self.stats.frames += 1;
+        self.lost_in_row = match r {
+            Some(Ok(_)) => 0,
+            _ => self.lost_in_row.saturating_add(1),
+        };
         let Some(Ok(r)) = r else {
             self.stats.lost_frames += 1;
             return Err((None, BusFault::FrameLost));
@@ -332,7 +332,13 @@ impl EtherCatBackend {
                 | Err(BackendError::Bus {
                     reason: BusFault::DriveFault { .. },
                     ..
-                }) => return Ok(()),
+                }) => {
+                    // the bus is whole; a drive's own fault is reset by `enable`
+                    self.faulted = false;
+                    return Ok(());
+                }
+                // a link still down: said after a few frames, not after STATE_CYCLES
+                _ if self.lost_in_row >= RECOVER_LOST_IN_ROW => return last,
                 _ => std::thread::sleep(self.cycle),
             }
         }
@@ -431,6 +437,7 @@ impl ServoBackend for EtherCatBackend {
         self.step_to(cw::SWITCH_ON, cia402::SWITCHED_ON)?;
         self.step_to(cw::ENABLE, cia402::OPERATION_ENABLED)?;
         self.enabled = true;
+        self.faulted = false;
         Ok(())
     }
     fn disable(&mut self) {
@@ -468,6 +475,47 @@ impl ServoBackend for EtherCatBackend {
     }
     fn cycle(&mut self) -> Result<(), BackendError> {
         self.exchange()
+    }
+    fn estop(&mut self) {
+        // quick stop goes out with the next frame (`exchange_io` sends it)
+        for d in self.drives.iter_mut().flatten() {
+            d.controlword = cw::QUICK_STOP;
+        }
+        self.enabled = false;
+    }
+    fn exchange_io(&mut self) -> Result<(), BackendError> {
+        // the axes stand (off, E-stopped): the frames go on, so that the drives
+        // get their quick stop or disable and the SubDevices' watchdogs stay fed
+        if self.bus.is_none() {
+            return Ok(());
+        }
+        if self.faulted {
+            // the fault has been reported once: frames go on (the quick stop) while
+            // they come back; two lost in a row end them until a reset (a dead link:
+            // no cycle waits on it again)
+            if self.lost_in_row < FAULTED_LOST_IN_ROW {
+                let _ = self.exchange();
+            }
+            return Ok(());
+        }
+        match self.exchange() {
+            // a drive's fault with the axes standing is reset by the next `enable`
+            Err(BackendError::Bus {
+                reason: BusFault::DriveFault { .. },
+                ..
+            }) => Ok(()),
+            r => r,
+        }
+    }
+    fn recover(&mut self) -> Result<(), BackendError> {
+        // a bus never brought up, or not in fault, has nothing to recover
+        if self.bus.is_none() || !self.faulted {
+            return Ok(());
+        }
+        EtherCatBackend::recover(self)
+    }
+    fn bus_stats(&self) -> Option<BusStats> {
+        Some(EtherCatBackend::bus_stats(self))
     }
     fn read_counts(&self) -> Axes<i64> {
         let mut c = Axes::splat(0);

@@ -125,6 +125,31 @@ fn fails_within_3(b: &mut EtherCatBackend) -> BackendError {
     panic!("fault not detected within 3 cycles");
 }
 
+/// The E-stop path on the cycle (the position process's): quick stop, then the
+/// I/O-only exchanges of the stopped machine, allocation-free; every drive
+/// quick-stopped.
+fn estop_path_is_allocation_free(b: &mut EtherCatBackend, emu: &Emulator) {
+    let before = softnc_test_support::allocations();
+    b.estop();
+    for _ in 0..500 {
+        b.exchange_io().expect("the stopped machine's exchange");
+    }
+    let allocs = softnc_test_support::allocations() - before;
+    assert_eq!(allocs, 0, "the E-stop path allocated");
+    for v in emu.views() {
+        if let softnc_ethercat_emu::app::AppView::Drive(d) = v.app {
+            assert_ne!(
+                d.state,
+                softnc_ethercat_emu::cia402::PowerState::OperationEnabled,
+                "drive {} still enabled after the E-stop",
+                v.position
+            );
+            assert_eq!(d.controlword, 0x0002, "drive {}: quick stop", v.position);
+        }
+    }
+    println!("E-stop: every drive quick-stopped over 500 exchanges, 0 allocations");
+}
+
 #[test]
 fn faults_are_detected_within_3_cycles_and_the_cycle_does_not_allocate() {
     let Some((_one, veth, emu)) = bus() else {
@@ -148,6 +173,8 @@ fn faults_are_detected_within_3_cycles_and_the_cycle_does_not_allocate() {
         s.frames, s.lost_frames, s.wkc_errors, s.rtt_p50_ns / 1000, s.rtt_p99_ns / 1000, s.rtt_max_ns / 1000
     );
     assert_eq!(allocs, 0, "the cycle allocated");
+    estop_path_is_allocation_free(&mut b, &emu);
+    b.enable().expect("enabled again after the E-stop");
 
     emu.command(Command::Drop(1));
     std::thread::sleep(Duration::from_millis(20));

@@ -114,6 +114,24 @@ pub enum BusFault {
     },
 }
 
+/// A fieldbus's figures since it was brought up ([`ServoBackend::bus_stats`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct BusStats {
+    /// Cycles exchanged.
+    pub frames: u64,
+    /// Frames lost (no answer within the response timeout).
+    pub lost_frames: u64,
+    /// Cycles with a wrong working counter.
+    pub wkc_errors: u64,
+    /// Send-to-receive time of the cycle's frame: median (ns; the histogram's
+    /// bucket is 10 µs).
+    pub rtt_p50_ns: u64,
+    /// 99th percentile.
+    pub rtt_p99_ns: u64,
+    /// Maximum (exact).
+    pub rtt_max_ns: u64,
+}
+
 /// A servo backend: the simulated machine, a loopback, real drives. One cycle is
 /// `write_commands` → `cycle` → `read_*`; nothing in a cycle allocates or blocks
 /// beyond the exchange itself.
@@ -135,6 +153,22 @@ pub trait ServoBackend {
     /// the backend's own words (the bus's interface and the error), where it knows
     /// more than its [`BackendError`] says.
     fn enable_failure(&self) -> Option<String> {
+        None
+    }
+    /// The E-stop path, on the cycle (nothing blocks, nothing allocates): every
+    /// drive told to stop now by itself (CiA 402 quick stop at the next
+    /// exchange), commands ignored until [`enable`](Self::enable). Nothing by
+    /// default: a simulated machine or a loopback that is not stepped stands.
+    fn estop(&mut self) {}
+    /// After a fault whose cause is gone (the operator's reset), off the cycle
+    /// path: the backend made whole again (a fieldbus's SubDevices back in OP),
+    /// the drives left off for the next [`enable`](Self::enable). An error when
+    /// the cause is still there. Nothing to do by default.
+    fn recover(&mut self) -> Result<(), BackendError> {
+        Ok(())
+    }
+    /// The fieldbus's figures, for a backend on one.
+    fn bus_stats(&self) -> Option<BusStats> {
         None
     }
     /// Declare the current actual position to be `pos_mm` (homing; the simulation

@@ -1,8 +1,8 @@
 //! `softnc demo --backend ethercat-emulated` with a short job (root needed: a veth
 //! pair and packet sockets; SKIPPED otherwise): softncd's three processes drive the
 //! emulated CiA 402 drives over EtherCAT, the job completes with every planned
-//! sample run, and every drive received at least as many targets as the job had
-//! cycles.
+//! sample run, every drive received at least as many targets as the job had
+//! cycles, and the report carries the MainDevice's bus figures.
 
 use std::process::Command;
 
@@ -38,6 +38,22 @@ fn the_demo_job_runs_over_the_emulated_bus() {
     assert!(
         cycles > 0 && cycles == planned,
         "cycles {cycles} of {planned} planned: {report}"
+    );
+    // the MainDevice's bus figures in the report
+    let bus = &report["loops"]["bus"];
+    let frames = bus["frames"].as_u64().unwrap_or(0);
+    assert!(
+        frames >= cycles,
+        "bus frames {frames} for {cycles} cycles: {report}"
+    );
+    assert_eq!(bus["lost_frames"], 0, "{report}");
+    assert_eq!(bus["wkc_errors"], 0, "{report}");
+    let rtt = &bus["send_to_receive_ns"];
+    assert!(
+        rtt["p50"].as_u64().unwrap_or(0) > 0
+            && rtt["p99"].as_u64() >= rtt["p50"].as_u64()
+            && rtt["max"].as_u64().unwrap_or(0) > 0,
+        "{report}"
     );
     let drives: Vec<u64> = stderr
         .lines()

@@ -1386,6 +1386,19 @@ impl MmiTask {
             loops: api::Loops {
                 interp: loops(ProcessId::Interp),
                 position: loops(ProcessId::Position),
+                bus: self.machine.loops[ProcessId::Position as usize]
+                    .filter(|l| l.bus[0] > 0)
+                    .map(|l| api::BusFigures {
+                        frames: l.bus[0],
+                        lost_frames: l.bus[1],
+                        wkc_errors: l.bus[2],
+                        send_to_receive_ns: api::Percentiles {
+                            p50: l.bus[3],
+                            p99: l.bus[4],
+                            p999: 0,
+                            max: l.bus[5],
+                        },
+                    }),
             },
             alarms: self
                 .machine
