@@ -120,6 +120,10 @@ pub struct DaemonConfig {
     /// this user and root operate the controller; docs/operations.md, "Operators").
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub operators: Option<softnc_client::config::OperatorsConfig>,
+    /// The web operator panel `softnc-web`, started and supervised by `softncd`
+    /// (`None`, the default: off; docs/web.md).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub web: Option<softnc_client::config::WebConfig>,
 }
 
 fn default_mmi_silence_stop_s() -> f64 {
@@ -308,6 +312,8 @@ impl Loaded {
         c.data_dir = abs(&dir.join("data"));
         // a private instance: no operator gateway (the original's socket is its own)
         c.operators = None;
+        // and no web panel (its port is the original's)
+        c.web = None;
         let text = ron::ser::to_string_pretty(&c, ron::ser::PrettyConfig::default())
             .map_err(std::io::Error::other)?;
         let path = dir.join("softncd.ron");
@@ -489,6 +495,9 @@ impl DaemonConfig {
         let mut config = config;
         if let Some(o) = config.operators.as_mut() {
             o.resolve(&path.display().to_string(), &dir)?;
+        }
+        if let Some(w) = config.web.as_mut() {
+            w.resolve(&path.display().to_string(), &dir)?;
         }
         let data_dir = dir.join(&config.data_dir);
         let learning_dir = softnc_learning::store_dir(
