@@ -475,10 +475,21 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
         job.alarms
     );
     assert!(job.accuracy.contour_max_abs_um > 0.0, "{job}");
+    screenshot(&c, 1024, 600).await;
     click(&c, ".tab[data-view=history]").await;
     let history = wait_text(&c, "jobs", Duration::from_secs(5), "the job history", |t| t.contains("completed")).await;
     assert!(history.contains("demo.ngc"), "{history}");
-    screenshot(&c, 1024, 600).await;
+
+    // MDI from the page: cancel the tool length offset the job left in force (a job
+    // started with the previous job's `G43.1 Z…` in the modal state is E-stopped on a
+    // Z following error the size of the offset: a controller bug outside the panel,
+    // reported with this branch)
+    click(&c, ".tab[data-view=manual]").await;
+    c.find(Locator::Id("mdi")).await.unwrap().send_keys("G49").await.unwrap();
+    click(&c, "#btn-mdi").await;
+    wait_text(&c, "log", Duration::from_secs(20), "the MDI block done", |t| t.contains("MDI") && t.contains("done")).await;
+    wait_text(&c, "mdi-history", Duration::from_secs(2), "the MDI history", |t| t.contains("G49")).await;
+    wait_text(&c, "state", Duration::from_secs(10), "the MDI done", |t| t == "Idle").await;
     click(&c, ".tab[data-view=program]").await;
 
     // -- a second run, E-stopped from the page
@@ -493,9 +504,17 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
     })
     .await;
     screenshot(&c, 1920, 1080).await;
+    assert_eq!(text_of(&c, "state").await, "Running", "the second run before the E-stop");
     click(&c, "#estop").await;
     wait_text(&c, "state", Duration::from_secs(2), "the E-stop", |t| t == "EStopped").await;
-    assert_eq!(op.status().unwrap().state, MachineState::EStopped);
+    let s = op.status().unwrap();
+    assert_eq!(s.state, MachineState::EStopped);
+    assert!(
+        s.alarms.iter().any(|a| a.code == AlarmKind::EStop)
+            && !s.alarms.iter().any(|a| a.code == AlarmKind::FollowingError),
+        "the operator's E-stop: {:?}",
+        s.alarms
+    );
     let _ = c.close().await;
     drop(driver);
     eprintln!("e2e_web: done in {:?}", t_start.elapsed());
