@@ -631,6 +631,35 @@ mod tests {
     }
 
     #[test]
+    fn the_web_panel_is_off_by_default_and_a_bad_field_names_its_ron_path() {
+        let l = load_edited("webdefault", &[]).unwrap();
+        assert_eq!(l.config.web, None);
+        let on = "    // web: Some((listen: \"127.0.0.1:8080\", token_file: \"web-token\")),";
+        let l = load_edited("webon", &[(on, "    web: Some((token_file: \"web-token\")),")]).unwrap();
+        let w = l.config.web.unwrap();
+        assert_eq!(w.listen, "127.0.0.1:8080");
+        assert!(w.token_file.is_absolute() && w.token_file.ends_with("web-token"));
+        assert!(!w.status_needs_token);
+        assert_eq!(w.max_upload_bytes, 8 << 20);
+        assert_eq!(w.status_hz, 25.0);
+        for (field, value) in [
+            ("listen", "\"localhost\""),
+            ("status_hz", "5.0"),
+            ("max_upload_bytes", "0"),
+        ] {
+            let edit = format!("    web: Some((token_file: \"t\", {field}: {value})),");
+            let e = load_edited("webbad", &[(on, edit.as_str())])
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(&format!("web.{field}")), "{e}");
+        }
+        let e = load_edited("webunknown", &[(on, "    web: Some((token_file: \"t\", port: 80)),")])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("port"), "{e}");
+    }
+
+    #[test]
     fn the_user_m_folder_defaults_beside_the_data_dir_and_a_named_one_must_exist() {
         let l = load_edited("userm", &[]).unwrap();
         assert_eq!(l.config.user_m_path, None);
