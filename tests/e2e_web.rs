@@ -85,7 +85,9 @@ impl Drop for Driver {
 fn http(port: u16, head: &str, body: &[u8]) -> (u16, String) {
     let mut s = TcpStream::connect(("127.0.0.1", port)).unwrap();
     s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
-    let _ = s.write_all(format!("{head}\r\nHost: 127.0.0.1:{port}\r\nConnection: close\r\n\r\n").as_bytes());
+    let _ = s.write_all(
+        format!("{head}\r\nHost: 127.0.0.1:{port}\r\nConnection: close\r\n\r\n").as_bytes(),
+    );
     let _ = s.write_all(body);
     let mut out = Vec::new();
     let _ = s.read_to_end(&mut out);
@@ -127,14 +129,23 @@ async fn text_of(c: &Client, id: &str) -> String {
 }
 
 /// Wait until the text of `id` satisfies `pred` (its last text in the panic).
-async fn wait_text(c: &Client, id: &str, timeout: Duration, what: &str, pred: impl Fn(&str) -> bool) -> String {
+async fn wait_text(
+    c: &Client,
+    id: &str,
+    timeout: Duration,
+    what: &str,
+    pred: impl Fn(&str) -> bool,
+) -> String {
     let t0 = Instant::now();
     loop {
         let t = text_of(c, id).await;
         if pred(&t) {
             return t;
         }
-        assert!(t0.elapsed() < timeout, "{what}: #{id} reads {t:?} after {timeout:?}");
+        assert!(
+            t0.elapsed() < timeout,
+            "{what}: #{id} reads {t:?} after {timeout:?}"
+        );
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
 }
@@ -160,12 +171,17 @@ async fn screenshot(c: &Client, w: u32, h: u32) -> PathBuf {
     c.set_window_size(w, h).await.unwrap();
     for _ in 0..3 {
         let inner = js(c, "[window.innerWidth, window.innerHeight]").await;
-        let (iw, ih) = (inner[0].as_u64().unwrap() as u32, inner[1].as_u64().unwrap() as u32);
+        let (iw, ih) = (
+            inner[0].as_u64().unwrap() as u32,
+            inner[1].as_u64().unwrap() as u32,
+        );
         if (iw, ih) == (w, h) {
             break;
         }
         let (ow, oh) = c.get_window_size().await.unwrap();
-        c.set_window_size(ow as u32 + w - iw, oh as u32 + h - ih).await.unwrap();
+        c.set_window_size(ow as u32 + w - iw, oh as u32 + h - ih)
+            .await
+            .unwrap();
     }
     tokio::time::sleep(Duration::from_millis(300)).await;
     let png_bytes = c.screenshot().await.unwrap();
@@ -224,7 +240,10 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
         if code == 200 && body.contains("\"link\":\"ok\"") {
             break;
         }
-        assert!(t0.elapsed() < Duration::from_secs(20), "the panel's status: {code} {body}");
+        assert!(
+            t0.elapsed() < Duration::from_secs(20),
+            "the panel's status: {code} {body}"
+        );
         std::thread::sleep(Duration::from_millis(100));
     }
 
@@ -242,12 +261,20 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
     }
     let (code, _) = post(port, "/api/run", None, r#"{"program":"x"}"#);
     assert_eq!(code, 401, "run without the token");
-    let (code, _) = http(port, "POST /api/programs HTTP/1.1\r\nContent-Length: 6", b"G0 X1\n");
+    let (code, _) = http(
+        port,
+        "POST /api/programs HTTP/1.1\r\nContent-Length: 6",
+        b"G0 X1\n",
+    );
     assert_eq!(code, 401, "upload without the token");
     // a state-changing GET does not exist
     let (code, _) = http(port, "GET /api/command HTTP/1.1", b"");
     assert_eq!(code, 405, "GET /api/command");
-    assert_eq!(op.status().unwrap().state, MachineState::Off, "nothing was done");
+    assert_eq!(
+        op.status().unwrap().state,
+        MachineState::Off,
+        "nothing was done"
+    );
 
     // -- a cross-origin WebSocket refused, a same-origin one taken
     let ws_head = |origin: &str| {
@@ -257,21 +284,37 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
     };
     let mut s = TcpStream::connect(("127.0.0.1", port)).unwrap();
     s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
-    s.write_all(format!("{}\r\nHost: 127.0.0.1:{port}\r\n\r\n", ws_head("http://evil.example")).as_bytes())
-        .unwrap();
+    s.write_all(
+        format!(
+            "{}\r\nHost: 127.0.0.1:{port}\r\n\r\n",
+            ws_head("http://evil.example")
+        )
+        .as_bytes(),
+    )
+    .unwrap();
     let mut buf = [0u8; 256];
     let n = s.read(&mut buf).unwrap();
     let reply = String::from_utf8_lossy(&buf[..n]);
-    assert!(reply.starts_with("HTTP/1.1 403"), "cross-origin WebSocket: {reply}");
+    assert!(
+        reply.starts_with("HTTP/1.1 403"),
+        "cross-origin WebSocket: {reply}"
+    );
     let mut s = TcpStream::connect(("127.0.0.1", port)).unwrap();
     s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
     s.write_all(
-        format!("{}\r\nHost: 127.0.0.1:{port}\r\n\r\n", ws_head(&format!("http://127.0.0.1:{port}"))).as_bytes(),
+        format!(
+            "{}\r\nHost: 127.0.0.1:{port}\r\n\r\n",
+            ws_head(&format!("http://127.0.0.1:{port}"))
+        )
+        .as_bytes(),
     )
     .unwrap();
     let n = s.read(&mut buf).unwrap();
     let reply = String::from_utf8_lossy(&buf[..n]);
-    assert!(reply.starts_with("HTTP/1.1 101"), "same-origin WebSocket: {reply}");
+    assert!(
+        reply.starts_with("HTTP/1.1 101"),
+        "same-origin WebSocket: {reply}"
+    );
     drop(s);
 
     // -- uploads: 100 MB and binary refused (with the token)
@@ -333,26 +376,64 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
     };
     let url = format!("http://127.0.0.1:{port}/");
     c.goto(&url).await.unwrap();
-    wait_text(&c, "link", Duration::from_secs(10), "the page live", |t| t == "live").await;
-    wait_text(&c, "state", Duration::from_secs(5), "the state shown", |t| t == "Off").await;
+    wait_text(&c, "link", Duration::from_secs(10), "the page live", |t| {
+        t == "live"
+    })
+    .await;
+    wait_text(
+        &c,
+        "state",
+        Duration::from_secs(5),
+        "the state shown",
+        |t| t == "Off",
+    )
+    .await;
     // read-only: a command from the page is refused, nothing moves
     click(&c, ".tab[data-view=manual]").await;
     click(&c, "#btn-on").await;
-    wait_text(&c, "log", Duration::from_secs(5), "the refusal", |t| t.contains("read-only")).await;
+    wait_text(&c, "log", Duration::from_secs(5), "the refusal", |t| {
+        t.contains("read-only")
+    })
+    .await;
     tokio::time::sleep(Duration::from_millis(300)).await;
-    assert_eq!(text_of(&c, "state").await, "Off", "a read-only page switched the machine on");
+    assert_eq!(
+        text_of(&c, "state").await,
+        "Off",
+        "a read-only page switched the machine on"
+    );
 
     // -- log in, switch on, home, touch off, jog X by a 10 mm step
-    c.find(Locator::Id("token")).await.unwrap().send_keys(TOKEN).await.unwrap();
+    c.find(Locator::Id("token"))
+        .await
+        .unwrap()
+        .send_keys(TOKEN)
+        .await
+        .unwrap();
     click(&c, "#login").await;
-    wait_text(&c, "auth-state", Duration::from_secs(5), "logged in", |t| t == "operator").await;
+    wait_text(&c, "auth-state", Duration::from_secs(5), "logged in", |t| {
+        t == "operator"
+    })
+    .await;
     click(&c, "#btn-on").await;
-    wait_text(&c, "state", Duration::from_secs(30), "machine on", |t| t == "Idle").await;
+    wait_text(&c, "state", Duration::from_secs(30), "machine on", |t| {
+        t == "Idle"
+    })
+    .await;
     click(&c, "#btn-home").await;
     tokio::time::sleep(Duration::from_millis(200)).await;
-    wait_text(&c, "state", Duration::from_secs(60), "homed", |t| t == "Idle").await;
+    wait_text(&c, "state", Duration::from_secs(60), "homed", |t| {
+        t == "Idle"
+    })
+    .await;
     for a in ["x", "y", "z"] {
-        wait_text(&c, &format!("homed-{a}"), Duration::from_secs(5), "homed mark", |t| t == "●").await;
+        wait_text(
+            &c,
+            &format!("homed-{a}"),
+            Duration::from_secs(5),
+            "homed mark",
+            |t| t == "●",
+        )
+        .await;
     }
     // touch off X and Y at 0 where the axes stand
     for axis in ["X", "Y"] {
@@ -361,17 +442,44 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
         v.clear().await.unwrap();
         v.send_keys("0").await.unwrap();
         click(&c, "#btn-touch").await;
-        wait_text(&c, &format!("dro-work-{}", axis.to_lowercase()), Duration::from_secs(20), "touched off", |t| t == "0.000").await;
+        wait_text(
+            &c,
+            &format!("dro-work-{}", axis.to_lowercase()),
+            Duration::from_secs(20),
+            "touched off",
+            |t| t == "0.000",
+        )
+        .await;
     }
     click(&c, "#jog-mode option[value='10']").await;
     click(&c, ".jogb[data-axis=X][data-dir='1']").await;
-    wait_text(&c, "dro-work-x", Duration::from_secs(20), "the 10 mm jog step", |t| t == "10.000").await;
-    wait_text(&c, "state", Duration::from_secs(10), "the jog done", |t| t == "Idle").await;
+    wait_text(
+        &c,
+        "dro-work-x",
+        Duration::from_secs(20),
+        "the 10 mm jog step",
+        |t| t == "10.000",
+    )
+    .await;
+    wait_text(&c, "state", Duration::from_secs(10), "the jog done", |t| {
+        t == "Idle"
+    })
+    .await;
     // back to X 0 for the program (its contour spans X -40 … 40)
     click(&c, "#jog-mode option[value='10']").await;
     click(&c, ".jogb[data-axis=X][data-dir='-1']").await;
-    wait_text(&c, "dro-work-x", Duration::from_secs(20), "the jog back", |t| t == "0.000").await;
-    wait_text(&c, "state", Duration::from_secs(10), "the jog done", |t| t == "Idle").await;
+    wait_text(
+        &c,
+        "dro-work-x",
+        Duration::from_secs(20),
+        "the jog back",
+        |t| t == "0.000",
+    )
+    .await;
+    wait_text(&c, "state", Duration::from_secs(10), "the jog done", |t| {
+        t == "Idle"
+    })
+    .await;
 
     // -- upload examples/demo.ngc and run it
     click(&c, ".tab[data-view=program]").await;
@@ -383,47 +491,122 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
         .await
         .unwrap();
     click(&c, "#btn-upload").await;
-    wait_text(&c, "programs", Duration::from_secs(10), "the upload listed", |t| t.contains("demo.ngc")).await;
+    wait_text(
+        &c,
+        "programs",
+        Duration::from_secs(10),
+        "the upload listed",
+        |t| t.contains("demo.ngc"),
+    )
+    .await;
     let t0 = Instant::now();
-    while js(&c, "S.plan ? S.plan.length : 0").await.as_u64().unwrap_or(0) == 0 {
-        assert!(t0.elapsed() < Duration::from_secs(5), "no backplot of the program");
+    while js(&c, "S.plan ? S.plan.length : 0")
+        .await
+        .as_u64()
+        .unwrap_or(0)
+        == 0
+    {
+        assert!(
+            t0.elapsed() < Duration::from_secs(5),
+            "no backplot of the program"
+        );
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
     click(&c, "#btn-run").await;
-    wait_text(&c, "state", Duration::from_secs(60), "the job running", |t| t == "Running").await;
-    let line0: u32 = wait_text(&c, "line", Duration::from_secs(10), "a line", |t| t.parse::<u32>().is_ok())
-        .await
-        .parse()
-        .unwrap();
+    wait_text(
+        &c,
+        "state",
+        Duration::from_secs(60),
+        "the job running",
+        |t| t == "Running",
+    )
+    .await;
+    let line0: u32 = wait_text(&c, "line", Duration::from_secs(10), "a line", |t| {
+        t.parse::<u32>().is_ok()
+    })
+    .await
+    .parse()
+    .unwrap();
     let progress = |t: &str| -> f64 {
-        t.rsplit(' ').nth(1).and_then(|p| p.parse().ok()).unwrap_or(-1.0)
+        t.rsplit(' ')
+            .nth(1)
+            .and_then(|p| p.parse().ok())
+            .unwrap_or(-1.0)
     };
     let p0 = progress(&text_of(&c, "progress").await);
-    wait_text(&c, "line", Duration::from_secs(20), "the line advancing", |t| {
-        t.parse::<u32>().is_ok_and(|l| l > line0)
-    })
+    wait_text(
+        &c,
+        "line",
+        Duration::from_secs(20),
+        "the line advancing",
+        |t| t.parse::<u32>().is_ok_and(|l| l > line0),
+    )
     .await;
-    wait_text(&c, "progress", Duration::from_secs(20), "the progress advancing", |t| progress(t) > p0).await;
+    wait_text(
+        &c,
+        "progress",
+        Duration::from_secs(20),
+        "the progress advancing",
+        |t| progress(t) > p0,
+    )
+    .await;
     let trail = js(&c, "S.trail.length").await.as_u64().unwrap();
     assert!(trail > 1, "the backplot's tool trail: {trail} points");
     let current = js(&c, "document.querySelector('#listing li.current') ? document.querySelector('#listing li.current').textContent : ''").await;
-    assert!(current.as_str().is_some_and(|t| !t.trim().is_empty()), "the current line in the listing: {current}");
+    assert!(
+        current.as_str().is_some_and(|t| !t.trim().is_empty()),
+        "the current line in the listing: {current}"
+    );
 
     // -- kill softnc-web mid-job: the page shows the loss at once, picks the restarted
     // panel up without a reload, and the job runs on
-    c.execute("window.__noReload = true;", vec![]).await.unwrap();
+    c.execute("window.__noReload = true;", vec![])
+        .await
+        .unwrap();
     d.kill9("softnc-web");
     let t0 = Instant::now();
-    wait_text(&c, "link", Duration::from_secs(2), "the lost connection shown", |t| t != "live").await;
+    wait_text(
+        &c,
+        "link",
+        Duration::from_secs(2),
+        "the lost connection shown",
+        |t| t != "live",
+    )
+    .await;
     let shown_lost_ms = t0.elapsed().as_millis();
     assert!(
-        js(&c, "document.body.classList.contains('stale')").await.as_bool().unwrap(),
+        js(&c, "document.body.classList.contains('stale')")
+            .await
+            .as_bool()
+            .unwrap(),
         "stale figures not marked"
     );
-    wait_text(&c, "link", Duration::from_secs(15), "the restarted panel picked up", |t| t == "live").await;
-    assert_eq!(js(&c, "window.__noReload === true").await, json!(true), "the page reloaded");
-    wait_text(&c, "auth-state", Duration::from_secs(5), "logged in again", |t| t == "operator").await;
-    assert_eq!(text_of(&c, "state").await, "Running", "the job after the panel's restart");
+    wait_text(
+        &c,
+        "link",
+        Duration::from_secs(15),
+        "the restarted panel picked up",
+        |t| t == "live",
+    )
+    .await;
+    assert_eq!(
+        js(&c, "window.__noReload === true").await,
+        json!(true),
+        "the page reloaded"
+    );
+    wait_text(
+        &c,
+        "auth-state",
+        Duration::from_secs(5),
+        "logged in again",
+        |t| t == "operator",
+    )
+    .await;
+    assert_eq!(
+        text_of(&c, "state").await,
+        "Running",
+        "the job after the panel's restart"
+    );
     eprintln!("e2e_web: softnc-web killed: the page showed it in {shown_lost_ms} ms, back live after {:?}", t0.elapsed());
 
     // -- hold: `Held` on the page within 200 ms of the click (measured in the page)
@@ -451,7 +634,10 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
     );
     tokio::time::sleep(Duration::from_millis(500)).await;
     click(&c, "#btn-resume").await;
-    wait_text(&c, "state", Duration::from_secs(5), "resumed", |t| t == "Running").await;
+    wait_text(&c, "state", Duration::from_secs(5), "resumed", |t| {
+        t == "Running"
+    })
+    .await;
     // feed override 150 % from the page: the rest of the job goes faster
     c.execute(
         "const r = document.getElementById('feed-ovr'); r.value = 150; r.dispatchEvent(new Event('change'));",
@@ -459,10 +645,21 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
     )
     .await
     .unwrap();
-    wait_text(&c, "feed-ovr-val", Duration::from_secs(5), "the feed override", |t| t == "150 %").await;
-    let acc = wait_text(&c, "accuracy", Duration::from_secs(120), "the job's accuracy report", |t| {
-        t.contains("completed")
-    })
+    wait_text(
+        &c,
+        "feed-ovr-val",
+        Duration::from_secs(5),
+        "the feed override",
+        |t| t == "150 %",
+    )
+    .await;
+    let acc = wait_text(
+        &c,
+        "accuracy",
+        Duration::from_secs(120),
+        "the job's accuracy report",
+        |t| t.contains("completed"),
+    )
     .await;
     assert!(acc.contains("contour max") && acc.contains("µm"), "{acc}");
     eprintln!("e2e_web: {acc}");
@@ -477,7 +674,10 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
     assert!(job.accuracy.contour_max_abs_um > 0.0, "{job}");
     screenshot(&c, 1024, 600).await;
     click(&c, ".tab[data-view=history]").await;
-    let history = wait_text(&c, "jobs", Duration::from_secs(5), "the job history", |t| t.contains("completed")).await;
+    let history = wait_text(&c, "jobs", Duration::from_secs(5), "the job history", |t| {
+        t.contains("completed")
+    })
+    .await;
     assert!(history.contains("demo.ngc"), "{history}");
 
     // MDI from the page: cancel the tool length offset the job left in force (a job
@@ -485,28 +685,70 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
     // Z following error the size of the offset: a controller bug outside the panel,
     // reported with this branch)
     click(&c, ".tab[data-view=manual]").await;
-    c.find(Locator::Id("mdi")).await.unwrap().send_keys("G49").await.unwrap();
+    c.find(Locator::Id("mdi"))
+        .await
+        .unwrap()
+        .send_keys("G49")
+        .await
+        .unwrap();
     click(&c, "#btn-mdi").await;
-    wait_text(&c, "log", Duration::from_secs(20), "the MDI block done", |t| t.contains("MDI") && t.contains("done")).await;
-    wait_text(&c, "mdi-history", Duration::from_secs(2), "the MDI history", |t| t.contains("G49")).await;
-    wait_text(&c, "state", Duration::from_secs(10), "the MDI done", |t| t == "Idle").await;
+    wait_text(
+        &c,
+        "log",
+        Duration::from_secs(20),
+        "the MDI block done",
+        |t| t.contains("MDI") && t.contains("done"),
+    )
+    .await;
+    wait_text(
+        &c,
+        "mdi-history",
+        Duration::from_secs(2),
+        "the MDI history",
+        |t| t.contains("G49"),
+    )
+    .await;
+    wait_text(&c, "state", Duration::from_secs(10), "the MDI done", |t| {
+        t == "Idle"
+    })
+    .await;
     click(&c, ".tab[data-view=program]").await;
 
     // -- a second run, E-stopped from the page
     click(&c, "#btn-run").await;
-    wait_text(&c, "state", Duration::from_secs(60), "the second run", |t| t == "Running").await;
-    let line1: u32 = wait_text(&c, "line", Duration::from_secs(10), "a line", |t| t.parse::<u32>().is_ok())
-        .await
-        .parse()
-        .unwrap();
-    wait_text(&c, "line", Duration::from_secs(20), "the second run advancing", |t| {
-        t.parse::<u32>().is_ok_and(|l| l > line1 + 2)
+    wait_text(
+        &c,
+        "state",
+        Duration::from_secs(60),
+        "the second run",
+        |t| t == "Running",
+    )
+    .await;
+    let line1: u32 = wait_text(&c, "line", Duration::from_secs(10), "a line", |t| {
+        t.parse::<u32>().is_ok()
     })
+    .await
+    .parse()
+    .unwrap();
+    wait_text(
+        &c,
+        "line",
+        Duration::from_secs(20),
+        "the second run advancing",
+        |t| t.parse::<u32>().is_ok_and(|l| l > line1 + 2),
+    )
     .await;
     screenshot(&c, 1920, 1080).await;
-    assert_eq!(text_of(&c, "state").await, "Running", "the second run before the E-stop");
+    assert_eq!(
+        text_of(&c, "state").await,
+        "Running",
+        "the second run before the E-stop"
+    );
     click(&c, "#estop").await;
-    wait_text(&c, "state", Duration::from_secs(2), "the E-stop", |t| t == "EStopped").await;
+    wait_text(&c, "state", Duration::from_secs(2), "the E-stop", |t| {
+        t == "EStopped"
+    })
+    .await;
     let s = op.status().unwrap();
     assert_eq!(s.state, MachineState::EStopped);
     assert!(

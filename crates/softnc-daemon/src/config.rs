@@ -635,7 +635,11 @@ mod tests {
         let l = load_edited("webdefault", &[]).unwrap();
         assert_eq!(l.config.web, None);
         let on = "    // web: Some((listen: \"127.0.0.1:8080\", token_file: \"web-token\")),";
-        let l = load_edited("webon", &[(on, "    web: Some((token_file: \"web-token\")),")]).unwrap();
+        let l = load_edited(
+            "webon",
+            &[(on, "    web: Some((token_file: \"web-token\")),")],
+        )
+        .unwrap();
         let w = l.config.web.unwrap();
         assert_eq!(w.listen, "127.0.0.1:8080");
         assert!(w.token_file.is_absolute() && w.token_file.ends_with("web-token"));
@@ -653,9 +657,12 @@ mod tests {
                 .to_string();
             assert!(e.contains(&format!("web.{field}")), "{e}");
         }
-        let e = load_edited("webunknown", &[(on, "    web: Some((token_file: \"t\", port: 80)),")])
-            .unwrap_err()
-            .to_string();
+        let e = load_edited(
+            "webunknown",
+            &[(on, "    web: Some((token_file: \"t\", port: 80)),")],
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("port"), "{e}");
     }
 

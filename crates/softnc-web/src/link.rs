@@ -11,7 +11,7 @@
 use serde_json::json;
 use softnc_api::{Outcome, Reply, Request};
 use softnc_client::Operator;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::mpsc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use tokio::sync::{oneshot, watch};
@@ -105,7 +105,7 @@ impl Link {
 
 /// A lane: one operator connection, one request at a time; connects again after a
 /// failure.
-fn serve_lane(config: &PathBuf, rx: &mpsc::Receiver<Pending>) {
+fn serve_lane(config: &Path, rx: &mpsc::Receiver<Pending>) {
     let mut op: Option<Operator> = None;
     while let Ok(p) = rx.recv() {
         if op.is_none() {

@@ -127,7 +127,8 @@ impl Programs {
             .map_err(|_| UploadError::Io("program index poisoned".into()))?;
         index.retain(|p| p.id != program.id);
         index.push(program.clone());
-        let text = serde_json::to_vec_pretty(&*index).map_err(|e| UploadError::Io(e.to_string()))?;
+        let text =
+            serde_json::to_vec_pretty(&*index).map_err(|e| UploadError::Io(e.to_string()))?;
         let tmp = self.dir.join("index.json.tmp");
         write_file(&tmp, &text)
             .and_then(|()| std::fs::rename(&tmp, self.dir.join("index.json")))
@@ -165,9 +166,8 @@ pub fn check_text(body: &[u8], limit_bytes: u64) -> Result<(), UploadError> {
     if body.is_empty() {
         return Err(UploadError::Empty);
     }
-    let text = std::str::from_utf8(body).map_err(|e| {
-        UploadError::NotText(format!("not UTF-8 at byte {}", e.valid_up_to()))
-    })?;
+    let text = std::str::from_utf8(body)
+        .map_err(|e| UploadError::NotText(format!("not UTF-8 at byte {}", e.valid_up_to())))?;
     if let Some((i, c)) = text
         .char_indices()
         .find(|(_, c)| c.is_control() && !matches!(c, '\t' | '\r' | '\n' | '\x0c'))
@@ -216,7 +216,10 @@ mod tests {
         assert_eq!(prog.name, "passwd.ngc");
         assert_eq!(prog.lines, 3);
         let path = p.path(&prog.id).unwrap();
-        assert_eq!(path, dir.join("web/programs").join(format!("{}.ngc", prog.id)));
+        assert_eq!(
+            path,
+            dir.join("web/programs").join(format!("{}.ngc", prog.id))
+        );
         assert_eq!(std::fs::read(&path).unwrap(), b"G0 X1\nG1 X2 F100\n");
         // ids are hashes: nothing else is named
         assert_eq!(p.path("../index.json"), None);

@@ -65,8 +65,14 @@ impl App {
         let Some(token) = self.token() else {
             return false;
         };
-        let (a, b) = (Sha256::digest(token.as_bytes()), Sha256::digest(given.as_bytes()));
-        a.iter().zip(b.iter()).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+        let (a, b) = (
+            Sha256::digest(token.as_bytes()),
+            Sha256::digest(given.as_bytes()),
+        );
+        a.iter()
+            .zip(b.iter())
+            .fold(0u8, |acc, (x, y)| acc | (x ^ y))
+            == 0
     }
 
     /// A command's request must carry the token (`Authorization: Bearer …`): 401
@@ -138,7 +144,11 @@ async fn app_js() -> Response {
 }
 
 async fn style_css() -> Response {
-    ([(header::CONTENT_TYPE, "text/css; charset=utf-8")], STYLE_CSS).into_response()
+    (
+        [(header::CONTENT_TYPE, "text/css; charset=utf-8")],
+        STYLE_CSS,
+    )
+        .into_response()
 }
 
 /// A JSON body with the right type.
@@ -186,7 +196,9 @@ async fn program_text(
     }
     match app.programs.path(&id) {
         Some(p) => match tokio::fs::read_to_string(&p).await {
-            Ok(text) => ([(header::CONTENT_TYPE, "text/plain; charset=utf-8")], text).into_response(),
+            Ok(text) => {
+                ([(header::CONTENT_TYPE, "text/plain; charset=utf-8")], text).into_response()
+            }
             Err(e) => refuse((StatusCode::INTERNAL_SERVER_ERROR, e.to_string())),
         },
         None => refuse((StatusCode::NOT_FOUND, "no such program".into())),
@@ -232,15 +244,16 @@ async fn upload(State(app): State<Arc<App>>, headers: HeaderMap, body: Body) -> 
             UploadError::TooLarge { bytes: n, limit }.to_string(),
         ));
     }
-    let bytes: Bytes = match axum::body::to_bytes(body, usize::try_from(limit).unwrap_or(usize::MAX)).await {
-        Ok(b) => b,
-        Err(_) => {
-            return refuse((
-                StatusCode::PAYLOAD_TOO_LARGE,
-                format!("the program is over the {limit} bytes the panel takes"),
-            ))
-        }
-    };
+    let bytes: Bytes =
+        match axum::body::to_bytes(body, usize::try_from(limit).unwrap_or(usize::MAX)).await {
+            Ok(b) => b,
+            Err(_) => {
+                return refuse((
+                    StatusCode::PAYLOAD_TOO_LARGE,
+                    format!("the program is over the {limit} bytes the panel takes"),
+                ))
+            }
+        };
     let name = headers
         .get("x-file-name")
         .and_then(|v| v.to_str().ok())
@@ -340,7 +353,11 @@ async fn run(State(app): State<Arc<App>>, headers: HeaderMap, body: Bytes) -> Re
 }
 
 /// The WebSocket: its origin must be this host's.
-async fn ws(State(app): State<Arc<App>>, headers: HeaderMap, upgrade: WebSocketUpgrade) -> Response {
+async fn ws(
+    State(app): State<Arc<App>>,
+    headers: HeaderMap,
+    upgrade: WebSocketUpgrade,
+) -> Response {
     if let Some(r) = cross_origin(&headers) {
         return refuse(r);
     }
@@ -400,7 +417,11 @@ async fn session(app: Arc<App>, mut socket: WebSocket) {
     let hello = json!({"t": "hello", "status_needs_token": app.status_needs_token,
         "max_upload_bytes": app.programs.limit_bytes(),
         "token_configured": app.token().is_some()});
-    if socket.send(Message::Text(hello.to_string().into())).await.is_err() {
+    if socket
+        .send(Message::Text(hello.to_string().into()))
+        .await
+        .is_err()
+    {
         return;
     }
     loop {
