@@ -585,3 +585,102 @@ fn stop_jog(app: &Arc<App>, axis: Axis) {
         }
     });
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn headers(pairs: &[(header::HeaderName, &str)]) -> HeaderMap {
+        let mut h = HeaderMap::new();
+        for (k, v) in pairs {
+            h.insert(k.clone(), v.parse().unwrap());
+        }
+        h
+    }
+
+    #[test]
+    fn another_sites_origin_is_refused_and_this_hosts_taken() {
+        let host = (header::HOST, "127.0.0.1:8080");
+        assert_eq!(
+            cross_origin(&headers(&[host.clone()])),
+            None,
+            "no Origin: not a browser's page"
+        );
+        assert_eq!(
+            cross_origin(&headers(&[
+                host.clone(),
+                (header::ORIGIN, "http://127.0.0.1:8080")
+            ])),
+            None
+        );
+        for evil in [
+            "http://evil.example",
+            "http://127.0.0.1:8081",
+            "null",
+            "http://127.0.0.1:8080.evil",
+        ] {
+            let r = cross_origin(&headers(&[host.clone(), (header::ORIGIN, evil)]));
+            assert_eq!(r.map(|r| r.0), Some(StatusCode::FORBIDDEN), "{evil}");
+        }
+        // no Host to compare with: refused
+        let r = cross_origin(&headers(&[(header::ORIGIN, "http://127.0.0.1:8080")]));
+        assert_eq!(r.map(|r| r.0), Some(StatusCode::FORBIDDEN));
+    }
+
+    #[test]
+    fn a_job_by_path_a_shutdown_and_a_continuous_jog_are_not_plain_commands() {
+        let refused = [
+            Request::SubmitJob {
+                path: "/etc/passwd".into(),
+                from_line: None,
+                adaptive_force: false,
+            },
+            Request::Shutdown,
+            Request::Jog {
+                axis: Axis::X,
+                speed_mm_per_min: 100.0,
+            },
+        ];
+        for r in &refused {
+            assert!(plain_command(r).is_err(), "{r:?}");
+        }
+        for r in [
+            Request::EStop,
+            Request::Hold,
+            Request::JogStep {
+                axis: Axis::X,
+                distance_mm: 10.0,
+            },
+            Request::Mdi {
+                blocks: "G0 X0".into(),
+            },
+        ] {
+            assert!(plain_command(&r).is_ok(), "{r:?}");
+        }
+    }
+
+    #[test]
+    fn a_page_message_reads_as_the_panel_expects() {
+        let m: FromPage =
+            serde_json::from_str(r#"{"t":"jog","axis":"x","speed_mm_per_min":-500}"#).unwrap();
+        assert!(
+            matches!(m, FromPage::Jog { axis: Axis::X, speed_mm_per_min } if speed_mm_per_min == -500.0)
+        );
+        let m: FromPage = serde_json::from_str(
+            r#"{"t":"cmd","id":7,"request":{"command":"feed_override","fraction":0.5}}"#,
+        )
+        .unwrap();
+        assert!(
+            matches!(m, FromPage::Cmd { id: 7, request: Request::FeedOverride { fraction } } if fraction == 0.5)
+        );
+        let m: FromPage =
+            serde_json::from_str(r#"{"t":"run","id":2,"program":"ab","from_line":5}"#).unwrap();
+        assert!(
+            matches!(m, FromPage::Run { id: 2, run } if run.program == "ab" && run.from_line == Some(5))
+        );
+        assert!(serde_json::from_str::<FromPage>(
+            r#"{"t":"cmd","id":1,"request":{"command":"rm"}}"#
+        )
+        .is_err());
+    }
+}
