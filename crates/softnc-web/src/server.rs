@@ -602,7 +602,7 @@ mod tests {
     fn another_sites_origin_is_refused_and_this_hosts_taken() {
         let host = (header::HOST, "127.0.0.1:8080");
         assert_eq!(
-            cross_origin(&headers(&[host.clone()])),
+            cross_origin(&headers(std::slice::from_ref(&host))),
             None,
             "no Origin: not a browser's page"
         );
