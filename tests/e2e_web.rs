@@ -435,6 +435,51 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
         )
         .await;
     }
+    // a continuous jog held on the page, then the page goes quiet (its renewals stop
+    // without a release, as a frozen tab's): the panel stops the jog
+    click(&c, "#jog-mode option[value='cont']").await;
+    let speed = c.find(Locator::Id("jog-speed")).await.unwrap();
+    speed.clear().await.unwrap();
+    speed.send_keys("600").await.unwrap();
+    c.execute(
+        "document.querySelector(\".jogb[data-axis=X][data-dir='1']\").dispatchEvent(new PointerEvent('pointerdown', {bubbles: true}));",
+        vec![],
+    )
+    .await
+    .unwrap();
+    wait_text(
+        &c,
+        "state",
+        Duration::from_secs(5),
+        "the continuous jog",
+        |t| t == "Jogging",
+    )
+    .await;
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    assert_eq!(
+        text_of(&c, "state").await,
+        "Jogging",
+        "the held jog goes on"
+    );
+    c.execute(
+        "clearInterval(S.jogTimer); S.jogTimer = null; S.jogAxis = null;",
+        vec![],
+    )
+    .await
+    .unwrap();
+    let t0 = Instant::now();
+    wait_text(
+        &c,
+        "state",
+        Duration::from_secs(2),
+        "the quiet page's jog stopped",
+        |t| t == "Idle",
+    )
+    .await;
+    eprintln!(
+        "e2e_web: the page went quiet: the jog stopped within {:?}",
+        t0.elapsed()
+    );
     // touch off X and Y at 0 where the axes stand
     for axis in ["X", "Y"] {
         click(&c, &format!("#touch-axis option[value='{axis}']")).await;
