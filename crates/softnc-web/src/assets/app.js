@@ -95,7 +95,9 @@ function log(text, bad) {
 }
 
 // ---------- status ----------
-const fmt = (v, d = 3) => (v === null || v === undefined || !isFinite(v)) ? "—" : v.toFixed(d);
+// (a value that rounds to zero reads 0.000, not -0.000)
+const fmt = (v, d = 3) => (v === null || v === undefined || !isFinite(v)) ? "—"
+  : (Math.abs(v) < 0.5 * Math.pow(10, -d) ? 0 : v).toFixed(d);
 
 function render(s) {
   const st = $("state");
