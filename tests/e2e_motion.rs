@@ -177,6 +177,35 @@ fn a_block_or_job_that_moves_nothing_holds_every_axis_on_the_loopback_drive() {
 
 /// Submit `text` as a job file (or MDI) and time it to its end: (seconds, the final
 /// status).
+/// A job that changes the tool and takes its length (`T1 M6`, `G43 H1`, as
+/// `examples/demo.ngc` does) runs a second time on the same machine: the modal
+/// state the first left (`G43.1 Z…`) does not move its start by the tool's
+/// length (found from the web panel: the second run jumped Z by 12.979 mm and
+/// tripped the following-error limit).
+#[test]
+fn a_job_with_a_tool_length_offset_runs_again_without_a_jump() {
+    let tag = "toolagain";
+    let d = Daemon::start_in(fresh_dir(tag), tag, "Lockstep", true, "default.ron", &[]);
+    let op = d.operator();
+    let text = "G21 G90\nT1 M6\nG43 H1\nG0 X5 Y5\nG1 Z-2 F600\nG0 Z5\nM2\n";
+    for run in 0..2 {
+        let job_id = run_block(&d, &op, text, true).unwrap_or_else(|e| panic!("run {run}: {e}"));
+        let s = op.status().unwrap();
+        assert!(
+            alarms_with(&s, AlarmKind::FollowingError).is_empty(),
+            "run {run}: {:?}",
+            s.alarms
+        );
+        // every traced cycle's command within one cycle's travel of the last
+        let rows = trace_rows(&d, job_id);
+        assert!(rows.len() > 100, "run {run}: {} traced cycles", rows.len());
+        for w in rows.windows(2) {
+            let step = (0..3).map(|k| (w[1][k] - w[0][k]).abs()).fold(0.0, f64::max);
+            assert!(step < 1.0, "run {run}: a step of {step} mm in the command");
+        }
+    }
+}
+
 fn timed_run(d: &Daemon, op: &Operator, text: &str, as_job: bool) -> (f64, Status) {
     let t0 = Instant::now();
     let r = if as_job {

@@ -25,13 +25,16 @@ pub fn fresh_dir(tag: &str) -> PathBuf {
 }
 
 /// The `softncd` binary: this package's own (the daemon's tests), else the one built
-/// beside `softnc` (the CLI's tests; `softnc demo` finds it there too).
+/// beside `softnc` (the CLI's tests; `softnc demo` finds it there too) or beside
+/// `softnc-web` (the web panel's test).
 pub fn softncd_bin() -> PathBuf {
     if let Some(p) = option_env!("CARGO_BIN_EXE_softncd") {
         return PathBuf::from(p);
     }
-    let cli = option_env!("CARGO_BIN_EXE_softnc").expect("a test of softnc-daemon or softnc-cli");
-    let p = Path::new(cli).with_file_name("softncd");
+    let beside = option_env!("CARGO_BIN_EXE_softnc")
+        .or(option_env!("CARGO_BIN_EXE_softnc-web"))
+        .expect("a test of softnc-daemon, softnc-cli or softnc-web");
+    let p = Path::new(beside).with_file_name("softncd");
     assert!(
         p.exists(),
         "{} is not built: `cargo build -p softnc-daemon` (scripts/test builds it)",

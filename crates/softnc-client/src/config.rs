@@ -25,6 +25,98 @@ pub struct ClientConfig {
     /// user and root operate it).
     #[serde(default)]
     pub operators: Option<OperatorsConfig>,
+    /// The data directory (relative to the file's folder as written, absolute after
+    /// [`ClientConfig::load`]; the web panel keeps its uploads there).
+    #[serde(default)]
+    pub data_dir: PathBuf,
+    /// The web operator panel `softnc-web` (`None`: off; docs/web.md).
+    #[serde(default)]
+    pub web: Option<WebConfig>,
+}
+
+/// The web operator panel `softnc-web`, which `softncd` starts and supervises when
+/// the configuration has it (docs/web.md).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WebConfig {
+    /// Address and port it listens on (default `127.0.0.1:8080`: this host only).
+    #[serde(default = "default_web_listen")]
+    pub listen: String,
+    /// The operator token's file (one line; relative to the configuration file's
+    /// folder as written, absolute after loading): every command needs it.
+    pub token_file: PathBuf,
+    /// Status, programs and history need the token too (default: readable without).
+    #[serde(default)]
+    pub status_needs_token: bool,
+    /// Largest program upload (bytes).
+    #[serde(default = "default_web_max_upload_bytes")]
+    pub max_upload_bytes: u64,
+    /// How often the live status goes to each page (Hz).
+    #[serde(default = "default_web_status_hz")]
+    pub status_hz: f64,
+}
+
+fn default_web_listen() -> String {
+    "127.0.0.1:8080".into()
+}
+
+fn default_web_max_upload_bytes() -> u64 {
+    8 << 20
+}
+
+fn default_web_status_hz() -> f64 {
+    25.0
+}
+
+/// The live status's rate bounds (Hz): the operator's refresh rate at least, and
+/// no more than the MMI can answer beside the other clients.
+const WEB_STATUS_HZ: std::ops::RangeInclusive<f64> = 20.0..=100.0;
+
+/// The largest upload the panel may be configured to take (bytes).
+const WEB_MAX_UPLOAD_BYTES: u64 = 64 << 20;
+
+impl WebConfig {
+    /// Check the fields (`file`: the configuration, for the error) and make the
+    /// token file's path absolute against the configuration's folder `dir`.
+    pub fn resolve(&mut self, file: &str, dir: &Path) -> Result<(), ConfigError> {
+        if self.listen.parse::<std::net::SocketAddr>().is_err() {
+            return Err(ConfigError::invalid(
+                file,
+                "web.listen",
+                format!(
+                    "{:?} is not an address and port (e.g. \"127.0.0.1:8080\")",
+                    self.listen
+                ),
+            ));
+        }
+        if self.token_file.as_os_str().is_empty() {
+            return Err(ConfigError::invalid(
+                file,
+                "web.token_file",
+                "must not be empty",
+            ));
+        }
+        if !(1..=WEB_MAX_UPLOAD_BYTES).contains(&self.max_upload_bytes) {
+            return Err(ConfigError::invalid(
+                file,
+                "web.max_upload_bytes",
+                format!("must be 1 to {WEB_MAX_UPLOAD_BYTES}"),
+            ));
+        }
+        if !WEB_STATUS_HZ.contains(&self.status_hz) {
+            return Err(ConfigError::invalid(
+                file,
+                "web.status_hz",
+                format!(
+                    "must be {} to {} Hz",
+                    WEB_STATUS_HZ.start(),
+                    WEB_STATUS_HZ.end()
+                ),
+            ));
+        }
+        self.token_file = dir.join(&self.token_file);
+        Ok(())
+    }
 }
 
 /// Who operates the controller besides its own user and root: the members of a
@@ -118,6 +210,10 @@ impl ClientConfig {
         if let Some(o) = config.operators.as_mut() {
             o.resolve(&file, &dir)?;
         }
+        if let Some(w) = config.web.as_mut() {
+            w.resolve(&file, &dir)?;
+        }
+        config.data_dir = dir.join(&config.data_dir);
         Ok(config)
     }
 

@@ -34,7 +34,7 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("backends", &["softnc-sim", "softnc-ethercat"]),
     ("experiments", &["softnc-experiments"]),
     ("processes", &["softnc-daemon"]),
-    ("command line", &["softnc-cli"]),
+    ("command line", &["softnc-cli", "softnc-web"]),
 ];
 
 /// Crates of ours that must not depend on nalgebra (directly; their own

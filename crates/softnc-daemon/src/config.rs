@@ -120,6 +120,10 @@ pub struct DaemonConfig {
     /// this user and root operate the controller; docs/operations.md, "Operators").
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub operators: Option<softnc_client::config::OperatorsConfig>,
+    /// The web operator panel `softnc-web`, started and supervised by `softncd`
+    /// (`None`, the default: off; docs/web.md).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub web: Option<softnc_client::config::WebConfig>,
 }
 
 fn default_mmi_silence_stop_s() -> f64 {
@@ -308,6 +312,8 @@ impl Loaded {
         c.data_dir = abs(&dir.join("data"));
         // a private instance: no operator gateway (the original's socket is its own)
         c.operators = None;
+        // and no web panel (its port is the original's)
+        c.web = None;
         let text = ron::ser::to_string_pretty(&c, ron::ser::PrettyConfig::default())
             .map_err(std::io::Error::other)?;
         let path = dir.join("softncd.ron");
@@ -490,6 +496,9 @@ impl DaemonConfig {
         if let Some(o) = config.operators.as_mut() {
             o.resolve(&path.display().to_string(), &dir)?;
         }
+        if let Some(w) = config.web.as_mut() {
+            w.resolve(&path.display().to_string(), &dir)?;
+        }
         let data_dir = dir.join(&config.data_dir);
         let learning_dir = softnc_learning::store_dir(
             config.learning_dir.as_ref().map(|d| dir.join(d)).as_deref(),
@@ -619,6 +628,42 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("job_record_period_s"), "{e}");
+    }
+
+    #[test]
+    fn the_web_panel_is_off_by_default_and_a_bad_field_names_its_ron_path() {
+        let l = load_edited("webdefault", &[]).unwrap();
+        assert_eq!(l.config.web, None);
+        let on = "    // web: Some((listen: \"127.0.0.1:8080\", token_file: \"web-token\")),";
+        let l = load_edited(
+            "webon",
+            &[(on, "    web: Some((token_file: \"web-token\")),")],
+        )
+        .unwrap();
+        let w = l.config.web.unwrap();
+        assert_eq!(w.listen, "127.0.0.1:8080");
+        assert!(w.token_file.is_absolute() && w.token_file.ends_with("web-token"));
+        assert!(!w.status_needs_token);
+        assert_eq!(w.max_upload_bytes, 8 << 20);
+        assert_eq!(w.status_hz, 25.0);
+        for (field, value) in [
+            ("listen", "\"localhost\""),
+            ("status_hz", "5.0"),
+            ("max_upload_bytes", "0"),
+        ] {
+            let edit = format!("    web: Some((token_file: \"t\", {field}: {value})),");
+            let e = load_edited("webbad", &[(on, edit.as_str())])
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(&format!("web.{field}")), "{e}");
+        }
+        let e = load_edited(
+            "webunknown",
+            &[(on, "    web: Some((token_file: \"t\", port: 80)),")],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("port"), "{e}");
     }
 
     #[test]

@@ -8,6 +8,11 @@
 //!   process only on the operator's `reset`.
 //! - `softnc-mmi` exits: motion continues; the supervisor restarts the MMI, which
 //!   reattaches to the running job.
+//! - `softnc-web` (the web operator panel, when the configuration has `web`) exits:
+//!   nothing else is touched (it is an operator client of the MMI, outside the
+//!   real-time path); it is restarted with the same back-off, and past the limit left
+//!   down with an alarm, the machine not faulted. It sends no heartbeat: only its
+//!   exit is watched. Its alarms are `Other` (not a running job's).
 //! - Every death is a `ProcessLost` alarm and every restart a `ProcessRestarted`
 //!   one; the alarm service keeps the last alarms (its history) and the supervisor
 //!   delivers them to every new subscriber as it appears, so a restarted MMI learns
@@ -40,6 +45,9 @@ use std::time::{Duration, Instant};
 /// How often the supervisor looks at its children.
 const WATCH_PERIOD: Duration = Duration::from_millis(20);
 
+/// The web operator panel's binary.
+const WEB_PANEL: &str = "softnc-web";
+
 struct Proc {
     name: &'static str,
     id: ProcessId,
@@ -58,6 +66,8 @@ struct Proc {
     given_up: bool,
     /// Started at least once: the next start is a restart.
     started_once: bool,
+    /// The web panel: no heartbeat, its death faults nothing (module docs).
+    panel: bool,
 }
 
 /// The supervisor.
@@ -118,13 +128,21 @@ impl Supervisor {
             started_once: false,
             restart_at: None,
             given_up: false,
+            panel: false,
         };
+        let mut procs = vec![
+            p("softnc-mmi", ProcessId::Mmi),
+            p("softnc-position", ProcessId::Position),
+            p("softnc-interp", ProcessId::Interp),
+        ];
+        if cfg.config.web.is_some() {
+            procs.push(Proc {
+                panel: true,
+                ..p(WEB_PANEL, ProcessId::Supervisor)
+            });
+        }
         Ok(Supervisor {
-            procs: vec![
-                p("softnc-mmi", ProcessId::Mmi),
-                p("softnc-position", ProcessId::Position),
-                p("softnc-interp", ProcessId::Interp),
-            ],
+            procs,
             control_sub: bus.control_subscriber()?,
             control_pub: bus.control_publisher()?,
             heartbeats: bus.heartbeat_subscriber()?,
@@ -143,7 +161,25 @@ impl Supervisor {
         })
     }
 
+    /// Start process `i`; the web panel's failure to start is an alarm (it is left
+    /// down until `reset`), not the supervisor's error.
     fn spawn(&mut self, i: usize) -> Result<()> {
+        match self.spawn_process(i) {
+            Err(e) if self.procs[i].panel => {
+                self.procs[i].given_up = true;
+                self.alarm(
+                    AlarmCode::Other,
+                    ProcessId::Supervisor,
+                    0,
+                    &format!("{WEB_PANEL} not started: {e:#}"),
+                );
+                Ok(())
+            }
+            r => r,
+        }
+    }
+
+    fn spawn_process(&mut self, i: usize) -> Result<()> {
         let exe = self.bin_dir.join(self.procs[i].name);
         let mut cmd = Command::new(&exe);
         cmd.arg("--config").arg(&self.cfg.path);
@@ -165,8 +201,13 @@ impl Supervisor {
         p.restart_at = None;
         if restart {
             let (name, id) = (p.name, p.id);
+            let code = if p.panel {
+                AlarmCode::Other
+            } else {
+                AlarmCode::ProcessRestarted
+            };
             self.alarm(
-                AlarmCode::ProcessRestarted,
+                code,
                 id,
                 pid,
                 &format!("{name} started again (pid {pid}) after it was lost"),
@@ -243,7 +284,7 @@ impl Supervisor {
             if reset {
                 self.reset()?;
             }
-            if !ready && self.procs.iter().all(|p| p.last_hb.is_some()) {
+            if !ready && self.procs.iter().all(|p| p.panel || p.last_hb.is_some()) {
                 ready = true;
                 self.notify.send("READY=1");
                 tracing::info!("all processes up");
@@ -286,7 +327,7 @@ impl Supervisor {
             if let Some(c) = p.child.as_mut() {
                 if let Some(status) = c.try_wait().ok().flatten() {
                     died = Some(status.to_string());
-                } else {
+                } else if !p.panel {
                     let silent_since = p.last_hb.unwrap_or(p.started);
                     if silent_since.elapsed() > watchdog {
                         let _ = c.kill();
@@ -336,6 +377,13 @@ impl Supervisor {
             return;
         }
         let sv = self.cfg.config.supervisor;
+        let panel = self.procs[i].panel;
+        // the panel's death concerns no job and faults nothing
+        let (code, job) = if panel {
+            (AlarmCode::Other, 0)
+        } else {
+            (AlarmCode::ProcessLost, job)
+        };
         let window = Duration::from_secs_f64(sv.restart_window_s);
         let now = Instant::now();
         let p = &mut self.procs[i];
@@ -349,14 +397,19 @@ impl Supervisor {
         if p.restarts.len() >= sv.restart_limit as usize {
             p.given_up = true;
             let n = p.restarts.len();
-            self.faulted = true;
+            let consequence = if panel {
+                "reset to try again (the machine runs on)"
+            } else {
+                self.faulted = true;
+                "machine faulted, reset to try again"
+            };
             self.job_alarm(
-                AlarmCode::ProcessLost,
+                code,
                 id,
                 pid,
                 job,
                 &format!(
-                    "{name} exited ({how}) after {n} restarts within {:.0} s: not restarted; machine faulted, reset to try again",
+                    "{name} exited ({how}) after {n} restarts within {:.0} s: not restarted; {consequence}",
                     sv.restart_window_s
                 ),
             );
@@ -367,7 +420,7 @@ impl Supervisor {
         p.restarts.push_back(now);
         p.restart_at = Some(now + Duration::from_secs_f64(delay_s));
         self.job_alarm(
-            AlarmCode::ProcessLost,
+            code,
             id,
             pid,
             job,
@@ -378,6 +431,14 @@ impl Supervisor {
     /// The operator's reset: the position process (after a fault) and any process
     /// given up on are started again.
     fn reset(&mut self) -> Result<()> {
+        if let Some(i) = self.procs.iter().position(|p| p.panel && p.given_up) {
+            let p = &mut self.procs[i];
+            p.given_up = false;
+            p.restarts.clear();
+            if p.child.is_none() {
+                self.spawn(i)?;
+            }
+        }
         if !self.faulted {
             return Ok(());
         }

@@ -664,6 +664,15 @@ impl<'a> Interp<'a> {
         self.offset_mm
     }
 
+    /// G43, G43.1, G43.2, G49: the tool length offset becomes `len_mm` (`s`: mm
+    /// per program unit); the current point moves the other way so that the tool
+    /// stands where it stood (`convert_tool_length_offset`). The point a tool
+    /// change re-reads (`canon_pos`) stays, as in rs274's stand-alone canon.
+    fn tool_length_changes(&mut self, len_mm: f64, s: f64) {
+        self.pos[2] -= (len_mm - self.tool_length_mm) / s;
+        self.tool_length_mm = len_mm;
+    }
+
     /// A tool's length (mm) as LinuxCNC's `find_tool_index` finds it: tool 0 is the
     /// tool in the spindle.
     fn tool_length(&self, tool: i32, off: u32) -> R<f64> {
@@ -1307,8 +1316,7 @@ impl<'a> Interp<'a> {
                     Some(h) => self.tool_length(h as i32, b.off(b'H'))?,
                     None => self.spindle_length_mm,
                 };
-                self.pos[2] -= (len - self.tool_length_mm) / s;
-                self.tool_length_mm = len;
+                self.tool_length_changes(len, s);
                 self.tool_offset_on = true;
                 self.refresh_offset();
             }
@@ -1339,14 +1347,12 @@ impl<'a> Interp<'a> {
                         }
                     }
                 }
-                self.pos[2] -= (len - self.tool_length_mm) / s;
-                self.tool_length_mm = len;
+                self.tool_length_changes(len, s);
                 self.tool_offset_on = true;
                 self.refresh_offset();
             }
             Some(490) => {
-                self.pos[2] += self.tool_length_mm / s;
-                self.tool_length_mm = 0.0;
+                self.tool_length_changes(0.0, s);
                 self.tool_offset_on = false;
                 self.refresh_offset();
             }
@@ -2530,6 +2536,13 @@ fn read_source<'t>(
             it.run_preamble(l).map_err(|e| pre_err(i, l, e))?;
         }
         it.motions.truncate(before);
+        // the interpreter synchronised with the machine at the start: the point a
+        // tool change re-reads is where the machine stands, in the frame of the
+        // offsets the modal state set (LinuxCNC's `synch` reads the machine's
+        // position less the origin and the tool length offset in force). Else a
+        // job after one that left `G43.1 Z…` and starting with an M6 jumps by the
+        // tool length.
+        it.canon_pos = it.pos;
     }
     it.start_machine_mm = it.machine_pos();
     let bytes: &'t [u8] = match main_text {

@@ -355,3 +355,37 @@ fn the_modal_state_a_program_leaves_is_where_the_next_one_starts() {
     let e = read("G0 X1\nM2\n", &bad).unwrap_err();
     assert!(e.to_string().contains("modal state"), "{e}");
 }
+
+/// A job after one that left a tool length offset in force (the modal state says
+/// `G43.1 Z…` or `T1 M6 G43`) starts where the machine stands: its first move
+/// starts at the machine position, not one offset away (found from the web panel:
+/// a second job after `examples/demo.ngc` jumped Z by the tool's length and
+/// tripped the following-error limit).
+#[test]
+fn a_job_after_a_tool_length_offset_starts_where_the_machine_stands() {
+    let at = Vec3([3.0, 4.0, 50.0]);
+    let (first, _) = read("%\nT1 M6\nG43 H1\nG0 Z60\n%\n", &ReadOptions::default()).unwrap();
+    for preamble in [first.end_modal.clone(), "G43.1 Z12.9794\n".to_string()] {
+        let options = ReadOptions {
+            preamble: Some(preamble.clone()),
+            start_mm: Some(at),
+            ..Default::default()
+        };
+        let (next, _) = read("G1 X10 F600\nM2\n", &options).unwrap();
+        let m = &next.motions[0];
+        let start = m.start + m.offset_mm;
+        assert!(close(start, at), "after {preamble:?}: starts at {start:?}");
+        // and it moves X only
+        let end = m.kind.end().unwrap() + m.offset_mm;
+        assert!(close(end, Vec3([10.0, 4.0, 50.0])), "after {preamble:?}: ends at {end:?}");
+        // the same with the demo's own tool change and offset again first
+        let (next, _) = read("T1 M6\nG43 H1\nG0 X10\nM2\n", &options).unwrap();
+        let m = next
+            .motions
+            .iter()
+            .find(|m| matches!(m.kind, MotionKind::Traverse { .. }))
+            .unwrap();
+        let start = m.start + m.offset_mm;
+        assert!(close(start, at), "after {preamble:?}, T1 M6 G43 H1: starts at {start:?}");
+    }
+}
