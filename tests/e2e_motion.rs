@@ -200,7 +200,9 @@ fn a_job_with_a_tool_length_offset_runs_again_without_a_jump() {
         let rows = trace_rows(&d, job_id);
         assert!(rows.len() > 100, "run {run}: {} traced cycles", rows.len());
         for w in rows.windows(2) {
-            let step = (0..3).map(|k| (w[1][k] - w[0][k]).abs()).fold(0.0, f64::max);
+            let step = (0..3)
+                .map(|k| (w[1][k] - w[0][k]).abs())
+                .fold(0.0, f64::max);
             assert!(step < 1.0, "run {run}: a step of {step} mm in the command");
         }
     }

@@ -377,7 +377,10 @@ fn a_job_after_a_tool_length_offset_starts_where_the_machine_stands() {
         assert!(close(start, at), "after {preamble:?}: starts at {start:?}");
         // and it moves X only
         let end = m.kind.end().unwrap() + m.offset_mm;
-        assert!(close(end, Vec3([10.0, 4.0, 50.0])), "after {preamble:?}: ends at {end:?}");
+        assert!(
+            close(end, Vec3([10.0, 4.0, 50.0])),
+            "after {preamble:?}: ends at {end:?}"
+        );
         // the same with the demo's own tool change and offset again first
         let (next, _) = read("T1 M6\nG43 H1\nG0 X10\nM2\n", &options).unwrap();
         let m = next
@@ -386,6 +389,9 @@ fn a_job_after_a_tool_length_offset_starts_where_the_machine_stands() {
             .find(|m| matches!(m.kind, MotionKind::Traverse { .. }))
             .unwrap();
         let start = m.start + m.offset_mm;
-        assert!(close(start, at), "after {preamble:?}, T1 M6 G43 H1: starts at {start:?}");
+        assert!(
+            close(start, at),
+            "after {preamble:?}, T1 M6 G43 H1: starts at {start:?}"
+        );
     }
 }
