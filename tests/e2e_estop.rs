@@ -563,7 +563,7 @@ fn reset_and_on_after_an_estop_move_no_axis_and_the_trace_has_every_cycle() {
     // the statuses from the E-stop, through the reset and the switch-on, to a
     // while after it: the command never changes, the axes never move
     let mut statuses = vec![s];
-    let mut watch = |for_s: f64, statuses: &mut Vec<Status>| {
+    let watch = |for_s: f64, statuses: &mut Vec<Status>| {
         let t0 = Instant::now();
         while t0.elapsed().as_secs_f64() < for_s {
             statuses.push(op.status().unwrap());
