@@ -63,16 +63,9 @@ fn square_job(dir: &Path) -> PathBuf {
 
 /// The job's planned samples (mm per axis), as the interpolator makes them.
 fn planned_samples(job: &Path, machine: &Path) -> Vec<[f64; 3]> {
-    let profile = softnc_machine::MachineProfile::load(machine).unwrap();
-    let text = std::fs::read_to_string(job).unwrap();
-    let options = softnc_planner::PlanOptions {
-        wait_at_machine_stops: true,
-        ..Default::default()
-    };
-    let program = softnc_gcode::read_program(&text, &job.display().to_string(), &profile).unwrap();
-    let plan = softnc_planner::plan(&program, &profile, &options).unwrap();
-    let (seq, heard) =
-        softnc_daemon::plan_samples::sim_machine(&program, &profile, &options, daemon_lookahead());
+    let JobPlan {
+        plan, seq, heard, ..
+    } = job_plan(job, machine);
     softnc_daemon::plan_samples::PlanSamples::with_machine(plan.interpolator(), seq, heard)
         .map(|s| [s.pos_mm.0[0], s.pos_mm.0[1], s.pos_mm.0[2]])
         .collect()

@@ -491,13 +491,24 @@ pub fn simulator_trace(job: &Path, machine: &Path, out: &Path) {
     simulator_trace_learned(job, machine, out, None)
 }
 
-/// [`simulator_trace`] with the learning store `learned` applied as `softnc sim
-/// --learned --store DIR` applies it.
-pub fn simulator_trace_learned(job: &Path, machine: &Path, out: &Path, learned: Option<&Path>) {
+/// A job as the daemon's interpolation process plans it on `machine`: its plan and
+/// its machine sequencer, whose stops wait for the machine heard as late as the
+/// daemon's interpolation process hears it (its lookahead).
+pub struct JobPlan {
+    /// The machine profile.
+    pub profile: softnc_machine::MachineProfile,
+    /// The plan.
+    pub plan: softnc_planner::Plan,
+    /// The machine sequencer.
+    pub seq: softnc_planner::machine_sequencer::MachineSequencer,
+    /// What the sequencer hears of the machine.
+    pub heard: std::rc::Rc<std::cell::RefCell<softnc_planner::machine_sequencer::FeedbackHistory>>,
+}
+
+/// [`JobPlan`] of `job` on `machine`.
+pub fn job_plan(job: &Path, machine: &Path) -> JobPlan {
     let profile = softnc_machine::MachineProfile::load(machine).unwrap();
     let text = std::fs::read_to_string(job).unwrap();
-    // the machine stops wait for the simulated machine, heard as late as the
-    // daemon's interpolation process hears it (its lookahead)
     let options = softnc_planner::PlanOptions {
         wait_at_machine_stops: true,
         ..Default::default()
@@ -506,6 +517,23 @@ pub fn simulator_trace_learned(job: &Path, machine: &Path, out: &Path, learned: 
     let plan = softnc_planner::plan(&program, &profile, &options).unwrap();
     let (seq, heard) =
         softnc_daemon::plan_samples::sim_machine(&program, &profile, &options, daemon_lookahead());
+    JobPlan {
+        profile,
+        plan,
+        seq,
+        heard,
+    }
+}
+
+/// [`simulator_trace`] with the learning store `learned` applied as `softnc sim
+/// --learned --store DIR` applies it.
+pub fn simulator_trace_learned(job: &Path, machine: &Path, out: &Path, learned: Option<&Path>) {
+    let JobPlan {
+        profile,
+        plan,
+        seq,
+        heard,
+    } = job_plan(job, machine);
     let mut engine = softnc_sim::simulated_engine(
         &profile,
         profile.servo.seed,

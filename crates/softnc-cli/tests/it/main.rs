@@ -40,6 +40,27 @@ pub fn sim_json(file: &std::path::Path, extra: &[&str]) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
+/// `softnc plan FILE --canon`: its motions, one JSON object each (the test fails
+/// with softnc's stderr if it does not succeed).
+pub fn plan_canon(file: &std::path::Path) -> Vec<serde_json::Value> {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_softnc"))
+        .arg("plan")
+        .arg(file)
+        .arg("--canon")
+        .output()
+        .expect("softnc runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter(|l| l.trim_start().starts_with('{'))
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
 /// The tests that start a controller, a bus emulator or a learning run take turns
 /// (as when each file was its own binary, run one after another): a loaded machine
 /// makes real-time jobs late.

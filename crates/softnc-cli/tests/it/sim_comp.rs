@@ -7,7 +7,6 @@
 //! cut) — and `softnc sim` runs it on the simulated machine.
 
 use std::path::PathBuf;
-use std::process::Command;
 
 use crate::repo;
 
@@ -56,21 +55,8 @@ fn softnc_plans_and_simulates_the_compensation_example_as_rs274_reads_it() {
         .unwrap(),
     );
     assert_eq!(want.len(), 50);
-    let out = Command::new(env!("CARGO_BIN_EXE_softnc"))
-        .arg("plan")
-        .arg(&example)
-        .arg("--canon")
-        .output()
-        .expect("softnc runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let got: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .filter(|l| l.trim_start().starts_with('{'))
-        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+    let got: Vec<serde_json::Value> = crate::plan_canon(&example)
+        .into_iter()
         .filter(|v| matches!(v["kind"].as_str(), Some("traverse" | "feed" | "arc")))
         .collect();
     assert_eq!(got.len(), want.len(), "{got:#?}");

@@ -4,7 +4,6 @@
 //! dwells (six G82 holes of P0.5: three seconds of the run).
 
 use std::path::Path;
-use std::process::Command;
 
 use crate::{repo, sim_json};
 
@@ -18,24 +17,9 @@ fn softnc_sim_runs_the_drilling_example_with_its_dwells() {
     let drill = repo().join("examples/drill.ngc");
     // `softnc plan --canon`: the cycles expanded as rs274 expands them (109
     // STRAIGHT_TRAVERSE/STRAIGHT_FEED calls, 6 DWELLs)
-    let out = Command::new(env!("CARGO_BIN_EXE_softnc"))
-        .arg("plan")
-        .arg(&drill)
-        .arg("--canon")
-        .output()
-        .expect("softnc runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let kinds: Vec<String> = String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .filter(|l| l.trim_start().starts_with('{'))
-        .map(|l| {
-            let v: serde_json::Value = serde_json::from_str(l).unwrap();
-            v["kind"].as_str().unwrap_or("").to_string()
-        })
+    let kinds: Vec<String> = crate::plan_canon(&drill)
+        .iter()
+        .map(|v| v["kind"].as_str().unwrap_or("").to_string())
         .collect();
     let moves = kinds
         .iter()
