@@ -725,15 +725,15 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
     .await;
     assert!(history.contains("demo.ngc"), "{history}");
 
-    // MDI from the page: cancel the tool length offset the job left in force (a job
-    // started with the previous job's `G43.1 Z…` in the modal state is E-stopped on a
-    // Z following error the size of the offset: a controller bug outside the panel,
-    // reported with this branch)
+    // MDI from the page: a modal block, done and kept in the page's MDI history (the
+    // tool length offset the job left stays in force: the second run starts with
+    // the previous job's `G43.1 Z…` in its modal state, which once E-stopped it on a
+    // Z following error the size of the offset)
     click(&c, ".tab[data-view=manual]").await;
     c.find(Locator::Id("mdi"))
         .await
         .unwrap()
-        .send_keys("G49")
+        .send_keys("G54")
         .await
         .unwrap();
     click(&c, "#btn-mdi").await;
@@ -750,7 +750,7 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
         "mdi-history",
         Duration::from_secs(2),
         "the MDI history",
-        |t| t.contains("G49"),
+        |t| t.contains("G54"),
     )
     .await;
     wait_text(&c, "state", Duration::from_secs(10), "the MDI done", |t| {

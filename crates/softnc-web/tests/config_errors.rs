@@ -23,6 +23,20 @@ fn start(config: &Path) -> (Option<i32>, String) {
     )
 }
 
+/// `from`'s files and folders, copied into `to`.
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let dest = to.join(e.file_name());
+        if e.file_type().unwrap().is_dir() {
+            copy_dir(&e.path(), &dest);
+        } else {
+            std::fs::copy(e.path(), dest).unwrap();
+        }
+    }
+}
+
 #[test]
 fn a_configuration_it_cannot_serve_is_refused_with_the_reason() {
     let dir = std::env::temp_dir().join(format!("softnc-web-config-{}", std::process::id()));
@@ -33,7 +47,9 @@ fn a_configuration_it_cannot_serve_is_refused_with_the_reason() {
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("no `web` section"), "{err}");
     // a bad listen address and a status rate out of range, each by its RON path
-    // (written beside the shipped file's others, relative paths as there)
+    // (in a copy of the shipped folder: its relative paths resolve as there)
+    let config = dir.join("config");
+    copy_dir(&repo().join("config"), &config);
     let last = shipped.rfind(')').expect("a RON struct");
     for (web, path) in [
         (
@@ -45,11 +61,10 @@ fn a_configuration_it_cannot_serve_is_refused_with_the_reason() {
             "web.status_hz",
         ),
     ] {
-        let file = repo().join(format!("config/.bad-web-{}.ron", std::process::id()));
+        let file = config.join("bad.ron");
         let text = format!("{}    {web}\n{}", &shipped[..last], &shipped[last..]);
         std::fs::write(&file, text).unwrap();
         let (code, err) = start(&file);
-        std::fs::remove_file(&file).ok();
         assert_eq!(code, Some(2), "{web}: {err}");
         assert!(err.contains(path), "{web}: {err}");
     }
