@@ -207,10 +207,14 @@ impl Func {
                 x.ln()
             }
             Round => {
-                // (double)(int)(x ± 0.5): C truncation toward zero, saturating here
-                // where C would be undefined
-                let r = x + if x < 0.0 { -0.5 } else { 0.5 };
-                f64::from(r.clamp(i32::MIN as f64, i32::MAX as f64) as i32)
+                // (double)(int)(x ± 0.5): C truncation toward zero; out of range,
+                // x86's cvttsd2si gives its "integer indefinite", INT_MIN
+                let r = (x + if x < 0.0 { -0.5 } else { 0.5 }).trunc();
+                if (f64::from(i32::MIN)..=f64::from(i32::MAX)).contains(&r) {
+                    f64::from(r as i32)
+                } else {
+                    f64::from(i32::MIN)
+                }
             }
             Sin => crate::x87::sin_deg(x),
             Sqrt => {
@@ -627,7 +631,8 @@ mod tests {
             ("#<x>", 7.0),
             ("#<X>", 7.0),
             ("-#1", -2.0),
-            ("sin[30]", 0.49999999999999994),
+            // sinl of the long double argument, stored: 0.5 exactly, as in LinuxCNC
+            ("sin[30]", 0.5),
             ("atan[1]/[1]", 45.0),
             ("round[-2.5]", -3.0),
             ("fix[-2.5]", -3.0),

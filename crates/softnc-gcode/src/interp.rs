@@ -2775,7 +2775,7 @@ fn read_source<'t>(
             } else if it.ctl.skipping.is_some() {
                 // only O-lines count while skipping; nothing else on a line is read
                 jump = it
-                    .skip_line(raw, &mut norm, &mut line, &pc)
+                    .skip_line(raw, &mut norm, &mut block, &mut line, &mut sets, &pc)
                     .map_err(|x| err_in(src_name, line_no, raw, x))?;
             } else {
                 // each word goes into the block as it is read: words before a lexing

@@ -8,8 +8,11 @@
 //! `SIN[180]`, `COS[ATAN[-1]/[0]]`) even in sign, which comparisons (`LT 0`) then
 //! show. This module rounds as the x87 unit does (64-bit mantissa, nearest-even)
 //! with exact integer arithmetic; `cosl`, `sinl`, `tanl` of the 64-bit argument
-//! are taken to first order around its `double` part, which gives their sign and
-//! their value to about 13 digits also where they vanish.
+//! are computed in double-double (106 bits) and rounded to 64 bits, then to 53.
+//! Compared with glibc's over 27,882 arguments (whole, half and 1–4-decimal
+//! degrees, random reals): SIN and COS agree in every bit, TAN in all but 7
+//! (glibc's `tanl` is not correctly rounded: at 271° it is 0.60 of its last
+//! 64-bit bit off). `tests/golden/x87_vs_glibc.sh` compares them again.
 
 /// 2^64 as a `double`.
 const TWO_POW_64: f64 = 18_446_744_073_709_551_616.0;
@@ -191,17 +194,26 @@ const SIN_COS_SETS: usize = 128;
 /// 2^64 / φ, odd: an angle's (folded) bits times it, top bits, pick its set.
 const SIN_COS_HASH: u64 = 0x9e37_79b9_7f4a_7c15;
 
-/// [`sin_cos`] computed.
+/// [`sin_cos`] computed: `sinl` and `cosl` of the 64-bit argument, each rounded
+/// to 64 bits and then to a `double` as the x87 unit stores it.
 fn sin_cos_uncached(x: f64) -> (f64, f64) {
-    let (hi, lo) = deg_to_rad(x);
-    let (s, c) = hi.sin_cos();
-    if lo.abs() < 1e-9 {
-        (c.mul_add(lo, s), (-s).mul_add(lo, c))
-    } else {
-        let (sl, cl) = lo.sin_cos();
-        (s * cl + c * sl, c * cl - s * sl)
+    if x == 0.0 {
+        return (x, 1.0); // sinl(±0) = ±0
     }
+    let (hi, lo) = deg_to_rad(x);
+    if hi.abs() < DD_REDUCE_MAX_RAD {
+        let (s, c) = dd::sin_cos(hi, lo);
+        return (dd::stored(s), dd::stored(c));
+    }
+    // a huge argument (over 10^6 turns): to first order, by the addition theorem
+    let (s, c) = hi.sin_cos();
+    let (sl, cl) = lo.sin_cos();
+    (s * cl + c * sl, c * cl - s * sl)
 }
+
+/// Below this argument (rad) the reduction by π/2 in [`dd`] is exact enough
+/// (k·π/2 with π/2 to 160 bits).
+const DD_REDUCE_MAX_RAD: f64 = 1e7;
 
 /// `cos((x * M_PIl) / 180.0)` as LinuxCNC computes it (`cosl`), as a `double`.
 pub fn cos_deg(x: f64) -> f64 {
@@ -215,15 +227,147 @@ pub fn sin_deg(x: f64) -> f64 {
 
 /// `tan((x * M_PIl) / 180.0)` (`tanl`).
 pub fn tan_deg(x: f64) -> f64 {
+    if x == 0.0 {
+        return x;
+    }
     let (hi, lo) = deg_to_rad(x);
-    let c = hi.cos();
-    if c.abs() > 1e-8 && lo.abs() < 1e-9 {
-        let t = hi.tan();
-        t.mul_add(t, 1.0).mul_add(lo, t)
-    } else {
-        // near a pole, or a huge argument: sinl / cosl
-        let (s, c) = sin_cos(x);
-        s / c
+    if hi.abs() < DD_REDUCE_MAX_RAD {
+        let (s, c) = dd::sin_cos(hi, lo);
+        return dd::stored(dd::div(s, c));
+    }
+    let (s, c) = sin_cos(x);
+    s / c
+}
+
+/// Double-double arithmetic (`hi + lo`, about 106 bits) for `sinl`, `cosl` and
+/// `tanl` of a 64-bit argument: reduced by π/2 (to 160 bits), Taylor series,
+/// then rounded as the x87 unit rounds (to 64 bits, then to 53 on a store).
+mod dd {
+    /// `hi + lo`, `|lo| ≤ ulp(hi) / 2`.
+    pub type Dd = (f64, f64);
+
+    /// π/2 as three `double`s (their sum to 160 bits).
+    const PIO2: [f64; 3] = [
+        f64::from_bits(0x3ff9_21fb_5444_2d18),
+        f64::from_bits(0x3c91_a626_3314_5c07),
+        f64::from_bits(0xb91f_1976_b7ed_8fbc),
+    ];
+
+    /// The Taylor series' last term: r^29/29! < 2^-110 for |r| ≤ π/4.
+    const TAYLOR_LAST: u32 = 29;
+
+    fn two_sum(a: f64, b: f64) -> Dd {
+        let s = a + b;
+        let bb = s - a;
+        (s, (a - (s - bb)) + (b - bb))
+    }
+
+    fn add(a: Dd, b: Dd) -> Dd {
+        let (s, e) = two_sum(a.0, b.0);
+        let (t, f) = two_sum(a.1, b.1);
+        let (s, e) = two_sum(s, e + t);
+        two_sum(s, e + f)
+    }
+
+    fn mul(a: Dd, b: Dd) -> Dd {
+        let p = a.0 * b.0;
+        let e = a.0.mul_add(b.0, -p);
+        two_sum(p, e + (a.0 * b.1 + a.1 * b.0))
+    }
+
+    fn div_f64(a: Dd, d: f64) -> Dd {
+        let q = a.0 / d;
+        // a - q·d, exactly in its leading part
+        let p = q * d;
+        let e = q.mul_add(d, -p);
+        let r = ((a.0 - p) - e + a.1) / d;
+        two_sum(q, r)
+    }
+
+    /// `a / b`.
+    pub fn div(a: Dd, b: Dd) -> Dd {
+        let q = a.0 / b.0;
+        let r = add(a, neg(mul((q, 0.0), b)));
+        let q2 = r.0 / b.0;
+        let r = add(r, neg(mul((q2, 0.0), b)));
+        let q3 = r.0 / b.0;
+        add(two_sum(q, q2), (q3, 0.0))
+    }
+
+    fn neg(a: Dd) -> Dd {
+        (-a.0, -a.1)
+    }
+
+    /// `sin` and `cos` of `hi + lo` (|hi| < 10^7).
+    pub fn sin_cos(hi: f64, lo: f64) -> (Dd, Dd) {
+        let k = (hi / PIO2[0]).round();
+        // r = hi + lo - k·π/2, each product exact (fma)
+        let mut r = (hi, 0.0);
+        for p in PIO2 {
+            let m = k * p;
+            r = add(r, (-m, -k.mul_add(p, -m)));
+        }
+        let r = add(r, (lo, 0.0));
+        let r2 = mul(r, r);
+        let (mut s, mut st) = (r, r);
+        let (mut c, mut ct) = ((1.0, 0.0), (1.0, 0.0));
+        let mut n = 2;
+        while n < TAYLOR_LAST {
+            // ct: r^n / n!, st: r^(n+1) / (n+1)!, the sign alternating
+            ct = neg(div_f64(mul(ct, r2), f64::from((n - 1) * n)));
+            st = neg(div_f64(mul(st, r2), f64::from(n * (n + 1))));
+            c = add(c, ct);
+            s = add(s, st);
+            n += 2;
+        }
+        match (k as i64).rem_euclid(4) {
+            0 => (s, c),
+            1 => (c, neg(s)),
+            2 => (neg(s), neg(c)),
+            _ => (neg(c), s),
+        }
+    }
+
+    /// The `double` an x87 result `v` is stored as: rounded to a 64-bit mantissa,
+    /// then to 53 bits, each nearest-even.
+    pub fn stored(v: Dd) -> f64 {
+        let (hi, lo) = v;
+        if hi == 0.0 || !hi.is_finite() {
+            return hi + lo;
+        }
+        let negative = hi < 0.0;
+        let (hi, lo) = if negative { (-hi, -lo) } else { (hi, lo) };
+        let (m, e) = super::split(hi);
+        // hi + lo = m·2^e + lo, exactly as v·2^exp (plus a sticky rest below)
+        const SPAN: i32 = 74;
+        let (v, exp, sticky) = if lo == 0.0 {
+            (u128::from(m), e, false)
+        } else {
+            let (l, f) = super::split(lo);
+            let shift = e - f;
+            if shift <= SPAN {
+                let big = u128::from(m) << shift;
+                let v = if lo > 0.0 {
+                    big + u128::from(l)
+                } else {
+                    big - u128::from(l)
+                };
+                (v, f, false)
+            } else {
+                let big = u128::from(m) << SPAN;
+                if lo > 0.0 {
+                    (big, e - SPAN, true)
+                } else {
+                    (big - 1, e - SPAN, true)
+                }
+            }
+        };
+        let r = super::round64(v, exp, sticky).to_f64_parts().0;
+        if negative {
+            -r
+        } else {
+            r
+        }
     }
 }
 
@@ -414,6 +558,82 @@ mod tests {
             assert_eq!(rad_to_deg(x.atan2(7.0)), want, "{x}");
         }
         assert_eq!(rad_to_deg((-1f64).atan2(0.0)), -90.0);
+    }
+
+    #[test]
+    fn sinl_cosl_tanl_bits_as_glibc_gives_them() {
+        // sinl, cosl, tanl of (x * M_PIl) / 180.0 stored in a double, printed with
+        // %a by a C program compiled with gcc on x86-64 (glibc 2.36); a first-order
+        // correction in double arithmetic differed in the last bit for each
+        for (x, s, c, t) in [
+            (
+                30.0,
+                0x3fe0_0000_0000_0000,
+                0x3feb_b67a_e858_4caa,
+                0x3fe2_79a7_4590_331c,
+            ),
+            (
+                -720.0,
+                0xbc0d_9cce_ba3f_91f2,
+                0x3ff0_0000_0000_0000,
+                0xbc0d_9cce_ba3f_91f2,
+            ),
+            (
+                -718.0,
+                0x3fa1_de58_c9f7_dc27,
+                0x3fef_fb02_78bf_0567,
+                0x3fa1_e122_95d6_1fc2,
+            ),
+            (
+                -716.0,
+                0x3fb1_db8f_6d6a_5128,
+                0x3fef_ec0b_7170_fff6,
+                0x3fb1_e6b9_3a69_3204,
+            ),
+            (
+                -713.0,
+                0x3fbf_32d4_4c4f_62d3,
+                0x3fef_c2f0_25a2_3e8b,
+                0x3fbf_6ecf_1988_1d31,
+            ),
+            (
+                -711.0,
+                0x3fc4_060b_67a8_5375,
+                0x3fef_9b24_942f_e45c,
+                0x3fc4_45f0_fbb1_cf92,
+            ),
+            (
+                -705.0,
+                0x3fd0_907d_c193_0690,
+                0x3fee_e8dd_4748_bf15,
+                0x3fd1_2614_5e9e_cd56,
+            ),
+            (
+                -702.0,
+                0x3fd3_c6ef_372f_e950,
+                0x3fee_6f0e_1344_54ff,
+                0x3fd4_cb7b_fb49_61af,
+            ),
+            (
+                123.456,
+                0x3fea_b2a9_b25a_9ab9,
+                0xbfe1_a438_70d3_71f9,
+                0xbff8_36b7_ec21_6d45,
+            ),
+            (
+                0.1,
+                0x3f5c_9870_1025_eb20,
+                0x3fef_fffc_ce4c_8e64,
+                0x3f5c_9872_eada_7b64,
+            ),
+        ] {
+            assert_eq!(sin_deg(x).to_bits(), s, "SIN[{x}]");
+            assert_eq!(cos_deg(x).to_bits(), c, "COS[{x}]");
+            assert_eq!(tan_deg(x).to_bits(), t, "TAN[{x}]");
+        }
+        // FIX[SIN[30] * 2] is 1 in LinuxCNC
+        assert_eq!((sin_deg(30.0) * 2.0).floor(), 1.0);
+        assert_eq!(sin_deg(-0.0).to_bits(), (-0.0f64).to_bits());
     }
 
     #[test]

@@ -69,6 +69,14 @@ struct Label {
     repeat_count: i64,
 }
 
+/// What [`Interp::read_head`] read.
+enum Head {
+    /// An O-line (or none, skipped): nothing more on the line is read.
+    Done(Option<OLine>),
+    /// The words start at this offset.
+    Items(usize),
+}
+
 /// One call level (LinuxCNC `context`).
 #[derive(Debug, Clone)]
 struct Frame {
@@ -238,7 +246,7 @@ impl Interp<'_> {
             "_inverse_time" => b(self.inverse_time),
             "_units_per_minute" => b(!self.inverse_time),
             "_units_per_rev" => b(false),
-            "_coord_system" => Some(if self.coord < 7 {
+            "_coord_system" => Some(if self.coord < 6 {
                 530.0 + 10.0 * (self.coord + 1) as f64
             } else {
                 584.0 + (self.coord + 1) as f64
@@ -308,7 +316,9 @@ impl Interp<'_> {
         &mut self,
         raw: &str,
         norm: &mut Norm,
+        block: &mut Block,
         line: &mut Line,
+        sets: &mut Vec<Setting>,
         pc: &Pc,
     ) -> R<Jump> {
         let sig = significant(raw.as_bytes());
@@ -323,30 +333,22 @@ impl Interp<'_> {
         {
             return Ok(Jump::Percent);
         }
-        if !sig.iter().any(|c| matches!(c, b'o' | b'O')) {
+        // read_items reads the N word, M98 (its P and L) and M99 and the O-word on
+        // every line; a line with none of these letters has nothing to read
+        if !sig
+            .iter()
+            .any(|c| matches!(c.to_ascii_lowercase(), b'o' | b'n' | b'm'))
+        {
             return Ok(Jump::Next);
         }
         norm.build(sig);
-        let mut i = 0;
-        if norm.b.first() == Some(&b'/') {
-            i += 1;
-        }
-        if norm.b.get(i) == Some(&b'n') {
-            i += 1;
-            while norm
-                .b
-                .get(i)
-                .is_some_and(|c| c.is_ascii_digit() || *c == b'.')
-            {
-                i += 1;
-            }
-        }
-        if norm.b.get(i) != Some(&b'o') {
-            return Ok(Jump::Next);
-        }
-        match self.read_o(norm, &mut i, line)? {
-            Some(o) => self.control(&o, pc),
-            None => Ok(Jump::Next),
+        block.clear();
+        let head = self.read_head(norm, block, line, sets);
+        // the assignments of a skipped line are never made
+        sets.clear();
+        match head? {
+            Head::Done(Some(o)) => self.control(&o, pc),
+            Head::Done(None) | Head::Items(_) => Ok(Jump::Next),
         }
     }
 
@@ -499,20 +501,18 @@ impl Interp<'_> {
         Ok(o)
     }
 
-    /// `read_items` for a line the fast lexer hands over (parameters, expressions,
-    /// O-words): words go into `block` in order, assignments into `sets`, the
-    /// comment into `line`. Returns the O-line, if it is one.
-    #[allow(clippy::too_many_lines)]
-    pub(super) fn read_items_slow(
+    /// The head of `read_items`: the block delete slash, the N word, then an O-line
+    /// (`o…`, `M98`, `M99` at a call level) read whole, or where the words start.
+    /// LinuxCNC reads it on every line, also on one being skipped.
+    fn read_head(
         &self,
         norm: &Norm,
         block: &mut Block,
         line: &mut Line,
         sets: &mut Vec<Setting>,
-    ) -> R<Option<OLine>> {
+    ) -> R<Head> {
         let b = &norm.b[..];
         let raw = |i: usize| norm.raw(i);
-        let re = |(i, k): (usize, ErrorKind)| (norm.raw(i), k);
         let mut i = 0;
         if b.first() == Some(&b'/') {
             i += 1;
@@ -540,7 +540,11 @@ impl Interp<'_> {
         if b.get(i) == Some(&b'm') {
             let mut r = Reader::new(b, i + 1, self);
             match r.integer_value() {
-                Ok(98) => return self.read_m98(norm, i, block, line, sets).map(Some),
+                Ok(98) => {
+                    return self
+                        .read_m98(norm, i, block, line, sets)
+                        .map(|o| Head::Done(Some(o)))
+                }
                 Ok(99) if self.ctl.level() > 0 => {
                     if self.ctl.defining_sub {
                         return bad(raw(i), "Found 'M99' instead of 'O endsub' after 'O sub'");
@@ -550,21 +554,41 @@ impl Interp<'_> {
                         .frames
                         .last()
                         .map_or_else(|| self.intern(""), |f| f.sub_name.clone());
-                    return Ok(Some(OLine {
+                    return Ok(Head::Done(Some(OLine {
                         kind: OKind::M99,
                         name,
                         value: None,
                         at: raw(i),
                         repeat: None,
-                    }));
+                    })));
                 }
                 _ => {}
             }
         }
         if b.get(i) == Some(&b'o') {
-            let o = self.read_o(norm, &mut i, line)?;
-            return Ok(o);
+            return self.read_o(norm, &mut i, line).map(Head::Done);
         }
+        Ok(Head::Items(i))
+    }
+
+    /// `read_items` for a line the fast lexer hands over (parameters, expressions,
+    /// O-words): words go into `block` in order, assignments into `sets`, the
+    /// comment into `line`. Returns the O-line, if it is one.
+    #[allow(clippy::too_many_lines)]
+    pub(super) fn read_items_slow(
+        &self,
+        norm: &Norm,
+        block: &mut Block,
+        line: &mut Line,
+        sets: &mut Vec<Setting>,
+    ) -> R<Option<OLine>> {
+        let b = &norm.b[..];
+        let raw = |i: usize| norm.raw(i);
+        let re = |(i, k): (usize, ErrorKind)| (norm.raw(i), k);
+        let mut i = match self.read_head(norm, block, line, sets)? {
+            Head::Done(o) => return Ok(o),
+            Head::Items(i) => i,
+        };
         // a kept line read whole the first time: its items are recorded (an `M`
         // first may be M99, which reads as an O-line at a call level: not recorded)
         let recording =
@@ -1066,6 +1090,26 @@ impl Interp<'_> {
         self.ctl.labels.insert(label_key(&o.name), label);
     }
 
+    /// `control_save_offset` for a `sub` line: a name recorded before is an error,
+    /// "illegal location" when it was this very line (a definition after a forward
+    /// call to it, or inside a loop), "redefining sub" otherwise.
+    fn save_sub_label(&mut self, o: &OLine, pc: &Pc) -> R<()> {
+        if let Some(l) = self.ctl.labels.get(&label_key(&o.name)) {
+            let here = l.file == pc.file && l.pos == pc.pos;
+            let why = if here {
+                format!("sub: o<{}> found in illegal location", o.name)
+            } else {
+                format!(
+                    "redefining sub: o<{}> already defined in line {}",
+                    o.name, l.line_no
+                )
+            };
+            return bad(o.at, why);
+        }
+        self.save_label(o, pc);
+        Ok(())
+    }
+
     fn back_to(&self, name: &Name) -> Option<Jump> {
         self.ctl
             .labels
@@ -1127,13 +1171,13 @@ impl Interp<'_> {
                     );
                 }
                 if self.ctl.skipping.is_some() {
-                    self.save_label(o, pc);
+                    self.save_sub_label(o, pc)?;
                     self.ctl.skipping = None;
                 }
                 self.ctl.skipping_to_sub = None;
                 if self.ctl.level() == 0 {
                     // a definition: remember it, skip to its end
-                    self.save_label(o, pc);
+                    self.save_sub_label(o, pc)?;
                     self.ctl.skipping = Some(o.name.clone());
                     self.ctl.skipping_start = pc.line_no;
                     self.ctl.defining_sub = true;
@@ -1163,8 +1207,14 @@ impl Interp<'_> {
                         ),
                     );
                 }
+                if o.kind != OKind::M99 {
+                    // read_o: every endsub or return read sets them, even in a
+                    // definition being skipped; a call does not clear them
+                    self.ctl.return_value = test;
+                    self.ctl.value_returned = o.value.is_some();
+                }
                 if self.ctl.level() == 0 {
-                    // in a definition: its endsub ends it, a return changes nothing
+                    // in a definition: its endsub ends it, a return changes nothing else
                     if o.kind == OKind::EndSub {
                         self.ctl.defining_sub = false;
                         self.ctl.sub_name = None;
@@ -1175,8 +1225,10 @@ impl Interp<'_> {
                 if o.kind == OKind::EndSub {
                     self.ctl.skipping = None;
                 }
-                self.ctl.return_value = test;
-                self.ctl.value_returned = o.value.is_some();
+                if o.kind == OKind::M99 {
+                    self.ctl.return_value = 0.0;
+                    self.ctl.value_returned = false;
+                }
                 let from = self.ctl.level();
                 let Some(frame) = self.ctl.frames.pop() else {
                     return Ok(Jump::Next);
@@ -1234,8 +1286,6 @@ impl Interp<'_> {
                     m98,
                 });
                 self.enter_modal();
-                self.ctl.return_value = 0.0;
-                self.ctl.value_returned = false;
                 if let Some(j) = self.back_to(&o.name) {
                     return Ok(j);
                 }

@@ -833,3 +833,78 @@ fn polar_coordinates_as_linuxcnc() {
         assert_eq!(error(text).kind.to_string(), msg, "{text}");
     }
 }
+
+/// The differences a differential test against `rs274` found, each with its
+/// minimal program; the expected values are what `rs274` printed.
+#[test]
+fn differences_once_found_against_rs274() {
+    let debug = |text: &str| read(text).warnings;
+    // #<_coord_system> of G59.1 is 591 (G59.2, G59.3: 592, 593)
+    assert_eq!(
+        debug("G59.1\n(DEBUG, #<_coord_system>)\nG59.3\n(DEBUG, #<_coord_system>)\nM2\n"),
+        vec!["t.ngc:2: debug:  591.000000", "t.ngc:4: debug:  593.000000"]
+    );
+    // SIN in long double: SIN[30] is 0.5 exactly, so FIX[SIN[30] * 2] is 1
+    assert_eq!(xs("#1 = FIX[SIN[30] * 2]\nG0 X#1\nM2\n"), vec![1.0]);
+    // ROUND out of int's range: x86's integer indefinite, INT_MIN
+    assert_eq!(
+        debug("#1 = ROUND[3000000000]\n(DEBUG, #1)\n#2 = ROUND[-0.2]\n(DEBUG, #2)\nM2\n"),
+        vec![
+            "t.ngc:2: debug:  -2147483648.000000",
+            "t.ngc:4: debug:  0.000000"
+        ]
+    );
+    // a subroutine defined twice
+    assert_eq!(
+        error("o<s> sub\no<s> endsub\no<s> sub\no<s> endsub\nM2\n")
+            .kind
+            .to_string(),
+        "redefining sub: o<s> already defined in line 1"
+    );
+    // a definition after a forward call to it, or inside a loop
+    let e = error("o<s> call\no<s> sub\no<s> endsub\nM2\n");
+    assert_eq!(
+        (e.line, e.kind.to_string().as_str()),
+        (2, "sub: o<s> found in illegal location")
+    );
+    let e =
+        error("#1=0\no<l> while [#1 LT 2]\no<s> sub\no<s> endsub\n#1=[#1+1]\no<l> endwhile\nM2\n");
+    assert_eq!(
+        (e.line, e.kind.to_string().as_str()),
+        (3, "sub: o<s> found in illegal location")
+    );
+    // #<_value> is set by every endsub/return read (also in a definition being
+    // skipped) and not cleared by a call
+    assert_eq!(
+        debug("o<s> sub\n(DEBUG, v=#<_value> r=#<_value_returned>)\no<s> endsub [7]\no<s> call\no<s> call\nM2\n"),
+        vec![
+            "t.ngc:2: debug:  v=7.000000 r=1.000000",
+            "t.ngc:2: debug:  v=7.000000 r=1.000000"
+        ]
+    );
+    assert_eq!(
+        debug("o<s> sub\no<s> endsub [5]\no<s> call\no<t> sub\no<t> return [2]\no<t> endsub\n(DEBUG, v=#<_value> r=#<_value_returned>)\nM2\n"),
+        vec!["t.ngc:7: debug:  v=0.000000 r=0.000000"]
+    );
+    // a label being skipped to another leaves them alone
+    assert_eq!(
+        debug("o<s> sub\no<s> endsub [5]\no<i> if [0]\no<s> endsub [9]\no<i> endif\n(DEBUG, v=#<_value>)\nM2\n"),
+        vec!["t.ngc:6: debug:  v=5.000000"]
+    );
+    // the N word and M98 are read on a line being skipped too
+    let e = error("o<i> if [0]\nM98\no<i> endif\nM2\n");
+    assert_eq!(
+        (e.line, e.kind.to_string().as_str()),
+        (2, "Found 'm98' code with no P-word")
+    );
+    let e = error("o<i> if [0]\nNX G0 X1\no<i> endif\nM2\n");
+    assert_eq!(
+        (e.line, e.kind.to_string().as_str()),
+        (2, "Bad format unsigned integer")
+    );
+    // what LinuxCNC accepts there stays accepted
+    assert_eq!(
+        xs("o<i> if [0]\nN1.5 G0 X1\nG0 X[1/0]\n#1=[1/0]\no<i> endif\nG0 X2\nM2\n"),
+        vec![2.0]
+    );
+}
