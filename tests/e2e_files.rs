@@ -366,3 +366,58 @@ fn job_history_on_a_read_only_disk_is_an_alarm_and_is_written_once_writable() {
     let (ok, msg) = submit_within(&d, &abs(&short_job(&d.dir)), Duration::from_secs(20));
     assert!(ok, "{msg}");
 }
+
+#[test]
+fn a_jobs_log_files_are_written_in_the_log_folder_only_once_it_is_accepted() {
+    let d = Daemon::start_edited(
+        "gcodelogs",
+        "Lockstep",
+        &[(
+            "check_timeout_s: 60.0",
+            "check_timeout_s: 60.0, gcode_log_dir: Some(\"gcode-logs\")",
+        )],
+    );
+    let op = d.operator();
+    let logs = d.dir.join("gcode-logs");
+    let shop = d.dir.join("shop");
+    // a probing-style report: a loop's values into a log file, then a move
+    let job = program(
+        &shop,
+        "report.ngc",
+        "G21 G90\n(LOGOPEN,holes.txt)\n#1=0\no10 while [#1 LT 3]\n(LOG,hole #1 at X[#1*10])\n#1=[#1+1]\no10 endwhile\n(LOGCLOSE)\n(LOG,not logged)\nG1 X5 F600\nM2\n",
+    );
+    let (ok, msg) = submit_within(&d, &abs(&job), Duration::from_secs(20));
+    assert!(ok, "{msg}");
+    let id = op.jobs().unwrap()[0].job_id;
+    let s = d.wait_job(&op, id, Duration::from_secs(60));
+    assert_eq!(job_of(&s).outcome, Outcome::Completed, "{s}");
+    assert_eq!(
+        std::fs::read_to_string(logs.join("holes.txt")).unwrap(),
+        "hole 0.000000 at X[0.000000*10]\nhole 1.000000 at X[1.000000*10]\nhole 2.000000 at X[2.000000*10]\n"
+    );
+    // a name that leaves the folder: refused at its line, nothing written anywhere
+    let escape = program(
+        &shop,
+        "escape.ngc",
+        "G21\n(LOGOPEN,../escaped.txt)\n(LOG,x)\nM2\n",
+    );
+    let (ok, msg) = submit_within(&d, &abs(&escape), Duration::from_secs(20));
+    assert!(
+        !ok && msg.contains("escape.ngc:2:") && msg.contains("plain file name"),
+        "{msg}"
+    );
+    assert!(!d.dir.join("escaped.txt").exists());
+    // a program refused further on writes no log file
+    let late = program(
+        &shop,
+        "late.ngc",
+        "G21\n(LOGOPEN,late.txt)\n(LOG,first)\nG1 X[1/0] F100\nM2\n",
+    );
+    let (ok, msg) = submit_within(&d, &abs(&late), Duration::from_secs(20));
+    assert!(!ok && msg.contains("late.ngc:4:"), "{msg}");
+    assert!(
+        !logs.join("late.txt").exists(),
+        "a refused job wrote its log"
+    );
+    a_later_job_runs(&d, &op);
+}

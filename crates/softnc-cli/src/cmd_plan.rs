@@ -42,12 +42,20 @@ pub struct PlanArgs {
     /// executable file, else the program is refused where it uses it.
     #[arg(long, value_name = "DIR")]
     user_m_codes: Option<PathBuf>,
+    /// The folder the program's `(LOGOPEN,name)`/`(LOGAPPEND,name)` log files are
+    /// written into once it is read and planned (a name is a plain file name
+    /// there); without it such a program is refused as unsupported.
+    #[arg(long, value_name = "DIR")]
+    log_dir: Option<PathBuf>,
 }
 
 impl PlanArgs {
     /// Whether reading needs more than the plain reader (parameters, search path).
     fn needs_options(&self) -> bool {
-        self.params.is_some() || !self.subroutine_path.is_empty() || self.user_m_codes.is_some()
+        self.params.is_some()
+            || !self.subroutine_path.is_empty()
+            || self.user_m_codes.is_some()
+            || self.log_dir.is_some()
     }
 }
 
@@ -89,6 +97,7 @@ fn read_file_with(args: &PlanArgs, machine: &MachineProfile) -> Result<Result<Pr
         subroutine_path: args.subroutine_path.clone(),
         params,
         user_m_codes: args.user_m_codes.clone(),
+        log_files: args.log_dir.is_some(),
         // the canonical reading is rs274's: M66's #5399 as its stand-alone
         // interpreter leaves it
         m66_results: if args.canon {
@@ -145,6 +154,17 @@ pub fn run(args: PlanArgs) -> Result<ExitCode> {
             return Ok(ExitCode::from(crate::EXIT_REFUSED));
         }
     };
+    // the program is accepted: its log files are written
+    if let Some(dir) = &args.log_dir {
+        if let Err(e) = softnc_gcode::log_files::write(dir, &program.log_files) {
+            eprintln!(
+                "softnc: cannot write {}'s log files in {}: {e}",
+                args.file.display(),
+                dir.display()
+            );
+            return Ok(ExitCode::from(crate::EXIT_REFUSED));
+        }
+    }
     if !args.canon {
         return print_summary(&args, &program, &plan.stats());
     }

@@ -89,6 +89,13 @@ pub struct DaemonConfig {
     /// data directory (`<data_dir>/../mcodes`), when it exists.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub user_m_path: Option<PathBuf>,
+    /// The folder a program's `(LOGOPEN,name)`/`(LOGAPPEND,name)` write into
+    /// (LinuxCNC writes them where its task runs): each name a plain file name
+    /// there, written when the job is accepted, before motion. Relative to this
+    /// file; made when first written. `None` (default): such a program is refused
+    /// as unsupported.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gcode_log_dir: Option<PathBuf>,
     /// Longest a user M code may run (s): past it the executable is killed and the
     /// job stops along its path with a `MachineWait` alarm (LinuxCNC waits for
     /// it forever).
@@ -275,6 +282,8 @@ pub struct Loaded {
     pub subroutine_path: Vec<PathBuf>,
     /// The user M-code folder (`user_m_path`, or its default; it may not exist).
     pub user_m_dir: PathBuf,
+    /// The programs' log folder (`gcode_log_dir`), absolute; `None`: none.
+    pub gcode_log_dir: Option<PathBuf>,
     /// The machine profile file's bytes as loaded (the learning store's key).
     pub machine_bytes: Vec<u8>,
     /// The configuration file.
@@ -308,6 +317,7 @@ impl Loaded {
         c.learning_dir = Some(abs(&self.learning_dir));
         c.subroutine_path = self.subroutine_path.iter().map(|p| abs(p)).collect();
         c.user_m_path = self.user_m_dir.is_dir().then(|| abs(&self.user_m_dir));
+        c.gcode_log_dir = self.gcode_log_dir.clone();
         std::fs::create_dir_all(dir.join("data"))?;
         c.data_dir = abs(&dir.join("data"));
         // a private instance: no operator gateway (the original's socket is its own)
@@ -523,6 +533,7 @@ impl DaemonConfig {
                 .parent()
                 .map_or_else(|| PathBuf::from("mcodes"), |d| d.join("mcodes")),
         };
+        let gcode_log_dir = config.gcode_log_dir.as_ref().map(|p| dir.join(p));
         if !(config.user_m_timeout_s.is_finite() && config.user_m_timeout_s > 0.0) {
             return Err(bad(
                 "user_m_timeout_s",
@@ -544,6 +555,7 @@ impl DaemonConfig {
             learning_dir,
             subroutine_path,
             user_m_dir,
+            gcode_log_dir,
             machine_bytes,
             path: path.to_path_buf(),
             iceoryx2_config,

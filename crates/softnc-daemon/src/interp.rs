@@ -569,11 +569,13 @@ impl InterpTask {
             job_id,
         );
         let user_m_dir = self.cfg.user_m_dir.clone();
+        let log_files = self.cfg.gcode_log_dir.is_some();
         let checked = setup.and_then(|(machine, mut setup)| {
             setup.user_m_codes = Some(user_m_dir);
+            setup.log_files = log_files;
             check_job(path, &machine, &setup).map(|c| (machine, c))
         });
-        let (machine, (text, options, checked, _, _)) = match checked {
+        let (machine, (text, options, checked, _, _, logs)) = match checked {
             Ok(p) => p,
             Err(msg) => {
                 self.alarm(AlarmCode::JobRefused, &msg)?;
@@ -604,6 +606,18 @@ impl InterpTask {
                 return Ok(None);
             }
         };
+        // the program's log files, once it is accepted and before motion
+        if let Some(dir) = &self.cfg.gcode_log_dir {
+            if let Err(e) = softnc_gcode::log_files::write(dir, &logs) {
+                let msg = format!(
+                    "{path}: cannot write its log files in {}: {e}",
+                    dir.display()
+                );
+                self.alarm(AlarmCode::JobRefused, &msg)?;
+                self.job_id = 0;
+                return Ok(None);
+            }
+        }
         let mut job = PlannedJob {
             job_id,
             machine,
@@ -1131,17 +1145,20 @@ pub fn check_bytes(
         checked,
         program.end_modal,
         program.subroutine_files,
+        program.log_files,
     ))
 }
 
 /// A program checked: its text, the options it is planned with, the plan's figures,
-/// the modal state it leaves (G-code) and the subroutine files it took in.
+/// the modal state it leaves (G-code), the subroutine files it took in and the log
+/// files it writes.
 pub type Checked = (
     Arc<str>,
     PlanOptions,
     CheckedProgram,
     String,
     Vec<softnc_gcode::SubroutineFile>,
+    Vec<softnc_gcode::log_files::LogFile>,
 );
 
 /// Read a program (the MMI's copy) and check it as `setup` says ([`check_bytes`]);

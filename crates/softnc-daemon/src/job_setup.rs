@@ -68,6 +68,8 @@ pub struct JobSetup {
     /// How subroutine files are taken in: bounded from the folders (the check), or
     /// the files the check took in (the run).
     pub subroutines: softnc_gcode::SubroutineFiles,
+    /// `(LOGOPEN,…)` taken: the daemon has a log folder (`gcode_log_dir`).
+    pub log_files: bool,
 }
 
 impl JobSetup {
@@ -98,6 +100,7 @@ impl JobSetup {
             preamble: self.preamble.clone(),
             preamble_file: self.preamble_file.clone(),
             subroutines: self.subroutines.clone(),
+            log_files: self.log_files,
             ..Default::default()
         }
     }

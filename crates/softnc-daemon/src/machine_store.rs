@@ -211,6 +211,8 @@ impl MachineStore {
                 max_bytes: None,
                 snapshot: Some(std::sync::Arc::new(files)),
             },
+            // the interpolator's reading sets it from its configuration
+            log_files: false,
         };
         Ok((self.profile(profile)?, setup))
     }

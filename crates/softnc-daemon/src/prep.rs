@@ -373,7 +373,7 @@ fn job_primitives(
     machine: &MachineProfile,
     setup: &crate::interp::JobSetup,
 ) -> Result<(JobMotions, SpindleChanges), String> {
-    let (text, options, checked, _, _) = crate::interp::check_job(path, machine, setup)?;
+    let (text, options, checked, _, _, _) = crate::interp::check_job(path, machine, setup)?;
     let mut primitives = Vec::with_capacity(checked.motions());
     let mut lines = Vec::with_capacity(checked.motions());
     softnc_gcode::read_program_chunked_with(

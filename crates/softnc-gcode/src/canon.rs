@@ -436,4 +436,7 @@ pub struct Program {
     /// The texts of the operator messages ([`MachineOp::Message`]'s `index`), in
     /// the order read.
     pub messages: Vec<String>,
+    /// The log files the program writes (`(LOGOPEN,…)`, [`crate::log_files`]),
+    /// with [`crate::ReadOptions::log_files`]; written by the caller.
+    pub log_files: Vec<crate::log_files::LogFile>,
 }

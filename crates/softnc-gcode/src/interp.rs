@@ -497,6 +497,10 @@ struct Interp<'a> {
     start_machine_mm: Vec3,
     /// Texts of the operator messages read ([`Program::messages`]).
     messages: Vec<String>,
+    /// Whether `(LOGOPEN,…)` is taken ([`ReadOptions::log_files`]).
+    log_files_on: bool,
+    /// The log files written so far ([`crate::log_files`]).
+    log_files: crate::log_files::LogFiles,
     /// The user M-code folder ([`ReadOptions::user_m_codes`]).
     user_m: machine::UserMCodes,
     /// [`ReadOptions::m66_results`].
@@ -578,6 +582,8 @@ impl<'a> Interp<'a> {
             moves_after_start: 0,
             start_machine_mm: Vec3::ZERO,
             messages: Vec::new(),
+            log_files_on: false,
+            log_files: crate::log_files::LogFiles::default(),
             user_m: machine::UserMCodes::default(),
             m66_results: crate::M66Results::default(),
             m66_unknown_since: None,
@@ -643,6 +649,8 @@ impl<'a> Interp<'a> {
             moves_after_start: self.moves_after_start,
             start_machine_mm: self.start_machine_mm,
             messages: Vec::new(),
+            log_files_on: self.log_files_on,
+            log_files: self.log_files.clone(),
             user_m: self.user_m.clone(),
             m66_results: self.m66_results,
             m66_unknown_since: self.m66_unknown_since,
@@ -1155,18 +1163,38 @@ impl<'a> Interp<'a> {
                     .push(format!("{}:{line_no}: {what}: {shown}", self.file));
                 if let Some(kind) = kind {
                     self.push_message(line_no, kind, &expanded);
+                } else if self.log_files_on {
+                    if expanded.contains(crate::M66_RESULT_MARK) {
+                        return unsup(
+                            off,
+                            "(log,".into(),
+                            "a log line with M66's result (#5399): the value is known at the machine only",
+                        );
+                    }
+                    self.log_files.log(&expanded);
                 }
                 return Ok(());
             }
         }
-        for tag in ["logopen,", "logappend,"] {
+        for (tag, truncate) in [("logopen,", true), ("logappend,", false)] {
             if starts(tag) {
-                return unsup(
-                    off,
-                    format!("({tag}"),
-                    "writing log files from a program is not supported",
-                );
+                if !self.log_files_on {
+                    return unsup(
+                        off,
+                        format!("({tag}"),
+                        "writing log files needs a log folder (the daemon's `gcode_log_dir`, `softnc plan --log-dir`)",
+                    );
+                }
+                let name = text[tag.len()..].trim();
+                if let Some(why) = crate::log_files::name_problem(name) {
+                    return bad(off, format!("log file '{name}': {why}"));
+                }
+                self.log_files.open(name, truncate);
+                return Ok(());
             }
+        }
+        if self.log_files_on && text.trim_end().eq_ignore_ascii_case("logclose") {
+            self.log_files.close();
         }
         Ok(())
     }
@@ -2496,6 +2524,7 @@ fn read_source<'t>(
     it.optional_stop = options.optional_stop;
     it.suppress = options.from_line.is_some();
     it.user_m.dir = options.user_m_codes.clone();
+    it.log_files_on = options.log_files;
     it.m66_results = options.m66_results;
     match &options.params {
         Some(p) => it.params = p.clone(),
@@ -3119,6 +3148,7 @@ fn finish(
             end_modal,
             subroutine_files,
             messages: it.messages,
+            log_files: it.log_files.files,
         },
         it.params,
     )

@@ -16,6 +16,7 @@ pub mod error;
 pub mod expr;
 pub mod interp;
 pub mod lexer;
+pub mod log_files;
 pub mod norm;
 mod oword;
 pub mod params;
@@ -92,6 +93,11 @@ pub struct ReadOptions {
     pub user_m_codes: Option<PathBuf>,
     /// What a reading ahead does with M66's result in #5399 ([`M66Results`]).
     pub m66_results: M66Results,
+    /// `(LOGOPEN,…)` and `(LOGAPPEND,…)` are taken: the program's log files are
+    /// collected in [`Program::log_files`] for the caller to write into its log
+    /// folder ([`log_files::write`]). Off (default): they refuse the program as
+    /// unsupported.
+    pub log_files: bool,
 }
 
 /// M66 (wait for an input) puts the input's value in #5399 when the machine gets

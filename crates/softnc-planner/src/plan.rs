@@ -62,6 +62,8 @@ pub struct PlanOptions {
     pub preamble_file: Option<String>,
     /// How subroutine files are taken in ([`softnc_gcode::ReadOptions::subroutines`]).
     pub subroutines: softnc_gcode::SubroutineFiles,
+    /// `(LOGOPEN,…)` taken ([`softnc_gcode::ReadOptions::log_files`]).
+    pub log_files: bool,
 }
 
 impl PlanOptions {
@@ -80,6 +82,7 @@ impl PlanOptions {
             subroutines: self.subroutines.clone(),
             user_m_codes: self.user_m_codes.clone(),
             m66_results: self.m66_results,
+            log_files: self.log_files,
             ..Default::default()
         }
     }

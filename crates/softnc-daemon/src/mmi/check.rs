@@ -99,7 +99,7 @@ pub(super) fn check_job(
 ) -> CheckResult {
     let job = intake(path, limit).map_err(|e| e.to_string())?;
     // checked as it will be streamed: the plan's figures, never the whole plan
-    let (text, options, checked, modal, files) = check_bytes(&job.bytes, path, machine, setup)?;
+    let (text, options, checked, modal, files, _) = check_bytes(&job.bytes, path, machine, setup)?;
     // the machine around the axes as the interpolator will run it (for the status)
     let sequencer = softnc_planner::stream::stream_sequencer(
         &text,
@@ -206,6 +206,7 @@ impl MmiTask {
             },
             subroutine_path: self.cfg.subroutine_path.clone(),
             user_m_codes: Some(self.cfg.user_m_dir.clone()),
+            log_files: self.cfg.gcode_log_dir.is_some(),
             preamble: self.setup.modal.clone(),
             preamble_file: Some(self.setup.store.modal_path().display().to_string()),
             subroutines: softnc_gcode::SubroutineFiles {

@@ -908,3 +908,40 @@ fn differences_once_found_against_rs274() {
         vec![2.0]
     );
 }
+
+#[test]
+fn log_files_are_collected_with_a_log_folder_and_refused_without() {
+    let with_logs = |text: &str| {
+        let options = ReadOptions {
+            log_files: true,
+            ..Default::default()
+        };
+        softnc_gcode::read_program_with(text, "t.ngc", &profile(), &options).map(|(p, _)| p)
+    };
+    let p = with_logs(
+        "#1=2.5\n(LOGAPPEND,a.txt)\n(LOG,x=#1)\n(logopen, b.txt )\n(log,in b)\n(LOGCLOSE)\n(LOG,nowhere)\nM2\n",
+    )
+    .unwrap();
+    let files: Vec<(&str, bool, &str)> = p
+        .log_files
+        .iter()
+        .map(|f| (f.name.as_str(), f.truncate, f.text.as_str()))
+        .collect();
+    assert_eq!(
+        files,
+        vec![("a.txt", false, "x=2.500000\n"), ("b.txt", true, "in b\n")]
+    );
+    for name in ["../up.txt", "/tmp/abs.txt", "sub/dir.txt", ".."] {
+        let e = with_logs(&format!("G21\n(LOGOPEN,{name})\nM2\n")).unwrap_err();
+        assert_eq!(e.line, 2, "{e}");
+        assert!(e.kind.to_string().contains("plain file name"), "{e}");
+    }
+    // without a log folder: refused as unsupported, where it is
+    let e = error("G21\n(LOGOPEN,a.txt)\nM2\n");
+    assert!(
+        matches!(e.kind, ErrorKind::Unsupported { .. }) && e.line == 2,
+        "{e}"
+    );
+    // the reading writes nothing itself
+    assert!(!std::path::Path::new("a.txt").exists());
+}

@@ -90,6 +90,7 @@ impl Builder {
             end_modal: String::new(),
             subroutine_files: vec![],
             messages: vec![],
+            log_files: vec![],
         }
     }
 }
