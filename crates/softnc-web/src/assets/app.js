@@ -107,6 +107,7 @@ function render(s) {
   axes.forEach((a, i) => {
     $("dro-work-" + a).textContent = s.work_mm ? fmt(s.work_mm[i]) : "—";
     $("dro-mach-" + a).textContent = s.machine_mm ? fmt(s.machine_mm[i]) : "—";
+    $("dro-dtg-" + a).textContent = s.distance_to_go_mm ? fmt(s.distance_to_go_mm[i]) : "—";
     const h = $("homed-" + a);
     const homed = s.homed && s.homed[i];
     h.textContent = homed ? "●" : "○";
