@@ -79,7 +79,12 @@ pub fn read(data_dir: &Path, job_id: u64) -> Result<JobTrace, TraceError> {
                 path: shown,
             })
         }
-        Err(source) => return Err(TraceError::Io { path: shown, source }),
+        Err(source) => {
+            return Err(TraceError::Io {
+                path: shown,
+                source,
+            })
+        }
     };
     parse(&text, job_id, &shown)
 }
@@ -115,7 +120,10 @@ pub fn parse(text: &str, job_id: u64, file: &str) -> Result<JobTrace, TraceError
         }
         let cells: Vec<&str> = line.split(',').collect();
         if cells.len() != COLUMNS {
-            return Err(bad(k + 1, format!("{} columns, not {COLUMNS}", cells.len())));
+            return Err(bad(
+                k + 1,
+                format!("{} columns, not {COLUMNS}", cells.len()),
+            ));
         }
         let num = |i: usize| -> Result<f64, TraceError> {
             cells[i]
@@ -207,7 +215,10 @@ mod tests {
         assert!(e.starts_with("t.csv:2: not a trace row"), "{e}");
         let dir = std::env::temp_dir().join(format!("softnc-web-trace-{}", std::process::id()));
         let e = read(&dir, 9).unwrap_err().to_string();
-        assert!(e.contains("no trace of job 9") && e.contains("trace: true"), "{e}");
+        assert!(
+            e.contains("no trace of job 9") && e.contains("trace: true"),
+            "{e}"
+        );
     }
 
     /// The trace files' header.
