@@ -7,6 +7,12 @@
 //! picks the restarted panel up without a reload; the job goes on), hold and read
 //! `Held` within 200 ms, resume, complete with the accuracy report; E-stop a second
 //! run. Screenshots at 1024×600 and 1920×1080 into `target/`, checked non-blank.
+//! Also: the DRO's distance to go during a jog step and the job; the job's history
+//! entry opened, its trace's contour/following-error plot drawn with the accuracy
+//! report's figures (a third screenshot, `target/web-history-1024x600.png`); G54 X set
+//! in the offsets form and read on the DRO; single block, step, block delete and
+//! optional stop from the page on a small program; `status_needs_token` (the panel
+//! restarted with it: even the status 401 without the token).
 //! Without the token every command is refused (401/403) and the status readable; a
 //! cross-origin WebSocket, a 100 MB upload and a binary upload are refused.
 //!
@@ -167,9 +173,9 @@ async fn js(c: &Client, expr: &str) -> serde_json::Value {
     c.execute(&format!("return {expr};"), vec![]).await.unwrap()
 }
 
-/// A screenshot at `w`×`h` into `target/web-{w}x{h}.png`, checked to be the size
-/// asked and not blank (many colours, no colour over 90 % of it).
-async fn screenshot(c: &Client, w: u32, h: u32) -> PathBuf {
+/// A screenshot at `w`×`h` into `target/web-{view}{w}x{h}.png`, checked to be the
+/// size asked and not blank (many colours, no colour over 90 % of it).
+async fn screenshot(c: &Client, view: &str, w: u32, h: u32) -> PathBuf {
     // the window's outer size: resize until the page's viewport is w × h
     c.set_window_size(w, h).await.unwrap();
     for _ in 0..3 {
@@ -188,7 +194,7 @@ async fn screenshot(c: &Client, w: u32, h: u32) -> PathBuf {
     }
     tokio::time::sleep(Duration::from_millis(300)).await;
     let png_bytes = c.screenshot().await.unwrap();
-    let path = repo().join(format!("target/web-{w}x{h}.png"));
+    let path = repo().join(format!("target/web-{view}{w}x{h}.png"));
     std::fs::write(&path, &png_bytes).unwrap();
     let decoder = png::Decoder::new(std::io::Cursor::new(&png_bytes));
     let mut reader = decoder.read_info().unwrap();
@@ -781,7 +787,7 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
         job.alarms
     );
     assert!(job.accuracy.contour_max_abs_um > 0.0, "{job}");
-    screenshot(&c, 1024, 600).await;
+    screenshot(&c, "", 1024, 600).await;
     click(&c, ".tab[data-view=history]").await;
     let history = wait_text(&c, "jobs", Duration::from_secs(5), "the job history", |t| {
         t.contains("completed")
@@ -844,6 +850,7 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
         all > 0 && lit * 50 > all,
         "the trace plot is blank: {lit} of {all} pixels drawn"
     );
+    screenshot(&c, "history-", 1024, 600).await;
 
     // -- the work offsets edited in the page: G54 X set, read back on the DRO
     click(&c, ".tab[data-view=tables]").await;
@@ -1112,7 +1119,7 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
         |t| t.parse::<u32>().is_ok_and(|l| l > line1 + 2),
     )
     .await;
-    screenshot(&c, 1920, 1080).await;
+    screenshot(&c, "", 1920, 1080).await;
     assert_eq!(
         text_of(&c, "state").await,
         "Running",
@@ -1173,4 +1180,113 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
         assert_eq!(code, 200, "GET {path} with the token: {text}");
     }
     eprintln!("e2e_web: done in {:?}", t_start.elapsed());
+}
+
+/// Issue 33: killing `softnc-web` mid-job does not disturb the job. On a lockstep
+/// `softncd` with the panel (its trace is then bit for bit the offline simulator's,
+/// as `e2e_daemon`'s lockstep tests hold), the panel is killed while
+/// `examples/demo.ngc` runs, the supervisor starts it again and it serves again
+/// before the job ends; the job completes without an alarm about the panel and its
+/// trace is byte for byte the simulator's of the same job: the panel's death left
+/// no mark on the motion. (No browser: the page's reconnection is the browser
+/// test's.)
+#[test]
+fn killing_the_panel_mid_job_leaves_the_jobs_trace_byte_for_byte_the_simulators() {
+    let port = free_port();
+    let d = Daemon::start_in(
+        fresh_dir("webkill"),
+        "webkill",
+        "Lockstep",
+        true,
+        "default.ron",
+        &[(
+            "    check_timeout_s: 60.0,",
+            &format!(
+                "    check_timeout_s: 60.0,\n    web: Some((listen: \"127.0.0.1:{port}\", token_file: \"token\")),"
+            ),
+        )],
+    );
+    std::fs::write(d.dir.join("token"), format!("{TOKEN}\n")).unwrap();
+    let op = d.operator();
+    let serving = |what: &str| {
+        let t0 = Instant::now();
+        loop {
+            let (code, body) = http(port, "GET /api/status HTTP/1.1", b"");
+            if code == 200 && body.contains("\"link\":\"ok\"") {
+                return;
+            }
+            assert!(
+                t0.elapsed() < Duration::from_secs(20),
+                "{what}: the panel's status {code} {body}"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    };
+    serving("the panel up");
+    let job = d.dir.join("demo.ngc");
+    std::fs::copy(repo().join("examples/demo.ngc"), &job).unwrap();
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let job_id = id(&r);
+    d.wait_status(&op, Duration::from_secs(60), "the job moving", |s| {
+        s.job(job_id).is_some_and(|j| j.record.cycles > 2000)
+    });
+    let before = d.pid_of("softnc-web");
+    d.kill9("softnc-web");
+    let killed_at = job_of(&op.status().unwrap()).clone();
+    let t0 = Instant::now();
+    while d.pid_of("softnc-web").is_none() || d.pid_of("softnc-web") == before {
+        assert!(
+            t0.elapsed() < Duration::from_secs(10),
+            "softnc-web not started again"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    serving("the panel started again");
+    let back = job_of(&op.status().unwrap()).clone();
+    assert_eq!(
+        killed_at.outcome,
+        Outcome::Running,
+        "killed mid-job: {killed_at}"
+    );
+    assert_eq!(
+        back.outcome,
+        Outcome::Running,
+        "the job ended before the panel was back (not mid-job): {back}"
+    );
+    eprintln!(
+        "e2e_web: softnc-web killed at cycle {} of {} planned, serving again by cycle {}",
+        killed_at.cycles, killed_at.planned_samples, back.cycles
+    );
+    let s = d.wait_job(&op, job_id, Duration::from_secs(300));
+    let done = job_of(&s);
+    assert_eq!(done.outcome, Outcome::Completed, "{s}");
+    assert!(
+        !done.alarms.iter().any(|a| a.contains("softnc-web")),
+        "the panel's death in the job's record: {:?}",
+        done.alarms
+    );
+    let sim = d.dir.join("sim.csv");
+    simulator_trace(&job, &d.dir.join("machines/default.ron"), &sim);
+    let want = std::fs::read(&sim).unwrap();
+    assert!(want.len() > 10_000, "simulator trace too short");
+    let got = d.trace_of(job_id, want.len());
+    if got != want {
+        let (g, w) = (
+            String::from_utf8_lossy(&got),
+            String::from_utf8_lossy(&want),
+        );
+        let first = g.lines().zip(w.lines()).position(|(a, b)| a != b);
+        panic!(
+            "the daemon's trace ({} lines) differs from the simulator's ({} lines) first at line {first:?}:\n{:?}\n{:?}",
+            g.lines().count(),
+            w.lines().count(),
+            first.and_then(|i| g.lines().nth(i)),
+            first.and_then(|i| w.lines().nth(i))
+        );
+    }
+    eprintln!(
+        "e2e_web: job {job_id}'s trace, the panel killed mid-job: {} bytes, byte for byte the simulator's",
+        got.len()
+    );
 }
