@@ -155,16 +155,21 @@ pub fn parse(text: &str, job_id: u64, file: &str) -> Result<JobTrace, TraceError
             if let Some(c) = c {
                 contour = Some(contour.map_or(c.abs(), |m| m.max(c.abs())));
             }
-            for i in 0..3 {
-                fe[i] = fe[i].max(f[i].abs());
+            for (m, v) in fe.iter_mut().zip(f) {
+                *m = m.max(v.abs());
             }
         }
         out.time_s.push(bucket[0].0);
         out.cmd_mm.push(bucket[bucket.len() - 1].1);
         out.contour_um.push(contour);
-        for i in 0..3 {
-            out.following_um[i].push(fe[i]);
-            out.following_max_abs_um[i] = out.following_max_abs_um[i].max(fe[i]);
+        for ((series, max), v) in out
+            .following_um
+            .iter_mut()
+            .zip(out.following_max_abs_um.iter_mut())
+            .zip(fe)
+        {
+            series.push(v);
+            *max = max.max(v);
         }
         if let Some(c) = contour {
             out.contour_max_abs_um = out.contour_max_abs_um.max(c);

@@ -437,7 +437,7 @@ function drawTrace() {
   g.clearRect(0, 0, w, h);
   const t = S.trace;
   if (!t || !t.time_s.length) return;
-  const left = 48, right = 8, top = 8, bottom = 20;
+  const left = 54, right = 8, top = 8, bottom = 20;
   const t0 = t.time_s[0], t1 = Math.max(t.time_s[t.time_s.length - 1], t0 + 1e-3);
   const top_um = Math.max(t.contour_max_abs_um, ...t.following_max_abs_um, 1) * 1.05;
   const X = (v) => left + (v - t0) / (t1 - t0) * (w - left - right);
@@ -446,9 +446,8 @@ function drawTrace() {
   for (let k = 0; k <= 4; k++) {
     const v = top_um * k / 4;
     g.beginPath(); g.moveTo(left, Y(v)); g.lineTo(w - right, Y(v)); g.stroke();
-    g.fillText(v.toFixed(0), 4, Y(v) + 4);
+    g.fillText(v.toFixed(0) + (k === 4 ? " µm" : ""), 4, Y(v) + (k === 4 ? 10 : 4));
   }
-  g.fillText("µm", 4, top + 10);
   g.fillText(`${t0.toFixed(1)} s`, left, h - 5);
   g.fillText(`${t1.toFixed(1)} s`, w - right - 50, h - 5);
   const series = [[t.following_um[0], "#f55"], [t.following_um[1], "#5d5"], [t.following_um[2], "#59f"], [t.contour_um, "#eee"]];
