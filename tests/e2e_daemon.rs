@@ -658,6 +658,26 @@ fn feed_hold_stops_motion_within_the_ring_depth_and_resume_finishes_the_job() {
     let line = b.program_line.unwrap_or(0);
     assert!((3..=10).contains(&line), "{b}");
     assert_eq!(a.program_line, b.program_line);
+    // the distance to go: the work position and it add up to the end of that
+    // line's motion (a fresh machine: no offsets), held as running
+    let ends = [
+        [0.0, 0.0, -1.0],
+        [20.0, 0.0, -1.0],
+        [30.0, 10.0, -1.0],
+        [30.0, 30.0, -1.0],
+        [20.0, 40.0, -1.0],
+        [0.0, 40.0, -1.0],
+        [0.0, 0.0, -1.0],
+        [0.0, 0.0, 5.0],
+    ];
+    let w = b.work_mm.unwrap();
+    let to_go = b.distance_to_go_mm;
+    let end = ends[line as usize - 3];
+    assert!(
+        (0..3).all(|i| (w[i] + to_go[i] - end[i]).abs() < 1e-9),
+        "held on line {line} at {w:?} with {to_go:?} to go: not its end {end:?}"
+    );
+    assert_eq!(a.distance_to_go_mm, to_go, "{a}\n{b}");
     // at a quarter of the feed the job runs past its planned cycles while its
     // progress stays under 100 %
     op.request(&Request::FeedOverride { fraction: 0.25 })
@@ -679,6 +699,10 @@ fn feed_hold_stops_motion_within_the_ring_depth_and_resume_finishes_the_job() {
     assert_eq!(progress(&s), 1.0, "{s}");
     assert!(s.program_line.is_none(), "no line outside a job: {s}");
     assert_eq!(machine_mm(&s).to_vec(), cmd_mm(&s), "{s}");
+    let s = d.wait_status(&op, Duration::from_secs(10), "idle", |s| {
+        s.state == softnc_api::MachineState::Idle
+    });
+    assert_eq!(s.distance_to_go_mm, [0.0; 3], "nothing to go at rest: {s}");
 }
 
 #[test]

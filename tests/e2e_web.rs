@@ -7,6 +7,12 @@
 //! picks the restarted panel up without a reload; the job goes on), hold and read
 //! `Held` within 200 ms, resume, complete with the accuracy report; E-stop a second
 //! run. Screenshots at 1024×600 and 1920×1080 into `target/`, checked non-blank.
+//! Also: the DRO's distance to go during a jog step and the job; the job's history
+//! entry opened, its trace's contour/following-error plot drawn with the accuracy
+//! report's figures (a third screenshot, `target/web-history-1024x600.png`); G54 X set
+//! in the offsets form and read on the DRO; single block, step, block delete and
+//! optional stop from the page on a small program; `status_needs_token` (the panel
+//! restarted with it: even the status 401 without the token).
 //! Without the token every command is refused (401/403) and the status readable; a
 //! cross-origin WebSocket, a 100 MB upload and a binary upload are refused.
 //!
@@ -82,8 +88,11 @@ impl Drop for Driver {
 
 /// One raw HTTP/1.1 exchange (`head` without the blank line, then `body`): the status
 /// code and the response text.
+/// (0 and nothing: the panel does not take the connection.)
 fn http(port: u16, head: &str, body: &[u8]) -> (u16, String) {
-    let mut s = TcpStream::connect(("127.0.0.1", port)).unwrap();
+    let Ok(mut s) = TcpStream::connect(("127.0.0.1", port)) else {
+        return (0, String::new());
+    };
     s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
     let _ = s.write_all(
         format!("{head}\r\nHost: 127.0.0.1:{port}\r\nConnection: close\r\n\r\n").as_bytes(),
@@ -164,9 +173,9 @@ async fn js(c: &Client, expr: &str) -> serde_json::Value {
     c.execute(&format!("return {expr};"), vec![]).await.unwrap()
 }
 
-/// A screenshot at `w`×`h` into `target/web-{w}x{h}.png`, checked to be the size
-/// asked and not blank (many colours, no colour over 90 % of it).
-async fn screenshot(c: &Client, w: u32, h: u32) -> PathBuf {
+/// A screenshot at `w`×`h` into `target/web-{view}{w}x{h}.png`, checked to be the
+/// size asked and not blank (many colours, no colour over 90 % of it).
+async fn screenshot(c: &Client, view: &str, w: u32, h: u32) -> PathBuf {
     // the window's outer size: resize until the page's viewport is w × h
     c.set_window_size(w, h).await.unwrap();
     for _ in 0..3 {
@@ -185,7 +194,7 @@ async fn screenshot(c: &Client, w: u32, h: u32) -> PathBuf {
     }
     tokio::time::sleep(Duration::from_millis(300)).await;
     let png_bytes = c.screenshot().await.unwrap();
-    let path = repo().join(format!("target/web-{w}x{h}.png"));
+    let path = repo().join(format!("target/web-{view}{w}x{h}.png"));
     std::fs::write(&path, &png_bytes).unwrap();
     let decoder = png::Decoder::new(std::io::Cursor::new(&png_bytes));
     let mut reader = decoder.read_info().unwrap();
@@ -221,9 +230,13 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
     };
     let t_start = Instant::now();
     let port = free_port();
-    let d = Daemon::start_edited(
+    // (with the daemon's per-cycle traces: the history's plot reads them)
+    let d = Daemon::start_in(
+        fresh_dir("web"),
         "web",
         "Realtime",
+        true,
+        "default.ron",
         &[(
             "    check_timeout_s: 60.0,",
             &format!(
@@ -498,6 +511,32 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
     }
     click(&c, "#jog-mode option[value='10']").await;
     click(&c, ".jogb[data-axis=X][data-dir='1']").await;
+    // the distance to go on the DRO while it moves: the work position and it add
+    // up to the step's end (to the DRO's 3 decimals)
+    let t0 = Instant::now();
+    let (work_x, to_go_x) = loop {
+        let v = js(
+            &c,
+            "[document.getElementById('dro-work-x').textContent, document.getElementById('dro-dtg-x').textContent]",
+        )
+        .await;
+        let num = |k: usize| v[k].as_str().and_then(|t| t.parse::<f64>().ok());
+        if let (Some(w), Some(g)) = (num(0), num(1)) {
+            if g > 0.0 {
+                break (w, g);
+            }
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(10),
+            "no distance to go shown during the jog step: {v}"
+        );
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    };
+    assert!(
+        (work_x + to_go_x - 10.0).abs() <= 0.0015,
+        "the DRO read X {work_x} with {to_go_x} to go during the 10 mm step"
+    );
+    eprintln!("e2e_web: during the jog step the DRO read X {work_x:.3} with {to_go_x:.3} mm to go");
     wait_text(
         &c,
         "dro-work-x",
@@ -510,6 +549,16 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
         t == "Idle"
     })
     .await;
+    for a in ["x", "y", "z"] {
+        wait_text(
+            &c,
+            &format!("dro-dtg-{a}"),
+            Duration::from_secs(2),
+            "nothing to go at rest",
+            |t| t == "0.000",
+        )
+        .await;
+    }
     // back to X 0 for the program (its contour spans X -40 … 40)
     click(&c, "#jog-mode option[value='10']").await;
     click(&c, ".jogb[data-axis=X][data-dir='-1']").await;
@@ -597,6 +646,27 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
     .await;
     let trail = js(&c, "S.trail.length").await.as_u64().unwrap();
     assert!(trail > 1, "the backplot's tool trail: {trail} points");
+    // a distance to go on the DRO during the job
+    let t0 = Instant::now();
+    loop {
+        let v = js(
+            &c,
+            "['x','y','z'].map((a) => Math.abs(parseFloat(document.getElementById('dro-dtg-' + a).textContent) || 0))",
+        )
+        .await;
+        if v.as_array()
+            .unwrap()
+            .iter()
+            .any(|x| x.as_f64().unwrap_or(0.0) > 0.001)
+        {
+            break;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(10),
+            "no distance to go shown during the job: {v}"
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
     let current = js(&c, "document.querySelector('#listing li.current') ? document.querySelector('#listing li.current').textContent : ''").await;
     assert!(
         current.as_str().is_some_and(|t| !t.trim().is_empty()),
@@ -717,13 +787,131 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
         job.alarms
     );
     assert!(job.accuracy.contour_max_abs_um > 0.0, "{job}");
-    screenshot(&c, 1024, 600).await;
+    screenshot(&c, "", 1024, 600).await;
     click(&c, ".tab[data-view=history]").await;
     let history = wait_text(&c, "jobs", Duration::from_secs(5), "the job history", |t| {
         t.contains("completed")
     })
     .await;
     assert!(history.contains("demo.ngc"), "{history}");
+    // the backplot's executed path is now the job's trace, coloured by its contour
+    // error
+    let t0 = Instant::now();
+    while js(&c, "S.trailFrom").await != json!("trace") {
+        assert!(
+            t0.elapsed() < Duration::from_secs(10),
+            "the backplot did not take the job's trace"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    // the job's entry opened: its contour and following error plot from its trace,
+    // the figures the accuracy report's
+    click(&c, &format!("#jobs tr[data-job='{}']", job.job_id)).await;
+    let figures = wait_text(
+        &c,
+        "trace-figures",
+        Duration::from_secs(10),
+        "the job's trace plot",
+        |t| t.contains("contour max"),
+    )
+    .await;
+    eprintln!("e2e_web: {figures}");
+    let after = |t: &str, key: &str| -> Vec<f64> {
+        let rest = &t[t.find(key).unwrap_or_else(|| panic!("{key} in {t:?}")) + key.len()..];
+        rest.split(" µm")
+            .next()
+            .unwrap()
+            .split('/')
+            .map(|v| v.trim().parse::<f64>().unwrap_or(f64::NAN))
+            .collect()
+    };
+    let contour = after(&figures, "contour max ")[0];
+    let following = after(&figures, "following max X/Y/Z ");
+    let report = &job.accuracy;
+    assert!(
+        (contour - report.contour_max_abs_um).abs() <= 0.05 + 1e-9,
+        "the plot's contour max {contour} µm, the report's {} µm",
+        report.contour_max_abs_um
+    );
+    for (i, f) in following.iter().enumerate() {
+        assert!(
+            (f - report.following_max_abs_um[i]).abs() <= 0.05 + 1e-9,
+            "the plot's following max {following:?} µm, the report's {:?} µm",
+            report.following_max_abs_um
+        );
+    }
+    let drawn = js(
+        &c,
+        "(() => { const c = document.getElementById('trace-plot'); const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data; let n = 0; for (let k = 3; k < d.length; k += 4) if (d[k] > 0) n++; return [n, c.width * c.height]; })()",
+    )
+    .await;
+    let (lit, all) = (drawn[0].as_u64().unwrap(), drawn[1].as_u64().unwrap());
+    assert!(
+        all > 0 && lit * 50 > all,
+        "the trace plot is blank: {lit} of {all} pixels drawn"
+    );
+    screenshot(&c, "history-", 1024, 600).await;
+
+    // -- the work offsets edited in the page: G54 X set, read back on the DRO
+    click(&c, ".tab[data-view=tables]").await;
+    wait_text(
+        &c,
+        "offsets",
+        Duration::from_secs(10),
+        "the offsets table",
+        |t| t.contains("G59.3"),
+    )
+    .await;
+    let s = op.status().unwrap();
+    let machine_x = s.machine_mm.unwrap()[0];
+    let g54 = op.offsets().unwrap().systems[0].origin_mm;
+    let g54_x = machine_x - s.offsets.g92_mm[0] - s.offsets.tool_offset_mm[0] - 12.5;
+    click(&c, "#ofs-sys option[value='1']").await;
+    let x = c.find(Locator::Id("ofs-x")).await.unwrap();
+    x.clear().await.unwrap();
+    x.send_keys(&format!("{g54_x:.4}")).await.unwrap();
+    click(&c, "#btn-ofs-set").await;
+    wait_text(
+        &c,
+        "dro-work-x",
+        Duration::from_secs(20),
+        "the G54 X set in the page",
+        |t| t == "12.500",
+    )
+    .await;
+    let now = op.offsets().unwrap().systems[0].origin_mm;
+    assert!(
+        (now[0] - g54_x).abs() < 1e-3
+            && (now[1] - g54[1]).abs() < 1e-6
+            && (now[2] - g54[2]).abs() < 1e-6,
+        "G54 after the edit {now:?} (was {g54:?}, X {g54_x} asked)"
+    );
+    // back as it was (the next run's contour is where it was)
+    wait_text(
+        &c,
+        "offsets",
+        Duration::from_secs(10),
+        "the table read again",
+        |t| t.contains(&format!("{g54_x:.3}")),
+    )
+    .await;
+    let x = c.find(Locator::Id("ofs-x")).await.unwrap();
+    x.clear().await.unwrap();
+    x.send_keys(&format!("{}", g54[0])).await.unwrap();
+    click(&c, "#btn-ofs-set").await;
+    let back = format!(
+        "{:.3}",
+        machine_x - s.offsets.g92_mm[0] - s.offsets.tool_offset_mm[0] - g54[0]
+    )
+    .replace("-0.000", "0.000");
+    wait_text(
+        &c,
+        "dro-work-x",
+        Duration::from_secs(20),
+        "G54 X back",
+        |t| t == back,
+    )
+    .await;
 
     // MDI from the page: a modal block, done and kept in the page's MDI history (the
     // tool length offset the job left stays in force: the second run starts with
@@ -759,6 +947,154 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
     .await;
     click(&c, ".tab[data-view=program]").await;
 
+    // -- the program-flow switches from the page, on a small program: single block
+    // stops after each block, block delete skips the `/` line, optional stop stops
+    // at the M1 (the last two on as the controller starts)
+    let flow = d.dir.join("flow.ngc");
+    std::fs::write(
+        &flow,
+        "G21 G90 G64 P0.01\nG1 X1 Y0 F1200\n/G1 X2\nG1 X3\nG1 Y1\nM1\nG1 X4\nM2\n",
+    )
+    .unwrap();
+    for (id, on) in [
+        ("sw-delete", true),
+        ("sw-optional", true),
+        ("sw-single", false),
+    ] {
+        assert_eq!(
+            js(&c, &format!("document.getElementById('{id}').checked")).await,
+            json!(on),
+            "#{id} as the controller starts"
+        );
+    }
+    // optional stop off and on again from the page: the status follows
+    for want in [false, true] {
+        click(&c, "#sw-optional").await;
+        let t0 = Instant::now();
+        while op.status().unwrap().switches.optional_stop != want {
+            assert!(
+                t0.elapsed() < Duration::from_secs(5),
+                "optional stop {want}"
+            );
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    }
+    click(&c, "#sw-single").await;
+    let t0 = Instant::now();
+    while !op.status().unwrap().switches.single_block {
+        assert!(t0.elapsed() < Duration::from_secs(5), "single block on");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    c.find(Locator::Id("file"))
+        .await
+        .unwrap()
+        .send_keys(&flow.display().to_string())
+        .await
+        .unwrap();
+    click(&c, "#btn-upload").await;
+    wait_text(
+        &c,
+        "programs",
+        Duration::from_secs(10),
+        "the small program listed",
+        |t| t.contains("flow.ngc"),
+    )
+    .await;
+    let t0 = Instant::now();
+    while js(&c, "S.plan ? S.plan.length : 0").await != json!(5) {
+        assert!(
+            t0.elapsed() < Duration::from_secs(5),
+            "the small program selected"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    click(&c, "#btn-run").await;
+    // paused at each block's end: the first block, then (stepped) the next one run,
+    // X3 (block delete: the `/G1 X2` was not)
+    let paused_at = |x: &'static str| {
+        let c = c.clone();
+        async move {
+            wait_text(&c, "state", Duration::from_secs(30), "a pause", |t| {
+                t == "Paused"
+            })
+            .await;
+            wait_text(
+                &c,
+                "dro-work-x",
+                Duration::from_secs(5),
+                "paused at the block's end",
+                |t| t == x,
+            )
+            .await;
+            tokio::time::sleep(Duration::from_millis(300)).await;
+            assert_eq!(text_of(&c, "state").await, "Paused", "standing at X {x}");
+            assert_eq!(text_of(&c, "dro-work-x").await, x, "standing at X {x}");
+        }
+    };
+    paused_at("1.000").await;
+    assert_eq!(text_of(&c, "line").await, "2", "single block after line 2");
+    click(&c, "#btn-step").await;
+    paused_at("3.000").await;
+    assert_eq!(
+        text_of(&c, "line").await,
+        "4",
+        "stepped to line 4's end, line 3 (`/`) skipped"
+    );
+    // single block off, resume: line 5 runs, the optional stop at the M1 (line 6)
+    click(&c, "#sw-single").await;
+    let t0 = Instant::now();
+    while op.status().unwrap().switches.single_block {
+        assert!(t0.elapsed() < Duration::from_secs(5), "single block off");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    click(&c, "#btn-resume").await;
+    wait_text(&c, "line", Duration::from_secs(10), "the M1", |t| t == "6").await;
+    paused_at("3.000").await;
+    assert_eq!(
+        text_of(&c, "dro-work-y").await,
+        "1.000",
+        "line 5 run before the M1"
+    );
+    click(&c, "#btn-resume").await;
+    wait_text(
+        &c,
+        "progress",
+        Duration::from_secs(30),
+        "the small program done",
+        |t| t.contains("completed"),
+    )
+    .await;
+    assert_eq!(
+        text_of(&c, "dro-work-x").await,
+        "4.000",
+        "the program's end"
+    );
+    wait_text(&c, "state", Duration::from_secs(10), "idle", |t| {
+        t == "Idle"
+    })
+    .await;
+    eprintln!("e2e_web: single block, step, block delete and optional stop from the page: paused at X 1 and 3 (line 3 skipped), the M1 after line 5, done at X 4");
+    // the demo selected again for the second run
+    c.execute(
+        "[...document.querySelectorAll('#programs li')].find((li) => li.textContent.includes('demo.ngc')).click();",
+        vec![],
+    )
+    .await
+    .unwrap();
+    let t0 = Instant::now();
+    while js(&c, "S.plan ? S.plan.length : 0")
+        .await
+        .as_u64()
+        .unwrap_or(0)
+        <= 5
+    {
+        assert!(
+            t0.elapsed() < Duration::from_secs(5),
+            "the demo selected again"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+
     // -- a second run, E-stopped from the page
     click(&c, "#btn-run").await;
     wait_text(
@@ -783,7 +1119,7 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
         |t| t.parse::<u32>().is_ok_and(|l| l > line1 + 2),
     )
     .await;
-    screenshot(&c, 1920, 1080).await;
+    screenshot(&c, "", 1920, 1080).await;
     assert_eq!(
         text_of(&c, "state").await,
         "Running",
@@ -804,5 +1140,153 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
     );
     let _ = c.close().await;
     drop(driver);
+
+    // -- `status_needs_token`: the panel started again with it reads nothing
+    // without the token (401), with it the status
+    let cfg = std::fs::read_to_string(&d.config).unwrap();
+    let edited = cfg.replace(
+        "token_file: \"token\")",
+        "token_file: \"token\", status_needs_token: true)",
+    );
+    assert_ne!(cfg, edited, "the web section in {}", d.config.display());
+    std::fs::write(&d.config, edited).unwrap();
+    let before = d.pid_of("softnc-web");
+    d.kill9("softnc-web");
+    let t0 = Instant::now();
+    loop {
+        let (code, _) = http(port, "GET /api/status HTTP/1.1", b"");
+        if code == 401 && d.pid_of("softnc-web") != before {
+            break;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(20),
+            "the status with status_needs_token: {code}"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    for path in [
+        "/api/status",
+        "/api/jobs",
+        "/api/programs",
+        &format!("/api/jobs/{}/trace", job.job_id),
+    ] {
+        let (code, text) = http(port, &format!("GET {path} HTTP/1.1"), b"");
+        assert_eq!(code, 401, "GET {path} without the token: {text}");
+        let (code, text) = http(
+            port,
+            &format!("GET {path} HTTP/1.1\r\nAuthorization: Bearer {TOKEN}"),
+            b"",
+        );
+        assert_eq!(code, 200, "GET {path} with the token: {text}");
+    }
     eprintln!("e2e_web: done in {:?}", t_start.elapsed());
+}
+
+/// Issue 33: killing `softnc-web` mid-job does not disturb the job. On a lockstep
+/// `softncd` with the panel (its trace is then bit for bit the offline simulator's,
+/// as `e2e_daemon`'s lockstep tests hold), the panel is killed while
+/// `examples/demo.ngc` runs, the supervisor starts it again and it serves again
+/// before the job ends; the job completes without an alarm about the panel and its
+/// trace is byte for byte the simulator's of the same job: the panel's death left
+/// no mark on the motion. (No browser: the page's reconnection is the browser
+/// test's.)
+#[test]
+fn killing_the_panel_mid_job_leaves_the_jobs_trace_byte_for_byte_the_simulators() {
+    let port = free_port();
+    let d = Daemon::start_in(
+        fresh_dir("webkill"),
+        "webkill",
+        "Lockstep",
+        true,
+        "default.ron",
+        &[(
+            "    check_timeout_s: 60.0,",
+            &format!(
+                "    check_timeout_s: 60.0,\n    web: Some((listen: \"127.0.0.1:{port}\", token_file: \"token\")),"
+            ),
+        )],
+    );
+    std::fs::write(d.dir.join("token"), format!("{TOKEN}\n")).unwrap();
+    let op = d.operator();
+    let serving = |what: &str| {
+        let t0 = Instant::now();
+        loop {
+            let (code, body) = http(port, "GET /api/status HTTP/1.1", b"");
+            if code == 200 && body.contains("\"link\":\"ok\"") {
+                return;
+            }
+            assert!(
+                t0.elapsed() < Duration::from_secs(20),
+                "{what}: the panel's status {code} {body}"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    };
+    serving("the panel up");
+    let job = d.dir.join("demo.ngc");
+    std::fs::copy(repo().join("examples/demo.ngc"), &job).unwrap();
+    let r = op.request(&submit(&abs(&job))).unwrap();
+    assert!(r.is_accepted(), "{}", r.message());
+    let job_id = id(&r);
+    d.wait_status(&op, Duration::from_secs(60), "the job moving", |s| {
+        s.job(job_id).is_some_and(|j| j.record.cycles > 2000)
+    });
+    let before = d.pid_of("softnc-web");
+    d.kill9("softnc-web");
+    let killed_at = job_of(&op.status().unwrap()).clone();
+    let t0 = Instant::now();
+    while d.pid_of("softnc-web").is_none() || d.pid_of("softnc-web") == before {
+        assert!(
+            t0.elapsed() < Duration::from_secs(10),
+            "softnc-web not started again"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    serving("the panel started again");
+    let back = job_of(&op.status().unwrap()).clone();
+    assert_eq!(
+        killed_at.outcome,
+        Outcome::Running,
+        "killed mid-job: {killed_at}"
+    );
+    assert_eq!(
+        back.outcome,
+        Outcome::Running,
+        "the job ended before the panel was back (not mid-job): {back}"
+    );
+    eprintln!(
+        "e2e_web: softnc-web killed at cycle {} of {} planned, serving again by cycle {}",
+        killed_at.cycles, killed_at.planned_samples, back.cycles
+    );
+    let s = d.wait_job(&op, job_id, Duration::from_secs(300));
+    let done = job_of(&s);
+    assert_eq!(done.outcome, Outcome::Completed, "{s}");
+    assert!(
+        !done.alarms.iter().any(|a| a.contains("softnc-web")),
+        "the panel's death in the job's record: {:?}",
+        done.alarms
+    );
+    let sim = d.dir.join("sim.csv");
+    simulator_trace(&job, &d.dir.join("machines/default.ron"), &sim);
+    let want = std::fs::read(&sim).unwrap();
+    assert!(want.len() > 10_000, "simulator trace too short");
+    let got = d.trace_of(job_id, want.len());
+    if got != want {
+        let (g, w) = (
+            String::from_utf8_lossy(&got),
+            String::from_utf8_lossy(&want),
+        );
+        let first = g.lines().zip(w.lines()).position(|(a, b)| a != b);
+        panic!(
+            "the daemon's trace ({} lines) differs from the simulator's ({} lines) first at line {first:?}:\n{:?}\n{:?}",
+            g.lines().count(),
+            w.lines().count(),
+            first.and_then(|i| g.lines().nth(i)),
+            first.and_then(|i| w.lines().nth(i))
+        );
+    }
+    eprintln!(
+        "e2e_web: job {job_id}'s trace, the panel killed mid-job: {} bytes, byte for byte the simulator's",
+        got.len()
+    );
 }

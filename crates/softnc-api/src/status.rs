@@ -353,6 +353,12 @@ pub struct Status {
     /// The same in work coordinates (mm).
     #[serde(default, deserialize_with = "opt_xyz_or_nan")]
     pub work_mm: Option<[f64; 3]>,
+    /// What the motion in progress has still to go per axis (X, Y, Z; mm): to the
+    /// programmed end of the running job's (or MDI command's) current motion, or to
+    /// an incremental jog's target; zero when nothing moves to a known end (idle, a
+    /// continuous jog, homing).
+    #[serde(default)]
+    pub distance_to_go_mm: [f64; 3],
     /// The active coordinate system (`"G54"`).
     pub coords: String,
     /// The offsets in effect.

@@ -12,6 +12,7 @@ fn status() -> Status {
         checking: None,
         machine_mm: Some([1.0, 2.0, 3.0]),
         work_mm: Some([0.5, 2.0, f64::NAN]),
+        distance_to_go_mm: [1.5, 0.0, -0.25],
         coords: "G55".into(),
         offsets: ActiveOffsets {
             g5x_mm: [0.5, 0.0, 0.0],

@@ -751,6 +751,7 @@ pub fn status_text(s: &Status) -> String {
             &format!("work mm ({})", s.coords),
             &s.work_mm.map(|w| w.to_vec()).unwrap_or_default(),
         ));
+        out.push_str(&row("to go mm", &s.distance_to_go_mm));
         out.push_str(&row("command mm", &ax.cmd_mm));
         out.push_str(&row("actual mm", &ax.actual_mm));
         out.push_str(&row("following err µm", &ax.following_err_um));

@@ -445,8 +445,8 @@ fn draw_job(frame: &mut ratatui::Frame, s: Option<&Status>, area: Rect) {
 }
 
 /// The DRO: per axis (`*` when homed) the machine position (the command), the work
-/// position (in the active system, G92 and tool offset taken off), the actual
-/// position and the following error; the active system in the title.
+/// position (in the active system, G92 and tool offset taken off), the distance
+/// to go, the actual position and the following error; the active system in the title.
 fn draw_dro(frame: &mut ratatui::Frame, s: Option<&Status>, area: Rect) {
     let axes = s.and_then(|s| s.axes.as_ref());
     let table_rows: Vec<Row> = (0..AXES.len())
@@ -471,6 +471,7 @@ fn draw_dro(frame: &mut ratatui::Frame, s: Option<&Status>, area: Rect) {
                     11,
                     4,
                 ),
+                num(at(s.map(|s| &s.distance_to_go_mm[..])), 1.0, 11, 4),
                 num(at(axes.map(|a| &a.actual_mm[..])), 1.0, 11, 4),
                 num(at(axes.map(|a| &a.following_err_um[..])), 1.0, 11, 2),
             ])
@@ -483,6 +484,7 @@ fn draw_dro(frame: &mut ratatui::Frame, s: Option<&Status>, area: Rect) {
             Constraint::Length(12),
             Constraint::Length(12),
             Constraint::Length(12),
+            Constraint::Length(12),
             Constraint::Length(13),
         ],
     )
@@ -490,6 +492,7 @@ fn draw_dro(frame: &mut ratatui::Frame, s: Option<&Status>, area: Rect) {
         "axis",
         " machine mm",
         "    work mm",
+        "   to go mm",
         "  actual mm",
         "following µm",
     ]))

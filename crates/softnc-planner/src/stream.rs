@@ -409,6 +409,74 @@ pub fn stream_sequencer(
     cfg: crate::machine_sequencer::SequencerConfig,
     initial: crate::machine_sequencer::SequencerState,
 ) -> Result<crate::machine_sequencer::MachineSequencer, ReadPlanError> {
+    stream_sequencer_with(text, file, profile, options, cfg, initial, &mut |_, _| {})
+}
+
+/// [`stream_sequencer`] with the programmed end points of the motions (machine
+/// coordinates, mm; a motion that moves nothing ends where the last one did): the
+/// status's distance to go of the motion a sample belongs to.
+pub fn stream_sequencer_and_ends(
+    text: &str,
+    file: &str,
+    profile: &MotionProfile,
+    options: &PlanOptions,
+    cfg: crate::machine_sequencer::SequencerConfig,
+    initial: crate::machine_sequencer::SequencerState,
+) -> Result<(crate::machine_sequencer::MachineSequencer, MotionEnds), ReadPlanError> {
+    let mut ends = MotionEnds::default();
+    let seq = stream_sequencer_with(text, file, profile, options, cfg, initial, &mut |_, m| {
+        ends.push(m);
+    })?;
+    Ok((seq, ends))
+}
+
+/// The programmed end point of every motion of a program, by motion index (machine
+/// coordinates, mm).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MotionEnds {
+    ends_mm: Vec<[f64; 3]>,
+}
+
+impl MotionEnds {
+    /// The next motion: its end, or (moving nothing) where the last one ended, or
+    /// its start.
+    pub fn push(&mut self, m: &Motion) {
+        let end = match m.kind.end() {
+            Some(e) => e + m.offset_mm,
+            None => match self.ends_mm.last() {
+                Some(last) => Vec3(*last),
+                None => m.start + m.offset_mm,
+            },
+        };
+        self.ends_mm.push(end.0);
+    }
+
+    /// Motion `index`'s end point (`None` past the program's motions).
+    pub fn end_mm(&self, index: u32) -> Option<[f64; 3]> {
+        self.ends_mm.get(index as usize).copied()
+    }
+
+    /// The number of motions.
+    pub fn len(&self) -> usize {
+        self.ends_mm.len()
+    }
+
+    /// No motion.
+    pub fn is_empty(&self) -> bool {
+        self.ends_mm.is_empty()
+    }
+}
+
+/// [`stream_sequencer`], calling `each` with every motion and its index.
+fn stream_sequencer_with(
+    text: &str,
+    file: &str,
+    profile: &MotionProfile,
+    options: &PlanOptions,
+    cfg: crate::machine_sequencer::SequencerConfig,
+    initial: crate::machine_sequencer::SequencerState,
+    each: &mut dyn FnMut(u32, &Motion),
+) -> Result<crate::machine_sequencer::MachineSequencer, ReadPlanError> {
     let mut b = crate::machine_sequencer::SequencerBuilder::new(cfg, initial);
     let mut index = 0u32;
     let (program, _) = softnc_gcode::read_program_chunked_params(
@@ -420,6 +488,7 @@ pub fn stream_sequencer(
         &mut |chunk: &mut Vec<Motion>| {
             for m in chunk.iter() {
                 b.push(index, m);
+                each(index, m);
                 index += 1;
             }
         },
@@ -1396,6 +1465,64 @@ mod tests {
             let plan = crate::plan(&program, &p, &opts).unwrap();
             for s in plan.interpolator() {
                 assert_eq!(s.pos_mm, Vec3(at), "{text:?}");
+            }
+        }
+    }
+
+    /// The motions' ends are in machine coordinates (the work offset added), a
+    /// motion that moves nothing ends where the last one did, and in exact stop
+    /// every motion's last sample stands on its end (within the 10 µm one cycle
+    /// of 1 ms covers at 600 mm/min: the next sample is the next motion's).
+    #[test]
+    fn the_motions_ends_are_where_their_samples_end() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machines");
+        let p = MotionProfile::load(&dir.join("default.ron")).unwrap();
+        let opts = PlanOptions::default();
+        let text = "G21 G90 G61\nG10 L2 P1 X10 Y-5\nG54 G0 X1 Y2 Z3\nG4 P0.05\nG1 X5 F600\nG2 X9 Y6 R4\nM2\n";
+        let (_, ends) = stream_sequencer_and_ends(
+            text,
+            "e.ngc",
+            &p,
+            &opts,
+            crate::machine_sequencer::SequencerConfig {
+                cycle_s: p.interpolation_cycle_s,
+                spindle_at_speed_timeout_s: 0.0,
+                user_m_timeout_s: 0.0,
+            },
+            crate::machine_sequencer::SequencerState::default(),
+        )
+        .unwrap();
+        let (program, _) =
+            softnc_gcode::read_program_with(text, "e.ngc", &p, &opts.read_options()).unwrap();
+        assert_eq!(ends.len(), program.motions.len());
+        let moving: Vec<[f64; 3]> = (0..ends.len() as u32)
+            .filter(|&i| program.motions[i as usize].kind.end().is_some())
+            .map(|i| ends.end_mm(i).unwrap())
+            .collect();
+        assert_eq!(
+            moving,
+            [[11.0, -3.0, 3.0], [15.0, -3.0, 3.0], [19.0, 1.0, 3.0]],
+            "{ends:?}"
+        );
+        let dwell = program
+            .motions
+            .iter()
+            .position(|m| matches!(m.kind, softnc_gcode::MotionKind::Dwell { .. }))
+            .unwrap() as u32;
+        assert_eq!(ends.end_mm(dwell), Some([11.0, -3.0, 3.0]));
+        assert_eq!(ends.end_mm(ends.len() as u32), None);
+        let plan = crate::plan(&program, &p, &opts).unwrap();
+        let mut last: Vec<Option<Vec3>> = vec![None; ends.len()];
+        for s in plan.interpolator() {
+            last[s.motion as usize] = Some(s.pos_mm);
+        }
+        for (i, at) in last.iter().enumerate() {
+            if let (Some(at), Some(_)) = (at, program.motions[i].kind.end()) {
+                let end = ends.end_mm(i as u32).unwrap();
+                assert!(
+                    (0..3).all(|k| (at.0[k] - end[k]).abs() < 0.011),
+                    "motion {i} ends its samples at {at:?}, not {end:?}"
+                );
             }
         }
     }

@@ -7,6 +7,7 @@
 mod link;
 mod programs;
 mod server;
+mod trace;
 
 use anyhow::{bail, Context, Result};
 use clap::Parser;
@@ -89,6 +90,7 @@ fn run(args: &Args) -> Result<()> {
             programs,
             token_file: web.token_file.clone(),
             status_needs_token: web.status_needs_token,
+            data_dir: config.data_dir.clone(),
         });
         let listener = tokio::net::TcpListener::bind(&web.listen)
             .await

@@ -45,6 +45,8 @@ pub struct App {
     pub token_file: PathBuf,
     /// Reading (status, programs, history) needs the token too.
     pub status_needs_token: bool,
+    /// The daemon's data directory (the jobs' traces).
+    pub data_dir: PathBuf,
 }
 
 /// Why a request is not served: its HTTP status and the reason.
@@ -115,6 +117,7 @@ pub fn router(app: Arc<App>) -> Router {
         .route("/style.css", get(style_css))
         .route("/api/status", get(status))
         .route("/api/jobs", get(jobs))
+        .route("/api/jobs/{id}/trace", get(job_trace))
         .route("/api/programs", get(list_programs).post(upload))
         .route("/api/programs/{id}", get(program_text))
         .route("/api/command", post(command))
@@ -177,6 +180,29 @@ async fn jobs(State(app): State<Arc<App>>, headers: HeaderMap) -> Response {
     }
     let text = app.link.jobs.borrow().clone();
     json_text(text)
+}
+
+/// A job's trace, thinned for the plot ([`crate::trace`]); 404 without one.
+async fn job_trace(
+    State(app): State<Arc<App>>,
+    headers: HeaderMap,
+    UrlPath(id): UrlPath<String>,
+) -> Response {
+    if let Err(r) = app.reader(&headers) {
+        return refuse(r);
+    }
+    let Ok(job_id) = id.parse::<u64>() else {
+        return refuse((StatusCode::BAD_REQUEST, format!("{id:?} is not a job id")));
+    };
+    let dir = app.data_dir.clone();
+    match tokio::task::spawn_blocking(move || crate::trace::read(&dir, job_id)).await {
+        Ok(Ok(t)) => Json(t).into_response(),
+        Ok(Err(e @ crate::trace::TraceError::Missing { .. })) => {
+            refuse((StatusCode::NOT_FOUND, e.to_string()))
+        }
+        Ok(Err(e)) => refuse((StatusCode::INTERNAL_SERVER_ERROR, e.to_string())),
+        Err(e) => refuse((StatusCode::INTERNAL_SERVER_ERROR, e.to_string())),
+    }
 }
 
 async fn list_programs(State(app): State<Arc<App>>, headers: HeaderMap) -> Response {

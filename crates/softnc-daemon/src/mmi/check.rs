@@ -30,8 +30,11 @@ pub(super) struct CheckOk {
     pub(super) modal: String,
     /// The copies this check made: removed when the job is not started.
     pub(super) created: Vec<PathBuf>,
-    /// The job's machine sequencer, for the status.
-    pub(super) sequencer: Option<softnc_planner::machine_sequencer::MachineSequencer>,
+    /// The job's machine sequencer and its motions' end points, for the status.
+    pub(super) sequencer: Option<(
+        softnc_planner::machine_sequencer::MachineSequencer,
+        softnc_planner::stream::MotionEnds,
+    )>,
 }
 
 /// What the check of a submitted job gives, or why it is refused.
@@ -101,14 +104,15 @@ pub(super) fn check_job(
     // checked as it will be streamed: the plan's figures, never the whole plan
     let (text, options, checked, modal, files, _) = check_bytes(&job.bytes, path, machine, setup)?;
     // the machine around the axes as the interpolator will run it (for the status)
-    let sequencer = softnc_planner::stream::stream_sequencer(
+    let sequencer = softnc_planner::stream::stream_sequencer_and_ends(
         &text,
         path,
         machine,
         &options,
         crate::plan_samples::sequencer_config(machine),
         // (the status shows the outputs the position process reports; this
-        // sequencer gives the tools, the messages and the prompts)
+        // sequencer gives the tools, the messages and the prompts, the motions'
+        // ends the distance to go)
         crate::plan_samples::initial_state(
             options.params.as_ref(),
             softnc_core::machine_io::MachineOutputs::safe(),
@@ -374,7 +378,7 @@ impl MmiTask {
         // M8, M62, T, a message, a program end's spindle stop, …) are done there
         let moves = stats.moves > 0
             || stats.duration_s > 0.0
-            || sequencer.as_ref().is_some_and(|s| s.has_operations());
+            || sequencer.as_ref().is_some_and(|s| s.0.has_operations());
         if moves {
             // what the run reads the job with: what it was checked with
             setup.job_id = job_id;
@@ -436,7 +440,7 @@ impl MmiTask {
             )));
         }
         self.setup.pending_params = Some((job_id, params, modal));
-        self.job_machine = sequencer.map(|s| (job_id, s));
+        self.job_machine = sequencer.map(|(s, ends)| (job_id, s, ends));
         // the feed override is the machine's, not the job's: the job starts at the
         // one in force (carried here, so a restarted interpolator knows it)
         self.send_control_flags(

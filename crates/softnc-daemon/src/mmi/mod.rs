@@ -119,6 +119,9 @@ struct Machine {
     /// A continuous jog's axis, speed and when its client last renewed it (the
     /// dead-man).
     jog_lease: Option<(u32, f64, Instant)>,
+    /// An incremental jog's axis and target (machine coordinates, mm): its
+    /// distance to go while the axis jogs.
+    jog_target: Option<(usize, f64)>,
     /// A state a command just sent asks the position process for (machine on/off,
     /// homing, a jog), the command's `seq` and when it was sent: the state the
     /// operator sees until the position process's status acknowledges the command
@@ -150,8 +153,13 @@ pub struct MmiTask {
     /// The running job's machine sequencer (built by its check, from the same
     /// text and setup the interpolator runs): the tool, coolant, spindle command,
     /// message and prompt at the sample the position process uses. Not kept across
-    /// an MMI restart (those fields are then empty until the next job).
-    job_machine: Option<(u64, softnc_planner::machine_sequencer::MachineSequencer)>,
+    /// an MMI restart (those fields are then empty until the next job). With it,
+    /// the end points of the job's motions: the distance to go.
+    job_machine: Option<(
+        u64,
+        softnc_planner::machine_sequencer::MachineSequencer,
+        softnc_planner::stream::MotionEnds,
+    )>,
     shutdown: bool,
     stop: StopWatch,
     _bus: Bus,
@@ -244,6 +252,7 @@ impl MmiTask {
                 limits_overridden: false,
                 switches: Switches::default(),
                 jog_lease: None,
+                jog_target: None,
                 asked: None,
                 alarms_acknowledged_unix_ns,
             },
@@ -1195,7 +1204,7 @@ impl MmiTask {
         Option<String>,
     )> {
         let s = s?;
-        let (job_id, seq) = self.job_machine.as_ref()?;
+        let (job_id, seq, _) = self.job_machine.as_ref()?;
         let running = self
             .history
             .jobs
@@ -1246,6 +1255,41 @@ impl MmiTask {
         })
     }
 
+    /// What the motion in progress has still to go per axis (X, Y, Z; mm): the
+    /// running job's (or MDI command's) motion at the sample the position process
+    /// uses, from its programmed end point, or an incremental jog's to its target;
+    /// zero otherwise (idle, a continuous jog, homing, an MMI restarted under a job).
+    fn distance_to_go_mm(&self, s: Option<&PositionStatus>) -> [f64; 3] {
+        let mut to_go = [0.0; 3];
+        let Some(s) = s else { return to_go };
+        let end = match self.machine_state() {
+            MachineState::Jogging => self.machine.jog_target.map(|(axis, target_mm)| {
+                let mut end = [s.cmd_mm[0], s.cmd_mm[1], s.cmd_mm[2]];
+                if axis < 3 {
+                    end[axis] = target_mm;
+                }
+                end
+            }),
+            MachineState::Idle
+            | MachineState::Off
+            | MachineState::Homing
+            | MachineState::Faulted
+            | MachineState::EStopped => None,
+            _ => self
+                .job_machine
+                .as_ref()
+                .filter(|(job_id, _, _)| *job_id == s.job_id && s.job_id != 0)
+                .and_then(|(_, _, ends)| ends.end_mm(s.motion)),
+        };
+        if let Some(end) = end {
+            for (i, d) in to_go.iter_mut().enumerate() {
+                let v = end[i] - s.cmd_mm[i];
+                *d = if v.is_finite() { v } else { 0.0 };
+            }
+        }
+        to_go
+    }
+
     /// The status the operator sees.
     #[allow(clippy::too_many_lines)]
     pub fn status(&self) -> softnc_api::Status {
@@ -1292,6 +1336,7 @@ impl MmiTask {
             checking: self.checks.checking.as_ref().map(|c| c.path.clone()),
             machine_mm,
             work_mm: machine_mm.map(|m| offsets.work_mm(m)),
+            distance_to_go_mm: self.distance_to_go_mm(s.as_ref()),
             coords: offsets.coords_name().to_string(),
             offsets: api::ActiveOffsets {
                 g5x_mm: offsets.g5x_mm,

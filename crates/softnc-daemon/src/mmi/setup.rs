@@ -293,6 +293,7 @@ impl MmiTask {
                 ));
             }
             self.machine.jog_lease = Some((axis, speed, Instant::now()));
+            self.machine.jog_target = None;
             self.send_control_axis(kind, 0, axis, speed, "")?;
             self.ask_state(MachineState::Jogging);
             let until = if homed {
@@ -332,6 +333,7 @@ impl MmiTask {
         }
         self.send_control_axis(kind, 0, axis, value, "")?;
         self.ask_state(MachineState::Jogging);
+        self.machine.jog_target = Some((i, target_mm));
         Ok(Self::reply(
             true,
             0,

@@ -11,7 +11,8 @@ const JOG_RENEW_MS = 50;
 const S = {
   ws: null, open: false, authorized: false, lastStatusAt: 0, link: "lost",
   status: null, nextId: 1, programs: [], selected: null, listingFor: null,
-  plan: null, planFor: null, trail: [], trailJob: null, jobs: [],
+  plan: null, planFor: null, trail: [], trailJob: null, trailFrom: "live", jobs: [],
+  jobSelected: null, trace: null, traceFetchedFor: null,
   jogTimer: null, jogAxis: null, token: sessionStorage.getItem("softnc-token") || "",
 };
 
@@ -67,6 +68,8 @@ function onMessage(m) {
       if (m.reply && m.reply.reply === "offsets") renderOffsets(m.reply.body);
       else if (m.reply && m.reply.reply === "tools") renderTools(m.reply.body);
       else log(m.message, !m.ok);
+      // a work offset set: the table read again
+      if (m.id && m.id === S.offsetSetId) { S.offsetSetId = null; cmd({ command: "offsets" }); }
       break;
   }
 }
@@ -107,6 +110,7 @@ function render(s) {
   axes.forEach((a, i) => {
     $("dro-work-" + a).textContent = s.work_mm ? fmt(s.work_mm[i]) : "—";
     $("dro-mach-" + a).textContent = s.machine_mm ? fmt(s.machine_mm[i]) : "—";
+    $("dro-dtg-" + a).textContent = s.distance_to_go_mm ? fmt(s.distance_to_go_mm[i]) : "—";
     const h = $("homed-" + a);
     const homed = s.homed && s.homed[i];
     h.textContent = homed ? "●" : "○";
@@ -138,19 +142,35 @@ function render(s) {
   }
   // the job's program: its listing, its backplot, the current line
   const id = job ? programIdOf(job.path) : null;
-  if (id && id !== S.listingFor) selectProgram(id, false);
+  // (a running job's program is shown; once it is over, the operator's choice is)
+  if (id && id !== S.listingFor && (job.outcome === "running" || !S.selected)) selectProgram(id, false);
   highlightLine(job && job.outcome === "running" ? s.program_line : null);
   // the executed path, coloured by the contour error
   if (job && job.outcome === "running" && s.work_mm) {
-    if (S.trailJob !== job.job_id) { S.trail = []; S.trailJob = job.job_id; }
+    if (S.trailJob !== job.job_id) { S.trail = []; S.trailJob = job.job_id; S.trailFrom = "live"; }
     const err = s.axes && s.axes.contour_err_um !== null && s.axes.contour_err_um !== undefined ? Math.abs(s.axes.contour_err_um) : null;
     const last = S.trail[S.trail.length - 1];
     const w = s.work_mm;
     if (!last || Math.hypot(last[0] - w[0], last[1] - w[1], last[2] - w[2]) > 0.05) S.trail.push([w[0], w[1], w[2], err]);
     if (S.trail.length > 20000) S.trail.splice(0, 5000);
   }
-  if (job && job.outcome !== "running") renderAccuracy(job);
-  else $("accuracy").textContent = "";
+  if (job && job.outcome !== "running") {
+    renderAccuracy(job);
+    // once the job is over: its executed path from its trace, coloured by its
+    // contour error (the live trail stays where it has no trace)
+    if (S.trailJob === job.job_id && S.traceFetchedFor !== job.job_id && s.machine_mm && s.work_mm) {
+      S.traceFetchedFor = job.job_id;
+      const shift = [0, 1, 2].map((k) => s.machine_mm[k] - s.work_mm[k]);
+      fetchTrace(job.job_id).then((t) => {
+        // (a trace still being written out reads as a bad row: tried again)
+        if (!t.ok && t.status !== 404) setTimeout(() => { if (S.traceFetchedFor === job.job_id) S.traceFetchedFor = null; }, 1000);
+        if (!t.ok || S.trailJob !== job.job_id) return;
+        S.trail = t.trace.cmd_mm.map((p, k) => [p[0] - shift[0], p[1] - shift[1], p[2] - shift[2], t.trace.contour_um[k]]);
+        S.trailFrom = "trace";
+        drawPlot();
+      });
+    }
+  } else $("accuracy").textContent = "";
   drawPlot();
 }
 
@@ -354,7 +374,7 @@ function drawPlot() {
     [V.yaw, V.pitch] = PRESETS[b.dataset.viewpreset]; drawPlot();
   });
   $("plot-fit").onclick = () => { fitPlot(); drawPlot(); };
-  window.addEventListener("resize", drawPlot);
+  window.addEventListener("resize", () => { drawPlot(); drawTrace(); });
 })();
 
 // ---------- history, offsets, tools ----------
@@ -375,12 +395,86 @@ function renderJobs() {
     cell(tr, (a.following_max_abs_um || []).map((v) => v.toFixed(1)).join(" / "));
     cell(tr, (j.alarms || []).length);
     tr.title = (j.alarms || []).join("\n");
+    tr.dataset.job = j.job_id;
+    tr.className = "pick" + (j.job_id === S.jobSelected ? " selected" : "");
+    tr.onclick = () => selectJob(j.job_id);
     return tr;
   });
   t.replaceChildren(head, ...rows);
 }
 
+// ---------- a job's trace: contour and following error against time ----------
+async function fetchTrace(jobId) {
+  try {
+    const r = await fetch(`/api/jobs/${jobId}/trace`, { headers: authHeaders() });
+    const j = await r.json().catch(() => ({ message: "HTTP " + r.status }));
+    return r.ok ? { ok: true, trace: j } : { ok: false, status: r.status, message: j.message || "HTTP " + r.status };
+  } catch (e) {
+    return { ok: false, message: String(e) };
+  }
+}
+
+async function selectJob(jobId) {
+  S.jobSelected = jobId;
+  for (const tr of $("jobs").querySelectorAll("tr[data-job]")) tr.classList.toggle("selected", Number(tr.dataset.job) === jobId);
+  $("trace-figures").textContent = `job ${jobId}: reading its trace …`;
+  const t = await fetchTrace(jobId);
+  if (S.jobSelected !== jobId) return;
+  S.trace = t.ok ? t.trace : null;
+  if (!t.ok) { $("trace-figures").textContent = `job ${jobId}: ${t.message}`; drawTrace(); return; }
+  const tr = t.trace;
+  const dur = tr.time_s.length ? tr.time_s[tr.time_s.length - 1] : 0;
+  $("trace-figures").textContent = `job ${jobId} trace: ${tr.rows} cycles, ${dur.toFixed(2)} s; contour max ${fmt(tr.contour_max_abs_um, 1)} µm; following max X/Y/Z ${tr.following_max_abs_um.map((v) => v.toFixed(1)).join(" / ")} µm`;
+  drawTrace();
+}
+
+function drawTrace() {
+  const c = $("trace-plot");
+  const w = c.clientWidth, h = c.clientHeight;
+  if (!w || !h) return;
+  if (c.width !== w || c.height !== h) { c.width = w; c.height = h; }
+  const g = c.getContext("2d");
+  g.clearRect(0, 0, w, h);
+  const t = S.trace;
+  if (!t || !t.time_s.length) return;
+  const left = 54, right = 8, top = 8, bottom = 20;
+  const t0 = t.time_s[0], t1 = Math.max(t.time_s[t.time_s.length - 1], t0 + 1e-3);
+  const top_um = Math.max(t.contour_max_abs_um, ...t.following_max_abs_um, 1) * 1.05;
+  const X = (v) => left + (v - t0) / (t1 - t0) * (w - left - right);
+  const Y = (v) => h - bottom - v / top_um * (h - top - bottom);
+  g.strokeStyle = "#445"; g.fillStyle = "#99a"; g.font = "11px monospace"; g.lineWidth = 1;
+  for (let k = 0; k <= 4; k++) {
+    const v = top_um * k / 4;
+    g.beginPath(); g.moveTo(left, Y(v)); g.lineTo(w - right, Y(v)); g.stroke();
+    g.fillText(v.toFixed(0) + (k === 4 ? " µm" : ""), 4, Y(v) + (k === 4 ? 10 : 4));
+  }
+  g.fillText(`${t0.toFixed(1)} s`, left, h - 5);
+  g.fillText(`${t1.toFixed(1)} s`, w - right - 50, h - 5);
+  const series = [[t.following_um[0], "#f55"], [t.following_um[1], "#5d5"], [t.following_um[2], "#59f"], [t.contour_um, "#eee"]];
+  g.lineWidth = 1.2;
+  for (const [ys, col] of series) {
+    g.strokeStyle = col; g.beginPath();
+    let pen = false;
+    ys.forEach((v, k) => {
+      if (v === null || v === undefined) { pen = false; return; }
+      const x = X(t.time_s[k]), y = Y(v);
+      if (pen) g.lineTo(x, y); else g.moveTo(x, y);
+      pen = true;
+    });
+    g.stroke();
+  }
+}
+
+// the offsets last read: the work-offset form starts from the system's values
+S.offsets = null;
+function fillOffsetForm() {
+  if (!S.offsets) return;
+  const sys = S.offsets.systems[parseInt($("ofs-sys").value, 10) - 1];
+  if (!sys) return;
+  ["x", "y", "z"].forEach((a, i) => { if (document.activeElement !== $("ofs-" + a)) $("ofs-" + a).value = sys.origin_mm[i]; });
+}
 function renderOffsets(o) {
+  S.offsets = o; fillOffsetForm();
   const t = $("offsets");
   const head = document.createElement("tr");
   ["system", "X", "Y", "Z", "rotation °"].forEach((h) => cell(head, h, "th"));
@@ -463,6 +557,14 @@ function sendMdi() {
 on("btn-mdi", sendMdi);
 $("mdi").addEventListener("keydown", (e) => { if (e.key === "Enter") sendMdi(); });
 on("btn-tables", () => { cmd({ command: "offsets" }); cmd({ command: "tools" }); });
+// a work offset set as LinuxCNC sets it: G10 L2 P<n> (through MDI, checked as every block)
+on("btn-ofs-set", () => {
+  const n = parseInt($("ofs-sys").value, 10);
+  const v = ["x", "y", "z"].map((a) => parseFloat($("ofs-" + a).value));
+  if (v.some((x) => !isFinite(x))) { log("work offset: a value is not a number", true); return; }
+  S.offsetSetId = cmd({ command: "mdi", blocks: `G10 L2 P${n} X${v[0]} Y${v[1]} Z${v[2]}` });
+});
+$("ofs-sys").addEventListener("change", fillOffsetForm);
 on("btn-tool-set", () => cmd({ command: "tool_set", tool: parseInt($("tool-no").value, 10), length_mm: parseFloat($("tool-len").value) || 0, diameter_mm: parseFloat($("tool-dia").value) || 0 }));
 [["sw-single", "single_block"], ["sw-optional", "optional_stop"], ["sw-delete", "block_delete"]].forEach(([id, c]) =>
   $(id).addEventListener("change", (e) => cmd({ command: c, on: e.target.checked })));
@@ -472,7 +574,7 @@ document.querySelectorAll(".tab").forEach((b) => b.onclick = () => {
   document.querySelectorAll(".tab").forEach((x) => x.classList.toggle("active", x === b));
   document.querySelectorAll(".view").forEach((v) => v.classList.toggle("active", v.id === "view-" + b.dataset.view));
   if (b.dataset.view === "tables") $("btn-tables").click();
-  drawPlot();
+  drawPlot(); drawTrace();
 });
 
 loadPrograms();
