@@ -437,6 +437,11 @@ impl DaemonConfig {
                 "must be a finite number > 0",
             ));
         }
+        if let BackendKind::EtherCat(e) = &config.backend {
+            if let Err((p, reason)) = e.validate() {
+                return Err(bad(&format!("backend.EtherCat.{p}"), &reason));
+            }
+        }
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let machine_path = dir.join(&config.machine);
         let machine = MachineProfile::load(&machine_path)?;

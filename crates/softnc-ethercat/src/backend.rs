@@ -7,7 +7,11 @@ use crate::config::{EtherCatConfig, Role};
 use crate::exec::block_on;
 use ethercrab::{MainDevice, SubDeviceState};
 use softnc_core::Axes;
-use softnc_servo::{AxisStatus, BackendError, BusFault, CommandMode, ServoBackend, MAX_AXES};
+use softnc_servo::io::RAW_DIGITAL_LINES;
+use softnc_servo::{
+    AxisStatus, BackendError, BusFault, CommandMode, IoLines, RawInputs, RawOutputs, ServoBackend,
+    MAX_AXES,
+};
 use std::time::{Duration, Instant};
 
 /// Cycles a CiA 402 step of `enable`/`disable` may take.
@@ -19,6 +23,28 @@ const FAULTED_LOST_IN_ROW: u32 = 2;
 /// Round-trip histogram: bucket width and count (10 µs × 1000 = 10 ms).
 const RTT_BUCKET_NS: u64 = 10_000;
 const RTT_BUCKETS: usize = 1000;
+
+/// A bit of a SubDevice's digital inputs or outputs on a raw line (the cycle's
+/// table, fixed-size).
+#[derive(Debug, Clone, Copy, Default)]
+struct Wire {
+    position: u8,
+    bit: u8,
+    line: u8,
+}
+
+/// Bits wired to lines, at most (in each direction).
+const MAX_WIRES: usize = RAW_DIGITAL_LINES;
+
+/// Where a SubDevice's digital inputs and outputs start in its process data
+/// (bytes): a drive's 0x60FD and 0x60FE as the mapping lays them out, a
+/// terminal's from its first byte.
+fn digital_offsets(role: &Role) -> (usize, usize) {
+    match role {
+        Role::Drive { .. } => (cia402::TX_DIGITAL_INPUTS_AT, cia402::RX_DIGITAL_OUTPUTS_AT),
+        Role::Io => (0, 0),
+    }
+}
 
 #[derive(Debug, Clone, Copy)]
 struct Drive {
@@ -62,6 +88,16 @@ pub struct EtherCatBackend {
     lost_in_row: u32,
     stats: BusStats,
     rtt: Box<[u32; RTT_BUCKETS]>,
+    /// SubDevice input bits on raw input lines, and raw output lines on output bits.
+    in_wires: Box<[Wire; MAX_WIRES]>,
+    in_count: usize,
+    out_wires: Box<[Wire; MAX_WIRES]>,
+    out_count: usize,
+    /// Each SubDevice's (inputs, outputs) digital offsets in its process data.
+    digital_at: [(usize, usize); bus::MAX_SUBDEVICES],
+    lines: IoLines,
+    raw_in: u128,
+    raw_out: u128,
 }
 
 impl EtherCatBackend {
@@ -111,6 +147,41 @@ impl EtherCatBackend {
                 }
             }
         }
+        let mut in_wires = Box::new([Wire::default(); MAX_WIRES]);
+        let mut out_wires = Box::new([Wire::default(); MAX_WIRES]);
+        let (mut in_count, mut out_count) = (0, 0);
+        let mut digital_at = [(0, 0); bus::MAX_SUBDEVICES];
+        let mut lines = IoLines::NONE;
+        if config.subdevices.len() > bus::MAX_SUBDEVICES {
+            return Err(OpenError::Config(format!(
+                "{} SubDevices, at most {}",
+                config.subdevices.len(),
+                bus::MAX_SUBDEVICES
+            )));
+        }
+        crate::config::check_wiring(&config.subdevices)
+            .map_err(|(path, reason)| OpenError::Config(format!("{path}: {reason}")))?;
+        for (position, s) in config.subdevices.iter().enumerate() {
+            digital_at[position] = digital_offsets(&s.role);
+            for w in &s.inputs {
+                in_wires[in_count] = Wire {
+                    position: position as u8,
+                    bit: w.bit,
+                    line: w.line,
+                };
+                in_count += 1;
+                lines.digital_in = lines.digital_in.max(usize::from(w.line) + 1);
+            }
+            for w in &s.outputs {
+                out_wires[out_count] = Wire {
+                    position: position as u8,
+                    bit: w.bit,
+                    line: w.line,
+                };
+                out_count += 1;
+                lines.digital_out = lines.digital_out.max(usize::from(w.line) + 1);
+            }
+        }
         let axes = drives.iter().take_while(|d| d.is_some()).count();
         if axes == 0 || drives.iter().skip(axes).any(Option::is_some) {
             return Err(OpenError::Config(
@@ -132,6 +203,14 @@ impl EtherCatBackend {
             lost_in_row: 0,
             stats: BusStats::default(),
             rtt: Box::new([0; RTT_BUCKETS]),
+            in_wires,
+            in_count,
+            out_wires,
+            out_count,
+            digital_at,
+            lines,
+            raw_in: 0,
+            raw_out: 0,
         })
     }
 
@@ -141,6 +220,30 @@ impl EtherCatBackend {
             return Ok(());
         }
         let (md, group, txrx) = bus::bring_up(&self.config)?;
+        // every wired bit within its SubDevice's process data
+        for (wires, count, outputs) in [
+            (&self.in_wires, self.in_count, false),
+            (&self.out_wires, self.out_count, true),
+        ] {
+            for w in &wires[..count] {
+                let p = usize::from(w.position);
+                let s = group
+                    .subdevice(md, p)
+                    .map_err(bus::bus_err("process data"))?;
+                let (len, at) = if outputs {
+                    (s.outputs_raw().len(), self.digital_at[p].1)
+                } else {
+                    (s.inputs_raw().len(), self.digital_at[p].0)
+                };
+                if at + usize::from(w.bit) / 8 >= len {
+                    return Err(OpenError::Config(format!(
+                        "subdevices[{p}].{}: bit {} beyond its {len} byte(s) of process data",
+                        if outputs { "outputs" } else { "inputs" },
+                        w.bit
+                    )));
+                }
+            }
+        }
         let mut expected_wkc = 0;
         for s in group.iter(md) {
             expected_wkc +=
@@ -246,6 +349,36 @@ impl EtherCatBackend {
                 cia402::write_outputs(&mut s.outputs_raw_mut(), d.controlword, d.target, 0);
             }
         }
+        // the raw output lines onto their SubDevices' bits (a terminal's byte
+        // rewritten whole: the bits not wired stay 0)
+        for (p, &(_, at)) in self.digital_at.iter().enumerate().take(group.len()) {
+            if matches!(
+                self.config.subdevices.get(p).map(|s| &s.role),
+                Some(Role::Io)
+            ) {
+                if let Ok(s) = group.subdevice(md, p) {
+                    s.outputs_raw_mut()
+                        .get_mut(at..)
+                        .into_iter()
+                        .flatten()
+                        .for_each(|b| *b = 0);
+                }
+            }
+        }
+        for w in &self.out_wires[..self.out_count] {
+            let p = usize::from(w.position);
+            if let Ok(s) = group.subdevice(md, p) {
+                let at = self.digital_at[p].1 + usize::from(w.bit / 8);
+                if let Some(b) = s.outputs_raw_mut().get_mut(at) {
+                    let mask = 1u8 << (w.bit % 8);
+                    if self.raw_out >> w.line & 1 == 1 {
+                        *b |= mask;
+                    } else {
+                        *b &= !mask;
+                    }
+                }
+            }
+        }
         let t0 = Instant::now();
         // the wait is bounded here: at the deadline the future is dropped, which
         // gives its frame back to ethercrab (a late answer is then ignored)
@@ -283,6 +416,20 @@ impl EtherCatBackend {
         if got != expected {
             return Err((None, BusFault::WorkingCounter { got, expected }));
         }
+        let mut raw_in = 0u128;
+        for w in &self.in_wires[..self.in_count] {
+            let p = usize::from(w.position);
+            if let Ok(s) = group.subdevice(md, p) {
+                let at = self.digital_at[p].0 + usize::from(w.bit / 8);
+                if s.inputs_raw()
+                    .get(at)
+                    .is_some_and(|b| b >> (w.bit % 8) & 1 == 1)
+                {
+                    raw_in |= 1u128 << w.line;
+                }
+            }
+        }
+        self.raw_in = raw_in;
         let mut faulted = None;
         for d in self.drives.iter_mut().flatten() {
             if let Ok(s) = group.subdevice(md, d.position) {
@@ -516,6 +663,18 @@ impl ServoBackend for EtherCatBackend {
     }
     fn bus_stats(&self) -> Option<BusStats> {
         Some(EtherCatBackend::bus_stats(self))
+    }
+    fn io_lines(&self) -> IoLines {
+        self.lines
+    }
+    fn write_io(&mut self, out: &RawOutputs) {
+        self.raw_out = out.digital;
+    }
+    fn read_io(&self) -> RawInputs {
+        RawInputs {
+            digital: self.raw_in,
+            ..RawInputs::default()
+        }
     }
     fn read_counts(&self) -> Axes<i64> {
         let mut c = Axes::splat(0);

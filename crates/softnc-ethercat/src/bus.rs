@@ -222,7 +222,7 @@ impl<F: Future> Future for UntilStopped<F> {
     }
 }
 
-fn bus_err(step: &'static str) -> impl Fn(ethercrab::error::Error) -> OpenError {
+pub(crate) fn bus_err(step: &'static str) -> impl Fn(ethercrab::error::Error) -> OpenError {
     move |e| OpenError::Bus {
         step,
         reason: e.to_string(),

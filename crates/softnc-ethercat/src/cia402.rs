@@ -17,6 +17,10 @@ pub const TX_MAPPING: [u32; 5] = [
 pub const RX_BYTES: usize = 11;
 /// Input bytes.
 pub const TX_BYTES: usize = 16;
+/// Where 0x60FD starts in the input bytes of [`TX_MAPPING`].
+pub const TX_DIGITAL_INPUTS_AT: usize = 10;
+/// Where 0x60FE:01 starts in the output bytes of [`RX_MAPPING`].
+pub const RX_DIGITAL_OUTPUTS_AT: usize = 7;
 /// Modes of operation: cyclic synchronous position.
 pub const MODE_CSP: i8 = 8;
 

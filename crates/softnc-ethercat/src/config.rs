@@ -40,17 +40,36 @@ pub enum Role {
         /// Following error window written to 0x6065 (counts).
         following_error_window_counts: u32,
     },
-    /// A digital I/O terminal (on the bus, its signals not yet served).
+    /// A digital I/O terminal (its bits on raw lines through `inputs`/`outputs`).
     Io,
 }
 
+/// One bit of a SubDevice's digital inputs or outputs carried on a raw line of
+/// the I/O boundary (`softnc_servo::io`: the machine profile's `servo.io` names
+/// the signal on the line).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct BitLine {
+    /// Bit of the SubDevice's digital inputs or outputs (a drive: 0x60FD / 0x60FE;
+    /// a terminal: its process data, bit 0 of the first byte first).
+    pub bit: u8,
+    /// Raw line (0 … 127).
+    pub line: u8,
+}
+
 /// One expected SubDevice.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ExpectedSubDevice {
     /// Identity (the serial number is not compared).
     pub identity: Identity,
     /// Role.
     pub role: Role,
+    /// Its digital inputs on raw input lines (a terminal's E-stop chain, probe,
+    /// tool-changed; a drive's home switch, 0x60FD bit 2).
+    #[serde(default)]
+    pub inputs: Vec<BitLine>,
+    /// Raw output lines on its digital outputs (a terminal's spindle, coolant).
+    #[serde(default)]
+    pub outputs: Vec<BitLine>,
 }
 
 /// The bus.
@@ -96,5 +115,73 @@ impl EtherCatSettings {
             response_timeout: Duration::from_secs_f64(self.response_timeout_s.max(0.0)),
             subdevices: self.subdevices.clone(),
         }
+    }
+}
+
+/// Highest bit of a SubDevice's digital inputs or outputs that can be wired (a
+/// drive's 0x60FD/0x60FE are 32 bits; a terminal's process data is checked at
+/// bring-up).
+const MAX_BIT: u8 = 63;
+
+/// The wiring of `subdevices` to raw lines checked: each line within the raw
+/// lines, each bit within [`MAX_BIT`], no input line fed by two bits, no output
+/// line on two bits of one SubDevice. The RON path of a bad entry and why.
+pub fn check_wiring(subdevices: &[ExpectedSubDevice]) -> Result<(), (String, String)> {
+    let mut fed = 0u128;
+    for (p, s) in subdevices.iter().enumerate() {
+        let max_bit = match s.role {
+            Role::Drive { .. } => 31,
+            Role::Io => MAX_BIT,
+        };
+        let mut driven = 0u128;
+        for (dir, wires) in [("inputs", &s.inputs), ("outputs", &s.outputs)] {
+            for (k, w) in wires.iter().enumerate() {
+                let path = format!("subdevices[{p}].{dir}[{k}]");
+                if usize::from(w.line) >= softnc_servo::io::RAW_DIGITAL_LINES {
+                    return Err((
+                        format!("{path}.line"),
+                        format!(
+                            "line {} beyond the raw lines 0 … {}",
+                            w.line,
+                            softnc_servo::io::RAW_DIGITAL_LINES - 1
+                        ),
+                    ));
+                }
+                if w.bit > max_bit {
+                    return Err((
+                        format!("{path}.bit"),
+                        format!("bit {} beyond {max_bit}", w.bit),
+                    ));
+                }
+                let line = 1u128 << w.line;
+                let seen = if dir == "inputs" {
+                    &mut fed
+                } else {
+                    &mut driven
+                };
+                if *seen & line != 0 {
+                    return Err((
+                        format!("{path}.line"),
+                        format!("line {} is on another bit already", w.line),
+                    ));
+                }
+                *seen |= line;
+            }
+        }
+    }
+    Ok(())
+}
+
+impl EtherCatSettings {
+    /// The settings checked (the wiring, the response timeout): the RON path
+    /// below the section of a bad value and why.
+    pub fn validate(&self) -> Result<(), (String, String)> {
+        if !(self.response_timeout_s > 0.0 && self.response_timeout_s.is_finite()) {
+            return Err((
+                "response_timeout_s".into(),
+                "must be a finite number of seconds > 0".into(),
+            ));
+        }
+        check_wiring(&self.subdevices)
     }
 }

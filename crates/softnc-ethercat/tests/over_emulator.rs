@@ -5,7 +5,7 @@
 //! with its send-to-receive times printed.
 
 use softnc_ethercat::{
-    EtherCatBackend, EtherCatConfig, ExpectedSubDevice, Identity, OpenError, Role,
+    BitLine, EtherCatBackend, EtherCatConfig, ExpectedSubDevice, Identity, OpenError, Role,
 };
 use softnc_ethercat_emu::control::Command;
 use softnc_ethercat_emu::veth::{is_root, VethPair};
@@ -32,6 +32,13 @@ fn identity(kind: DeviceKind, position: usize) -> Identity {
     }
 }
 
+/// The shipped profile's (config/machines/default.ron) lines: Home("X") is 23,
+/// Home("Y") 24, Home("Z") 25.
+const HOME_LINE: u8 = 23;
+/// The terminal's inputs: bit 0 the E-stop chain (line 16), bit 1 tool-changed
+/// (5), bit 2 the probe (26), bit 3 the X maximum limit (20), bit 4 M66 P0 (64).
+const TERMINAL_INPUTS: [(u8, u8); 5] = [(0, 16), (1, 5), (2, 26), (3, 20), (4, 64)];
+
 fn config(iface: &str) -> EtherCatConfig {
     let subdevices = KINDS
         .iter()
@@ -46,6 +53,23 @@ fn config(iface: &str) -> EtherCatConfig {
                     following_error_window_counts: 50_000,
                 },
                 DeviceKind::Io => Role::Io,
+            },
+            inputs: match k {
+                // each drive's home switch (0x60FD bit 2) on its axis's Home line
+                DeviceKind::Drive => vec![BitLine {
+                    bit: 2,
+                    line: HOME_LINE + p as u8,
+                }],
+                DeviceKind::Io => TERMINAL_INPUTS
+                    .iter()
+                    .map(|&(bit, line)| BitLine { bit, line })
+                    .collect(),
+            },
+            outputs: match k {
+                DeviceKind::Drive => Vec::new(),
+                // the cabinet's outputs 0 … 7 (spindle, coolant, tool change,
+                // machine on, amplifier enable) on the terminal's 8 outputs
+                DeviceKind::Io => (0..8).map(|b| BitLine { bit: b, line: b }).collect(),
             },
         })
         .collect();
@@ -247,4 +271,101 @@ fn faults_are_detected_within_3_cycles_and_the_cycle_does_not_allocate() {
         "after the faults: frames {} lost {} wkc errors {}",
         s.frames, s.lost_frames, s.wkc_errors
     );
+}
+
+/// The terminal's and the drives' digital inputs reach the machine's named
+/// signals through the I/O boundary (`MachineIo` on the shipped profile's map),
+/// and the machine's outputs reach the terminal's outputs.
+#[test]
+fn the_terminal_carries_the_machine_signals() {
+    let Some((_one, veth, emu)) = bus() else {
+        return;
+    };
+    let profile = softnc_machine::MachineProfile::load(
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/machines/default.ron"
+        )
+        .as_ref(),
+    )
+    .expect("default profile");
+    let mut b = EtherCatBackend::open(&config(&veth.main)).expect("bus up");
+    let lines = b.io_lines();
+    assert_eq!((lines.digital_in, lines.digital_out), (65, 8), "{lines:?}");
+    let mut io = softnc_servo::MachineIo::new(&profile, lines);
+    let terminal = KINDS.len() - 1;
+    // inputs: each in turn, seen at its signal within 3 exchanges
+    type Check = fn(&softnc_core::machine_io::MachineInputs) -> bool;
+    let cases: [(&str, usize, u32, Check); 7] = [
+        ("nothing", terminal, 0, |i| {
+            !i.estop_open && !i.probe && !i.tool_changed && i.home == 0 && i.digital == 0
+        }),
+        ("the E-stop chain open", terminal, 1 << 0, |i| i.estop_open),
+        ("tool changed", terminal, 1 << 1, |i| i.tool_changed),
+        ("the probe", terminal, 1 << 2, |i| i.probe),
+        ("M66 P0", terminal, 1 << 4, |i| i.digital & 1 == 1),
+        ("Y's home switch (drive 1, 0x60FD bit 2)", 1, 1 << 2, |i| {
+            i.home == 0b010
+        }),
+        ("Z's home switch (drive 2, 0x60FD bit 2)", 2, 1 << 2, |i| {
+            i.home == 0b110
+        }),
+    ];
+    for (what, position, bits, seen) in cases {
+        emu.command(Command::Inputs { position, bits });
+        let mut got = None;
+        for _ in 0..3 {
+            std::thread::sleep(Duration::from_millis(2));
+            b.exchange_io().expect("exchange");
+            let i = io.inputs(&b.read_io());
+            if seen(&i) {
+                got = Some(());
+                break;
+            }
+        }
+        assert!(
+            got.is_some(),
+            "{what}: not seen in 3 exchanges: {:?}",
+            b.read_io()
+        );
+        println!("{what}: raw input lines {:#x}", b.read_io().digital);
+    }
+    // outputs: M8 (flood) and M3 with the machine on, then the safe state off
+    let program = softnc_core::machine_io::MachineOutputs {
+        spindle_dir: softnc_core::machine_io::SpindleDir::Clockwise,
+        spindle_rpm: 1000.0,
+        coolant_flood: true,
+        ..Default::default()
+    };
+    let terminal_outputs = |b: &mut EtherCatBackend, raw: &softnc_servo::RawOutputs| {
+        b.write_io(raw);
+        b.exchange_io().expect("exchange");
+        b.exchange_io().expect("exchange");
+        emu.views()
+            .iter()
+            .find_map(|v| match v.app {
+                softnc_ethercat_emu::app::AppView::Io { outputs, .. } => Some(outputs),
+                _ => None,
+            })
+            .expect("the terminal")
+    };
+    // the E-stop chain closed again: the latch reset, as the operator's reset does
+    assert!(
+        io.reset_estop(),
+        "the E-stop latch resets with the chain closed"
+    );
+    let on = io.outputs(&program, softnc_servo::io::OutputState::default());
+    let got = terminal_outputs(&mut b, &on);
+    println!("M3 M8, machine on: terminal outputs {got:#010b}");
+    // spindle enable 0, cw 1, flood 4, machine on 6, amplifier enable 7
+    assert_eq!(got, 0b1101_0011, "terminal outputs {got:#010b}");
+    let off = softnc_servo::io::OutputState {
+        machine_on: false,
+        amp_enable: false,
+        spindle_override: 1.0,
+    };
+    let safe = io.outputs(&program, off);
+    let got = terminal_outputs(&mut b, &safe);
+    println!("machine off: terminal outputs {got:#010b}");
+    assert_eq!(got, 0, "the safe state on the terminal");
 }
