@@ -25,6 +25,15 @@ pub enum Command {
         /// SubDevice position.
         position: usize,
     },
+    /// The SubDevice at `position` exchanges the process data of the next
+    /// `frames` frames without counting the working counter (the frame comes back
+    /// whole, its working counter short by that SubDevice's share).
+    SkipWorkingCounter {
+        /// SubDevice position.
+        position: usize,
+        /// Frames.
+        frames: u32,
+    },
     /// The digital inputs of the SubDevice at `position` (drive: 0x60FD; terminal:
     /// the input byte).
     Inputs {
@@ -37,7 +46,7 @@ pub enum Command {
 
 /// A command line that does not parse.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown command {0:?}: link-down | link-up | drop N | fault POS CODE | leave-op POS | inputs POS BITS")]
+#[error("unknown command {0:?}: link-down | link-up | drop N | fault POS CODE | leave-op POS | wkc POS FRAMES | inputs POS BITS")]
 pub struct BadCommand(pub String);
 
 fn num(s: Option<&str>) -> Option<u32> {
@@ -65,6 +74,10 @@ impl FromStr for Command {
             },
             ("leave-op", Some(p), None) => Command::LeaveOp {
                 position: p as usize,
+            },
+            ("wkc", Some(p), Some(frames)) => Command::SkipWorkingCounter {
+                position: p as usize,
+                frames,
             },
             ("inputs", Some(p), Some(bits)) => Command::Inputs {
                 position: p as usize,

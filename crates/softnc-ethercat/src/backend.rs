@@ -9,8 +9,8 @@ use ethercrab::{MainDevice, SubDeviceState};
 use softnc_core::Axes;
 use softnc_servo::io::RAW_DIGITAL_LINES;
 use softnc_servo::{
-    AxisStatus, BackendError, BusFault, CommandMode, IoLines, RawInputs, RawOutputs, ServoBackend,
-    MAX_AXES,
+    AxisStatus, BackendError, BusFault, CommandMode, IfName, IoLines, Positions, RawInputs,
+    RawOutputs, ServoBackend, MAX_AXES,
 };
 use std::time::{Duration, Instant};
 
@@ -65,6 +65,10 @@ struct Bus {
     md: &'static MainDevice<'static>,
     group: Group,
     expected_wkc: u16,
+    /// Each SubDevice's share of the working counter.
+    wkc_share: [u16; bus::MAX_SUBDEVICES],
+    /// Every SubDevice on the bus.
+    all: Positions,
     _txrx: bus::TxRxStop,
 }
 
@@ -96,6 +100,8 @@ pub struct EtherCatBackend {
     /// Each SubDevice's (inputs, outputs) digital offsets in its process data.
     digital_at: [(usize, usize); bus::MAX_SUBDEVICES],
     lines: IoLines,
+    /// The bus's interface (for its faults' alarms).
+    iface: IfName,
     raw_in: u128,
     raw_out: u128,
 }
@@ -209,6 +215,7 @@ impl EtherCatBackend {
             out_count,
             digital_at,
             lines,
+            iface: IfName::new(&config.interface),
             raw_in: 0,
             raw_out: 0,
         })
@@ -245,14 +252,19 @@ impl EtherCatBackend {
             }
         }
         let mut expected_wkc = 0;
-        for s in group.iter(md) {
-            expected_wkc +=
+        let mut wkc_share = [0; bus::MAX_SUBDEVICES];
+        for (share, s) in wkc_share.iter_mut().zip(group.iter(md)) {
+            *share =
                 2 * u16::from(!s.outputs_raw().is_empty()) + u16::from(!s.inputs_raw().is_empty());
+            expected_wkc += *share;
         }
+        let all = Positions((1u32 << group.len()) - 1);
         self.bus = Some(Bus {
             md,
             group,
             expected_wkc,
+            wkc_share,
+            all,
             _txrx: txrx,
         });
         // the first inputs, so that `home` and `read_counts` see the drives
@@ -391,7 +403,13 @@ impl EtherCatBackend {
         };
         let Some(Ok(r)) = r else {
             self.stats.lost_frames += 1;
-            return Err((None, BusFault::FrameLost));
+            return Err((
+                None,
+                BusFault::FrameLost {
+                    iface: self.iface,
+                    subdevices: bus.all,
+                },
+            ));
         };
         self.stats.rtt_max_ns = self.stats.rtt_max_ns.max(rtt);
         let bucket = ((rtt / RTT_BUCKET_NS) as usize).min(RTT_BUCKETS - 1);
@@ -414,7 +432,25 @@ impl EtherCatBackend {
             ));
         }
         if got != expected {
-            return Err((None, BusFault::WorkingCounter { got, expected }));
+            // the SubDevices whose share is the shortfall: one of them did not count
+            let short = expected.wrapping_sub(got);
+            let mut suspects = 0u32;
+            for (p, &share) in bus.wkc_share.iter().enumerate().take(group.len()) {
+                if share == short {
+                    suspects |= 1 << p;
+                }
+            }
+            let suspects = Positions(if suspects == 0 { bus.all.0 } else { suspects });
+            let single =
+                (suspects.0.count_ones() == 1).then(|| suspects.0.trailing_zeros() as usize);
+            return Err((
+                single,
+                BusFault::WorkingCounter {
+                    got,
+                    expected,
+                    suspects,
+                },
+            ));
         }
         let mut raw_in = 0u128;
         for w in &self.in_wires[..self.in_count] {
