@@ -9,6 +9,8 @@
 //!   the alarm naming the SubDevice, its axis and the reason; the operator's
 //!   `reset` brings the bus back to OP (refused while the link is still down),
 //!   and the next job completes.
+//! - Homing on the drive's home input (0x60FD bit 2): `home Z` ends homed at the
+//!   switch.
 //! - The terminal's signals: M8/M9 at its flood output, the E-stop chain opened at
 //!   its input E-stops the machine.
 #[allow(unused_imports)] // the shared harness re-exports what other test files use
@@ -457,4 +459,87 @@ fn e2e_faults_mid_job_stop_every_drive_and_reset_brings_the_bus_back() {
     let figures = s.loops.bus.expect("the bus figures in the status");
     println!("bus figures after the faults: {figures:?}");
     assert!(figures.lost_frames >= 2, "{figures:?}");
+    drop(op);
+    drop(d);
+
+    // 5. homing on the drive's home input: another daemon on the same bus, with
+    // the incremental-encoder profile
+    homes_on_the_drive_home_input(&veth, &emu, &bus);
+}
+
+/// Where the emulated Z drive's home switch is, from where the drive stands
+/// (mm): close, so that the search is short.
+const Z_SWITCH_FROM_START_MM: f64 = 20.0;
+/// The homed position's tolerance at the drive (mm): the latch at 2 mm/s moves
+/// 2 µm a cycle.
+const HOMED_TOLERANCE_MM: f64 = 0.01;
+
+/// `softnc home Z` over the bus on config/machines/default-incremental.ron: the
+/// search runs until the Z drive's home switch (0x60FD bit 2, wired to the
+/// profile's Home("Z") line) reads active, latches where it releases, and Z ends
+/// at the profile's home_mm with the latch point at its switch_mm: checked on
+/// the emulated drive's own position.
+fn homes_on_the_drive_home_input(veth: &VethPair, emu: &Emulator, bus: &str) {
+    let drive_counts = |emu: &Emulator| {
+        emu.views()
+            .iter()
+            .find_map(|v| match v.app {
+                softnc_ethercat_emu::app::AppView::Drive(dv) if v.position == 2 => {
+                    Some(dv.position_counts)
+                }
+                _ => None,
+            })
+            .expect("drive 2")
+    };
+    let start_counts = drive_counts(emu);
+    let switch_counts = start_counts + (Z_SWITCH_FROM_START_MM * DRIVE_COUNTS_PER_MM) as i32;
+    emu.command(Fault::HomeSwitch {
+        position: 2,
+        at_counts: switch_counts,
+    });
+    let profile = repo().join("config/machines/default-incremental.ron");
+    let text = std::fs::read_to_string(&profile).unwrap();
+    let (switch_mm, home_mm) = (105.0, 90.0);
+    assert!(
+        text.contains("(switch_mm: 105.0, search_vel_mm_per_s: 30.0, latch_vel_mm_per_s: -2.0,\n             final_vel_mm_per_s: 100.0, home_mm: 90.0)"),
+        "Z's homing in {}",
+        profile.display()
+    );
+    let d = Daemon::start_in(
+        fresh_dir("ethercat-homing"),
+        "ethercathoming",
+        "Realtime",
+        false,
+        profile.to_str().unwrap(),
+        &[("backend: Simulated", bus)],
+    );
+    let op = d.operator();
+    let (ok, msg) = ask(
+        &op,
+        &Request::Home {
+            axis: Some(axis(2)),
+        },
+    );
+    assert!(ok, "home Z: {msg}");
+    let s = d.wait_status(&op, Duration::from_secs(30), "Z homed", |s| {
+        s.homed.get(2) == Some(&true) && s.state == MachineState::Idle
+    });
+    let z_mm = machine_mm(&s)[2];
+    let at = drive_counts(emu);
+    // the latch point (switch_counts) reads switch_mm: home_mm is that less
+    // (switch_mm − home_mm) at the drive
+    let want = f64::from(switch_counts) - (switch_mm - home_mm) * DRIVE_COUNTS_PER_MM;
+    let off_mm = (f64::from(at) - want) / DRIVE_COUNTS_PER_MM;
+    println!(
+        "home Z on {}: homed at {z_mm:.4} mm; the drive at {at} counts, the switch at {switch_counts}: {off_mm:+.4} mm from home_mm by the switch",
+        veth.main
+    );
+    assert!(
+        (z_mm - home_mm).abs() < HOMED_TOLERANCE_MM,
+        "Z at {z_mm} mm"
+    );
+    assert!(
+        off_mm.abs() < HOMED_TOLERANCE_MM,
+        "Z's drive {off_mm} mm from where the switch puts home"
+    );
 }

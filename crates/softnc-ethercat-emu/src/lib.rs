@@ -347,6 +347,14 @@ fn apply(c: Command, escs: &mut [Esc], faults: &mut Faults) {
                 e.skip_working_counter(frames);
             }
         }
+        Command::HomeSwitch {
+            position,
+            at_counts,
+        } => {
+            if let Some(e) = escs.get_mut(position) {
+                e.app_mut().set_home_switch(Some(at_counts));
+            }
+        }
         Command::Inputs { position, bits } => {
             if let Some(e) = escs.get_mut(position) {
                 e.app_mut().set_digital_inputs(bits);
