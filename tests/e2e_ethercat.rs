@@ -1,6 +1,7 @@
 //! softncd on EtherCAT (issue 32), end to end: its three processes drive the
 //! emulated CiA 402 drives and I/O terminal (`softnc-ethercat-emu`) on a veth pair
 //! made by the test (root needed; SKIPPED otherwise).
+//! - Drive 1 on a PDO mapping of the configuration's, not the default one.
 //! - A job over the wire: every planned sample of the job reaches every drive as
 //!   its target, none missing, none late by more than one cycle.
 //! - Each fault the emulator injects (a frame dropped, a working counter short, a
@@ -41,6 +42,12 @@ const TERMINAL_OUTPUTS: &str = "[(bit: 0, line: 0), (bit: 1, line: 1), (bit: 2, 
 const FLOOD_BIT: u8 = 1 << 4;
 const ESTOP_CHAIN_BIT: u32 = 1 << 0;
 
+/// Drive 1's PDO mapping, not the default one: the RxPDO without modes of
+/// operation and digital outputs, its objects in another order; the TxPDO without
+/// the following error, with the mode display, in another order (the job's
+/// targets, its home switch and its fault's error code all go through it).
+const NON_DEFAULT_PDO: &str = ", pdo: Some((rx: [TargetPosition, ControlWord], tx: [PositionActual, ModesOfOperationDisplay, StatusWord, ErrorCode, DigitalInputs]))";
+
 /// The daemon configuration's `backend:` for a drive per axis (each one's home
 /// switch, 0x60FD bit 2, on its axis's Home line 23 + axis), then the terminal.
 fn backend(iface: &str, kinds: &[DeviceKind]) -> String {
@@ -54,7 +61,11 @@ fn backend(iface: &str, kinds: &[DeviceKind]) -> String {
                     format!(
                         "Drive(axis: {p}, counts_per_mm: {DRIVE_COUNTS_PER_MM:?}, direction: 1, following_error_window_counts: 50000)"
                     ),
-                    format!("inputs: [(bit: 2, line: {})]", 23 + p),
+                    format!(
+                        "inputs: [(bit: 2, line: {})]{}",
+                        23 + p,
+                        if p == 1 { NON_DEFAULT_PDO } else { "" }
+                    ),
                 ),
                 DeviceKind::Io => (
                     "Io".into(),

@@ -148,6 +148,7 @@ fn emulated_bus(
                 // answered by the demo as the operator
                 inputs: Vec::new(),
                 outputs: Vec::new(),
+                pdo: None,
             }
         })
         .collect();

@@ -3,7 +3,7 @@
 
 use crate::bus::{self, Group, OpenError};
 use crate::cia402::{self, cw, Inputs};
-use crate::config::{EtherCatConfig, Role};
+use crate::config::{EtherCatConfig, ExpectedSubDevice, Role};
 use crate::exec::block_on;
 use ethercrab::{MainDevice, SubDeviceState};
 use softnc_core::Axes;
@@ -37,11 +37,17 @@ struct Wire {
 const MAX_WIRES: usize = RAW_DIGITAL_LINES;
 
 /// Where a SubDevice's digital inputs and outputs start in its process data
-/// (bytes): a drive's 0x60FD and 0x60FE as the mapping lays them out, a
+/// (bytes): a drive's 0x60FD and 0x60FE as its mapping lays them out, a
 /// terminal's from its first byte.
-fn digital_offsets(role: &Role) -> (usize, usize) {
-    match role {
-        Role::Drive { .. } => (cia402::TX_DIGITAL_INPUTS_AT, cia402::RX_DIGITAL_OUTPUTS_AT),
+fn digital_offsets(s: &ExpectedSubDevice) -> (usize, usize) {
+    match s.role {
+        Role::Drive { .. } => {
+            let l = cia402::Layout::of(&s.pdo.clone().unwrap_or_default());
+            (
+                l.digital_inputs.unwrap_or(0),
+                l.digital_outputs.unwrap_or(0),
+            )
+        }
         Role::Io => (0, 0),
     }
 }
@@ -49,6 +55,7 @@ fn digital_offsets(role: &Role) -> (usize, usize) {
 #[derive(Debug, Clone, Copy)]
 struct Drive {
     position: usize,
+    layout: cia402::Layout,
     counts_per_mm: f64,
     direction: f64,
     offset_counts: f64,
@@ -141,6 +148,7 @@ impl EtherCatBackend {
                 }
                 *slot = Some(Drive {
                     position,
+                    layout: cia402::Layout::of(&s.pdo.clone().unwrap_or_default()),
                     counts_per_mm,
                     direction: f64::from(direction),
                     offset_counts: 0.0,
@@ -168,7 +176,7 @@ impl EtherCatBackend {
         crate::config::check_wiring(&config.subdevices)
             .map_err(|(path, reason)| OpenError::Config(format!("{path}: {reason}")))?;
         for (position, s) in config.subdevices.iter().enumerate() {
-            digital_at[position] = digital_offsets(&s.role);
+            digital_at[position] = digital_offsets(s);
             for w in &s.inputs {
                 in_wires[in_count] = Wire {
                     position: position as u8,
@@ -249,6 +257,19 @@ impl EtherCatBackend {
                         w.bit
                     )));
                 }
+            }
+        }
+        // each drive's process data as its mapping gives
+        for d in self.drives.iter().flatten() {
+            let s = group
+                .subdevice(md, d.position)
+                .map_err(bus::bus_err("process data"))?;
+            let (rx, tx) = (s.outputs_raw().len(), s.inputs_raw().len());
+            if (rx, tx) != (d.layout.rx_bytes, d.layout.tx_bytes) {
+                return Err(OpenError::Config(format!(
+                    "SubDevice {}: {rx} output and {tx} input bytes of process data, the mapping gives {} and {}",
+                    d.position, d.layout.rx_bytes, d.layout.tx_bytes
+                )));
             }
         }
         let mut expected_wkc = 0;
@@ -358,7 +379,7 @@ impl EtherCatBackend {
         let (md, group, expected) = (bus.md, &bus.group, bus.expected_wkc);
         for d in self.drives.iter().flatten() {
             if let Ok(s) = group.subdevice(md, d.position) {
-                cia402::write_outputs(&mut s.outputs_raw_mut(), d.controlword, d.target, 0);
+                cia402::write_outputs(&mut s.outputs_raw_mut(), &d.layout, d.controlword, d.target);
             }
         }
         // the raw output lines onto their SubDevices' bits (a terminal's byte
@@ -469,7 +490,7 @@ impl EtherCatBackend {
         let mut faulted = None;
         for d in self.drives.iter_mut().flatten() {
             if let Ok(s) = group.subdevice(md, d.position) {
-                d.inputs = Inputs::parse(&s.inputs_raw());
+                d.inputs = Inputs::parse(&s.inputs_raw(), &d.layout);
             }
             if d.inputs.statusword & cia402::FAULT_BIT != 0 && faulted.is_none() {
                 faulted = Some((

@@ -324,18 +324,19 @@ pub fn bring_up(
         // PDO mapping (CiA 301: assignment and mapping emptied, filled, counted)
         write!(0x1C12, 0, 0u8);
         write!(0x1600, 0, 0u8);
-        for (k, m) in cia402::RX_MAPPING.iter().enumerate() {
-            write!(0x1600, k as u8 + 1, *m);
+        let mapping = want.pdo.clone().unwrap_or_default();
+        for (k, o) in mapping.rx.iter().enumerate() {
+            write!(0x1600, k as u8 + 1, o.mapping_entry());
         }
-        write!(0x1600, 0, cia402::RX_MAPPING.len() as u8);
+        write!(0x1600, 0, mapping.rx.len() as u8);
         write!(0x1C12, 1, 0x1600u16);
         write!(0x1C12, 0, 1u8);
         write!(0x1C13, 0, 0u8);
         write!(0x1A00, 0, 0u8);
-        for (k, m) in cia402::TX_MAPPING.iter().enumerate() {
-            write!(0x1A00, k as u8 + 1, *m);
+        for (k, o) in mapping.tx.iter().enumerate() {
+            write!(0x1A00, k as u8 + 1, o.mapping_entry());
         }
-        write!(0x1A00, 0, cia402::TX_MAPPING.len() as u8);
+        write!(0x1A00, 0, mapping.tx.len() as u8);
         write!(0x1C13, 1, 0x1A00u16);
         write!(0x1C13, 0, 1u8);
         write!(0x6060, 0, cia402::MODE_CSP);

@@ -23,6 +23,7 @@ fn drive(axis: u8) -> ExpectedSubDevice {
         },
         inputs: Vec::new(),
         outputs: Vec::new(),
+        pdo: None,
     }
 }
 

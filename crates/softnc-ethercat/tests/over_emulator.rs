@@ -71,6 +71,7 @@ fn config(iface: &str) -> EtherCatConfig {
                 // machine on, amplifier enable) on the terminal's 8 outputs
                 DeviceKind::Io => (0..8).map(|b| BitLine { bit: b, line: b }).collect(),
             },
+            pdo: None,
         })
         .collect();
     EtherCatConfig {
