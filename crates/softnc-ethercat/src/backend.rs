@@ -52,6 +52,125 @@ fn digital_offsets(s: &ExpectedSubDevice) -> (usize, usize) {
     }
 }
 
+/// The SubDevices' digital bits on raw lines: fixed-size tables, made from the
+/// configuration, read and written on the cycle without allocating.
+struct Wiring {
+    in_wires: Box<[Wire; MAX_WIRES]>,
+    in_count: usize,
+    out_wires: Box<[Wire; MAX_WIRES]>,
+    out_count: usize,
+    /// Each SubDevice's (inputs, outputs) digital offsets in its process data.
+    digital_at: [(usize, usize); bus::MAX_SUBDEVICES],
+    /// Bit p: the SubDevice at p is a terminal (its output bytes rewritten whole).
+    terminals: u32,
+    lines: IoLines,
+}
+
+impl Wiring {
+    /// The tables of `config` (checked).
+    fn of(config: &EtherCatConfig) -> Result<Self, OpenError> {
+        let mut in_wires = Box::new([Wire::default(); MAX_WIRES]);
+        let mut out_wires = Box::new([Wire::default(); MAX_WIRES]);
+        let (mut in_count, mut out_count) = (0, 0);
+        let mut digital_at = [(0, 0); bus::MAX_SUBDEVICES];
+        let mut lines = IoLines::NONE;
+        if config.subdevices.len() > bus::MAX_SUBDEVICES {
+            return Err(OpenError::Config(format!(
+                "{} SubDevices, at most {}",
+                config.subdevices.len(),
+                bus::MAX_SUBDEVICES
+            )));
+        }
+        crate::config::check_wiring(&config.subdevices)
+            .map_err(|(path, reason)| OpenError::Config(format!("{path}: {reason}")))?;
+        for (position, s) in config.subdevices.iter().enumerate() {
+            digital_at[position] = digital_offsets(s);
+            for w in &s.inputs {
+                in_wires[in_count] = Wire {
+                    position: position as u8,
+                    bit: w.bit,
+                    line: w.line,
+                };
+                in_count += 1;
+                lines.digital_in = lines.digital_in.max(usize::from(w.line) + 1);
+            }
+            for w in &s.outputs {
+                out_wires[out_count] = Wire {
+                    position: position as u8,
+                    bit: w.bit,
+                    line: w.line,
+                };
+                out_count += 1;
+                lines.digital_out = lines.digital_out.max(usize::from(w.line) + 1);
+            }
+        }
+        let mut terminals = 0;
+        for (p, s) in config.subdevices.iter().enumerate() {
+            if s.role == Role::Io {
+                terminals |= 1 << p;
+            }
+        }
+        Ok(Wiring {
+            in_wires,
+            in_count,
+            out_wires,
+            out_count,
+            digital_at,
+            terminals,
+            lines,
+        })
+    }
+
+    /// The raw output lines onto their SubDevices' bits.
+    fn put_outputs(&self, group: &Group, md: &MainDevice<'_>, raw_out: u128) {
+        // the raw output lines onto their SubDevices' bits (a terminal's byte
+        // rewritten whole: the bits not wired stay 0)
+        for (p, &(_, at)) in self.digital_at.iter().enumerate().take(group.len()) {
+            if self.terminals >> p & 1 == 1 {
+                if let Ok(s) = group.subdevice(md, p) {
+                    s.outputs_raw_mut()
+                        .get_mut(at..)
+                        .into_iter()
+                        .flatten()
+                        .for_each(|b| *b = 0);
+                }
+            }
+        }
+        for w in &self.out_wires[..self.out_count] {
+            let p = usize::from(w.position);
+            if let Ok(s) = group.subdevice(md, p) {
+                let at = self.digital_at[p].1 + usize::from(w.bit / 8);
+                if let Some(b) = s.outputs_raw_mut().get_mut(at) {
+                    let mask = 1u8 << (w.bit % 8);
+                    if raw_out >> w.line & 1 == 1 {
+                        *b |= mask;
+                    } else {
+                        *b &= !mask;
+                    }
+                }
+            }
+        }
+    }
+
+    /// The raw input lines from their SubDevices' bits.
+    fn get_inputs(&self, group: &Group, md: &MainDevice<'_>) -> u128 {
+        let mut raw_in = 0u128;
+        for w in &self.in_wires[..self.in_count] {
+            let p = usize::from(w.position);
+            if let Ok(s) = group.subdevice(md, p) {
+                let at = self.digital_at[p].0 + usize::from(w.bit / 8);
+                if s.inputs_raw()
+                    .get(at)
+                    .is_some_and(|b| b >> (w.bit % 8) & 1 == 1)
+                {
+                    raw_in |= 1u128 << w.line;
+                }
+            }
+        }
+        raw_in
+    }
+}
+
 #[derive(Debug, Clone, Copy)]
 struct Drive {
     position: usize,
@@ -76,7 +195,9 @@ struct Bus {
     wkc_share: [u16; bus::MAX_SUBDEVICES],
     /// Every SubDevice on the bus.
     all: Positions,
-    _txrx: bus::TxRxStop,
+    /// Declared after the group: dropped after it (the group is never used with
+    /// the MainDevice's next bring-up).
+    _master: bus::Master,
 }
 
 /// CiA 402 drives on EtherCAT: a handle made from the configuration, the bus
@@ -99,14 +220,8 @@ pub struct EtherCatBackend {
     lost_in_row: u32,
     stats: BusStats,
     rtt: Box<[u32; RTT_BUCKETS]>,
-    /// SubDevice input bits on raw input lines, and raw output lines on output bits.
-    in_wires: Box<[Wire; MAX_WIRES]>,
-    in_count: usize,
-    out_wires: Box<[Wire; MAX_WIRES]>,
-    out_count: usize,
-    /// Each SubDevice's (inputs, outputs) digital offsets in its process data.
-    digital_at: [(usize, usize); bus::MAX_SUBDEVICES],
-    lines: IoLines,
+    /// SubDevice bits on raw lines.
+    wiring: Wiring,
     /// The bus's interface (for its faults' alarms).
     iface: IfName,
     raw_in: u128,
@@ -161,41 +276,7 @@ impl EtherCatBackend {
                 }
             }
         }
-        let mut in_wires = Box::new([Wire::default(); MAX_WIRES]);
-        let mut out_wires = Box::new([Wire::default(); MAX_WIRES]);
-        let (mut in_count, mut out_count) = (0, 0);
-        let mut digital_at = [(0, 0); bus::MAX_SUBDEVICES];
-        let mut lines = IoLines::NONE;
-        if config.subdevices.len() > bus::MAX_SUBDEVICES {
-            return Err(OpenError::Config(format!(
-                "{} SubDevices, at most {}",
-                config.subdevices.len(),
-                bus::MAX_SUBDEVICES
-            )));
-        }
-        crate::config::check_wiring(&config.subdevices)
-            .map_err(|(path, reason)| OpenError::Config(format!("{path}: {reason}")))?;
-        for (position, s) in config.subdevices.iter().enumerate() {
-            digital_at[position] = digital_offsets(s);
-            for w in &s.inputs {
-                in_wires[in_count] = Wire {
-                    position: position as u8,
-                    bit: w.bit,
-                    line: w.line,
-                };
-                in_count += 1;
-                lines.digital_in = lines.digital_in.max(usize::from(w.line) + 1);
-            }
-            for w in &s.outputs {
-                out_wires[out_count] = Wire {
-                    position: position as u8,
-                    bit: w.bit,
-                    line: w.line,
-                };
-                out_count += 1;
-                lines.digital_out = lines.digital_out.max(usize::from(w.line) + 1);
-            }
-        }
+        let wiring = Wiring::of(config)?;
         let axes = drives.iter().take_while(|d| d.is_some()).count();
         if axes == 0 || drives.iter().skip(axes).any(Option::is_some) {
             return Err(OpenError::Config(
@@ -217,12 +298,7 @@ impl EtherCatBackend {
             lost_in_row: 0,
             stats: BusStats::default(),
             rtt: Box::new([0; RTT_BUCKETS]),
-            in_wires,
-            in_count,
-            out_wires,
-            out_count,
-            digital_at,
-            lines,
+            wiring,
             iface: IfName::new(&config.interface),
             raw_in: 0,
             raw_out: 0,
@@ -234,11 +310,13 @@ impl EtherCatBackend {
         if self.bus.is_some() {
             return Ok(());
         }
-        let (md, group, txrx) = bus::bring_up(&self.config)?;
+        let (master, group) = bus::bring_up(&self.config)?;
+        let md = master.md();
         // every wired bit within its SubDevice's process data
+        let wiring = &self.wiring;
         for (wires, count, outputs) in [
-            (&self.in_wires, self.in_count, false),
-            (&self.out_wires, self.out_count, true),
+            (&wiring.in_wires, wiring.in_count, false),
+            (&wiring.out_wires, wiring.out_count, true),
         ] {
             for w in &wires[..count] {
                 let p = usize::from(w.position);
@@ -246,9 +324,9 @@ impl EtherCatBackend {
                     .subdevice(md, p)
                     .map_err(bus::bus_err("process data"))?;
                 let (len, at) = if outputs {
-                    (s.outputs_raw().len(), self.digital_at[p].1)
+                    (s.outputs_raw().len(), wiring.digital_at[p].1)
                 } else {
-                    (s.inputs_raw().len(), self.digital_at[p].0)
+                    (s.inputs_raw().len(), wiring.digital_at[p].0)
                 };
                 if at + usize::from(w.bit) / 8 >= len {
                     return Err(OpenError::Config(format!(
@@ -286,7 +364,7 @@ impl EtherCatBackend {
             expected_wkc,
             wkc_share,
             all,
-            _txrx: txrx,
+            _master: master,
         });
         // the first inputs, so that `home` and `read_counts` see the drives
         self.exchange().map_err(|e| OpenError::Bus {
@@ -382,36 +460,7 @@ impl EtherCatBackend {
                 cia402::write_outputs(&mut s.outputs_raw_mut(), &d.layout, d.controlword, d.target);
             }
         }
-        // the raw output lines onto their SubDevices' bits (a terminal's byte
-        // rewritten whole: the bits not wired stay 0)
-        for (p, &(_, at)) in self.digital_at.iter().enumerate().take(group.len()) {
-            if matches!(
-                self.config.subdevices.get(p).map(|s| &s.role),
-                Some(Role::Io)
-            ) {
-                if let Ok(s) = group.subdevice(md, p) {
-                    s.outputs_raw_mut()
-                        .get_mut(at..)
-                        .into_iter()
-                        .flatten()
-                        .for_each(|b| *b = 0);
-                }
-            }
-        }
-        for w in &self.out_wires[..self.out_count] {
-            let p = usize::from(w.position);
-            if let Ok(s) = group.subdevice(md, p) {
-                let at = self.digital_at[p].1 + usize::from(w.bit / 8);
-                if let Some(b) = s.outputs_raw_mut().get_mut(at) {
-                    let mask = 1u8 << (w.bit % 8);
-                    if self.raw_out >> w.line & 1 == 1 {
-                        *b |= mask;
-                    } else {
-                        *b &= !mask;
-                    }
-                }
-            }
-        }
+        self.wiring.put_outputs(group, md, self.raw_out);
         let t0 = Instant::now();
         // the wait is bounded here: at the deadline the future is dropped, which
         // gives its frame back to ethercrab (a late answer is then ignored)
@@ -473,20 +522,7 @@ impl EtherCatBackend {
                 },
             ));
         }
-        let mut raw_in = 0u128;
-        for w in &self.in_wires[..self.in_count] {
-            let p = usize::from(w.position);
-            if let Ok(s) = group.subdevice(md, p) {
-                let at = self.digital_at[p].0 + usize::from(w.bit / 8);
-                if s.inputs_raw()
-                    .get(at)
-                    .is_some_and(|b| b >> (w.bit % 8) & 1 == 1)
-                {
-                    raw_in |= 1u128 << w.line;
-                }
-            }
-        }
-        self.raw_in = raw_in;
+        self.raw_in = self.wiring.get_inputs(group, md);
         let mut faulted = None;
         for d in self.drives.iter_mut().flatten() {
             if let Ok(s) = group.subdevice(md, d.position) {
@@ -722,7 +758,7 @@ impl ServoBackend for EtherCatBackend {
         Some(EtherCatBackend::bus_stats(self))
     }
     fn io_lines(&self) -> IoLines {
-        self.lines
+        self.wiring.lines
     }
     fn write_io(&mut self, out: &RawOutputs) {
         self.raw_out = out.digital;

@@ -175,6 +175,35 @@ fn estop_path_is_allocation_free(b: &mut EtherCatBackend, emu: &Emulator) {
     println!("E-stop: every drive quick-stopped over 500 exchanges, 0 allocations");
 }
 
+/// One SubDevice not counting the working counter for a frame: detected, named
+/// among the SubDevices it may be; the bus recovered and enabled again.
+fn working_counter_short(b: &mut EtherCatBackend, emu: &Emulator) {
+    // one SubDevice not counting the working counter for a frame: the frame
+    // comes back whole, its count short by that SubDevice's share (3: a drive
+    // and the terminal both read and write, so any of them may be the one)
+    emu.command(Command::SkipWorkingCounter {
+        position: 2,
+        frames: 1,
+    });
+    std::thread::sleep(Duration::from_millis(20));
+    let e = fails_within_3(b);
+    assert_eq!(
+        e,
+        BackendError::Bus {
+            subdevice: None,
+            axis: None,
+            reason: BusFault::WorkingCounter {
+                got: 9,
+                expected: 12,
+                suspects: softnc_servo::Positions(0b1111),
+            }
+        },
+        "{e}"
+    );
+    b.recover().expect("the working counter whole again");
+    b.enable().expect("enabled again");
+}
+
 #[test]
 fn faults_are_detected_within_3_cycles_and_the_cycle_does_not_allocate() {
     let Some((_one, veth, emu)) = bus() else {
@@ -217,30 +246,7 @@ fn faults_are_detected_within_3_cycles_and_the_cycle_does_not_allocate() {
     b.recover().expect("the bus answers again");
     b.enable().expect("enabled again");
 
-    // one SubDevice not counting the working counter for a frame: the frame
-    // comes back whole, its count short by that SubDevice's share (3: a drive
-    // and the terminal both read and write, so any of them may be the one)
-    emu.command(Command::SkipWorkingCounter {
-        position: 2,
-        frames: 1,
-    });
-    std::thread::sleep(Duration::from_millis(20));
-    let e = fails_within_3(&mut b);
-    assert_eq!(
-        e,
-        BackendError::Bus {
-            subdevice: None,
-            axis: None,
-            reason: BusFault::WorkingCounter {
-                got: 9,
-                expected: 12,
-                suspects: softnc_servo::Positions(0b1111),
-            }
-        },
-        "{e}"
-    );
-    b.recover().expect("the working counter whole again");
-    b.enable().expect("enabled again");
+    working_counter_short(&mut b, &emu);
 
     emu.command(Command::DriveFault {
         position: 1,
@@ -394,4 +400,56 @@ fn the_terminal_carries_the_machine_signals() {
     let got = terminal_outputs(&mut b, &safe);
     println!("machine off: terminal outputs {got:#010b}");
     assert_eq!(got, 0, "the safe state on the terminal");
+}
+
+/// Bring-ups one after the other (a reset after a failed bring-up, a test's
+/// handles): each takes the MainDevice of the one before, so the heap does not
+/// grow; the bring-up's time printed.
+/// What a bring-up may leave on the heap, at most (bytes): well below a
+/// MainDevice with its storage (≈ 19 KiB).
+const BRING_UP_GROWTH_BOUND: usize = 1024;
+
+#[test]
+fn repeated_bring_ups_do_not_grow_the_heap() {
+    let Some((_one, veth, emu)) = bus() else {
+        return;
+    };
+    const BRING_UPS: usize = 10;
+    let cfg = config(&veth.main);
+    // the first one warms what stays (the MainDevice, its thread, the socket)
+    drop(EtherCatBackend::open(&cfg).expect("bus up"));
+    // the emulator's log of received targets (it grows with the frames) left out
+    let forget_log = || (0..KINDS.len()).for_each(|p| drop(emu.take_received(p)));
+    forget_log();
+    let before = softnc_test_support::live_bytes();
+    let mut times_ms = Vec::new();
+    let mut enable_ms = Vec::new();
+    for _ in 0..BRING_UPS {
+        let t0 = std::time::Instant::now();
+        let mut b = EtherCatBackend::open(&cfg).expect("bus up");
+        times_ms.push(t0.elapsed().as_secs_f64() * 1e3);
+        let t0 = std::time::Instant::now();
+        b.enable().expect("enable");
+        enable_ms.push(t0.elapsed().as_secs_f64() * 1e3);
+        drop(b);
+    }
+    forget_log();
+    let grown = softnc_test_support::live_bytes() as i64 - before as i64;
+    times_ms.sort_by(f64::total_cmp);
+    enable_ms.sort_by(f64::total_cmp);
+    println!(
+        "{BRING_UPS} bring-ups: heap grown by {grown} bytes ({} a bring-up); bring-up to OP min/median/max {:.0}/{:.0}/{:.0} ms, enable {:.0}/{:.0}/{:.0} ms",
+        grown / BRING_UPS as i64,
+        times_ms[0],
+        times_ms[BRING_UPS / 2],
+        times_ms[BRING_UPS - 1],
+        enable_ms[0],
+        enable_ms[BRING_UPS / 2],
+        enable_ms[BRING_UPS - 1]
+    );
+    // each bring-up before took a MainDevice of its own: 19,411 bytes a bring-up
+    assert!(
+        grown < (BRING_UP_GROWTH_BOUND * BRING_UPS) as i64,
+        "the heap grew by {grown} bytes over {BRING_UPS} bring-ups"
+    );
 }
