@@ -124,15 +124,20 @@ struct Idle {
 /// A MainDevice in use (its TX/RX thread running on the interface); back to the
 /// idle ones when dropped.
 pub struct Master {
+    md: &'static MainDevice<'static>,
     idle: Option<Idle>,
 }
 
 impl Master {
     /// The MainDevice.
     pub fn md(&self) -> &'static MainDevice<'static> {
-        match &self.idle {
-            Some(i) => i.md,
-            None => unreachable!("a Master holds its MainDevice until dropped"),
+        self.md
+    }
+
+    fn of(idle: Idle) -> Self {
+        Master {
+            md: idle.md,
+            idle: Some(idle),
         }
     }
 }
@@ -165,9 +170,7 @@ pub fn main_device(iface: &str, pdu_timeout: Duration) -> Result<Master, OpenErr
             .iter()
             .position(|i| i.iface == iface && i.pdu_timeout == pdu_timeout)
         {
-            return Ok(Master {
-                idle: Some(idle.swap_remove(k)),
-            });
+            return Ok(Master::of(idle.swap_remove(k)));
         }
     }
     let storage: &'static PduStorage<MAX_FRAMES, MAX_PDU_DATA> =
@@ -232,14 +235,12 @@ pub fn main_device(iface: &str, pdu_timeout: Duration) -> Result<Master, OpenErr
     };
     let md: &'static MainDevice<'static> =
         Box::leak(Box::new(MainDevice::new(pdu_loop, timeouts, config)));
-    Ok(Master {
-        idle: Some(Idle {
-            iface: iface.into(),
-            pdu_timeout,
-            md,
-            txrx,
-        }),
-    })
+    Ok(Master::of(Idle {
+        iface: iface.into(),
+        pdu_timeout,
+        md,
+        txrx,
+    }))
 }
 
 /// How long an SII EEPROM read may take at bring-up.
