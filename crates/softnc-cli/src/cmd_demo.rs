@@ -144,6 +144,11 @@ fn emulated_bus(
                     },
                     DeviceKind::Io => Role::Io,
                 },
+                // the demo's terminal carries no signal: its tool change is
+                // answered by the demo as the operator
+                inputs: Vec::new(),
+                outputs: Vec::new(),
+                pdo: None,
             }
         })
         .collect();

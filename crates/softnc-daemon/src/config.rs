@@ -447,6 +447,11 @@ impl DaemonConfig {
                 "must be a finite number > 0",
             ));
         }
+        if let BackendKind::EtherCat(e) = &config.backend {
+            if let Err((p, reason)) = e.validate() {
+                return Err(bad(&format!("backend.EtherCat.{p}"), &reason));
+            }
+        }
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let machine_path = dir.join(&config.machine);
         let machine = MachineProfile::load(&machine_path)?;
@@ -640,6 +645,76 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("job_record_period_s"), "{e}");
+    }
+
+    /// The EtherCAT section's wiring and PDO mapping: a non-default mapping and
+    /// wired bits load; each bad entry is refused with its RON path.
+    #[test]
+    fn an_ethercat_mapping_or_wiring_is_checked_with_its_ron_path() {
+        let section = |drive: &str, io: &str| {
+            format!(
+                r#"backend: EtherCat((interface: "ecat0", subdevices: [
+            (identity: (vendor_id: 0x5f7, product_code: 0x402, revision: 0x10000),
+             role: Drive(axis: 0, counts_per_mm: 10000.0, direction: 1, following_error_window_counts: 50000){drive}),
+            (identity: (vendor_id: 0x5f7, product_code: 0x80808, revision: 0x10000), role: Io{io}),
+        ]))"#
+            )
+        };
+        let good = section(
+            ", inputs: [(bit: 2, line: 23)], pdo: Some((rx: [TargetPosition, ControlWord], tx: [PositionActual, StatusWord, DigitalInputs, Other(index: 0x2001, sub: 1, bits: 16)]))",
+            ", inputs: [(bit: 0, line: 16)], outputs: [(bit: 4, line: 4)]",
+        );
+        let c = load_edited("ecgood", &[("backend: Simulated", good.as_str())])
+            .unwrap()
+            .config;
+        let BackendKind::EtherCat(s) = c.backend else {
+            panic!("not EtherCat: {:?}", c.backend)
+        };
+        let m = s.subdevices[0].pdo.clone().unwrap();
+        assert_eq!(m.tx.len(), 4);
+        assert_eq!(
+            m.offset_of(softnc_ethercat::PdoObject::DigitalInputs),
+            Some(6)
+        );
+        for (drive, io, path) in [
+            (
+                ", pdo: Some((rx: [TargetPosition], tx: [StatusWord, PositionActual]))",
+                "",
+                "backend.EtherCat.subdevices[0].pdo.rx",
+            ),
+            (
+                ", pdo: Some((rx: [ControlWord, TargetPosition, StatusWord], tx: [StatusWord, PositionActual]))",
+                "",
+                "backend.EtherCat.subdevices[0].pdo.rx[2]",
+            ),
+            (
+                ", pdo: Some((rx: [ControlWord, TargetPosition], tx: [StatusWord, PositionActual, Other(index: 0x2000, sub: 0, bits: 12)]))",
+                "",
+                "backend.EtherCat.subdevices[0].pdo.tx[2]",
+            ),
+            (
+                ", inputs: [(bit: 2, line: 23)], pdo: Some((rx: [ControlWord, TargetPosition], tx: [StatusWord, PositionActual]))",
+                "",
+                "backend.EtherCat.subdevices[0].inputs",
+            ),
+            ("", ", inputs: [(bit: 0, line: 128)]", "backend.EtherCat.subdevices[1].inputs[0].line"),
+            (
+                ", inputs: [(bit: 2, line: 16)]",
+                ", inputs: [(bit: 0, line: 16)]",
+                "backend.EtherCat.subdevices[1].inputs[0].line",
+            ),
+            (
+                "",
+                ", pdo: Some((rx: [ControlWord, TargetPosition], tx: [StatusWord, PositionActual]))",
+                "backend.EtherCat.subdevices[1].pdo",
+            ),
+        ] {
+            let bad = section(drive, io);
+            let e = load_edited("ecbad", &[("backend: Simulated", bad.as_str())])
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(path), "{path} not in: {e}");
+        }
     }
 
     #[test]

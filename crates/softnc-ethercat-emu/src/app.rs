@@ -121,6 +121,9 @@ pub trait Application: Send {
     fn inject_fault(&mut self, _code: u16) {}
     /// Digital inputs set by a test (drives: 0x60FD; terminals: the input byte).
     fn set_digital_inputs(&mut self, _bits: u32) {}
+    /// A home switch on a drive's axis at `at_counts` (active at and beyond it),
+    /// or none.
+    fn set_home_switch(&mut self, _at_counts: Option<i32>) {}
     /// What a test reads back.
     fn view(&self) -> AppView;
 }

@@ -178,7 +178,13 @@ pub struct Drive {
     fe_cycles: u32,
     targets_received: u64,
     sdo_digital_inputs: u32,
+    /// A home switch on the axis: 0x60FD bit 2 (CiA 402's home switch) is set
+    /// while the position is at or beyond this (counts, positive side).
+    home_switch_counts: Option<i32>,
 }
+
+/// 0x60FD's home switch bit.
+pub const HOME_SWITCH_BIT: u32 = 1 << 2;
 
 impl Drive {
     /// A drive with `identity`, its encoder at `counts_per_mm`, at rest at 0.
@@ -268,6 +274,7 @@ impl Drive {
             fe_cycles: 0,
             targets_received: 0,
             sdo_digital_inputs: 0,
+            home_switch_counts: None,
         };
         drive.publish(0);
         drive
@@ -399,10 +406,14 @@ impl Drive {
             .set(obj::FOLLOWING_ERROR_ACTUAL, 0, &fe.to_le_bytes());
         let mode = self.od.u8(obj::MODES, 0);
         self.od.set(obj::MODES_DISPLAY, 0, &[mode]);
+        let home = match self.home_switch_counts {
+            Some(at) if self.position_counts() >= at => HOME_SWITCH_BIT,
+            _ => 0,
+        };
         self.od.set(
             obj::DIGITAL_INPUTS,
             0,
-            &self.sdo_digital_inputs.to_le_bytes(),
+            &(self.sdo_digital_inputs | home).to_le_bytes(),
         );
     }
 }
@@ -468,6 +479,9 @@ impl Application for Drive {
     fn set_digital_inputs(&mut self, bits: u32) {
         self.sdo_digital_inputs = bits;
         self.od.set(obj::DIGITAL_INPUTS, 0, &bits.to_le_bytes());
+    }
+    fn set_home_switch(&mut self, at_counts: Option<i32>) {
+        self.home_switch_counts = at_counts;
     }
     fn view(&self) -> AppView {
         AppView::Drive(DriveView {

@@ -25,6 +25,23 @@ pub enum Command {
         /// SubDevice position.
         position: usize,
     },
+    /// The SubDevice at `position` exchanges the process data of the next
+    /// `frames` frames without counting the working counter (the frame comes back
+    /// whole, its working counter short by that SubDevice's share).
+    SkipWorkingCounter {
+        /// SubDevice position.
+        position: usize,
+        /// Frames.
+        frames: u32,
+    },
+    /// A home switch on the axis of the drive at `position`: 0x60FD bit 2 set
+    /// while its position is at or beyond `at_counts`.
+    HomeSwitch {
+        /// SubDevice position.
+        position: usize,
+        /// Where the switch starts (counts).
+        at_counts: i32,
+    },
     /// The digital inputs of the SubDevice at `position` (drive: 0x60FD; terminal:
     /// the input byte).
     Inputs {
@@ -37,7 +54,7 @@ pub enum Command {
 
 /// A command line that does not parse.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown command {0:?}: link-down | link-up | drop N | fault POS CODE | leave-op POS | inputs POS BITS")]
+#[error("unknown command {0:?}: link-down | link-up | drop N | fault POS CODE | leave-op POS | wkc POS FRAMES | home-switch POS COUNTS | inputs POS BITS")]
 pub struct BadCommand(pub String);
 
 fn num(s: Option<&str>) -> Option<u32> {
@@ -65,6 +82,14 @@ impl FromStr for Command {
             },
             ("leave-op", Some(p), None) => Command::LeaveOp {
                 position: p as usize,
+            },
+            ("wkc", Some(p), Some(frames)) => Command::SkipWorkingCounter {
+                position: p as usize,
+                frames,
+            },
+            ("home-switch", Some(p), Some(at)) => Command::HomeSwitch {
+                position: p as usize,
+                at_counts: at as i32,
             },
             ("inputs", Some(p), Some(bits)) => Command::Inputs {
                 position: p as usize,

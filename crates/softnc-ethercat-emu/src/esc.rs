@@ -46,6 +46,10 @@ pub struct Esc {
     inputs_touched: bool,
     /// SYNC0 events since activation, as of the last frame.
     pub sync0_events: u64,
+    /// Frames whose process data this ESC exchanges without counting the
+    /// working counter (a fault on demand).
+    wkc_skip_frames: u32,
+    wkc_skipped: bool,
 }
 
 impl Esc {
@@ -66,6 +70,8 @@ impl Esc {
             outputs_touched: false,
             inputs_touched: false,
             sync0_events: 0,
+            wkc_skip_frames: 0,
+            wkc_skipped: false,
         };
         esc.power_on();
         esc
@@ -479,7 +485,26 @@ impl Esc {
 
     /// The end of a frame: where process data was exchanged in SAFE-OP or OP, the
     /// device runs one cycle (outputs applied in OP) and its inputs are refreshed.
+    /// The next `frames` frames' process data exchanged without counting the
+    /// working counter.
+    pub fn skip_working_counter(&mut self, frames: u32) {
+        self.wkc_skip_frames += frames;
+    }
+
+    /// Whether a logical access that reached this ESC counts in the working
+    /// counter (not while a skip is asked for).
+    pub fn counts_logical(&mut self) -> bool {
+        if self.wkc_skip_frames > 0 {
+            self.wkc_skipped = true;
+            return false;
+        }
+        true
+    }
+
     pub fn end_frame(&mut self) {
+        if std::mem::take(&mut self.wkc_skipped) {
+            self.wkc_skip_frames -= 1;
+        }
         if self.outputs_touched || self.inputs_touched {
             self.update_sync0();
             self.cycle_process_data(true);

@@ -342,6 +342,19 @@ fn apply(c: Command, escs: &mut [Esc], faults: &mut Faults) {
                 }
             }
         }
+        Command::SkipWorkingCounter { position, frames } => {
+            if let Some(e) = escs.get_mut(position) {
+                e.skip_working_counter(frames);
+            }
+        }
+        Command::HomeSwitch {
+            position,
+            at_counts,
+        } => {
+            if let Some(e) = escs.get_mut(position) {
+                e.app_mut().set_home_switch(Some(at_counts));
+            }
+        }
         Command::Inputs { position, bits } => {
             if let Some(e) = escs.get_mut(position) {
                 e.app_mut().set_digital_inputs(bits);

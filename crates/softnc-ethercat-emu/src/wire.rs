@@ -165,14 +165,21 @@ fn datagram(head: &mut [u8], data: &mut [u8], wkc: &mut u16, escs: &mut [Esc]) {
                 }
             }
             Armw | Frmw => count(wkc, 1, esc.write(ado, data)),
-            Lrd => count(wkc, 1, esc.read_logical(logical, data)),
-            Lwr => count(wkc, 1, esc.write_logical(logical, data)),
+            Lrd => {
+                let r = esc.read_logical(logical, data);
+                count(wkc, 1, r && esc.counts_logical());
+            }
+            Lwr => {
+                let w = esc.write_logical(logical, data);
+                count(wkc, 1, w && esc.counts_logical());
+            }
             Lrw => {
                 let incoming = data.to_vec();
                 let w = esc.write_logical(logical, &incoming);
                 let r = esc.read_logical(logical, data);
-                count(wkc, 1, r);
-                count(wkc, 2, w);
+                let counts = !(r || w) || esc.counts_logical();
+                count(wkc, 1, r && counts);
+                count(wkc, 2, w && counts);
             }
             _ => {}
         }

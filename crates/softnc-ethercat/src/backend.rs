@@ -3,11 +3,15 @@
 
 use crate::bus::{self, Group, OpenError};
 use crate::cia402::{self, cw, Inputs};
-use crate::config::{EtherCatConfig, Role};
+use crate::config::{EtherCatConfig, ExpectedSubDevice, Role};
 use crate::exec::block_on;
 use ethercrab::{MainDevice, SubDeviceState};
 use softnc_core::Axes;
-use softnc_servo::{AxisStatus, BackendError, BusFault, CommandMode, ServoBackend, MAX_AXES};
+use softnc_servo::io::RAW_DIGITAL_LINES;
+use softnc_servo::{
+    AxisStatus, BackendError, BusFault, CommandMode, IfName, IoLines, Positions, RawInputs,
+    RawOutputs, ServoBackend, MAX_AXES,
+};
 use std::time::{Duration, Instant};
 
 /// Cycles a CiA 402 step of `enable`/`disable` may take.
@@ -20,9 +24,157 @@ const FAULTED_LOST_IN_ROW: u32 = 2;
 const RTT_BUCKET_NS: u64 = 10_000;
 const RTT_BUCKETS: usize = 1000;
 
+/// A bit of a SubDevice's digital inputs or outputs on a raw line (the cycle's
+/// table, fixed-size).
+#[derive(Debug, Clone, Copy, Default)]
+struct Wire {
+    position: u8,
+    bit: u8,
+    line: u8,
+}
+
+/// Bits wired to lines, at most (in each direction).
+const MAX_WIRES: usize = RAW_DIGITAL_LINES;
+
+/// Where a SubDevice's digital inputs and outputs start in its process data
+/// (bytes): a drive's 0x60FD and 0x60FE as its mapping lays them out, a
+/// terminal's from its first byte.
+fn digital_offsets(s: &ExpectedSubDevice) -> (usize, usize) {
+    match s.role {
+        Role::Drive { .. } => {
+            let l = cia402::Layout::of(&s.pdo.clone().unwrap_or_default());
+            (
+                l.digital_inputs.unwrap_or(0),
+                l.digital_outputs.unwrap_or(0),
+            )
+        }
+        Role::Io => (0, 0),
+    }
+}
+
+/// The SubDevices' digital bits on raw lines: fixed-size tables, made from the
+/// configuration, read and written on the cycle without allocating.
+struct Wiring {
+    in_wires: Box<[Wire; MAX_WIRES]>,
+    in_count: usize,
+    out_wires: Box<[Wire; MAX_WIRES]>,
+    out_count: usize,
+    /// Each SubDevice's (inputs, outputs) digital offsets in its process data.
+    digital_at: [(usize, usize); bus::MAX_SUBDEVICES],
+    /// Bit p: the SubDevice at p is a terminal (its output bytes rewritten whole).
+    terminals: u32,
+    lines: IoLines,
+}
+
+impl Wiring {
+    /// The tables of `config` (checked).
+    fn of(config: &EtherCatConfig) -> Result<Self, OpenError> {
+        let mut in_wires = Box::new([Wire::default(); MAX_WIRES]);
+        let mut out_wires = Box::new([Wire::default(); MAX_WIRES]);
+        let (mut in_count, mut out_count) = (0, 0);
+        let mut digital_at = [(0, 0); bus::MAX_SUBDEVICES];
+        let mut lines = IoLines::NONE;
+        if config.subdevices.len() > bus::MAX_SUBDEVICES {
+            return Err(OpenError::Config(format!(
+                "{} SubDevices, at most {}",
+                config.subdevices.len(),
+                bus::MAX_SUBDEVICES
+            )));
+        }
+        crate::config::check_wiring(&config.subdevices)
+            .map_err(|(path, reason)| OpenError::Config(format!("{path}: {reason}")))?;
+        for (position, s) in config.subdevices.iter().enumerate() {
+            digital_at[position] = digital_offsets(s);
+            for w in &s.inputs {
+                in_wires[in_count] = Wire {
+                    position: position as u8,
+                    bit: w.bit,
+                    line: w.line,
+                };
+                in_count += 1;
+                lines.digital_in = lines.digital_in.max(usize::from(w.line) + 1);
+            }
+            for w in &s.outputs {
+                out_wires[out_count] = Wire {
+                    position: position as u8,
+                    bit: w.bit,
+                    line: w.line,
+                };
+                out_count += 1;
+                lines.digital_out = lines.digital_out.max(usize::from(w.line) + 1);
+            }
+        }
+        let mut terminals = 0;
+        for (p, s) in config.subdevices.iter().enumerate() {
+            if s.role == Role::Io {
+                terminals |= 1 << p;
+            }
+        }
+        Ok(Wiring {
+            in_wires,
+            in_count,
+            out_wires,
+            out_count,
+            digital_at,
+            terminals,
+            lines,
+        })
+    }
+
+    /// The raw output lines onto their SubDevices' bits.
+    fn put_outputs(&self, group: &Group, md: &MainDevice<'_>, raw_out: u128) {
+        // the raw output lines onto their SubDevices' bits (a terminal's byte
+        // rewritten whole: the bits not wired stay 0)
+        for (p, &(_, at)) in self.digital_at.iter().enumerate().take(group.len()) {
+            if self.terminals >> p & 1 == 1 {
+                if let Ok(s) = group.subdevice(md, p) {
+                    s.outputs_raw_mut()
+                        .get_mut(at..)
+                        .into_iter()
+                        .flatten()
+                        .for_each(|b| *b = 0);
+                }
+            }
+        }
+        for w in &self.out_wires[..self.out_count] {
+            let p = usize::from(w.position);
+            if let Ok(s) = group.subdevice(md, p) {
+                let at = self.digital_at[p].1 + usize::from(w.bit / 8);
+                if let Some(b) = s.outputs_raw_mut().get_mut(at) {
+                    let mask = 1u8 << (w.bit % 8);
+                    if raw_out >> w.line & 1 == 1 {
+                        *b |= mask;
+                    } else {
+                        *b &= !mask;
+                    }
+                }
+            }
+        }
+    }
+
+    /// The raw input lines from their SubDevices' bits.
+    fn get_inputs(&self, group: &Group, md: &MainDevice<'_>) -> u128 {
+        let mut raw_in = 0u128;
+        for w in &self.in_wires[..self.in_count] {
+            let p = usize::from(w.position);
+            if let Ok(s) = group.subdevice(md, p) {
+                let at = self.digital_at[p].0 + usize::from(w.bit / 8);
+                if s.inputs_raw()
+                    .get(at)
+                    .is_some_and(|b| b >> (w.bit % 8) & 1 == 1)
+                {
+                    raw_in |= 1u128 << w.line;
+                }
+            }
+        }
+        raw_in
+    }
+}
+
 #[derive(Debug, Clone, Copy)]
 struct Drive {
     position: usize,
+    layout: cia402::Layout,
     counts_per_mm: f64,
     direction: f64,
     offset_counts: f64,
@@ -39,7 +191,13 @@ struct Bus {
     md: &'static MainDevice<'static>,
     group: Group,
     expected_wkc: u16,
-    _txrx: bus::TxRxStop,
+    /// Each SubDevice's share of the working counter.
+    wkc_share: [u16; bus::MAX_SUBDEVICES],
+    /// Every SubDevice on the bus.
+    all: Positions,
+    /// Declared after the group: dropped after it (the group is never used with
+    /// the MainDevice's next bring-up).
+    _master: bus::Master,
 }
 
 /// CiA 402 drives on EtherCAT: a handle made from the configuration, the bus
@@ -62,6 +220,12 @@ pub struct EtherCatBackend {
     lost_in_row: u32,
     stats: BusStats,
     rtt: Box<[u32; RTT_BUCKETS]>,
+    /// SubDevice bits on raw lines.
+    wiring: Wiring,
+    /// The bus's interface (for its faults' alarms).
+    iface: IfName,
+    raw_in: u128,
+    raw_out: u128,
 }
 
 impl EtherCatBackend {
@@ -99,6 +263,7 @@ impl EtherCatBackend {
                 }
                 *slot = Some(Drive {
                     position,
+                    layout: cia402::Layout::of(&s.pdo.clone().unwrap_or_default()),
                     counts_per_mm,
                     direction: f64::from(direction),
                     offset_counts: 0.0,
@@ -111,6 +276,7 @@ impl EtherCatBackend {
                 }
             }
         }
+        let wiring = Wiring::of(config)?;
         let axes = drives.iter().take_while(|d| d.is_some()).count();
         if axes == 0 || drives.iter().skip(axes).any(Option::is_some) {
             return Err(OpenError::Config(
@@ -132,6 +298,10 @@ impl EtherCatBackend {
             lost_in_row: 0,
             stats: BusStats::default(),
             rtt: Box::new([0; RTT_BUCKETS]),
+            wiring,
+            iface: IfName::new(&config.interface),
+            raw_in: 0,
+            raw_out: 0,
         })
     }
 
@@ -140,17 +310,61 @@ impl EtherCatBackend {
         if self.bus.is_some() {
             return Ok(());
         }
-        let (md, group, txrx) = bus::bring_up(&self.config)?;
-        let mut expected_wkc = 0;
-        for s in group.iter(md) {
-            expected_wkc +=
-                2 * u16::from(!s.outputs_raw().is_empty()) + u16::from(!s.inputs_raw().is_empty());
+        let (master, group) = bus::bring_up(&self.config)?;
+        let md = master.md();
+        // every wired bit within its SubDevice's process data
+        let wiring = &self.wiring;
+        for (wires, count, outputs) in [
+            (&wiring.in_wires, wiring.in_count, false),
+            (&wiring.out_wires, wiring.out_count, true),
+        ] {
+            for w in &wires[..count] {
+                let p = usize::from(w.position);
+                let s = group
+                    .subdevice(md, p)
+                    .map_err(bus::bus_err("process data"))?;
+                let (len, at) = if outputs {
+                    (s.outputs_raw().len(), wiring.digital_at[p].1)
+                } else {
+                    (s.inputs_raw().len(), wiring.digital_at[p].0)
+                };
+                if at + usize::from(w.bit) / 8 >= len {
+                    return Err(OpenError::Config(format!(
+                        "subdevices[{p}].{}: bit {} beyond its {len} byte(s) of process data",
+                        if outputs { "outputs" } else { "inputs" },
+                        w.bit
+                    )));
+                }
+            }
         }
+        // each drive's process data as its mapping gives
+        for d in self.drives.iter().flatten() {
+            let s = group
+                .subdevice(md, d.position)
+                .map_err(bus::bus_err("process data"))?;
+            let (rx, tx) = (s.outputs_raw().len(), s.inputs_raw().len());
+            if (rx, tx) != (d.layout.rx_bytes, d.layout.tx_bytes) {
+                return Err(OpenError::Config(format!(
+                    "SubDevice {}: {rx} output and {tx} input bytes of process data, the mapping gives {} and {}",
+                    d.position, d.layout.rx_bytes, d.layout.tx_bytes
+                )));
+            }
+        }
+        let mut expected_wkc = 0;
+        let mut wkc_share = [0; bus::MAX_SUBDEVICES];
+        for (share, s) in wkc_share.iter_mut().zip(group.iter(md)) {
+            *share =
+                2 * u16::from(!s.outputs_raw().is_empty()) + u16::from(!s.inputs_raw().is_empty());
+            expected_wkc += *share;
+        }
+        let all = Positions((1u32 << group.len()) - 1);
         self.bus = Some(Bus {
             md,
             group,
             expected_wkc,
-            _txrx: txrx,
+            wkc_share,
+            all,
+            _master: master,
         });
         // the first inputs, so that `home` and `read_counts` see the drives
         self.exchange().map_err(|e| OpenError::Bus {
@@ -243,9 +457,10 @@ impl EtherCatBackend {
         let (md, group, expected) = (bus.md, &bus.group, bus.expected_wkc);
         for d in self.drives.iter().flatten() {
             if let Ok(s) = group.subdevice(md, d.position) {
-                cia402::write_outputs(&mut s.outputs_raw_mut(), d.controlword, d.target, 0);
+                cia402::write_outputs(&mut s.outputs_raw_mut(), &d.layout, d.controlword, d.target);
             }
         }
+        self.wiring.put_outputs(group, md, self.raw_out);
         let t0 = Instant::now();
         // the wait is bounded here: at the deadline the future is dropped, which
         // gives its frame back to ethercrab (a late answer is then ignored)
@@ -258,7 +473,13 @@ impl EtherCatBackend {
         };
         let Some(Ok(r)) = r else {
             self.stats.lost_frames += 1;
-            return Err((None, BusFault::FrameLost));
+            return Err((
+                None,
+                BusFault::FrameLost {
+                    iface: self.iface,
+                    subdevices: bus.all,
+                },
+            ));
         };
         self.stats.rtt_max_ns = self.stats.rtt_max_ns.max(rtt);
         let bucket = ((rtt / RTT_BUCKET_NS) as usize).min(RTT_BUCKETS - 1);
@@ -281,12 +502,31 @@ impl EtherCatBackend {
             ));
         }
         if got != expected {
-            return Err((None, BusFault::WorkingCounter { got, expected }));
+            // the SubDevices whose share is the shortfall: one of them did not count
+            let short = expected.wrapping_sub(got);
+            let mut suspects = 0u32;
+            for (p, &share) in bus.wkc_share.iter().enumerate().take(group.len()) {
+                if share == short {
+                    suspects |= 1 << p;
+                }
+            }
+            let suspects = Positions(if suspects == 0 { bus.all.0 } else { suspects });
+            let single =
+                (suspects.0.count_ones() == 1).then(|| suspects.0.trailing_zeros() as usize);
+            return Err((
+                single,
+                BusFault::WorkingCounter {
+                    got,
+                    expected,
+                    suspects,
+                },
+            ));
         }
+        self.raw_in = self.wiring.get_inputs(group, md);
         let mut faulted = None;
         for d in self.drives.iter_mut().flatten() {
             if let Ok(s) = group.subdevice(md, d.position) {
-                d.inputs = Inputs::parse(&s.inputs_raw());
+                d.inputs = Inputs::parse(&s.inputs_raw(), &d.layout);
             }
             if d.inputs.statusword & cia402::FAULT_BIT != 0 && faulted.is_none() {
                 faulted = Some((
@@ -516,6 +756,18 @@ impl ServoBackend for EtherCatBackend {
     }
     fn bus_stats(&self) -> Option<BusStats> {
         Some(EtherCatBackend::bus_stats(self))
+    }
+    fn io_lines(&self) -> IoLines {
+        self.wiring.lines
+    }
+    fn write_io(&mut self, out: &RawOutputs) {
+        self.raw_out = out.digital;
+    }
+    fn read_io(&self) -> RawInputs {
+        RawInputs {
+            digital: self.raw_in,
+            ..RawInputs::default()
+        }
     }
     fn read_counts(&self) -> Axes<i64> {
         let mut c = Axes::splat(0);

@@ -1,5 +1,6 @@
 //! Bringing the bus up with ethercrab: the MainDevice on its storage, the TX/RX
-//! task on a thread of its own (io_uring, blocking), the SubDevices found and
+//! task on a thread of its own (kept with an idle MainDevice for the next
+//! bring-up on the interface), the SubDevices found and
 //! compared with the expected ones, the drives' PDO mapping, CSP and 0x60C2 by SDO,
 //! DC SYNC0 at the cycle, and the group taken to OP.
 
@@ -8,11 +9,7 @@ use crate::config::{EtherCatConfig, Identity, Role};
 use crate::exec::block_on;
 use ethercrab::subdevice_group::{DcConfiguration, HasDc, Op};
 use ethercrab::{DcSync, MainDevice, MainDeviceConfig, PduStorage, SubDeviceGroup, Timeouts};
-use std::future::Future;
-use std::pin::Pin;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::task::{Context, Poll};
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 /// SubDevices a bus may have.
@@ -107,19 +104,74 @@ pub struct Found {
     pub serial: u32,
 }
 
-/// The MainDevice and the stop of its TX/RX thread. ethercrab's storage and
-/// MainDevice are borrowed `'static` by its TX/RX task and released only through
-/// `unsafe` `release_all`, so each open leaves them (≈ 20 KiB); the thread and its
-/// socket end when the returned [`TxRxStop`] is dropped.
-pub fn main_device(
-    iface: &str,
+/// MainDevices not in use, each with its TX/RX thread still running on its
+/// interface: the next bring-up there takes one (ethercrab's `init` resets the
+/// SubDevices and starts afresh), so repeated bring-ups do not grow the heap.
+/// ethercrab's storage and MainDevice are borrowed `'static` by its TX/RX task
+/// and given back only through `unsafe` `release_all`: each MainDevice made here
+/// stays for the life of the process (≈ 20 KiB), one per interface and bus in use
+/// at once.
+static IDLE: Mutex<Vec<Idle>> = Mutex::new(Vec::new());
+
+/// A MainDevice waiting in [`IDLE`].
+struct Idle {
+    iface: String,
     pdu_timeout: Duration,
-) -> Result<(&'static MainDevice<'static>, TxRxStop), OpenError> {
+    md: &'static MainDevice<'static>,
+    txrx: std::thread::JoinHandle<()>,
+}
+
+/// A MainDevice in use (its TX/RX thread running on the interface); back to the
+/// idle ones when dropped.
+pub struct Master {
+    md: &'static MainDevice<'static>,
+    idle: Option<Idle>,
+}
+
+impl Master {
+    /// The MainDevice.
+    pub fn md(&self) -> &'static MainDevice<'static> {
+        self.md
+    }
+
+    fn of(idle: Idle) -> Self {
+        Master {
+            md: idle.md,
+            idle: Some(idle),
+        }
+    }
+}
+
+impl Drop for Master {
+    fn drop(&mut self) {
+        if let Some(i) = self.idle.take() {
+            // a thread that ended (its interface gone) takes its MainDevice with it
+            if !i.txrx.is_finished() {
+                IDLE.lock().unwrap_or_else(|e| e.into_inner()).push(i);
+            }
+        }
+    }
+}
+
+/// A MainDevice on `iface` with ethercrab's PDU timeout `pdu_timeout`: an idle
+/// one of an earlier bring-up, or a new one with its TX/RX thread.
+pub fn main_device(iface: &str, pdu_timeout: Duration) -> Result<Master, OpenError> {
     if !std::path::Path::new("/sys/class/net").join(iface).exists() {
         return Err(OpenError::Interface {
             iface: iface.into(),
             reason: "no such network interface".into(),
         });
+    }
+    {
+        let mut idle = IDLE.lock().unwrap_or_else(|e| e.into_inner());
+        // the ones whose thread ended (their interface gone) are left
+        idle.retain(|i| !i.txrx.is_finished());
+        if let Some(k) = idle
+            .iter()
+            .position(|i| i.iface == iface && i.pdu_timeout == pdu_timeout)
+        {
+            return Ok(Master::of(idle.swap_remove(k)));
+        }
     }
     let storage: &'static PduStorage<MAX_FRAMES, MAX_PDU_DATA> =
         Box::leak(Box::new(PduStorage::new()));
@@ -128,24 +180,19 @@ pub fn main_device(
         reason: "PDU storage already split".into(),
     })?;
     let name = iface.to_string();
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = stop.clone();
-    // the socket is opened on the task's thread; an error there is reported back
+    // the socket is opened on the task's thread; its outcome is reported back
     let (ready_tx, ready_rx) = std::sync::mpsc::channel();
-    std::thread::Builder::new()
+    let txrx = std::thread::Builder::new()
         .name("ethercat-txrx".into())
         .spawn(move || {
             // ethercrab's async task on async-io's reactor: a lost frame only times
             // out its future (its io_uring task waits for every read it submitted,
-            // so one lost frame would stop it)
+            // so one lost frame would stop it). It runs until its socket fails
+            // (the interface gone) or the process ends.
             match ethercrab::std::tx_rx_task(&name, tx, rx) {
                 Ok(task) => {
                     let _ = ready_tx.send(Ok(()));
-                    async_io::block_on(UntilStopped {
-                        task: Box::pin(task),
-                        stop: flag,
-                        tick: async_io::Timer::after(STOP_POLL),
-                    });
+                    let _ = async_io::block_on(task);
                 }
                 Err(e) => {
                     let _ = ready_tx.send(Err(e.to_string()));
@@ -156,13 +203,21 @@ pub fn main_device(
             iface: iface.into(),
             reason: e.to_string(),
         })?;
-    let _ = ready_rx.recv();
-    // an immediate failure (no such interface, no CAP_NET_RAW) arrives at once
-    if let Ok(Err(reason)) = ready_rx.recv_timeout(Duration::from_millis(50)) {
-        return Err(OpenError::Interface {
-            iface: iface.into(),
-            reason,
-        });
+    // no such interface, no CAP_NET_RAW: said at once
+    match ready_rx.recv() {
+        Ok(Ok(())) => {}
+        Ok(Err(reason)) => {
+            return Err(OpenError::Interface {
+                iface: iface.into(),
+                reason,
+            })
+        }
+        Err(_) => {
+            return Err(OpenError::Interface {
+                iface: iface.into(),
+                reason: "the TX/RX thread ended".into(),
+            })
+        }
     }
     let timeouts = Timeouts {
         pdu: pdu_timeout,
@@ -180,49 +235,18 @@ pub fn main_device(
     };
     let md: &'static MainDevice<'static> =
         Box::leak(Box::new(MainDevice::new(pdu_loop, timeouts, config)));
-    Ok((md, TxRxStop(stop)))
+    Ok(Master::of(Idle {
+        iface: iface.into(),
+        pdu_timeout,
+        md,
+        txrx,
+    }))
 }
 
 /// How long an SII EEPROM read may take at bring-up.
 const EEPROM_TIMEOUT: Duration = Duration::from_millis(100);
 
-/// How often the TX/RX thread looks at its stop flag.
-const STOP_POLL: Duration = Duration::from_millis(10);
-
-/// Stops the TX/RX thread (and closes its socket) when dropped.
-#[derive(Debug)]
-pub struct TxRxStop(Arc<AtomicBool>);
-
-impl Drop for TxRxStop {
-    fn drop(&mut self) {
-        self.0.store(true, Ordering::Relaxed);
-    }
-}
-
-/// ethercrab's TX/RX task until it ends or the stop flag is set.
-struct UntilStopped<F> {
-    task: Pin<Box<F>>,
-    stop: Arc<AtomicBool>,
-    tick: async_io::Timer,
-}
-
-impl<F: Future> Future for UntilStopped<F> {
-    type Output = ();
-    fn poll(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<()> {
-        if self.task.as_mut().poll(cx).is_ready() || self.stop.load(Ordering::Relaxed) {
-            return Poll::Ready(());
-        }
-        while Pin::new(&mut self.tick).poll(cx).is_ready() {
-            if self.stop.load(Ordering::Relaxed) {
-                return Poll::Ready(());
-            }
-            self.tick.set_after(STOP_POLL);
-        }
-        Poll::Pending
-    }
-}
-
-fn bus_err(step: &'static str) -> impl Fn(ethercrab::error::Error) -> OpenError {
+pub(crate) fn bus_err(step: &'static str) -> impl Fn(ethercrab::error::Error) -> OpenError {
     move |e| OpenError::Bus {
         step,
         reason: e.to_string(),
@@ -240,7 +264,8 @@ fn run<F: std::future::Future<Output = Result<T, ethercrab::error::Error>>, T>(
 
 /// The SubDevices on `iface`, in order, brought to PRE-OP.
 pub fn scan(iface: &str) -> Result<Vec<Found>, OpenError> {
-    let (md, _stop) = main_device(iface, Duration::from_millis(100))?;
+    let master = main_device(iface, BRING_UP_PDU)?;
+    let md = master.md();
     let group = run(
         "scan",
         md.init_single_group::<MAX_SUBDEVICES, MAX_PDI>(ethercrab::std::ethercat_now),
@@ -266,15 +291,14 @@ pub fn scan(iface: &str) -> Result<Vec<Found>, OpenError> {
 }
 
 /// The bus brought up to OP as `config` says.
-pub fn bring_up(
-    config: &EtherCatConfig,
-) -> Result<(&'static MainDevice<'static>, Group, TxRxStop), OpenError> {
+pub fn bring_up(config: &EtherCatConfig) -> Result<(Master, Group), OpenError> {
     let cycle_ns = config.cycle.as_nanos() as u64;
     let (period, index) = cia402::interpolation_period(cycle_ns)
         .ok_or_else(|| OpenError::Config(format!("cycle {cycle_ns} ns has no 0x60C2 form")))?;
     // bring-up's register and EEPROM accesses get a PDU timeout of their own; the
     // cycle bounds its wait itself (a dropped future gives its frame back)
-    let (md, stop) = main_device(&config.interface, config.response_timeout.max(BRING_UP_PDU))?;
+    let master = main_device(&config.interface, config.response_timeout.max(BRING_UP_PDU))?;
+    let md = master.md();
     let mut group = run(
         "init",
         md.init_single_group::<MAX_SUBDEVICES, MAX_PDI>(ethercrab::std::ethercat_now),
@@ -324,18 +348,19 @@ pub fn bring_up(
         // PDO mapping (CiA 301: assignment and mapping emptied, filled, counted)
         write!(0x1C12, 0, 0u8);
         write!(0x1600, 0, 0u8);
-        for (k, m) in cia402::RX_MAPPING.iter().enumerate() {
-            write!(0x1600, k as u8 + 1, *m);
+        let mapping = want.pdo.clone().unwrap_or_default();
+        for (k, o) in mapping.rx.iter().enumerate() {
+            write!(0x1600, k as u8 + 1, o.mapping_entry());
         }
-        write!(0x1600, 0, cia402::RX_MAPPING.len() as u8);
+        write!(0x1600, 0, mapping.rx.len() as u8);
         write!(0x1C12, 1, 0x1600u16);
         write!(0x1C12, 0, 1u8);
         write!(0x1C13, 0, 0u8);
         write!(0x1A00, 0, 0u8);
-        for (k, m) in cia402::TX_MAPPING.iter().enumerate() {
-            write!(0x1A00, k as u8 + 1, *m);
+        for (k, o) in mapping.tx.iter().enumerate() {
+            write!(0x1A00, k as u8 + 1, o.mapping_entry());
         }
-        write!(0x1A00, 0, cia402::TX_MAPPING.len() as u8);
+        write!(0x1A00, 0, mapping.tx.len() as u8);
         write!(0x1C13, 1, 0x1A00u16);
         write!(0x1C13, 0, 1u8);
         write!(0x6060, 0, cia402::MODE_CSP);
@@ -361,7 +386,7 @@ pub fn bring_up(
     for _ in 0..OP_CYCLES {
         let r = run("OP", group.tx_rx_dc(md))?;
         if r.all_op() {
-            return Ok((md, group, stop));
+            return Ok((master, group));
         }
         std::thread::sleep(config.cycle);
     }

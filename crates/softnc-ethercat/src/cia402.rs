@@ -2,21 +2,57 @@
 //! controlword commands and the statusword's states (IEC 61800-7-201 §6.2; the
 //! `ds402` module of ethercrab is not in its 0.7 release, so this is our own).
 
-/// RxPDO 0x1600: controlword, target position, modes of operation, digital outputs.
-pub const RX_MAPPING: [u32; 4] = [0x6040_0010, 0x607A_0020, 0x6060_0008, 0x60FE_0120];
-/// TxPDO 0x1A00: statusword, position actual, following error actual, digital
-/// inputs, error code.
-pub const TX_MAPPING: [u32; 5] = [
-    0x6041_0010,
-    0x6064_0020,
-    0x60F4_0020,
-    0x60FD_0020,
-    0x603F_0010,
-];
-/// Output bytes of [`RX_MAPPING`] and input bytes of [`TX_MAPPING`].
-pub const RX_BYTES: usize = 11;
-/// Input bytes.
-pub const TX_BYTES: usize = 16;
+use crate::config::{PdoMapping, PdoObject};
+
+/// Where each object the cycle uses lies in a drive's process data (bytes), from
+/// its PDO mapping.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Layout {
+    /// 0x6040.
+    pub controlword: usize,
+    /// 0x607A.
+    pub target: usize,
+    /// 0x6060, where mapped.
+    pub mode: Option<usize>,
+    /// 0x60FE:01, where mapped.
+    pub digital_outputs: Option<usize>,
+    /// 0x6041.
+    pub statusword: usize,
+    /// 0x6064.
+    pub position: usize,
+    /// 0x60F4, where mapped.
+    pub following_error: Option<usize>,
+    /// 0x60FD, where mapped.
+    pub digital_inputs: Option<usize>,
+    /// 0x603F, where mapped.
+    pub error_code: Option<usize>,
+    /// Output bytes.
+    pub rx_bytes: usize,
+    /// Input bytes.
+    pub tx_bytes: usize,
+}
+
+impl Layout {
+    /// The layout of a mapping that passed [`PdoMapping::check`] (the required
+    /// objects at 0 where missing).
+    pub fn of(m: &PdoMapping) -> Self {
+        let at = |o| m.offset_of(o);
+        Layout {
+            controlword: at(PdoObject::ControlWord).unwrap_or(0),
+            target: at(PdoObject::TargetPosition).unwrap_or(0),
+            mode: at(PdoObject::ModesOfOperation),
+            digital_outputs: at(PdoObject::DigitalOutputs),
+            statusword: at(PdoObject::StatusWord).unwrap_or(0),
+            position: at(PdoObject::PositionActual).unwrap_or(0),
+            following_error: at(PdoObject::FollowingErrorActual),
+            digital_inputs: at(PdoObject::DigitalInputs),
+            error_code: at(PdoObject::ErrorCode),
+            rx_bytes: m.rx.iter().map(|o| o.bytes()).sum(),
+            tx_bytes: m.tx.iter().map(|o| o.bytes()).sum(),
+        }
+    }
+}
+
 /// Modes of operation: cyclic synchronous position.
 pub const MODE_CSP: i8 = 8;
 
@@ -68,26 +104,41 @@ pub struct Inputs {
 }
 
 impl Inputs {
-    /// From the drive's input bytes (as [`TX_MAPPING`] lays them out).
-    pub fn parse(b: &[u8]) -> Self {
-        let u16_at = |i: usize| u16::from_le_bytes([b[i], b[i + 1]]);
-        let u32_at = |i: usize| u32::from_le_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
+    /// From the drive's input bytes as `l` lays them out (shorter bytes read 0).
+    pub fn parse(b: &[u8], l: &Layout) -> Self {
+        let get = |at: usize, n: usize| -> u32 {
+            let mut v = [0u8; 4];
+            if let Some(src) = b.get(at..at + n) {
+                v[..n].copy_from_slice(src);
+            }
+            u32::from_le_bytes(v)
+        };
         Inputs {
-            statusword: u16_at(0),
-            position: u32_at(2) as i32,
-            following_error: u32_at(6) as i32,
-            digital_inputs: u32_at(10),
-            error_code: u16_at(14),
+            statusword: get(l.statusword, 2) as u16,
+            position: get(l.position, 4) as i32,
+            following_error: l.following_error.map_or(0, |at| get(at, 4) as i32),
+            digital_inputs: l.digital_inputs.map_or(0, |at| get(at, 4)),
+            error_code: l.error_code.map_or(0, |at| get(at, 2) as u16),
         }
     }
 }
 
-/// One drive's outputs into its bytes (as [`RX_MAPPING`] lays them out).
-pub fn write_outputs(b: &mut [u8], controlword: u16, target: i32, digital_outputs: u32) {
-    b[0..2].copy_from_slice(&controlword.to_le_bytes());
-    b[2..6].copy_from_slice(&target.to_le_bytes());
-    b[6] = MODE_CSP as u8;
-    b[7..11].copy_from_slice(&digital_outputs.to_le_bytes());
+/// One drive's outputs into its bytes as `l` lays them out (digital outputs 0;
+/// the wired lines are set after).
+pub fn write_outputs(b: &mut [u8], l: &Layout, controlword: u16, target: i32) {
+    let mut put = |at: usize, v: &[u8]| {
+        if let Some(dst) = b.get_mut(at..at + v.len()) {
+            dst.copy_from_slice(v);
+        }
+    };
+    put(l.controlword, &controlword.to_le_bytes());
+    put(l.target, &target.to_le_bytes());
+    if let Some(at) = l.mode {
+        put(at, &[MODE_CSP as u8]);
+    }
+    if let Some(at) = l.digital_outputs {
+        put(at, &0u32.to_le_bytes());
+    }
 }
 
 /// 0x60C2's (value, index) for `cycle_ns`: value·10^index s, the coarsest exact one.

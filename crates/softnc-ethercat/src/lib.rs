@@ -15,4 +15,7 @@ pub mod exec;
 
 pub use backend::{BusStats, EtherCatBackend};
 pub use bus::{scan, Found, OpenError};
-pub use config::{EtherCatConfig, EtherCatSettings, ExpectedSubDevice, Identity, Role};
+pub use config::{
+    BitLine, EtherCatConfig, EtherCatSettings, ExpectedSubDevice, Identity, PdoMapping, PdoObject,
+    Role,
+};

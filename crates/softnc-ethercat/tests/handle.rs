@@ -21,6 +21,9 @@ fn drive(axis: u8) -> ExpectedSubDevice {
             direction: 1,
             following_error_window_counts: 100,
         },
+        inputs: Vec::new(),
+        outputs: Vec::new(),
+        pdo: None,
     }
 }
 

@@ -5,7 +5,7 @@
 //! with its send-to-receive times printed.
 
 use softnc_ethercat::{
-    EtherCatBackend, EtherCatConfig, ExpectedSubDevice, Identity, OpenError, Role,
+    BitLine, EtherCatBackend, EtherCatConfig, ExpectedSubDevice, Identity, OpenError, Role,
 };
 use softnc_ethercat_emu::control::Command;
 use softnc_ethercat_emu::veth::{is_root, VethPair};
@@ -32,6 +32,13 @@ fn identity(kind: DeviceKind, position: usize) -> Identity {
     }
 }
 
+/// The shipped profile's (config/machines/default.ron) lines: Home("X") is 23,
+/// Home("Y") 24, Home("Z") 25.
+const HOME_LINE: u8 = 23;
+/// The terminal's inputs: bit 0 the E-stop chain (line 16), bit 1 tool-changed
+/// (5), bit 2 the probe (26), bit 3 the X maximum limit (20), bit 4 M66 P0 (64).
+const TERMINAL_INPUTS: [(u8, u8); 5] = [(0, 16), (1, 5), (2, 26), (3, 20), (4, 64)];
+
 fn config(iface: &str) -> EtherCatConfig {
     let subdevices = KINDS
         .iter()
@@ -47,6 +54,24 @@ fn config(iface: &str) -> EtherCatConfig {
                 },
                 DeviceKind::Io => Role::Io,
             },
+            inputs: match k {
+                // each drive's home switch (0x60FD bit 2) on its axis's Home line
+                DeviceKind::Drive => vec![BitLine {
+                    bit: 2,
+                    line: HOME_LINE + p as u8,
+                }],
+                DeviceKind::Io => TERMINAL_INPUTS
+                    .iter()
+                    .map(|&(bit, line)| BitLine { bit, line })
+                    .collect(),
+            },
+            outputs: match k {
+                DeviceKind::Drive => Vec::new(),
+                // the cabinet's outputs 0 … 7 (spindle, coolant, tool change,
+                // machine on, amplifier enable) on the terminal's 8 outputs
+                DeviceKind::Io => (0..8).map(|b| BitLine { bit: b, line: b }).collect(),
+            },
+            pdo: None,
         })
         .collect();
     EtherCatConfig {
@@ -150,6 +175,35 @@ fn estop_path_is_allocation_free(b: &mut EtherCatBackend, emu: &Emulator) {
     println!("E-stop: every drive quick-stopped over 500 exchanges, 0 allocations");
 }
 
+/// One SubDevice not counting the working counter for a frame: detected, named
+/// among the SubDevices it may be; the bus recovered and enabled again.
+fn working_counter_short(b: &mut EtherCatBackend, emu: &Emulator) {
+    // one SubDevice not counting the working counter for a frame: the frame
+    // comes back whole, its count short by that SubDevice's share (3: a drive
+    // and the terminal both read and write, so any of them may be the one)
+    emu.command(Command::SkipWorkingCounter {
+        position: 2,
+        frames: 1,
+    });
+    std::thread::sleep(Duration::from_millis(20));
+    let e = fails_within_3(b);
+    assert_eq!(
+        e,
+        BackendError::Bus {
+            subdevice: None,
+            axis: None,
+            reason: BusFault::WorkingCounter {
+                got: 9,
+                expected: 12,
+                suspects: softnc_servo::Positions(0b1111),
+            }
+        },
+        "{e}"
+    );
+    b.recover().expect("the working counter whole again");
+    b.enable().expect("enabled again");
+}
+
 #[test]
 fn faults_are_detected_within_3_cycles_and_the_cycle_does_not_allocate() {
     let Some((_one, veth, emu)) = bus() else {
@@ -183,7 +237,7 @@ fn faults_are_detected_within_3_cycles_and_the_cycle_does_not_allocate() {
         matches!(
             e,
             BackendError::Bus {
-                reason: BusFault::FrameLost,
+                reason: BusFault::FrameLost { .. },
                 ..
             }
         ),
@@ -191,6 +245,8 @@ fn faults_are_detected_within_3_cycles_and_the_cycle_does_not_allocate() {
     );
     b.recover().expect("the bus answers again");
     b.enable().expect("enabled again");
+
+    working_counter_short(&mut b, &emu);
 
     emu.command(Command::DriveFault {
         position: 1,
@@ -230,7 +286,7 @@ fn faults_are_detected_within_3_cycles_and_the_cycle_does_not_allocate() {
         matches!(
             e,
             BackendError::Bus {
-                reason: BusFault::FrameLost,
+                reason: BusFault::FrameLost { .. },
                 ..
             }
         ),
@@ -246,5 +302,154 @@ fn faults_are_detected_within_3_cycles_and_the_cycle_does_not_allocate() {
     println!(
         "after the faults: frames {} lost {} wkc errors {}",
         s.frames, s.lost_frames, s.wkc_errors
+    );
+}
+
+/// The terminal's and the drives' digital inputs reach the machine's named
+/// signals through the I/O boundary (`MachineIo` on the shipped profile's map),
+/// and the machine's outputs reach the terminal's outputs.
+#[test]
+fn the_terminal_carries_the_machine_signals() {
+    let Some((_one, veth, emu)) = bus() else {
+        return;
+    };
+    let profile = softnc_machine::MachineProfile::load(
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/machines/default.ron"
+        )
+        .as_ref(),
+    )
+    .expect("default profile");
+    let mut b = EtherCatBackend::open(&config(&veth.main)).expect("bus up");
+    let lines = b.io_lines();
+    assert_eq!((lines.digital_in, lines.digital_out), (65, 8), "{lines:?}");
+    let mut io = softnc_servo::MachineIo::new(&profile, lines);
+    let terminal = KINDS.len() - 1;
+    // inputs: each in turn, seen at its signal within 3 exchanges
+    type Check = fn(&softnc_core::machine_io::MachineInputs) -> bool;
+    let cases: [(&str, usize, u32, Check); 7] = [
+        ("nothing", terminal, 0, |i| {
+            !i.estop_open && !i.probe && !i.tool_changed && i.home == 0 && i.digital == 0
+        }),
+        ("the E-stop chain open", terminal, 1 << 0, |i| i.estop_open),
+        ("tool changed", terminal, 1 << 1, |i| i.tool_changed),
+        ("the probe", terminal, 1 << 2, |i| i.probe),
+        ("M66 P0", terminal, 1 << 4, |i| i.digital & 1 == 1),
+        ("Y's home switch (drive 1, 0x60FD bit 2)", 1, 1 << 2, |i| {
+            i.home == 0b010
+        }),
+        ("Z's home switch (drive 2, 0x60FD bit 2)", 2, 1 << 2, |i| {
+            i.home == 0b110
+        }),
+    ];
+    for (what, position, bits, seen) in cases {
+        emu.command(Command::Inputs { position, bits });
+        let mut got = None;
+        for _ in 0..3 {
+            std::thread::sleep(Duration::from_millis(2));
+            b.exchange_io().expect("exchange");
+            let i = io.inputs(&b.read_io());
+            if seen(&i) {
+                got = Some(());
+                break;
+            }
+        }
+        assert!(
+            got.is_some(),
+            "{what}: not seen in 3 exchanges: {:?}",
+            b.read_io()
+        );
+        println!("{what}: raw input lines {:#x}", b.read_io().digital);
+    }
+    // outputs: M8 (flood) and M3 with the machine on, then the safe state off
+    let program = softnc_core::machine_io::MachineOutputs {
+        spindle_dir: softnc_core::machine_io::SpindleDir::Clockwise,
+        spindle_rpm: 1000.0,
+        coolant_flood: true,
+        ..Default::default()
+    };
+    let terminal_outputs = |b: &mut EtherCatBackend, raw: &softnc_servo::RawOutputs| {
+        b.write_io(raw);
+        b.exchange_io().expect("exchange");
+        b.exchange_io().expect("exchange");
+        emu.views()
+            .iter()
+            .find_map(|v| match v.app {
+                softnc_ethercat_emu::app::AppView::Io { outputs, .. } => Some(outputs),
+                _ => None,
+            })
+            .expect("the terminal")
+    };
+    // the E-stop chain closed again: the latch reset, as the operator's reset does
+    assert!(
+        io.reset_estop(),
+        "the E-stop latch resets with the chain closed"
+    );
+    let on = io.outputs(&program, softnc_servo::io::OutputState::default());
+    let got = terminal_outputs(&mut b, &on);
+    println!("M3 M8, machine on: terminal outputs {got:#010b}");
+    // spindle enable 0, cw 1, flood 4, machine on 6, amplifier enable 7
+    assert_eq!(got, 0b1101_0011, "terminal outputs {got:#010b}");
+    let off = softnc_servo::io::OutputState {
+        machine_on: false,
+        amp_enable: false,
+        spindle_override: 1.0,
+    };
+    let safe = io.outputs(&program, off);
+    let got = terminal_outputs(&mut b, &safe);
+    println!("machine off: terminal outputs {got:#010b}");
+    assert_eq!(got, 0, "the safe state on the terminal");
+}
+
+/// Bring-ups one after the other (a reset after a failed bring-up, a test's
+/// handles): each takes the MainDevice of the one before, so the heap does not
+/// grow; the bring-up's time printed.
+/// What a bring-up may leave on the heap, at most (bytes): well below a
+/// MainDevice with its storage (≈ 19 KiB).
+const BRING_UP_GROWTH_BOUND: usize = 1024;
+
+#[test]
+fn repeated_bring_ups_do_not_grow_the_heap() {
+    let Some((_one, veth, emu)) = bus() else {
+        return;
+    };
+    const BRING_UPS: usize = 10;
+    let cfg = config(&veth.main);
+    // the first one warms what stays (the MainDevice, its thread, the socket)
+    drop(EtherCatBackend::open(&cfg).expect("bus up"));
+    // the emulator's log of received targets (it grows with the frames) left out
+    let forget_log = || (0..KINDS.len()).for_each(|p| drop(emu.take_received(p)));
+    forget_log();
+    let before = softnc_test_support::live_bytes();
+    let mut times_ms = Vec::new();
+    let mut enable_ms = Vec::new();
+    for _ in 0..BRING_UPS {
+        let t0 = std::time::Instant::now();
+        let mut b = EtherCatBackend::open(&cfg).expect("bus up");
+        times_ms.push(t0.elapsed().as_secs_f64() * 1e3);
+        let t0 = std::time::Instant::now();
+        b.enable().expect("enable");
+        enable_ms.push(t0.elapsed().as_secs_f64() * 1e3);
+        drop(b);
+    }
+    forget_log();
+    let grown = softnc_test_support::live_bytes() as i64 - before as i64;
+    times_ms.sort_by(f64::total_cmp);
+    enable_ms.sort_by(f64::total_cmp);
+    println!(
+        "{BRING_UPS} bring-ups: heap grown by {grown} bytes ({} a bring-up); bring-up to OP min/median/max {:.0}/{:.0}/{:.0} ms, enable {:.0}/{:.0}/{:.0} ms",
+        grown / BRING_UPS as i64,
+        times_ms[0],
+        times_ms[BRING_UPS / 2],
+        times_ms[BRING_UPS - 1],
+        enable_ms[0],
+        enable_ms[BRING_UPS / 2],
+        enable_ms[BRING_UPS - 1]
+    );
+    // each bring-up before took a MainDevice of its own: 19,411 bytes a bring-up
+    assert!(
+        grown < (BRING_UP_GROWTH_BOUND * BRING_UPS) as i64,
+        "the heap grew by {grown} bytes over {BRING_UPS} bring-ups"
     );
 }

@@ -90,15 +90,23 @@ pub enum BusFault {
     NotOpen,
     /// No frame came back within the bounded wait (a lost frame; a link down looks
     /// the same from the MainDevice).
-    #[error("frame lost (no answer within the cycle)")]
-    FrameLost,
+    #[error("frame lost: no answer within the cycle, all SubDevices ({subdevices}) affected (a lost frame, or the link down on {iface})")]
+    FrameLost {
+        /// The bus's network interface.
+        iface: IfName,
+        /// The SubDevices the frame was for (every one: none answered).
+        subdevices: Positions,
+    },
     /// The cycle's working counter was short of what the mapped SubDevices give.
-    #[error("working counter {got}, expected {expected}")]
+    #[error("working counter {got}, expected {expected}: {} did not exchange its process data", OneOf(*suspects))]
     WorkingCounter {
         /// Counted.
         got: u16,
         /// Expected.
         expected: u16,
+        /// The SubDevices whose share of the working counter is the shortfall
+        /// (one of them did not count; the frame does not say which).
+        suspects: Positions,
     },
     /// A SubDevice is no longer in OP (its AL state, as the low nibble of AL status).
     #[error("left OP (AL state {al_state:#x})")]
@@ -112,6 +120,71 @@ pub enum BusFault {
         /// 0x603F.
         error_code: u16,
     },
+}
+
+/// Bus positions (bit p: the SubDevice at position p, p < 32), printed "0–3, 5"
+/// (formatted without allocating, as an alarm on the cycle is).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Positions(pub u32);
+
+impl std::fmt::Display for Positions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut sep = "";
+        let mut p = 0;
+        while p < 32 {
+            if self.0 >> p & 1 == 0 {
+                p += 1;
+                continue;
+            }
+            let mut end = p;
+            while end + 1 < 32 && self.0 >> (end + 1) & 1 == 1 {
+                end += 1;
+            }
+            match end - p {
+                0 => write!(f, "{sep}{p}")?,
+                1 => write!(f, "{sep}{p}, {end}")?,
+                _ => write!(f, "{sep}{p}–{end}")?,
+            }
+            sep = ", ";
+            p = end + 1;
+        }
+        Ok(())
+    }
+}
+
+/// "SubDevice 2", or "one of SubDevices 0–3".
+struct OneOf(Positions);
+
+impl std::fmt::Display for OneOf {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.0 .0.count_ones() == 1 {
+            write!(f, "SubDevice {}", self.0)
+        } else {
+            write!(f, "one of SubDevices {}", self.0)
+        }
+    }
+}
+
+/// A network interface's name, fixed-size (Linux allows 15 bytes), so that a bus
+/// fault naming it stays `Copy` and allocation-free.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct IfName([u8; 16]);
+
+impl IfName {
+    /// `name`, cut at 16 bytes.
+    pub fn new(name: &str) -> Self {
+        let mut b = [0u8; 16];
+        let n = name.len().min(16);
+        b[..n].copy_from_slice(&name.as_bytes()[..n]);
+        IfName(b)
+    }
+}
+
+impl std::fmt::Display for IfName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let n = self.0.iter().position(|&c| c == 0).unwrap_or(16);
+        f.write_str(std::str::from_utf8(&self.0[..n]).unwrap_or("?"))
+    }
 }
 
 /// A fieldbus's figures since it was brought up ([`ServoBackend::bus_stats`]).
@@ -273,4 +346,43 @@ pub trait SimulatedMachine {
     fn raw_outputs(&self) -> RawOutputs;
     /// The spindle's true speed (rpm, signed), 0 without a spindle.
     fn spindle_true_rpm(&self) -> f64;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_bus_fault_names_its_subdevices_and_interface() {
+        assert_eq!(Positions(0b1111).to_string(), "0–3");
+        assert_eq!(Positions(0b1011).to_string(), "0, 1, 3");
+        assert_eq!(Positions(0b11_0110_0001).to_string(), "0, 5, 6, 8, 9");
+        let lost = BackendError::Bus {
+            subdevice: None,
+            axis: None,
+            reason: BusFault::FrameLost {
+                iface: IfName::new("enp2s0"),
+                subdevices: Positions(0b111),
+            },
+        };
+        assert_eq!(
+            lost.to_string(),
+            "bus fault: frame lost: no answer within the cycle, all SubDevices (0–2) affected (a lost frame, or the link down on enp2s0)"
+        );
+        let wkc = |suspects| BusFault::WorkingCounter {
+            got: 4,
+            expected: 7,
+            suspects: Positions(suspects),
+        };
+        assert!(wkc(0b110)
+            .to_string()
+            .ends_with(": one of SubDevices 1, 2 did not exchange its process data"));
+        assert!(wkc(0b100)
+            .to_string()
+            .ends_with(": SubDevice 2 did not exchange its process data"));
+        assert_eq!(
+            IfName::new("a-very-long-interface-name").to_string(),
+            "a-very-long-inte"
+        );
+    }
 }

@@ -29,8 +29,8 @@ pub mod spindle;
 pub mod trace;
 
 pub use backend::{
-    AxisStatus, BackendError, BusFault, BusStats, CommandMode, PhaseCurrents, ServoBackend,
-    SimulatedMachine, MAX_AXES,
+    AxisStatus, BackendError, BusFault, BusStats, CommandMode, IfName, PhaseCurrents, Positions,
+    ServoBackend, SimulatedMachine, MAX_AXES,
 };
 pub use design::CompensationDesignError;
 pub use engine::{CycleEngine, CycleRecord, EngineError};

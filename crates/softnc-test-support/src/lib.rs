@@ -93,3 +93,8 @@ pub fn peak_of<R>(f: impl FnOnce() -> R) -> (R, usize) {
     let r = f();
     (r, PEAK.load(Relaxed).saturating_sub(base))
 }
+
+/// Bytes live on the heap now (every thread's).
+pub fn live_bytes() -> usize {
+    LIVE.load(Relaxed)
+}

@@ -1,8 +1,8 @@
 //! `softnc-ethercat-emu --iface IFACE [--drives N] [--io N]`: a segment of emulated
 //! EtherCAT SubDevices (N CiA 402 drives, then N I/O terminals; 3 and 1 by
 //! default) answering frames on IFACE. Commands on standard input, one a line:
-//! `link-down`, `link-up`, `drop N`, `fault POS CODE`, `leave-op POS`,
-//! `inputs POS BITS`, `status`.
+//! `link-down`, `link-up`, `drop N`, `fault POS CODE`, `leave-op POS`, `wkc POS FRAMES`,
+//! `home-switch POS COUNTS`, `inputs POS BITS`, `status`.
 
 use softnc_ethercat_emu::{control::Command, DeviceKind, Emulator};
 use std::io::BufRead;
