@@ -231,20 +231,7 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
     let t_start = Instant::now();
     let port = free_port();
     // (with the daemon's per-cycle traces: the history's plot reads them)
-    let d = Daemon::start_in(
-        fresh_dir("web"),
-        "web",
-        "Realtime",
-        true,
-        "default.ron",
-        &[(
-            "    check_timeout_s: 60.0,",
-            &format!(
-                "    check_timeout_s: 60.0,\n    web: Some((listen: \"127.0.0.1:{port}\", token_file: \"token\")),"
-            ),
-        )],
-    );
-    std::fs::write(d.dir.join("token"), format!("{TOKEN}\n")).unwrap();
+    let d = daemon_with_panel("web", "Realtime", port);
     let op = d.operator_off();
     // the panel serves: the status readable without the token, live
     let t0 = Instant::now();
@@ -1190,13 +1177,13 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
 /// trace is byte for byte the simulator's of the same job: the panel's death left
 /// no mark on the motion. (No browser: the page's reconnection is the browser
 /// test's.)
-#[test]
-fn killing_the_panel_mid_job_leaves_the_jobs_trace_byte_for_byte_the_simulators() {
-    let port = free_port();
+/// A `softncd` (`clock`, with per-cycle traces) whose configuration starts the web
+/// panel on `port` with the operator token [`TOKEN`] in its file.
+fn daemon_with_panel(tag: &str, clock: &str, port: u16) -> Daemon {
     let d = Daemon::start_in(
-        fresh_dir("webkill"),
-        "webkill",
-        "Lockstep",
+        fresh_dir(tag),
+        tag,
+        clock,
         true,
         "default.ron",
         &[(
@@ -1207,6 +1194,13 @@ fn killing_the_panel_mid_job_leaves_the_jobs_trace_byte_for_byte_the_simulators(
         )],
     );
     std::fs::write(d.dir.join("token"), format!("{TOKEN}\n")).unwrap();
+    d
+}
+
+#[test]
+fn killing_the_panel_mid_job_leaves_the_jobs_trace_byte_for_byte_the_simulators() {
+    let port = free_port();
+    let d = daemon_with_panel("webkill", "Lockstep", port);
     let op = d.operator();
     let serving = |what: &str| {
         let t0 = Instant::now();
