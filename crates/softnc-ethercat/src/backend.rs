@@ -375,7 +375,12 @@ impl EtherCatBackend {
         let all = Positions((1u32 << group.len()) - 1);
         let mut dc_positions = [0u8; bus::MAX_SUBDEVICES];
         let mut dc_count = 0;
-        for (p, s) in group.iter(md).enumerate().filter(|(_, s)| s.dc_support().any()).skip(1) {
+        for (p, s) in group
+            .iter(md)
+            .enumerate()
+            .filter(|(_, s)| s.dc_support().any())
+            .skip(1)
+        {
             if s.dc_support().enhanced() {
                 dc_positions[dc_count] = p as u8;
                 dc_count += 1;
@@ -485,7 +490,7 @@ impl EtherCatBackend {
         let Some(bus) = self.bus.as_ref() else {
             return;
         };
-        if bus.dc_count == 0 || self.stats.frames % DC_READ_EVERY_FRAMES != 0 {
+        if bus.dc_count == 0 || !self.stats.frames.is_multiple_of(DC_READ_EVERY_FRAMES) {
             return;
         }
         let p = usize::from(bus.dc_positions[self.dc_next % bus.dc_count]);
