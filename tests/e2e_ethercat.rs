@@ -107,7 +107,8 @@ fn planned_samples(job: &Path, machine: &Path) -> Vec<[f64; 3]> {
 
 /// Every planned sample of axis `axis` among the targets drive `axis` received, in
 /// order: none missing, none more than one frame after its slot (the slot of
-/// sample i is i frames after the first sample that leaves the start position).
+/// sample i is i process-data frames after the first sample that leaves the
+/// start position).
 /// The largest lateness (frames).
 fn check_targets(axis: usize, planned: &[[f64; 3]], got: &[Received]) -> u64 {
     let want: Vec<i32> = planned
@@ -127,7 +128,6 @@ fn check_targets(axis: usize, planned: &[[f64; 3]], got: &[Received]) -> u64 {
     let base = at
         .checked_sub(first_move)
         .unwrap_or_else(|| panic!("axis {axis}: fewer frames before the move than samples"));
-    let slot0_frame = enabled[base].frame;
     let mut k = base;
     let mut worst = 0;
     for (i, &t) in want.iter().enumerate() {
@@ -140,7 +140,10 @@ fn check_targets(axis: usize, planned: &[[f64; 3]], got: &[Received]) -> u64 {
                 enabled.get(k).map(|r| r.target_counts)
             )
         });
-        let late = enabled[j].frame - slot0_frame - i as u64;
+        // lateness in the drive's process-data frames (cycles): the segment's
+        // frame numbers also count the MainDevice's other frames (the DC system
+        // time difference read every 250 cycles)
+        let late = (j - base - i) as u64;
         assert!(
             late <= 1,
             "axis {axis}: planned sample {i} arrived {late} frames late"

@@ -199,6 +199,13 @@ pub struct BusFigures {
     /// The cycle frame's send-to-receive time (ns; p50 and p99 from a 10 µs
     /// histogram, max exact; `p999` not measured, 0).
     pub send_to_receive_ns: Percentiles,
+    /// Reads of the DC SubDevices' system time difference (ESC register 0x092C,
+    /// one SubDevice a read, every few hundred cycles) that answered.
+    pub dc_deviation_reads: u64,
+    /// |system time difference| of the last read (ns).
+    pub dc_deviation_last_ns: u64,
+    /// Largest |system time difference| read since the bus came up (ns).
+    pub dc_deviation_max_ns: u64,
 }
 
 /// The real-time loops' timing (`None`: not reported yet).

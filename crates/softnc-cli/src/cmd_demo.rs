@@ -406,6 +406,12 @@ fn print_report(r: &DemoReport) {
             us(s.p99),
             us(s.max)
         );
+        println!(
+            "    DC system time difference (0x092C): {} reads, last {:.3} µs, max {:.3} µs",
+            b.dc_deviation_reads,
+            us(b.dc_deviation_last_ns),
+            us(b.dc_deviation_max_ns)
+        );
     }
     for al in &r.alarms {
         println!("  alarm {:?}: {}", al.code, al.message);

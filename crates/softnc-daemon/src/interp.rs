@@ -378,7 +378,7 @@ impl InterpTask {
                     compute_ns: [c.p50_ns, c.p99_ns, c.p999_ns, c.max_ns],
                     overruns: self.stats.overruns(),
                     latency_ns: [0; 4],
-                    bus: [0; 6],
+                    bus: [0; 9],
                 }))?;
             }
             self.last_hb = Instant::now();

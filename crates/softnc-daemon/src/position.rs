@@ -1642,7 +1642,7 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                     let l = self.latency.percentiles();
                     [l.p50_ns, l.p99_ns, l.p999_ns, l.max_ns]
                 },
-                bus: self.engine.backend().bus_stats().map_or([0; 6], |b| {
+                bus: self.engine.backend().bus_stats().map_or([0; 9], |b| {
                     [
                         b.frames,
                         b.lost_frames,
@@ -1650,6 +1650,9 @@ impl<B: ServoBackend + Send + 'static> PositionTask<B> {
                         b.rtt_p50_ns,
                         b.rtt_p99_ns,
                         b.rtt_max_ns,
+                        b.dc_reads,
+                        b.dc_deviation_last_ns,
+                        b.dc_deviation_max_ns,
                     ]
                 }),
             }))?;

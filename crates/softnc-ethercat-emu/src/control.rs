@@ -50,11 +50,19 @@ pub enum Command {
         /// Bits.
         bits: u32,
     },
+    /// The local clock of the SubDevice at `position` steps `ns` ahead, without
+    /// re-synchronisation (its system time difference, 0x092C, shows the step).
+    ClockStep {
+        /// SubDevice position.
+        position: usize,
+        /// Step (ns; at most 0x7FFF_FFFF shows whole in 0x092C).
+        ns: u32,
+    },
 }
 
 /// A command line that does not parse.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown command {0:?}: link-down | link-up | drop N | fault POS CODE | leave-op POS | wkc POS FRAMES | home-switch POS COUNTS | inputs POS BITS")]
+#[error("unknown command {0:?}: link-down | link-up | drop N | fault POS CODE | leave-op POS | wkc POS FRAMES | home-switch POS COUNTS | inputs POS BITS | clock-step POS NS")]
 pub struct BadCommand(pub String);
 
 fn num(s: Option<&str>) -> Option<u32> {
@@ -94,6 +102,10 @@ impl FromStr for Command {
             ("inputs", Some(p), Some(bits)) => Command::Inputs {
                 position: p as usize,
                 bits,
+            },
+            ("clock-step", Some(p), Some(ns)) => Command::ClockStep {
+                position: p as usize,
+                ns,
             },
             _ => return Err(bad()),
         })

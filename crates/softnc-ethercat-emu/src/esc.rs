@@ -50,6 +50,8 @@ pub struct Esc {
     /// working counter (a fault on demand).
     wkc_skip_frames: u32,
     wkc_skipped: bool,
+    /// Added to this ESC's local clock (ns; a step on demand, not re-synced).
+    clock_step_ns: u64,
 }
 
 impl Esc {
@@ -72,6 +74,7 @@ impl Esc {
             sync0_events: 0,
             wkc_skip_frames: 0,
             wkc_skipped: false,
+            clock_step_ns: 0,
         };
         esc.power_on();
         esc
@@ -144,7 +147,7 @@ impl Esc {
     }
 
     fn local_ns(&self) -> u64 {
-        dc::local_time_port0(self.position, self.frame_ns)
+        dc::local_time_port0(self.position, self.frame_ns).wrapping_add(self.clock_step_ns)
     }
     fn system_ns(&self) -> u64 {
         self.local_ns()
@@ -284,9 +287,10 @@ impl Esc {
     }
 
     fn latch_receive_times(&mut self) {
-        let p0 = dc::local_time_port0(self.position, self.frame_ns);
+        let p0 = self.local_ns();
         let p1 = if self.position + 1 < self.count {
-            dc::local_time_port1(self.position, self.count, self.frame_ns) as u32
+            dc::local_time_port1(self.position, self.count, self.frame_ns)
+                .wrapping_add(self.clock_step_ns) as u32
         } else {
             0
         };
@@ -489,6 +493,12 @@ impl Esc {
     /// working counter.
     pub fn skip_working_counter(&mut self, frames: u32) {
         self.wkc_skip_frames += frames;
+    }
+
+    /// This ESC's local clock steps `ns` ahead (its system time offset is not
+    /// re-written: the step shows in its system time difference, 0x092C).
+    pub fn step_clock(&mut self, ns: u64) {
+        self.clock_step_ns = self.clock_step_ns.wrapping_add(ns);
     }
 
     /// Whether a logical access that reached this ESC counts in the working

@@ -360,6 +360,11 @@ fn apply(c: Command, escs: &mut [Esc], faults: &mut Faults) {
                 e.app_mut().set_digital_inputs(bits);
             }
         }
+        Command::ClockStep { position, ns } => {
+            if let Some(e) = escs.get_mut(position) {
+                e.step_clock(u64::from(ns));
+            }
+        }
     }
 }
 

@@ -23,6 +23,14 @@ const FAULTED_LOST_IN_ROW: u32 = 2;
 /// Round-trip histogram: bucket width and count (10 µs × 1000 = 10 ms).
 const RTT_BUCKET_NS: u64 = 10_000;
 const RTT_BUCKETS: usize = 1000;
+/// Frames between two reads of a DC SubDevice's system time difference (each
+/// read an extra frame on that cycle: one SubDevice a read, in turn).
+const DC_READ_EVERY_FRAMES: u64 = 250;
+/// ESC register: DC system time difference (u32, |local − received| in bits
+/// 0–30, bit 31 set when the local copy is the smaller).
+const DC_SYSTEM_TIME_DIFF: u16 = 0x092C;
+/// The magnitude bits of [`DC_SYSTEM_TIME_DIFF`].
+const DC_DIFF_MAGNITUDE: u32 = 0x7FFF_FFFF;
 
 /// A bit of a SubDevice's digital inputs or outputs on a raw line (the cycle's
 /// table, fixed-size).
@@ -195,6 +203,10 @@ struct Bus {
     wkc_share: [u16; bus::MAX_SUBDEVICES],
     /// Every SubDevice on the bus.
     all: Positions,
+    /// The DC SubDevices that compare their clock with the reference's (every
+    /// DC one after the first, ethercrab's reference clock), `dc_count` of them.
+    dc_positions: [u8; bus::MAX_SUBDEVICES],
+    dc_count: usize,
     /// Declared after the group: dropped after it (the group is never used with
     /// the MainDevice's next bring-up).
     _master: bus::Master,
@@ -226,6 +238,8 @@ pub struct EtherCatBackend {
     iface: IfName,
     raw_in: u128,
     raw_out: u128,
+    /// The next of the DC SubDevices whose system time difference is read.
+    dc_next: usize,
 }
 
 impl EtherCatBackend {
@@ -302,6 +316,7 @@ impl EtherCatBackend {
             iface: IfName::new(&config.interface),
             raw_in: 0,
             raw_out: 0,
+            dc_next: 0,
         })
     }
 
@@ -358,12 +373,27 @@ impl EtherCatBackend {
             expected_wkc += *share;
         }
         let all = Positions((1u32 << group.len()) - 1);
+        let mut dc_positions = [0u8; bus::MAX_SUBDEVICES];
+        let mut dc_count = 0;
+        for (p, s) in group
+            .iter(md)
+            .enumerate()
+            .filter(|(_, s)| s.dc_support().any())
+            .skip(1)
+        {
+            if s.dc_support().enhanced() {
+                dc_positions[dc_count] = p as u8;
+                dc_count += 1;
+            }
+        }
         self.bus = Some(Bus {
             md,
             group,
             expected_wkc,
             wkc_share,
             all,
+            dc_positions,
+            dc_count,
             _master: master,
         });
         // the first inputs, so that `home` and `read_counts` see the drives
@@ -443,8 +473,40 @@ impl EtherCatBackend {
 
     fn exchange(&mut self) -> Result<(), BackendError> {
         match self.exchange_frame() {
-            Ok(()) => Ok(()),
+            Ok(()) => {
+                self.read_dc_deviation();
+                Ok(())
+            }
             Err((subdevice, reason)) => Err(self.fault(subdevice, reason)),
+        }
+    }
+
+    /// Every [`DC_READ_EVERY_FRAMES`] frames, one DC SubDevice's system time
+    /// difference (0x092C, updated by each cycle's system time distribution): an
+    /// FPRD frame of its own, its wait bounded by the response timeout. A read
+    /// that does not answer is left out of the figures (not a bus fault: the
+    /// cycle's frame came through).
+    fn read_dc_deviation(&mut self) {
+        let Some(bus) = self.bus.as_ref() else {
+            return;
+        };
+        if bus.dc_count == 0 || !self.stats.frames.is_multiple_of(DC_READ_EVERY_FRAMES) {
+            return;
+        }
+        let p = usize::from(bus.dc_positions[self.dc_next % bus.dc_count]);
+        self.dc_next = self.dc_next.wrapping_add(1);
+        let Ok(s) = bus.group.subdevice(bus.md, p) else {
+            return;
+        };
+        let r = block_on(
+            s.register_read::<u32>(DC_SYSTEM_TIME_DIFF),
+            Instant::now() + self.response_timeout,
+        );
+        if let Some(Ok(diff)) = r {
+            let ns = u64::from(diff & DC_DIFF_MAGNITUDE);
+            self.stats.dc_reads += 1;
+            self.stats.dc_deviation_last_ns = ns;
+            self.stats.dc_deviation_max_ns = self.stats.dc_deviation_max_ns.max(ns);
         }
     }
 

@@ -204,6 +204,108 @@ fn working_counter_short(b: &mut EtherCatBackend, emu: &Emulator) {
     b.enable().expect("enabled again");
 }
 
+/// Cycles of the allocation test.
+const CYCLES: usize = 2000;
+/// The emulated clocks' system time difference stays below this (ns): they all
+/// run from the host's clock, so it holds only the emulator's datagram timing.
+const DC_PLAUSIBLE_NS: u64 = 100_000;
+
+#[test]
+fn a_stepped_subdevice_clock_shows_in_the_dc_deviation() {
+    let Some((_one, veth, emu)) = bus() else {
+        return;
+    };
+    let mut b = EtherCatBackend::open(&config(&veth.main)).expect("bus up");
+    b.enable().expect("enable");
+    let hold = b.read_counts().map(|c| c as f64 * 1e-4);
+    // every DC SubDevice after the reference read at least once, unstepped
+    for _ in 0..250 * KINDS.len() {
+        b.write_commands(hold);
+        b.cycle().expect("cycle");
+    }
+    const STEP_NS: u32 = 3_000_000;
+    emu.command(Command::ClockStep {
+        position: 2,
+        ns: STEP_NS,
+    });
+    std::thread::sleep(Duration::from_millis(20));
+    let before = b.bus_stats();
+    // every DC SubDevice after the reference read at least once
+    for _ in 0..250 * KINDS.len() {
+        b.write_commands(hold);
+        b.cycle().expect("cycle");
+    }
+    let s = b.bus_stats();
+    println!(
+        "clock of SubDevice 2 stepped {STEP_NS} ns: DC deviation max {} ns (before {} ns), last {} ns, {} reads",
+        s.dc_deviation_max_ns, before.dc_deviation_max_ns, s.dc_deviation_last_ns, s.dc_reads
+    );
+    assert!(
+        before.dc_reads > 0 && before.dc_deviation_max_ns < DC_PLAUSIBLE_NS,
+        "{before:?}"
+    );
+    assert!(
+        s.dc_deviation_max_ns.abs_diff(u64::from(STEP_NS)) < DC_PLAUSIBLE_NS,
+        "the step of {STEP_NS} ns not in the figure: {s:?}"
+    );
+}
+
+/// [`CYCLES`] cycles holding `hold`: no allocation, the DC system time difference
+/// read among them and plausible, each cycle timed (printed).
+fn allocation_free_cycles_with_dc_reads(b: &mut EtherCatBackend, hold: softnc_core::Axes<f64>) {
+    // allocation-free cycles (the DC system time difference reads among them),
+    // each timed: (ns, whether a DC read was in it)
+    let mut took = vec![(0u64, false); CYCLES];
+    let reads_before = b.bus_stats().dc_reads;
+    let before = softnc_test_support::allocations();
+    for t in took.iter_mut() {
+        let reads = b.bus_stats().dc_reads;
+        let t0 = std::time::Instant::now();
+        b.write_commands(hold);
+        b.cycle().expect("cycle");
+        *t = (
+            t0.elapsed().as_nanos() as u64,
+            b.bus_stats().dc_reads > reads,
+        );
+    }
+    let allocs = softnc_test_support::allocations() - before;
+    let s = b.bus_stats();
+    println!(
+        "{CYCLES} cycles: {allocs} allocations; frames {} lost {} wkc errors {}; send-to-receive p50 {} µs p99 {} µs max {} µs",
+        s.frames, s.lost_frames, s.wkc_errors, s.rtt_p50_ns / 1000, s.rtt_p99_ns / 1000, s.rtt_max_ns / 1000
+    );
+    assert_eq!(allocs, 0, "the cycle allocated");
+    // the DC deviation: read, and plausible for clocks that all run from the host's
+    let reads = s.dc_reads - reads_before;
+    let p99 = |mut v: Vec<u64>| {
+        v.sort_unstable();
+        v.get((v.len() * 99).div_ceil(100).saturating_sub(1))
+            .copied()
+            .unwrap_or(0)
+    };
+    let plain: Vec<u64> = took.iter().filter(|t| !t.1).map(|t| t.0).collect();
+    let with_read: Vec<u64> = took.iter().filter(|t| t.1).map(|t| t.0).collect();
+    println!(
+        "DC system time difference: {reads} reads, last {} ns, max {} ns; cycle p99 {} µs without a read, {} µs over all; cycles with a read: {} of them, p50 {} µs max {} µs",
+        s.dc_deviation_last_ns,
+        s.dc_deviation_max_ns,
+        p99(plain.clone()) / 1000,
+        p99(took.iter().map(|t| t.0).collect()) / 1000,
+        with_read.len(),
+        with_read.get(with_read.len() / 2).copied().unwrap_or(0) / 1000,
+        with_read.iter().max().copied().unwrap_or(0) / 1000,
+    );
+    assert!(
+        reads as usize >= CYCLES / 250 - 1,
+        "{reads} DC reads in {CYCLES} cycles"
+    );
+    assert!(
+        s.dc_deviation_max_ns < DC_PLAUSIBLE_NS,
+        "DC deviation {} ns",
+        s.dc_deviation_max_ns
+    );
+}
+
 #[test]
 fn faults_are_detected_within_3_cycles_and_the_cycle_does_not_allocate() {
     let Some((_one, veth, emu)) = bus() else {
@@ -214,19 +316,7 @@ fn faults_are_detected_within_3_cycles_and_the_cycle_does_not_allocate() {
     let hold = b.read_counts().map(|c| c as f64 * 1e-4);
     b.write_commands(hold);
     b.cycle().expect("warm");
-    // allocation-free cycles, timed
-    let before = softnc_test_support::allocations();
-    for _ in 0..2000 {
-        b.write_commands(hold);
-        b.cycle().expect("cycle");
-    }
-    let allocs = softnc_test_support::allocations() - before;
-    let s = b.bus_stats();
-    println!(
-        "2000 cycles: {allocs} allocations; frames {} lost {} wkc errors {}; send-to-receive p50 {} µs p99 {} µs max {} µs",
-        s.frames, s.lost_frames, s.wkc_errors, s.rtt_p50_ns / 1000, s.rtt_p99_ns / 1000, s.rtt_max_ns / 1000
-    );
-    assert_eq!(allocs, 0, "the cycle allocated");
+    allocation_free_cycles_with_dc_reads(&mut b, hold);
     estop_path_is_allocation_free(&mut b, &emu);
     b.enable().expect("enabled again after the E-stop");
 

@@ -351,8 +351,9 @@ pub struct LoopStats {
     /// p50, p99, p99.9, max (ns; 0 when not measured).
     pub latency_ns: [u64; 4],
     /// Position process on a fieldbus only: frames, lost frames, working-counter
-    /// errors, send-to-receive p50, p99, max (ns); all 0 without a bus.
-    pub bus: [u64; 6],
+    /// errors, send-to-receive p50, p99, max (ns), DC system time difference
+    /// reads, last and max |difference| (ns); all 0 without a bus.
+    pub bus: [u64; 9],
 }
 
 /// What a control command from the MMI asks the interpolation and position

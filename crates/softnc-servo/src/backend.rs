@@ -203,6 +203,12 @@ pub struct BusStats {
     pub rtt_p99_ns: u64,
     /// Maximum (exact).
     pub rtt_max_ns: u64,
+    /// Reads of the DC SubDevices' system time difference (0x092C) that answered.
+    pub dc_reads: u64,
+    /// |system time difference| of the last read (ns).
+    pub dc_deviation_last_ns: u64,
+    /// Largest |system time difference| read since open (ns).
+    pub dc_deviation_max_ns: u64,
 }
 
 /// A servo backend: the simulated machine, a loopback, real drives. One cycle is

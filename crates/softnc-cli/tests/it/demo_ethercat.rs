@@ -55,6 +55,14 @@ fn the_demo_job_runs_over_the_emulated_bus() {
             && rtt["max"].as_u64().unwrap_or(0) > 0,
         "{report}"
     );
+    // the DC deviation: read during the job, and small (the emulated clocks all
+    // run from the host's)
+    let reads = bus["dc_deviation_reads"].as_u64().unwrap_or(0);
+    let dc_max = bus["dc_deviation_max_ns"].as_u64().unwrap_or(u64::MAX);
+    assert!(
+        reads >= cycles / 250 / 2 && reads > 0 && dc_max < 100_000,
+        "DC deviation reads {reads}, max {dc_max} ns: {report}"
+    );
     let drives: Vec<u64> = stderr
         .lines()
         .filter_map(|l| l.trim().strip_prefix("drive "))

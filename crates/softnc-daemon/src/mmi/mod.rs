@@ -1443,6 +1443,9 @@ impl MmiTask {
                             p999: 0,
                             max: l.bus[5],
                         },
+                        dc_deviation_reads: l.bus[6],
+                        dc_deviation_last_ns: l.bus[7],
+                        dc_deviation_max_ns: l.bus[8],
                     }),
             },
             alarms: self

@@ -2,7 +2,7 @@
 //! EtherCAT SubDevices (N CiA 402 drives, then N I/O terminals; 3 and 1 by
 //! default) answering frames on IFACE. Commands on standard input, one a line:
 //! `link-down`, `link-up`, `drop N`, `fault POS CODE`, `leave-op POS`, `wkc POS FRAMES`,
-//! `home-switch POS COUNTS`, `inputs POS BITS`, `status`.
+//! `home-switch POS COUNTS`, `inputs POS BITS`, `clock-step POS NS`, `status`.
 
 use softnc_ethercat_emu::{control::Command, DeviceKind, Emulator};
 use std::io::BufRead;
