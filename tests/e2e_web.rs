@@ -565,21 +565,7 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
     // -- upload examples/demo.ngc and run it
     click(&c, ".tab[data-view=program]").await;
     let demo = std::fs::canonicalize(repo().join("examples/demo.ngc")).unwrap();
-    c.find(Locator::Id("file"))
-        .await
-        .unwrap()
-        .send_keys(&demo.display().to_string())
-        .await
-        .unwrap();
-    click(&c, "#btn-upload").await;
-    wait_text(
-        &c,
-        "programs",
-        Duration::from_secs(10),
-        "the upload listed",
-        |t| t.contains("demo.ngc"),
-    )
-    .await;
+    upload(&c, &demo, "demo.ngc", "the upload listed").await;
     let t0 = Instant::now();
     while js(&c, "S.plan ? S.plan.length : 0")
         .await
@@ -972,21 +958,7 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
         assert!(t0.elapsed() < Duration::from_secs(5), "single block on");
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
-    c.find(Locator::Id("file"))
-        .await
-        .unwrap()
-        .send_keys(&flow.display().to_string())
-        .await
-        .unwrap();
-    click(&c, "#btn-upload").await;
-    wait_text(
-        &c,
-        "programs",
-        Duration::from_secs(10),
-        "the small program listed",
-        |t| t.contains("flow.ngc"),
-    )
-    .await;
+    upload(&c, &flow, "flow.ngc", "the small program listed").await;
     let t0 = Instant::now();
     while js(&c, "S.plan ? S.plan.length : 0").await != json!(5) {
         assert!(
@@ -1177,6 +1149,22 @@ async fn the_panel_runs_a_job_in_a_real_browser() {
 /// trace is byte for byte the simulator's of the same job: the panel's death left
 /// no mark on the motion. (No browser: the page's reconnection is the browser
 /// test's.)
+/// Upload `path` through the page's file input and wait until the program list
+/// shows `name` (`what` names the wait in a failure).
+async fn upload(c: &Client, path: &std::path::Path, name: &str, what: &str) {
+    c.find(Locator::Id("file"))
+        .await
+        .unwrap()
+        .send_keys(&path.display().to_string())
+        .await
+        .unwrap();
+    click(c, "#btn-upload").await;
+    wait_text(c, "programs", Duration::from_secs(10), what, |t| {
+        t.contains(name)
+    })
+    .await;
+}
+
 /// A `softncd` (`clock`, with per-cycle traces) whose configuration starts the web
 /// panel on `port` with the operator token [`TOKEN`] in its file.
 fn daemon_with_panel(tag: &str, clock: &str, port: u16) -> Daemon {
