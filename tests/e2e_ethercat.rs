@@ -484,9 +484,9 @@ fn e2e_faults_mid_job_stop_every_drive_and_reset_brings_the_bus_back() {
 /// Where the emulated Z drive's home switch is, from where the drive stands
 /// (mm): close, so that the search is short.
 const Z_SWITCH_FROM_START_MM: f64 = 20.0;
-/// The homed position's tolerance at the drive (mm): the latch at 2 mm/s moves
-/// 2 µm a cycle.
-const HOMED_TOLERANCE_MM: f64 = 0.01;
+/// The homed position's tolerance at the drive (mm), once it stands: the latch
+/// at 2 mm/s moves 2 µm a cycle (the edge is taken halfway: 1 µm measured).
+const HOMED_TOLERANCE_MM: f64 = 0.002;
 
 /// `softnc home Z` over the bus on config/machines/default-incremental.ron: the
 /// search runs until the Z drive's home switch (0x60FD bit 2, wired to the
@@ -539,7 +539,18 @@ fn homes_on_the_drive_home_input(veth: &VethPair, emu: &Emulator, bus: &str) {
         s.homed.get(2) == Some(&true) && s.state == MachineState::Idle
     });
     let z_mm = machine_mm(&s)[2];
-    let at = drive_counts(emu);
+    // Idle once the command stands: the drive's own loop settles after it (a
+    // few time constants of its 150/s position loop), so read it once it stands
+    let mut at = drive_counts(emu);
+    let settle_by = std::time::Instant::now() + Duration::from_secs(2);
+    loop {
+        std::thread::sleep(Duration::from_millis(50));
+        let now = drive_counts(emu);
+        if now == at || std::time::Instant::now() > settle_by {
+            break;
+        }
+        at = now;
+    }
     // the latch point (switch_counts) reads switch_mm: home_mm is that less
     // (switch_mm − home_mm) at the drive
     let want = f64::from(switch_counts) - (switch_mm - home_mm) * DRIVE_COUNTS_PER_MM;
