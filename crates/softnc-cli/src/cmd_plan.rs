@@ -105,6 +105,12 @@ fn read_file_with(args: &PlanArgs, machine: &MachineProfile) -> Result<Result<Pr
         } else {
             softnc_gcode::M66Results::Refuse
         },
+        // and a probe move's results are its stand-alone interpreter's
+        probe_results: if args.canon {
+            softnc_gcode::ProbeResults::StandIn
+        } else {
+            softnc_gcode::ProbeResults::Refuse
+        },
         ..Default::default()
     };
     let bytes = crate::program_file::read(&args.file)
@@ -147,11 +153,24 @@ pub fn run(args: PlanArgs) -> Result<ExitCode> {
         }
     };
     // the canonical motions are the program's reading; planning checks it plans
-    let plan = match softnc_planner::plan(&program, &machine, &options) {
-        Ok(p) => p,
-        Err(e) => {
-            eprintln!("{e}");
-            return Ok(ExitCode::from(crate::EXIT_REFUSED));
+    // (not a reading with stand-in probe results: no machine stands where they say)
+    let probes = program
+        .motions
+        .iter()
+        .any(|m| matches!(m.kind, MotionKind::Probe { .. }));
+    let plan = if args.canon && probes {
+        eprintln!(
+            "warning: {}: not planned: its probe moves (G38.x) were read with rs274's stand-in results",
+            args.file.display()
+        );
+        None
+    } else {
+        match softnc_planner::plan(&program, &machine, &options) {
+            Ok(p) => Some(p),
+            Err(e) => {
+                eprintln!("{e}");
+                return Ok(ExitCode::from(crate::EXIT_REFUSED));
+            }
         }
     };
     // the program is accepted: its log files are written
@@ -165,7 +184,7 @@ pub fn run(args: PlanArgs) -> Result<ExitCode> {
             return Ok(ExitCode::from(crate::EXIT_REFUSED));
         }
     }
-    if !args.canon {
+    if let (false, Some(plan)) = (args.canon, &plan) {
         return print_summary(&args, &program, &plan.stats());
     }
     let stdout = std::io::stdout();
@@ -317,6 +336,14 @@ fn write_canon(out: &mut impl Write, program: &Program) -> Result<()> {
             MotionKind::Pause { optional } => serde_json::json!({
                 "line": m.line, "kind": if optional { "optional_stop" } else { "program_stop" }}),
             MotionKind::Sync => serde_json::json!({"line": m.line, "kind": "sync"}),
+            // rs274 prints STRAIGHT_PROBE(x, y, z, …)
+            MotionKind::Probe {
+                feed_mm_per_min,
+                probe,
+                ..
+            } => serde_json::json!({
+                "line": m.line, "kind": "probe", "end": end, "feed_mm_min": feed_mm_per_min,
+                "g": probe.name()}),
             // the machine around the axes, by LinuxCNC's canonical call
             MotionKind::Machine(op) => machine_json(m.line, &op, program),
         };

@@ -63,6 +63,7 @@ fn main() {
                             MotionKind::Dwell { .. }
                             | MotionKind::Pause { .. }
                             | MotionKind::Sync
+                            | MotionKind::Probe { .. }
                             | MotionKind::Machine(_) => return None,
                         })
                     })

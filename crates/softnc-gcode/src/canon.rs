@@ -90,6 +90,48 @@ pub enum MotionKind {
     /// messages, user M codes, override switches), at the current point, in program
     /// order. Whether the path comes to rest for it is [`MachineOp::stops_motion`].
     Machine(MachineOp),
+    /// G38.2–G38.5 straight probe toward `end` at the feed, until the probe input
+    /// trips (or clears): LinuxCNC's `STRAIGHT_PROBE`. Where the machine stops and
+    /// where the probe tripped come from the machine ([`crate::ProbeResults`]).
+    Probe {
+        /// End point (canonical frame, mm): where the move stops at the latest.
+        end: Vec3,
+        /// Feed (mm/min).
+        feed_mm_per_min: f64,
+        /// Which of the four probe moves.
+        probe: ProbeKind,
+    },
+}
+
+/// Which G38 probe move: LinuxCNC's `probe_type` bits (bit 0: no error without a
+/// trip, bit 1: until the probe clears).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ProbeKind {
+    /// Until the probe makes contact (G38.2, G38.3); else until it loses it
+    /// (G38.4, G38.5).
+    pub toward_contact: bool,
+    /// The program fails when the move ends without a trip (G38.2, G38.4).
+    pub fails_without_trip: bool,
+}
+
+impl ProbeKind {
+    /// The kind of G38.`sub` (2–5).
+    pub fn of_g38(sub: i32) -> ProbeKind {
+        ProbeKind {
+            toward_contact: sub <= 3,
+            fails_without_trip: sub % 2 == 0,
+        }
+    }
+
+    /// The G code's name (`G38.2` …).
+    pub fn name(self) -> &'static str {
+        match (self.toward_contact, self.fails_without_trip) {
+            (true, true) => "G38.2",
+            (true, false) => "G38.3",
+            (false, true) => "G38.4",
+            (false, false) => "G38.5",
+        }
+    }
 }
 
 /// The spindle's direction in a [`MachineOp::SpindleOn`].
@@ -405,7 +447,8 @@ impl MotionKind {
         match *self {
             MotionKind::Traverse { end }
             | MotionKind::Feed { end, .. }
-            | MotionKind::Arc { end, .. } => Some(end),
+            | MotionKind::Arc { end, .. }
+            | MotionKind::Probe { end, .. } => Some(end),
             MotionKind::Dwell { .. }
             | MotionKind::Pause { .. }
             | MotionKind::Sync

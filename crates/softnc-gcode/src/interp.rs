@@ -72,6 +72,8 @@ const G_2: i32 = 20;
 const G_3: i32 = 30;
 const G_4: i32 = 40;
 const G_53: i32 = 530;
+const G_38_2: i32 = 382;
+const G_38_5: i32 = 385;
 const G_80: i32 = 800;
 const G_90: i32 = 900;
 const G_91: i32 = 910;
@@ -192,7 +194,7 @@ fn g_unsupported(code: i32) -> Option<&'static str> {
         70 => "lathe diameter mode (G7) is not supported",
         171 | 181 | 191 => "the UVW planes are not supported",
         330 | 331 => "spindle-synchronised motion (G33) is not supported",
-        382..=385 => "probing (G38.x) is not supported",
+        382..=385 => "probing (G38.x) is not run by the machine yet (`softnc plan --canon` reads it with rs274's stand-in results)",
         730 | 740 | 810..=870 | 890 => return None,
         700..=722 => "the lathe cycles G70, G71 and G72 are not supported yet",
         760 => "the threading cycle G76 needs spindle-synchronised motion, which softnc does not have yet",
@@ -505,6 +507,8 @@ struct Interp<'a> {
     user_m: machine::UserMCodes,
     /// [`ReadOptions::m66_results`].
     m66_results: crate::M66Results,
+    /// [`ReadOptions::probe_results`].
+    probe_results: crate::ProbeResults,
     /// The line of the first M66 read while its result is unknown to the reading
     /// (`M66Results::Refuse`).
     m66_unknown_since: Option<u32>,
@@ -586,6 +590,7 @@ impl<'a> Interp<'a> {
             log_files: crate::log_files::LogFiles::default(),
             user_m: machine::UserMCodes::default(),
             m66_results: crate::M66Results::default(),
+            probe_results: crate::ProbeResults::default(),
             m66_unknown_since: None,
             m66_read: std::cell::Cell::new(false),
         }
@@ -653,6 +658,7 @@ impl<'a> Interp<'a> {
             log_files: self.log_files.clone(),
             user_m: self.user_m.clone(),
             m66_results: self.m66_results,
+            probe_results: self.probe_results,
             m66_unknown_since: self.m66_unknown_since,
             m66_read: self.m66_read.clone(),
         }
@@ -750,7 +756,11 @@ impl<'a> Interp<'a> {
                     return bad(offset, "Unknown g code used");
                 };
                 if let Some(why) = g_unsupported(code) {
-                    return unsup(offset, fmt_code('G', code), why);
+                    let probe_read = (G_38_2..=G_38_5).contains(&code)
+                        && self.probe_results != crate::ProbeResults::Refuse;
+                    if !probe_read {
+                        return unsup(offset, fmt_code('G', code), why);
+                    }
                 }
                 match b.g_in(group) {
                     // G80 beside another motion code: the other one counts
@@ -903,7 +913,10 @@ impl<'a> Interp<'a> {
                     "Cannot use two g codes that both use axis values",
                 );
             }
-            if !axis && !polar && cycles::is_cycle(mode1) {
+            // (check_g_codes: every motion code but G0–G3, G5.2, G70–G72 and the
+            // user's; the others softnc reads are the cycles and the probes)
+            let needs_axes = cycles::is_cycle(mode1) || (G_38_2..=G_38_5).contains(&mode1);
+            if !axis && !polar && needs_axes {
                 return bad(b.g_off(GM_MOTION), "All axes missing with motion code");
             }
             b.motion_to_be = Some(mode1);
@@ -1490,6 +1503,7 @@ impl<'a> Interp<'a> {
             G_80 => self.motion = None,
             G_0 | G_1 => self.straight(line_no, m, b)?,
             G_2 | G_3 => self.arc(line_no, m, b)?,
+            G_38_2..=G_38_5 => self.probe(line_no, m, b)?,
             _ if cycles::is_cycle(m) => self.cycle(line_no, m, b)?,
             _ => {
                 return unsup(
@@ -1768,6 +1782,15 @@ impl<'a> Interp<'a> {
                 turns,
                 feed_mm_per_min,
             },
+            MotionKind::Probe {
+                feed_mm_per_min,
+                probe,
+                ..
+            } => MotionKind::Probe {
+                end: e,
+                feed_mm_per_min,
+                probe,
+            },
             d @ (MotionKind::Dwell { .. }
             | MotionKind::Pause { .. }
             | MotionKind::Sync
@@ -1856,6 +1879,67 @@ impl<'a> Interp<'a> {
         };
         self.push(line_no, kind, end, Vec3::ZERO);
         Ok(())
+    }
+
+    /// `convert_probe` (G38.2–G38.5), then what the next `Interp::read` does after
+    /// it (`set_probe_data`) with the results [`ReadOptions::probe_results`] gives.
+    fn probe(&mut self, line_no: u32, mode: i32, b: &Block) -> R<()> {
+        let off = b.motion_off();
+        let probe = crate::ProbeKind::of_g38(mode - G_38_2 + 2);
+        if self.comp.on() {
+            return bad(off, "Cannot probe with cutter radius comp on");
+        }
+        if self.feed == 0.0 {
+            return bad(off, "Cannot probe with zero feed rate");
+        }
+        let end = self.find_ends(b)?;
+        if probe.fails_without_trip && end == self.pos {
+            return bad(off, "Start point too close to probe point");
+        }
+        self.motion = Some(mode);
+        let s = self.scale();
+        let start = self.pos;
+        let kind = MotionKind::Probe {
+            end: sc(end, s),
+            feed_mm_per_min: self.feed * s,
+            probe,
+        };
+        self.push(line_no, kind, end, Vec3::ZERO);
+        match self.probe_results {
+            crate::ProbeResults::Refuse => {
+                unreachable!("G38 is refused where it is read (g_unsupported)")
+            }
+            crate::ProbeResults::StandIn => {
+                // saicanon's STRAIGHT_PROBE: the probed point is the end, the machine
+                // stands 0.254 mm (0.01 in) back from it toward the start — the start
+                // as its canonical calls left it, in the XY-rotated frame, while
+                // convert_probe hands it the end unrotated (rs274's quirk, kept)
+                let d = self.frame(start) - end;
+                let dist = d.norm();
+                let at = if dist != 0.0 {
+                    let backoff = if self.inch { 0.01 } else { 0.254 };
+                    end + sc(d, backoff / dist)
+                } else {
+                    end
+                };
+                self.set_probe_data(end, at, false);
+            }
+        }
+        Ok(())
+    }
+
+    /// `set_probe_data`: the machine stands at `at` (the current point), the probe
+    /// tripped (`tripped`) at `probed` (program frame and units).
+    fn set_probe_data(&mut self, probed: Vec3, at: Vec3, tripped: bool) {
+        self.pos = at;
+        self.canon_pos = at;
+        for (k, v) in probed.0.iter().enumerate() {
+            self.params.set(5061 + k, *v);
+        }
+        for n in 5064..=5069 {
+            self.params.set(n, 0.0);
+        }
+        self.params.set(5070, if tripped { 1.0 } else { 0.0 });
     }
 
     /// `convert_arc` and `convert_arc2` with `arc_data_ijk` / `arc_data_r`.
@@ -2526,6 +2610,7 @@ fn read_source<'t>(
     it.user_m.dir = options.user_m_codes.clone();
     it.log_files_on = options.log_files;
     it.m66_results = options.m66_results;
+    it.probe_results = options.probe_results;
     match &options.params {
         Some(p) => it.params = p.clone(),
         None => it.params_from_profile(),

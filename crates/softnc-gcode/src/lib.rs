@@ -23,8 +23,8 @@ pub mod params;
 pub mod x87;
 
 pub use canon::{
-    CoolantLine, MachineOp, MessageKind, Motion, MotionKind, OverrideSwitch, PathMode, Program,
-    SpindleTurn, WaitInput, WaitMode,
+    CoolantLine, MachineOp, MessageKind, Motion, MotionKind, OverrideSwitch, PathMode, ProbeKind,
+    Program, SpindleTurn, WaitInput, WaitMode,
 };
 pub use error::{ErrorKind, GcodeError};
 pub use params::Params;
@@ -93,6 +93,9 @@ pub struct ReadOptions {
     pub user_m_codes: Option<PathBuf>,
     /// What a reading ahead does with M66's result in #5399 ([`M66Results`]).
     pub m66_results: M66Results,
+    /// What a reading does at a probe move (G38.x), whose results only the machine
+    /// knows ([`ProbeResults`]).
+    pub probe_results: ProbeResults,
     /// `(LOGOPEN,…)` and `(LOGAPPEND,…)` are taken: the program's log files are
     /// collected in [`Program::log_files`] for the caller to write into its log
     /// folder ([`log_files::write`]). Off (default): they refuse the program as
@@ -122,6 +125,27 @@ pub enum M66Results {
     Refuse,
     /// Read on with rs274's stand-in value, as its stand-alone interpreter does
     /// (`softnc plan --canon`, the conformance corpus).
+    StandIn,
+}
+
+/// A probe move (G38.2–G38.5) ends where the probe trips, or at its end without
+/// a trip; LinuxCNC's interpreter stops reading ahead there and, at its next
+/// read, takes the machine's position as the current point and the trip in
+/// #5061–#5069 (the probed position, program frame and units) and #5070 (1
+/// tripped, 0 not: `set_probe_data`). What a reading does there.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ProbeResults {
+    /// A probe move refuses the program (`Unsupported`, at its `G38.x`): the
+    /// machine does not run probe moves yet. Jobs are read so.
+    #[default]
+    Refuse,
+    /// Read on with rs274's stand-in results, as its stand-alone interpreter
+    /// (`saicanon.cc`): #5061–#5063 the move's end, #5064–#5069 0, #5070 0, and the
+    /// current point the end backed off 0.254 mm (0.01 in) toward the start
+    /// (`softnc plan --canon`, the conformance corpus). Such a reading is not
+    /// planned: no machine ends there. With an XY rotation in force the point
+    /// after the move can differ from rs274's in the third decimal (its
+    /// stand-alone canon backs off from a start it keeps in a frame of its own).
     StandIn,
 }
 

@@ -1225,6 +1225,8 @@ impl PathBuilder {
                 }
                 return;
             }
+            // refused before it is built (`PlanError::ProbeMove`)
+            MotionKind::Probe { .. } => return,
             MotionKind::Dwell { seconds } => {
                 if let Some(last) = self.pending.as_mut() {
                     last.exact_stop = true;
@@ -2638,9 +2640,11 @@ pub fn motion_primitive(m: &Motion) -> Option<Primitive> {
             plane,
             turns,
         )),
+        // (a probe move is refused before it is built: `PlanError::ProbeMove`)
         MotionKind::Dwell { .. }
         | MotionKind::Pause { .. }
         | MotionKind::Sync
+        | MotionKind::Probe { .. }
         | MotionKind::Machine(_) => None,
     }
 }

@@ -507,7 +507,10 @@ impl SequencerBuilder {
                     });
                 }
             }
-            MotionKind::Traverse { .. } | MotionKind::Feed { .. } | MotionKind::Arc { .. } => {
+            MotionKind::Traverse { .. }
+            | MotionKind::Feed { .. }
+            | MotionKind::Arc { .. }
+            | MotionKind::Probe { .. } => {
                 if !self.pending_sync.is_empty() {
                     for op in std::mem::take(&mut self.pending_sync) {
                         self.state.apply(&op);

@@ -107,6 +107,17 @@ pub enum PlanError {
         /// Upper soft limit.
         max_mm: f64,
     },
+    /// A probe move (G38.x): the machine does not run probe moves yet, and where
+    /// one ends only the machine knows.
+    #[error("{file}:{line}:1: {code}: a probe move is not planned (the machine does not run probe moves yet)")]
+    ProbeMove {
+        /// File.
+        file: String,
+        /// Source line of the motion.
+        line: u32,
+        /// `G38.2` … `G38.5`.
+        code: &'static str,
+    },
 }
 
 /// Figures of a planned program.
@@ -323,6 +334,13 @@ impl<'a> Checker<'a> {
     /// [`Checker::grow_box`] and [`Checker::spindle_change`], out of line.
     #[inline]
     pub(crate) fn check(&mut self, m: &Motion, prim: &Option<Primitive>) -> Result<(), PlanError> {
+        if let MotionKind::Probe { probe, .. } = m.kind {
+            return Err(PlanError::ProbeMove {
+                file: self.file.to_string(),
+                line: m.line,
+                code: probe.name(),
+            });
+        }
         if let Some(p) = prim {
             self.n_moves += 1;
             if let MotionKind::Feed {

@@ -211,7 +211,10 @@ impl Interp<'_> {
         // a canned cycle's mode is not carried: its R, Z, P, Q and the level its
         // series began at are not part of this text, and a bare X Y of the next
         // command must not drill with values it cannot know (it starts in G80)
-        if let Some(m) = self.motion.filter(|m| !super::cycles::is_cycle(*m)) {
+        // nor a probe move's: G38.x without an axis word is an error
+        if let Some(m) = self.motion.filter(|m| {
+            !super::cycles::is_cycle(*m) && !(super::G_38_2..=super::G_38_5).contains(m)
+        }) {
             push_g(&mut out, m);
             out.push('\n');
         }

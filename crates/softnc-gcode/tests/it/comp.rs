@@ -128,6 +128,7 @@ pub fn ours(p: &Program) -> Vec<String> {
             MotionKind::Pause { optional: false } => "PROGRAM_STOP".into(),
             MotionKind::Pause { optional: true } => "OPTIONAL_PROGRAM_STOP".into(),
             MotionKind::Sync => "SYNC".into(),
+            MotionKind::Probe { .. } => "STRAIGHT_PROBE".into(),
             MotionKind::Machine(op) => match op {
                 MachineOp::SpindleOn { .. } => "SPINDLE_ON".into(),
                 MachineOp::SpindleOff => "SPINDLE_OFF".into(),

@@ -44,6 +44,7 @@ fn compare(program: &softnc_gcode::Program, canon: &[Value]) -> Option<String> {
             MotionKind::Dwell { .. }
             | MotionKind::Pause { .. }
             | MotionKind::Sync
+            | MotionKind::Probe { .. }
             | MotionKind::Machine(_) => {
                 unreachable!()
             }

@@ -92,6 +92,7 @@ fn ours(p: &Program) -> Vec<String> {
             MotionKind::Pause { optional: false } => "PROGRAM_STOP".into(),
             MotionKind::Pause { optional: true } => "OPTIONAL_PROGRAM_STOP".into(),
             MotionKind::Sync => "SYNC".into(),
+            MotionKind::Probe { .. } => "STRAIGHT_PROBE".into(),
             MotionKind::Machine(op) => match op {
                 MachineOp::SpindleOrient {
                     angle_deg,

@@ -30,6 +30,7 @@ fn kinds(p: &Program) -> Vec<(u32, &'static str)> {
                 MotionKind::Pause { optional: false } => "M0",
                 MotionKind::Pause { optional: true } => "M1",
                 MotionKind::Sync => "sync",
+                MotionKind::Probe { .. } => "probe",
                 MotionKind::Machine(_) => "machine",
             };
             (m.line, k)

@@ -76,6 +76,7 @@ fn check(path: &Path, profile: &MotionProfile) -> Result<usize, String> {
             MotionKind::Dwell { .. }
             | MotionKind::Pause { .. }
             | MotionKind::Sync
+            | MotionKind::Probe { .. }
             | MotionKind::Machine(_) => {
                 unreachable!()
             }

@@ -13,6 +13,7 @@ mod flow;
 mod golden;
 mod language;
 mod machine_ops;
+mod probe;
 mod props;
 mod rotation;
 mod rs274_calls;

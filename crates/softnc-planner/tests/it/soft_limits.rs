@@ -35,7 +35,10 @@ fn a_line_past_the_travel_is_refused_at_its_line() {
     let e = refusal(&format!("{BOX}G1 X20 Y-260\nM2\n")).expect("refused");
     let PlanError::SoftLimit {
         line, axis, pos_mm, ..
-    } = e;
+    } = e
+    else {
+        panic!("{e}");
+    };
     assert_eq!((line, axis), (5, 'Y'));
     assert!((pos_mm + 260.0).abs() < 1e-9, "{pos_mm}");
 }
@@ -46,7 +49,10 @@ fn an_arc_bulging_past_the_travel_is_refused_though_its_ends_are_inside_the_box(
     let e = refusal(&format!("{BOX}G2 X60 Y200 I60 J0\nM2\n")).expect("refused");
     let PlanError::SoftLimit {
         line, axis, pos_mm, ..
-    } = e;
+    } = e
+    else {
+        panic!("{e}");
+    };
     assert_eq!((line, axis), (5, 'Y'));
     assert!((pos_mm - 260.0).abs() < 1e-9, "{pos_mm}");
     // the same arc the other way round (G3, under) stays inside: y ≥ 140
@@ -62,4 +68,28 @@ fn moves_inside_the_box_keep_its_figures() {
     assert_eq!(s.bounds_min_mm.0, [-100.0, -200.0, 0.0]);
     assert_eq!(s.bounds_max_mm.0, [100.0, 240.0, 0.0]);
     assert_eq!(s.moves, 6);
+}
+
+/// A probe move (read with rs274's stand-in results, as `softnc plan --canon`
+/// reads it) is refused at its line: no machine stands where the stand-in says,
+/// and the machine does not run probe moves yet.
+#[test]
+fn a_probe_move_is_refused_at_its_line() {
+    let p = profile(FeedProfile::Trapezoidal);
+    let options = softnc_gcode::ReadOptions {
+        probe_results: softnc_gcode::ProbeResults::StandIn,
+        ..Default::default()
+    };
+    let (program, _) = softnc_gcode::read_program_with(
+        "G21 F100\nG0 X1\nG38.2 Z-5\nG0 Z5\nM2\n",
+        "s.ngc",
+        &p,
+        &options,
+    )
+    .expect("reads");
+    let e = plan(&program, &p, &PlanOptions::default()).unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "s.ngc:3:1: G38.2: a probe move is not planned (the machine does not run probe moves yet)"
+    );
 }
