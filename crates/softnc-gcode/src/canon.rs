@@ -482,4 +482,8 @@ pub struct Program {
     /// The log files the program writes (`(LOGOPEN,…)`, [`crate::log_files`]),
     /// with [`crate::ReadOptions::log_files`]; written by the caller.
     pub log_files: Vec<crate::log_files::LogFile>,
+    /// With [`crate::ProbeResults::Known`]: the reading stopped after the probe
+    /// move of this line, the last motion, whose result the machine has yet to
+    /// give (`None`: the program was read to its end).
+    pub awaits_probe: Option<u32>,
 }

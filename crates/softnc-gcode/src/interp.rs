@@ -509,6 +509,11 @@ struct Interp<'a> {
     m66_results: crate::M66Results,
     /// [`ReadOptions::probe_results`].
     probe_results: crate::ProbeResults,
+    /// Probe moves read so far.
+    probes_read: usize,
+    /// The line of a probe move whose result is not known: reading stops after
+    /// its block ([`crate::ProbeResults::Known`]).
+    awaits_probe: Option<u32>,
     /// The line of the first M66 read while its result is unknown to the reading
     /// (`M66Results::Refuse`).
     m66_unknown_since: Option<u32>,
@@ -591,6 +596,8 @@ impl<'a> Interp<'a> {
             user_m: machine::UserMCodes::default(),
             m66_results: crate::M66Results::default(),
             probe_results: crate::ProbeResults::default(),
+            probes_read: 0,
+            awaits_probe: None,
             m66_unknown_since: None,
             m66_read: std::cell::Cell::new(false),
         }
@@ -658,7 +665,9 @@ impl<'a> Interp<'a> {
             log_files: self.log_files.clone(),
             user_m: self.user_m.clone(),
             m66_results: self.m66_results,
-            probe_results: self.probe_results,
+            probe_results: self.probe_results.clone(),
+            probes_read: self.probes_read,
+            awaits_probe: self.awaits_probe,
             m66_unknown_since: self.m66_unknown_since,
             m66_read: self.m66_read.clone(),
         }
@@ -1551,10 +1560,16 @@ impl<'a> Interp<'a> {
             // after a compensation exit the tool stands off the interpreter's point
             m.start = stands - m.offset_mm;
         }
-        if !self.suppress {
+        if !self.suppress && !self.before_the_last_probe_run() {
             self.moves_after_start += u64::from(m.kind.end().is_some());
             self.motions.push(m);
         }
+    }
+
+    /// With [`crate::ProbeResults::Known`]: a probe move the machine ran is still
+    /// ahead (what comes before it ran too: not handed on).
+    pub(super) fn before_the_last_probe_run(&self) -> bool {
+        matches!(&self.probe_results, crate::ProbeResults::Known(r) if self.probes_read < r.len())
     }
 
     /// The machine position of the current point (mm).
@@ -1904,10 +1919,31 @@ impl<'a> Interp<'a> {
             feed_mm_per_min: self.feed * s,
             probe,
         };
+        let index = self.probes_read;
+        self.probes_read += 1;
+        if let crate::ProbeResults::Known(ran) = &self.probe_results {
+            if let Some(r) = ran.get(index).copied() {
+                // it ran: not handed on again; the machine's result is the program's
+                if !r.tripped && probe.fails_without_trip {
+                    return bad(
+                        off,
+                        format!("{}: probe move finished without tripping", probe.name()),
+                    );
+                }
+                let to_program = |m: Vec3| self.unframe(m - self.offset());
+                let (probed, at) = (to_program(r.probed_mm), to_program(r.stopped_mm));
+                self.set_probe_data(probed, at, r.tripped);
+                return Ok(());
+            }
+        }
         self.push(line_no, kind, end, Vec3::ZERO);
-        match self.probe_results {
+        match &self.probe_results {
             crate::ProbeResults::Refuse => {
                 unreachable!("G38 is refused where it is read (g_unsupported)")
+            }
+            crate::ProbeResults::Known(_) => {
+                // the machine has yet to run it: the reading ends after this block
+                self.awaits_probe = Some(line_no);
             }
             crate::ProbeResults::StandIn => {
                 // saicanon's STRAIGHT_PROBE: the probed point is the end, the machine
@@ -2610,7 +2646,7 @@ fn read_source<'t>(
     it.user_m.dir = options.user_m_codes.clone();
     it.log_files_on = options.log_files;
     it.m66_results = options.m66_results;
-    it.probe_results = options.probe_results;
+    it.probe_results = options.probe_results.clone();
     match &options.params {
         Some(p) => it.params = p.clone(),
         None => it.params_from_profile(),
@@ -3027,6 +3063,18 @@ fn read_source<'t>(
                             taken,
                         ));
                     }
+                    if it.awaits_probe.is_some() {
+                        // a probe move the machine has yet to run: what follows
+                        // depends on its result (`ProbeResults::Known`)
+                        return Ok(finish(
+                            it,
+                            file,
+                            executed as usize + first,
+                            chunk,
+                            sink,
+                            taken,
+                        ));
+                    }
                     if it.motions.len() >= chunk {
                         sink(&mut it.motions);
                         it.motions.clear();
@@ -3234,6 +3282,7 @@ fn finish(
             subroutine_files,
             messages: it.messages,
             log_files: it.log_files.files,
+            awaits_probe: it.awaits_probe,
         },
         it.params,
     )

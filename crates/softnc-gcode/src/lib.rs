@@ -133,7 +133,7 @@ pub enum M66Results {
 /// read, takes the machine's position as the current point and the trip in
 /// #5061–#5069 (the probed position, program frame and units) and #5070 (1
 /// tripped, 0 not: `set_probe_data`). What a reading does there.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub enum ProbeResults {
     /// A probe move refuses the program (`Unsupported`, at its `G38.x`): the
     /// machine does not run probe moves yet. Jobs are read so.
@@ -147,6 +147,27 @@ pub enum ProbeResults {
     /// after the move can differ from rs274's in the third decimal (its
     /// stand-alone canon backs off from a start it keeps in a frame of its own).
     StandIn,
+    /// The machine ran the program's first `results.len()` probe moves, in the
+    /// order they run (loops and subroutines included), with these results: the
+    /// reading is the continuation after the last of them — everything up to and
+    /// including it is read but not handed on (it ran) — and ends after the next
+    /// probe move, whose result the machine has yet to give
+    /// ([`Program::awaits_probe`]). A G38.2/G38.4 that ended without a trip
+    /// refuses the program at its line, as LinuxCNC's motion aborts it.
+    Known(Vec<ProbeResult>),
+}
+
+/// What the machine reports of a probe move it ran ([`ProbeResults::Known`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProbeResult {
+    /// The probe tripped (made or lost contact as the move asked).
+    pub tripped: bool,
+    /// Where it tripped (machine coordinates, mm); where the move stopped when
+    /// it did not.
+    pub probed_mm: softnc_core::Vec3,
+    /// Where the machine stands after the move (machine coordinates, mm): the
+    /// current point the program goes on from.
+    pub stopped_mm: softnc_core::Vec3,
 }
 
 /// In a message text ([`Program::messages`]), the place of a `#5399` read after an

@@ -572,6 +572,7 @@ impl Interp<'_> {
             && !self.sync_pending
             && self.rotation_deg == 0.0
             && !self.suppress
+            && !self.before_the_last_probe_run()
             && !self.comp.busy()
     }
 

@@ -207,3 +207,122 @@ fn jobs_refuse_a_probe_move_at_its_word() {
         softnc_gcode::read_program("G21 F100\nG38.3 Z-5\nM2\n", "t.ngc", &profile()).unwrap_err();
     assert!(matches!(e.kind, ErrorKind::Unsupported { .. }), "{e}");
 }
+
+/// A program that probes twice, in a work offset, then moves by what it probed.
+const TWO_PROBES: &str = "G21 G90 F100\nG10 L2 P1 Z-100\nG54\nG0 X10 Y10 Z10\n\
+     G38.2 Z-20\n(DEBUG, #5063 #5070)\nG91 G0 Z2\nG90 G38.3 Z-30\nG0 Z[#5063 + 5]\nM2\n";
+
+fn known(results: &[softnc_gcode::ProbeResult]) -> softnc_gcode::Program {
+    read_as(TWO_PROBES, ProbeResults::Known(results.to_vec())).unwrap()
+}
+
+fn at(x: f64, y: f64, z: f64) -> softnc_core::Vec3 {
+    softnc_core::Vec3([x, y, z])
+}
+
+/// (line, kind, start, end) of each motion that moves (program frame, mm).
+fn moves(p: &softnc_gcode::Program) -> Vec<(u32, &'static str, [f64; 3], [f64; 3])> {
+    p.motions
+        .iter()
+        .filter_map(|m| {
+            let kind = match m.kind {
+                MotionKind::Traverse { .. } => "traverse",
+                MotionKind::Probe { .. } => "probe",
+                MotionKind::Feed { .. } => "feed",
+                _ => return None,
+            };
+            let r = |v: [f64; 3]| v.map(|x| (x * 1e9).round() / 1e9);
+            Some((m.line, kind, r(m.start.0), r(m.kind.end()?.0)))
+        })
+        .collect()
+}
+
+#[test]
+fn with_the_machines_results_the_reading_goes_on_from_each_probe() {
+    // none run yet: the reading ends after the first probe move
+    let p = known(&[]);
+    assert_eq!(p.awaits_probe, Some(5));
+    assert_eq!(
+        moves(&p),
+        vec![
+            (4, "traverse", [0.0, 0.0, 100.0], [10.0, 10.0, 10.0]),
+            (5, "probe", [10.0, 10.0, 10.0], [10.0, 10.0, -20.0]),
+        ]
+    );
+    // the first ran: it tripped at machine Z −105.5, the machine stopped at
+    // −105.7 (G54 Z −100): the program goes on from Z −5.7 with #5063 −5.5
+    let first = softnc_gcode::ProbeResult {
+        tripped: true,
+        probed_mm: at(10.0, 10.0, -105.5),
+        stopped_mm: at(10.0, 10.0, -105.7),
+    };
+    let p = known(&[first]);
+    assert_eq!(p.awaits_probe, Some(8));
+    assert_eq!(
+        moves(&p),
+        vec![
+            (7, "traverse", [10.0, 10.0, -5.7], [10.0, 10.0, -3.7]),
+            (8, "probe", [10.0, 10.0, -3.7], [10.0, 10.0, -30.0]),
+        ]
+    );
+    assert_eq!(p.warnings, vec!["t.ngc:6: debug:  -5.500000 1.000000"]);
+    // the second (G38.3) ended at its end without a trip: no error, #5063 is
+    // where it stopped, and the program runs to its end
+    let second = softnc_gcode::ProbeResult {
+        tripped: false,
+        probed_mm: at(10.0, 10.0, -130.0),
+        stopped_mm: at(10.0, 10.0, -130.0),
+    };
+    let p = known(&[first, second]);
+    assert_eq!(p.awaits_probe, None);
+    assert_eq!(
+        moves(&p),
+        vec![(9, "traverse", [10.0, 10.0, -30.0], [10.0, 10.0, -25.0])]
+    );
+    // a G38.2 that did not trip refuses the program at its line
+    let missed = softnc_gcode::ProbeResult {
+        tripped: false,
+        ..first
+    };
+    let e = read_as(TWO_PROBES, ProbeResults::Known(vec![missed])).unwrap_err();
+    assert_eq!(
+        (e.line, e.kind.to_string()),
+        (5, "G38.2: probe move finished without tripping".into())
+    );
+}
+
+#[test]
+fn probes_in_a_loop_are_counted_as_they_run() {
+    // three probes from one line: each result is the next pass's
+    let text = "G21 G90 F100\n#1=0\no1 while [#1 LT 3]\nG0 X[#1*10] Z5\nG38.2 Z-10\n\
+                (DEBUG, #1 #5063)\n#1=[#1+1]\no1 endwhile\nM2\n";
+    let r = |x: f64, z: f64| softnc_gcode::ProbeResult {
+        tripped: true,
+        probed_mm: at(x, 0.0, z),
+        stopped_mm: at(x, 0.0, z),
+    };
+    let read = |k: usize| {
+        let ran: Vec<_> = [r(0.0, -1.0), r(10.0, -2.0), r(20.0, -3.0)][..k].to_vec();
+        read_as(text, ProbeResults::Known(ran)).unwrap()
+    };
+    let p = read(2);
+    assert_eq!(p.awaits_probe, Some(5));
+    assert_eq!(
+        moves(&p),
+        vec![
+            (4, "traverse", [10.0, 0.0, -2.0], [20.0, 0.0, 5.0]),
+            (5, "probe", [20.0, 0.0, 5.0], [20.0, 0.0, -10.0]),
+        ]
+    );
+    let p = read(3);
+    assert_eq!(p.awaits_probe, None);
+    assert!(moves(&p).is_empty());
+    assert_eq!(
+        p.warnings,
+        vec![
+            "t.ngc:6: debug:  0.000000 -1.000000",
+            "t.ngc:6: debug:  1.000000 -2.000000",
+            "t.ngc:6: debug:  2.000000 -3.000000",
+        ]
+    );
+}

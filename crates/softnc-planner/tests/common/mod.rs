@@ -91,6 +91,7 @@ impl Builder {
             subroutine_files: vec![],
             messages: vec![],
             log_files: vec![],
+            awaits_probe: None,
         }
     }
 }
