@@ -753,8 +753,11 @@ const BIARC_CLOSURE_MM: f64 = 1e-7;
 
 /// The biarc blend at `corner`: it leaves the move before at `before(d)` = (point,
 /// unit tangent) d mm of arc length before the corner and meets the move after at
-/// `after(d)` d mm after it, the largest d found trying from the smallest of
-/// `before_avail`, `after_avail` and 0.9·`tol_mm` down by 0.7.
+/// `after(d)` d mm after it, the largest d found trying down by 0.7 from the
+/// smallest of `before_avail`, `after_avail` and — for a turn θ ≤
+/// [`SMALL_TURN_RAD`] — the trim a circular blend of that turn takes at 0.9·`tol_mm`
+/// from the corner, 0.9·`tol_mm`/tan(θ/4); else (or if none is found) from
+/// 0.9·`tol_mm`.
 ///
 /// Construction (the equal-tangent-length biarc of Bolton, "Biarc curves", CAD 7(2),
 /// 1975): with ends P₀, P₁ and unit tangents T₀, T₁, the control points Q₀ = P₀ + αT₀
@@ -762,8 +765,11 @@ const BIARC_CLOSURE_MM: f64 = 1e-7;
 /// 2(T₀·T₁ − 1)α² − 2(V·(T₀ + T₁))α + V·V = 0, whose positive root gives the join
 /// point J = (Q₀ + Q₁)/2 with tangent (Q₁ − Q₀)/2α; each half is the circle arc from
 /// its end along its tangent through J. Every point of the blend lies within
-/// 0.9·`tol_mm` of the programmed corner (its largest distance from the corner,
-/// computed per arc), so within that of the programmed path.
+/// 0.9·`tol_mm` of the programmed path: of the corner (its largest distance from
+/// the corner, computed per arc, which bounds it) or else of the moves' pieces it
+/// replaces ([`path_deviation`]). The corner alone kept every trim under the
+/// tolerance: the blend of a 1.6° kink between CAM arcs within 0.2 µm had a
+/// radius of 0.02 mm and passed at 3 mm/s, where its tolerance allows the feed.
 pub fn biarc(
     corner: Vec3,
     before: impl Fn(f64) -> (Vec3, Vec3),
@@ -772,17 +778,103 @@ pub fn biarc(
     after_avail: f64,
     tol_mm: f64,
 ) -> Option<Biarc> {
-    let mut d = before_avail.min(after_avail).min(DEVIATION_SHARE * tol_mm);
+    let avail = before_avail.min(after_avail);
+    let turn_rad = before(0.0).1.dot(after(0.0).1).clamp(-1.0, 1.0).acos();
+    let by_turn = DEVIATION_SHARE * tol_mm / (0.25 * turn_rad).tan();
+    let small = turn_rad <= SMALL_TURN_RAD;
+    small
+        .then(|| biarc_from(corner, &before, &after, avail.min(by_turn), tol_mm))
+        .flatten()
+        .or_else(|| {
+            biarc_from(
+                corner,
+                &before,
+                &after,
+                avail.min(DEVIATION_SHARE * tol_mm),
+                tol_mm,
+            )
+        })
+}
+
+/// Turns up to this (10°) are blended by their distance from the path
+/// ([`path_deviation`]); larger ones by their distance from the corner alone (from
+/// the path their blends grew past LinuxCNC's deviation: docs/perf-log/planner-36.md).
+pub const SMALL_TURN_RAD: f64 = std::f64::consts::PI / 18.0;
+/// Chords each move's piece next to a corner is cut into for [`path_deviation`].
+const PATH_CHORDS: usize = 12;
+/// Points of each biarc piece [`path_deviation`] measures.
+const BLEND_POINTS: usize = 6;
+
+/// The largest distance of the biarc `arcs` from the programmed path it replaces:
+/// the move before over its last `d` mm, the move after over its first `d` mm, each
+/// cut into [`PATH_CHORDS`] chords, plus the largest chord's sagitta (|Δt|·length/8
+/// of a circular piece), so that it bounds the distance to the path itself.
+/// Allocation-free.
+fn path_deviation(
+    arcs: &[ArcPiece; 2],
+    before: &impl Fn(f64) -> (Vec3, Vec3),
+    after: &impl Fn(f64) -> (Vec3, Vec3),
+    d: f64,
+) -> f64 {
+    let mut pts = [(Vec3::ZERO, Vec3::ZERO); 2 * PATH_CHORDS + 1];
+    let step = d / PATH_CHORDS as f64;
+    for (k, p) in pts.iter_mut().enumerate() {
+        *p = if k <= PATH_CHORDS {
+            before(step * (PATH_CHORDS - k) as f64)
+        } else {
+            after(step * (k - PATH_CHORDS) as f64)
+        };
+    }
+    let mut sagitta = 0.0f64;
+    for w in pts.windows(2) {
+        sagitta = sagitta.max((w[1].0 - w[0].0).norm() * (w[1].1 - w[0].1).norm() / 8.0);
+    }
+    let mut dev = 0.0f64;
+    for a in arcs {
+        for j in 0..=BLEND_POINTS {
+            let q = a.point(a.sweep * j as f64 / BLEND_POINTS as f64);
+            let mut nearest = f64::INFINITY;
+            for w in pts.windows(2) {
+                nearest = nearest.min(dist_to_segment(q, w[0].0, w[1].0));
+            }
+            dev = dev.max(nearest);
+        }
+    }
+    dev + sagitta
+}
+
+/// Distance from `p` to the segment `a`–`b` (mm).
+fn dist_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f64 {
+    let ab = b - a;
+    let l2 = ab.dot(ab);
+    let t = if l2 > 0.0 {
+        ((p - a).dot(ab) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p - (a + ab * t)).norm()
+}
+
+/// [`biarc`]'s search from the trim `d` down.
+fn biarc_from(
+    corner: Vec3,
+    before: &impl Fn(f64) -> (Vec3, Vec3),
+    after: &impl Fn(f64) -> (Vec3, Vec3),
+    mut d: f64,
+    tol_mm: f64,
+) -> Option<Biarc> {
     for _ in 0..TRIM_TRIES {
         if d.is_nan() || d <= 1e-9 {
             return None;
         }
         let ((p0, t0), (p1, t1)) = (before(d), after(d));
         if let Some(arcs) = biarc_pieces(p0, t0, p1, t1) {
-            let dev = arcs[0]
+            let bound = DEVIATION_SHARE * tol_mm;
+            let near_corner = arcs[0]
                 .farthest_from(corner)
-                .max(arcs[1].farthest_from(corner));
-            if dev <= DEVIATION_SHARE * tol_mm {
+                .max(arcs[1].farthest_from(corner))
+                <= bound;
+            if near_corner || path_deviation(&arcs, before, after, d) <= bound {
                 return Some(Biarc {
                     trim_before: d,
                     trim_after: d,
