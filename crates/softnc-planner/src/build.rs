@@ -907,7 +907,7 @@ struct NaiveCamChain {
 pub const NAIVE_CAM_MAX_CHAIN: usize = 100;
 
 /// Distance from `p` to the segment `a`–`b` (mm).
-fn dist_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f64 {
+pub(crate) fn dist_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f64 {
     let ab = b - a;
     let l2 = ab.dot(ab);
     let t = if l2 > 0.0 {

@@ -14,6 +14,7 @@
 //! tolerance of the programmed line or arc. An arc–line corner is the same
 //! construction on the path run backwards.
 
+use crate::build::dist_to_segment;
 use crate::path::{max_to, min_to};
 use softnc_core::{Primitive, Vec3};
 
@@ -841,18 +842,6 @@ fn path_deviation(
         }
     }
     dev + sagitta
-}
-
-/// Distance from `p` to the segment `a`–`b` (mm).
-fn dist_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f64 {
-    let ab = b - a;
-    let l2 = ab.dot(ab);
-    let t = if l2 > 0.0 {
-        ((p - a).dot(ab) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p - (a + ab * t)).norm()
 }
 
 /// [`biarc`]'s search from the trim `d` down.
